@@ -1,0 +1,86 @@
+//! A strand's static description: geometry, material, natural shape, loads.
+
+use crate::material::Material;
+use nalgebra::{Matrix3, Vector3};
+
+/// What a kernel needs to know of a strand's shape: the clamped root frame in head
+/// coordinates, the element lengths and the mass per length.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StrandGeometry {
+    /// Root position r_0, head coordinates, metres.
+    pub root_position: Vector3<f64>,
+    /// Root frame F_0: columns (n0, n1, n2), n0 the tangent.
+    pub root_frame: Matrix3<f64>,
+    /// Element lengths l_Q (all > 0); N = `lengths.len()`.
+    pub lengths: Vec<f64>,
+    /// ρS, kg/m.
+    pub mass_per_length: f64,
+}
+
+impl StrandGeometry {
+    /// Number of elements N.
+    pub fn elements(&self) -> usize {
+        self.lengths.len()
+    }
+    /// Number of generalized coordinates 3N.
+    pub fn dofs(&self) -> usize {
+        3 * self.lengths.len()
+    }
+    /// Total length L.
+    pub fn length(&self) -> f64 {
+        self.lengths.iter().sum()
+    }
+    /// Element containing arc length `s` (clamped to [0, L]) and the local abscissa in it.
+    pub fn locate(&self, s: f64) -> (usize, f64) {
+        let mut start = 0.0;
+        let n = self.lengths.len();
+        for (q, &l) in self.lengths.iter().enumerate() {
+            if s <= start + l || q + 1 == n {
+                return (q, (s - start).clamp(0.0, l));
+            }
+            start += l;
+        }
+        (0, 0.0)
+    }
+}
+
+/// A constant force applied at one point of a strand.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointLoad {
+    /// Arc length of the point, metres, in [0, L].
+    pub s: f64,
+    /// Force in world coordinates, newtons (rotated into head coordinates each step).
+    pub force: Vector3<f64>,
+}
+
+/// Everything that defines one strand's mechanics.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Strand {
+    /// Name, used in outputs and error messages.
+    pub name: String,
+    /// Root frame, element lengths, mass per length.
+    pub geometry: StrandGeometry,
+    /// Mass per length and stiffnesses (GJ, EI1, EI2).
+    pub material: Material,
+    /// Natural twist and curvatures q_n (3N), in the order of `q`.
+    pub natural: Vec<f64>,
+    /// Internal friction γ, kg·m³/s.
+    pub internal_friction: f64,
+    /// Air drag ν, kg/(m·s).
+    pub air_drag: f64,
+    /// Point loads.
+    pub point_loads: Vec<PointLoad>,
+}
+
+impl Strand {
+    /// Diagonal of the stiffness matrix K = diag(l_Q · (GJ, EI1, EI2)) (eq. 5c).
+    pub fn stiffness_diagonal(&self) -> Vec<f64> {
+        let mut k = Vec::with_capacity(self.geometry.dofs());
+        for &l in &self.geometry.lengths {
+            for i in 0..3 {
+                k.push(l * self.material.stiffness[i]);
+            }
+        }
+        k
+    }
+}
