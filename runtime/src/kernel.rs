@@ -1,11 +1,155 @@
-//! placeholder
-/// placeholder
-pub trait KernelFactory {}
-/// placeholder
-pub trait StrandKernel {}
-/// placeholder
-pub struct StrandTerms;
-/// placeholder
-pub struct EvalInput;
-/// placeholder
-pub struct Terms;
+//! The one trait through which the runtime reaches a strand's dynamic terms.
+//!
+//! Implemented by [`crate::GenericKernel`] (runtime N, Gauss–Legendre quadrature) and by
+//! the generated fixed-N kernels; the two are interchangeable and compared in tests.
+//!
+//! All quantities are in head coordinates (design page "Energies and the equation of
+//! motion"). External forces per unit length are described by a [`BodyField`], affine
+//! in the position y and the relative velocity ẏ = J q̇ of the centreline:
+//! `F(s) = c0 + C1 y(s) + C2 ẏ(s)`, which covers gravity, the fictitious forces of
+//! head motion and air drag (eq. 5a in the head frame).
+
+use crate::reconstruction::{element_ends, Pose};
+use crate::strand::StrandGeometry;
+use faer::Mat;
+use nalgebra::{Matrix3, Vector3};
+
+/// An external force per unit length affine in position and velocity:
+/// `F = uniform + linear · y + velocity · ẏ` (N/m), head coordinates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BodyField {
+    /// c0, N/m: gravity ρS Rᵀ(g − Ẍ) and the drag of the head's translation −ν RᵀẊ.
+    pub uniform: Vector3<f64>,
+    /// C1, N/m²: −ρS([α]× + [ω]×²) − ν[ω]× (Euler, centrifugal, drag of rotation).
+    pub linear: Matrix3<f64>,
+    /// C2, N·s/m²: −2ρS[ω]× − ν I (Coriolis and drag of the strand's own motion).
+    pub velocity: Matrix3<f64>,
+}
+
+impl BodyField {
+    /// No force.
+    pub fn zero() -> Self {
+        BodyField { uniform: Vector3::zeros(), linear: Matrix3::zeros(), velocity: Matrix3::zeros() }
+    }
+    /// True when the linear part is zero (no head rotation).
+    pub fn has_linear(&self) -> bool {
+        self.linear != Matrix3::zeros()
+    }
+    /// If the velocity part is a multiple of the identity, that multiple.
+    pub fn isotropic_velocity(&self) -> Option<f64> {
+        let c = self.velocity[(0, 0)];
+        (self.velocity == Matrix3::identity() * c).then_some(c)
+    }
+}
+
+/// Which outputs [`StrandKernel::evaluate`] must fill. What is not asked is not computed
+/// (and its buffer is left untouched).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Terms {
+    /// M(q) = ∫ ρS JᵀJ ds.
+    pub mass: bool,
+    /// `force` = ∫ Jᵀ F ds − b(q, q̇), and `velocity_term` = b.
+    pub force: bool,
+    /// `stiffness` = ∂/∂q of ∫ Jᵀ(c0 + C1 y) ds: the Hessian of the first moment
+    /// contracted with the field, plus ∫ JᵀC1J.
+    pub stiffness: bool,
+    /// `damping` = ∫ Jᵀ C2 J ds = ∂(∫ JᵀF)/∂q̇.
+    pub damping: bool,
+    /// `velocity_term_jacobian` = ∂b/∂q̇ = 2 ∫ ρS Jᵀ J̇ ds.
+    pub velocity_term_jacobian: bool,
+}
+
+impl Terms {
+    /// Everything.
+    pub fn all() -> Self {
+        Terms { mass: true, force: true, stiffness: true, damping: true, velocity_term_jacobian: true }
+    }
+}
+
+/// Input of one evaluation.
+#[derive(Debug, Clone, Copy)]
+pub struct EvalInput<'a> {
+    /// Generalized coordinates (3N).
+    pub q: &'a [f64],
+    /// Generalized velocities (3N).
+    pub v: &'a [f64],
+    /// External force per unit length.
+    pub field: BodyField,
+    /// What to compute.
+    pub terms: Terms,
+}
+
+/// Outputs of one evaluation, sized once for a strand.
+#[derive(Debug, Clone)]
+pub struct StrandTerms {
+    /// M(q), 3N × 3N, symmetric positive definite.
+    pub mass: Mat<f64>,
+    /// ∫ Jᵀ F ds − b(q, q̇), 3N.
+    pub force: Vec<f64>,
+    /// b(q, q̇) = ∫ ρS Jᵀ (J̇ q̇) ds, 3N.
+    pub velocity_term: Vec<f64>,
+    /// ∂(∫ Jᵀ (c0 + C1 y) ds)/∂q, 3N × 3N.
+    pub stiffness: Mat<f64>,
+    /// ∫ Jᵀ C2 J ds, 3N × 3N.
+    pub damping: Mat<f64>,
+    /// ∂b/∂q̇, 3N × 3N.
+    pub velocity_term_jacobian: Mat<f64>,
+    /// ∫ ρS y ds (with `force`): the gravity potential is −(first moment)·g.
+    pub first_moment: Vector3<f64>,
+}
+
+impl StrandTerms {
+    /// Buffers for `dofs` = 3N generalized coordinates.
+    pub fn new(dofs: usize) -> Self {
+        StrandTerms {
+            mass: Mat::zeros(dofs, dofs),
+            force: vec![0.0; dofs],
+            velocity_term: vec![0.0; dofs],
+            stiffness: Mat::zeros(dofs, dofs),
+            damping: Mat::zeros(dofs, dofs),
+            velocity_term_jacobian: Mat::zeros(dofs, dofs),
+            first_moment: Vector3::zeros(),
+        }
+    }
+}
+
+/// The terms of one strand's equation of motion, for one strand geometry.
+///
+/// A kernel instance belongs to one strand and may keep scratch space, hence `&mut self`.
+pub trait StrandKernel: Send {
+    /// The strand's geometry.
+    fn geometry(&self) -> &StrandGeometry;
+
+    /// Human-readable description (`generic (adaptive quadrature)`, `generated N=5`).
+    fn description(&self) -> String;
+
+    /// True for generated fixed-N kernels.
+    fn is_generated(&self) -> bool;
+
+    /// Fill the requested terms of the equation of motion at (q, q̇).
+    fn evaluate(&mut self, input: &EvalInput<'_>, out: &mut StrandTerms);
+
+    /// Position y(s), and J(s) written into `jac` (3N columns of 3-vectors). When
+    /// `hessian` is given as (c, H), adds c · ∂²y(s)/∂q∂q to H.
+    fn point(
+        &mut self,
+        q: &[f64],
+        s: f64,
+        jac: &mut [Vector3<f64>],
+        hessian: Option<(Vector3<f64>, &mut Mat<f64>)>,
+    ) -> Vector3<f64>;
+
+    /// Poses at the N + 1 element ends.
+    fn element_ends(&mut self, q: &[f64], ends: &mut [Pose]) {
+        element_ends(self.geometry(), q, ends);
+    }
+}
+
+/// Makes kernels for strands; the generated crate provides one for the N it was built
+/// with.
+pub trait KernelFactory: Send + Sync {
+    /// A kernel for this geometry, or `None` when this factory has none for its N.
+    fn create(&self, geometry: &StrandGeometry) -> Option<Box<dyn StrandKernel>>;
+    /// The numbers of elements this factory serves.
+    fn available(&self) -> Vec<usize>;
+}

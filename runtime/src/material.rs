@@ -26,6 +26,9 @@ pub struct Material {
     /// (GJ, EI1, EI2) in N·m²: torsion, bending about n1 (the κ1 direction), bending
     /// about n2. The stiffness matrix is `K = diag(l_Q · stiffness[i])`.
     pub stiffness: [f64; 3],
+    /// Rotary inertia per unit length of the cross-section about (n0, n1, n2), kg·m:
+    /// ρ(I1 + I2), ρI1, ρI2. See [`crate::strand::StrandGeometry::rotary_inertia`].
+    pub rotary_inertia: [f64; 3],
 }
 
 impl CrossSection {
@@ -43,13 +46,13 @@ impl CrossSection {
         let pi = std::f64::consts::PI;
         let e = self.youngs_modulus;
         let g = e / (2.0 * (1.0 + self.poisson));
+        let i1 = pi * a * b.powi(3) / 4.0;
+        let i2 = pi * a.powi(3) * b / 4.0;
+        let rho = self.density;
         Material {
-            mass_per_length: self.density * pi * a * b,
-            stiffness: [
-                g * pi * a.powi(3) * b.powi(3) / (a * a + b * b),
-                e * pi * a * b.powi(3) / 4.0,
-                e * pi * a.powi(3) * b / 4.0,
-            ],
+            mass_per_length: rho * pi * a * b,
+            stiffness: [g * pi * a.powi(3) * b.powi(3) / (a * a + b * b), e * i1, e * i2],
+            rotary_inertia: [rho * (i1 + i2), rho * i1, rho * i2],
         }
     }
 }

@@ -1,1 +1,87 @@
-//! quadrature
+//! Gauss–Legendre quadrature rules, computed once per order and cached.
+
+use std::sync::OnceLock;
+
+/// Highest order available.
+pub const MAX_ORDER: usize = 256;
+
+/// Nodes in [-1, 1] and weights of one rule.
+#[derive(Debug, Clone)]
+pub struct GaussLegendre {
+    /// Nodes, ascending.
+    pub nodes: Vec<f64>,
+    /// Weights (sum 2).
+    pub weights: Vec<f64>,
+}
+
+fn compute(n: usize) -> GaussLegendre {
+    let mut nodes = vec![0.0; n];
+    let mut weights = vec![0.0; n];
+    for i in 0..n.div_ceil(2) {
+        // Tricomi's initial guess, then Newton on P_n.
+        let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+        let mut dp = 1.0;
+        for _ in 0..100 {
+            let (mut p0, mut p1) = (1.0, x);
+            if n == 1 {
+                p1 = x;
+                p0 = 1.0;
+            }
+            for k in 2..=n {
+                let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
+                p0 = p1;
+                p1 = p2;
+            }
+            // p1 = P_n(x), p0 = P_{n-1}(x)
+            dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
+            let dx = p1 / dp;
+            x -= dx;
+            if dx.abs() < 1e-16 {
+                break;
+            }
+        }
+        let w = 2.0 / ((1.0 - x * x) * dp * dp);
+        nodes[i] = -x;
+        nodes[n - 1 - i] = x;
+        weights[i] = w;
+        weights[n - 1 - i] = w;
+    }
+    if n % 2 == 1 {
+        nodes[n / 2] = 0.0;
+    }
+    GaussLegendre { nodes, weights }
+}
+
+/// The n-point rule (1 ≤ n ≤ [`MAX_ORDER`], clamped), cached after the first call.
+pub fn gauss_legendre(n: usize) -> &'static GaussLegendre {
+    static RULES: OnceLock<Vec<OnceLock<GaussLegendre>>> = OnceLock::new();
+    let n = n.clamp(1, MAX_ORDER);
+    let rules = RULES.get_or_init(|| (0..=MAX_ORDER).map(|_| OnceLock::new()).collect());
+    rules[n].get_or_init(|| compute(n))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn integrates_polynomials_exactly_up_to_degree_2n_minus_1() {
+        for n in [1, 2, 3, 5, 8, 20, 64] {
+            let r = gauss_legendre(n);
+            let total: f64 = r.weights.iter().sum();
+            assert!((total - 2.0).abs() < 1e-13, "n={n}");
+            let deg = 2 * n - 1;
+            let integral: f64 = r.nodes.iter().zip(&r.weights).map(|(x, w)| w * x.powi(deg as i32 - 1)).sum();
+            // ∫_{-1}^{1} x^(deg-1) = 2/deg for even deg-1
+            assert!((integral - 2.0 / deg as f64).abs() < 1e-13, "n={n}");
+        }
+    }
+
+    #[test]
+    fn integrates_a_fast_oscillation() {
+        // ∫_{-1}^{1} cos(30 x) dx = sin(30)/15
+        let r = gauss_legendre(40);
+        let v: f64 = r.nodes.iter().zip(&r.weights).map(|(x, w)| w * (30.0 * x).cos()).sum();
+        assert!((v - 30f64.sin() / 15.0).abs() < 1e-13);
+    }
+}

@@ -15,9 +15,27 @@ pub struct StrandGeometry {
     pub lengths: Vec<f64>,
     /// ρS, kg/m.
     pub mass_per_length: f64,
+    /// Rotary inertia per unit length of the cross-section about the material axes
+    /// (n0, n1, n2), kg·m. The paper's kinetic energy (5b) has only the centreline term,
+    /// which leaves M singular whenever an element is straight (∂r/∂τ = 0 there: twist
+    /// moves no mass). With the rotational kinetic energy of the cross-sections
+    /// `½∫ Ωᵀ diag(ρI) Ω ds` of Kirchhoff's dynamic rods, M is positive definite at every
+    /// q; its size relative to the centreline term is about r²/l², below 1e-6 for hair.
+    /// Zeros give the paper's model exactly.
+    pub rotary_inertia: [f64; 3],
 }
 
 impl StrandGeometry {
+    /// A geometry with rotary inertia taken from `material`.
+    pub fn new(root_position: Vector3<f64>, root_frame: Matrix3<f64>, lengths: Vec<f64>, material: &Material) -> Self {
+        StrandGeometry {
+            root_position,
+            root_frame,
+            lengths,
+            mass_per_length: material.mass_per_length,
+            rotary_inertia: material.rotary_inertia,
+        }
+    }
     /// Number of elements N.
     pub fn elements(&self) -> usize {
         self.lengths.len()
