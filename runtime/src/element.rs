@@ -101,7 +101,7 @@ mod tests {
     fn pose_is_a_rotation_and_p_integrates_the_tangent() {
         for d in [Vector3::new(0.0, 0.0, 0.0), Vector3::new(3.0, -20.0, 7.0), Vector3::new(1e-7, 2e-7, 0.0)] {
             let u = 0.05;
-            let (e, p) = local_pose(&d, u);
+            let (e, _) = local_pose(&d, u);
             assert!((e.transpose() * e - Matrix3::identity()).norm() < 1e-14);
             assert!((e.determinant() - 1.0).abs() < 1e-14);
             // p' = E e0: compare with a 4th-order central difference

@@ -124,7 +124,7 @@ mod tests {
 
     #[test]
     fn derivatives_match_finite_differences_on_both_sides_of_the_switch() {
-        for &z in &[1e-8, 0.3, 2.0, 15.9, 16.1, 40.0, 400.0] {
+        for &z in &[1e-8f64, 0.3, 2.0, 15.9, 16.1, 40.0, 400.0] {
             let h = 1e-5 * z.max(1e-3);
             let p = abc(z + h);
             let m = abc(z - h);
@@ -143,7 +143,8 @@ mod tests {
         for &z in &[0.0, 1e-12, 1e-6, 9.9e-3, 1e-2, 3.0, 20.0] {
             let (a, b, c) = abc_values(z);
             let r = abc(z);
-            assert!((a - r.a.f).abs() < 1e-16 && (b - r.b.f).abs() < 1e-16 && (c - r.c.f).abs() < 1e-16);
+            // within two ulps of values of order one
+            assert!((a - r.a.f).abs() < 5e-16 && (b - r.b.f).abs() < 5e-16 && (c - r.c.f).abs() < 5e-16);
         }
         assert_eq!(abc(0.0).a.f, 1.0);
         assert_eq!(abc(0.0).b.f, 0.5);
