@@ -177,7 +177,12 @@ fn mass_matrix_matches_quadrature_of_finite_difference_jacobians_and_is_spd() {
 
 #[test]
 fn velocity_term_matches_second_differences_along_the_velocity() {
-    for (g, q, v) in cases() {
+    // Second differences of positions lose digits in tightly curled elements (|d|·l =
+    // 50): there the Lagrangian test below checks b; here the well-conditioned cases.
+    let well_conditioned = |g: &StrandGeometry, q: &[f64]| {
+        (0..g.elements()).all(|k| Vector3::new(q[3 * k], q[3 * k + 1], q[3 * k + 2]).norm() * g.lengths[k] <= 1.0)
+    };
+    for (g, q, v) in cases().into_iter().filter(|(g, q, _)| well_conditioned(g, q)) {
         // centreline part (rotary inertia off): b = ∫ρS Jᵀ (d²y/dε² along v)
         let g0 = StrandGeometry { rotary_inertia: [0.0; 3], ..g.clone() };
         let out = evaluate(&g0, &q, &v, BodyField::zero());
@@ -198,10 +203,7 @@ fn velocity_term_matches_second_differences_along_the_velocity() {
                 b_fd[a] += w * g.mass_per_length * jac[a].dot(&acc);
             }
         }
-        // Second differences of positions of ~0.2 m cancel to a few 1e-5 of the largest
-        // entry whatever eps (measured: 1.6e-5 at eps 1e-2, 1.8e-5 at 3e-3, 2.7e-5 at
-        // 3e-2); the Lagrangian test below pins b to 1e-6 independently.
-        assert_vec_close(&out.velocity_term, &b_fd, 1e-4, "b (centreline)");
+        assert_vec_close(&out.velocity_term, &b_fd, 1e-6, "b (centreline)");
         // force = -b when there is no field
         let minus_b: Vec<f64> = out.velocity_term.iter().map(|x| -x).collect();
         assert_vec_close(&out.force, &minus_b, 1e-15, "force");
