@@ -25,6 +25,7 @@ pub mod kernel_generic;
 pub mod environment;
 pub mod head_motion;
 pub mod effects;
+pub mod dense_solve;
 pub mod integrator;
 pub mod statics;
 pub mod simulation;

@@ -1,0 +1,125 @@
+//! Dense linear solves of the step (faer), with workspaces allocated once per strand:
+//! Cholesky for the SPD systems, partial-pivoting LU as the fallback.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt;
+use faer::linalg::lu::partial_pivoting as lu;
+use faer::{Mat, MatMut, Par};
+
+/// Workspace for solving `A x = b` with a 3N × 3N matrix.
+pub struct DenseSolver {
+    /// The matrix to factor; filled by the caller, overwritten by the factorisation.
+    pub matrix: Mat<f64>,
+    /// The right-hand side; overwritten by the solution.
+    pub rhs: Mat<f64>,
+    perm: Vec<usize>,
+    perm_inv: Vec<usize>,
+    buffer: MemBuffer,
+}
+
+impl DenseSolver {
+    /// Workspace for dimension n.
+    pub fn new(n: usize) -> Self {
+        let req = llt::factor::cholesky_in_place_scratch::<f64>(n, Par::Seq, Default::default())
+            .or(llt::solve::solve_in_place_scratch::<f64>(n, 1, Par::Seq))
+            .or(lu::factor::lu_in_place_scratch::<usize, f64>(n, n, Par::Seq, Default::default()))
+            .or(lu::solve::solve_in_place_scratch::<usize, f64>(n, 1, Par::Seq));
+        DenseSolver {
+            matrix: Mat::zeros(n, n),
+            rhs: Mat::zeros(n, 1),
+            perm: vec![0; n],
+            perm_inv: vec![0; n],
+            buffer: MemBuffer::new(req),
+        }
+    }
+
+    /// The right-hand side as a slice.
+    pub fn rhs_mut(&mut self) -> &mut [f64] {
+        self.rhs.col_as_slice_mut(0)
+    }
+
+    /// The solution (after a successful solve) as a slice.
+    pub fn solution(&self) -> &[f64] {
+        self.rhs.col_as_slice(0)
+    }
+
+    /// Cholesky-factor `matrix` (lower triangle read) and solve in place. Returns false,
+    /// leaving `rhs` untouched, when the matrix is not numerically positive definite.
+    pub fn solve_spd(&mut self) -> bool {
+        let stack = MemStack::new(&mut self.buffer);
+        let ok = llt::factor::cholesky_in_place(
+            self.matrix.as_mut(),
+            Default::default(),
+            Par::Seq,
+            stack,
+            Default::default(),
+        )
+        .is_ok();
+        if !ok {
+            return false;
+        }
+        let stack = MemStack::new(&mut self.buffer);
+        llt::solve::solve_in_place(self.matrix.as_ref(), self.rhs.as_mut(), Par::Seq, stack);
+        all_finite(self.rhs.as_mut())
+    }
+
+    /// LU-factor `matrix` with partial pivoting and solve in place. Returns false when
+    /// the solution is not finite (singular matrix).
+    pub fn solve_general(&mut self) -> bool {
+        let stack = MemStack::new(&mut self.buffer);
+        let (_, perm) = lu::factor::lu_in_place(
+            self.matrix.as_mut(),
+            &mut self.perm,
+            &mut self.perm_inv,
+            Par::Seq,
+            stack,
+            Default::default(),
+        );
+        let stack = MemStack::new(&mut self.buffer);
+        lu::solve::solve_in_place(self.matrix.as_ref(), self.matrix.as_ref(), perm, self.rhs.as_mut(), Par::Seq, stack);
+        all_finite(self.rhs.as_mut())
+    }
+}
+
+fn all_finite(m: MatMut<'_, f64>) -> bool {
+    (0..m.nrows()).all(|i| m[(i, 0)].is_finite())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fill(s: &mut DenseSolver, a: &[[f64; 3]; 3], b: [f64; 3]) {
+        for i in 0..3 {
+            for j in 0..3 {
+                s.matrix[(i, j)] = a[i][j];
+            }
+        }
+        s.rhs_mut().copy_from_slice(&b);
+    }
+
+    #[test]
+    fn cholesky_and_lu_solve_and_detect_failure() {
+        let spd = [[4.0, 1.0, 0.5], [1.0, 3.0, 0.2], [0.5, 0.2, 2.0]];
+        let x = [1.0, -2.0, 0.5];
+        let b: Vec<f64> = (0..3).map(|i| (0..3).map(|j| spd[i][j] * x[j]).sum()).collect();
+        let mut s = DenseSolver::new(3);
+        fill(&mut s, &spd, [b[0], b[1], b[2]]);
+        assert!(s.solve_spd());
+        for i in 0..3 {
+            assert!((s.solution()[i] - x[i]).abs() < 1e-14);
+        }
+        let nonsym = [[0.0, 2.0, 1.0], [1.0, 0.0, 3.0], [2.0, 1.0, 0.0]];
+        let b: Vec<f64> = (0..3).map(|i| (0..3).map(|j| nonsym[i][j] * x[j]).sum()).collect();
+        fill(&mut s, &nonsym, [b[0], b[1], b[2]]);
+        assert!(!s.solve_spd());
+        fill(&mut s, &nonsym, [b[0], b[1], b[2]]);
+        assert!(s.solve_general());
+        for i in 0..3 {
+            assert!((s.solution()[i] - x[i]).abs() < 1e-14);
+        }
+        let singular = [[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [1.0, 0.0, 1.0]];
+        fill(&mut s, &singular, [1.0, 1.0, 1.0]);
+        assert!(!s.solve_general());
+    }
+}
