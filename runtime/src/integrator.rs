@@ -120,6 +120,18 @@ pub fn assemble(
     }
 }
 
+/// Kinetic energy ½ q̇ᵀ M(q) q̇ (relative to the head).
+pub fn kinetic_energy(
+    strand: &Strand,
+    kernel: &mut dyn StrandKernel,
+    ws: &mut StrandWorkspace,
+    ctx: &StepContext,
+    q: &[f64],
+    v: &[f64],
+) -> f64 {
+    energy_parts(strand, kernel, ws, ctx, q, v).0
+}
+
 /// Total energy T + U + V (gravity and point loads; with a still head), for tests and
 /// diagnostics.
 pub fn energy(
@@ -130,6 +142,19 @@ pub fn energy(
     q: &[f64],
     v: &[f64],
 ) -> f64 {
+    let (kinetic, potential) = energy_parts(strand, kernel, ws, ctx, q, v);
+    kinetic + potential
+}
+
+/// (T, U + V) of [`energy`].
+fn energy_parts(
+    strand: &Strand,
+    kernel: &mut dyn StrandKernel,
+    ws: &mut StrandWorkspace,
+    ctx: &StepContext,
+    q: &[f64],
+    v: &[f64],
+) -> (f64, f64) {
     let terms = Terms { mass: true, force: true, ..Default::default() };
     let field = body_field(&ctx.effects, &HeadState::rest(), strand.material.mass_per_length, 0.0);
     kernel.evaluate(&EvalInput { q, v, field, terms }, &mut ws.terms);
@@ -148,7 +173,7 @@ pub fn energy(
         .iter()
         .map(|l| -kernel.point(q, l.s, &mut ws.jac, None).dot(&l.force))
         .sum();
-    kinetic + elastic + gravity + loads
+    (kinetic, elastic + gravity + loads)
 }
 
 fn symmetric_part(m: &Mat<f64>, i: usize, j: usize) -> f64 {

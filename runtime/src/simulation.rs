@@ -4,7 +4,7 @@ use crate::effects::GlobalEffects;
 use crate::environment::Environment;
 use crate::error::{Error, FieldError, Result};
 use crate::head_motion::HeadMotion;
-use crate::integrator::{energy, step_strand, StepContext, StepStats, StrandWorkspace};
+use crate::integrator::{energy, kinetic_energy, step_strand, StepContext, StepStats, StrandWorkspace};
 use crate::kernel::{KernelFactory, StrandKernel};
 use crate::kernel_generic::{GenericKernel, QuadratureRule};
 use crate::reconstruction::{pose_at, sample_centreline};
@@ -390,6 +390,12 @@ impl Simulation {
         let ctx = self.context;
         let s = &mut self.strands[i];
         energy(&s.strand, s.kernel.as_mut(), &mut s.workspace, &ctx, &s.q, &s.v)
+    }
+    /// Kinetic energy ½ q̇ᵀ M q̇ of strand i relative to the head, joules.
+    pub fn kinetic_energy(&mut self, i: usize) -> f64 {
+        let ctx = self.context;
+        let s = &mut self.strands[i];
+        kinetic_energy(&s.strand, s.kernel.as_mut(), &mut s.workspace, &ctx, &s.q, &s.v)
     }
     /// Centreline of strand i in world coordinates: the root, then `per_element` points
     /// per element.
