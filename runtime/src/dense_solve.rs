@@ -3,7 +3,9 @@
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt;
+use faer::linalg::evd;
 use faer::linalg::lu::partial_pivoting as lu;
+use faer::diag::Diag;
 use faer::{Mat, MatMut, Par};
 
 /// Workspace for solving `A x = b` with a 3N × 3N matrix.
@@ -15,6 +17,9 @@ pub struct DenseSolver {
     perm: Vec<usize>,
     perm_inv: Vec<usize>,
     buffer: MemBuffer,
+    eigenvalues: Diag<f64>,
+    eigenvectors: Mat<f64>,
+    scaled: Mat<f64>,
 }
 
 impl DenseSolver {
@@ -23,14 +28,53 @@ impl DenseSolver {
         let req = llt::factor::cholesky_in_place_scratch::<f64>(n, Par::Seq, Default::default())
             .or(llt::solve::solve_in_place_scratch::<f64>(n, 1, Par::Seq))
             .or(lu::factor::lu_in_place_scratch::<usize, f64>(n, n, Par::Seq, Default::default()))
-            .or(lu::solve::solve_in_place_scratch::<usize, f64>(n, 1, Par::Seq));
+            .or(lu::solve::solve_in_place_scratch::<usize, f64>(n, 1, Par::Seq))
+            .or(evd::self_adjoint_evd_scratch::<f64>(n, evd::ComputeEigenvectors::Yes, Par::Seq, Default::default()));
         DenseSolver {
             matrix: Mat::zeros(n, n),
             rhs: Mat::zeros(n, 1),
             perm: vec![0; n],
             perm_inv: vec![0; n],
             buffer: MemBuffer::new(req),
+            eigenvalues: Diag::zeros(n),
+            eigenvectors: Mat::zeros(n, n),
+            scaled: Mat::zeros(n, n),
         }
+    }
+
+    /// Replace the symmetric matrix `h` (lower triangle read) by its negative
+    /// semidefinite part `U min(Λ, 0) Uᵀ`: the stabilising part of a stiffness. Returns
+    /// false (leaving `h` unchanged) if the eigendecomposition fails.
+    pub fn project_negative_semidefinite(&mut self, h: &mut Mat<f64>) -> bool {
+        let n = h.nrows();
+        let stack = MemStack::new(&mut self.buffer);
+        let ok = evd::self_adjoint_evd(
+            h.as_ref(),
+            self.eigenvalues.as_mut(),
+            Some(self.eigenvectors.as_mut()),
+            Par::Seq,
+            stack,
+            Default::default(),
+        )
+        .is_ok();
+        if !ok {
+            return false;
+        }
+        for j in 0..n {
+            let lambda = self.eigenvalues[j].min(0.0);
+            for i in 0..n {
+                self.scaled[(i, j)] = self.eigenvectors[(i, j)] * lambda;
+            }
+        }
+        faer::linalg::matmul::matmul(
+            h.as_mut(),
+            faer::Accum::Replace,
+            self.scaled.as_ref(),
+            self.eigenvectors.transpose(),
+            1.0,
+            Par::Seq,
+        );
+        true
     }
 
     /// The right-hand side as a slice.
@@ -117,6 +161,23 @@ mod tests {
         assert!(s.solve_general());
         for i in 0..3 {
             assert!((s.solution()[i] - x[i]).abs() < 1e-14);
+        }
+        // projection keeps the negative part: diag(-2, 3) rotated -> its -2 part
+        let mut h = Mat::<f64>::zeros(3, 3);
+        let (c, sn) = (0.6, 0.8);
+        let u = [[c, -sn, 0.0], [sn, c, 0.0], [0.0, 0.0, 1.0]];
+        let lam = [-2.0, 3.0, 0.0];
+        for i in 0..3 {
+            for j in 0..3 {
+                h[(i, j)] = (0..3).map(|k| u[i][k] * lam[k] * u[j][k]).sum();
+            }
+        }
+        assert!(s.project_negative_semidefinite(&mut h));
+        for i in 0..3 {
+            for j in 0..3 {
+                let expected = u[i][0] * -2.0 * u[j][0];
+                assert!((h[(i, j)] - expected).abs() < 1e-14);
+            }
         }
         let singular = [[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [1.0, 0.0, 1.0]];
         fill(&mut s, &singular, [1.0, 1.0, 1.0]);
