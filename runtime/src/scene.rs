@@ -63,6 +63,7 @@ pub fn validate_scene(text: &str) -> Vec<FieldError> {
     match parse_scene(text) {
         Ok(_) => Vec::new(),
         Err(Error::Invalid(errors)) => errors,
+        Err(Error::Parse(message)) => vec![FieldError::new("<toml>", message)],
         Err(other) => vec![FieldError::new("<toml>", other.to_string())],
     }
 }

@@ -419,21 +419,71 @@ impl<'a> Node<'a> {
         out
     }
 
+    fn unknown_field_message(&self, key: &str) -> String {
+        if self.known.is_empty() {
+            return "unknown field; this table takes no fields".to_string();
+        }
+        let suggestion = self
+            .known
+            .iter()
+            .map(|k| (edit_distance(key, k), k))
+            .filter(|(d, _)| *d <= 2)
+            .min()
+            .map(|(_, k)| format!(" (did you mean '{k}'?)"))
+            .unwrap_or_default();
+        format!(
+            "unknown field{suggestion}; allowed fields here: {}",
+            self.known.join(", ")
+        )
+    }
+
     /// Report every field of this table that was never asked for.
     pub fn finish(mut self) {
         self.known.sort_unstable();
         for key in self.table.keys() {
             if !self.known.contains(&key.as_str()) {
-                let allowed = if self.known.is_empty() {
-                    "none".to_string()
-                } else {
-                    self.known.join(", ")
-                };
-                self.error(
-                    key,
-                    format!("unknown field; allowed fields here: {allowed}"),
-                );
+                self.error(key, self.unknown_field_message(key));
             }
         }
+    }
+}
+
+/// Levenshtein distance between two short strings.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut diagonal = row[0];
+        row[0] = i + 1;
+        for (j, &cb) in b.iter().enumerate() {
+            let substitution = diagonal + usize::from(ca != cb);
+            diagonal = row[j + 1];
+            row[j + 1] = substitution.min(row[j] + 1).min(diagonal + 1);
+        }
+    }
+    row[b.len()]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn edit_distances() {
+        assert_eq!(edit_distance("lenght", "length"), 2);
+        assert_eq!(edit_distance("radius", "radius"), 0);
+        assert_eq!(edit_distance("", "abc"), 3);
+        assert_eq!(edit_distance("dtt", "dt"), 1);
+    }
+
+    #[test]
+    fn ranges_describe_themselves() {
+        assert_eq!(Range::POSITIVE.to_string(), "must be > 0 and finite");
+        assert_eq!(
+            Range::new(Bound::Incl(0.0), Bound::Excl(0.5)).to_string(),
+            "must be in [0, 0.5)"
+        );
+        assert!(!Range::ANY.contains(f64::NAN));
+        assert!(!Range::NON_NEGATIVE.contains(f64::INFINITY));
     }
 }

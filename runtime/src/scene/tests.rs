@@ -167,7 +167,7 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("[head]\nmotion = { kind = \"still\", speed = 1.0 }\n[[strands]]\nlength = 0.3", "head.motion.speed", "unknown field"),
     ("[simulation]\ndt = 0.01", "strands", "no strands"),
     ("strands = 5", "strands", "array of tables"),
-    ("[[strands]]\nlenght = 0.3", "strands[0].lenght", "unknown field"),
+    ("[[strands]]\nlenght = 0.3", "strands[0].lenght", "unknown field (did you mean 'length'?)"),
     ("[[strands]]\nlenght = 0.3", "strands[0].length", "required"),
     ("[[strands]]\nlength = -0.3", "strands[0].length", "must be > 0 and finite, got -0.3"),
     ("[[strands]]\nlength = 0.3\nelements = 0", "strands[0].elements", "must be an integer >= 1"),
