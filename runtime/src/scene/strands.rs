@@ -79,10 +79,12 @@ pub(super) fn read_template(n: &mut Node<'_>, env_drag: Option<f64>) -> Template
     );
     let initial = read_initial(n, lengths.as_ref().map(|l| 3 * l.len()));
     let point_loads = read_point_loads(n, length);
+    let material = cross_section.material();
+    check_derived(n, &material, natural.as_deref());
     Template {
         frame,
         lengths,
-        material: cross_section.material(),
+        material,
         natural,
         variation: variation.unwrap_or(0.0),
         seed,
@@ -90,6 +92,22 @@ pub(super) fn read_template(n: &mut Node<'_>, env_drag: Option<f64>) -> Template
         air_drag: air_drag.unwrap_or(params.air_drag),
         initial,
         point_loads,
+    }
+}
+
+/// Extreme but allowed inputs can still give a useless strand (a stiffness that
+/// underflows to 0, a curvature that overflows): report them on the inputs involved.
+fn check_derived(n: &Node<'_>, material: &Material, natural: Option<&[f64]>) {
+    let usable = |x: f64| x.is_finite() && x > 0.0;
+    if !usable(material.mass_per_length) || !material.stiffness.iter().all(|&k| usable(k)) {
+        let msg = format!(
+            "radius, youngs_modulus and density give a mass per length of {:e} kg/m and stiffnesses {:?} N m^2; both must be finite and > 0",
+            material.mass_per_length, material.stiffness
+        );
+        n.error("radius", msg);
+    }
+    if natural.is_some_and(|q| !q.iter().all(|x| x.is_finite())) {
+        n.error("natural", "the natural curvatures are not finite: check the magnitudes of helix_radius, helix_step, natural_profile and the element lengths");
     }
 }
 

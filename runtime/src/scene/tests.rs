@@ -181,6 +181,8 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("[[strands]]\nlength = 0.3\nellipticity = 0.9", "strands[0].ellipticity", ">= 1"),
     ("[[strands]]\nlength = 0.3\nhelix_radius = -0.01", "strands[0].helix_radius", ">= 0"),
     ("[[strands]]\nlength = 0.3\nhelix_step = -0.01", "strands[0].helix_step", ">= 0"),
+    ("[[strands]]\nlength = 0.3\nradius = 1e-300", "strands[0].radius", "finite and > 0"),
+    ("[[strands]]\nlength = 0.3\nhelix_radius = 1e-300", "strands[0].natural", "not finite"),
     ("[[strands]]\nlength = 0.3\nhelix_form = \"round\"", "strands[0].helix_form", "exact, paper"),
     ("[[strands]]\nlength = 0.3\nnatural = [1.0, 2.0, 3.0]\nhelix_radius = 0.01", "strands[0].helix_radius", "cannot be combined"),
     ("[[strands]]\nlength = 0.3\nnatural = [1.0, 2.0, 3.0]\nnatural_profile = [{ s = 0.0, value = [0.0, 0.0, 0.0] }]", "strands[0].natural_profile", "not both"),
