@@ -1,6 +1,95 @@
-//! superhelix facade (interim; replaced by the scene-cli branch)
+//! # superhelix
+//!
+//! Facade over the Super-Helix runtime (`superhelix-runtime`) and the generated fixed-N
+//! kernels (`superhelix-generated`), and the library half of the `superhelix` command:
+//! running a scene to `frames.json` and validating scenes.
+#![warn(missing_docs)]
+
+pub use superhelix_generated as generated;
 pub use superhelix_runtime as runtime;
-/// Generated kernels, when built.
-pub fn kernel_factory() -> Option<&'static dyn superhelix_runtime::KernelFactory> {
+pub use superhelix_runtime::{
+    parse_scene, validate_scene, Error, FieldError, FrameSource, Frames, HeadMotion, KernelFactory,
+    Result, RunSummary, Simulation, SimulationSetup,
+};
+
+use std::path::{Path, PathBuf};
+
+/// The scene `superhelix run` uses without a scene file: the four presets of the paper
+/// (smooth, wavy, curly, fuzzy) on a head shaking at 2 Hz by ±30° for 2 s.
+pub const DEFAULT_SCENE: &str = include_str!("default_scene.toml");
+
+/// Name of the file `run` writes in its output directory.
+pub const FRAMES_FILE: &str = "frames.json";
+
+/// The generated fixed-N kernels, when this build has them. `None` for now: every
+/// strand uses the generic runtime-N kernels.
+pub fn kernel_factory() -> Option<&'static dyn KernelFactory> {
     None
+}
+
+/// A running simulation of `setup`, as the output driver sees it.
+///
+/// The physics engine ([`Simulation`]) is being written concurrently; until it
+/// implements [`FrameSource`] this returns an error instead of running. Once it does,
+/// the body is `Ok(Box::new(Simulation::new(setup, kernel_factory())?))`.
+pub fn open_simulation(setup: SimulationSetup) -> Result<Box<dyn FrameSource>> {
+    Ok(Box::new(Simulation::new(setup, kernel_factory())?))
+}
+
+/// Run a parsed scene on `source` and write `out_dir/frames.json`. `progress(step,
+/// total)` is called after every step. Returns the summary and the file written.
+pub fn run_setup<S: FrameSource + ?Sized>(
+    setup: &SimulationSetup,
+    source: &mut S,
+    out_dir: &Path,
+    progress: impl FnMut(usize, usize),
+) -> Result<(RunSummary, PathBuf)> {
+    let (frames, summary) =
+        runtime::output::run_to_frames(source, &setup.config, setup.samples_per_element, progress)?;
+    let path = out_dir.join(FRAMES_FILE);
+    runtime::output::write_frames(&path, &frames)?;
+    Ok((summary, path))
+}
+
+/// Parse `scene_text`, simulate it and write `out_dir/frames.json`.
+pub fn run_scene(
+    scene_text: &str,
+    out_dir: &Path,
+    progress: impl FnMut(usize, usize),
+) -> Result<(RunSummary, PathBuf)> {
+    let setup = parse_scene(scene_text)?;
+    let mut source = open_simulation(setup.clone())?;
+    run_setup(&setup, source.as_mut(), out_dir, progress)
+}
+
+/// Number of strands and of time steps of a valid scene, or every problem found.
+pub fn check_scene(scene_text: &str) -> std::result::Result<(usize, usize), Vec<FieldError>> {
+    match parse_scene(scene_text) {
+        Ok(setup) => Ok((setup.strands.len(), runtime::scene::step_count(&setup))),
+        Err(_) => Err(validate_scene(scene_text)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_scene_is_valid_and_shows_every_preset() {
+        let setup = match parse_scene(DEFAULT_SCENE) {
+            Ok(s) => s,
+            Err(e) => panic!("{e}"),
+        };
+        for preset in ["smooth", "wavy", "curly", "fuzzy"] {
+            assert!(
+                setup
+                    .strands
+                    .iter()
+                    .any(|s| s.strand.name.starts_with(preset)),
+                "{preset}"
+            );
+        }
+        assert!(matches!(setup.head, HeadMotion::Oscillate { .. }));
+        assert_eq!(check_scene(DEFAULT_SCENE), Ok((setup.strands.len(), 60)));
+    }
 }

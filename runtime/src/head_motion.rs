@@ -62,7 +62,7 @@ pub struct Keyframe {
     pub t: f64,
     /// X at that time, metres.
     pub position: Vector3<f64>,
-    /// Orientation as a rotation vector φ (axis times angle, radians): R = exp([φ]×).
+    /// Orientation as a rotation vector φ (axis times angle, radians): `R = exp([φ]×)`.
     pub rotation: Vector3<f64>,
 }
 

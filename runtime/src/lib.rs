@@ -43,3 +43,6 @@ pub use simulation::{IntegratorKind, KernelChoice, Mode, Simulation, SimulationC
 
 /// Re-exported so that users of the trait need not name nalgebra themselves.
 pub use nalgebra::{Matrix3, Vector3};
+pub use head_motion::{Keyframe, KeyframeTrack};
+pub use output::{run_to_frames, write_frames, FrameSource, Frames, RunSummary, StrandFrames};
+pub use scene::{parse_scene, validate_scene};

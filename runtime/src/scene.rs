@@ -1,1 +1,247 @@
-//! scene
+//! Scene files: TOML, all SI, read into a [`SimulationSetup`].
+//!
+//! The text is parsed by the `toml` crate (syntax errors become [`Error::Parse`] with
+//! line and column); the resulting table is then read field by field by a path-tracking
+//! reader that records every problem — wrong type, value out of range, unknown field,
+//! inconsistent fields — with its path (`strands[2].length`) and the allowed range, so a
+//! scene with several mistakes reports all of them at once ([`Error::Invalid`]). Nothing
+//! here panics on any input.
+//!
+//! The README's "Scene format" section documents every field, its unit, default and
+//! allowed range.
+
+mod assembly;
+mod head;
+mod reader;
+mod strands;
+
+use crate::environment::Environment;
+use crate::error::{Error, FieldError, Result};
+use crate::kernel_generic::QuadratureRule;
+use crate::output::total_steps;
+use crate::simulation::{IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup};
+use reader::{Bound, Errors, Node, Range};
+use toml::{Table, Value};
+
+pub use assembly::MAX_STRANDS;
+pub use strands::{DEFAULT_ELEMENTS, MAX_ELEMENTS};
+
+/// Largest time step, seconds: beyond it a run is meaningless.
+pub const MAX_DT: f64 = 1.0;
+/// Most time steps of a run.
+pub const MAX_STEPS: f64 = 1e7;
+/// Largest output frame rate, frames per second.
+pub const MAX_OUTPUT_FPS: f64 = 10_000.0;
+/// Most frames of a run.
+pub const MAX_FRAMES: f64 = 1e6;
+/// Largest Gauss–Legendre order of `quadrature = n`.
+pub const MAX_QUADRATURE_ORDER: i64 = 64;
+/// Most centreline points written per element.
+pub const MAX_SAMPLES_PER_ELEMENT: i64 = 64;
+/// Centreline points written per element by default.
+pub const DEFAULT_SAMPLES_PER_ELEMENT: usize = 4;
+
+/// Parse and validate a scene. Every problem found is listed in [`Error::Invalid`];
+/// a TOML syntax error is [`Error::Parse`].
+pub fn parse_scene(text: &str) -> Result<SimulationSetup> {
+    let table: Table = text
+        .parse()
+        .map_err(|e: toml::de::Error| Error::Parse(describe_syntax_error(text, &e)))?;
+    let errors = Errors::default();
+    let setup = read_scene(Node::root(&table, Errors::clone(&errors)));
+    let errors = errors.take();
+    if errors.is_empty() {
+        Ok(setup)
+    } else {
+        Err(Error::Invalid(errors))
+    }
+}
+
+/// Every problem of a scene (empty when it is valid). A syntax error is reported as one
+/// problem of the field `<toml>`.
+pub fn validate_scene(text: &str) -> Vec<FieldError> {
+    match parse_scene(text) {
+        Ok(_) => Vec::new(),
+        Err(Error::Invalid(errors)) => errors,
+        Err(Error::Parse(message)) => vec![FieldError::new("<toml>", message)],
+        Err(other) => vec![FieldError::new("<toml>", other.to_string())],
+    }
+}
+
+/// Number of time steps a setup will take (0 in static mode).
+pub fn step_count(setup: &SimulationSetup) -> usize {
+    total_steps(&setup.config)
+}
+
+/// `line L, column C: message` from a `toml` error.
+fn describe_syntax_error(text: &str, e: &toml::de::Error) -> String {
+    let message = e.message().trim();
+    let Some(span) = e.span() else {
+        return message.to_string();
+    };
+    let before = text.as_bytes().get(..span.start).unwrap_or(text.as_bytes());
+    let line = 1 + before.iter().filter(|&&b| b == b'\n').count();
+    let line_start = before
+        .iter()
+        .rposition(|&b| b == b'\n')
+        .map_or(0, |p| p + 1);
+    let column = 1 + String::from_utf8_lossy(&before[line_start..])
+        .chars()
+        .count();
+    format!("line {line}, column {column}: {message}")
+}
+
+fn read_scene(mut root: Node<'_>) -> SimulationSetup {
+    let config = root
+        .table("simulation")
+        .map(read_simulation)
+        .unwrap_or_default();
+    let (environment, env_drag) = root
+        .table("environment")
+        .map(read_environment)
+        .unwrap_or_default();
+    let head = head::read_head(root.table("head"));
+    let samples_per_element = root
+        .table("output")
+        .map_or(DEFAULT_SAMPLES_PER_ELEMENT, read_output);
+    let strands = assembly::read_strands(&mut root, env_drag);
+    root.finish();
+    SimulationSetup {
+        config,
+        environment,
+        head,
+        strands,
+        samples_per_element,
+    }
+}
+
+fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
+    let d = SimulationConfig::default();
+    let mode = n.optional("mode", d.mode, |n, k| {
+        n.choice(k, &["dynamic", "static"], |m| match m {
+            "dynamic" => Some(Mode::Dynamic),
+            "static" => Some(Mode::Static),
+            _ => None,
+        })
+    });
+    let dt = n.optional_f64(
+        "dt",
+        d.dt,
+        Range::new(Bound::Excl(0.0), Bound::Incl(MAX_DT)),
+    );
+    let duration = n.optional_f64("duration", d.duration, Range::NON_NEGATIVE);
+    let fps = n.optional_f64(
+        "output_fps",
+        d.output_fps,
+        Range::new(Bound::Excl(0.0), Bound::Incl(MAX_OUTPUT_FPS)),
+    );
+    let integrators = ["linearly-implicit-euler", "newton-implicit-euler", "rk4"];
+    let integrator = n.optional("integrator", d.integrator, |n, k| {
+        n.choice(k, &integrators, IntegratorKind::from_name)
+    });
+    let kernels = n.optional("kernels", d.kernels, |n, k| {
+        n.choice(
+            k,
+            &["auto", "generic", "generated"],
+            KernelChoice::from_name,
+        )
+    });
+    let quadrature = n.optional("quadrature", d.quadrature, read_quadrature);
+    let config = SimulationConfig {
+        mode: mode.unwrap_or(d.mode),
+        dt: dt.unwrap_or(d.dt),
+        duration: duration.unwrap_or(d.duration),
+        output_fps: fps.unwrap_or(d.output_fps),
+        integrator: integrator.unwrap_or(d.integrator),
+        kernels: kernels.unwrap_or(d.kernels),
+        quadrature: quadrature.unwrap_or(d.quadrature),
+    };
+    if dt.is_some() && duration.is_some() && fps.is_some() {
+        check_run_size(&n, &config);
+    }
+    n.finish();
+    config
+}
+
+/// The caps on steps and frames of a dynamic run.
+fn check_run_size(n: &Node<'_>, config: &SimulationConfig) {
+    if config.mode == Mode::Static {
+        return;
+    }
+    let steps = config.duration / config.dt;
+    if steps > MAX_STEPS {
+        n.error(
+            "duration",
+            format!("duration / dt = {steps:.0} steps, more than the cap of {MAX_STEPS:.0}"),
+        );
+    }
+    let frames = config.duration * config.output_fps;
+    if frames > MAX_FRAMES {
+        n.error(
+            "output_fps",
+            format!(
+                "duration * output_fps = {frames:.0} frames, more than the cap of {MAX_FRAMES:.0}"
+            ),
+        );
+    }
+}
+
+/// `quadrature = "adaptive"` or a Gauss–Legendre order.
+fn read_quadrature(n: &mut Node<'_>, key: &'static str) -> Option<QuadratureRule> {
+    let cap = "the largest Gauss-Legendre order";
+    match n.raw(key)? {
+        Value::String(s) if s == "adaptive" => Some(QuadratureRule::Adaptive),
+        Value::Integer(_) => n
+            .count(key, 1, MAX_QUADRATURE_ORDER, cap)
+            .map(QuadratureRule::Fixed),
+        other => {
+            let msg = format!(
+                "expected \"adaptive\" or an integer order in [1, {MAX_QUADRATURE_ORDER}], got {}",
+                reader::kind(other)
+            );
+            n.error(key, msg);
+            None
+        }
+    }
+}
+
+/// Gravity and the scene-wide air drag (which strands inherit unless they set their own).
+fn read_environment(mut n: Node<'_>) -> (Environment, Option<f64>) {
+    let default = Environment::default();
+    let gravity = match n.raw("gravity") {
+        None => default.gravity,
+        Some(Value::String(s)) if s == "none" => None,
+        Some(Value::Array(_)) => n.vec3("gravity").or(default.gravity),
+        Some(other) => {
+            n.error(
+                "gravity",
+                format!(
+                    "expected [gx, gy, gz] in m/s^2 or \"none\", got {}",
+                    reader::kind(other)
+                ),
+            );
+            default.gravity
+        }
+    };
+    let air_drag = if n.has("air_drag") {
+        n.f64("air_drag", Range::NON_NEGATIVE)
+    } else {
+        None
+    };
+    n.finish();
+    (Environment { gravity }, air_drag)
+}
+
+fn read_output(mut n: Node<'_>) -> usize {
+    let cap = "the cap on points per element";
+    let samples = n.optional(
+        "samples_per_element",
+        DEFAULT_SAMPLES_PER_ELEMENT,
+        |n, k| n.count(k, 1, MAX_SAMPLES_PER_ELEMENT, cap),
+    );
+    n.finish();
+    samples.unwrap_or(DEFAULT_SAMPLES_PER_ELEMENT)
+}
+
+#[cfg(test)]
+mod tests;

@@ -418,3 +418,30 @@ impl Simulation {
         pose_at(&st.strand.geometry, &st.q, s).position
     }
 }
+
+impl crate::output::FrameSource for Simulation {
+    fn time(&self) -> f64 {
+        self.time
+    }
+    fn strand_count(&self) -> usize {
+        self.strands.len()
+    }
+    fn strand_name(&self, i: usize) -> &str {
+        &self.strands[i].strand.name
+    }
+    fn q(&self, i: usize) -> &[f64] {
+        &self.strands[i].q
+    }
+    fn v(&self, i: usize) -> &[f64] {
+        &self.strands[i].v
+    }
+    fn centreline_world(&mut self, i: usize, samples_per_element: usize) -> Vec<[f64; 3]> {
+        Simulation::centreline_world(self, i, samples_per_element)
+    }
+    fn step(&mut self) -> Result<()> {
+        Simulation::step(self)
+    }
+    fn solve_static(&mut self) -> Result<()> {
+        Simulation::solve_static(self).map(|_| ())
+    }
+}

@@ -77,7 +77,7 @@ pub(super) fn hat(v: &Vector3<f64>) -> Matrix3<f64> {
     v.cross_matrix()
 }
 
-/// `exp([φ]×) = I + a K + b K²`, K = [φ]×: the rotation by |φ| about φ/|φ|.
+/// `exp([φ]×) = I + a K + b K²`, `K = [φ]×`: the rotation by |φ| about φ/|φ|.
 pub(super) fn exp(phi: &Vector3<f64>) -> Matrix3<f64> {
     let k = hat(phi);
     let co = Coefficients::at(phi.norm_squared());

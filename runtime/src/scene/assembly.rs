@@ -1,0 +1,160 @@
+//! The strands of a scene: `[[strands]]` entries one by one, `[[patches]]` as grids of
+//! identical strands; names, seeds and the caps on their number.
+
+use super::reader::{Node, Range};
+use super::strands::{read_template, strand_rng, Template};
+use crate::simulation::StrandSetup;
+use nalgebra::Vector3;
+use std::collections::HashMap;
+
+/// Most strands a scene may have (all patches included).
+pub const MAX_STRANDS: usize = 10_000;
+/// Most strands along one side of a patch.
+const MAX_PATCH_SIDE: i64 = 1_000;
+
+/// The strands of `[[strands]]` then of `[[patches]]`, in order. Problems are recorded
+/// on the nodes; the result then lacks the invalid strands.
+pub(super) fn read_strands(root: &mut Node<'_>, env_drag: Option<f64>) -> Vec<StrandSetup> {
+    let mut names = Names::default();
+    let mut out = Vec::new();
+    for (i, mut n) in root.tables("strands").into_iter().enumerate() {
+        let name = n.optional("name", format!("strand{i}"), |n, k| {
+            n.string(k).map(str::to_string)
+        });
+        let root_position = n.optional("root", Vector3::zeros(), Node::vec3);
+        let template = read_template(&mut n, env_drag);
+        if let Some(name) = name {
+            names.claim(&n, &name);
+            let mut rng = strand_rng(template.seed.unwrap_or(i as u64), 0);
+            out.extend(root_position.and_then(|r| template.build(name, r, &mut rng)));
+        }
+        n.finish();
+    }
+    for (i, mut n) in root.tables("patches").into_iter().enumerate() {
+        read_patch(&mut n, i, env_drag, &mut names, &mut out);
+        n.finish();
+    }
+    if names.count == 0 {
+        root.error(
+            "strands",
+            "the scene has no strands: add [[strands]] or [[patches]]",
+        );
+    } else if names.count > MAX_STRANDS {
+        let msg = format!(
+            "{} strands in total, more than the cap of {MAX_STRANDS}",
+            names.count
+        );
+        root.error("strands", msg);
+    }
+    out
+}
+
+/// Names in use, to reject duplicates; counts the strands declared.
+#[derive(Default)]
+struct Names {
+    first_use: HashMap<String, String>,
+    count: usize,
+}
+
+impl Names {
+    /// Take `name` for a strand declared by node `n`; a duplicate is an error on `n.name`.
+    fn claim(&mut self, n: &Node<'_>, name: &str) {
+        self.count += 1;
+        if let Some(previous) = self.first_use.get(name) {
+            n.error(
+                "name",
+                format!("duplicate strand name '{name}' (already used by {previous})"),
+            );
+        } else {
+            self.first_use
+                .insert(name.to_string(), n.own_path().to_string());
+        }
+    }
+}
+
+/// A patch: a grid of `count = [nx, ny]` strands of the same template, roots centred on
+/// `center`, spaced by `spacing_u`, `spacing_v`, or spanning `size = [w, h]` along the
+/// root frame's n1 and n2. Strand (i, j) is named `<name>_<i>_<j>`.
+fn read_patch(
+    n: &mut Node<'_>,
+    index: usize,
+    env_drag: Option<f64>,
+    names: &mut Names,
+    out: &mut Vec<StrandSetup>,
+) {
+    let name = n.optional("name", format!("patch{index}"), |n, k| {
+        n.string(k).map(str::to_string)
+    });
+    let center = n.optional("center", Vector3::zeros(), Node::vec3);
+    let count = n.optional("count", vec![1, 1], |n, k| {
+        n.count_list(
+            k,
+            2,
+            (1, MAX_PATCH_SIDE, "the cap on strands along a patch side"),
+        )
+    });
+    let template = read_template(n, env_drag);
+    let steps = read_spacing(n, &template, count.as_deref());
+    let (Some(name), Some(center), Some(count), Some((u, v))) = (name, center, count, steps) else {
+        return;
+    };
+    let (nx, ny) = (count[0], count[1]);
+    if names.count + nx * ny > MAX_STRANDS {
+        let msg = format!(
+            "{nx} x {ny} strands would bring the scene over the cap of {MAX_STRANDS} strands"
+        );
+        n.error("count", msg);
+        names.count += nx * ny;
+        return;
+    }
+    let seed = template.seed.unwrap_or(index as u64);
+    for i in 0..nx {
+        for j in 0..ny {
+            let strand_name = format!("{name}_{i}_{j}");
+            names.claim(n, &strand_name);
+            let offset =
+                u * (i as f64 - 0.5 * (nx - 1) as f64) + v * (j as f64 - 0.5 * (ny - 1) as f64);
+            let mut rng = strand_rng(seed, 1 + (i * ny + j) as u64);
+            out.extend(template.build(strand_name, center + offset, &mut rng));
+        }
+    }
+}
+
+/// The vectors between neighbouring roots along i and j.
+fn read_spacing(
+    n: &mut Node<'_>,
+    template: &Template,
+    count: Option<&[usize]>,
+) -> Option<(Vector3<f64>, Vector3<f64>)> {
+    let size_given = n.has("size");
+    let size = n.fixed_list("size", 2, Range::NON_NEGATIVE);
+    let spacing_given = n.has("spacing_u") | n.has("spacing_v");
+    let u = n.optional("spacing_u", Vector3::zeros(), Node::vec3);
+    let v = n.optional("spacing_v", Vector3::zeros(), Node::vec3);
+    if size_given && spacing_given {
+        n.error("size", "give either size or spacing_u/spacing_v, not both");
+        return None;
+    }
+    let count = count?;
+    let steps = if size_given {
+        let (size, frame) = (size?, template.frame?);
+        let step = |k: usize| {
+            if count[k] > 1 {
+                size[k] / (count[k] - 1) as f64
+            } else {
+                0.0
+            }
+        };
+        (frame.column(1) * step(0), frame.column(2) * step(1))
+    } else {
+        (u?, v?)
+    };
+    let coincide =
+        (count[0] > 1 && steps.0.norm() == 0.0) || (count[1] > 1 && steps.1.norm() == 0.0);
+    if coincide {
+        let key = if spacing_given { "spacing_u" } else { "size" };
+        n.error(key, "roots would coincide: give a non-zero size = [w, h] or spacing_u/spacing_v along each side with count > 1");
+        return None;
+    }
+    Some(steps)
+}

@@ -1,0 +1,416 @@
+use super::*;
+use crate::head_motion::HeadMotion;
+use crate::material::{helix_curvature, CrossSection, HelixForm, Preset};
+use nalgebra::Vector3;
+use proptest::prelude::*;
+
+const FULL: &str = r#"
+[simulation]
+mode = "dynamic"
+dt = 0.03333333
+duration = 2.0
+output_fps = 30
+integrator = "rk4"
+kernels = "generic"
+quadrature = 6
+
+[environment]
+gravity = [0.0, 0.0, -9.81]
+air_drag = 5e-6
+
+[head]
+motion = { kind = "oscillate", axis = [0.0, 0.0, 2.0], angle_deg = 30.0, frequency_hz = 2.0 }
+
+[output]
+samples_per_element = 3
+
+[[strands]]
+name = "s0"
+root = [0.0, 0.01, 0.0]
+direction = [1.0, 0.0, 0.0]
+normal = [1.0, 1.0, 0.0]
+length = 0.3
+elements = 10
+preset = "curly"
+radius = 40e-6
+helix_form = "paper"
+internal_friction = 2e-10
+air_drag = 2e-5
+[[strands.point_loads]]
+s = 0.3
+force = [0.0, 0.0, -1e-6]
+
+[[strands]]
+name = "s1"
+length = 0.2
+element_lengths = [0.05, 0.15]
+preset = "wavy"
+initial = "straight"
+"#;
+
+fn setup(text: &str) -> SimulationSetup {
+    match parse_scene(text) {
+        Ok(s) => s,
+        Err(e) => panic!("scene should be valid: {e}"),
+    }
+}
+
+#[test]
+fn the_full_example_becomes_the_expected_setup() {
+    let s = setup(FULL);
+    assert_eq!(s.config.integrator, IntegratorKind::Rk4);
+    assert_eq!(s.config.kernels, KernelChoice::Generic);
+    assert_eq!(s.config.quadrature, QuadratureRule::Fixed(6));
+    assert_eq!(s.samples_per_element, 3);
+    let HeadMotion::Oscillate {
+        axis,
+        amplitude,
+        frequency_hz,
+        center,
+    } = &s.head
+    else {
+        panic!("{:?}", s.head)
+    };
+    assert_eq!(
+        (*axis, *frequency_hz, *center),
+        (Vector3::z(), 2.0, Vector3::zeros())
+    );
+    assert!((amplitude - 30f64.to_radians()).abs() < 1e-15);
+
+    let s0 = &s.strands[0].strand;
+    assert_eq!(s0.name, "s0");
+    assert_eq!(s0.geometry.lengths, vec![0.03; 10]);
+    assert_eq!(s0.geometry.root_position, Vector3::new(0.0, 0.01, 0.0));
+    let frame = s0.geometry.root_frame;
+    assert_eq!(frame.column(0).into_owned(), Vector3::x());
+    assert!(
+        (frame.column(1) - Vector3::y()).norm() < 1e-15,
+        "normal orthonormalised"
+    );
+    assert!((frame.column(2) - Vector3::z()).norm() < 1e-15);
+    let curly = Preset::Curly.params();
+    let expected = helix_curvature(curly.helix_radius, curly.helix_step, HelixForm::Paper);
+    assert_eq!(&s0.natural[27..30], &expected);
+    assert_eq!(s.strands[0].q0, s0.natural, "initial = natural by default");
+    assert_eq!((s0.internal_friction, s0.air_drag), (2e-10, 2e-5));
+    let cs = CrossSection {
+        radius: 40e-6,
+        ..curly.cross_section
+    };
+    let (got, want) = (s0.material, cs.material());
+    assert_eq!(got.mass_per_length, want.mass_per_length);
+    for i in 0..3 {
+        // powi may round differently when constant-folded: compare to 1e-15.
+        assert!((got.stiffness[i] / want.stiffness[i] - 1.0).abs() < 1e-15);
+    }
+    assert_eq!(s0.point_loads.len(), 1);
+
+    let s1 = &s.strands[1];
+    assert_eq!(s1.strand.geometry.lengths, vec![0.05, 0.15]);
+    assert_eq!(s1.q0, vec![0.0; 6]);
+    assert_eq!(
+        s1.strand.air_drag, 5e-6,
+        "environment air_drag overrides the preset's"
+    );
+    assert_eq!(
+        s1.strand.geometry.root_frame.column(0).into_owned(),
+        -Vector3::z()
+    );
+}
+
+#[test]
+fn a_minimal_scene_uses_the_documented_defaults() {
+    let s = setup("[[strands]]\nlength = 0.25\n");
+    assert_eq!(s.config, SimulationConfig::default());
+    assert_eq!(s.head, HeadMotion::Still);
+    assert_eq!(s.samples_per_element, DEFAULT_SAMPLES_PER_ELEMENT);
+    let strand = &s.strands[0].strand;
+    assert_eq!(strand.name, "strand0");
+    assert_eq!(strand.geometry.elements(), DEFAULT_ELEMENTS);
+    let smooth = Preset::Smooth.params();
+    assert_eq!(
+        strand.material.mass_per_length,
+        smooth.cross_section.material().mass_per_length
+    );
+    assert_eq!(
+        (strand.internal_friction, strand.air_drag),
+        (smooth.internal_friction, smooth.air_drag)
+    );
+    assert!(strand.natural.iter().all(|&x| x == 0.0));
+    assert_eq!(s.environment.gravity, Some(Vector3::new(0.0, 0.0, -9.81)));
+}
+
+/// (scene text, field path that must be reported, fragment of its message).
+const BROKEN: &[(&str, &str, &str)] = &[
+    ("[simulation]\ndt = 0.0\n[[strands]]\nlength = 0.3", "simulation.dt", "must be in (0, 1], got 0"),
+    ("[simulation]\ndt = 2.0\n[[strands]]\nlength = 0.3", "simulation.dt", "must be in (0, 1]"),
+    ("[simulation]\ndt = nan\n[[strands]]\nlength = 0.3", "simulation.dt", "got NaN"),
+    ("[simulation]\nduration = -1\n[[strands]]\nlength = 0.3", "simulation.duration", "must be >= 0"),
+    ("[simulation]\nduration = inf\n[[strands]]\nlength = 0.3", "simulation.duration", "finite"),
+    ("[simulation]\nduration = 1e9\ndt = 0.01\n[[strands]]\nlength = 0.3", "simulation.duration", "cap"),
+    ("[simulation]\noutput_fps = 0\n[[strands]]\nlength = 0.3", "simulation.output_fps", "must be in (0, "),
+    ("[simulation]\nmode = \"fast\"\n[[strands]]\nlength = 0.3", "simulation.mode", "allowed: dynamic, static"),
+    ("[simulation]\nintegrator = \"euler\"\n[[strands]]\nlength = 0.3", "simulation.integrator", "rk4"),
+    ("[simulation]\nkernels = \"gpu\"\n[[strands]]\nlength = 0.3", "simulation.kernels", "generated"),
+    ("[simulation]\nquadrature = 0\n[[strands]]\nlength = 0.3", "simulation.quadrature", ">= 1"),
+    ("[simulation]\nquadrature = \"gauss\"\n[[strands]]\nlength = 0.3", "simulation.quadrature", "adaptive"),
+    ("[simulation]\ndtt = 0.1\n[[strands]]\nlength = 0.3", "simulation.dtt", "unknown field"),
+    ("[environment]\nair_drag = -1.0\n[[strands]]\nlength = 0.3", "environment.air_drag", ">= 0"),
+    ("[environment]\ngravity = \"down\"\n[[strands]]\nlength = 0.3", "environment.gravity", "none"),
+    ("[environment]\ngravity = [0.0, 1.0]\n[[strands]]\nlength = 0.3", "environment.gravity", "exactly 3"),
+    ("[output]\nsamples_per_element = 0\n[[strands]]\nlength = 0.3", "output.samples_per_element", ">= 1"),
+    ("[head]\nmotion = { kind = \"spin\" }\n[[strands]]\nlength = 0.3", "head.motion.kind", "oscillate"),
+    ("[head]\nmotion = { kind = \"oscillate\", axis = [0.0, 0.0, 1.0], angle_deg = 30.0 }\n[[strands]]\nlength = 0.3", "head.motion.frequency_hz", "required"),
+    ("[head]\nmotion = { kind = \"oscillate\", axis = [0.0, 0.0, 0.0], angle_deg = 30.0, frequency_hz = 1.0 }\n[[strands]]\nlength = 0.3", "head.motion.axis", "non-zero"),
+    ("[head]\nmotion = { kind = \"keyframes\", keys = [{ t = 0.5 }, { t = 0.5 }] }\n[[strands]]\nlength = 0.3", "head.motion.keys[1].t", "strictly increasing"),
+    ("[head]\nmotion = { kind = \"jolt\", direction = [1.0, 0.0, 0.0], acceleration = 5.0, start = 0.0, duration = 0.0 }\n[[strands]]\nlength = 0.3", "head.motion.duration", "> 0"),
+    ("[head]\nmotion = { kind = \"still\", speed = 1.0 }\n[[strands]]\nlength = 0.3", "head.motion.speed", "unknown field"),
+    ("[simulation]\ndt = 0.01", "strands", "no strands"),
+    ("strands = 5", "strands", "array of tables"),
+    ("[[strands]]\nlenght = 0.3", "strands[0].lenght", "unknown field (did you mean 'length'?)"),
+    ("[[strands]]\nlenght = 0.3", "strands[0].length", "required"),
+    ("[[strands]]\nlength = -0.3", "strands[0].length", "must be > 0 and finite, got -0.3"),
+    ("[[strands]]\nlength = 0.3\nelements = 0", "strands[0].elements", "must be an integer >= 1"),
+    ("[[strands]]\nlength = 0.3\nelements = 500", "strands[0].elements", "<= 200"),
+    ("[[strands]]\nlength = 0.3\nelements = 2.5", "strands[0].elements", "expected an integer"),
+    ("[[strands]]\nlength = 0.3\npreset = \"frizzy\"", "strands[0].preset", "allowed: smooth, wavy, curly, fuzzy"),
+    ("[[strands]]\nlength = 0.3\nradius = 0.0", "strands[0].radius", "> 0"),
+    ("[[strands]]\nlength = 0.3\nyoungs_modulus = -1e9", "strands[0].youngs_modulus", "> 0"),
+    ("[[strands]]\nlength = 0.3\ndensity = 0", "strands[0].density", "> 0"),
+    ("[[strands]]\nlength = 0.3\npoisson = 0.5", "strands[0].poisson", "must be in [0, 0.5)"),
+    ("[[strands]]\nlength = 0.3\nellipticity = 0.9", "strands[0].ellipticity", ">= 1"),
+    ("[[strands]]\nlength = 0.3\nhelix_radius = -0.01", "strands[0].helix_radius", ">= 0"),
+    ("[[strands]]\nlength = 0.3\nhelix_step = -0.01", "strands[0].helix_step", ">= 0"),
+    ("[[strands]]\nlength = 0.3\nradius = 1e-300", "strands[0].radius", "finite and > 0"),
+    ("[[strands]]\nlength = 0.3\nhelix_radius = 1e-300", "strands[0].natural", "not finite"),
+    ("[[strands]]\nlength = 0.3\nhelix_form = \"round\"", "strands[0].helix_form", "exact, paper"),
+    ("[[strands]]\nlength = 0.3\nnatural = [1.0, 2.0, 3.0]\nhelix_radius = 0.01", "strands[0].helix_radius", "cannot be combined"),
+    ("[[strands]]\nlength = 0.3\nnatural = [1.0, 2.0, 3.0]\nnatural_profile = [{ s = 0.0, value = [0.0, 0.0, 0.0] }]", "strands[0].natural_profile", "not both"),
+    ("[[strands]]\nlength = 0.3\nnatural_profile = [{ s = 0.2, value = [0.0, 0.0, 0.0] }, { s = 0.1, value = [0.0, 0.0, 0.0] }]", "strands[0].natural_profile[1].s", "strictly increasing"),
+    ("[[strands]]\nlength = 0.3\nnatural_profile = [{ s = 0.5, value = [0.0, 0.0, 0.0] }]", "strands[0].natural_profile[0].s", "must be in [0, 0.3]"),
+    ("[[strands]]\nlength = 0.3\ncurvature_variation = 2.0", "strands[0].curvature_variation", "[0, 1]"),
+    ("[[strands]]\nlength = 0.3\nseed = -1", "strands[0].seed", ">= 0"),
+    ("[[strands]]\nlength = 0.3\nair_drag = -1e-5", "strands[0].air_drag", ">= 0"),
+    ("[[strands]]\nlength = 0.3\ninternal_friction = inf", "strands[0].internal_friction", ">= 0"),
+    ("[[strands]]\nlength = 0.3\ninitial = \"bent\"", "strands[0].initial", "natural, straight"),
+    ("[[strands]]\nlength = 0.3\nelements = 2\nq0 = [0.0, 0.0]", "strands[0].q0", "must have 3N = 6 values"),
+    ("[[strands]]\nlength = 0.3\nelements = 1\nq0 = [0.0, 0.0, 0.0]\ninitial = \"straight\"", "strands[0].q0", "not both"),
+    ("[[strands]]\nlength = 0.3\ndirection = [0.0, 0.0, 0.0]", "strands[0].direction", "non-zero"),
+    ("[[strands]]\nlength = 0.3\ndirection = [1.0, 0.0, 0.0]\nnormal = [-2.0, 0.0, 0.0]", "strands[0].normal", "parallel"),
+    ("[[strands]]\nlength = 0.3\nelement_lengths = [0.1, 0.1]", "strands[0].element_lengths", "must sum to length = 0.3"),
+    ("[[strands]]\nlength = 0.3\nelements = 2\nelement_lengths = [0.1, 0.2]", "strands[0].element_lengths", "not both"),
+    ("[[strands]]\nelement_lengths = [0.1, -0.2]", "strands[0].element_lengths[1]", "> 0"),
+    ("[[strands]]\nlength = 0.3\n[[strands.point_loads]]\ns = 0.5\nforce = [0.0, 0.0, 1.0]", "strands[0].point_loads[0].s", "must be in [0, 0.3]"),
+    ("[[strands]]\nlength = 0.3\n[[strands.point_loads]]\ns = 0.1", "strands[0].point_loads[0].force", "required"),
+    ("[[strands]]\nname = \"a\"\nlength = 0.3\n[[strands]]\nname = \"a\"\nlength = 0.3", "strands[1].name", "duplicate"),
+    ("[[patches]]\nlength = 0.3\ncount = [0, 2]\nsize = [0.01, 0.01]", "patches[0].count[0]", ">= 1"),
+    ("[[patches]]\nlength = 0.3\ncount = [2, 2]", "patches[0].size", "coincide"),
+    ("[[patches]]\nlength = 0.3\ncount = [1000, 1000]\nsize = [0.01, 0.01]", "patches[0].count", "cap"),
+    ("[[patches]]\nlength = 0.3\ncount = [2, 1]\nsize = [0.01, 0.0]\nspacing_u = [0.0, 0.01, 0.0]", "patches[0].size", "not both"),
+];
+
+#[test]
+fn every_broken_scene_reports_its_field_and_range() {
+    for (text, field, fragment) in BROKEN {
+        let errors = validate_scene(text);
+        let hit = errors.iter().find(|e| e.field == *field);
+        let Some(hit) = hit else {
+            panic!("{field} not reported for\n{text}\ngot {errors:?}")
+        };
+        assert!(
+            hit.message.contains(fragment),
+            "{field}: message '{}' lacks '{fragment}'",
+            hit.message
+        );
+    }
+}
+
+#[test]
+fn all_problems_are_reported_at_once() {
+    let text = "[simulation]\ndt = -1\nduration = -2\n[[strands]]\nlength = -0.3\nelements = 0\npreset = \"x\"\nfoo = 1\n";
+    let fields: Vec<String> = validate_scene(text).into_iter().map(|e| e.field).collect();
+    for f in [
+        "simulation.dt",
+        "simulation.duration",
+        "strands[0].length",
+        "strands[0].elements",
+        "strands[0].preset",
+        "strands[0].foo",
+    ] {
+        assert!(fields.iter().any(|g| g == f), "{f} missing from {fields:?}");
+    }
+    match parse_scene(text) {
+        Err(Error::Invalid(errors)) => assert_eq!(errors.len(), fields.len()),
+        other => panic!("expected Invalid, got {other:?}"),
+    }
+}
+
+#[test]
+fn syntax_errors_give_line_and_column() {
+    match parse_scene("[simulation]\ndt = 0.1\nduration = = 2\n") {
+        Err(Error::Parse(msg)) => assert!(msg.starts_with("line 3, column "), "{msg}"),
+        other => panic!("expected Parse, got {other:?}"),
+    }
+    let errors = validate_scene("[[strands]\n");
+    assert_eq!(errors.len(), 1);
+    assert_eq!(errors[0].field, "<toml>");
+}
+
+#[test]
+fn patches_make_named_grids_with_reproducible_variation() {
+    let text = r#"
+[[patches]]
+name = "p"
+center = [0.0, 0.0, 0.1]
+direction = [0.0, 0.0, -1.0]
+normal = [1.0, 0.0, 0.0]
+count = [3, 2]
+size = [0.02, 0.01]
+length = 0.2
+elements = 4
+preset = "curly"
+curvature_variation = 0.2
+seed = 7
+"#;
+    let s = setup(text);
+    let names: Vec<&str> = s.strands.iter().map(|x| x.strand.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["p_0_0", "p_0_1", "p_1_0", "p_1_1", "p_2_0", "p_2_1"]
+    );
+    let root = |k: usize| s.strands[k].strand.geometry.root_position;
+    assert!(
+        (root(0) - Vector3::new(-0.01, 0.005, 0.1)).norm() < 1e-15,
+        "{}",
+        root(0)
+    );
+    assert!(
+        (root(5) - Vector3::new(0.01, -0.005, 0.1)).norm() < 1e-15,
+        "{}",
+        root(5)
+    );
+    let base = helix_curvature(0.006, 0.005, HelixForm::Exact);
+    for x in &s.strands {
+        for (q, chunk) in x.strand.natural.chunks(3).enumerate() {
+            let factor = chunk[1] / base[1];
+            assert!((0.8..=1.2).contains(&factor), "factor {factor}");
+            assert!(
+                (chunk[0] / base[0] - factor).abs() < 1e-12,
+                "element {q} scaled as a whole"
+            );
+        }
+    }
+    assert_ne!(s.strands[0].strand.natural, s.strands[1].strand.natural);
+    assert_eq!(setup(text), s, "same seed, same scene");
+}
+
+#[test]
+fn patch_spacing_vectors_place_the_roots() {
+    let text =
+        "[[patches]]\ncount = [2, 1]\nspacing_u = [0.0, 0.02, 0.0]\nlength = 0.1\nelements = 2\n";
+    let s = setup(text);
+    assert_eq!(
+        s.strands[0].strand.geometry.root_position,
+        Vector3::new(0.0, -0.01, 0.0)
+    );
+    assert_eq!(
+        s.strands[1].strand.geometry.root_position,
+        Vector3::new(0.0, 0.01, 0.0)
+    );
+}
+
+#[test]
+fn natural_profile_takes_exact_element_means() {
+    // tau = 0, kappa1 rises linearly from 0 at s = 0.1 to 10 at s = 0.3, constant outside.
+    let text = r#"
+[[strands]]
+length = 0.4
+elements = 4
+natural_profile = [{ s = 0.1, value = [0.0, 0.0, 1.0] }, { s = 0.3, value = [0.0, 10.0, 1.0] }]
+"#;
+    let s = setup(text);
+    let k1: Vec<f64> = s.strands[0]
+        .strand
+        .natural
+        .chunks(3)
+        .map(|d| d[1])
+        .collect();
+    let expected = [0.0, 2.5, 7.5, 10.0];
+    for (got, want) in k1.iter().zip(expected) {
+        assert!((got - want).abs() < 1e-12, "{k1:?}");
+    }
+    assert!(s.strands[0].strand.natural.chunks(3).all(|d| d[2] == 1.0));
+    // An element straddling a knot: mean over [0.05, 0.15] of max(0, 50 (s - 0.1)).
+    let text = text.replace("elements = 4", "element_lengths = [0.05, 0.1, 0.25]");
+    let s = setup(&text);
+    assert!((s.strands[0].strand.natural[4] - 0.625).abs() < 1e-12);
+}
+
+#[test]
+fn q0_natural_and_keyframes_and_gravity_none() {
+    let text = r#"
+[environment]
+gravity = "none"
+[head]
+motion = { kind = "keyframes", keys = [{ t = 0.0 }, { t = 1.0, position = [0.0, 0.0, 0.1], rotation_axis_angle_deg = [0.0, 0.0, 90.0] }] }
+[[strands]]
+length = 0.3
+elements = 1
+q0 = [1.0, 2.0, 3.0]
+"#;
+    let s = setup(text);
+    assert_eq!(s.environment.gravity, None);
+    assert_eq!(s.strands[0].q0, vec![1.0, 2.0, 3.0]);
+    let end = s.head.state(2.0);
+    assert!((end.rotation * Vector3::x() - Vector3::y()).norm() < 1e-12);
+}
+
+#[test]
+fn deep_nesting_and_odd_input_do_not_panic() {
+    let deep = format!("x = {}{}", "[".repeat(100_000), "]".repeat(100_000));
+    assert!(parse_scene(&deep).is_err());
+    for text in [
+        "",
+        "\u{0}",
+        "[[strands]]\nlength = 1e308\nelements = 200",
+        "a.b.c.d = 1",
+        "[[strands]]\nroot = [1e308, -1e308, 1e308]\nlength = 0.1",
+    ] {
+        let _ = parse_scene(text);
+    }
+}
+
+/// Valid lines to splice into random scenes.
+const LINES: &[&str] = &[
+    "[simulation]", "dt = 0.01", "duration = 0.5", "output_fps = 30", "mode = \"static\"", "quadrature = 3",
+    "[environment]", "gravity = [0.0, 0.0, -9.81]", "air_drag = 1e-5", "[head]",
+    "motion = { kind = \"oscillate\", axis = [0.0, 0.0, 1.0], angle_deg = 30.0, frequency_hz = 2.0 }",
+    "motion = { kind = \"keyframes\", keys = [{ t = 0.0 }, { t = 1.0 }] }",
+    "[[strands]]", "length = 0.3", "elements = 3", "element_lengths = [0.1, 0.2]", "preset = \"fuzzy\"",
+    "natural_profile = [{ s = 0.0, value = [1.0, 2.0, 3.0] }]", "q0 = [0.0, 0.0, 0.0]", "direction = [0.0, 0.0, 0.0]",
+    "normal = [1.0, 0.0, 0.0]", "curvature_variation = 0.5", "[[strands.point_loads]]", "s = 0.1", "force = [0.0, 0.0, 1.0]",
+    "[[patches]]", "count = [2, 3]", "size = [0.01, 0.02]", "spacing_u = [0.0, 0.0, 0.0]", "length = -1", "elements = 0",
+];
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(400))]
+
+    #[test]
+    fn random_text_never_panics(text in "\\PC{0,200}") {
+        let _ = parse_scene(&text);
+    }
+
+    #[test]
+    fn spliced_scenes_never_panic(picks in proptest::collection::vec(0..LINES.len(), 0..25)) {
+        let text: Vec<&str> = picks.iter().map(|&i| LINES[i]).collect();
+        let _ = parse_scene(&text.join("\n"));
+    }
+
+    #[test]
+    fn mutated_full_scene_never_panics(pos in 0..FULL.len(), cut in 0..20usize, insert in "[\\[\\]=\"{},.0-9a-z \\n-]{0,8}") {
+        let mut text = FULL.as_bytes().to_vec();
+        let end = (pos + cut).min(text.len());
+        text.splice(pos..end, insert.bytes());
+        let _ = parse_scene(&String::from_utf8_lossy(&text));
+    }
+}

@@ -1,0 +1,208 @@
+//! The `superhelix` binary, end to end.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn superhelix(args: &[&str]) -> Output {
+    match Command::new(env!("CARGO_BIN_EXE_superhelix"))
+        .args(args)
+        .output()
+    {
+        Ok(out) => out,
+        Err(e) => panic!("cannot start superhelix: {e}"),
+    }
+}
+
+fn text(out: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}
+
+/// A fresh scratch directory for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("superhelix-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+    dir
+}
+
+fn write(dir: &Path, name: &str, contents: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, contents).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    path
+}
+
+fn repo(path: &str) -> String {
+    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+const STRAND: &str = "[[strands]]\nlength = 0.3\n";
+
+/// Broken scenes and a field path each must report.
+fn broken() -> Vec<(String, &'static str)> {
+    vec![
+        (format!("[simulation]\ndt = 0.0\n{STRAND}"), "simulation.dt"),
+        (format!("[simulation]\nduration = -1.0\n{STRAND}"), "simulation.duration"),
+        (format!("[simulation]\noutput_fps = 0\n{STRAND}"), "simulation.output_fps"),
+        (format!("[simulation]\nintegrator = \"leapfrog\"\n{STRAND}"), "simulation.integrator"),
+        (format!("[simulation]\nkernels = \"gpu\"\n{STRAND}"), "simulation.kernels"),
+        (format!("[simulation]\nmode = \"fast\"\n{STRAND}"), "simulation.mode"),
+        (format!("[head]\nmotion = {{ kind = \"wobble\" }}\n{STRAND}"), "head.motion.kind"),
+        ("[[strands]]\nlength = -0.3\n".to_string(), "strands[0].length"),
+        ("[[strands]]\nlength = 0.3\nelements = 0\n".to_string(), "strands[0].elements"),
+        ("[[strands]]\nlength = 0.3\npreset = \"frizzy\"\n".to_string(), "strands[0].preset"),
+        ("[[strands]]\nlength = 0.3\npoisson = 0.7\n".to_string(), "strands[0].poisson"),
+        ("[[strands]]\nlength = 0.3\nradius = 0.0\n".to_string(), "strands[0].radius"),
+        ("[[strands]]\nlength = 0.3\ncolour = \"red\"\n".to_string(), "strands[0].colour"),
+        ("[[strands]]\nlength = 0.3\nelements = 2\nq0 = [0.0]\n".to_string(), "strands[0].q0"),
+        ("[[strands]]\nlength = 0.3\ndirection = [0.0, 0.0, 1.0]\nnormal = [0.0, 0.0, 3.0]\n".to_string(), "strands[0].normal"),
+        ("[[strands]]\nlength = 0.3\nelement_lengths = [0.1, 0.1]\n".to_string(), "strands[0].element_lengths"),
+        ("[[strands]]\nlength = 0.3\n[[strands.point_loads]]\ns = 0.4\nforce = [0.0, 0.0, 1.0]\n".to_string(), "strands[0].point_loads[0].s"),
+        (format!("{STRAND}[[strands]]\nlength = 0.2\nhelix_radius = -1.0\n"), "strands[1].helix_radius"),
+        ("[simulation]\ndt = 0.01\n".to_string(), "strands"),
+    ]
+}
+
+#[test]
+fn validate_reports_each_broken_field_with_exit_code_1() {
+    let dir = scratch("broken");
+    for (i, (scene, field)) in broken().into_iter().enumerate() {
+        let path = write(&dir, &format!("broken{i}.toml"), &scene);
+        let out = superhelix(&["validate", &path.to_string_lossy()]);
+        let all = text(&out);
+        assert_eq!(out.status.code(), Some(1), "{field}:\n{all}");
+        assert!(
+            all.contains(&format!("{field}: ")),
+            "{field} not in:\n{all}"
+        );
+    }
+}
+
+#[test]
+fn validate_reports_syntax_errors_with_their_line() {
+    let dir = scratch("syntax");
+    let path = write(
+        &dir,
+        "syntax.toml",
+        "[simulation]\ndt = 0.1\nduration = = 2\n",
+    );
+    let out = superhelix(&["validate", &path.to_string_lossy()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out).contains("line 3, column"), "{}", text(&out));
+}
+
+#[test]
+fn validate_accepts_the_example_scenes_and_the_default_scene() {
+    let mut scenes: Vec<String> = std::fs::read_dir(repo("scenes"))
+        .unwrap_or_else(|e| panic!("scenes/: {e}"))
+        .filter_map(|entry| entry.ok().map(|e| e.path().to_string_lossy().into_owned()))
+        .filter(|p| p.ends_with(".toml"))
+        .collect();
+    assert!(scenes.len() >= 3, "{scenes:?}");
+    scenes.push(repo("src/default_scene.toml"));
+    for scene in scenes {
+        let out = superhelix(&["validate", &scene]);
+        assert_eq!(out.status.code(), Some(0), "{scene}:\n{}", text(&out));
+        assert!(
+            String::from_utf8_lossy(&out.stdout).starts_with("ok: "),
+            "{scene}"
+        );
+    }
+    let out = superhelix(&["validate", &repo("src/default_scene.toml")]);
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout).trim(),
+        "ok: 16 strands, 60 steps"
+    );
+}
+
+#[test]
+fn missing_files_and_bad_usage_fail_cleanly() {
+    let out = superhelix(&["validate", "/nonexistent/scene.toml"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/scene.toml"));
+    assert_eq!(superhelix(&[]).status.code(), Some(2));
+    assert_eq!(superhelix(&["run", "--frobnicate"]).status.code(), Some(2));
+    assert_eq!(superhelix(&["validate"]).status.code(), Some(2));
+    let out = superhelix(&["run", "/nonexistent/scene.toml"]);
+    assert_eq!(out.status.code(), Some(1));
+}
+
+#[test]
+fn run_rejects_an_invalid_scene_before_simulating() {
+    let dir = scratch("run-invalid");
+    let path = write(&dir, "bad.toml", "[[strands]]\nlength = -1.0\n");
+    let out = superhelix(&[
+        "run",
+        &path.to_string_lossy(),
+        "--out",
+        &dir.join("out").to_string_lossy(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("strands[0].length"));
+    assert!(!dir.join("out").join("frames.json").exists());
+}
+
+fn as_f64(v: &serde_json::Value) -> f64 {
+    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
+}
+
+#[test]
+
+fn run_writes_frames_of_the_default_scene() {
+    let dir = scratch("run-default");
+    let out_dir = dir.join("out");
+    let out = superhelix(&["run", "--out", &out_dir.to_string_lossy()]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let summary = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(summary.lines().count(), 1, "{summary}");
+    assert!(
+        summary.contains("strand-steps/s") && summary.contains("max |q̇|"),
+        "{summary}"
+    );
+
+    let json = std::fs::read_to_string(out_dir.join("frames.json"))
+        .unwrap_or_else(|e| panic!("frames.json: {e}"));
+    let frames: serde_json::Value =
+        serde_json::from_str(&json).unwrap_or_else(|e| panic!("frames.json: {e}"));
+    let setup =
+        superhelix::parse_scene(superhelix::DEFAULT_SCENE).unwrap_or_else(|e| panic!("{e}"));
+    let expected_frames = (setup.config.duration * setup.config.output_fps).floor() as usize + 1;
+    let times = frames["frame_times"]
+        .as_array()
+        .unwrap_or_else(|| panic!("frame_times"));
+    assert_eq!(times.len(), expected_frames);
+    for (k, t) in times.iter().enumerate() {
+        assert!((as_f64(t) - k as f64 / setup.config.output_fps).abs() < 1e-9);
+    }
+    let strands = frames["strands"]
+        .as_array()
+        .unwrap_or_else(|| panic!("strands"));
+    assert_eq!(strands.len(), setup.strands.len());
+    for (json, s) in strands.iter().zip(&setup.strands) {
+        assert_eq!(json["name"], s.strand.name.as_str());
+        let points = json["points"]
+            .as_array()
+            .unwrap_or_else(|| panic!("points"));
+        let q = json["q"].as_array().unwrap_or_else(|| panic!("q"));
+        assert_eq!((points.len(), q.len()), (expected_frames, expected_frames));
+        let n = s.strand.geometry.elements();
+        for (frame_points, frame_q) in points.iter().zip(q) {
+            let frame_points = frame_points.as_array().unwrap_or_else(|| panic!("frame"));
+            assert_eq!(frame_points.len(), 1 + n * setup.samples_per_element);
+            assert_eq!(frame_q.as_array().map(Vec::len), Some(3 * n));
+            for p in frame_points {
+                assert!(p
+                    .as_array()
+                    .is_some_and(|p| p.len() == 3 && p.iter().all(|x| as_f64(x).is_finite())));
+            }
+        }
+        // The head is at rest at t = 0 (X = 0, R = I): the first point is the root.
+        let root = &points[0][0];
+        for i in 0..3 {
+            assert!((as_f64(&root[i]) - s.strand.geometry.root_position[i]).abs() < 1e-12);
+        }
+    }
+}
