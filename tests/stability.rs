@@ -26,10 +26,18 @@ fn preset_strand(preset: Preset, n: usize, length: f64) -> Strand {
     }
 }
 
+/// Largest kinetic energy (relative to the head) seen in the first and the second half
+/// of a run, in units of ½ m (Ω_max (r + L))²: the kinetic energy of the strand dragged
+/// rigidly at the head's top speed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct KineticPeaks {
+    first_half: f64,
+    second_half: f64,
+}
+
 /// Run every preset on a head oscillating at `hz` through ±`deg`; returns the final q of
-/// each strand and the largest kinetic energy seen, relative to the bound
-/// ½ m (Ω_max (r + L))² of a strand dragged rigidly at the head's top speed.
-fn run(n: usize, dt: f64, duration: f64, hz: f64, deg: f64) -> (Vec<Vec<f64>>, f64) {
+/// each strand and the kinetic-energy peaks (worst strand).
+fn run(n: usize, dt: f64, duration: f64, hz: f64, deg: f64) -> (Vec<Vec<f64>>, KineticPeaks) {
     let length = 0.25;
     let strands: Vec<Strand> = Preset::ALL.iter().map(|&p| preset_strand(p, n, length)).collect();
     let amplitude = deg.to_radians();
@@ -48,26 +56,33 @@ fn run(n: usize, dt: f64, duration: f64, hz: f64, deg: f64) -> (Vec<Vec<f64>>, f
     };
     let mut sim = Simulation::new(setup, superhelix::kernel_factory()).expect("valid setup");
     let omega_max = amplitude * 2.0 * std::f64::consts::PI * hz;
-    let mut worst: f64 = 0.0;
+    let mut peaks = KineticPeaks { first_half: 0.0, second_half: 0.0 };
     let steps = (duration / dt).round() as usize;
-    for _ in 0..steps {
+    for step in 0..steps {
         sim.step().expect("stable step");
         for i in 0..sim.strand_count() {
             let mass = sim.strand(i).material.mass_per_length * length;
-            let bound = 0.5 * mass * (omega_max * (0.1 + length)).powi(2);
-            worst = worst.max(sim.kinetic_energy(i) / bound);
+            let scale = 0.5 * mass * (omega_max * (0.1 + length)).powi(2);
+            let k = sim.kinetic_energy(i) / scale;
+            let peak = if step < steps / 2 { &mut peaks.first_half } else { &mut peaks.second_half };
+            *peak = peak.max(k);
             assert!(sim.q(i).iter().chain(sim.v(i)).all(|x| x.is_finite()));
         }
     }
-    ((0..sim.strand_count()).map(|i| sim.q(i).to_vec()).collect(), worst)
+    println!("solver: {:?}", sim.stats());
+    ((0..sim.strand_count()).map(|i| sim.q(i).to_vec()).collect(), peaks)
 }
 
 #[test]
 fn every_preset_survives_a_3hz_40deg_shake_at_30_fps_deterministically() {
-    let (first, worst) = run(10, 1.0 / 30.0, 10.0, 3.0, 40.0);
-    println!("largest kinetic energy / rigid-drag bound: {worst:.3}");
-    // the strand moves relative to the head no faster than the head itself drags it
-    assert!(worst < 1.0, "kinetic energy {worst} x the rigid-drag bound");
+    let (first, peaks) = run(10, 1.0 / 30.0, 10.0, 3.0, 40.0);
+    println!("kinetic energy peaks / rigid-drag scale: {peaks:?}");
+    // Bounded: a whip concentrates energy in its tip, so the relative kinetic energy may
+    // exceed the rigid-drag scale a few times, but it must not grow: under periodic forcing
+    // with friction and drag the second half peaks no higher than the first (with margin
+    // for the irregular whipping), and never beyond 10x the scale (tip 3x the head's speed).
+    assert!(peaks.first_half < 10.0 && peaks.second_half < 10.0, "{peaks:?}");
+    assert!(peaks.second_half < 1.5 * peaks.first_half, "kinetic energy grows: {peaks:?}");
     let (second, _) = run(10, 1.0 / 30.0, 10.0, 3.0, 40.0);
     assert_eq!(first, second, "two runs differ");
 }

@@ -5,7 +5,7 @@
 
 use crate::dense_solve::DenseSolver;
 use crate::effects::{body_field, GlobalEffects};
-use crate::head_motion::HeadState;
+use crate::head_motion::{HeadMotion, HeadState};
 use crate::kernel::{EvalInput, StrandKernel, StrandTerms, Terms};
 use crate::simulation::IntegratorKind;
 use crate::strand::Strand;
@@ -21,6 +21,8 @@ pub struct StepStats {
     pub newton_iterations: usize,
     /// Newton solves that reached the iteration cap without meeting the tolerance.
     pub newton_unconverged: usize,
+    /// Implicit steps split in two because they rotated an element too much.
+    pub substeps: usize,
 }
 
 impl StepStats {
@@ -29,6 +31,7 @@ impl StepStats {
         self.stiffness_dropped += o.stiffness_dropped;
         self.newton_iterations += o.newton_iterations;
         self.newton_unconverged += o.newton_unconverged;
+        self.substeps += o.substeps;
     }
 }
 
@@ -44,6 +47,8 @@ pub struct StrandWorkspace {
     /// Diagonal of the internal friction matrix γ l_Q.
     pub friction: Vec<f64>,
     scratch: [Vec<f64>; 6],
+    saved_q: Vec<f64>,
+    saved_v: Vec<f64>,
 }
 
 impl StrandWorkspace {
@@ -58,6 +63,8 @@ impl StrandWorkspace {
             stiffness: strand.stiffness_diagonal(),
             friction,
             scratch: std::array::from_fn(|_| vec![0.0; n]),
+            saved_q: vec![0.0; n],
+            saved_v: vec![0.0; n],
         }
     }
 }
@@ -200,8 +207,18 @@ fn energy_parts(
     (kinetic, elastic + gravity + loads)
 }
 
-/// Advance one strand by h with the chosen integrator. `head_now` is the head at t,
-/// `head_mid` at t + h/2, `head_next` at t + h. On failure, returns the cause.
+/// Largest rotation an implicit step may put into one element, radians: the change of
+/// `l_Q |d_Q|` over the step. Beyond it the step's linearisation of M(q), b and the
+/// forces no longer holds and energy can be created, so the step is split in two.
+pub const MAX_ELEMENT_ROTATION: f64 = 0.3;
+/// How many times a step may be halved (down to h / 2^depth).
+pub const MAX_SUBSTEP_DEPTH: usize = 8;
+
+/// Advance one strand from t by h with the chosen integrator (head motion read at the
+/// times each scheme needs). Implicit steps that would rotate an element by more than
+/// [`MAX_ELEMENT_ROTATION`] (or whose Newton iterations do not converge) are split into
+/// halves, recursively; the count is in [`StepStats::substeps`]. On failure, returns
+/// the cause.
 #[allow(clippy::too_many_arguments)]
 pub fn step_strand(
     kind: IntegratorKind,
@@ -209,22 +226,75 @@ pub fn step_strand(
     kernel: &mut dyn StrandKernel,
     ws: &mut StrandWorkspace,
     ctx: &StepContext,
-    heads: [&HeadState; 3],
+    head: &HeadMotion,
+    t: f64,
     h: f64,
     q: &mut [f64],
     v: &mut [f64],
     stats: &mut StepStats,
 ) -> Result<(), String> {
     match kind {
-        IntegratorKind::LinearlyImplicitEuler => linearly_implicit_euler(strand, kernel, ws, ctx, heads[2], h, q, v, stats),
-        IntegratorKind::NewtonImplicitEuler => newton_implicit_euler(strand, kernel, ws, ctx, heads[2], h, q, v, stats),
-        IntegratorKind::Rk4 => rk4(strand, kernel, ws, ctx, heads, h, q, v),
+        IntegratorKind::Rk4 => {
+            let heads = [head.state(t), head.state(t + 0.5 * h), head.state(t + h)];
+            rk4(strand, kernel, ws, ctx, [&heads[0], &heads[1], &heads[2]], h, q, v)
+        }
+        _ => implicit_adaptive(kind, strand, kernel, ws, ctx, head, t, h, q, v, stats, 0),
     }?;
     if let Some(i) = q.iter().chain(v.iter()).position(|x| !x.is_finite()) {
         let what = if i < q.len() { "q" } else { "q̇" };
         return Err(format!("non-finite {what}[{}] after the step", i % q.len()));
     }
     Ok(())
+}
+
+/// Largest l_Q |Δd_Q| between two states.
+fn max_element_rotation(lengths: &[f64], q: &[f64], q0: &[f64]) -> f64 {
+    lengths
+        .iter()
+        .enumerate()
+        .map(|(k, l)| {
+            let d: f64 = (0..3).map(|i| (q[3 * k + i] - q0[3 * k + i]).powi(2)).sum();
+            l * d.sqrt()
+        })
+        .fold(0.0, f64::max)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn implicit_adaptive(
+    kind: IntegratorKind,
+    strand: &Strand,
+    kernel: &mut dyn StrandKernel,
+    ws: &mut StrandWorkspace,
+    ctx: &StepContext,
+    head: &HeadMotion,
+    t: f64,
+    h: f64,
+    q: &mut [f64],
+    v: &mut [f64],
+    stats: &mut StepStats,
+    depth: usize,
+) -> Result<(), String> {
+    ws.saved_q.copy_from_slice(q);
+    ws.saved_v.copy_from_slice(v);
+    let head_next = head.state(t + h);
+    let unconverged_before = stats.newton_unconverged;
+    match kind {
+        IntegratorKind::NewtonImplicitEuler => newton_implicit_euler(strand, kernel, ws, ctx, &head_next, h, q, v, stats),
+        _ => linearly_implicit_euler(strand, kernel, ws, ctx, &head_next, h, q, v, stats),
+    }?;
+    let too_large = max_element_rotation(&strand.geometry.lengths, q, &ws.saved_q) > MAX_ELEMENT_ROTATION
+        || stats.newton_unconverged > unconverged_before
+        || q.iter().chain(v.iter()).any(|x| !x.is_finite());
+    if !too_large || depth == MAX_SUBSTEP_DEPTH {
+        return Ok(());
+    }
+    stats.newton_unconverged = unconverged_before;
+    stats.substeps += 1;
+    q.copy_from_slice(&ws.saved_q);
+    v.copy_from_slice(&ws.saved_v);
+    let half = 0.5 * h;
+    implicit_adaptive(kind, strand, kernel, ws, ctx, head, t, half, q, v, stats, depth + 1)?;
+    implicit_adaptive(kind, strand, kernel, ws, ctx, head, t + half, half, q, v, stats, depth + 1)
 }
 
 /// One Newton step of backward Euler (design page "Time stepping"), with the velocity

@@ -260,7 +260,7 @@ impl Simulation {
     pub fn step(&mut self) -> Result<()> {
         let h = self.config.dt;
         let t = self.time;
-        let heads = [self.head.state(t), self.head.state(t + 0.5 * h), self.head.state(t + h)];
+        let head = &self.head;
         let kind = self.config.integrator;
         let ctx = self.context;
         let failure = self
@@ -275,7 +275,8 @@ impl Simulation {
                     s.kernel.as_mut(),
                     &mut s.workspace,
                     &ctx,
-                    [&heads[0], &heads[1], &heads[2]],
+                    head,
+                    t,
                     h,
                     &mut q,
                     &mut v,
