@@ -4,11 +4,13 @@
 //! through ±40° for 10 s: all values finite, bounded kinetic energy, and the same result
 //! run to run.
 
-use superhelix::runtime::{Matrix3, Vector3};
 use superhelix::runtime::material::{helix_curvature, HelixForm, Preset};
-use superhelix::runtime::simulation::{IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup, StrandSetup};
+use superhelix::runtime::simulation::{
+    IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup, StrandSetup,
+};
 use superhelix::runtime::strand::{Strand, StrandGeometry};
 use superhelix::runtime::{Environment, HeadMotion, Simulation};
+use superhelix::runtime::{Matrix3, Vector3};
 
 fn preset_strand(preset: Preset, n: usize, length: f64) -> Strand {
     let p = preset.params();
@@ -17,7 +19,12 @@ fn preset_strand(preset: Preset, n: usize, length: f64) -> Strand {
     let natural = helix_curvature(p.helix_radius, p.helix_step, HelixForm::Exact);
     Strand {
         name: preset.name().to_string(),
-        geometry: StrandGeometry::new(Vector3::new(0.1, 0.0, 0.0), Matrix3::identity(), vec![length / n as f64; n], &material),
+        geometry: StrandGeometry::new(
+            Vector3::new(0.1, 0.0, 0.0),
+            Matrix3::identity(),
+            vec![length / n as f64; n],
+            &material,
+        ),
         material,
         natural: (0..n).flat_map(|_| natural).collect(),
         internal_friction: p.internal_friction,
@@ -39,7 +46,10 @@ struct KineticPeaks {
 /// each strand and the kinetic-energy peaks (worst strand).
 fn run(n: usize, dt: f64, duration: f64, hz: f64, deg: f64) -> (Vec<Vec<f64>>, KineticPeaks) {
     let length = 0.25;
-    let strands: Vec<Strand> = Preset::ALL.iter().map(|&p| preset_strand(p, n, length)).collect();
+    let strands: Vec<Strand> = Preset::ALL
+        .iter()
+        .map(|&p| preset_strand(p, n, length))
+        .collect();
     let amplitude = deg.to_radians();
     let setup = SimulationSetup {
         config: SimulationConfig {
@@ -49,14 +59,30 @@ fn run(n: usize, dt: f64, duration: f64, hz: f64, deg: f64) -> (Vec<Vec<f64>>, K
             kernels: KernelChoice::Auto,
             ..SimulationConfig::default()
         },
-        environment: Environment { gravity: Some(Vector3::new(0.0, 0.0, -9.81)) },
-        head: HeadMotion::Oscillate { axis: Vector3::z(), amplitude, frequency_hz: hz, center: Vector3::zeros() },
-        strands: strands.into_iter().map(|s| StrandSetup { q0: s.natural.clone(), strand: s }).collect(),
+        environment: Environment {
+            gravity: Some(Vector3::new(0.0, 0.0, -9.81)),
+        },
+        head: HeadMotion::Oscillate {
+            axis: Vector3::z(),
+            amplitude,
+            frequency_hz: hz,
+            center: Vector3::zeros(),
+        },
+        strands: strands
+            .into_iter()
+            .map(|s| StrandSetup {
+                q0: s.natural.clone(),
+                strand: s,
+            })
+            .collect(),
         samples_per_element: 4,
     };
     let mut sim = Simulation::new(setup, superhelix::kernel_factory()).expect("valid setup");
     let omega_max = amplitude * 2.0 * std::f64::consts::PI * hz;
-    let mut peaks = KineticPeaks { first_half: 0.0, second_half: 0.0 };
+    let mut peaks = KineticPeaks {
+        first_half: 0.0,
+        second_half: 0.0,
+    };
     let steps = (duration / dt).round() as usize;
     for step in 0..steps {
         sim.step().expect("stable step");
@@ -64,13 +90,20 @@ fn run(n: usize, dt: f64, duration: f64, hz: f64, deg: f64) -> (Vec<Vec<f64>>, K
             let mass = sim.strand(i).material.mass_per_length * length;
             let scale = 0.5 * mass * (omega_max * (0.1 + length)).powi(2);
             let k = sim.kinetic_energy(i) / scale;
-            let peak = if step < steps / 2 { &mut peaks.first_half } else { &mut peaks.second_half };
+            let peak = if step < steps / 2 {
+                &mut peaks.first_half
+            } else {
+                &mut peaks.second_half
+            };
             *peak = peak.max(k);
             assert!(sim.q(i).iter().chain(sim.v(i)).all(|x| x.is_finite()));
         }
     }
     println!("solver: {:?}", sim.stats());
-    ((0..sim.strand_count()).map(|i| sim.q(i).to_vec()).collect(), peaks)
+    (
+        (0..sim.strand_count()).map(|i| sim.q(i).to_vec()).collect(),
+        peaks,
+    )
 }
 
 #[test]
@@ -81,8 +114,14 @@ fn every_preset_survives_a_3hz_40deg_shake_at_30_fps_deterministically() {
     // exceed the rigid-drag scale a few times, but it must not grow: under periodic forcing
     // with friction and drag the second half peaks no higher than the first (with margin
     // for the irregular whipping), and never beyond 10x the scale (tip 3x the head's speed).
-    assert!(peaks.first_half < 10.0 && peaks.second_half < 10.0, "{peaks:?}");
-    assert!(peaks.second_half < 1.5 * peaks.first_half, "kinetic energy grows: {peaks:?}");
+    assert!(
+        peaks.first_half < 10.0 && peaks.second_half < 10.0,
+        "{peaks:?}"
+    );
+    assert!(
+        peaks.second_half < 1.5 * peaks.first_half,
+        "kinetic energy grows: {peaks:?}"
+    );
     let (second, _) = run(10, 1.0 / 30.0, 10.0, 3.0, 40.0);
     assert_eq!(first, second, "two runs differ");
 }

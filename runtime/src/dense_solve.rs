@@ -1,11 +1,11 @@
 //! Dense linear solves of the step (faer), with workspaces allocated once per strand:
 //! Cholesky for the SPD systems, partial-pivoting LU as the fallback.
 
+use faer::diag::Diag;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt;
 use faer::linalg::evd;
 use faer::linalg::lu::partial_pivoting as lu;
-use faer::diag::Diag;
 use faer::{Mat, MatMut, Par};
 
 /// Workspace for solving `A x = b` with a 3N × 3N matrix.
@@ -27,9 +27,23 @@ impl DenseSolver {
     pub fn new(n: usize) -> Self {
         let req = llt::factor::cholesky_in_place_scratch::<f64>(n, Par::Seq, Default::default())
             .or(llt::solve::solve_in_place_scratch::<f64>(n, 1, Par::Seq))
-            .or(lu::factor::lu_in_place_scratch::<usize, f64>(n, n, Par::Seq, Default::default()))
-            .or(lu::solve::solve_in_place_scratch::<usize, f64>(n, 1, Par::Seq))
-            .or(evd::self_adjoint_evd_scratch::<f64>(n, evd::ComputeEigenvectors::Yes, Par::Seq, Default::default()));
+            .or(lu::factor::lu_in_place_scratch::<usize, f64>(
+                n,
+                n,
+                Par::Seq,
+                Default::default(),
+            ))
+            .or(lu::solve::solve_in_place_scratch::<usize, f64>(
+                n,
+                1,
+                Par::Seq,
+            ))
+            .or(evd::self_adjoint_evd_scratch::<f64>(
+                n,
+                evd::ComputeEigenvectors::Yes,
+                Par::Seq,
+                Default::default(),
+            ));
         DenseSolver {
             matrix: Mat::zeros(n, n),
             rhs: Mat::zeros(n, 1),
@@ -120,7 +134,14 @@ impl DenseSolver {
             Default::default(),
         );
         let stack = MemStack::new(&mut self.buffer);
-        lu::solve::solve_in_place(self.matrix.as_ref(), self.matrix.as_ref(), perm, self.rhs.as_mut(), Par::Seq, stack);
+        lu::solve::solve_in_place(
+            self.matrix.as_ref(),
+            self.matrix.as_ref(),
+            perm,
+            self.rhs.as_mut(),
+            Par::Seq,
+            stack,
+        );
         all_finite(self.rhs.as_mut())
     }
 }
@@ -146,7 +167,9 @@ mod tests {
     fn cholesky_and_lu_solve_and_detect_failure() {
         let spd = [[4.0, 1.0, 0.5], [1.0, 3.0, 0.2], [0.5, 0.2, 2.0]];
         let x = [1.0, -2.0, 0.5];
-        let b: Vec<f64> = (0..3).map(|i| (0..3).map(|j| spd[i][j] * x[j]).sum()).collect();
+        let b: Vec<f64> = (0..3)
+            .map(|i| (0..3).map(|j| spd[i][j] * x[j]).sum())
+            .collect();
         let mut s = DenseSolver::new(3);
         fill(&mut s, &spd, [b[0], b[1], b[2]]);
         assert!(s.solve_spd());
@@ -154,7 +177,9 @@ mod tests {
             assert!((s.solution()[i] - x[i]).abs() < 1e-14);
         }
         let nonsym = [[0.0, 2.0, 1.0], [1.0, 0.0, 3.0], [2.0, 1.0, 0.0]];
-        let b: Vec<f64> = (0..3).map(|i| (0..3).map(|j| nonsym[i][j] * x[j]).sum()).collect();
+        let b: Vec<f64> = (0..3)
+            .map(|i| (0..3).map(|j| nonsym[i][j] * x[j]).sum())
+            .collect();
         fill(&mut s, &nonsym, [b[0], b[1], b[2]]);
         assert!(!s.solve_spd());
         fill(&mut s, &nonsym, [b[0], b[1], b[2]]);

@@ -84,7 +84,10 @@ pub fn element_jets(d: &Vector3<f64>, u: f64, with_w: bool) -> ElementJets {
         e[i] = Jet::constant(1.0);
         e
     };
-    let mut out = ElementJets { p: p_times(u, &dj, b, c, dd, &basis(0)), ..Default::default() };
+    let mut out = ElementJets {
+        p: p_times(u, &dj, b, c, dd, &basis(0)),
+        ..Default::default()
+    };
     if with_w {
         for i in 0..3 {
             out.w[i] = p_times(u, &dj, b, c, dd, &basis(i));
@@ -99,7 +102,11 @@ mod tests {
 
     #[test]
     fn pose_is_a_rotation_and_p_integrates_the_tangent() {
-        for d in [Vector3::new(0.0, 0.0, 0.0), Vector3::new(3.0, -20.0, 7.0), Vector3::new(1e-7, 2e-7, 0.0)] {
+        for d in [
+            Vector3::new(0.0, 0.0, 0.0),
+            Vector3::new(3.0, -20.0, 7.0),
+            Vector3::new(1e-7, 2e-7, 0.0),
+        ] {
             let u = 0.05;
             let (e, _) = local_pose(&d, u);
             assert!((e.transpose() * e - Matrix3::identity()).norm() < 1e-14);

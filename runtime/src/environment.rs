@@ -11,6 +11,8 @@ pub struct Environment {
 
 impl Default for Environment {
     fn default() -> Self {
-        Self { gravity: Some(Vector3::new(0.0, 0.0, -9.81)) }
+        Self {
+            gravity: Some(Vector3::new(0.0, 0.0, -9.81)),
+        }
     }
 }

@@ -64,7 +64,11 @@ fn series(z: f64, k: usize) -> Series3 {
 /// a, b, c and their z-derivatives at z = x² ≥ 0.
 pub fn abc(z: f64) -> Abc {
     if z < SERIES_LIMIT {
-        return Abc { a: series(z, 1), b: series(z, 2), c: series(z, 3) };
+        return Abc {
+            a: series(z, 1),
+            b: series(z, 2),
+            c: series(z, 3),
+        };
     }
     let x = z.sqrt();
     let (s, co) = x.sin_cos();
@@ -79,9 +83,21 @@ pub fn abc(z: f64) -> Abc {
     let b2 = (a1 - 4.0 * b1) / (2.0 * z);
     let c2 = (b1 - 5.0 * c1) / (2.0 * z);
     Abc {
-        a: Series3 { f: a, d1: a1, d2: a2 },
-        b: Series3 { f: b, d1: b1, d2: b2 },
-        c: Series3 { f: c, d1: c1, d2: c2 },
+        a: Series3 {
+            f: a,
+            d1: a1,
+            d2: a2,
+        },
+        b: Series3 {
+            f: b,
+            d1: b1,
+            d2: b2,
+        },
+        c: Series3 {
+            f: c,
+            d1: c1,
+            d2: c2,
+        },
     }
 }
 
@@ -108,7 +124,11 @@ mod tests {
     use super::*;
 
     fn closed(x: f64) -> (f64, f64, f64) {
-        (x.sin() / x, (1.0 - x.cos()) / (x * x), (x - x.sin()) / (x * x * x))
+        (
+            x.sin() / x,
+            (1.0 - x.cos()) / (x * x),
+            (x - x.sin()) / (x * x * x),
+        )
     }
 
     #[test]
@@ -118,7 +138,11 @@ mod tests {
             let (a, b, c) = closed(x);
             assert!((r.a.f - a).abs() < 1e-15, "a at {x}");
             assert!((r.b.f - b).abs() < 1e-15, "b at {x}");
-            assert!((r.c.f - c).abs() < 2e-15 * c.abs().max(1e-3), "c at {x}: {} vs {c}", r.c.f);
+            assert!(
+                (r.c.f - c).abs() < 2e-15 * c.abs().max(1e-3),
+                "c at {x}: {} vs {c}",
+                r.c.f
+            );
         }
     }
 
@@ -132,8 +156,14 @@ mod tests {
             for (s, sp, sm) in [(r.a, p.a, m.a), (r.b, p.b, m.b), (r.c, p.c, m.c)] {
                 let d1 = (sp.f - sm.f) / (2.0 * h);
                 let d2 = (sp.d1 - sm.d1) / (2.0 * h);
-                assert!((d1 - s.d1).abs() < 1e-7 * s.d1.abs().max(1e-4), "d1 at z={z}");
-                assert!((d2 - s.d2).abs() < 1e-6 * s.d2.abs().max(1e-5), "d2 at z={z}");
+                assert!(
+                    (d1 - s.d1).abs() < 1e-7 * s.d1.abs().max(1e-4),
+                    "d1 at z={z}"
+                );
+                assert!(
+                    (d2 - s.d2).abs() < 1e-6 * s.d2.abs().max(1e-5),
+                    "d2 at z={z}"
+                );
             }
         }
     }
@@ -144,7 +174,9 @@ mod tests {
             let (a, b, c) = abc_values(z);
             let r = abc(z);
             // within two ulps of values of order one
-            assert!((a - r.a.f).abs() < 5e-16 && (b - r.b.f).abs() < 5e-16 && (c - r.c.f).abs() < 5e-16);
+            assert!(
+                (a - r.a.f).abs() < 5e-16 && (b - r.b.f).abs() < 5e-16 && (c - r.c.f).abs() < 5e-16
+            );
         }
         assert_eq!(abc(0.0).a.f, 1.0);
         assert_eq!(abc(0.0).b.f, 0.5);

@@ -55,7 +55,12 @@ impl StrandWorkspace {
     /// Buffers for this strand.
     pub fn new(strand: &Strand) -> Self {
         let n = strand.geometry.dofs();
-        let friction = strand.geometry.lengths.iter().flat_map(|l| [l * strand.internal_friction; 3]).collect();
+        let friction = strand
+            .geometry
+            .lengths
+            .iter()
+            .flat_map(|l| [l * strand.internal_friction; 3])
+            .collect();
         StrandWorkspace {
             terms: StrandTerms::new(n),
             solver: DenseSolver::new(n),
@@ -99,7 +104,12 @@ pub fn assemble(
     v: &[f64],
     terms: Terms,
 ) -> Assembled {
-    let field = body_field(&ctx.effects, head, strand.material.mass_per_length, strand.air_drag);
+    let field = body_field(
+        &ctx.effects,
+        head,
+        strand.material.mass_per_length,
+        strand.air_drag,
+    );
     // the kernel computes only what the scene's effects make non-zero
     let position_field = field.uniform != Vector3::zeros() || field.has_linear();
     let velocity_field = field.velocity != nalgebra::Matrix3::zeros();
@@ -108,7 +118,15 @@ pub fn assemble(
         damping: terms.damping && velocity_field,
         ..terms
     };
-    kernel.evaluate(&EvalInput { q, v, field, terms: kernel_terms }, &mut ws.terms);
+    kernel.evaluate(
+        &EvalInput {
+            q,
+            v,
+            field,
+            terms: kernel_terms,
+        },
+        &mut ws.terms,
+    );
     let t = &mut ws.terms;
     let n = q.len();
     if terms.stiffness && !kernel_terms.stiffness {
@@ -186,8 +204,17 @@ fn energy_parts(
     q: &[f64],
     v: &[f64],
 ) -> (f64, f64) {
-    let terms = Terms { mass: true, force: true, ..Default::default() };
-    let field = body_field(&ctx.effects, &HeadState::rest(), strand.material.mass_per_length, 0.0);
+    let terms = Terms {
+        mass: true,
+        force: true,
+        ..Default::default()
+    };
+    let field = body_field(
+        &ctx.effects,
+        &HeadState::rest(),
+        strand.material.mass_per_length,
+        0.0,
+    );
     kernel.evaluate(&EvalInput { q, v, field, terms }, &mut ws.terms);
     let m = &ws.terms.mass;
     let n = q.len();
@@ -197,8 +224,13 @@ fn energy_parts(
             kinetic += 0.5 * v[i] * m[(i, j)] * v[j];
         }
     }
-    let elastic: f64 = (0..n).map(|i| 0.5 * ws.stiffness[i] * (q[i] - strand.natural[i]).powi(2)).sum();
-    let gravity = ctx.effects.gravity.map_or(0.0, |g| -ws.terms.first_moment.dot(&g));
+    let elastic: f64 = (0..n)
+        .map(|i| 0.5 * ws.stiffness[i] * (q[i] - strand.natural[i]).powi(2))
+        .sum();
+    let gravity = ctx
+        .effects
+        .gravity
+        .map_or(0.0, |g| -ws.terms.first_moment.dot(&g));
     let loads: f64 = strand
         .point_loads
         .iter()
@@ -236,7 +268,16 @@ pub fn step_strand(
     match kind {
         IntegratorKind::Rk4 => {
             let heads = [head.state(t), head.state(t + 0.5 * h), head.state(t + h)];
-            rk4(strand, kernel, ws, ctx, [&heads[0], &heads[1], &heads[2]], h, q, v)
+            rk4(
+                strand,
+                kernel,
+                ws,
+                ctx,
+                [&heads[0], &heads[1], &heads[2]],
+                h,
+                q,
+                v,
+            )
         }
         _ => implicit_adaptive(kind, strand, kernel, ws, ctx, head, t, h, q, v, stats, 0),
     }?;
@@ -279,10 +320,13 @@ fn implicit_adaptive(
     let head_next = head.state(t + h);
     let unconverged_before = stats.newton_unconverged;
     match kind {
-        IntegratorKind::NewtonImplicitEuler => newton_implicit_euler(strand, kernel, ws, ctx, &head_next, h, q, v, stats),
+        IntegratorKind::NewtonImplicitEuler => {
+            newton_implicit_euler(strand, kernel, ws, ctx, &head_next, h, q, v, stats)
+        }
         _ => linearly_implicit_euler(strand, kernel, ws, ctx, &head_next, h, q, v, stats),
     }?;
-    let too_large = max_element_rotation(&strand.geometry.lengths, q, &ws.saved_q) > MAX_ELEMENT_ROTATION
+    let too_large = max_element_rotation(&strand.geometry.lengths, q, &ws.saved_q)
+        > MAX_ELEMENT_ROTATION
         || stats.newton_unconverged > unconverged_before
         || q.iter().chain(v.iter()).any(|x| !x.is_finite());
     if !too_large || depth == MAX_SUBSTEP_DEPTH {
@@ -293,8 +337,34 @@ fn implicit_adaptive(
     q.copy_from_slice(&ws.saved_q);
     v.copy_from_slice(&ws.saved_v);
     let half = 0.5 * h;
-    implicit_adaptive(kind, strand, kernel, ws, ctx, head, t, half, q, v, stats, depth + 1)?;
-    implicit_adaptive(kind, strand, kernel, ws, ctx, head, t + half, half, q, v, stats, depth + 1)
+    implicit_adaptive(
+        kind,
+        strand,
+        kernel,
+        ws,
+        ctx,
+        head,
+        t,
+        half,
+        q,
+        v,
+        stats,
+        depth + 1,
+    )?;
+    implicit_adaptive(
+        kind,
+        strand,
+        kernel,
+        ws,
+        ctx,
+        head,
+        t + half,
+        half,
+        q,
+        v,
+        stats,
+        depth + 1,
+    )
 }
 
 /// One Newton step of backward Euler (design page "Time stepping"), with the velocity
@@ -343,7 +413,9 @@ fn linearly_implicit_euler(
             }
             st[(j, j)] += ws.stiffness[j];
         }
-        let ok = ws.solver.project_negative_semidefinite(&mut ws.terms.stiffness);
+        let ok = ws
+            .solver
+            .project_negative_semidefinite(&mut ws.terms.stiffness);
         if !ok {
             stats.stiffness_dropped += 1;
         }
@@ -352,12 +424,17 @@ fn linearly_implicit_euler(
     let t = &ws.terms;
     for j in 0..n {
         for i in 0..n {
-            let mut dq = if field_stiffness { t.stiffness[(i, j)] } else { 0.0 };
+            let mut dq = if field_stiffness {
+                t.stiffness[(i, j)]
+            } else {
+                0.0
+            };
             if i == j {
                 dq -= ws.stiffness[i];
             }
-            ws.solver.matrix[(i, j)] =
-                t.mass[(i, j)] - h * t.damping[(i, j)] + 0.5 * h * t.velocity_term_jacobian[(i, j)] - h * h * dq;
+            ws.solver.matrix[(i, j)] = t.mass[(i, j)] - h * t.damping[(i, j)]
+                + 0.5 * h * t.velocity_term_jacobian[(i, j)]
+                - h * h * dq;
         }
     }
     for i in 0..n {
@@ -466,7 +543,11 @@ fn acceleration(
     v: &[f64],
     acc: &mut [f64],
 ) -> Result<(), String> {
-    let terms = Terms { mass: true, force: true, ..Default::default() };
+    let terms = Terms {
+        mass: true,
+        force: true,
+        ..Default::default()
+    };
     assemble(strand, kernel, ws, ctx, head, q, v, terms);
     ws.solver.matrix.copy_from(&ws.terms.mass);
     ws.solver.rhs_mut().copy_from_slice(&ws.terms.force);

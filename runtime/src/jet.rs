@@ -19,7 +19,10 @@ pub struct Jet {
 impl Jet {
     /// A constant.
     pub fn constant(v: f64) -> Jet {
-        Jet { v, ..Default::default() }
+        Jet {
+            v,
+            ..Default::default()
+        }
     }
     /// The i-th independent variable, at value v.
     pub fn var(v: f64, i: usize) -> Jet {
@@ -29,7 +32,10 @@ impl Jet {
     }
     /// Compose with f(z), given f, f' and f'' at z = self.v.
     pub fn compose(self, f: Series3) -> Jet {
-        let mut out = Jet { v: f.f, ..Default::default() };
+        let mut out = Jet {
+            v: f.f,
+            ..Default::default()
+        };
         for i in 0..3 {
             out.g[i] = f.d1 * self.g[i];
             for j in 0..3 {
@@ -84,7 +90,10 @@ impl Sub for Jet {
 impl Mul for Jet {
     type Output = Jet;
     fn mul(self, o: Jet) -> Jet {
-        let mut out = Jet { v: self.v * o.v, ..Default::default() };
+        let mut out = Jet {
+            v: self.v * o.v,
+            ..Default::default()
+        };
         for i in 0..3 {
             out.g[i] = self.g[i] * o.v + self.v * o.g[i];
             for j in 0..3 {
@@ -107,7 +116,11 @@ impl Mul<Jet> for f64 {
 
 /// Cross product of two jet 3-vectors.
 pub fn cross(a: &[Jet; 3], b: &[Jet; 3]) -> [Jet; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 
 #[cfg(test)]

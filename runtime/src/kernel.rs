@@ -29,7 +29,11 @@ pub struct BodyField {
 impl BodyField {
     /// No force.
     pub fn zero() -> Self {
-        BodyField { uniform: Vector3::zeros(), linear: Matrix3::zeros(), velocity: Matrix3::zeros() }
+        BodyField {
+            uniform: Vector3::zeros(),
+            linear: Matrix3::zeros(),
+            velocity: Matrix3::zeros(),
+        }
     }
     /// True when the linear part is zero (no head rotation).
     pub fn has_linear(&self) -> bool {
@@ -62,7 +66,13 @@ pub struct Terms {
 impl Terms {
     /// Everything.
     pub fn all() -> Self {
-        Terms { mass: true, force: true, stiffness: true, damping: true, velocity_term_jacobian: true }
+        Terms {
+            mass: true,
+            force: true,
+            stiffness: true,
+            damping: true,
+            velocity_term_jacobian: true,
+        }
     }
 }
 

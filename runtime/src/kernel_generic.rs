@@ -118,7 +118,10 @@ impl GenericKernel {
         self.omega[0] = Vector3::zeros();
         for k in 0..self.geom.elements() {
             let e = &self.end_derivs[k];
-            self.omega[k + 1] = self.omega[k] + e.dth[0] * v[3 * k] + e.dth[1] * v[3 * k + 1] + e.dth[2] * v[3 * k + 2];
+            self.omega[k + 1] = self.omega[k]
+                + e.dth[0] * v[3 * k]
+                + e.dth[1] * v[3 * k + 1]
+                + e.dth[2] * v[3 * k + 2];
         }
     }
 
@@ -142,7 +145,13 @@ impl GenericKernel {
 
     /// J̇ (columns 0..3(p+1)) at the point, for velocities v (after `prepare_velocity`).
     /// Returns ẏ = J v and J̇ v.
-    fn point_jdot(&mut self, p: usize, jets: &ElementJets, y: &Vector3<f64>, v: &[f64]) -> (Vector3<f64>, Vector3<f64>) {
+    fn point_jdot(
+        &mut self,
+        p: usize,
+        jets: &ElementJets,
+        y: &Vector3<f64>,
+        v: &[f64],
+    ) -> (Vector3<f64>, Vector3<f64>) {
         let m = 3 * (p + 1);
         let ydot: Vector3<f64> = (0..m).map(|k| self.jac[k] * v[k]).sum();
         let mut upstream = Vector3::zeros();
@@ -218,17 +227,32 @@ impl GenericKernel {
             }
         }
         if t.velocity_term_jacobian {
-            self.add_rotary_velocity_jacobian(p, jets, &inertia, &omega, v, w, &mut out.velocity_term_jacobian);
+            self.add_rotary_velocity_jacobian(
+                p,
+                jets,
+                &inertia,
+                &omega,
+                v,
+                w,
+                &mut out.velocity_term_jacobian,
+            );
         }
     }
 
     /// Rotary inertia of the cross-section at local abscissa u of element p, in head
     /// coordinates, and the angular Jacobian Θ there (columns 0..3(p+1)).
-    fn point_rotation(&mut self, p: usize, u: f64, d: &Vector3<f64>, jets: &ElementJets) -> Matrix3<f64> {
+    fn point_rotation(
+        &mut self,
+        p: usize,
+        u: f64,
+        d: &Vector3<f64>,
+        jets: &ElementJets,
+    ) -> Matrix3<f64> {
         let (e_u, _) = local_pose(d, u);
         let f = self.ends[p].frame;
         let fu = f * e_u;
-        let inertia = fu * Matrix3::from_diagonal(&Vector3::from(self.geom.rotary_inertia)) * fu.transpose();
+        let inertia =
+            fu * Matrix3::from_diagonal(&Vector3::from(self.geom.rotary_inertia)) * fu.transpose();
         for qe in 0..p {
             for i in 0..3 {
                 self.theta[3 * qe + i] = self.end_derivs[qe].dth[i];
@@ -242,7 +266,12 @@ impl GenericKernel {
 
     /// Θ̇ columns and the frame's angular velocity Ω = Θ q̇ and Θ̇ q̇ at the point
     /// (after `point_rotation` and `prepare_velocity`).
-    fn point_theta_dot(&mut self, p: usize, jets: &ElementJets, v: &[f64]) -> (Vector3<f64>, Vector3<f64>) {
+    fn point_theta_dot(
+        &mut self,
+        p: usize,
+        jets: &ElementJets,
+        v: &[f64],
+    ) -> (Vector3<f64>, Vector3<f64>) {
         let m = 3 * (p + 1);
         let f = self.ends[p].frame;
         for qe in 0..=p {
@@ -250,7 +279,11 @@ impl GenericKernel {
                 let k = 3 * qe + i;
                 let mut same = Vector3::zeros();
                 for j in 0..3 {
-                    let dw = if qe < p { self.end_derivs[qe].dw[i][j] } else { f * jets.dw(i, j) };
+                    let dw = if qe < p {
+                        self.end_derivs[qe].dw[i][j]
+                    } else {
+                        f * jets.dw(i, j)
+                    };
                     same += dw * v[3 * qe + j];
                 }
                 self.theta_dot[k] = self.omega[qe].cross(&self.theta[k]) + same;
@@ -281,21 +314,34 @@ impl GenericKernel {
                 // s_m = Σ_k q̇_k ∂Θ_k/∂q_m
                 let mut s = Vector3::zeros();
                 for i in 0..3 {
-                    let dw = if qe < p { self.end_derivs[qe].dw[i][j] } else { f * jets.dw(i, j) };
+                    let dw = if qe < p {
+                        self.end_derivs[qe].dw[i][j]
+                    } else {
+                        f * jets.dw(i, j)
+                    };
                     s += dw * v[3 * qe + i];
                 }
                 if qe < p {
                     s += self.end_derivs[qe].dth[j].cross(&(omega - self.omega[qe + 1]));
                 }
                 let th = self.theta[col];
-                self.tmp[col] = inertia * (self.theta_dot[col] + s) + omega.cross(&(inertia * th)) - i_omega.cross(&th);
+                self.tmp[col] = inertia * (self.theta_dot[col] + s) + omega.cross(&(inertia * th))
+                    - i_omega.cross(&th);
             }
         }
         add_gram(out, &self.theta, &self.tmp, m, weight);
     }
 
     /// Adds `weight · c · ∂²y/∂q∂q` at the point to H (upper and lower parts).
-    fn add_hessian(&mut self, p: usize, jets: &ElementJets, y: &Vector3<f64>, c: &Vector3<f64>, weight: f64, h: &mut Mat<f64>) {
+    fn add_hessian(
+        &mut self,
+        p: usize,
+        jets: &ElementJets,
+        y: &Vector3<f64>,
+        c: &Vector3<f64>,
+        weight: f64,
+        h: &mut Mat<f64>,
+    ) {
         let m = 3 * (p + 1);
         // g_k = c × dθ_k for columns upstream of element p
         for qe in 0..p {
@@ -319,7 +365,9 @@ impl GenericKernel {
             let rho = y - self.ends[qe + 1].position;
             for i in 0..3 {
                 for j in 0..3 {
-                    let d2 = e.d2p[i][j] + e.dw[i][j].cross(&rho) + e.dth[i].cross(&e.dth[j].cross(&rho));
+                    let d2 = e.d2p[i][j]
+                        + e.dw[i][j].cross(&rho)
+                        + e.dth[i].cross(&e.dth[j].cross(&rho));
                     h[(3 * qe + i, 3 * qe + j)] += weight * c.dot(&d2);
                 }
             }
@@ -427,7 +475,13 @@ impl StrandKernel for GenericKernel {
                     }
                     if t.velocity_term_jacobian {
                         let (jac, jdot) = (&self.jac, &self.jdot);
-                        add_gram(&mut out.velocity_term_jacobian, jac, jdot, m, 2.0 * w * rho_s);
+                        add_gram(
+                            &mut out.velocity_term_jacobian,
+                            jac,
+                            jdot,
+                            m,
+                            2.0 * w * rho_s,
+                        );
                     }
                 }
                 if t.stiffness {

@@ -51,7 +51,11 @@ impl CrossSection {
         let rho = self.density;
         Material {
             mass_per_length: rho * pi * a * b,
-            stiffness: [g * pi * a.powi(3) * b.powi(3) / (a * a + b * b), e * i1, e * i2],
+            stiffness: [
+                g * pi * a.powi(3) * b.powi(3) / (a * a + b * b),
+                e * i1,
+                e * i2,
+            ],
             rotary_inertia: [rho * (i1 + i2), rho * i1, rho * i2],
         }
     }
@@ -183,7 +187,13 @@ mod tests {
 
     #[test]
     fn circular_section_has_equal_bending_and_textbook_torsion() {
-        let cs = CrossSection { radius: 50e-6, ellipticity: 1.0, youngs_modulus: 1e9, poisson: 0.5, density: 1300.0 };
+        let cs = CrossSection {
+            radius: 50e-6,
+            ellipticity: 1.0,
+            youngs_modulus: 1e9,
+            poisson: 0.5,
+            density: 1300.0,
+        };
         let m = cs.material();
         let i = std::f64::consts::PI * 50e-6_f64.powi(4) / 4.0;
         assert!((m.stiffness[1] / (1e9 * i) - 1.0).abs() < 1e-14);

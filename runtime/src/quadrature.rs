@@ -71,7 +71,12 @@ mod tests {
             let total: f64 = r.weights.iter().sum();
             assert!((total - 2.0).abs() < 1e-13, "n={n}");
             let deg = 2 * n - 1;
-            let integral: f64 = r.nodes.iter().zip(&r.weights).map(|(x, w)| w * x.powi(deg as i32 - 1)).sum();
+            let integral: f64 = r
+                .nodes
+                .iter()
+                .zip(&r.weights)
+                .map(|(x, w)| w * x.powi(deg as i32 - 1))
+                .sum();
             // ∫_{-1}^{1} x^(deg-1) = 2/deg for even deg-1
             assert!((integral - 2.0 / deg as f64).abs() < 1e-13, "n={n}");
         }
@@ -81,7 +86,12 @@ mod tests {
     fn integrates_a_fast_oscillation() {
         // ∫_{-1}^{1} cos(30 x) dx = sin(30)/15
         let r = gauss_legendre(40);
-        let v: f64 = r.nodes.iter().zip(&r.weights).map(|(x, w)| w * (30.0 * x).cos()).sum();
+        let v: f64 = r
+            .nodes
+            .iter()
+            .zip(&r.weights)
+            .map(|(x, w)| w * (30.0 * x).cos())
+            .sum();
         assert!((v - 30f64.sin() / 15.0).abs() < 1e-13);
     }
 }

@@ -17,7 +17,10 @@ pub struct Pose {
 
 impl Default for Pose {
     fn default() -> Self {
-        Pose { position: Vector3::zeros(), frame: Matrix3::identity() }
+        Pose {
+            position: Vector3::zeros(),
+            frame: Matrix3::identity(),
+        }
     }
 }
 
@@ -29,31 +32,51 @@ pub fn darboux(q: &[f64], element: usize) -> Vector3<f64> {
 /// Poses at the N + 1 element ends (root first), in head coordinates.
 /// `ends.len()` must be N + 1.
 pub fn element_ends(geom: &StrandGeometry, q: &[f64], ends: &mut [Pose]) {
-    ends[0] = Pose { position: geom.root_position, frame: geom.root_frame };
+    ends[0] = Pose {
+        position: geom.root_position,
+        frame: geom.root_frame,
+    };
     for (k, &l) in geom.lengths.iter().enumerate() {
         let (e, p) = local_pose(&darboux(q, k), l);
         let start = ends[k];
-        ends[k + 1] = Pose { position: start.position + start.frame * p, frame: start.frame * e };
+        ends[k + 1] = Pose {
+            position: start.position + start.frame * p,
+            frame: start.frame * e,
+        };
     }
 }
 
 /// Pose at arc length `s` (clamped to [0, L]).
 pub fn pose_at(geom: &StrandGeometry, q: &[f64], s: f64) -> Pose {
     let (element, u) = geom.locate(s);
-    let mut pose = Pose { position: geom.root_position, frame: geom.root_frame };
+    let mut pose = Pose {
+        position: geom.root_position,
+        frame: geom.root_frame,
+    };
     for (k, &l) in geom.lengths.iter().enumerate().take(element + 1) {
         let (e, p) = local_pose(&darboux(q, k), if k == element { u } else { l });
-        pose = Pose { position: pose.position + pose.frame * p, frame: pose.frame * e };
+        pose = Pose {
+            position: pose.position + pose.frame * p,
+            frame: pose.frame * e,
+        };
     }
     pose
 }
 
 /// Centreline points: the root, then `per_element` equally spaced points in each
 /// element (the last one at the element's end), in head coordinates.
-pub fn sample_centreline(geom: &StrandGeometry, q: &[f64], per_element: usize, out: &mut Vec<Vector3<f64>>) {
+pub fn sample_centreline(
+    geom: &StrandGeometry,
+    q: &[f64],
+    per_element: usize,
+    out: &mut Vec<Vector3<f64>>,
+) {
     out.clear();
     out.push(geom.root_position);
-    let mut start = Pose { position: geom.root_position, frame: geom.root_frame };
+    let mut start = Pose {
+        position: geom.root_position,
+        frame: geom.root_frame,
+    };
     let per = per_element.max(1);
     for (k, &l) in geom.lengths.iter().enumerate() {
         let d = darboux(q, k);
@@ -62,6 +85,9 @@ pub fn sample_centreline(geom: &StrandGeometry, q: &[f64], per_element: usize, o
             out.push(start.position + start.frame * p);
         }
         let (e, p) = local_pose(&d, l);
-        start = Pose { position: start.position + start.frame * p, frame: start.frame * e };
+        start = Pose {
+            position: start.position + start.frame * p,
+            frame: start.frame * e,
+        };
     }
 }

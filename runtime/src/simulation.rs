@@ -4,7 +4,9 @@ use crate::effects::GlobalEffects;
 use crate::environment::Environment;
 use crate::error::{Error, FieldError, Result};
 use crate::head_motion::HeadMotion;
-use crate::integrator::{energy, kinetic_energy, step_strand, StepContext, StepStats, StrandWorkspace};
+use crate::integrator::{
+    energy, kinetic_energy, step_strand, StepContext, StepStats, StrandWorkspace,
+};
 use crate::kernel::{KernelFactory, StrandKernel};
 use crate::kernel_generic::{GenericKernel, QuadratureRule};
 use crate::reconstruction::{pose_at, sample_centreline};
@@ -45,9 +47,13 @@ impl IntegratorKind {
     }
     /// Parse a scene name.
     pub fn from_name(name: &str) -> Option<Self> {
-        [Self::LinearlyImplicitEuler, Self::NewtonImplicitEuler, Self::Rk4]
-            .into_iter()
-            .find(|k| k.name() == name)
+        [
+            Self::LinearlyImplicitEuler,
+            Self::NewtonImplicitEuler,
+            Self::Rk4,
+        ]
+        .into_iter()
+        .find(|k| k.name() == name)
     }
 }
 
@@ -74,7 +80,9 @@ impl KernelChoice {
     }
     /// Parse a scene name.
     pub fn from_name(name: &str) -> Option<Self> {
-        [Self::Auto, Self::Generic, Self::Generated].into_iter().find(|k| k.name() == name)
+        [Self::Auto, Self::Generic, Self::Generated]
+            .into_iter()
+            .find(|k| k.name() == name)
     }
 }
 
@@ -161,13 +169,22 @@ fn check_setup(setup: &SimulationSetup) -> Result<()> {
     let mut errors = Vec::new();
     let c = &setup.config;
     if !(c.dt.is_finite() && c.dt > 0.0) {
-        errors.push(FieldError::new("simulation.dt", format!("must be finite and > 0, got {}", c.dt)));
+        errors.push(FieldError::new(
+            "simulation.dt",
+            format!("must be finite and > 0, got {}", c.dt),
+        ));
     }
     if !(c.duration.is_finite() && c.duration >= 0.0) {
-        errors.push(FieldError::new("simulation.duration", format!("must be finite and >= 0, got {}", c.duration)));
+        errors.push(FieldError::new(
+            "simulation.duration",
+            format!("must be finite and >= 0, got {}", c.duration),
+        ));
     }
     if setup.strands.is_empty() {
-        errors.push(FieldError::new("strands", "at least one strand is required"));
+        errors.push(FieldError::new(
+            "strands",
+            "at least one strand is required",
+        ));
     }
     for (i, s) in setup.strands.iter().enumerate() {
         let g = &s.strand.geometry;
@@ -176,18 +193,27 @@ fn check_setup(setup: &SimulationSetup) -> Result<()> {
             errors.push(FieldError::new(at("elements"), "must be >= 1"));
         }
         if g.lengths.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
-            errors.push(FieldError::new(at("element_lengths"), "every element length must be finite and > 0"));
+            errors.push(FieldError::new(
+                at("element_lengths"),
+                "every element length must be finite and > 0",
+            ));
         }
         let n = g.dofs();
         if s.q0.len() != n || s.strand.natural.len() != n {
-            errors.push(FieldError::new(at("q0"), format!("must have 3N = {n} values")));
+            errors.push(FieldError::new(
+                at("q0"),
+                format!("must have 3N = {n} values"),
+            ));
         }
         if s.q0.iter().chain(&s.strand.natural).any(|x| !x.is_finite()) {
             errors.push(FieldError::new(at("q0"), "values must be finite"));
         }
         let m = &s.strand.material;
         if !(m.mass_per_length > 0.0 && m.stiffness.iter().all(|k| *k > 0.0 && k.is_finite())) {
-            errors.push(FieldError::new(at("material"), "mass per length and stiffnesses must be finite and > 0"));
+            errors.push(FieldError::new(
+                at("material"),
+                "mass per length and stiffnesses must be finite and > 0",
+            ));
         }
     }
     if errors.is_empty() {
@@ -228,11 +254,21 @@ impl Simulation {
     pub fn new(setup: SimulationSetup, generated: Option<&dyn KernelFactory>) -> Result<Self> {
         check_setup(&setup)?;
         let head_moves = setup.head != HeadMotion::Still;
-        let context = StepContext { effects: GlobalEffects { gravity: setup.environment.gravity, head_moves } };
+        let context = StepContext {
+            effects: GlobalEffects {
+                gravity: setup.environment.gravity,
+                head_moves,
+            },
+        };
         let mut strands = Vec::with_capacity(setup.strands.len());
         for s in setup.strands {
-            let kernel =
-                make_kernel(setup.config.kernels, setup.config.quadrature, &s.strand.geometry, generated, &s.strand.name)?;
+            let kernel = make_kernel(
+                setup.config.kernels,
+                setup.config.quadrature,
+                &s.strand.geometry,
+                generated,
+                &s.strand.name,
+            )?;
             let n = s.q0.len();
             strands.push(StrandSim {
                 workspace: StrandWorkspace::new(&s.strand),
@@ -289,7 +325,12 @@ impl Simulation {
             .flatten()
             .min_by_key(|(i, _)| *i);
         if let Some((index, cause)) = failure {
-            return Err(Error::Diverged { strand: self.strands[index].strand.name.clone(), index, time: t + h, cause });
+            return Err(Error::Diverged {
+                strand: self.strands[index].strand.name.clone(),
+                index,
+                time: t + h,
+                cause,
+            });
         }
         self.time = t + h;
         self.steps += 1;
@@ -384,19 +425,36 @@ impl Simulation {
     }
     /// Largest |q̇| entry over all strands, rad/(m·s).
     pub fn max_speed(&self) -> f64 {
-        self.strands.iter().flat_map(|s| s.v.iter()).fold(0.0, |m, v| m.max(v.abs()))
+        self.strands
+            .iter()
+            .flat_map(|s| s.v.iter())
+            .fold(0.0, |m, v| m.max(v.abs()))
     }
     /// Total energy T + U + V_gravity + V_loads of strand i (meaningful with a still head).
     pub fn energy(&mut self, i: usize) -> f64 {
         let ctx = self.context;
         let s = &mut self.strands[i];
-        energy(&s.strand, s.kernel.as_mut(), &mut s.workspace, &ctx, &s.q, &s.v)
+        energy(
+            &s.strand,
+            s.kernel.as_mut(),
+            &mut s.workspace,
+            &ctx,
+            &s.q,
+            &s.v,
+        )
     }
     /// Kinetic energy ½ q̇ᵀ M q̇ of strand i relative to the head, joules.
     pub fn kinetic_energy(&mut self, i: usize) -> f64 {
         let ctx = self.context;
         let s = &mut self.strands[i];
-        kinetic_energy(&s.strand, s.kernel.as_mut(), &mut s.workspace, &ctx, &s.q, &s.v)
+        kinetic_energy(
+            &s.strand,
+            s.kernel.as_mut(),
+            &mut s.workspace,
+            &ctx,
+            &s.q,
+            &s.v,
+        )
     }
     /// Centreline of strand i in world coordinates: the root, then `per_element` points
     /// per element.

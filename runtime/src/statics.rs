@@ -28,6 +28,19 @@ fn max_abs(x: &[f64]) -> f64 {
     x.iter().fold(0.0, |m, v| m.max(v.abs()))
 }
 
+/// Armijo backtracking: the largest α = 2^-k with E(α) ≤ E(0) + 1e-4 α slope.
+fn backtrack(energy_at: &mut impl FnMut(f64) -> f64, e0: f64, slope: f64) -> Result<f64, String> {
+    let mut alpha = 1.0;
+    while alpha >= 1e-10 {
+        let e = energy_at(alpha);
+        if e.is_finite() && e <= e0 + 1e-4 * alpha * slope {
+            return Ok(alpha);
+        }
+        alpha *= 0.5;
+    }
+    Err("static solve: the line search found no decrease of the energy".into())
+}
+
 /// Solve the equilibrium of one strand starting from `q`, in place. The energy
 /// E = U − ρS g·∫y − Σ f·y_p is minimised: Newton directions from the Hessian
 /// −∂F/∂q (shifted by λ·diag(K) when not positive definite, λ growing until it is),
@@ -42,7 +55,11 @@ pub fn solve_static(
     let n = q.len();
     let zero = vec![0.0; n];
     let head = HeadState::rest();
-    let terms = Terms { force: true, stiffness: true, ..Default::default() };
+    let terms = Terms {
+        force: true,
+        stiffness: true,
+        ..Default::default()
+    };
     let mut report = StaticReport::default();
     let mut trial = vec![0.0; n];
     let mut force = vec![0.0; n];
@@ -52,7 +69,9 @@ pub fn solve_static(
         let residual = max_abs(&force);
         if iteration == 0 {
             // scale: the largest elastic or external generalized force in play
-            let elastic: f64 = (0..n).map(|i| (ws.stiffness[i] * (q[i] - strand.natural[i])).abs()).fold(0.0, f64::max);
+            let elastic: f64 = (0..n)
+                .map(|i| (ws.stiffness[i] * (q[i] - strand.natural[i])).abs())
+                .fold(0.0, f64::max);
             report.force_scale = residual.max(elastic).max(1e-300);
         }
         report.iterations = iteration;
@@ -70,7 +89,11 @@ pub fn solve_static(
             for j in 0..n {
                 for i in 0..n {
                     let h = -0.5 * (ws.terms.stiffness[(i, j)] + ws.terms.stiffness[(j, i)]);
-                    ws.solver.matrix[(i, j)] = h + if i == j { lambda * ws.stiffness[i] } else { 0.0 };
+                    ws.solver.matrix[(i, j)] = h + if i == j {
+                        lambda * ws.stiffness[i]
+                    } else {
+                        0.0
+                    };
                 }
             }
             ws.solver.rhs_mut().copy_from_slice(&force);
@@ -79,29 +102,27 @@ pub fn solve_static(
             }
             lambda = if lambda == 0.0 { 1e-3 } else { lambda * 10.0 };
             if lambda > 1e12 {
-                return Err("static solve: no descent direction (Hessian not positive definite)".into());
+                return Err(
+                    "static solve: no descent direction (Hessian not positive definite)".into(),
+                );
             }
         }
         let step: Vec<f64> = ws.solver.solution().to_vec();
         let slope: f64 = -force.iter().zip(&step).map(|(f, d)| f * d).sum::<f64>();
         let e0 = energy(strand, kernel, ws, ctx, q, &zero);
-        let mut alpha = 1.0;
         // Near the solution the energy decrease falls below the rounding of E: take the
         // full Newton step (quadratic convergence) instead of a meaningless line search.
-        let measurable = slope.abs() > 1e-10 * e0.abs();
-        while measurable {
-            for i in 0..n {
-                trial[i] = q[i] + alpha * step[i];
-            }
-            let e = energy(strand, kernel, ws, ctx, &trial, &zero);
-            if e.is_finite() && e <= e0 + 1e-4 * alpha * slope {
-                break;
-            }
-            alpha *= 0.5;
-            if alpha < 1e-10 {
-                return Err("static solve: the line search found no decrease of the energy".into());
-            }
-        }
+        let alpha = if slope.abs() > 1e-10 * e0.abs() {
+            let mut energy_at = |alpha: f64| {
+                for i in 0..n {
+                    trial[i] = q[i] + alpha * step[i];
+                }
+                energy(strand, kernel, ws, ctx, &trial, &zero)
+            };
+            backtrack(&mut energy_at, e0, slope)?
+        } else {
+            1.0
+        };
         for i in 0..n {
             q[i] += alpha * step[i];
         }

@@ -27,7 +27,12 @@ pub struct StrandGeometry {
 
 impl StrandGeometry {
     /// A geometry with rotary inertia taken from `material`.
-    pub fn new(root_position: Vector3<f64>, root_frame: Matrix3<f64>, lengths: Vec<f64>, material: &Material) -> Self {
+    pub fn new(
+        root_position: Vector3<f64>,
+        root_frame: Matrix3<f64>,
+        lengths: Vec<f64>,
+        material: &Material,
+    ) -> Self {
         StrandGeometry {
             root_position,
             root_frame,

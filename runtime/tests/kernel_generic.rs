@@ -59,7 +59,8 @@ fn angular_jacobian_fd(g: &StrandGeometry, q: &[f64], s: f64) -> Vec<Vector3<f64
             let mut qm = q.to_vec();
             qp[k] += h;
             qm[k] -= h;
-            let w = (pose_at(g, &qp, s).frame - pose_at(g, &qm, s).frame) / (2.0 * h) * f.transpose();
+            let w =
+                (pose_at(g, &qp, s).frame - pose_at(g, &qm, s).frame) / (2.0 * h) * f.transpose();
             Vector3::new(w[(2, 1)], w[(0, 2)], w[(1, 0)])
         })
         .collect()
@@ -94,7 +95,12 @@ fn assert_mat_close(a: &Mat<f64>, b: &Mat<f64>, rel: f64, what: &str) {
     for j in 0..a.ncols() {
         for i in 0..a.nrows() {
             let d = (a[(i, j)] - b[(i, j)]).abs();
-            assert!(d <= rel * scale, "{what}[{i},{j}]: {} vs {} (scale {scale})", a[(i, j)], b[(i, j)]);
+            assert!(
+                d <= rel * scale,
+                "{what}[{i},{j}]: {} vs {} (scale {scale})",
+                a[(i, j)],
+                b[(i, j)]
+            );
         }
     }
 }
@@ -102,7 +108,10 @@ fn assert_mat_close(a: &Mat<f64>, b: &Mat<f64>, rel: f64, what: &str) {
 fn assert_vec_close(a: &[f64], b: &[f64], rel: f64, what: &str) {
     let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(1e-300);
     for (i, (x, y)) in a.iter().zip(b).enumerate() {
-        assert!((x - y).abs() <= rel * scale, "{what}[{i}]: {x} vs {y} (scale {scale})");
+        assert!(
+            (x - y).abs() <= rel * scale,
+            "{what}[{i}]: {x} vs {y} (scale {scale})"
+        );
     }
 }
 
@@ -125,7 +134,15 @@ fn field(g: &StrandGeometry) -> BodyField {
 fn evaluate(g: &StrandGeometry, q: &[f64], v: &[f64], f: BodyField) -> StrandTerms {
     let mut k = kernel(g);
     let mut out = StrandTerms::new(q.len());
-    k.evaluate(&EvalInput { q, v, field: f, terms: Terms::all() }, &mut out);
+    k.evaluate(
+        &EvalInput {
+            q,
+            v,
+            field: f,
+            terms: Terms::all(),
+        },
+        &mut out,
+    );
     out
 }
 
@@ -141,7 +158,10 @@ fn point_jacobian_matches_finite_differences() {
             let fd = jacobian_fd(&g, &q, s);
             let scale = fd.iter().map(|c| c.norm()).fold(0.0, f64::max);
             for (c, (a, b)) in jac.iter().zip(&fd).enumerate() {
-                assert!((a - b).norm() <= 1e-7 * scale, "J col {c} at s={s}: {a} vs {b}");
+                assert!(
+                    (a - b).norm() <= 1e-7 * scale,
+                    "J col {c} at s={s}: {a} vs {b}"
+                );
             }
         }
     }
@@ -157,10 +177,13 @@ fn mass_matrix_matches_quadrature_of_finite_difference_jacobians_and_is_spd() {
             let jac = jacobian_fd(&g, &q, s);
             let theta = angular_jacobian_fd(&g, &q, s);
             let f = pose_at(&g, &q, s).frame;
-            let inertia = f * Matrix3::from_diagonal(&Vector3::from(g.rotary_inertia)) * f.transpose();
+            let inertia =
+                f * Matrix3::from_diagonal(&Vector3::from(g.rotary_inertia)) * f.transpose();
             for a in 0..n {
                 for b in 0..n {
-                    m_fd[(a, b)] += w * (g.mass_per_length * jac[a].dot(&jac[b]) + theta[a].dot(&(inertia * theta[b])));
+                    m_fd[(a, b)] += w
+                        * (g.mass_per_length * jac[a].dot(&jac[b])
+                            + theta[a].dot(&(inertia * theta[b])));
                 }
             }
         }
@@ -170,8 +193,14 @@ fn mass_matrix_matches_quadrature_of_finite_difference_jacobians_and_is_spd() {
                 assert!((out.mass[(a, b)] - out.mass[(b, a)]).abs() <= 1e-14 * max_abs(&out.mass));
             }
         }
-        let eig = out.mass.self_adjoint_eigenvalues(faer::Side::Lower).expect("eigenvalues");
-        assert!(eig.iter().all(|&e| e > 0.0), "M not positive definite: {eig:?}");
+        let eig = out
+            .mass
+            .self_adjoint_eigenvalues(faer::Side::Lower)
+            .expect("eigenvalues");
+        assert!(
+            eig.iter().all(|&e| e > 0.0),
+            "M not positive definite: {eig:?}"
+        );
     }
 }
 
@@ -180,11 +209,19 @@ fn velocity_term_matches_second_differences_along_the_velocity() {
     // Second differences of positions lose digits in tightly curled elements (|d|·l =
     // 50): there the Lagrangian test below checks b; here the well-conditioned cases.
     let well_conditioned = |g: &StrandGeometry, q: &[f64]| {
-        (0..g.elements()).all(|k| Vector3::new(q[3 * k], q[3 * k + 1], q[3 * k + 2]).norm() * g.lengths[k] <= 1.0)
+        (0..g.elements()).all(|k| {
+            Vector3::new(q[3 * k], q[3 * k + 1], q[3 * k + 2]).norm() * g.lengths[k] <= 1.0
+        })
     };
-    for (g, q, v) in cases().into_iter().filter(|(g, q, _)| well_conditioned(g, q)) {
+    for (g, q, v) in cases()
+        .into_iter()
+        .filter(|(g, q, _)| well_conditioned(g, q))
+    {
         // centreline part (rotary inertia off): b = ∫ρS Jᵀ (d²y/dε² along v)
-        let g0 = StrandGeometry { rotary_inertia: [0.0; 3], ..g.clone() };
+        let g0 = StrandGeometry {
+            rotary_inertia: [0.0; 3],
+            ..g.clone()
+        };
         let out = evaluate(&g0, &q, &v, BodyField::zero());
         let n = q.len();
         // Second difference along v, Richardson-extrapolated to O(eps^4).
@@ -192,8 +229,12 @@ fn velocity_term_matches_second_differences_along_the_velocity() {
         let qmax = q.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         let eps = 1e-2 / (vmax * (1.0 + qmax * g.length()));
         let second = |s: f64, e: f64| -> Vector3<f64> {
-            let shifted = |sign: f64| -> Vec<f64> { q.iter().zip(&v).map(|(a, b)| a + sign * e * b).collect() };
-            (position(&g, &shifted(1.0), s) - position(&g, &q, s) * 2.0 + position(&g, &shifted(-1.0), s)) / (e * e)
+            let shifted = |sign: f64| -> Vec<f64> {
+                q.iter().zip(&v).map(|(a, b)| a + sign * e * b).collect()
+            };
+            (position(&g, &shifted(1.0), s) - position(&g, &q, s) * 2.0
+                + position(&g, &shifted(-1.0), s))
+                / (e * e)
         };
         let mut b_fd = vec![0.0; n];
         for (s, w) in points(&g) {
@@ -218,7 +259,11 @@ fn velocity_term_is_the_lagrangian_one_of_the_mass_matrix() {
         let n = q.len();
         let out = evaluate(&g, &q, &v, BodyField::zero());
         let mass = |q: &[f64]| evaluate(&g, q, &v, BodyField::zero()).mass;
-        let mv = |m: &Mat<f64>, x: &[f64]| -> Vec<f64> { (0..n).map(|a| (0..n).map(|b| m[(a, b)] * x[b]).sum()).collect() };
+        let mv = |m: &Mat<f64>, x: &[f64]| -> Vec<f64> {
+            (0..n)
+                .map(|a| (0..n).map(|b| m[(a, b)] * x[b]).sum())
+                .collect()
+        };
         let vmax = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         let e = 1e-6 / vmax;
         let qp: Vec<f64> = q.iter().zip(&v).map(|(a, b)| a + e * b).collect();
@@ -244,12 +289,18 @@ fn gravity_force_is_the_gradient_of_the_potential_and_stiffness_its_hessian() {
     for (g, q, _) in cases() {
         let n = q.len();
         let gravity = Vector3::new(0.3, -1.0, -9.81);
-        let f = BodyField { uniform: gravity * g.mass_per_length, ..BodyField::zero() };
+        let f = BodyField {
+            uniform: gravity * g.mass_per_length,
+            ..BodyField::zero()
+        };
         let zero_v = vec![0.0; n];
         let out = evaluate(&g, &q, &zero_v, f);
         // potential -rhoS g . integral y ds
         let potential = |q: &[f64]| -> f64 {
-            points(&g).iter().map(|(s, w)| -w * g.mass_per_length * gravity.dot(&position(&g, q, *s))).sum()
+            points(&g)
+                .iter()
+                .map(|(s, w)| -w * g.mass_per_length * gravity.dot(&position(&g, q, *s)))
+                .sum()
         };
         let grad: Vec<f64> = (0..n)
             .map(|k| {
@@ -263,7 +314,10 @@ fn gravity_force_is_the_gradient_of_the_potential_and_stiffness_its_hessian() {
             .collect();
         assert_vec_close(&out.force, &grad, 1e-7, "gravity force");
         // first moment
-        let m1: Vector3<f64> = points(&g).iter().map(|(s, w)| position(&g, &q, *s) * (w * g.mass_per_length)).sum();
+        let m1: Vector3<f64> = points(&g)
+            .iter()
+            .map(|(s, w)| position(&g, &q, *s) * (w * g.mass_per_length))
+            .sum();
         assert!((out.first_moment - m1).norm() < 1e-12 * m1.norm().max(1e-9));
         // stiffness: derivative of the kernel's force
         let mut h_fd = Mat::<f64>::zeros(n, n);
@@ -291,7 +345,10 @@ fn field_stiffness_damping_and_velocity_jacobian_match_finite_differences() {
         let out = evaluate(&g, &q, &v, f);
         // d(force + b)/dq at fixed v = stiffness + (terms of C2 J v, not part of `stiffness`)
         // so check stiffness on the position-only field (velocity part zero, v = 0):
-        let pos_field = BodyField { velocity: Matrix3::zeros(), ..f };
+        let pos_field = BodyField {
+            velocity: Matrix3::zeros(),
+            ..f
+        };
         let zero_v = vec![0.0; n];
         let out0 = evaluate(&g, &q, &zero_v, pos_field);
         let mut h_fd = Mat::<f64>::zeros(n, n);
@@ -315,7 +372,9 @@ fn field_stiffness_damping_and_velocity_jacobian_match_finite_differences() {
             for a in 0..n {
                 h_fd[(a, k)] = (fp[a] - fm[a]) / (2.0 * h);
                 // force = field - b: d(force)/dv = damping - db/dv
-                d_fd[(a, k)] = (op.force[a] + op.velocity_term[a] - om.force[a] - om.velocity_term[a]) / (2.0 * hv);
+                d_fd[(a, k)] =
+                    (op.force[a] + op.velocity_term[a] - om.force[a] - om.velocity_term[a])
+                        / (2.0 * hv);
                 bj_fd[(a, k)] = (op.velocity_term[a] - om.velocity_term[a]) / (2.0 * hv);
             }
         }

@@ -11,12 +11,23 @@ use superhelix_runtime::strand::{PointLoad, Strand};
 use superhelix_runtime::{GenericKernel, HeadMotion, QuadratureRule, Simulation};
 
 fn config(integrator: IntegratorKind, dt: f64) -> SimulationConfig {
-    SimulationConfig { dt, integrator, kernels: KernelChoice::Generic, ..SimulationConfig::default() }
+    SimulationConfig {
+        dt,
+        integrator,
+        kernels: KernelChoice::Generic,
+        ..SimulationConfig::default()
+    }
 }
 
 /// Hair of the smooth preset but E = 1 GPa, circular: EI = E π r⁴ / 4.
 fn round_fibre() -> CrossSection {
-    CrossSection { radius: 50e-6, ellipticity: 1.0, youngs_modulus: 1e9, poisson: 0.48, density: 1300.0 }
+    CrossSection {
+        radius: 50e-6,
+        ellipticity: 1.0,
+        youngs_modulus: 1e9,
+        poisson: 0.48,
+        density: 1300.0,
+    }
 }
 
 #[test]
@@ -33,7 +44,12 @@ fn rk4_conserves_energy_of_a_curly_strand_without_dissipation() {
         // 0.2 s of free fall and swing; RK4 is unstable from dt = 4e-4 on (stiff twist)
         let (dt, steps) = (1e-4, 2000);
         let mut sim = Simulation::new(
-            setup(vec![strand], config(IntegratorKind::Rk4, dt), Some(Vector3::new(0.0, 0.0, -9.81)), HeadMotion::Still),
+            setup(
+                vec![strand],
+                config(IntegratorKind::Rk4, dt),
+                Some(Vector3::new(0.0, 0.0, -9.81)),
+                HeadMotion::Still,
+            ),
             None,
         )
         .expect("valid setup");
@@ -60,7 +76,15 @@ fn eigenpairs(strand: &Strand) -> Vec<(f64, Vec<f64>)> {
     let mut out = StrandTerms::new(n);
     let zero = vec![0.0; n];
     kernel.evaluate(
-        &EvalInput { q: &zero, v: &zero, field: BodyField::zero(), terms: Terms { mass: true, ..Default::default() } },
+        &EvalInput {
+            q: &zero,
+            v: &zero,
+            field: BodyField::zero(),
+            terms: Terms {
+                mass: true,
+                ..Default::default()
+            },
+        },
         &mut out,
     );
     let m = DMatrix::from_fn(n, n, |i, j| out.mass[(i, j)]);
@@ -87,7 +111,12 @@ fn measured_frequency(strand: &Strand, omega_expected: f64, mode: &[f64]) -> f64
     let period = 2.0 * std::f64::consts::PI / omega_expected;
     let dt = period / 2000.0;
     let mut sim = Simulation::new(
-        setup(vec![strand.clone()], config(IntegratorKind::LinearlyImplicitEuler, dt), None, HeadMotion::Still),
+        setup(
+            vec![strand.clone()],
+            config(IntegratorKind::LinearlyImplicitEuler, dt),
+            None,
+            HeadMotion::Still,
+        ),
         None,
     )
     .expect("setup");
@@ -127,15 +156,27 @@ fn first_bending_frequency_matches_the_discrete_eigenvalue_and_euler_bernoulli()
         let pairs = eigenpairs(&strand);
         let omega = pairs[0].0.sqrt();
         let error = omega / eb - 1.0;
-        println!("N = {n}: omega_1 = {omega:.6} rad/s, Euler-Bernoulli {eb:.6}, error {:.4} %", 100.0 * error);
-        assert!(error > 0.0, "the discrete model is stiffer than the continuum");
-        assert!((error / expected_error - 1.0).abs() < 0.15, "N = {n}: error {error} vs about {expected_error}");
+        println!(
+            "N = {n}: omega_1 = {omega:.6} rad/s, Euler-Bernoulli {eb:.6}, error {:.4} %",
+            100.0 * error
+        );
+        assert!(
+            error > 0.0,
+            "the discrete model is stiffer than the continuum"
+        );
+        assert!(
+            (error / expected_error - 1.0).abs() < 0.15,
+            "N = {n}: error {error} vs about {expected_error}"
+        );
         errors.push(error);
         if n <= 10 {
             let measured = measured_frequency(&strand, omega, &pairs[0].1);
             println!("N = {n}: simulated {measured:.6} rad/s");
             // implicit Euler at 2000 steps per period shifts the frequency by ~(ωh)²/3 = 3e-6
-            assert!((measured / omega - 1.0).abs() < 1e-3, "simulated {measured} vs eigen {omega}");
+            assert!(
+                (measured / omega - 1.0).abs() < 1e-3,
+                "simulated {measured} vs eigen {omega}"
+            );
         }
     }
     // second-order convergence: halving the element length divides the error by ~4
@@ -156,9 +197,16 @@ fn static_tip_load_deflects_as_f_l3_over_3ei() {
     let mut errors = Vec::new();
     for n in [2, 5, 10, 20] {
         let mut strand = cross_section_strand(cs, n, length, Vector3::x(), [0.0; 3], 0.0, 0.0);
-        strand.point_loads.push(PointLoad { s: length, force: Vector3::new(0.0, 0.0, -force) });
-        let cfg = SimulationConfig { mode: Mode::Static, ..config(IntegratorKind::LinearlyImplicitEuler, 0.01) };
-        let mut sim = Simulation::new(setup(vec![strand], cfg, None, HeadMotion::Still), None).expect("setup");
+        strand.point_loads.push(PointLoad {
+            s: length,
+            force: Vector3::new(0.0, 0.0, -force),
+        });
+        let cfg = SimulationConfig {
+            mode: Mode::Static,
+            ..config(IntegratorKind::LinearlyImplicitEuler, 0.01)
+        };
+        let mut sim = Simulation::new(setup(vec![strand], cfg, None, HeadMotion::Still), None)
+            .expect("setup");
         let report = sim.solve_static().expect("static solve")[0];
         assert!(report.converged, "{report:?}");
         let tip = sim.position_at(0, length);
@@ -167,7 +215,10 @@ fn static_tip_load_deflects_as_f_l3_over_3ei() {
         // Piecewise-constant curvature equal to the element mean of M(s)/EI turns
         // δ = ∫ κ(s)(L − s) ds into its midpoint rule: δ_N = δ (1 − 1/(4N²)) exactly.
         let analytic = -1.0 / (4.0 * (n * n) as f64);
-        assert!((error - analytic).abs() < 1e-6, "N = {n}: error {error} vs -1/(4N^2) = {analytic}");
+        assert!(
+            (error - analytic).abs() < 1e-6,
+            "N = {n}: error {error} vs -1/(4N^2) = {analytic}"
+        );
         errors.push(error.abs());
         if n == 20 {
             assert!(error.abs() < 0.005, "N = 20: error {error}");

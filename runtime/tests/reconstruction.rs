@@ -52,7 +52,11 @@ fn unit_speed_and_tangent_is_n0_everywhere() {
             }
             let t = tangent_fd(&g, &q, s, h);
             let pose = pose_at(&g, &q, s);
-            assert!((t.norm() - 1.0).abs() < 1e-8, "|r'| = {} at s = {s}", t.norm());
+            assert!(
+                (t.norm() - 1.0).abs() < 1e-8,
+                "|r'| = {} at s = {s}",
+                t.norm()
+            );
             assert!((t - pose.frame.column(0)).norm() < 1e-8);
         }
     }
@@ -83,7 +87,10 @@ fn centreline_and_frames_are_continuous_with_continuous_tangent_at_joins() {
             let dmax = Vector3::new(q[3 * k], q[3 * k + 1], q[3 * k + 2])
                 .norm()
                 .max(Vector3::new(q[3 * k + 3], q[3 * k + 4], q[3 * k + 5]).norm());
-            assert!((a.frame - b.frame).norm() < 4.0 * eps * (1.0 + dmax), "jump at join {k}");
+            assert!(
+                (a.frame - b.frame).norm() < 4.0 * eps * (1.0 + dmax),
+                "jump at join {k}"
+            );
             // one-sided derivatives from both sides agree with the common tangent
             let h = 1e-6;
             let left = (a.position - pose_at(&g, &q, s - h).position) / (h - eps);
@@ -113,11 +120,19 @@ fn uniform_natural_q_is_the_measured_helix() {
             let x = |s: f64| pose_at(&g, &q, s).position;
             for s0 in [0.0, 0.3 * turn, 1.1 * turn] {
                 let rise = x(s0 + turn) - x(s0);
-                assert!((rise.norm() / step - 1.0).abs() < 1e-9, "step {} vs {step}", rise.norm());
+                assert!(
+                    (rise.norm() / step - 1.0).abs() < 1e-9,
+                    "step {} vs {step}",
+                    rise.norm()
+                );
                 let axis = rise.normalize();
                 let half = x(s0 + 0.5 * turn) - x(s0);
                 let across = half - axis * half.dot(&axis);
-                assert!((0.5 * across.norm() / radius - 1.0).abs() < 1e-9, "radius {}", 0.5 * across.norm());
+                assert!(
+                    (0.5 * across.norm() / radius - 1.0).abs() < 1e-9,
+                    "radius {}",
+                    0.5 * across.norm()
+                );
                 // the distance from the axis is the radius everywhere in between
                 let centre = x(s0) + across * 0.5;
                 for j in 1..8 {

@@ -69,20 +69,45 @@ use superhelix_runtime::{Environment, HeadMotion};
 /// n1 ⟂ n0; natural shape from the preset's helix (exact form); γ and ν from the preset.
 pub fn preset_strand(preset: Preset, n: usize, length: f64, direction: Vector3<f64>) -> Strand {
     let p = preset.params();
-    cross_section_strand(p.cross_section, n, length, direction, helix_curvature(p.helix_radius, p.helix_step, HelixForm::Exact), p.internal_friction, p.air_drag)
+    cross_section_strand(
+        p.cross_section,
+        n,
+        length,
+        direction,
+        helix_curvature(p.helix_radius, p.helix_step, HelixForm::Exact),
+        p.internal_friction,
+        p.air_drag,
+    )
 }
 
 /// A strand from a cross-section and a uniform natural curvature.
-pub fn cross_section_strand(cs: CrossSection, n: usize, length: f64, direction: Vector3<f64>, natural: [f64; 3], gamma: f64, nu: f64) -> Strand {
+pub fn cross_section_strand(
+    cs: CrossSection,
+    n: usize,
+    length: f64,
+    direction: Vector3<f64>,
+    natural: [f64; 3],
+    gamma: f64,
+    nu: f64,
+) -> Strand {
     let material = cs.material();
     let n0 = direction.normalize();
-    let helper = if n0.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+    let helper = if n0.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
     let n1 = (helper - n0 * n0.dot(&helper)).normalize();
     let n2 = n0.cross(&n1);
     let frame = Matrix3::from_columns(&[n0, n1, n2]);
     Strand {
         name: format!("strand-n{n}"),
-        geometry: StrandGeometry::new(Vector3::zeros(), frame, vec![length / n as f64; n], &material),
+        geometry: StrandGeometry::new(
+            Vector3::zeros(),
+            frame,
+            vec![length / n as f64; n],
+            &material,
+        ),
         material,
         natural: (0..n).flat_map(|_| natural).collect(),
         internal_friction: gamma,
@@ -92,12 +117,23 @@ pub fn cross_section_strand(cs: CrossSection, n: usize, length: f64, direction: 
 }
 
 /// A setup with these strands starting at their natural shape, at rest.
-pub fn setup(strands: Vec<Strand>, config: SimulationConfig, gravity: Option<Vector3<f64>>, head: HeadMotion) -> SimulationSetup {
+pub fn setup(
+    strands: Vec<Strand>,
+    config: SimulationConfig,
+    gravity: Option<Vector3<f64>>,
+    head: HeadMotion,
+) -> SimulationSetup {
     SimulationSetup {
         config,
         environment: Environment { gravity },
         head,
-        strands: strands.into_iter().map(|s| StrandSetup { q0: s.natural.clone(), strand: s }).collect(),
+        strands: strands
+            .into_iter()
+            .map(|s| StrandSetup {
+                q0: s.natural.clone(),
+                strand: s,
+            })
+            .collect(),
         samples_per_element: 4,
     }
 }
