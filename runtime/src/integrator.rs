@@ -457,7 +457,8 @@ fn linearly_implicit_euler(
 /// Backward Euler `M(q⁺)(v⁺ − v) = h F(q⁺, v⁺)`, `q⁺ = q + h v⁺`, solved by Newton
 /// iterations on v⁺ with the Jacobian `M − h(D_v − ∂b/∂q̇) − h² D_q` (∂M/∂q and ∂b/∂q
 /// are left out: they enter at relative order h and only slow convergence), to a
-/// residual of 1e-10 of the step's force scale, at most 12 iterations.
+/// residual of 1e-10 of the step's force scale (the largest of M Δv, h K(q − q_n) and the
+/// other forces times h), at most 12 iterations.
 #[allow(clippy::too_many_arguments)]
 fn newton_implicit_euler(
     strand: &Strand,
@@ -493,7 +494,14 @@ fn newton_implicit_euler(
                 mdv += t.mass[(i, j)] * (v_new[j] - v[j]);
             }
             residual[i] = mdv - h * t.force[i];
-            scale = scale.max(mdv.abs()).max((h * t.force[i]).abs());
+            // the scale of the terms that cancel in the residual: at rest the net force is
+            // zero while elasticity and gravity are not
+            let elastic = ws.stiffness[i] * (q_new[i] - strand.natural[i]);
+            let others = t.force[i] + elastic;
+            scale = scale
+                .max(mdv.abs())
+                .max(h * elastic.abs())
+                .max(h * others.abs());
             worst = worst.max(residual[i].abs());
         }
         if worst <= TOLERANCE * scale {

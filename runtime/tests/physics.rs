@@ -228,3 +228,63 @@ fn static_tip_load_deflects_as_f_l3_over_3ei() {
         assert!(w[1] < w[0], "no convergence with N: {errors:?}");
     }
 }
+
+#[test]
+fn damped_dynamics_settle_into_the_static_equilibrium_with_both_implicit_integrators() {
+    // A wavy strand (N = 5) released sideways under gravity with internal friction and
+    // drag comes to rest where the static solver puts it: three solvers, one answer.
+    let strand = preset_strand(Preset::Wavy, 5, 0.15, Vector3::new(1.0, 0.0, 0.0));
+    let gravity = Some(Vector3::new(0.0, 0.0, -9.81));
+    let static_cfg = SimulationConfig {
+        mode: Mode::Static,
+        ..config(IntegratorKind::LinearlyImplicitEuler, 0.01)
+    };
+    let mut statics = Simulation::new(
+        setup(vec![strand.clone()], static_cfg, gravity, HeadMotion::Still),
+        None,
+    )
+    .expect("setup");
+    let report = statics.solve_static().expect("static")[0];
+    assert!(report.converged, "{report:?}");
+    let q_static = statics.q(0).to_vec();
+    let scale = q_static.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    for integrator in [
+        IntegratorKind::LinearlyImplicitEuler,
+        IntegratorKind::NewtonImplicitEuler,
+    ] {
+        let mut sim = Simulation::new(
+            setup(
+                vec![strand.clone()],
+                config(integrator, 1.0 / 30.0),
+                gravity,
+                HeadMotion::Still,
+            ),
+            None,
+        )
+        .expect("setup");
+        for _ in 0..900 {
+            sim.step().expect("step");
+        }
+        let worst = sim
+            .q(0)
+            .iter()
+            .zip(&q_static)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        println!(
+            "{integrator:?}: max |q - q_static| / max |q_static| = {:e}, stats {:?}",
+            worst / scale,
+            sim.stats()
+        );
+        // 30 s of damped motion: the residual motion has decayed far below 1e-6
+        assert!(
+            worst < 1e-6 * scale,
+            "{integrator:?} ends {worst:e} from the static solution"
+        );
+        assert!(sim.max_speed() < 1e-6 * scale);
+        if integrator == IntegratorKind::NewtonImplicitEuler {
+            assert_eq!(sim.stats().newton_unconverged, 0);
+            assert!(sim.stats().newton_iterations >= 900);
+        }
+    }
+}
