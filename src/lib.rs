@@ -5,6 +5,8 @@
 //! running a scene to `frames.json` and validating scenes.
 #![warn(missing_docs)]
 
+pub mod bench;
+
 pub use superhelix_generated as generated;
 pub use superhelix_runtime as runtime;
 pub use superhelix_runtime::{

@@ -30,6 +30,33 @@ enum Command {
         /// Scene file (TOML).
         scene: PathBuf,
     },
+    /// Time S independent strands of N elements; last line `strand_steps_per_second=<v>`.
+    Bench {
+        /// Elements per strand N.
+        #[arg(long, default_value_t = 5)]
+        elements: usize,
+        /// Number of strands S.
+        #[arg(long, default_value_t = 100)]
+        strands: usize,
+        /// Time steps T (dt = 1/30 s).
+        #[arg(long, default_value_t = 30)]
+        steps: usize,
+        /// Kernels: generated, generic or auto.
+        #[arg(long, default_value = "auto")]
+        kernels: String,
+        /// Effects, a comma list of gravity, drag, friction, head, point-loads (or none).
+        #[arg(long, default_value = "gravity,drag,friction")]
+        effects: String,
+        /// Hair type: smooth, wavy, curly, fuzzy.
+        #[arg(long, default_value = "wavy")]
+        preset: String,
+        /// Integrator: linearly-implicit-euler, newton-implicit-euler, rk4.
+        #[arg(long, default_value = "linearly-implicit-euler")]
+        integrator: String,
+        /// Gauss-Legendre points per element of the generic kernels (default: adaptive).
+        #[arg(long)]
+        quadrature: Option<usize>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -37,6 +64,25 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run { scene, out } => run(scene.as_deref(), &out),
         Command::Validate { scene } => validate(&scene),
+        Command::Bench {
+            elements,
+            strands,
+            steps,
+            kernels,
+            effects,
+            preset,
+            integrator,
+            quadrature,
+        } => bench(
+            elements,
+            strands,
+            steps,
+            &kernels,
+            &effects,
+            &preset,
+            &integrator,
+            quadrature,
+        ),
     };
     match result {
         Ok(code) => code,
@@ -100,6 +146,61 @@ fn validate(path: &Path) -> Result<ExitCode, Error> {
             Ok(ExitCode::FAILURE)
         }
     }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn bench(
+    elements: usize,
+    strands: usize,
+    steps: usize,
+    kernels: &str,
+    effects: &str,
+    preset: &str,
+    integrator: &str,
+    quadrature: Option<usize>,
+) -> Result<ExitCode, Error> {
+    use superhelix::bench::{bench, BenchOptions, EffectSet};
+    use superhelix::runtime::material::Preset;
+    use superhelix::runtime::simulation::{IntegratorKind, KernelChoice};
+    let options = BenchOptions {
+        elements,
+        strands,
+        steps,
+        kernels: KernelChoice::from_name(kernels)
+            .ok_or_else(|| Error::invalid("--kernels", "must be generated, generic or auto"))?,
+        effects: EffectSet::parse(effects)?,
+        preset: Preset::from_name(preset)
+            .ok_or_else(|| Error::invalid("--preset", "must be smooth, wavy, curly or fuzzy"))?,
+        integrator: IntegratorKind::from_name(integrator).ok_or_else(|| {
+            Error::invalid(
+                "--integrator",
+                "must be linearly-implicit-euler, newton-implicit-euler or rk4",
+            )
+        })?,
+        quadrature: match quadrature {
+            Some(0) => return Err(Error::invalid("--quadrature", "must be >= 1")),
+            Some(n) => superhelix::runtime::QuadratureRule::Fixed(n),
+            None => superhelix::runtime::QuadratureRule::Adaptive,
+        },
+        ..BenchOptions::default()
+    };
+    let report = bench(&options)?;
+    println!(
+        "N={elements} strands={strands} steps={steps} kernels={kernels} ({}) effects={effects} integrator={integrator}",
+        report.kernel
+    );
+    println!(
+        "wall {:.3} s, {:.2} us per strand-step, {} substeps, {} threads",
+        report.seconds,
+        1e6 / report.strand_steps_per_second,
+        report.substeps,
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    );
+    println!(
+        "strand_steps_per_second={:.1}",
+        report.strand_steps_per_second
+    );
+    Ok(ExitCode::SUCCESS)
 }
 
 fn print_problems(problems: &[FieldError]) {

@@ -1,0 +1,237 @@
+//! `superhelix bench`: strand-steps per second for S independent strands of N elements,
+//! with the effects asked for and nothing else.
+
+use std::time::Instant;
+use superhelix_runtime::material::{helix_curvature, HelixForm, Preset};
+use superhelix_runtime::simulation::{
+    IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup, StrandSetup,
+};
+use superhelix_runtime::strand::{PointLoad, Strand, StrandGeometry};
+use superhelix_runtime::{
+    Environment, Error, HeadMotion, Matrix3, QuadratureRule, Result, Simulation, Vector3,
+};
+
+/// The effects a benchmark (or a scene) can switch on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct EffectSet {
+    /// Gravity.
+    pub gravity: bool,
+    /// Air drag (the preset's ν).
+    pub drag: bool,
+    /// Internal friction (the preset's γ).
+    pub friction: bool,
+    /// Head motion: oscillation about the vertical, 2 Hz, ±30°.
+    pub head: bool,
+    /// A point load at each strand's tip.
+    pub point_loads: bool,
+}
+
+impl EffectSet {
+    /// The names accepted by `--effects`.
+    pub const NAMES: [&'static str; 5] = ["gravity", "drag", "friction", "head", "point-loads"];
+
+    /// Gravity, drag and internal friction: the bench's default.
+    pub fn default_bench() -> Self {
+        EffectSet {
+            gravity: true,
+            drag: true,
+            friction: true,
+            ..Default::default()
+        }
+    }
+
+    /// Parse a comma list (`gravity,drag`), or `none`.
+    pub fn parse(list: &str) -> Result<Self> {
+        let mut set = EffectSet::default();
+        for name in list
+            .split(',')
+            .map(str::trim)
+            .filter(|s| !s.is_empty() && *s != "none")
+        {
+            match name {
+                "gravity" => set.gravity = true,
+                "drag" => set.drag = true,
+                "friction" => set.friction = true,
+                "head" => set.head = true,
+                "point-loads" => set.point_loads = true,
+                other => {
+                    return Err(Error::invalid(
+                        "--effects",
+                        format!(
+                            "unknown effect '{other}'; allowed: {} or none",
+                            EffectSet::NAMES.join(", ")
+                        ),
+                    ))
+                }
+            }
+        }
+        Ok(set)
+    }
+}
+
+/// What to benchmark.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BenchOptions {
+    /// Elements per strand N.
+    pub elements: usize,
+    /// Number of strands S.
+    pub strands: usize,
+    /// Time steps T.
+    pub steps: usize,
+    /// Kernel choice.
+    pub kernels: KernelChoice,
+    /// Effects.
+    pub effects: EffectSet,
+    /// Hair type.
+    pub preset: Preset,
+    /// Integrator.
+    pub integrator: IntegratorKind,
+    /// Quadrature of the generic kernels.
+    pub quadrature: QuadratureRule,
+    /// Time step, s.
+    pub dt: f64,
+}
+
+impl Default for BenchOptions {
+    fn default() -> Self {
+        BenchOptions {
+            elements: 5,
+            strands: 100,
+            steps: 30,
+            kernels: KernelChoice::Auto,
+            effects: EffectSet::default_bench(),
+            preset: Preset::Wavy,
+            integrator: IntegratorKind::LinearlyImplicitEuler,
+            quadrature: QuadratureRule::Adaptive,
+            dt: 1.0 / 30.0,
+        }
+    }
+}
+
+/// Measured figures.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BenchReport {
+    /// Wall time of the stepping loop, s.
+    pub seconds: f64,
+    /// S·T / seconds.
+    pub strand_steps_per_second: f64,
+    /// Implicit steps that were split (see `StepStats::substeps`).
+    pub substeps: usize,
+    /// Description of the kernel of strand 0.
+    pub kernel: String,
+}
+
+fn check(o: &BenchOptions) -> Result<()> {
+    let mut problems = Vec::new();
+    if !(1..=200).contains(&o.elements) {
+        problems.push(superhelix_runtime::FieldError::new(
+            "--elements",
+            "must be in 1..=200",
+        ));
+    }
+    if !(1..=1_000_000).contains(&o.strands) {
+        problems.push(superhelix_runtime::FieldError::new(
+            "--strands",
+            "must be in 1..=1000000",
+        ));
+    }
+    if !(1..=10_000_000).contains(&o.steps) {
+        problems.push(superhelix_runtime::FieldError::new(
+            "--steps",
+            "must be in 1..=10000000",
+        ));
+    }
+    if problems.is_empty() {
+        Ok(())
+    } else {
+        Err(Error::Invalid(problems))
+    }
+}
+
+/// The strands of a benchmark: 20 cm strands of the preset leaving a 10 cm head
+/// sideways, roots spread around it.
+fn strands(o: &BenchOptions) -> Vec<StrandSetup> {
+    let p = o.preset.params();
+    let material = p.cross_section.material();
+    let natural = helix_curvature(p.helix_radius, p.helix_step, HelixForm::Exact);
+    let length = 0.2;
+    (0..o.strands)
+        .map(|i| {
+            let angle = i as f64 * 2.399963; // golden angle: roots spread evenly
+            let n0 = Vector3::new(angle.cos(), angle.sin(), 0.0);
+            let n2 = Vector3::z();
+            let frame = Matrix3::from_columns(&[n0, n2.cross(&n0), n2]);
+            let strand = Strand {
+                name: format!("s{i}"),
+                geometry: StrandGeometry::new(
+                    n0 * 0.1,
+                    frame,
+                    vec![length / o.elements as f64; o.elements],
+                    &material,
+                ),
+                material,
+                natural: (0..o.elements).flat_map(|_| natural).collect(),
+                internal_friction: if o.effects.friction {
+                    p.internal_friction
+                } else {
+                    0.0
+                },
+                air_drag: if o.effects.drag { p.air_drag } else { 0.0 },
+                point_loads: if o.effects.point_loads {
+                    vec![PointLoad {
+                        s: length,
+                        force: Vector3::new(0.0, 0.0, -1e-6),
+                    }]
+                } else {
+                    Vec::new()
+                },
+            };
+            StrandSetup {
+                q0: strand.natural.clone(),
+                strand,
+            }
+        })
+        .collect()
+}
+
+/// Run the benchmark.
+pub fn bench(o: &BenchOptions) -> Result<BenchReport> {
+    check(o)?;
+    let setup = SimulationSetup {
+        config: SimulationConfig {
+            dt: o.dt,
+            duration: o.dt * o.steps as f64,
+            integrator: o.integrator,
+            kernels: o.kernels,
+            quadrature: o.quadrature,
+            ..SimulationConfig::default()
+        },
+        environment: Environment {
+            gravity: o.effects.gravity.then(|| Vector3::new(0.0, 0.0, -9.81)),
+        },
+        head: if o.effects.head {
+            HeadMotion::Oscillate {
+                axis: Vector3::z(),
+                amplitude: 30f64.to_radians(),
+                frequency_hz: 2.0,
+                center: Vector3::zeros(),
+            }
+        } else {
+            HeadMotion::Still
+        },
+        strands: strands(o),
+        samples_per_element: 1,
+    };
+    let mut sim = Simulation::new(setup, crate::kernel_factory())?;
+    let start = Instant::now();
+    for _ in 0..o.steps {
+        sim.step()?;
+    }
+    let seconds = start.elapsed().as_secs_f64();
+    Ok(BenchReport {
+        seconds,
+        strand_steps_per_second: (o.strands * o.steps) as f64 / seconds.max(1e-12),
+        substeps: sim.stats().substeps,
+        kernel: sim.kernel_description(0),
+    })
+}
