@@ -26,6 +26,7 @@ pub mod jet;
 pub mod kernel;
 pub mod kernel_generic;
 pub mod material;
+pub mod moments;
 pub mod output;
 pub mod quadrature;
 pub mod reconstruction;

@@ -413,3 +413,56 @@ fn point_hessian_matches_finite_differences_of_the_jacobian() {
         }
     }
 }
+
+#[test]
+fn moment_assembly_reproduces_the_mass_matrix_and_gravity_force() {
+    use superhelix_runtime::moments::{
+        assemble_mass_and_gravity, end_derivatives, Body, ElementMoments,
+    };
+    use superhelix_runtime::reconstruction::{darboux, element_ends, Pose};
+    for (g, q, _) in cases() {
+        let n = g.elements();
+        let dofs = 3 * n;
+        let gravity = Vector3::new(0.3, -1.0, -9.81);
+        let f = BodyField {
+            uniform: gravity * g.mass_per_length,
+            ..BodyField::zero()
+        };
+        let reference = evaluate(&g, &q, &vec![0.0; dofs], f);
+        let mut ends = vec![Pose::default(); n + 1];
+        element_ends(&g, &q, &mut ends);
+        let derivs: Vec<_> = (0..n)
+            .map(|k| end_derivatives(&ends[k].frame, &darboux(&q, k), g.lengths[k]))
+            .collect();
+        let moments: Vec<_> = (0..n)
+            .map(|k| {
+                ElementMoments::by_quadrature(&darboux(&q, k), g.lengths[k], &g.rotary_inertia, 60)
+            })
+            .collect();
+        let mut bodies = vec![Body::default(); n + 1];
+        let mut mass = vec![0.0; dofs * dofs];
+        let mut force = vec![0.0; dofs];
+        let mut first = Vector3::zeros();
+        assemble_mass_and_gravity(
+            &mut bodies,
+            g.mass_per_length,
+            &g.lengths,
+            &ends,
+            &derivs,
+            &moments,
+            &(gravity * g.mass_per_length),
+            &mut mass,
+            &mut force,
+            &mut first,
+        );
+        let m = Mat::from_fn(dofs, dofs, |i, j| mass[j * dofs + i]);
+        assert_mat_close(&m, &reference.mass, 1e-12, "M from moments");
+        assert_vec_close(
+            &force,
+            &reference.force,
+            1e-12,
+            "gravity force from moments",
+        );
+        assert!((first - reference.first_moment).norm() <= 1e-13 * reference.first_moment.norm());
+    }
+}
