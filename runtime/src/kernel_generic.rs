@@ -451,19 +451,16 @@ impl StrandKernel for GenericKernel {
             let d = darboux(q, p);
             let rule = gauss_legendre(self.rule.order(d.norm() * l));
             let m = 3 * (p + 1);
-            if has_rotary {
-                // rotary inertia: the element's cross-sections lumped at its midpoint
-                let jets = element_jets(&d, 0.5 * l, true);
-                self.point_jacobian(p, &jets);
-                self.add_rotary_terms(p, 0.5 * l, &d, &jets, v, t, l, out);
-            }
             for (x, wgl) in rule.nodes.iter().zip(&rule.weights) {
                 let u = 0.5 * l * (x + 1.0);
                 let w = 0.5 * l * wgl;
-                let jets = element_jets(&d, u, false);
+                let jets = element_jets(&d, u, has_rotary);
                 let y = self.point_jacobian(p, &jets);
                 if t.mass {
                     add_gram(&mut out.mass, &self.jac, &self.jac, m, w * rho_s);
+                }
+                if has_rotary {
+                    self.add_rotary_terms(p, u, &d, &jets, v, t, w, out);
                 }
                 if need_jdot {
                     let (ydot, acc) = self.point_jdot(p, &jets, &y, v);

@@ -27,11 +27,11 @@ pub struct ElementMoments {
     pub cross: [Vector3<f64>; 3],
     /// `gram[i][j]` = ∫ ∂p/∂d_i · ∂p/∂d_j du.
     pub gram: Matrix3<f64>,
-    /// Rotary inertia lumped at the midpoint: l E D Eᵀ at u = l/2, D = diag(ρI).
+    /// ∫ E D Eᵀ du, D = diag(rotary inertia).
     pub rot: Matrix3<f64>,
-    /// `rot_w[j]` = l E D Eᵀ w_j at u = l/2.
+    /// `rot_w[j]` = ∫ E D Eᵀ w_j du.
     pub rot_w: [Vector3<f64>; 3],
-    /// `rot_ww[i][j]` = l w_iᵀ E D Eᵀ w_j at u = l/2.
+    /// `rot_ww[i][j]` = ∫ w_iᵀ E D Eᵀ w_j du.
     pub rot_ww: Matrix3<f64>,
 }
 
@@ -44,28 +44,23 @@ impl ElementMoments {
         for (x, wgl) in rule.nodes.iter().zip(&rule.weights) {
             let u = 0.5 * l * (x + 1.0);
             let w = 0.5 * l * wgl;
-            let jets = element_jets(d, u, false);
+            let jets = element_jets(d, u, true);
             let p = jets.p_value();
             let dp = [jets.dp(0), jets.dp(1), jets.dp(2)];
+            let (e, _) = local_pose(d, u);
+            let inertia = e * dmat * e.transpose();
+            let wv = [jets.w_value(0), jets.w_value(1), jets.w_value(2)];
             m.first += p * w;
             m.second += p * p.transpose() * w;
+            m.rot += inertia * w;
             for i in 0..3 {
                 m.dfirst[i] += dp[i] * w;
                 m.cross[i] += p.cross(&dp[i]) * w;
+                m.rot_w[i] += inertia * wv[i] * w;
                 for j in 0..3 {
                     m.gram[(i, j)] += dp[i].dot(&dp[j]) * w;
+                    m.rot_ww[(i, j)] += wv[i].dot(&(inertia * wv[j])) * w;
                 }
-            }
-        }
-        let jets = element_jets(d, 0.5 * l, true);
-        let (e, _) = local_pose(d, 0.5 * l);
-        let inertia = e * dmat * e.transpose() * l;
-        let wv = [jets.w_value(0), jets.w_value(1), jets.w_value(2)];
-        m.rot = inertia;
-        for i in 0..3 {
-            m.rot_w[i] = inertia * wv[i];
-            for j in 0..3 {
-                m.rot_ww[(i, j)] = wv[i].dot(&(inertia * wv[j]));
             }
         }
         m

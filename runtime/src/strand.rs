@@ -18,13 +18,10 @@ pub struct StrandGeometry {
     /// Rotary inertia per unit length of the cross-section about the material axes
     /// (n0, n1, n2), kg·m. The paper's kinetic energy (5b) has only the centreline term,
     /// which leaves M singular whenever an element is straight (∂r/∂τ = 0 there: twist
-    /// moves no mass). We add the rotational kinetic energy of the cross-sections of
-    /// Kirchhoff's dynamic rods, `½∫ Ωᵀ diag(ρI) Ω ds`, discretised by the midpoint rule
-    /// per element: `½ Σ_Q l_Q Ω_Qᵀ I_Q Ω_Q` with Ω_Q and I_Q those of the frame at the
-    /// element's midpoint. This is an exact Lagrangian of its own (energy is conserved),
-    /// costs one point per element in every kernel, and makes M positive definite at
-    /// every q; its size relative to the centreline term is about r²/l², below 1e-6 for
-    /// hair. Zeros give the paper's model exactly.
+    /// moves no mass). With the rotational kinetic energy of the cross-sections
+    /// `½∫ Ωᵀ diag(ρI) Ω ds` of Kirchhoff's dynamic rods, M is positive definite at every
+    /// q; its size relative to the centreline term is about r²/l², below 1e-6 for hair.
+    /// Zeros give the paper's model exactly.
     pub rotary_inertia: [f64; 3],
 }
 

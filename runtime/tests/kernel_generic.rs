@@ -175,24 +175,15 @@ fn mass_matrix_matches_quadrature_of_finite_difference_jacobians_and_is_spd() {
         let mut m_fd = Mat::<f64>::zeros(n, n);
         for (s, w) in points(&g) {
             let jac = jacobian_fd(&g, &q, s);
-            for a in 0..n {
-                for b in 0..n {
-                    m_fd[(a, b)] += w * g.mass_per_length * jac[a].dot(&jac[b]);
-                }
-            }
-        }
-        // rotary inertia lumped at each element's midpoint, weight l
-        let mut start = 0.0;
-        for &l in &g.lengths {
-            let s = start + 0.5 * l;
-            start += l;
             let theta = angular_jacobian_fd(&g, &q, s);
             let f = pose_at(&g, &q, s).frame;
             let inertia =
                 f * Matrix3::from_diagonal(&Vector3::from(g.rotary_inertia)) * f.transpose();
             for a in 0..n {
                 for b in 0..n {
-                    m_fd[(a, b)] += l * theta[a].dot(&(inertia * theta[b]));
+                    m_fd[(a, b)] += w
+                        * (g.mass_per_length * jac[a].dot(&jac[b])
+                            + theta[a].dot(&(inertia * theta[b])));
                 }
             }
         }
