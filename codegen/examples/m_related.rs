@@ -10,9 +10,19 @@ fn main() {
     let h = HelixSymbols::new(&mut g);
     let list = helix::m_related_integrands(&mut g, &h);
     let t = std::time::Instant::now();
-    let out = generate_function(&mut g, &h, "m_related_integrals", &list, &GenerateOptions::default())
-        .expect("generation");
-    eprintln!("generated in {:.2?}; graph has {} nodes", t.elapsed(), g.len());
+    let out = generate_function(
+        &mut g,
+        &h,
+        "m_related_integrals",
+        &list,
+        &GenerateOptions::default(),
+    )
+    .expect("generation");
+    eprintln!(
+        "generated in {:.2?}; graph has {} nodes",
+        t.elapsed(),
+        g.len()
+    );
     eprintln!(
         "switch W*l = {}, Taylor degree {}, agreement {:.2e}, truncation {:.2e}",
         out.switch, out.series_order, out.agreement, out.truncation

@@ -98,7 +98,7 @@ pub struct SwitchChoice {
     pub x_star: f64,
     /// Degree in W of the Taylor branch.
     pub order: u32,
-    /// Largest relative difference of the two branches at `x*` (selection samples).
+    /// Largest relative difference of the two branches at `x*` (all samples).
     pub agreement: f64,
     /// Estimated largest relative truncation error of the Taylor branch at `x*`.
     pub truncation: f64,
@@ -118,6 +118,9 @@ pub struct SwitchOptions {
     pub candidates: Vec<f64>,
     /// Number of sampled directions during the selection.
     pub samples: usize,
+    /// Number of directions (another seed) that confirm a candidate; the reported
+    /// agreement is the worst over both sets.
+    pub check_samples: usize,
     /// Smallest and largest Taylor order tried.
     pub min_order: u32,
     /// See `min_order`.
@@ -137,6 +140,7 @@ impl Default for SwitchOptions {
                 5.0, 6.0,
             ],
             samples: 8,
+            check_samples: 64,
             min_order: 2,
             max_order: 64,
             seed: 0x5eed_cafe,
@@ -189,7 +193,15 @@ pub(crate) fn choose(
             best = Some(c);
         }
         if agreement <= opts.safety * opts.agreement_target {
-            return Ok(c);
+            // confirm on more directions (another seed) before taking it
+            let more = samples(x, opts.check_samples, opts.seed ^ 0xa5a5);
+            let check = max_relative(&evaluate(g, h, closed, &more), &evaluate(g, h, &s, &more));
+            if check <= opts.agreement_target {
+                return Ok(SwitchChoice {
+                    agreement: check.max(agreement),
+                    ..c
+                });
+            }
         }
     }
     Err(crate::CodegenError::NoSwitch(format!(

@@ -137,14 +137,39 @@ pub(crate) fn use_counts(g: &Graph, roots: &[Id]) -> Vec<u32> {
     uses
 }
 
+/// Deepest nesting of an inlined expression; deeper nodes get a binding too (keeps
+/// statements readable and rustfmt fast).
+const MAX_INLINE_DEPTH: u32 = 6;
+
 /// Which nodes get a `let` binding (see the module docs).
 pub(crate) fn bindings(g: &Graph, roots: &[Id]) -> Vec<bool> {
     let uses = use_counts(g, roots);
-    (0..g.len())
+    let mut bind: Vec<bool> = (0..g.len())
         .map(|i| match g.node(Id(i as u32)) {
             Node::Const(_) | Node::Sym(_) | Node::Pow(..) => false,
             Node::Sin(_) | Node::Cos(_) => uses[i] > 0,
             _ => uses[i] > 1,
         })
-        .collect()
+        .collect();
+    // inline depth, children first (arena order is topological)
+    let mut depth = vec![0u32; g.len()];
+    for i in 0..g.len() {
+        if uses[i] == 0 {
+            continue;
+        }
+        let d = g
+            .node(Id(i as u32))
+            .children()
+            .iter()
+            .map(|c| if bind[c.index()] { 0 } else { depth[c.index()] })
+            .max()
+            .map_or(0, |m| m + 1);
+        if d > MAX_INLINE_DEPTH && !matches!(g.node(Id(i as u32)), Node::Pow(..)) {
+            bind[i] = true;
+            depth[i] = 0;
+        } else {
+            depth[i] = d;
+        }
+    }
+    bind
 }

@@ -267,9 +267,14 @@ impl<'a> Emitter<'a> {
 }
 
 /// Format Rust source with the toolchain's `rustfmt` (edition 2021); the input is
-/// returned unchanged if rustfmt is missing or fails.
+/// returned unchanged if rustfmt is missing, fails, or takes longer than a minute.
 pub fn format(code: &str) -> String {
-    use std::io::Write;
+    format_with_timeout(code, std::time::Duration::from_secs(60))
+}
+
+/// [`format`] with a time limit for rustfmt.
+pub fn format_with_timeout(code: &str, limit: std::time::Duration) -> String {
+    use std::io::{Read, Write};
     use std::process::{Command, Stdio};
     let child = Command::new("rustfmt")
         .args(["--edition", "2021", "--emit", "stdout", "--quiet"])
@@ -280,15 +285,35 @@ pub fn format(code: &str) -> String {
     let Ok(mut child) = child else {
         return code.to_string();
     };
-    if let Some(mut stdin) = child.stdin.take() {
-        if stdin.write_all(code.as_bytes()).is_err() {
-            let _ = child.wait();
-            return code.to_string();
+    // read stdout on a thread, so that a full pipe never blocks rustfmt
+    let reader = child.stdout.take().map(|mut out| {
+        std::thread::spawn(move || {
+            let mut buf = Vec::new();
+            out.read_to_end(&mut buf).map(|_| buf)
+        })
+    });
+    let written = child
+        .stdin
+        .take()
+        .is_some_and(|mut stdin| stdin.write_all(code.as_bytes()).is_ok());
+    let start = std::time::Instant::now();
+    let status = loop {
+        match child.try_wait() {
+            Ok(Some(st)) => break Some(st),
+            Ok(None) if start.elapsed() < limit => {
+                std::thread::sleep(std::time::Duration::from_millis(20))
+            }
+            _ => {
+                let _ = child.kill();
+                let _ = child.wait();
+                break None;
+            }
         }
-    }
-    match child.wait_with_output() {
-        Ok(o) if o.status.success() && !o.stdout.is_empty() => {
-            String::from_utf8(o.stdout).unwrap_or_else(|_| code.to_string())
+    };
+    let output = reader.and_then(|r| r.join().ok()).and_then(Result::ok);
+    match (written, status, output) {
+        (true, Some(st), Some(out)) if st.success() && !out.is_empty() => {
+            String::from_utf8(out).unwrap_or_else(|_| code.to_string())
         }
         _ => code.to_string(),
     }

@@ -23,6 +23,10 @@ pub struct HelixSymbols {
     pub l: Id,
     /// Local abscissa (symbol `u`).
     pub u: Id,
+    /// `x = W l` (symbol `x`), the variable of the integrals' results.
+    pub x: Id,
+    /// `d_i l` (symbols `dl0`, `dl1`, `dl2`), the variables of the integrals' results.
+    pub dl: [Id; 3],
 }
 
 impl HelixSymbols {
@@ -36,10 +40,12 @@ impl HelixSymbols {
             let p = g.div(di, w);
             g.set_partial(w, di, p);
         }
-        HelixSymbols { d, w, l, u }
+        let x = g.symbol("x");
+        let dl = [g.symbol("dl0"), g.symbol("dl1"), g.symbol("dl2")];
+        HelixSymbols { d, w, l, u, x, dl }
     }
 
-    /// Bindings for [`Graph::eval`]: `d`, `W = |d|`, `l`, `u`.
+    /// Bindings for [`Graph::eval`]: `d`, `W = |d|`, `l`, `u`, `x = W l`, `dl = d l`.
     pub fn bindings(&self, d: [f64; 3], l: f64, u: f64) -> Vec<(Id, f64)> {
         let w = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         vec![
@@ -49,6 +55,10 @@ impl HelixSymbols {
             (self.w, w),
             (self.l, l),
             (self.u, u),
+            (self.x, w * l),
+            (self.dl[0], d[0] * l),
+            (self.dl[1], d[1] * l),
+            (self.dl[2], d[2] * l),
         ]
     }
 }

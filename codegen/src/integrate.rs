@@ -32,6 +32,9 @@ pub struct ElementIntegral {
     pub series_order: u32,
 }
 
+/// A term of a result: trig factor, monomial, coefficient.
+type Term = (Trig, Mono, Num);
+
 /// One term of a base integral: `coef · l^lp · W^wp · trig(k W l)`.
 type BaseTerm = (TrigKind, i32, i32, Num);
 
@@ -40,7 +43,7 @@ pub(crate) struct Integrator {
     pub h: HelixSymbols,
     ex: Expander,
     base: HashMap<(TrigKind, i32, Rational), Vec<BaseTerm>>,
-    angles: HashMap<Trig, Id>,
+    angles: HashMap<(Trig, bool), Id>,
     /// Write `sin(n W l)`, `cos(n W l)` for integer n ≥ 2 through the multiple-angle
     /// recurrences from `sin(W l)`, `cos(W l)` (one `sin_cos` call in the emitted code).
     pub multiple_angles: bool,
@@ -155,9 +158,9 @@ impl Integrator {
         Ok(out)
     }
 
-    /// The DAG node of `trig(k W l)`.
-    fn trig_atom(&mut self, g: &mut Graph, t: Trig) -> Id {
-        if let Some(&a) = self.angles.get(&t) {
+    /// The DAG node of `trig(k W l)`, written with the symbol `x = W l` if `scaled`.
+    fn trig_atom(&mut self, g: &mut Graph, t: Trig, scaled: bool) -> Id {
+        if let Some(&a) = self.angles.get(&(t, scaled)) {
             return a;
         }
         let is_int = t.k.denom() == 1 && t.k.numer() >= 1;
@@ -168,8 +171,8 @@ impl Integrator {
                 kind,
                 k: Rational::new(i, 1).expect("integer"),
             };
-            let c1 = self.trig_atom(g, prev(1, TrigKind::Cos));
-            let a1 = self.trig_atom(g, prev(n - 1, t.kind));
+            let c1 = self.trig_atom(g, prev(1, TrigKind::Cos), scaled);
+            let a1 = self.trig_atom(g, prev(n - 1, t.kind), scaled);
             let a2 = if n == 2 {
                 if t.kind == TrigKind::Cos {
                     g.one()
@@ -177,48 +180,105 @@ impl Integrator {
                     g.zero()
                 }
             } else {
-                self.trig_atom(g, prev(n - 2, t.kind))
+                self.trig_atom(g, prev(n - 2, t.kind), scaled)
             };
             let two = g.int(2);
             let x = g.mul(&[two, c1, a1]);
             g.sub(x, a2)
         } else {
             let k = g.constant(Num::Exact(t.k));
-            let arg = g.mul(&[k, self.h.w, self.h.l]);
+            let arg = if scaled {
+                g.mul2(k, self.h.x)
+            } else {
+                g.mul(&[k, self.h.w, self.h.l])
+            };
             match t.kind {
                 TrigKind::Cos => g.cos(arg),
                 TrigKind::Sin => g.sin(arg),
                 TrigKind::One => g.one(),
             }
         };
-        self.angles.insert(t, a);
+        self.angles.insert((t, scaled), a);
         a
     }
 
-    /// Variable order for Horner: trig atoms, then W, l, d.
-    fn order(&self, atoms: &[Id]) -> Vec<Id> {
-        let mut o = atoms.to_vec();
-        o.extend([self.h.w, self.h.l, self.h.d[0], self.h.d[1], self.h.d[2]]);
-        o
+    /// Rewrite a result in `(d, W, l)` as `l^p · Q(d l, W l)` if it is homogeneous:
+    /// every monomial `d^a W^b l^c` with the same `c − |a| − b = p` (true of any
+    /// integral of the element's geometry, by dimension). Returns `p` and the terms of
+    /// Q in the symbols `dl_i`, `x`; `None` if some other variable occurs or the degrees
+    /// differ.
+    fn rescale(&self, p: &TPoly) -> Option<(i32, Vec<Term>)> {
+        let h = &self.h;
+        let mut degree = None;
+        let mut out = Vec::with_capacity(p.terms.len());
+        for ((t, m), c) in &p.terms {
+            let mut el = 0;
+            let mut rest = 0;
+            let mut mm: Mono = Vec::with_capacity(m.len());
+            for &(v, e) in m {
+                if v == h.l {
+                    el = e;
+                } else if v == h.w {
+                    rest += e;
+                    mm.push((h.x, e));
+                } else if let Some(i) = h.d.iter().position(|&di| di == v) {
+                    rest += e;
+                    mm.push((h.dl[i], e));
+                } else {
+                    return None;
+                }
+            }
+            mm.sort();
+            if *degree.get_or_insert(el - rest) != el - rest {
+                return None;
+            }
+            out.push((*t, mm, *c));
+        }
+        Some((degree.unwrap_or(0), out))
     }
 
-    /// Closed-form result (trig meaning `trig(k W l)`) as a DAG node.
+    /// A result (trig factors meaning `trig(k W l)`) as a DAG node: `l^p · Q(d l, W l)`
+    /// when homogeneous (bounded intermediate values, fewer operations), else in
+    /// `(d, W, l)`; nested Horner-style, trig factors first.
     pub fn build_dag(&mut self, g: &mut Graph, p: &TPoly) -> Id {
+        let h = self.h;
+        let (scale, terms, vars) = match self.rescale(p) {
+            Some((deg, t)) => (Some(deg), t, [h.dl[0], h.dl[1], h.dl[2], h.x, h.l]),
+            None => {
+                let t = p
+                    .terms
+                    .iter()
+                    .map(|((t, m), c)| (*t, m.clone(), *c))
+                    .collect();
+                (None, t, [h.w, h.l, h.d[0], h.d[1], h.d[2]])
+            }
+        };
         let mut atoms = Vec::new();
-        let mut terms: Vec<(Mono, Num)> = Vec::with_capacity(p.terms.len());
-        for ((t, m), c) in &p.terms {
+        let mut mterms: Vec<(Mono, Num)> = Vec::with_capacity(terms.len());
+        for (t, m, c) in terms {
             if t.kind == TrigKind::One {
-                terms.push((m.clone(), *c));
+                mterms.push((m, c));
             } else {
-                let a = self.trig_atom(g, *t);
+                let a = self.trig_atom(g, t, scale.is_some());
                 if !atoms.contains(&a) {
                     atoms.push(a);
                 }
-                terms.push((mono_mul(m, &mono_var(a, 1)), *c));
+                mterms.push((mono_mul(&m, &mono_var(a, 1)), c));
             }
         }
-        let order = self.order(&atoms);
-        horner(g, terms, &order)
+        // normalizing pays in the Taylor branch (many polynomials in x equal up to a
+        // factor), not in the closed form (it only adds multiplications there)
+        let normalize = atoms.is_empty();
+        let mut order = atoms;
+        order.extend(vars);
+        let q = horner(g, mterms, &order, normalize);
+        match scale {
+            Some(deg) => {
+                let lp = g.pow(h.l, deg);
+                g.mul2(lp, q)
+            }
+            None => q,
+        }
     }
 }
 

@@ -306,9 +306,20 @@ impl Expander {
 /// Build `Σ c · m` in the DAG, nested Horner-style: the first variable of `order` that
 /// occurs is factored out (positive powers nested in `v`, negative ones in `1/v`),
 /// then the next, recursively; variables not in `order` come last, by `Id`.
-pub(crate) fn horner(g: &mut Graph, terms: Vec<(Mono, Num)>, order: &[Id]) -> Id {
+pub(crate) fn horner(g: &mut Graph, terms: Vec<(Mono, Num)>, order: &[Id], normalize: bool) -> Id {
     if terms.is_empty() {
         return g.zero();
+    }
+    // With `normalize`, factor out the coefficient of the smallest monomial (when
+    // exact), so that polynomials equal up to a constant factor become one node.
+    let lead = terms.iter().min_by(|a, b| a.0.cmp(&b.0)).map(|t| t.1);
+    if let Some(c0) = lead.filter(|c| normalize && c.exact().is_some() && !c.is_one()) {
+        if terms.iter().all(|t| t.1.exact().is_some()) {
+            let scaled: Vec<(Mono, Num)> = terms.into_iter().map(|(m, c)| (m, c / c0)).collect();
+            let q = horner(g, scaled, order, normalize);
+            let k = g.constant(c0);
+            return g.mul2(k, q);
+        }
     }
     let occurs = |v: Id| terms.iter().any(|(m, _)| m.iter().any(|p| p.0 == v));
     let var = order
@@ -327,7 +338,7 @@ pub(crate) fn horner(g: &mut Graph, terms: Vec<(Mono, Num)>, order: &[Id]) -> Id
     }
     let mut parts = Vec::new();
     if let Some(t0) = groups.remove(&0) {
-        parts.push(horner(g, t0, order));
+        parts.push(horner(g, t0, order, normalize));
     }
     let mut pos = Vec::new();
     let mut neg = Vec::new();
@@ -346,7 +357,7 @@ pub(crate) fn horner(g: &mut Graph, terms: Vec<(Mono, Num)>, order: &[Id]) -> Id
         let exps: Vec<i32> = chain.iter().map(|c| c.0).collect();
         let polys: Vec<Id> = chain
             .into_iter()
-            .map(|(_, t)| horner(g, t, order))
+            .map(|(_, t)| horner(g, t, order, normalize))
             .collect();
         let n = polys.len();
         let mut acc = polys[n - 1];
@@ -404,7 +415,7 @@ mod tests {
             };
             terms.push((m, *c));
         }
-        let back = horner(&mut g, terms, &[w]);
+        let back = horner(&mut g, terms, &[w], true);
         let b = [(w, 1.3), (u, 0.7), (x, 0.4)];
         let v1 = g.eval(e, &b);
         let v2 = g.eval(back, &b);
