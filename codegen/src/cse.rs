@@ -147,6 +147,10 @@ pub(crate) fn bindings(g: &Graph, roots: &[Id]) -> Vec<bool> {
     let mut bind: Vec<bool> = (0..g.len())
         .map(|i| match g.node(Id(i as u32)) {
             Node::Const(_) | Node::Sym(_) | Node::Pow(..) => false,
+            // a negation `−x` is written inline: it costs nothing
+            Node::Mul(ch) if ch.len() == 2 && g.as_const(ch[0]).is_some_and(|c| (-c).is_one()) => {
+                false
+            }
             Node::Sin(_) | Node::Cos(_) => uses[i] > 0,
             _ => uses[i] > 1,
         })
