@@ -2,6 +2,8 @@
 //! element's closed forms and their d-derivatives. Checked against Gauss–Legendre
 //! quadrature of the integrand DAG itself, at W l where that evaluation is accurate.
 
+#![allow(clippy::needless_range_loop)] // index loops read like the formulas
+
 use superhelix_codegen::{generate_function, helix, GenerateOptions, Graph, HelixSymbols, Id};
 
 fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
