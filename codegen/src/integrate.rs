@@ -239,7 +239,7 @@ impl Integrator {
 
     /// A result (trig factors meaning `trig(k W l)`) as a DAG node: `l^p · Q(d l, W l)`
     /// when homogeneous (bounded intermediate values, fewer operations), else in
-    /// `(d, W, l)`; nested Horner-style, trig factors first.
+    /// `(d, W, l)`; nested Horner-style (d outermost, then trig factors, then x).
     pub fn build_dag(&mut self, g: &mut Graph, p: &TPoly) -> Id {
         let h = self.h;
         let (scale, terms, vars) = match self.rescale(p) {
@@ -250,7 +250,7 @@ impl Integrator {
                     .iter()
                     .map(|((t, m), c)| (*t, m.clone(), *c))
                     .collect();
-                (None, t, [h.w, h.l, h.d[0], h.d[1], h.d[2]])
+                (None, t, [h.d[0], h.d[1], h.d[2], h.w, h.l])
             }
         };
         let mut atoms = Vec::new();
@@ -266,12 +266,14 @@ impl Integrator {
                 mterms.push((mono_mul(&m, &mono_var(a, 1)), c));
             }
         }
-        // normalizing pays in the Taylor branch (many polynomials in x equal up to a
-        // factor), not in the closed form (it only adds multiplications there)
-        let normalize = atoms.is_empty();
-        let mut order = atoms;
-        order.extend(vars);
-        let q = horner(g, mterms, &order, normalize);
+        // Order: the d-variables outermost, then the trig factors, then x (or W, l)
+        // innermost: the results are then sums of d-monomials times short
+        // polynomials in x, cos x, sin x, which many outputs share — after factoring
+        // out a constant (normalize) — and CSE finds them.
+        let mut order: Vec<Id> = vars[..3].to_vec();
+        order.extend(&atoms);
+        order.extend(&vars[3..]);
+        let q = horner(g, mterms, &order, true);
         match scale {
             Some(deg) => {
                 let lp = g.pow(h.l, deg);
