@@ -324,3 +324,61 @@ impl Graph {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn known_integrals_in_both_branches() {
+        let mut g = Graph::new();
+        let h = HelixSymbols::new(&mut g);
+        // ∫_0^l u² cos(2Wu) du = l² s/(2W) + l c/(2W²) − s/(4W³), s = sin 2Wl, c = cos 2Wl
+        let two = g.int(2);
+        let arg = g.mul(&[two, h.w, h.u]);
+        let c2 = g.cos(arg);
+        let u2 = g.pow(h.u, 2);
+        let e = g.mul2(u2, c2);
+        let r = g.integrate_element(&h, e, 40).unwrap();
+        for (d, l) in [([0.3f64, 0.4, 1.2], 0.9f64), ([30.0, -4.0, 12.0], 0.2)] {
+            let w: f64 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let (s, c) = (2.0 * w * l).sin_cos();
+            let exact = l * l * s / (2.0 * w) + l * c / (2.0 * w * w) - s / (4.0 * w * w * w);
+            let b = h.bindings(d, l, 0.0);
+            let closed = g.eval(r.closed, &b);
+            assert!(
+                (closed - exact).abs() < 1e-14 * exact.abs(),
+                "{closed} vs {exact}"
+            );
+            if w * l < 2.0 {
+                let series = g.eval(r.series, &b);
+                assert!(
+                    (series - exact).abs() < 1e-13 * exact.abs(),
+                    "{series} vs {exact}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn odd_function_of_w_is_not_regular() {
+        let mut g = Graph::new();
+        let h = HelixSymbols::new(&mut g);
+        // sin(Wu)/W² ~ u/W at W → 0: no Taylor branch without division by W
+        let wu = g.mul2(h.w, h.u);
+        let s = g.sin(wu);
+        let iw2 = g.pow(h.w, -2);
+        let e = g.mul2(s, iw2);
+        assert!(matches!(
+            g.integrate_series(&h, e, 10),
+            Err(CodegenError::NotRegular(_))
+        ));
+        // trig of something else than a multiple of W u is reported, not mis-integrated
+        let uu = g.mul2(h.u, h.u);
+        let bad = g.sin(uu);
+        assert!(matches!(
+            g.integrate_closed(&h, bad),
+            Err(CodegenError::Unsupported(_))
+        ));
+    }
+}
