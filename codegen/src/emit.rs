@@ -1,6 +1,6 @@
 //! Printing DAG nodes as Rust statements with `quote`, and formatting with rustfmt.
 //!
-//! The emitter writes one `let` per node chosen by [`crate::cse::bindings`], in arena
+//! The emitter writes one `let` per node chosen by `cse::bindings`, in arena
 //! order (a topological order), inlining everything used once. Integer powers are
 //! written as repeated multiplications through a cache (`x²` once, `x⁴ = x²·x²`, …;
 //! negative powers from one `1.0 / x`). `sin` and `cos` of one argument become one
@@ -272,7 +272,7 @@ pub fn format(code: &str) -> String {
     format_with_timeout(code, std::time::Duration::from_secs(60))
 }
 
-/// [`format`] with a time limit for rustfmt.
+/// [`format()`] with a time limit for rustfmt.
 pub fn format_with_timeout(code: &str, limit: std::time::Duration) -> String {
     use std::io::{Read, Write};
     use std::process::{Command, Stdio};

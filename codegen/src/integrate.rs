@@ -1,6 +1,6 @@
 //! Exact integration over one element, `∫_0^l … du`, in two branches.
 //!
-//! The integrand is expanded into `Σ c · m · u^n · trig(k W u)` ([`TPoly`]); then
+//! The integrand is expanded into `Σ c · m · u^n · trig(k W u)` (`TPoly`); then
 //! - **closed form**: each `∫_0^l u^n cos/sin(ω u) du` (ω = kW) by the integration by
 //!   parts recursion
 //!   `I_c(n) = l^n sin(ωl)/ω − (n/ω) I_s(n−1)`, `I_s(n) = −l^n cos(ωl)/ω + (n/ω) I_c(n−1)`,

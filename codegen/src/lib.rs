@@ -10,7 +10,7 @@
 //!    with no division by W;
 //! 3. [`generate_function`] picks the switch `x*` on `W l` and the Taylor order by
 //!    measuring both branches ([`branch`]), eliminates common subexpressions across all
-//!    outputs ([`cse`]) and prints one Rust function ([`emit`]); [`format`] runs rustfmt.
+//!    outputs ([`cse`]) and prints one Rust function ([`emit`]); [`format()`] runs rustfmt.
 //!
 //! ```
 //! use superhelix_codegen::{format, generate_function, helix, GenerateOptions, Graph, HelixSymbols};
@@ -115,7 +115,7 @@ pub struct GeneratedCode {
     pub name: String,
     /// Output names, in `out` order.
     pub outputs: Vec<String>,
-    /// Rust source (one line of tokens after the header; see [`format`]).
+    /// Rust source (one line of tokens after the header; see [`format()`]).
     pub code: String,
     /// Operations written as trees, both branches plus the prologue (no CSE).
     pub ops_before: OpCounts,
