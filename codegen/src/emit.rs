@@ -1,0 +1,320 @@
+//! Printing DAG nodes as Rust statements with `quote`, and formatting with rustfmt.
+//!
+//! The emitter writes one `let` per node chosen by `cse::bindings`, in arena
+//! order (a topological order), inlining everything used once. Integer powers are
+//! written as repeated multiplications through a cache (`x²` once, `x⁴ = x²·x²`, …;
+//! negative powers from one `1.0 / x`). `sin` and `cos` of one argument become one
+//! `sin_cos` call. Every operation written is counted.
+
+use crate::cse::{bindings, OpCounts};
+use crate::graph::{Graph, Id, Node};
+use crate::number::Num;
+use proc_macro2::{Ident, Literal, Span, TokenStream};
+use quote::quote;
+use std::collections::HashMap;
+use std::str::FromStr;
+
+/// Context of an expression, for parentheses.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Prec {
+    /// A whole right-hand side.
+    Top,
+    /// A factor of a product.
+    Product,
+    /// A method receiver.
+    Receiver,
+}
+
+/// A non-negative float literal (shortest round-trip form).
+pub(crate) fn literal(v: f64) -> TokenStream {
+    debug_assert!(v >= 0.0 && v.is_finite());
+    let s = if v == 0.0 {
+        "0.0".to_string()
+    } else if (1e-5..1e16).contains(&v) {
+        let s = format!("{v}");
+        if s.contains('.') {
+            s
+        } else {
+            format!("{s}.0")
+        }
+    } else {
+        format!("{v:e}")
+    };
+    TokenStream::from(proc_macro2::TokenTree::Literal(
+        Literal::from_str(&s).expect("float literal"),
+    ))
+}
+
+/// Writes the statements of one branch.
+pub(crate) struct Emitter<'a> {
+    g: &'a Graph,
+    bind: Vec<bool>,
+    names: HashMap<Id, TokenStream>,
+    powers: HashMap<(Id, i32), TokenStream>,
+    /// Statements written so far.
+    pub stmts: Vec<TokenStream>,
+    /// Operations written so far.
+    pub ops: OpCounts,
+    next: usize,
+    prefix: &'static str,
+}
+
+impl<'a> Emitter<'a> {
+    /// An emitter for the outputs `roots`, with the given identifiers for symbols, and
+    /// `prefix` for the names of its bindings.
+    pub fn new(
+        g: &'a Graph,
+        roots: &[Id],
+        symbols: &[(Id, Ident)],
+        prefix: &'static str,
+    ) -> Emitter<'a> {
+        Emitter {
+            g,
+            bind: bindings(g, roots),
+            names: symbols.iter().map(|(id, n)| (*id, quote!(#n))).collect(),
+            powers: HashMap::new(),
+            stmts: Vec::new(),
+            ops: OpCounts::default(),
+            next: 0,
+            prefix,
+        }
+    }
+
+    fn fresh(&mut self) -> Ident {
+        self.next += 1;
+        Ident::new(&format!("{}{}", self.prefix, self.next), Span::call_site())
+    }
+
+    fn let_bind(&mut self, value: TokenStream) -> TokenStream {
+        let n = self.fresh();
+        self.stmts.push(quote!(let #n = #value;));
+        quote!(#n)
+    }
+
+    /// Write the bindings, then return the expression of every root.
+    pub fn run(&mut self, roots: &[Id]) -> Vec<TokenStream> {
+        for i in 0..self.g.len() {
+            let id = Id(i as u32);
+            if !self.bind[i] || self.names.contains_key(&id) {
+                continue;
+            }
+            match self.g.node(id) {
+                Node::Sin(a) | Node::Cos(a) => {
+                    let a = *a;
+                    let (s, c) = (self.g.lookup(&Node::Sin(a)), self.g.lookup(&Node::Cos(a)));
+                    let arg = self.expr(a, Prec::Receiver);
+                    self.ops.trig += 1;
+                    match (s, c) {
+                        (Some(s), Some(c)) if self.bind[s.index()] && self.bind[c.index()] => {
+                            let (ns, nc) = (self.fresh(), self.fresh());
+                            self.stmts.push(quote!(let (#ns, #nc) = #arg.sin_cos();));
+                            self.names.insert(s, quote!(#ns));
+                            self.names.insert(c, quote!(#nc));
+                        }
+                        _ => {
+                            let v = if matches!(self.g.node(id), Node::Sin(_)) {
+                                quote!(#arg.sin())
+                            } else {
+                                quote!(#arg.cos())
+                            };
+                            let n = self.let_bind(v);
+                            self.names.insert(id, n);
+                        }
+                    }
+                }
+                _ => {
+                    let v = self.expr(id, Prec::Top);
+                    let n = self.let_bind(v);
+                    self.names.insert(id, n);
+                }
+            }
+        }
+        roots.iter().map(|&r| self.expr(r, Prec::Top)).collect()
+    }
+
+    /// `b` as a name (binding it first if it is compound and has none).
+    fn atom(&mut self, b: Id) -> TokenStream {
+        if let Some(n) = self.names.get(&b) {
+            return n.clone();
+        }
+        let v = self.expr(b, Prec::Top);
+        let n = self.let_bind(v);
+        self.names.insert(b, n.clone());
+        n
+    }
+
+    /// `b^e` by repeated multiplication, each power bound once.
+    fn power(&mut self, b: Id, e: i32) -> TokenStream {
+        if e == 1 {
+            return self.atom(b);
+        }
+        if let Some(n) = self.powers.get(&(b, e)) {
+            return n.clone();
+        }
+        let v = if e == -1 {
+            let a = self.atom(b);
+            self.ops.divs += 1;
+            quote!(1.0 / #a)
+        } else {
+            let (x, y) = if e % 2 == 0 {
+                (self.power(b, e / 2), self.power(b, e / 2))
+            } else {
+                let unit = e.signum();
+                (self.power(b, e - unit), self.power(b, unit))
+            };
+            self.ops.muls += 1;
+            quote!(#x * #y)
+        };
+        let n = self.let_bind(v);
+        self.powers.insert((b, e), n.clone());
+        n
+    }
+
+    /// `c · f1 · f2 ⋯` for `c ≥ 0` (c omitted when 1).
+    fn product(&mut self, c: Num, factors: &[Id]) -> TokenStream {
+        let mut parts: Vec<TokenStream> = Vec::new();
+        if !c.is_one() || factors.is_empty() {
+            parts.push(literal(c.to_f64()));
+        }
+        for &f in factors {
+            let t = match self.g.node(f) {
+                Node::Pow(b, e) if !self.names.contains_key(&f) => self.power(*b, *e),
+                _ => self.expr(f, Prec::Product),
+            };
+            parts.push(t);
+        }
+        self.ops.muls += parts.len() as u64 - 1;
+        let first = &parts[0];
+        let rest = &parts[1..];
+        quote!(#first #(* #rest)*)
+    }
+
+    /// Sign and magnitude of a term: `(negative, tokens of |term|)`.
+    fn signed(&mut self, t: Id) -> (bool, TokenStream) {
+        if let Some(n) = self.names.get(&t) {
+            return (false, n.clone());
+        }
+        match self.g.node(t) {
+            Node::Const(c) => (c.is_negative(), literal(c.abs().to_f64())),
+            Node::Mul(ch) => {
+                let ch = ch.clone();
+                let (c, f) = match self.g.as_const(ch[0]) {
+                    Some(c) => (c, &ch[1..]),
+                    None => (Num::ONE, &ch[..]),
+                };
+                (c.is_negative(), self.product(c.abs(), f))
+            }
+            _ => (false, self.expr(t, Prec::Product)),
+        }
+    }
+
+    /// The expression of `id` in context `p`.
+    fn expr(&mut self, id: Id, p: Prec) -> TokenStream {
+        if let Some(n) = self.names.get(&id) {
+            return n.clone();
+        }
+        let (tokens, compound) = match self.g.node(id).clone() {
+            Node::Const(c) => {
+                let l = literal(c.abs().to_f64());
+                if c.is_negative() {
+                    (quote!(-#l), true)
+                } else {
+                    (l, false)
+                }
+            }
+            Node::Sym(_) => unreachable!("symbols are named"),
+            Node::Add(ch) => {
+                let mut terms: Vec<(bool, TokenStream)> =
+                    ch.iter().map(|&t| self.signed(t)).collect();
+                // lead with a positive term when there is one
+                if let Some(k) = terms.iter().position(|t| !t.0) {
+                    terms.swap(0, k);
+                }
+                self.ops.adds += terms.len() as u64 - 1;
+                let mut out = if terms[0].0 {
+                    let t = &terms[0].1;
+                    quote!(-#t)
+                } else {
+                    terms[0].1.clone()
+                };
+                for (neg, t) in &terms[1..] {
+                    out = if *neg {
+                        quote!(#out - #t)
+                    } else {
+                        quote!(#out + #t)
+                    };
+                }
+                (out, true)
+            }
+            Node::Mul(_) => {
+                let (neg, t) = self.signed(id);
+                (if neg { quote!(-#t) } else { t }, true)
+            }
+            Node::Pow(b, e) => (self.power(b, e), false),
+            Node::Sin(_) | Node::Cos(_) => {
+                let n = self.atom(id);
+                (n, false)
+            }
+        };
+        // products never contain products (flattened), so any compound factor or
+        // receiver is wrapped
+        if compound && p != Prec::Top {
+            quote!((#tokens))
+        } else {
+            tokens
+        }
+    }
+}
+
+/// Format Rust source with the toolchain's `rustfmt` (edition 2021); the input is
+/// returned unchanged if rustfmt is missing, fails, or takes longer than a minute.
+pub fn format(code: &str) -> String {
+    format_with_timeout(code, std::time::Duration::from_secs(60))
+}
+
+/// [`format()`] with a time limit for rustfmt.
+pub fn format_with_timeout(code: &str, limit: std::time::Duration) -> String {
+    use std::io::{Read, Write};
+    use std::process::{Command, Stdio};
+    let child = Command::new("rustfmt")
+        .args(["--edition", "2021", "--emit", "stdout", "--quiet"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn();
+    let Ok(mut child) = child else {
+        return code.to_string();
+    };
+    // read stdout on a thread, so that a full pipe never blocks rustfmt
+    let reader = child.stdout.take().map(|mut out| {
+        std::thread::spawn(move || {
+            let mut buf = Vec::new();
+            out.read_to_end(&mut buf).map(|_| buf)
+        })
+    });
+    let written = child
+        .stdin
+        .take()
+        .is_some_and(|mut stdin| stdin.write_all(code.as_bytes()).is_ok());
+    let start = std::time::Instant::now();
+    let status = loop {
+        match child.try_wait() {
+            Ok(Some(st)) => break Some(st),
+            Ok(None) if start.elapsed() < limit => {
+                std::thread::sleep(std::time::Duration::from_millis(20))
+            }
+            _ => {
+                let _ = child.kill();
+                let _ = child.wait();
+                break None;
+            }
+        }
+    };
+    let output = reader.and_then(|r| r.join().ok()).and_then(Result::ok);
+    match (written, status, output) {
+        (true, Some(st), Some(out)) if st.success() && !out.is_empty() => {
+            String::from_utf8(out).unwrap_or_else(|_| code.to_string())
+        }
+        _ => code.to_string(),
+    }
+}
