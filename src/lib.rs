@@ -23,10 +23,10 @@ pub const DEFAULT_SCENE: &str = include_str!("default_scene.toml");
 /// Name of the file `run` writes in its output directory.
 pub const FRAMES_FILE: &str = "frames.json";
 
-/// The generated fixed-N kernels, when this build has them. `None` for now: every
-/// strand uses the generic runtime-N kernels.
+/// The generated fixed-N kernels, when this build has them (`None` until issue #3 lands
+/// them: every strand then uses the generic runtime-N kernels).
 pub fn kernel_factory() -> Option<&'static dyn KernelFactory> {
-    None
+    superhelix_generated::kernel_factory()
 }
 
 /// A running simulation of `setup`, as the output driver sees it.

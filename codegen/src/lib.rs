@@ -44,6 +44,7 @@ pub mod emit;
 pub mod graph;
 pub mod helix;
 pub mod integrate;
+pub mod kernels;
 pub mod number;
 mod poly;
 
