@@ -198,11 +198,8 @@ fn mass_matrix_and_gravity_from_closed_form_moments_match_the_generic_kernel() {
                 }
             }
             let fscale = reference.force.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-            for i in 0..dofs {
-                assert!(
-                    rel(force[i], reference.force[i], fscale) <= 1e-10,
-                    "N={n} W l={wl} f[{i}]"
-                );
+            for (i, (a, b)) in force.iter().zip(&reference.force).enumerate() {
+                assert!(rel(*a, *b, fscale) <= 1e-10, "N={n} W l={wl} f[{i}]");
             }
         }
     }
