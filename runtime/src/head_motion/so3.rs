@@ -1,15 +1,12 @@
 //! Rotations from rotation vectors: `exp([φ]×)`, the right Jacobian `J_r(φ)` and its time
 //! derivative, with the coefficient functions evaluated by Taylor series near φ = 0.
 
+use crate::helix_functions::abc;
 use nalgebra::{Matrix3, Vector3};
 
-/// Below this value of x = θ² the coefficient functions use their Taylor series.
-const SERIES_BELOW: f64 = 0.0625;
-/// Terms of the Taylor series (the first omitted one is below 1e-30 at the threshold).
-const SERIES_TERMS: i32 = 10;
-
 /// The coefficient functions of the rotation formulas at θ = |φ|, written in x = θ²:
-/// `a = sinθ/θ`, `b = (1 − cosθ)/θ²`, `c = (θ − sinθ)/θ³`, and `db/dx`, `dc/dx`.
+/// `a = sinθ/θ`, `b = (1 − cosθ)/θ²`, `c = (θ − sinθ)/θ³`, and `db/dx`, `dc/dx` — the
+/// same functions as the helix element's, from [`crate::helix_functions::abc`].
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Coefficients {
     pub a: f64,
@@ -19,55 +16,16 @@ pub(super) struct Coefficients {
     pub dc_dx: f64,
 }
 
-/// `Σ_k (−x)^k / (2k + shift)!`, the series of a (shift 1), b (2) and c (3).
-fn series(x: f64, shift: i32) -> f64 {
-    let mut term = 1.0 / factorial(shift);
-    let mut sum = term;
-    for k in 1..SERIES_TERMS {
-        term *= -x / f64::from((2 * k + shift - 1) * (2 * k + shift));
-        sum += term;
-    }
-    sum
-}
-
-/// Derivative in x of [`series`]: `Σ_{k≥1} k (−1)^k x^(k−1) / (2k + shift)!`.
-fn series_dx(x: f64, shift: i32) -> f64 {
-    // term_k = (−x)^(k−1) (−1) / (2k + shift)!, multiplied by k when summed.
-    let mut term = -1.0 / factorial(2 + shift);
-    let mut sum = term;
-    for k in 2..SERIES_TERMS {
-        term *= -x / f64::from((2 * k + shift - 1) * (2 * k + shift));
-        sum += f64::from(k) * term;
-    }
-    sum
-}
-
-fn factorial(n: i32) -> f64 {
-    (1..=n).map(f64::from).product()
-}
-
 impl Coefficients {
     /// The coefficients at x = θ² ≥ 0.
     pub(super) fn at(x: f64) -> Self {
-        if x < SERIES_BELOW {
-            return Self {
-                a: series(x, 1),
-                b: series(x, 2),
-                c: series(x, 3),
-                db_dx: series_dx(x, 2),
-                dc_dx: series_dx(x, 3),
-            };
-        }
-        let theta = x.sqrt();
-        let sin = theta.sin();
-        let one_minus_cos = 2.0 * (0.5 * theta).sin().powi(2);
-        let theta_minus_sin = theta - sin;
+        let f = abc(x);
         Self {
-            a: sin / theta,
-            b: one_minus_cos / x,
-            c: theta_minus_sin / (theta * x),
-            db_dx: (theta * sin - 2.0 * one_minus_cos) / (2.0 * x * x),
-            dc_dx: (one_minus_cos * theta - 3.0 * theta_minus_sin) / (2.0 * theta * x * x),
+            a: f.a.f,
+            b: f.b.f,
+            c: f.c.f,
+            db_dx: f.b.d1,
+            dc_dx: f.c.d1,
         }
     }
 }
@@ -123,19 +81,17 @@ mod tests {
     }
 
     #[test]
-    fn series_matches_closed_form_at_the_threshold() {
-        let below = as_array(Coefficients::at(SERIES_BELOW * (1.0 - 1e-12)));
-        let above = as_array(Coefficients::at(SERIES_BELOW * (1.0 + 1e-12)));
-        let textbook = closed_form(SERIES_BELOW.sqrt());
-        for i in 0..5 {
-            assert!(
-                (below[i] - above[i]).abs() <= 1e-11 * above[i].abs(),
-                "{i}: {below:?} {above:?}"
-            );
-            assert!(
-                (below[i] - textbook[i]).abs() <= 1e-10 * textbook[i].abs(),
-                "{i}"
-            );
+    fn coefficients_match_the_textbook_forms() {
+        // away from 0, where the textbook forms lose at most a few digits
+        for theta in [0.25, 1.0, 3.0, 4.5] {
+            let ours = as_array(Coefficients::at(theta * theta));
+            let textbook = closed_form(theta);
+            for i in 0..5 {
+                assert!(
+                    (ours[i] - textbook[i]).abs() <= 1e-10 * textbook[i].abs(),
+                    "{i} at {theta}"
+                );
+            }
         }
     }
 
