@@ -10,6 +10,7 @@
 //! checked against; [`assemble_mass_and_gravity`] is the assembly both feed.
 
 use crate::element::{element_jets, local_pose};
+use crate::kernel::BodyField;
 use crate::quadrature::gauss_legendre;
 use crate::reconstruction::Pose;
 use nalgebra::{Matrix3, Vector3};
@@ -33,6 +34,18 @@ pub struct ElementMoments {
     pub rot_w: [Vector3<f64>; 3],
     /// `rot_ww[i][j]` = ∫ w_iᵀ E D Eᵀ w_j du.
     pub rot_ww: Matrix3<f64>,
+    /// `pdp[i]` = ∫ p (∂p/∂d_i)ᵀ du, full 3×3: entry (a, b) = ∫ p_a ∂p_b/∂d_i du
+    /// (`cross[i]` is its antisymmetric part). Force only.
+    pub pdp: [Matrix3<f64>; 3],
+    /// `d2first[i][j]` = ∫ ∂²p/∂d_i∂d_j du (symmetric in i, j). Force only.
+    pub d2first: [[Vector3<f64>; 3]; 3],
+    /// `cross2[i][j]` = ∫ p × ∂²p/∂d_i∂d_j du (symmetric in i, j). Force only.
+    pub cross2: [[Vector3<f64>; 3]; 3],
+    /// `dpdp[i][j]` = ∫ ∂p/∂d_i (∂p/∂d_j)ᵀ du, full 3×3 (`gram` holds its traces).
+    /// Force only.
+    pub dpdp: [[Matrix3<f64>; 3]; 3],
+    /// `dpd2p[i][j][k]` = ∫ ∂p/∂d_i · ∂²p/∂d_j∂d_k du (symmetric in j, k). Force only.
+    pub dpd2p: [[[f64; 3]; 3]; 3],
 }
 
 impl ElementMoments {
@@ -47,6 +60,8 @@ impl ElementMoments {
             let jets = element_jets(d, u, true);
             let p = jets.p_value();
             let dp = [jets.dp(0), jets.dp(1), jets.dp(2)];
+            let d2p: [[Vector3<f64>; 3]; 3] =
+                std::array::from_fn(|i| std::array::from_fn(|j| jets.d2p(i, j)));
             let (e, _) = local_pose(d, u);
             let inertia = e * dmat * e.transpose();
             let wv = [jets.w_value(0), jets.w_value(1), jets.w_value(2)];
@@ -57,9 +72,16 @@ impl ElementMoments {
                 m.dfirst[i] += dp[i] * w;
                 m.cross[i] += p.cross(&dp[i]) * w;
                 m.rot_w[i] += inertia * wv[i] * w;
+                m.pdp[i] += p * dp[i].transpose() * w;
                 for j in 0..3 {
                     m.gram[(i, j)] += dp[i].dot(&dp[j]) * w;
                     m.rot_ww[(i, j)] += wv[i].dot(&(inertia * wv[j])) * w;
+                    m.d2first[i][j] += d2p[i][j] * w;
+                    m.cross2[i][j] += p.cross(&d2p[i][j]) * w;
+                    m.dpdp[i][j] += dp[i] * dp[j].transpose() * w;
+                    for k in 0..3 {
+                        m.dpd2p[i][j][k] += dp[i].dot(&d2p[j][k]) * w;
+                    }
                 }
             }
         }
@@ -68,13 +90,18 @@ impl ElementMoments {
 }
 
 /// Derivatives at the end of element Q, head coordinates: `dp[i]` = F_Q ∂p(l)/∂d_i,
-/// `dtheta[i]` = F_Q w_i(l).
+/// `dtheta[i]` = F_Q w_i(l), and the second derivatives the velocity recursions of
+/// [`assemble_force`] need.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EndDerivatives {
     /// Derivative of the end position.
     pub dp: [Vector3<f64>; 3],
     /// Angular derivative of the end frame.
     pub dtheta: [Vector3<f64>; 3],
+    /// `d2p[i][j]` = F_Q ∂²p(l)/∂d_i∂d_j.
+    pub d2p: [[Vector3<f64>; 3]; 3],
+    /// `dw[i][j]` = F_Q ∂w_i(l)/∂d_j.
+    pub dw: [[Vector3<f64>; 3]; 3],
 }
 
 /// Mass, first moment and second moment (∫ y yᵀ) of a set of elements about the origin,
@@ -197,5 +224,148 @@ pub fn end_derivatives(frame: &Matrix3<f64>, d: &Vector3<f64>, l: f64) -> EndDer
             frame * jets.w_value(1),
             frame * jets.w_value(2),
         ],
+        d2p: std::array::from_fn(|i| std::array::from_fn(|j| frame * jets.d2p(i, j))),
+        dw: std::array::from_fn(|i| std::array::from_fn(|j| frame * jets.dw(i, j))),
+    }
+}
+
+/// Force and torque (about the origin) that the force per length exerts on one element.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Wrench {
+    /// Resultant ∫ f du.
+    pub force: Vector3<f64>,
+    /// Moment about the origin ∫ y × f du.
+    pub torque: Vector3<f64>,
+}
+
+/// `∫ x × (A z)` from `n` = ∫ x zᵀ.
+fn cross_moment(a: &Matrix3<f64>, n: &Matrix3<f64>) -> Vector3<f64> {
+    // k(b, c) = ∫ x_b (A z)_c
+    let k = n * a.transpose();
+    Vector3::new(
+        k[(1, 2)] - k[(2, 1)],
+        k[(2, 0)] - k[(0, 2)],
+        k[(0, 1)] - k[(1, 0)],
+    )
+}
+
+/// The generalized force `force` = ∫ Jᵀ(c0 + C1 y + C2 ẏ) ds − b(q, q̇) of the
+/// centreline (rotary inertia not included) in O(N), from element ends, end derivatives
+/// and element moments (docs/moment-assembly.md, "Generalized force").
+///
+/// A forward pass carries the angular velocity Ω, angular acceleration Ω̇ (at q̈ = 0),
+/// velocity ṙ and acceleration r̈ of each element's start frame; on element P the force
+/// per length, inertial term −ρS ÿ included, is affine in p, π = Σ ∂_i p q̇_i and
+/// π̇ = Σ ∂²_ij p q̇_i q̇_j, so its own columns and its wrench are moment contractions.
+/// A backward pass adds the wrenches summed from the tip to the upstream columns.
+/// `wrenches` is scratch of length N.
+#[allow(clippy::too_many_arguments)]
+pub fn assemble_force(
+    wrenches: &mut [Wrench],
+    rho_s: f64,
+    lengths: &[f64],
+    ends: &[Pose],
+    end_derivs: &[EndDerivatives],
+    moments: &[ElementMoments],
+    velocities: &[f64],
+    field: &BodyField,
+    force: &mut [f64],
+) {
+    let n = lengths.len();
+    let (c0, c1, c2) = (&field.uniform, &field.linear, &field.velocity);
+    // state of the start frame of element P (the root is fixed in head coordinates)
+    let mut omega = Vector3::zeros();
+    let mut alpha = Vector3::zeros();
+    let mut vel = Vector3::zeros();
+    let mut acc = Vector3::zeros();
+    for p in 0..n {
+        let f = ends[p].frame;
+        let r = ends[p].position;
+        let span = ends[p + 1].position - r;
+        let m = &moments[p];
+        let e = &end_derivs[p];
+        let qd = [
+            velocities[3 * p],
+            velocities[3 * p + 1],
+            velocities[3 * p + 2],
+        ];
+        // f(u) = g0 + G1 F p + H2 F π − ρS F π̇, in the element frame: a0 + A p + B π − ρS π̇
+        let wx = omega.cross_matrix();
+        let g0 = c0 + c1 * r + c2 * vel - acc * rho_s;
+        let g1 = c1 + c2 * wx - (alpha.cross_matrix() + wx * wx) * rho_s;
+        let h2 = c2 - wx * (2.0 * rho_s);
+        let a0 = f.transpose() * g0;
+        let a = f.transpose() * g1 * f;
+        let b = f.transpose() * h2 * f;
+        // moments contracted with q̇ of this element
+        let mut pi1 = Vector3::zeros(); // ∫ π
+        let mut n_pi = Matrix3::zeros(); // ∫ p πᵀ
+        let mut pi2 = Vector3::zeros(); // ∫ π̇
+        let mut c_pi2 = Vector3::zeros(); // ∫ p × π̇
+        for j in 0..3 {
+            pi1 += m.dfirst[j] * qd[j];
+            n_pi += m.pdp[j] * qd[j];
+            for k in 0..3 {
+                let qq = qd[j] * qd[k];
+                pi2 += m.d2first[j][k] * qq;
+                c_pi2 += m.cross2[j][k] * qq;
+            }
+        }
+        // own columns: ∫ ∂_i p · Fᵀf
+        for i in 0..3 {
+            let mut g_pi = Matrix3::zeros(); // ∫ ∂_i p πᵀ
+            let mut t = 0.0; // ∫ ∂_i p · π̇
+            for j in 0..3 {
+                g_pi += m.dpdp[i][j] * qd[j];
+                for k in 0..3 {
+                    t += m.dpd2p[i][j][k] * qd[j] * qd[k];
+                }
+            }
+            force[3 * p + i] =
+                m.dfirst[i].dot(&a0) + (a * m.pdp[i]).trace() + b.dot(&g_pi) - rho_s * t;
+        }
+        // wrench of element P about the origin
+        let res = a0 * lengths[p] + a * m.first + b * pi1 - pi2 * rho_s;
+        let mom = m.first.cross(&a0) + cross_moment(&a, &m.second) + cross_moment(&b, &n_pi)
+            - c_pi2 * rho_s;
+        let res = f * res;
+        wrenches[p] = Wrench {
+            force: res,
+            torque: r.cross(&res) + f * mom,
+        };
+        // recursion to the start of element P + 1
+        let mut w_hat = Vector3::zeros(); // F Σ w_i(l) q̇_i
+        let mut w_dot = Vector3::zeros(); // F Σ ∂_j w_i(l) q̇_i q̇_j
+        let mut pi_l = Vector3::zeros(); // F π(l)
+        let mut pidot_l = Vector3::zeros(); // F π̇(l)
+        for i in 0..3 {
+            w_hat += e.dtheta[i] * qd[i];
+            pi_l += e.dp[i] * qd[i];
+            for j in 0..3 {
+                let qq = qd[i] * qd[j];
+                w_dot += e.dw[i][j] * qq;
+                pidot_l += e.d2p[i][j] * qq;
+            }
+        }
+        acc += alpha.cross(&span)
+            + omega.cross(&omega.cross(&span))
+            + omega.cross(&pi_l) * 2.0
+            + pidot_l;
+        vel += omega.cross(&span) + pi_l;
+        alpha += omega.cross(&w_hat) + w_dot;
+        omega += w_hat;
+    }
+    // upstream columns: v_k · ΣR + ω_k · Στ over the elements beyond
+    let mut beyond = Wrench::default();
+    for q in (0..n).rev() {
+        let e = &end_derivs[q];
+        let r_end = ends[q + 1].position;
+        for i in 0..3 {
+            let w = e.dtheta[i];
+            let v = e.dp[i] - w.cross(&r_end);
+            force[3 * q + i] += v.dot(&beyond.force) + w.dot(&beyond.torque);
+        }
+        beyond.force += wrenches[q].force;
+        beyond.torque += wrenches[q].torque;
     }
 }
