@@ -21,9 +21,12 @@ use superhelix_runtime::{KernelFactory, Matrix3, Vector3};
 /// Index of entry (r, c) in the packed upper triangle (00, 01, 02, 11, 12, 22).
 const SYM: [[usize; 3]; 3] = [[0, 1, 2], [1, 3, 4], [2, 4, 5]];
 
-/// The element moments of `superhelix_runtime::moments` in closed form, for Darboux
-/// vector `d`, length `l` and rotary inertia `rotary` = diag D.
-pub fn moments(d: &Vector3<f64>, l: f64, rotary: &[f64; 3]) -> ElementMoments {
+/// The element moments that M and the first-moment Jacobian need
+/// (`superhelix_runtime::moments::assemble_mass_and_gravity`), in closed form, for Darboux
+/// vector `d`, length `l` and rotary inertia `rotary` = diag D. The force-only fields
+/// (`d2first`, `cross2`, `dpdp`, `dpd2p`) are left at zero: their closed forms are not
+/// generated yet, so `assemble_force` must not be fed from here.
+pub fn mass_moments(d: &Vector3<f64>, l: f64, rotary: &[f64; 3]) -> ElementMoments {
     let mut o = [0.0; 114];
     element_moments::element_moments(&[d[0], d[1], d[2]], l, &mut o);
     let sym3 = |base: usize| Matrix3::from_fn(|r, c| o[base + SYM[r][c]]);
@@ -42,6 +45,7 @@ pub fn moments(d: &Vector3<f64>, l: f64, rotary: &[f64; 3]) -> ElementMoments {
             pdp(2, 0) - pdp(0, 2),
             pdp(0, 1) - pdp(1, 0),
         );
+        m.pdp[i] = Matrix3::from_fn(pdp);
     }
     for (a, &da) in rotary.iter().enumerate() {
         let base = 51 + 21 * a;

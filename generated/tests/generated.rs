@@ -22,6 +22,9 @@ fn flatten(m: &ElementMoments) -> Vec<f64> {
         v.extend(m.cross[i].iter());
         v.extend(m.rot_w[i].iter());
     }
+    for i in 0..3 {
+        v.extend(m.pdp[i].iter());
+    }
     v.extend(m.rot.iter());
     v.extend(m.rot_ww.iter());
     v
@@ -53,7 +56,7 @@ fn closed_form_moments_match_high_order_quadrature() {
                 } else {
                     dir
                 };
-                let closed = superhelix_generated::moments(&d, l, &rotary);
+                let closed = superhelix_generated::mass_moments(&d, l, &rotary);
                 let points = 60 + (2.0 * wl) as usize;
                 let reference = ElementMoments::by_quadrature(&d, l, &rotary, points);
                 let (a, b) = (flatten(&closed), flatten(&reference));
@@ -169,7 +172,11 @@ fn mass_matrix_and_gravity_from_closed_form_moments_match_the_generic_kernel() {
                 .collect();
             let moments: Vec<_> = (0..n)
                 .map(|k| {
-                    superhelix_generated::moments(&darboux(&q, k), lengths[k], &g.rotary_inertia)
+                    superhelix_generated::mass_moments(
+                        &darboux(&q, k),
+                        lengths[k],
+                        &g.rotary_inertia,
+                    )
                 })
                 .collect();
             let (mut mass, mut force, mut first) =
