@@ -177,29 +177,13 @@ fn m_related_values(d: [f64; 3], u: f64) -> Vec<f64> {
 
 // ---------------------------------------------------------------- quadrature
 
-/// Gauss–Legendre nodes and weights on [−1, 1] (Newton on P_n, Golub-free).
+/// Gauss–Legendre nodes and weights on [−1, 1]: the runtime's rule (tested there).
 fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    (0..n)
-        .map(|i| {
-            let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-            let mut dp = 0.0;
-            for _ in 0..100 {
-                let (mut p0, mut p1) = (1.0, x);
-                for k in 2..=n {
-                    let kf = k as f64;
-                    let p2 = ((2.0 * kf - 1.0) * x * p1 - (kf - 1.0) * p0) / kf;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-                let dx = p1 / dp;
-                x -= dx;
-                if dx.abs() < 1e-16 {
-                    break;
-                }
-            }
-            (x, 2.0 / ((1.0 - x * x) * dp * dp))
-        })
+    let r = superhelix_runtime::quadrature::gauss_legendre(n);
+    r.nodes
+        .iter()
+        .copied()
+        .zip(r.weights.iter().copied())
         .collect()
 }
 

@@ -23,10 +23,6 @@ fn compute(n: usize) -> GaussLegendre {
         let mut dp = 1.0;
         for _ in 0..100 {
             let (mut p0, mut p1) = (1.0, x);
-            if n == 1 {
-                p1 = x;
-                p0 = 1.0;
-            }
             for k in 2..=n {
                 let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
                 p0 = p1;
