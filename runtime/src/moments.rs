@@ -41,6 +41,9 @@ pub struct ElementMoments {
     pub d2first: [[Vector3<f64>; 3]; 3],
     /// `cross2[i][j]` = ∫ p × ∂²p/∂d_i∂d_j du (symmetric in i, j). Force only.
     pub cross2: [[Vector3<f64>; 3]; 3],
+    /// `pd2p[i][j]` = ∫ p (∂²p/∂d_i∂d_j)ᵀ du, full 3×3 (`cross2` is its antisymmetric
+    /// part; symmetric in i, j). Stiffness of a linear field only.
+    pub pd2p: [[Matrix3<f64>; 3]; 3],
     /// `dpdp[i][j]` = ∫ ∂p/∂d_i (∂p/∂d_j)ᵀ du, full 3×3 (`gram` holds its traces).
     /// Force only.
     pub dpdp: [[Matrix3<f64>; 3]; 3],
@@ -78,6 +81,7 @@ impl ElementMoments {
                     m.rot_ww[(i, j)] += wv[i].dot(&(inertia * wv[j])) * w;
                     m.d2first[i][j] += d2p[i][j] * w;
                     m.cross2[i][j] += p.cross(&d2p[i][j]) * w;
+                    m.pd2p[i][j] += p * d2p[i][j].transpose() * w;
                     m.dpdp[i][j] += dp[i] * dp[j].transpose() * w;
                     for k in 0..3 {
                         m.dpd2p[i][j][k] += dp[i].dot(&d2p[j][k]) * w;
