@@ -8,6 +8,7 @@
 //! (`superhelix-generated`) or, as a reference, [`QuadratureMoments`]. Buffers are sized
 //! once at construction; `evaluate` allocates nothing.
 
+use crate::element::ElementPoint;
 use crate::kernel::{EvalInput, StrandKernel, StrandTerms};
 use crate::kernel_generic::{GenericKernel, QuadratureRule};
 use crate::moment_jacobians::{
@@ -16,7 +17,7 @@ use crate::moment_jacobians::{
 };
 use crate::moment_rotary::{add_rotary_terms, rotary_element, rotary_points, RotaryElement};
 use crate::moments::{
-    assemble_force, assemble_mass_and_gravity, end_derivatives, Body, ElementMoments,
+    assemble_force, assemble_mass_and_gravity, end_derivatives_from, Body, ElementMoments,
     EndDerivatives, Wrench,
 };
 use crate::reconstruction::{darboux, element_ends, Pose};
@@ -29,6 +30,10 @@ pub trait MomentSource: Send {
     /// Fill every field of `out` for Darboux vector `d`, length `l`, rotary inertia
     /// `rotary` (= diag D).
     fn moments(&self, d: &Vector3<f64>, l: f64, rotary: &[f64; 3], out: &mut ElementMoments);
+    /// E(u), p(u), w_i(u) and their d-derivatives (see [`ElementPoint`]).
+    fn point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
+        *out = ElementPoint::by_jets(d, u);
+    }
     /// Short description (`closed form`, `quadrature`).
     fn describe(&self) -> String;
     /// True for generated closed forms.
@@ -106,7 +111,9 @@ impl<S: MomentSource> MomentKernel<S> {
         for (p, &l) in self.geom.lengths.iter().enumerate() {
             let d = darboux(q, p);
             self.darboux[p] = d;
-            self.end_derivs[p] = end_derivatives(&self.ends[p].frame, &d, l);
+            let mut point = ElementPoint::default();
+            self.source.point(&d, l, &mut point);
+            self.end_derivs[p] = end_derivatives_from(&self.ends[p].frame, &point);
             self.source.moments(&d, l, &rotary, &mut self.moments[p]);
         }
     }
@@ -182,8 +189,9 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
             for p in 0..lengths.len() {
                 let d = self.darboux[p];
                 let l = lengths[p];
+                let source = &self.source;
                 self.rotary[p] = rotary_element(
-                    &d,
+                    &|u: f64, out: &mut ElementPoint| source.point(&d, u, out),
                     l,
                     &self.geom.rotary_inertia,
                     &self.moments[p],

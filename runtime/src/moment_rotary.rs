@@ -11,7 +11,7 @@
 //! element's frequencies keeps them far below the kernels' 1e-10 agreement); M's rotary
 //! part uses the closed-form moments `rot`, `rot_w`, `rot_ww`.
 
-use crate::element::{element_jets, local_pose};
+use crate::element::ElementPoint;
 use crate::moment_jacobians::FrameMotion;
 use crate::moments::{ElementMoments, EndDerivatives};
 use crate::quadrature::gauss_legendre;
@@ -48,12 +48,13 @@ pub struct RotaryElement {
     pub rot_w: [V3; 3],
 }
 
-/// The rotary integrals of one element with Darboux vector `d`, length `l`, start pose
+/// The rotary integrals of one element of length `l`, start pose
 /// `pose`, start-frame motion `motion` and own velocities `qd`, by `points`-point
-/// quadrature; the Jacobian parts only when `jacobian`.
+/// quadrature, the element's local functions from `eval(u, out)`; the Jacobian parts
+/// only when `jacobian`.
 #[allow(clippy::too_many_arguments)]
 pub fn rotary_element(
-    d: &V3,
+    eval: &dyn Fn(f64, &mut ElementPoint),
     l: f64,
     rotary: &[f64; 3],
     moments: &ElementMoments,
@@ -76,11 +77,12 @@ pub fn rotary_element(
     for (x, wgl) in rule.nodes.iter().zip(&rule.weights) {
         let u = 0.5 * l * (x + 1.0);
         let wt = 0.5 * l * wgl;
-        let jets = element_jets(d, u, true);
-        let (e, _) = local_pose(d, u);
+        let mut point = ElementPoint::default();
+        eval(u, &mut point);
+        let e = point.frame;
         let inertia = e * dmat * e.transpose();
-        let w = [jets.w_value(0), jets.w_value(1), jets.w_value(2)];
-        let dw: [[V3; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| jets.dw(i, j)));
+        let w = point.w;
+        let dw = point.dw;
         let w_hat = w[0] * qd[0] + w[1] * qd[1] + w[2] * qd[2];
         let omega_s = om + w_hat;
         let mut alpha = al + om.cross(&w_hat);
