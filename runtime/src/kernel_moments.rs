@@ -10,7 +10,6 @@
 
 use crate::element::ElementPoint;
 use crate::kernel::{EvalInput, StrandKernel, StrandTerms};
-use crate::kernel_generic::{GenericKernel, QuadratureRule};
 use crate::moment_jacobians::{
     add_field_hessian, add_velocity_jacobian, add_weighted_gram, frame_motions, suffix_bodies,
     FrameMotion, SuffixBody,
@@ -20,10 +19,10 @@ use crate::moments::{
     assemble_force, assemble_mass_and_gravity, end_derivatives_from, Body, ElementMoments,
     EndDerivatives, Wrench,
 };
-use crate::reconstruction::{darboux, element_ends, Pose};
+use crate::reconstruction::{darboux, Pose};
 use crate::strand::StrandGeometry;
 use faer::Mat;
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 /// Where a moment kernel gets its per-element integrals.
 pub trait MomentSource: Send {
@@ -76,11 +75,10 @@ pub struct MomentKernel<S: MomentSource> {
     mass_bodies: Vec<Body>,
     wrenches: Vec<Wrench>,
     rotary: Vec<RotaryElement>,
+    beyond: Vec<(Matrix3<f64>, Matrix3<f64>)>,
     /// Column-major 3N × 3N scratch.
     matrix: Vec<f64>,
     vector: Vec<f64>,
-    /// For `point` (closed-form reconstruction, no quadrature involved).
-    points: GenericKernel,
 }
 
 impl<S: MomentSource> MomentKernel<S> {
@@ -98,22 +96,32 @@ impl<S: MomentSource> MomentKernel<S> {
             mass_bodies: vec![Body::default(); n + 1],
             wrenches: vec![Wrench::default(); n],
             rotary: vec![RotaryElement::default(); n],
+            beyond: vec![(Matrix3::zeros(), Matrix3::zeros()); n],
             matrix: vec![0.0; 9 * n * n],
             vector: vec![0.0; 3 * n],
-            points: GenericKernel::new(geom.clone(), QuadratureRule::Adaptive),
             geom,
         }
     }
 
+    /// Element ends, end derivatives and moments for q, all from the source (the
+    /// reconstruction of the generated kernels is the generated element point).
     fn prepare(&mut self, q: &[f64]) {
-        element_ends(&self.geom, q, &mut self.ends);
+        self.ends[0] = Pose {
+            position: self.geom.root_position,
+            frame: self.geom.root_frame,
+        };
         let rotary = self.geom.rotary_inertia;
+        let mut point = ElementPoint::default();
         for (p, &l) in self.geom.lengths.iter().enumerate() {
             let d = darboux(q, p);
             self.darboux[p] = d;
-            let mut point = ElementPoint::default();
             self.source.point(&d, l, &mut point);
-            self.end_derivs[p] = end_derivatives_from(&self.ends[p].frame, &point);
+            let start = self.ends[p];
+            self.ends[p + 1] = Pose {
+                position: start.position + start.frame * point.p,
+                frame: start.frame * point.frame,
+            };
+            self.end_derivs[p] = end_derivatives_from(&start.frame, &point);
             self.source.moments(&d, l, &rotary, &mut self.moments[p]);
         }
     }
@@ -229,6 +237,7 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
                     v,
                     Some(&mut out.velocity_term),
                     None,
+                    &mut self.beyond,
                 );
             }
             assemble_force(
@@ -303,9 +312,26 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
                     v,
                     None,
                     Some(&mut self.matrix),
+                    &mut self.beyond,
                 );
             }
             self.store(&mut out.velocity_term_jacobian);
+        }
+    }
+
+    fn element_ends(&mut self, q: &[f64], ends: &mut [Pose]) {
+        ends[0] = Pose {
+            position: self.geom.root_position,
+            frame: self.geom.root_frame,
+        };
+        let mut point = ElementPoint::default();
+        for (p, &l) in self.geom.lengths.iter().enumerate() {
+            self.source.point(&darboux(q, p), l, &mut point);
+            let start = ends[p];
+            ends[p + 1] = Pose {
+                position: start.position + start.frame * point.p,
+                frame: start.frame * point.frame,
+            };
         }
     }
 
@@ -316,6 +342,69 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
         jac: &mut [Vector3<f64>],
         hessian: Option<(Vector3<f64>, &mut Mat<f64>)>,
     ) -> Vector3<f64> {
-        self.points.point(q, s, jac, hessian)
+        let (e, u) = self.geom.locate(s);
+        // ends and end derivatives of the elements up to e
+        self.ends[0] = Pose {
+            position: self.geom.root_position,
+            frame: self.geom.root_frame,
+        };
+        let mut pt = ElementPoint::default();
+        for p in 0..e {
+            let d = darboux(q, p);
+            self.source.point(&d, self.geom.lengths[p], &mut pt);
+            let start = self.ends[p];
+            self.ends[p + 1] = Pose {
+                position: start.position + start.frame * pt.p,
+                frame: start.frame * pt.frame,
+            };
+            self.end_derivs[p] = end_derivatives_from(&start.frame, &pt);
+        }
+        self.source.point(&darboux(q, e), u, &mut pt);
+        let f = self.ends[e].frame;
+        let y = self.ends[e].position + f * pt.p;
+        for col in jac.iter_mut() {
+            *col = Vector3::zeros();
+        }
+        for qe in 0..e {
+            let ed = &self.end_derivs[qe];
+            let rho = y - self.ends[qe + 1].position;
+            for i in 0..3 {
+                jac[3 * qe + i] = ed.dp[i] + ed.dtheta[i].cross(&rho);
+            }
+        }
+        for i in 0..3 {
+            jac[3 * e + i] = f * pt.dp[i];
+        }
+        if let Some((c, h)) = hessian {
+            // k upstream of l (different elements): c·(dθ_k × J_l)
+            for l in 3..3 * (e + 1) {
+                for k in 0..3 * (l / 3) {
+                    let val = c.cross(&self.end_derivs[k / 3].dtheta[k % 3]).dot(&jac[l]);
+                    h[(k, l)] += val;
+                    h[(l, k)] += val;
+                }
+            }
+            // pairs within an element upstream of e
+            for qe in 0..e {
+                let ed = &self.end_derivs[qe];
+                let rho = y - self.ends[qe + 1].position;
+                for i in 0..3 {
+                    for j in 0..3 {
+                        let d2 = ed.d2p[i][j]
+                            + ed.dw[i][j].cross(&rho)
+                            + ed.dtheta[i].cross(&ed.dtheta[j].cross(&rho));
+                        h[(3 * qe + i, 3 * qe + j)] += c.dot(&d2);
+                    }
+                }
+            }
+            // pairs within element e
+            let cf = f.transpose() * c;
+            for i in 0..3 {
+                for j in 0..3 {
+                    h[(3 * e + i, 3 * e + j)] += cf.dot(&pt.d2p[i][j]);
+                }
+            }
+        }
+        y
     }
 }

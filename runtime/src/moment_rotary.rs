@@ -129,7 +129,8 @@ pub fn rotary_element(
 }
 
 /// Adds the rotary-inertia part of b to `b` when given, and of ∂b/∂q̇ to `jac` (column-major 3N × 3N) when given. `elements` from
-/// [`rotary_element`]; `motions` from `moment_jacobians::frame_motions`.
+/// [`rotary_element`]; `motions` from `moment_jacobians::frame_motions`;
+/// `beyond_scratch` of length N.
 pub fn add_rotary_terms(
     end_derivs: &[EndDerivatives],
     elements: &[RotaryElement],
@@ -137,6 +138,7 @@ pub fn add_rotary_terms(
     velocities: &[f64],
     b: Option<&mut [f64]>,
     jac: Option<&mut [f64]>,
+    beyond_scratch: &mut [(M3, M3)],
 ) {
     let n = end_derivs.len();
     let dofs = 3 * n;
@@ -151,11 +153,13 @@ pub fn add_rotary_terms(
         }
     }
     let Some(jac) = jac else { return };
-    // suffix sums beyond element X: rot and Λ
-    let mut rot_beyond = vec_sum_rev(elements, |e| e.rot);
-    let mut lam_beyond = vec_sum_rev(elements, |e| e.lambda);
-    rot_beyond.remove(0);
-    lam_beyond.remove(0);
+    // suffix sums beyond element X of ∫ I and ∫ Λ: `beyond[X]` = Σ_{P > X}
+    let beyond = beyond_scratch;
+    beyond[n - 1] = (M3::zeros(), M3::zeros());
+    for p in (0..n - 1).rev() {
+        let e = &elements[p + 1];
+        beyond[p] = (beyond[p + 1].0 + e.rot, beyond[p + 1].1 + e.lambda);
+    }
     for q2 in 0..n {
         let e2 = &end_derivs[q2];
         let qd2 = &velocities[3 * q2..3 * q2 + 3];
@@ -169,7 +173,7 @@ pub fn add_rotary_terms(
                 e_m += (e2.dw[j][i] + e2.dw[i][j]) * qd2[i];
             }
             // rows in elements ≤ q2, elements beyond q2
-            let g = rot_beyond[q2] * e_m + lam_beyond[q2] * t;
+            let g = beyond[q2].0 * e_m + beyond[q2].1 * t;
             for q in 0..=q2 {
                 for i in 0..3 {
                     jac[col * dofs + 3 * q + i] += end_derivs[q].dtheta[i].dot(&g);
@@ -187,7 +191,7 @@ pub fn add_rotary_terms(
             // rows downstream: own part on their element, then beyond
             for q in q2 + 1..n {
                 let el = &elements[q];
-                let g = rot_beyond[q] * e_m + lam_beyond[q] * t;
+                let g = beyond[q].0 * e_m + beyond[q].1 * t;
                 for i in 0..3 {
                     jac[col * dofs + 3 * q + i] += e_m.dot(&el.rot_w[i])
                         + t.dot(&el.lambda_w[i])
@@ -198,13 +202,3 @@ pub fn add_rotary_terms(
     }
 }
 
-/// Suffix sums: `out[P]` = Σ_{P' ≥ P} f(element P'), P = 0..=N (allocates; TODO
-/// workspace).
-fn vec_sum_rev(elements: &[RotaryElement], f: impl Fn(&RotaryElement) -> M3) -> Vec<M3> {
-    let n = elements.len();
-    let mut out = vec![M3::zeros(); n + 1];
-    for p in (0..n).rev() {
-        out[p] = out[p + 1] + f(&elements[p]);
-    }
-    out
-}
