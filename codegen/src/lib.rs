@@ -48,7 +48,7 @@ pub mod kernels;
 pub mod number;
 mod poly;
 
-pub use branch::{SwitchChoice, SwitchOptions};
+pub use branch::{Measure, ScanRow, SwitchChoice, SwitchOptions};
 pub use cse::OpCounts;
 pub use emit::format;
 pub use graph::{Evaluator, Graph, Id, Node};
@@ -133,6 +133,8 @@ pub struct GeneratedCode {
     /// Largest relative difference of the emitted branches at `x*`, over all sampled
     /// directions (see [`branch`] for "relative").
     pub agreement: f64,
+    /// [`GeneratedCode::agreement`] under the per-output measure.
+    pub agreement_per_output: f64,
     /// Estimated largest relative truncation error of the Taylor branch at `x*`.
     pub truncation: f64,
     /// Closed-form DAG of every output.
@@ -146,6 +148,70 @@ fn is_ident(s: &str) -> bool {
     matches!(c.next(), Some(f) if f.is_ascii_alphabetic() || f == '_')
         && c.all(|x| x.is_ascii_alphanumeric() || x == '_')
         && s != "_"
+}
+
+/// Integrands expanded and integrated in closed form, with the Taylor branches built on
+/// demand (cached per order).
+struct Prepared {
+    it: integrate::Integrator,
+    expanded: Vec<poly::TPoly>,
+    closed: Vec<Id>,
+    cache: std::collections::HashMap<u32, Vec<Id>>,
+}
+
+impl Prepared {
+    fn new(
+        g: &mut Graph,
+        h: &HelixSymbols,
+        integrands: &[(String, Id)],
+        opts: &GenerateOptions,
+    ) -> Result<Prepared, CodegenError> {
+        let mut it = integrate::Integrator::new(*h, opts.multiple_angles);
+        let mut expanded = Vec::with_capacity(integrands.len());
+        let mut closed = Vec::with_capacity(integrands.len());
+        for (_, e) in integrands {
+            let p = it.expand(g, *e)?;
+            let c = it.closed(&p)?;
+            closed.push(it.build_dag(g, &c));
+            expanded.push(p);
+        }
+        Ok(Prepared {
+            it,
+            expanded,
+            closed,
+            cache: Default::default(),
+        })
+    }
+
+    fn series(&mut self, g: &mut Graph, order: u32) -> Result<Vec<Id>, CodegenError> {
+        if let Some(v) = self.cache.get(&order) {
+            return Ok(v.clone());
+        }
+        let mut v = Vec::with_capacity(self.expanded.len());
+        for p in &self.expanded {
+            let s = self.it.series(p, order)?;
+            v.push(self.it.build_dag(g, &s));
+        }
+        self.cache.insert(order, v.clone());
+        Ok(v)
+    }
+}
+
+/// Diagnostics of the switch selection: for every candidate of `opts.switch` (no early
+/// exit), the Taylor order the truncation target needs there and the agreement of the
+/// branches under `opts.switch.measure`, with the worst output.
+pub fn switch_scan(
+    g: &mut Graph,
+    h: &HelixSymbols,
+    integrands: &[(String, Id)],
+    opts: &GenerateOptions,
+) -> Result<Vec<branch::ScanRow>, CodegenError> {
+    let names: Vec<&str> = integrands.iter().map(|(n, _)| n.as_str()).collect();
+    let groups = opts.switch.measure.groups(&names);
+    let mut prep = Prepared::new(g, h, integrands, opts)?;
+    let closed = prep.closed.clone();
+    let mut series_at = |g: &mut Graph, order: u32| prep.series(g, order);
+    branch::scan(g, h, &closed, &mut series_at, &groups, &opts.switch)
 }
 
 /// Integrate every named integrand over the element and emit one Rust function that
@@ -166,29 +232,12 @@ pub fn generate_function(
             return Err(CodegenError::BadName(n.clone()));
         }
     }
-    let mut it = integrate::Integrator::new(*h, opts.multiple_angles);
-    let mut expanded = Vec::with_capacity(integrands.len());
-    let mut closed = Vec::with_capacity(integrands.len());
-    for (_, e) in integrands {
-        let p = it.expand(g, *e)?;
-        let c = it.closed(&p)?;
-        closed.push(it.build_dag(g, &c));
-        expanded.push(p);
-    }
-    let mut cache: std::collections::HashMap<u32, Vec<Id>> = std::collections::HashMap::new();
-    let mut series_at = |g: &mut Graph, order: u32| -> Result<Vec<Id>, CodegenError> {
-        if let Some(v) = cache.get(&order) {
-            return Ok(v.clone());
-        }
-        let mut v = Vec::with_capacity(expanded.len());
-        for p in &expanded {
-            let s = it.series(p, order)?;
-            v.push(it.build_dag(g, &s));
-        }
-        cache.insert(order, v.clone());
-        Ok(v)
-    };
-    let choice = branch::choose(g, h, &closed, &mut series_at, &opts.switch)?;
+    let names: Vec<&str> = integrands.iter().map(|(n, _)| n.as_str()).collect();
+    let groups = opts.switch.measure.groups(&names);
+    let mut prep = Prepared::new(g, h, integrands, opts)?;
+    let closed = prep.closed.clone();
+    let mut series_at = |g: &mut Graph, order: u32| prep.series(g, order);
+    let choice = branch::choose(g, h, &closed, &mut series_at, &groups, &opts.switch)?;
     let series = series_at(g, choice.order)?;
 
     let agreement = choice.agreement;
@@ -239,15 +288,20 @@ pub fn generate_function(
     let upper = name.to_uppercase();
     let outputs_const = ident(&format!("{upper}_OUTPUTS"));
     let switch_const = ident(&format!("{upper}_SWITCH"));
-    let names: Vec<&str> = integrands.iter().map(|(n, _)| n.as_str()).collect();
     let xs = emit::literal(choice.x_star);
     let (ss, cs) = (&es.stmts, &ec.stmts);
     let k_lit = proc_macro2::Literal::usize_unsuffixed(k);
     let mut doc = format!(
         " Element integrals `∫_0^l … du` for Darboux vector `d` and length `l`.\n\n \
          Taylor branch (degree {} in W) for `W l < {}`, closed form above; the branches \
-         agree to {:.1e} (relative) at the switch.\n\n Outputs:\n",
-        choice.order, choice.x_star, agreement
+         agree to {:.1e} at the switch, relative {}.\n\n Outputs:\n",
+        choice.order,
+        choice.x_star,
+        agreement,
+        match opts.switch.measure {
+            Measure::Output => "to the size of each output",
+            Measure::Group => "to the largest entry of the output's group",
+        }
     );
     for (i, n) in names.iter().enumerate() {
         doc.push_str(&format!(" - `out[{i}]`: `{n}`\n"));
@@ -289,11 +343,19 @@ pub fn generate_function(
         "// @generated by superhelix-codegen {VERSION}\n\
          // {name}: {k} outputs; switch W*l = {} (Taylor degree {} below), branch agreement {:.2e}, \
          truncation {:.2e}\n\
+         // agreement measured {}; per output: {:.2e}\n\
          // ops before CSE (as trees): {ops_before}\n\
          // ops after CSE (as emitted): {ops_after}\n\
          //   Taylor branch: {}\n\
          //   closed branch: {}\n",
-        choice.x_star, choice.order, agreement, choice.truncation, es.ops, ec.ops
+        choice.x_star,
+        choice.order,
+        agreement,
+        choice.truncation,
+        opts.switch.measure,
+        choice.agreement_per_output,
+        es.ops,
+        ec.ops
     );
     Ok(GeneratedCode {
         name: name.to_string(),
@@ -306,6 +368,7 @@ pub fn generate_function(
         switch: choice.x_star,
         series_order: choice.order,
         agreement,
+        agreement_per_output: choice.agreement_per_output,
         truncation: choice.truncation,
         closed,
         series,
