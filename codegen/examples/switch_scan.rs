@@ -6,7 +6,9 @@
 //! (LIST: mass, force, rotary, or LIST:GROUP for the outputs of one group, e.g.
 //! force:dpd2p; all by default)
 
-use superhelix_codegen::{helix, kernels, switch_scan, GenerateOptions, Graph, HelixSymbols, Measure};
+use superhelix_codegen::{
+    helix, kernels, switch_scan, GenerateOptions, Graph, HelixSymbols, Measure,
+};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();

@@ -52,8 +52,8 @@ pub fn element_options() -> GenerateOptions {
     let mut o = GenerateOptions::default();
     o.switch.measure = Measure::Group;
     o.switch.candidates = vec![
-        0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.25, 2.5, 2.75, 3.0, 3.25, 3.5, 4.0, 4.5,
-        5.0, 6.0,
+        0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.25, 2.5, 2.75, 3.0, 3.25, 3.5, 4.0, 4.5, 5.0,
+        6.0,
     ];
     o.switch.check_samples = 256;
     o.switch.confirm_next = true;
