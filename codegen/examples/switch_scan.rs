@@ -11,13 +11,49 @@ use superhelix_codegen::{
 };
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    // --generate: generate each list with the checked-in options and print the result
+    let generate = args.iter().any(|a| a == "--generate");
+    args.retain(|a| a != "--generate");
     let lists = if args.is_empty() {
         vec!["mass".to_string(), "force".into(), "rotary".into()]
     } else {
         args
     };
     for name in lists {
+        if generate {
+            let mut g = Graph::new();
+            let h = HelixSymbols::new(&mut g);
+            let (base, prefix) = name.split_once(':').unwrap_or((name.as_str(), ""));
+            let list = match base {
+                "mass" => helix::m_related_integrands(&mut g, &h),
+                "force" => helix::force_integrands(&mut g, &h),
+                "rotary" => kernels::rotary_integrands(&mut g, &h),
+                other => panic!("unknown list {other}"),
+            };
+            let list: Vec<_> = list
+                .into_iter()
+                .filter(|(n, _)| prefix.is_empty() || n.split('_').next() == Some(prefix))
+                .collect();
+            let c = superhelix_codegen::generate_function(
+                &mut g,
+                &h,
+                "f",
+                &list,
+                &kernels::element_options(),
+            )
+            .expect("generation");
+            println!(
+                "{name}: {} outputs, x* {} degree {}, agreement {:.2e}\n  Taylor {}\n  closed {}",
+                list.len(),
+                c.switch,
+                c.series_order,
+                c.agreement,
+                c.ops_series,
+                c.ops_closed
+            );
+            continue;
+        }
         for measure in [Measure::Output, Measure::Group] {
             let mut g = Graph::new();
             let h = HelixSymbols::new(&mut g);

@@ -154,6 +154,10 @@ pub struct SwitchOptions {
     pub seed: u64,
     /// What "relative" is relative to.
     pub measure: Measure,
+    /// Add a second, lower-degree Taylor branch below the largest candidate whose
+    /// truncation target is met at half the degree of the main one (see
+    /// [`choose_low`]): nearly straight elements pay for half the degree.
+    pub low_tier: bool,
     /// Take a candidate only if the next one passes too (the closed branch stays
     /// accurate just above the switch, not only at the sampled directions of `x*`).
     pub confirm_next: bool,
@@ -221,6 +225,7 @@ impl Default for SwitchOptions {
             seed: 0x5eed_cafe,
             measure: Measure::Output,
             confirm_next: false,
+            low_tier: false,
         }
     }
 }
@@ -309,6 +314,72 @@ pub(crate) fn choose(
         "no candidate x* meets agreement {:e} with truncation {:e}; best: {:?}",
         opts.agreement_target, opts.truncation_target, best
     )))
+}
+
+/// The low-degree Taylor branch below the main one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LowTier {
+    /// Switch: the low-degree branch is used for `W l < x`.
+    pub x: f64,
+    /// Its degree in W.
+    pub order: u32,
+    /// Estimated truncation error at `x` (relative, under the measure of the options).
+    pub truncation: f64,
+    /// Largest difference to the main Taylor branch at `x`, over the selection and
+    /// the check samples (relative, under the measure of the options).
+    pub agreement: f64,
+}
+
+/// The low-degree tier below the main switch `main`: the largest candidate `x < x*`
+/// whose truncation target is met at an even degree ≤ half the main degree, that
+/// degree, and its measured agreement with the main Taylor branch there (which differs
+/// only by truncation). `None` if no candidate qualifies.
+pub(crate) fn choose_low(
+    g: &mut Graph,
+    h: &HelixSymbols,
+    series: &mut SeriesBuilder<'_>,
+    groups: &[usize],
+    opts: &SwitchOptions,
+    main: &SwitchChoice,
+) -> Result<Option<LowTier>, crate::CodegenError> {
+    let limit = (main.order / 2) & !1;
+    let mut order = opts.min_order;
+    let mut best = None;
+    for &x in opts.candidates.iter().filter(|&&x| x < main.x_star) {
+        let pts = samples(x, opts.samples, opts.seed);
+        let trunc = loop {
+            let reference = series(g, order + 8)?;
+            let s = series(g, order)?;
+            let r = evaluate(g, h, &reference, &pts);
+            let sv = evaluate(g, h, &s, &pts);
+            let t = max_relative(&sv, &r, groups);
+            if t <= opts.truncation_target || order + 2 > limit {
+                break t;
+            }
+            order += 2;
+        };
+        if trunc > opts.truncation_target {
+            break;
+        }
+        let mut all = pts;
+        all.extend(samples(x, opts.check_samples, opts.seed ^ 0xa5a5));
+        let low = series(g, order)?;
+        let high = series(g, main.order)?;
+        let agreement = max_relative(
+            &evaluate(g, h, &low, &all),
+            &evaluate(g, h, &high, &all),
+            groups,
+        );
+        if agreement <= opts.agreement_target {
+            best = Some(LowTier {
+                x,
+                order,
+                truncation: trunc,
+                agreement,
+            });
+        }
+    }
+    Ok(best)
 }
 
 /// One candidate of [`crate::switch_scan`]: what the switch selection measures there.

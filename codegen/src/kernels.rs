@@ -57,6 +57,7 @@ pub fn element_options() -> GenerateOptions {
     ];
     o.switch.check_samples = 256;
     o.switch.confirm_next = true;
+    o.switch.low_tier = true;
     o
 }
 

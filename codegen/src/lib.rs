@@ -48,7 +48,7 @@ pub mod kernels;
 pub mod number;
 mod poly;
 
-pub use branch::{Measure, ScanRow, SwitchChoice, SwitchOptions};
+pub use branch::{LowTier, Measure, ScanRow, SwitchChoice, SwitchOptions};
 pub use cse::OpCounts;
 pub use emit::format;
 pub use graph::{Evaluator, Graph, Id, Node};
@@ -126,6 +126,10 @@ pub struct GeneratedCode {
     pub ops_series: OpCounts,
     /// Of `ops_after`: the closed-form branch alone.
     pub ops_closed: OpCounts,
+    /// Of `ops_after`: the low-degree Taylor branch alone (zero without one).
+    pub ops_series_low: OpCounts,
+    /// The low-degree Taylor branch, if [`SwitchOptions::low_tier`] found one.
+    pub low: Option<LowTier>,
     /// The switch `x*` on `W l`.
     pub switch: f64,
     /// Degree in W of the Taylor branch.
@@ -239,6 +243,15 @@ pub fn generate_function(
     let mut series_at = |g: &mut Graph, order: u32| prep.series(g, order);
     let choice = branch::choose(g, h, &closed, &mut series_at, &groups, &opts.switch)?;
     let series = series_at(g, choice.order)?;
+    let low = if opts.switch.low_tier {
+        branch::choose_low(g, h, &mut series_at, &groups, &opts.switch, &choice)?
+    } else {
+        None
+    };
+    let low_series = match &low {
+        Some(t) => series_at(g, t.order)?,
+        None => Vec::new(),
+    };
 
     let agreement = choice.agreement;
 
@@ -257,6 +270,7 @@ pub fn generate_function(
     ];
     let mut all: Vec<Id> = series.clone();
     all.extend(&closed);
+    all.extend(&low_series);
     let mark = g.reachable(&all);
     for (i, &m) in mark.iter().enumerate() {
         let id = Id(i as u32);
@@ -268,6 +282,8 @@ pub fn generate_function(
         }
     }
 
+    let mut et = emit::Emitter::new(g, &low_series, &symbols, "t");
+    let low_exprs = et.run(&low_series);
     let mut es = emit::Emitter::new(g, &series, &symbols, "s");
     let series_exprs = es.run(&series);
     let mut ec = emit::Emitter::new(g, &closed, &symbols, "c");
@@ -278,8 +294,11 @@ pub fn generate_function(
         sqrts: 1,
         ..OpCounts::default()
     };
-    let ops_after = prologue + es.ops + ec.ops;
-    let ops_before = prologue + cse::tree_ops(g, &series) + cse::tree_ops(g, &closed);
+    let ops_after = prologue + et.ops + es.ops + ec.ops;
+    let ops_before = prologue
+        + cse::tree_ops(g, &low_series)
+        + cse::tree_ops(g, &series)
+        + cse::tree_ops(g, &closed);
 
     let k = integrands.len();
     let idx: Vec<proc_macro2::Literal> =
@@ -306,6 +325,41 @@ pub fn generate_function(
     for (i, n) in names.iter().enumerate() {
         doc.push_str(&format!(" - `out[{i}]`: `{n}`\n"));
     }
+    let (low_const, low_branch) = match &low {
+        Some(t) => {
+            let c = ident(&format!("{upper}_LOW_SWITCH"));
+            let xl = emit::literal(t.x);
+            let doc_low = format!(
+                " Switch on `W l` of [`{name}`]: the Taylor branch of degree {} below.",
+                t.order
+            );
+            let ts = &et.stmts;
+            (
+                quote! {
+                    #[doc = #doc_low]
+                    pub const #c: f64 = #xl;
+                },
+                quote! {
+                    if x < #c {
+                        #(#ts)*
+                        #(out[#idx] = #low_exprs;)*
+                        return;
+                    }
+                },
+            )
+        }
+        None => (quote!(), quote!()),
+    };
+    if let Some(t) = &low {
+        doc.insert_str(
+            doc.find("\n\n Outputs:").unwrap_or(doc.len()),
+            &format!(
+                " Below `W l < {}` a Taylor branch of degree {} (agreeing with the other \
+                 to {:.1e}) saves nearly straight elements half the work.",
+                t.x, t.order, t.agreement
+            ),
+        );
+    }
     let doc_outputs = format!(" Names of the outputs of [`{name}`], in order.");
     let doc_switch = format!(" Switch on `W l` of [`{name}`]: Taylor branch below.");
     let tokens = quote! {
@@ -313,6 +367,7 @@ pub fn generate_function(
         pub const #outputs_const: [&str; #k_lit] = [#(#names),*];
         #[doc = #doc_switch]
         pub const #switch_const: f64 = #xs;
+        #low_const
         #[doc = #doc]
         #[allow(
             unused_variables,
@@ -330,6 +385,7 @@ pub fn generate_function(
             let dl0 = d0 * l;
             let dl1 = d1 * l;
             let dl2 = d2 * l;
+            #low_branch
             if x < #switch_const {
                 #(#ss)*
                 #(out[#idx] = #series_exprs;)*
@@ -346,6 +402,7 @@ pub fn generate_function(
          // agreement measured {}; per output: {:.2e}\n\
          // ops before CSE (as trees): {ops_before}\n\
          // ops after CSE (as emitted): {ops_after}\n\
+         {}\
          //   Taylor branch: {}\n\
          //   closed branch: {}\n",
         choice.x_star,
@@ -354,6 +411,14 @@ pub fn generate_function(
         choice.truncation,
         opts.switch.measure,
         choice.agreement_per_output,
+        match &low {
+            Some(t) => format!(
+                "//   low-degree Taylor branch (W*l < {}, degree {}, agreement with the \
+                 Taylor branch {:.2e}, truncation {:.2e}): {}\n",
+                t.x, t.order, t.agreement, t.truncation, et.ops
+            ),
+            None => String::new(),
+        },
         es.ops,
         ec.ops
     );
@@ -364,6 +429,8 @@ pub fn generate_function(
         ops_before,
         ops_after,
         ops_series: es.ops,
+        ops_series_low: et.ops,
+        low,
         ops_closed: ec.ops,
         switch: choice.x_star,
         series_order: choice.order,

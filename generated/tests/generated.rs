@@ -66,9 +66,13 @@ fn closed_form_moments_match_high_order_quadrature() {
     use superhelix_generated::{centreline_force, centreline_mass, rotary_basis};
     let mut rng = Rng(0x1234_5678_9abc_def0);
     let mut wls = vec![0.0, 1e-12, 1e-8, 1e-4, 1e-2, 0.5, 1.0, 5.0, 30.0, 100.0];
+    // every switch: Taylor (low degree) | Taylor | closed form
     for s in [
+        centreline_mass::CENTRELINE_MASS_LOW_SWITCH,
         centreline_mass::CENTRELINE_MASS_SWITCH,
+        centreline_force::CENTRELINE_FORCE_LOW_SWITCH,
         centreline_force::CENTRELINE_FORCE_SWITCH,
+        rotary_basis::ROTARY_BASIS_LOW_SWITCH,
         rotary_basis::ROTARY_BASIS_SWITCH,
     ] {
         // both sides of the switch, by a few ulps and by 1e-9
@@ -80,7 +84,9 @@ fn closed_form_moments_match_high_order_quadrature() {
     let mut worst: Vec<(&str, f64, f64)> = Vec::new();
     let mut calls = 0;
     let mut out = ElementMoments::default();
+    let mut per_wl: Vec<(f64, f64)> = Vec::new();
     for &wl in &wls {
+        per_wl.push((wl, 0.0));
         for &(kind, n) in &kinds {
             for _ in 0..n {
                 // lengths over three decades
@@ -109,6 +115,8 @@ fn closed_form_moments_match_high_order_quadrature() {
                             }
                         })
                         .fold(0.0f64, f64::max);
+                    let last = per_wl.len() - 1;
+                    per_wl[last].1 = per_wl[last].1.max(e);
                     match worst.iter_mut().find(|w| w.0 == name) {
                         Some(w) if e > w.1 => *w = (name, e, wl),
                         Some(_) => {}
@@ -125,6 +133,10 @@ fn closed_form_moments_match_high_order_quadrature() {
     println!("{calls} (d, l) samples, worst deviation per field (relative to its max-abs):");
     for (name, e, wl) in &worst {
         println!("  {name:8} {e:.2e} (at W l = {wl:e})");
+    }
+    println!("worst deviation over all fields per W l:");
+    for (wl, e) in &per_wl {
+        println!("  W l = {wl:<22e} {e:.2e}");
     }
 }
 
