@@ -30,7 +30,9 @@
 //! `pub fn <name>(d: &[f64; 3], l: f64, out: &mut [f64; K])` writes output `i` (in the
 //! order of the list) to `out[i]`; `pub const <NAME>_OUTPUTS: [&str; K]` holds the
 //! names and `pub const <NAME>_SWITCH: f64` the switch. The body computes
-//! `W = sqrt(d·d)` and branches once on `W l < x*`. It allocates nothing and cannot
+//! `W = sqrt(d·d)` and branches once on `W l < x*` (with [`SwitchOptions::low_tier`],
+//! first on `W l < <NAME>_LOW_SWITCH` to a Taylor branch of about half the degree).
+//! "Agree" is measured per output or per tensor group ([`Measure`]). It allocates nothing and cannot
 //! panic (constant indices into a fixed-size array, float arithmetic only).
 
 #![warn(missing_docs)]
