@@ -17,8 +17,8 @@
 //! integral at that `W l`, not to a value that happens to be small for one direction
 //! ([`Measure::Output`]); or, with [`Measure::Group`], `s_j` the largest such size over
 //! the outputs of j's group (the entries of one tensor), which is the error an
-//! assembly contracting the whole tensor sees. Samples: pseudo-random unit directions of d (seeded, reproducible), `|d| = x/l`,
-//! with l alternating between 1 and 0.01.
+//! assembly contracting the whole tensor sees. Samples: pseudo-random unit directions
+//! of d (seeded, reproducible), `|d| = x/l`, with l alternating between 1 and 0.01.
 
 use crate::graph::{Graph, Id};
 use crate::helix::HelixSymbols;
@@ -156,7 +156,7 @@ pub struct SwitchOptions {
     pub measure: Measure,
     /// Add a second, lower-degree Taylor branch below the largest candidate whose
     /// truncation target is met at half the degree of the main one (see
-    /// [`choose_low`]): nearly straight elements pay for half the degree.
+    /// [`LowTier`]): nearly straight elements pay for a lower degree.
     pub low_tier: bool,
     /// Take a candidate only if the next one passes too (the closed branch stays
     /// accurate just above the switch, not only at the sampled directions of `x*`).

@@ -7,8 +7,8 @@
 //! Status (issue #3, in progress): every per-element integral of the moment-based
 //! assembly (`superhelix_runtime::moments::ElementMoments`) is generated in closed form,
 //! in three functions with their own Taylor switch and degree (see each file's header):
-//! [`centreline_mass`] (what M needs), [`centreline_force`] (what only the force needs)
-//! and [`rotary_basis`] (the rotary inertia). [`element_moments_into`] fills every field,
+//! [`centreline_mass()`] (what M needs), [`centreline_force()`] (what only the force needs)
+//! and [`rotary_basis()`] (the rotary inertia). [`element_moments_into`] fills every field,
 //! [`mass_moments`] only those of M. The fixed-N kernels implementing `StrandKernel` are
 //! not written yet, so [`kernel_factory`] offers none.
 #![warn(missing_docs)]
