@@ -202,7 +202,8 @@ impl std::fmt::Display for Measure {
             Measure::Output => "per output (largest |value| of the output over directions)",
             Measure::Group => {
                 "per tensor group (largest |value| over directions and the entries of the \
-                 output's group)"
+                 output's group: a moment enters the assembly only through contractions of \
+                 its whole tensor, so that is the scale its error is seen at)"
             }
         })
     }

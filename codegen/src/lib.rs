@@ -297,10 +297,12 @@ pub fn generate_function(
         ..OpCounts::default()
     };
     let ops_after = prologue + et.ops + es.ops + ec.ops;
-    let ops_before = prologue
-        + cse::tree_ops(g, &low_series)
-        + cse::tree_ops(g, &series)
-        + cse::tree_ops(g, &closed);
+    let (tree_low, tree_series, tree_closed) = (
+        cse::tree_ops(g, &low_series),
+        cse::tree_ops(g, &series),
+        cse::tree_ops(g, &closed),
+    );
+    let ops_before = prologue + tree_low + tree_series + tree_closed;
 
     let k = integrands.len();
     let idx: Vec<proc_macro2::Literal> =
@@ -405,8 +407,8 @@ pub fn generate_function(
          // ops before CSE (as trees): {ops_before}\n\
          // ops after CSE (as emitted): {ops_after}\n\
          {}\
-         //   Taylor branch: {}\n\
-         //   closed branch: {}\n",
+         //   Taylor branch: {} (before CSE: {} total)\n\
+         //   closed branch: {} (before CSE: {} total)\n",
         choice.x_star,
         choice.order,
         agreement,
@@ -416,13 +418,20 @@ pub fn generate_function(
         match &low {
             Some(t) => format!(
                 "//   low-degree Taylor branch (W*l < {}, degree {}, agreement with the \
-                 Taylor branch {:.2e}, truncation {:.2e}): {}\n",
-                t.x, t.order, t.agreement, t.truncation, et.ops
+                 Taylor branch {:.2e}, truncation {:.2e}): {} (before CSE: {} total)\n",
+                t.x,
+                t.order,
+                t.agreement,
+                t.truncation,
+                et.ops,
+                tree_low.total()
             ),
             None => String::new(),
         },
         es.ops,
-        ec.ops
+        tree_series.total(),
+        ec.ops,
+        tree_closed.total()
     );
     Ok(GeneratedCode {
         name: name.to_string(),
