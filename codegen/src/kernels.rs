@@ -64,8 +64,8 @@ pub fn generate_element_moments() -> Result<GeneratedCode, CodegenError> {
 /// Every checked-in generated file: (path relative to `generated/src/`, formatted text).
 pub fn checked_in_files() -> Result<Vec<(String, String)>, CodegenError> {
     let moments = generate_element_moments()?;
-    Ok(vec![(
-        ELEMENT_MOMENTS_FILE.to_string(),
-        format(&moments.code),
-    )])
+    Ok(vec![
+        (ELEMENT_MOMENTS_FILE.to_string(), format(&moments.code)),
+        crate::kernel_point::checked_in_file()?,
+    ])
 }

@@ -67,3 +67,10 @@ pub fn mass_moments(d: &Vector3<f64>, l: f64, rotary: &[f64; 3]) -> ElementMomen
 pub fn kernel_factory() -> Option<&'static dyn KernelFactory> {
     None
 }
+
+/// Generated: the element's local functions at one abscissa, `ElementPoint` in closed
+/// form (see the file's header for the switch, agreement and op counts).
+#[rustfmt::skip]
+#[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]
+pub mod element_point;
+pub use element_point::{element_point, element_point_into, ELEMENT_POINT_SWITCH};
