@@ -82,6 +82,9 @@ pub fn radial_family(
         .collect()
 }
 
+/// `u^p`, the terms of Q and its trig atoms (see [`PointBuilder`]).
+type Rescaled = (i32, Vec<(Mono, Num)>, Vec<Id>);
+
 /// Writes expressions of `W` and `u` as closed forms `u^p Q(x)` and Taylor series
 /// `u^p Q(z)`.
 pub struct PointBuilder {
@@ -118,7 +121,7 @@ impl PointBuilder {
         g: &mut Graph,
         p: &TPoly,
         series: bool,
-    ) -> Result<(i32, Vec<(Mono, Num)>, Vec<Id>), CodegenError> {
+    ) -> Result<Rescaled, CodegenError> {
         let (h, x) = (self.h, self.x);
         let mut degree = None;
         let mut atoms = Vec::new();
@@ -680,5 +683,107 @@ fn measure<'a>(
         radial: radial.to_vec(),
         outputs: g.evaluator(outputs),
         groups,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn family(g: &mut Graph, h: &HelixSymbols) -> Vec<Radial> {
+        // B = (1 − cos uW)/W²
+        let wu = g.mul2(h.w, h.u);
+        let c = g.cos(wu);
+        let one = g.one();
+        let omc = g.sub(one, c);
+        let iw2 = g.pow(h.w, -2);
+        let b = g.mul2(omc, iw2);
+        radial_family(g, h, "b", b, 3)
+    }
+
+    #[test]
+    fn radial_branches_match_the_expression_and_its_w_derivatives() {
+        let mut g = Graph::new();
+        let h = HelixSymbols::new(&mut g);
+        let f = family(&mut g, &h);
+        let mut pb = PointBuilder::new(&mut g, &h);
+        for (k, r) in f.iter().enumerate() {
+            let closed = pb.closed(&mut g, r.expr).unwrap();
+            let series = pb.series(&mut g, r.expr, 30).unwrap();
+            for (w, u) in [(3.0, 0.2), (40.0, 0.05), (25.0, 0.2), (0.7, 7.0)] {
+                let mut b = h.bindings([w, 0.0, 0.0], 0.0, u);
+                b.extend(pb.bindings(w, u));
+                let exact = g.eval(r.expr, &b);
+                let c = g.eval(closed, &b);
+                let s = g.eval(series, &b);
+                if w * u >= 2.0 {
+                    // the expression as built and the closed branch (Horner in 1/x)
+                    assert!((c - exact).abs() <= 1e-13 * exact.abs(), "{k}: {c} vs {exact}");
+                }
+                if w * u <= 2.0 {
+                    assert!((s - exact).abs() <= 1e-10 * exact.abs(), "{k}: {s} vs {exact}");
+                    assert!((s - c).abs() <= 1e-10 * s.abs(), "{k}: {s} vs {c}");
+                }
+            }
+            // F_{k+1} = (1/W) ∂F_k/∂W by a central difference in W
+            if k + 1 < f.len() {
+                let (w, u, e) = (2.0, 0.3, 1e-4);
+                let at = |g: &Graph, w: f64| {
+                    let mut b = h.bindings([w, 0.0, 0.0], 0.0, u);
+                    b.extend(pb.bindings(w, u));
+                    g.eval(closed, &b)
+                };
+                let fd = (at(&g, w + e) - at(&g, w - e)) / (2.0 * e) / w;
+                let mut b = h.bindings([w, 0.0, 0.0], 0.0, u);
+                b.extend(pb.bindings(w, u));
+                let next = g.eval(f[k + 1].expr, &b);
+                assert!((fd - next).abs() <= 1e-7 * next.abs(), "{k}: {fd} vs {next}");
+            }
+        }
+        // an odd function of W has no Taylor branch in z
+        let wu = g.mul2(h.w, h.u);
+        let s = g.sin(wu);
+        let iw2 = g.pow(h.w, -2);
+        let odd = g.mul2(s, iw2);
+        assert!(matches!(
+            pb.series(&mut g, odd, 10),
+            Err(CodegenError::NotRegular(_))
+        ));
+    }
+
+    #[test]
+    fn point_function_of_a_radial_family() {
+        let mut g = Graph::new();
+        let h = HelixSymbols::new(&mut g);
+        let f = family(&mut g, &h);
+        // B d0 and its d-derivatives: every output needs the chain rule through W
+        let v = g.mul2(f[0].symbol, h.d[0]);
+        let v1 = g.diff(v, h.d[1]);
+        let v11 = g.diff(v1, h.d[1]);
+        let spec = PointSpec {
+            radial: f.clone(),
+            outputs: vec![("v".into(), v), ("v1".into(), v1), ("v11".into(), v11)],
+            groups: vec![("v".into(), vec![0]), ("dv".into(), vec![1, 2])],
+        };
+        let sw = ident("SWITCH");
+        let code = generate_point(&mut g, &h, &spec, &sw, &PointOptions::default()).unwrap();
+        assert!(code.agreement <= 1e-14 && code.truncation <= 1e-14);
+        assert!(code.switch > 0.0 && code.series_orders.len() == 3);
+        let text = code.body.to_string();
+        assert!(text.contains("sin_cos") && text.contains("let v11 ="));
+        assert!(code.ops_closed_path().trig == 1 && code.ops_series_path().trig == 0);
+        assert!(code.ops_series_path().total() < code.ops_before_series.total());
+
+        // a derivative beyond the declared levels is a free symbol
+        let v111 = g.diff(v11, h.d[1]);
+        let bad = PointSpec {
+            radial: f,
+            outputs: vec![("v111".into(), v111)],
+            groups: vec![("v".into(), vec![0])],
+        };
+        assert!(matches!(
+            generate_point(&mut g, &h, &bad, &sw, &PointOptions::default()),
+            Err(CodegenError::Unsupported(_))
+        ));
     }
 }

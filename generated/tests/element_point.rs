@@ -3,6 +3,8 @@
 //! `cargo test -p superhelix-generated --release --test element_point -- --nocapture`
 //! prints the worst deviations.
 
+#![allow(clippy::needless_range_loop)] // index loops read like the formulas
+
 use superhelix_generated::{element_point, element_point_into, ELEMENT_POINT_SWITCH};
 use superhelix_runtime::element::ElementPoint;
 use superhelix_runtime::Vector3;
@@ -84,7 +86,10 @@ fn generated_element_point_matches_the_jets() {
         xs * (1.0 - 1e-9),
         xs * (1.0 + 1e-9),
         1.0,
+        1.5,
+        2.5,
         5.0,
+        12.0,
         30.0,
         100.0,
         300.0,
@@ -132,6 +137,41 @@ fn generated_element_point_matches_the_jets() {
         "{count} points: worst relative deviation from ElementPoint::by_jets {:.2e}",
         worst.iter().fold(0.0f64, |m, x| m.max(*x))
     );
+}
+
+#[test]
+fn values_are_accurate_where_the_reference_cancels() {
+    // by_jets writes p = u e0 + C K² e0: for d ⊥ e0 a term of size u cancels to
+    // |p| ~ u/(W u), so its own error grows like W u (it dominates the deviations above
+    // at W u = 300). The generated values use P = A I + B K + C d dᵀ; compare them with
+    // that form evaluated from the runtime's a, b, c.
+    use superhelix_runtime::helix_functions::abc_values;
+    let mut rng = Rng(0x5555_aaaa_1234_4321);
+    let (mut worst, mut worst_jets) = (0.0f64, 0.0f64);
+    for &wl in &[5.0, 30.0, 100.0, 300.0] {
+        for i in 0..200 {
+            let u = 10f64.powf(-3.0 + 3.0 * (rng.next() + 1.0) / 2.0);
+            let d = direction(&mut rng, i % 2) * (wl / u);
+            let (a, b, c) = abc_values(u * u * d.norm_squared());
+            let (a, b, c) = (u * a, u * u * b, u * u * u * c);
+            let w: [Vector3<f64>; 3] = std::array::from_fn(|i| {
+                let e = Vector3::ith(i, 1.0);
+                e * a + d.cross(&e) * b + d * (c * d[i])
+            });
+            let got = element_point(&d, u);
+            let jets = ElementPoint::by_jets(&d, u);
+            // each w_i against its own largest entry (w_0 = p is the field `p`)
+            for i in 0..3 {
+                let scale = w[i].amax();
+                worst = worst.max((got.w[i] - w[i]).amax() / scale);
+                worst_jets = worst_jets.max((jets.w[i] - w[i]).amax() / scale);
+            }
+        }
+    }
+    println!(
+        "w_i = P e_i at W u in 5..300 against A I + B K + C d dᵀ, relative to max |w_i|: generated {worst:.2e}, by_jets {worst_jets:.2e}"
+    );
+    assert!(worst <= 1e-14, "{worst:e}");
 }
 
 #[test]
