@@ -559,6 +559,8 @@ pub fn generate_point(
         let m = measure(g, h, &pb, &radial_syms, &outputs, &spec.groups);
         let sv = m.outputs(&s, &pts);
         let agreement = m.deviation(&m.outputs(&closed, &pts), &sv);
+        // truncation of the degrees as chosen (per function)
+        let trunc = m.deviation(&sv, &m.outputs(&reference, &pts));
         if best.is_none_or(|b| agreement < b.1) {
             best = Some((x, agreement));
         }
