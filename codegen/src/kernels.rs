@@ -107,6 +107,7 @@ pub fn checked_in_files() -> Result<Vec<(String, String)>, CodegenError> {
         .iter()
         .map(|k| Ok((k.file(), format(&generate(k)?.code))))
         .collect::<Result<Vec<_>, CodegenError>>()?;
+    files.push(crate::kernel_point::checked_in_file()?);
     files.push((
         crate::sizes::SIZES_FILE.to_string(),
         crate::sizes::sizes_file(),

@@ -46,8 +46,10 @@ pub mod emit;
 pub mod graph;
 pub mod helix;
 pub mod integrate;
+pub mod kernel_point;
 pub mod kernels;
 pub mod number;
+pub mod point;
 mod poly;
 pub mod sizes;
 

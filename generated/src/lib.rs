@@ -33,12 +33,10 @@ pub use centreline_mass::centreline_mass;
 pub use rotary_basis::rotary_basis;
 
 pub mod factory;
-mod interim;
 /// Generated: the numbers of elements with checked-in kernels.
 pub mod sizes;
 
 pub use factory::{ClosedForm, GeneratedFactory, GeneratedKernel};
-pub use interim::element_point_into;
 use superhelix_runtime::moments::ElementMoments;
 use superhelix_runtime::{KernelFactory, Matrix3, Vector3};
 
@@ -173,3 +171,10 @@ pub fn kernel_factory() -> Option<&'static dyn KernelFactory> {
     static FACTORY: GeneratedFactory = GeneratedFactory;
     Some(&FACTORY)
 }
+
+/// Generated: the element's local functions at one abscissa, `ElementPoint` in closed
+/// form (see the file's header for the switch, agreement and op counts).
+#[rustfmt::skip]
+#[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]
+pub mod element_point;
+pub use element_point::{element_point, element_point_into, ELEMENT_POINT_SWITCH};

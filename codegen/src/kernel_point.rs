@@ -1,0 +1,374 @@
+//! The element's local functions at one abscissa u
+//! (`superhelix_runtime::element::ElementPoint`), generated in closed form by
+//! [`crate::point`]: the file `generated/src/element_point.rs`.
+//!
+//! With `K = [d]×`, `W = |d|`, the helix coefficients `A = sin(uW)/W`,
+//! `B = (1 − cos uW)/W²`, `C = (uW − sin uW)/W³` (the expressions of [`crate::helix`])
+//! are radial functions ([`crate::point`]): `A = u a(z)`, `B = u² b(z)`, `C = u³ c(z)`,
+//! `z = (uW)²`, and
+//!
+//! ```text
+//! E(u) = I + A K + B K²
+//! P(u) = u I + B K + C K²  =  A I + B K + C d dᵀ     (K² = d dᵀ − W² I, u − W² C = A)
+//! ```
+//!
+//! The d-derivatives of `p = P e0` and `w_i = P e_i` are taken of the first form of P:
+//! they need `B`, `C` and their first two derivatives `F_{k+1} = (1/W) ∂F_k/∂W`
+//! (`= 2u² ∂F_k/∂z`), and E needs `A`, `B`: seven radial functions, each with a closed
+//! form and a Taylor branch from the same expression; everything else is a polynomial
+//! in `d` and `u` shared by both branches. The values `p`, `w_i` are taken of the second
+//! form: in `u e_i + C K² e_i` a term of size u cancels to a result of size `u/(W u)`
+//! when d ⊥ e_i (the digits lost grow like `W u`), while each term of the second form
+//! is at most the size of the result. (The second form's derivatives have the opposite
+//! defect: along d ∥ e0, `∂²p/∂d0²` is a difference of terms `W u` times larger than
+//! the field.) Symmetry: `∂²p/∂d_i∂d_j` is generated for `i ≤ j` only, and `w_0 = p`,
+//! `∂w_0/∂d_j = ∂p/∂d_j` are not generated twice.
+
+use crate::emit::literal;
+use crate::point::{generate_point, radial_family, PointCode, PointOptions, PointSpec};
+use crate::{format, CodegenError, Graph, HelixSymbols, Id, VERSION};
+use proc_macro2::{Ident, Span, TokenStream};
+use quote::quote;
+
+/// Name of the generated function filling an `ElementPoint` (`element_point_into`,
+/// with the allocating wrapper `element_point`).
+pub const ELEMENT_POINT: &str = "element_point";
+
+/// File (relative to `generated/src/`) holding [`ELEMENT_POINT`].
+pub const ELEMENT_POINT_FILE: &str = "element_point.rs";
+
+/// `d × v`.
+fn cross(g: &mut Graph, d: [Id; 3], v: [Id; 3]) -> [Id; 3] {
+    let c = |g: &mut Graph, a: usize, b: usize| {
+        let x = g.mul2(d[a], v[b]);
+        let y = g.mul2(d[b], v[a]);
+        g.sub(x, y)
+    };
+    [c(g, 1, 2), c(g, 2, 0), c(g, 0, 1)]
+}
+
+/// `e_i`, `d × e_i` and `d × (d × e_i) = d d_i − |d|² e_i` (polynomial in d).
+fn basis_terms(g: &mut Graph, d: [Id; 3], i: usize) -> [[Id; 3]; 3] {
+    let mut e = [g.zero(); 3];
+    e[i] = g.one();
+    let k = cross(g, d, e);
+    let k2 = cross(g, d, k);
+    [e, k, k2]
+}
+
+/// `(s0 I + s1 K + s2 K²) e_i` with `K = [d]×`.
+fn apply_k2(g: &mut Graph, d: [Id; 3], s: [Id; 3], i: usize) -> [Id; 3] {
+    let [e, k, k2] = basis_terms(g, d, i);
+    [0, 1, 2].map(|m| {
+        let t = [g.mul2(s[0], e[m]), g.mul2(s[1], k[m]), g.mul2(s[2], k2[m])];
+        g.add(&t)
+    })
+}
+
+/// `(s0 I + s1 K + s2 d dᵀ) e_i`.
+fn apply_ddt(g: &mut Graph, d: [Id; 3], s: [Id; 3], i: usize) -> [Id; 3] {
+    let [e, k, _] = basis_terms(g, d, i);
+    [0, 1, 2].map(|m| {
+        let t = [
+            g.mul2(s[0], e[m]),
+            g.mul2(s[1], k[m]),
+            g.mul(&[s[2], d[m], d[i]]),
+        ];
+        g.add(&t)
+    })
+}
+
+/// The radial functions and outputs of `ElementPoint` (see the module docs). Output
+/// names: `frame_rc`, `p_m`, `dp_i_m`, `d2p_ij_m` (i ≤ j), `w_i_m` and `dw_i_j_m` (i ≥ 1),
+/// m the component; groups `frame`, `p`, `dp`, `d2p`, `w`, `dw` as the struct's fields
+/// (all 27 entries of d2p, w and dw including `w_0 = p`, `dw_0 = dp`).
+pub fn element_point_spec(g: &mut Graph, h: &HelixSymbols) -> PointSpec {
+    let wu = g.mul2(h.w, h.u);
+    let (s, c) = (g.sin(wu), g.cos(wu));
+    let one = g.one();
+    let iw = [1, 2, 3].map(|k| g.pow(h.w, -k));
+    let a = g.mul2(s, iw[0]);
+    let omc = g.sub(one, c);
+    let b = g.mul2(omc, iw[1]);
+    let xms = g.sub(wu, s);
+    let cc = g.mul2(xms, iw[2]);
+    let ra = radial_family(g, h, "a", a, 1);
+    let rb = radial_family(g, h, "b", b, 3);
+    let rc = radial_family(g, h, "c", cc, 3);
+    let [sa, sb, sc] = [ra[0].symbol, rb[0].symbol, rc[0].symbol];
+
+    let d = h.d;
+    let frame: Vec<[Id; 3]> = (0..3)
+        .map(|col| apply_k2(g, d, [one, sa, sb], col))
+        .collect();
+    // values in the d dᵀ form, derivatives of the K² form (see the module docs)
+    let w: Vec<[Id; 3]> = (0..3).map(|i| apply_ddt(g, d, [sa, sb, sc], i)).collect();
+    let w_k2: Vec<[Id; 3]> = (0..3).map(|i| apply_k2(g, d, [h.u, sb, sc], i)).collect();
+    let dw: Vec<Vec<[Id; 3]>> = (0..3)
+        .map(|i| (0..3).map(|j| w_k2[i].map(|e| g.diff(e, d[j]))).collect())
+        .collect();
+
+    let mut outputs: Vec<(String, Id)> = Vec::new();
+    let mut push = |name: String, id: Id| {
+        outputs.push((name, id));
+        outputs.len() - 1
+    };
+    let frame_idx: Vec<usize> = (0..9)
+        .map(|k| push(format!("frame_{}{}", k / 3, k % 3), frame[k % 3][k / 3]))
+        .collect();
+    let p_idx: Vec<usize> = (0..3).map(|m| push(format!("p_{m}"), w[0][m])).collect();
+    let dp_idx: Vec<usize> = (0..9)
+        .map(|k| push(format!("dp_{}_{}", k / 3, k % 3), dw[0][k / 3][k % 3]))
+        .collect();
+    let mut d2p_at = [[[0usize; 3]; 3]; 3];
+    for i in 0..3 {
+        for j in i..3 {
+            for m in 0..3 {
+                let e = g.diff(dw[0][i][m], d[j]);
+                let k = push(format!("d2p_{i}{j}_{m}"), e);
+                d2p_at[i][j][m] = k;
+                d2p_at[j][i][m] = k;
+            }
+        }
+    }
+    let mut w_idx = p_idx.clone();
+    let mut dw_idx = dp_idx.clone();
+    for i in 1..3 {
+        for m in 0..3 {
+            w_idx.push(push(format!("w_{i}_{m}"), w[i][m]));
+        }
+    }
+    for i in 1..3 {
+        for j in 0..3 {
+            for m in 0..3 {
+                dw_idx.push(push(format!("dw_{i}_{j}_{m}"), dw[i][j][m]));
+            }
+        }
+    }
+    let d2p_idx: Vec<usize> = d2p_at.iter().flatten().flatten().copied().collect();
+    let mut radial = ra;
+    radial.extend(rb);
+    radial.extend(rc);
+    PointSpec {
+        radial,
+        outputs,
+        groups: vec![
+            ("frame".into(), frame_idx),
+            ("p".into(), p_idx),
+            ("dp".into(), dp_idx),
+            ("d2p".into(), d2p_idx),
+            ("w".into(), w_idx),
+            ("dw".into(), dw_idx),
+        ],
+    }
+}
+
+fn ident(s: &str) -> Ident {
+    Ident::new(s, Span::call_site())
+}
+
+/// `Vector3::new(<prefix>0, <prefix>1, <prefix>2)`.
+fn vec3(prefix: &str) -> TokenStream {
+    let [a, b, c] = [0, 1, 2].map(|m| ident(&format!("{prefix}{m}")));
+    quote!(Vector3::new(#a, #b, #c))
+}
+
+/// Generate `ElementPoint` in closed form: the measured code and the formatted file.
+pub fn generate_element_point() -> Result<(PointCode, String), CodegenError> {
+    let mut g = Graph::new();
+    let h = HelixSymbols::new(&mut g);
+    let spec = element_point_spec(&mut g, &h);
+    let switch = ident("ELEMENT_POINT_SWITCH");
+    let code = generate_point(&mut g, &h, &spec, &switch, &PointOptions::default())?;
+
+    let frame: Vec<Ident> = (0..9)
+        .map(|k| ident(&format!("frame_{}{}", k / 3, k % 3)))
+        .collect();
+    let p = vec3("p_");
+    let dp: Vec<TokenStream> = (0..3).map(|i| vec3(&format!("dp_{i}_"))).collect();
+    let d2p: Vec<TokenStream> = (0..3)
+        .map(|i| {
+            let row: Vec<TokenStream> = (0..3)
+                .map(|j| vec3(&format!("d2p_{}{}_", i.min(j), i.max(j))))
+                .collect();
+            quote!([#(#row),*])
+        })
+        .collect();
+    let w: Vec<TokenStream> = std::iter::once(p.clone())
+        .chain((1..3).map(|i| vec3(&format!("w_{i}_"))))
+        .collect();
+    let dw: Vec<TokenStream> = std::iter::once(quote!([#(#dp),*]))
+        .chain((1..3).map(|i| {
+            let row: Vec<TokenStream> = (0..3).map(|j| vec3(&format!("dw_{i}_{j}_"))).collect();
+            quote!([#(#row),*])
+        }))
+        .collect();
+
+    let xs = literal(code.switch);
+    let body = &code.body;
+    let orders: Vec<String> = code
+        .radial_names
+        .iter()
+        .zip(&code.series_orders)
+        .map(|(n, o)| format!("{n}: {o}"))
+        .collect();
+    let doc_switch =
+        " Switch on `W u` of [`element_point_into`]: the Taylor branch is used below it."
+            .to_string();
+    let doc = format!(
+        " The element's local functions at abscissa `u` for Darboux vector `d` (see \
+         `ElementPoint`), in closed form: E(u), p(u), ∂p/∂d_i, ∂²p/∂d_i∂d_j, w_i(u) = P(u) e_i, \
+         ∂w_i/∂d_j.\n\n The radial functions of `z = (W u)²` are taken from their Taylor \
+         series for `W u < {}` (degrees in `W u`: {}), from their closed forms above; the \
+         polynomial part in `d` and `u` is common to both. The branches agree to {:.1e} at \
+         the switch, relative to the largest entry of each field. Allocation-free and \
+         panic-free.",
+        code.switch,
+        orders.join(", "),
+        code.agreement
+    );
+    let tokens = quote! {
+        use superhelix_runtime::element::ElementPoint;
+        use superhelix_runtime::{Matrix3, Vector3};
+
+        #[doc = #doc_switch]
+        pub const ELEMENT_POINT_SWITCH: f64 = #xs;
+
+        #[doc = #doc]
+        #[allow(
+            unused_variables,
+            clippy::all,
+            clippy::pedantic,
+            clippy::excessive_precision,
+            clippy::unreadable_literal
+        )]
+        pub fn element_point_into(d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
+            let d0 = d.x;
+            let d1 = d.y;
+            let d2 = d.z;
+            #body
+            *out = ElementPoint {
+                frame: Matrix3::new(#(#frame),*),
+                p: #p,
+                dp: [#(#dp),*],
+                d2p: [#(#d2p),*],
+                w: [#(#w),*],
+                dw: [#(#dw),*],
+            };
+        }
+
+        /// [`element_point_into`] into a new value.
+        pub fn element_point(d: &Vector3<f64>, u: f64) -> ElementPoint {
+            let mut out = ElementPoint::default();
+            element_point_into(d, u, &mut out);
+            out
+        }
+    };
+    let n = code.radial_names.len();
+    let header = format!(
+        "// @generated by superhelix-codegen {VERSION}\n\
+         // {ELEMENT_POINT}: ElementPoint at one abscissa u, 63 distinct outputs (frame 9, p 3, dp 9, \
+         d2p 18 of 27 by symmetry, w 6 and dw 18 besides w_0 = p, dw_0 = dp)\n\
+         // {n} radial functions of z = (W u)^2 (a0 = u a(z); b, c = u^2 b(z), u^3 c(z) and two derivatives each), Taylor degrees in W u: {}\n\
+         // switch W*u = {} (Taylor below); branch agreement {:.2e}, truncation {:.2e}: largest \
+         |closed - Taylor| (resp. |Taylor - Taylor of degree + 8|) at the switch over {} sample \
+         points, relative to the largest |entry| of the same field (frame, p, dp, d2p, w, dw) \
+         at the same point\n\
+         // ops before CSE (as trees, radial functions inlined): Taylor path {}; closed path {}\n\
+         // ops after CSE (as emitted): Taylor path {}; closed path {}\n\
+         //   prologue: {}\n\
+         //   Taylor radial functions: {}\n\
+         //   closed radial functions: {}\n\
+         //   shared polynomial part: {}\n",
+        orders.join(", "),
+        code.switch,
+        code.agreement,
+        code.truncation,
+        code.agreement_samples,
+        code.ops_before_series,
+        code.ops_before_closed,
+        code.ops_series_path(),
+        code.ops_closed_path(),
+        code.ops_prologue,
+        code.ops_series,
+        code.ops_closed,
+        code.ops_shared,
+    );
+    let text = format(&format!("{header}{tokens}\n"));
+    Ok((code, text))
+}
+
+/// The checked-in file: (path relative to `generated/src/`, formatted text).
+pub fn checked_in_file() -> Result<(String, String), CodegenError> {
+    let (_, text) = generate_element_point()?;
+    Ok((ELEMENT_POINT_FILE.to_string(), text))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::helix;
+
+    /// The shared part with the radial symbols bound to their closed forms equals the
+    /// d-derivatives of the engine's own helix builders ([`helix::position`],
+    /// [`helix::rotation_column`], [`helix::frame`]) differentiated directly.
+    #[test]
+    fn shared_part_matches_direct_differentiation_of_the_helix() {
+        let mut g = Graph::new();
+        let h = HelixSymbols::new(&mut g);
+        let spec = element_point_spec(&mut g, &h);
+        let e = helix::frame(&mut g, &h, h.u);
+        let w: Vec<[Id; 3]> = (0..3)
+            .map(|i| helix::rotation_column(&mut g, &h, h.u, i))
+            .collect();
+        let mut direct: Vec<(String, Id)> = Vec::new();
+        for r in 0..3 {
+            for c in 0..3 {
+                direct.push((format!("frame_{r}{c}"), e[r][c]));
+            }
+        }
+        for i in 0..3 {
+            for m in 0..3 {
+                direct.push((format!("w_{i}_{m}"), w[i][m]));
+                for j in 0..3 {
+                    let dw = g.diff(w[i][m], h.d[j]);
+                    direct.push((format!("dw_{i}_{j}_{m}"), dw));
+                    if i == 0 {
+                        for k in j..3 {
+                            let d2 = g.diff(dw, h.d[k]);
+                            direct.push((format!("d2p_{j}{k}_{m}"), d2));
+                        }
+                    }
+                }
+            }
+        }
+        for (d, u) in [
+            ([3.0, -7.0, 11.0], 0.2),
+            ([0.4, 0.1, -0.2], 1.3),
+            ([0.0, 2.0, 0.0], 0.5),
+        ] {
+            let mut b = h.bindings(d, 0.0, u);
+            let rv: Vec<f64> = spec.radial.iter().map(|r| g.eval(r.expr, &b)).collect();
+            b.extend(spec.radial.iter().map(|r| r.symbol).zip(rv));
+            for (name, id) in &spec.outputs {
+                // p = w_0, dp = dw_0
+                let key = if let Some(rest) = name.strip_prefix("dp_") {
+                    format!("dw_0_{rest}")
+                } else if let Some(rest) = name.strip_prefix("p_") {
+                    format!("w_0_{rest}")
+                } else {
+                    name.clone()
+                };
+                let (_, reference) = direct
+                    .iter()
+                    .find(|(n, _)| *n == key)
+                    .unwrap_or_else(|| panic!("no direct output {key}"));
+                let (a, r) = (g.eval(*id, &b), g.eval(*reference, &b));
+                assert!(
+                    (a - r).abs() <= 1e-12 * r.abs().max(1.0),
+                    "{name}: {a} vs {r}"
+                );
+            }
+        }
+    }
+}
