@@ -24,7 +24,7 @@ type M3 = Matrix3<f64>;
 /// Gauss–Legendre points per element for the rotary integrals at W·l = `wl`: the
 /// integrands reach frequency 4W.
 pub fn rotary_points(wl: f64) -> usize {
-    6 + (2.0 * wl).ceil() as usize
+    4 + (2.0 * wl).ceil() as usize
 }
 
 /// Per-element rotary integrals, head coordinates.
