@@ -15,9 +15,11 @@ fn main() {
             match item.parse::<usize>() {
                 Ok(n) if (1..=MAX_N).contains(&n) => sizes.push(n),
                 _ => {
-                    println!(
-                        "cargo:warning=SUPERHELIX_N: '{item}' is not a number of elements in 1..={MAX_N}; ignored"
+                    eprintln!(
+                        "error: SUPERHELIX_N: '{item}' is not a number of elements; \
+                         expected a comma-separated list of integers in 1..={MAX_N}, e.g. SUPERHELIX_N=7,9"
                     );
+                    std::process::exit(1);
                 }
             }
         }
