@@ -212,7 +212,8 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
             }
         }
         if t.force {
-            out.first_moment = self.bodies[0].first * rho_s;
+            out.first_moment =
+                (self.bodies[0].first + self.ends[0].position * self.bodies[0].mass) * rho_s;
             // −b of the centreline, then the field with ρS = 0 (the assembly is linear
             // in the field and in ρS)
             assemble_force(

@@ -76,20 +76,39 @@ pub fn frame_motions(
     }
 }
 
-/// Integrals over the elements P..N−1 (per unit mass per length): a composite body
-/// with the velocity field of the strand.
+/// Integrals over the elements P..N−1 (per unit mass per length) with x = y − r_P, the
+/// position relative to the body's start: a composite body with the velocity field of
+/// the strand. (About r_P rather than the head origin, so that curls far from the root
+/// keep their digits.)
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct SuffixBody {
     /// Length ∫ ds.
     pub mass: f64,
-    /// ∫ y.
+    /// ∫ x.
     pub first: V3,
-    /// ∫ y yᵀ.
+    /// ∫ x xᵀ.
     pub second: M3,
     /// ∫ ẏ.
     pub velocity: V3,
-    /// ∫ y ẏᵀ.
+    /// ∫ x ẏᵀ.
     pub moment_velocity: M3,
+}
+
+impl SuffixBody {
+    /// The same body about a reference point `delta` behind the current one
+    /// (x' = x + delta).
+    fn shifted(&self, delta: &V3) -> SuffixBody {
+        SuffixBody {
+            mass: self.mass,
+            first: self.first + delta * self.mass,
+            second: self.second
+                + self.first * delta.transpose()
+                + delta * self.first.transpose()
+                + delta * delta.transpose() * self.mass,
+            velocity: self.velocity,
+            moment_velocity: self.moment_velocity + delta * self.velocity.transpose(),
+        }
+    }
 }
 
 /// One element's contribution to [`SuffixBody`] (with or without the velocity parts).
@@ -102,10 +121,8 @@ fn element_body(
     with_velocity: bool,
 ) -> SuffixBody {
     let f = pose.frame;
-    let r = pose.position;
     let a = f * m.first;
     let fs = f * m.second * f.transpose();
-    let second = r * r.transpose() * l + r * a.transpose() + a * r.transpose() + fs;
     let (mut velocity, mut moment_velocity) = (V3::zeros(), M3::zeros());
     if with_velocity {
         let mut pi = V3::zeros();
@@ -115,20 +132,19 @@ fn element_body(
             n_pi += m.pdp[j] * qd[j];
         }
         velocity = motion.velocity * l + motion.omega.cross(&a) + f * pi;
-        moment_velocity = r * velocity.transpose() + a * motion.velocity.transpose()
-            - fs * motion.omega.cross_matrix()
+        moment_velocity = a * motion.velocity.transpose() - fs * motion.omega.cross_matrix()
             + f * n_pi * f.transpose();
     }
     SuffixBody {
         mass: l,
-        first: r * l + a,
-        second,
+        first: a,
+        second: fs,
         velocity,
         moment_velocity,
     }
 }
 
-/// `bodies[P]` = elements P..N−1, `bodies[N]` empty. The velocity parts are filled
+/// `bodies[P]` = elements P..N−1 about r_P, `bodies[N]` empty. The velocity parts are filled
 /// when `with_velocity` (they need `motions` and q̇).
 pub fn suffix_bodies(
     ends: &[Pose],
@@ -150,7 +166,7 @@ pub fn suffix_bodies(
             &velocities[3 * p..3 * p + 3],
             with_velocity,
         );
-        let next = bodies[p + 1];
+        let next = bodies[p + 1].shifted(&(ends[p + 1].position - ends[p].position));
         bodies[p] = SuffixBody {
             mass: next.mass + e.mass,
             first: next.first + e.first,
@@ -175,13 +191,14 @@ pub fn cross_moment(a: &M3, n: &M3) -> V3 {
     axial(&(n * a.transpose()))
 }
 
-/// Twist (v_k, ω_k) of upstream column i of element q: J_k(y) = v_k + ω_k × y.
-fn twist(e: &EndDerivatives, r_end: &V3, i: usize) -> (V3, V3) {
+/// Twist (v, ω) of upstream column i of element Q about the point `at`:
+/// J(y) = v + ω × (y − at), given `lever` = at − r_{Q+1}.
+fn twist(e: &EndDerivatives, lever: &V3, i: usize) -> (V3, V3) {
     let w = e.dtheta[i];
-    (e.dp[i] - w.cross(r_end), w)
+    (e.dp[i] + w.cross(lever), w)
 }
 
-/// `∫ g` and `∫ y × g` over a body for g(y) = W (v + ω × y).
+/// `∫ g` and `∫ x × g` over a body for g = W (v + ω × x), x relative to its reference.
 fn weighted_rigid(w: &M3, body: &SuffixBody, v: &V3, om: &V3) -> (V3, V3) {
     let wv = w * v;
     let lin = wv * body.mass + w * om.cross(&body.first);
@@ -205,6 +222,7 @@ pub fn add_weighted_gram(
     let dofs = 3 * n;
     let symmetric = w == &w.transpose();
     let wt = w.transpose();
+    let zero = V3::zeros();
     // pass 0: W, entries (k, l) with k in elements ≤ that of l;
     // pass 1: Wᵀ, entries (l, k) with k in elements < that of l
     for (pass, weight) in [w, &wt].into_iter().enumerate() {
@@ -219,26 +237,29 @@ pub fn add_weighted_gram(
             let a_w = f.transpose() * weight * f;
             for j in 0..3 {
                 let l = 3 * q2 + j;
-                let (vl, wl) = twist(&end_derivs[q2], &r_end, j);
+                // twists about r_{q2+1}, the reference of the body beyond q2
+                let (vl, wl) = twist(&end_derivs[q2], &zero, j);
                 let (lin, ang) = weighted_rigid(weight, &bodies[q2 + 1], &vl, &wl);
                 // own rows of element q2 (pass 0 only: the whole block)
                 if pass == 0 {
                     for i in 0..3 {
                         let k = 3 * q2 + i;
-                        let (vk, wk) = twist(&end_derivs[q2], &r_end, i);
+                        let (vk, wk) = twist(&end_derivs[q2], &zero, i);
                         let own = a_w.component_mul(&m2.dpdp[i][j]).sum();
                         out[l * dofs + k] += scale * (own + vk.dot(&lin) + wk.dot(&ang));
                     }
                 }
                 // rows upstream: own part of l on element q2 plus the rigid part beyond
+                // (about r_{q2})
                 let lin_own = weight * (f * m2.dfirst[j]);
-                let ang_own = r.cross(&lin_own) + f * cross_moment(&a_w, &m2.pdp[j]);
-                let (lin, ang) = (lin + lin_own, ang + ang_own);
+                let ang_own = f * cross_moment(&a_w, &m2.pdp[j]);
+                let ang = ang + (r_end - r).cross(&lin) + ang_own;
+                let lin = lin + lin_own;
                 for q in 0..q2 {
-                    let r_q = ends[q + 1].position;
+                    let lever = r - ends[q + 1].position;
                     for i in 0..3 {
                         let k = 3 * q + i;
-                        let (vk, wk) = twist(&end_derivs[q], &r_q, i);
+                        let (vk, wk) = twist(&end_derivs[q], &lever, i);
                         let val = scale * (vk.dot(&lin) + wk.dot(&ang));
                         if pass == 0 {
                             out[l * dofs + k] += val;
@@ -275,15 +296,15 @@ pub fn add_field_hessian(
         let m2 = &moments[q2];
         let e2 = &end_derivs[q2];
         let body = &bodies[q2 + 1];
-        // the field over the body beyond q2: ∫f, ∫ y fᵀ, ∫ y × f
-        let res = c0 * body.mass + c1 * body.first;
-        let yf = body.first * c0.transpose() + body.second * c1.transpose();
-        let tor = body.first.cross(c0) + cross_moment(c1, &body.second);
+        // the field over the body beyond q2 (x = y − r_end, f = c_end + C1 x):
+        // ∫f, ∫ x fᵀ, ∫ x × f
+        let c_end = c0 + c1 * r_end;
+        let res = c_end * body.mass + c1 * body.first;
+        let y_rho = body.first * c_end.transpose() + body.second * c1.transpose();
+        let t_rho = body.first.cross(&c_end) + cross_moment(c1, &body.second);
         let a0 = f.transpose() * (c0 + c1 * r);
         let a = f.transpose() * c1 * f;
         // same element: own part and rigid part beyond (ρ = y − r_end)
-        let y_rho = yf - r_end * res.transpose();
-        let t_rho = tor - r_end.cross(&res);
         for i in 0..3 {
             for j in i..3 {
                 let own = a0.dot(&m2.d2first[i][j]) + (a * m2.pd2p[i][j]).trace();
@@ -302,9 +323,9 @@ pub fn add_field_hessian(
         // pairs k upstream of l: ω_k · ∫ J_l × f
         for j in 0..3 {
             let l = 3 * q2 + j;
-            let (vl, wl) = twist(e2, &r_end, j);
+            let (vl, wl) = twist(e2, &V3::zeros(), j);
             let own = f * (m2.dfirst[j].cross(&a0) + cross_moment(&a, &m2.pdp[j].transpose()));
-            let u = own + vl.cross(&res) + yf * wl - wl * yf.trace();
+            let u = own + vl.cross(&res) + y_rho * wl - wl * y_rho.trace();
             for q in 0..q2 {
                 for i in 0..3 {
                     let k = 3 * q + i;
@@ -317,12 +338,12 @@ pub fn add_field_hessian(
     }
 }
 
-/// `∫ g` and `∫ y × g` over a body for g(y) = A + γ × (y − r_m) + t × ẏ.
-fn jdot_rigid(body: &SuffixBody, a: &V3, gamma: &V3, t: &V3, r_m: &V3) -> (V3, V3) {
+/// `∫ g` and `∫ x × g` over a body for g = A + γ × x + t × ẏ, x relative to the body's
+/// reference point.
+fn jdot_rigid(body: &SuffixBody, a: &V3, gamma: &V3, t: &V3) -> (V3, V3) {
     let x = &body.moment_velocity;
-    let lin = a * body.mass + gamma.cross(&(body.first - r_m * body.mass)) + t.cross(&body.velocity);
+    let lin = a * body.mass + gamma.cross(&body.first) + t.cross(&body.velocity);
     let ang = body.first.cross(a) + gamma * body.second.trace() - body.second * gamma
-        - body.first.cross(&gamma.cross(r_m))
         + t * x.trace()
         - x.transpose() * t;
     (lin, ang)
@@ -370,25 +391,26 @@ pub fn add_velocity_jacobian(
                 h1 += m2.d2first[j][i] * qd2[i];
                 hx += m2.cross2[j][i] * qd2[i];
             }
-            let (lin_b, ang_b) = jdot_rigid(&bodies[q2 + 1], &a, &gamma, &t, &r_m);
-            // rows of element q2 itself
+            let zero = V3::zeros();
+            let (lin_b, ang_b) = jdot_rigid(&bodies[q2 + 1], &a, &gamma, &t);
+            // rows of element q2 itself (twists about r_m)
             for i in 0..3 {
                 let k = 3 * q2 + i;
-                let (vk, wk) = twist(e2, &r_m, i);
+                let (vk, wk) = twist(e2, &zero, i);
                 let mut own = om2_local.dot(&axial(&m2.dpdp[j][i]));
                 for c in 0..3 {
                     own += m2.dpd2p[i][j][c] * qd2[c];
                 }
                 out[l * dofs + k] += scale * (own + vk.dot(&lin_b) + wk.dot(&ang_b));
             }
-            // rows upstream
+            // rows upstream (about r2)
             let lin_own = f2 * h1;
+            let ang = ang_b + (r_m - r2).cross(&lin_b) + f2 * hx;
             let lin = lin_b + lin_own;
-            let ang = ang_b + r2.cross(&lin_own) + f2 * hx;
             for q in 0..q2 {
-                let r_q = ends[q + 1].position;
+                let lever = r2 - ends[q + 1].position;
                 for i in 0..3 {
-                    let (vk, wk) = twist(&end_derivs[q], &r_q, i);
+                    let (vk, wk) = twist(&end_derivs[q], &lever, i);
                     out[l * dofs + 3 * q + i] += scale * (vk.dot(&lin) + wk.dot(&ang));
                 }
             }
@@ -407,7 +429,8 @@ pub fn add_velocity_jacobian(
                 let qd = &velocities[3 * q..3 * q + 3];
                 let base = al + tl.cross(&vq);
                 let tw = tl.dot(&wq);
-                let (lin_q, ang_q) = jdot_rigid(&bodies[q + 1], &a, &gamma, &t, &r_m);
+                let a_qe = a + gamma.cross(&(r_qe - r_m));
+                let (lin_q, ang_q) = jdot_rigid(&bodies[q + 1], &a_qe, &gamma, &t);
                 for i in 0..3 {
                     let k = 3 * q + i;
                     let mut own = mq.dfirst[i].dot(&base) + g.dot(&mq.cross[i])
@@ -416,7 +439,7 @@ pub fn add_velocity_jacobian(
                     for c in 0..3 {
                         own += tl.dot(&axial(&mq.dpdp[c][i])) * qd[c];
                     }
-                    let (vk, wk) = twist(&end_derivs[q], &r_qe, i);
+                    let (vk, wk) = twist(&end_derivs[q], &zero, i);
                     out[l * dofs + k] += scale * (own + vk.dot(&lin_q) + wk.dot(&ang_q));
                 }
             }

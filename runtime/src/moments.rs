@@ -108,8 +108,11 @@ pub struct EndDerivatives {
     pub dw: [[Vector3<f64>; 3]; 3],
 }
 
-/// Mass, first moment and second moment (∫ y yᵀ) of a set of elements about the origin,
-/// plus the summed rotary inertia: a composite rigid body.
+/// Mass, first moment and second moment (∫ x xᵀ, x = y − a) of a set of elements about
+/// a reference point a (the start of its first element), plus the summed rotary inertia:
+/// a composite rigid body. Taking the moments about a point of the body, not about the
+/// head origin, keeps the digits of tightly curled elements far from the root (about
+/// the origin, a curl of radius ρ at distance R loses (R/ρ)² of them).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Body {
     mass: f64,
@@ -119,8 +122,9 @@ pub struct Body {
 }
 
 impl Body {
-    /// Linear and angular "momentum" of the rigid velocity field v + ω × y over the body
-    /// (per unit ρS for the first two): `∫ (v + ω × y) dm` and `∫ y × (v + ω × y) dm`.
+    /// Linear and angular "momentum" of the rigid velocity field v + ω × x over the body
+    /// (per unit ρS for the first two), x relative to the reference point:
+    /// `∫ (v + ω × x) dm` and `∫ x × (v + ω × x) dm`.
     fn momentum(&self, v: &Vector3<f64>, w: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
         let lin = v * self.mass + w.cross(&self.first);
         let ang =
@@ -147,26 +151,30 @@ pub fn assemble_mass_and_gravity(
 ) {
     let n = lengths.len();
     let dofs = 3 * n;
-    // suffix bodies B(P) = elements P..N-1, B(N) empty
+    // suffix bodies B(P) = elements P..N-1 about r_P, B(N) empty
     bodies[n] = Body::default();
+    let mut first_moment_local = Vector3::zeros();
     for p in (0..n).rev() {
         let f = ends[p].frame;
-        let r = ends[p].position;
         let m = &moments[p];
         let a = f * m.first;
+        // the body beyond, moved from r_{P+1} to r_P
         let next = bodies[p + 1];
+        let delta = ends[p + 1].position - ends[p].position;
+        let shifted_first = next.first + delta * next.mass;
         bodies[p] = Body {
             mass: next.mass + lengths[p],
-            first: next.first + r * lengths[p] + a,
+            first: shifted_first + a,
             second: next.second
-                + r * r.transpose() * lengths[p]
-                + r * a.transpose()
-                + a * r.transpose()
+                + next.first * delta.transpose()
+                + delta * next.first.transpose()
+                + delta * delta.transpose() * next.mass
                 + f * m.second * f.transpose(),
             rot: next.rot + f * m.rot * f.transpose(),
         };
+        first_moment_local = bodies[p].first;
     }
-    *first_moment = bodies[0].first * rho_s;
+    *first_moment = (first_moment_local + ends[0].position * bodies[0].mass) * rho_s;
     mass.iter_mut().for_each(|x| *x = 0.0);
     for q in 0..n {
         let e = &end_derivs[q];
@@ -175,8 +183,9 @@ pub fn assemble_mass_and_gravity(
         let mq = &moments[q];
         for i in 0..3 {
             let k = 3 * q + i;
+            // J_k = v + w × (y − r_{Q+1}) beyond Q
             let w = e.dtheta[i];
-            let v = e.dp[i] - w.cross(&r_end);
+            let v = e.dp[i];
             // force: rigid part beyond Q plus own part
             let (lin, _) = bodies[q + 1].momentum(&v, &w);
             force[k] = c0.dot(&(lin + fq * mq.dfirst[i]));
@@ -184,7 +193,7 @@ pub fn assemble_mass_and_gravity(
             for j in i..3 {
                 let l = 3 * q + j;
                 let wl = e.dtheta[j];
-                let vl = e.dp[j] - wl.cross(&r_end);
+                let vl = e.dp[j];
                 let (lin, ang) = bodies[q + 1].momentum(&vl, &wl);
                 let val = rho_s * (v.dot(&lin) + w.dot(&ang) + mq.gram[(i, j)])
                     + w.dot(&(bodies[q + 1].rot * wl))
@@ -195,16 +204,16 @@ pub fn assemble_mass_and_gravity(
             // later elements Q' > Q: rigid beyond Q' plus the mixed own part in Q'
             for q2 in q + 1..n {
                 let e2 = &end_derivs[q2];
-                let r2_end = ends[q2 + 1].position;
                 let f2 = ends[q2].frame;
-                let r2 = ends[q2].position;
                 let m2 = &moments[q2];
-                let base = v + w.cross(&r2);
-                let (lin, ang) = bodies[q2 + 1].momentum(&v, &w);
+                // J_k at r_{Q'} and at r_{Q'+1}
+                let base = v + w.cross(&(ends[q2].position - r_end));
+                let at_end = v + w.cross(&(ends[q2 + 1].position - r_end));
+                let (lin, ang) = bodies[q2 + 1].momentum(&at_end, &w);
                 for j in 0..3 {
                     let l = 3 * q2 + j;
                     let wl = e2.dtheta[j];
-                    let vl = e2.dp[j] - wl.cross(&r2_end);
+                    let vl = e2.dp[j];
                     let rigid = vl.dot(&lin) + wl.dot(&ang);
                     let mixed = base.dot(&(f2 * m2.dfirst[j])) + w.dot(&(f2 * m2.cross[j]));
                     let val = rho_s * (rigid + mixed)
@@ -233,12 +242,13 @@ pub fn end_derivatives_from(frame: &Matrix3<f64>, e: &crate::element::ElementPoi
     }
 }
 
-/// Force and torque (about the origin) that the force per length exerts on one element.
+/// Force and torque (about the element's start) that the force per length exerts on one
+/// element.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Wrench {
     /// Resultant ∫ f du.
     pub force: Vector3<f64>,
-    /// Moment about the origin ∫ y × f du.
+    /// Moment about the element's start r_P: ∫ (y − r_P) × f du.
     pub torque: Vector3<f64>,
 }
 
@@ -332,10 +342,10 @@ pub fn assemble_force(
         let res = a0 * lengths[p] + a * m.first + b * pi1 - pi2 * rho_s;
         let mom = m.first.cross(&a0) + cross_moment(&a, &m.second) + cross_moment(&b, &n_pi)
             - c_pi2 * rho_s;
-        let res = f * res;
+        // torque about the element's start r_P
         wrenches[p] = Wrench {
-            force: res,
-            torque: r.cross(&res) + f * mom,
+            force: f * res,
+            torque: f * mom,
         };
         // recursion to the start of element P + 1
         let mut w_hat = Vector3::zeros(); // F Σ w_i(l) q̇_i
@@ -359,17 +369,16 @@ pub fn assemble_force(
         alpha += omega.cross(&w_hat) + w_dot;
         omega += w_hat;
     }
-    // upstream columns: v_k · ΣR + ω_k · Στ over the elements beyond
+    // upstream columns: dp_k · ΣR + ω_k · Στ over the elements beyond, torques about
+    // r_{Q+1} (moved along the chain element by element, never through the origin)
     let mut beyond = Wrench::default();
     for q in (0..n).rev() {
         let e = &end_derivs[q];
-        let r_end = ends[q + 1].position;
         for i in 0..3 {
-            let w = e.dtheta[i];
-            let v = e.dp[i] - w.cross(&r_end);
-            force[3 * q + i] += v.dot(&beyond.force) + w.dot(&beyond.torque);
+            force[3 * q + i] += e.dp[i].dot(&beyond.force) + e.dtheta[i].dot(&beyond.torque);
         }
+        let delta = ends[q + 1].position - ends[q].position;
+        beyond.torque += delta.cross(&beyond.force) + wrenches[q].torque;
         beyond.force += wrenches[q].force;
-        beyond.torque += wrenches[q].torque;
     }
 }
