@@ -1,0 +1,255 @@
+//! `compare-kernels` and `quadrature-table`: the library functions and the CLI.
+//!
+//! Tolerances. The reference is the generic kernel with max(64, 16 + 2⌈W·l⌉) points per
+//! element; `compare-kernels --candidate generic-256` measures it against 256 points at
+//! 7e-14 (N = 5, 1000 configurations: the round-off of summing ~200 points), so it is
+//! exact to ~1e-13 for W·l ≤ 100.
+//! - The generic kernel with its adaptive rule (8 + ⌈1.5 W·l⌉ points, ≥ 158 at W·l = 100)
+//!   resolves the same integrands: measured worst 3.3e-14 (N = 5, K = 1000); we assert
+//!   1e-12, round-off with a margin of 30, far below any quadrature error (64 points at
+//!   W·l = 100 are already off by 1e-8). Positions, frames, J and the point Hessian come
+//!   from the same closed-form reconstruction in both: asserted identical.
+//! - A generated closed-form kernel: 1e-10, the tolerance the generated crate's own tests
+//!   use against quadrature (`generated/tests/generated.rs`).
+
+use std::process::{Command, Output};
+use superhelix::compare::{compare_kernels, Candidate, CompareOptions, CompareReport};
+use superhelix::quadrature_table::{quadrature_table, TableOptions, ORDERS};
+use superhelix::runtime::material::Preset;
+
+fn superhelix(args: &[&str]) -> Output {
+    match Command::new(env!("CARGO_BIN_EXE_superhelix"))
+        .args(args)
+        .output()
+    {
+        Ok(out) => out,
+        Err(e) => panic!("cannot start superhelix: {e}"),
+    }
+}
+
+fn run(options: CompareOptions) -> CompareReport {
+    compare_kernels(&options, superhelix::kernel_factory())
+        .unwrap_or_else(|e| panic!("{options:?}: {e}"))
+}
+
+fn deviation(report: &CompareReport, quantity: &str) -> f64 {
+    report
+        .quantities
+        .iter()
+        .find(|(name, _)| *name == quantity)
+        .map(|(_, w)| w.deviation)
+        .unwrap_or_else(|| panic!("no row {quantity}"))
+}
+
+#[test]
+fn generated_kernels_match_the_high_order_reference() {
+    let Some(factory) = superhelix::kernel_factory() else {
+        println!("note: no generated kernels in this build (kernel_factory() is None): skipped");
+        return;
+    };
+    let available = factory.available();
+    if available.is_empty() {
+        println!("note: the generated kernel factory offers no N: skipped");
+        return;
+    }
+    // at most three N, the smallest ones, to keep the test short
+    let mut ns = available.clone();
+    ns.sort_unstable();
+    for &n in ns.iter().take(3) {
+        let report = run(CompareOptions {
+            elements: n,
+            samples: 160,
+            seed: 7,
+            candidate: Candidate::Generated,
+        });
+        println!("{}", report.render());
+        assert!(
+            report.max_relative_deviation <= 1e-10,
+            "N = {n}:\n{}",
+            report.render()
+        );
+    }
+}
+
+#[test]
+fn generic_adaptive_candidate_matches_the_reference_to_round_off() {
+    let report = run(CompareOptions {
+        elements: 3,
+        samples: 240,
+        seed: 11,
+        candidate: Candidate::GenericAdaptive,
+    });
+    println!("{}", report.render());
+    assert_eq!(report.quantities.len(), 12);
+    // every W·l of the list was exercised (even configurations hold them exactly)
+    assert!(report.by_wl.iter().take(8).all(|r| r.configurations > 0));
+    assert!(
+        report.max_relative_deviation <= 1e-12,
+        "{}",
+        report.render()
+    );
+    for q in [
+        "positions at element ends",
+        "frames at element ends",
+        "positions y(s)",
+        "J(s)",
+        "c.d2y/dqdq(s)",
+    ] {
+        assert_eq!(deviation(&report, q), 0.0, "{q}");
+    }
+}
+
+#[test]
+fn an_under_resolved_candidate_is_caught_at_large_wl() {
+    // 8 points per element cannot integrate frequencies 2|d| over W·l = 30 or 100.
+    let report = run(CompareOptions {
+        elements: 2,
+        samples: 64,
+        seed: 3,
+        candidate: Candidate::GenericFixed(8),
+    });
+    assert!(report.max_relative_deviation > 1e-3, "{}", report.render());
+    let mass = report.quantities[0].1;
+    assert!(mass.wl > 1.0, "{}", report.render());
+    // and is exact where the integrands are nearly polynomial
+    let small = &report.by_wl[..5];
+    assert!(
+        small.iter().all(|r| r.deviation <= 1e-12),
+        "{}",
+        report.render()
+    );
+}
+
+#[test]
+fn cli_compare_ends_with_the_max_relative_deviation() {
+    let out = superhelix(&[
+        "compare-kernels",
+        "--elements",
+        "3",
+        "--samples",
+        "40",
+        "--candidate",
+        "generic-adaptive",
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let last = stdout.lines().last().unwrap_or_default();
+    let value = last
+        .strip_prefix("max_relative_deviation=")
+        .unwrap_or_else(|| panic!("last line: {last}"));
+    let value: f64 = value.parse().unwrap_or_else(|e| panic!("{value}: {e}"));
+    assert!(
+        value.is_finite() && (0.0..=1e-12).contains(&value),
+        "{value}"
+    );
+    assert!(
+        stdout.contains("| mass M |") && stdout.contains("| J(s) |"),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn cli_compare_refuses_an_n_without_generated_kernels() {
+    let available = superhelix::kernel_factory()
+        .map(|f| f.available())
+        .unwrap_or_default();
+    let n = (1..=200)
+        .find(|n| !available.contains(n))
+        .unwrap_or_else(|| panic!("every N has a generated kernel"));
+    let out = superhelix(&[
+        "compare-kernels",
+        "--elements",
+        &n.to_string(),
+        "--samples",
+        "5",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains(&format!("no generated kernel for N = {n} "))
+            && stderr.contains(&format!("{available:?}")),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(out.stdout.is_empty());
+
+    let out = superhelix(&["compare-kernels", "--elements", "3", "--candidate", "gpu"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--candidate"));
+    let out = superhelix(&["compare-kernels", "--samples", "3"]);
+    assert_eq!(out.status.code(), Some(2), "--elements is required");
+}
+
+#[test]
+fn quadrature_table_converges_to_the_reference() {
+    let options = TableOptions {
+        elements: 2,
+        preset: Preset::Fuzzy,
+        steps: 4,
+        strands: 1,
+        repeats: 1,
+    };
+    let table =
+        quadrature_table(&options, superhelix::kernel_factory()).unwrap_or_else(|e| panic!("{e}"));
+    println!("{}", table.render());
+    assert_eq!(table.rows.len(), ORDERS.len() + 2);
+    assert_eq!(table.states, 4);
+    // fuzzy: W·l ≈ 53 per element at N = 2
+    assert!(table.wl.0 > 30.0, "{:?}", table.wl);
+    let by_order = |n: usize| &table.rows[ORDERS.iter().position(|&o| o == n).unwrap_or(0)];
+    assert!(
+        by_order(2).errors.iter().all(|&e| e > 1e-3),
+        "{}",
+        table.render()
+    );
+    assert!(
+        by_order(64).errors.iter().all(|&e| e < 1e-10),
+        "{}",
+        table.render()
+    );
+    let adaptive = &table.rows[ORDERS.len()];
+    assert!(adaptive.label.starts_with("adaptive"));
+    assert!(
+        adaptive.errors.iter().all(|&e| e < 1e-12),
+        "{}",
+        table.render()
+    );
+    assert!(
+        table.rows.iter().all(|r| r.micros.is_ok()),
+        "{}",
+        table.render()
+    );
+}
+
+#[test]
+fn cli_quadrature_table_prints_markdown() {
+    let out = superhelix(&[
+        "quadrature-table",
+        "--elements",
+        "1",
+        "--steps",
+        "2",
+        "--strands",
+        "1",
+        "--repeats",
+        "1",
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: Vec<&str> = stdout.lines().filter(|l| l.starts_with("| ")).collect();
+    assert_eq!(rows.len(), 1 + ORDERS.len() + 2, "{stdout}");
+    assert!(rows[0].starts_with("| order |"), "{stdout}");
+    assert!(stdout.contains("|---|"), "{stdout}");
+    let out = superhelix(&["quadrature-table", "--preset", "frizzy"]);
+    assert_eq!(out.status.code(), Some(1));
+}
