@@ -7,8 +7,10 @@
 //! gravity, drag, internal friction and a head shaking at 2 Hz by ±30°, T steps of
 //! 1/30 s), with each state's own body field: per quantity, `max|generic − reference| /
 //! max|reference|` over its entries (as in `compare-kernels`), worst over the states.
-//! Time per strand-step is the wall time of T steps of that simulation with each rule,
-//! on one thread, best of [`TableOptions::repeats`] runs, divided by S·T.
+//! Time per strand-step is the time of T steps of that simulation with each rule, all
+//! strands on one thread, best of [`TableOptions::repeats`] runs, divided by S·T; the
+//! time is the thread's on-CPU time where the platform has it (unix), so that other load
+//! on a shared machine does not count, else wall time ([`Clock`]).
 
 use crate::bench::{BenchOptions, EffectSet};
 use crate::compare::Deviation;
@@ -80,6 +82,8 @@ pub struct QuadratureTable {
     pub wl: (f64, f64),
     /// Number of states the errors are taken over.
     pub states: usize,
+    /// How times were measured.
+    pub clock: Clock,
     /// The rows: fixed orders, adaptive, and last the reference.
     pub rows: Vec<Row>,
 }
@@ -110,9 +114,14 @@ impl QuadratureTable {
         let _ = writeln!(
             s,
             "Errors: max|generic - reference| / max|reference| over the entries, worst over the \
-             {} states of the reference run. Time: wall time of the {} steps / ({} x {}) \
-             strand-steps, one thread, best of {}.\n",
-            self.states, o.steps, o.strands, o.steps, o.repeats
+             {} states of the reference run. Time: best of {} runs of the {} steps, all \
+             strands on one thread, by the {}, / ({} x {}) strand-steps.\n",
+            self.states,
+            o.repeats,
+            o.steps,
+            self.clock.describe(),
+            o.strands,
+            o.steps
         );
         let _ = writeln!(
             s,
@@ -196,29 +205,83 @@ struct State {
     reference: StrandTerms,
 }
 
-/// Seconds of the fastest of `repeats` runs of `steps` steps of `setup`, on one thread.
+/// On-CPU time of the calling thread, seconds (`CLOCK_THREAD_CPUTIME_ID`): unlike wall
+/// time, it does not count the time other processes of a busy machine take.
+#[cfg(unix)]
+fn thread_cpu_seconds() -> Option<f64> {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec for the duration of the call.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    (rc == 0).then(|| ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
+}
+
+#[cfg(not(unix))]
+fn thread_cpu_seconds() -> Option<f64> {
+    None
+}
+
+/// How the times of the table are measured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Clock {
+    /// On-CPU time of the (single) stepping thread.
+    ThreadCpu,
+    /// Wall time (where the thread's CPU time is not available).
+    Wall,
+}
+
+impl Clock {
+    /// The clock of this platform.
+    pub fn current() -> Clock {
+        if thread_cpu_seconds().is_some() {
+            Clock::ThreadCpu
+        } else {
+            Clock::Wall
+        }
+    }
+    fn describe(self) -> &'static str {
+        match self {
+            Clock::ThreadCpu => "on-CPU time of the stepping thread (clock_gettime CLOCK_THREAD_CPUTIME_ID, so other load on the machine is not counted)",
+            Clock::Wall => "wall time",
+        }
+    }
+}
+
+/// Seconds of the fastest of `repeats` runs of `steps` steps of `setup`, all strands on
+/// one thread, by `clock`.
 fn time_steps(
     setup: &SimulationSetup,
     factory: Option<&dyn KernelFactory>,
     steps: usize,
     repeats: usize,
+    clock: Clock,
 ) -> std::result::Result<f64, String> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
         .map_err(|e| e.to_string())?;
+    let now = move || match clock {
+        Clock::ThreadCpu => thread_cpu_seconds().unwrap_or(f64::NAN),
+        Clock::Wall => START.with(|s| s.elapsed().as_secs_f64()),
+    };
     pool.install(|| {
         let mut best = f64::INFINITY;
         for _ in 0..repeats {
             let mut sim = Simulation::new(setup.clone(), factory).map_err(|e| e.to_string())?;
-            let start = Instant::now();
+            let start = now();
             for _ in 0..steps {
                 sim.step().map_err(|e| e.to_string())?;
             }
-            best = best.min(start.elapsed().as_secs_f64());
+            best = best.min(now() - start);
         }
         Ok(best)
     })
+}
+
+thread_local! {
+    static START: Instant = Instant::now();
 }
 
 /// Measure the table. `factory` provides the generated kernels (pass
@@ -318,6 +381,7 @@ pub fn quadrature_table(
         adaptive,
     ));
     let strand_steps = (o.strands * o.steps) as f64;
+    let clock = Clock::current();
     for (label, rule) in rules {
         let mut kernels: Vec<GenericKernel> = setup
             .strands
@@ -347,14 +411,14 @@ pub fn quadrature_table(
         let mut timed = setup.clone();
         timed.config.kernels = KernelChoice::Generic;
         timed.config.quadrature = rule;
-        let micros = time_steps(&timed, None, o.steps, o.repeats).map(|s| 1e6 * s / strand_steps);
+        let micros = time_steps(&timed, None, o.steps, o.repeats, clock).map(|s| 1e6 * s / strand_steps);
         rows.push(Row {
             label,
             errors: worst,
             micros,
         });
     }
-    let micros = time_steps(&setup, generated, o.steps, o.repeats).map(|s| 1e6 * s / strand_steps);
+    let micros = time_steps(&setup, generated, o.steps, o.repeats, clock).map(|s| 1e6 * s / strand_steps);
     let (label, description) = match generated {
         Some(_) => (
             format!("closed form (generated N = {})", o.elements),
@@ -385,6 +449,7 @@ pub fn quadrature_table(
         stand_in: generated.is_none(),
         wl,
         states: states.len(),
+        clock,
         rows,
     })
 }

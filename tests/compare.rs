@@ -2,12 +2,13 @@
 //!
 //! Tolerances. The reference is the generic kernel with max(64, 16 + 2⌈W·l⌉) points per
 //! element; `compare-kernels --candidate generic-256` measures it against 256 points at
-//! 7e-14 (N = 5, 1000 configurations: the round-off of summing ~200 points), so it is
-//! exact to ~1e-13 for W·l ≤ 100.
+//! 6.8e-14 (N = 5) and 1.3e-13 (N = 1; 1000 configurations each, worst: the stiffness at
+//! W·l = 100, round-off of sums over ~200 points), so it is exact to ~1e-13 for
+//! W·l ≤ 100.
 //! - The generic kernel with its adaptive rule (8 + ⌈1.5 W·l⌉ points, ≥ 158 at W·l = 100)
-//!   resolves the same integrands: measured worst 3.3e-14 (N = 5, K = 1000); we assert
-//!   1e-12, round-off with a margin of 30, far below any quadrature error (64 points at
-//!   W·l = 100 are already off by 1e-8). Positions, frames, J and the point Hessian come
+//!   resolves the same integrands: measured worst 3.3e-14 (N = 5), 1.0e-13 (N = 1),
+//!   4.6e-14 (N = 20), K = 1000; we assert 1e-12, the round-off floor with a margin of
+//!   10, far below any quadrature error (64 points at W·l = 100 are off by 1e-8). Positions, frames, J and the point Hessian come
 //!   from the same closed-form reconstruction in both: asserted identical.
 //! - A generated closed-form kernel: 1e-10, the tolerance the generated crate's own tests
 //!   use against quadrature (`generated/tests/generated.rs`).
@@ -252,4 +253,71 @@ fn cli_quadrature_table_prints_markdown() {
     assert!(stdout.contains("|---|"), "{stdout}");
     let out = superhelix(&["quadrature-table", "--preset", "frizzy"]);
     assert_eq!(out.status.code(), Some(1));
+}
+
+/// A stand-in for the generated crate's factory: generic kernels with `order` points,
+/// offered for N = 2 only. Exercises the default (`generated`) path before the
+/// generated kernels exist.
+struct StubFactory {
+    order: usize,
+}
+
+impl superhelix::KernelFactory for StubFactory {
+    fn create(
+        &self,
+        geometry: &superhelix::runtime::StrandGeometry,
+    ) -> Option<Box<dyn superhelix::runtime::StrandKernel>> {
+        (geometry.elements() == 2).then(|| {
+            Box::new(superhelix::runtime::GenericKernel::new(
+                geometry.clone(),
+                superhelix::runtime::QuadratureRule::Fixed(self.order),
+            )) as Box<dyn superhelix::runtime::StrandKernel>
+        })
+    }
+    fn available(&self) -> Vec<usize> {
+        vec![2]
+    }
+}
+
+#[test]
+fn the_generated_path_uses_the_factory_and_names_what_it_offers() {
+    let factory = StubFactory { order: 256 };
+    let options = CompareOptions {
+        elements: 2,
+        samples: 40,
+        seed: 5,
+        candidate: Candidate::Generated,
+    };
+    let report = compare_kernels(&options, Some(&factory)).unwrap_or_else(|e| panic!("{e}"));
+    assert!(report.candidate.contains("256-point"), "{}", report.candidate);
+    assert!(report.max_relative_deviation <= 1e-12, "{}", report.render());
+    let refused = compare_kernels(
+        &CompareOptions {
+            elements: 3,
+            ..options
+        },
+        Some(&factory),
+    );
+    match refused {
+        Err(e) => {
+            let text = e.to_string();
+            assert!(text.contains("N = 3 ") && text.contains("[2]"), "{text}");
+        }
+        Ok(r) => panic!("N = 3 accepted:\n{}", r.render()),
+    }
+
+    let table = quadrature_table(
+        &TableOptions {
+            elements: 2,
+            steps: 2,
+            strands: 1,
+            repeats: 1,
+            ..TableOptions::default()
+        },
+        Some(&factory),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert!(!table.stand_in);
+    let last = table.rows.last().map(|r| r.label.clone()).unwrap_or_default();
+    assert!(last.contains("generated"), "{last}");
 }
