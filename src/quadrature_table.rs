@@ -411,14 +411,16 @@ pub fn quadrature_table(
         let mut timed = setup.clone();
         timed.config.kernels = KernelChoice::Generic;
         timed.config.quadrature = rule;
-        let micros = time_steps(&timed, None, o.steps, o.repeats, clock).map(|s| 1e6 * s / strand_steps);
+        let micros =
+            time_steps(&timed, None, o.steps, o.repeats, clock).map(|s| 1e6 * s / strand_steps);
         rows.push(Row {
             label,
             errors: worst,
             micros,
         });
     }
-    let micros = time_steps(&setup, generated, o.steps, o.repeats, clock).map(|s| 1e6 * s / strand_steps);
+    let micros =
+        time_steps(&setup, generated, o.steps, o.repeats, clock).map(|s| 1e6 * s / strand_steps);
     let (label, description) = match generated {
         Some(_) => (
             format!("closed form (generated N = {})", o.elements),

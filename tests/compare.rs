@@ -289,8 +289,16 @@ fn the_generated_path_uses_the_factory_and_names_what_it_offers() {
         candidate: Candidate::Generated,
     };
     let report = compare_kernels(&options, Some(&factory)).unwrap_or_else(|e| panic!("{e}"));
-    assert!(report.candidate.contains("256-point"), "{}", report.candidate);
-    assert!(report.max_relative_deviation <= 1e-12, "{}", report.render());
+    assert!(
+        report.candidate.contains("256-point"),
+        "{}",
+        report.candidate
+    );
+    assert!(
+        report.max_relative_deviation <= 1e-12,
+        "{}",
+        report.render()
+    );
     let refused = compare_kernels(
         &CompareOptions {
             elements: 3,
@@ -318,6 +326,10 @@ fn the_generated_path_uses_the_factory_and_names_what_it_offers() {
     )
     .unwrap_or_else(|e| panic!("{e}"));
     assert!(!table.stand_in);
-    let last = table.rows.last().map(|r| r.label.clone()).unwrap_or_default();
+    let last = table
+        .rows
+        .last()
+        .map(|r| r.label.clone())
+        .unwrap_or_default();
     assert!(last.contains("generated"), "{last}");
 }
