@@ -40,6 +40,9 @@ fn preset_strand(preset: Preset, n: usize, length: f64) -> Strand {
 struct KineticPeaks {
     first_half: f64,
     second_half: f64,
+    /// Largest ratio, over the strands, of the mean kinetic energy of the second half to
+    /// that of the first.
+    mean_growth: f64,
 }
 
 /// Run every preset on a head oscillating at `hz` through ±`deg`; returns the final q of
@@ -82,8 +85,10 @@ fn run(n: usize, dt: f64, duration: f64, hz: f64, deg: f64) -> (Vec<Vec<f64>>, K
     let mut peaks = KineticPeaks {
         first_half: 0.0,
         second_half: 0.0,
+        mean_growth: 0.0,
     };
     let steps = (duration / dt).round() as usize;
+    let mut sums = vec![[0.0f64; 2]; sim.strand_count()];
     for step in 0..steps {
         sim.step().expect("stable step");
         for i in 0..sim.strand_count() {
@@ -96,9 +101,11 @@ fn run(n: usize, dt: f64, duration: f64, hz: f64, deg: f64) -> (Vec<Vec<f64>>, K
                 &mut peaks.second_half
             };
             *peak = peak.max(k);
+            sums[i][usize::from(step >= steps / 2)] += k;
             assert!(sim.q(i).iter().chain(sim.v(i)).all(|x| x.is_finite()));
         }
     }
+    peaks.mean_growth = sums.iter().map(|s| s[1] / s[0]).fold(0.0, f64::max);
     println!("solver: {:?}", sim.stats());
     (
         (0..sim.strand_count()).map(|i| sim.q(i).to_vec()).collect(),
@@ -111,17 +118,17 @@ fn every_preset_survives_a_3hz_40deg_shake_at_30_fps_deterministically() {
     let (first, peaks) = run(10, 1.0 / 30.0, 10.0, 3.0, 40.0);
     println!("kinetic energy peaks / rigid-drag scale: {peaks:?}");
     // Bounded: a whip concentrates energy in its tip, so the relative kinetic energy may
-    // exceed the rigid-drag scale a few times, but it must not grow: under periodic forcing
-    // with friction and drag the second half peaks no higher than the first (with margin
-    // for the irregular whipping), and never beyond 10x the scale (tip 3x the head's speed).
+    // exceed the rigid-drag scale a few times, but never beyond 10x the scale (tip 3x the
+    // head's speed), and it must not grow: under periodic forcing with friction and drag
+    // each strand's mean kinetic energy over the second half stays within 1.5x that of the
+    // first. (Peaks of the irregular whipping are chaotic: two kernels agreeing to 1e-13
+    // per evaluation give second-half peaks of 1.9 and 3.7 times the scale, so the growth
+    // test uses means, which agree to a few percent.)
     assert!(
         peaks.first_half < 10.0 && peaks.second_half < 10.0,
         "{peaks:?}"
     );
-    assert!(
-        peaks.second_half < 1.5 * peaks.first_half,
-        "kinetic energy grows: {peaks:?}"
-    );
+    assert!(peaks.mean_growth < 1.5, "kinetic energy grows: {peaks:?}");
     let (second, _) = run(10, 1.0 / 30.0, 10.0, 3.0, 40.0);
     assert_eq!(first, second, "two runs differ");
 }

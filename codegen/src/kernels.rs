@@ -64,8 +64,11 @@ pub fn generate_element_moments() -> Result<GeneratedCode, CodegenError> {
 /// Every checked-in generated file: (path relative to `generated/src/`, formatted text).
 pub fn checked_in_files() -> Result<Vec<(String, String)>, CodegenError> {
     let moments = generate_element_moments()?;
-    Ok(vec![(
-        ELEMENT_MOMENTS_FILE.to_string(),
-        format(&moments.code),
-    )])
+    Ok(vec![
+        (ELEMENT_MOMENTS_FILE.to_string(), format(&moments.code)),
+        (
+            crate::sizes::SIZES_FILE.to_string(),
+            crate::sizes::sizes_file(),
+        ),
+    ])
 }

@@ -47,6 +47,7 @@ pub mod integrate;
 pub mod kernels;
 pub mod number;
 mod poly;
+pub mod sizes;
 
 pub use branch::{SwitchChoice, SwitchOptions};
 pub use cse::OpCounts;

@@ -15,6 +15,13 @@
 #[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]
 pub mod element_moments;
 
+pub mod factory;
+mod interim;
+/// Generated: the numbers of elements with checked-in kernels.
+pub mod sizes;
+
+pub use factory::{ClosedForm, GeneratedFactory, GeneratedKernel};
+pub use interim::{element_moments_into, element_point_into};
 use superhelix_runtime::moments::ElementMoments;
 use superhelix_runtime::{KernelFactory, Matrix3, Vector3};
 
@@ -63,7 +70,8 @@ pub fn mass_moments(d: &Vector3<f64>, l: f64, rotary: &[f64; 3]) -> ElementMomen
     m
 }
 
-/// The generated fixed-N kernels available in this build: none yet (issue #3).
+/// The generated kernels of this build (see [`factory::sizes`]).
 pub fn kernel_factory() -> Option<&'static dyn KernelFactory> {
-    None
+    static FACTORY: GeneratedFactory = GeneratedFactory;
+    Some(&FACTORY)
 }

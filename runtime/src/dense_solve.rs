@@ -61,6 +61,25 @@ impl DenseSolver {
     /// false (leaving `h` unchanged) if the eigendecomposition fails.
     pub fn project_negative_semidefinite(&mut self, h: &mut Mat<f64>) -> bool {
         let n = h.nrows();
+        // fast path: a negative definite h (a hanging strand) is its own projection,
+        // and a Cholesky factorisation of −h says so for a fraction of the cost
+        for j in 0..n {
+            for i in j..n {
+                self.scaled[(i, j)] = -h[(i, j)];
+            }
+        }
+        let stack = MemStack::new(&mut self.buffer);
+        if llt::factor::cholesky_in_place(
+            self.scaled.as_mut(),
+            Default::default(),
+            Par::Seq,
+            stack,
+            Default::default(),
+        )
+        .is_ok()
+        {
+            return true;
+        }
         let stack = MemStack::new(&mut self.buffer);
         let ok = evd::self_adjoint_evd(
             h.as_ref(),
@@ -202,6 +221,14 @@ mod tests {
             for j in 0..3 {
                 let expected = u[i][0] * -2.0 * u[j][0];
                 assert!((h[(i, j)] - expected).abs() < 1e-14);
+            }
+        }
+        // a negative definite matrix is its own projection (Cholesky fast path)
+        let mut h = Mat::from_fn(3, 3, |i, j| -spd[i][j]);
+        assert!(s.project_negative_semidefinite(&mut h));
+        for i in 0..3 {
+            for j in 0..3 {
+                assert_eq!(h[(i, j)], -spd[i][j]);
             }
         }
         let singular = [[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [1.0, 0.0, 1.0]];

@@ -59,6 +59,42 @@ impl ElementJets {
     }
 }
 
+/// Everything the moment-based kernels need of one element at one abscissa u, in the
+/// element's start frame: E(u), p(u), ∂p/∂d_i, ∂²p/∂d_i∂d_j, w_i(u) = P(u) e_i and
+/// ∂w_i/∂d_j. The generated crate evaluates it in closed form; [`ElementPoint::by_jets`]
+/// is the reference.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ElementPoint {
+    /// E(u).
+    pub frame: Matrix3<f64>,
+    /// p(u).
+    pub p: Vector3<f64>,
+    /// `dp[i]` = ∂p/∂d_i.
+    pub dp: [Vector3<f64>; 3],
+    /// `d2p[i][j]` = ∂²p/∂d_i∂d_j.
+    pub d2p: [[Vector3<f64>; 3]; 3],
+    /// `w[i]` = P(u) e_i.
+    pub w: [Vector3<f64>; 3],
+    /// `dw[i][j]` = ∂w_i/∂d_j.
+    pub dw: [[Vector3<f64>; 3]; 3],
+}
+
+impl ElementPoint {
+    /// By second-order jets in d ([`element_jets`]) and [`local_pose`].
+    pub fn by_jets(d: &Vector3<f64>, u: f64) -> Self {
+        let jets = element_jets(d, u, true);
+        let (frame, p) = local_pose(d, u);
+        ElementPoint {
+            frame,
+            p,
+            dp: std::array::from_fn(|i| jets.dp(i)),
+            d2p: std::array::from_fn(|i| std::array::from_fn(|j| jets.d2p(i, j))),
+            w: std::array::from_fn(|i| jets.w_value(i)),
+            dw: std::array::from_fn(|i| std::array::from_fn(|j| jets.dw(i, j))),
+        }
+    }
+}
+
 /// P(u) e applied to a jet vector e, given jet d, B = b(z), C = c(z) and |d|²:
 /// `u e + u² B (d × e) + u³ C (d (d·e) − |d|² e)`.
 fn p_times(u: f64, d: &[Jet; 3], b: Jet, c: Jet, dd: Jet, e: &[Jet; 3]) -> [Jet; 3] {

@@ -220,16 +220,16 @@ pub fn assemble_mass_and_gravity(
 
 /// End derivatives of element `q` (frame `frame` at its start) from its jets at u = l.
 pub fn end_derivatives(frame: &Matrix3<f64>, d: &Vector3<f64>, l: f64) -> EndDerivatives {
-    let jets = element_jets(d, l, true);
+    end_derivatives_from(frame, &crate::element::ElementPoint::by_jets(d, l))
+}
+
+/// End derivatives from the element's local derivatives at u = l.
+pub fn end_derivatives_from(frame: &Matrix3<f64>, e: &crate::element::ElementPoint) -> EndDerivatives {
     EndDerivatives {
-        dp: [frame * jets.dp(0), frame * jets.dp(1), frame * jets.dp(2)],
-        dtheta: [
-            frame * jets.w_value(0),
-            frame * jets.w_value(1),
-            frame * jets.w_value(2),
-        ],
-        d2p: std::array::from_fn(|i| std::array::from_fn(|j| frame * jets.d2p(i, j))),
-        dw: std::array::from_fn(|i| std::array::from_fn(|j| frame * jets.dw(i, j))),
+        dp: e.dp.map(|v| frame * v),
+        dtheta: e.w.map(|v| frame * v),
+        d2p: e.d2p.map(|row| row.map(|v| frame * v)),
+        dw: e.dw.map(|row| row.map(|v| frame * v)),
     }
 }
 

@@ -1,0 +1,425 @@
+//! The Jacobians the implicit step needs, from element moments (docs/moment-assembly.md,
+//! "Jacobians"): the damping ∫ Jᵀ C2 J, the field stiffness ∂(∫ Jᵀ(c0 + C1 y))/∂q and
+//! B = ∂b/∂q̇ of the centreline, each O(N²) with O(1) work per entry.
+//!
+//! Every column k of an element Q moves the strand beyond Q rigidly,
+//! `J_k(y) = v_k + ω_k × y`; a vector field g integrated against it needs only
+//! `∫ g` and `∫ y × g` over the part beyond Q. Those two integrals come from the suffix
+//! bodies ([`SuffixBody`]: mass, ∫y, ∫y yᵀ, ∫ẏ, ∫y ẏᵀ) when g is affine in y and ẏ,
+//! which holds for C1 J_l, C2 J_l, f·∂²y and J̇_m. The own columns of an element
+//! (`J_i = F ∂p/∂d_i`) contract with its moments.
+//!
+//! The rotary-inertia parts of b and ∂b/∂q̇ are in [`crate::moment_rotary`].
+
+use crate::moments::{ElementMoments, EndDerivatives};
+use crate::reconstruction::Pose;
+use nalgebra::{Matrix3, Vector3};
+
+type V3 = Vector3<f64>;
+type M3 = Matrix3<f64>;
+
+/// Motion of an element's start frame at velocities q̇ and q̈ = 0 (head coordinates).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FrameMotion {
+    /// Angular velocity Ω of the frame.
+    pub omega: V3,
+    /// Angular acceleration Ω̇ (q̈ = 0).
+    pub alpha: V3,
+    /// Velocity ṙ of the start point.
+    pub velocity: V3,
+    /// Acceleration r̈ of the start point (q̈ = 0).
+    pub acceleration: V3,
+}
+
+/// The recursion of docs/moment-assembly.md ("Velocity and acceleration of the base
+/// frame"): `motions[P]` for P = 0..=N (the root is fixed in head coordinates).
+pub fn frame_motions(
+    ends: &[Pose],
+    end_derivs: &[EndDerivatives],
+    velocities: &[f64],
+    motions: &mut [FrameMotion],
+) {
+    let n = end_derivs.len();
+    motions[0] = FrameMotion::default();
+    for p in 0..n {
+        let m = motions[p];
+        let e = &end_derivs[p];
+        let span = ends[p + 1].position - ends[p].position;
+        let qd = [
+            velocities[3 * p],
+            velocities[3 * p + 1],
+            velocities[3 * p + 2],
+        ];
+        let mut w_hat = V3::zeros();
+        let mut w_dot = V3::zeros();
+        let mut pi_l = V3::zeros();
+        let mut pidot_l = V3::zeros();
+        for i in 0..3 {
+            w_hat += e.dtheta[i] * qd[i];
+            pi_l += e.dp[i] * qd[i];
+            for j in 0..3 {
+                let qq = qd[i] * qd[j];
+                w_dot += e.dw[i][j] * qq;
+                pidot_l += e.d2p[i][j] * qq;
+            }
+        }
+        motions[p + 1] = FrameMotion {
+            omega: m.omega + w_hat,
+            alpha: m.alpha + m.omega.cross(&w_hat) + w_dot,
+            velocity: m.velocity + m.omega.cross(&span) + pi_l,
+            acceleration: m.acceleration
+                + m.alpha.cross(&span)
+                + m.omega.cross(&m.omega.cross(&span))
+                + m.omega.cross(&pi_l) * 2.0
+                + pidot_l,
+        };
+    }
+}
+
+/// Integrals over the elements P..N−1 (per unit mass per length): a composite body
+/// with the velocity field of the strand.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SuffixBody {
+    /// Length ∫ ds.
+    pub mass: f64,
+    /// ∫ y.
+    pub first: V3,
+    /// ∫ y yᵀ.
+    pub second: M3,
+    /// ∫ ẏ.
+    pub velocity: V3,
+    /// ∫ y ẏᵀ.
+    pub moment_velocity: M3,
+}
+
+/// One element's contribution to [`SuffixBody`] (with or without the velocity parts).
+fn element_body(
+    pose: &Pose,
+    l: f64,
+    m: &ElementMoments,
+    motion: &FrameMotion,
+    qd: &[f64],
+    with_velocity: bool,
+) -> SuffixBody {
+    let f = pose.frame;
+    let r = pose.position;
+    let a = f * m.first;
+    let fs = f * m.second * f.transpose();
+    let second = r * r.transpose() * l + r * a.transpose() + a * r.transpose() + fs;
+    let (mut velocity, mut moment_velocity) = (V3::zeros(), M3::zeros());
+    if with_velocity {
+        let mut pi = V3::zeros();
+        let mut n_pi = M3::zeros();
+        for j in 0..3 {
+            pi += m.dfirst[j] * qd[j];
+            n_pi += m.pdp[j] * qd[j];
+        }
+        velocity = motion.velocity * l + motion.omega.cross(&a) + f * pi;
+        moment_velocity = r * velocity.transpose() + a * motion.velocity.transpose()
+            - fs * motion.omega.cross_matrix()
+            + f * n_pi * f.transpose();
+    }
+    SuffixBody {
+        mass: l,
+        first: r * l + a,
+        second,
+        velocity,
+        moment_velocity,
+    }
+}
+
+/// `bodies[P]` = elements P..N−1, `bodies[N]` empty. The velocity parts are filled
+/// when `with_velocity` (they need `motions` and q̇).
+pub fn suffix_bodies(
+    ends: &[Pose],
+    lengths: &[f64],
+    moments: &[ElementMoments],
+    motions: &[FrameMotion],
+    velocities: &[f64],
+    with_velocity: bool,
+    bodies: &mut [SuffixBody],
+) {
+    let n = lengths.len();
+    bodies[n] = SuffixBody::default();
+    for p in (0..n).rev() {
+        let e = element_body(
+            &ends[p],
+            lengths[p],
+            &moments[p],
+            &motions[p],
+            &velocities[3 * p..3 * p + 3],
+            with_velocity,
+        );
+        let next = bodies[p + 1];
+        bodies[p] = SuffixBody {
+            mass: next.mass + e.mass,
+            first: next.first + e.first,
+            second: next.second + e.second,
+            velocity: next.velocity + e.velocity,
+            moment_velocity: next.moment_velocity + e.moment_velocity,
+        };
+    }
+}
+
+/// `∫ x × z` from `k` = ∫ x zᵀ.
+pub fn axial(k: &M3) -> V3 {
+    V3::new(
+        k[(1, 2)] - k[(2, 1)],
+        k[(2, 0)] - k[(0, 2)],
+        k[(0, 1)] - k[(1, 0)],
+    )
+}
+
+/// `∫ x × (A z)` from `n` = ∫ x zᵀ.
+pub fn cross_moment(a: &M3, n: &M3) -> V3 {
+    axial(&(n * a.transpose()))
+}
+
+/// Twist (v_k, ω_k) of upstream column i of element q: J_k(y) = v_k + ω_k × y.
+fn twist(e: &EndDerivatives, r_end: &V3, i: usize) -> (V3, V3) {
+    let w = e.dtheta[i];
+    (e.dp[i] - w.cross(r_end), w)
+}
+
+/// `∫ g` and `∫ y × g` over a body for g(y) = W (v + ω × y).
+fn weighted_rigid(w: &M3, body: &SuffixBody, v: &V3, om: &V3) -> (V3, V3) {
+    let wv = w * v;
+    let lin = wv * body.mass + w * om.cross(&body.first);
+    let ang = body.first.cross(&wv) + cross_moment(&(w * om.cross_matrix()), &body.second);
+    (lin, ang)
+}
+
+/// Adds `scale · ∫ J_k · W J_l ds` to `out(k, l)` for all k, l (`out` column-major,
+/// 3N × 3N), for any 3 × 3 W: the damping (W = C2) and the linear-field part of the
+/// stiffness (W = C1). `bodies` from [`suffix_bodies`] (positions only needed).
+pub fn add_weighted_gram(
+    w: &M3,
+    scale: f64,
+    ends: &[Pose],
+    end_derivs: &[EndDerivatives],
+    moments: &[ElementMoments],
+    bodies: &[SuffixBody],
+    out: &mut [f64],
+) {
+    let n = end_derivs.len();
+    let dofs = 3 * n;
+    let symmetric = w == &w.transpose();
+    let wt = w.transpose();
+    // pass 0: W, entries (k, l) with k in elements ≤ that of l;
+    // pass 1: Wᵀ, entries (l, k) with k in elements < that of l
+    for (pass, weight) in [w, &wt].into_iter().enumerate() {
+        if pass == 1 && symmetric {
+            break;
+        }
+        for q2 in 0..n {
+            let f = ends[q2].frame;
+            let r = ends[q2].position;
+            let r_end = ends[q2 + 1].position;
+            let m2 = &moments[q2];
+            let a_w = f.transpose() * weight * f;
+            for j in 0..3 {
+                let l = 3 * q2 + j;
+                let (vl, wl) = twist(&end_derivs[q2], &r_end, j);
+                let (lin, ang) = weighted_rigid(weight, &bodies[q2 + 1], &vl, &wl);
+                // own rows of element q2 (pass 0 only: the whole block)
+                if pass == 0 {
+                    for i in 0..3 {
+                        let k = 3 * q2 + i;
+                        let (vk, wk) = twist(&end_derivs[q2], &r_end, i);
+                        let own = a_w.component_mul(&m2.dpdp[i][j]).sum();
+                        out[l * dofs + k] += scale * (own + vk.dot(&lin) + wk.dot(&ang));
+                    }
+                }
+                // rows upstream: own part of l on element q2 plus the rigid part beyond
+                let lin_own = weight * (f * m2.dfirst[j]);
+                let ang_own = r.cross(&lin_own) + f * cross_moment(&a_w, &m2.pdp[j]);
+                let (lin, ang) = (lin + lin_own, ang + ang_own);
+                for q in 0..q2 {
+                    let r_q = ends[q + 1].position;
+                    for i in 0..3 {
+                        let k = 3 * q + i;
+                        let (vk, wk) = twist(&end_derivs[q], &r_q, i);
+                        let val = scale * (vk.dot(&lin) + wk.dot(&ang));
+                        if pass == 0 {
+                            out[l * dofs + k] += val;
+                            if symmetric {
+                                out[k * dofs + l] += val;
+                            }
+                        } else {
+                            out[k * dofs + l] += val;
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Adds `∫ f · ∂²y/∂q_k∂q_l ds` for f = c0 + C1 y to `out(k, l)` (symmetric): the
+/// Hessian part of the field stiffness (the rest is [`add_weighted_gram`] with C1).
+pub fn add_field_hessian(
+    c0: &V3,
+    c1: &M3,
+    ends: &[Pose],
+    end_derivs: &[EndDerivatives],
+    moments: &[ElementMoments],
+    bodies: &[SuffixBody],
+    out: &mut [f64],
+) {
+    let n = end_derivs.len();
+    let dofs = 3 * n;
+    for q2 in 0..n {
+        let f = ends[q2].frame;
+        let r = ends[q2].position;
+        let r_end = ends[q2 + 1].position;
+        let m2 = &moments[q2];
+        let e2 = &end_derivs[q2];
+        let body = &bodies[q2 + 1];
+        // the field over the body beyond q2: ∫f, ∫ y fᵀ, ∫ y × f
+        let res = c0 * body.mass + c1 * body.first;
+        let yf = body.first * c0.transpose() + body.second * c1.transpose();
+        let tor = body.first.cross(c0) + cross_moment(c1, &body.second);
+        let a0 = f.transpose() * (c0 + c1 * r);
+        let a = f.transpose() * c1 * f;
+        // same element: own part and rigid part beyond (ρ = y − r_end)
+        let y_rho = yf - r_end * res.transpose();
+        let t_rho = tor - r_end.cross(&res);
+        for i in 0..3 {
+            for j in i..3 {
+                let own = a0.dot(&m2.d2first[i][j]) + (a * m2.pd2p[i][j]).trace();
+                let (ti, tj) = (e2.dtheta[i], e2.dtheta[j]);
+                let rigid = e2.d2p[i][j].dot(&res)
+                    + e2.dw[i][j].dot(&t_rho)
+                    + ti.dot(&(y_rho * tj))
+                    - ti.dot(&tj) * y_rho.trace();
+                let (k, l) = (3 * q2 + i, 3 * q2 + j);
+                out[l * dofs + k] += own + rigid;
+                if i != j {
+                    out[k * dofs + l] += own + rigid;
+                }
+            }
+        }
+        // pairs k upstream of l: ω_k · ∫ J_l × f
+        for j in 0..3 {
+            let l = 3 * q2 + j;
+            let (vl, wl) = twist(e2, &r_end, j);
+            let own = f * (m2.dfirst[j].cross(&a0) + cross_moment(&a, &m2.pdp[j].transpose()));
+            let u = own + vl.cross(&res) + yf * wl - wl * yf.trace();
+            for q in 0..q2 {
+                for i in 0..3 {
+                    let k = 3 * q + i;
+                    let val = end_derivs[q].dtheta[i].dot(&u);
+                    out[l * dofs + k] += val;
+                    out[k * dofs + l] += val;
+                }
+            }
+        }
+    }
+}
+
+/// `∫ g` and `∫ y × g` over a body for g(y) = A + γ × (y − r_m) + t × ẏ.
+fn jdot_rigid(body: &SuffixBody, a: &V3, gamma: &V3, t: &V3, r_m: &V3) -> (V3, V3) {
+    let x = &body.moment_velocity;
+    let lin = a * body.mass + gamma.cross(&(body.first - r_m * body.mass)) + t.cross(&body.velocity);
+    let ang = body.first.cross(a) + gamma * body.second.trace() - body.second * gamma
+        - body.first.cross(&gamma.cross(r_m))
+        + t * x.trace()
+        - x.transpose() * t;
+    (lin, ang)
+}
+
+/// Adds `scale · ∫ J_k · J̇_l ds` to `out(k, l)` for all k, l: with scale = 2ρS this is
+/// the centreline part of B = ∂b/∂q̇ (b = ∫ ρS Jᵀ J̇ q̇, and J̇_l = ∂ẏ/∂q_l).
+/// `bodies` from [`suffix_bodies`] with velocities, `motions` from [`frame_motions`].
+pub fn add_velocity_jacobian(
+    scale: f64,
+    ends: &[Pose],
+    end_derivs: &[EndDerivatives],
+    moments: &[ElementMoments],
+    motions: &[FrameMotion],
+    bodies: &[SuffixBody],
+    velocities: &[f64],
+    out: &mut [f64],
+) {
+    let n = end_derivs.len();
+    let dofs = 3 * n;
+    for q2 in 0..n {
+        let f2 = ends[q2].frame;
+        let r2 = ends[q2].position;
+        let r_m = ends[q2 + 1].position;
+        let m2 = &moments[q2];
+        let e2 = &end_derivs[q2];
+        let om2 = motions[q2].omega;
+        let om2_local = f2.transpose() * om2;
+        let qd2 = &velocities[3 * q2..3 * q2 + 3];
+        let vel_end = motions[q2 + 1].velocity;
+        for j in 0..3 {
+            let l = 3 * q2 + j;
+            let t = e2.dtheta[j];
+            // J̇_l beyond q2 = A + γ × (y − r_m) + t × ẏ
+            let mut a = om2.cross(&e2.dp[j]) - t.cross(&vel_end);
+            let mut gamma = om2.cross(&t);
+            for i in 0..3 {
+                a += e2.d2p[j][i] * qd2[i];
+                gamma += e2.dw[j][i] * qd2[i];
+            }
+            // own part of J̇_l on q2: F h, h = Ω × ∂_j p + Σ_i q̇_i ∂²_ji p (element frame)
+            let mut h1 = om2_local.cross(&m2.dfirst[j]);
+            let mut hx = om2_local * m2.pdp[j].trace() - m2.pdp[j].transpose() * om2_local;
+            for i in 0..3 {
+                h1 += m2.d2first[j][i] * qd2[i];
+                hx += m2.cross2[j][i] * qd2[i];
+            }
+            let (lin_b, ang_b) = jdot_rigid(&bodies[q2 + 1], &a, &gamma, &t, &r_m);
+            // rows of element q2 itself
+            for i in 0..3 {
+                let k = 3 * q2 + i;
+                let (vk, wk) = twist(e2, &r_m, i);
+                let mut own = om2_local.dot(&axial(&m2.dpdp[j][i]));
+                for c in 0..3 {
+                    own += m2.dpd2p[i][j][c] * qd2[c];
+                }
+                out[l * dofs + k] += scale * (own + vk.dot(&lin_b) + wk.dot(&ang_b));
+            }
+            // rows upstream
+            let lin_own = f2 * h1;
+            let lin = lin_b + lin_own;
+            let ang = ang_b + r2.cross(&lin_own) + f2 * hx;
+            for q in 0..q2 {
+                let r_q = ends[q + 1].position;
+                for i in 0..3 {
+                    let (vk, wk) = twist(&end_derivs[q], &r_q, i);
+                    out[l * dofs + 3 * q + i] += scale * (vk.dot(&lin) + wk.dot(&ang));
+                }
+            }
+            // rows downstream: element q's own part, then the rigid part beyond q
+            for q in q2 + 1..n {
+                let f = ends[q].frame;
+                let mq = &moments[q];
+                let r_q = ends[q].position;
+                let r_qe = ends[q + 1].position;
+                let mo = &motions[q];
+                let al = f.transpose() * (a + gamma.cross(&(r_q - r_m)));
+                let g = f.transpose() * gamma;
+                let tl = f.transpose() * t;
+                let vq = f.transpose() * mo.velocity;
+                let wq = f.transpose() * mo.omega;
+                let qd = &velocities[3 * q..3 * q + 3];
+                let base = al + tl.cross(&vq);
+                let tw = tl.dot(&wq);
+                let (lin_q, ang_q) = jdot_rigid(&bodies[q + 1], &a, &gamma, &t, &r_m);
+                for i in 0..3 {
+                    let k = 3 * q + i;
+                    let mut own = mq.dfirst[i].dot(&base) + g.dot(&mq.cross[i])
+                        + tl.dot(&(mq.pdp[i] * wq))
+                        - tw * mq.pdp[i].trace();
+                    for c in 0..3 {
+                        own += tl.dot(&axial(&mq.dpdp[c][i])) * qd[c];
+                    }
+                    let (vk, wk) = twist(&end_derivs[q], &r_qe, i);
+                    out[l * dofs + k] += scale * (own + vk.dot(&lin_q) + wk.dot(&ang_q));
+                }
+            }
+        }
+    }
+}
