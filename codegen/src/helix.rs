@@ -179,6 +179,64 @@ pub fn m_related_integrands(g: &mut Graph, h: &HelixSymbols) -> Vec<(String, Id)
     out
 }
 
+/// The force-only centreline integrands (design page "Generalized force"), named:
+/// `d2p_ij_a` (∫ ∂²p_a/∂d_i∂d_j, i ≤ j), `pd2p_ij_a_b` (∫ p_a ∂²p_b/∂d_i∂d_j, i ≤ j),
+/// `dpdpt_i_j_a_b` (∫ ∂p_a/∂d_i ∂p_b/∂d_j; i < j, or i = j with a ≤ b: the rest is the
+/// transpose) and `dpd2p_i_jk` (∫ ∂p/∂d_i · ∂²p/∂d_j∂d_k, j ≤ k): 135 integrands in u.
+pub fn force_integrands(g: &mut Graph, h: &HelixSymbols) -> Vec<(String, Id)> {
+    let p = position(g, h, h.u);
+    let dp: Vec<[Id; 3]> = (0..3)
+        .map(|i| [0, 1, 2].map(|a| g.diff(p[a], h.d[i])))
+        .collect();
+    let mut d2p = [[[g.zero(); 3]; 3]; 3];
+    for i in 0..3 {
+        for j in i..3 {
+            for a in 0..3 {
+                d2p[i][j][a] = g.diff(dp[i][a], h.d[j]);
+                d2p[j][i][a] = d2p[i][j][a];
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for i in 0..3 {
+        for j in i..3 {
+            for a in 0..3 {
+                out.push((format!("d2p_{i}{j}_{a}"), d2p[i][j][a]));
+            }
+        }
+    }
+    for i in 0..3 {
+        for j in i..3 {
+            for a in 0..3 {
+                for b in 0..3 {
+                    out.push((format!("pd2p_{i}{j}_{a}_{b}"), g.mul2(p[a], d2p[i][j][b])));
+                }
+            }
+        }
+    }
+    for i in 0..3 {
+        for j in i..3 {
+            for a in 0..3 {
+                for b in 0..3 {
+                    if i == j && b < a {
+                        continue;
+                    }
+                    out.push((format!("dpdpt_{i}_{j}_{a}_{b}"), g.mul2(dp[i][a], dp[j][b])));
+                }
+            }
+        }
+    }
+    for i in 0..3 {
+        for j in 0..3 {
+            for k in j..3 {
+                let t: Vec<Id> = (0..3).map(|a| g.mul2(dp[i][a], d2p[j][k][a])).collect();
+                out.push((format!("dpd2p_{i}_{j}{k}"), g.add(&t)));
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

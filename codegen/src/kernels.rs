@@ -3,23 +3,69 @@
 
 use crate::{
     format, generate_function, helix, CodegenError, GenerateOptions, GeneratedCode, Graph,
-    HelixSymbols, Id,
+    HelixSymbols, Id, Measure,
 };
 
-/// Name of the generated element-moment function.
-pub const ELEMENT_MOMENTS: &str = "element_moments";
+/// A generated function: its name, the file (relative to `generated/src/`) that holds
+/// it, and its list of integrands.
+#[derive(Clone, Copy, Debug)]
+pub struct Kernel {
+    /// Function name (also the module and file stem).
+    pub name: &'static str,
+    /// Integrand list.
+    pub list: fn(&mut Graph, &HelixSymbols) -> Vec<(String, Id)>,
+}
 
-/// File (relative to `generated/src/`) holding [`ELEMENT_MOMENTS`].
-pub const ELEMENT_MOMENTS_FILE: &str = "element_moments.rs";
+impl Kernel {
+    /// File of the function, relative to `generated/src/`.
+    pub fn file(&self) -> String {
+        format!("{}.rs", self.name)
+    }
+}
 
-/// Integrands of the element moments of the moment-based assembly of M and the
-/// first-moment Jacobian (`runtime/src/moments.rs`): the M-related list of
-/// [`helix::m_related_integrands`], then for each column a of E(u) the rotary-inertia
-/// basis `ee_a_rc` = ∫ E_ra E_ca, `eew_a_j_r` = ∫ E_ra (E_a·w_j), `eww_a_ij` =
-/// ∫ (E_a·w_i)(E_a·w_j), from which ∫ E D Eᵀ, ∫ E D Eᵀ w_j and ∫ w_iᵀ E D Eᵀ w_j follow
-/// for any diagonal D.
-pub fn element_moment_integrands(g: &mut Graph, h: &HelixSymbols) -> Vec<(String, Id)> {
-    let mut out = helix::m_related_integrands(g, h);
+/// The element-moment functions, one per part with its own switch and Taylor degree:
+/// the centreline moments M needs ([`helix::m_related_integrands`]), the force-only
+/// centreline moments ([`helix::force_integrands`]) and the rotary-inertia basis
+/// ([`rotary_integrands`], whose products of frames double the frequency).
+pub const ELEMENT_KERNELS: [Kernel; 3] = [
+    Kernel {
+        name: "centreline_mass",
+        list: helix::m_related_integrands,
+    },
+    Kernel {
+        name: "centreline_force",
+        list: helix::force_integrands,
+    },
+    Kernel {
+        name: "rotary_basis",
+        list: rotary_integrands,
+    },
+];
+
+/// Options every element-moment function is generated with: branch agreement measured
+/// per tensor group ([`Measure::Group`]), the error the assembly sees (a moment enters
+/// only through contractions of its whole tensor, so an entry's error matters at the
+/// scale of the tensor's largest entry, not at that of an entry that is small at this
+/// direction or W l); a candidate grid fine enough that each part gets the switch it
+/// needs.
+pub fn element_options() -> GenerateOptions {
+    let mut o = GenerateOptions::default();
+    o.switch.measure = Measure::Group;
+    o.switch.candidates = vec![
+        0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.25, 2.5, 2.75, 3.0, 3.25, 3.5, 4.0, 4.5, 5.0,
+        6.0,
+    ];
+    o.switch.check_samples = 256;
+    o.switch.confirm_next = true;
+    o.switch.low_tier = true;
+    o
+}
+
+/// The rotary-inertia basis: for each column a of E(u), `ee_a_rc` = ∫ E_ra E_ca,
+/// `eew_a_j_r` = ∫ E_ra (E_a·w_j), `eww_a_ij` = ∫ (E_a·w_i)(E_a·w_j), from which
+/// ∫ E D Eᵀ, ∫ E D Eᵀ w_j and ∫ w_iᵀ E D Eᵀ w_j follow for any diagonal D.
+pub fn rotary_integrands(g: &mut Graph, h: &HelixSymbols) -> Vec<(String, Id)> {
+    let mut out = Vec::new();
     let e = helix::frame(g, h, h.u);
     let w: [[Id; 3]; 3] = [0, 1, 2].map(|j| helix::rotation_column(g, h, h.u, j));
     for a in 0..3 {
@@ -47,28 +93,23 @@ pub fn element_moment_integrands(g: &mut Graph, h: &HelixSymbols) -> Vec<(String
     out
 }
 
-/// Generate the element-moment function.
-pub fn generate_element_moments() -> Result<GeneratedCode, CodegenError> {
+/// Generate one element-moment function.
+pub fn generate(k: &Kernel) -> Result<GeneratedCode, CodegenError> {
     let mut g = Graph::new();
     let h = HelixSymbols::new(&mut g);
-    let list = element_moment_integrands(&mut g, &h);
-    generate_function(
-        &mut g,
-        &h,
-        ELEMENT_MOMENTS,
-        &list,
-        &GenerateOptions::default(),
-    )
+    let list = (k.list)(&mut g, &h);
+    generate_function(&mut g, &h, k.name, &list, &element_options())
 }
 
 /// Every checked-in generated file: (path relative to `generated/src/`, formatted text).
 pub fn checked_in_files() -> Result<Vec<(String, String)>, CodegenError> {
-    let moments = generate_element_moments()?;
-    Ok(vec![
-        (ELEMENT_MOMENTS_FILE.to_string(), format(&moments.code)),
-        (
-            crate::sizes::SIZES_FILE.to_string(),
-            crate::sizes::sizes_file(),
-        ),
-    ])
+    let mut files = ELEMENT_KERNELS
+        .iter()
+        .map(|k| Ok((k.file(), format(&generate(k)?.code))))
+        .collect::<Result<Vec<_>, CodegenError>>()?;
+    files.push((
+        crate::sizes::SIZES_FILE.to_string(),
+        crate::sizes::sizes_file(),
+    ));
+    Ok(files)
 }

@@ -30,7 +30,9 @@
 //! `pub fn <name>(d: &[f64; 3], l: f64, out: &mut [f64; K])` writes output `i` (in the
 //! order of the list) to `out[i]`; `pub const <NAME>_OUTPUTS: [&str; K]` holds the
 //! names and `pub const <NAME>_SWITCH: f64` the switch. The body computes
-//! `W = sqrt(d·d)` and branches once on `W l < x*`. It allocates nothing and cannot
+//! `W = sqrt(d·d)` and branches once on `W l < x*` (with [`SwitchOptions::low_tier`],
+//! first on `W l < <NAME>_LOW_SWITCH` to a Taylor branch of about half the degree).
+//! "Agree" is measured per output or per tensor group ([`Measure`]). It allocates nothing and cannot
 //! panic (constant indices into a fixed-size array, float arithmetic only).
 
 #![warn(missing_docs)]
@@ -49,7 +51,7 @@ pub mod number;
 mod poly;
 pub mod sizes;
 
-pub use branch::{SwitchChoice, SwitchOptions};
+pub use branch::{LowTier, Measure, ScanRow, SwitchChoice, SwitchOptions};
 pub use cse::OpCounts;
 pub use emit::format;
 pub use graph::{Evaluator, Graph, Id, Node};
@@ -127,6 +129,10 @@ pub struct GeneratedCode {
     pub ops_series: OpCounts,
     /// Of `ops_after`: the closed-form branch alone.
     pub ops_closed: OpCounts,
+    /// Of `ops_after`: the low-degree Taylor branch alone (zero without one).
+    pub ops_series_low: OpCounts,
+    /// The low-degree Taylor branch, if [`SwitchOptions::low_tier`] found one.
+    pub low: Option<LowTier>,
     /// The switch `x*` on `W l`.
     pub switch: f64,
     /// Degree in W of the Taylor branch.
@@ -134,6 +140,8 @@ pub struct GeneratedCode {
     /// Largest relative difference of the emitted branches at `x*`, over all sampled
     /// directions (see [`branch`] for "relative").
     pub agreement: f64,
+    /// [`GeneratedCode::agreement`] under the per-output measure.
+    pub agreement_per_output: f64,
     /// Estimated largest relative truncation error of the Taylor branch at `x*`.
     pub truncation: f64,
     /// Closed-form DAG of every output.
@@ -147,6 +155,70 @@ fn is_ident(s: &str) -> bool {
     matches!(c.next(), Some(f) if f.is_ascii_alphabetic() || f == '_')
         && c.all(|x| x.is_ascii_alphanumeric() || x == '_')
         && s != "_"
+}
+
+/// Integrands expanded and integrated in closed form, with the Taylor branches built on
+/// demand (cached per order).
+struct Prepared {
+    it: integrate::Integrator,
+    expanded: Vec<poly::TPoly>,
+    closed: Vec<Id>,
+    cache: std::collections::HashMap<u32, Vec<Id>>,
+}
+
+impl Prepared {
+    fn new(
+        g: &mut Graph,
+        h: &HelixSymbols,
+        integrands: &[(String, Id)],
+        opts: &GenerateOptions,
+    ) -> Result<Prepared, CodegenError> {
+        let mut it = integrate::Integrator::new(*h, opts.multiple_angles);
+        let mut expanded = Vec::with_capacity(integrands.len());
+        let mut closed = Vec::with_capacity(integrands.len());
+        for (_, e) in integrands {
+            let p = it.expand(g, *e)?;
+            let c = it.closed(&p)?;
+            closed.push(it.build_dag(g, &c));
+            expanded.push(p);
+        }
+        Ok(Prepared {
+            it,
+            expanded,
+            closed,
+            cache: Default::default(),
+        })
+    }
+
+    fn series(&mut self, g: &mut Graph, order: u32) -> Result<Vec<Id>, CodegenError> {
+        if let Some(v) = self.cache.get(&order) {
+            return Ok(v.clone());
+        }
+        let mut v = Vec::with_capacity(self.expanded.len());
+        for p in &self.expanded {
+            let s = self.it.series(p, order)?;
+            v.push(self.it.build_dag(g, &s));
+        }
+        self.cache.insert(order, v.clone());
+        Ok(v)
+    }
+}
+
+/// Diagnostics of the switch selection: for every candidate of `opts.switch` (no early
+/// exit), the Taylor order the truncation target needs there and the agreement of the
+/// branches under `opts.switch.measure`, with the worst output.
+pub fn switch_scan(
+    g: &mut Graph,
+    h: &HelixSymbols,
+    integrands: &[(String, Id)],
+    opts: &GenerateOptions,
+) -> Result<Vec<branch::ScanRow>, CodegenError> {
+    let names: Vec<&str> = integrands.iter().map(|(n, _)| n.as_str()).collect();
+    let groups = opts.switch.measure.groups(&names);
+    let mut prep = Prepared::new(g, h, integrands, opts)?;
+    let closed = prep.closed.clone();
+    let mut series_at = |g: &mut Graph, order: u32| prep.series(g, order);
+    branch::scan(g, h, &closed, &mut series_at, &groups, &opts.switch)
 }
 
 /// Integrate every named integrand over the element and emit one Rust function that
@@ -167,30 +239,22 @@ pub fn generate_function(
             return Err(CodegenError::BadName(n.clone()));
         }
     }
-    let mut it = integrate::Integrator::new(*h, opts.multiple_angles);
-    let mut expanded = Vec::with_capacity(integrands.len());
-    let mut closed = Vec::with_capacity(integrands.len());
-    for (_, e) in integrands {
-        let p = it.expand(g, *e)?;
-        let c = it.closed(&p)?;
-        closed.push(it.build_dag(g, &c));
-        expanded.push(p);
-    }
-    let mut cache: std::collections::HashMap<u32, Vec<Id>> = std::collections::HashMap::new();
-    let mut series_at = |g: &mut Graph, order: u32| -> Result<Vec<Id>, CodegenError> {
-        if let Some(v) = cache.get(&order) {
-            return Ok(v.clone());
-        }
-        let mut v = Vec::with_capacity(expanded.len());
-        for p in &expanded {
-            let s = it.series(p, order)?;
-            v.push(it.build_dag(g, &s));
-        }
-        cache.insert(order, v.clone());
-        Ok(v)
-    };
-    let choice = branch::choose(g, h, &closed, &mut series_at, &opts.switch)?;
+    let names: Vec<&str> = integrands.iter().map(|(n, _)| n.as_str()).collect();
+    let groups = opts.switch.measure.groups(&names);
+    let mut prep = Prepared::new(g, h, integrands, opts)?;
+    let closed = prep.closed.clone();
+    let mut series_at = |g: &mut Graph, order: u32| prep.series(g, order);
+    let choice = branch::choose(g, h, &closed, &mut series_at, &groups, &opts.switch)?;
     let series = series_at(g, choice.order)?;
+    let low = if opts.switch.low_tier {
+        branch::choose_low(g, h, &mut series_at, &groups, &opts.switch, &choice)?
+    } else {
+        None
+    };
+    let low_series = match &low {
+        Some(t) => series_at(g, t.order)?,
+        None => Vec::new(),
+    };
 
     let agreement = choice.agreement;
 
@@ -209,6 +273,7 @@ pub fn generate_function(
     ];
     let mut all: Vec<Id> = series.clone();
     all.extend(&closed);
+    all.extend(&low_series);
     let mark = g.reachable(&all);
     for (i, &m) in mark.iter().enumerate() {
         let id = Id(i as u32);
@@ -220,6 +285,8 @@ pub fn generate_function(
         }
     }
 
+    let mut et = emit::Emitter::new(g, &low_series, &symbols, "t");
+    let low_exprs = et.run(&low_series);
     let mut es = emit::Emitter::new(g, &series, &symbols, "s");
     let series_exprs = es.run(&series);
     let mut ec = emit::Emitter::new(g, &closed, &symbols, "c");
@@ -230,8 +297,13 @@ pub fn generate_function(
         sqrts: 1,
         ..OpCounts::default()
     };
-    let ops_after = prologue + es.ops + ec.ops;
-    let ops_before = prologue + cse::tree_ops(g, &series) + cse::tree_ops(g, &closed);
+    let ops_after = prologue + et.ops + es.ops + ec.ops;
+    let (tree_low, tree_series, tree_closed) = (
+        cse::tree_ops(g, &low_series),
+        cse::tree_ops(g, &series),
+        cse::tree_ops(g, &closed),
+    );
+    let ops_before = prologue + tree_low + tree_series + tree_closed;
 
     let k = integrands.len();
     let idx: Vec<proc_macro2::Literal> =
@@ -240,18 +312,58 @@ pub fn generate_function(
     let upper = name.to_uppercase();
     let outputs_const = ident(&format!("{upper}_OUTPUTS"));
     let switch_const = ident(&format!("{upper}_SWITCH"));
-    let names: Vec<&str> = integrands.iter().map(|(n, _)| n.as_str()).collect();
     let xs = emit::literal(choice.x_star);
     let (ss, cs) = (&es.stmts, &ec.stmts);
     let k_lit = proc_macro2::Literal::usize_unsuffixed(k);
     let mut doc = format!(
         " Element integrals `∫_0^l … du` for Darboux vector `d` and length `l`.\n\n \
          Taylor branch (degree {} in W) for `W l < {}`, closed form above; the branches \
-         agree to {:.1e} (relative) at the switch.\n\n Outputs:\n",
-        choice.order, choice.x_star, agreement
+         agree to {:.1e} at the switch, relative {}.\n\n Outputs:\n",
+        choice.order,
+        choice.x_star,
+        agreement,
+        match opts.switch.measure {
+            Measure::Output => "to the size of each output",
+            Measure::Group => "to the largest entry of the output's group",
+        }
     );
     for (i, n) in names.iter().enumerate() {
         doc.push_str(&format!(" - `out[{i}]`: `{n}`\n"));
+    }
+    let (low_const, low_branch) = match &low {
+        Some(t) => {
+            let c = ident(&format!("{upper}_LOW_SWITCH"));
+            let xl = emit::literal(t.x);
+            let doc_low = format!(
+                " Switch on `W l` of [`{name}`]: the Taylor branch of degree {} below.",
+                t.order
+            );
+            let ts = &et.stmts;
+            (
+                quote! {
+                    #[doc = #doc_low]
+                    pub const #c: f64 = #xl;
+                },
+                quote! {
+                    if x < #c {
+                        #(#ts)*
+                        #(out[#idx] = #low_exprs;)*
+                        return;
+                    }
+                },
+            )
+        }
+        None => (quote!(), quote!()),
+    };
+    if let Some(t) = &low {
+        doc.insert_str(
+            doc.find("\n\n Outputs:").unwrap_or(doc.len()),
+            &format!(
+                " Below `W l < {}` a Taylor branch of degree {} (agreeing with the other \
+                 to {:.1e}) saves nearly straight elements half the work.",
+                t.x, t.order, t.agreement
+            ),
+        );
     }
     let doc_outputs = format!(" Names of the outputs of [`{name}`], in order.");
     let doc_switch = format!(" Switch on `W l` of [`{name}`]: Taylor branch below.");
@@ -260,6 +372,7 @@ pub fn generate_function(
         pub const #outputs_const: [&str; #k_lit] = [#(#names),*];
         #[doc = #doc_switch]
         pub const #switch_const: f64 = #xs;
+        #low_const
         #[doc = #doc]
         #[allow(
             unused_variables,
@@ -277,6 +390,7 @@ pub fn generate_function(
             let dl0 = d0 * l;
             let dl1 = d1 * l;
             let dl2 = d2 * l;
+            #low_branch
             if x < #switch_const {
                 #(#ss)*
                 #(out[#idx] = #series_exprs;)*
@@ -290,11 +404,35 @@ pub fn generate_function(
         "// @generated by superhelix-codegen {VERSION}\n\
          // {name}: {k} outputs; switch W*l = {} (Taylor degree {} below), branch agreement {:.2e}, \
          truncation {:.2e}\n\
+         // agreement measured {}; per output: {:.2e}\n\
          // ops before CSE (as trees): {ops_before}\n\
          // ops after CSE (as emitted): {ops_after}\n\
-         //   Taylor branch: {}\n\
-         //   closed branch: {}\n",
-        choice.x_star, choice.order, agreement, choice.truncation, es.ops, ec.ops
+         {}\
+         //   Taylor branch: {} (before CSE: {} total)\n\
+         //   closed branch: {} (before CSE: {} total)\n",
+        choice.x_star,
+        choice.order,
+        agreement,
+        choice.truncation,
+        opts.switch.measure,
+        choice.agreement_per_output,
+        match &low {
+            Some(t) => format!(
+                "//   low-degree Taylor branch (W*l < {}, degree {}, agreement with the \
+                 Taylor branch {:.2e}, truncation {:.2e}): {} (before CSE: {} total)\n",
+                t.x,
+                t.order,
+                t.agreement,
+                t.truncation,
+                et.ops,
+                tree_low.total()
+            ),
+            None => String::new(),
+        },
+        es.ops,
+        tree_series.total(),
+        ec.ops,
+        tree_closed.total()
     );
     Ok(GeneratedCode {
         name: name.to_string(),
@@ -303,10 +441,13 @@ pub fn generate_function(
         ops_before,
         ops_after,
         ops_series: es.ops,
+        ops_series_low: et.ops,
+        low,
         ops_closed: ec.ops,
         switch: choice.x_star,
         series_order: choice.order,
         agreement,
+        agreement_per_output: choice.agreement_per_output,
         truncation: choice.truncation,
         closed,
         series,

@@ -4,16 +4,33 @@
 //! regenerate with `cargo run -p superhelix-codegen --release`, and the test
 //! `generated_files_are_fresh` fails with the stale file's name when they are out of date).
 //!
-//! Status (issue #3, in progress): the per-element closed-form integrals of the
-//! moment-based assembly of M and the first-moment Jacobian are generated
-//! ([`element_moments`]) and feed `superhelix_runtime::moments`; the fixed-N kernels
-//! implementing `StrandKernel` are not written yet, so [`kernel_factory`] offers none.
+//! Status (issue #3, in progress): every per-element integral of the moment-based
+//! assembly (`superhelix_runtime::moments::ElementMoments`) is generated in closed form,
+//! in three functions with their own Taylor switch and degree (see each file's header):
+//! [`centreline_mass()`] (what M needs), [`centreline_force()`] (what only the force needs)
+//! and [`rotary_basis()`] (the rotary inertia). [`element_moments_into`] fills every field,
+//! [`mass_moments`] only those of M. The fixed-N kernels implementing `StrandKernel` are
+//! not written yet, so [`kernel_factory`] offers none.
 #![warn(missing_docs)]
 
-/// Generated: closed-form element integrals (see the file's header for op counts).
+/// Generated: the centreline moments of M (see the file's header for op counts).
 #[rustfmt::skip]
 #[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]
-pub mod element_moments;
+pub mod centreline_mass;
+
+/// Generated: the force-only centreline moments (see the file's header for op counts).
+#[rustfmt::skip]
+#[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]
+pub mod centreline_force;
+
+/// Generated: the rotary-inertia basis (see the file's header for op counts).
+#[rustfmt::skip]
+#[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]
+pub mod rotary_basis;
+
+pub use centreline_force::centreline_force;
+pub use centreline_mass::centreline_mass;
+pub use rotary_basis::rotary_basis;
 
 pub mod factory;
 mod interim;
@@ -21,42 +38,74 @@ mod interim;
 pub mod sizes;
 
 pub use factory::{ClosedForm, GeneratedFactory, GeneratedKernel};
-pub use interim::{element_moments_into, element_point_into};
+pub use interim::element_point_into;
 use superhelix_runtime::moments::ElementMoments;
 use superhelix_runtime::{KernelFactory, Matrix3, Vector3};
 
 /// Index of entry (r, c) in the packed upper triangle (00, 01, 02, 11, 12, 22).
 const SYM: [[usize; 3]; 3] = [[0, 1, 2], [1, 3, 4], [2, 4, 5]];
 
-/// The element moments that M and the first-moment Jacobian need
-/// (`superhelix_runtime::moments::assemble_mass_and_gravity`), in closed form, for Darboux
-/// vector `d`, length `l` and rotary inertia `rotary` = diag D. The force-only fields
-/// (`d2first`, `cross2`, `dpdp`, `dpd2p`) are left at zero: their closed forms are not
-/// generated yet, so `assemble_force` must not be fed from here.
-pub fn mass_moments(d: &Vector3<f64>, l: f64, rotary: &[f64; 3]) -> ElementMoments {
-    let mut o = [0.0; 114];
-    element_moments::element_moments(&[d[0], d[1], d[2]], l, &mut o);
+/// Offsets in the output of [`centreline_force`] of `dpdpt_i_j_…` for i ≤ j, in the
+/// packed order 00, 01, 02, 11, 12, 22 (6 entries for i = j, 9 for i < j).
+const DPDPT: [usize; 6] = [72, 78, 87, 96, 102, 111];
+
+/// `(v_1 w_2 − v_2 w_1, …)` from `n(a, b)` = ∫ v_a w_b: ∫ v × w.
+fn cross_of(n: impl Fn(usize, usize) -> f64) -> Vector3<f64> {
+    Vector3::new(n(1, 2) - n(2, 1), n(2, 0) - n(0, 2), n(0, 1) - n(1, 0))
+}
+
+/// The fields of M's centreline moments from the output of [`centreline_mass`].
+fn fill_mass(o: &[f64; 51], m: &mut ElementMoments) {
     let sym3 = |base: usize| Matrix3::from_fn(|r, c| o[base + SYM[r][c]]);
-    let mut m = ElementMoments {
-        first: Vector3::new(o[0], o[1], o[2]),
-        second: sym3(3),
-        gram: sym3(45),
-        ..Default::default()
-    };
+    m.first = Vector3::new(o[0], o[1], o[2]);
+    m.second = sym3(3);
+    m.gram = sym3(45);
     for i in 0..3 {
         m.dfirst[i] = Vector3::new(o[9 + 3 * i], o[10 + 3 * i], o[11 + 3 * i]);
-        // ∫ p × ∂_i p from pdp_a_i_b = ∫ p_a (∂_i p)_b at 18 + 9a + 3i + b
+        // pdp_a_i_b = ∫ p_a (∂_i p)_b at 18 + 9a + 3i + b
         let pdp = |a: usize, b: usize| o[18 + 9 * a + 3 * i + b];
-        m.cross[i] = Vector3::new(
-            pdp(1, 2) - pdp(2, 1),
-            pdp(2, 0) - pdp(0, 2),
-            pdp(0, 1) - pdp(1, 0),
-        );
+        m.cross[i] = cross_of(pdp);
         m.pdp[i] = Matrix3::from_fn(pdp);
     }
+}
+
+/// The force-only fields from the output of [`centreline_force`].
+fn fill_force(o: &[f64; 135], m: &mut ElementMoments) {
+    for i in 0..3 {
+        for j in 0..3 {
+            let pij = SYM[i][j];
+            m.d2first[i][j] = Vector3::new(o[3 * pij], o[3 * pij + 1], o[3 * pij + 2]);
+            // pd2p_ij_a_b = ∫ p_a (∂_ij p)_b at 18 + 9 P(i, j) + 3a + b
+            let pd2p = |a: usize, b: usize| o[18 + 9 * pij + 3 * a + b];
+            m.pd2p[i][j] = Matrix3::from_fn(pd2p);
+            m.cross2[i][j] = cross_of(pd2p);
+            // dpdpt_i_j_a_b = ∫ (∂_i p)_a (∂_j p)_b, stored for i ≤ j
+            let base = DPDPT[pij];
+            m.dpdp[i][j] = Matrix3::from_fn(|a, b| {
+                let (a, b) = if i <= j { (a, b) } else { (b, a) };
+                if i == j {
+                    o[base + SYM[a][b]]
+                } else {
+                    o[base + 3 * a + b]
+                }
+            });
+            // dpd2p_i_jk at 117 + 6i + P(j, k)
+            for k in 0..3 {
+                m.dpd2p[i][j][k] = o[117 + 6 * i + SYM[j][k]];
+            }
+        }
+    }
+}
+
+/// The rotary fields for D = diag(`rotary`) from the output of [`rotary_basis`].
+fn fill_rotary(o: &[f64; 63], rotary: &[f64; 3], m: &mut ElementMoments) {
+    m.rot = Matrix3::zeros();
+    m.rot_w = [Vector3::zeros(); 3];
+    m.rot_ww = Matrix3::zeros();
     for (a, &da) in rotary.iter().enumerate() {
-        let base = 51 + 21 * a;
-        m.rot += sym3(base) * da;
+        // ee_a_rc at 21a + P(r, c), eew_a_j_r at 21a + 6 + 3j + r, eww_a_ij at 21a + 15 + P(i, j)
+        let base = 21 * a;
+        m.rot += Matrix3::from_fn(|r, c| o[base + SYM[r][c]]) * da;
         for j in 0..3 {
             let v = Vector3::new(
                 o[base + 6 + 3 * j],
@@ -65,8 +114,57 @@ pub fn mass_moments(d: &Vector3<f64>, l: f64, rotary: &[f64; 3]) -> ElementMomen
             );
             m.rot_w[j] += v * da;
         }
-        m.rot_ww += sym3(base + 15) * da;
+        m.rot_ww += Matrix3::from_fn(|r, c| o[base + 15 + SYM[r][c]]) * da;
     }
+}
+
+/// The rotary part: the basis is skipped when the rotary inertia is zero.
+fn rotary_into(d: &[f64; 3], l: f64, rotary: &[f64; 3], m: &mut ElementMoments) {
+    if rotary.iter().all(|&x| x == 0.0) {
+        m.rot = Matrix3::zeros();
+        m.rot_w = [Vector3::zeros(); 3];
+        m.rot_ww = Matrix3::zeros();
+    } else {
+        let mut o = [0.0; 63];
+        rotary_basis(d, l, &mut o);
+        fill_rotary(&o, rotary, m);
+    }
+}
+
+/// Every field of the element moments (`superhelix_runtime::moments::ElementMoments`)
+/// in closed form, for Darboux vector `d`, length `l` and rotary inertia `rotary` =
+/// diag D: the same integrals as `ElementMoments::by_quadrature`. Allocates nothing and
+/// cannot panic.
+pub fn element_moments_into(d: &Vector3<f64>, l: f64, rotary: &[f64; 3], out: &mut ElementMoments) {
+    let dd = [d[0], d[1], d[2]];
+    let mut om = [0.0; 51];
+    centreline_mass(&dd, l, &mut om);
+    fill_mass(&om, out);
+    let mut of = [0.0; 135];
+    centreline_force(&dd, l, &mut of);
+    fill_force(&of, out);
+    rotary_into(&dd, l, rotary, out);
+}
+
+/// [`element_moments_into`] into a new value.
+pub fn element_moments(d: &Vector3<f64>, l: f64, rotary: &[f64; 3]) -> ElementMoments {
+    let mut m = ElementMoments::default();
+    element_moments_into(d, l, rotary, &mut m);
+    m
+}
+
+/// The element moments that M and the first-moment Jacobian need
+/// (`superhelix_runtime::moments::assemble_mass_and_gravity`), in closed form: `first`,
+/// `second`, `dfirst`, `cross`, `gram`, `pdp` and the rotary fields, without the cost of
+/// the force-only ones (`d2first`, `cross2`, `pd2p`, `dpdp`, `dpd2p`), which are left at
+/// zero: `assemble_force` needs [`element_moments`].
+pub fn mass_moments(d: &Vector3<f64>, l: f64, rotary: &[f64; 3]) -> ElementMoments {
+    let dd = [d[0], d[1], d[2]];
+    let mut m = ElementMoments::default();
+    let mut om = [0.0; 51];
+    centreline_mass(&dd, l, &mut om);
+    fill_mass(&om, &mut m);
+    rotary_into(&dd, l, rotary, &mut m);
     m
 }
 

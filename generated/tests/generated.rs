@@ -2,86 +2,257 @@
 //! checked-in files.
 
 use superhelix_runtime::moments::ElementMoments;
-use superhelix_runtime::Vector3;
+use superhelix_runtime::{Matrix3, Vector3};
 
 fn rel(a: f64, b: f64, scale: f64) -> f64 {
     (a - b).abs() / scale.max(1e-300)
 }
 
-/// Largest |x| over a moment set (the scale deviations are measured against).
-fn flatten(m: &ElementMoments) -> Vec<f64> {
-    let mut v: Vec<f64> = m
-        .first
-        .iter()
-        .chain(m.second.iter())
-        .chain(m.gram.iter())
-        .copied()
-        .collect();
-    for i in 0..3 {
-        v.extend(m.dfirst[i].iter());
-        v.extend(m.cross[i].iter());
-        v.extend(m.rot_w[i].iter());
+/// Every field of a moment set, by name, flattened.
+fn fields(m: &ElementMoments) -> Vec<(&'static str, Vec<f64>)> {
+    let v3 = |v: &[Vector3<f64>]| v.iter().flat_map(|x| x.iter().copied()).collect::<Vec<_>>();
+    let m3 = |v: &[Matrix3<f64>]| v.iter().flat_map(|x| x.iter().copied()).collect::<Vec<_>>();
+    vec![
+        ("first", m.first.iter().copied().collect()),
+        ("second", m.second.iter().copied().collect()),
+        ("dfirst", v3(&m.dfirst)),
+        ("cross", v3(&m.cross)),
+        ("gram", m.gram.iter().copied().collect()),
+        ("rot", m.rot.iter().copied().collect()),
+        ("rot_w", v3(&m.rot_w)),
+        ("rot_ww", m.rot_ww.iter().copied().collect()),
+        ("pdp", m3(&m.pdp)),
+        ("d2first", v3(m.d2first.as_flattened())),
+        ("cross2", v3(m.cross2.as_flattened())),
+        ("pd2p", m3(m.pd2p.as_flattened())),
+        ("dpdp", m3(m.dpdp.as_flattened())),
+        ("dpd2p", m.dpd2p.as_flattened().as_flattened().to_vec()),
+    ]
+}
+
+/// xorshift64, uniform in [−1, 1).
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
     }
-    for i in 0..3 {
-        v.extend(m.pdp[i].iter());
+}
+
+/// The kinds of Darboux vectors tested: (name, unit direction).
+fn direction(kind: usize, rng: &mut Rng) -> Vector3<f64> {
+    let v = match kind {
+        // random direction
+        0 => Vector3::new(rng.next(), rng.next(), rng.next()),
+        // planar arc, curvature in a random direction of the cross-section
+        1 => Vector3::new(0.0, rng.next(), rng.next()),
+        // planar arc about one axis of the cross-section
+        2 => Vector3::new(0.0, rng.next(), 0.0),
+        3 => Vector3::new(0.0, 0.0, rng.next()),
+        // pure twist
+        _ => Vector3::new(rng.next(), 0.0, 0.0),
+    };
+    if v.norm() > 1e-3 {
+        v.normalize()
+    } else {
+        Vector3::new(0.0, 0.6, 0.8)
     }
-    v.extend(m.rot.iter());
-    v.extend(m.rot_ww.iter());
-    v
 }
 
 #[test]
 fn closed_form_moments_match_high_order_quadrature() {
-    let mut seed = 0x1234_5678_9abc_def0u64;
-    let mut next = move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
-    let rotary = [2.0e-9, 0.8e-9, 1.2e-9];
-    let mut worst: f64 = 0.0;
-    for &wl in &[
-        0.0, 1e-12, 1e-8, 1e-4, 1e-2, 0.3, 1.0, 2.4999, 2.5, 2.5001, 10.0, 30.0, 100.0,
+    use superhelix_generated::{centreline_force, centreline_mass, rotary_basis};
+    let mut rng = Rng(0x1234_5678_9abc_def0);
+    let mut wls = vec![0.0, 1e-12, 1e-8, 1e-4, 1e-2, 0.5, 1.0, 5.0, 30.0, 100.0];
+    // every switch: Taylor (low degree) | Taylor | closed form
+    for s in [
+        centreline_mass::CENTRELINE_MASS_LOW_SWITCH,
+        centreline_mass::CENTRELINE_MASS_SWITCH,
+        centreline_force::CENTRELINE_FORCE_LOW_SWITCH,
+        centreline_force::CENTRELINE_FORCE_SWITCH,
+        rotary_basis::ROTARY_BASIS_LOW_SWITCH,
+        rotary_basis::ROTARY_BASIS_SWITCH,
     ] {
-        for planar in [false, true] {
-            for _ in 0..20 {
-                let l = 0.01 + 0.05 * (next() + 1.0);
-                let mut dir = Vector3::new(next(), next(), next());
-                if planar {
-                    dir[0] = 0.0;
-                }
-                let d = if dir.norm() > 0.0 {
-                    dir.normalize() * (wl / l)
+        // both sides of the switch, by a few ulps and by 1e-9
+        wls.extend([s * (1.0 - 1e-9), s * (1.0 - 4.0 * f64::EPSILON), s]);
+        wls.extend([s * (1.0 + 4.0 * f64::EPSILON), s * (1.0 + 1e-9)]);
+    }
+    // per kind of direction: samples per W l
+    let kinds = [(0usize, 60usize), (1, 12), (2, 6), (3, 6), (4, 8)];
+    let mut worst: Vec<(&str, f64, f64)> = Vec::new();
+    let mut calls = 0;
+    let mut out = ElementMoments::default();
+    let mut per_wl: Vec<(f64, f64)> = Vec::new();
+    for &wl in &wls {
+        per_wl.push((wl, 0.0));
+        for &(kind, n) in &kinds {
+            for _ in 0..n {
+                // lengths over three decades
+                let l = 10f64.powf(-2.5 + 1.5 * rng.next());
+                let d = direction(kind, &mut rng) * (wl / l);
+                let rotary = if rng.next() < -0.8 {
+                    [0.0; 3]
                 } else {
-                    dir
+                    [2.0e-9, 0.8e-9 * (1.5 + rng.next()), 1.2e-9]
                 };
-                let closed = superhelix_generated::mass_moments(&d, l, &rotary);
-                let points = 60 + (2.0 * wl) as usize;
+                superhelix_generated::element_moments_into(&d, l, &rotary, &mut out);
+                let points = 64 + (2.0 * wl).ceil() as usize;
                 let reference = ElementMoments::by_quadrature(&d, l, &rotary, points);
-                let (a, b) = (flatten(&closed), flatten(&reference));
-                // each group is compared against the largest entry of its own kind
-                let scale_of = |range: std::ops::Range<usize>| {
-                    b[range].iter().fold(0.0f64, |m, x| m.max(x.abs()))
-                };
-                let groups = [0..3, 3..12, 12..21, 21..b.len()];
-                for g in groups {
-                    let s = scale_of(g.clone());
-                    for i in g {
-                        let e = rel(a[i], b[i], s);
-                        worst = worst.max(e);
-                        assert!(
-                            e <= 1e-11,
-                            "W l = {wl}, entry {i}: {} vs {} (scale {s})",
-                            a[i],
-                            b[i]
-                        );
+                calls += 1;
+                for ((name, a), (_, b)) in fields(&out).into_iter().zip(fields(&reference)) {
+                    // each field against its largest entry
+                    let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                    let e = a
+                        .iter()
+                        .zip(&b)
+                        .map(|(x, y)| {
+                            if scale > 0.0 {
+                                rel(*x, *y, scale)
+                            } else {
+                                x.abs()
+                            }
+                        })
+                        .fold(0.0f64, f64::max);
+                    let last = per_wl.len() - 1;
+                    per_wl[last].1 = per_wl[last].1.max(e);
+                    match worst.iter_mut().find(|w| w.0 == name) {
+                        Some(w) if e > w.1 => *w = (name, e, wl),
+                        Some(_) => {}
+                        None => worst.push((name, e, wl)),
                     }
+                    assert!(
+                        e <= 1e-11,
+                        "{name}: W l = {wl}, l = {l}, d = {d:?}, deviation {e:e}\n{a:?}\n{b:?}"
+                    );
                 }
             }
         }
     }
-    println!("worst relative deviation {worst:e}");
+    println!("{calls} (d, l) samples, worst deviation per field (relative to its max-abs):");
+    for (name, e, wl) in &worst {
+        println!("  {name:8} {e:.2e} (at W l = {wl:e})");
+    }
+    println!("worst deviation over all fields per W l:");
+    for (wl, e) in &per_wl {
+        println!("  W l = {wl:<22e} {e:.2e}");
+    }
+}
+
+#[test]
+fn mass_moments_are_the_mass_fields_of_element_moments() {
+    let rotary = [2.0e-9, 0.8e-9, 1.2e-9];
+    for (d, l) in [
+        (Vector3::new(0.3, -20.0, 7.0), 0.05),
+        (Vector3::new(1e-9, 0.0, 2e-9), 0.1),
+        (Vector3::new(40.0, 1.0, -3.0), 0.07),
+    ] {
+        let all = superhelix_generated::element_moments(&d, l, &rotary);
+        let m = superhelix_generated::mass_moments(&d, l, &rotary);
+        let expect = ElementMoments {
+            first: all.first,
+            second: all.second,
+            dfirst: all.dfirst,
+            cross: all.cross,
+            gram: all.gram,
+            pdp: all.pdp,
+            rot: all.rot,
+            rot_w: all.rot_w,
+            rot_ww: all.rot_ww,
+            ..Default::default()
+        };
+        assert_eq!(m, expect);
+        // gram is the trace of dpdp
+        for i in 0..3 {
+            for j in 0..3 {
+                let t = all.dpdp[i][j].trace();
+                assert!((t - all.gram[(i, j)]).abs() <= 1e-13 * all.gram.amax());
+            }
+        }
+    }
+}
+
+#[test]
+fn full_generalized_force_from_closed_form_moments_matches_quadrature_moments() {
+    use superhelix_runtime::kernel::BodyField;
+    use superhelix_runtime::moments::{assemble_force, end_derivatives, Wrench};
+    use superhelix_runtime::reconstruction::{darboux, element_ends, Pose};
+    use superhelix_runtime::strand::StrandGeometry;
+    let mut worst: f64 = 0.0;
+    let mut rng = Rng(0x5151_7e57_0000_0001);
+    for n in [1usize, 3, 8] {
+        for &wl in &[0.0, 1e-6, 0.3, 2.0, 3.4, 3.6, 9.0, 40.0] {
+            let lengths: Vec<f64> = (0..n).map(|k| 0.02 + 0.005 * (k % 3) as f64).collect();
+            let g = StrandGeometry {
+                root_position: Vector3::new(0.01, 0.0, -0.02),
+                root_frame: *nalgebra::Rotation3::new(Vector3::new(0.3, -0.2, 0.9)).matrix(),
+                lengths: lengths.clone(),
+                mass_per_length: 1e-5,
+                rotary_inertia: [2e-9, 0.8e-9, 1.2e-9],
+            };
+            let q: Vec<f64> = (0..n)
+                .flat_map(|k| {
+                    let d = direction(k % 5, &mut rng) * (wl / lengths[k]);
+                    [d[0], d[1], d[2]]
+                })
+                .collect();
+            let v: Vec<f64> = (0..3 * n).map(|_| 30.0 * rng.next()).collect();
+            let field = BodyField {
+                uniform: Vector3::new(0.2, -0.4, -9.81) * 1e-5,
+                linear: Matrix3::from_fn(|r, c| 1e-4 * (r as f64 - 0.5 * c as f64)),
+                velocity: -Matrix3::identity() * 1e-5,
+            };
+            let mut ends = vec![Pose::default(); n + 1];
+            element_ends(&g, &q, &mut ends);
+            let derivs: Vec<_> = (0..n)
+                .map(|k| end_derivatives(&ends[k].frame, &darboux(&q, k), lengths[k]))
+                .collect();
+            let force_of = |moments: &[ElementMoments]| {
+                let mut wrenches = vec![Wrench::default(); n];
+                let mut f = vec![0.0; 3 * n];
+                assemble_force(
+                    &mut wrenches,
+                    1e-5,
+                    &lengths,
+                    &ends,
+                    &derivs,
+                    moments,
+                    &v,
+                    &field,
+                    &mut f,
+                );
+                f
+            };
+            let closed: Vec<_> = (0..n)
+                .map(|k| {
+                    superhelix_generated::element_moments(
+                        &darboux(&q, k),
+                        lengths[k],
+                        &g.rotary_inertia,
+                    )
+                })
+                .collect();
+            let quad: Vec<_> = (0..n)
+                .map(|k| {
+                    ElementMoments::by_quadrature(
+                        &darboux(&q, k),
+                        lengths[k],
+                        &g.rotary_inertia,
+                        64 + (2.0 * wl) as usize,
+                    )
+                })
+                .collect();
+            let (a, b) = (force_of(&closed), force_of(&quad));
+            let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+                let e = rel(*x, *y, scale);
+                worst = worst.max(e);
+                assert!(e <= 1e-11, "N={n} W l={wl} f[{i}]: {x:e} vs {y:e}");
+            }
+        }
+    }
+    println!("worst relative deviation of the generalized force: {worst:e}");
 }
 
 #[test]
@@ -119,7 +290,7 @@ fn mass_matrix_and_gravity_from_closed_form_moments_match_the_generic_kernel() {
     use superhelix_runtime::moments::{assemble_mass_and_gravity, end_derivatives, Body};
     use superhelix_runtime::reconstruction::{darboux, element_ends, Pose};
     use superhelix_runtime::strand::StrandGeometry;
-    use superhelix_runtime::{GenericKernel, Matrix3, QuadratureRule};
+    use superhelix_runtime::{GenericKernel, QuadratureRule};
     let mut worst: f64 = 0.0;
     for n in [1usize, 2, 5, 10] {
         for (case, wl) in [0.0, 1e-8, 1e-3, 0.5, 2.5, 8.0, 30.0].iter().enumerate() {
