@@ -1,5 +1,7 @@
 //! Criterion benches: one kernel evaluation (everything the linearly implicit step asks
-//! for) and one full step, per N, for each kernel path available in this build.
+//! for) and 30 steps of one strand, per N in 1, 2, 5, 10, 20, for the generic kernel and,
+//! for every N that `superhelix::kernel_factory()` offers, the generated kernel (same
+//! group, id `generated/N`): they are picked up automatically once they exist.
 //! `cargo bench --bench kernels`.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
@@ -26,6 +28,19 @@ fn wavy(n: usize) -> (StrandGeometry, Vec<f64>) {
     (g, (0..n).flat_map(|_| natural).collect())
 }
 
+/// The kernels benched for a geometry: the generic one (adaptive rule) and, when
+/// `superhelix::kernel_factory()` offers this N, the generated one.
+fn kernels(g: &StrandGeometry) -> Vec<(&'static str, Box<dyn StrandKernel>)> {
+    let mut kernels: Vec<(&'static str, Box<dyn StrandKernel>)> = vec![(
+        "generic",
+        Box::new(GenericKernel::new(g.clone(), QuadratureRule::Adaptive)),
+    )];
+    if let Some(k) = superhelix::kernel_factory().and_then(|f| f.create(g)) {
+        kernels.push(("generated", k));
+    }
+    kernels
+}
+
 fn kernel_evaluation(c: &mut Criterion) {
     let mut group = c.benchmark_group("evaluate_all_terms");
     for n in NS {
@@ -37,21 +52,22 @@ fn kernel_evaluation(c: &mut Criterion) {
             velocity: -Matrix3::identity() * 1e-5,
         };
         let mut out = StrandTerms::new(3 * n);
-        let mut kernel = GenericKernel::new(g, QuadratureRule::Adaptive);
-        group.bench_with_input(BenchmarkId::new("generic", n), &n, |b, _| {
-            b.iter(|| {
-                kernel.evaluate(
-                    &EvalInput {
-                        q: black_box(&q),
-                        v: &v,
-                        field,
-                        terms: Terms::all(),
-                    },
-                    &mut out,
-                );
-                black_box(out.force[0])
-            })
-        });
+        for (name, mut kernel) in kernels(&g) {
+            group.bench_with_input(BenchmarkId::new(name, n), &n, |b, _| {
+                b.iter(|| {
+                    kernel.evaluate(
+                        &EvalInput {
+                            q: black_box(&q),
+                            v: &v,
+                            field,
+                            terms: Terms::all(),
+                        },
+                        &mut out,
+                    );
+                    black_box(out.force[0])
+                })
+            });
+        }
     }
     group.finish();
 }
@@ -59,19 +75,26 @@ fn kernel_evaluation(c: &mut Criterion) {
 fn full_step(c: &mut Criterion) {
     let mut group = c.benchmark_group("step_one_strand");
     group.sample_size(10);
-    // the generated kernels join here when they exist (issue #3)
-    let kernels = KernelChoice::Generic;
+    let generated = superhelix::kernel_factory()
+        .map(|f| f.available())
+        .unwrap_or_default();
     for n in NS {
-        let options = BenchOptions {
-            elements: n,
-            strands: 1,
-            steps: 30,
-            kernels,
-            ..BenchOptions::default()
-        };
-        group.bench_with_input(BenchmarkId::new(kernels.name(), n), &n, |b, _| {
-            b.iter(|| bench(black_box(&options)).map(|r| r.strand_steps_per_second))
-        });
+        let mut choices = vec![KernelChoice::Generic];
+        if generated.contains(&n) {
+            choices.push(KernelChoice::Generated);
+        }
+        for kernels in choices {
+            let options = BenchOptions {
+                elements: n,
+                strands: 1,
+                steps: 30,
+                kernels,
+                ..BenchOptions::default()
+            };
+            group.bench_with_input(BenchmarkId::new(kernels.name(), n), &n, |b, _| {
+                b.iter(|| bench(black_box(&options)).map(|r| r.strand_steps_per_second))
+            });
+        }
     }
     group.finish();
 }

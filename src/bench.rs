@@ -194,10 +194,11 @@ fn strands(o: &BenchOptions) -> Vec<StrandSetup> {
         .collect()
 }
 
-/// Run the benchmark.
-pub fn bench(o: &BenchOptions) -> Result<BenchReport> {
+/// The simulation a benchmark runs: S strands of the preset, the effects asked for,
+/// `steps · dt` of simulated time (also used by `superhelix quadrature-table`).
+pub fn setup(o: &BenchOptions) -> Result<SimulationSetup> {
     check(o)?;
-    let setup = SimulationSetup {
+    Ok(SimulationSetup {
         config: SimulationConfig {
             dt: o.dt,
             duration: o.dt * o.steps as f64,
@@ -221,7 +222,12 @@ pub fn bench(o: &BenchOptions) -> Result<BenchReport> {
         },
         strands: strands(o),
         samples_per_element: 1,
-    };
+    })
+}
+
+/// Run the benchmark.
+pub fn bench(o: &BenchOptions) -> Result<BenchReport> {
+    let setup = setup(o)?;
     let mut sim = Simulation::new(setup, crate::kernel_factory())?;
     let start = Instant::now();
     for _ in 0..o.steps {

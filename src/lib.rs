@@ -6,6 +6,8 @@
 #![warn(missing_docs)]
 
 pub mod bench;
+pub mod compare;
+pub mod quadrature_table;
 
 pub use superhelix_generated as generated;
 pub use superhelix_runtime as runtime;

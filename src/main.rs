@@ -1,4 +1,5 @@
-//! The `superhelix` command: `run` a scene to `frames.json`, `validate` a scene.
+//! The `superhelix` command: `run` a scene to `frames.json`, `validate` a scene, `bench`,
+//! `compare-kernels` and `quadrature-table`.
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -57,6 +58,43 @@ enum Command {
         #[arg(long)]
         quadrature: Option<usize>,
     },
+    /// Compare a strand kernel (default: the generated one for N) with a high-order
+    /// quadrature reference on K random configurations; last line
+    /// `max_relative_deviation=<v>`.
+    CompareKernels {
+        /// Elements per strand N.
+        #[arg(long)]
+        elements: usize,
+        /// Number of random configurations K.
+        #[arg(long, default_value_t = 1000)]
+        samples: usize,
+        /// Seed of the random configurations.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Kernel compared: generated, or (for development) generic-adaptive or
+        /// generic-<n> (n Gauss-Legendre points per element).
+        #[arg(long, default_value = "generated")]
+        candidate: String,
+    },
+    /// Markdown table of the generic kernel's error and time per strand-step against its
+    /// Gauss-Legendre order, against the closed-form kernel (or a 256-point stand-in).
+    QuadratureTable {
+        /// Elements per strand N.
+        #[arg(long, default_value_t = 5)]
+        elements: usize,
+        /// Hair type: smooth, wavy, curly, fuzzy.
+        #[arg(long, default_value = "fuzzy")]
+        preset: String,
+        /// Time steps T of the simulation that is timed and whose states are compared.
+        #[arg(long, default_value_t = 30)]
+        steps: usize,
+        /// Strands S of that simulation.
+        #[arg(long, default_value_t = 4)]
+        strands: usize,
+        /// Timed runs per order (the fastest counts).
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+    },
 }
 
 fn main() -> ExitCode {
@@ -83,6 +121,19 @@ fn main() -> ExitCode {
             &integrator,
             quadrature,
         ),
+        Command::CompareKernels {
+            elements,
+            samples,
+            seed,
+            candidate,
+        } => compare_kernels(elements, samples, seed, &candidate),
+        Command::QuadratureTable {
+            elements,
+            preset,
+            steps,
+            strands,
+            repeats,
+        } => quadrature_table(elements, &preset, steps, strands, repeats),
     };
     match result {
         Ok(code) => code,
@@ -200,6 +251,51 @@ fn bench(
         "strand_steps_per_second={:.1}",
         report.strand_steps_per_second
     );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn compare_kernels(
+    elements: usize,
+    samples: usize,
+    seed: u64,
+    candidate: &str,
+) -> Result<ExitCode, Error> {
+    use superhelix::compare::{compare_kernels, Candidate, CompareOptions};
+    let options = CompareOptions {
+        elements,
+        samples,
+        seed,
+        candidate: Candidate::from_name(candidate).ok_or_else(|| {
+            Error::invalid(
+                "--candidate",
+                "must be generated, generic-adaptive or generic-<n> with n in 1..=256",
+            )
+        })?,
+    };
+    let report = compare_kernels(&options, superhelix::kernel_factory())?;
+    print!("{}", report.render());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn quadrature_table(
+    elements: usize,
+    preset: &str,
+    steps: usize,
+    strands: usize,
+    repeats: usize,
+) -> Result<ExitCode, Error> {
+    use superhelix::quadrature_table::{quadrature_table, TableOptions};
+    use superhelix::runtime::material::Preset;
+    let options = TableOptions {
+        elements,
+        preset: Preset::from_name(preset)
+            .ok_or_else(|| Error::invalid("--preset", "must be smooth, wavy, curly or fuzzy"))?,
+        steps,
+        strands,
+        repeats,
+    };
+    let table = quadrature_table(&options, superhelix::kernel_factory())?;
+    print!("{}", table.render());
     Ok(ExitCode::SUCCESS)
 }
 

@@ -91,7 +91,7 @@ fn run(n: usize, dt: f64, duration: f64, hz: f64, deg: f64) -> (Vec<Vec<f64>>, K
     let mut sums = vec![[0.0f64; 2]; sim.strand_count()];
     for step in 0..steps {
         sim.step().expect("stable step");
-        for i in 0..sim.strand_count() {
+        for (i, sum) in sums.iter_mut().enumerate() {
             let mass = sim.strand(i).material.mass_per_length * length;
             let scale = 0.5 * mass * (omega_max * (0.1 + length)).powi(2);
             let k = sim.kinetic_energy(i) / scale;
@@ -101,7 +101,7 @@ fn run(n: usize, dt: f64, duration: f64, hz: f64, deg: f64) -> (Vec<Vec<f64>>, K
                 &mut peaks.second_half
             };
             *peak = peak.max(k);
-            sums[i][usize::from(step >= steps / 2)] += k;
+            sum[usize::from(step >= steps / 2)] += k;
             assert!(sim.q(i).iter().chain(sim.v(i)).all(|x| x.is_finite()));
         }
     }
