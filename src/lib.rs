@@ -25,8 +25,8 @@ pub const DEFAULT_SCENE: &str = include_str!("default_scene.toml");
 /// Name of the file `run` writes in its output directory.
 pub const FRAMES_FILE: &str = "frames.json";
 
-/// The generated fixed-N kernels, when this build has them (`None` until issue #3 lands
-/// them: every strand then uses the generic runtime-N kernels).
+/// The generated kernels of this build (for the N of `superhelix_generated::factory::sizes`;
+/// other N use the generic runtime-N kernel under `kernels = "auto"`).
 pub fn kernel_factory() -> Option<&'static dyn KernelFactory> {
     superhelix_generated::kernel_factory()
 }

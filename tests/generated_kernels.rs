@@ -78,7 +78,10 @@ fn run(n: usize, kernels: KernelChoice, integrator: IntegratorKind) -> Vec<(Vec<
 
 fn max_rel(a: &[f64], b: &[f64]) -> f64 {
     let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs())) / scale
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+        / scale
 }
 
 #[test]
@@ -96,7 +99,10 @@ fn generated_and_generic_kernels_give_the_same_motion() {
             // amplify it little (the tolerance leaves three orders of magnitude)
             let dev = max_rel(qa, qb).max(max_rel(va, vb));
             worst = worst.max(dev);
-            assert!(dev < 1e-9, "N={n} {integrator:?}: relative deviation {dev:.2e}");
+            assert!(
+                dev < 1e-9,
+                "N={n} {integrator:?}: relative deviation {dev:.2e}"
+            );
         }
     }
     println!("generated vs generic after 1 s: worst relative deviation of q, q̇ {worst:.2e}");
@@ -107,9 +113,15 @@ fn generated_kernels_are_refused_for_a_size_without_them() {
     let available = superhelix::kernel_factory()
         .map(|f| f.available())
         .unwrap_or_default();
-    let n = (1..100).find(|n| !available.contains(n)).expect("some N missing");
+    let n = (1..100)
+        .find(|n| !available.contains(n))
+        .expect("some N missing");
     let err = match Simulation::new(
-        setup(n, KernelChoice::Generated, IntegratorKind::LinearlyImplicitEuler),
+        setup(
+            n,
+            KernelChoice::Generated,
+            IntegratorKind::LinearlyImplicitEuler,
+        ),
         superhelix::kernel_factory(),
     ) {
         Ok(_) => panic!("N={n} has no generated kernel and must be refused"),

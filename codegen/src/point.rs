@@ -116,12 +116,7 @@ impl PointBuilder {
 
     /// `u^p` and the terms of Q: monomials in `x` (closed) or `z` (series) and trig
     /// atoms of `x`.
-    fn rescale(
-        &self,
-        g: &mut Graph,
-        p: &TPoly,
-        series: bool,
-    ) -> Result<Rescaled, CodegenError> {
+    fn rescale(&self, g: &mut Graph, p: &TPoly, series: bool) -> Result<Rescaled, CodegenError> {
         let (h, x) = (self.h, self.x);
         let mut degree = None;
         let mut atoms = Vec::new();
@@ -720,10 +715,16 @@ mod tests {
                 let s = g.eval(series, &b);
                 if w * u >= 2.0 {
                     // the expression as built and the closed branch (Horner in 1/x)
-                    assert!((c - exact).abs() <= 1e-13 * exact.abs(), "{k}: {c} vs {exact}");
+                    assert!(
+                        (c - exact).abs() <= 1e-13 * exact.abs(),
+                        "{k}: {c} vs {exact}"
+                    );
                 }
                 if w * u <= 2.0 {
-                    assert!((s - exact).abs() <= 1e-10 * exact.abs(), "{k}: {s} vs {exact}");
+                    assert!(
+                        (s - exact).abs() <= 1e-10 * exact.abs(),
+                        "{k}: {s} vs {exact}"
+                    );
                     assert!((s - c).abs() <= 1e-10 * s.abs(), "{k}: {s} vs {c}");
                 }
             }
@@ -739,7 +740,10 @@ mod tests {
                 let mut b = h.bindings([w, 0.0, 0.0], 0.0, u);
                 b.extend(pb.bindings(w, u));
                 let next = g.eval(f[k + 1].expr, &b);
-                assert!((fd - next).abs() <= 1e-7 * next.abs(), "{k}: {fd} vs {next}");
+                assert!(
+                    (fd - next).abs() <= 1e-7 * next.abs(),
+                    "{k}: {fd} vs {next}"
+                );
             }
         }
         // an odd function of W has no Taylor branch in z

@@ -52,9 +52,9 @@ pub struct GeneratedFactory;
 impl KernelFactory for GeneratedFactory {
     fn create(&self, geometry: &StrandGeometry) -> Option<Box<dyn StrandKernel>> {
         let n = geometry.elements();
-        sizes()
-            .contains(&n)
-            .then(|| Box::new(MomentKernel::new(geometry.clone(), ClosedForm)) as Box<dyn StrandKernel>)
+        sizes().contains(&n).then(|| {
+            Box::new(MomentKernel::new(geometry.clone(), ClosedForm)) as Box<dyn StrandKernel>
+        })
     }
     fn available(&self) -> Vec<usize> {
         sizes()

@@ -4,13 +4,14 @@
 //! regenerate with `cargo run -p superhelix-codegen --release`, and the test
 //! `generated_files_are_fresh` fails with the stale file's name when they are out of date).
 //!
-//! Status (issue #3, in progress): every per-element integral of the moment-based
-//! assembly (`superhelix_runtime::moments::ElementMoments`) is generated in closed form,
-//! in three functions with their own Taylor switch and degree (see each file's header):
+//! Every per-element integral of the moment-based assembly
+//! (`superhelix_runtime::moments::ElementMoments`) is generated in closed form, in three
+//! functions with their own Taylor switch and degree (see each file's header):
 //! [`centreline_mass()`] (what M needs), [`centreline_force()`] (what only the force needs)
-//! and [`rotary_basis()`] (the rotary inertia). [`element_moments_into`] fills every field,
-//! [`mass_moments`] only those of M. The fixed-N kernels implementing `StrandKernel` are
-//! not written yet, so [`kernel_factory`] offers none.
+//! and [`rotary_basis()`] (the rotary inertia); [`element_moments_into`] fills every field,
+//! [`mass_moments`] only those of M. [`element_point_into`] gives an element's local
+//! functions at one abscissa. [`kernel_factory`] offers, for each N in [`factory::sizes`],
+//! the runtime's `MomentKernel` fed by these closed forms ([`GeneratedKernel`]).
 #![warn(missing_docs)]
 
 /// Generated: the centreline moments of M (see the file's header for op counts).

@@ -309,10 +309,9 @@ pub fn add_field_hessian(
             for j in i..3 {
                 let own = a0.dot(&m2.d2first[i][j]) + (a * m2.pd2p[i][j]).trace();
                 let (ti, tj) = (e2.dtheta[i], e2.dtheta[j]);
-                let rigid = e2.d2p[i][j].dot(&res)
-                    + e2.dw[i][j].dot(&t_rho)
-                    + ti.dot(&(y_rho * tj))
-                    - ti.dot(&tj) * y_rho.trace();
+                let rigid =
+                    e2.d2p[i][j].dot(&res) + e2.dw[i][j].dot(&t_rho) + ti.dot(&(y_rho * tj))
+                        - ti.dot(&tj) * y_rho.trace();
                 let (k, l) = (3 * q2 + i, 3 * q2 + j);
                 out[l * dofs + k] += own + rigid;
                 if i != j {
@@ -433,9 +432,9 @@ pub fn add_velocity_jacobian(
                 let (lin_q, ang_q) = jdot_rigid(&bodies[q + 1], &a_qe, &gamma, &t);
                 for i in 0..3 {
                     let k = 3 * q + i;
-                    let mut own = mq.dfirst[i].dot(&base) + g.dot(&mq.cross[i])
-                        + tl.dot(&(mq.pdp[i] * wq))
-                        - tw * mq.pdp[i].trace();
+                    let mut own =
+                        mq.dfirst[i].dot(&base) + g.dot(&mq.cross[i]) + tl.dot(&(mq.pdp[i] * wq))
+                            - tw * mq.pdp[i].trace();
                     for c in 0..3 {
                         own += tl.dot(&axial(&mq.dpdp[c][i])) * qd[c];
                     }

@@ -182,7 +182,8 @@ pub fn add_rotary_terms(
             // rows upstream of q2 on element q2 itself, and own rows of q2
             for q in 0..q2 {
                 for i in 0..3 {
-                    jac[col * dofs + 3 * q + i] += end_derivs[q].dtheta[i].dot(&elements[q2].psi[j]);
+                    jac[col * dofs + 3 * q + i] +=
+                        end_derivs[q].dtheta[i].dot(&elements[q2].psi[j]);
                 }
             }
             for i in 0..3 {
@@ -201,4 +202,3 @@ pub fn add_rotary_terms(
         }
     }
 }
-

@@ -233,7 +233,10 @@ pub fn end_derivatives(frame: &Matrix3<f64>, d: &Vector3<f64>, l: f64) -> EndDer
 }
 
 /// End derivatives from the element's local derivatives at u = l.
-pub fn end_derivatives_from(frame: &Matrix3<f64>, e: &crate::element::ElementPoint) -> EndDerivatives {
+pub fn end_derivatives_from(
+    frame: &Matrix3<f64>,
+    e: &crate::element::ElementPoint,
+) -> EndDerivatives {
     EndDerivatives {
         dp: e.dp.map(|v| frame * v),
         dtheta: e.w.map(|v| frame * v),

@@ -22,7 +22,10 @@ fn rel_mat(a: &Mat<f64>, b: &Mat<f64>) -> f64 {
 }
 
 fn rel_vec(a: &[f64], b: &[f64]) -> f64 {
-    let diff = a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    let diff = a
+        .iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
     let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     diff / scale.max(1e-300)
 }
@@ -59,7 +62,15 @@ fn moment_kernel_matches_the_generic_kernel_on_every_term() {
         &[100.0, 0.5],
     ];
     let mut worst = [0.0f64; 7];
-    let names = ["M", "force", "b", "stiffness", "damping", "dB/dqdot", "first moment"];
+    let names = [
+        "M",
+        "force",
+        "b",
+        "stiffness",
+        "damping",
+        "dB/dqdot",
+        "first moment",
+    ];
     for n in [1usize, 2, 3, 5, 10] {
         for (c, wl) in wl_sets.iter().enumerate() {
             for rotary in [false, true] {
@@ -133,7 +144,10 @@ fn moment_kernel_points_match_the_generic_kernel() {
                 let ya = ours.point(&q, s, &mut ja, Some((c, &mut ha)));
                 let yb = reference.point(&q, s, &mut jb, Some((c, &mut hb)));
                 let jscale = jb.iter().fold(0.0f64, |m, v| m.max(v.amax()));
-                let jdiff = ja.iter().zip(&jb).fold(0.0f64, |m, (a, b)| m.max((a - b).amax()));
+                let jdiff = ja
+                    .iter()
+                    .zip(&jb)
+                    .fold(0.0f64, |m, (a, b)| m.max((a - b).amax()));
                 // positions relative to the strand's length; J and H to their largest entry
                 let dev = [
                     (ya - yb).amax() / g.length(),
@@ -142,10 +156,16 @@ fn moment_kernel_points_match_the_generic_kernel() {
                 ];
                 for (w, d) in worst.iter_mut().zip(dev) {
                     *w = w.max(d);
-                    assert!(d <= 1e-12, "point deviation {d:.2e} at N={n}, s={s}, W·l {wl:?}");
+                    assert!(
+                        d <= 1e-12,
+                        "point deviation {d:.2e} at N={n}, s={s}, W·l {wl:?}"
+                    );
                 }
             }
         }
     }
-    println!("moment kernel point vs generic: position {:.2e}, J {:.2e}, Hessian {:.2e}", worst[0], worst[1], worst[2]);
+    println!(
+        "moment kernel point vs generic: position {:.2e}, J {:.2e}, Hessian {:.2e}",
+        worst[0], worst[1], worst[2]
+    );
 }
