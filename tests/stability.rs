@@ -121,9 +121,9 @@ fn every_preset_survives_a_3hz_40deg_shake_at_30_fps_deterministically() {
     // exceed the rigid-drag scale a few times, but never beyond 10x the scale (tip 3x the
     // head's speed), and it must not grow: under periodic forcing with friction and drag
     // each strand's mean kinetic energy over the second half stays within 1.5x that of the
-    // first. (Peaks of the irregular whipping are chaotic: two kernels agreeing to 1e-13
-    // per evaluation give second-half peaks of 1.9 and 3.7 times the scale, so the growth
-    // test uses means, which agree to a few percent.)
+    // first. (Means rather than peaks, which are more sensitive to the irregular
+    // whipping. Measured: peaks 1.31 and 1.59 times the scale, mean growth 1.06, the same
+    // to 1e-6 on the generic and the generated kernels.)
     assert!(
         peaks.first_half < 10.0 && peaks.second_half < 10.0,
         "{peaks:?}"

@@ -242,7 +242,7 @@ fn energy_parts(
 /// Largest rotation an implicit step may put into one element, radians: the change of
 /// `l_Q |d_Q|` over the step. Beyond it the step's linearisation of M(q), b and the
 /// forces no longer holds and energy can be created, so the step is split in two.
-pub const MAX_ELEMENT_ROTATION: f64 = 0.3;
+pub const MAX_ELEMENT_ROTATION: f64 = 0.2;
 /// How many times a step may be halved (down to h / 2^depth).
 pub const MAX_SUBSTEP_DEPTH: usize = 8;
 
