@@ -2,12 +2,14 @@
 //!
 //! Facade over the Super-Helix runtime (`superhelix-runtime`) and the generated fixed-N
 //! kernels (`superhelix-generated`), and the library half of the `superhelix` command:
-//! running a scene to `frames.json` and validating scenes.
+//! running a scene to `frames.json` and validating scenes, and the hard cases of
+//! `superhelix stress` ([`stress`]).
 #![warn(missing_docs)]
 
 pub mod bench;
 pub mod compare;
 pub mod quadrature_table;
+pub mod stress;
 
 pub use superhelix_generated as generated;
 pub use superhelix_runtime as runtime;

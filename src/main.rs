@@ -1,5 +1,5 @@
 //! The `superhelix` command: `run` a scene to `frames.json`, `validate` a scene, `bench`,
-//! `compare-kernels` and `quadrature-table`.
+//! `compare-kernels`, `quadrature-table` and `stress`.
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -95,6 +95,17 @@ enum Command {
         #[arg(long, default_value_t = 3)]
         repeats: usize,
     },
+    /// Run the hard cases (every preset, N, dt and head motion, and the extremes); one
+    /// line per failed case, a table per group, last line `cases=<n> failed=<m>`; exit
+    /// code 1 when a case fails.
+    Stress {
+        /// Only the quick subset (the one `cargo test` runs).
+        #[arg(long)]
+        quick: bool,
+        /// Only the cases whose name contains SUBSTR.
+        #[arg(long, value_name = "SUBSTR")]
+        filter: Option<String>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -134,6 +145,7 @@ fn main() -> ExitCode {
             strands,
             repeats,
         } => quadrature_table(elements, &preset, steps, strands, repeats),
+        Command::Stress { quick, filter } => stress(quick, filter.as_deref()),
     };
     match result {
         Ok(code) => code,
@@ -297,6 +309,29 @@ fn quadrature_table(
     let table = quadrature_table(&options, superhelix::kernel_factory())?;
     print!("{}", table.render());
     Ok(ExitCode::SUCCESS)
+}
+
+fn stress(quick: bool, filter: Option<&str>) -> Result<ExitCode, Error> {
+    use superhelix::stress;
+    let cases: Vec<stress::Case> = if quick {
+        stress::quick_cases()
+    } else {
+        stress::all_cases()
+    }
+    .into_iter()
+    .filter(|c| filter.is_none_or(|f| c.name.contains(f)))
+    .collect();
+    let start = std::time::Instant::now();
+    let results = stress::run_cases(&cases);
+    print!(
+        "{}",
+        stress::render(&results, start.elapsed().as_secs_f64())
+    );
+    Ok(if results.iter().all(|r| r.passed()) {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
 }
 
 fn print_problems(problems: &[FieldError]) {

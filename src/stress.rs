@@ -1,0 +1,976 @@
+//! `superhelix stress` and `tests/stability.rs`: hard cases that must stay numerically
+//! sound (issue #4, second section).
+//!
+//! A [`Case`] is one strand in one [`SimulationSetup`] (preset, N, dt, head motion and a
+//! variant: long strands, scaled stiffness, extreme curvature, kinked start, friction,
+//! compression) with the [`Checks`] that apply to it. [`run_case`] steps it and, after
+//! every step, checks:
+//!
+//! 1. **Finite values.** A step that fails (`Error::Diverged`: non-finite q or q̇, a
+//!    singular step matrix) or an energy that is not finite fails the case with the
+//!    strand, the time and the solver's cause.
+//! 2. **Exact inextensibility.** The centreline of a Super-Helix is `r' = F e0` with the
+//!    frame `F` a product of rotations `exp(u[d]×)`, so |r'| = 1 at every s and every q:
+//!    each element's arc length *is* l_Q and the strand's is Σ l_Q = L, whatever the
+//!    dynamics does. The only way the reconstructed strand can stretch is numerical: a
+//!    frame that drifts off SO(3) (a, b, c of the closed form evaluated badly, round-off
+//!    accumulating along the chain) would scale the tangent. So the exact check is on
+//!    what the reconstruction produces: at each element end the frame must be orthonormal
+//!    (`max |FᵀF − I| ≤` [`FRAME_TOLERANCE`]), and each chord `|r_{Q+1} − r_Q|` — never
+//!    longer than the arc it spans — must not exceed `l_Q` by more than
+//!    [`STRETCH_TOLERANCE`]; Σ l_Q must be the strand's length.
+//! 3. **Bounded energy.** `T` is the kinetic energy relative to the head. The energy a case
+//!    may hold is bounded by its *budget* `B = ½ m v_head² + m g L + U₀ + T₀`: the
+//!    kinetic energy of the strand dragged rigidly at the head's top speed (`v_head` the
+//!    largest `|Ẋ| + |ω| (|r_root| + L)` of the motion: the rigid-drag scale
+//!    `½ m (Ω_max (r + L))²` of rotations and `½ m v_max²` of translations), plus what
+//!    gravity can release (the centre of mass moves by at most L) and the elastic and
+//!    kinetic energy of the initial state. `T` must stay below [`KINETIC_LIMIT`] × B: a
+//!    whip concentrates the energy in its tip, which may move a few times faster than
+//!    the head, but not ten times the budget.
+//!    Periodic head motion keeps putting energy in, so besides that bound the mean of `T`
+//!    over the second half of the run must not exceed [`MEAN_GROWTH_LIMIT`] times its
+//!    mean over the first half (a slow instability grows; a forced response saturates).
+//! 4. **No energy created.** From the time the head moves uniformly (at once for a
+//!    still head, after the stop or the jolt otherwise) the head frame is inertial and
+//!    the energy `E = T + U + V` (V the potential of the uniform force per length
+//!    `ρS Rᵀg − ν RᵀẊ`: gravity and the wind of the head's constant velocity) can only
+//!    decrease under the exact dynamics — friction and drag dissipate, and implicit Euler
+//!    adds numerical dissipation. `E(t) − E(t_free)` must stay below
+//!    [`ENERGY_TOLERANCE`] × S, S = T + U + m g L at `t_free` (the energy that can change
+//!    hands; the zero of the gravity potential is arbitrary). For a still head E is
+//!    [`Simulation::energy`]. The cases with a still head and neither drag nor friction
+//!    are *conservative*: there the only dissipation is the integrator's.
+//!
+//! The first violation stops the case and is reported with its strand, time and cause.
+
+use crate::runtime::element::local_pose;
+use crate::runtime::material::{helix_curvature, HelixForm, Preset};
+use crate::runtime::quadrature::gauss_legendre;
+use crate::runtime::reconstruction::{element_ends, Pose};
+use crate::runtime::simulation::{
+    IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup, StrandSetup,
+};
+use crate::runtime::strand::{Strand, StrandGeometry};
+use crate::runtime::{Environment, Error, HeadMotion, Matrix3, Simulation, Vector3};
+use rayon::prelude::*;
+use std::fmt::Write as _;
+use std::time::Instant;
+
+/// Largest kinetic energy relative to the head, in units of the case's budget B.
+pub const KINETIC_LIMIT: f64 = 10.0;
+/// Largest ratio of the mean kinetic energy over the second half of a periodically
+/// forced run to that over the first half.
+pub const MEAN_GROWTH_LIMIT: f64 = 2.0;
+/// Largest growth of the energy once the head moves uniformly, relative to the energy
+/// scale S.
+pub const ENERGY_TOLERANCE: f64 = 1e-6;
+/// Largest excess of an element's chord over its length, relative to the length.
+pub const STRETCH_TOLERANCE: f64 = 1e-12;
+/// Largest entry of `FᵀF − I` at an element end.
+pub const FRAME_TOLERANCE: f64 = 1e-12;
+
+/// Gravity of every case, m/s².
+pub const GRAVITY: f64 = 9.81;
+/// Simulated time of the cases with a moving head, s.
+pub const DURATION: f64 = 1.5;
+/// Simulated time of the conservative cases, s.
+pub const CONSERVATIVE_DURATION: f64 = 1.0;
+/// Strand length of the standard cases, m (the long ones are 1 m).
+pub const LENGTH: f64 = 0.25;
+/// Rotation per element of the kinked initial state, rad (`l_Q |q0 − q_n| = 3`).
+pub const KINK: f64 = 3.0;
+
+/// The numbers of elements of the matrix.
+pub const ELEMENTS: [usize; 5] = [1, 3, 5, 10, 20];
+/// The frame rates of the matrix (dt = 1/fps).
+pub const FRAME_RATES: [u32; 3] = [24, 30, 100];
+
+/// A head motion of the matrix.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Motion {
+    /// The head does not move.
+    Still,
+    /// 2 Hz nod by ±30° about the horizontal y axis through the head centre.
+    Nod,
+    /// 5 Hz shake by ±45° about the vertical axis.
+    Shake,
+    /// Turning at 180°/s about the vertical axis, stopping over 0.1 s at t = 0.5 s.
+    SuddenStop,
+    /// 30 m/s² sideways (y) for 0.1 s from t = 0.1 s: 1.5 m/s after.
+    Jolt,
+}
+
+impl Motion {
+    /// Every motion.
+    pub const ALL: [Motion; 5] = [
+        Motion::Still,
+        Motion::Nod,
+        Motion::Shake,
+        Motion::SuddenStop,
+        Motion::Jolt,
+    ];
+
+    /// Short name used in case names.
+    pub fn name(self) -> &'static str {
+        match self {
+            Motion::Still => "still",
+            Motion::Nod => "nod",
+            Motion::Shake => "shake",
+            Motion::SuddenStop => "stop",
+            Motion::Jolt => "jolt",
+        }
+    }
+
+    /// The head motion.
+    pub fn head(self) -> HeadMotion {
+        match self {
+            Motion::Still => HeadMotion::Still,
+            Motion::Nod => HeadMotion::Oscillate {
+                axis: Vector3::y(),
+                amplitude: 30f64.to_radians(),
+                frequency_hz: 2.0,
+                center: Vector3::zeros(),
+            },
+            Motion::Shake => HeadMotion::Oscillate {
+                axis: Vector3::z(),
+                amplitude: 45f64.to_radians(),
+                frequency_hz: 5.0,
+                center: Vector3::zeros(),
+            },
+            Motion::SuddenStop => HeadMotion::SuddenStop {
+                axis: Vector3::z(),
+                angular_speed: std::f64::consts::PI,
+                stop_time: 0.5,
+                stop_duration: 0.1,
+                center: Vector3::zeros(),
+            },
+            Motion::Jolt => jolt(Vector3::y(), 30.0),
+        }
+    }
+}
+
+/// A 0.1 s jolt of peak acceleration `a` along `direction` from t = 0.1 s.
+fn jolt(direction: Vector3<f64>, a: f64) -> HeadMotion {
+    HeadMotion::Jolt {
+        direction,
+        acceleration: a,
+        start: 0.1,
+        duration: 0.1,
+    }
+}
+
+/// What is checked beyond finiteness, inextensibility and the kinetic-energy bound
+/// (which apply to every case).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Checks {
+    /// The head motion is periodic: check the growth of the mean kinetic energy.
+    pub periodic: bool,
+    /// From this time on the head moves uniformly: the energy must not grow.
+    pub energy_from: Option<f64>,
+}
+
+impl Checks {
+    /// The checks a head motion calls for.
+    pub fn for_motion(head: &HeadMotion) -> Self {
+        let (periodic, energy_from) = match head {
+            HeadMotion::Still => (false, Some(0.0)),
+            HeadMotion::Oscillate { .. } | HeadMotion::TranslateOscillate { .. } => {
+                (true, None)
+            }
+            HeadMotion::SuddenStop {
+                stop_time,
+                stop_duration,
+                ..
+            } => (false, Some(stop_time + stop_duration.max(0.0))),
+            HeadMotion::Jolt {
+                start, duration, ..
+            } => (false, Some(start + duration.max(0.0))),
+            HeadMotion::Keyframes(track) => (false, track.keys().last().map(|k| k.t)),
+        };
+        Checks {
+            periodic,
+            energy_from,
+        }
+    }
+}
+
+/// One hard case: a one-strand simulation and what to check.
+#[derive(Debug, Clone)]
+pub struct Case {
+    /// Unique name, `group/preset/N../fps../motion[/variant]`.
+    pub name: String,
+    /// Group (the summary counts per group).
+    pub group: &'static str,
+    /// Part of the quick subset (`superhelix stress --quick`, the default test run).
+    pub quick: bool,
+    /// The simulation (one strand; `config.duration` is the simulated time).
+    pub setup: SimulationSetup,
+    /// The checks.
+    pub checks: Checks,
+}
+
+/// Where and why a case failed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Failure {
+    /// Name of the strand.
+    pub strand: String,
+    /// Simulated time, s.
+    pub time: f64,
+    /// What was violated.
+    pub cause: String,
+}
+
+/// The outcome of one case.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CaseResult {
+    /// The case's name.
+    pub name: String,
+    /// The case's group.
+    pub group: &'static str,
+    /// The first violation, if any.
+    pub failure: Option<Failure>,
+    /// Wall time, s.
+    pub seconds: f64,
+    /// Steps taken.
+    pub steps: usize,
+    /// Implicit steps split (see `StepStats::substeps`).
+    pub substeps: usize,
+    /// Largest kinetic energy relative to the head / the budget B.
+    pub kinetic_peak: f64,
+    /// Mean kinetic energy over the second half / over the first (periodic cases).
+    pub mean_growth: Option<f64>,
+    /// Largest `(E(t) − E(t_free)) / S` (cases with an energy check; negative when the
+    /// energy only decreased).
+    pub energy_growth: Option<f64>,
+    /// The case is conservative (still head, no drag, no friction).
+    pub conservative: bool,
+    /// Largest `(|r_{Q+1} − r_Q| − l_Q) / l_Q`.
+    pub stretch: f64,
+    /// Largest `|FᵀF − I|` entry at an element end.
+    pub frame_error: f64,
+}
+
+impl CaseResult {
+    /// Whether the case passed.
+    pub fn passed(&self) -> bool {
+        self.failure.is_none()
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// Strands and cases
+
+/// How a strand leaves the head.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Orientation {
+    /// Root at (0.1, 0, 0), tangent +x: horizontal, sideways.
+    Sideways,
+    /// Root at (0, 0, 0.1), tangent +z: standing up on top of the head.
+    Standing,
+}
+
+/// Everything that varies between strands of the cases.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct StrandSpec {
+    preset: Preset,
+    elements: usize,
+    length: f64,
+    orientation: Orientation,
+    /// Factor on the preset's stiffnesses.
+    stiffness_scale: f64,
+    /// Natural curvature with this |d|·l per element (direction of the preset's helix,
+    /// or (τ, κ1) ∝ (0.6, 0.8) for the straight preset) instead of the preset's.
+    natural_wl: Option<f64>,
+    /// Internal friction instead of the preset's.
+    friction: Option<f64>,
+    /// Air drag instead of the preset's.
+    drag: Option<f64>,
+    /// Start kinked by [`KINK`] rad per element.
+    kinked: bool,
+    /// Start with this small curvature κ1 added to the natural one (a seed for buckling).
+    seed_curvature: f64,
+}
+
+impl StrandSpec {
+    fn new(preset: Preset, elements: usize) -> Self {
+        StrandSpec {
+            preset,
+            elements,
+            length: LENGTH,
+            orientation: Orientation::Sideways,
+            stiffness_scale: 1.0,
+            natural_wl: None,
+            friction: None,
+            drag: None,
+            kinked: false,
+            seed_curvature: 0.0,
+        }
+    }
+
+    fn build(&self) -> StrandSetup {
+        let p = self.preset.params();
+        let mut material = p.cross_section.material();
+        for k in &mut material.stiffness {
+            *k *= self.stiffness_scale;
+        }
+        let n = self.elements;
+        let l = self.length / n as f64;
+        let helix = helix_curvature(p.helix_radius, p.helix_step, HelixForm::Exact);
+        let natural_d = match self.natural_wl {
+            None => Vector3::from(helix),
+            Some(wl) => {
+                let dir = if helix == [0.0; 3] {
+                    Vector3::new(0.6, 0.8, 0.0)
+                } else {
+                    Vector3::from(helix).normalize()
+                };
+                dir * (wl / l)
+            }
+        };
+        let natural: Vec<f64> = (0..n).flat_map(|_| natural_d.iter().copied()).collect();
+        let mut q0 = natural.clone();
+        for k in 0..n {
+            q0[3 * k + 1] += self.seed_curvature;
+            if self.kinked {
+                let kink = kink_direction(k) * (KINK / l);
+                for i in 0..3 {
+                    q0[3 * k + i] += kink[i];
+                }
+            }
+        }
+        let (root, frame) = match self.orientation {
+            Orientation::Sideways => (Vector3::new(0.1, 0.0, 0.0), Matrix3::identity()),
+            Orientation::Standing => (
+                Vector3::new(0.0, 0.0, 0.1),
+                Matrix3::from_columns(&[Vector3::z(), Vector3::x(), Vector3::y()]),
+            ),
+        };
+        StrandSetup {
+            strand: Strand {
+                name: self.preset.name().to_string(),
+                geometry: StrandGeometry::new(root, frame, vec![l; n], &material),
+                material,
+                natural,
+                internal_friction: self.friction.unwrap_or(p.internal_friction),
+                air_drag: self.drag.unwrap_or(p.air_drag),
+                point_loads: Vec::new(),
+            },
+            q0,
+        }
+    }
+}
+
+/// Unit direction of the kink of element k: varied, with twist and both curvatures.
+fn kink_direction(k: usize) -> Vector3<f64> {
+    let a = 1.3 * k as f64 + 0.7;
+    Vector3::new(0.5 * (2.4 * k as f64).cos(), a.cos(), a.sin()).normalize()
+}
+
+fn setup(
+    strand: StrandSetup,
+    head: HeadMotion,
+    fps: u32,
+    duration: f64,
+    integrator: IntegratorKind,
+) -> SimulationSetup {
+    SimulationSetup {
+        config: SimulationConfig {
+            dt: 1.0 / fps as f64,
+            duration,
+            integrator,
+            kernels: KernelChoice::Auto,
+            ..SimulationConfig::default()
+        },
+        environment: Environment {
+            gravity: Some(Vector3::new(0.0, 0.0, -GRAVITY)),
+        },
+        head,
+        strands: vec![strand],
+        samples_per_element: 1,
+    }
+}
+
+fn case(
+    name: String,
+    group: &'static str,
+    quick: bool,
+    spec: StrandSpec,
+    head: HeadMotion,
+    fps: u32,
+) -> Case {
+    let checks = Checks::for_motion(&head);
+    Case {
+        name,
+        group,
+        quick,
+        setup: setup(
+            spec.build(),
+            head,
+            fps,
+            DURATION,
+            IntegratorKind::LinearlyImplicitEuler,
+        ),
+        checks,
+    }
+}
+
+/// The full matrix: every group (see the README's "Hard cases (stress)").
+pub fn all_cases() -> Vec<Case> {
+    let mut cases = Vec::new();
+    let presets = Preset::ALL;
+    // every preset × N × dt × head motion, 25 cm strands of the preset
+    for &preset in &presets {
+        for &n in &ELEMENTS {
+            for &fps in &FRAME_RATES {
+                for motion in Motion::ALL {
+                    let quick = fps == 30 && (n == 5 || n == 10);
+                    cases.push(case(
+                        format!("matrix/{}/N{n}/fps{fps}/{}", preset.name(), motion.name()),
+                        "matrix",
+                        quick,
+                        StrandSpec::new(preset, n),
+                        motion.head(),
+                        fps,
+                    ));
+                }
+            }
+        }
+    }
+    // 1 m strands at N = 20
+    for &preset in &presets {
+        for &fps in &FRAME_RATES {
+            for motion in Motion::ALL {
+                let spec = StrandSpec {
+                    length: 1.0,
+                    ..StrandSpec::new(preset, 20)
+                };
+                cases.push(case(
+                    format!("long/{}/N20/fps{fps}/{}", preset.name(), motion.name()),
+                    "long-1m",
+                    false,
+                    spec,
+                    motion.head(),
+                    fps,
+                ));
+            }
+        }
+    }
+    // 100x and 0.01x the preset stiffness
+    for &preset in &presets {
+        for (scale, tag) in [(100.0, "x100"), (0.01, "x0.01")] {
+            for motion in Motion::ALL {
+                let spec = StrandSpec {
+                    stiffness_scale: scale,
+                    ..StrandSpec::new(preset, 10)
+                };
+                cases.push(case(
+                    format!(
+                        "stiffness/{}/N10/fps30/{}/{tag}",
+                        preset.name(),
+                        motion.name()
+                    ),
+                    "stiffness",
+                    motion == Motion::Shake,
+                    spec,
+                    motion.head(),
+                    30,
+                ));
+            }
+        }
+    }
+    // natural curvature W·l → 0 and W·l ≈ 100
+    for &preset in &presets {
+        for (wl, tag) in [(1e-8, "wl1e-8"), (100.0, "wl100")] {
+            for n in [1, 10] {
+                for motion in Motion::ALL {
+                    let spec = StrandSpec {
+                        natural_wl: Some(wl),
+                        ..StrandSpec::new(preset, n)
+                    };
+                    cases.push(case(
+                        format!(
+                            "curvature/{}/N{n}/fps30/{}/{tag}",
+                            preset.name(),
+                            motion.name()
+                        ),
+                        "curvature",
+                        n == 10 && motion == Motion::Shake,
+                        spec,
+                        motion.head(),
+                        30,
+                    ));
+                }
+            }
+        }
+    }
+    // kinked start, 3 rad per element, preset friction and drag
+    for &preset in &presets {
+        for &n in &ELEMENTS {
+            for motion in [Motion::Still, Motion::Shake] {
+                let spec = StrandSpec {
+                    kinked: true,
+                    ..StrandSpec::new(preset, n)
+                };
+                cases.push(case(
+                    format!(
+                        "kinked/{}/N{n}/fps30/{}/kink3",
+                        preset.name(),
+                        motion.name()
+                    ),
+                    "kinked",
+                    n == 5,
+                    spec,
+                    motion.head(),
+                    30,
+                ));
+            }
+        }
+    }
+    // zero and huge internal friction (1e5 times the preset's)
+    for &preset in &presets {
+        let gamma = preset.params().internal_friction;
+        for (friction, tag) in [(0.0, "gamma0"), (1e5 * gamma, "gamma1e5x")] {
+            for motion in Motion::ALL {
+                let spec = StrandSpec {
+                    friction: Some(friction),
+                    ..StrandSpec::new(preset, 10)
+                };
+                cases.push(case(
+                    format!(
+                        "friction/{}/N10/fps30/{}/{tag}",
+                        preset.name(),
+                        motion.name()
+                    ),
+                    "friction",
+                    motion == Motion::Jolt,
+                    spec,
+                    motion.head(),
+                    30,
+                ));
+            }
+        }
+    }
+    // conservative: still head, no drag, no friction, gravity, from a kinked state
+    for &preset in &presets {
+        for &n in &ELEMENTS {
+            for &fps in &FRAME_RATES {
+                for integrator in [
+                    IntegratorKind::LinearlyImplicitEuler,
+                    IntegratorKind::NewtonImplicitEuler,
+                ] {
+                    let spec = StrandSpec {
+                        kinked: true,
+                        friction: Some(0.0),
+                        drag: Some(0.0),
+                        ..StrandSpec::new(preset, n)
+                    };
+                    let tag = match integrator {
+                        IntegratorKind::NewtonImplicitEuler => "newton",
+                        _ => "linear",
+                    };
+                    cases.push(Case {
+                        name: format!(
+                            "conservative/{}/N{n}/fps{fps}/still/kink3/{tag}",
+                            preset.name()
+                        ),
+                        group: "conservative",
+                        quick: fps == 30 && n == 5,
+                        setup: setup(
+                            spec.build(),
+                            HeadMotion::Still,
+                            fps,
+                            CONSERVATIVE_DURATION,
+                            integrator,
+                        ),
+                        checks: Checks::for_motion(&HeadMotion::Still),
+                    });
+                }
+            }
+        }
+    }
+    // compression: roots pushed towards the tips (buckling)
+    for &preset in &presets {
+        for n in [5, 10, 20] {
+            let variants = [
+                ("standing", Orientation::Standing, HeadMotion::Still),
+                ("standing-jolt-up", Orientation::Standing, jolt(Vector3::z(), 30.0)),
+                ("jolt-along-30", Orientation::Sideways, jolt(Vector3::x(), 30.0)),
+                ("jolt-along-100", Orientation::Sideways, jolt(Vector3::x(), 100.0)),
+            ];
+            for (tag, orientation, head) in variants {
+                let spec = StrandSpec {
+                    orientation,
+                    seed_curvature: 1e-3,
+                    ..StrandSpec::new(preset, n)
+                };
+                cases.push(case(
+                    format!("buckling/{}/N{n}/fps30/{tag}", preset.name()),
+                    "buckling",
+                    n == 10 && tag.ends_with("100"),
+                    spec,
+                    head,
+                    30,
+                ));
+            }
+        }
+    }
+    cases
+}
+
+/// The quick subset of [`all_cases`].
+pub fn quick_cases() -> Vec<Case> {
+    all_cases().into_iter().filter(|c| c.quick).collect()
+}
+
+// ---------------------------------------------------------------------------------
+// Running
+
+/// The first moment ∫ y ds of the strand in head coordinates, by Gauss–Legendre
+/// quadrature over each element (`12 + ⌈|d| l⌉` points: exact to round-off for the
+/// element's trigonometric closed form).
+fn first_moment(geometry: &StrandGeometry, q: &[f64], ends: &[Pose]) -> Vector3<f64> {
+    let mut total = Vector3::zeros();
+    for (k, &l) in geometry.lengths.iter().enumerate() {
+        let d = Vector3::new(q[3 * k], q[3 * k + 1], q[3 * k + 2]);
+        let rule = gauss_legendre(12 + (d.norm() * l).ceil() as usize);
+        let start = &ends[k];
+        let mut local = Vector3::zeros();
+        for (x, w) in rule.nodes.iter().zip(&rule.weights) {
+            let (_, p) = local_pose(&d, 0.5 * l * (x + 1.0));
+            local += p * *w;
+        }
+        total += start.position * l + start.frame * local * (0.5 * l);
+    }
+    total
+}
+
+/// Elastic energy ½ Σ K (q − q_n)².
+fn elastic_energy(strand: &Strand, q: &[f64]) -> f64 {
+    strand
+        .stiffness_diagonal()
+        .iter()
+        .zip(q.iter().zip(&strand.natural))
+        .map(|(k, (q, qn))| 0.5 * k * (q - qn).powi(2))
+        .sum()
+}
+
+/// What one step's checks measure.
+struct Inextensibility {
+    stretch: f64,
+    frame_error: f64,
+    cause: Option<String>,
+}
+
+fn check_inextensibility(geometry: &StrandGeometry, q: &[f64], ends: &mut [Pose]) -> Inextensibility {
+    element_ends(geometry, q, ends);
+    let mut out = Inextensibility {
+        stretch: f64::NEG_INFINITY,
+        frame_error: 0.0,
+        cause: None,
+    };
+    for (k, &l) in geometry.lengths.iter().enumerate() {
+        let chord = (ends[k + 1].position - ends[k].position).norm();
+        let stretch = (chord - l) / l;
+        out.stretch = out.stretch.max(stretch);
+        let f = &ends[k + 1].frame;
+        let frame_error = (f.transpose() * f - Matrix3::identity()).amax();
+        out.frame_error = out.frame_error.max(frame_error);
+        if out.cause.is_none() {
+            if !(stretch <= STRETCH_TOLERANCE) {
+                out.cause = Some(format!(
+                    "inextensibility: element {k} chord {chord:.15e} m exceeds its length \
+                     {l:.15e} m by {stretch:.2e} relative (limit {STRETCH_TOLERANCE:.0e})"
+                ));
+            } else if !(frame_error <= FRAME_TOLERANCE) {
+                out.cause = Some(format!(
+                    "inextensibility: frame at the end of element {k} is off SO(3) by \
+                     {frame_error:.2e} (limit {FRAME_TOLERANCE:.0e})"
+                ));
+            }
+        }
+    }
+    out
+}
+
+/// Run one case.
+pub fn run_case(case: &Case) -> CaseResult {
+    let start = Instant::now();
+    let strand_name = case
+        .setup
+        .strands
+        .first()
+        .map_or_else(|| "-".to_string(), |s| s.strand.name.clone());
+    let mut result = CaseResult {
+        name: case.name.clone(),
+        group: case.group,
+        failure: None,
+        seconds: 0.0,
+        steps: 0,
+        substeps: 0,
+        kinetic_peak: 0.0,
+        mean_growth: None,
+        energy_growth: None,
+        conservative: false,
+        stretch: f64::NEG_INFINITY,
+        frame_error: 0.0,
+    };
+    let fail = |result: &mut CaseResult, time: f64, cause: String| {
+        result.failure = Some(Failure {
+            strand: strand_name.clone(),
+            time,
+            cause,
+        });
+    };
+    let setup = &case.setup;
+    let head = setup.head.clone();
+    let dt = setup.config.dt;
+    let duration = setup.config.duration;
+    let steps = (duration / dt).round() as usize;
+    let gravity = setup.environment.gravity.unwrap_or_else(Vector3::zeros);
+    let mut sim = match Simulation::new(setup.clone(), crate::kernel_factory()) {
+        Ok(sim) => sim,
+        Err(e) => {
+            fail(&mut result, 0.0, format!("setup rejected: {e}"));
+            result.seconds = start.elapsed().as_secs_f64();
+            return result;
+        }
+    };
+    let strand = sim.strand(0).clone();
+    let geometry = &strand.geometry;
+    let length = geometry.length();
+    let mass = strand.material.mass_per_length * length;
+    let still = head == HeadMotion::Still;
+    result.conservative =
+        still && strand.air_drag == 0.0 && strand.internal_friction == 0.0;
+    let mut ends = vec![Pose::default(); geometry.elements() + 1];
+
+    // the budget B
+    let reach = geometry.root_position.norm() + length;
+    let samples = 2000;
+    let v_head = (0..=samples)
+        .map(|i| {
+            let s = head.state(duration * i as f64 / samples as f64);
+            s.velocity.norm() + s.omega.norm() * reach
+        })
+        .fold(0.0, f64::max);
+    let u0 = elastic_energy(&strand, sim.q(0));
+    let t0 = sim.kinetic_energy(0);
+    let budget = 0.5 * mass * v_head * v_head + mass * gravity.norm() * length + u0 + t0;
+    let lengths_sum: f64 = geometry.lengths.iter().sum();
+    if (lengths_sum - length).abs() > 1e-15 * length {
+        fail(
+            &mut result,
+            0.0,
+            format!("element lengths sum to {lengths_sum} m, not {length} m"),
+        );
+    }
+
+    // the energy E = T + U + V in the head frame, while the head moves uniformly
+    let energy = |sim: &mut Simulation, ends: &mut [Pose], t: f64| -> (f64, f64) {
+        let kinetic = sim.kinetic_energy(0);
+        let elastic = elastic_energy(&strand, sim.q(0));
+        let total = if still {
+            sim.energy(0)
+        } else {
+            let h = head.state(t);
+            let rt = h.rotation.transpose();
+            let force = rt * gravity * strand.material.mass_per_length
+                - rt * h.velocity * strand.air_drag;
+            element_ends(geometry, sim.q(0), ends);
+            kinetic + elastic - force.dot(&first_moment(geometry, sim.q(0), ends))
+        };
+        // S: what can change hands (T, U, and gravity over the strand's length)
+        let scale = kinetic + elastic + mass * gravity.norm() * length;
+        (total, scale)
+    };
+    let mut reference: Option<(f64, f64)> = None;
+    if case.checks.energy_from == Some(0.0) {
+        reference = Some(energy(&mut sim, &mut ends, 0.0));
+    }
+
+    let mut sums = [0.0f64; 2];
+    let mut counts = [0usize; 2];
+    for step in 0..steps {
+        if result.failure.is_some() {
+            break;
+        }
+        if let Err(e) = sim.step() {
+            let (strand, time, cause) = match e {
+                Error::Diverged {
+                    strand,
+                    time,
+                    cause,
+                    ..
+                } => (strand, time, cause),
+                other => (strand_name.clone(), sim.time() + dt, other.to_string()),
+            };
+            result.failure = Some(Failure {
+                strand,
+                time,
+                cause,
+            });
+            break;
+        }
+        result.steps = step + 1;
+        let t = sim.time();
+        if let Some(i) = sim.q(0).iter().chain(sim.v(0)).position(|x| !x.is_finite()) {
+            fail(&mut result, t, format!("non-finite state entry {i}"));
+            break;
+        }
+        let check = check_inextensibility(geometry, sim.q(0), &mut ends);
+        result.stretch = result.stretch.max(check.stretch);
+        result.frame_error = result.frame_error.max(check.frame_error);
+        if let Some(cause) = check.cause {
+            fail(&mut result, t, cause);
+            break;
+        }
+        let kinetic = sim.kinetic_energy(0);
+        if !kinetic.is_finite() {
+            fail(&mut result, t, format!("kinetic energy {kinetic}"));
+            break;
+        }
+        let ratio = kinetic / budget;
+        result.kinetic_peak = result.kinetic_peak.max(ratio);
+        if ratio > KINETIC_LIMIT {
+            fail(
+                &mut result,
+                t,
+                format!(
+                    "bounded energy: kinetic energy {kinetic:.3e} J is {ratio:.2} times the \
+                     budget B = {budget:.3e} J (limit {KINETIC_LIMIT})"
+                ),
+            );
+            break;
+        }
+        let half = usize::from(2 * step >= steps);
+        sums[half] += kinetic;
+        counts[half] += 1;
+        if let Some(from) = case.checks.energy_from {
+            if t >= from - 1e-12 {
+                let (e, s) = energy(&mut sim, &mut ends, t);
+                let (e_ref, s_ref) = *reference.get_or_insert((e, s));
+                if !e.is_finite() {
+                    fail(&mut result, t, format!("energy {e}"));
+                    break;
+                }
+                let growth = (e - e_ref) / s_ref;
+                result.energy_growth = Some(result.energy_growth.map_or(growth, |g| g.max(growth)));
+                if growth > ENERGY_TOLERANCE {
+                    fail(
+                        &mut result,
+                        t,
+                        format!(
+                            "energy grows: E = {e:.9e} J, {growth:.2e} S above {e_ref:.9e} J at \
+                             t = {from:.3} s (S = {s_ref:.3e} J, limit {ENERGY_TOLERANCE:.0e} S)"
+                        ),
+                    );
+                    break;
+                }
+            }
+        }
+    }
+    if case.checks.periodic && counts[0] > 0 && counts[1] > 0 {
+        let growth = (sums[1] / counts[1] as f64) / (sums[0] / counts[0] as f64).max(1e-300);
+        result.mean_growth = Some(growth);
+        if result.failure.is_none() && growth > MEAN_GROWTH_LIMIT {
+            fail(
+                &mut result,
+                sim.time(),
+                format!(
+                    "bounded energy: mean kinetic energy of the second half is {growth:.2} \
+                     times that of the first (limit {MEAN_GROWTH_LIMIT})"
+                ),
+            );
+        }
+    }
+    result.substeps = sim.stats().substeps;
+    result.seconds = start.elapsed().as_secs_f64();
+    result
+}
+
+/// Run `cases` (in parallel; results in the order of `cases`).
+pub fn run_cases(cases: &[Case]) -> Vec<CaseResult> {
+    cases.par_iter().map(run_case).collect()
+}
+
+/// One line per failed case: `FAIL <case>: strand '<s>' at t = <t> s: <cause>`.
+pub fn failure_line(r: &CaseResult) -> Option<String> {
+    r.failure.as_ref().map(|f| {
+        format!(
+            "FAIL {}: strand '{}' at t = {:.4} s: {}",
+            r.name, f.strand, f.time, f.cause
+        )
+    })
+}
+
+/// The report: the failures, a table per group, and the last line
+/// `cases=<n> failed=<m>`.
+pub fn render(results: &[CaseResult], wall_seconds: f64) -> String {
+    let mut out = String::new();
+    for line in results.iter().filter_map(failure_line) {
+        let _ = writeln!(out, "{line}");
+    }
+    let mut groups: Vec<&'static str> = Vec::new();
+    for r in results {
+        if !groups.contains(&r.group) {
+            groups.push(r.group);
+        }
+    }
+    let _ = writeln!(
+        out,
+        "{:<13} {:>5} {:>6} {:>8} {:>9} {:>8} {:>7} {:>10} {:>10} {:>9} {:>9}",
+        "group",
+        "cases",
+        "failed",
+        "cpu_s",
+        "substeps",
+        "max_T/B",
+        "max_dT",
+        "max_dE/S",
+        "max_dE/S_c",
+        "stretch",
+        "frame"
+    );
+    let fmt = |v: Option<f64>, width: usize| match v {
+        Some(v) => format!("{v:>width$.2e}"),
+        None => format!("{:>width$}", "-"),
+    };
+    let mut line = |name: &str, rs: &[&CaseResult]| {
+        let max = |f: &dyn Fn(&CaseResult) -> Option<f64>| {
+            rs.iter().filter_map(|r| f(r)).reduce(f64::max)
+        };
+        let _ = writeln!(
+            out,
+            "{:<13} {:>5} {:>6} {:>8.1} {:>9} {:>8.2} {} {} {} {} {}",
+            name,
+            rs.len(),
+            rs.iter().filter(|r| !r.passed()).count(),
+            rs.iter().map(|r| r.seconds).sum::<f64>(),
+            rs.iter().map(|r| r.substeps).sum::<usize>(),
+            max(&|r| Some(r.kinetic_peak)).unwrap_or(0.0),
+            match max(&|r| r.mean_growth) {
+                Some(v) => format!("{v:>7.2}"),
+                None => format!("{:>7}", "-"),
+            },
+            fmt(max(&|r| r.energy_growth.filter(|_| !r.conservative)), 10),
+            fmt(max(&|r| r.energy_growth.filter(|_| r.conservative)), 10),
+            fmt(max(&|r| r.stretch.is_finite().then_some(r.stretch)), 9),
+            fmt(max(&|r| Some(r.frame_error)), 9),
+        );
+    };
+    for g in &groups {
+        let rs: Vec<&CaseResult> = results.iter().filter(|r| r.group == *g).collect();
+        line(g, &rs);
+    }
+    let all: Vec<&CaseResult> = results.iter().collect();
+    line("all", &all);
+    let _ = writeln!(out, "wall {wall_seconds:.1} s");
+    let _ = writeln!(
+        out,
+        "cases={} failed={}",
+        results.len(),
+        results.iter().filter(|r| !r.passed()).count()
+    );
+    out
+}
