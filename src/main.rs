@@ -105,6 +105,9 @@ enum Command {
         /// Only the cases whose name contains SUBSTR.
         #[arg(long, value_name = "SUBSTR")]
         filter: Option<String>,
+        /// Also print one line per case with what was measured.
+        #[arg(long)]
+        verbose: bool,
     },
 }
 
@@ -145,7 +148,11 @@ fn main() -> ExitCode {
             strands,
             repeats,
         } => quadrature_table(elements, &preset, steps, strands, repeats),
-        Command::Stress { quick, filter } => stress(quick, filter.as_deref()),
+        Command::Stress {
+            quick,
+            filter,
+            verbose,
+        } => stress(quick, filter.as_deref(), verbose),
     };
     match result {
         Ok(code) => code,
@@ -311,7 +318,7 @@ fn quadrature_table(
     Ok(ExitCode::SUCCESS)
 }
 
-fn stress(quick: bool, filter: Option<&str>) -> Result<ExitCode, Error> {
+fn stress(quick: bool, filter: Option<&str>, verbose: bool) -> Result<ExitCode, Error> {
     use superhelix::stress;
     let cases: Vec<stress::Case> = if quick {
         stress::quick_cases()
@@ -323,6 +330,11 @@ fn stress(quick: bool, filter: Option<&str>) -> Result<ExitCode, Error> {
     .collect();
     let start = std::time::Instant::now();
     let results = stress::run_cases(&cases);
+    if verbose {
+        for r in &results {
+            println!("{}", stress::detail_line(r));
+        }
+    }
     print!(
         "{}",
         stress::render(&results, start.elapsed().as_secs_f64())
