@@ -29,12 +29,16 @@
 //!    whip concentrates the energy in its tip, which may move a few times faster than
 //!    the head, but not ten times the budget.
 //!    Periodic head motion keeps putting energy in, so besides that bound the mean of `T`
-//!    over the last quarter of the run must not exceed [`MEAN_GROWTH_LIMIT`] times its
-//!    mean over the third quarter (a slow instability keeps growing; a forced response
-//!    saturates). The first half is left out: it is the build-up of the forced response
-//!    from rest, which takes up to a second for soft, weakly damped strands (0.01× the
-//!    fuzzy stiffness: mean T/B over successive half-seconds 0.07, 0.08, 0.21, 0.27,
-//!    0.26, 0.22, 0.27, …), so periodic cases run [`PERIODIC_DURATION`].
+//!    over the second half of the run must not exceed [`MEAN_GROWTH_LIMIT`] times its
+//!    mean over the first half (a slow instability keeps growing; a forced response
+//!    saturates) — unless it stays below [`MEAN_LEVEL`] × B. The floor is needed because
+//!    a forced response builds up from rest, over up to a second for soft, weakly damped
+//!    strands (0.01× the fuzzy stiffness: mean T/B over successive half-seconds 0.07,
+//!    0.08, 0.21, 0.27, 0.26, 0.22, 0.27, …), and irregular whipping makes half-second
+//!    means wander by factors of 2 to 4 around a steady level (measured over 8 s); the
+//!    instabilities it catches hold more than B/2 on average when they are flagged
+//!    (1.1–1.2 B over the second second, above 10 B by t = 2.2–2.4 s). Periodic cases run
+//!    [`PERIODIC_DURATION`].
 //! 4. **No energy created.** From the time the head moves uniformly (at once for a
 //!    still head, after the stop or the jolt otherwise) the head frame is inertial and
 //!    the energy `E = T + U + V` (V the potential of the uniform force per length
@@ -44,7 +48,14 @@
 //!    [`ENERGY_TOLERANCE`] × S, S = T + U + m g L at `t_free` (the energy that can change
 //!    hands; the zero of the gravity potential is arbitrary). For a still head E is
 //!    [`Simulation::energy`]. The cases with a still head and neither drag nor friction
-//!    are *conservative*: there the only dissipation is the integrator's.
+//!    are *conservative*: there the only dissipation is the integrator's. The tolerance
+//!    1e-6 S is round-off with a wide margin (E is evaluated to ~1e-14 of |T| + |U| + |V|,
+//!    and |V| is of the order of S) and far below what a step of a first-order scheme
+//!    that creates energy adds (1.6e-4 S and more in the failures). E is compared with
+//!    its value at `t_free`, not step to step: implicit Euler is dissipative over a run
+//!    but not monotone in E here (nonconvex gravity potential, configuration-dependent
+//!    M), and the step-to-step rise is measured ([`CaseResult::energy_rise`]), not
+//!    checked.
 //!
 //! The first violation stops the case and is reported with its strand, time and cause.
 
@@ -63,8 +74,8 @@ use std::time::Instant;
 
 /// Largest kinetic energy relative to the head, in units of the case's budget B.
 pub const KINETIC_LIMIT: f64 = 10.0;
-/// Largest ratio of the mean kinetic energy over the last quarter of a periodically
-/// forced run to that over the third quarter.
+/// Largest ratio of the mean kinetic energy over the second half of a periodically
+/// forced run to that over the first half (when the second is above [`MEAN_LEVEL`]).
 pub const MEAN_GROWTH_LIMIT: f64 = 2.0;
 /// The mean kinetic energy of the second half of a periodically forced run, in units of
 /// the budget B, above which its growth counts.
@@ -245,7 +256,8 @@ pub struct CaseResult {
     pub substeps: usize,
     /// Largest kinetic energy relative to the head / the budget B.
     pub kinetic_peak: f64,
-    /// Mean kinetic energy over the last quarter / over the third (periodic cases).
+    /// Mean kinetic energy over the first and over the second half, in units of B
+    /// (periodic cases).
     pub mean_kinetic: Option<[f64; 2]>,
     /// Largest `(E(t) − E(t_free)) / S` over the samples after `t_free` (cases with an
     /// energy check; negative when the energy only decreased).
@@ -855,12 +867,12 @@ fn check_inextensibility(
         let frame_error = (f.transpose() * f - Matrix3::identity()).amax();
         out.frame_error = out.frame_error.max(frame_error);
         if out.cause.is_none() {
-            if !(stretch <= STRETCH_TOLERANCE) {
+            if stretch.is_nan() || stretch > STRETCH_TOLERANCE {
                 out.cause = Some(format!(
                     "inextensibility: element {k} chord {chord:.15e} m exceeds its length \
                      {l:.15e} m by {stretch:.2e} relative (limit {STRETCH_TOLERANCE:.0e})"
                 ));
-            } else if !(frame_error <= FRAME_TOLERANCE) {
+            } else if frame_error.is_nan() || frame_error > FRAME_TOLERANCE {
                 out.cause = Some(format!(
                     "inextensibility: frame at the end of element {k} is off SO(3) by \
                      {frame_error:.2e} (limit {FRAME_TOLERANCE:.0e})"
