@@ -115,6 +115,11 @@ pub struct BenchReport {
     pub seconds: f64,
     /// S·T / seconds.
     pub strand_steps_per_second: f64,
+    /// S·T.
+    pub strand_steps: usize,
+    /// On-CPU time of the process during the stepping loop (all threads), s, where the
+    /// platform has it: robust to other load on the machine.
+    pub cpu_seconds: Option<f64>,
     /// Implicit steps that were split (see `StepStats::substeps`).
     pub substeps: usize,
     /// Description of the kernel of strand 0.
@@ -230,13 +235,19 @@ pub fn bench(o: &BenchOptions) -> Result<BenchReport> {
     let setup = setup(o)?;
     let mut sim = Simulation::new(setup, crate::kernel_factory())?;
     let start = Instant::now();
+    let cpu_start = crate::cpu_time::process_seconds();
     for _ in 0..o.steps {
         sim.step()?;
     }
     let seconds = start.elapsed().as_secs_f64();
+    let cpu_seconds = cpu_start
+        .zip(crate::cpu_time::process_seconds())
+        .map(|(a, b)| b - a);
     Ok(BenchReport {
         seconds,
         strand_steps_per_second: (o.strands * o.steps) as f64 / seconds.max(1e-12),
+        strand_steps: o.strands * o.steps,
+        cpu_seconds,
         substeps: sim.stats().substeps,
         kernel: sim.kernel_description(0),
     })

@@ -7,6 +7,7 @@
 
 pub mod bench;
 pub mod compare;
+pub mod cpu_time;
 pub mod quadrature_table;
 
 pub use superhelix_generated as generated;

@@ -240,13 +240,25 @@ fn bench(
         "N={elements} strands={strands} steps={steps} kernels={kernels} ({}) effects={effects} integrator={integrator}",
         report.kernel
     );
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    // every split discards its attempt and solves two halves
+    let solves = report.strand_steps + 2 * report.substeps;
     println!(
         "wall {:.3} s, {:.2} us per strand-step, {} substeps, {} threads",
         report.seconds,
         1e6 / report.strand_steps_per_second,
         report.substeps,
-        std::thread::available_parallelism().map_or(1, |n| n.get())
+        threads,
     );
+    if let Some(cpu) = report.cpu_seconds {
+        println!(
+            "cpu {:.3} s: {:.2} us of CPU per strand-step, {:.2} us per implicit solve ({} solves)",
+            cpu,
+            1e6 * cpu / report.strand_steps.max(1) as f64,
+            1e6 * cpu / solves.max(1) as f64,
+            solves
+        );
+    }
     println!(
         "strand_steps_per_second={:.1}",
         report.strand_steps_per_second
