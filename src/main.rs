@@ -42,12 +42,18 @@ enum Command {
         /// Time steps T (dt = 1/30 s).
         #[arg(long, default_value_t = 30)]
         steps: usize,
-        /// Kernels: generated, generic or auto.
-        #[arg(long, default_value = "auto")]
-        kernels: String,
-        /// Effects, a comma list of gravity, drag, friction, head, point-loads (or none).
-        #[arg(long, default_value = "gravity,drag,friction")]
-        effects: String,
+        /// Kernels: generated, generic or auto (default auto, or the scene's).
+        #[arg(long)]
+        kernels: Option<String>,
+        /// Effects, a comma list of gravity, drag, friction, head, point-loads (or none);
+        /// default gravity,drag,friction, or with --scene the scene's own.
+        #[arg(long)]
+        effects: Option<String>,
+        /// Bench this scene's strands (and effects, head motion, dt) instead of S
+        /// generated strands of N elements; --elements, --strands and --preset are then
+        /// ignored.
+        #[arg(long)]
+        scene: Option<PathBuf>,
         /// Hair type: smooth, wavy, curly, fuzzy.
         #[arg(long, default_value = "wavy")]
         preset: String,
@@ -111,16 +117,20 @@ fn main() -> ExitCode {
             preset,
             integrator,
             quadrature,
-        } => bench(
-            elements,
-            strands,
-            steps,
-            &kernels,
-            &effects,
-            &preset,
-            &integrator,
-            quadrature,
-        ),
+            scene,
+        } => match scene {
+            Some(path) => bench_scene(&path, steps, kernels.as_deref(), effects.as_deref()),
+            None => bench(
+                elements,
+                strands,
+                steps,
+                kernels.as_deref().unwrap_or("auto"),
+                effects.as_deref().unwrap_or("gravity,drag,friction"),
+                &preset,
+                &integrator,
+                quadrature,
+            ),
+        },
         Command::CompareKernels {
             elements,
             samples,
@@ -240,6 +250,41 @@ fn bench(
         "N={elements} strands={strands} steps={steps} kernels={kernels} ({}) effects={effects} integrator={integrator}",
         report.kernel
     );
+    print_bench_report(&report);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `bench --scene`: time the scene's own strands, optionally restricted to some effects.
+fn bench_scene(
+    path: &std::path::Path,
+    steps: usize,
+    kernels: Option<&str>,
+    effects: Option<&str>,
+) -> Result<ExitCode, Error> {
+    use superhelix::bench::{bench_setup, restrict_effects, scene_effects, EffectSet};
+    use superhelix::runtime::simulation::KernelChoice;
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Error::invalid("--scene", format!("cannot read {}: {e}", path.display())))?;
+    let mut setup = superhelix::parse_scene(&text)?;
+    if let Some(list) = effects {
+        restrict_effects(&mut setup, EffectSet::parse(list)?)?;
+    }
+    if let Some(k) = kernels {
+        setup.config.kernels = KernelChoice::from_name(k)
+            .ok_or_else(|| Error::invalid("--kernels", "must be generated, generic or auto"))?;
+    }
+    let names = scene_effects(&setup).names().join(",");
+    let report = bench_setup(setup, steps)?;
+    println!(
+        "scene={} steps={steps} kernels ({}) effects={names}",
+        path.display(),
+        report.kernel
+    );
+    print_bench_report(&report);
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_bench_report(report: &superhelix::bench::BenchReport) {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     // every split discards its attempt and solves two halves
     let solves = report.strand_steps + 2 * report.substeps;
@@ -263,7 +308,6 @@ fn bench(
         "strand_steps_per_second={:.1}",
         report.strand_steps_per_second
     );
-    Ok(ExitCode::SUCCESS)
 }
 
 fn compare_kernels(

@@ -121,7 +121,10 @@ pub fn checked_in_files() -> Result<Vec<(String, String)>, CodegenError> {
         point.ops_series_path().total(),
         point.ops_closed_path().total(),
     );
-    files.push((crate::kernel_point::ELEMENT_POINT_FILE.to_string(), point_text));
+    files.push((
+        crate::kernel_point::ELEMENT_POINT_FILE.to_string(),
+        point_text,
+    ));
     files.push((
         crate::sizes::SIZES_FILE.to_string(),
         crate::sizes::sizes_file(&crate::sizes::ElementOps {
