@@ -8,6 +8,8 @@
 pub mod bench;
 pub mod compare;
 pub mod quadrature_table;
+pub mod study;
+pub mod study_plot;
 
 pub use superhelix_generated as generated;
 pub use superhelix_runtime as runtime;

@@ -208,7 +208,7 @@ struct State {
 /// On-CPU time of the calling thread, seconds (`CLOCK_THREAD_CPUTIME_ID`): unlike wall
 /// time, it does not count the time other processes of a busy machine take.
 #[cfg(unix)]
-fn thread_cpu_seconds() -> Option<f64> {
+pub(crate) fn thread_cpu_seconds() -> Option<f64> {
     let mut ts = libc::timespec {
         tv_sec: 0,
         tv_nsec: 0,
@@ -219,7 +219,7 @@ fn thread_cpu_seconds() -> Option<f64> {
 }
 
 #[cfg(not(unix))]
-fn thread_cpu_seconds() -> Option<f64> {
+pub(crate) fn thread_cpu_seconds() -> Option<f64> {
     None
 }
 
@@ -241,7 +241,7 @@ impl Clock {
             Clock::Wall
         }
     }
-    fn describe(self) -> &'static str {
+    pub(crate) fn describe(self) -> &'static str {
         match self {
             Clock::ThreadCpu => "on-CPU time of the stepping thread (clock_gettime CLOCK_THREAD_CPUTIME_ID, so other load on the machine is not counted)",
             Clock::Wall => "wall time",
