@@ -110,7 +110,7 @@ pub fn plot(problem: &ProblemResult) -> Result<(Vec<u8>, Legend)> {
     let y_decades = decades(ok.iter().map(|p| p.3));
     let (w, h) = SIZE;
     let mut buf = vec![255u8; (w * h * 3) as usize];
-    let (left, bottom, right, top) = (70i32, 40i32, 20i32, 20i32);
+    let (left, bottom, right, top) = (90i32, 50i32, 30i32, 30i32);
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(plot_error)?;
@@ -167,15 +167,15 @@ pub fn plot(problem: &ProblemResult) -> Result<(Vec<u8>, Legend)> {
         for e in x_decades.0..=x_decades.1 {
             let px = left + ((e - x_decades.0) as f64 / nx * pw as f64).round() as i32;
             let label = format!("1e{e}");
-            let tw = text_width(&label, 2);
-            draw_text(&root, &label, (px - tw / 2, top + ph + 8), 2).map_err(plot_error)?;
+            let tw = text_width(&label, 3);
+            draw_text(&root, &label, (px - tw / 2, top + ph + 10), 3).map_err(plot_error)?;
         }
         let ny = (y_decades.1 - y_decades.0) as f64;
         for e in y_decades.0..=y_decades.1 {
             let py = top + ph - ((e - y_decades.0) as f64 / ny * ph as f64).round() as i32;
             let label = format!("1e{e}");
-            let tw = text_width(&label, 2);
-            draw_text(&root, &label, (left - tw - 6, py - 7), 2).map_err(plot_error)?;
+            let tw = text_width(&label, 3);
+            draw_text(&root, &label, (left - tw - 8, py - 7), 3).map_err(plot_error)?;
         }
         root.present().map_err(plot_error)?;
     }

@@ -105,13 +105,22 @@ fn the_kernel_computes_only_what_the_effects_need() {
     let none = run("none");
     assert!(none.calls > 0);
     assert_eq!(
-        (none.stiffness, none.damping, none.linear_field, none.point_calls),
+        (
+            none.stiffness,
+            none.damping,
+            none.linear_field,
+            none.point_calls
+        ),
         (0, 0, 0, 0),
         "no effect: no field stiffness, damping, linear field or point loads: {none:?}"
     );
     // internal friction is a diagonal the integrator adds: still nothing from the kernel
     let friction = run("friction");
-    assert_eq!((friction.stiffness, friction.damping), (0, 0), "{friction:?}");
+    assert_eq!(
+        (friction.stiffness, friction.damping),
+        (0, 0),
+        "{friction:?}"
+    );
     let gravity = run("gravity");
     assert!(gravity.stiffness > 0 && gravity.damping == 0, "{gravity:?}");
     let drag = run("drag");
