@@ -326,9 +326,9 @@ fn study(quick: bool, out: &Path) -> Result<ExitCode, Error> {
         let best = problem
             .budgets()
             .iter()
-            .filter_map(|&b| problem.best_within(b).map(|p| (b, p)))
-            .last();
-        if let Some((_, p)) = best {
+            .rev()
+            .find_map(|&b| problem.best_within(b));
+        if let Some(p) = best {
             if let Ok(m) = &p.outcome {
                 println!(
                     "{}: {} points, most accurate within the largest budget: {} (error {:.2e})",

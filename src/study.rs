@@ -370,6 +370,7 @@ fn round_fibre() -> CrossSection {
 
 /// A strand of N equal elements, root at `root`, tangent `direction`, uniform natural
 /// (τ, κ1, κ2).
+#[allow(clippy::too_many_arguments)]
 fn strand(
     cs: CrossSection,
     n: usize,
@@ -492,7 +493,7 @@ fn tip_trajectory(
     setup: SimulationSetup,
     factory: Option<&dyn KernelFactory>,
     steps: usize,
-) -> std::result::Result<(Vec<Vector3<f64>>, f64), String> {
+) -> TipRun {
     let mut sim = Simulation::new(setup, factory).map_err(|e| e.to_string())?;
     let per = 1;
     let tip = |sim: &mut Simulation| {
@@ -510,6 +511,9 @@ fn tip_trajectory(
     }
     Ok((out, cpu))
 }
+
+/// A tip trajectory and the CPU seconds of its steps, or why the run failed.
+type TipRun = std::result::Result<(Vec<Vector3<f64>>, f64), String>;
 
 thread_local! {
     static START: Instant = Instant::now();
@@ -552,7 +556,7 @@ fn reference(
         (REFERENCE_N, 2 * rate),
         (CHECK_N, 2 * rate),
     ];
-    let results: Vec<std::result::Result<(Vec<Vector3<f64>>, f64), String>> = runs
+    let results: Vec<TipRun> = runs
         .par_iter()
         .map(|&(elements, r)| {
             let setting = Setting {
@@ -601,6 +605,7 @@ fn reference(
     Ok(Reference { tips, rate, notes })
 }
 
+#[allow(clippy::too_many_arguments)]
 fn trajectory_problem(
     key: &'static str,
     title: &str,
