@@ -9,6 +9,8 @@ pub mod bench;
 pub mod compare;
 pub mod cpu_time;
 pub mod quadrature_table;
+pub mod study;
+pub mod study_plot;
 
 pub use superhelix_generated as generated;
 pub use superhelix_runtime as runtime;

@@ -1,5 +1,5 @@
 //! The `superhelix` command: `run` a scene to `frames.json`, `validate` a scene, `bench`,
-//! `compare-kernels` and `quadrature-table`.
+//! `compare-kernels`, `quadrature-table` and `study`.
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -101,6 +101,16 @@ enum Command {
         #[arg(long, default_value_t = 3)]
         repeats: usize,
     },
+    /// What accuracy costs: error against cost of N, dt, integrator and kernels on four
+    /// reference problems; writes DIR/report.md and one PNG per problem.
+    Study {
+        /// The reduced grid (under two minutes on two cores; run by CI).
+        #[arg(long)]
+        quick: bool,
+        /// Output directory.
+        #[arg(long, value_name = "DIR", default_value = "study")]
+        out: PathBuf,
+    },
 }
 
 fn main() -> ExitCode {
@@ -144,6 +154,7 @@ fn main() -> ExitCode {
             strands,
             repeats,
         } => quadrature_table(elements, &preset, steps, strands, repeats),
+        Command::Study { quick, out } => study(quick, &out),
     };
     match result {
         Ok(code) => code,
@@ -352,6 +363,43 @@ fn quadrature_table(
     };
     let table = quadrature_table(&options, superhelix::kernel_factory())?;
     print!("{}", table.render());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn study(quick: bool, out: &Path) -> Result<ExitCode, Error> {
+    use superhelix::study::{run_study, write_report, StudyOptions};
+    let options = StudyOptions {
+        quick,
+        command: format!(
+            "superhelix study{} --out {}",
+            if quick { " --quick" } else { "" },
+            out.display()
+        ),
+    };
+    let study = run_study(&options, superhelix::kernel_factory())?;
+    let files = write_report(&study, out)?;
+    for problem in &study.problems {
+        let best = problem
+            .budgets()
+            .iter()
+            .rev()
+            .find_map(|&b| problem.best_within(b));
+        if let Some(p) = best {
+            if let Ok(m) = &p.outcome {
+                println!(
+                    "{}: {} points, most accurate within the largest budget: {} (error {:.2e})",
+                    problem.key,
+                    problem.points.len(),
+                    p.setting.label(),
+                    m.error
+                );
+            }
+        }
+    }
+    for f in &files {
+        println!("wrote {}", f.display());
+    }
+    println!("study_seconds={:.1}", study.wall_seconds);
     Ok(ExitCode::SUCCESS)
 }
 

@@ -205,7 +205,7 @@ struct State {
     reference: StrandTerms,
 }
 
-fn thread_cpu_seconds() -> Option<f64> {
+pub(crate) fn thread_cpu_seconds() -> Option<f64> {
     crate::cpu_time::thread_seconds()
 }
 
@@ -227,7 +227,7 @@ impl Clock {
             Clock::Wall
         }
     }
-    fn describe(self) -> &'static str {
+    pub(crate) fn describe(self) -> &'static str {
         match self {
             Clock::ThreadCpu => "on-CPU time of the stepping thread (clock_gettime CLOCK_THREAD_CPUTIME_ID, so other load on the machine is not counted)",
             Clock::Wall => "wall time",
