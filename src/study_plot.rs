@@ -1,10 +1,12 @@
 //! The PNG plots of `superhelix study`: error against cost, log–log, one colour per
 //! series (integrator and kernels), the Pareto front as a black line.
 //!
-//! plotters is built without a font backend (no system fonts are needed): the axes carry
-//! decade grid lines and numeric tick labels drawn with a small built-in pixel font
-//! ([`draw_text`]); the legend (which colour is which series) is written in report.md
-//! ([`Legend::describe`]). The PNG is encoded here (uncompressed deflate blocks).
+//! plotters is built without a font backend: its text needs a TrueType font from the
+//! system or shipped with us, and neither is available offline, so the axes carry decade
+//! grid lines and numeric tick labels drawn with a small built-in pixel font
+//! ([`draw_text`], digits and 'e' only); the legend (which colour is which series) is
+//! written in report.md ([`Legend::describe`]). plotters renders into an RGB buffer and
+//! tiny-skia encodes it as PNG.
 
 use crate::runtime::{Error, Result};
 use crate::study::ProblemResult;
@@ -188,7 +190,7 @@ pub fn plot(problem: &ProblemResult) -> Result<(Vec<u8>, Legend)> {
         x_decades,
         y_decades,
     };
-    Ok((encode_png(w, h, &buf), legend))
+    Ok((encode_png(w, h, &buf)?, legend))
 }
 
 /// 3x5 pixel glyphs of the characters of tick labels, rows top to bottom, 3 bits each.
@@ -242,68 +244,18 @@ pub fn draw_text<DB: DrawingBackend>(
     Ok(())
 }
 
-fn crc32(data: &[&[u8]]) -> u32 {
-    let mut table = [0u32; 256];
-    for (n, t) in table.iter_mut().enumerate() {
-        let mut c = n as u32;
-        for _ in 0..8 {
-            c = if c & 1 != 0 {
-                0xEDB8_8320 ^ (c >> 1)
-            } else {
-                c >> 1
-            };
-        }
-        *t = c;
+/// A PNG of `rgb` (row-major, 3 bytes per pixel) through tiny-skia's encoder.
+pub fn encode_png(w: u32, h: u32, rgb: &[u8]) -> Result<Vec<u8>> {
+    let mut pixmap = tiny_skia::Pixmap::new(w, h)
+        .ok_or_else(|| plot_error(format!("cannot make a {w} x {h} image")))?;
+    for (px, c) in pixmap
+        .data_mut()
+        .chunks_exact_mut(4)
+        .zip(rgb.chunks_exact(3))
+    {
+        px.copy_from_slice(&[c[0], c[1], c[2], 255]);
     }
-    let mut c = 0xFFFF_FFFFu32;
-    for part in data {
-        for &b in *part {
-            c = table[((c ^ b as u32) & 0xFF) as usize] ^ (c >> 8);
-        }
-    }
-    c ^ 0xFFFF_FFFF
-}
-
-fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
-    out.extend_from_slice(&(data.len() as u32).to_be_bytes());
-    out.extend_from_slice(kind);
-    out.extend_from_slice(data);
-    out.extend_from_slice(&crc32(&[kind, data]).to_be_bytes());
-}
-
-/// An 8-bit RGB PNG of `rgb` (row-major, 3 bytes per pixel), zlib stream of stored
-/// (uncompressed) deflate blocks.
-pub fn encode_png(w: u32, h: u32, rgb: &[u8]) -> Vec<u8> {
-    let row = (w * 3) as usize;
-    let mut raw = Vec::with_capacity((row + 1) * h as usize);
-    for y in 0..h as usize {
-        raw.push(0); // filter: none
-        raw.extend_from_slice(&rgb[y * row..(y + 1) * row]);
-    }
-    let mut z = vec![0x78, 0x01];
-    let blocks: Vec<&[u8]> = raw.chunks(65_535).collect();
-    for (i, b) in blocks.iter().enumerate() {
-        z.push(u8::from(i + 1 == blocks.len()));
-        let len = b.len() as u16;
-        z.extend_from_slice(&len.to_le_bytes());
-        z.extend_from_slice(&(!len).to_le_bytes());
-        z.extend_from_slice(b);
-    }
-    let (mut a, mut b) = (1u32, 0u32);
-    for &x in &raw {
-        a = (a + x as u32) % 65_521;
-        b = (b + a) % 65_521;
-    }
-    z.extend_from_slice(&((b << 16) | a).to_be_bytes());
-    let mut out = vec![0x89, b'P', b'N', b'G', 0x0D, 0x0A, 0x1A, 0x0A];
-    let mut ihdr = Vec::new();
-    ihdr.extend_from_slice(&w.to_be_bytes());
-    ihdr.extend_from_slice(&h.to_be_bytes());
-    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
-    chunk(&mut out, b"IHDR", &ihdr);
-    chunk(&mut out, b"IDAT", &z);
-    chunk(&mut out, b"IEND", &[]);
-    out
+    pixmap.encode_png().map_err(plot_error)
 }
 
 #[cfg(test)]
@@ -311,13 +263,8 @@ mod tests {
     use super::*;
 
     #[test]
-    fn crc_of_iend_is_the_known_constant() {
-        assert_eq!(crc32(&[b"IEND"]), 0xAE42_6082);
-    }
-
-    #[test]
     fn png_has_signature_and_chunks() {
-        let png = encode_png(2, 1, &[255, 0, 0, 0, 0, 255]);
+        let png = encode_png(2, 1, &[255, 0, 0, 0, 0, 255]).expect("encodes");
         assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
         assert_eq!(&png[12..16], b"IHDR");
         assert_eq!(&png[png.len() - 8..png.len() - 4], b"IEND");
