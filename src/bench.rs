@@ -40,6 +40,27 @@ impl EffectSet {
         }
     }
 
+    /// The names of the effects in the set (`none` for none).
+    pub fn names(&self) -> Vec<&'static str> {
+        let on = [
+            self.gravity,
+            self.drag,
+            self.friction,
+            self.head,
+            self.point_loads,
+        ];
+        let names: Vec<&'static str> = Self::NAMES
+            .iter()
+            .zip(on)
+            .filter_map(|(n, o)| o.then_some(*n))
+            .collect();
+        if names.is_empty() {
+            vec!["none"]
+        } else {
+            names
+        }
+    }
+
     /// Parse a comma list (`gravity,drag`), or `none`.
     pub fn parse(list: &str) -> Result<Self> {
         let mut set = EffectSet::default();
@@ -115,6 +136,11 @@ pub struct BenchReport {
     pub seconds: f64,
     /// S·T / seconds.
     pub strand_steps_per_second: f64,
+    /// S·T.
+    pub strand_steps: usize,
+    /// On-CPU time of the process during the stepping loop (all threads), s, where the
+    /// platform has it: robust to other load on the machine.
+    pub cpu_seconds: Option<f64>,
     /// Implicit steps that were split (see `StepStats::substeps`).
     pub substeps: usize,
     /// Description of the kernel of strand 0.
@@ -225,18 +251,90 @@ pub fn setup(o: &BenchOptions) -> Result<SimulationSetup> {
     })
 }
 
+/// The effects a (parsed) scene has.
+pub fn scene_effects(setup: &SimulationSetup) -> EffectSet {
+    EffectSet {
+        gravity: setup.environment.gravity.is_some(),
+        drag: setup.strands.iter().any(|s| s.strand.air_drag != 0.0),
+        friction: setup
+            .strands
+            .iter()
+            .any(|s| s.strand.internal_friction != 0.0),
+        head: !matches!(setup.head, HeadMotion::Still),
+        point_loads: setup
+            .strands
+            .iter()
+            .any(|s| !s.strand.point_loads.is_empty()),
+    }
+}
+
+/// Keep only the effects of `keep` in a scene (`superhelix bench --scene F --effects L`);
+/// asking for an effect the scene does not have is an error naming it.
+pub fn restrict_effects(setup: &mut SimulationSetup, keep: EffectSet) -> Result<()> {
+    let has = scene_effects(setup);
+    let missing: Vec<&str> = [
+        (keep.gravity && !has.gravity, "gravity"),
+        (keep.drag && !has.drag, "drag"),
+        (keep.friction && !has.friction, "friction"),
+        (keep.head && !has.head, "head"),
+        (keep.point_loads && !has.point_loads, "point-loads"),
+    ]
+    .iter()
+    .filter_map(|&(m, name)| m.then_some(name))
+    .collect();
+    if !missing.is_empty() {
+        return Err(Error::invalid(
+            "--effects",
+            format!(
+                "the scene has no {}; it has: {}",
+                missing.join(", "),
+                has.names().join(", ")
+            ),
+        ));
+    }
+    if !keep.gravity {
+        setup.environment.gravity = None;
+    }
+    if !keep.head {
+        setup.head = HeadMotion::Still;
+    }
+    for s in &mut setup.strands {
+        if !keep.drag {
+            s.strand.air_drag = 0.0;
+        }
+        if !keep.friction {
+            s.strand.internal_friction = 0.0;
+        }
+        if !keep.point_loads {
+            s.strand.point_loads.clear();
+        }
+    }
+    Ok(())
+}
+
 /// Run the benchmark.
 pub fn bench(o: &BenchOptions) -> Result<BenchReport> {
-    let setup = setup(o)?;
+    bench_setup(setup(o)?, o.steps)
+}
+
+/// Time `steps` steps of any simulation setup (a scene's, for `bench --scene`).
+pub fn bench_setup(setup: SimulationSetup, steps: usize) -> Result<BenchReport> {
+    let strand_count = setup.strands.len();
     let mut sim = Simulation::new(setup, crate::kernel_factory())?;
     let start = Instant::now();
-    for _ in 0..o.steps {
+    let cpu_start = crate::cpu_time::process_seconds();
+    for _ in 0..steps {
         sim.step()?;
     }
     let seconds = start.elapsed().as_secs_f64();
+    let cpu_seconds = cpu_start
+        .zip(crate::cpu_time::process_seconds())
+        .map(|(a, b)| b - a);
     Ok(BenchReport {
         seconds,
-        strand_steps_per_second: (o.strands * o.steps) as f64 / seconds.max(1e-12),
+        strand_steps_per_second: (strand_count * steps) as f64 / seconds.max(1e-12),
+        strand_steps: strand_count * steps,
+        cpu_seconds,
         substeps: sim.stats().substeps,
         kernel: sim.kernel_description(0),
     })

@@ -8,8 +8,11 @@
 
 pub mod bench;
 pub mod compare;
+pub mod cpu_time;
 pub mod quadrature_table;
 pub mod stress;
+pub mod study;
+pub mod study_plot;
 
 pub use superhelix_generated as generated;
 pub use superhelix_runtime as runtime;

@@ -1,5 +1,5 @@
 //! The `superhelix` command: `run` a scene to `frames.json`, `validate` a scene, `bench`,
-//! `compare-kernels`, `quadrature-table` and `stress`.
+//! `compare-kernels`, `quadrature-table`, `study` and `stress`.
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -42,12 +42,18 @@ enum Command {
         /// Time steps T (dt = 1/30 s).
         #[arg(long, default_value_t = 30)]
         steps: usize,
-        /// Kernels: generated, generic or auto.
-        #[arg(long, default_value = "auto")]
-        kernels: String,
-        /// Effects, a comma list of gravity, drag, friction, head, point-loads (or none).
-        #[arg(long, default_value = "gravity,drag,friction")]
-        effects: String,
+        /// Kernels: generated, generic or auto (default auto, or the scene's).
+        #[arg(long)]
+        kernels: Option<String>,
+        /// Effects, a comma list of gravity, drag, friction, head, point-loads (or none);
+        /// default gravity,drag,friction, or with --scene the scene's own.
+        #[arg(long)]
+        effects: Option<String>,
+        /// Bench this scene's strands (and effects, head motion, dt) instead of S
+        /// generated strands of N elements; --elements, --strands and --preset are then
+        /// ignored.
+        #[arg(long)]
+        scene: Option<PathBuf>,
         /// Hair type: smooth, wavy, curly, fuzzy.
         #[arg(long, default_value = "wavy")]
         preset: String,
@@ -109,6 +115,16 @@ enum Command {
         #[arg(long)]
         verbose: bool,
     },
+    /// What accuracy costs: error against cost of N, dt, integrator and kernels on four
+    /// reference problems; writes DIR/report.md and one PNG per problem.
+    Study {
+        /// The reduced grid (under two minutes on two cores; run by CI).
+        #[arg(long)]
+        quick: bool,
+        /// Output directory.
+        #[arg(long, value_name = "DIR", default_value = "study")]
+        out: PathBuf,
+    },
 }
 
 fn main() -> ExitCode {
@@ -125,16 +141,20 @@ fn main() -> ExitCode {
             preset,
             integrator,
             quadrature,
-        } => bench(
-            elements,
-            strands,
-            steps,
-            &kernels,
-            &effects,
-            &preset,
-            &integrator,
-            quadrature,
-        ),
+            scene,
+        } => match scene {
+            Some(path) => bench_scene(&path, steps, kernels.as_deref(), effects.as_deref()),
+            None => bench(
+                elements,
+                strands,
+                steps,
+                kernels.as_deref().unwrap_or("auto"),
+                effects.as_deref().unwrap_or("gravity,drag,friction"),
+                &preset,
+                &integrator,
+                quadrature,
+            ),
+        },
         Command::CompareKernels {
             elements,
             samples,
@@ -153,6 +173,7 @@ fn main() -> ExitCode {
             filter,
             verbose,
         } => stress(quick, filter.as_deref(), verbose),
+        Command::Study { quick, out } => study(quick, &out),
     };
     match result {
         Ok(code) => code,
@@ -259,18 +280,64 @@ fn bench(
         "N={elements} strands={strands} steps={steps} kernels={kernels} ({}) effects={effects} integrator={integrator}",
         report.kernel
     );
+    print_bench_report(&report);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `bench --scene`: time the scene's own strands, optionally restricted to some effects.
+fn bench_scene(
+    path: &std::path::Path,
+    steps: usize,
+    kernels: Option<&str>,
+    effects: Option<&str>,
+) -> Result<ExitCode, Error> {
+    use superhelix::bench::{bench_setup, restrict_effects, scene_effects, EffectSet};
+    use superhelix::runtime::simulation::KernelChoice;
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Error::invalid("--scene", format!("cannot read {}: {e}", path.display())))?;
+    let mut setup = superhelix::parse_scene(&text)?;
+    if let Some(list) = effects {
+        restrict_effects(&mut setup, EffectSet::parse(list)?)?;
+    }
+    if let Some(k) = kernels {
+        setup.config.kernels = KernelChoice::from_name(k)
+            .ok_or_else(|| Error::invalid("--kernels", "must be generated, generic or auto"))?;
+    }
+    let names = scene_effects(&setup).names().join(",");
+    let report = bench_setup(setup, steps)?;
+    println!(
+        "scene={} steps={steps} kernels ({}) effects={names}",
+        path.display(),
+        report.kernel
+    );
+    print_bench_report(&report);
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_bench_report(report: &superhelix::bench::BenchReport) {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    // every split discards its attempt and solves two halves
+    let solves = report.strand_steps + 2 * report.substeps;
     println!(
         "wall {:.3} s, {:.2} us per strand-step, {} substeps, {} threads",
         report.seconds,
         1e6 / report.strand_steps_per_second,
         report.substeps,
-        std::thread::available_parallelism().map_or(1, |n| n.get())
+        threads,
     );
+    if let Some(cpu) = report.cpu_seconds {
+        println!(
+            "cpu {:.3} s: {:.2} us of CPU per strand-step, {:.2} us per implicit solve ({} solves)",
+            cpu,
+            1e6 * cpu / report.strand_steps.max(1) as f64,
+            1e6 * cpu / solves.max(1) as f64,
+            solves
+        );
+    }
     println!(
         "strand_steps_per_second={:.1}",
         report.strand_steps_per_second
     );
-    Ok(ExitCode::SUCCESS)
 }
 
 fn compare_kernels(
@@ -344,6 +411,43 @@ fn stress(quick: bool, filter: Option<&str>, verbose: bool) -> Result<ExitCode, 
     } else {
         ExitCode::FAILURE
     })
+}
+
+fn study(quick: bool, out: &Path) -> Result<ExitCode, Error> {
+    use superhelix::study::{run_study, write_report, StudyOptions};
+    let options = StudyOptions {
+        quick,
+        command: format!(
+            "superhelix study{} --out {}",
+            if quick { " --quick" } else { "" },
+            out.display()
+        ),
+    };
+    let study = run_study(&options, superhelix::kernel_factory())?;
+    let files = write_report(&study, out)?;
+    for problem in &study.problems {
+        let best = problem
+            .budgets()
+            .iter()
+            .rev()
+            .find_map(|&b| problem.best_within(b));
+        if let Some(p) = best {
+            if let Ok(m) = &p.outcome {
+                println!(
+                    "{}: {} points, most accurate within the largest budget: {} (error {:.2e})",
+                    problem.key,
+                    problem.points.len(),
+                    p.setting.label(),
+                    m.error
+                );
+            }
+        }
+    }
+    for f in &files {
+        println!("wrote {}", f.display());
+    }
+    println!("study_seconds={:.1}", study.wall_seconds);
+    Ok(ExitCode::SUCCESS)
 }
 
 fn print_problems(problems: &[FieldError]) {

@@ -205,22 +205,8 @@ struct State {
     reference: StrandTerms,
 }
 
-/// On-CPU time of the calling thread, seconds (`CLOCK_THREAD_CPUTIME_ID`): unlike wall
-/// time, it does not count the time other processes of a busy machine take.
-#[cfg(unix)]
-fn thread_cpu_seconds() -> Option<f64> {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `ts` is a valid, writable timespec for the duration of the call.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    (rc == 0).then_some(ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
-}
-
-#[cfg(not(unix))]
-fn thread_cpu_seconds() -> Option<f64> {
-    None
+pub(crate) fn thread_cpu_seconds() -> Option<f64> {
+    crate::cpu_time::thread_seconds()
 }
 
 /// How the times of the table are measured.
@@ -241,7 +227,7 @@ impl Clock {
             Clock::Wall
         }
     }
-    fn describe(self) -> &'static str {
+    pub(crate) fn describe(self) -> &'static str {
         match self {
             Clock::ThreadCpu => "on-CPU time of the stepping thread (clock_gettime CLOCK_THREAD_CPUTIME_ID, so other load on the machine is not counted)",
             Clock::Wall => "wall time",

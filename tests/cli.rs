@@ -206,3 +206,46 @@ fn run_writes_frames_of_the_default_scene() {
         }
     }
 }
+
+#[test]
+fn bench_runs_a_scene_with_its_effects_or_a_subset() {
+    let scene = repo("scenes/curly-nod.toml");
+    let out = superhelix(&["bench", "--scene", &scene, "--steps", "3"]);
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(
+        stdout.contains("effects=gravity,drag,friction,head"),
+        "{stdout}"
+    );
+    let last = stdout.lines().last().unwrap_or_default();
+    assert!(last.starts_with("strand_steps_per_second="), "{stdout}");
+    let out = superhelix(&[
+        "bench",
+        "--scene",
+        &scene,
+        "--steps",
+        "3",
+        "--effects",
+        "gravity",
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(stdout.contains("effects=gravity\n"), "{stdout}");
+    // an effect the scene does not have is refused, naming it and what the scene has
+    let cantilever = repo("scenes/cantilever.toml");
+    let out = superhelix(&[
+        "bench",
+        "--scene",
+        &cantilever,
+        "--steps",
+        "1",
+        "--effects",
+        "head",
+    ]);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--effects") && err.contains("no head"),
+        "{err}"
+    );
+}

@@ -103,14 +103,34 @@ pub fn generate(k: &Kernel) -> Result<GeneratedCode, CodegenError> {
 
 /// Every checked-in generated file: (path relative to `generated/src/`, formatted text).
 pub fn checked_in_files() -> Result<Vec<(String, String)>, CodegenError> {
-    let mut files = ELEMENT_KERNELS
-        .iter()
-        .map(|k| Ok((k.file(), format(&generate(k)?.code))))
-        .collect::<Result<Vec<_>, CodegenError>>()?;
-    files.push(crate::kernel_point::checked_in_file()?);
+    let mut files = Vec::new();
+    // per-element op counts (after CSE) of the cheapest and dearest branch, for sizes.rs
+    let (mut moments_min, mut moments_max) = (0, 0);
+    for k in ELEMENT_KERNELS.iter() {
+        let code = generate(k)?;
+        let mut branches = vec![code.ops_closed.total(), code.ops_series.total()];
+        if code.low.is_some() {
+            branches.push(code.ops_series_low.total());
+        }
+        moments_min += branches.iter().copied().min().unwrap_or(0);
+        moments_max += branches.iter().copied().max().unwrap_or(0);
+        files.push((k.file(), format(&code.code)));
+    }
+    let (point, point_text) = crate::kernel_point::generate_element_point()?;
+    let (a, b) = (
+        point.ops_series_path().total(),
+        point.ops_closed_path().total(),
+    );
+    files.push((
+        crate::kernel_point::ELEMENT_POINT_FILE.to_string(),
+        point_text,
+    ));
     files.push((
         crate::sizes::SIZES_FILE.to_string(),
-        crate::sizes::sizes_file(),
+        crate::sizes::sizes_file(&crate::sizes::ElementOps {
+            moments: (moments_min, moments_max),
+            point: (a.min(b), a.max(b)),
+        }),
     ));
     Ok(files)
 }

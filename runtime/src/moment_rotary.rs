@@ -22,9 +22,11 @@ type V3 = Vector3<f64>;
 type M3 = Matrix3<f64>;
 
 /// Gauss–Legendre points per element for the rotary integrals at W·l = `wl`: the
-/// integrands reach frequency 4W.
+/// integrands reach frequency 4W. Capped at 484 (W·l = 240, where the generic kernel's
+/// rule is capped too): beyond, an element is a coil of more than 38 turns and its rotary
+/// terms are under-resolved rather than a step taking seconds.
 pub fn rotary_points(wl: f64) -> usize {
-    4 + (2.0 * wl).ceil() as usize
+    4 + (2.0 * wl).ceil().min(480.0) as usize
 }
 
 /// Per-element rotary integrals, head coordinates.

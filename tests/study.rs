@@ -1,0 +1,158 @@
+//! `superhelix study --quick` end to end (the CI run of the study): the report, the
+//! plots, the JSON, and the physics the figures must show.
+
+use serde_json::Value;
+use std::path::PathBuf;
+use std::process::Command;
+
+fn scratch() -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("superhelix-study-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn problem<'a>(study: &'a Value, key: &str) -> &'a Value {
+    study["problems"]
+        .as_array()
+        .and_then(|ps| ps.iter().find(|p| p["key"] == key))
+        .unwrap_or_else(|| panic!("problem {key} missing from study.json"))
+}
+
+fn point<'a>(problem: &'a Value, label: &str) -> &'a Value {
+    problem["points"]
+        .as_array()
+        .and_then(|ps| ps.iter().find(|p| p["label"] == label))
+        .unwrap_or_else(|| panic!("point {label} missing"))
+}
+
+fn num(v: &Value, field: &str) -> f64 {
+    v[field]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{field} of {v} is not a number"))
+}
+
+#[test]
+fn quick_study_writes_report_plots_and_sound_figures() {
+    let dir = scratch();
+    let start = std::time::Instant::now();
+    let out = Command::new(env!("CARGO_BIN_EXE_superhelix"))
+        .args(["study", "--quick", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot start superhelix: {e}"));
+    let seconds = start.elapsed().as_secs_f64();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    println!("{stdout}quick study: {seconds:.1} s");
+    assert!(seconds < 120.0, "--quick took {seconds:.1} s");
+
+    // report.md: the four problems, their budget tables and the command
+    let report = std::fs::read_to_string(dir.join("report.md")).expect("report.md");
+    for key in ["`swing`", "`curly`", "`frequency`", "`cantilever`"] {
+        assert!(report.contains(key), "report lacks {key}");
+    }
+    assert_eq!(
+        report.matches("Pareto-best setting for a budget").count(),
+        4
+    );
+    assert!(report.contains("superhelix study --quick --out"));
+    assert!(report.contains("F L³/(3EI)") && report.contains("Euler–Bernoulli"));
+
+    // the PNGs: signature, IHDR of the documented size
+    for key in ["swing", "curly", "frequency", "cantilever"] {
+        let png = std::fs::read(dir.join(format!("{key}.png"))).expect("png");
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n", "{key}.png");
+        assert_eq!(&png[12..16], b"IHDR");
+        let w = u32::from_be_bytes([png[16], png[17], png[18], png[19]]);
+        let h = u32::from_be_bytes([png[20], png[21], png[22], png[23]]);
+        assert_eq!((w, h), superhelix::study_plot::SIZE, "{key}.png dimensions");
+        assert_eq!(&png[png.len() - 8..png.len() - 4], b"IEND");
+    }
+
+    let text = std::fs::read_to_string(dir.join("study.json")).expect("study.json");
+    let study: Value = serde_json::from_str(&text).expect("valid JSON");
+    assert_eq!(study["quick"], true);
+
+    // every run of the grid succeeded, and each problem has a Pareto front
+    for key in superhelix::study::PROBLEMS {
+        let p = problem(&study, key);
+        let points = p["points"].as_array().expect("points");
+        assert!(points.len() >= 9, "{key}: {} points", points.len());
+        for pt in points {
+            assert!(pt.get("failed").is_none(), "{key}: {pt}");
+            assert!(num(pt, "cost_seconds") > 0.0, "{key}: {pt}");
+        }
+        assert!(points.iter().any(|pt| pt["pareto"] == true), "{key}");
+    }
+
+    // cantilever: δ_N = δ (1 − 1/(4N²)) exactly, for every kernel; error falls with N
+    let cantilever = problem(&study, "cantilever");
+    let mut previous = f64::INFINITY;
+    for n in [2usize, 5, 10, 20] {
+        let expected = -1.0 / (4.0 * (n * n) as f64);
+        for kernels in ["generated", "generic-2", "generic-adaptive"] {
+            let pt = point(cantilever, &format!("N={n} {kernels}"));
+            let signed = num(pt, "signed_error");
+            assert!(
+                (signed - expected).abs() < 1e-6,
+                "N={n} {kernels}: {signed} vs {expected}"
+            );
+        }
+        let e = num(point(cantilever, &format!("N={n} generated")), "error");
+        assert!(e < previous, "cantilever error does not fall with N");
+        previous = e;
+    }
+
+    // frequency: the discrete model at N = 20 is within 0.1 % of Euler–Bernoulli, and
+    // stiffer; its error falls as 1/N²
+    let frequency = problem(&study, "frequency");
+    let spatial = frequency["spatial"].as_array().expect("spatial");
+    let at = |n: u64| {
+        spatial
+            .iter()
+            .find(|s| s["elements"] == n)
+            .map(|s| num(s, "signed_error"))
+            .unwrap_or_else(|| panic!("no spatial entry for N = {n}"))
+    };
+    assert!(at(20) > 0.0 && at(20) < 1e-3, "N = 20: {}", at(20));
+    let ratio = at(10) / at(20);
+    assert!(
+        (3.5..4.5).contains(&ratio),
+        "1/N² convergence: ratio {ratio}"
+    );
+    // simulated: at dt = 1/240 the measured frequency is the eigenvalue's less the
+    // implicit Euler period error ≈ (ω dt)²/3
+    let omega_dt = 30.84_f64 / 240.0;
+    for n in [5u64, 10, 20] {
+        let measured = num(
+            point(frequency, &format!("N={n} dt=1/240 LIE generated")),
+            "signed_error",
+        );
+        let predicted = at(n) - omega_dt * omega_dt / 3.0;
+        assert!(
+            (measured - predicted).abs() < 1e-3,
+            "N={n}: simulated {measured} vs predicted {predicted}"
+        );
+    }
+
+    // trajectories: a smaller step does not make the swing worse at N = 20, and the
+    // generic kernels agree with the generated one where both run
+    let swing = problem(&study, "swing");
+    let coarse = num(point(swing, "N=20 dt=1/30 LIE generated"), "error");
+    let fine = num(point(swing, "N=20 dt=1/240 LIE generated"), "error");
+    assert!(fine < coarse, "swing: dt 1/240 {fine} vs 1/30 {coarse}");
+    for key in ["swing", "curly"] {
+        let p = problem(&study, key);
+        let generated = num(point(p, "N=5 dt=1/120 LIE generated"), "error");
+        let generic = num(point(p, "N=5 dt=1/120 LIE generic-adaptive"), "error");
+        assert!(
+            (generated - generic).abs() < 0.05 * generated,
+            "{key}: generated {generated} vs generic-adaptive {generic}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
