@@ -61,7 +61,9 @@ impl DenseSolver {
     /// negative definite (checked by a Cholesky factorisation of `diag(k) − h`, a fraction
     /// of the cost of an eigendecomposition), else its negative semidefinite part
     /// ([`Self::project_negative_semidefinite`]). Returns false (leaving `h` unchanged) if
-    /// the eigendecomposition fails.
+    /// the eigendecomposition fails. Not used by the linearly implicit step: taking a
+    /// destabilising part of `h` implicitly, even when the total is stable, lets the step
+    /// create energy (see `integrator::linearly_implicit_euler`).
     pub fn stabilise_stiffness(&mut self, h: &mut Mat<f64>, k: &[f64]) -> bool {
         let n = h.nrows();
         for j in 0..n {
