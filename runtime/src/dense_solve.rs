@@ -56,37 +56,6 @@ impl DenseSolver {
         }
     }
 
-    /// The field stiffness `h` (symmetric, lower triangle read) to take implicitly next to
-    /// the elastic stiffness −diag(`k`): `h` itself when the total `h − diag(k)` is
-    /// negative definite (checked by a Cholesky factorisation of `diag(k) − h`, a fraction
-    /// of the cost of an eigendecomposition), else its negative semidefinite part
-    /// ([`Self::project_negative_semidefinite`]). Returns false (leaving `h` unchanged) if
-    /// the eigendecomposition fails. Not used by the linearly implicit step: taking a
-    /// destabilising part of `h` implicitly, even when the total is stable, lets the step
-    /// create energy (see `integrator::linearly_implicit_euler`).
-    pub fn stabilise_stiffness(&mut self, h: &mut Mat<f64>, k: &[f64]) -> bool {
-        let n = h.nrows();
-        for j in 0..n {
-            for i in j..n {
-                self.scaled[(i, j)] = -h[(i, j)];
-            }
-            self.scaled[(j, j)] += k[j];
-        }
-        let stack = MemStack::new(&mut self.buffer);
-        if llt::factor::cholesky_in_place(
-            self.scaled.as_mut(),
-            Default::default(),
-            Par::Seq,
-            stack,
-            Default::default(),
-        )
-        .is_ok()
-        {
-            return true;
-        }
-        self.project_negative_semidefinite(h)
-    }
-
     /// Replace the symmetric matrix `h` (lower triangle read) by its negative
     /// semidefinite part `U min(Λ, 0) Uᵀ`: the stabilising part of a stiffness. Returns
     /// false (leaving `h` unchanged) if the eigendecomposition fails.
