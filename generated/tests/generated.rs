@@ -176,7 +176,9 @@ fn mass_moments_are_the_mass_fields_of_element_moments() {
 #[test]
 fn full_generalized_force_from_closed_form_moments_matches_quadrature_moments() {
     use superhelix_runtime::kernel::BodyField;
-    use superhelix_runtime::moments::{assemble_force, end_derivatives, Wrench};
+    use superhelix_runtime::moments::{
+        assemble_force, end_derivatives, frame_motions, FrameMotion, Wrench,
+    };
     use superhelix_runtime::reconstruction::{darboux, element_ends, Pose};
     use superhelix_runtime::strand::StrandGeometry;
     let mut worst: f64 = 0.0;
@@ -208,6 +210,8 @@ fn full_generalized_force_from_closed_form_moments_matches_quadrature_moments() 
             let derivs: Vec<_> = (0..n)
                 .map(|k| end_derivatives(&ends[k].frame, &darboux(&q, k), lengths[k]))
                 .collect();
+            let mut motions = vec![FrameMotion::default(); n + 1];
+            frame_motions(&ends, &derivs, &v, &mut motions);
             let force_of = |moments: &[ElementMoments]| {
                 let mut wrenches = vec![Wrench::default(); n];
                 let mut f = vec![0.0; 3 * n];
@@ -218,6 +222,7 @@ fn full_generalized_force_from_closed_form_moments_matches_quadrature_moments() 
                     &ends,
                     &derivs,
                     moments,
+                    &motions,
                     &v,
                     &field,
                     &mut f,

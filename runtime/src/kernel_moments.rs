@@ -11,13 +11,12 @@
 use crate::element::ElementPoint;
 use crate::kernel::{EvalInput, StrandKernel, StrandTerms};
 use crate::moment_jacobians::{
-    add_field_hessian, add_velocity_jacobian, add_weighted_gram, frame_motions, suffix_bodies,
-    FrameMotion, SuffixBody,
+    add_field_hessian, add_velocity_jacobian, add_weighted_gram, suffix_bodies, SuffixBody,
 };
 use crate::moment_rotary::{add_rotary_terms, rotary_element, rotary_points, RotaryElement};
 use crate::moments::{
-    assemble_force, assemble_mass_and_gravity, end_derivatives_from, Body, ElementMoments,
-    EndDerivatives, Wrench,
+    assemble_force, assemble_mass_and_gravity, end_derivatives_from, frame_motions, Body,
+    ElementMoments, EndDerivatives, FrameMotion, Wrench,
 };
 use crate::reconstruction::{darboux, Pose};
 use crate::strand::StrandGeometry;
@@ -177,12 +176,7 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
                 &mut self.vector,
                 &mut out.first_moment,
             );
-            let n = self.vector.len();
-            for c in 0..n {
-                out.mass
-                    .col_as_slice_mut(c)
-                    .copy_from_slice(&self.matrix[c * n..(c + 1) * n]);
-            }
+            self.store(&mut out.mass);
         }
         suffix_bodies(
             &self.ends,
@@ -223,6 +217,7 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
                 &self.ends,
                 &self.end_derivs,
                 &self.moments,
+                &self.motions,
                 v,
                 &crate::kernel::BodyField::zero(),
                 &mut out.velocity_term,
@@ -248,6 +243,7 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
                 &self.ends,
                 &self.end_derivs,
                 &self.moments,
+                &self.motions,
                 v,
                 field,
                 &mut out.force,

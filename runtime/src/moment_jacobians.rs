@@ -11,70 +11,12 @@
 //!
 //! The rotary-inertia parts of b and ∂b/∂q̇ are in [`crate::moment_rotary`].
 
-use crate::moments::{ElementMoments, EndDerivatives};
+use crate::moments::{axial, cross_moment, ElementMoments, EndDerivatives, FrameMotion};
 use crate::reconstruction::Pose;
 use nalgebra::{Matrix3, Vector3};
 
 type V3 = Vector3<f64>;
 type M3 = Matrix3<f64>;
-
-/// Motion of an element's start frame at velocities q̇ and q̈ = 0 (head coordinates).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct FrameMotion {
-    /// Angular velocity Ω of the frame.
-    pub omega: V3,
-    /// Angular acceleration Ω̇ (q̈ = 0).
-    pub alpha: V3,
-    /// Velocity ṙ of the start point.
-    pub velocity: V3,
-    /// Acceleration r̈ of the start point (q̈ = 0).
-    pub acceleration: V3,
-}
-
-/// The recursion of docs/moment-assembly.md ("Velocity and acceleration of the base
-/// frame"): `motions[P]` for P = 0..=N (the root is fixed in head coordinates).
-pub fn frame_motions(
-    ends: &[Pose],
-    end_derivs: &[EndDerivatives],
-    velocities: &[f64],
-    motions: &mut [FrameMotion],
-) {
-    let n = end_derivs.len();
-    motions[0] = FrameMotion::default();
-    for p in 0..n {
-        let m = motions[p];
-        let e = &end_derivs[p];
-        let span = ends[p + 1].position - ends[p].position;
-        let qd = [
-            velocities[3 * p],
-            velocities[3 * p + 1],
-            velocities[3 * p + 2],
-        ];
-        let mut w_hat = V3::zeros();
-        let mut w_dot = V3::zeros();
-        let mut pi_l = V3::zeros();
-        let mut pidot_l = V3::zeros();
-        for i in 0..3 {
-            w_hat += e.dtheta[i] * qd[i];
-            pi_l += e.dp[i] * qd[i];
-            for j in 0..3 {
-                let qq = qd[i] * qd[j];
-                w_dot += e.dw[i][j] * qq;
-                pidot_l += e.d2p[i][j] * qq;
-            }
-        }
-        motions[p + 1] = FrameMotion {
-            omega: m.omega + w_hat,
-            alpha: m.alpha + m.omega.cross(&w_hat) + w_dot,
-            velocity: m.velocity + m.omega.cross(&span) + pi_l,
-            acceleration: m.acceleration
-                + m.alpha.cross(&span)
-                + m.omega.cross(&m.omega.cross(&span))
-                + m.omega.cross(&pi_l) * 2.0
-                + pidot_l,
-        };
-    }
-}
 
 /// Integrals over the elements P..N−1 (per unit mass per length) with x = y − r_P, the
 /// position relative to the body's start: a composite body with the velocity field of
@@ -175,20 +117,6 @@ pub fn suffix_bodies(
             moment_velocity: next.moment_velocity + e.moment_velocity,
         };
     }
-}
-
-/// `∫ x × z` from `k` = ∫ x zᵀ.
-pub fn axial(k: &M3) -> V3 {
-    V3::new(
-        k[(1, 2)] - k[(2, 1)],
-        k[(2, 0)] - k[(0, 2)],
-        k[(0, 1)] - k[(1, 0)],
-    )
-}
-
-/// `∫ x × (A z)` from `n` = ∫ x zᵀ.
-pub fn cross_moment(a: &M3, n: &M3) -> V3 {
-    axial(&(n * a.transpose()))
 }
 
 /// Twist (v, ω) of upstream column i of element Q about the point `at`:
@@ -350,7 +278,7 @@ fn jdot_rigid(body: &SuffixBody, a: &V3, gamma: &V3, t: &V3) -> (V3, V3) {
 
 /// Adds `scale · ∫ J_k · J̇_l ds` to `out(k, l)` for all k, l: with scale = 2ρS this is
 /// the centreline part of B = ∂b/∂q̇ (b = ∫ ρS Jᵀ J̇ q̇, and J̇_l = ∂ẏ/∂q_l).
-/// `bodies` from [`suffix_bodies`] with velocities, `motions` from [`frame_motions`].
+/// `bodies` from [`suffix_bodies`] with velocities, `motions` from [`crate::moments::frame_motions`].
 pub fn add_velocity_jacobian(
     scale: f64,
     ends: &[Pose],

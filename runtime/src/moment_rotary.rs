@@ -12,8 +12,7 @@
 //! part uses the closed-form moments `rot`, `rot_w`, `rot_ww`.
 
 use crate::element::ElementPoint;
-use crate::moment_jacobians::FrameMotion;
-use crate::moments::{ElementMoments, EndDerivatives};
+use crate::moments::{ElementMoments, EndDerivatives, FrameMotion};
 use crate::quadrature::gauss_legendre;
 use crate::reconstruction::Pose;
 use nalgebra::{Matrix3, Vector3};
@@ -131,7 +130,7 @@ pub fn rotary_element(
 }
 
 /// Adds the rotary-inertia part of b to `b` when given, and of ∂b/∂q̇ to `jac` (column-major 3N × 3N) when given. `elements` from
-/// [`rotary_element`]; `motions` from `moment_jacobians::frame_motions`;
+/// [`rotary_element`]; `motions` from `moments::frame_motions`;
 /// `beyond_scratch` of length N.
 pub fn add_rotary_terms(
     end_derivs: &[EndDerivatives],

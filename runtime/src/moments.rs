@@ -255,10 +255,8 @@ pub struct Wrench {
     pub torque: Vector3<f64>,
 }
 
-/// `∫ x × (A z)` from `n` = ∫ x zᵀ.
-fn cross_moment(a: &Matrix3<f64>, n: &Matrix3<f64>) -> Vector3<f64> {
-    // k(b, c) = ∫ x_b (A z)_c
-    let k = n * a.transpose();
+/// `∫ x × z` from `k` = ∫ x zᵀ.
+pub fn axial(k: &Matrix3<f64>) -> Vector3<f64> {
     Vector3::new(
         k[(1, 2)] - k[(2, 1)],
         k[(2, 0)] - k[(0, 2)],
@@ -266,12 +264,75 @@ fn cross_moment(a: &Matrix3<f64>, n: &Matrix3<f64>) -> Vector3<f64> {
     )
 }
 
+/// `∫ x × (A z)` from `n` = ∫ x zᵀ.
+pub fn cross_moment(a: &Matrix3<f64>, n: &Matrix3<f64>) -> Vector3<f64> {
+    axial(&(n * a.transpose()))
+}
+
+/// Motion of an element's start frame at velocities q̇ and q̈ = 0 (head coordinates).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FrameMotion {
+    /// Angular velocity Ω of the frame.
+    pub omega: Vector3<f64>,
+    /// Angular acceleration Ω̇ (q̈ = 0).
+    pub alpha: Vector3<f64>,
+    /// Velocity ṙ of the start point.
+    pub velocity: Vector3<f64>,
+    /// Acceleration r̈ of the start point (q̈ = 0).
+    pub acceleration: Vector3<f64>,
+}
+
+/// The recursion of docs/moment-assembly.md ("Velocity and acceleration of the base
+/// frame"): `motions[P]` for P = 0..=N (the root is fixed in head coordinates).
+pub fn frame_motions(
+    ends: &[Pose],
+    end_derivs: &[EndDerivatives],
+    velocities: &[f64],
+    motions: &mut [FrameMotion],
+) {
+    let n = end_derivs.len();
+    motions[0] = FrameMotion::default();
+    for p in 0..n {
+        let m = motions[p];
+        let e = &end_derivs[p];
+        let span = ends[p + 1].position - ends[p].position;
+        let qd = [
+            velocities[3 * p],
+            velocities[3 * p + 1],
+            velocities[3 * p + 2],
+        ];
+        let mut w_hat = Vector3::zeros();
+        let mut w_dot = Vector3::zeros();
+        let mut pi_l = Vector3::zeros();
+        let mut pidot_l = Vector3::zeros();
+        for i in 0..3 {
+            w_hat += e.dtheta[i] * qd[i];
+            pi_l += e.dp[i] * qd[i];
+            for j in 0..3 {
+                let qq = qd[i] * qd[j];
+                w_dot += e.dw[i][j] * qq;
+                pidot_l += e.d2p[i][j] * qq;
+            }
+        }
+        motions[p + 1] = FrameMotion {
+            omega: m.omega + w_hat,
+            alpha: m.alpha + m.omega.cross(&w_hat) + w_dot,
+            velocity: m.velocity + m.omega.cross(&span) + pi_l,
+            acceleration: m.acceleration
+                + m.alpha.cross(&span)
+                + m.omega.cross(&m.omega.cross(&span))
+                + m.omega.cross(&pi_l) * 2.0
+                + pidot_l,
+        };
+    }
+}
+
 /// The generalized force `force` = ∫ Jᵀ(c0 + C1 y + C2 ẏ) ds − b(q, q̇) of the
 /// centreline (rotary inertia not included) in O(N), from element ends, end derivatives
 /// and element moments (docs/moment-assembly.md, "Generalized force").
 ///
-/// A forward pass carries the angular velocity Ω, angular acceleration Ω̇ (at q̈ = 0),
-/// velocity ṙ and acceleration r̈ of each element's start frame; on element P the force
+/// `motions` ([`frame_motions`]) carry the angular velocity Ω, angular acceleration Ω̇
+/// (at q̈ = 0), velocity ṙ and acceleration r̈ of each element's start frame; on element P the force
 /// per length, inertial term −ρS ÿ included, is affine in p, π = Σ ∂_i p q̇_i and
 /// π̇ = Σ ∂²_ij p q̇_i q̇_j, so its own columns and its wrench are moment contractions.
 /// A backward pass adds the wrenches summed from the tip to the upstream columns.
@@ -284,23 +345,23 @@ pub fn assemble_force(
     ends: &[Pose],
     end_derivs: &[EndDerivatives],
     moments: &[ElementMoments],
+    motions: &[FrameMotion],
     velocities: &[f64],
     field: &BodyField,
     force: &mut [f64],
 ) {
     let n = lengths.len();
     let (c0, c1, c2) = (&field.uniform, &field.linear, &field.velocity);
-    // state of the start frame of element P (the root is fixed in head coordinates)
-    let mut omega = Vector3::zeros();
-    let mut alpha = Vector3::zeros();
-    let mut vel = Vector3::zeros();
-    let mut acc = Vector3::zeros();
     for p in 0..n {
         let f = ends[p].frame;
         let r = ends[p].position;
-        let span = ends[p + 1].position - r;
         let m = &moments[p];
-        let e = &end_derivs[p];
+        let FrameMotion {
+            omega,
+            alpha,
+            velocity: vel,
+            acceleration: acc,
+        } = motions[p];
         let qd = [
             velocities[3 * p],
             velocities[3 * p + 1],
@@ -350,27 +411,6 @@ pub fn assemble_force(
             force: f * res,
             torque: f * mom,
         };
-        // recursion to the start of element P + 1
-        let mut w_hat = Vector3::zeros(); // F Σ w_i(l) q̇_i
-        let mut w_dot = Vector3::zeros(); // F Σ ∂_j w_i(l) q̇_i q̇_j
-        let mut pi_l = Vector3::zeros(); // F π(l)
-        let mut pidot_l = Vector3::zeros(); // F π̇(l)
-        for i in 0..3 {
-            w_hat += e.dtheta[i] * qd[i];
-            pi_l += e.dp[i] * qd[i];
-            for j in 0..3 {
-                let qq = qd[i] * qd[j];
-                w_dot += e.dw[i][j] * qq;
-                pidot_l += e.d2p[i][j] * qq;
-            }
-        }
-        acc += alpha.cross(&span)
-            + omega.cross(&omega.cross(&span))
-            + omega.cross(&pi_l) * 2.0
-            + pidot_l;
-        vel += omega.cross(&span) + pi_l;
-        alpha += omega.cross(&w_hat) + w_dot;
-        omega += w_hat;
     }
     // upstream columns: dp_k · ΣR + ω_k · Στ over the elements beyond, torques about
     // r_{Q+1} (moved along the chain element by element, never through the origin)

@@ -469,7 +469,9 @@ fn moment_assembly_reproduces_the_mass_matrix_and_gravity_force() {
 
 /// `assemble_force` with quadrature moments for (q, v, field), rotary inertia off.
 fn force_from_moments(g: &StrandGeometry, q: &[f64], v: &[f64], f: &BodyField) -> Vec<f64> {
-    use superhelix_runtime::moments::{assemble_force, end_derivatives, ElementMoments, Wrench};
+    use superhelix_runtime::moments::{
+        assemble_force, end_derivatives, frame_motions, ElementMoments, FrameMotion, Wrench,
+    };
     use superhelix_runtime::reconstruction::{darboux, element_ends, Pose};
     let n = g.elements();
     let mut ends = vec![Pose::default(); n + 1];
@@ -481,6 +483,8 @@ fn force_from_moments(g: &StrandGeometry, q: &[f64], v: &[f64], f: &BodyField) -
         .map(|k| ElementMoments::by_quadrature(&darboux(q, k), g.lengths[k], &[0.0; 3], 60))
         .collect();
     let mut wrenches = vec![Wrench::default(); n];
+    let mut motions = vec![FrameMotion::default(); n + 1];
+    frame_motions(&ends, &derivs, v, &mut motions);
     let mut force = vec![0.0; 3 * n];
     assemble_force(
         &mut wrenches,
@@ -489,6 +493,7 @@ fn force_from_moments(g: &StrandGeometry, q: &[f64], v: &[f64], f: &BodyField) -
         &ends,
         &derivs,
         &moments,
+        &motions,
         v,
         f,
         &mut force,
