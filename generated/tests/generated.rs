@@ -292,7 +292,7 @@ fn generated_files_are_fresh() {
 #[test]
 fn mass_matrix_and_gravity_from_closed_form_moments_match_the_generic_kernel() {
     use superhelix_runtime::kernel::{BodyField, EvalInput, StrandKernel, StrandTerms, Terms};
-    use superhelix_runtime::moments::{assemble_mass_and_gravity, end_derivatives, Body};
+    use superhelix_runtime::moments::{assemble_mass_and_gravity, bodies_at_rest, end_derivatives};
     use superhelix_runtime::reconstruction::{darboux, element_ends, Pose};
     use superhelix_runtime::strand::StrandGeometry;
     use superhelix_runtime::{GenericKernel, QuadratureRule};
@@ -357,17 +357,9 @@ fn mass_matrix_and_gravity_from_closed_form_moments_match_the_generic_kernel() {
                 .collect();
             let (mut mass, mut force, mut first) =
                 (vec![0.0; dofs * dofs], vec![0.0; dofs], Vector3::zeros());
-            let mut bodies = vec![Body::default(); n + 1];
+            let bodies = bodies_at_rest(&ends, &lengths, &moments);
             assemble_mass_and_gravity(
-                &mut bodies,
-                1e-5,
-                &lengths,
-                &ends,
-                &derivs,
-                &moments,
-                &c0,
-                &mut mass,
-                &mut force,
+                &bodies, 1e-5, &lengths, &ends, &derivs, &moments, &c0, &mut mass, &mut force,
                 &mut first,
             );
             let mscale = (0..dofs)

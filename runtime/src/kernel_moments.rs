@@ -10,13 +10,11 @@
 
 use crate::element::ElementPoint;
 use crate::kernel::{EvalInput, StrandKernel, StrandTerms};
-use crate::moment_jacobians::{
-    add_field_hessian, add_velocity_jacobian, add_weighted_gram, suffix_bodies, SuffixBody,
-};
+use crate::moment_jacobians::{add_field_hessian, add_velocity_jacobian, add_weighted_gram};
 use crate::moment_rotary::{add_rotary_terms, rotary_element, rotary_points, RotaryElement};
 use crate::moments::{
-    assemble_force, assemble_mass_and_gravity, end_derivatives_from, frame_motions, Body,
-    ElementMoments, EndDerivatives, FrameMotion, Wrench,
+    assemble_force, assemble_mass_and_gravity, end_derivatives_from, frame_motions, suffix_bodies,
+    ElementMoments, EndDerivatives, FrameMotion, SuffixBody, Wrench,
 };
 use crate::reconstruction::{darboux, Pose};
 use crate::strand::StrandGeometry;
@@ -71,7 +69,6 @@ pub struct MomentKernel<S: MomentSource> {
     moments: Vec<ElementMoments>,
     motions: Vec<FrameMotion>,
     bodies: Vec<SuffixBody>,
-    mass_bodies: Vec<Body>,
     wrenches: Vec<Wrench>,
     rotary: Vec<RotaryElement>,
     beyond: Vec<(Matrix3<f64>, Matrix3<f64>)>,
@@ -92,7 +89,6 @@ impl<S: MomentSource> MomentKernel<S> {
             moments: vec![ElementMoments::default(); n],
             motions: vec![FrameMotion::default(); n + 1],
             bodies: vec![SuffixBody::default(); n + 1],
-            mass_bodies: vec![Body::default(); n + 1],
             wrenches: vec![Wrench::default(); n],
             rotary: vec![RotaryElement::default(); n],
             beyond: vec![(Matrix3::zeros(), Matrix3::zeros()); n],
@@ -163,9 +159,18 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
         if needs_velocity {
             frame_motions(&self.ends, &self.end_derivs, v, &mut self.motions);
         }
+        suffix_bodies(
+            &self.ends,
+            lengths,
+            &self.moments,
+            &self.motions,
+            v,
+            t.velocity_term_jacobian,
+            &mut self.bodies,
+        );
         if t.mass {
             assemble_mass_and_gravity(
-                &mut self.mass_bodies,
+                &self.bodies,
                 rho_s,
                 lengths,
                 &self.ends,
@@ -178,15 +183,6 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
             );
             self.store(&mut out.mass);
         }
-        suffix_bodies(
-            &self.ends,
-            lengths,
-            &self.moments,
-            &self.motions,
-            v,
-            t.velocity_term_jacobian,
-            &mut self.bodies,
-        );
         if has_rotary && needs_velocity {
             for p in 0..lengths.len() {
                 let d = self.darboux[p];

@@ -5,119 +5,20 @@
 //! Every column k of an element Q moves the strand beyond Q rigidly,
 //! `J_k(y) = v_k + ω_k × y`; a vector field g integrated against it needs only
 //! `∫ g` and `∫ y × g` over the part beyond Q. Those two integrals come from the suffix
-//! bodies ([`SuffixBody`]: mass, ∫y, ∫y yᵀ, ∫ẏ, ∫y ẏᵀ) when g is affine in y and ẏ,
+//! bodies ([`crate::moments::SuffixBody`]: mass, ∫y, ∫y yᵀ, ∫ẏ, ∫y ẏᵀ) when g is affine in y and ẏ,
 //! which holds for C1 J_l, C2 J_l, f·∂²y and J̇_m. The own columns of an element
 //! (`J_i = F ∂p/∂d_i`) contract with its moments.
 //!
 //! The rotary-inertia parts of b and ∂b/∂q̇ are in [`crate::moment_rotary`].
 
-use crate::moments::{axial, cross_moment, ElementMoments, EndDerivatives, FrameMotion};
+use crate::moments::{
+    axial, cross_moment, ElementMoments, EndDerivatives, FrameMotion, SuffixBody,
+};
 use crate::reconstruction::Pose;
 use nalgebra::{Matrix3, Vector3};
 
 type V3 = Vector3<f64>;
 type M3 = Matrix3<f64>;
-
-/// Integrals over the elements P..N−1 (per unit mass per length) with x = y − r_P, the
-/// position relative to the body's start: a composite body with the velocity field of
-/// the strand. (About r_P rather than the head origin, so that curls far from the root
-/// keep their digits.)
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct SuffixBody {
-    /// Length ∫ ds.
-    pub mass: f64,
-    /// ∫ x.
-    pub first: V3,
-    /// ∫ x xᵀ.
-    pub second: M3,
-    /// ∫ ẏ.
-    pub velocity: V3,
-    /// ∫ x ẏᵀ.
-    pub moment_velocity: M3,
-}
-
-impl SuffixBody {
-    /// The same body about a reference point `delta` behind the current one
-    /// (x' = x + delta).
-    fn shifted(&self, delta: &V3) -> SuffixBody {
-        SuffixBody {
-            mass: self.mass,
-            first: self.first + delta * self.mass,
-            second: self.second
-                + self.first * delta.transpose()
-                + delta * self.first.transpose()
-                + delta * delta.transpose() * self.mass,
-            velocity: self.velocity,
-            moment_velocity: self.moment_velocity + delta * self.velocity.transpose(),
-        }
-    }
-}
-
-/// One element's contribution to [`SuffixBody`] (with or without the velocity parts).
-fn element_body(
-    pose: &Pose,
-    l: f64,
-    m: &ElementMoments,
-    motion: &FrameMotion,
-    qd: &[f64],
-    with_velocity: bool,
-) -> SuffixBody {
-    let f = pose.frame;
-    let a = f * m.first;
-    let fs = f * m.second * f.transpose();
-    let (mut velocity, mut moment_velocity) = (V3::zeros(), M3::zeros());
-    if with_velocity {
-        let mut pi = V3::zeros();
-        let mut n_pi = M3::zeros();
-        for j in 0..3 {
-            pi += m.dfirst[j] * qd[j];
-            n_pi += m.pdp[j] * qd[j];
-        }
-        velocity = motion.velocity * l + motion.omega.cross(&a) + f * pi;
-        moment_velocity = a * motion.velocity.transpose() - fs * motion.omega.cross_matrix()
-            + f * n_pi * f.transpose();
-    }
-    SuffixBody {
-        mass: l,
-        first: a,
-        second: fs,
-        velocity,
-        moment_velocity,
-    }
-}
-
-/// `bodies[P]` = elements P..N−1 about r_P, `bodies[N]` empty. The velocity parts are filled
-/// when `with_velocity` (they need `motions` and q̇).
-pub fn suffix_bodies(
-    ends: &[Pose],
-    lengths: &[f64],
-    moments: &[ElementMoments],
-    motions: &[FrameMotion],
-    velocities: &[f64],
-    with_velocity: bool,
-    bodies: &mut [SuffixBody],
-) {
-    let n = lengths.len();
-    bodies[n] = SuffixBody::default();
-    for p in (0..n).rev() {
-        let e = element_body(
-            &ends[p],
-            lengths[p],
-            &moments[p],
-            &motions[p],
-            &velocities[3 * p..3 * p + 3],
-            with_velocity,
-        );
-        let next = bodies[p + 1].shifted(&(ends[p + 1].position - ends[p].position));
-        bodies[p] = SuffixBody {
-            mass: next.mass + e.mass,
-            first: next.first + e.first,
-            second: next.second + e.second,
-            velocity: next.velocity + e.velocity,
-            moment_velocity: next.moment_velocity + e.moment_velocity,
-        };
-    }
-}
 
 /// Twist (v, ω) of upstream column i of element Q about the point `at`:
 /// J(y) = v + ω × (y − at), given `lever` = at − r_{Q+1}.
@@ -136,7 +37,8 @@ fn weighted_rigid(w: &M3, body: &SuffixBody, v: &V3, om: &V3) -> (V3, V3) {
 
 /// Adds `scale · ∫ J_k · W J_l ds` to `out(k, l)` for all k, l (`out` column-major,
 /// 3N × 3N), for any 3 × 3 W: the damping (W = C2) and the linear-field part of the
-/// stiffness (W = C1). `bodies` from [`suffix_bodies`] (positions only needed).
+/// stiffness (W = C1). `bodies` from [`crate::moments::suffix_bodies`] (positions only
+/// needed).
 pub fn add_weighted_gram(
     w: &M3,
     scale: f64,
@@ -278,7 +180,7 @@ fn jdot_rigid(body: &SuffixBody, a: &V3, gamma: &V3, t: &V3) -> (V3, V3) {
 
 /// Adds `scale · ∫ J_k · J̇_l ds` to `out(k, l)` for all k, l: with scale = 2ρS this is
 /// the centreline part of B = ∂b/∂q̇ (b = ∫ ρS Jᵀ J̇ q̇, and J̇_l = ∂ẏ/∂q_l).
-/// `bodies` from [`suffix_bodies`] with velocities, `motions` from [`crate::moments::frame_motions`].
+/// `bodies` from [`crate::moments::suffix_bodies`] with velocities, `motions` from [`crate::moments::frame_motions`].
 pub fn add_velocity_jacobian(
     scale: f64,
     ends: &[Pose],

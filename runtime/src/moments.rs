@@ -108,23 +108,45 @@ pub struct EndDerivatives {
     pub dw: [[Vector3<f64>; 3]; 3],
 }
 
-/// Mass, first moment and second moment (∫ x xᵀ, x = y − a) of a set of elements about
-/// a reference point a (the start of its first element), plus the summed rotary inertia:
-/// a composite rigid body. Taking the moments about a point of the body, not about the
-/// head origin, keeps the digits of tightly curled elements far from the root (about
-/// the origin, a curl of radius ρ at distance R loses (R/ρ)² of them).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Body {
-    mass: f64,
-    first: Vector3<f64>,
-    second: Matrix3<f64>,
-    rot: Matrix3<f64>,
+/// Integrals over the elements P..N−1 (per unit mass per length) with x = y − r_P, the
+/// position relative to the body's start: a composite body with the velocity field of
+/// the strand. (About r_P rather than the head origin, so that curls far from the root
+/// keep their digits.)
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SuffixBody {
+    /// Length ∫ ds.
+    pub mass: f64,
+    /// ∫ x.
+    pub first: Vector3<f64>,
+    /// ∫ x xᵀ.
+    pub second: Matrix3<f64>,
+    /// ∫ ẏ.
+    pub velocity: Vector3<f64>,
+    /// ∫ x ẏᵀ.
+    pub moment_velocity: Matrix3<f64>,
+    /// Σ ∫ E D Eᵀ, the rotary inertia (head coordinates, not per unit mass).
+    pub rot: Matrix3<f64>,
 }
 
-impl Body {
+impl SuffixBody {
+    /// The same body about a reference point `delta` behind the current one
+    /// (x' = x + delta).
+    fn shifted(&self, delta: &Vector3<f64>) -> SuffixBody {
+        SuffixBody {
+            mass: self.mass,
+            first: self.first + delta * self.mass,
+            second: self.second
+                + self.first * delta.transpose()
+                + delta * self.first.transpose()
+                + delta * delta.transpose() * self.mass,
+            velocity: self.velocity,
+            moment_velocity: self.moment_velocity + delta * self.velocity.transpose(),
+            rot: self.rot,
+        }
+    }
+
     /// Linear and angular "momentum" of the rigid velocity field v + ω × x over the body
-    /// (per unit ρS for the first two), x relative to the reference point:
-    /// `∫ (v + ω × x) dm` and `∫ x × (v + ω × x) dm`.
+    /// (per unit ρS): `∫ (v + ω × x)` and `∫ x × (v + ω × x)`.
     fn momentum(&self, v: &Vector3<f64>, w: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
         let lin = v * self.mass + w.cross(&self.first);
         let ang =
@@ -133,12 +155,101 @@ impl Body {
     }
 }
 
+/// One element's contribution to [`SuffixBody`] (with or without the velocity parts).
+fn element_body(
+    pose: &Pose,
+    l: f64,
+    m: &ElementMoments,
+    motion: &FrameMotion,
+    qd: &[f64],
+    with_velocity: bool,
+) -> SuffixBody {
+    let f = pose.frame;
+    let a = f * m.first;
+    let fs = f * m.second * f.transpose();
+    let (mut velocity, mut moment_velocity) = (Vector3::zeros(), Matrix3::zeros());
+    if with_velocity {
+        let mut pi = Vector3::zeros();
+        let mut n_pi = Matrix3::zeros();
+        for j in 0..3 {
+            pi += m.dfirst[j] * qd[j];
+            n_pi += m.pdp[j] * qd[j];
+        }
+        velocity = motion.velocity * l + motion.omega.cross(&a) + f * pi;
+        moment_velocity = a * motion.velocity.transpose() - fs * motion.omega.cross_matrix()
+            + f * n_pi * f.transpose();
+    }
+    SuffixBody {
+        mass: l,
+        first: a,
+        second: fs,
+        velocity,
+        moment_velocity,
+        rot: f * m.rot * f.transpose(),
+    }
+}
+
+/// `bodies[P]` = elements P..N−1 about r_P, `bodies[N]` empty. The velocity parts are filled
+/// when `with_velocity` (they need `motions` and q̇).
+pub fn suffix_bodies(
+    ends: &[Pose],
+    lengths: &[f64],
+    moments: &[ElementMoments],
+    motions: &[FrameMotion],
+    velocities: &[f64],
+    with_velocity: bool,
+    bodies: &mut [SuffixBody],
+) {
+    let n = lengths.len();
+    bodies[n] = SuffixBody::default();
+    for p in (0..n).rev() {
+        let e = element_body(
+            &ends[p],
+            lengths[p],
+            &moments[p],
+            &motions[p],
+            &velocities[3 * p..3 * p + 3],
+            with_velocity,
+        );
+        let next = bodies[p + 1].shifted(&(ends[p + 1].position - ends[p].position));
+        bodies[p] = SuffixBody {
+            mass: next.mass + e.mass,
+            first: next.first + e.first,
+            second: next.second + e.second,
+            velocity: next.velocity + e.velocity,
+            moment_velocity: next.moment_velocity + e.moment_velocity,
+            rot: next.rot + e.rot,
+        };
+    }
+}
+
+/// The suffix bodies of [`suffix_bodies`] without the velocity parts, in a new vector:
+/// the convenient call for a strand at rest (tests, statics).
+pub fn bodies_at_rest(
+    ends: &[Pose],
+    lengths: &[f64],
+    moments: &[ElementMoments],
+) -> Vec<SuffixBody> {
+    let n = lengths.len();
+    let mut bodies = vec![SuffixBody::default(); n + 1];
+    suffix_bodies(
+        ends,
+        lengths,
+        moments,
+        &vec![FrameMotion::default(); n + 1],
+        &vec![0.0; 3 * n],
+        false,
+        &mut bodies,
+    );
+    bodies
+}
+
 /// M (3N × 3N, column-major into `mass`) and the generalized force of a uniform force
-/// per length `c0` (`force`), from element ends, end derivatives and element moments.
-/// `rho_s` is the mass per length; `bodies` is scratch of length N + 1.
+/// per length `c0` (`force`), from element ends, end derivatives, element moments and
+/// the suffix bodies ([`suffix_bodies`], positions part). `rho_s` is the mass per length.
 #[allow(clippy::too_many_arguments)]
 pub fn assemble_mass_and_gravity(
-    bodies: &mut [Body],
+    bodies: &[SuffixBody],
     rho_s: f64,
     lengths: &[f64],
     ends: &[Pose],
@@ -151,30 +262,7 @@ pub fn assemble_mass_and_gravity(
 ) {
     let n = lengths.len();
     let dofs = 3 * n;
-    // suffix bodies B(P) = elements P..N-1 about r_P, B(N) empty
-    bodies[n] = Body::default();
-    let mut first_moment_local = Vector3::zeros();
-    for p in (0..n).rev() {
-        let f = ends[p].frame;
-        let m = &moments[p];
-        let a = f * m.first;
-        // the body beyond, moved from r_{P+1} to r_P
-        let next = bodies[p + 1];
-        let delta = ends[p + 1].position - ends[p].position;
-        let shifted_first = next.first + delta * next.mass;
-        bodies[p] = Body {
-            mass: next.mass + lengths[p],
-            first: shifted_first + a,
-            second: next.second
-                + next.first * delta.transpose()
-                + delta * next.first.transpose()
-                + delta * delta.transpose() * next.mass
-                + f * m.second * f.transpose(),
-            rot: next.rot + f * m.rot * f.transpose(),
-        };
-        first_moment_local = bodies[p].first;
-    }
-    *first_moment = (first_moment_local + ends[0].position * bodies[0].mass) * rho_s;
+    *first_moment = (bodies[0].first + ends[0].position * bodies[0].mass) * rho_s;
     mass.iter_mut().for_each(|x| *x = 0.0);
     for q in 0..n {
         let e = &end_derivs[q];

@@ -417,7 +417,7 @@ fn point_hessian_matches_finite_differences_of_the_jacobian() {
 #[test]
 fn moment_assembly_reproduces_the_mass_matrix_and_gravity_force() {
     use superhelix_runtime::moments::{
-        assemble_mass_and_gravity, end_derivatives, Body, ElementMoments,
+        assemble_mass_and_gravity, bodies_at_rest, end_derivatives, ElementMoments,
     };
     use superhelix_runtime::reconstruction::{darboux, element_ends, Pose};
     for (g, q, _) in cases() {
@@ -439,12 +439,12 @@ fn moment_assembly_reproduces_the_mass_matrix_and_gravity_force() {
                 ElementMoments::by_quadrature(&darboux(&q, k), g.lengths[k], &g.rotary_inertia, 60)
             })
             .collect();
-        let mut bodies = vec![Body::default(); n + 1];
+        let bodies = bodies_at_rest(&ends, &g.lengths, &moments);
         let mut mass = vec![0.0; dofs * dofs];
         let mut force = vec![0.0; dofs];
         let mut first = Vector3::zeros();
         assemble_mass_and_gravity(
-            &mut bodies,
+            &bodies,
             g.mass_per_length,
             &g.lengths,
             &ends,
@@ -536,7 +536,7 @@ fn moment_assembly_reproduces_the_full_generalized_force() {
         }
         // q̇ = 0 and a uniform field: the existing moment assembly
         use superhelix_runtime::moments::{
-            assemble_mass_and_gravity, end_derivatives, Body, ElementMoments,
+            assemble_mass_and_gravity, bodies_at_rest, end_derivatives, ElementMoments,
         };
         use superhelix_runtime::reconstruction::{darboux, element_ends, Pose};
         let n = g.elements();
@@ -549,12 +549,12 @@ fn moment_assembly_reproduces_the_full_generalized_force() {
         let moments: Vec<_> = (0..n)
             .map(|k| ElementMoments::by_quadrature(&darboux(&q, k), g.lengths[k], &[0.0; 3], 60))
             .collect();
-        let mut bodies = vec![Body::default(); n + 1];
+        let bodies = bodies_at_rest(&ends, &g.lengths, &moments);
         let mut mass = vec![0.0; 9 * n * n];
         let mut gravity_force = vec![0.0; 3 * n];
         let mut first = Vector3::zeros();
         assemble_mass_and_gravity(
-            &mut bodies,
+            &bodies,
             g.mass_per_length,
             &g.lengths,
             &ends,
