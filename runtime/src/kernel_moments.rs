@@ -1,6 +1,6 @@
 //! A strand kernel assembled from element moments (docs/moment-assembly.md): M and the
-//! gravity force in O(N²) ([`moments::assemble_mass_and_gravity`]), the full force
-//! (field and −b) in O(N) ([`moments::assemble_force`]), the damping, field stiffness
+//! gravity force in O(N²) ([`crate::moments::assemble_mass_and_gravity`]), the full force
+//! (field and −b) in O(N) ([`crate::moments::assemble_force`]), the damping, field stiffness
 //! and ∂b/∂q̇ in O(N²) ([`crate::moment_jacobians`]), rotary inertia from
 //! [`crate::moment_rotary`].
 //!
