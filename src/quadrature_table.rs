@@ -205,10 +205,6 @@ struct State {
     reference: StrandTerms,
 }
 
-pub(crate) fn thread_cpu_seconds() -> Option<f64> {
-    crate::cpu_time::thread_seconds()
-}
-
 /// How the times of the table are measured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Clock {
@@ -221,7 +217,7 @@ pub enum Clock {
 impl Clock {
     /// The clock of this platform.
     pub fn current() -> Clock {
-        if thread_cpu_seconds().is_some() {
+        if crate::cpu_time::thread_seconds().is_some() {
             Clock::ThreadCpu
         } else {
             Clock::Wall
@@ -249,7 +245,7 @@ fn time_steps(
         .build()
         .map_err(|e| e.to_string())?;
     let now = move || match clock {
-        Clock::ThreadCpu => thread_cpu_seconds().unwrap_or(f64::NAN),
+        Clock::ThreadCpu => crate::cpu_time::thread_seconds().unwrap_or(f64::NAN),
         Clock::Wall => START.with(|s| s.elapsed().as_secs_f64()),
     };
     pool.install(|| {

@@ -26,7 +26,7 @@
 //! Cost: on-CPU time of the stepping thread ([`Clock`]), per strand per simulated
 //! second (dynamic problems) or per static solve (the cantilever).
 
-use crate::quadrature_table::{thread_cpu_seconds, Clock};
+use crate::quadrature_table::Clock;
 use crate::runtime::kernel::{
     BodyField, EvalInput, KernelFactory, StrandKernel, StrandTerms, Terms,
 };
@@ -520,7 +520,7 @@ thread_local! {
 }
 
 fn now() -> f64 {
-    thread_cpu_seconds().unwrap_or_else(|| START.with(|s| s.elapsed().as_secs_f64()))
+    crate::cpu_time::thread_seconds().unwrap_or_else(|| START.with(|s| s.elapsed().as_secs_f64()))
 }
 
 // ---------------------------------------------------------------- trajectory problems
