@@ -298,12 +298,6 @@ pub fn generate_element_point() -> Result<(PointCode, String), CodegenError> {
     Ok((code, text))
 }
 
-/// The checked-in file: (path relative to `generated/src/`, formatted text).
-pub fn checked_in_file() -> Result<(String, String), CodegenError> {
-    let (_, text) = generate_element_point()?;
-    Ok((ELEMENT_POINT_FILE.to_string(), text))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
