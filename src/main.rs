@@ -57,7 +57,7 @@ enum Command {
         /// Hair type: smooth, wavy, curly, fuzzy.
         #[arg(long, default_value = "wavy")]
         preset: String,
-        /// Integrator: linearly-implicit-euler, newton-implicit-euler, rk4.
+        /// Integrator: linearly-implicit-euler, newton-implicit-euler, ros2, rk4.
         #[arg(long, default_value = "linearly-implicit-euler")]
         integrator: String,
         /// Gauss-Legendre points per element of the generic kernels (default: adaptive).
@@ -265,7 +265,7 @@ fn bench(
         integrator: IntegratorKind::from_name(integrator).ok_or_else(|| {
             Error::invalid(
                 "--integrator",
-                "must be linearly-implicit-euler, newton-implicit-euler or rk4",
+                "must be linearly-implicit-euler, newton-implicit-euler, ros2 or rk4",
             )
         })?,
         quadrature: match quadrature {

@@ -32,28 +32,33 @@ pub enum IntegratorKind {
     LinearlyImplicitEuler,
     /// Backward Euler solved by Newton iterations to a residual tolerance.
     NewtonImplicitEuler,
+    /// ROS2: the two-stage, second-order, L-stable Rosenbrock-W method (Verwer et al.
+    /// 1999) on the linearly implicit Euler step's matrix (one factorisation per step).
+    Ros2,
     /// Classical explicit Runge–Kutta 4: a reference for tests, needs small steps.
     Rk4,
 }
 
 impl IntegratorKind {
+    /// Every integrator, in the order scenes and messages list them.
+    pub const ALL: [IntegratorKind; 4] = [
+        Self::LinearlyImplicitEuler,
+        Self::NewtonImplicitEuler,
+        Self::Ros2,
+        Self::Rk4,
+    ];
     /// Name as written in scenes.
     pub fn name(self) -> &'static str {
         match self {
             IntegratorKind::LinearlyImplicitEuler => "linearly-implicit-euler",
             IntegratorKind::NewtonImplicitEuler => "newton-implicit-euler",
+            IntegratorKind::Ros2 => "ros2",
             IntegratorKind::Rk4 => "rk4",
         }
     }
     /// Parse a scene name.
     pub fn from_name(name: &str) -> Option<Self> {
-        [
-            Self::LinearlyImplicitEuler,
-            Self::NewtonImplicitEuler,
-            Self::Rk4,
-        ]
-        .into_iter()
-        .find(|k| k.name() == name)
+        Self::ALL.into_iter().find(|k| k.name() == name)
     }
 }
 
