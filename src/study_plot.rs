@@ -57,7 +57,7 @@ impl Legend {
         let _ = write!(
             s,
             "{}; filled circles: linearly implicit Euler or statics, triangles: Newton implicit \
-             Euler, crosses: ROS2; black line: Pareto front.",
+             Euler, crosses: BDF2; black line: Pareto front.",
             parts.join(", ")
         );
         s
@@ -150,7 +150,7 @@ pub fn plot(problem: &ProblemResult) -> Result<(Vec<u8>, Legend)> {
                             colour.filled(),
                         )))
                         .map_err(plot_error)?,
-                    Some(IntegratorKind::Ros2) => chart
+                    Some(IntegratorKind::Bdf2) => chart
                         .draw_series(std::iter::once(Cross::new(
                             (p.2, p.3),
                             6,

@@ -143,16 +143,8 @@ impl DenseSolver {
     /// LU-factor `matrix` with partial pivoting and solve in place. Returns false when
     /// the solution is not finite (singular matrix).
     pub fn solve_general(&mut self) -> bool {
-        self.factor_general();
-        self.solve_factored()
-    }
-
-    /// LU-factor `matrix` with partial pivoting in place, for one or more
-    /// [`DenseSolver::solve_factored`] calls (the two stages of a Rosenbrock step share
-    /// one factorisation).
-    pub fn factor_general(&mut self) {
         let stack = MemStack::new(&mut self.buffer);
-        lu::factor::lu_in_place(
+        let (_, perm) = lu::factor::lu_in_place(
             self.matrix.as_mut(),
             &mut self.perm,
             &mut self.perm_inv,
@@ -160,14 +152,6 @@ impl DenseSolver {
             stack,
             Default::default(),
         );
-    }
-
-    /// Solve in place with the factors of the last [`DenseSolver::factor_general`];
-    /// `matrix` must not have been changed since. Returns false when the solution is not
-    /// finite (singular matrix).
-    pub fn solve_factored(&mut self) -> bool {
-        let n = self.perm.len();
-        let perm = faer::perm::PermRef::new_checked(&self.perm, &self.perm_inv, n);
         let stack = MemStack::new(&mut self.buffer);
         lu::solve::solve_in_place(
             self.matrix.as_ref(),
@@ -245,21 +229,6 @@ mod tests {
         for i in 0..3 {
             for j in 0..3 {
                 assert_eq!(h[(i, j)], -spd[i][j]);
-            }
-        }
-        // one LU factorisation, two solves
-        let general = [[2.0, 1.0, 0.0], [-1.0, 3.0, 1.0], [0.5, 0.0, 4.0]];
-        let mut s = DenseSolver::new(3);
-        fill(&mut s, &general, [0.0; 3]);
-        s.factor_general();
-        for x in [[1.0, -2.0, 0.5], [0.3, 0.7, -1.1]] {
-            let b: Vec<f64> = (0..3)
-                .map(|i| (0..3).map(|j| general[i][j] * x[j]).sum())
-                .collect();
-            s.rhs_mut().copy_from_slice(&b);
-            assert!(s.solve_factored());
-            for i in 0..3 {
-                assert!((s.solution()[i] - x[i]).abs() < 1e-14);
             }
         }
         let singular = [[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [1.0, 0.0, 1.0]];

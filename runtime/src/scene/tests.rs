@@ -128,10 +128,10 @@ fn every_integrator_is_selectable_by_its_name() {
         assert_eq!(setup(&text).config.integrator, kind);
     }
     assert_eq!(
-        setup("[simulation]\nintegrator = \"ros2\"\n[[strands]]\nlength = 0.25\n")
+        setup("[simulation]\nintegrator = \"bdf2\"\n[[strands]]\nlength = 0.25\n")
             .config
             .integrator,
-        IntegratorKind::Ros2
+        IntegratorKind::Bdf2
     );
 }
 
@@ -167,7 +167,7 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("[simulation]\nduration = 1e9\ndt = 0.01\n[[strands]]\nlength = 0.3", "simulation.duration", "cap"),
     ("[simulation]\noutput_fps = 0\n[[strands]]\nlength = 0.3", "simulation.output_fps", "must be in (0, "),
     ("[simulation]\nmode = \"fast\"\n[[strands]]\nlength = 0.3", "simulation.mode", "allowed: dynamic, static"),
-    ("[simulation]\nintegrator = \"euler\"\n[[strands]]\nlength = 0.3", "simulation.integrator", "newton-implicit-euler, ros2, rk4"),
+    ("[simulation]\nintegrator = \"euler\"\n[[strands]]\nlength = 0.3", "simulation.integrator", "newton-implicit-euler, bdf2, rk4"),
     ("[simulation]\nkernels = \"gpu\"\n[[strands]]\nlength = 0.3", "simulation.kernels", "generated"),
     ("[simulation]\nquadrature = 0\n[[strands]]\nlength = 0.3", "simulation.quadrature", ">= 1"),
     ("[simulation]\nquadrature = \"gauss\"\n[[strands]]\nlength = 0.3", "simulation.quadrature", "adaptive"),
