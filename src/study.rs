@@ -21,7 +21,8 @@
 //! The reference of `swing` and `curly` is N = 20 with generated kernels and the
 //! linearly implicit Euler integrator at two small steps h and h/2, combined by
 //! Richardson extrapolation (2 x(h/2) − x(h)); the report gives how far it is from
-//! its two ingredients and from N = 15 at h/2, which bounds what errors are resolved.
+//! its two ingredients, from BDF2 at h/2 (an independent second-order result: a bound
+//! on its time error) and from N = 15 at h/2, which bound what errors are resolved.
 //!
 //! Cost: on-CPU time of the stepping thread ([`Clock`]), per strand per simulated
 //! second (dynamic problems) or per static solve (the cantilever).
@@ -84,7 +85,18 @@ pub fn integrator_label(kind: IntegratorKind) -> &'static str {
     match kind {
         IntegratorKind::LinearlyImplicitEuler => "LIE",
         IntegratorKind::NewtonImplicitEuler => "NIE",
+        IntegratorKind::Bdf2 => "BDF2",
         IntegratorKind::Rk4 => "RK4",
+    }
+}
+
+/// Long name of an integrator in the report.
+pub fn integrator_description(kind: IntegratorKind) -> &'static str {
+    match kind {
+        IntegratorKind::LinearlyImplicitEuler => "linearly implicit Euler",
+        IntegratorKind::NewtonImplicitEuler => "Newton implicit Euler",
+        IntegratorKind::Bdf2 => "linearised BDF2",
+        IntegratorKind::Rk4 => "explicit Runge–Kutta 4",
     }
 }
 
@@ -235,6 +247,7 @@ impl Grid {
             integrators: vec![
                 IntegratorKind::LinearlyImplicitEuler,
                 IntegratorKind::NewtonImplicitEuler,
+                IntegratorKind::Bdf2,
             ],
             generic_rules: vec![
                 QuadratureRule::Fixed(2),
@@ -258,6 +271,7 @@ impl Grid {
             integrators: vec![
                 IntegratorKind::LinearlyImplicitEuler,
                 IntegratorKind::NewtonImplicitEuler,
+                IntegratorKind::Bdf2,
             ],
             generic_rules: vec![
                 QuadratureRule::Fixed(2),
@@ -551,18 +565,20 @@ fn reference(
     factory: Option<&dyn KernelFactory>,
 ) -> Result<Reference> {
     let rate = grid.reference_rate;
-    let runs: Vec<(usize, u32)> = vec![
-        (REFERENCE_N, rate),
-        (REFERENCE_N, 2 * rate),
-        (CHECK_N, 2 * rate),
+    let lie = IntegratorKind::LinearlyImplicitEuler;
+    let runs: Vec<(usize, u32, IntegratorKind)> = vec![
+        (REFERENCE_N, rate, lie),
+        (REFERENCE_N, 2 * rate, lie),
+        (CHECK_N, 2 * rate, lie),
+        (REFERENCE_N, 2 * rate, IntegratorKind::Bdf2),
     ];
     let results: Vec<TipRun> = runs
         .par_iter()
-        .map(|&(elements, r)| {
+        .map(|&(elements, r, integrator)| {
             let setting = Setting {
                 elements,
                 rate: Some(r),
-                integrator: Some(IntegratorKind::LinearlyImplicitEuler),
+                integrator: Some(integrator),
                 kernels: Kernels::Generated,
             };
             let steps = (duration * r as f64).round() as usize;
@@ -570,17 +586,21 @@ fn reference(
         })
         .collect();
     let mut trajectories = Vec::new();
-    for (r, (n, rate)) in results.into_iter().zip(&runs) {
+    for (r, (n, rate, integrator)) in results.into_iter().zip(&runs) {
         trajectories.push(r.map_err(|e| {
             Error::invalid(
                 "study.reference",
-                format!("reference run N = {n}, dt = 1/{rate} failed: {e}"),
+                format!(
+                    "reference run N = {n}, dt = 1/{rate}, {} failed: {e}",
+                    integrator_label(*integrator)
+                ),
             )
         })?);
     }
     let coarse = &trajectories[0].0;
     let fine = &trajectories[1].0;
     let check = &trajectories[2].0;
+    let second_order = &trajectories[3].0;
     let tips: Vec<Vector3<f64>> = coarse
         .iter()
         .enumerate()
@@ -589,18 +609,22 @@ fn reference(
     let d_coarse = max_distance(&tips, coarse, 1) / length;
     let d_fine = max_distance(&tips, fine, 2) / length;
     let d_n = max_distance(&tips, check, 2) / length;
+    let d_bdf2 = max_distance(&tips, second_order, 2) / length;
     let notes = format!(
         "Reference: N = {REFERENCE_N}, generated kernels, linearly implicit Euler at dt = 1/{rate} \
          and 1/{} s combined by Richardson extrapolation 2 x(dt/2) − x(dt). Its distance (max over \
          time, / L) from the run at 1/{rate}: {d_coarse:.2e}; from the run at 1/{}: {d_fine:.2e} \
-         (the first-order error of that run, so the extrapolated reference's own time error is \
-         far below it); from N = {CHECK_N} at 1/{}: {d_n:.2e}, an estimate of N = {REFERENCE_N}'s own \
-         spatial error: errors of coarser N below about {:.0e} are not resolved, while N = \
-         {REFERENCE_N} settings share the reference's discretisation and measure time error alone.",
+         (the first-order error of that run); from BDF2 at 1/{}: {d_bdf2:.2e} (two independent \
+         second-order results: a bound on the reference's own time error, and the floor below \
+         which N = {REFERENCE_N} errors are not resolved); from N = {CHECK_N} at 1/{}: {d_n:.2e}, an \
+         estimate of N = {REFERENCE_N}'s own spatial error: errors of coarser N below about {:.0e} \
+         are not resolved, while N = {REFERENCE_N} settings share the reference's discretisation and \
+         measure time error alone.",
         2 * rate,
         2 * rate,
         2 * rate,
-        d_n.max(d_fine * 0.1),
+        2 * rate,
+        d_n.max(d_bdf2),
     );
     Ok(Reference { tips, rate, notes })
 }
@@ -783,7 +807,7 @@ fn frequency_problem(grid: &Grid, factory: Option<&dyn KernelFactory>) -> Proble
          √(EI/(ρS L⁴)) = {omega_eb:.4} rad/s. Error: |ω_N/ω1 − 1| + |ω/ω_N − 1|, with ω_N the \
          discrete model's eigenvalue: the spatial error (second order in 1/N, the model is \
          stiffer) and the time stepping's error (implicit Euler lengthens the period by \
-         ≈ (ω dt)²/3) added in magnitude, because with signs they cancel (N = 3 at dt = \
+         ≈ (ω dt)²/3, and so does BDF2) added in magnitude, because with signs they cancel (N = 3 at dt = \
          1/120 s lands within 6e-4 of ω1 by luck); the signed ω/ω1 − 1 is in the table. \
          Cost: CPU time per strand per simulated second.",
         FREQUENCY_LENGTH * 100.0
@@ -1013,11 +1037,16 @@ pub fn render_report(study: &Study, plots: &[(String, crate::study_plot::Legend)
         .collect();
     let _ = writeln!(
         s,
-        "Grid: N ∈ {:?}, dt ∈ {{{}}} s, integrators linearly implicit Euler (LIE) and Newton \
-         implicit Euler (NIE), generated kernels; kernel sweep: {} against generated at N ∈ {:?}, \
-         dt ∈ {{{}}} s with LIE (the cantilever: every N with every kernel).\n",
+        "Grid: N ∈ {:?}, dt ∈ {{{}}} s, integrators {}, generated kernels; kernel sweep: {} \
+         against generated at N ∈ {:?}, dt ∈ {{{}}} s with LIE (the cantilever: every N with \
+         every kernel).\n",
         g.elements,
         rates.join(", "),
+        g.integrators
+            .iter()
+            .map(|&i| format!("{} ({})", integrator_description(i), integrator_label(i)))
+            .collect::<Vec<_>>()
+            .join(", "),
         rules.join(", "),
         g.kernel_elements,
         g.kernel_rates

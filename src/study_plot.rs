@@ -8,7 +8,7 @@
 //! written in report.md ([`Legend::describe`]). plotters renders into an RGB buffer and
 //! tiny-skia encodes it as PNG.
 
-use crate::runtime::{Error, Result};
+use crate::runtime::{Error, IntegratorKind, Result};
 use crate::study::ProblemResult;
 use plotters::prelude::*;
 use std::fmt::Write as _;
@@ -57,7 +57,7 @@ impl Legend {
         let _ = write!(
             s,
             "{}; filled circles: linearly implicit Euler or statics, triangles: Newton implicit \
-             Euler; black line: Pareto front.",
+             Euler, crosses: BDF2; black line: Pareto front.",
             parts.join(", ")
         );
         s
@@ -86,15 +86,14 @@ const ERROR_FLOOR: f64 = 1e-12;
 
 /// Draw the plot of one problem; returns the PNG bytes and the legend.
 pub fn plot(problem: &ProblemResult) -> Result<(Vec<u8>, Legend)> {
-    let ok: Vec<(String, bool, f64, f64, bool)> = problem
+    let ok: Vec<(String, Option<IntegratorKind>, f64, f64, bool)> = problem
         .points
         .iter()
         .filter_map(|p| {
             p.outcome.as_ref().ok().map(|m| {
                 (
                     p.setting.series(),
-                    p.setting.integrator
-                        == Some(crate::runtime::IntegratorKind::NewtonImplicitEuler),
+                    p.setting.integrator,
                     m.cost * 1e3,
                     m.error.max(ERROR_FLOOR),
                     p.pareto,
@@ -143,19 +142,25 @@ pub fn plot(problem: &ProblemResult) -> Result<(Vec<u8>, Legend)> {
         for (i, name) in names.iter().enumerate() {
             let colour = PALETTE[i % PALETTE.len()].1;
             for p in ok.iter().filter(|p| &p.0 == name) {
-                if p.1 {
-                    chart
+                match p.1 {
+                    Some(IntegratorKind::NewtonImplicitEuler) => chart
                         .draw_series(std::iter::once(TriangleMarker::new(
                             (p.2, p.3),
                             7,
                             colour.filled(),
                         )))
-                        .map_err(plot_error)?;
-                } else {
-                    chart
+                        .map_err(plot_error)?,
+                    Some(IntegratorKind::Bdf2) => chart
+                        .draw_series(std::iter::once(Cross::new(
+                            (p.2, p.3),
+                            6,
+                            colour.stroke_width(3),
+                        )))
+                        .map_err(plot_error)?,
+                    _ => chart
                         .draw_series(std::iter::once(Circle::new((p.2, p.3), 5, colour.filled())))
-                        .map_err(plot_error)?;
-                }
+                        .map_err(plot_error)?,
+                };
             }
         }
         // frame and decade exponents (pixel font)

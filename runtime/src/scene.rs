@@ -135,7 +135,7 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
         d.output_fps,
         Range::new(Bound::Excl(0.0), Bound::Incl(MAX_OUTPUT_FPS)),
     );
-    let integrators = ["linearly-implicit-euler", "newton-implicit-euler", "rk4"];
+    let integrators = IntegratorKind::ALL.map(IntegratorKind::name);
     let integrator = n.optional("integrator", d.integrator, |n, k| {
         n.choice(k, &integrators, IntegratorKind::from_name)
     });

@@ -32,28 +32,34 @@ pub enum IntegratorKind {
     LinearlyImplicitEuler,
     /// Backward Euler solved by Newton iterations to a residual tolerance.
     NewtonImplicitEuler,
+    /// Variable-step BDF2 linearised once per step about the extrapolated state: second
+    /// order, L-stable, on the linearly implicit Euler step's matrix (one factorisation
+    /// per step); its first step (and any restart) is a linearly implicit Euler step.
+    Bdf2,
     /// Classical explicit Runge–Kutta 4: a reference for tests, needs small steps.
     Rk4,
 }
 
 impl IntegratorKind {
+    /// Every integrator, in the order scenes and messages list them.
+    pub const ALL: [IntegratorKind; 4] = [
+        Self::LinearlyImplicitEuler,
+        Self::NewtonImplicitEuler,
+        Self::Bdf2,
+        Self::Rk4,
+    ];
     /// Name as written in scenes.
     pub fn name(self) -> &'static str {
         match self {
             IntegratorKind::LinearlyImplicitEuler => "linearly-implicit-euler",
             IntegratorKind::NewtonImplicitEuler => "newton-implicit-euler",
+            IntegratorKind::Bdf2 => "bdf2",
             IntegratorKind::Rk4 => "rk4",
         }
     }
     /// Parse a scene name.
     pub fn from_name(name: &str) -> Option<Self> {
-        [
-            Self::LinearlyImplicitEuler,
-            Self::NewtonImplicitEuler,
-            Self::Rk4,
-        ]
-        .into_iter()
-        .find(|k| k.name() == name)
+        Self::ALL.into_iter().find(|k| k.name() == name)
     }
 }
 
@@ -347,6 +353,7 @@ impl Simulation {
             .enumerate()
             .map(|(i, s)| {
                 let mut q = std::mem::take(&mut s.q);
+                s.workspace.forget_history();
                 let r = solve_static(&s.strand, s.kernel.as_mut(), &mut s.workspace, &ctx, &mut q);
                 let finite = q.iter().all(|x| x.is_finite());
                 s.q = q;
@@ -406,6 +413,7 @@ impl Simulation {
     pub fn set_state(&mut self, i: usize, q: &[f64], v: &[f64]) {
         self.strands[i].q.copy_from_slice(q);
         self.strands[i].v.copy_from_slice(v);
+        self.strands[i].workspace.forget_history();
     }
     /// Description of strand i's kernel.
     pub fn kernel_description(&self, i: usize) -> String {

@@ -119,6 +119,23 @@ fn the_full_example_becomes_the_expected_setup() {
 }
 
 #[test]
+fn every_integrator_is_selectable_by_its_name() {
+    for kind in IntegratorKind::ALL {
+        let text = format!(
+            "[simulation]\nintegrator = \"{}\"\n[[strands]]\nlength = 0.25\n",
+            kind.name()
+        );
+        assert_eq!(setup(&text).config.integrator, kind);
+    }
+    assert_eq!(
+        setup("[simulation]\nintegrator = \"bdf2\"\n[[strands]]\nlength = 0.25\n")
+            .config
+            .integrator,
+        IntegratorKind::Bdf2
+    );
+}
+
+#[test]
 fn a_minimal_scene_uses_the_documented_defaults() {
     let s = setup("[[strands]]\nlength = 0.25\n");
     assert_eq!(s.config, SimulationConfig::default());
@@ -150,7 +167,7 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("[simulation]\nduration = 1e9\ndt = 0.01\n[[strands]]\nlength = 0.3", "simulation.duration", "cap"),
     ("[simulation]\noutput_fps = 0\n[[strands]]\nlength = 0.3", "simulation.output_fps", "must be in (0, "),
     ("[simulation]\nmode = \"fast\"\n[[strands]]\nlength = 0.3", "simulation.mode", "allowed: dynamic, static"),
-    ("[simulation]\nintegrator = \"euler\"\n[[strands]]\nlength = 0.3", "simulation.integrator", "rk4"),
+    ("[simulation]\nintegrator = \"euler\"\n[[strands]]\nlength = 0.3", "simulation.integrator", "newton-implicit-euler, bdf2, rk4"),
     ("[simulation]\nkernels = \"gpu\"\n[[strands]]\nlength = 0.3", "simulation.kernels", "generated"),
     ("[simulation]\nquadrature = 0\n[[strands]]\nlength = 0.3", "simulation.quadrature", ">= 1"),
     ("[simulation]\nquadrature = \"gauss\"\n[[strands]]\nlength = 0.3", "simulation.quadrature", "adaptive"),
