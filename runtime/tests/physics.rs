@@ -230,9 +230,9 @@ fn static_tip_load_deflects_as_f_l3_over_3ei() {
 }
 
 #[test]
-fn damped_dynamics_settle_into_the_static_equilibrium_with_both_implicit_integrators() {
+fn damped_dynamics_settle_into_the_static_equilibrium_with_every_implicit_integrator() {
     // A wavy strand (N = 5) released sideways under gravity with internal friction and
-    // drag comes to rest where the static solver puts it: three solvers, one answer.
+    // drag comes to rest where the static solver puts it: four solvers, one answer.
     let strand = preset_strand(Preset::Wavy, 5, 0.15, Vector3::new(1.0, 0.0, 0.0));
     let gravity = Some(Vector3::new(0.0, 0.0, -9.81));
     let static_cfg = SimulationConfig {
@@ -248,9 +248,11 @@ fn damped_dynamics_settle_into_the_static_equilibrium_with_both_implicit_integra
     assert!(report.converged, "{report:?}");
     let q_static = statics.q(0).to_vec();
     let scale = q_static.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let mut finals = Vec::new();
     for integrator in [
         IntegratorKind::LinearlyImplicitEuler,
         IntegratorKind::NewtonImplicitEuler,
+        IntegratorKind::Bdf2,
     ] {
         let mut sim = Simulation::new(
             setup(
@@ -286,5 +288,18 @@ fn damped_dynamics_settle_into_the_static_equilibrium_with_both_implicit_integra
             assert_eq!(sim.stats().newton_unconverged, 0);
             assert!(sim.stats().newton_iterations >= 900);
         }
+        finals.push(sim.q(0).to_vec());
     }
+    // BDF2 and implicit Euler come to the same static shape (an equilibrium is a fixed
+    // point of both)
+    let apart = finals[0]
+        .iter()
+        .zip(&finals[2])
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    println!(
+        "LIE vs BDF2 final shapes: {:e} of max |q_static|",
+        apart / scale
+    );
+    assert!(apart < 2e-6 * scale);
 }
