@@ -373,6 +373,7 @@ fn measure_energy(
         &mut ws.terms,
         &mut ws.jac,
         &ws.stiffness,
+        &ws.friction,
         &ctx.effects,
         head,
         t,
@@ -403,13 +404,15 @@ fn max_element_rotation(lengths: &[f64], q: &[f64], q0: &[f64]) -> f64 {
 /// - A step that fails (a singular matrix, non-finite values) or rotates an element by
 ///   more than [`MAX_ELEMENT_ROTATION`] is split; at the deepest substep a failure is an
 ///   error and a large rotation is accepted.
-/// - The energy balance ([`energy_balance::balance`]): E(end) − E(start) must not exceed
-///   the head's work W plus an allowance (round-off when the head moves uniformly, and
-///   W = 0 there; the error of the trapezoidal estimate of W otherwise). A step whose
+/// - The energy balance ([`energy_balance::balance`]): E(end) must not exceed its bound
+///   plus an allowance. With the head moving uniformly the bound is the ceiling (the
+///   energy at the start of that phase less the estimated dissipation since, or E(start)
+///   when higher) and the allowance round-off; otherwise E(start) plus the head's work W
+///   (trapezoidal estimate) and the allowance covers the estimate's error. A step whose
 ///   excess is above [`ENERGY_SPLIT_FRACTION`] S (uniform head) or
 ///   [`WORK_SPLIT_FRACTION`] S (moving head) is split. A smaller excess, or any at the
 ///   deepest substep, is removed by scaling the velocities by the λ < 1 that brings E
-///   down to E(start) + W + allowance ([`StepStats::energy_limited`]): the exact dynamics
+///   down to bound plus allowance ([`StepStats::energy_limited`]): the exact dynamics
 ///   cannot gain more (friction and drag only dissipate), the excess of a first-order step
 ///   is its local error, so the correction is of the order of the error the step makes
 ///   anyway (it moves q̇ by excess / (2T) relative), and it is what keeps a step that
@@ -467,8 +470,9 @@ fn implicit_adaptive(
         let mut end = measure_energy(strand, kernel, ws, ctx, &head_next, t + h, q, v);
         let inertial = head.uniform_over(t, t + h);
         let balance = energy_balance::balance(start, &end, inertial);
-        let excess = balance.excess();
+        let excess = balance.excess;
         if excess <= 0.0 {
+            end.ceiling = energy_balance::end_ceiling(start, &end, inertial);
             return Ok(end);
         }
         let fraction = if inertial {
@@ -478,21 +482,20 @@ fn implicit_adaptive(
         };
         let split = !deepest && excess > fraction * start.scale;
         if !split {
-            // the kinetic energy that brings E to its start value plus the head's work and
-            // the allowance
+            // the kinetic energy that brings E down to the bound plus the allowance
             let kinetic = end.kinetic - excess;
             if kinetic >= 0.0 && end.kinetic > 0.0 {
                 let lambda = (kinetic / end.kinetic).sqrt();
                 for x in v.iter_mut() {
                     *x *= lambda;
                 }
-                end.power *= lambda;
-                end.scale += kinetic - end.kinetic;
-                end.kinetic = kinetic;
+                end.scale_velocities(lambda);
+                end.ceiling = energy_balance::end_ceiling(start, &end, inertial);
                 stats.energy_limited += 1;
                 return Ok(end);
             }
             if deepest {
+                end.ceiling = energy_balance::end_ceiling(start, &end, inertial);
                 stats.energy_unbalanced += 1;
                 return Ok(end);
             }
