@@ -261,6 +261,48 @@ impl HeadMotion {
     }
 }
 
+impl HeadMotion {
+    /// Whether over the whole interval [t0, t1] the head does not rotate and translates
+    /// at a constant velocity (ω = α = 0, Ẍ = 0): its frame is then inertial, and a
+    /// strand's energy in it can only decrease. Exact for every motion (not sampled): a
+    /// jolt is uniform before its start and after its end, a sudden stop from the end of
+    /// the deceleration on, keyframes before the first and after the last key.
+    pub fn uniform_over(&self, t0: f64, t1: f64) -> bool {
+        match self {
+            HeadMotion::Still => true,
+            HeadMotion::Oscillate {
+                amplitude,
+                frequency_hz,
+                ..
+            }
+            | HeadMotion::TranslateOscillate {
+                amplitude,
+                frequency_hz,
+                ..
+            } => *amplitude == 0.0 || *frequency_hz == 0.0,
+            HeadMotion::Keyframes(track) => {
+                let keys = track.keys();
+                match (keys.first(), keys.last()) {
+                    (Some(first), Some(last)) => t1 <= first.t || t0 >= last.t,
+                    _ => true,
+                }
+            }
+            HeadMotion::SuddenStop {
+                angular_speed,
+                stop_time,
+                stop_duration,
+                ..
+            } => *angular_speed == 0.0 || t0 >= stop_time + stop_duration.max(0.0),
+            HeadMotion::Jolt {
+                acceleration,
+                start,
+                duration,
+                ..
+            } => *acceleration == 0.0 || *duration <= 0.0 || t1 <= *start || t0 >= start + duration,
+        }
+    }
+}
+
 /// `A sin(2πft)` and its derivatives.
 fn sine(amplitude: f64, frequency_hz: f64, t: f64) -> Profile {
     let w = 2.0 * PI * frequency_hz;

@@ -6,6 +6,7 @@
 
 use crate::dense_solve::DenseSolver;
 use crate::effects::{body_field, GlobalEffects};
+use crate::energy_balance::{self, StateEnergy};
 use crate::head_motion::{HeadMotion, HeadState};
 use crate::kernel::{EvalInput, StrandKernel, StrandTerms, Terms};
 use crate::simulation::IntegratorKind;
@@ -20,10 +21,20 @@ pub struct StepStats {
     pub stiffness_dropped: usize,
     /// Newton iterations performed (Newton implicit Euler).
     pub newton_iterations: usize,
-    /// Newton solves that reached the iteration cap without meeting the tolerance.
+    /// Newton solves that did not converge (or met a singular Jacobian) at the deepest
+    /// substep and were replaced by the linearly implicit step there.
     pub newton_unconverged: usize,
-    /// Implicit steps split in two because they rotated an element too much.
+    /// Implicit steps split in two: they rotated an element too much, did not converge,
+    /// or failed the energy balance.
     pub substeps: usize,
+    /// Of the splits, those for the energy balance ([`crate::energy_balance`]).
+    pub energy_rejected: usize,
+    /// Steps whose velocities were scaled down so that the energy does not exceed the
+    /// start's plus the head's work (see `implicit_adaptive`).
+    pub energy_limited: usize,
+    /// Steps accepted at the deepest substep although their energy exceeds the balance
+    /// (the potential energy alone above the bound, so that no velocity scaling can help).
+    pub energy_unbalanced: usize,
 }
 
 impl StepStats {
@@ -33,6 +44,9 @@ impl StepStats {
         self.newton_iterations += o.newton_iterations;
         self.newton_unconverged += o.newton_unconverged;
         self.substeps += o.substeps;
+        self.energy_rejected += o.energy_rejected;
+        self.energy_limited += o.energy_limited;
+        self.energy_unbalanced += o.energy_unbalanced;
     }
 }
 
@@ -42,7 +56,7 @@ pub struct StrandWorkspace {
     pub terms: StrandTerms,
     /// Linear solver.
     pub solver: DenseSolver,
-    jac: Vec<Vector3<f64>>,
+    pub(crate) jac: Vec<Vector3<f64>>,
     /// Diagonal of K.
     pub stiffness: Vec<f64>,
     /// Diagonal of the internal friction matrix γ l_Q.
@@ -54,6 +68,10 @@ pub struct StrandWorkspace {
     prev_q: Vec<f64>,
     prev_v: Vec<f64>,
     prev_h: f64,
+    /// The energy of the state the last implicit step ended in, and that state.
+    last_energy: Option<StateEnergy>,
+    last_q: Vec<f64>,
+    last_v: Vec<f64>,
 }
 
 impl StrandWorkspace {
@@ -78,6 +96,9 @@ impl StrandWorkspace {
             prev_q: vec![0.0; n],
             prev_v: vec![0.0; n],
             prev_h: 0.0,
+            last_energy: None,
+            last_q: vec![0.0; n],
+            last_v: vec![0.0; n],
         }
     }
 
@@ -260,13 +281,29 @@ fn energy_parts(
 pub const MAX_ELEMENT_ROTATION: f64 = 0.2;
 /// How many times a step may be halved (down to h / 2^depth).
 pub const MAX_SUBSTEP_DEPTH: usize = 8;
+/// With the head moving uniformly (inertial head frame), a step that creates more energy
+/// than this fraction of the energy scale S = T + U + |c0| L² (beyond round-off) is split
+/// in two; a smaller excess is removed from the velocities instead (see
+/// `implicit_adaptive`). A step of a first-order scheme that resolves the motion errs by
+/// O(h²) in E; one that creates 0.1 % of S at once does not resolve it (the straight
+/// strands after a stop created 1.6e-4 to 1.1 S per step, the kinked ones far more), and
+/// its halves are more accurate. Below it, halving again mostly costs: a strand whose
+/// fastest motion is far beyond any substep (the 3 rad kinks) errs in E at every depth.
+pub const ENERGY_SPLIT_FRACTION: f64 = 1e-3;
+/// The same as [`ENERGY_SPLIT_FRACTION`] for a head that rotates or accelerates, where
+/// the head's work over the step is a trapezoidal estimate: ordinary steps of the demo
+/// scene (2 Hz, ±30° at 1/30 s) exceed estimate plus allowance by up to 1e-2 S, so a
+/// lower threshold only splits steps that are fine; the instabilities it is for create
+/// more than S per step.
+pub const WORK_SPLIT_FRACTION: f64 = 1e-2;
 
 /// Advance one strand from t by h with the chosen integrator (head motion read at the
-/// times each scheme needs: t + h for the implicit schemes, t, t + h/2 and t + h for
-/// RK4). Implicit steps that would rotate an element by more than
-/// [`MAX_ELEMENT_ROTATION`] (or whose Newton iterations do not converge) are split into
-/// halves, recursively; the count is in [`StepStats::substeps`]. On failure, returns
-/// the cause.
+/// times each scheme needs). Implicit steps are checked after the fact: split into
+/// halves, recursively, when they fail, rotate an element by more than
+/// [`MAX_ELEMENT_ROTATION`] or create energy ([`crate::energy_balance`]), with the excess
+/// energy of the deepest (or a nearly right) step removed from its velocities; Newton
+/// solves that do not converge are replaced by the linearly implicit step (see
+/// `implicit_adaptive`; the counts are in [`StepStats`]). On failure, returns the cause.
 #[allow(clippy::too_many_arguments)]
 pub fn step_strand(
     kind: IntegratorKind,
@@ -295,13 +332,79 @@ pub fn step_strand(
                 v,
             )
         }
-        _ => implicit_adaptive(kind, strand, kernel, ws, ctx, head, t, h, q, v, stats, 0),
+        _ => {
+            let start = start_energy(strand, kernel, ws, ctx, head, t, q, v);
+            let end = implicit_adaptive(
+                kind, strand, kernel, ws, ctx, head, t, h, q, v, stats, 0, &start,
+            )?;
+            ws.last_energy = Some(end);
+            ws.last_q.copy_from_slice(q);
+            ws.last_v.copy_from_slice(v);
+            Ok(())
+        }
     }?;
     if let Some(i) = q.iter().chain(v.iter()).position(|x| !x.is_finite()) {
         let what = if i < q.len() { "q" } else { "q̇" };
         return Err(format!("non-finite {what}[{}] after the step", i % q.len()));
     }
     Ok(())
+}
+
+/// The energy of (q, q̇) at t: the end of the previous step when it is that state (the
+/// usual case), measured otherwise.
+#[allow(clippy::too_many_arguments)]
+fn start_energy(
+    strand: &Strand,
+    kernel: &mut dyn StrandKernel,
+    ws: &mut StrandWorkspace,
+    ctx: &StepContext,
+    head: &HeadMotion,
+    t: f64,
+    q: &[f64],
+    v: &[f64],
+) -> StateEnergy {
+    if let Some(e) = ws.last_energy {
+        if (e.time - t).abs() <= 1e-12 * t.abs().max(1.0) && ws.last_q == q && ws.last_v == v {
+            return e;
+        }
+    }
+    measure_energy(strand, kernel, ws, ctx, &head.state(t), t, q, v)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn measure_energy(
+    strand: &Strand,
+    kernel: &mut dyn StrandKernel,
+    ws: &mut StrandWorkspace,
+    ctx: &StepContext,
+    head: &HeadState,
+    t: f64,
+    q: &[f64],
+    v: &[f64],
+) -> StateEnergy {
+    energy_balance::measure(
+        strand,
+        kernel,
+        &mut ws.terms,
+        &mut ws.jac,
+        &ws.stiffness,
+        &ws.friction,
+        &ctx.effects,
+        head,
+        t,
+        q,
+        v,
+    )
+}
+
+/// After an accepted implicit step of length `h` from `ws.saved_q`, `ws.saved_v`: keep
+/// that start state as BDF2's history.
+fn record_bdf2_history(kind: IntegratorKind, ws: &mut StrandWorkspace, h: f64) {
+    if kind == IntegratorKind::Bdf2 {
+        ws.prev_q.copy_from_slice(&ws.saved_q);
+        ws.prev_v.copy_from_slice(&ws.saved_v);
+        ws.prev_h = h;
+    }
 }
 
 /// Largest l_Q |Δd_Q| between two states.
@@ -316,6 +419,31 @@ fn max_element_rotation(lengths: &[f64], q: &[f64], q0: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// One implicit step from (q, q̇) at t, whose energy is `start`, to t + h, checked after
+/// the fact and split into two halves (recursively, at most [`MAX_SUBSTEP_DEPTH`] deep)
+/// when it is not acceptable. Returns the energy of the end state.
+///
+/// - A Newton solve that does not converge (or meets a singular Jacobian) is never
+///   accepted: the linearly implicit step of the same h replaces it, under the same checks
+///   (counted in [`StepStats::newton_unconverged`]).
+/// - A step that fails (a singular matrix, non-finite values) or rotates an element by
+///   more than [`MAX_ELEMENT_ROTATION`] is split; at the deepest substep a failure is an
+///   error and a large rotation is accepted.
+/// - The energy balance ([`energy_balance::balance`]): E(end) must not exceed its bound
+///   plus an allowance. With the head moving uniformly the bound is the ceiling (the
+///   energy at the start of that phase less the estimated dissipation since, or E(start)
+///   when higher) and the allowance round-off; otherwise E(start) plus the head's work W
+///   (trapezoidal estimate) and the allowance covers the estimate's error. A step whose
+///   excess is above [`ENERGY_SPLIT_FRACTION`] S (uniform head) or
+///   [`WORK_SPLIT_FRACTION`] S (moving head) is split. A smaller excess, or any at the
+///   deepest substep, is removed by scaling the velocities by the λ < 1 that brings E
+///   down to bound plus allowance ([`StepStats::energy_limited`]): the exact dynamics
+///   cannot gain more (friction and drag only dissipate), the excess of a first-order step
+///   is its local error, so the correction is of the order of the error the step makes
+///   anyway (it moves q̇ by excess / (2T) relative), and it is what keeps a step that
+///   cannot resolve the motion from feeding energy in. When the potential energy alone
+///   exceeds the bound, the step is split, or, at the deepest substep, accepted as it is
+///   and counted ([`StepStats::energy_unbalanced`]), for the caller's own checks.
 #[allow(clippy::too_many_arguments)]
 fn implicit_adaptive(
     kind: IntegratorKind,
@@ -330,12 +458,14 @@ fn implicit_adaptive(
     v: &mut [f64],
     stats: &mut StepStats,
     depth: usize,
-) -> Result<(), String> {
+    start: &StateEnergy,
+) -> Result<StateEnergy, String> {
     ws.saved_q.copy_from_slice(q);
     ws.saved_v.copy_from_slice(v);
     let head_next = head.state(t + h);
+    let deepest = depth == MAX_SUBSTEP_DEPTH;
     let unconverged_before = stats.newton_unconverged;
-    match kind {
+    let mut outcome = match kind {
         IntegratorKind::NewtonImplicitEuler => {
             newton_implicit_euler(strand, kernel, ws, ctx, &head_next, h, q, v, stats)
         }
@@ -343,25 +473,71 @@ fn implicit_adaptive(
             bdf2(strand, kernel, ws, ctx, &head_next, h, q, v, stats)
         }
         _ => linearly_implicit_euler(strand, kernel, ws, ctx, &head_next, h, q, v, stats),
-    }?;
-    let too_large = max_element_rotation(&strand.geometry.lengths, q, &ws.saved_q)
-        > MAX_ELEMENT_ROTATION
-        || stats.newton_unconverged > unconverged_before
-        || q.iter().chain(v.iter()).any(|x| !x.is_finite());
-    if !too_large || depth == MAX_SUBSTEP_DEPTH {
-        if kind == IntegratorKind::Bdf2 {
-            ws.prev_q.copy_from_slice(&ws.saved_q);
-            ws.prev_v.copy_from_slice(&ws.saved_v);
-            ws.prev_h = h;
-        }
-        return Ok(());
+    };
+    if kind == IntegratorKind::NewtonImplicitEuler
+        && (outcome.is_err() || stats.newton_unconverged > unconverged_before)
+    {
+        // never accept an unconverged (or failed) Newton solve: take the linearly implicit
+        // step instead, under the same checks
+        stats.newton_unconverged = unconverged_before + 1;
+        q.copy_from_slice(&ws.saved_q);
+        v.copy_from_slice(&ws.saved_v);
+        outcome = linearly_implicit_euler(strand, kernel, ws, ctx, &head_next, h, q, v, stats);
     }
-    stats.newton_unconverged = unconverged_before;
+    let finite = q.iter().chain(v.iter()).all(|x| x.is_finite());
+    let acceptable = outcome.is_ok()
+        && finite
+        && max_element_rotation(&strand.geometry.lengths, q, &ws.saved_q) <= MAX_ELEMENT_ROTATION;
+    if acceptable || deepest {
+        outcome?;
+        if !finite {
+            return Err(format!(
+                "non-finite state after a substep of {h:.3e} s (at the deepest split)"
+            ));
+        }
+        let mut end = measure_energy(strand, kernel, ws, ctx, &head_next, t + h, q, v);
+        let inertial = head.uniform_over(t, t + h);
+        let balance = energy_balance::balance(start, &end, inertial);
+        let excess = balance.excess;
+        if excess <= 0.0 {
+            end.ceiling = energy_balance::end_ceiling(start, &end, inertial);
+            record_bdf2_history(kind, ws, h);
+            return Ok(end);
+        }
+        let fraction = if inertial {
+            ENERGY_SPLIT_FRACTION
+        } else {
+            WORK_SPLIT_FRACTION
+        };
+        let split = !deepest && excess > fraction * start.scale;
+        if !split {
+            // the kinetic energy that brings E down to the bound plus the allowance
+            let kinetic = end.kinetic - excess;
+            if kinetic >= 0.0 && end.kinetic > 0.0 {
+                let lambda = (kinetic / end.kinetic).sqrt();
+                for x in v.iter_mut() {
+                    *x *= lambda;
+                }
+                end.scale_velocities(lambda);
+                end.ceiling = energy_balance::end_ceiling(start, &end, inertial);
+                stats.energy_limited += 1;
+                record_bdf2_history(kind, ws, h);
+            return Ok(end);
+            }
+            if deepest {
+                end.ceiling = energy_balance::end_ceiling(start, &end, inertial);
+                stats.energy_unbalanced += 1;
+                record_bdf2_history(kind, ws, h);
+            return Ok(end);
+            }
+        }
+        stats.energy_rejected += 1;
+    }
     stats.substeps += 1;
     q.copy_from_slice(&ws.saved_q);
     v.copy_from_slice(&ws.saved_v);
     let half = 0.5 * h;
-    implicit_adaptive(
+    let middle = implicit_adaptive(
         kind,
         strand,
         kernel,
@@ -374,6 +550,7 @@ fn implicit_adaptive(
         v,
         stats,
         depth + 1,
+        start,
     )?;
     implicit_adaptive(
         kind,
@@ -388,6 +565,7 @@ fn implicit_adaptive(
         v,
         stats,
         depth + 1,
+        &middle,
     )
 }
 
@@ -669,7 +847,14 @@ fn bdf2(
 /// iterations on v⁺ with the Jacobian `M − h(D_v − ∂b/∂q̇) − h² D_q` (∂M/∂q and ∂b/∂q
 /// are left out: they enter at relative order h and only slow convergence), to a
 /// residual of 1e-10 of the step's force scale (the largest of M Δv, h K(q − q_n) and the
-/// other forces times h), at most 12 iterations.
+/// other forces times h), at most [`NEWTON_MAX_ITERATIONS`] iterations.
+///
+/// Without ∂M/∂q and ∂b/∂q the iterations converge linearly, at a rate that degrades as
+/// h grows (in fast large rotations: 0.03 per iteration at a substep of 0.13 ms, 0.12 at
+/// 0.26 ms, none at 1 ms). From the third residual on, the solve stops as unconverged as
+/// soon as the residual no longer decreases or its rate of decrease cannot reach the
+/// tolerance within the remaining iterations: the caller splits the step, and iterating on
+/// would only cost.
 #[allow(clippy::too_many_arguments)]
 fn newton_implicit_euler(
     strand: &Strand,
@@ -682,7 +867,6 @@ fn newton_implicit_euler(
     v: &mut [f64],
     stats: &mut StepStats,
 ) -> Result<(), String> {
-    const MAX_ITERATIONS: usize = 12;
     const TOLERANCE: f64 = 1e-10;
     let n = q.len();
     let mut s = std::mem::take(&mut ws.scratch);
@@ -690,7 +874,8 @@ fn newton_implicit_euler(
     v_new.copy_from_slice(v);
     let mut converged = false;
     let mut outcome = Ok(());
-    for _ in 0..MAX_ITERATIONS {
+    let mut previous = f64::INFINITY;
+    for iteration in 0..NEWTON_MAX_ITERATIONS {
         for i in 0..n {
             q_new[i] = q[i] + h * v_new[i];
         }
@@ -715,10 +900,21 @@ fn newton_implicit_euler(
                 .max(h * others.abs());
             worst = worst.max(residual[i].abs());
         }
-        if worst <= TOLERANCE * scale {
+        let relative = worst / scale;
+        if relative <= TOLERANCE {
             converged = true;
             break;
         }
+        if iteration >= 2 {
+            let rate = relative / previous;
+            let left = (NEWTON_MAX_ITERATIONS - 1 - iteration) as f64;
+            // a NaN rate (a NaN residual) is no progress either
+            let progressing = rate < 1.0;
+            if !progressing || (TOLERANCE / relative).ln() / rate.ln() > left {
+                break;
+            }
+        }
+        previous = relative;
         for j in 0..n {
             for i in 0..n {
                 let dv = t.damping[(i, j)] - t.velocity_term_jacobian[(i, j)];
@@ -749,6 +945,9 @@ fn newton_implicit_euler(
     ws.scratch = s;
     outcome
 }
+
+/// Most Newton iterations of one implicit Euler solve.
+pub const NEWTON_MAX_ITERATIONS: usize = 20;
 
 /// q̈ = M⁻¹ F(q, q̇) into `acc`.
 #[allow(clippy::too_many_arguments)]

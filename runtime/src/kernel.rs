@@ -104,7 +104,7 @@ pub struct StrandTerms {
     pub damping: Mat<f64>,
     /// ∂b/∂q̇, 3N × 3N.
     pub velocity_term_jacobian: Mat<f64>,
-    /// ∫ ρS y ds (with `force`): the gravity potential is −(first moment)·g.
+    /// ∫ ρS y ds (with `mass` or `force`): the gravity potential is −(first moment)·g.
     pub first_moment: Vector3<f64>,
 }
 

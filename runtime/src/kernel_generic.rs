@@ -431,6 +431,8 @@ impl StrandKernel for GenericKernel {
         if t.force {
             out.force.fill(0.0);
             out.velocity_term.fill(0.0);
+        }
+        if t.mass || t.force {
             out.first_moment = Vector3::zeros();
         }
         if t.stiffness {
@@ -459,6 +461,9 @@ impl StrandKernel for GenericKernel {
                 if t.mass {
                     add_gram(&mut out.mass, &self.jac, &self.jac, m, w * rho_s);
                 }
+                if t.mass || t.force {
+                    out.first_moment += y * (w * rho_s);
+                }
                 if has_rotary {
                     self.add_rotary_terms(p, u, &d, &jets, v, t, w, out);
                 }
@@ -471,7 +476,6 @@ impl StrandKernel for GenericKernel {
                             out.velocity_term[k] += w * b;
                             out.force[k] += w * (self.jac[k].dot(&f) - b);
                         }
-                        out.first_moment += y * (w * rho_s);
                     }
                     if t.velocity_term_jacobian {
                         let (jac, jdot) = (&self.jac, &self.jdot);

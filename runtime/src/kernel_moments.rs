@@ -75,6 +75,9 @@ pub struct MomentKernel<S: MomentSource> {
     /// Column-major 3N × 3N scratch.
     matrix: Vec<f64>,
     vector: Vec<f64>,
+    /// The q the element ends, end derivatives and moments were prepared for (NaN before
+    /// the first evaluation: equal to no q).
+    prepared: Vec<f64>,
 }
 
 impl<S: MomentSource> MomentKernel<S> {
@@ -94,13 +97,21 @@ impl<S: MomentSource> MomentKernel<S> {
             beyond: vec![(Matrix3::zeros(), Matrix3::zeros()); n],
             matrix: vec![0.0; 9 * n * n],
             vector: vec![0.0; 3 * n],
+            prepared: vec![f64::NAN; 3 * n],
             geom,
         }
     }
 
     /// Element ends, end derivatives and moments for q, all from the source (the
-    /// reconstruction of the generated kernels is the generated element point).
+    /// reconstruction of the generated kernels is the generated element point). They
+    /// depend on q only: kept when q is the one they were prepared for (the integrator
+    /// evaluates at the same q twice in a row: the energy of a step's end, then the next
+    /// step's terms).
     fn prepare(&mut self, q: &[f64]) {
+        if self.prepared == q {
+            return;
+        }
+        self.prepared.copy_from_slice(q);
         self.ends[0] = Pose {
             position: self.geom.root_position,
             frame: self.geom.root_frame,

@@ -17,6 +17,7 @@
 pub mod dense_solve;
 pub mod effects;
 pub mod element;
+pub mod energy_balance;
 pub mod environment;
 pub mod error;
 pub mod head_motion;

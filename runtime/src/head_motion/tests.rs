@@ -220,3 +220,53 @@ fn oscillation_keeps_the_pivot_fixed() {
     let s = motion.state(0.1);
     assert!((s.to_world(&center) - center).norm() < 1e-15);
 }
+
+#[test]
+fn uniform_over_is_true_exactly_where_the_head_frame_is_inertial() {
+    // every motion: where `uniform_over` says so, ω, α and Ẍ vanish and Ẋ is constant at
+    // every sampled time of the interval; where it does not, some sample moves non-uniformly
+    let mut all = motions();
+    all.push(("still", HeadMotion::Still, vec![], 1.0));
+    for (name, motion, _, _) in all {
+        let mut uniform_seen = false;
+        for i in 0..40 {
+            let (t0, t1) = (0.05 * i as f64, 0.05 * (i + 1) as f64);
+            let samples: Vec<HeadState> = (0..=50)
+                .map(|k| motion.state(t0 + (t1 - t0) * k as f64 / 50.0))
+                .collect();
+            let inertial = samples.iter().all(|s| {
+                s.omega == Vector3::zeros()
+                    && s.alpha == Vector3::zeros()
+                    && s.acceleration == Vector3::zeros()
+                    && s.velocity == samples[0].velocity
+            });
+            assert_eq!(
+                motion.uniform_over(t0, t1),
+                inertial,
+                "{name} over [{t0}, {t1}]"
+            );
+            uniform_seen |= inertial;
+        }
+        let moving_throughout = matches!(
+            motion,
+            HeadMotion::Oscillate { .. } | HeadMotion::TranslateOscillate { .. }
+        );
+        assert_eq!(uniform_seen, !moving_throughout, "{name}");
+    }
+    // a jolt within one interval, and degenerate motions
+    let jolt = HeadMotion::Jolt {
+        direction: Vector3::x(),
+        acceleration: 5.0,
+        start: 0.1,
+        duration: 0.01,
+    };
+    assert!(!jolt.uniform_over(0.0, 1.0));
+    assert!(jolt.uniform_over(0.0, 0.1) && jolt.uniform_over(0.11, 1.0));
+    let resting = HeadMotion::Oscillate {
+        axis: Vector3::z(),
+        amplitude: 0.0,
+        frequency_hz: 3.0,
+        center: Vector3::zeros(),
+    };
+    assert!(resting.uniform_over(0.0, 1.0));
+}
