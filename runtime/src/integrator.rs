@@ -522,13 +522,13 @@ fn implicit_adaptive(
                 end.ceiling = energy_balance::end_ceiling(start, &end, inertial);
                 stats.energy_limited += 1;
                 record_bdf2_history(kind, ws, h);
-            return Ok(end);
+                return Ok(end);
             }
             if deepest {
                 end.ceiling = energy_balance::end_ceiling(start, &end, inertial);
                 stats.energy_unbalanced += 1;
                 record_bdf2_history(kind, ws, h);
-            return Ok(end);
+                return Ok(end);
             }
         }
         stats.energy_rejected += 1;
