@@ -469,7 +469,11 @@ fn implicit_adaptive(
         IntegratorKind::NewtonImplicitEuler => {
             newton_implicit_euler(strand, kernel, ws, ctx, &head_next, h, q, v, stats)
         }
-        IntegratorKind::Bdf2 if ws.prev_h > 0.0 && h <= BDF2_MAX_RATIO * ws.prev_h => {
+        // BDF2 takes whole steps; a step split for rotating too much is taken as linearly
+        // implicit Euler substeps
+        IntegratorKind::Bdf2
+            if depth == 0 && ws.prev_h > 0.0 && h <= BDF2_MAX_RATIO * ws.prev_h =>
+        {
             bdf2(strand, kernel, ws, ctx, &head_next, h, q, v, stats)
         }
         _ => linearly_implicit_euler(strand, kernel, ws, ctx, &head_next, h, q, v, stats),
@@ -611,7 +615,7 @@ fn linearly_implicit_euler(
     let terms = Terms::all();
     let assembled = assemble(strand, kernel, ws, ctx, head, q, v, terms);
     let n = q.len();
-    step_matrix(ws, assembled, h, false, stats);
+    step_matrix(ws, assembled, h, stats);
     let t = &ws.terms;
     for i in 0..n {
         let mut r = h * (t.force[i] + t.velocity_term[i]);
@@ -632,32 +636,23 @@ fn linearly_implicit_euler(
 
 /// The matrix of the linearly implicit step, `M − h D_v + (h/2) B − h² D_q` (see
 /// [`linearly_implicit_euler`]), into `ws.solver.matrix`, from a full assembly in
-/// `ws.terms`. D_q = H⁻ − K, plus the skew-symmetric part of the field stiffness when
-/// `skew` (BDF2; the linearly implicit Euler step leaves it explicit). Leaves H⁻ (the
-/// negative semidefinite part of the symmetrised field stiffness) in `ws.terms.stiffness`;
-/// returns whether D_q holds it (false: no field stiffness, or its eigendecomposition
-/// failed and it stays explicit, counted in [`StepStats::stiffness_dropped`]), for
-/// [`apply_dq`].
+/// `ws.terms`. Leaves H⁻ (the negative semidefinite part of the symmetrised field
+/// stiffness) in `ws.terms.stiffness`; returns whether D_q holds it (false: no field
+/// stiffness, or its eigendecomposition failed and it stays explicit, counted in
+/// [`StepStats::stiffness_dropped`]), for [`apply_dq`].
 fn step_matrix(
     ws: &mut StrandWorkspace,
     assembled: Assembled,
     h: f64,
-    skew: bool,
     stats: &mut StepStats,
 ) -> bool {
     let n = ws.stiffness.len();
-    let skew = skew && assembled.field_stiffness;
     let field_stiffness = assembled.field_stiffness && {
-        // H = sym(stiffness) + K, projected; −h² skew(stiffness) parked in the matrix
+        // H = sym(stiffness) + K, projected
         let st = &mut ws.terms.stiffness;
         for j in 0..n {
             for i in 0..j {
                 let m = 0.5 * (st[(i, j)] + st[(j, i)]);
-                if skew {
-                    let k = 0.5 * (st[(i, j)] - st[(j, i)]);
-                    ws.solver.matrix[(i, j)] = -h * h * k;
-                    ws.solver.matrix[(j, i)] = h * h * k;
-                }
                 st[(i, j)] = m;
                 st[(j, i)] = m;
             }
@@ -682,22 +677,17 @@ fn step_matrix(
             if i == j {
                 dq -= ws.stiffness[i];
             }
-            let a = t.mass[(i, j)] - h * t.damping[(i, j)]
+            ws.solver.matrix[(i, j)] = t.mass[(i, j)] - h * t.damping[(i, j)]
                 + 0.5 * h * t.velocity_term_jacobian[(i, j)]
                 - h * h * dq;
-            ws.solver.matrix[(i, j)] = if skew && i != j {
-                a + ws.solver.matrix[(i, j)]
-            } else {
-                a
-            };
         }
     }
     field_stiffness
 }
 
-/// `out = c · D_q x` with D_q = H⁻ − K as left by [`step_matrix`] (H⁻ in
-/// `ws.terms.stiffness` when `field_stiffness`).
-fn apply_dq(ws: &StrandWorkspace, field_stiffness: bool, c: f64, x: &[f64], out: &mut [f64]) {
+/// `out = (H⁻ − K) x` with H⁻ as left by [`step_matrix`] (in `ws.terms.stiffness` when
+/// `field_stiffness`).
+fn apply_dq(ws: &StrandWorkspace, field_stiffness: bool, x: &[f64], out: &mut [f64]) {
     let n = x.len();
     for i in 0..n {
         out[i] = -ws.stiffness[i] * x[i];
@@ -711,15 +701,13 @@ fn apply_dq(ws: &StrandWorkspace, field_stiffness: bool, c: f64, x: &[f64], out:
             }
         }
     }
-    for o in out.iter_mut() {
-        *o *= c;
-    }
 }
 
 /// Largest ratio of a BDF2 step to the step before it; beyond it (after substeps of a
 /// quarter of the step or less) the history is not used and a linearly implicit Euler
 /// step restarts the scheme. Variable-step BDF2 is zero-stable only for ratios below
-/// 1 + √2 (Grigorieff 1983); a step split once and then resumed has ratio 2.
+/// 1 + √2 (Grigorieff 1983; Hairer, Nørsett & Wanner, *Solving ODEs I*, III.5); a step
+/// split once and then resumed has ratio 2.
 pub const BDF2_MAX_RATIO: f64 = 2.0;
 
 /// One step of the variable-step two-step BDF (BDF2; Hairer, Nørsett & Wanner, *Solving
@@ -745,39 +733,40 @@ pub const BDF2_MAX_RATIO: f64 = 2.0;
 /// q⁺ = q̂ + βh v⁺
 /// ```
 ///
-/// D_q = H⁻ + S_skew − K, with H⁻ the negative semidefinite part of the symmetrised field
-/// stiffness (the destabilising part stays explicit) and S_skew the skew-symmetric part of
-/// the field stiffness (Euler force and drag of a turning head), D_v and B as in
-/// [`linearly_implicit_euler`]. Every term left out of the linearisation (H's positive
-/// part, ∂M/∂q, ∂b/∂q and the q-derivative of the Coriolis and drag forces, the rest of b)
-/// is multiplied by y⁺ − ỹ = O(h²), so the step stays second order whatever the Jacobian's
-/// error; an equilibrium is a fixed point, as for implicit Euler. What is left out is
-/// extrapolated, as by the two-step Adams–Bashforth formula, which tolerates less of it
-/// than implicit Euler: on q̈ = −(k − p) q with −k in the matrix the step is stable for
-/// −0.33 k < p < k at every h²k/m (implicit Euler: −k < p < k). Unlike implicit Euler,
-/// S_skew is therefore implicit: explicit, a 25 cm strand 100 times stiffer than the
-/// smooth preset on a 5 Hz ±45° shake reached 21 times the stress suite's energy budget
-/// at dt = 1/30 s (converged: 0.77), with it 4.3. BDF2 is L-stable: the
-/// stiff twist and high bending modes are damped as by implicit Euler, while a resolved
-/// oscillation loses |ζ|² ≈ 1 − (ωh)⁴/2 of its energy per step (implicit Euler:
-/// 1/(1 + (ωh)²)); its frequency is (1 − (ωh)²/3) times the exact one, as for implicit
-/// Euler.
+/// D_q = H⁻ − K, D_v and B as in [`linearly_implicit_euler`] (the destabilising part of
+/// the field stiffness stays explicit). Every term left out of the linearisation (H's
+/// positive part and skew part, ∂M/∂q, ∂b/∂q and the q-derivative of the Coriolis and drag
+/// forces, the rest of b) is multiplied by y⁺ − ỹ = O(h²), so the step stays second order
+/// whatever the Jacobian's error; an equilibrium is a fixed point, as for implicit Euler.
+/// What is left out is in effect extrapolated, as by the two-step Adams–Bashforth
+/// formula, which tolerates less of it than implicit Euler: on q̈ = −(k − p) q with −k in
+/// the matrix the step is stable for −0.33 k < p < k at every h²k/m (implicit Euler:
+/// −k < p < k). BDF2 is L-stable: the stiff twist and high bending modes are damped as by
+/// implicit Euler, while a resolved oscillation loses |ζ|² ≈ 1 − (ωh)⁴/2 of its energy
+/// per step (implicit Euler: 1/(1 + (ωh)²)); its frequency is (1 − (ωh)²/3) times the
+/// exact one, as for implicit Euler.
 ///
 /// The mass matrix enters only where the matrix is built (at q̃), never inverted at
 /// another state: a one-step Rosenbrock-W scheme (ROS2) on the same matrix was tried and
 /// dropped because its second stage must evaluate M⁻¹F at a stage point, and the twist
 /// block of M⁻¹ (the inverse of the rotary inertia of nearly straight elements, ~1e6
 /// times the bending block's) made that stage unstable: exactly (a falling 5 cm fibre
-/// blew up at dt = 1/50 s) or to first order (the 20 cm swing at N = 20 blew up at every
-/// dt from 1/240 to 1/4800 s, its step map having spectral radius 2 where implicit
-/// Euler's is 1.003).
+/// blew up at dt = 1/50 s) or to first order (the 20 cm swing at N = 20 blew up at
+/// dt = 1/4800 s, its step map having spectral radius 2.0–2.3 at every dt from 1/240 to
+/// 1/4800 s where implicit Euler's is 1.003–1.16).
 ///
 /// The cost of a step is that of a linearly implicit Euler step (one full assembly, one
 /// projection of the field stiffness, one LU factorisation and solve). The history
 /// (y₋, h₋) is kept in the workspace from the last accepted (sub)step; without one (the
 /// first step, after `Simulation::set_state` or a static solve) or after a step-size jump
 /// beyond [`BDF2_MAX_RATIO`], [`step_strand`] takes a linearly implicit Euler step
-/// instead, whose local error O(h²) does not change the global order.
+/// instead (as at a restart of any multistep method), whose local error O(h²) does not
+/// change the global order. A step that rotates an element by more than
+/// [`MAX_ELEMENT_ROTATION`] is redone as linearly implicit Euler substeps: there the
+/// linearisation no longer holds, and extrapolating what it leaves out is what fails
+/// first. With BDF2 substeps the stress matrix (`superhelix stress --integrator bdf2`) had
+/// 81 failures, 8 of them blow-ups or runaway kinetic energy of frictionless strands on a
+/// moving head; with implicit Euler substeps 57, none of those.
 #[allow(clippy::too_many_arguments)]
 fn bdf2(
     strand: &Strand,
@@ -798,7 +787,7 @@ fn bdf2(
     let bh = beta * h;
     let mut s = std::mem::take(&mut ws.scratch);
     let result = (|| {
-        let [qt, vt, qh, vh, dq, tmp] = &mut s;
+        let [qt, vt, qh, vh, dq, _] = &mut s;
         for i in 0..n {
             qt[i] = q[i] + w * (q[i] - ws.prev_q[i]);
             vt[i] = v[i] + w * (v[i] - ws.prev_v[i]);
@@ -806,24 +795,15 @@ fn bdf2(
             vh[i] = a1 * v[i] - a2 * ws.prev_v[i];
         }
         let assembled = assemble(strand, kernel, ws, ctx, head, qt, vt, Terms::all());
-        // D_q (q̂ − q̃), with q̂ − q̃ in qh: its skew part now, from the whole field stiffness
+        let field_stiffness = step_matrix(ws, assembled, bh, stats);
+        // D_q (q̂ − q̃)
         for i in 0..n {
             qh[i] -= qt[i];
         }
-        dq.fill(0.0);
-        if assembled.field_stiffness {
-            let st = &ws.terms.stiffness;
-            for j in 0..n {
-                for i in 0..n {
-                    dq[i] += 0.5 * (st[(i, j)] - st[(j, i)]) * qh[j];
-                }
-            }
-        }
-        let field_stiffness = step_matrix(ws, assembled, bh, true, stats);
-        apply_dq(ws, field_stiffness, 1.0, qh, tmp);
+        apply_dq(ws, field_stiffness, qh, dq);
         let t = &ws.terms;
         for i in 0..n {
-            let mut r = bh * (t.force[i] + t.velocity_term[i] + dq[i] + tmp[i]);
+            let mut r = bh * (t.force[i] + t.velocity_term[i] + dq[i]);
             for j in 0..n {
                 r += t.mass[(i, j)] * vh[j] - bh * t.damping[(i, j)] * vt[j];
             }
