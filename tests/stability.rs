@@ -278,10 +278,7 @@ fn the_matrix_covers_every_preset_n_dt_and_motion_and_the_extremes() {
 /// A case that fails: the kinked wavy strand of the conservative group at N = 20 under
 /// explicit RK4 at dt = 1/30 s (unstable by orders of magnitude).
 fn failing_case() -> stress::Case {
-    let mut case = stress::all_cases()
-        .into_iter()
-        .find(|c| c.name == "conservative/wavy/N20/fps30/still/kink3/linear")
-        .expect("case exists");
+    let mut case = named_case("conservative/wavy/N20/fps30/still/kink3/linear");
     case.name = "conservative/wavy/N20/fps30/still/kink3/rk4".to_string();
     case.setup.config.integrator = IntegratorKind::Rk4;
     case
@@ -311,10 +308,7 @@ fn a_failing_case_names_its_strand_time_and_cause() {
 fn the_report_flags_a_known_failure_that_passes() {
     // a passing result under the name of a known failure (if the list has one) is
     // reported, so that the list is kept exact; a passing result otherwise is not
-    let case = stress::all_cases()
-        .into_iter()
-        .find(|c| c.name == "matrix/curly/N5/fps30/still")
-        .expect("case exists");
+    let case = named_case("matrix/curly/N5/fps30/still");
     let mut result = stress::run_case(&case);
     assert!(result.passed(), "{:?}", stress::failure_line(&result));
     let text = stress::render(std::slice::from_ref(&result), 0.0);
@@ -371,6 +365,14 @@ fn the_former_known_failures_pass_with_the_energy_balance_of_implicit_steps() {
     );
 }
 
+/// The case of the full matrix with this name.
+fn named_case(name: &str) -> stress::Case {
+    stress::all_cases()
+        .into_iter()
+        .find(|c| c.name == name)
+        .unwrap_or_else(|| panic!("no stress case named {name}"))
+}
+
 #[test]
 fn head_frame_energy_is_simulation_energy_for_a_still_head() {
     // the energy the runner computes for a head in uniform motion (first moment by
@@ -380,10 +382,7 @@ fn head_frame_energy_is_simulation_energy_for_a_still_head() {
         "curvature/fuzzy/N10/fps30/still/wl100",
         "matrix/smooth/N20/fps30/still",
     ] {
-        let case = stress::all_cases()
-            .into_iter()
-            .find(|c| c.name == name)
-            .expect("case exists");
+        let case = named_case(name);
         let mut sim =
             Simulation::new(case.setup.clone(), superhelix::kernel_factory()).expect("setup");
         for _ in 0..3 {
@@ -429,10 +428,7 @@ fn a_frictionless_curly_strand_falling_does_not_gain_energy() {
         "conservative/fuzzy/N20/fps24/still/fall/linear",
         "conservative/fuzzy/N20/fps100/still/fall/linear",
     ] {
-        let case = stress::all_cases()
-            .into_iter()
-            .find(|c| c.name == name)
-            .expect("case exists");
+        let case = named_case(name);
         let result = stress::run_case(&case);
         assert!(result.passed(), "{:?}", stress::failure_line(&result));
         let growth = result.energy_growth.expect("energy checked");
