@@ -20,7 +20,20 @@ pub struct DenseSolver {
     eigenvalues: Diag<f64>,
     eigenvectors: Mat<f64>,
     scaled: Mat<f64>,
+    work: Mat<f64>,
+    rotated: Mat<f64>,
+    /// `eigenvectors` hold the eigenbasis of an earlier projection.
+    basis_valid: bool,
+    /// Projections that reused the eigenbasis of an earlier one.
+    pub projections_reused: u64,
+    /// Projections that needed an eigendecomposition.
+    pub projections_decomposed: u64,
 }
+
+/// Largest coupling, relative to the matrix, between the negative and the non-negative
+/// directions of an earlier eigenbasis for [`DenseSolver::project_negative_semidefinite`]
+/// to reuse that basis instead of decomposing: `‖B_NP‖_F ≤ tol ‖B‖_F` with `B = Uᵀ H U`.
+pub const EIGENBASIS_REUSE_TOLERANCE: f64 = 0.1;
 
 impl DenseSolver {
     /// Workspace for dimension n.
@@ -53,12 +66,25 @@ impl DenseSolver {
             eigenvalues: Diag::zeros(n),
             eigenvectors: Mat::zeros(n, n),
             scaled: Mat::zeros(n, n),
+            work: Mat::zeros(n, n),
+            rotated: Mat::zeros(n, n),
+            basis_valid: false,
+            projections_reused: 0,
+            projections_decomposed: 0,
         }
     }
 
     /// Replace the symmetric matrix `h` (lower triangle read) by its negative
     /// semidefinite part `U min(Λ, 0) Uᵀ`: the stabilising part of a stiffness. Returns
     /// false (leaving `h` unchanged) if the eigendecomposition fails.
+    ///
+    /// The stiffness changes little from one step to the next, so the eigenbasis U of the
+    /// previous decomposition is tried first: with `B = Uᵀ H U`, N the indices of B's
+    /// negative diagonal and P the others, when the coupling `‖B_NP‖_F` is at most
+    /// [`EIGENBASIS_REUSE_TOLERANCE`] `‖B‖_F` and `B_NN` is negative definite, the result
+    /// is `U_N B_NN U_Nᵀ`: negative semidefinite by construction, and within
+    /// `‖B_NP‖_F` of the exact part (the coupling it drops). Otherwise H is decomposed
+    /// and its eigenbasis kept for the next call.
     pub fn project_negative_semidefinite(&mut self, h: &mut Mat<f64>) -> bool {
         let n = h.nrows();
         // fast path: a negative definite h (a hanging strand) is its own projection,
@@ -80,6 +106,11 @@ impl DenseSolver {
         {
             return true;
         }
+        if self.basis_valid && self.project_in_previous_basis(h) {
+            self.projections_reused += 1;
+            return true;
+        }
+        self.projections_decomposed += 1;
         let stack = MemStack::new(&mut self.buffer);
         let ok = evd::self_adjoint_evd(
             h.as_ref(),
@@ -90,6 +121,7 @@ impl DenseSolver {
             Default::default(),
         )
         .is_ok();
+        self.basis_valid = ok;
         if !ok {
             return false;
         }
@@ -104,6 +136,106 @@ impl DenseSolver {
             faer::Accum::Replace,
             self.scaled.as_ref(),
             self.eigenvectors.transpose(),
+            1.0,
+            Par::Seq,
+        );
+        true
+    }
+
+    /// The reuse branch of [`Self::project_negative_semidefinite`]: false (leaving `h`
+    /// unchanged) when the earlier eigenbasis does not qualify.
+    fn project_in_previous_basis(&mut self, h: &mut Mat<f64>) -> bool {
+        let n = h.nrows();
+        // the full symmetric H from its lower triangle
+        for j in 0..n {
+            for i in j..n {
+                let x = h[(i, j)];
+                self.scaled[(i, j)] = x;
+                self.scaled[(j, i)] = x;
+            }
+        }
+        // B = Uᵀ H U
+        faer::linalg::matmul::matmul(
+            self.work.as_mut(),
+            faer::Accum::Replace,
+            self.scaled.as_ref(),
+            self.eigenvectors.as_ref(),
+            1.0,
+            Par::Seq,
+        );
+        faer::linalg::matmul::matmul(
+            self.rotated.as_mut(),
+            faer::Accum::Replace,
+            self.eigenvectors.transpose(),
+            self.work.as_ref(),
+            1.0,
+            Par::Seq,
+        );
+        let b = &self.rotated;
+        let mut negative = 0;
+        let mut total = 0.0;
+        let mut coupling = 0.0;
+        for j in 0..n {
+            for i in 0..n {
+                let x = b[(i, j)] * b[(i, j)];
+                total += x;
+                if (b[(i, i)] < 0.0) != (b[(j, j)] < 0.0) {
+                    coupling += x;
+                }
+            }
+            if b[(j, j)] < 0.0 {
+                self.perm[negative] = j;
+                negative += 1;
+            }
+        }
+        if !(coupling <= EIGENBASIS_REUSE_TOLERANCE * EIGENBASIS_REUSE_TOLERANCE * total) {
+            return false;
+        }
+        if negative == 0 {
+            h.fill(0.0);
+            return true;
+        }
+        let k = negative;
+        // −B_NN must be positive definite (an eigenvalue that crossed zero: decompose)
+        for c in 0..k {
+            for r in 0..k {
+                self.scaled[(r, c)] = -b[(self.perm[r], self.perm[c])];
+            }
+        }
+        let stack = MemStack::new(&mut self.buffer);
+        if llt::factor::cholesky_in_place(
+            self.scaled.as_mut().submatrix_mut(0, 0, k, k),
+            Default::default(),
+            Par::Seq,
+            stack,
+            Default::default(),
+        )
+        .is_err()
+        {
+            return false;
+        }
+        // U_N into work's first k columns, B_NN into scaled, U_N B_NN into rotated
+        for c in 0..k {
+            for r in 0..n {
+                self.work[(r, c)] = self.eigenvectors[(r, self.perm[c])];
+            }
+            for r in 0..k {
+                self.scaled[(r, c)] = self.rotated[(self.perm[r], self.perm[c])];
+            }
+        }
+        faer::linalg::matmul::matmul(
+            self.rotated.as_mut().submatrix_mut(0, 0, n, k),
+            faer::Accum::Replace,
+            self.work.as_ref().submatrix(0, 0, n, k),
+            self.scaled.as_ref().submatrix(0, 0, k, k),
+            1.0,
+            Par::Seq,
+        );
+        faer::linalg::matmul::matmul(
+            h.as_mut(),
+            faer::Accum::Replace,
+            self.rotated.as_ref().submatrix(0, 0, n, k),
+            self.work.as_ref().submatrix(0, 0, n, k).transpose(),
             1.0,
             Par::Seq,
         );
@@ -234,5 +366,75 @@ mod tests {
         let singular = [[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [1.0, 0.0, 1.0]];
         fill(&mut s, &singular, [1.0, 1.0, 1.0]);
         assert!(!s.solve_general());
+    }
+
+    /// Symmetric n × n from a deterministic pseudo-random sequence.
+    fn symmetric(n: usize, seed: u64, scale: f64) -> Mat<f64> {
+        let mut state = seed;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        };
+        let mut h = Mat::<f64>::zeros(n, n);
+        for j in 0..n {
+            for i in j..n {
+                let x = scale * next();
+                h[(i, j)] = x;
+                h[(j, i)] = x;
+            }
+        }
+        h
+    }
+
+    fn exact_projection(h: &Mat<f64>) -> Mat<f64> {
+        let n = h.nrows();
+        let evd = h.self_adjoint_eigen(faer::Side::Lower).unwrap();
+        let (u, s) = (evd.U(), evd.S());
+        Mat::from_fn(n, n, |i, j| {
+            (0..n).map(|k| u[(i, k)] * s[k].min(0.0) * u[(j, k)]).sum()
+        })
+    }
+
+    fn frobenius(m: &Mat<f64>) -> f64 {
+        let mut s = 0.0;
+        for j in 0..m.ncols() {
+            for i in 0..m.nrows() {
+                s += m[(i, j)] * m[(i, j)];
+            }
+        }
+        s.sqrt()
+    }
+
+    #[test]
+    fn projection_reuses_the_previous_eigenbasis_within_its_bound() {
+        let n = 15;
+        let mut s = DenseSolver::new(n);
+        let h0 = symmetric(n, 7, 1.0);
+        let mut p = h0.clone();
+        assert!(s.project_negative_semidefinite(&mut p));
+        assert_eq!((s.projections_decomposed, s.projections_reused), (1, 0));
+        // the first call is exact
+        let exact0 = exact_projection(&h0);
+        assert!(frobenius(&(&p - &exact0)) < 1e-12 * frobenius(&h0));
+        // a small change: the basis is reused; the result is negative semidefinite and
+        // within the dropped coupling (≤ 2 ‖ΔH‖_F to first order) of the exact part
+        let dh = symmetric(n, 11, 1e-3);
+        let h1 = &h0 + &dh;
+        let mut p = h1.clone();
+        assert!(s.project_negative_semidefinite(&mut p));
+        assert_eq!((s.projections_decomposed, s.projections_reused), (1, 1));
+        let err = frobenius(&(&p - &exact_projection(&h1)));
+        assert!(err <= 2.0 * frobenius(&dh), "{err:.3e}");
+        assert!(err > 0.0);
+        let eig = p.self_adjoint_eigen(faer::Side::Lower).unwrap();
+        for k in 0..n {
+            assert!(eig.S()[k] <= 1e-14 * frobenius(&h1), "{}", eig.S()[k]);
+        }
+        // a large change: decomposed again, exact
+        let h2 = symmetric(n, 13, 1.0);
+        let mut p = h2.clone();
+        assert!(s.project_negative_semidefinite(&mut p));
+        assert_eq!((s.projections_decomposed, s.projections_reused), (2, 1));
+        assert!(frobenius(&(&p - &exact_projection(&h2))) < 1e-12 * frobenius(&h2));
     }
 }

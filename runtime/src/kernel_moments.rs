@@ -74,6 +74,10 @@ pub struct MomentKernel<S: MomentSource> {
     beyond: Vec<(Matrix3<f64>, Matrix3<f64>)>,
     /// Column-major 3N × 3N scratch.
     matrix: Vec<f64>,
+    /// M at the prepared q (column-major), once assembled: the integrator asks for M
+    /// twice at the same q (a step's end energy, then the next step).
+    mass: Vec<f64>,
+    mass_valid: bool,
     vector: Vec<f64>,
     /// The q the element ends, end derivatives and moments were prepared for (NaN before
     /// the first evaluation: equal to no q).
@@ -96,6 +100,8 @@ impl<S: MomentSource> MomentKernel<S> {
             rotary: vec![RotaryElement::default(); n],
             beyond: vec![(Matrix3::zeros(), Matrix3::zeros()); n],
             matrix: vec![0.0; 9 * n * n],
+            mass: vec![0.0; 9 * n * n],
+            mass_valid: false,
             vector: vec![0.0; 3 * n],
             prepared: vec![f64::NAN; 3 * n],
             geom,
@@ -112,6 +118,7 @@ impl<S: MomentSource> MomentKernel<S> {
             return;
         }
         self.prepared.copy_from_slice(q);
+        self.mass_valid = false;
         self.ends[0] = Pose {
             position: self.geom.root_position,
             frame: self.geom.root_frame,
@@ -180,19 +187,29 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
             &mut self.bodies,
         );
         if t.mass {
-            assemble_mass_and_gravity(
-                &self.bodies,
-                rho_s,
-                lengths,
-                &self.ends,
-                &self.end_derivs,
-                &self.moments,
-                &field.uniform,
-                &mut self.matrix,
-                &mut self.vector,
-                &mut out.first_moment,
-            );
-            self.store(&mut out.mass);
+            if !self.mass_valid {
+                assemble_mass_and_gravity(
+                    &self.bodies,
+                    rho_s,
+                    lengths,
+                    &self.ends,
+                    &self.end_derivs,
+                    &self.moments,
+                    &field.uniform,
+                    &mut self.mass,
+                    &mut self.vector,
+                    &mut out.first_moment,
+                );
+                self.mass_valid = true;
+            }
+            out.first_moment =
+                (self.bodies[0].first + self.ends[0].position * self.bodies[0].mass) * rho_s;
+            let n = self.vector.len();
+            for c in 0..n {
+                out.mass
+                    .col_as_slice_mut(c)
+                    .copy_from_slice(&self.mass[c * n..(c + 1) * n]);
+            }
         }
         if has_rotary && needs_velocity {
             for p in 0..lengths.len() {
