@@ -35,6 +35,11 @@ pub struct DenseSolver {
 /// to reuse that basis instead of decomposing: `‖B_NP‖_F ≤ tol ‖B‖_F` with `B = Uᵀ H U`.
 pub const EIGENBASIS_REUSE_TOLERANCE: f64 = 0.1;
 
+/// Relative size (to the largest |B_ii|) below which a negative diagonal entry of the
+/// rotated matrix is counted with the non-negative ones when the basis is reused: an
+/// eigenvalue crossing zero then does not force a decomposition.
+const NEGLIGIBLE_EIGENVALUE: f64 = 1e-3;
+
 impl DenseSolver {
     /// Workspace for dimension n.
     pub fn new(n: usize) -> Self {
@@ -172,6 +177,13 @@ impl DenseSolver {
             Par::Seq,
         );
         let b = &self.rotated;
+        // N: the diagonal entries below −δ; those in [−δ, 0) join P, which drops them
+        // (an error of at most δ each, far inside the coupling bound)
+        let mut scale = 0.0f64;
+        for j in 0..n {
+            scale = scale.max(b[(j, j)].abs());
+        }
+        let cut = -NEGLIGIBLE_EIGENVALUE * scale;
         let mut negative = 0;
         let mut total = 0.0;
         let mut coupling = 0.0;
@@ -179,11 +191,11 @@ impl DenseSolver {
             for i in 0..n {
                 let x = b[(i, j)] * b[(i, j)];
                 total += x;
-                if (b[(i, i)] < 0.0) != (b[(j, j)] < 0.0) {
+                if (b[(i, i)] < cut) != (b[(j, j)] < cut) {
                     coupling += x;
                 }
             }
-            if b[(j, j)] < 0.0 {
+            if b[(j, j)] < cut {
                 self.perm[negative] = j;
                 negative += 1;
             }
@@ -372,7 +384,9 @@ mod tests {
     fn symmetric(n: usize, seed: u64, scale: f64) -> Mat<f64> {
         let mut state = seed;
         let mut next = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
         };
         let mut h = Mat::<f64>::zeros(n, n);

@@ -10,7 +10,9 @@
 
 use crate::element::ElementPoint;
 use crate::kernel::{EvalInput, StrandKernel, StrandTerms};
-use crate::moment_jacobians::{add_field_hessian, add_velocity_jacobian, add_weighted_gram};
+use crate::moment_jacobians::{
+    add_field_hessian, add_velocity_jacobian, add_weighted_gram, VelocityRow,
+};
 use crate::moment_rotary::{add_rotary_terms, rotary_element, rotary_points, RotaryElement};
 use crate::moments::{
     assemble_force, assemble_mass_and_gravity, end_derivatives_from, frame_motions, suffix_bodies,
@@ -72,6 +74,7 @@ pub struct MomentKernel<S: MomentSource> {
     wrenches: Vec<Wrench>,
     rotary: Vec<RotaryElement>,
     beyond: Vec<(Matrix3<f64>, Matrix3<f64>)>,
+    velocity_rows: Vec<VelocityRow>,
     /// Column-major 3N × 3N scratch.
     matrix: Vec<f64>,
     /// M at the prepared q (column-major), once assembled: the integrator asks for M
@@ -99,6 +102,7 @@ impl<S: MomentSource> MomentKernel<S> {
             wrenches: vec![Wrench::default(); n],
             rotary: vec![RotaryElement::default(); n],
             beyond: vec![(Matrix3::zeros(), Matrix3::zeros()); n],
+            velocity_rows: vec![VelocityRow::default(); 3 * n],
             matrix: vec![0.0; 9 * n * n],
             mass: vec![0.0; 9 * n * n],
             mass_valid: false,
@@ -323,6 +327,7 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
                 &self.motions,
                 &self.bodies,
                 v,
+                &mut self.velocity_rows,
                 &mut self.matrix,
             );
             if has_rotary {

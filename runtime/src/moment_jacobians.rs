@@ -178,9 +178,27 @@ fn jdot_rigid(body: &SuffixBody, a: &V3, gamma: &V3, t: &V3) -> (V3, V3) {
     (lin, ang)
 }
 
+/// Coefficients of one row of [`add_velocity_jacobian`] downstream of the column.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct VelocityRow {
+    a: V3,
+    beyond: V3,
+    own: V3,
+    gamma: V3,
+    t: V3,
+}
+
 /// Adds `scale · ∫ J_k · J̇_l ds` to `out(k, l)` for all k, l: with scale = 2ρS this is
 /// the centreline part of B = ∂b/∂q̇ (b = ∫ ρS Jᵀ J̇ q̇, and J̇_l = ∂ẏ/∂q_l).
-/// `bodies` from [`crate::moments::suffix_bodies`] with velocities, `motions` from [`crate::moments::frame_motions`].
+/// `bodies` from [`crate::moments::suffix_bodies`] with velocities, `motions` from [`crate::moments::frame_motions`];
+/// `rows` is scratch of length 3N.
+///
+/// A row k = (Q, i) downstream of a column l = (Q2, j) receives `J_k · J̇_l` integrated
+/// over element Q (own part) and beyond it (rigid part), both linear in the column's
+/// (A, γ, t) of "J̇_l beyond Q2 = A + γ × (y − r_m) + t × ẏ": the row's coefficients of
+/// A, γ and t ([`VelocityRow`]) are formed once per row, so each such entry costs a few
+/// dot products.
+#[allow(clippy::too_many_arguments)]
 pub fn add_velocity_jacobian(
     scale: f64,
     ends: &[Pose],
@@ -189,10 +207,44 @@ pub fn add_velocity_jacobian(
     motions: &[FrameMotion],
     bodies: &[SuffixBody],
     velocities: &[f64],
+    rows: &mut [VelocityRow],
     out: &mut [f64],
 ) {
     let n = end_derivs.len();
     let dofs = 3 * n;
+    // per row k = (q, i): the entry for a column with (a, γ, t) and r_m upstream of q is
+    // a·(R_a + D) + (γ × (r_{Q+1} − r_m))·R_a + (γ × (r_Q − r_m))·D + γ·X_γ + t·X_t
+    for q in 1..n {
+        let f = ends[q].frame;
+        let mq = &moments[q];
+        let mo = &motions[q];
+        let body = &bodies[q + 1];
+        let qd = &velocities[3 * q..3 * q + 3];
+        let x = &body.moment_velocity;
+        let (tr_s, tr_x) = (body.second.trace(), x.trace());
+        for i in 0..3 {
+            let (vk, wk) = (end_derivs[q].dp[i], end_derivs[q].dtheta[i]);
+            // rigid part beyond q: vk·lin + wk·ang of `jdot_rigid`
+            let r_a = vk * body.mass + wk.cross(&body.first);
+            let r_g = body.first.cross(&vk) + wk * tr_s - body.second * wk;
+            let r_t = body.velocity.cross(&vk) + wk * tr_x - x * wk;
+            // own part on q: D·(A + γ × (r_Q − r_m) + t × ṙ_Q) + C·γ + P·t
+            let d = f * mq.dfirst[i];
+            let c = f * mq.cross[i];
+            let mut own_t = mq.pdp[i] * (f.transpose() * mo.omega);
+            for cc in 0..3 {
+                own_t += axial(&mq.dpdp[cc][i]) * qd[cc];
+            }
+            let p = f * own_t - mo.omega * mq.pdp[i].trace();
+            rows[3 * q + i] = VelocityRow {
+                a: r_a + d,
+                beyond: r_a,
+                own: d,
+                gamma: r_g + c,
+                t: r_t + mo.velocity.cross(&d) + p,
+            };
+        }
+    }
     for q2 in 0..n {
         let f2 = ends[q2].frame;
         let r2 = ends[q2].position;
@@ -245,31 +297,16 @@ pub fn add_velocity_jacobian(
             }
             // rows downstream: element q's own part, then the rigid part beyond q
             for q in q2 + 1..n {
-                let f = ends[q].frame;
-                let mq = &moments[q];
-                let r_q = ends[q].position;
-                let r_qe = ends[q + 1].position;
-                let mo = &motions[q];
-                let al = f.transpose() * (a + gamma.cross(&(r_q - r_m)));
-                let g = f.transpose() * gamma;
-                let tl = f.transpose() * t;
-                let vq = f.transpose() * mo.velocity;
-                let wq = f.transpose() * mo.omega;
-                let qd = &velocities[3 * q..3 * q + 3];
-                let base = al + tl.cross(&vq);
-                let tw = tl.dot(&wq);
-                let a_qe = a + gamma.cross(&(r_qe - r_m));
-                let (lin_q, ang_q) = jdot_rigid(&bodies[q + 1], &a_qe, &gamma, &t);
+                let g_own = gamma.cross(&(ends[q].position - r_m));
+                let g_beyond = gamma.cross(&(ends[q + 1].position - r_m));
                 for i in 0..3 {
-                    let k = 3 * q + i;
-                    let mut own =
-                        mq.dfirst[i].dot(&base) + g.dot(&mq.cross[i]) + tl.dot(&(mq.pdp[i] * wq))
-                            - tw * mq.pdp[i].trace();
-                    for c in 0..3 {
-                        own += tl.dot(&axial(&mq.dpdp[c][i])) * qd[c];
-                    }
-                    let (vk, wk) = twist(&end_derivs[q], &zero, i);
-                    out[l * dofs + k] += scale * (own + vk.dot(&lin_q) + wk.dot(&ang_q));
+                    let row = &rows[3 * q + i];
+                    out[l * dofs + 3 * q + i] += scale
+                        * (row.a.dot(&a)
+                            + row.beyond.dot(&g_beyond)
+                            + row.own.dot(&g_own)
+                            + row.gamma.dot(&gamma)
+                            + row.t.dot(&t));
                 }
             }
         }

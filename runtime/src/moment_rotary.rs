@@ -96,8 +96,14 @@ pub fn rotary_element(
         let sym = |a: usize, b: usize| {
             rotary[0] * c0[a] * c0[b] + rotary[1] * c1[a] * c1[b] + rotary[2] * c2[a] * c2[b]
         };
-        let (i00, i01, i02, i11, i12, i22) =
-            (sym(0, 0), sym(0, 1), sym(0, 2), sym(1, 1), sym(1, 2), sym(2, 2));
+        let (i00, i01, i02, i11, i12, i22) = (
+            sym(0, 0),
+            sym(0, 1),
+            sym(0, 2),
+            sym(1, 1),
+            sym(1, 2),
+            sym(2, 2),
+        );
         let inertia = M3::new(i00, i01, i02, i01, i11, i12, i02, i12, i22);
         let w = &point.w;
         let dw = &point.dw;
