@@ -33,7 +33,7 @@ pub struct DenseSolver {
 /// Largest coupling, relative to the matrix, between the negative and the non-negative
 /// directions of an earlier eigenbasis for [`DenseSolver::project_negative_semidefinite`]
 /// to reuse that basis instead of decomposing: `‖B_NP‖_F ≤ tol ‖B‖_F` with `B = Uᵀ H U`.
-pub const EIGENBASIS_REUSE_TOLERANCE: f64 = 0.1;
+pub const EIGENBASIS_REUSE_TOLERANCE: f64 = 0.01;
 
 /// Relative size (to the largest |B_ii|) below which a negative diagonal entry of the
 /// rotated matrix is counted with the non-negative ones when the basis is reused: an

@@ -24,12 +24,14 @@ type M3 = Matrix3<f64>;
 /// integrands reach frequency 4W, but their parts above ~1.5W are small: against the
 /// generic kernel at high order (`superhelix compare-kernels`, 1000 configurations per
 /// N, W·l up to 100) `4 + ⌈0.75 W·l⌉` points still agree to 2.5e-12 and `4 + ⌈0.5 W·l⌉`
-/// fails (1e-3 at W·l = 100); this rule, `4 + ⌈W·l⌉`, keeps a third more than the
-/// smallest passing one (worst 8.8e-13). Capped at 244 (W·l = 240, where the generic
-/// kernel's rule is capped too): beyond, an element is a coil of more than 38 turns and
-/// its rotary terms are under-resolved rather than a step taking seconds.
+/// fails (1e-3 at W·l = 100); at small W·l with fast own rotation the base matters
+/// (`tests/kernel_moments.rs`, velocities up to 30 rad/s per unit q: `4 + ⌈W·l⌉` gives
+/// 5.9e-10 at N = 1, W·l = 2, `5 +` 2.2e-11, `6 +` 3.2e-13). This rule, `6 + ⌈W·l⌉`,
+/// keeps that margin. Capped at 246 (W·l = 240, where the generic kernel's rule is capped
+/// too): beyond, an element is a coil of more than 38 turns and its rotary terms are
+/// under-resolved rather than a step taking seconds.
 pub fn rotary_points(wl: f64) -> usize {
-    4 + wl.ceil().min(240.0) as usize
+    6 + wl.ceil().min(240.0) as usize
 }
 
 /// Per-element rotary integrals, head coordinates.
