@@ -200,7 +200,10 @@ impl DenseSolver {
                 negative += 1;
             }
         }
-        if !(coupling <= EIGENBASIS_REUSE_TOLERANCE * EIGENBASIS_REUSE_TOLERANCE * total) {
+        // (a NaN coupling fails too)
+        if coupling.is_nan()
+            || coupling > EIGENBASIS_REUSE_TOLERANCE * EIGENBASIS_REUSE_TOLERANCE * total
+        {
             return false;
         }
         if negative == 0 {
