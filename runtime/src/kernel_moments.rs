@@ -145,11 +145,21 @@ impl<S: MomentSource> MomentKernel<S> {
 
     /// Copy the column-major scratch into `mat` (overwrite).
     fn store(&self, mat: &mut Mat<f64>) {
-        let n = self.vector.len();
-        for c in 0..n {
-            mat.col_as_slice_mut(c)
-                .copy_from_slice(&self.matrix[c * n..(c + 1) * n]);
-        }
+        store(&self.matrix, mat);
+    }
+
+    /// ∫ρS y ds from the suffix bodies.
+    fn first_moment(&self, rho_s: f64) -> Vector3<f64> {
+        (self.bodies[0].first + self.ends[0].position * self.bodies[0].mass) * rho_s
+    }
+}
+
+/// Copy a column-major n × n `src` into `mat` (overwrite).
+fn store(src: &[f64], mat: &mut Mat<f64>) {
+    let n = mat.nrows();
+    for c in 0..n {
+        mat.col_as_slice_mut(c)
+            .copy_from_slice(&src[c * n..(c + 1) * n]);
     }
 }
 
@@ -191,7 +201,9 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
             &mut self.bodies,
         );
         if t.mass {
-            if !self.mass_valid {
+            if self.mass_valid {
+                out.first_moment = self.first_moment(rho_s);
+            } else {
                 assemble_mass_and_gravity(
                     &self.bodies,
                     rho_s,
@@ -206,14 +218,7 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
                 );
                 self.mass_valid = true;
             }
-            out.first_moment =
-                (self.bodies[0].first + self.ends[0].position * self.bodies[0].mass) * rho_s;
-            let n = self.vector.len();
-            for c in 0..n {
-                out.mass
-                    .col_as_slice_mut(c)
-                    .copy_from_slice(&self.mass[c * n..(c + 1) * n]);
-            }
+            store(&self.mass, &mut out.mass);
         }
         if has_rotary && needs_velocity {
             for p in 0..lengths.len() {
@@ -234,8 +239,7 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
             }
         }
         if t.force {
-            out.first_moment =
-                (self.bodies[0].first + self.ends[0].position * self.bodies[0].mass) * rho_s;
+            out.first_moment = self.first_moment(rho_s);
             // −b of the centreline, then the field with ρS = 0 (the assembly is linear
             // in the field and in ρS)
             assemble_force(
