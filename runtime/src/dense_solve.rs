@@ -6,7 +6,7 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt;
 use faer::linalg::evd;
 use faer::linalg::lu::partial_pivoting as lu;
-use faer::{Mat, MatMut, MatRef, Par};
+use faer::{Mat, MatMut, Par};
 
 /// Workspace for solving `A x = b` with a 3N × 3N matrix.
 pub struct DenseSolver {
@@ -20,32 +20,25 @@ pub struct DenseSolver {
     eigenvalues: Diag<f64>,
     eigenvectors: Mat<f64>,
     scaled: Mat<f64>,
-    /// The kept eigenbasis U (column-major n × n) and its spectrum (diag Uᵀ H U).
-    basis: Vec<f64>,
-    spectrum: Vec<f64>,
-    /// Column-major n × n scratch: the full H, H U, Uᵀ H U.
-    full: Vec<f64>,
-    work: Vec<f64>,
-    rotated: Vec<f64>,
-    /// `basis` holds the eigenbasis of an earlier projection.
+    work: Mat<f64>,
+    rotated: Mat<f64>,
+    /// `eigenvectors` hold the eigenbasis of an earlier projection.
     basis_valid: bool,
-    /// Projections that refined the eigenbasis of an earlier one (Jacobi sweeps).
+    /// Projections that reused the eigenbasis of an earlier one.
     pub projections_reused: u64,
-    /// Jacobi sweeps those refinements took.
-    pub jacobi_sweeps: u64,
-    /// Jacobi rotations those sweeps applied.
-    pub jacobi_rotations: u64,
     /// Projections that needed an eigendecomposition.
     pub projections_decomposed: u64,
 }
 
-/// How close to diagonal `B = Uᵀ H U` must be for the kept eigenbasis U, refined by
-/// Jacobi sweeps, to stand as H's in [`DenseSolver::project_negative_semidefinite`]:
-/// `‖B − diag B‖_F ≤ tol ‖B‖_F`, which bounds the projection's error by `tol ‖H‖_F`.
-pub const EIGENBASIS_TOLERANCE: f64 = 1e-3;
+/// Largest coupling, relative to the matrix, between the negative and the non-negative
+/// directions of an earlier eigenbasis for [`DenseSolver::project_negative_semidefinite`]
+/// to reuse that basis instead of decomposing: `‖B_NP‖_F ≤ tol ‖B‖_F` with `B = Uᵀ H U`.
+pub const EIGENBASIS_REUSE_TOLERANCE: f64 = 0.01;
 
-/// Jacobi sweeps tried on the kept basis before H is decomposed afresh.
-pub const MAX_JACOBI_SWEEPS: usize = 3;
+/// Relative size (to the largest |B_ii|) below which a negative diagonal entry of the
+/// rotated matrix is counted with the non-negative ones when the basis is reused: an
+/// eigenvalue crossing zero then does not force a decomposition.
+const NEGLIGIBLE_EIGENVALUE: f64 = 1e-3;
 
 impl DenseSolver {
     /// Workspace for dimension n.
@@ -78,15 +71,10 @@ impl DenseSolver {
             eigenvalues: Diag::zeros(n),
             eigenvectors: Mat::zeros(n, n),
             scaled: Mat::zeros(n, n),
-            basis: vec![0.0; n * n],
-            spectrum: vec![0.0; n],
-            full: vec![0.0; n * n],
-            work: vec![0.0; n * n],
-            rotated: vec![0.0; n * n],
+            work: Mat::zeros(n, n),
+            rotated: Mat::zeros(n, n),
             basis_valid: false,
             projections_reused: 0,
-            jacobi_sweeps: 0,
-            jacobi_rotations: 0,
             projections_decomposed: 0,
         }
     }
@@ -95,15 +83,13 @@ impl DenseSolver {
     /// semidefinite part `U min(Λ, 0) Uᵀ`: the stabilising part of a stiffness. Returns
     /// false (leaving `h` unchanged) if the eigendecomposition fails.
     ///
-    /// The stiffness changes little from one step to the next, so the eigenbasis U kept
-    /// from the previous call is refined rather than recomputed: `B = Uᵀ H U` is brought
-    /// to within [`EIGENBASIS_TOLERANCE`] of diagonal (`‖B − diag B‖_F ≤ tol ‖B‖_F`) by
-    /// cyclic Jacobi sweeps (at most [`MAX_JACOBI_SWEEPS`]; usually none or one), U
-    /// rotated with it, and the result is `U min(diag B, 0) Uᵀ`: negative semidefinite by
-    /// construction and, the projection onto the negative semidefinite cone being
-    /// non-expansive in the Frobenius norm, within `‖B − diag B‖_F` of the exact part.
-    /// When the sweeps do not get there (or on the first call), H is decomposed (faer)
-    /// and its eigenbasis kept.
+    /// The stiffness changes little from one step to the next, so the eigenbasis U of the
+    /// previous decomposition is tried first: with `B = Uᵀ H U`, N the indices of B's
+    /// negative diagonal and P the others, when the coupling `‖B_NP‖_F` is at most
+    /// [`EIGENBASIS_REUSE_TOLERANCE`] `‖B‖_F` and `B_NN` is negative definite, the result
+    /// is `U_N B_NN U_Nᵀ`: negative semidefinite by construction, and within
+    /// `‖B_NP‖_F` of the exact part (the coupling it drops). Otherwise H is decomposed
+    /// and its eigenbasis kept for the next call.
     pub fn project_negative_semidefinite(&mut self, h: &mut Mat<f64>) -> bool {
         let n = h.nrows();
         // fast path: a negative definite h (a hanging strand) is its own projection,
@@ -125,9 +111,8 @@ impl DenseSolver {
         {
             return true;
         }
-        if self.basis_valid && self.refine_previous_basis(h) {
+        if self.basis_valid && self.project_in_previous_basis(h) {
             self.projections_reused += 1;
-            self.store_negative_part(h);
             return true;
         }
         self.projections_decomposed += 1;
@@ -146,153 +131,129 @@ impl DenseSolver {
             return false;
         }
         for j in 0..n {
-            self.basis[j * n..(j + 1) * n].copy_from_slice(self.eigenvectors.col_as_slice(j));
-            self.spectrum[j] = self.eigenvalues[j];
-        }
-        self.store_negative_part(h);
-        true
-    }
-
-    /// `h = U min(diag, 0) Uᵀ` from the kept basis and spectrum: the negative columns
-    /// of U, scaled, times their transpose.
-    fn store_negative_part(&mut self, h: &mut Mat<f64>) {
-        let n = h.nrows();
-        let mut k = 0;
-        for j in 0..n {
-            let lambda = self.spectrum[j];
-            if lambda < 0.0 {
-                let u = &self.basis[j * n..(j + 1) * n];
-                self.work[k * n..(k + 1) * n].copy_from_slice(u);
-                for (x, y) in self.full[k * n..(k + 1) * n].iter_mut().zip(u) {
-                    *x = lambda * y;
-                }
-                k += 1;
+            let lambda = self.eigenvalues[j].min(0.0);
+            for i in 0..n {
+                self.scaled[(i, j)] = self.eigenvectors[(i, j)] * lambda;
             }
         }
-        if k == 0 {
-            h.fill(0.0);
-            return;
-        }
-        let scaled = MatRef::from_column_major_slice(&self.full[..k * n], n, k);
-        let negative = MatRef::from_column_major_slice(&self.work[..k * n], n, k);
         faer::linalg::matmul::matmul(
             h.as_mut(),
             faer::Accum::Replace,
-            scaled,
-            negative.transpose(),
+            self.scaled.as_ref(),
+            self.eigenvectors.transpose(),
             1.0,
             Par::Seq,
         );
+        true
     }
 
-    /// The refinement branch of [`Self::project_negative_semidefinite`]: `B = Uᵀ H U`
-    /// for the kept basis U, Jacobi sweeps until B is within [`EIGENBASIS_TOLERANCE`] of
-    /// diagonal (U rotated along, diag B into the kept spectrum). False when that takes
-    /// more than [`MAX_JACOBI_SWEEPS`] sweeps (or meets a non-finite value); the basis
-    /// is then to be recomputed.
-    fn refine_previous_basis(&mut self, h: &Mat<f64>) -> bool {
+    /// The reuse branch of [`Self::project_negative_semidefinite`]: false (leaving `h`
+    /// unchanged) when the earlier eigenbasis does not qualify.
+    fn project_in_previous_basis(&mut self, h: &mut Mat<f64>) -> bool {
         let n = h.nrows();
-        // W = H U (H symmetric from its lower triangle), then B = Uᵀ W
+        // the full symmetric H from its lower triangle
         for j in 0..n {
             for i in j..n {
                 let x = h[(i, j)];
-                self.full[j * n + i] = x;
-                self.full[i * n + j] = x;
+                self.scaled[(i, j)] = x;
+                self.scaled[(j, i)] = x;
             }
         }
-        {
-            let basis = MatRef::from_column_major_slice(&self.basis, n, n);
-            faer::linalg::matmul::matmul(
-                MatMut::from_column_major_slice_mut(&mut self.work, n, n),
-                faer::Accum::Replace,
-                MatRef::from_column_major_slice(&self.full, n, n),
-                basis,
-                1.0,
-                Par::Seq,
-            );
-            faer::linalg::matmul::matmul(
-                MatMut::from_column_major_slice_mut(&mut self.rotated, n, n),
-                faer::Accum::Replace,
-                basis.transpose(),
-                MatRef::from_column_major_slice(&self.work, n, n),
-                1.0,
-                Par::Seq,
-            );
-        }
-        let b = &mut self.rotated;
-        // symmetric to round-off; exactly so from here
+        // B = Uᵀ H U
+        faer::linalg::matmul::matmul(
+            self.work.as_mut(),
+            faer::Accum::Replace,
+            self.scaled.as_ref(),
+            self.eigenvectors.as_ref(),
+            1.0,
+            Par::Seq,
+        );
+        faer::linalg::matmul::matmul(
+            self.rotated.as_mut(),
+            faer::Accum::Replace,
+            self.eigenvectors.transpose(),
+            self.work.as_ref(),
+            1.0,
+            Par::Seq,
+        );
+        let b = &self.rotated;
+        // N: the diagonal entries below −δ; those in [−δ, 0) join P, which drops them
+        // (an error of at most δ each, far inside the coupling bound)
+        let mut scale = 0.0f64;
         for j in 0..n {
-            for i in 0..j {
-                let x = 0.5 * (b[j * n + i] + b[i * n + j]);
-                b[j * n + i] = x;
-                b[i * n + j] = x;
-            }
+            scale = scale.max(b[(j, j)].abs());
         }
-        let total: f64 = b.iter().map(|x| x * x).sum();
-        let limit = EIGENBASIS_TOLERANCE * EIGENBASIS_TOLERANCE * total;
-        // entries below tol ‖B‖_F / n are left: all of them together are within the target
-        let skip = EIGENBASIS_TOLERANCE * total.sqrt() / n as f64;
-        let off = |b: &[f64]| -> f64 {
-            let mut s = 0.0;
-            for j in 0..n {
-                for i in 0..j {
-                    s += 2.0 * b[j * n + i] * b[j * n + i];
+        let cut = -NEGLIGIBLE_EIGENVALUE * scale;
+        let mut negative = 0;
+        let mut total = 0.0;
+        let mut coupling = 0.0;
+        for j in 0..n {
+            for i in 0..n {
+                let x = b[(i, j)] * b[(i, j)];
+                total += x;
+                if (b[(i, i)] < cut) != (b[(j, j)] < cut) {
+                    coupling += x;
                 }
             }
-            s
-        };
-        let mut sweeps = 0;
-        loop {
-            let o = off(b);
-            if !o.is_finite() || !total.is_finite() {
-                return false;
-            }
-            if o <= limit {
-                break;
-            }
-            if sweeps == MAX_JACOBI_SWEEPS {
-                return false;
-            }
-            sweeps += 1;
-            for p in 0..n {
-                for q in p + 1..n {
-                    let bpq = b[q * n + p];
-                    if bpq.abs() <= skip {
-                        continue;
-                    }
-                    // the rotation that zeroes b_pq (Golub & Van Loan, sym.schur2)
-                    let (bpp, bqq) = (b[p * n + p], b[q * n + q]);
-                    let tau = (bqq - bpp) / (2.0 * bpq);
-                    let t = if tau >= 0.0 {
-                        1.0 / (tau + (1.0 + tau * tau).sqrt())
-                    } else {
-                        -1.0 / (-tau + (1.0 + tau * tau).sqrt())
-                    };
-                    let c = 1.0 / (1.0 + t * t).sqrt();
-                    let s = t * c;
-                    self.jacobi_rotations += 1;
-                    {
-                        let (lo, hi) = b.split_at_mut(q * n);
-                        rotate(&mut lo[p * n..(p + 1) * n], &mut hi[..n], c, s);
-                    }
-                    // the rows from the columns (B symmetric)
-                    for k in 0..n {
-                        b[k * n + p] = b[p * n + k];
-                        b[k * n + q] = b[q * n + k];
-                    }
-                    b[p * n + p] = bpp - t * bpq;
-                    b[q * n + q] = bqq + t * bpq;
-                    b[q * n + p] = 0.0;
-                    b[p * n + q] = 0.0;
-                    let (lo, hi) = self.basis.split_at_mut(q * n);
-                    rotate(&mut lo[p * n..(p + 1) * n], &mut hi[..n], c, s);
-                }
+            if b[(j, j)] < cut {
+                self.perm[negative] = j;
+                negative += 1;
             }
         }
-        self.jacobi_sweeps += sweeps as u64;
-        for k in 0..n {
-            self.spectrum[k] = b[k * n + k];
+        // (a NaN coupling fails too)
+        if coupling.is_nan()
+            || coupling > EIGENBASIS_REUSE_TOLERANCE * EIGENBASIS_REUSE_TOLERANCE * total
+        {
+            return false;
         }
+        if negative == 0 {
+            h.fill(0.0);
+            return true;
+        }
+        let k = negative;
+        // −B_NN must be positive definite (an eigenvalue that crossed zero: decompose)
+        for c in 0..k {
+            for r in 0..k {
+                self.scaled[(r, c)] = -b[(self.perm[r], self.perm[c])];
+            }
+        }
+        let stack = MemStack::new(&mut self.buffer);
+        if llt::factor::cholesky_in_place(
+            self.scaled.as_mut().submatrix_mut(0, 0, k, k),
+            Default::default(),
+            Par::Seq,
+            stack,
+            Default::default(),
+        )
+        .is_err()
+        {
+            return false;
+        }
+        // U_N into work's first k columns, B_NN into scaled, U_N B_NN into rotated
+        for c in 0..k {
+            for r in 0..n {
+                self.work[(r, c)] = self.eigenvectors[(r, self.perm[c])];
+            }
+            for r in 0..k {
+                self.scaled[(r, c)] = self.rotated[(self.perm[r], self.perm[c])];
+            }
+        }
+        faer::linalg::matmul::matmul(
+            self.rotated.as_mut().submatrix_mut(0, 0, n, k),
+            faer::Accum::Replace,
+            self.work.as_ref().submatrix(0, 0, n, k),
+            self.scaled.as_ref().submatrix(0, 0, k, k),
+            1.0,
+            Par::Seq,
+        );
+        faer::linalg::matmul::matmul(
+            h.as_mut(),
+            faer::Accum::Replace,
+            self.rotated.as_ref().submatrix(0, 0, n, k),
+            self.work.as_ref().submatrix(0, 0, n, k).transpose(),
+            1.0,
+            Par::Seq,
+        );
         true
     }
 
@@ -348,15 +309,6 @@ impl DenseSolver {
             stack,
         );
         all_finite(self.rhs.as_mut())
-    }
-}
-
-/// `(x, y) ← (c x − s y, s x + c y)`, elementwise (a Jacobi rotation of two columns).
-fn rotate(x: &mut [f64], y: &mut [f64], c: f64, s: f64) {
-    for (a, b) in x.iter_mut().zip(y.iter_mut()) {
-        let (u, v) = (*a, *b);
-        *a = c * u - s * v;
-        *b = s * u + c * v;
     }
 }
 
@@ -471,7 +423,7 @@ mod tests {
     }
 
     #[test]
-    fn projection_refines_the_previous_eigenbasis_within_its_bound() {
+    fn projection_reuses_the_previous_eigenbasis_within_its_bound() {
         let n = 15;
         let mut s = DenseSolver::new(n);
         let h0 = symmetric(n, 7, 1.0);
@@ -481,43 +433,25 @@ mod tests {
         // the first call is exact
         let exact0 = exact_projection(&h0);
         assert!(frobenius(&(&p - &exact0)) < 1e-12 * frobenius(&h0));
-        // the same H again: the kept basis is its eigenbasis, no sweep needed
-        let mut p = h0.clone();
+        // a small change: the basis is reused; the result is negative semidefinite and
+        // within the dropped coupling (≤ 2 ‖ΔH‖_F to first order) of the exact part
+        let dh = symmetric(n, 11, 1e-3);
+        let h1 = &h0 + &dh;
+        let mut p = h1.clone();
         assert!(s.project_negative_semidefinite(&mut p));
         assert_eq!((s.projections_decomposed, s.projections_reused), (1, 1));
-        assert_eq!(s.jacobi_sweeps, 0);
-        assert!(frobenius(&(&p - &exact0)) < 1e-12 * frobenius(&h0));
-        // changes of 1 % and 10 %: the basis is refined by Jacobi sweeps, not recomputed;
-        // the result is negative semidefinite and within the tolerance of the exact part
-        let mut reused = 1;
-        for (seed, size) in [(11, 1e-2), (17, 1e-1)] {
-            let h1 = &h0 + &symmetric(n, seed, size);
-            let mut p = h1.clone();
-            assert!(s.project_negative_semidefinite(&mut p));
-            reused += 1;
-            assert_eq!(
-                (s.projections_decomposed, s.projections_reused),
-                (1, reused)
-            );
-            let err = frobenius(&(&p - &exact_projection(&h1)));
-            assert!(
-                err <= EIGENBASIS_TOLERANCE * frobenius(&h1),
-                "{size}: {err:.3e}"
-            );
-            let eig = p.self_adjoint_eigen(faer::Side::Lower).unwrap();
-            for k in 0..n {
-                assert!(eig.S()[k] <= 1e-14 * frobenius(&h1), "{}", eig.S()[k]);
-            }
+        let err = frobenius(&(&p - &exact_projection(&h1)));
+        assert!(err <= 2.0 * frobenius(&dh), "{err:.3e}");
+        assert!(err > 0.0);
+        let eig = p.self_adjoint_eigen(faer::Side::Lower).unwrap();
+        for k in 0..n {
+            assert!(eig.S()[k] <= 1e-14 * frobenius(&h1), "{}", eig.S()[k]);
         }
-        assert!(s.jacobi_sweeps >= 2, "{}", s.jacobi_sweeps);
-        // an unrelated H: more than the allowed sweeps, decomposed again, exact
+        // a large change: decomposed again, exact
         let h2 = symmetric(n, 13, 1.0);
         let mut p = h2.clone();
         assert!(s.project_negative_semidefinite(&mut p));
-        assert_eq!(
-            (s.projections_decomposed, s.projections_reused),
-            (2, reused)
-        );
+        assert_eq!((s.projections_decomposed, s.projections_reused), (2, 1));
         assert!(frobenius(&(&p - &exact_projection(&h2))) < 1e-12 * frobenius(&h2));
     }
 }

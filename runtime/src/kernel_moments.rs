@@ -15,7 +15,7 @@ use crate::moment_jacobians::{
 };
 use crate::moment_rotary::{add_rotary_terms, rotary_element, rotary_points, RotaryElement};
 use crate::moments::{
-    assemble_force, assemble_mass_and_gravity, end_derivatives_from, frame_motions, suffix_bodies,
+    assemble_force, assemble_mass_gram_and_gravity, end_derivatives_from, frame_motions, suffix_bodies,
     ElementMoments, EndDerivatives, FrameMotion, SuffixBody, Wrench,
 };
 use crate::reconstruction::{darboux, Pose};
@@ -80,6 +80,9 @@ pub struct MomentKernel<S: MomentSource> {
     /// M at the prepared q (column-major), once assembled: the integrator asks for M
     /// twice at the same q (a step's end energy, then the next step).
     mass: Vec<f64>,
+    /// The centreline Gram matrix ∫ JᵀJ ds at the prepared q, with `mass`: an isotropic
+    /// drag's damping is −ν times it.
+    gram: Vec<f64>,
     mass_valid: bool,
     vector: Vec<f64>,
     /// The q the element ends, end derivatives and moments were prepared for (NaN before
@@ -105,6 +108,7 @@ impl<S: MomentSource> MomentKernel<S> {
             velocity_rows: vec![VelocityRow::default(); 3 * n],
             matrix: vec![0.0; 9 * n * n],
             mass: vec![0.0; 9 * n * n],
+            gram: vec![0.0; 9 * n * n],
             mass_valid: false,
             vector: vec![0.0; 3 * n],
             prepared: vec![f64::NAN; 3 * n],
@@ -152,6 +156,11 @@ impl<S: MomentSource> MomentKernel<S> {
     fn first_moment(&self, rho_s: f64) -> Vector3<f64> {
         (self.bodies[0].first + self.ends[0].position * self.bodies[0].mass) * rho_s
     }
+}
+
+/// `m` is a multiple of the identity.
+fn is_scalar(m: &Matrix3<f64>) -> bool {
+    *m == Matrix3::identity() * m[(0, 0)]
 }
 
 /// Copy a column-major n × n `src` into `mat` (overwrite).
@@ -204,7 +213,7 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
             if self.mass_valid {
                 out.first_moment = self.first_moment(rho_s);
             } else {
-                assemble_mass_and_gravity(
+                assemble_mass_gram_and_gravity(
                     &self.bodies,
                     rho_s,
                     lengths,
@@ -213,6 +222,7 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
                     &self.moments,
                     &field.uniform,
                     &mut self.mass,
+                    Some(&mut self.gram),
                     &mut self.vector,
                     &mut out.first_moment,
                 );
@@ -308,7 +318,14 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
             }
             self.store(&mut out.stiffness);
         }
-        if t.damping {
+        if t.damping && self.mass_valid && is_scalar(&field.velocity) {
+            // C2 = −ν I: −ν ∫ JᵀJ ds, kept with M
+            let c = field.velocity[(0, 0)];
+            for (m, g) in self.matrix.iter_mut().zip(&self.gram) {
+                *m = c * g;
+            }
+            self.store(&mut out.damping);
+        } else if t.damping {
             self.matrix.fill(0.0);
             add_weighted_gram(
                 &field.velocity,

@@ -260,6 +260,38 @@ pub fn assemble_mass_and_gravity(
     force: &mut [f64],
     first_moment: &mut Vector3<f64>,
 ) {
+    assemble_mass_gram_and_gravity(
+        bodies,
+        rho_s,
+        lengths,
+        ends,
+        end_derivs,
+        moments,
+        c0,
+        mass,
+        None,
+        force,
+        first_moment,
+    );
+}
+
+/// [`assemble_mass_and_gravity`], and with it, when `gram` is given, the centreline's
+/// Gram matrix `∫ J_kᵀ J_l ds` (column-major, 3N × 3N): M without ρS and the rotary
+/// inertia, which is all the damping of an isotropic drag needs (`−ν ∫ JᵀJ ds`).
+#[allow(clippy::too_many_arguments)]
+pub fn assemble_mass_gram_and_gravity(
+    bodies: &[SuffixBody],
+    rho_s: f64,
+    lengths: &[f64],
+    ends: &[Pose],
+    end_derivs: &[EndDerivatives],
+    moments: &[ElementMoments],
+    c0: &Vector3<f64>,
+    mass: &mut [f64],
+    mut gram: Option<&mut [f64]>,
+    force: &mut [f64],
+    first_moment: &mut Vector3<f64>,
+) {
     let n = lengths.len();
     let dofs = 3 * n;
     *first_moment = (bodies[0].first + ends[0].position * bodies[0].mass) * rho_s;
@@ -283,11 +315,16 @@ pub fn assemble_mass_and_gravity(
                 let wl = e.dtheta[j];
                 let vl = e.dp[j];
                 let (lin, ang) = bodies[q + 1].momentum(&vl, &wl);
-                let val = rho_s * (v.dot(&lin) + w.dot(&ang) + mq.gram[(i, j)])
+                let centreline = v.dot(&lin) + w.dot(&ang) + mq.gram[(i, j)];
+                let val = rho_s * centreline
                     + w.dot(&(bodies[q + 1].rot * wl))
                     + mq.rot_ww[(i, j)];
                 mass[l * dofs + k] = val;
                 mass[k * dofs + l] = val;
+                if let Some(g) = gram.as_deref_mut() {
+                    g[l * dofs + k] = centreline;
+                    g[k * dofs + l] = centreline;
+                }
             }
             // later elements Q' > Q: rigid beyond Q' plus the mixed own part in Q'
             for q2 in q + 1..n {
@@ -309,6 +346,10 @@ pub fn assemble_mass_and_gravity(
                         + w.dot(&(f2 * m2.rot_w[j]));
                     mass[l * dofs + k] = val;
                     mass[k * dofs + l] = val;
+                    if let Some(g) = gram.as_deref_mut() {
+                        g[l * dofs + k] = rigid + mixed;
+                        g[k * dofs + l] = rigid + mixed;
+                    }
                 }
             }
         }
