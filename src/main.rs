@@ -57,9 +57,10 @@ enum Command {
         /// Hair type: smooth, wavy, curly, fuzzy.
         #[arg(long, default_value = "wavy")]
         preset: String,
-        /// Integrator: linearly-implicit-euler, newton-implicit-euler, bdf2, rk4.
-        #[arg(long, default_value = "linearly-implicit-euler")]
-        integrator: String,
+        /// Integrator: linearly-implicit-euler, newton-implicit-euler, bdf2, rk4 (default
+        /// linearly-implicit-euler, or with --scene the scene's own).
+        #[arg(long)]
+        integrator: Option<String>,
         /// Gauss-Legendre points per element of the generic kernels (default: adaptive).
         #[arg(long)]
         quadrature: Option<usize>,
@@ -149,7 +150,13 @@ fn main() -> ExitCode {
             quadrature,
             scene,
         } => match scene {
-            Some(path) => bench_scene(&path, steps, kernels.as_deref(), effects.as_deref()),
+            Some(path) => bench_scene(
+                &path,
+                steps,
+                kernels.as_deref(),
+                effects.as_deref(),
+                integrator.as_deref(),
+            ),
             None => bench(
                 elements,
                 strands,
@@ -157,7 +164,7 @@ fn main() -> ExitCode {
                 kernels.as_deref().unwrap_or("auto"),
                 effects.as_deref().unwrap_or("gravity,drag,friction"),
                 &preset,
-                &integrator,
+                integrator.as_deref().unwrap_or("linearly-implicit-euler"),
                 quadrature,
             ),
         },
@@ -297,9 +304,10 @@ fn bench_scene(
     steps: usize,
     kernels: Option<&str>,
     effects: Option<&str>,
+    integrator: Option<&str>,
 ) -> Result<ExitCode, Error> {
     use superhelix::bench::{bench_setup, restrict_effects, scene_effects, EffectSet};
-    use superhelix::runtime::simulation::KernelChoice;
+    use superhelix::runtime::simulation::{IntegratorKind, KernelChoice};
     let text = std::fs::read_to_string(path)
         .map_err(|e| Error::invalid("--scene", format!("cannot read {}: {e}", path.display())))?;
     let mut setup = superhelix::parse_scene(&text)?;
@@ -310,10 +318,19 @@ fn bench_scene(
         setup.config.kernels = KernelChoice::from_name(k)
             .ok_or_else(|| Error::invalid("--kernels", "must be generated, generic or auto"))?;
     }
+    if let Some(name) = integrator {
+        setup.config.integrator = IntegratorKind::from_name(name).ok_or_else(|| {
+            Error::invalid(
+                "--integrator",
+                "must be linearly-implicit-euler, newton-implicit-euler, bdf2 or rk4",
+            )
+        })?;
+    }
     let names = scene_effects(&setup).names().join(",");
+    let integrator = setup.config.integrator.name();
     let report = bench_setup(setup, steps)?;
     println!(
-        "scene={} steps={steps} kernels ({}) effects={names}",
+        "scene={} steps={steps} kernels ({}) effects={names} integrator={integrator}",
         path.display(),
         report.kernel
     );

@@ -207,6 +207,16 @@ fn run_writes_frames_of_the_default_scene() {
     }
 }
 
+/// The integrator a scene file selects (its `integrator` key, or the default).
+fn superhelix_runtime_integrator_of(path: &str) -> &'static str {
+    let text = std::fs::read_to_string(path).expect("scene readable");
+    superhelix::parse_scene(&text)
+        .expect("scene parses")
+        .config
+        .integrator
+        .name()
+}
+
 #[test]
 fn bench_runs_a_scene_with_its_effects_or_a_subset() {
     let scene = repo("scenes/curly-nod.toml");
@@ -230,7 +240,40 @@ fn bench_runs_a_scene_with_its_effects_or_a_subset() {
     ]);
     let stdout = String::from_utf8_lossy(&out.stdout).to_string();
     assert!(out.status.success(), "{}", text(&out));
-    assert!(stdout.contains("effects=gravity\n"), "{stdout}");
+    assert!(stdout.contains("effects=gravity integrator="), "{stdout}");
+    // the scene's integrator unless --integrator names another; a wrong name is refused
+    let own = superhelix_runtime_integrator_of(&scene);
+    assert!(
+        stdout.contains(&format!("integrator={own}\n")),
+        "{own}: {stdout}"
+    );
+    let out = superhelix(&[
+        "bench",
+        "--scene",
+        &scene,
+        "--steps",
+        "2",
+        "--integrator",
+        "bdf2",
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(stdout.contains("integrator=bdf2\n"), "{stdout}");
+    let out = superhelix(&[
+        "bench",
+        "--scene",
+        &scene,
+        "--steps",
+        "1",
+        "--integrator",
+        "euler",
+    ]);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("--integrator"),
+        "{}",
+        text(&out)
+    );
     // an effect the scene does not have is refused, naming it and what the scene has
     let cantilever = repo("scenes/cantilever.toml");
     let out = superhelix(&[

@@ -15,8 +15,8 @@ use crate::moment_jacobians::{
 };
 use crate::moment_rotary::{add_rotary_terms, rotary_element, rotary_points, RotaryElement};
 use crate::moments::{
-    assemble_force, assemble_mass_gram_and_gravity, end_derivatives_from, frame_motions, suffix_bodies,
-    ElementMoments, EndDerivatives, FrameMotion, SuffixBody, Wrench,
+    assemble_force, assemble_mass_gram_and_gravity, end_derivatives_from, frame_motions,
+    suffix_bodies, ElementMoments, EndDerivatives, FrameMotion, SuffixBody, Wrench,
 };
 use crate::reconstruction::{darboux, Pose};
 use crate::strand::StrandGeometry;
