@@ -91,6 +91,7 @@ fn generated_and_generic_kernels_give_the_same_motion() {
         (5, IntegratorKind::LinearlyImplicitEuler),
         (10, IntegratorKind::LinearlyImplicitEuler),
         (5, IntegratorKind::NewtonImplicitEuler),
+        (5, IntegratorKind::Bdf2),
     ] {
         let generated = run(n, KernelChoice::Generated, integrator);
         let generic = run(n, KernelChoice::Generic, integrator);
