@@ -316,9 +316,7 @@ pub fn assemble_mass_gram_and_gravity(
                 let vl = e.dp[j];
                 let (lin, ang) = bodies[q + 1].momentum(&vl, &wl);
                 let centreline = v.dot(&lin) + w.dot(&ang) + mq.gram[(i, j)];
-                let val = rho_s * centreline
-                    + w.dot(&(bodies[q + 1].rot * wl))
-                    + mq.rot_ww[(i, j)];
+                let val = rho_s * centreline + w.dot(&(bodies[q + 1].rot * wl)) + mq.rot_ww[(i, j)];
                 mass[l * dofs + k] = val;
                 mass[k * dofs + l] = val;
                 if let Some(g) = gram.as_deref_mut() {
