@@ -15,8 +15,8 @@ use crate::moment_jacobians::{
 };
 use crate::moment_rotary::{add_rotary_terms, rotary_element, rotary_points, RotaryElement};
 use crate::moments::{
-    assemble_force, assemble_mass_gram_and_gravity, end_derivatives_from, frame_motions, suffix_bodies,
-    ElementMoments, EndDerivatives, FrameMotion, SuffixBody, Wrench,
+    assemble_force, assemble_mass_gram_and_gravity, end_derivatives_from, frame_motions,
+    suffix_bodies, ElementMoments, EndDerivatives, FrameMotion, SuffixBody, Wrench,
 };
 use crate::reconstruction::{darboux, Pose};
 use crate::strand::StrandGeometry;
@@ -31,6 +31,13 @@ pub trait MomentSource: Send {
     /// E(u), p(u), w_i(u) and their d-derivatives (see [`ElementPoint`]).
     fn point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
         *out = ElementPoint::by_jets(d, u);
+    }
+    /// The fields of [`ElementPoint`] the rotary-inertia quadrature
+    /// ([`rotary_element`]) reads: `frame`, `p`, `dp`, `w` and `dw`, the same values as
+    /// [`MomentSource::point`]; `out.d2p` is unspecified afterwards (a source may leave
+    /// it as it was). Defaults to [`MomentSource::point`].
+    fn rotary_point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
+        self.point(d, u, out);
     }
     /// Short description (`closed form`, `quadrature`).
     fn describe(&self) -> String;
@@ -236,7 +243,7 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
                 let l = lengths[p];
                 let source = &self.source;
                 self.rotary[p] = rotary_element(
-                    &|u: f64, out: &mut ElementPoint| source.point(&d, u, out),
+                    &|u: f64, out: &mut ElementPoint| source.rotary_point(&d, u, out),
                     l,
                     &self.geom.rotary_inertia,
                     &self.moments[p],
