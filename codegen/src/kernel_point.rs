@@ -37,6 +37,14 @@ pub const ELEMENT_POINT: &str = "element_point";
 /// File (relative to `generated/src/`) holding [`ELEMENT_POINT`].
 pub const ELEMENT_POINT_FILE: &str = "element_point.rs";
 
+/// Name of the generated function filling the fields of an `ElementPoint` that the
+/// rotary-inertia quadrature reads (`element_rotary_point_into`): everything but
+/// `d2p`.
+pub const ELEMENT_ROTARY_POINT: &str = "element_rotary_point";
+
+/// File (relative to `generated/src/`) holding [`ELEMENT_ROTARY_POINT`].
+pub const ELEMENT_ROTARY_POINT_FILE: &str = "element_rotary_point.rs";
+
 /// `d × v`.
 fn cross(g: &mut Graph, d: [Id; 3], v: [Id; 3]) -> [Id; 3] {
     let c = |g: &mut Graph, a: usize, b: usize| {
@@ -83,6 +91,19 @@ fn apply_ddt(g: &mut Graph, d: [Id; 3], s: [Id; 3], i: usize) -> [Id; 3] {
 /// m the component; groups `frame`, `p`, `dp`, `d2p`, `w`, `dw` as the struct's fields
 /// (all 27 entries of d2p, w and dw including `w_0 = p`, `dw_0 = dp`).
 pub fn element_point_spec(g: &mut Graph, h: &HelixSymbols) -> PointSpec {
+    point_spec(g, h, true)
+}
+
+/// [`element_point_spec`] without `d2p`: the outputs the rotary-inertia quadrature
+/// reads (frame, p, dp, w, dw). Without the second d-derivatives, `b` and `c` need one
+/// derivative each instead of two (five radial functions instead of seven).
+pub fn element_rotary_point_spec(g: &mut Graph, h: &HelixSymbols) -> PointSpec {
+    point_spec(g, h, false)
+}
+
+/// The spec of [`element_point_spec`], with `d2p` (and the radial derivatives it needs)
+/// only when `with_d2p`.
+fn point_spec(g: &mut Graph, h: &HelixSymbols, with_d2p: bool) -> PointSpec {
     let wu = g.mul2(h.w, h.u);
     let (s, c) = (g.sin(wu), g.cos(wu));
     let one = g.one();
@@ -92,9 +113,11 @@ pub fn element_point_spec(g: &mut Graph, h: &HelixSymbols) -> PointSpec {
     let b = g.mul2(omc, iw[1]);
     let xms = g.sub(wu, s);
     let cc = g.mul2(xms, iw[2]);
+    // dw needs F_1 of b and c, d2p F_2
+    let levels = if with_d2p { 3 } else { 2 };
     let ra = radial_family(g, h, "a", a, 1);
-    let rb = radial_family(g, h, "b", b, 3);
-    let rc = radial_family(g, h, "c", cc, 3);
+    let rb = radial_family(g, h, "b", b, levels);
+    let rc = radial_family(g, h, "c", cc, levels);
     let [sa, sb, sc] = [ra[0].symbol, rb[0].symbol, rc[0].symbol];
 
     let d = h.d;
@@ -121,7 +144,8 @@ pub fn element_point_spec(g: &mut Graph, h: &HelixSymbols) -> PointSpec {
         .map(|k| push(format!("dp_{}_{}", k / 3, k % 3), dw[0][k / 3][k % 3]))
         .collect();
     let mut d2p_at = [[[0usize; 3]; 3]; 3];
-    for i in 0..3 {
+    let d2p_rows = if with_d2p { 3 } else { 0 };
+    for i in 0..d2p_rows {
         for j in i..3 {
             for m in 0..3 {
                 let e = g.diff(dw[0][i][m], d[j]);
@@ -145,21 +169,24 @@ pub fn element_point_spec(g: &mut Graph, h: &HelixSymbols) -> PointSpec {
             }
         }
     }
-    let d2p_idx: Vec<usize> = d2p_at.iter().flatten().flatten().copied().collect();
     let mut radial = ra;
     radial.extend(rb);
     radial.extend(rc);
+    let mut groups = vec![
+        ("frame".into(), frame_idx),
+        ("p".into(), p_idx),
+        ("dp".into(), dp_idx),
+    ];
+    if with_d2p {
+        let d2p_idx: Vec<usize> = d2p_at.iter().flatten().flatten().copied().collect();
+        groups.push(("d2p".into(), d2p_idx));
+    }
+    groups.push(("w".into(), w_idx));
+    groups.push(("dw".into(), dw_idx));
     PointSpec {
         radial,
         outputs,
-        groups: vec![
-            ("frame".into(), frame_idx),
-            ("p".into(), p_idx),
-            ("dp".into(), dp_idx),
-            ("d2p".into(), d2p_idx),
-            ("w".into(), w_idx),
-            ("dw".into(), dw_idx),
-        ],
+        groups,
     }
 }
 
@@ -173,14 +200,18 @@ fn vec3(prefix: &str) -> TokenStream {
     quote!(Vector3::new(#a, #b, #c))
 }
 
-/// Generate `ElementPoint` in closed form: the measured code and the formatted file.
-pub fn generate_element_point() -> Result<(PointCode, String), CodegenError> {
-    let mut g = Graph::new();
-    let h = HelixSymbols::new(&mut g);
-    let spec = element_point_spec(&mut g, &h);
-    let switch = ident("ELEMENT_POINT_SWITCH");
-    let code = generate_point(&mut g, &h, &spec, &switch, &PointOptions::default())?;
+/// The fields of `ElementPoint` as expressions of the output identifiers of
+/// [`point_spec`]: frame, p, dp, d2p, w, dw (d2p only meaningful with d2p outputs).
+struct Fields {
+    frame: Vec<Ident>,
+    p: TokenStream,
+    dp: Vec<TokenStream>,
+    d2p: Vec<TokenStream>,
+    w: Vec<TokenStream>,
+    dw: Vec<TokenStream>,
+}
 
+fn fields() -> Fields {
     let frame: Vec<Ident> = (0..9)
         .map(|k| ident(&format!("frame_{}{}", k / 3, k % 3)))
         .collect();
@@ -203,15 +234,78 @@ pub fn generate_element_point() -> Result<(PointCode, String), CodegenError> {
             quote!([#(#row),*])
         }))
         .collect();
+    Fields {
+        frame,
+        p,
+        dp,
+        d2p,
+        w,
+        dw,
+    }
+}
 
-    let xs = literal(code.switch);
-    let body = &code.body;
-    let orders: Vec<String> = code
-        .radial_names
+/// `name: degree` of every radial function.
+fn orders(code: &PointCode) -> Vec<String> {
+    code.radial_names
         .iter()
         .zip(&code.series_orders)
         .map(|(n, o)| format!("{n}: {o}"))
-        .collect();
+        .collect()
+}
+
+/// The file header: `what` (the function's line, after the version line), `radial`
+/// (what the radial functions are), `groups` (the fields the agreement is measured on),
+/// then the switch, agreement and op counts of `code`.
+fn header(what: &str, radial: &str, groups: &str, code: &PointCode) -> String {
+    let n = code.radial_names.len();
+    format!(
+        "// @generated by superhelix-codegen {VERSION}\n\
+         // {what}\n\
+         // {n} radial functions of z = (W u)^2 ({radial}), Taylor degrees in W u: {}\n\
+         // switch W*u = {} (Taylor below); branch agreement {:.2e}, truncation {:.2e}: largest \
+         |closed - Taylor| (resp. |Taylor - Taylor of degree + 8|) at the switch over {} sample \
+         points, relative to the largest |entry| of the same field ({groups}) \
+         at the same point\n\
+         // ops before CSE (as trees, radial functions inlined): Taylor path {}; closed path {}\n\
+         // ops after CSE (as emitted): Taylor path {}; closed path {}\n\
+         //   prologue: {}\n\
+         //   Taylor radial functions: {}\n\
+         //   closed radial functions: {}\n\
+         //   shared polynomial part: {}\n",
+        orders(code).join(", "),
+        code.switch,
+        code.agreement,
+        code.truncation,
+        code.agreement_samples,
+        code.ops_before_series,
+        code.ops_before_closed,
+        code.ops_series_path(),
+        code.ops_closed_path(),
+        code.ops_prologue,
+        code.ops_series,
+        code.ops_closed,
+        code.ops_shared,
+    )
+}
+
+/// Generate `ElementPoint` in closed form: the measured code and the formatted file.
+pub fn generate_element_point() -> Result<(PointCode, String), CodegenError> {
+    let mut g = Graph::new();
+    let h = HelixSymbols::new(&mut g);
+    let spec = element_point_spec(&mut g, &h);
+    let switch = ident("ELEMENT_POINT_SWITCH");
+    let code = generate_point(&mut g, &h, &spec, &switch, &PointOptions::default())?;
+    let Fields {
+        frame,
+        p,
+        dp,
+        d2p,
+        w,
+        dw,
+    } = fields();
+
+    let xs = literal(code.switch);
+    let body = &code.body;
     let doc_switch =
         " Switch on `W u` of [`element_point_into`]: the Taylor branch is used below it."
             .to_string();
@@ -224,7 +318,7 @@ pub fn generate_element_point() -> Result<(PointCode, String), CodegenError> {
          the switch, relative to the largest entry of each field. Allocation-free and \
          panic-free.",
         code.switch,
-        orders.join(", "),
+        orders(&code).join(", "),
         code.agreement
     );
     let tokens = quote! {
@@ -264,35 +358,99 @@ pub fn generate_element_point() -> Result<(PointCode, String), CodegenError> {
             out
         }
     };
-    let n = code.radial_names.len();
-    let header = format!(
-        "// @generated by superhelix-codegen {VERSION}\n\
-         // {ELEMENT_POINT}: ElementPoint at one abscissa u, 63 distinct outputs (frame 9, p 3, dp 9, \
-         d2p 18 of 27 by symmetry, w 6 and dw 18 besides w_0 = p, dw_0 = dp)\n\
-         // {n} radial functions of z = (W u)^2 (a0 = u a(z); b, c = u^2 b(z), u^3 c(z) and two derivatives each), Taylor degrees in W u: {}\n\
-         // switch W*u = {} (Taylor below); branch agreement {:.2e}, truncation {:.2e}: largest \
-         |closed - Taylor| (resp. |Taylor - Taylor of degree + 8|) at the switch over {} sample \
-         points, relative to the largest |entry| of the same field (frame, p, dp, d2p, w, dw) \
-         at the same point\n\
-         // ops before CSE (as trees, radial functions inlined): Taylor path {}; closed path {}\n\
-         // ops after CSE (as emitted): Taylor path {}; closed path {}\n\
-         //   prologue: {}\n\
-         //   Taylor radial functions: {}\n\
-         //   closed radial functions: {}\n\
-         //   shared polynomial part: {}\n",
-        orders.join(", "),
+    let header = header(
+        &format!(
+            "{ELEMENT_POINT}: ElementPoint at one abscissa u, 63 distinct outputs (frame 9, p 3, \
+             dp 9, d2p 18 of 27 by symmetry, w 6 and dw 18 besides w_0 = p, dw_0 = dp)"
+        ),
+        "a0 = u a(z); b, c = u^2 b(z), u^3 c(z) and two derivatives each",
+        "frame, p, dp, d2p, w, dw",
+        &code,
+    );
+    let text = format(&format!("{header}{tokens}\n"));
+    Ok((code, text))
+}
+
+/// Generate the rotary point (`element_rotary_point_into`: `ElementPoint` without
+/// `d2p`, see [`element_rotary_point_spec`]) in closed form: the measured code and the
+/// formatted file. Its switch is searched among `switch_candidates` (in increasing
+/// order; [`PointOptions::default`]'s when `None`).
+pub fn generate_element_rotary_point(
+    switch_candidates: Option<Vec<f64>>,
+) -> Result<(PointCode, String), CodegenError> {
+    let mut g = Graph::new();
+    let h = HelixSymbols::new(&mut g);
+    let spec = element_rotary_point_spec(&mut g, &h);
+    let switch = ident("ELEMENT_ROTARY_POINT_SWITCH");
+    let mut opts = PointOptions::default();
+    if let Some(c) = switch_candidates {
+        opts.candidates = c;
+    }
+    let code = generate_point(&mut g, &h, &spec, &switch, &opts)?;
+    let Fields {
+        frame,
+        p,
+        dp,
+        w,
+        dw,
+        ..
+    } = fields();
+
+    let xs = literal(code.switch);
+    let body = &code.body;
+    let doc_switch =
+        " Switch on `W u` of [`element_rotary_point_into`]: the Taylor branch is used below it."
+            .to_string();
+    let doc = format!(
+        " The fields of `ElementPoint` that the rotary-inertia quadrature reads, at abscissa \
+         `u` for Darboux vector `d`, in closed form: E(u), p(u), ∂p/∂d_i, w_i(u) = P(u) e_i, \
+         ∂w_i/∂d_j, the same functions as `element_point_into` without the second \
+         derivatives. `out.d2p` is not written: it keeps whatever it held (do not read it \
+         after this call).\n\n The radial functions of `z = (W u)²` are taken from their \
+         Taylor series for `W u < {}` (degrees in `W u`: {}), from their closed forms above; \
+         the polynomial part in `d` and `u` is common to both. The branches agree to {:.1e} \
+         at the switch, relative to the largest entry of each field. Allocation-free and \
+         panic-free.",
         code.switch,
-        code.agreement,
-        code.truncation,
-        code.agreement_samples,
-        code.ops_before_series,
-        code.ops_before_closed,
-        code.ops_series_path(),
-        code.ops_closed_path(),
-        code.ops_prologue,
-        code.ops_series,
-        code.ops_closed,
-        code.ops_shared,
+        orders(&code).join(", "),
+        code.agreement
+    );
+    let tokens = quote! {
+        use superhelix_runtime::element::ElementPoint;
+        use superhelix_runtime::{Matrix3, Vector3};
+
+        #[doc = #doc_switch]
+        pub const ELEMENT_ROTARY_POINT_SWITCH: f64 = #xs;
+
+        #[doc = #doc]
+        #[allow(
+            unused_variables,
+            clippy::all,
+            clippy::pedantic,
+            clippy::excessive_precision,
+            clippy::unreadable_literal
+        )]
+        pub fn element_rotary_point_into(d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
+            let d0 = d.x;
+            let d1 = d.y;
+            let d2 = d.z;
+            #body
+            out.frame = Matrix3::new(#(#frame),*);
+            out.p = #p;
+            out.dp = [#(#dp),*];
+            out.w = [#(#w),*];
+            out.dw = [#(#dw),*];
+        }
+    };
+    let header = header(
+        &format!(
+            "{ELEMENT_ROTARY_POINT}: ElementPoint without d2p (what the rotary quadrature reads) \
+             at one abscissa u, 45 distinct outputs (frame 9, p 3, dp 9, w 6 and dw 18 besides \
+             w_0 = p, dw_0 = dp)"
+        ),
+        "a0 = u a(z); b, c = u^2 b(z), u^3 c(z) and one derivative each",
+        "frame, p, dp, w, dw",
+        &code,
     );
     let text = format(&format!("{header}{tokens}\n"));
     Ok((code, text))

@@ -125,11 +125,23 @@ pub fn checked_in_files() -> Result<Vec<(String, String)>, CodegenError> {
         crate::kernel_point::ELEMENT_POINT_FILE.to_string(),
         point_text,
     ));
+    // the switch of element_point: both functions take the same branch at every (d, u)
+    let (rotary_point, rotary_point_text) =
+        crate::kernel_point::generate_element_rotary_point(Some(vec![point.switch]))?;
+    let (ra, rb) = (
+        rotary_point.ops_series_path().total(),
+        rotary_point.ops_closed_path().total(),
+    );
+    files.push((
+        crate::kernel_point::ELEMENT_ROTARY_POINT_FILE.to_string(),
+        rotary_point_text,
+    ));
     files.push((
         crate::sizes::SIZES_FILE.to_string(),
         crate::sizes::sizes_file(&crate::sizes::ElementOps {
             moments: (moments_min, moments_max),
             point: (a.min(b), a.max(b)),
+            rotary_point: (ra.min(rb), ra.max(rb)),
         }),
     ));
     Ok(files)

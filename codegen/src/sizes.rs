@@ -14,6 +14,9 @@ pub struct ElementOps {
     pub moments: (u64, u64),
     /// One element point.
     pub point: (u64, u64),
+    /// One rotary point (the element point without ∂²p, at each rotary quadrature
+    /// point).
+    pub rotary_point: (u64, u64),
 }
 
 /// The text of `generated/src/sizes.rs`.
@@ -39,8 +42,9 @@ pub fn sizes_file(ops: &ElementOps) -> String {
          // Checked-in kernel sizes N: {list}.\n\
          // Closed-form ops per kernel evaluation (after CSE; element moments {m0}..{m1} and\n\
          // element point {p0}..{p1} per element, cheapest..dearest Taylor/closed branch),\n\
-         // N x (moments + end point); the rotary quadrature adds 4 + ceil(2 W l) element\n\
-         // points per element and the runtime's O(N^2) assembly comes on top:\n\
+         // N x (moments + end point); the rotary quadrature adds 6 + ceil(W l) rotary\n\
+         // points ({r0}..{r1} ops each) per element and the runtime's O(N^2) assembly\n\
+         // comes on top:\n\
          {per_n}\
          //! Numbers of elements N with checked-in kernels. A kernel for N is the runtime's\n\
          //! moment assembly (O(N²) loops over N elements) fed by the generated per-element\n\
@@ -53,5 +57,7 @@ pub fn sizes_file(ops: &ElementOps) -> String {
         m1 = ops.moments.1,
         p0 = ops.point.0,
         p1 = ops.point.1,
+        r0 = ops.rotary_point.0,
+        r1 = ops.rotary_point.1,
     )
 }

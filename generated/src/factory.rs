@@ -34,6 +34,9 @@ impl MomentSource for ClosedForm {
     fn point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
         crate::element_point_into(d, u, out);
     }
+    fn rotary_point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
+        crate::element_rotary_point_into(d, u, out);
+    }
     fn describe(&self) -> String {
         "closed form".to_string()
     }

@@ -10,8 +10,10 @@
 //! [`centreline_mass()`] (what M needs), [`centreline_force()`] (what only the force needs)
 //! and [`rotary_basis()`] (the rotary inertia); [`element_moments_into`] fills every field,
 //! [`mass_moments`] only those of M. [`element_point_into`] gives an element's local
-//! functions at one abscissa. [`kernel_factory`] offers, for each N in [`factory::sizes`],
-//! the runtime's `MomentKernel` fed by these closed forms ([`GeneratedKernel`]).
+//! functions at one abscissa, [`element_rotary_point_into`] the same without the second
+//! derivatives `d2p` (what the rotary-inertia quadrature reads). [`kernel_factory`]
+//! offers, for each N in [`factory::sizes`], the runtime's `MomentKernel` fed by these
+//! closed forms ([`GeneratedKernel`]).
 #![warn(missing_docs)]
 
 /// Generated: the centreline moments of M (see the file's header for op counts).
@@ -179,3 +181,11 @@ pub fn kernel_factory() -> Option<&'static dyn KernelFactory> {
 #[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]
 pub mod element_point;
 pub use element_point::{element_point, element_point_into, ELEMENT_POINT_SWITCH};
+
+/// Generated: the fields of `ElementPoint` the rotary-inertia quadrature reads (all but
+/// `d2p`) at one abscissa (see the file's header for the switch, agreement and op
+/// counts).
+#[rustfmt::skip]
+#[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]
+pub mod element_rotary_point;
+pub use element_rotary_point::{element_rotary_point_into, ELEMENT_ROTARY_POINT_SWITCH};

@@ -2,8 +2,9 @@
 // Checked-in kernel sizes N: 1, 2, 3, 4, 5, 6, 8, 10, 12, 15, 20.
 // Closed-form ops per kernel evaluation (after CSE; element moments 7120..14332 and
 // element point 370..429 per element, cheapest..dearest Taylor/closed branch),
-// N x (moments + end point); the rotary quadrature adds 4 + ceil(2 W l) element
-// points per element and the runtime's O(N^2) assembly comes on top:
+// N x (moments + end point); the rotary quadrature adds 6 + ceil(W l) rotary
+// points (197..246 ops each) per element and the runtime's O(N^2) assembly
+// comes on top:
 // N =  1: 7490 .. 14761 ops
 // N =  2: 14980 .. 29522 ops
 // N =  3: 22470 .. 44283 ops

@@ -32,6 +32,13 @@ pub trait MomentSource: Send {
     fn point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
         *out = ElementPoint::by_jets(d, u);
     }
+    /// The fields of [`ElementPoint`] the rotary-inertia quadrature
+    /// ([`rotary_element`]) reads: `frame`, `p`, `dp`, `w` and `dw`, the same values as
+    /// [`MomentSource::point`]; `out.d2p` is unspecified afterwards (a source may leave
+    /// it as it was). Defaults to [`MomentSource::point`].
+    fn rotary_point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
+        self.point(d, u, out);
+    }
     /// Short description (`closed form`, `quadrature`).
     fn describe(&self) -> String;
     /// True for generated closed forms.
@@ -236,7 +243,7 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
                 let l = lengths[p];
                 let source = &self.source;
                 self.rotary[p] = rotary_element(
-                    &|u: f64, out: &mut ElementPoint| source.point(&d, u, out),
+                    &|u: f64, out: &mut ElementPoint| source.rotary_point(&d, u, out),
                     l,
                     &self.geom.rotary_inertia,
                     &self.moments[p],

@@ -57,8 +57,9 @@ pub struct RotaryElement {
 
 /// The rotary integrals of one element of length `l`, start pose
 /// `pose`, start-frame motion `motion` and own velocities `qd`, by `points`-point
-/// quadrature, the element's local functions from `eval(u, out)`; the Jacobian parts
-/// only when `jacobian`.
+/// quadrature, the element's local functions from `eval(u, out)` (of which only
+/// `frame`, `w` and `dw` are read: `eval` need not fill `d2p`, see
+/// `MomentSource::rotary_point`); the Jacobian parts only when `jacobian`.
 #[allow(clippy::too_many_arguments)]
 pub fn rotary_element(
     eval: &dyn Fn(f64, &mut ElementPoint),
