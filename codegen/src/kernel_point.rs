@@ -288,6 +288,43 @@ fn header(what: &str, radial: &str, groups: &str, code: &PointCode) -> String {
     )
 }
 
+/// The items of a generated point file: the imports, the switch constant `switch` and
+/// `fn_name(d, u, out)`, which binds d's components, evaluates `body` and writes the
+/// outputs with `fill`.
+fn point_function(
+    switch: &Ident,
+    fn_name: &Ident,
+    doc_switch: &str,
+    doc: &str,
+    xs: &TokenStream,
+    body: &TokenStream,
+    fill: TokenStream,
+) -> TokenStream {
+    quote! {
+        use superhelix_runtime::element::ElementPoint;
+        use superhelix_runtime::{Matrix3, Vector3};
+
+        #[doc = #doc_switch]
+        pub const #switch: f64 = #xs;
+
+        #[doc = #doc]
+        #[allow(
+            unused_variables,
+            clippy::all,
+            clippy::pedantic,
+            clippy::excessive_precision,
+            clippy::unreadable_literal
+        )]
+        pub fn #fn_name(d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
+            let d0 = d.x;
+            let d1 = d.y;
+            let d2 = d.z;
+            #body
+            #fill
+        }
+    }
+}
+
 /// Generate `ElementPoint` in closed form: the measured code and the formatted file.
 pub fn generate_element_point() -> Result<(PointCode, String), CodegenError> {
     let mut g = Graph::new();
@@ -321,35 +358,27 @@ pub fn generate_element_point() -> Result<(PointCode, String), CodegenError> {
         orders(&code).join(", "),
         code.agreement
     );
+    let fill = quote! {
+        *out = ElementPoint {
+            frame: Matrix3::new(#(#frame),*),
+            p: #p,
+            dp: [#(#dp),*],
+            d2p: [#(#d2p),*],
+            w: [#(#w),*],
+            dw: [#(#dw),*],
+        };
+    };
+    let function = point_function(
+        &switch,
+        &ident("element_point_into"),
+        &doc_switch,
+        &doc,
+        &xs,
+        body,
+        fill,
+    );
     let tokens = quote! {
-        use superhelix_runtime::element::ElementPoint;
-        use superhelix_runtime::{Matrix3, Vector3};
-
-        #[doc = #doc_switch]
-        pub const ELEMENT_POINT_SWITCH: f64 = #xs;
-
-        #[doc = #doc]
-        #[allow(
-            unused_variables,
-            clippy::all,
-            clippy::pedantic,
-            clippy::excessive_precision,
-            clippy::unreadable_literal
-        )]
-        pub fn element_point_into(d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
-            let d0 = d.x;
-            let d1 = d.y;
-            let d2 = d.z;
-            #body
-            *out = ElementPoint {
-                frame: Matrix3::new(#(#frame),*),
-                p: #p,
-                dp: [#(#dp),*],
-                d2p: [#(#d2p),*],
-                w: [#(#w),*],
-                dw: [#(#dw),*],
-            };
-        }
+        #function
 
         /// [`element_point_into`] into a new value.
         pub fn element_point(d: &Vector3<f64>, u: f64) -> ElementPoint {
@@ -415,33 +444,22 @@ pub fn generate_element_rotary_point(
         orders(&code).join(", "),
         code.agreement
     );
-    let tokens = quote! {
-        use superhelix_runtime::element::ElementPoint;
-        use superhelix_runtime::{Matrix3, Vector3};
-
-        #[doc = #doc_switch]
-        pub const ELEMENT_ROTARY_POINT_SWITCH: f64 = #xs;
-
-        #[doc = #doc]
-        #[allow(
-            unused_variables,
-            clippy::all,
-            clippy::pedantic,
-            clippy::excessive_precision,
-            clippy::unreadable_literal
-        )]
-        pub fn element_rotary_point_into(d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
-            let d0 = d.x;
-            let d1 = d.y;
-            let d2 = d.z;
-            #body
-            out.frame = Matrix3::new(#(#frame),*);
-            out.p = #p;
-            out.dp = [#(#dp),*];
-            out.w = [#(#w),*];
-            out.dw = [#(#dw),*];
-        }
+    let fill = quote! {
+        out.frame = Matrix3::new(#(#frame),*);
+        out.p = #p;
+        out.dp = [#(#dp),*];
+        out.w = [#(#w),*];
+        out.dw = [#(#dw),*];
     };
+    let tokens = point_function(
+        &switch,
+        &ident("element_rotary_point_into"),
+        &doc_switch,
+        &doc,
+        &xs,
+        body,
+        fill,
+    );
     let header = header(
         &format!(
             "{ELEMENT_ROTARY_POINT}: ElementPoint without d2p (what the rotary quadrature reads) \
