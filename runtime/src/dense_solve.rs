@@ -8,6 +8,8 @@ use faer::linalg::evd;
 use faer::linalg::lu::partial_pivoting as lu;
 use faer::{Mat, MatMut, Par};
 
+use crate::spectral_projection::SpectralProjection;
+
 /// Workspace for solving `A x = b` with a 3N × 3N matrix.
 pub struct DenseSolver {
     /// The matrix to factor; filled by the caller, overwritten by the factorisation.
@@ -20,25 +22,13 @@ pub struct DenseSolver {
     eigenvalues: Diag<f64>,
     eigenvectors: Mat<f64>,
     scaled: Mat<f64>,
-    work: Mat<f64>,
-    rotated: Mat<f64>,
-    /// `eigenvectors` hold the eigenbasis of an earlier projection.
-    basis_valid: bool,
-    /// Projections that reused the eigenbasis of an earlier one.
-    pub projections_reused: u64,
-    /// Projections that needed an eigendecomposition.
-    pub projections_decomposed: u64,
+    spectral: SpectralProjection,
+    /// The matrix to project, column-major with both triangles.
+    dense: Vec<f64>,
+    /// Projections where the partial eigendecomposition failed its checks and faer's
+    /// full one was used.
+    pub projections_full: u64,
 }
-
-/// Largest coupling, relative to the matrix, between the negative and the non-negative
-/// directions of an earlier eigenbasis for [`DenseSolver::project_negative_semidefinite`]
-/// to reuse that basis instead of decomposing: `‖B_NP‖_F ≤ tol ‖B‖_F` with `B = Uᵀ H U`.
-pub const EIGENBASIS_REUSE_TOLERANCE: f64 = 0.01;
-
-/// Relative size (to the largest |B_ii|) below which a negative diagonal entry of the
-/// rotated matrix is counted with the non-negative ones when the basis is reused: an
-/// eigenvalue crossing zero then does not force a decomposition.
-const NEGLIGIBLE_EIGENVALUE: f64 = 1e-3;
 
 impl DenseSolver {
     /// Workspace for dimension n.
@@ -71,11 +61,9 @@ impl DenseSolver {
             eigenvalues: Diag::zeros(n),
             eigenvectors: Mat::zeros(n, n),
             scaled: Mat::zeros(n, n),
-            work: Mat::zeros(n, n),
-            rotated: Mat::zeros(n, n),
-            basis_valid: false,
-            projections_reused: 0,
-            projections_decomposed: 0,
+            spectral: SpectralProjection::new(n),
+            dense: vec![0.0; n * n],
+            projections_full: 0,
         }
     }
 
@@ -83,17 +71,13 @@ impl DenseSolver {
     /// semidefinite part `U min(Λ, 0) Uᵀ`: the stabilising part of a stiffness. Returns
     /// false (leaving `h` unchanged) if the eigendecomposition fails.
     ///
-    /// The stiffness changes little from one step to the next, so the eigenbasis U of the
-    /// previous decomposition is tried first: with `B = Uᵀ H U`, N the indices of B's
-    /// negative diagonal and P the others, when the coupling `‖B_NP‖_F` is at most
-    /// [`EIGENBASIS_REUSE_TOLERANCE`] `‖B‖_F` and `B_NN` is negative definite, the result
-    /// is `U_N B_NN U_Nᵀ`: negative semidefinite by construction, and within
-    /// `‖B_NP‖_F` of the exact part (the coupling it drops). Otherwise H is decomposed
-    /// and its eigenbasis kept for the next call.
+    /// A negative definite `h` (a hanging strand) is its own projection, which a
+    /// Cholesky factorisation of −h says for a fraction of the cost. Otherwise
+    /// [`SpectralProjection`] computes it from the eigenvectors of the smaller side of
+    /// the spectrum, reusing the last basis while it still splits `h` (see there); faer's
+    /// full decomposition is the fallback when that fails its checks.
     pub fn project_negative_semidefinite(&mut self, h: &mut Mat<f64>) -> bool {
         let n = h.nrows();
-        // fast path: a negative definite h (a hanging strand) is its own projection,
-        // and a Cholesky factorisation of −h says so for a fraction of the cost
         for j in 0..n {
             for i in j..n {
                 self.scaled[(i, j)] = -h[(i, j)];
@@ -111,11 +95,23 @@ impl DenseSolver {
         {
             return true;
         }
-        if self.basis_valid && self.project_in_previous_basis(h) {
-            self.projections_reused += 1;
+        for j in 0..n {
+            for i in j..n {
+                let x = h[(i, j)];
+                self.dense[j * n + i] = x;
+                self.dense[i * n + j] = x;
+            }
+        }
+        if self.spectral.negative_part(&mut self.dense) {
+            for j in 0..n {
+                for i in 0..n {
+                    h[(i, j)] = self.dense[j * n + i];
+                }
+            }
             return true;
         }
-        self.projections_decomposed += 1;
+        self.spectral.forget_basis();
+        self.projections_full += 1;
         let stack = MemStack::new(&mut self.buffer);
         let ok = evd::self_adjoint_evd(
             h.as_ref(),
@@ -126,7 +122,6 @@ impl DenseSolver {
             Default::default(),
         )
         .is_ok();
-        self.basis_valid = ok;
         if !ok {
             return false;
         }
@@ -147,114 +142,14 @@ impl DenseSolver {
         true
     }
 
-    /// The reuse branch of [`Self::project_negative_semidefinite`]: false (leaving `h`
-    /// unchanged) when the earlier eigenbasis does not qualify.
-    fn project_in_previous_basis(&mut self, h: &mut Mat<f64>) -> bool {
-        let n = h.nrows();
-        // the full symmetric H from its lower triangle
-        for j in 0..n {
-            for i in j..n {
-                let x = h[(i, j)];
-                self.scaled[(i, j)] = x;
-                self.scaled[(j, i)] = x;
-            }
-        }
-        // B = Uᵀ H U
-        faer::linalg::matmul::matmul(
-            self.work.as_mut(),
-            faer::Accum::Replace,
-            self.scaled.as_ref(),
-            self.eigenvectors.as_ref(),
-            1.0,
-            Par::Seq,
-        );
-        faer::linalg::matmul::matmul(
-            self.rotated.as_mut(),
-            faer::Accum::Replace,
-            self.eigenvectors.transpose(),
-            self.work.as_ref(),
-            1.0,
-            Par::Seq,
-        );
-        let b = &self.rotated;
-        // N: the diagonal entries below −δ; those in [−δ, 0) join P, which drops them
-        // (an error of at most δ each, far inside the coupling bound)
-        let mut scale = 0.0f64;
-        for j in 0..n {
-            scale = scale.max(b[(j, j)].abs());
-        }
-        let cut = -NEGLIGIBLE_EIGENVALUE * scale;
-        let mut negative = 0;
-        let mut total = 0.0;
-        let mut coupling = 0.0;
-        for j in 0..n {
-            for i in 0..n {
-                let x = b[(i, j)] * b[(i, j)];
-                total += x;
-                if (b[(i, i)] < cut) != (b[(j, j)] < cut) {
-                    coupling += x;
-                }
-            }
-            if b[(j, j)] < cut {
-                self.perm[negative] = j;
-                negative += 1;
-            }
-        }
-        // (a NaN coupling fails too)
-        if coupling.is_nan()
-            || coupling > EIGENBASIS_REUSE_TOLERANCE * EIGENBASIS_REUSE_TOLERANCE * total
-        {
-            return false;
-        }
-        if negative == 0 {
-            h.fill(0.0);
-            return true;
-        }
-        let k = negative;
-        // −B_NN must be positive definite (an eigenvalue that crossed zero: decompose)
-        for c in 0..k {
-            for r in 0..k {
-                self.scaled[(r, c)] = -b[(self.perm[r], self.perm[c])];
-            }
-        }
-        let stack = MemStack::new(&mut self.buffer);
-        if llt::factor::cholesky_in_place(
-            self.scaled.as_mut().submatrix_mut(0, 0, k, k),
-            Default::default(),
-            Par::Seq,
-            stack,
-            Default::default(),
-        )
-        .is_err()
-        {
-            return false;
-        }
-        // U_N into work's first k columns, B_NN into scaled, U_N B_NN into rotated
-        for c in 0..k {
-            for r in 0..n {
-                self.work[(r, c)] = self.eigenvectors[(r, self.perm[c])];
-            }
-            for r in 0..k {
-                self.scaled[(r, c)] = self.rotated[(self.perm[r], self.perm[c])];
-            }
-        }
-        faer::linalg::matmul::matmul(
-            self.rotated.as_mut().submatrix_mut(0, 0, n, k),
-            faer::Accum::Replace,
-            self.work.as_ref().submatrix(0, 0, n, k),
-            self.scaled.as_ref().submatrix(0, 0, k, k),
-            1.0,
-            Par::Seq,
-        );
-        faer::linalg::matmul::matmul(
-            h.as_mut(),
-            faer::Accum::Replace,
-            self.rotated.as_ref().submatrix(0, 0, n, k),
-            self.work.as_ref().submatrix(0, 0, n, k).transpose(),
-            1.0,
-            Par::Seq,
-        );
-        true
+    /// Projections that reused the basis of an earlier one.
+    pub fn projections_reused(&self) -> u64 {
+        self.spectral.reused
+    }
+
+    /// Projections that needed a (partial) eigendecomposition.
+    pub fn projections_decomposed(&self) -> u64 {
+        self.spectral.decomposed
     }
 
     /// The right-hand side as a slice.
@@ -429,7 +324,7 @@ mod tests {
         let h0 = symmetric(n, 7, 1.0);
         let mut p = h0.clone();
         assert!(s.project_negative_semidefinite(&mut p));
-        assert_eq!((s.projections_decomposed, s.projections_reused), (1, 0));
+        assert_eq!((s.projections_decomposed(), s.projections_reused()), (1, 0));
         // the first call is exact
         let exact0 = exact_projection(&h0);
         assert!(frobenius(&(&p - &exact0)) < 1e-12 * frobenius(&h0));
@@ -439,7 +334,7 @@ mod tests {
         let h1 = &h0 + &dh;
         let mut p = h1.clone();
         assert!(s.project_negative_semidefinite(&mut p));
-        assert_eq!((s.projections_decomposed, s.projections_reused), (1, 1));
+        assert_eq!((s.projections_decomposed(), s.projections_reused()), (1, 1));
         let err = frobenius(&(&p - &exact_projection(&h1)));
         assert!(err <= 2.0 * frobenius(&dh), "{err:.3e}");
         assert!(err > 0.0);
@@ -451,7 +346,7 @@ mod tests {
         let h2 = symmetric(n, 13, 1.0);
         let mut p = h2.clone();
         assert!(s.project_negative_semidefinite(&mut p));
-        assert_eq!((s.projections_decomposed, s.projections_reused), (2, 1));
+        assert_eq!((s.projections_decomposed(), s.projections_reused()), (2, 1));
         assert!(frobenius(&(&p - &exact_projection(&h2))) < 1e-12 * frobenius(&h2));
     }
 }

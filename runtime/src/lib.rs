@@ -36,6 +36,7 @@ pub mod quadrature;
 pub mod reconstruction;
 pub mod scene;
 pub mod simulation;
+pub mod spectral_projection;
 pub mod statics;
 pub mod strand;
 
