@@ -28,6 +28,13 @@ pub struct DenseSolver {
     /// Projections where the partial eigendecomposition failed its checks and faer's
     /// full one was used.
     pub projections_full: u64,
+    /// The last projection's input (lower triangle, column-major) and result (full):
+    /// a step split in two starts again from the same state, so the same stiffness.
+    last_input: Vec<f64>,
+    last_output: Vec<f64>,
+    last_valid: bool,
+    /// Projections that repeated the last one's input exactly.
+    pub projections_repeated: u64,
 }
 
 impl DenseSolver {
@@ -64,6 +71,10 @@ impl DenseSolver {
             spectral: SpectralProjection::new(n),
             dense: vec![0.0; n * n],
             projections_full: 0,
+            last_input: vec![0.0; n * n],
+            last_output: vec![0.0; n * n],
+            last_valid: false,
+            projections_repeated: 0,
         }
     }
 
@@ -71,12 +82,43 @@ impl DenseSolver {
     /// semidefinite part `U min(Λ, 0) Uᵀ`: the stabilising part of a stiffness. Returns
     /// false (leaving `h` unchanged) if the eigendecomposition fails.
     ///
-    /// A negative definite `h` (a hanging strand) is its own projection, which a
+    /// The same input as the last call (a split step starts again from the same state)
+    /// returns the last result. A negative definite `h` (a hanging strand) is its own projection, which a
     /// Cholesky factorisation of −h says for a fraction of the cost. Otherwise
     /// [`SpectralProjection`] computes it from the eigenvectors of the smaller side of
     /// the spectrum, reusing the last basis while it still splits `h` (see there); faer's
     /// full decomposition is the fallback when that fails its checks.
     pub fn project_negative_semidefinite(&mut self, h: &mut Mat<f64>) -> bool {
+        let n = h.nrows();
+        let repeated = self.last_valid
+            && (0..n).all(|j| (j..n).all(|i| h[(i, j)].to_bits() == self.last_input[j * n + i].to_bits()));
+        if repeated {
+            self.projections_repeated += 1;
+            for j in 0..n {
+                for i in 0..n {
+                    h[(i, j)] = self.last_output[j * n + i];
+                }
+            }
+            return true;
+        }
+        for j in 0..n {
+            for i in j..n {
+                self.last_input[j * n + i] = h[(i, j)];
+            }
+        }
+        self.last_valid = self.project_uncached(h);
+        if self.last_valid {
+            for j in 0..n {
+                for i in 0..n {
+                    self.last_output[j * n + i] = h[(i, j)];
+                }
+            }
+        }
+        self.last_valid
+    }
+
+    /// [`Self::project_negative_semidefinite`] without the repeat check.
+    fn project_uncached(&mut self, h: &mut Mat<f64>) -> bool {
         let n = h.nrows();
         for j in 0..n {
             for i in j..n {
