@@ -130,6 +130,16 @@ fn run(
     )
 }
 
+/// The bound both shake tests put on a run's kinetic-energy peaks: below 10 times the
+/// rigid-drag scale in each half of the run (why 10: see the implicit Euler test).
+#[track_caller]
+fn assert_peaks_bounded(peaks: &KineticPeaks) {
+    assert!(
+        peaks.first_half < 10.0 && peaks.second_half < 10.0,
+        "{peaks:?}"
+    );
+}
+
 #[test]
 fn every_preset_survives_a_3hz_40deg_shake_at_30_fps_deterministically() {
     let lie = IntegratorKind::LinearlyImplicitEuler;
@@ -142,31 +152,27 @@ fn every_preset_survives_a_3hz_40deg_shake_at_30_fps_deterministically() {
     // first. (Means rather than peaks, which are more sensitive to the irregular
     // whipping. Measured: peaks 1.31 and 1.59 times the scale, mean growth 1.06, the same
     // to 1e-6 on the generic and the generated kernels.)
-    assert!(
-        peaks.first_half < 10.0 && peaks.second_half < 10.0,
-        "{peaks:?}"
-    );
+    assert_peaks_bounded(&peaks);
     assert!(peaks.mean_growth < 1.5, "kinetic energy grows: {peaks:?}");
     let (second, _) = run(lie, 10, 1.0 / 30.0, 10.0, 3.0, 40.0);
     assert_eq!(first, second, "two runs differ");
 }
 
-/// Run `cases`; fail, naming every case, strand, time and cause, on a failure that is not
-/// in `KNOWN_FAILURES`.
-fn run_and_check(cases: &[stress::Case]) {
+/// Run `cases` and print the report; fail, naming every case, strand, time and cause, on
+/// a failure of a case whose name `is_known` does not accept. Returns the results for the
+/// caller's own checks of the known failures.
+fn run_failing_only_where_known(
+    cases: &[stress::Case],
+    is_known: impl Fn(&str) -> bool,
+) -> Vec<stress::CaseResult> {
     let start = std::time::Instant::now();
     let results = stress::run_cases(cases);
     let text = stress::render(&results, start.elapsed().as_secs_f64());
     println!("{text}");
     let unexpected: Vec<String> = results
         .iter()
-        .filter(|r| !stress::is_known_failure(&r.name))
+        .filter(|r| !is_known(r.name.as_str()))
         .filter_map(stress::failure_line)
-        .collect();
-    let fixed: Vec<&str> = results
-        .iter()
-        .filter(|r| r.passed() && stress::is_known_failure(&r.name))
-        .map(|r| r.name.as_str())
         .collect();
     assert!(
         unexpected.is_empty(),
@@ -174,6 +180,18 @@ fn run_and_check(cases: &[stress::Case]) {
         unexpected.len(),
         unexpected.join("\n")
     );
+    results
+}
+
+/// Run `cases`; fail, naming every case, strand, time and cause, on a failure that is not
+/// in `KNOWN_FAILURES`, and on a known failure that passes.
+fn run_and_check(cases: &[stress::Case]) {
+    let results = run_failing_only_where_known(cases, stress::is_known_failure);
+    let fixed: Vec<&str> = results
+        .iter()
+        .filter(|r| r.passed() && stress::is_known_failure(&r.name))
+        .map(|r| r.name.as_str())
+        .collect();
     assert!(
         fixed.is_empty(),
         "known failures that pass now (remove them from stress::KNOWN_FAILURES): {fixed:?}"
@@ -449,10 +467,7 @@ fn bdf2_survives_the_same_shake_bounded() {
     // times — so the ratio is not asserted.
     let (_, peaks) = run(IntegratorKind::Bdf2, 10, 1.0 / 30.0, 10.0, 3.0, 40.0);
     println!("BDF2 kinetic energy peaks / rigid-drag scale: {peaks:?}");
-    assert!(
-        peaks.first_half < 10.0 && peaks.second_half < 10.0,
-        "{peaks:?}"
-    );
+    assert_peaks_bounded(&peaks);
     assert!(peaks.second_half_mean < stress::MEAN_LEVEL, "{peaks:?}");
 }
 
@@ -463,23 +478,8 @@ fn quick_subset_of_the_hard_cases_with_bdf2_fails_only_where_known() {
     // other may
     let cases = stress::with_integrator(stress::quick_cases(), IntegratorKind::Bdf2);
     assert!(cases.len() >= 80, "{}", cases.len());
-    let start = std::time::Instant::now();
-    let results = stress::run_cases(&cases);
-    println!(
-        "{}",
-        stress::render(&results, start.elapsed().as_secs_f64())
-    );
-    let unexpected: Vec<String> = results
-        .iter()
-        .filter(|r| !stress::KNOWN_FAILURES_BDF2.contains(&r.name.as_str()))
-        .filter_map(stress::failure_line)
-        .collect();
-    assert!(
-        unexpected.is_empty(),
-        "{} case(s) failed:\n{}",
-        unexpected.len(),
-        unexpected.join("\n")
-    );
+    let results =
+        run_failing_only_where_known(&cases, |name| stress::KNOWN_FAILURES_BDF2.contains(&name));
     for known in stress::KNOWN_FAILURES_BDF2 {
         assert!(
             results.iter().any(|r| r.name == *known),

@@ -1,7 +1,7 @@
 //! The generated kernels as the runtime sees them: the closed-form element integrals
 //! ([`crate::element_moments`]) as a [`MomentSource`], assembled by the runtime's
 //! [`MomentKernel`], for the numbers of elements this build was generated for
-//! ([`SIZES`]: the checked-in list plus `SUPERHELIX_N` at build time).
+//! ([`sizes()`]: the checked-in list plus `SUPERHELIX_N` at build time).
 
 use superhelix_runtime::element::ElementPoint;
 use superhelix_runtime::kernel_moments::{MomentKernel, MomentSource};

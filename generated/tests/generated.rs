@@ -272,21 +272,103 @@ fn generated_files_are_fresh() {
             std::fs::write(&path, &text).expect("write");
             continue;
         }
-        if current != text {
-            let line = current
-                .lines()
-                .zip(text.lines())
-                .position(|(a, b)| a != b)
-                .unwrap_or(0);
+        if let Some(diff) = first_difference(&current, &text) {
+            let show =
+                |line: Option<&str>| line.map_or("(end of file)".to_string(), |l| format!("{l:?}"));
             panic!(
-                "{} is stale (first difference at line {}):\n  checked in: {:?}\n  generated:  {:?}\nrun `cargo run -p superhelix-codegen --release`",
+                "{} is stale (first difference at line {}; checked in {} lines, generated {} lines):\n  checked in: {}\n  generated:  {}\nrun `cargo run -p superhelix-codegen --release`",
                 path.display(),
-                line + 1,
-                current.lines().nth(line).unwrap_or(""),
-                text.lines().nth(line).unwrap_or("")
+                diff.line,
+                diff.lines.0,
+                diff.lines.1,
+                show(diff.a),
+                show(diff.b)
             );
         }
     }
+}
+
+/// Where two texts first differ, line by line.
+#[derive(Debug, PartialEq)]
+struct FirstDifference<'a> {
+    /// 1-based number of the first line that differs (the line after the common prefix).
+    line: usize,
+    /// That line in the first and the second text, with its terminator; `None` past the end.
+    a: Option<&'a str>,
+    b: Option<&'a str>,
+    /// Number of lines of the first and the second text.
+    lines: (usize, usize),
+}
+
+/// The first line at which `a` and `b` differ, or `None` when they are equal. Lines keep
+/// their terminators, so when one text is the other with lines added at the end (or only
+/// the final newline differs), the difference is at the line after the common prefix.
+fn first_difference<'a>(a: &'a str, b: &'a str) -> Option<FirstDifference<'a>> {
+    let la: Vec<&str> = a.split_inclusive('\n').collect();
+    let lb: Vec<&str> = b.split_inclusive('\n').collect();
+    let i = (0..la.len().max(lb.len())).find(|&i| la.get(i) != lb.get(i))?;
+    Some(FirstDifference {
+        line: i + 1,
+        a: la.get(i).copied(),
+        b: lb.get(i).copied(),
+        lines: (la.len(), lb.len()),
+    })
+}
+
+#[test]
+fn first_difference_is_the_line_after_the_common_prefix() {
+    // identical texts
+    assert_eq!(first_difference("", ""), None);
+    assert_eq!(first_difference("a\nb\nc\n", "a\nb\nc\n"), None);
+    // a difference in the middle
+    assert_eq!(
+        first_difference("a\nb\nc\n", "a\nB\nc\n"),
+        Some(FirstDifference {
+            line: 2,
+            a: Some("b\n"),
+            b: Some("B\n"),
+            lines: (3, 3)
+        })
+    );
+    // one text a prefix of the other, either way round
+    assert_eq!(
+        first_difference("a\nb\n", "a\nb\nc\nd\n"),
+        Some(FirstDifference {
+            line: 3,
+            a: None,
+            b: Some("c\n"),
+            lines: (2, 4)
+        })
+    );
+    assert_eq!(
+        first_difference("a\nb\nc\n", "a\n"),
+        Some(FirstDifference {
+            line: 2,
+            a: Some("b\n"),
+            b: None,
+            lines: (3, 1)
+        })
+    );
+    // a missing (checked-in file absent: read as "") or partial text
+    assert_eq!(
+        first_difference("", "a\n"),
+        Some(FirstDifference {
+            line: 1,
+            a: None,
+            b: Some("a\n"),
+            lines: (0, 1)
+        })
+    );
+    // only the final newline differs
+    assert_eq!(
+        first_difference("a\nb", "a\nb\n"),
+        Some(FirstDifference {
+            line: 2,
+            a: Some("b"),
+            b: Some("b\n"),
+            lines: (2, 2)
+        })
+    );
 }
 
 #[test]

@@ -1,5 +1,5 @@
 //! One helical element in its own start frame (paper appendix A, eq. 7; design page
-//! "Reconstruction"): with K = [d]×, W = |d|, x = uW,
+//! "Reconstruction"): with `K = [d]×`, W = |d|, x = uW,
 //!
 //! ```text
 //! E(u) = exp(uK) = I + u a(x) K + u² b(x) K²

@@ -20,9 +20,9 @@ use nalgebra::{Matrix3, Vector3};
 pub struct BodyField {
     /// c0, N/m: gravity ρS Rᵀ(g − Ẍ) and the drag of the head's translation −ν RᵀẊ.
     pub uniform: Vector3<f64>,
-    /// C1, N/m²: −ρS([α]× + [ω]×²) − ν[ω]× (Euler, centrifugal, drag of rotation).
+    /// C1, N/m²: `−ρS([α]× + [ω]×²) − ν[ω]×` (Euler, centrifugal, drag of rotation).
     pub linear: Matrix3<f64>,
-    /// C2, N·s/m²: −2ρS[ω]× − ν I (Coriolis and drag of the strand's own motion).
+    /// C2, N·s/m²: `−2ρS[ω]× − ν I` (Coriolis and drag of the strand's own motion).
     pub velocity: Matrix3<f64>,
 }
 

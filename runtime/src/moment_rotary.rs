@@ -41,7 +41,7 @@ pub struct RotaryElement {
     pub torque: V3,
     /// ∫ w_i · τ (element frame w_i, τ in the element frame).
     pub b_own: [f64; 3],
-    /// ∫ Λ, Λ = −I[Ωs]× + [Ωs]× I − [IΩs]×.
+    /// ∫ Λ, `Λ = −I[Ωs]× + [Ωs]× I − [IΩs]×`.
     pub lambda: M3,
     /// ∫ Λᵀ F w_i.
     pub lambda_w: [V3; 3],
