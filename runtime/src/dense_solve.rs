@@ -91,7 +91,9 @@ impl DenseSolver {
     pub fn project_negative_semidefinite(&mut self, h: &mut Mat<f64>) -> bool {
         let n = h.nrows();
         let repeated = self.last_valid
-            && (0..n).all(|j| (j..n).all(|i| h[(i, j)].to_bits() == self.last_input[j * n + i].to_bits()));
+            && (0..n).all(|j| {
+                (j..n).all(|i| h[(i, j)].to_bits() == self.last_input[j * n + i].to_bits())
+            });
         if repeated {
             self.projections_repeated += 1;
             for j in 0..n {

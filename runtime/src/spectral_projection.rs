@@ -152,7 +152,7 @@ impl SpectralProjection {
         self.decomposed += 1;
         // work on H / 2^e with its largest entry in [0.5, 1) (exact): the QL rotations
         // may then take sqrt(f² + g²) instead of hypot without overflow or underflow
-        let scale = 2f64.powi(largest.log2().floor() as i32 + 1);
+        let scale = power_of_two_above(largest);
         let inverse = 1.0 / scale;
         for (a, x) in self.a.iter_mut().zip(h.iter()) {
             *a = x * inverse;
@@ -239,43 +239,37 @@ impl SpectralProjection {
 
     /// The reuse branch of [`Self::negative_part`] (see the module page): false, with
     /// `h` unchanged, when the basis of the last decomposition does not qualify.
-    #[inline(never)] // PROFILE
     fn project_in_basis(&mut self, h: &mut [f64]) -> bool {
         let (n, k) = (self.n, self.basis_k);
         let u = &self.vectors[..k * n];
-        // W = H U
-        for (w, uj) in self.hu[..k * n].chunks_exact_mut(n).zip(u.chunks_exact(n)) {
+        let total: f64 = h.iter().map(|x| x * x).sum();
+        let bound = BASIS_REUSE_TOLERANCE * BASIS_REUSE_TOLERANCE * total;
+        // column by column, stopping as soon as the coupling exceeds its bound:
+        // W_j = H u_j, B_ij = u_iᵀ W_j (k × k), C_j = W_j − U B_j
+        let mut coupling = 0.0;
+        for j in 0..k {
+            let w = &mut self.hu[j * n..(j + 1) * n];
             w.fill(0.0);
-            for (hc, &ucj) in h.chunks_exact(n).zip(uj) {
+            for (hc, &ucj) in h.chunks_exact(n).zip(&u[j * n..(j + 1) * n]) {
                 for (wr, &hrc) in w.iter_mut().zip(hc) {
                     *wr += hrc * ucj;
                 }
             }
-        }
-        // B = Uᵀ W (k × k), C = W − U B
-        for j in 0..k {
-            let w = &self.hu[j * n..(j + 1) * n];
+            let c = &mut self.coupling[j * n..(j + 1) * n];
+            c.copy_from_slice(w);
             for i in 0..k {
                 let ui = &u[i * n..(i + 1) * n];
-                self.rotated[j * k + i] = ui.iter().zip(w).map(|(a, b)| a * b).sum();
-            }
-        }
-        let mut coupling = 0.0;
-        for j in 0..k {
-            let c = &mut self.coupling[j * n..(j + 1) * n];
-            c.copy_from_slice(&self.hu[j * n..(j + 1) * n]);
-            for i in 0..k {
-                let b = self.rotated[j * k + i];
-                for (cr, &ur) in c.iter_mut().zip(&u[i * n..(i + 1) * n]) {
+                let b: f64 = ui.iter().zip(w.iter()).map(|(a, b)| a * b).sum();
+                self.rotated[j * k + i] = b;
+                for (cr, &ur) in c.iter_mut().zip(ui) {
                     *cr -= b * ur;
                 }
             }
             coupling += c.iter().map(|x| x * x).sum::<f64>();
-        }
-        let total: f64 = h.iter().map(|x| x * x).sum();
-        // (a NaN coupling fails too)
-        if !(coupling <= BASIS_REUSE_TOLERANCE * BASIS_REUSE_TOLERANCE * total) {
-            return false;
+            // (a NaN coupling fails too)
+            if !(coupling <= bound) {
+                return false;
+            }
         }
         let norm = total.sqrt();
         let cut = NEGLIGIBLE_EIGENVALUE * norm;
@@ -285,7 +279,11 @@ impl SpectralProjection {
         for j in 0..k {
             for i in 0..k {
                 let b = self.rotated[j * k + i];
-                self.a[j * k + i] = if negative { -b } else { b + if i == j { cut } else { 0.0 } };
+                self.a[j * k + i] = if negative {
+                    -b
+                } else {
+                    b + if i == j { cut } else { 0.0 }
+                };
             }
         }
         if !cholesky(&mut self.a, k, &mut self.buffer) {
@@ -357,7 +355,6 @@ impl SpectralProjection {
     /// Householder reduction of `a` (lower triangle read) to tridiagonal form: `diag`,
     /// `off` (coupling i and i + 1), the reflector `I − τ_k v_k v_kᵀ` (acting on rows
     /// k + 1 ..) stored as v_k in column k from row k + 1 and τ_k in `tau`.
-    #[inline(never)] // PROFILE
     fn tridiagonalise(&mut self) {
         let n = self.n;
         let p = &mut self.x;
@@ -421,7 +418,6 @@ impl SpectralProjection {
 
     /// `max_i |e_{i−1}| + |d_i| + |e_i|`: the 1-norm of T (= ‖H‖₁ up to rounding's
     /// change of basis; a bound of ‖T‖₂).
-    #[inline(never)] // PROFILE
     fn tridiagonal_norm(&self) -> f64 {
         let n = self.n;
         let mut m = 0.0f64;
@@ -441,7 +437,6 @@ impl SpectralProjection {
     /// Eigenvector j of T for `selected[j]` into column j of `vectors`, orthogonal to
     /// columns `cluster_start .. j` (the nearby eigenvalues). False when it does not
     /// reach the residual tolerance.
-    #[inline(never)] // PROFILE
     fn inverse_iteration(
         &mut self,
         j: usize,
@@ -493,7 +488,6 @@ impl SpectralProjection {
     }
 
     /// `‖T x − λ x‖₂` for the unit vector `x`.
-    #[inline(never)] // PROFILE
     fn residual(&self, lambda: f64) -> f64 {
         let n = self.n;
         let (d, e, x) = (&self.diag, &self.off, &self.x);
@@ -514,7 +508,6 @@ impl SpectralProjection {
     /// LU factorisation with partial pivoting of `T − λI`: U with diagonals u0, u1, u2,
     /// the multipliers and row swaps of L. Zero pivots become `perturbation` (inverse
     /// iteration wants the near-singular solve).
-    #[inline(never)] // PROFILE
     fn factor_shifted(&mut self, lambda: f64, perturbation: f64) {
         let n = self.n;
         let (d, e) = (&self.diag, &self.off);
@@ -551,7 +544,6 @@ impl SpectralProjection {
     }
 
     /// Solve `(T − λI) x_new = x` in place with the factors of [`Self::factor_shifted`].
-    #[inline(never)] // PROFILE
     fn solve_shifted(&mut self) {
         let n = self.n;
         let x = &mut self.x;
@@ -575,7 +567,6 @@ impl SpectralProjection {
 
     /// The first k columns of `vectors` from T's coordinates to the matrix's:
     /// `u = H₀ H₁ ⋯ y`.
-    #[inline(never)] // PROFILE
     fn apply_q(&mut self, k: usize) {
         let n = self.n;
         for r in (0..n.saturating_sub(2)).rev() {
@@ -594,6 +585,16 @@ impl SpectralProjection {
             }
         }
     }
+}
+
+/// The power of two just above the finite positive `x` (1 for a subnormal `x`, which
+/// needs no protection from overflow).
+fn power_of_two_above(x: f64) -> f64 {
+    let exponent = (x.to_bits() >> 52) & 0x7ff;
+    if exponent == 0 || exponent >= 0x7fe {
+        return 1.0;
+    }
+    f64::from_bits((exponent + 1) << 52)
 }
 
 /// Copy the lower triangle of the n × n column-major `a` onto its upper triangle.
@@ -622,7 +623,6 @@ fn cholesky(a: &mut [f64], m: usize, buffer: &mut MemBuffer) -> bool {
 /// All eigenvalues of the symmetric tridiagonal matrix (`d`, `e` with `e[i]` coupling
 /// i and i + 1, `e[n−1]` unused) by the implicit QL method with Wilkinson shifts,
 /// overwriting `d`; `e` is destroyed. False when an eigenvalue does not converge.
-#[inline(never)] // PROFILE
 fn ql_eigenvalues(d: &mut [f64], e: &mut [f64]) -> bool {
     let n = d.len();
     if n == 0 {
