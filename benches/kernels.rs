@@ -2,6 +2,7 @@
 //! for) and 30 steps of one strand, per N in 1, 2, 5, 10, 20, for the generic kernel and,
 //! for every N that `superhelix::kernel_factory()` offers, the generated kernel (same
 //! group, id `generated/N`): they are picked up automatically once they exist.
+//! The stiffness projection of the step is benched on its own (`stiffness_projection`).
 //! `cargo bench --bench kernels`.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
@@ -99,5 +100,53 @@ fn full_step(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, kernel_evaluation, full_step);
+/// The stiffness projection H ↦ H⁻ of the step at 3N = 15, 30, 60, on a matrix with
+/// half its eigenvalues negative (as on the bench strand): the partial decomposition of
+/// `spectral_projection.rs` (basis reuse off) against faer's full one.
+fn stiffness_projection(c: &mut Criterion) {
+    use faer::Mat;
+    use superhelix::runtime::spectral_projection::SpectralProjection;
+    let mut group = c.benchmark_group("stiffness_projection");
+    for n in [15usize, 30, 60] {
+        let mut state = 7u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+        };
+        let mut h = vec![0.0; n * n];
+        for c in 0..n {
+            for r in c..n {
+                let x = next()
+                    + if r == c {
+                        c as f64 - n as f64 / 2.0
+                    } else {
+                        0.0
+                    };
+                h[c * n + r] = x;
+                h[r * n + c] = x;
+            }
+        }
+        let mut projection = SpectralProjection::new(n);
+        let mut work = h.clone();
+        group.bench_with_input(BenchmarkId::new("partial", n), &n, |b, _| {
+            b.iter(|| {
+                projection.forget_basis();
+                work.copy_from_slice(&h);
+                projection.negative_part(black_box(&mut work))
+            })
+        });
+        let m = Mat::from_fn(n, n, |r, c| h[c * n + r]);
+        group.bench_with_input(BenchmarkId::new("faer_full", n), &n, |b, _| {
+            b.iter(|| {
+                let eig = black_box(&m).self_adjoint_eigen(faer::Side::Lower);
+                eig.map(|e| e.S()[0])
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, kernel_evaluation, full_step, stiffness_projection);
 criterion_main!(benches);

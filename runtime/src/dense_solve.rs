@@ -393,4 +393,25 @@ mod tests {
         assert_eq!((s.projections_decomposed(), s.projections_reused()), (2, 1));
         assert!(frobenius(&(&p - &exact_projection(&h2))) < 1e-12 * frobenius(&h2));
     }
+
+    /// A split step projects the same stiffness again: the cached result comes back
+    /// without a decomposition, and any change of the input (one ulp) is projected anew.
+    #[test]
+    fn repeated_input_returns_the_cached_projection() {
+        let n = 15;
+        let mut s = DenseSolver::new(n);
+        let h0 = symmetric(n, 21, 1.0);
+        let mut first = h0.clone();
+        assert!(s.project_negative_semidefinite(&mut first));
+        let mut again = h0.clone();
+        assert!(s.project_negative_semidefinite(&mut again));
+        assert_eq!(s.projections_repeated, 1);
+        assert_eq!(s.projections_decomposed() + s.projections_reused(), 1);
+        assert!(frobenius(&(&first - &again)) == 0.0);
+        let mut changed = h0.clone();
+        changed[(3, 2)] = f64::from_bits(changed[(3, 2)].to_bits() + 1);
+        assert!(s.project_negative_semidefinite(&mut changed));
+        assert_eq!(s.projections_repeated, 1);
+        assert_eq!(s.projections_decomposed() + s.projections_reused(), 2);
+    }
 }

@@ -830,4 +830,99 @@ mod tests {
         assert!(!SpectralProjection::new(2).negative_part(&mut h));
         assert_eq!(h.len(), before.len());
     }
+
+    fn frobenius(m: &[f64]) -> f64 {
+        m.iter().map(|x| x * x).sum::<f64>().sqrt()
+    }
+
+    fn largest_eigenvalue(m: &[f64], n: usize) -> f64 {
+        let a = faer::Mat::from_fn(n, n, |i, j| m[j * n + i]);
+        let eig = a.self_adjoint_eigen(faer::Side::Lower).unwrap();
+        (0..n).map(|k| eig.S()[k]).fold(f64::NEG_INFINITY, f64::max)
+    }
+
+    /// Reuse on either side of the spectrum: a small change keeps the basis, the result
+    /// is negative semidefinite and within the dropped coupling of the exact part; a
+    /// change that turns a direction of the other side negative is refused.
+    #[test]
+    fn reused_basis_stays_within_its_bound_and_refuses_a_new_negative_direction() {
+        let n = 15;
+        for &negatives in &[4usize, 11] {
+            let lambda: Vec<f64> = (0..n)
+                .map(|i| {
+                    if i < negatives {
+                        -1.0 - i as f64
+                    } else {
+                        0.5 + i as f64
+                    }
+                })
+                .collect();
+            let q = orthogonal(n, 40 + negatives as u64);
+            let (h0, expected0) = from_spectrum(&q, &lambda);
+            let mut s = SpectralProjection::new(n);
+            let mut p = h0.clone();
+            assert!(s.negative_part(&mut p));
+            assert_eq!((s.decomposed, s.reused), (1, 0));
+            let err0 = p
+                .iter()
+                .zip(&expected0)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                err0 <= 16.0 * n as f64 * f64::EPSILON * max_abs(&h0),
+                "{err0:.3e}"
+            );
+            // which side the basis holds: the smaller one
+            assert_eq!(s.basis_negative, negatives <= n - negatives);
+            // a small symmetric change: reused, NSD, within 2 ‖ΔH‖_F of the exact part
+            let mut next = sequence(77);
+            let mut dh = vec![0.0; n * n];
+            for c in 0..n {
+                for r in c..n {
+                    let x = 1e-3 * next();
+                    dh[c * n + r] = x;
+                    dh[r * n + c] = x;
+                }
+            }
+            let h1: Vec<f64> = h0.iter().zip(&dh).map(|(a, b)| a + b).collect();
+            let mut p = h1.clone();
+            assert!(s.negative_part(&mut p));
+            assert_eq!((s.decomposed, s.reused), (1, 1), "negatives = {negatives}");
+            let mut exact = h1.clone();
+            assert!(SpectralProjection::new(n).negative_part(&mut exact));
+            let err: Vec<f64> = p.iter().zip(&exact).map(|(a, b)| a - b).collect();
+            assert!(
+                frobenius(&err) <= 2.0 * frobenius(&dh),
+                "{:.3e}",
+                frobenius(&err)
+            );
+            assert!(frobenius(&err) > 0.0);
+            assert!(largest_eigenvalue(&p, n) <= 1e-13 * frobenius(&h1));
+            // a direction of the non-negative side (eigenvalue 0.5 + negatives) pushed to
+            // −1 with no coupling: the basis must not be reused
+            let o = negatives;
+            let shift = -(1.5 + o as f64);
+            let mut h2 = h0.clone();
+            for c in 0..n {
+                for r in 0..n {
+                    h2[c * n + r] += shift * q[o * n + r] * q[o * n + c];
+                }
+            }
+            let mut lambda2 = lambda.clone();
+            lambda2[o] = -1.0;
+            let (_, expected2) = from_spectrum(&q, &lambda2);
+            let mut p = h2.clone();
+            assert!(s.negative_part(&mut p));
+            assert_eq!((s.decomposed, s.reused), (2, 1), "negatives = {negatives}");
+            let err2 = p
+                .iter()
+                .zip(&expected2)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                err2 <= 16.0 * n as f64 * f64::EPSILON * max_abs(&h2),
+                "{err2:.3e}"
+            );
+        }
+    }
 }
