@@ -55,7 +55,7 @@ pub const BASIS_REUSE_TOLERANCE: f64 = 0.01;
 /// Size, relative to `‖H‖_F`, below which a negative eigenvalue of H restricted to the
 /// non-negative side of a reused basis is dropped (counted with the non-negative ones):
 /// an eigenvalue crossing zero then does not force a decomposition.
-const NEGLIGIBLE_EIGENVALUE: f64 = 1e-3;
+pub const NEGLIGIBLE_EIGENVALUE: f64 = 1e-3;
 
 /// Workspace for [`SpectralProjection::negative_part`] at one dimension.
 pub struct SpectralProjection {
@@ -275,8 +275,7 @@ impl SpectralProjection {
             Par::Seq,
         );
         let coupling: f64 = self.coupling[..n * k].iter().map(|x| x * x).sum();
-        // (a NaN coupling fails too)
-        if !(coupling <= bound) {
+        if coupling.is_nan() || coupling > bound {
             return false;
         }
         let norm = total.sqrt();
