@@ -835,6 +835,21 @@ mod tests {
         assert_eq!(h.len(), before.len());
     }
 
+    /// `p` is the exact negative part `expected` of `h` to 16 n ε max|h| (the bound of
+    /// [`check`]).
+    fn assert_exact(p: &[f64], expected: &[f64], h: &[f64]) {
+        let n = (h.len() as f64).sqrt() as usize;
+        let err = p
+            .iter()
+            .zip(expected)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            err <= 16.0 * n as f64 * f64::EPSILON * max_abs(h),
+            "{err:.3e}"
+        );
+    }
+
     fn frobenius(m: &[f64]) -> f64 {
         m.iter().map(|x| x * x).sum::<f64>().sqrt()
     }
@@ -867,15 +882,7 @@ mod tests {
             let mut p = h0.clone();
             assert!(s.negative_part(&mut p));
             assert_eq!((s.decomposed, s.reused), (1, 0));
-            let err0 = p
-                .iter()
-                .zip(&expected0)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
-            assert!(
-                err0 <= 16.0 * n as f64 * f64::EPSILON * max_abs(&h0),
-                "{err0:.3e}"
-            );
+            assert_exact(&p, &expected0, &h0);
             // which side the basis holds: the smaller one
             assert_eq!(s.basis_negative, negatives <= n - negatives);
             // a small symmetric change: reused, NSD, within 2 ‖ΔH‖_F of the exact part
@@ -918,15 +925,7 @@ mod tests {
             let mut p = h2.clone();
             assert!(s.negative_part(&mut p));
             assert_eq!((s.decomposed, s.reused), (2, 1), "negatives = {negatives}");
-            let err2 = p
-                .iter()
-                .zip(&expected2)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
-            assert!(
-                err2 <= 16.0 * n as f64 * f64::EPSILON * max_abs(&h2),
-                "{err2:.3e}"
-            );
+            assert_exact(&p, &expected2, &h2);
         }
     }
 }
