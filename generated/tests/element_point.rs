@@ -6,6 +6,9 @@
 #![allow(clippy::needless_range_loop)] // index loops read like the formulas
 
 use superhelix_generated::{element_point, element_point_into, ELEMENT_POINT_SWITCH};
+mod common;
+
+use common::{direction, Rng};
 use superhelix_runtime::element::ElementPoint;
 use superhelix_runtime::Vector3;
 
@@ -44,35 +47,8 @@ fn deviations(a: &ElementPoint, b: &ElementPoint) -> [f64; 6] {
     })
 }
 
-/// xorshift64, uniform in [−1, 1).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-    }
-}
-
 /// Direction kinds: random, planar (d0 = 0), pure κ1, pure κ2, pure twist.
 const KINDS: [&str; 5] = ["random", "planar", "kappa1", "kappa2", "twist"];
-
-fn direction(rng: &mut Rng, kind: usize) -> Vector3<f64> {
-    let s = if rng.next() < 0.0 { -1.0 } else { 1.0 };
-    match kind {
-        0 => loop {
-            let v = Vector3::new(rng.next(), rng.next(), rng.next());
-            if v.norm() > 0.1 {
-                return v.normalize();
-            }
-        },
-        1 => Vector3::new(0.0, rng.next(), rng.next()).normalize(),
-        2 => Vector3::new(0.0, s, 0.0),
-        3 => Vector3::new(0.0, 0.0, s),
-        _ => Vector3::new(s, 0.0, 0.0),
-    }
-}
 
 #[test]
 fn generated_element_point_matches_the_jets() {
