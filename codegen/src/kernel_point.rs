@@ -300,6 +300,28 @@ fn point_function(
     body: &TokenStream,
     fill: TokenStream,
 ) -> TokenStream {
+    let function = crate::emit::multiversioned(
+        fn_name,
+        quote! {
+            #[doc = #doc]
+            #[allow(
+                unused_variables,
+                clippy::all,
+                clippy::pedantic,
+                clippy::excessive_precision,
+                clippy::unreadable_literal
+            )]
+        },
+        quote!(d: &Vector3<f64>, u: f64, out: &mut ElementPoint),
+        quote!(d, u, out),
+        quote! {
+            let d0 = d.x;
+            let d1 = d.y;
+            let d2 = d.z;
+            #body
+            #fill
+        },
+    );
     quote! {
         use superhelix_runtime::element::ElementPoint;
         use superhelix_runtime::{Matrix3, Vector3};
@@ -307,21 +329,7 @@ fn point_function(
         #[doc = #doc_switch]
         pub const #switch: f64 = #xs;
 
-        #[doc = #doc]
-        #[allow(
-            unused_variables,
-            clippy::all,
-            clippy::pedantic,
-            clippy::excessive_precision,
-            clippy::unreadable_literal
-        )]
-        pub fn #fn_name(d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
-            let d0 = d.x;
-            let d1 = d.y;
-            let d2 = d.z;
-            #body
-            #fill
-        }
+        #function
     }
 }
 
