@@ -145,6 +145,8 @@ pub struct BenchReport {
     pub substeps: usize,
     /// Description of the kernel of strand 0.
     pub kernel: String,
+    /// Worker threads the strands were spread over.
+    pub threads: usize,
 }
 
 fn check(o: &BenchOptions) -> Result<()> {
@@ -337,5 +339,6 @@ pub fn bench_setup(setup: SimulationSetup, steps: usize) -> Result<BenchReport> 
         cpu_seconds,
         substeps: sim.stats().substeps,
         kernel: sim.kernel_description(0),
+        threads: rayon::current_num_threads(),
     })
 }

@@ -64,6 +64,11 @@ enum Command {
         /// Gauss-Legendre points per element of the generic kernels (default: adaptive).
         #[arg(long)]
         quadrature: Option<usize>,
+        /// Worker threads the strands are spread over (default: one per core). With 1,
+        /// the CPU time per strand-step is the step's own cost, free of the scheduling
+        /// and shared-core effects of parallel runs.
+        #[arg(long)]
+        threads: Option<usize>,
     },
     /// Compare a strand kernel (default: the generated one for N) with a high-order
     /// quadrature reference on K random configurations; last line
@@ -149,7 +154,8 @@ fn main() -> ExitCode {
             integrator,
             quadrature,
             scene,
-        } => match scene {
+            threads,
+        } => with_threads(threads, || match scene {
             Some(path) => bench_scene(
                 &path,
                 steps,
@@ -167,7 +173,7 @@ fn main() -> ExitCode {
                 integrator.as_deref().unwrap_or("linearly-implicit-euler"),
                 quadrature,
             ),
-        },
+        }),
         Command::CompareKernels {
             elements,
             samples,
@@ -298,6 +304,22 @@ fn bench(
     Ok(ExitCode::SUCCESS)
 }
 
+/// Run `f` on a pool of `threads` workers (`bench --threads`), or on the global pool.
+fn with_threads(
+    threads: Option<usize>,
+    f: impl FnOnce() -> Result<ExitCode, Error> + Send,
+) -> Result<ExitCode, Error> {
+    match threads {
+        None => f(),
+        Some(0) => Err(Error::invalid("--threads", "must be >= 1")),
+        Some(t) => rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build()
+            .map_err(|e| Error::invalid("--threads", format!("cannot start {t} threads: {e}")))?
+            .install(f),
+    }
+}
+
 /// `bench --scene`: time the scene's own strands, optionally restricted to some effects.
 fn bench_scene(
     path: &std::path::Path,
@@ -339,7 +361,7 @@ fn bench_scene(
 }
 
 fn print_bench_report(report: &superhelix::bench::BenchReport) {
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let threads = report.threads;
     // every split discards its attempt and solves two halves
     let solves = report.strand_steps + 2 * report.substeps;
     println!(

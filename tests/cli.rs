@@ -292,3 +292,35 @@ fn bench_runs_a_scene_with_its_effects_or_a_subset() {
         "{err}"
     );
 }
+
+#[test]
+fn bench_runs_on_the_threads_it_is_given_and_refuses_zero() {
+    for threads in ["1", "2"] {
+        let out = superhelix(&[
+            "bench",
+            "--elements",
+            "2",
+            "--strands",
+            "3",
+            "--steps",
+            "2",
+            "--threads",
+            threads,
+        ]);
+        let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+        assert!(out.status.success(), "{}", text(&out));
+        assert!(
+            stdout.contains(&format!(" {threads} threads\n")),
+            "{threads}: {stdout}"
+        );
+        let last = stdout.lines().last().unwrap_or_default();
+        assert!(last.starts_with("strand_steps_per_second="), "{stdout}");
+    }
+    let out = superhelix(&["bench", "--steps", "1", "--threads", "0"]);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("--threads"),
+        "{}",
+        text(&out)
+    );
+}
