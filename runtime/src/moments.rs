@@ -15,6 +15,8 @@ use crate::quadrature::gauss_legendre;
 use crate::reconstruction::Pose;
 use nalgebra::{Matrix3, Vector3};
 
+type V3 = Vector3<f64>;
+
 /// Integrals over one element, u ∈ [0, l], in the element's start frame.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ElementMoments {
@@ -275,6 +277,10 @@ pub fn assemble_mass_and_gravity(
     );
 }
 
+/// Elements up to which the mass assembly keeps its per-column products on the stack
+/// (beyond, it forms them per entry: the same values).
+const MAX_COLUMN_ELEMENTS: usize = 20;
+
 /// [`assemble_mass_and_gravity`], and with it, when `gram` is given, the centreline's
 /// Gram matrix `∫ J_kᵀ J_l ds` (column-major, 3N × 3N): M without ρS and the rotary
 /// inertia, which is all the damping of an isotropic drag needs (`−ν ∫ JᵀJ ds`).
@@ -296,6 +302,24 @@ pub fn assemble_mass_gram_and_gravity(
     let dofs = 3 * n;
     *first_moment = (bodies[0].first + ends[0].position * bodies[0].mass) * rho_s;
     mass.iter_mut().for_each(|x| *x = 0.0);
+    // per column (Q', j): F ∂_j∫p, F ∫p × ∂_j p, ∫I beyond · θ_j and F ∫I w_j, shared by
+    // every row upstream (the same products as written per entry: the same bits)
+    let mut columns = [[[V3::zeros(); 4]; 3]; MAX_COLUMN_ELEMENTS];
+    let cached = n <= MAX_COLUMN_ELEMENTS;
+    if cached {
+        for (q2, col) in columns.iter_mut().enumerate().take(n) {
+            let f2 = ends[q2].frame;
+            let m2 = &moments[q2];
+            for (j, c) in col.iter_mut().enumerate() {
+                *c = [
+                    f2 * m2.dfirst[j],
+                    f2 * m2.cross[j],
+                    bodies[q2 + 1].rot * end_derivs[q2].dtheta[j],
+                    f2 * m2.rot_w[j],
+                ];
+            }
+        }
+    }
     for q in 0..n {
         let e = &end_derivs[q];
         let r_end = ends[q + 1].position;
@@ -338,10 +362,18 @@ pub fn assemble_mass_gram_and_gravity(
                     let wl = e2.dtheta[j];
                     let vl = e2.dp[j];
                     let rigid = vl.dot(&lin) + wl.dot(&ang);
-                    let mixed = base.dot(&(f2 * m2.dfirst[j])) + w.dot(&(f2 * m2.cross[j]));
-                    let val = rho_s * (rigid + mixed)
-                        + w.dot(&(bodies[q2 + 1].rot * wl))
-                        + w.dot(&(f2 * m2.rot_w[j]));
+                    let [dfirst, cross, rot_beyond, rot_own] = if cached {
+                        columns[q2][j]
+                    } else {
+                        [
+                            f2 * m2.dfirst[j],
+                            f2 * m2.cross[j],
+                            bodies[q2 + 1].rot * wl,
+                            f2 * m2.rot_w[j],
+                        ]
+                    };
+                    let mixed = base.dot(&dfirst) + w.dot(&cross);
+                    let val = rho_s * (rigid + mixed) + w.dot(&rot_beyond) + w.dot(&rot_own);
                     mass[l * dofs + k] = val;
                     mass[k * dofs + l] = val;
                     if let Some(g) = gram.as_deref_mut() {
