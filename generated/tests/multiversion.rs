@@ -42,7 +42,7 @@ fn dispatched_and_portable_kernels_agree_bit_for_bit() {
         "AVX2 on this CPU: {} (without it both calls run the portable copy)",
         std::arch::is_x86_feature_detected!("avx2")
     );
-    let mut rng = Rng(0x5eed_0f_a5c2);
+    let mut rng = Rng(0x5eed_0fa5);
     let mut checked = 0;
     for &wl in &WL {
         for kind in 0..5 {
