@@ -373,7 +373,7 @@ pub fn format_with_timeout(code: &str, limit: std::time::Duration) -> String {
     }
 }
 
-/// A generated function `vis fn name(params) { body }` written three times: the body as
+/// A generated function `pub fn name(params) { body }` (documented by `doc`) written three times: the body as
 /// an `#[inline(always)]` function, a copy compiled with AVX2 enabled, and `name`,
 /// which calls the AVX2 copy when the CPU has it (`is_x86_feature_detected!`, a cached
 /// flag) and the portable one otherwise. Straight-line code of thousands of operations
@@ -384,7 +384,7 @@ pub fn format_with_timeout(code: &str, limit: std::time::Duration) -> String {
 /// test that checks it.
 pub(crate) fn multiversioned(
     name: &Ident,
-    attrs: TokenStream,
+    doc: &str,
     params: TokenStream,
     args: TokenStream,
     body: TokenStream,
@@ -396,7 +396,18 @@ pub(crate) fn multiversioned(
         " [`{name}`] compiled for the baseline target only (what [`{name}`] runs on a CPU \
          without AVX2); for the test that both agree bit for bit."
     );
+    // generated names are not snake case everywhere, constants carry every digit
+    let attrs = quote! {
+        #[allow(
+            unused_variables,
+            clippy::all,
+            clippy::pedantic,
+            clippy::excessive_precision,
+            clippy::unreadable_literal
+        )]
+    };
     quote! {
+        #[doc = #doc]
         #attrs
         pub fn #name(#params) {
             #[cfg(target_arch = "x86_64")]

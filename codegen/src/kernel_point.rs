@@ -302,16 +302,7 @@ fn point_function(
 ) -> TokenStream {
     let function = crate::emit::multiversioned(
         fn_name,
-        quote! {
-            #[doc = #doc]
-            #[allow(
-                unused_variables,
-                clippy::all,
-                clippy::pedantic,
-                clippy::excessive_precision,
-                clippy::unreadable_literal
-            )]
-        },
+        doc,
         quote!(d: &Vector3<f64>, u: f64, out: &mut ElementPoint),
         quote!(d, u, out),
         quote! {

@@ -373,16 +373,7 @@ pub fn generate_function(
     let doc_switch = format!(" Switch on `W l` of [`{name}`]: Taylor branch below.");
     let function = emit::multiversioned(
         &fname,
-        quote! {
-            #[doc = #doc]
-            #[allow(
-                unused_variables,
-                clippy::all,
-                clippy::pedantic,
-                clippy::excessive_precision,
-                clippy::unreadable_literal
-            )]
-        },
+        &doc,
         quote!(d: &[f64; 3], l: f64, out: &mut [f64; #k_lit]),
         quote!(d, l, out),
         quote! {

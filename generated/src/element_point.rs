@@ -40,7 +40,6 @@ pub fn element_point_into_portable(d: &Vector3<f64>, u: f64, out: &mut ElementPo
 fn element_point_into_avx2(d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
     element_point_into_body(d, u, out);
 }
-#[doc = " The element's local functions at abscissa `u` for Darboux vector `d` (see `ElementPoint`), in closed form: E(u), p(u), ∂p/∂d_i, ∂²p/∂d_i∂d_j, w_i(u) = P(u) e_i, ∂w_i/∂d_j.\n\n The radial functions of `z = (W u)²` are taken from their Taylor series for `W u < 1` (degrees in `W u`: a0: 16, b0: 14, b1: 14, b2: 12, c0: 14, c1: 14, c2: 12), from their closed forms above; the polynomial part in `d` and `u` is common to both. The branches agree to 4.9e-15 at the switch, relative to the largest entry of each field. Allocation-free and panic-free."]
 #[allow(
     unused_variables,
     clippy::all,

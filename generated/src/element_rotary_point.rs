@@ -40,7 +40,6 @@ pub fn element_rotary_point_into_portable(d: &Vector3<f64>, u: f64, out: &mut El
 fn element_rotary_point_into_avx2(d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
     element_rotary_point_into_body(d, u, out);
 }
-#[doc = " The fields of `ElementPoint` that the rotary-inertia quadrature reads, at abscissa `u` for Darboux vector `d`, in closed form: E(u), p(u), ∂p/∂d_i, w_i(u) = P(u) e_i, ∂w_i/∂d_j, the same functions as `element_point_into` without the second derivatives. `out.d2p` is not written: it keeps whatever it held (do not read it after this call).\n\n The radial functions of `z = (W u)²` are taken from their Taylor series for `W u < 1` (degrees in `W u`: a0: 16, b0: 14, b1: 14, c0: 14, c1: 12), from their closed forms above; the polynomial part in `d` and `u` is common to both. The branches agree to 8.9e-16 at the switch, relative to the largest entry of each field. Allocation-free and panic-free."]
 #[allow(
     unused_variables,
     clippy::all,

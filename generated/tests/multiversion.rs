@@ -10,11 +10,28 @@ mod common;
 use common::{direction, Rng};
 use superhelix_generated as g;
 use superhelix_runtime::element::ElementPoint;
+use superhelix_runtime::Vector3;
 
 /// W·l (or W·u) across every branch of every kernel: the low and full Taylor branches,
 /// either side of each switch, and the closed form up to a coil of 16 turns.
 const WL: [f64; 14] = [
     0.0, 1e-12, 1e-8, 1e-4, 1e-2, 0.3, 0.74, 0.76, 1.0, 3.4, 3.6, 10.0, 30.0, 100.0,
+];
+
+type PointFn = fn(&Vector3<f64>, f64, &mut ElementPoint);
+
+/// The generated element-point functions: name, dispatched, portable copy.
+const POINT_FUNCTIONS: [(&str, PointFn, PointFn); 2] = [
+    (
+        "element_point_into",
+        g::element_point_into,
+        g::element_point::element_point_into_portable,
+    ),
+    (
+        "element_rotary_point_into",
+        g::element_rotary_point_into,
+        g::element_rotary_point::element_rotary_point_into_portable,
+    ),
 ];
 
 fn same_bits(a: &[f64], b: &[f64]) -> bool {
@@ -63,20 +80,15 @@ fn dispatched_and_portable_kernels_agree_bit_for_bit() {
                 g::rotary_basis::rotary_basis_portable(&da, l, &mut b);
                 assert!(same_bits(&a, &b), "rotary_basis at d = {d:?}, l = {l}");
                 let u = l * 0.5 * (rng.next() + 1.0);
-                let (mut a, mut b) = (ElementPoint::default(), ElementPoint::default());
-                g::element_point_into(&d, u, &mut a);
-                g::element_point::element_point_into_portable(&d, u, &mut b);
-                assert!(
-                    same_bits(&point_fields(&a), &point_fields(&b)),
-                    "element_point_into at d = {d:?}, u = {u}"
-                );
-                let (mut a, mut b) = (ElementPoint::default(), ElementPoint::default());
-                g::element_rotary_point_into(&d, u, &mut a);
-                g::element_rotary_point::element_rotary_point_into_portable(&d, u, &mut b);
-                assert!(
-                    same_bits(&point_fields(&a), &point_fields(&b)),
-                    "element_rotary_point_into at d = {d:?}, u = {u}"
-                );
+                for (name, dispatched, portable) in POINT_FUNCTIONS {
+                    let (mut a, mut b) = (ElementPoint::default(), ElementPoint::default());
+                    dispatched(&d, u, &mut a);
+                    portable(&d, u, &mut b);
+                    assert!(
+                        same_bits(&point_fields(&a), &point_fields(&b)),
+                        "{name} at d = {d:?}, u = {u}"
+                    );
+                }
                 checked += 1;
             }
         }
