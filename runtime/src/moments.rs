@@ -277,10 +277,6 @@ pub fn assemble_mass_and_gravity(
     );
 }
 
-/// Elements up to which the mass assembly keeps its per-column products on the stack
-/// (beyond, it forms them per entry: the same values).
-const MAX_COLUMN_ELEMENTS: usize = 20;
-
 /// [`assemble_mass_and_gravity`], and with it, when `gram` is given, the centreline's
 /// Gram matrix `∫ J_kᵀ J_l ds` (column-major, 3N × 3N): M without ρS and the rotary
 /// inertia, which is all the damping of an isotropic drag needs (`−ν ∫ JᵀJ ds`).
@@ -302,27 +298,17 @@ pub fn assemble_mass_gram_and_gravity(
     let dofs = 3 * n;
     *first_moment = (bodies[0].first + ends[0].position * bodies[0].mass) * rho_s;
     mass.iter_mut().for_each(|x| *x = 0.0);
-    // per column (Q', j): F ∂_j∫p, F ∫p × ∂_j p, ∫I beyond · θ_j and F ∫I w_j, shared by
-    // every row upstream (the same products as written per entry: the same bits)
-    let mut columns = [[[V3::zeros(); 4]; 3]; MAX_COLUMN_ELEMENTS];
-    let cached = n <= MAX_COLUMN_ELEMENTS;
-    if cached {
-        for (q2, col) in columns.iter_mut().enumerate().take(n) {
-            let f2 = ends[q2].frame;
-            let m2 = &moments[q2];
-            for (j, c) in col.iter_mut().enumerate() {
-                *c = [
-                    f2 * m2.dfirst[j],
-                    f2 * m2.cross[j],
-                    bodies[q2 + 1].rot * end_derivs[q2].dtheta[j],
-                    f2 * m2.rot_w[j],
-                ];
-            }
+    // entry (k, l) and its mirror of M (and of the Gram matrix, centreline part only)
+    let mut put = |k: usize, l: usize, val: f64, centreline: f64| {
+        mass[l * dofs + k] = val;
+        mass[k * dofs + l] = val;
+        if let Some(g) = gram.as_deref_mut() {
+            g[l * dofs + k] = centreline;
+            g[k * dofs + l] = centreline;
         }
-    }
+    };
     for q in 0..n {
         let e = &end_derivs[q];
-        let r_end = ends[q + 1].position;
         let fq = ends[q].frame;
         let mq = &moments[q];
         for i in 0..3 {
@@ -335,51 +321,47 @@ pub fn assemble_mass_gram_and_gravity(
             force[k] = c0.dot(&(lin + fq * mq.dfirst[i]));
             // same element (both own in Q): rigid beyond + gram + rotary
             for j in i..3 {
-                let l = 3 * q + j;
                 let wl = e.dtheta[j];
                 let vl = e.dp[j];
                 let (lin, ang) = bodies[q + 1].momentum(&vl, &wl);
                 let centreline = v.dot(&lin) + w.dot(&ang) + mq.gram[(i, j)];
                 let val = rho_s * centreline + w.dot(&(bodies[q + 1].rot * wl)) + mq.rot_ww[(i, j)];
-                mass[l * dofs + k] = val;
-                mass[k * dofs + l] = val;
-                if let Some(g) = gram.as_deref_mut() {
-                    g[l * dofs + k] = centreline;
-                    g[k * dofs + l] = centreline;
-                }
+                put(k, 3 * q + j, val, centreline);
             }
-            // later elements Q' > Q: rigid beyond Q' plus the mixed own part in Q'
-            for q2 in q + 1..n {
-                let e2 = &end_derivs[q2];
-                let f2 = ends[q2].frame;
-                let m2 = &moments[q2];
+        }
+    }
+    // pairs across elements Q < Q': rigid beyond Q' plus the mixed own part in Q'; column
+    // by column, so that the column's own products are formed once for all rows upstream
+    for q2 in 1..n {
+        let e2 = &end_derivs[q2];
+        let f2 = ends[q2].frame;
+        let m2 = &moments[q2];
+        let beyond = &bodies[q2 + 1];
+        // per column j: F ∂_j∫p, F ∫p × ∂_j p, ∫I beyond · θ_j and F ∫I w_j
+        let columns: [[V3; 4]; 3] = std::array::from_fn(|j| {
+            [
+                f2 * m2.dfirst[j],
+                f2 * m2.cross[j],
+                beyond.rot * e2.dtheta[j],
+                f2 * m2.rot_w[j],
+            ]
+        });
+        for q in 0..q2 {
+            let e = &end_derivs[q];
+            let r_end = ends[q + 1].position;
+            for i in 0..3 {
+                let k = 3 * q + i;
+                let w = e.dtheta[i];
+                let v = e.dp[i];
                 // J_k at r_{Q'} and at r_{Q'+1}
                 let base = v + w.cross(&(ends[q2].position - r_end));
                 let at_end = v + w.cross(&(ends[q2 + 1].position - r_end));
-                let (lin, ang) = bodies[q2 + 1].momentum(&at_end, &w);
-                for j in 0..3 {
-                    let l = 3 * q2 + j;
-                    let wl = e2.dtheta[j];
-                    let vl = e2.dp[j];
-                    let rigid = vl.dot(&lin) + wl.dot(&ang);
-                    let [dfirst, cross, rot_beyond, rot_own] = if cached {
-                        columns[q2][j]
-                    } else {
-                        [
-                            f2 * m2.dfirst[j],
-                            f2 * m2.cross[j],
-                            bodies[q2 + 1].rot * wl,
-                            f2 * m2.rot_w[j],
-                        ]
-                    };
-                    let mixed = base.dot(&dfirst) + w.dot(&cross);
-                    let val = rho_s * (rigid + mixed) + w.dot(&rot_beyond) + w.dot(&rot_own);
-                    mass[l * dofs + k] = val;
-                    mass[k * dofs + l] = val;
-                    if let Some(g) = gram.as_deref_mut() {
-                        g[l * dofs + k] = rigid + mixed;
-                        g[k * dofs + l] = rigid + mixed;
-                    }
+                let (lin, ang) = beyond.momentum(&at_end, &w);
+                for (j, [dfirst, cross, rot_beyond, rot_own]) in columns.iter().enumerate() {
+                    let rigid = e2.dp[j].dot(&lin) + e2.dtheta[j].dot(&ang);
+                    let mixed = base.dot(dfirst) + w.dot(cross);
+                    let val = rho_s * (rigid + mixed) + w.dot(rot_beyond) + w.dot(rot_own);
+                    put(k, 3 * q2 + j, val, rigid + mixed);
                 }
             }
         }
