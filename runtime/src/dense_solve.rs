@@ -92,28 +92,26 @@ impl DenseSolver {
         let n = h.nrows();
         let repeated = self.last_valid
             && (0..n).all(|j| {
-                (j..n).all(|i| h[(i, j)].to_bits() == self.last_input[j * n + i].to_bits())
+                let col = &h.col_as_slice(j)[j..n];
+                let last = &self.last_input[j * n + j..(j + 1) * n];
+                col.iter()
+                    .zip(last)
+                    .all(|(a, b)| a.to_bits() == b.to_bits())
             });
         if repeated {
             self.projections_repeated += 1;
             for j in 0..n {
-                for i in 0..n {
-                    h[(i, j)] = self.last_output[j * n + i];
-                }
+                h.col_as_slice_mut(j)[..n].copy_from_slice(&self.last_output[j * n..(j + 1) * n]);
             }
             return true;
         }
         for j in 0..n {
-            for i in j..n {
-                self.last_input[j * n + i] = h[(i, j)];
-            }
+            self.last_input[j * n + j..(j + 1) * n].copy_from_slice(&h.col_as_slice(j)[j..n]);
         }
         self.last_valid = self.project_uncached(h);
         if self.last_valid {
             for j in 0..n {
-                for i in 0..n {
-                    self.last_output[j * n + i] = h[(i, j)];
-                }
+                self.last_output[j * n..(j + 1) * n].copy_from_slice(&h.col_as_slice(j)[..n]);
             }
         }
         self.last_valid
@@ -123,8 +121,12 @@ impl DenseSolver {
     fn project_uncached(&mut self, h: &mut Mat<f64>) -> bool {
         let n = h.nrows();
         for j in 0..n {
-            for i in j..n {
-                self.scaled[(i, j)] = -h[(i, j)];
+            let (from, to) = (
+                &h.col_as_slice(j)[j..n],
+                &mut self.scaled.col_as_slice_mut(j)[j..n],
+            );
+            for (t, f) in to.iter_mut().zip(from) {
+                *t = -*f;
             }
         }
         let stack = MemStack::new(&mut self.buffer);
@@ -140,17 +142,14 @@ impl DenseSolver {
             return true;
         }
         for j in 0..n {
-            for i in j..n {
-                let x = h[(i, j)];
+            for (i, &x) in h.col_as_slice(j)[..n].iter().enumerate().skip(j) {
                 self.dense[j * n + i] = x;
                 self.dense[i * n + j] = x;
             }
         }
         if self.spectral.negative_part(&mut self.dense) {
             for j in 0..n {
-                for i in 0..n {
-                    h[(i, j)] = self.dense[j * n + i];
-                }
+                h.col_as_slice_mut(j)[..n].copy_from_slice(&self.dense[j * n..(j + 1) * n]);
             }
             return true;
         }

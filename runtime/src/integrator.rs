@@ -617,12 +617,17 @@ fn linearly_implicit_euler(
     let n = q.len();
     step_matrix(ws, assembled, h, stats);
     let t = &ws.terms;
-    for i in 0..n {
-        let mut r = h * (t.force[i] + t.velocity_term[i]);
-        for j in 0..n {
-            r += (t.mass[(i, j)] - h * t.damping[(i, j)]) * v[j];
+    // r_i = h (F + b)_i + Σ_j (M − h D_v)_ij v_j, summed over j in order, column by column
+    let rhs = &mut ws.solver.rhs.col_as_slice_mut(0)[..n];
+    for (i, r) in rhs.iter_mut().enumerate() {
+        *r = h * (t.force[i] + t.velocity_term[i]);
+    }
+    for (j, &vj) in v.iter().enumerate() {
+        let mass = &t.mass.col_as_slice(j)[..n];
+        let damping = &t.damping.col_as_slice(j)[..n];
+        for i in 0..n {
+            rhs[i] += (mass[i] - h * damping[i]) * vj;
         }
-        ws.solver.rhs_mut()[i] = r;
     }
     if !ws.solver.solve_general() {
         return Err("linearly implicit Euler: singular step matrix".into());
@@ -667,19 +672,19 @@ fn step_matrix(
         ok
     };
     let t = &ws.terms;
+    // column by column on slices (the same arithmetic as entry by entry)
     for j in 0..n {
+        let mass = &t.mass.col_as_slice(j)[..n];
+        let damping = &t.damping.col_as_slice(j)[..n];
+        let jacobian = &t.velocity_term_jacobian.col_as_slice(j)[..n];
+        let stiffness = &t.stiffness.col_as_slice(j)[..n];
+        let out = &mut ws.solver.matrix.col_as_slice_mut(j)[..n];
         for i in 0..n {
-            let mut dq = if field_stiffness {
-                t.stiffness[(i, j)]
-            } else {
-                0.0
-            };
+            let mut dq = if field_stiffness { stiffness[i] } else { 0.0 };
             if i == j {
                 dq -= ws.stiffness[i];
             }
-            ws.solver.matrix[(i, j)] = t.mass[(i, j)] - h * t.damping[(i, j)]
-                + 0.5 * h * t.velocity_term_jacobian[(i, j)]
-                - h * h * dq;
+            out[i] = mass[i] - h * damping[i] + 0.5 * h * jacobian[i] - h * h * dq;
         }
     }
     field_stiffness
@@ -802,12 +807,17 @@ fn bdf2(
         }
         apply_dq(ws, field_stiffness, qh, dq);
         let t = &ws.terms;
-        for i in 0..n {
-            let mut r = bh * (t.force[i] + t.velocity_term[i] + dq[i]);
-            for j in 0..n {
-                r += t.mass[(i, j)] * vh[j] - bh * t.damping[(i, j)] * vt[j];
+        // summed over j in order, column by column
+        let rhs = &mut ws.solver.rhs.col_as_slice_mut(0)[..n];
+        for (i, r) in rhs.iter_mut().enumerate() {
+            *r = bh * (t.force[i] + t.velocity_term[i] + dq[i]);
+        }
+        for j in 0..n {
+            let mass = &t.mass.col_as_slice(j)[..n];
+            let damping = &t.damping.col_as_slice(j)[..n];
+            for i in 0..n {
+                rhs[i] += mass[i] * vh[j] - bh * damping[i] * vt[j];
             }
-            ws.solver.rhs_mut()[i] = r;
         }
         if !ws.solver.solve_general() {
             return Err("BDF2: singular step matrix".into());

@@ -27,6 +27,7 @@ pub mod jet;
 pub mod kernel;
 pub mod kernel_generic;
 pub mod kernel_moments;
+pub mod lanes;
 pub mod material;
 pub mod moment_jacobians;
 pub mod moment_rotary;

@@ -1,0 +1,236 @@
+//! Small fixed-size algebra over a scalar that is either `f64` or [`F4`], four `f64`
+//! lanes, so that one source evaluates an integrand at one quadrature point or at four at
+//! once (the rotary-inertia quadrature, [`crate::moment_rotary`]).
+//!
+//! Every operation takes its terms in the order nalgebra does for `Matrix3<f64>` and
+//! `Vector3<f64>` (a product's column sum left to right, a dot product `(a₀b₀ + a₁b₁) +
+//! a₂b₂`, the cross product's component formulas), so each lane gives the bits nalgebra
+//! gives for that point (checked in the tests). nalgebra's own generic code over a SIMD
+//! scalar (simba's `AutoF64x4`) was tried first: its matrices went through `try_map`
+//! closures and `memcpy` calls that were not inlined, and the rotary quadrature became
+//! 20 % slower instead of faster.
+
+use std::ops::{Add, AddAssign, Mul, Neg, Sub};
+
+/// A scalar of the lane algebra: `f64` or [`F4`].
+pub trait Real:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
+{
+    /// All lanes zero.
+    fn zero() -> Self;
+    /// All lanes `x`.
+    fn splat(x: f64) -> Self;
+}
+
+impl Real for f64 {
+    #[inline(always)]
+    fn zero() -> Self {
+        0.0
+    }
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        x
+    }
+}
+
+/// Four `f64` lanes; every operation acts lane by lane.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C, align(32))]
+pub struct F4(pub [f64; 4]);
+
+macro_rules! lane_op {
+    ($trait:ident, $f:ident, $op:tt) => {
+        impl $trait for F4 {
+            type Output = F4;
+            #[inline(always)]
+            fn $f(self, b: F4) -> F4 {
+                let a = self.0;
+                let b = b.0;
+                F4([a[0] $op b[0], a[1] $op b[1], a[2] $op b[2], a[3] $op b[3]])
+            }
+        }
+    };
+}
+lane_op!(Add, add, +);
+lane_op!(Sub, sub, -);
+lane_op!(Mul, mul, *);
+
+impl Neg for F4 {
+    type Output = F4;
+    #[inline(always)]
+    fn neg(self) -> F4 {
+        let a = self.0;
+        F4([-a[0], -a[1], -a[2], -a[3]])
+    }
+}
+
+impl AddAssign for F4 {
+    #[inline(always)]
+    fn add_assign(&mut self, b: F4) {
+        *self = *self + b;
+    }
+}
+
+impl Real for F4 {
+    #[inline(always)]
+    fn zero() -> Self {
+        F4([0.0; 4])
+    }
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        F4([x; 4])
+    }
+}
+
+/// A 3-vector.
+pub type V<T> = [T; 3];
+/// A 3 × 3 matrix by columns: `m[c][r]`.
+pub type M<T> = [[T; 3]; 3];
+
+/// `a + b`.
+#[inline(always)]
+pub fn add<T: Real>(a: &V<T>, b: &V<T>) -> V<T> {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+/// `a · s`.
+#[inline(always)]
+pub fn scale<T: Real>(a: &V<T>, s: T) -> V<T> {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+
+/// `a · b`, as `(a₀b₀ + a₁b₁) + a₂b₂`.
+#[inline(always)]
+pub fn dot<T: Real>(a: &V<T>, b: &V<T>) -> T {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// `a × b`.
+#[inline(always)]
+pub fn cross<T: Real>(a: &V<T>, b: &V<T>) -> V<T> {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// `[a]×`, the matrix of `x ↦ a × x`.
+#[inline(always)]
+pub fn cross_matrix<T: Real>(a: &V<T>) -> M<T> {
+    let z = T::zero();
+    [[z, a[2], -a[1]], [-a[2], z, a[0]], [a[1], -a[0], z]]
+}
+
+/// `m x`: the columns times x's entries, summed left to right.
+#[inline(always)]
+pub fn mat_vec<T: Real>(m: &M<T>, x: &V<T>) -> V<T> {
+    let row = |r: usize| m[0][r] * x[0] + m[1][r] * x[1] + m[2][r] * x[2];
+    [row(0), row(1), row(2)]
+}
+
+/// `a b`.
+#[inline(always)]
+pub fn mat_mul<T: Real>(a: &M<T>, b: &M<T>) -> M<T> {
+    [mat_vec(a, &b[0]), mat_vec(a, &b[1]), mat_vec(a, &b[2])]
+}
+
+/// `aᵀ`.
+#[inline(always)]
+pub fn transpose<T: Real>(a: &M<T>) -> M<T> {
+    [
+        [a[0][0], a[1][0], a[2][0]],
+        [a[0][1], a[1][1], a[2][1]],
+        [a[0][2], a[1][2], a[2][2]],
+    ]
+}
+
+/// `a − b` when `subtract`, else `a + b`, entry by entry.
+#[inline(always)]
+pub fn mat_add<T: Real>(a: &M<T>, b: &M<T>, subtract: bool) -> M<T> {
+    let mut out = *a;
+    for c in 0..3 {
+        for r in 0..3 {
+            out[c][r] = if subtract {
+                a[c][r] - b[c][r]
+            } else {
+                a[c][r] + b[c][r]
+            };
+        }
+    }
+    out
+}
+
+/// `a s`, entry by entry.
+#[inline(always)]
+pub fn mat_scale<T: Real>(a: &M<T>, s: T) -> M<T> {
+    [scale(&a[0], s), scale(&a[1], s), scale(&a[2], s)]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Matrix3, Vector3};
+
+    fn v(a: &Vector3<f64>) -> V<f64> {
+        [a[0], a[1], a[2]]
+    }
+    fn m(a: &Matrix3<f64>) -> M<f64> {
+        std::array::from_fn(|c| std::array::from_fn(|r| a[(r, c)]))
+    }
+
+    /// Each operation gives nalgebra's bits, over inputs spanning many magnitudes (where
+    /// a different order of the terms would round differently).
+    #[test]
+    fn operations_match_nalgebra_bit_for_bit() {
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let unit = (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            unit * 10f64.powi((state % 9) as i32 - 4)
+        };
+        let mut differing = 0;
+        for _ in 0..2000 {
+            let a = Vector3::from_fn(|_, _| next());
+            let b = Vector3::from_fn(|_, _| next());
+            let ma = Matrix3::from_fn(|_, _| next());
+            let mb = Matrix3::from_fn(|_, _| next());
+            let s = next();
+            let checks = [
+                v(&a.cross(&b)) == cross(&v(&a), &v(&b)),
+                a.dot(&b) == dot(&v(&a), &v(&b)),
+                v(&(ma * a)) == mat_vec(&m(&ma), &v(&a)),
+                m(&(ma * mb)) == mat_mul(&m(&ma), &m(&mb)),
+                m(&(a.cross_matrix() * mb)) == mat_mul(&cross_matrix(&v(&a)), &m(&mb)),
+                m(&(ma + mb.transpose())) == mat_add(&m(&ma), &transpose(&m(&mb)), false),
+                m(&((ma - b.cross_matrix()) * s))
+                    == mat_scale(&mat_add(&m(&ma), &cross_matrix(&v(&b)), true), s),
+                v(&(a * s + b)) == add(&scale(&v(&a), s), &v(&b)),
+            ];
+            differing += checks.iter().filter(|ok| !**ok).count();
+        }
+        assert_eq!(differing, 0);
+    }
+
+    /// F4 acts lane by lane: each lane of a product of F4 matrices is the f64 product.
+    #[test]
+    fn lanes_are_independent_f64_computations() {
+        let f = |k: usize, c: usize, r: usize| ((k * 7 + c * 3 + r) as f64).sin() * 1e3;
+        let a: M<F4> = std::array::from_fn(|c| {
+            std::array::from_fn(|r| F4(std::array::from_fn(|k| f(k, c, r))))
+        });
+        let b = transpose(&a);
+        let p = mat_mul(&a, &cross_matrix(&b[1]));
+        for k in 0..4 {
+            let ak: M<f64> = std::array::from_fn(|c| std::array::from_fn(|r| a[c][r].0[k]));
+            let pk = mat_mul(&ak, &cross_matrix(&transpose(&ak)[1]));
+            for c in 0..3 {
+                for r in 0..3 {
+                    assert_eq!(p[c][r].0[k].to_bits(), pk[c][r].to_bits());
+                }
+            }
+        }
+    }
+}
