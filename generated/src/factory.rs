@@ -31,6 +31,15 @@ impl MomentSource for ClosedForm {
     fn moments(&self, d: &Vector3<f64>, l: f64, rotary: &[f64; 3], out: &mut ElementMoments) {
         crate::element_moments_into(d, l, rotary, out);
     }
+    fn moments_batch(
+        &self,
+        d: &[Vector3<f64>],
+        l: &[f64],
+        rotary: &[f64; 3],
+        out: &mut [ElementMoments],
+    ) {
+        crate::element_moments_batch_into(d, l, rotary, out);
+    }
     fn point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
         crate::element_point_into(d, u, out);
     }

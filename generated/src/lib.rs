@@ -31,9 +31,10 @@ pub mod centreline_force;
 #[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]
 pub mod rotary_basis;
 
-pub use centreline_force::centreline_force;
-pub use centreline_mass::centreline_mass;
-pub use rotary_basis::rotary_basis;
+pub use centreline_force::{centreline_force, centreline_force_closed_x4, CENTRELINE_FORCE_SWITCH};
+pub use centreline_mass::{centreline_mass, centreline_mass_closed_x4, CENTRELINE_MASS_SWITCH};
+pub use rotary_basis::{rotary_basis, rotary_basis_closed_x4, ROTARY_BASIS_SWITCH};
+use superhelix_runtime::lanes::F4;
 
 pub mod factory;
 /// Generated: the numbers of elements with checked-in kernels.
@@ -145,6 +146,124 @@ pub fn element_moments_into(d: &Vector3<f64>, l: f64, rotary: &[f64; 3], out: &m
     centreline_force(&dd, l, &mut of);
     fill_force(&of, out);
     rotary_into(&dd, l, rotary, out);
+}
+
+/// [`element_moments_into`] for several elements (`d[p]`, `l[p]` into `out[p]`), one
+/// generated function at a time over all of them (its code, ~10–35 kB of instructions on
+/// one branch, fetched once per strand instead of once per element), and the elements
+/// in a function's closed-form branch four at a time in SIMD lanes (`*_closed_x4`): the
+/// same values, bit for bit, as element by element (`tests/generated.rs`).
+pub fn element_moments_batch_into(
+    d: &[Vector3<f64>],
+    l: &[f64],
+    rotary: &[f64; 3],
+    out: &mut [ElementMoments],
+) {
+    let n = d.len().min(l.len()).min(out.len());
+    let dd = |p: usize| [d[p][0], d[p][1], d[p][2]];
+    each_element(
+        n,
+        &dd,
+        l,
+        CENTRELINE_MASS_SWITCH,
+        centreline_mass,
+        centreline_mass_closed_x4,
+        |p, o: &[f64; 51]| fill_mass(o, &mut out[p]),
+    );
+    each_element(
+        n,
+        &dd,
+        l,
+        CENTRELINE_FORCE_SWITCH,
+        centreline_force,
+        centreline_force_closed_x4,
+        |p, o: &[f64; 135]| fill_force(o, &mut out[p]),
+    );
+    if rotary.iter().all(|&x| x == 0.0) {
+        for m in out[..n].iter_mut() {
+            rotary_into(&[0.0; 3], 0.0, rotary, m);
+        }
+    } else {
+        each_element(
+            n,
+            &dd,
+            l,
+            ROTARY_BASIS_SWITCH,
+            rotary_basis,
+            rotary_basis_closed_x4,
+            |p, o: &[f64; 63]| fill_rotary(o, rotary, &mut out[p]),
+        );
+    }
+}
+
+/// `W l` exactly as the generated functions' prologue computes it (their branch test).
+fn element_wl(d: &[f64; 3], l: f64) -> f64 {
+    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * l
+}
+
+/// Run one generated element function over elements `0..n` and hand each element's
+/// outputs to `fill`: the elements at or above `switch` (its closed-form branch) in
+/// groups of four through `x4` (a last group of two or three padded with copies of its
+/// last element, whose lanes are not read), the others one by one through `one`.
+fn each_element<const K: usize>(
+    n: usize,
+    d: &dyn Fn(usize) -> [f64; 3],
+    l: &[f64],
+    switch: f64,
+    one: fn(&[f64; 3], f64, &mut [f64; K]),
+    x4: fn(&[F4; 3], F4, &mut [F4; K]),
+    mut fill: impl FnMut(usize, &[f64; K]),
+) {
+    let mut single = [0.0; K];
+    let mut group = [0usize; 4];
+    let mut used = 0;
+    for p in 0..n {
+        if element_wl(&d(p), l[p]) < switch {
+            one(&d(p), l[p], &mut single);
+            fill(p, &single);
+            continue;
+        }
+        group[used] = p;
+        used += 1;
+        if used == 4 || p + 1 == n {
+            closed_group(&group[..used], d, l, one, x4, &mut fill);
+            used = 0;
+        }
+    }
+    if used > 0 {
+        closed_group(&group[..used], d, l, one, x4, &mut fill);
+    }
+}
+
+/// The elements `group` (one to four, all in the closed-form branch) through `x4`, the
+/// unused lanes repeating the last element, or a lone element through `one` (measured:
+/// as fast, and it does not pay for four lanes).
+fn closed_group<const K: usize>(
+    group: &[usize],
+    d: &dyn Fn(usize) -> [f64; 3],
+    l: &[f64],
+    one: fn(&[f64; 3], f64, &mut [f64; K]),
+    x4: fn(&[F4; 3], F4, &mut [F4; K]),
+    fill: &mut impl FnMut(usize, &[f64; K]),
+) {
+    let mut single = [0.0; K];
+    if let [p] = group {
+        one(&d(*p), l[*p], &mut single);
+        fill(*p, &single);
+        return;
+    }
+    let at = |k: usize| group[k.min(group.len() - 1)];
+    let ds = [d(at(0)), d(at(1)), d(at(2)), d(at(3))];
+    let lane_d = |i: usize| F4([ds[0][i], ds[1][i], ds[2][i], ds[3][i]]);
+    let lane_l = F4([l[at(0)], l[at(1)], l[at(2)], l[at(3)]]);
+    let mut lanes = [F4([0.0; 4]); K];
+    x4(&[lane_d(0), lane_d(1), lane_d(2)], lane_l, &mut lanes);
+    for (k, &p) in group.iter().enumerate() {
+        for (s, x) in single.iter_mut().zip(&lanes) {
+            *s = x.0[k];
+        }
+        fill(p, &single);
+    }
 }
 
 /// [`element_moments_into`] into a new value.

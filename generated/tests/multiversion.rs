@@ -95,3 +95,75 @@ fn dispatched_and_portable_kernels_agree_bit_for_bit() {
     }
     assert_eq!(checked, WL.len() * 5 * 20);
 }
+
+/// The four-lane closed forms (`*_closed_x4`): dispatched and portable copies agree bit
+/// for bit, and lane k is the one-element function of lane k's inputs, at W·l in the
+/// closed-form branch of all three functions.
+#[test]
+fn four_lane_closed_forms_agree_with_their_portable_copies_and_one_element() {
+    use superhelix_runtime::lanes::F4;
+    let mut rng = Rng(0x4a4e_5f0d);
+    let mut checked = 0;
+    for &wl in &[3.6, 10.0, 30.0, 100.0] {
+        for kind in 0..5 {
+            for _ in 0..10 {
+                let mut d = [F4([0.0; 4]); 3];
+                let mut l = F4([0.0; 4]);
+                for k in 0..4 {
+                    l.0[k] = 0.05 + 2.0 * (rng.next() + 1.0);
+                    let dk = direction(&mut rng, kind) * (wl * (1.0 + 0.5 * k as f64) / l.0[k]);
+                    for i in 0..3 {
+                        d[i].0[k] = dk[i];
+                    }
+                }
+                macro_rules! check {
+                    ($k:literal, $x4:path, $portable:path, $one:path) => {{
+                        let (mut a, mut b) = ([F4([0.0; 4]); $k], [F4([0.0; 4]); $k]);
+                        $x4(&d, l, &mut a);
+                        $portable(&d, l, &mut b);
+                        for lane in 0..4 {
+                            let la: Vec<f64> = a.iter().map(|x| x.0[lane]).collect();
+                            let lb: Vec<f64> = b.iter().map(|x| x.0[lane]).collect();
+                            let mut one = [0.0; $k];
+                            $one(
+                                &[d[0].0[lane], d[1].0[lane], d[2].0[lane]],
+                                l.0[lane],
+                                &mut one,
+                            );
+                            assert!(
+                                same_bits(&la, &lb),
+                                "{} portable, lane {lane}",
+                                stringify!($x4)
+                            );
+                            assert!(
+                                same_bits(&la, &one),
+                                "{} vs one element, lane {lane}",
+                                stringify!($x4)
+                            );
+                        }
+                    }};
+                }
+                check!(
+                    135,
+                    g::centreline_force_closed_x4,
+                    g::centreline_force::centreline_force_closed_x4_portable,
+                    g::centreline_force
+                );
+                check!(
+                    51,
+                    g::centreline_mass_closed_x4,
+                    g::centreline_mass::centreline_mass_closed_x4_portable,
+                    g::centreline_mass
+                );
+                check!(
+                    63,
+                    g::rotary_basis_closed_x4,
+                    g::rotary_basis::rotary_basis_closed_x4_portable,
+                    g::rotary_basis
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(checked, 200);
+}

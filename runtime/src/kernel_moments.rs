@@ -28,6 +28,19 @@ pub trait MomentSource: Send {
     /// Fill every field of `out` for Darboux vector `d`, length `l`, rotary inertia
     /// `rotary` (= diag D).
     fn moments(&self, d: &Vector3<f64>, l: f64, rotary: &[f64; 3], out: &mut ElementMoments);
+    /// [`MomentSource::moments`] for elements `d[p]`, `l[p]` into `out[p]` (one element
+    /// after the other unless a source does better).
+    fn moments_batch(
+        &self,
+        d: &[Vector3<f64>],
+        l: &[f64],
+        rotary: &[f64; 3],
+        out: &mut [ElementMoments],
+    ) {
+        for ((d, &l), out) in d.iter().zip(l).zip(out.iter_mut()) {
+            self.moments(d, l, rotary, out);
+        }
+    }
     /// E(u), p(u), w_i(u) and their d-derivatives (see [`ElementPoint`]).
     fn point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
         *out = ElementPoint::by_jets(d, u);
@@ -150,8 +163,13 @@ impl<S: MomentSource> MomentKernel<S> {
                 frame: start.frame * point.frame,
             };
             self.end_derivs[p] = end_derivatives_from(&start.frame, &point);
-            self.source.moments(&d, l, &rotary, &mut self.moments[p]);
         }
+        self.source.moments_batch(
+            &self.darboux,
+            &self.geom.lengths,
+            &rotary,
+            &mut self.moments,
+        );
     }
 
     /// Copy the column-major scratch into `mat` (overwrite).

@@ -1,6 +1,8 @@
 //! Small fixed-size algebra over a scalar that is either `f64` or [`F4`], four `f64`
 //! lanes, so that one source evaluates an integrand at one quadrature point or at four at
-//! once (the rotary-inertia quadrature, [`crate::moment_rotary`]).
+//! once (the rotary-inertia quadrature, [`crate::moment_rotary`]); and [`F4`]'s mixed
+//! operations with `f64`, so that the generated closed forms of four elements run as one
+//! (`superhelix-generated`'s `*_closed_x4` functions).
 //!
 //! Every operation takes its terms in the order nalgebra does for `Matrix3<f64>` and
 //! `Vector3<f64>` (a product's column sum left to right, a dot product `(a₀b₀ + a₁b₁) +
@@ -10,7 +12,7 @@
 //! closures and `memcpy` calls that were not inlined, and the rotary quadrature became
 //! 20 % slower instead of faster.
 
-use std::ops::{Add, AddAssign, Mul, Neg, Sub};
+use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
 
 /// A scalar of the lane algebra: `f64` or [`F4`].
 pub trait Real:
@@ -54,6 +56,55 @@ macro_rules! lane_op {
 lane_op!(Add, add, +);
 lane_op!(Sub, sub, -);
 lane_op!(Mul, mul, *);
+lane_op!(Div, div, /);
+
+// an `f64` on either side acts on every lane, its operand order kept (`2.0 * x` is
+// `[2.0 * x₀, …]`): the generated closed forms run on F4 as written for f64
+macro_rules! scalar_op {
+    ($trait:ident, $f:ident, $op:tt) => {
+        impl $trait<f64> for F4 {
+            type Output = F4;
+            #[inline(always)]
+            fn $f(self, b: f64) -> F4 {
+                let a = self.0;
+                F4([a[0] $op b, a[1] $op b, a[2] $op b, a[3] $op b])
+            }
+        }
+        impl $trait<F4> for f64 {
+            type Output = F4;
+            #[inline(always)]
+            fn $f(self, b: F4) -> F4 {
+                let b = b.0;
+                F4([self $op b[0], self $op b[1], self $op b[2], self $op b[3]])
+            }
+        }
+    };
+}
+scalar_op!(Add, add, +);
+scalar_op!(Sub, sub, -);
+scalar_op!(Mul, mul, *);
+scalar_op!(Div, div, /);
+
+impl From<f64> for F4 {
+    #[inline(always)]
+    fn from(x: f64) -> F4 {
+        F4([x; 4])
+    }
+}
+
+impl F4 {
+    /// `(sin x, cos x)` lane by lane (`f64::sin_cos`).
+    #[inline(always)]
+    pub fn sin_cos(self) -> (F4, F4) {
+        let [a, b, c, d] = self.0.map(f64::sin_cos);
+        (F4([a.0, b.0, c.0, d.0]), F4([a.1, b.1, c.1, d.1]))
+    }
+    /// `√x` lane by lane.
+    #[inline(always)]
+    pub fn sqrt(self) -> F4 {
+        F4(self.0.map(f64::sqrt))
+    }
+}
 
 impl Neg for F4 {
     type Output = F4;
