@@ -379,20 +379,24 @@ pub fn generate_function(
     }
     let doc_outputs = format!(" Names of the outputs of [`{name}`], in order.");
     let doc_switch = format!(" Switch on `W l` of [`{name}`]: Taylor branch below.");
+    // the symbols of the generated code from its arguments (one element, or four in lanes)
+    let prologue = quote! {
+        let d0 = d[0];
+        let d1 = d[1];
+        let d2 = d[2];
+        let w = (d0 * d0 + d1 * d1 + d2 * d2).sqrt();
+        let x = w * l;
+        let dl0 = d0 * l;
+        let dl1 = d1 * l;
+        let dl2 = d2 * l;
+    };
     let function = emit::multiversioned(
         &fname,
         &doc,
         quote!(d: &[f64; 3], l: f64, out: &mut [f64; #k_lit]),
         quote!(d, l, out),
         quote! {
-            let d0 = d[0];
-            let d1 = d[1];
-            let d2 = d[2];
-            let w = (d0 * d0 + d1 * d1 + d2 * d2).sqrt();
-            let x = w * l;
-            let dl0 = d0 * l;
-            let dl1 = d1 * l;
-            let dl2 = d2 * l;
+            #prologue
             #low_branch
             if x < #switch_const {
                 #(#ss)*
@@ -414,14 +418,7 @@ pub fn generate_function(
         quote!(d: &[F4; 3], l: F4, out: &mut [F4; #k_lit]),
         quote!(d, l, out),
         quote! {
-            let d0 = d[0];
-            let d1 = d[1];
-            let d2 = d[2];
-            let w = (d0 * d0 + d1 * d1 + d2 * d2).sqrt();
-            let x = w * l;
-            let dl0 = d0 * l;
-            let dl1 = d1 * l;
-            let dl2 = d2 * l;
+            #prologue
             #(#cs4)*
         },
     );

@@ -184,7 +184,7 @@ fn lane(a: &V<F4>, k: usize) -> V3 {
 /// `frame`, `w` and `dw` are read: `eval` need not fill `d2p`, see
 /// `MomentSource::rotary_point`); the Jacobian parts only when `jacobian`.
 ///
-/// The integrands are evaluated [`LANES`] points at a time ([`point_terms`] on [`F4`])
+/// The integrands are evaluated four points at a time (in the lanes of [`F4`])
 /// and summed point by point in order: the same values, bit for bit, as one point at a
 /// time with nalgebra (the unit tests check this).
 ///
