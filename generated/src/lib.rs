@@ -120,12 +120,17 @@ fn fill_rotary(o: &[f64; 63], rotary: &[f64; 3], m: &mut ElementMoments) {
     }
 }
 
+/// The rotary fields of an element without rotary inertia.
+fn clear_rotary(m: &mut ElementMoments) {
+    m.rot = Matrix3::zeros();
+    m.rot_w = [Vector3::zeros(); 3];
+    m.rot_ww = Matrix3::zeros();
+}
+
 /// The rotary part: the basis is skipped when the rotary inertia is zero.
 fn rotary_into(d: &[f64; 3], l: f64, rotary: &[f64; 3], m: &mut ElementMoments) {
     if rotary.iter().all(|&x| x == 0.0) {
-        m.rot = Matrix3::zeros();
-        m.rot_w = [Vector3::zeros(); 3];
-        m.rot_ww = Matrix3::zeros();
+        clear_rotary(m);
     } else {
         let mut o = [0.0; 63];
         rotary_basis(d, l, &mut o);
@@ -180,9 +185,7 @@ pub fn element_moments_batch_into(
         |p, o: &[f64; 135]| fill_force(o, &mut out[p]),
     );
     if rotary.iter().all(|&x| x == 0.0) {
-        for m in out[..n].iter_mut() {
-            rotary_into(&[0.0; 3], 0.0, rotary, m);
-        }
+        out[..n].iter_mut().for_each(clear_rotary);
     } else {
         each_element(
             n,
@@ -225,7 +228,7 @@ fn each_element<const K: usize>(
         }
         group[used] = p;
         used += 1;
-        if used == 4 || p + 1 == n {
+        if used == 4 {
             closed_group(&group[..used], d, l, one, x4, &mut fill);
             used = 0;
         }

@@ -46,7 +46,8 @@ pub trait MomentSource: Send {
         *out = ElementPoint::by_jets(d, u);
     }
     /// The fields of [`ElementPoint`] the rotary-inertia quadrature
-    /// ([`rotary_element`]) reads: `frame`, `p`, `dp`, `w` and `dw`, the same values as
+    /// ([`rotary_element`]) reads: `frame`, `w` and `dw` (the generated source also fills
+    /// `p` and `dp`, which are `w[0]` and `dw[0]`), the same values as
     /// [`MomentSource::point`]; `out.d2p` is unspecified afterwards (a source may leave
     /// it as it was). Defaults to [`MomentSource::point`].
     fn rotary_point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {

@@ -12,7 +12,7 @@
 //! closures and `memcpy` calls that were not inlined, and the rotary quadrature became
 //! 20 % slower instead of faster.
 
-use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
+use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// A scalar of the lane algebra: `f64` or [`F4`].
 pub trait Real:
@@ -112,13 +112,6 @@ impl Neg for F4 {
     fn neg(self) -> F4 {
         let a = self.0;
         F4([-a[0], -a[1], -a[2], -a[3]])
-    }
-}
-
-impl AddAssign for F4 {
-    #[inline(always)]
-    fn add_assign(&mut self, b: F4) {
-        *self = *self + b;
     }
 }
 
