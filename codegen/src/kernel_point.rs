@@ -450,7 +450,7 @@ pub fn generate_element_rotary_point(
         out.w = [#(#w),*];
         out.dw = [#(#dw),*];
     };
-    let tokens = point_function(
+    let one_point = point_function(
         &switch,
         &ident("element_rotary_point_into"),
         &doc_switch,
@@ -459,11 +459,17 @@ pub fn generate_element_rotary_point(
         body,
         fill,
     );
+    let lanes = rotary_points_function(&code);
+    let tokens = quote! {
+        #one_point
+
+        #lanes
+    };
     let header = header(
         &format!(
             "{ELEMENT_ROTARY_POINT}: ElementPoint without d2p (what the rotary quadrature reads) \
-             at one abscissa u, 45 distinct outputs (frame 9, p 3, dp 9, w 6 and dw 18 besides \
-             w_0 = p, dw_0 = dp)"
+             at one abscissa u, and at up to four at once on F4 lanes (element_rotary_points_into), \
+             45 distinct outputs (frame 9, p 3, dp 9, w 6 and dw 18 besides w_0 = p, dw_0 = dp)"
         ),
         "a0 = u a(z); b, c = u^2 b(z), u^3 c(z) and one derivative each",
         "frame, p, dp, w, dw",
@@ -471,6 +477,89 @@ pub fn generate_element_rotary_point(
     );
     let text = format(&format!("{header}{tokens}\n"));
     Ok((code, text))
+}
+
+/// `element_rotary_points_into(d, u, out)`: [`generate_element_rotary_point`]'s
+/// function at up to four abscissae `u[k]` of one element, into lane k of a
+/// `RotaryPoints`. Each lane's radial functions are taken one lane at a time (the switch
+/// is per abscissa, and the closed branch calls `sin_cos`), with the one-point
+/// function's statements; the polynomial part then runs once on four lanes (`F4`, with
+/// `d` as plain `f64`), its statements unchanged: with `F4`'s operations acting lane by
+/// lane on the same operands in the same order, lane k is the one-point function at
+/// `u[k]` bit for bit.
+fn rotary_points_function(code: &PointCode) -> TokenStream {
+    let radial: Vec<Ident> = code.radial_names.iter().map(|n| ident(n)).collect();
+    let lit = proc_macro2::Literal::usize_unsuffixed;
+    let slots: Vec<proc_macro2::Literal> = (0..radial.len()).map(lit).collect();
+    let nr = lit(radial.len());
+    let (radial_body, shared_body) = (&code.radial_body, &code.shared_body);
+    let mut stores: Vec<TokenStream> = Vec::new();
+    for c in 0..3 {
+        for r in 0..3 {
+            let v = ident(&format!("frame_{r}{c}"));
+            let (c, r) = (lit(c), lit(r));
+            stores.push(quote!(out.frame[#c][#r] = F4::from(#v);));
+        }
+    }
+    for m in 0..3 {
+        let v = ident(&format!("p_{m}"));
+        let m = lit(m);
+        stores.push(quote!(out.w[0][#m] = F4::from(#v);));
+    }
+    for i in 1..3 {
+        for m in 0..3 {
+            let v = ident(&format!("w_{i}_{m}"));
+            let (i, m) = (lit(i), lit(m));
+            stores.push(quote!(out.w[#i][#m] = F4::from(#v);));
+        }
+    }
+    for i in 0..3 {
+        for j in 0..3 {
+            for m in 0..3 {
+                let v = if i == 0 {
+                    ident(&format!("dp_{j}_{m}"))
+                } else {
+                    ident(&format!("dw_{i}_{j}_{m}"))
+                };
+                let (i, j, m) = (lit(i), lit(j), lit(m));
+                stores.push(quote!(out.dw[#i][#j][#m] = F4::from(#v);));
+            }
+        }
+    }
+    let doc = " [`element_rotary_point_into`] at up to four abscissae `u[k]` of one element \
+               (any beyond the fourth are ignored), into lane k of `out`: the same bits, lane by \
+               lane, as the one-point function. Each lane's radial functions are taken on their \
+               own (the switch is per abscissa); the polynomial part runs once on four lanes. The \
+               lanes beyond `u.len()` hold finite values of no meaning. Allocation-free and \
+               panic-free.";
+    let function = crate::emit::multiversioned(
+        &ident("element_rotary_points_into"),
+        doc,
+        quote!(d: &Vector3<f64>, u: &[f64], out: &mut RotaryPoints),
+        quote!(d, u, out),
+        quote! {
+            let d0 = d.x;
+            let d1 = d.y;
+            let d2 = d.z;
+            let mut lanes = [[0.0f64; 4]; #nr];
+            let mut at = [0.0f64; 4];
+            for (k, &u) in u.iter().take(4).enumerate() {
+                #radial_body
+                at[k] = u;
+                #(lanes[#slots][k] = #radial;)*
+            }
+            let u = F4(at);
+            #(let #radial = F4(lanes[#slots]);)*
+            #shared_body
+            #(#stores)*
+        },
+    );
+    quote! {
+        use superhelix_runtime::element::RotaryPoints;
+        use superhelix_runtime::lanes::F4;
+
+        #function
+    }
 }
 
 #[cfg(test)]

@@ -307,8 +307,16 @@ pub struct PointCode {
     /// The same with the closed-branch radial functions.
     pub ops_before_closed: OpCounts,
     /// Statements computing every output from `d0, d1, d2, u` (bound by the caller)
-    /// into `let` bindings named after the outputs.
+    /// into `let` bindings named after the outputs: [`PointCode::radial_body`] then
+    /// [`PointCode::shared_body`].
     pub body: TokenStream,
+    /// Statements binding `z` and the radial functions (by their names) from `d0, d1,
+    /// d2, u`: the switch and both branches.
+    pub radial_body: TokenStream,
+    /// Statements binding the outputs from `d0, d1, d2, u` and the radial functions:
+    /// the polynomial part, the same for either branch (and written so that it
+    /// type-checks with `u` and the radial functions as four lanes, `F4`).
+    pub shared_body: TokenStream,
     /// Closed-form DAG of every radial function.
     pub closed: Vec<Id>,
     /// Taylor-branch DAG of every radial function.
@@ -608,7 +616,7 @@ pub fn generate_point(
     let radial_idents: Vec<Ident> = spec.radial.iter().map(|r| ident(&r.name)).collect();
     let output_idents: Vec<Ident> = spec.outputs.iter().map(|o| ident(&o.0)).collect();
     let (ss, cs, ts) = (&es.stmts, &ec.stmts, &em.stmts);
-    let body = quote! {
+    let radial_body = quote! {
         let z = u * u * (d0 * d0 + d1 * d1 + d2 * d2);
         let (#(#radial_idents),*) = if z < #switch * #switch {
             #(#ss)*
@@ -618,9 +626,12 @@ pub fn generate_point(
             #(#cs)*
             (#(#closed_exprs),*)
         };
+    };
+    let shared_body = quote! {
         #(#ts)*
         #(let #output_idents = #output_exprs;)*
     };
+    let body = quote!(#radial_body #shared_body);
 
     let ops_prologue = OpCounts {
         adds: 2,
@@ -660,6 +671,8 @@ pub fn generate_point(
         ops_before_series: before_series,
         ops_before_closed: before_closed,
         body,
+        radial_body,
+        shared_body,
         closed,
         series,
     })

@@ -3,7 +3,7 @@
 //! [`MomentKernel`], for the numbers of elements this build was generated for
 //! ([`sizes()`]: the checked-in list plus `SUPERHELIX_N` at build time).
 
-use superhelix_runtime::element::ElementPoint;
+use superhelix_runtime::element::{ElementPoint, RotaryPoints};
 use superhelix_runtime::kernel_moments::{MomentKernel, MomentSource};
 use superhelix_runtime::moments::ElementMoments;
 use superhelix_runtime::{KernelFactory, StrandGeometry, StrandKernel, Vector3};
@@ -45,6 +45,9 @@ impl MomentSource for ClosedForm {
     }
     fn rotary_point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
         crate::element_rotary_point_into(d, u, out);
+    }
+    fn rotary_points(&self, d: &Vector3<f64>, u: &[f64], out: &mut RotaryPoints) {
+        crate::element_rotary_points_into(d, u, out);
     }
     fn describe(&self) -> String {
         "closed form".to_string()

@@ -310,4 +310,6 @@ pub use element_point::{element_point, element_point_into, ELEMENT_POINT_SWITCH}
 #[rustfmt::skip]
 #[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]
 pub mod element_rotary_point;
-pub use element_rotary_point::{element_rotary_point_into, ELEMENT_ROTARY_POINT_SWITCH};
+pub use element_rotary_point::{
+    element_rotary_point_into, element_rotary_points_into, ELEMENT_ROTARY_POINT_SWITCH,
+};

@@ -167,3 +167,64 @@ fn four_lane_closed_forms_agree_with_their_portable_copies_and_one_element() {
     }
     assert_eq!(checked, 200);
 }
+
+/// The four-lane rotary point (`element_rotary_points_into`): lane k is the one-point
+/// `element_rotary_point_into` at `u[k]`, bit for bit, for 1–4 abscissae whose lanes
+/// fall on either side of the switch (W·u = 1) in the same call, and the dispatched and
+/// portable copies agree bit for bit.
+#[test]
+fn four_lane_rotary_points_are_the_one_point_function_bit_for_bit() {
+    use superhelix_runtime::element::RotaryPoints;
+    let mut rng = Rng(0x0b1e_c7ed);
+    let mut checked = 0;
+    let mut lanes_by_branch = [0usize; 2];
+    let mut mixed = 0;
+    for &wl in &WL {
+        for kind in 0..5 {
+            for used in 1..=4 {
+                let l = 0.05 + 2.0 * (rng.next() + 1.0);
+                let d = direction(&mut rng, kind) * (wl / l);
+                let u: Vec<f64> = (0..used).map(|_| l * 0.5 * (rng.next() + 1.0)).collect();
+                let taylor = u
+                    .iter()
+                    .filter(|&&uk| d.norm() * uk < g::ELEMENT_ROTARY_POINT_SWITCH);
+                if (1..used).contains(&taylor.count()) {
+                    mixed += 1;
+                }
+                let (mut a, mut b) = (RotaryPoints::default(), RotaryPoints::default());
+                g::element_rotary_points_into(&d, &u, &mut a);
+                g::element_rotary_point::element_rotary_points_into_portable(&d, &u, &mut b);
+                for (k, &uk) in u.iter().enumerate() {
+                    let mut one = ElementPoint::default();
+                    g::element_rotary_point_into(&d, uk, &mut one);
+                    let mut expected = RotaryPoints::default();
+                    expected.set_lane(k, &one);
+                    let lane = |p: &RotaryPoints| {
+                        let mut v: Vec<f64> = p.frame.iter().flatten().map(|x| x.0[k]).collect();
+                        v.extend(p.w.iter().flatten().map(|x| x.0[k]));
+                        v.extend(p.dw.iter().flatten().flatten().map(|x| x.0[k]));
+                        v
+                    };
+                    assert!(
+                        same_bits(&lane(&a), &lane(&expected)),
+                        "lane {k} of {used} at d = {d:?}, u = {uk}"
+                    );
+                    assert!(
+                        same_bits(&lane(&b), &lane(&expected)),
+                        "portable, lane {k} of {used} at d = {d:?}, u = {uk}"
+                    );
+                    lanes_by_branch
+                        [usize::from(d.norm() * uk >= g::ELEMENT_ROTARY_POINT_SWITCH)] += 1;
+                }
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(checked, WL.len() * 5 * 4);
+    // both branches, and calls mixing them, are covered
+    assert!(
+        lanes_by_branch[0] > 100 && lanes_by_branch[1] > 100,
+        "{lanes_by_branch:?}"
+    );
+    assert!(mixed >= 20, "{mixed} calls mix the branches");
+}

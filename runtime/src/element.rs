@@ -12,6 +12,7 @@
 
 use crate::helix_functions::{abc, abc_values};
 use crate::jet::{cross, Jet};
+use crate::lanes::{F4, M, V};
 use nalgebra::{Matrix3, Vector3};
 
 /// Frame rotation E(u) and position p(u) = P(u) e0 of an element with Darboux vector
@@ -79,6 +80,41 @@ pub struct ElementPoint {
     pub dw: [[Vector3<f64>; 3]; 3],
 }
 
+/// The fields of [`ElementPoint`] that the rotary-inertia quadrature
+/// (`moment_rotary::rotary_element`) reads, E(u), w_i(u) and ∂w_i/∂d_j, at up to four
+/// abscissae of one element, one per lane of [`F4`] (the layout the quadrature
+/// evaluates its integrands in).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RotaryPoints {
+    /// E(u) by columns: `frame[c][r]` = E(u)`[(r, c)]`.
+    pub frame: M<F4>,
+    /// `w[i]` = P(u) e_i (`w[0]` = p).
+    pub w: [V<F4>; 3],
+    /// `dw[i][j]` = ∂w_i/∂d_j.
+    pub dw: [[V<F4>; 3]; 3],
+}
+
+impl RotaryPoints {
+    /// Lane `k` (< 4) set from the fields of `point`.
+    pub fn set_lane(&mut self, k: usize, point: &ElementPoint) {
+        for c in 0..3 {
+            for r in 0..3 {
+                self.frame[c][r].0[k] = point.frame[(r, c)];
+            }
+        }
+        for i in 0..3 {
+            for m in 0..3 {
+                self.w[i][m].0[k] = point.w[i][m];
+            }
+            for j in 0..3 {
+                for m in 0..3 {
+                    self.dw[i][j][m].0[k] = point.dw[i][j][m];
+                }
+            }
+        }
+    }
+}
+
 impl ElementPoint {
     /// By second-order jets in d ([`element_jets`]) and [`local_pose`].
     pub fn by_jets(d: &Vector3<f64>, u: f64) -> Self {
@@ -100,7 +136,7 @@ impl ElementPoint {
 fn p_times(u: f64, d: &[Jet; 3], b: Jet, c: Jet, dd: Jet, e: &[Jet; 3]) -> [Jet; 3] {
     let dxe = cross(d, e);
     let de = d[0] * e[0] + d[1] * e[1] + d[2] * e[2];
-    let mut out = [Jet::default(); 3];
+    let mut out = [Jet::ZERO; 3];
     for m in 0..3 {
         out[m] = u * e[m] + (u * u) * (b * dxe[m]) + (u * u * u) * (c * (d[m] * de - dd * e[m]));
     }
@@ -122,7 +158,7 @@ pub fn element_jets(d: &Vector3<f64>, u: f64, with_w: bool) -> ElementJets {
     };
     let mut out = ElementJets {
         p: p_times(u, &dj, b, c, dd, &basis(0)),
-        ..Default::default()
+        w: [[Jet::ZERO; 3]; 3],
     };
     if with_w {
         for i in 0..3 {

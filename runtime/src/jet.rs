@@ -17,12 +17,19 @@ pub struct Jet {
 }
 
 impl Jet {
+    /// Zero with zero derivatives. The operations below build on this constant rather
+    /// than on `Default::default()`: the derived default goes through `[T; 3]`'s
+    /// generic `default`, and whether the compiler inlines that one into `Mul` depended
+    /// on unrelated code elsewhere in the crate (one such change made the generic
+    /// kernel 15 % slower).
+    pub const ZERO: Jet = Jet {
+        v: 0.0,
+        g: [0.0; 3],
+        h: [[0.0; 3]; 3],
+    };
     /// A constant.
     pub fn constant(v: f64) -> Jet {
-        Jet {
-            v,
-            ..Default::default()
-        }
+        Jet { v, ..Jet::ZERO }
     }
     /// The i-th independent variable, at value v.
     pub fn var(v: f64, i: usize) -> Jet {
@@ -34,7 +41,7 @@ impl Jet {
     pub fn compose(self, f: Series3) -> Jet {
         let mut out = Jet {
             v: f.f,
-            ..Default::default()
+            ..Jet::ZERO
         };
         for i in 0..3 {
             out.g[i] = f.d1 * self.g[i];
@@ -92,7 +99,7 @@ impl Mul for Jet {
     fn mul(self, o: Jet) -> Jet {
         let mut out = Jet {
             v: self.v * o.v,
-            ..Default::default()
+            ..Jet::ZERO
         };
         for i in 0..3 {
             out.g[i] = self.g[i] * o.v + self.v * o.g[i];

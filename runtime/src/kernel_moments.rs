@@ -8,7 +8,7 @@
 //! (`superhelix-generated`) or, as a reference, [`QuadratureMoments`]. Buffers are sized
 //! once at construction; `evaluate` allocates nothing.
 
-use crate::element::ElementPoint;
+use crate::element::{ElementPoint, RotaryPoints};
 use crate::kernel::{EvalInput, StrandKernel, StrandTerms};
 use crate::moment_jacobians::{
     add_field_hessian, add_velocity_jacobian, add_weighted_gram, VelocityRow,
@@ -52,6 +52,17 @@ pub trait MomentSource: Send {
     /// it as it was). Defaults to [`MomentSource::point`].
     fn rotary_point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
         self.point(d, u, out);
+    }
+    /// [`MomentSource::rotary_point`] at the abscissae `u` (at most four; any beyond are
+    /// ignored), lane k of `out` for `u[k]`; the lanes beyond `u.len()` are unspecified
+    /// afterwards. Defaults to [`MomentSource::rotary_point`] point by point; a source
+    /// may evaluate the four lanes together, but must give the same bits.
+    fn rotary_points(&self, d: &Vector3<f64>, u: &[f64], out: &mut RotaryPoints) {
+        let mut point = ElementPoint::default();
+        for (k, &u) in u.iter().take(4).enumerate() {
+            self.rotary_point(d, u, &mut point);
+            out.set_lane(k, &point);
+        }
     }
     /// Short description (`closed form`, `quadrature`).
     fn describe(&self) -> String;
@@ -262,7 +273,7 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
                 let l = lengths[p];
                 let source = &self.source;
                 self.rotary[p] = rotary_element(
-                    &|u: f64, out: &mut ElementPoint| source.rotary_point(&d, u, out),
+                    &|u: &[f64], out: &mut RotaryPoints| source.rotary_points(&d, u, out),
                     l,
                     &self.geom.rotary_inertia,
                     &self.moments[p],

@@ -36,7 +36,7 @@ impl Real for f64 {
 }
 
 /// Four `f64` lanes; every operation acts lane by lane.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 #[repr(C, align(32))]
 pub struct F4(pub [f64; 4]);
 

@@ -11,7 +11,7 @@
 //! element's frequencies keeps them far below the kernels' 1e-10 agreement); M's rotary
 //! part uses the closed-form moments `rot`, `rot_w`, `rot_ww`.
 
-use crate::element::ElementPoint;
+use crate::element::RotaryPoints;
 use crate::lanes::{
     add, cross, cross_matrix, dot, mat_add, mat_mul, mat_scale, mat_vec, scale, transpose, Real,
     F4, M, V,
@@ -180,9 +180,9 @@ fn lane(a: &V<F4>, k: usize) -> V3 {
 
 /// The rotary integrals of one element of length `l`, start pose
 /// `pose`, start-frame motion `motion` and own velocities `qd`, by `points`-point
-/// quadrature, the element's local functions from `eval(u, out)` (of which only
-/// `frame`, `w` and `dw` are read: `eval` need not fill `d2p`, see
-/// `MomentSource::rotary_point`); the Jacobian parts only when `jacobian`.
+/// quadrature, the element's local functions from `eval(u, out)`, which fills lane k
+/// of `out` for the abscissa `u[k]` (up to four at a time, see
+/// `MomentSource::rotary_points`); the Jacobian parts only when `jacobian`.
 ///
 /// The integrands are evaluated four points at a time (in the lanes of [`F4`])
 /// and summed point by point in order: the same values, bit for bit, as one point at a
@@ -193,7 +193,7 @@ fn lane(a: &V<F4>, k: usize) -> V3 {
 /// give the same bits (Rust does not fuse a multiply and an add on its own).
 #[allow(clippy::too_many_arguments)]
 pub fn rotary_element(
-    eval: &dyn Fn(f64, &mut ElementPoint),
+    eval: &dyn Fn(&[f64], &mut RotaryPoints),
     l: f64,
     rotary: &[f64; 3],
     moments: &ElementMoments,
@@ -220,7 +220,7 @@ pub fn rotary_element(
 #[target_feature(enable = "avx2")]
 #[allow(clippy::too_many_arguments)]
 fn rotary_element_avx2(
-    eval: &dyn Fn(f64, &mut ElementPoint),
+    eval: &dyn Fn(&[f64], &mut RotaryPoints),
     l: f64,
     rotary: &[f64; 3],
     moments: &ElementMoments,
@@ -237,7 +237,7 @@ fn rotary_element_avx2(
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn rotary_element_body(
-    eval: &dyn Fn(f64, &mut ElementPoint),
+    eval: &dyn Fn(&[f64], &mut RotaryPoints),
     l: f64,
     rotary: &[f64; 3],
     moments: &ElementMoments,
@@ -264,37 +264,20 @@ fn rotary_element_body(
     let mut lw = [V3::zeros(); 3];
     let mut psi = [V3::zeros(); 3];
     let mut torque = V3::zeros();
-    // the points' frames and angular derivatives, one point per lane
-    let mut point = ElementPoint::default();
-    let z = F4::zero();
-    let mut e: M<F4> = [[z; 3]; 3];
-    let mut w: [V<F4>; 3] = [[z; 3]; 3];
-    let mut dw: [[V<F4>; 3]; 3] = [[[z; 3]; 3]; 3];
+    // the points' frames and angular derivatives, one point per lane; lanes beyond
+    // `used` are never summed
+    let mut points = RotaryPoints::default();
+    let mut u = [0.0; LANES];
     for (nodes, wgl) in rule.nodes.chunks(LANES).zip(rule.weights.chunks(LANES)) {
         let used = nodes.len();
-        // lanes beyond `used` keep the last batch's values (lanes are independent) and
-        // are never summed
         let mut weights = F4::zero();
         for k in 0..used {
-            eval(0.5 * l * (nodes[k] + 1.0), &mut point);
+            u[k] = 0.5 * l * (nodes[k] + 1.0);
             weights.0[k] = 0.5 * l * wgl[k];
-            for c in 0..3 {
-                for r in 0..3 {
-                    e[c][r].0[k] = point.frame[(r, c)];
-                }
-            }
-            for i in 0..3 {
-                for r in 0..3 {
-                    w[i][r].0[k] = point.w[i][r];
-                }
-                for j in 0..3 {
-                    for r in 0..3 {
-                        dw[i][j][r].0[k] = point.dw[i][j][r];
-                    }
-                }
-            }
         }
-        let terms = point_terms(&motion, &e, &w, &dw, weights, jacobian);
+        eval(&u[..used], &mut points);
+        let (e, w, dw) = (&points.frame, &points.w, &points.dw);
+        let terms = point_terms(&motion, e, w, dw, weights, jacobian);
         for k in 0..used {
             torque += lane(&terms.torque, k);
             for i in 0..3 {
@@ -403,7 +386,7 @@ pub fn add_rotary_terms(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::element::local_pose;
+    use crate::element::{local_pose, ElementPoint};
 
     /// The rotary integrals one point at a time with nalgebra: the code the lane version
     /// replaced, kept as the reference it must match bit for bit.
@@ -547,10 +530,15 @@ mod tests {
             let qd = [30.0 * next(), 30.0 * next(), 30.0 * next()];
             let moments = ElementMoments::by_quadrature(&d, l, &rotary, 8);
             let eval = |u: f64, out: &mut ElementPoint| *out = ElementPoint::by_jets(&d, u);
+            let eval_lanes = |u: &[f64], out: &mut RotaryPoints| {
+                for (k, &u) in u.iter().enumerate() {
+                    out.set_lane(k, &ElementPoint::by_jets(&d, u));
+                }
+            };
             let points = 1 + case % 13;
             for jacobian in [false, true] {
                 let args = (
-                    &eval,
+                    &eval_lanes,
                     l,
                     &rotary,
                     &moments,
@@ -561,7 +549,7 @@ mod tests {
                     jacobian,
                 );
                 let expected = bits(&reference(
-                    args.0, args.1, args.2, args.3, args.4, args.5, args.6, args.7, args.8,
+                    &eval, args.1, args.2, args.3, args.4, args.5, args.6, args.7, args.8,
                 ));
                 let dispatched = rotary_element(
                     args.0, args.1, args.2, args.3, args.4, args.5, args.6, args.7, args.8,
