@@ -501,14 +501,14 @@ fn rotary_points_function(code: &PointCode) -> TokenStream {
             stores.push(quote!(out.frame[#c][#r] = F4::from(#v);));
         }
     }
-    for m in 0..3 {
-        let v = ident(&format!("p_{m}"));
-        let m = lit(m);
-        stores.push(quote!(out.w[0][#m] = F4::from(#v);));
-    }
-    for i in 1..3 {
+    // w_0 = p and ∂w_0/∂d_j = ∂p/∂d_j are generated once, under p's names
+    for i in 0..3 {
         for m in 0..3 {
-            let v = ident(&format!("w_{i}_{m}"));
+            let v = if i == 0 {
+                ident(&format!("p_{m}"))
+            } else {
+                ident(&format!("w_{i}_{m}"))
+            };
             let (i, m) = (lit(i), lit(m));
             stores.push(quote!(out.w[#i][#m] = F4::from(#v);));
         }
