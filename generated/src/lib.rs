@@ -11,7 +11,8 @@
 //! and [`rotary_basis()`] (the rotary inertia); [`element_moments_into`] fills every field,
 //! [`mass_moments`] only those of M. [`element_point_into`] gives an element's local
 //! functions at one abscissa, [`element_rotary_point_into`] the same without the second
-//! derivatives `d2p` (what the rotary-inertia quadrature reads). [`kernel_factory`]
+//! derivatives `d2p` (what the rotary-inertia quadrature reads), and
+//! [`element_rotary_points_into`] that at four abscissae at once (SIMD lanes). [`kernel_factory`]
 //! offers, for each N in [`factory::sizes`], the runtime's `MomentKernel` fed by these
 //! closed forms ([`GeneratedKernel`]).
 #![warn(missing_docs)]

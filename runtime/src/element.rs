@@ -95,7 +95,11 @@ pub struct RotaryPoints {
 }
 
 impl RotaryPoints {
-    /// Lane `k` (< 4) set from the fields of `point`.
+    /// Lane `k` set from the fields of `point`.
+    ///
+    /// # Panics
+    ///
+    /// When `k ≥ 4` (there are four lanes).
     pub fn set_lane(&mut self, k: usize, point: &ElementPoint) {
         for c in 0..3 {
             for r in 0..3 {

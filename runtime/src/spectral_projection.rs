@@ -512,8 +512,8 @@ impl SpectralProjection {
     }
 
     /// LU factorisation with partial pivoting of `T − λI`: U with diagonals u0 (stored
-    /// as reciprocals), u1, u2, the multipliers and row swaps of L. Zero pivots become `perturbation` (inverse
-    /// iteration wants the near-singular solve).
+    /// as reciprocals), u1, u2, the multipliers and row swaps of L. Zero pivots become
+    /// `perturbation` (inverse iteration wants the near-singular solve).
     fn factor_shifted(&mut self, lambda: f64, perturbation: f64) {
         let n = self.n;
         let (d, e) = (&self.diag, &self.off);
@@ -638,7 +638,7 @@ fn cholesky(a: &mut [f64], m: usize, buffer: &mut MemBuffer) -> bool {
 ///
 /// Reinsch's rational QL method (C. H. Reinsch, "A stable rational QR algorithm for the
 /// computation of the eigenvalues of an Hermitian, tridiagonal matrix", Math. Comp. 25,
-/// 1971; EISPACK's `tqlrat`): implicit QL with Wilkinson shifts carried out on the
+/// 1971, and Algorithm 464, Comm. ACM 16, 1973; EISPACK's `tqlrat`): implicit QL with Wilkinson shifts carried out on the
 /// squared couplings `e²`, with no square root per rotation. The loop-carried chain of
 /// a rotation is one multiply-add and one division, against a square root and two
 /// divisions in the textbook QL with rotations (which this replaced: the QL sweeps were
