@@ -152,36 +152,34 @@ impl<'a> Emitter<'a> {
 
     /// Write the binding of the bound node `id` (its bound children already written).
     fn bind_node(&mut self, id: Id) {
-        {
-            match self.g.node(id) {
-                Node::Sin(a) | Node::Cos(a) => {
-                    let a = *a;
-                    let (s, c) = (self.g.lookup(&Node::Sin(a)), self.g.lookup(&Node::Cos(a)));
-                    let arg = self.expr(a, Prec::Receiver);
-                    self.ops.trig += 1;
-                    match (s, c) {
-                        (Some(s), Some(c)) if self.bind[s.index()] && self.bind[c.index()] => {
-                            let (ns, nc) = (self.fresh(), self.fresh());
-                            self.stmts.push(quote!(let (#ns, #nc) = #arg.sin_cos();));
-                            self.names.insert(s, quote!(#ns));
-                            self.names.insert(c, quote!(#nc));
-                        }
-                        _ => {
-                            let v = if matches!(self.g.node(id), Node::Sin(_)) {
-                                quote!(#arg.sin())
-                            } else {
-                                quote!(#arg.cos())
-                            };
-                            let n = self.let_bind(v);
-                            self.names.insert(id, n);
-                        }
+        match self.g.node(id) {
+            Node::Sin(a) | Node::Cos(a) => {
+                let a = *a;
+                let (s, c) = (self.g.lookup(&Node::Sin(a)), self.g.lookup(&Node::Cos(a)));
+                let arg = self.expr(a, Prec::Receiver);
+                self.ops.trig += 1;
+                match (s, c) {
+                    (Some(s), Some(c)) if self.bind[s.index()] && self.bind[c.index()] => {
+                        let (ns, nc) = (self.fresh(), self.fresh());
+                        self.stmts.push(quote!(let (#ns, #nc) = #arg.sin_cos();));
+                        self.names.insert(s, quote!(#ns));
+                        self.names.insert(c, quote!(#nc));
+                    }
+                    _ => {
+                        let v = if matches!(self.g.node(id), Node::Sin(_)) {
+                            quote!(#arg.sin())
+                        } else {
+                            quote!(#arg.cos())
+                        };
+                        let n = self.let_bind(v);
+                        self.names.insert(id, n);
                     }
                 }
-                _ => {
-                    let v = self.expr(id, Prec::Top);
-                    let n = self.let_bind(v);
-                    self.names.insert(id, n);
-                }
+            }
+            _ => {
+                let v = self.expr(id, Prec::Top);
+                let n = self.let_bind(v);
+                self.names.insert(id, n);
             }
         }
     }
@@ -373,10 +371,10 @@ pub fn format_with_timeout(code: &str, limit: std::time::Duration) -> String {
     }
 }
 
-/// A generated function `pub fn name(params) { body }` (documented by `doc`) written three times: the body as
-/// an `#[inline(always)]` function, a copy compiled with AVX2 enabled, and `name`,
-/// which calls the AVX2 copy when the CPU has it (`is_x86_feature_detected!`, a cached
-/// flag) and the portable one otherwise. Straight-line code of thousands of operations
+/// A generated function `pub fn name(params) { body }` (documented by `doc`) written
+/// three times: the body as an `#[inline(always)]` function, a copy compiled with AVX2
+/// enabled, and `name`, which calls the AVX2 copy when the CPU has it
+/// (`is_x86_feature_detected!`, a cached flag) and the portable one otherwise. Straight-line code of thousands of operations
 /// is where the three-operand VEX encoding counts most: SSE2's two-operand `mulsd`
 /// needs a register copy before most operations. The two copies compute the same
 /// IEEE-754 operations in the same order (Rust never contracts `a * b + c` into a fused

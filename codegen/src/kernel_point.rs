@@ -484,9 +484,10 @@ pub fn generate_element_rotary_point(
 /// `RotaryPoints`. Each lane's radial functions are taken one lane at a time (the switch
 /// is per abscissa, and the closed branch calls `sin_cos`), with the one-point
 /// function's statements; the polynomial part then runs once on four lanes (`F4`, with
-/// `d` as plain `f64`), its statements unchanged: with `F4`'s operations acting lane by
-/// lane on the same operands in the same order, lane k is the one-point function at
-/// `u[k]` bit for bit.
+/// `d` as plain `f64`; u enters it only through the radial functions, so it is not
+/// bound as lanes: a part that read it would not compile), its statements unchanged:
+/// with `F4`'s operations acting lane by lane on the same operands in the same order,
+/// lane k is the one-point function at `u[k]` bit for bit.
 fn rotary_points_function(code: &PointCode) -> TokenStream {
     let radial: Vec<Ident> = code.radial_names.iter().map(|n| ident(n)).collect();
     let lit = proc_macro2::Literal::usize_unsuffixed;
@@ -542,13 +543,10 @@ fn rotary_points_function(code: &PointCode) -> TokenStream {
             let d1 = d.y;
             let d2 = d.z;
             let mut lanes = [[0.0f64; 4]; #nr];
-            let mut at = [0.0f64; 4];
             for (k, &u) in u.iter().take(4).enumerate() {
                 #radial_body
-                at[k] = u;
                 #(lanes[#slots][k] = #radial;)*
             }
-            let u = F4(at);
             #(let #radial = F4(lanes[#slots]);)*
             #shared_body
             #(#stores)*

@@ -315,7 +315,7 @@ pub struct PointCode {
     pub radial_body: TokenStream,
     /// Statements binding the outputs from `d0, d1, d2, u` and the radial functions:
     /// the polynomial part, the same for either branch (and written so that it
-    /// type-checks with `u` and the radial functions as four lanes, `F4`).
+    /// type-checks with the radial functions as four lanes, `F4`).
     pub shared_body: TokenStream,
     /// Closed-form DAG of every radial function.
     pub closed: Vec<Id>,

@@ -270,7 +270,6 @@ fn element_rotary_points_into_body(d: &Vector3<f64>, u: &[f64], out: &mut Rotary
     let d1 = d.y;
     let d2 = d.z;
     let mut lanes = [[0.0f64; 4]; 5];
-    let mut at = [0.0f64; 4];
     for (k, &u) in u.iter().take(4).enumerate() {
         let z = u * u * (d0 * d0 + d1 * d1 + d2 * d2);
         let (a0, b0, b1, c0, c1) = if z < ELEMENT_ROTARY_POINT_SWITCH * ELEMENT_ROTARY_POINT_SWITCH
@@ -340,14 +339,12 @@ fn element_rotary_points_into_body(d: &Vector3<f64>, u: &[f64], out: &mut Rotary
                 3.0 * (q1 * q10 - 0.6666666666666666 * q6 - 0.3333333333333333 * q2 * q6) * q11,
             )
         };
-        at[k] = u;
         lanes[0][k] = a0;
         lanes[1][k] = b0;
         lanes[2][k] = b1;
         lanes[3][k] = c0;
         lanes[4][k] = c1;
     }
-    let u = F4(at);
     let a0 = F4(lanes[0]);
     let b0 = F4(lanes[1]);
     let b1 = F4(lanes[2]);

@@ -618,7 +618,7 @@ fn linearly_implicit_euler(
     step_matrix(ws, assembled, h, stats);
     let t = &ws.terms;
     // r_i = h (F + b)_i + Σ_j (M − h D_v)_ij v_j, summed over j in order, column by column
-    let rhs = &mut ws.solver.rhs.col_as_slice_mut(0)[..n];
+    let rhs = &mut ws.solver.rhs_mut()[..n];
     for (i, r) in rhs.iter_mut().enumerate() {
         *r = h * (t.force[i] + t.velocity_term[i]);
     }
@@ -808,7 +808,7 @@ fn bdf2(
         apply_dq(ws, field_stiffness, qh, dq);
         let t = &ws.terms;
         // summed over j in order, column by column
-        let rhs = &mut ws.solver.rhs.col_as_slice_mut(0)[..n];
+        let rhs = &mut ws.solver.rhs_mut()[..n];
         for (i, r) in rhs.iter_mut().enumerate() {
             *r = bh * (t.force[i] + t.velocity_term[i] + dq[i]);
         }
