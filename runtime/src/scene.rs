@@ -15,9 +15,9 @@ mod head;
 mod reader;
 mod strands;
 
-use crate::environment::Environment;
+use crate::forces::environment::Environment;
 use crate::error::{Error, FieldError, Result};
-use crate::kernel_generic::QuadratureRule;
+use crate::kernels::generic::QuadratureRule;
 use crate::output::total_steps;
 use crate::simulation::{IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup};
 use reader::{Bound, Errors, Node, Range};

@@ -1,17 +1,17 @@
 //! A simulation: strands, environment, head motion, integrator; an explicit `step`.
 
-use crate::effects::GlobalEffects;
-use crate::environment::Environment;
+use crate::forces::effects::GlobalEffects;
+use crate::forces::environment::Environment;
 use crate::error::{Error, FieldError, Result};
-use crate::head_motion::HeadMotion;
+use crate::forces::head_motion::HeadMotion;
 use crate::integrator::{
     energy, kinetic_energy, step_strand, StepContext, StepStats, StrandWorkspace,
 };
-use crate::kernel::{KernelFactory, StrandKernel};
-use crate::kernel_generic::{GenericKernel, QuadratureRule};
-use crate::reconstruction::{pose_at, sample_centreline};
-use crate::statics::{solve_static, StaticReport};
-use crate::strand::{Strand, StrandGeometry};
+use crate::kernels::kernel::{KernelFactory, StrandKernel};
+use crate::kernels::generic::{GenericKernel, QuadratureRule};
+use crate::model::reconstruction::{pose_at, sample_centreline};
+use crate::solver::statics::{solve_static, StaticReport};
+use crate::model::strand::{Strand, StrandGeometry};
 use rayon::prelude::*;
 
 /// Dynamic time stepping or static equilibrium.

@@ -29,10 +29,10 @@
 //! - Otherwise the bound is E(start) + W, W by the trapezoidal rule over the step, with an
 //!   allowance for the error of that estimate ([`WORK_ALLOWANCE`]).
 
-use crate::effects::{body_field, GlobalEffects};
-use crate::head_motion::HeadState;
-use crate::kernel::{BodyField, EvalInput, StrandKernel, StrandTerms, Terms};
-use crate::strand::Strand;
+use crate::forces::effects::{body_field, GlobalEffects};
+use crate::forces::head_motion::HeadState;
+use crate::kernels::kernel::{BodyField, EvalInput, StrandKernel, StrandTerms, Terms};
+use crate::model::strand::Strand;
 use nalgebra::Vector3;
 
 /// The energy of one state (q, q̇) at one time, with what the balance of a step needs.

@@ -1,6 +1,6 @@
 //! Small fixed-size algebra over a scalar that is either `f64` or [`F4`], four `f64`
 //! lanes, so that one source evaluates an integrand at one quadrature point or at four at
-//! once (the rotary-inertia quadrature, [`crate::moment_rotary`]); and [`F4`]'s mixed
+//! once (the rotary-inertia quadrature, [`crate::kernels::moments::rotary`]); and [`F4`]'s mixed
 //! operations with `f64`, so that the generated closed forms of four elements run as one
 //! (`superhelix-generated`'s `*_closed_x4` functions).
 //!

@@ -4,13 +4,13 @@
 //!
 //! Each strand owns a [`StrandWorkspace`] sized once: a step allocates nothing.
 
-use crate::dense_solve::DenseSolver;
-use crate::effects::{body_field, GlobalEffects};
-use crate::energy_balance::{self, StateEnergy};
-use crate::head_motion::{HeadMotion, HeadState};
-use crate::kernel::{EvalInput, StrandKernel, StrandTerms, Terms};
+use crate::solver::dense_solve::DenseSolver;
+use crate::forces::effects::{body_field, GlobalEffects};
+use crate::solver::energy_balance::{self, StateEnergy};
+use crate::forces::head_motion::{HeadMotion, HeadState};
+use crate::kernels::kernel::{EvalInput, StrandKernel, StrandTerms, Terms};
 use crate::simulation::IntegratorKind;
-use crate::strand::Strand;
+use crate::model::strand::Strand;
 use nalgebra::Vector3;
 
 /// Counters of what the solvers had to do.
@@ -27,7 +27,7 @@ pub struct StepStats {
     /// Implicit steps split in two: they rotated an element too much, did not converge,
     /// or failed the energy balance.
     pub substeps: usize,
-    /// Of the splits, those for the energy balance ([`crate::energy_balance`]).
+    /// Of the splits, those for the energy balance ([`crate::solver::energy_balance`]).
     pub energy_rejected: usize,
     /// Steps whose velocities were scaled down so that the energy does not exceed the
     /// start's plus the head's work (see `implicit_adaptive`).
@@ -300,7 +300,7 @@ pub const WORK_SPLIT_FRACTION: f64 = 1e-2;
 /// Advance one strand from t by h with the chosen integrator (head motion read at the
 /// times each scheme needs). Implicit steps are checked after the fact: split into
 /// halves, recursively, when they fail, rotate an element by more than
-/// [`MAX_ELEMENT_ROTATION`] or create energy ([`crate::energy_balance`]), with the excess
+/// [`MAX_ELEMENT_ROTATION`] or create energy ([`crate::solver::energy_balance`]), with the excess
 /// energy of the deepest (or a nearly right) step removed from its velocities; Newton
 /// solves that do not converge are replaced by the linearly implicit step (see
 /// `implicit_adaptive`; the counts are in [`StepStats`]). On failure, returns the cause.

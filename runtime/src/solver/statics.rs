@@ -1,10 +1,10 @@
 //! Static equilibrium: `∇(U + V) = external forces`, i.e. F(q, 0) = 0, solved by Newton
 //! with the exact stiffness and a backtracking line search on the energy.
 
-use crate::head_motion::HeadState;
+use crate::forces::head_motion::HeadState;
 use crate::integrator::{assemble, energy, StepContext, StrandWorkspace};
-use crate::kernel::{StrandKernel, Terms};
-use crate::strand::Strand;
+use crate::kernels::kernel::{StrandKernel, Terms};
+use crate::model::strand::Strand;
 
 /// How a static solve went.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
