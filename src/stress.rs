@@ -68,14 +68,14 @@
 //!
 //! The first violation stops the case and is reported with its strand, time and cause.
 
-use crate::runtime::element::local_pose;
-use crate::runtime::material::{helix_curvature, HelixForm, Preset};
-use crate::runtime::quadrature::gauss_legendre;
-use crate::runtime::reconstruction::{element_ends, Pose};
-use crate::runtime::simulation::{
+use crate::runtime::config::{
     IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup, StrandSetup,
 };
-use crate::runtime::strand::{Strand, StrandGeometry};
+use crate::runtime::model::element::local_pose;
+use crate::runtime::model::material::{helix_curvature, HelixForm, Preset};
+use crate::runtime::model::quadrature::gauss_legendre;
+use crate::runtime::model::reconstruction::{element_ends, Pose};
+use crate::runtime::model::strand::{Strand, StrandGeometry};
 use crate::runtime::{Environment, Error, HeadMotion, HeadState, Matrix3, Simulation, Vector3};
 use rayon::prelude::*;
 use std::fmt::Write as _;

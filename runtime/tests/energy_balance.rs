@@ -5,11 +5,11 @@
 mod common;
 use common::*;
 use nalgebra::Vector3;
-use superhelix_runtime::effects::GlobalEffects;
-use superhelix_runtime::energy_balance::{balance, measure, StateEnergy};
-use superhelix_runtime::material::Preset;
-use superhelix_runtime::simulation::{IntegratorKind, KernelChoice, SimulationConfig};
-use superhelix_runtime::strand::{PointLoad, Strand};
+use superhelix_runtime::config::{IntegratorKind, KernelChoice, SimulationConfig};
+use superhelix_runtime::forces::effects::GlobalEffects;
+use superhelix_runtime::model::material::Preset;
+use superhelix_runtime::model::strand::{PointLoad, Strand};
+use superhelix_runtime::solver::energy_balance::{balance, measure, StateEnergy};
 use superhelix_runtime::{GenericKernel, HeadMotion, QuadratureRule, Simulation, StrandTerms};
 
 const GRAVITY: Vector3<f64> = Vector3::new(0.0, 0.0, -9.81);

@@ -9,8 +9,8 @@
 //! of l, `∂²y/∂q_k∂q_l = dθ_k × J_l(s)`; within one element they come from second
 //! derivatives of the element's closed form (jets in d, see [`crate::model::jet`]).
 
-use crate::model::element::{element_jets, local_pose, ElementJets};
 use crate::kernels::kernel::{EvalInput, KernelFactory, StrandKernel, StrandTerms, Terms};
+use crate::model::element::{element_jets, local_pose, ElementJets};
 use crate::model::quadrature::gauss_legendre;
 use crate::model::reconstruction::{darboux, element_ends, Pose};
 use crate::model::strand::StrandGeometry;

@@ -9,8 +9,8 @@
 //! [`ElementMoments::by_quadrature`] is the reference the generated closed forms are
 //! checked against; [`assemble_mass_and_gravity`] is the assembly both feed.
 
-use crate::model::element::{element_jets, local_pose};
 use crate::kernels::kernel::BodyField;
+use crate::model::element::{element_jets, local_pose};
 use crate::model::quadrature::gauss_legendre;
 use crate::model::reconstruction::Pose;
 use nalgebra::{Matrix3, Vector3};
