@@ -8,6 +8,13 @@
 //!
 //! [`ElementMoments::by_quadrature`] is the reference the generated closed forms are
 //! checked against; [`assemble_mass_and_gravity`] is the assembly both feed.
+//!
+//! The kernel built on them is [`kernel::MomentKernel`]; the Jacobians of the implicit
+//! step are in [`jacobians`], the rotary-inertia quadrature in [`rotary`].
+
+pub mod jacobians;
+pub mod kernel;
+pub mod rotary;
 
 use crate::kernels::kernel::BodyField;
 use crate::model::element::{element_jets, local_pose};
