@@ -466,7 +466,7 @@ fn case(
 /// passes ([`render`] prints `PASS (known failure)` for it), so that the list stays exact.
 ///
 /// Empty since the energy-balance test of implicit steps (`superhelix_runtime::
-/// energy_balance`, `integrator::step_strand`). Before it, 81 of the 848 cases failed, all
+/// solver::energy_balance`, `solver::step`). Before it, 81 of the 848 cases failed, all
 /// of the integrator: straight strands gained 1.6e-4 to 1.1 S in the first steps after a
 /// jolt or a sudden stop (13 cases: the linearly implicit step created it); 1 m and
 /// frictionless strands exploded or kept gaining on the 5 Hz shake and the nods (12: the

@@ -81,7 +81,7 @@ pub struct ElementPoint {
 }
 
 /// The fields of [`ElementPoint`] that the rotary-inertia quadrature
-/// (`moment_rotary::rotary_element`) reads, E(u), w_i(u) and ∂w_i/∂d_j, at up to four
+/// (`kernels::moments::rotary::rotary_element`) reads, E(u), w_i(u) and ∂w_i/∂d_j, at up to four
 /// abscissae of one element, one per lane of [`F4`] (the layout the quadrature
 /// evaluates its integrands in).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

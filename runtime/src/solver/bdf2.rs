@@ -15,8 +15,8 @@ pub const BDF2_MAX_RATIO: f64 = 2.0;
 
 /// One step of the variable-step two-step BDF (BDF2; Hairer, Nørsett & Wanner, *Solving
 /// ODEs I*, section III.5) on the equations of motion (paper eq. 6), `q̇ = v`,
-/// `M(q) v̇ = F(q, v)` (F the full force of [`assemble`], including −b), linearised once
-/// per step like [`linearly_implicit_euler`] (design page "Time stepping": "implicit
+/// `M(q) v̇ = F(q, v)` (F the full force of [`assemble`](super::system::StrandSystem::assemble), including −b), linearised once
+/// per step like [`linearly_implicit_euler`](super::linearly_implicit::linearly_implicit_euler) (design page "Time stepping": "implicit
 /// midpoint / BDF2 ... are the accuracy/cost variants"). With h the step, h₋ the previous
 /// one, ω = h/h₋ and y = (q, v):
 ///
@@ -36,7 +36,7 @@ pub const BDF2_MAX_RATIO: f64 = 2.0;
 /// q⁺ = q̂ + βh v⁺
 /// ```
 ///
-/// D_q = H⁻ − K, D_v and B as in [`linearly_implicit_euler`] (the destabilising part of
+/// D_q = H⁻ − K, D_v and B as in [`linearly_implicit_euler`](super::linearly_implicit::linearly_implicit_euler) (the destabilising part of
 /// the field stiffness stays explicit). Every term left out of the linearisation (H's
 /// positive part and skew part, ∂M/∂q, ∂b/∂q and the q-derivative of the Coriolis and drag
 /// forces, the rest of b) is multiplied by y⁺ − ỹ = O(h²), so the step stays second order
@@ -62,10 +62,10 @@ pub const BDF2_MAX_RATIO: f64 = 2.0;
 /// projection of the field stiffness, one LU factorisation and solve). The history
 /// (y₋, h₋) is kept in the workspace from the last accepted (sub)step; without one (the
 /// first step, after `Simulation::set_state` or a static solve) or after a step-size jump
-/// beyond [`BDF2_MAX_RATIO`], [`step_strand`] takes a linearly implicit Euler step
+/// beyond [`BDF2_MAX_RATIO`], [`super::step`] takes a linearly implicit Euler step
 /// instead (as at a restart of any multistep method), whose local error O(h²) does not
 /// change the global order. A step that rotates an element by more than
-/// [`MAX_ELEMENT_ROTATION`] is redone as linearly implicit Euler substeps: there the
+/// [`MAX_ELEMENT_ROTATION`](super::adaptive::MAX_ELEMENT_ROTATION) is redone as linearly implicit Euler substeps: there the
 /// linearisation no longer holds, and extrapolating what it leaves out is what fails
 /// first. With BDF2 substeps the stress matrix (`superhelix stress --integrator bdf2`) had
 /// 81 failures, 8 of them blow-ups or runaway kinetic energy of frictionless strands on a
