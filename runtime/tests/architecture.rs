@@ -109,7 +109,9 @@ fn strip_comments(text: &str) -> String {
                 i += 3;
             }
             ('\'', Some('\\')) => {
-                let end = (i + 2..chars.len()).find(|&k| chars[k] == '\'').unwrap_or(i + 2);
+                let end = (i + 2..chars.len())
+                    .find(|&k| chars[k] == '\'')
+                    .unwrap_or(i + 2);
                 out.push_str("' '");
                 i = end + 1;
             }
@@ -202,7 +204,10 @@ fn root_reexports(lib: &str) -> BTreeMap<String, String> {
             continue;
         }
         let names = rest.rsplit("::").next().unwrap_or_default();
-        for name in names.split(|c: char| !is_ident(c)).filter(|s| !s.is_empty()) {
+        for name in names
+            .split(|c: char| !is_ident(c))
+            .filter(|s| !s.is_empty())
+        {
             map.insert(name.to_string(), module.clone());
         }
     }
@@ -257,7 +262,11 @@ fn edges() -> Vec<Edge> {
             edges.push(Edge {
                 from: from.clone(),
                 to,
-                file: file.strip_prefix(&src).unwrap_or(&file).display().to_string(),
+                file: file
+                    .strip_prefix(&src)
+                    .unwrap_or(&file)
+                    .display()
+                    .to_string(),
                 line,
             });
         }
@@ -283,7 +292,10 @@ fn every_top_level_module_is_placed_in_the_order() {
         .filter(|m| m != "lib")
         .collect();
     let ordered: BTreeSet<String> = ORDER.iter().map(|m| m.to_string()).collect();
-    assert_eq!(modules, ordered, "runtime/src's top-level modules and ORDER differ");
+    assert_eq!(
+        modules, ordered,
+        "runtime/src's top-level modules and ORDER differ"
+    );
 }
 
 #[test]
@@ -305,8 +317,7 @@ fn module_graph_follows_the_order() {
 #[test]
 fn the_graph_reader_sees_the_known_edges() {
     // the reader must find what is there, or the order test could pass on nothing
-    let pairs: BTreeSet<(String, String)> =
-        edges().into_iter().map(|e| (e.from, e.to)).collect();
+    let pairs: BTreeSet<(String, String)> = edges().into_iter().map(|e| (e.from, e.to)).collect();
     for (from, to) in [
         ("simulation", "solver"),
         ("solver", "kernels"),

@@ -8,16 +8,18 @@
 //! (`superhelix-generated`) or, as a reference, [`QuadratureMoments`]. Buffers are sized
 //! once at construction; `evaluate` allocates nothing.
 
-use crate::model::element::{ElementPoint, RotaryPoints};
 use crate::kernels::kernel::{EvalInput, StrandKernel, StrandTerms};
 use crate::kernels::moments::jacobians::{
     add_field_hessian, add_velocity_jacobian, add_weighted_gram, VelocityRow,
 };
-use crate::kernels::moments::rotary::{add_rotary_terms, rotary_element, rotary_points, RotaryElement};
+use crate::kernels::moments::rotary::{
+    add_rotary_terms, rotary_element, rotary_points, RotaryElement,
+};
 use crate::kernels::moments::{
     assemble_force, assemble_mass_gram_and_gravity, end_derivatives_from, frame_motions,
     suffix_bodies, ElementMoments, EndDerivatives, FrameMotion, SuffixBody, Wrench,
 };
+use crate::model::element::{ElementPoint, RotaryPoints};
 use crate::model::reconstruction::{darboux, Pose};
 use crate::model::strand::StrandGeometry;
 use faer::Mat;

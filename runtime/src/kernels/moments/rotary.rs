@@ -11,12 +11,12 @@
 //! element's frequencies keeps them far below the kernels' 1e-10 agreement); M's rotary
 //! part uses the closed-form moments `rot`, `rot_w`, `rot_ww`.
 
+use crate::kernels::moments::{ElementMoments, EndDerivatives, FrameMotion};
 use crate::model::element::RotaryPoints;
 use crate::model::lanes::{
     add, cross, cross_matrix, dot, mat_add, mat_mul, mat_scale, mat_vec, scale, transpose, Real,
     F4, M, V,
 };
-use crate::kernels::moments::{ElementMoments, EndDerivatives, FrameMotion};
 use crate::model::quadrature::gauss_legendre;
 use crate::model::reconstruction::Pose;
 use nalgebra::{Matrix3, Vector3};
