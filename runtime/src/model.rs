@@ -1,7 +1,8 @@
 //! The helix model and its reconstruction: the strand's static description (geometry,
 //! material, natural shape, point loads), the closed-form helical element (paper
-//! appendix A), the reconstruction of the centreline and frames from q, and the small
-//! algebra and quadrature they are built on. Depends on nothing but `nalgebra` and serde.
+//! appendix A), the reconstruction of the centreline and frames from q, and what they
+//! are built on: the helix functions a, b, c, jets, the four-lane algebra ([`lanes`],
+//! also the kernels'), Gauss–Legendre rules. Uses no other module of the crate.
 
 pub mod element;
 pub mod helix_functions;
