@@ -33,13 +33,14 @@ pub const ENERGY_SPLIT_FRACTION: f64 = 1e-3;
 /// more than S per step.
 pub const WORK_SPLIT_FRACTION: f64 = 1e-2;
 
-/// Advance one strand from t by h with the chosen integrator (head motion read at the
-/// times each scheme needs). Implicit steps are checked after the fact: split into
-/// halves, recursively, when they fail, rotate an element by more than
-/// [`MAX_ELEMENT_ROTATION`] or create energy ([`crate::solver::energy_balance`]), with the excess
-/// energy of the deepest (or a nearly right) step removed from its velocities; Newton
-/// solves that do not converge are replaced by the linearly implicit step (see
-/// `implicit_adaptive`; the counts are in [`StepStats`]). On failure, returns the cause.
+/// Advance one strand's `state` over `interval` (from t by h) with the integrator of
+/// the system's context; the head's states come from the interval (its two ends, and
+/// the midpoint for RK4). Implicit steps are checked after the fact: split into halves,
+/// recursively, when they fail, rotate an element by more than [`MAX_ELEMENT_ROTATION`]
+/// or create energy ([`crate::solver::energy_balance`]), with the excess energy of the
+/// deepest (or a nearly right) step removed from its velocities; Newton solves that do
+/// not converge are replaced by the linearly implicit step (see `implicit_adaptive`; the
+/// counts are in [`StepStats`]). On failure, returns the cause.
 pub fn step(
     system: &mut StrandSystem,
     interval: &HeadInterval,
@@ -98,9 +99,10 @@ fn max_element_rotation(lengths: &[f64], q: &[f64], q0: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// One implicit step from (q, q̇) at t, whose energy is `start`, to t + h, checked after
-/// the fact and split into two halves (recursively, at most [`MAX_SUBSTEP_DEPTH`] deep)
-/// when it is not acceptable. Returns the energy of the end state.
+/// One implicit step of `state` over `interval` (t to t + h; the state's energy at t is
+/// `start`), checked after the fact and split into the interval's two halves
+/// (recursively, at most [`MAX_SUBSTEP_DEPTH`] deep) when it is not acceptable. Returns
+/// the energy of the end state.
 ///
 /// - A Newton solve that does not converge (or meets a singular Jacobian) is never
 ///   accepted: the linearly implicit step of the same h replaces it, under the same checks
