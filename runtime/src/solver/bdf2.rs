@@ -50,10 +50,10 @@ pub const BDF2_MAX_RATIO: f64 = 2.0;
 /// exact one, as for implicit Euler.
 ///
 /// The mass matrix enters only where the matrix is built (at q̃), never inverted at
-/// another state: a one-step Rosenbrock-W scheme (ROS2) on the same matrix was tried and
-/// dropped because its second stage must evaluate M⁻¹F at a stage point, and the twist
-/// block of M⁻¹ (the inverse of the rotary inertia of nearly straight elements, ~1e6
-/// times the bending block's) made that stage unstable: exactly (a falling 5 cm fibre
+/// another state. A one-step Rosenbrock-W scheme (ROS2) on the same matrix does not
+/// work here: its second stage must evaluate M⁻¹F at a stage point, and the twist block
+/// of M⁻¹ (the inverse of the rotary inertia of nearly straight elements, ~1e6 times
+/// the bending block's) makes that stage unstable: exactly (a falling 5 cm fibre
 /// blew up at dt = 1/50 s) or to first order (the 20 cm swing at N = 20 blew up at
 /// dt = 1/4800 s, its step map having spectral radius 2.0–2.3 at every dt from 1/240 to
 /// 1/4800 s where implicit Euler's is 1.003–1.16).

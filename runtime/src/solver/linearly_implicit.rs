@@ -18,7 +18,7 @@ use crate::kernels::kernel::Terms;
 ///   amplifies by 1/(1 − h²λ), which explodes as h²λ → 1. This is a convex–concave
 ///   splitting (Eyre): the convex part of the potential implicit, the concave part
 ///   explicit. Taking H whole whenever K − H is positive definite (one Cholesky instead
-///   of an eigendecomposition, tried and reverted) is cheaper but lets the step create energy: a
+///   of an eigendecomposition) is cheaper but lets the step create energy: a
 ///   frictionless fuzzy strand falling at N = 10–20 gained up to 0.11 of its energy scale
 ///   within 0.2 s (`superhelix stress`, conservative group; regression test in
 ///   `tests/stability.rs`).
