@@ -84,7 +84,7 @@ fn start_energy(
             return e;
         }
     }
-    system.measure_energy(&interval.start, t, &state.q, &state.v)
+    energy_balance::measure(system, &interval.start, t, &state.q, &state.v)
 }
 
 /// Largest l_Q |Δd_Q| between two states.
@@ -178,7 +178,8 @@ fn implicit_adaptive(
                 "non-finite state after a substep of {h:.3e} s (at the deepest split)"
             ));
         }
-        let mut end = system.measure_energy(&interval.end, interval.t + h, &state.q, &state.v);
+        let mut end =
+            energy_balance::measure(system, &interval.end, interval.t + h, &state.q, &state.v);
         let inertial = interval.uniform;
         let balance = energy_balance::balance(start, &end, inertial);
         let excess = balance.excess;

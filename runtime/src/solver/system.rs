@@ -7,7 +7,7 @@
 //! Each strand owns a [`StrandWorkspace`] sized once: a step allocates nothing.
 
 use super::dense_solve::DenseSolver;
-use super::energy_balance::{self, StateEnergy};
+use super::energy_balance::StateEnergy;
 use super::stats::StepStats;
 use crate::config::IntegratorKind;
 use crate::forces::effects::{body_field, GlobalEffects};
@@ -251,31 +251,6 @@ impl StrandSystem {
             .map_or(0.0, |g| -ws.terms.first_moment.dot(&g));
         let loads = point_load_potential(&strand.point_loads, kernel, q, &mut ws.jac);
         (kinetic, elastic + gravity + loads)
-    }
-
-    /// The energy of (q, q̇) at time `t` with the head in state `head`, with what the
-    /// balance of a step needs ([`energy_balance::measure`]).
-    pub fn measure_energy(
-        &mut self,
-        head: &HeadState,
-        t: f64,
-        q: &[f64],
-        v: &[f64],
-    ) -> StateEnergy {
-        let ws = &mut self.workspace;
-        energy_balance::measure(
-            &self.strand,
-            self.kernel.as_mut(),
-            &mut ws.terms,
-            &mut ws.jac,
-            &ws.stiffness,
-            &ws.friction,
-            &self.context.effects,
-            head,
-            t,
-            q,
-            v,
-        )
     }
 }
 
