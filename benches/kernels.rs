@@ -8,10 +8,12 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
 use superhelix::bench::{bench, BenchOptions};
-use superhelix::runtime::kernel::{BodyField, EvalInput, StrandKernel, StrandTerms, Terms};
-use superhelix::runtime::material::{helix_curvature, HelixForm, Preset};
-use superhelix::runtime::simulation::KernelChoice;
-use superhelix::runtime::strand::StrandGeometry;
+use superhelix::runtime::config::KernelChoice;
+use superhelix::runtime::kernels::kernel::{
+    BodyField, EvalInput, StrandKernel, StrandTerms, Terms,
+};
+use superhelix::runtime::model::material::{helix_curvature, HelixForm, Preset};
+use superhelix::runtime::model::strand::StrandGeometry;
 use superhelix::runtime::{GenericKernel, Matrix3, QuadratureRule, Vector3};
 
 const NS: [usize; 5] = [1, 2, 5, 10, 20];
@@ -105,7 +107,7 @@ fn full_step(c: &mut Criterion) {
 /// `spectral_projection.rs` (basis reuse off) against faer's full one.
 fn stiffness_projection(c: &mut Criterion) {
     use faer::Mat;
-    use superhelix::runtime::spectral_projection::SpectralProjection;
+    use superhelix::runtime::solver::spectral_projection::SpectralProjection;
     let mut group = c.benchmark_group("stiffness_projection");
     for n in [15usize, 30, 60] {
         let mut state = 7u64;

@@ -2,11 +2,11 @@
 //! with the effects asked for and nothing else.
 
 use std::time::Instant;
-use superhelix_runtime::material::{helix_curvature, HelixForm, Preset};
-use superhelix_runtime::simulation::{
+use superhelix_runtime::config::{
     IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup, StrandSetup,
 };
-use superhelix_runtime::strand::{PointLoad, Strand, StrandGeometry};
+use superhelix_runtime::model::material::{helix_curvature, HelixForm, Preset};
+use superhelix_runtime::model::strand::{PointLoad, Strand, StrandGeometry};
 use superhelix_runtime::{
     Environment, Error, HeadMotion, Matrix3, QuadratureRule, Result, Simulation, Vector3,
 };

@@ -16,11 +16,13 @@
 //! is exactly zero; infinite when the candidate gives a NaN). The report gives, per
 //! quantity, the worst value over all configurations and where it happened.
 
-use crate::runtime::kernel::{BodyField, EvalInput, KernelFactory, StrandKernel, StrandTerms};
-use crate::runtime::material::Preset;
-use crate::runtime::quadrature::MAX_ORDER;
-use crate::runtime::reconstruction::Pose;
-use crate::runtime::strand::StrandGeometry;
+use crate::runtime::kernels::kernel::{
+    BodyField, EvalInput, KernelFactory, StrandKernel, StrandTerms,
+};
+use crate::runtime::model::material::Preset;
+use crate::runtime::model::quadrature::MAX_ORDER;
+use crate::runtime::model::reconstruction::Pose;
+use crate::runtime::model::strand::StrandGeometry;
 use crate::runtime::{Error, GenericKernel, Matrix3, QuadratureRule, Result, Terms, Vector3};
 use faer::Mat;
 use rand::{RngExt, SeedableRng};

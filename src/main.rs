@@ -271,8 +271,8 @@ fn bench(
     quadrature: Option<usize>,
 ) -> Result<ExitCode, Error> {
     use superhelix::bench::{bench, BenchOptions, EffectSet};
-    use superhelix::runtime::material::Preset;
-    use superhelix::runtime::simulation::{IntegratorKind, KernelChoice};
+    use superhelix::runtime::config::{IntegratorKind, KernelChoice};
+    use superhelix::runtime::model::material::Preset;
     let options = BenchOptions {
         elements,
         strands,
@@ -329,7 +329,7 @@ fn bench_scene(
     integrator: Option<&str>,
 ) -> Result<ExitCode, Error> {
     use superhelix::bench::{bench_setup, restrict_effects, scene_effects, EffectSet};
-    use superhelix::runtime::simulation::{IntegratorKind, KernelChoice};
+    use superhelix::runtime::config::{IntegratorKind, KernelChoice};
     let text = std::fs::read_to_string(path)
         .map_err(|e| Error::invalid("--scene", format!("cannot read {}: {e}", path.display())))?;
     let mut setup = superhelix::parse_scene(&text)?;
@@ -417,7 +417,7 @@ fn quadrature_table(
     repeats: usize,
 ) -> Result<ExitCode, Error> {
     use superhelix::quadrature_table::{quadrature_table, TableOptions};
-    use superhelix::runtime::material::Preset;
+    use superhelix::runtime::model::material::Preset;
     let options = TableOptions {
         elements,
         preset: Preset::from_name(preset)
@@ -437,7 +437,7 @@ fn stress(
     verbose: bool,
     integrator: Option<&str>,
 ) -> Result<ExitCode, Error> {
-    use superhelix::runtime::simulation::IntegratorKind;
+    use superhelix::runtime::config::IntegratorKind;
     use superhelix::stress;
     let mut cases: Vec<stress::Case> = if quick {
         stress::quick_cases()

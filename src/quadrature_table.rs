@@ -14,10 +14,10 @@
 
 use crate::bench::{BenchOptions, EffectSet};
 use crate::compare::Deviation;
-use crate::runtime::effects::{body_field, GlobalEffects};
-use crate::runtime::kernel::{EvalInput, KernelFactory, StrandKernel, StrandTerms, Terms};
-use crate::runtime::material::Preset;
-use crate::runtime::simulation::{KernelChoice, SimulationSetup};
+use crate::runtime::config::{KernelChoice, SimulationSetup};
+use crate::runtime::forces::effects::{body_field, GlobalEffects};
+use crate::runtime::kernels::kernel::{EvalInput, KernelFactory, StrandKernel, StrandTerms, Terms};
+use crate::runtime::model::material::Preset;
 use crate::runtime::{
     Error, GenericKernel, HeadMotion, QuadratureRule, Result, Simulation, StrandGeometry,
 };
@@ -201,7 +201,7 @@ struct State {
     strand: usize,
     q: Vec<f64>,
     v: Vec<f64>,
-    field: crate::runtime::kernel::BodyField,
+    field: crate::runtime::kernels::kernel::BodyField,
     reference: StrandTerms,
 }
 

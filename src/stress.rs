@@ -68,14 +68,14 @@
 //!
 //! The first violation stops the case and is reported with its strand, time and cause.
 
-use crate::runtime::element::local_pose;
-use crate::runtime::material::{helix_curvature, HelixForm, Preset};
-use crate::runtime::quadrature::gauss_legendre;
-use crate::runtime::reconstruction::{element_ends, Pose};
-use crate::runtime::simulation::{
+use crate::runtime::config::{
     IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup, StrandSetup,
 };
-use crate::runtime::strand::{Strand, StrandGeometry};
+use crate::runtime::model::element::local_pose;
+use crate::runtime::model::material::{helix_curvature, HelixForm, Preset};
+use crate::runtime::model::quadrature::gauss_legendre;
+use crate::runtime::model::reconstruction::{element_ends, Pose};
+use crate::runtime::model::strand::{Strand, StrandGeometry};
 use crate::runtime::{Environment, Error, HeadMotion, HeadState, Matrix3, Simulation, Vector3};
 use rayon::prelude::*;
 use std::fmt::Write as _;
@@ -466,7 +466,7 @@ fn case(
 /// passes ([`render`] prints `PASS (known failure)` for it), so that the list stays exact.
 ///
 /// Empty since the energy-balance test of implicit steps (`superhelix_runtime::
-/// energy_balance`, `integrator::step_strand`). Before it, 81 of the 848 cases failed, all
+/// solver::energy_balance`, `solver::step`). Before it, 81 of the 848 cases failed, all
 /// of the integrator: straight strands gained 1.6e-4 to 1.1 S in the first steps after a
 /// jolt or a sudden stop (13 cases: the linearly implicit step created it); 1 m and
 /// frictionless strands exploded or kept gaining on the 5 Hz shake and the nods (12: the

@@ -28,14 +28,14 @@
 //! second (dynamic problems) or per static solve (the cantilever).
 
 use crate::quadrature_table::Clock;
-use crate::runtime::kernel::{
-    BodyField, EvalInput, KernelFactory, StrandKernel, StrandTerms, Terms,
-};
-use crate::runtime::material::{helix_curvature, CrossSection, HelixForm, Preset};
-use crate::runtime::simulation::{
+use crate::runtime::config::{
     IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup, StrandSetup,
 };
-use crate::runtime::strand::{PointLoad, Strand, StrandGeometry};
+use crate::runtime::kernels::kernel::{
+    BodyField, EvalInput, KernelFactory, StrandKernel, StrandTerms, Terms,
+};
+use crate::runtime::model::material::{helix_curvature, CrossSection, HelixForm, Preset};
+use crate::runtime::model::strand::{PointLoad, Strand, StrandGeometry};
 use crate::runtime::{
     Environment, Error, GenericKernel, HeadMotion, Matrix3, QuadratureRule, Result, Simulation,
     Vector3,

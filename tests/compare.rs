@@ -21,7 +21,7 @@
 use std::process::{Command, Output};
 use superhelix::compare::{compare_kernels, Candidate, CompareOptions, CompareReport};
 use superhelix::quadrature_table::{quadrature_table, TableOptions, ORDERS};
-use superhelix::runtime::material::Preset;
+use superhelix::runtime::model::material::Preset;
 
 fn superhelix(args: &[&str]) -> Output {
     match Command::new(env!("CARGO_BIN_EXE_superhelix"))

@@ -3,9 +3,9 @@
 
 use std::sync::{Arc, Mutex};
 use superhelix::bench::{setup, BenchOptions, EffectSet};
-use superhelix::runtime::kernel::{EvalInput, StrandKernel, StrandTerms};
-use superhelix::runtime::reconstruction::Pose;
-use superhelix::runtime::simulation::KernelChoice;
+use superhelix::runtime::config::KernelChoice;
+use superhelix::runtime::kernels::kernel::{EvalInput, StrandKernel, StrandTerms};
+use superhelix::runtime::model::reconstruction::Pose;
 use superhelix::runtime::{KernelFactory, Simulation, StrandGeometry};
 use superhelix::runtime::{Matrix3, Vector3};
 

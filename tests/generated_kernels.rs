@@ -1,11 +1,11 @@
 //! The generated kernels are interchangeable with the generic path: the same scene run
 //! on either gives the same motion (issue #3).
 
-use superhelix::runtime::material::{helix_curvature, HelixForm, Preset};
-use superhelix::runtime::simulation::{
+use superhelix::runtime::config::{
     IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup, StrandSetup,
 };
-use superhelix::runtime::strand::{Strand, StrandGeometry};
+use superhelix::runtime::model::material::{helix_curvature, HelixForm, Preset};
+use superhelix::runtime::model::strand::{Strand, StrandGeometry};
 use superhelix::runtime::{Environment, HeadMotion, Simulation};
 use superhelix::runtime::{Matrix3, Vector3};
 

@@ -8,11 +8,11 @@
 //! `superhelix stress`). Its quick subset runs by default; the full matrix, one test per
 //! group, with `cargo test --release --test stability -- --ignored`.
 
-use superhelix::runtime::material::{helix_curvature, HelixForm, Preset};
-use superhelix::runtime::simulation::{
+use superhelix::runtime::config::{
     IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup, StrandSetup,
 };
-use superhelix::runtime::strand::{Strand, StrandGeometry};
+use superhelix::runtime::model::material::{helix_curvature, HelixForm, Preset};
+use superhelix::runtime::model::strand::{Strand, StrandGeometry};
 use superhelix::runtime::{Environment, HeadMotion, Simulation};
 use superhelix::runtime::{Matrix3, Vector3};
 use superhelix::stress;

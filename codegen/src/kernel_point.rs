@@ -1,5 +1,5 @@
 //! The element's local functions at one abscissa u
-//! (`superhelix_runtime::element::ElementPoint`), generated in closed form by
+//! (`superhelix_runtime::model::element::ElementPoint`), generated in closed form by
 //! [`crate::point`]: the file `generated/src/element_point.rs`.
 //!
 //! With `K = [d]×`, `W = |d|`, the helix coefficients `A = sin(uW)/W`,
@@ -314,7 +314,7 @@ fn point_function(
         },
     );
     quote! {
-        use superhelix_runtime::element::ElementPoint;
+        use superhelix_runtime::model::element::ElementPoint;
         use superhelix_runtime::{Matrix3, Vector3};
 
         #[doc = #doc_switch]
@@ -553,8 +553,8 @@ fn rotary_points_function(code: &PointCode) -> TokenStream {
         },
     );
     quote! {
-        use superhelix_runtime::element::RotaryPoints;
-        use superhelix_runtime::lanes::F4;
+        use superhelix_runtime::model::element::RotaryPoints;
+        use superhelix_runtime::model::lanes::F4;
 
         #function
     }

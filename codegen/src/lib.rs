@@ -423,7 +423,7 @@ pub fn generate_function(
         },
     );
     let tokens = quote! {
-        use superhelix_runtime::lanes::F4;
+        use superhelix_runtime::model::lanes::F4;
         #[doc = #doc_outputs]
         pub const #outputs_const: [&str; #k_lit] = [#(#names),*];
         #[doc = #doc_switch]

@@ -8,7 +8,7 @@ use superhelix_codegen::{generate_function, helix, GenerateOptions, Graph, Helix
 
 /// Gauss–Legendre nodes and weights on [−1, 1]: the runtime's rule (tested there).
 fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    let r = superhelix_runtime::quadrature::gauss_legendre(n);
+    let r = superhelix_runtime::model::quadrature::gauss_legendre(n);
     r.nodes
         .iter()
         .copied()

@@ -6,7 +6,7 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
 use std::time::Duration;
-use superhelix_runtime::moments::ElementMoments;
+use superhelix_runtime::kernels::moments::ElementMoments;
 use superhelix_runtime::Vector3;
 
 const WLS: [f64; 3] = [0.1, 3.0, 30.0];

@@ -6,7 +6,7 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
 use superhelix_generated::element_point_into;
-use superhelix_runtime::element::ElementPoint;
+use superhelix_runtime::model::element::ElementPoint;
 use superhelix_runtime::Vector3;
 
 fn element_point(c: &mut Criterion) {

@@ -6,7 +6,7 @@
 //   low-degree Taylor branch (W*l < 0.75, degree 16, agreement with the Taylor branch 3.40e-16, truncation 2.24e-16): 1476 adds, 3008 muls, 0 divs, 0 trig, 0 sqrt (4484 total) (before CSE: 31656 total)
 //   Taylor branch: 3537 adds, 3603 muls, 0 divs, 0 trig, 0 sqrt (7140 total) (before CSE: 59622 total)
 //   closed branch: 1123 adds, 2401 muls, 1 divs, 1 trig, 0 sqrt (3526 total) (before CSE: 76950 total)
-use superhelix_runtime::lanes::F4;
+use superhelix_runtime::model::lanes::F4;
 #[doc = " Names of the outputs of [`centreline_force`], in order."]
 pub const CENTRELINE_FORCE_OUTPUTS: [&str; 135] = [
     "d2p_00_0",

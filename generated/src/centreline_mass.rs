@@ -6,7 +6,7 @@
 //   low-degree Taylor branch (W*l < 0.25, degree 10, agreement with the Taylor branch 2.78e-16, truncation 1.39e-16): 390 adds, 874 muls, 0 divs, 0 trig, 0 sqrt (1264 total) (before CSE: 5755 total)
 //   Taylor branch: 552 adds, 1036 muls, 0 divs, 0 trig, 0 sqrt (1588 total) (before CSE: 10939 total)
 //   closed branch: 312 adds, 719 muls, 1 divs, 1 trig, 0 sqrt (1033 total) (before CSE: 15407 total)
-use superhelix_runtime::lanes::F4;
+use superhelix_runtime::model::lanes::F4;
 #[doc = " Names of the outputs of [`centreline_mass`], in order."]
 pub const CENTRELINE_MASS_OUTPUTS: [&str; 51] = [
     "p_0",

@@ -8,7 +8,7 @@
 //   Taylor radial functions: 48 adds, 67 muls, 0 divs, 0 trig, 0 sqrt (115 total)
 //   closed radial functions: 12 adds, 41 muls, 1 divs, 1 trig, 1 sqrt (56 total)
 //   shared polynomial part: 111 adds, 196 muls, 0 divs, 0 trig, 0 sqrt (307 total)
-use superhelix_runtime::element::ElementPoint;
+use superhelix_runtime::model::element::ElementPoint;
 use superhelix_runtime::{Matrix3, Vector3};
 #[doc = " Switch on `W u` of [`element_point_into`]: the Taylor branch is used below it."]
 pub const ELEMENT_POINT_SWITCH: f64 = 1.0;

@@ -8,7 +8,7 @@
 //   Taylor radial functions: 35 adds, 48 muls, 0 divs, 0 trig, 0 sqrt (83 total)
 //   closed radial functions: 6 adds, 25 muls, 1 divs, 1 trig, 1 sqrt (34 total)
 //   shared polynomial part: 63 adds, 93 muls, 0 divs, 0 trig, 0 sqrt (156 total)
-use superhelix_runtime::element::ElementPoint;
+use superhelix_runtime::model::element::ElementPoint;
 use superhelix_runtime::{Matrix3, Vector3};
 #[doc = " Switch on `W u` of [`element_rotary_point_into`]: the Taylor branch is used below it."]
 pub const ELEMENT_ROTARY_POINT_SWITCH: f64 = 1.0;
@@ -227,8 +227,8 @@ fn element_rotary_point_into_body(d: &Vector3<f64>, u: f64, out: &mut ElementPoi
         ],
     ];
 }
-use superhelix_runtime::element::RotaryPoints;
-use superhelix_runtime::lanes::F4;
+use superhelix_runtime::model::element::RotaryPoints;
+use superhelix_runtime::model::lanes::F4;
 #[doc = " [`element_rotary_point_into`] at up to four abscissae `u[k]` of one element (any beyond the fourth are ignored), into lane k of `out`: the same bits, lane by lane, as the one-point function. Each lane's radial functions are taken on their own (the switch is per abscissa); the polynomial part runs once on four lanes. The lanes beyond `u.len()` hold finite values of no meaning. Allocation-free and panic-free."]
 #[allow(
     unused_variables,

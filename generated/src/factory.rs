@@ -3,9 +3,9 @@
 //! [`MomentKernel`], for the numbers of elements this build was generated for
 //! ([`sizes()`]: the checked-in list plus `SUPERHELIX_N` at build time).
 
-use superhelix_runtime::element::{ElementPoint, RotaryPoints};
-use superhelix_runtime::kernel_moments::{MomentKernel, MomentSource};
-use superhelix_runtime::moments::ElementMoments;
+use superhelix_runtime::kernels::moments::kernel::{MomentKernel, MomentSource};
+use superhelix_runtime::kernels::moments::ElementMoments;
+use superhelix_runtime::model::element::{ElementPoint, RotaryPoints};
 use superhelix_runtime::{KernelFactory, StrandGeometry, StrandKernel, Vector3};
 
 include!(concat!(env!("OUT_DIR"), "/extra_sizes.rs"));

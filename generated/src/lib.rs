@@ -5,7 +5,7 @@
 //! `generated_files_are_fresh` fails with the stale file's name when they are out of date).
 //!
 //! Every per-element integral of the moment-based assembly
-//! (`superhelix_runtime::moments::ElementMoments`) is generated in closed form, in three
+//! (`superhelix_runtime::kernels::moments::ElementMoments`) is generated in closed form, in three
 //! functions with their own Taylor switch and degree (see each file's header):
 //! [`centreline_mass()`] (what M needs), [`centreline_force()`] (what only the force needs)
 //! and [`rotary_basis()`] (the rotary inertia); [`element_moments_into`] fills every field,
@@ -35,14 +35,14 @@ pub mod rotary_basis;
 pub use centreline_force::{centreline_force, centreline_force_closed_x4, CENTRELINE_FORCE_SWITCH};
 pub use centreline_mass::{centreline_mass, centreline_mass_closed_x4, CENTRELINE_MASS_SWITCH};
 pub use rotary_basis::{rotary_basis, rotary_basis_closed_x4, ROTARY_BASIS_SWITCH};
-use superhelix_runtime::lanes::F4;
+use superhelix_runtime::model::lanes::F4;
 
 pub mod factory;
 /// Generated: the numbers of elements with checked-in kernels.
 pub mod sizes;
 
 pub use factory::{ClosedForm, GeneratedFactory, GeneratedKernel};
-use superhelix_runtime::moments::ElementMoments;
+use superhelix_runtime::kernels::moments::ElementMoments;
 use superhelix_runtime::{KernelFactory, Matrix3, Vector3};
 
 /// Index of entry (r, c) in the packed upper triangle (00, 01, 02, 11, 12, 22).
@@ -139,7 +139,7 @@ fn rotary_into(d: &[f64; 3], l: f64, rotary: &[f64; 3], m: &mut ElementMoments) 
     }
 }
 
-/// Every field of the element moments (`superhelix_runtime::moments::ElementMoments`)
+/// Every field of the element moments (`superhelix_runtime::kernels::moments::ElementMoments`)
 /// in closed form, for Darboux vector `d`, length `l` and rotary inertia `rotary` =
 /// diag D: the same integrals as `ElementMoments::by_quadrature`. Allocates nothing and
 /// cannot panic.
@@ -278,7 +278,7 @@ pub fn element_moments(d: &Vector3<f64>, l: f64, rotary: &[f64; 3]) -> ElementMo
 }
 
 /// The element moments that M and the first-moment Jacobian need
-/// (`superhelix_runtime::moments::assemble_mass_and_gravity`), in closed form: `first`,
+/// (`superhelix_runtime::kernels::moments::assemble_mass_and_gravity`), in closed form: `first`,
 /// `second`, `dfirst`, `cross`, `gram`, `pdp` and the rotary fields, without the cost of
 /// the force-only ones (`d2first`, `cross2`, `pd2p`, `dpdp`, `dpd2p`), which are left at
 /// zero: `assemble_force` needs [`element_moments`].

@@ -6,7 +6,7 @@
 //   low-degree Taylor branch (W*l < 0.5, degree 14, agreement with the Taylor branch 5.00e-16, truncation 3.36e-16): 1087 adds, 2072 muls, 0 divs, 0 trig, 0 sqrt (3159 total) (before CSE: 26599 total)
 //   Taylor branch: 2834 adds, 2770 muls, 0 divs, 0 trig, 0 sqrt (5604 total) (before CSE: 56551 total)
 //   closed branch: 875 adds, 1684 muls, 1 divs, 1 trig, 0 sqrt (2561 total) (before CSE: 92981 total)
-use superhelix_runtime::lanes::F4;
+use superhelix_runtime::model::lanes::F4;
 #[doc = " Names of the outputs of [`rotary_basis`], in order."]
 pub const ROTARY_BASIS_OUTPUTS: [&str; 63] = [
     "ee_0_00",

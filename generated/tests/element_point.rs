@@ -9,7 +9,7 @@ use superhelix_generated::{element_point, element_point_into, ELEMENT_POINT_SWIT
 mod common;
 
 use common::{direction, Rng};
-use superhelix_runtime::element::ElementPoint;
+use superhelix_runtime::model::element::ElementPoint;
 use superhelix_runtime::Vector3;
 
 const FIELDS: [&str; 6] = ["frame", "p", "dp", "d2p", "w", "dw"];
@@ -121,7 +121,7 @@ fn values_are_accurate_where_the_reference_cancels() {
     // |p| ~ u/(W u), so its own error grows like W u (it dominates the deviations above
     // at W u = 300). The generated values use P = A I + B K + C d dᵀ; compare them with
     // that form evaluated from the runtime's a, b, c.
-    use superhelix_runtime::helix_functions::abc_values;
+    use superhelix_runtime::model::helix_functions::abc_values;
     let mut rng = Rng(0x5555_aaaa_1234_4321);
     let (mut worst, mut worst_jets) = (0.0f64, 0.0f64);
     for &wl in &[5.0, 30.0, 100.0, 300.0] {

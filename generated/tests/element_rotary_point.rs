@@ -11,7 +11,7 @@ use superhelix_generated::{
 mod common;
 
 use common::{direction, Rng};
-use superhelix_runtime::element::ElementPoint;
+use superhelix_runtime::model::element::ElementPoint;
 use superhelix_runtime::Vector3;
 
 const FIELDS: [&str; 5] = ["frame", "p", "dp", "w", "dw"];

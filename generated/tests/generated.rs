@@ -1,7 +1,7 @@
 //! The generated closed forms against the generic path, and freshness of the
 //! checked-in files.
 
-use superhelix_runtime::moments::ElementMoments;
+use superhelix_runtime::kernels::moments::ElementMoments;
 use superhelix_runtime::{Matrix3, Vector3};
 
 fn rel(a: f64, b: f64, scale: f64) -> f64 {
@@ -227,12 +227,12 @@ fn mass_moments_are_the_mass_fields_of_element_moments() {
 
 #[test]
 fn full_generalized_force_from_closed_form_moments_matches_quadrature_moments() {
-    use superhelix_runtime::kernel::BodyField;
-    use superhelix_runtime::moments::{
+    use superhelix_runtime::kernels::kernel::BodyField;
+    use superhelix_runtime::kernels::moments::{
         assemble_force, end_derivatives, frame_motions, FrameMotion, Wrench,
     };
-    use superhelix_runtime::reconstruction::{darboux, element_ends, Pose};
-    use superhelix_runtime::strand::StrandGeometry;
+    use superhelix_runtime::model::reconstruction::{darboux, element_ends, Pose};
+    use superhelix_runtime::model::strand::StrandGeometry;
     let mut worst: f64 = 0.0;
     let mut rng = Rng(0x5151_7e57_0000_0001);
     for n in [1usize, 3, 8] {
@@ -425,10 +425,14 @@ fn first_difference_is_the_line_after_the_common_prefix() {
 
 #[test]
 fn mass_matrix_and_gravity_from_closed_form_moments_match_the_generic_kernel() {
-    use superhelix_runtime::kernel::{BodyField, EvalInput, StrandKernel, StrandTerms, Terms};
-    use superhelix_runtime::moments::{assemble_mass_and_gravity, bodies_at_rest, end_derivatives};
-    use superhelix_runtime::reconstruction::{darboux, element_ends, Pose};
-    use superhelix_runtime::strand::StrandGeometry;
+    use superhelix_runtime::kernels::kernel::{
+        BodyField, EvalInput, StrandKernel, StrandTerms, Terms,
+    };
+    use superhelix_runtime::kernels::moments::{
+        assemble_mass_and_gravity, bodies_at_rest, end_derivatives,
+    };
+    use superhelix_runtime::model::reconstruction::{darboux, element_ends, Pose};
+    use superhelix_runtime::model::strand::StrandGeometry;
     use superhelix_runtime::{GenericKernel, QuadratureRule};
     let mut worst: f64 = 0.0;
     for n in [1usize, 2, 5, 10] {

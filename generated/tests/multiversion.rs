@@ -9,7 +9,7 @@ mod common;
 
 use common::{direction, Rng};
 use superhelix_generated as g;
-use superhelix_runtime::element::ElementPoint;
+use superhelix_runtime::model::element::ElementPoint;
 use superhelix_runtime::Vector3;
 
 /// W·l (or W·u) across every branch of every kernel: the low and full Taylor branches,
@@ -101,7 +101,7 @@ fn dispatched_and_portable_kernels_agree_bit_for_bit() {
 /// closed-form branch of all three functions.
 #[test]
 fn four_lane_closed_forms_agree_with_their_portable_copies_and_one_element() {
-    use superhelix_runtime::lanes::F4;
+    use superhelix_runtime::model::lanes::F4;
     let mut rng = Rng(0x4a4e_5f0d);
     let mut checked = 0;
     for &wl in &[3.6, 10.0, 30.0, 100.0] {
@@ -174,7 +174,7 @@ fn four_lane_closed_forms_agree_with_their_portable_copies_and_one_element() {
 /// portable copies agree bit for bit.
 #[test]
 fn four_lane_rotary_points_are_the_one_point_function_bit_for_bit() {
-    use superhelix_runtime::element::RotaryPoints;
+    use superhelix_runtime::model::element::RotaryPoints;
     let mut rng = Rng(0x0b1e_c7ed);
     let mut checked = 0;
     let mut lanes_by_branch = [0usize; 2];

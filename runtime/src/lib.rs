@@ -4,55 +4,59 @@
 //! the generic runtime-N strand kernel (closed-form reconstruction, numerical
 //! quadrature of the dynamic terms), the integrators, the forces, scenes and outputs.
 //!
-//! Conventions (units, ordering of `q`, frames, stiffness formulas) follow the design
-//! page `shared/design/superhelix-model.md`; the README summarises them.
+//! Conventions (units, ordering of `q`, frames, stiffness formulas): see the `docs/`
+//! folder of the repository; the README summarises them.
 //!
 //! The runtime reaches a strand's dynamic terms only through the [`StrandKernel`]
 //! trait, implemented here by [`GenericKernel`] (any N, Gauss–Legendre quadrature) and
 //! by the generated fixed-N kernels of the `superhelix-generated` crate.
+//!
+//! ## Map
+//!
+//! | folder | holds |
+//! |---|---|
+//! | [`model`] | the helix model and its reconstruction: strand, material, helical element, centreline and frames from q |
+//! | [`kernels`] | the [`StrandKernel`] trait and its implementations: generic runtime-N, assembly from element moments |
+//! | [`forces`] | effects and head motion: environment, body field, head motion, point loads (contacts and electrostatics to come) |
+//! | [`config`] | the settings of a run and the [`SimulationSetup`] a simulation is built from (plain data) |
+//! | [`solver`] | time stepping and statics: the strand system, one file per integrator, the adaptive splitting, energy balance, dense solves |
+//! | [`simulation`] | [`Simulation`]: built from a setup, advanced by `step` |
+//! | [`scene`] | scene files (TOML) read into a [`SimulationSetup`] |
+//! | [`output`] | `frames.json` and the driver that runs a simulation to it |
+//!
+//! Data flows scene → [`SimulationSetup`] → [`Simulation::new`] (one
+//! [`solver::StrandSystem`] per strand) → [`Simulation::step`] → the solver's step →
+//! kernels → output. Each module uses only the ones before it in the order
+//! error → model → kernels → forces → config → output → solver → simulation → scene
+//! (`runtime/tests/architecture.rs` checks it); the output reaches a simulation only
+//! through its [`FrameSource`] trait, which [`Simulation`] implements.
 #![warn(missing_docs)]
 // Numerical kernels index several arrays in step; explicit index loops read best there.
 #![allow(clippy::needless_range_loop, clippy::too_many_arguments)]
 
-pub mod dense_solve;
-pub mod effects;
-pub mod element;
-pub mod energy_balance;
-pub mod environment;
+pub mod config;
 pub mod error;
-pub mod head_motion;
-pub mod helix_functions;
-pub mod integrator;
-pub mod jet;
-pub mod kernel;
-pub mod kernel_generic;
-pub mod kernel_moments;
-pub mod lanes;
-pub mod material;
-pub mod moment_jacobians;
-pub mod moment_rotary;
-pub mod moments;
+pub mod forces;
+pub mod kernels;
+pub mod model;
 pub mod output;
-pub mod quadrature;
-pub mod reconstruction;
 pub mod scene;
 pub mod simulation;
-pub mod spectral_projection;
-pub mod statics;
-pub mod strand;
+pub mod solver;
 
-pub use environment::Environment;
-pub use error::{Error, FieldError, Result};
-pub use head_motion::{HeadMotion, HeadState};
-pub use kernel::{EvalInput, KernelFactory, StrandKernel, StrandTerms, Terms};
-pub use kernel_generic::{GenericKernel, GenericKernelFactory, QuadratureRule};
-pub use material::{CrossSection, HelixForm, Material, Preset};
-pub use simulation::{
-    IntegratorKind, KernelChoice, Mode, Simulation, SimulationConfig, SimulationSetup, StrandSetup,
+pub use config::{
+    IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup, StrandSetup,
 };
-pub use strand::{PointLoad, Strand, StrandGeometry};
+pub use error::{Error, FieldError, Result};
+pub use forces::environment::Environment;
+pub use forces::head_motion::{HeadMotion, HeadState};
+pub use kernels::generic::{GenericKernel, GenericKernelFactory, QuadratureRule};
+pub use kernels::kernel::{EvalInput, KernelFactory, StrandKernel, StrandTerms, Terms};
+pub use model::material::{CrossSection, HelixForm, Material, Preset};
+pub use model::strand::{PointLoad, Strand, StrandGeometry};
+pub use simulation::Simulation;
 
-pub use head_motion::{Keyframe, KeyframeTrack};
+pub use forces::head_motion::{Keyframe, KeyframeTrack};
 /// Re-exported so that users of the trait need not name nalgebra themselves.
 pub use nalgebra::{Matrix3, Vector3};
 pub use output::{run_to_frames, write_frames, FrameSource, Frames, RunSummary, StrandFrames};

@@ -10,8 +10,9 @@
 //!
 //! The driver ([`run_to_frames`]) reaches the simulation only through [`FrameSource`].
 
+use crate::config::{frame_times, total_steps};
+use crate::config::{Mode, SimulationConfig};
 use crate::error::{Error, Result};
-use crate::simulation::{Mode, SimulationConfig};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::path::Path;
@@ -106,27 +107,6 @@ impl fmt::Display for RunSummary {
             ),
         }
     }
-}
-
-/// Number of time steps of a dynamic run: `ceil(duration / dt)` (up to rounding of the
-/// ratio), so that the last state is at or after `duration`. 0 in static mode.
-pub fn total_steps(config: &SimulationConfig) -> usize {
-    let ratio = config.duration / config.dt;
-    if config.mode == Mode::Static || !ratio.is_finite() || ratio <= 0.0 {
-        return 0;
-    }
-    (ratio - 1e-9 * ratio.max(1.0)).ceil().max(0.0) as usize
-}
-
-/// Nominal frame times `k / output_fps` for `k = 0..=floor(duration · output_fps)`;
-/// `[0]` in static mode.
-pub fn frame_times(config: &SimulationConfig) -> Vec<f64> {
-    let product = config.duration * config.output_fps;
-    if config.mode == Mode::Static || !product.is_finite() || product <= 0.0 {
-        return vec![0.0];
-    }
-    let last = (product + 1e-9 * product.max(1.0)).floor().max(0.0) as usize;
-    (0..=last).map(|k| k as f64 / config.output_fps).collect()
 }
 
 /// Run `source` as `config` says and collect the frames.

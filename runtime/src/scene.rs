@@ -15,11 +15,11 @@ mod head;
 mod reader;
 mod strands;
 
-use crate::environment::Environment;
+use crate::config::total_steps;
+use crate::config::{IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup};
 use crate::error::{Error, FieldError, Result};
-use crate::kernel_generic::QuadratureRule;
-use crate::output::total_steps;
-use crate::simulation::{IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup};
+use crate::forces::environment::Environment;
+use crate::kernels::generic::QuadratureRule;
 use reader::{Bound, Errors, Node, Range};
 use toml::{Table, Value};
 

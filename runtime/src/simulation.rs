@@ -1,161 +1,27 @@
 //! A simulation: strands, environment, head motion, integrator; an explicit `step`.
+//! [`Simulation::new`] builds one [`StrandSystem`] per strand from a
+//! [`SimulationSetup`]; [`Simulation::step`] advances them all over one time step.
 
-use crate::effects::GlobalEffects;
-use crate::environment::Environment;
+use crate::config::{KernelChoice, SimulationConfig, SimulationSetup};
 use crate::error::{Error, FieldError, Result};
-use crate::head_motion::HeadMotion;
-use crate::integrator::{
-    energy, kinetic_energy, step_strand, StepContext, StepStats, StrandWorkspace,
+use crate::forces::effects::GlobalEffects;
+use crate::forces::head_motion::HeadMotion;
+use crate::kernels::generic::{GenericKernel, QuadratureRule};
+use crate::kernels::kernel::{KernelFactory, StrandKernel};
+use crate::model::reconstruction::{pose_at, sample_centreline};
+use crate::model::strand::{Strand, StrandGeometry};
+use crate::output::FrameSource;
+use crate::solver::{
+    solve_static, step, HeadInterval, StaticReport, StepContext, StepStats, StrandState,
+    StrandSystem,
 };
-use crate::kernel::{KernelFactory, StrandKernel};
-use crate::kernel_generic::{GenericKernel, QuadratureRule};
-use crate::reconstruction::{pose_at, sample_centreline};
-use crate::statics::{solve_static, StaticReport};
-use crate::strand::{Strand, StrandGeometry};
 use rayon::prelude::*;
 
-/// Dynamic time stepping or static equilibrium.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Mode {
-    /// Time stepping.
-    #[default]
-    Dynamic,
-    /// Equilibrium: ∇(U + V) = external forces, solved by Newton with a line search.
-    Static,
-}
-
-/// Time integrator.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum IntegratorKind {
-    /// One Newton step of backward Euler per time step (paper section 3.4); default.
-    #[default]
-    LinearlyImplicitEuler,
-    /// Backward Euler solved by Newton iterations to a residual tolerance.
-    NewtonImplicitEuler,
-    /// Variable-step BDF2 linearised once per step about the extrapolated state: second
-    /// order, L-stable, on the linearly implicit Euler step's matrix (one factorisation
-    /// per step); its first step (and any restart) is a linearly implicit Euler step.
-    Bdf2,
-    /// Classical explicit Runge–Kutta 4: a reference for tests, needs small steps.
-    Rk4,
-}
-
-impl IntegratorKind {
-    /// Every integrator, in the order scenes and messages list them.
-    pub const ALL: [IntegratorKind; 4] = [
-        Self::LinearlyImplicitEuler,
-        Self::NewtonImplicitEuler,
-        Self::Bdf2,
-        Self::Rk4,
-    ];
-    /// Name as written in scenes.
-    pub fn name(self) -> &'static str {
-        match self {
-            IntegratorKind::LinearlyImplicitEuler => "linearly-implicit-euler",
-            IntegratorKind::NewtonImplicitEuler => "newton-implicit-euler",
-            IntegratorKind::Bdf2 => "bdf2",
-            IntegratorKind::Rk4 => "rk4",
-        }
-    }
-    /// Parse a scene name.
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|k| k.name() == name)
-    }
-}
-
-/// Which strand kernels to use.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum KernelChoice {
-    /// Generated kernels where they exist for a strand's N, generic otherwise.
-    #[default]
-    Auto,
-    /// Always the generic runtime-N path.
-    Generic,
-    /// Generated kernels; an error when a strand's N has none.
-    Generated,
-}
-
-impl KernelChoice {
-    /// Name as written in scenes.
-    pub fn name(self) -> &'static str {
-        match self {
-            KernelChoice::Auto => "auto",
-            KernelChoice::Generic => "generic",
-            KernelChoice::Generated => "generated",
-        }
-    }
-    /// Parse a scene name.
-    pub fn from_name(name: &str) -> Option<Self> {
-        [Self::Auto, Self::Generic, Self::Generated]
-            .into_iter()
-            .find(|k| k.name() == name)
-    }
-}
-
-/// Settings of a run (the scene's `[simulation]` table).
-#[derive(Debug, Clone, PartialEq)]
-pub struct SimulationConfig {
-    /// Dynamic or static.
-    pub mode: Mode,
-    /// Time step, seconds (> 0).
-    pub dt: f64,
-    /// Simulated duration, seconds (≥ 0).
-    pub duration: f64,
-    /// Frames written per simulated second (> 0).
-    pub output_fps: f64,
-    /// Integrator.
-    pub integrator: IntegratorKind,
-    /// Kernel choice.
-    pub kernels: KernelChoice,
-    /// Quadrature of the generic kernels.
-    pub quadrature: QuadratureRule,
-}
-
-impl Default for SimulationConfig {
-    fn default() -> Self {
-        Self {
-            mode: Mode::Dynamic,
-            dt: 1.0 / 30.0,
-            duration: 2.0,
-            output_fps: 30.0,
-            integrator: IntegratorKind::LinearlyImplicitEuler,
-            kernels: KernelChoice::Auto,
-            quadrature: QuadratureRule::default(),
-        }
-    }
-}
-
-/// One strand and its initial state.
-#[derive(Debug, Clone, PartialEq)]
-pub struct StrandSetup {
-    /// The strand.
-    pub strand: Strand,
-    /// Initial generalized coordinates (3N).
-    pub q0: Vec<f64>,
-}
-
-/// Everything needed to build a [`Simulation`]; what a scene file becomes.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SimulationSetup {
-    /// Run settings.
-    pub config: SimulationConfig,
-    /// Gravity.
-    pub environment: Environment,
-    /// Rigid motion of the head (of every root).
-    pub head: HeadMotion,
-    /// The strands.
-    pub strands: Vec<StrandSetup>,
-    /// Centreline points written per element (plus the root) in outputs.
-    pub samples_per_element: usize,
-}
-
-/// One strand of a running simulation: its model, kernel, state and buffers.
+/// One strand of a running simulation: its system (model, kernel, buffers), state and
+/// counters.
 struct StrandSim {
-    strand: Strand,
-    kernel: Box<dyn StrandKernel>,
-    workspace: StrandWorkspace,
-    q: Vec<f64>,
-    v: Vec<f64>,
+    system: StrandSystem,
+    state: StrandState,
     stats: StepStats,
 }
 
@@ -163,7 +29,6 @@ struct StrandSim {
 pub struct Simulation {
     config: SimulationConfig,
     head: HeadMotion,
-    context: StepContext,
     samples_per_element: usize,
     strands: Vec<StrandSim>,
     time: f64,
@@ -265,6 +130,7 @@ impl Simulation {
                 gravity: setup.environment.gravity,
                 head_moves,
             },
+            integrator: setup.config.integrator,
         };
         let mut strands = Vec::with_capacity(setup.strands.len());
         for s in setup.strands {
@@ -277,18 +143,17 @@ impl Simulation {
             )?;
             let n = s.q0.len();
             strands.push(StrandSim {
-                workspace: StrandWorkspace::new(&s.strand),
-                kernel,
-                q: s.q0,
-                v: vec![0.0; n],
-                strand: s.strand,
+                system: StrandSystem::new(s.strand, kernel, context),
+                state: StrandState {
+                    q: s.q0,
+                    v: vec![0.0; n],
+                },
                 stats: StepStats::default(),
             });
         }
         Ok(Simulation {
             config: setup.config,
             head: setup.head,
-            context,
             samples_per_element: setup.samples_per_element,
             strands,
             time: 0.0,
@@ -302,37 +167,21 @@ impl Simulation {
     pub fn step(&mut self) -> Result<()> {
         let h = self.config.dt;
         let t = self.time;
-        let head = &self.head;
-        let kind = self.config.integrator;
-        let ctx = self.context;
+        let interval = HeadInterval::new(&self.head, t, h);
         let failure = self
             .strands
             .par_iter_mut()
             .enumerate()
             .map(|(i, s)| {
-                let (mut q, mut v) = (std::mem::take(&mut s.q), std::mem::take(&mut s.v));
-                let result = step_strand(
-                    kind,
-                    &s.strand,
-                    s.kernel.as_mut(),
-                    &mut s.workspace,
-                    &ctx,
-                    head,
-                    t,
-                    h,
-                    &mut q,
-                    &mut v,
-                    &mut s.stats,
-                );
-                s.q = q;
-                s.v = v;
-                result.err().map(|cause| (i, cause))
+                step(&mut s.system, &interval, &mut s.state, &mut s.stats)
+                    .err()
+                    .map(|cause| (i, cause))
             })
             .flatten()
             .min_by_key(|(i, _)| *i);
         if let Some((index, cause)) = failure {
             return Err(Error::Diverged {
-                strand: self.strands[index].strand.name.clone(),
+                strand: self.strands[index].system.strand.name.clone(),
                 index,
                 time: t + h,
                 cause,
@@ -346,17 +195,14 @@ impl Simulation {
     /// Solve every strand's static equilibrium in place (gravity and point loads, head at
     /// rest).
     pub fn solve_static(&mut self) -> Result<Vec<StaticReport>> {
-        let ctx = self.context;
         let reports: Vec<std::result::Result<StaticReport, (usize, String)>> = self
             .strands
             .par_iter_mut()
             .enumerate()
             .map(|(i, s)| {
-                let mut q = std::mem::take(&mut s.q);
-                s.workspace.forget_history();
-                let r = solve_static(&s.strand, s.kernel.as_mut(), &mut s.workspace, &ctx, &mut q);
-                let finite = q.iter().all(|x| x.is_finite());
-                s.q = q;
+                s.system.workspace.forget_history();
+                let r = solve_static(&mut s.system, &mut s.state.q);
+                let finite = s.state.q.iter().all(|x| x.is_finite());
                 match r {
                     Ok(rep) if finite => Ok(rep),
                     Ok(_) => Err((i, "static solve produced non-finite q".to_string())),
@@ -368,7 +214,7 @@ impl Simulation {
             .into_iter()
             .map(|r| {
                 r.map_err(|(index, cause)| Error::Diverged {
-                    strand: self.strands[index].strand.name.clone(),
+                    strand: self.strands[index].system.strand.name.clone(),
                     index,
                     time: self.time,
                     cause,
@@ -399,29 +245,30 @@ impl Simulation {
     }
     /// Strand i.
     pub fn strand(&self, i: usize) -> &Strand {
-        &self.strands[i].strand
+        &self.strands[i].system.strand
     }
     /// Generalized coordinates of strand i.
     pub fn q(&self, i: usize) -> &[f64] {
-        &self.strands[i].q
+        &self.strands[i].state.q
     }
     /// Generalized velocities of strand i.
     pub fn v(&self, i: usize) -> &[f64] {
-        &self.strands[i].v
+        &self.strands[i].state.v
     }
     /// Set the state of strand i (lengths must be 3N).
     pub fn set_state(&mut self, i: usize, q: &[f64], v: &[f64]) {
-        self.strands[i].q.copy_from_slice(q);
-        self.strands[i].v.copy_from_slice(v);
-        self.strands[i].workspace.forget_history();
+        let s = &mut self.strands[i];
+        s.state.q.copy_from_slice(q);
+        s.state.v.copy_from_slice(v);
+        s.system.workspace.forget_history();
     }
     /// Description of strand i's kernel.
     pub fn kernel_description(&self, i: usize) -> String {
-        self.strands[i].kernel.description()
+        self.strands[i].system.kernel.description()
     }
     /// Whether strand i runs on a generated kernel.
     pub fn uses_generated_kernel(&self, i: usize) -> bool {
-        self.strands[i].kernel.is_generated()
+        self.strands[i].system.kernel.is_generated()
     }
     /// Solver counters summed over strands.
     pub fn stats(&self) -> StepStats {
@@ -435,34 +282,18 @@ impl Simulation {
     pub fn max_speed(&self) -> f64 {
         self.strands
             .iter()
-            .flat_map(|s| s.v.iter())
+            .flat_map(|s| s.state.v.iter())
             .fold(0.0, |m, v| m.max(v.abs()))
     }
     /// Total energy T + U + V_gravity + V_loads of strand i (meaningful with a still head).
     pub fn energy(&mut self, i: usize) -> f64 {
-        let ctx = self.context;
         let s = &mut self.strands[i];
-        energy(
-            &s.strand,
-            s.kernel.as_mut(),
-            &mut s.workspace,
-            &ctx,
-            &s.q,
-            &s.v,
-        )
+        s.system.energy(&s.state.q, &s.state.v)
     }
     /// Kinetic energy ½ q̇ᵀ M q̇ of strand i relative to the head, joules.
     pub fn kinetic_energy(&mut self, i: usize) -> f64 {
-        let ctx = self.context;
         let s = &mut self.strands[i];
-        kinetic_energy(
-            &s.strand,
-            s.kernel.as_mut(),
-            &mut s.workspace,
-            &ctx,
-            &s.q,
-            &s.v,
-        )
+        s.system.kinetic_energy(&s.state.q, &s.state.v)
     }
     /// Centreline of strand i in world coordinates: the root, then `per_element` points
     /// per element.
@@ -470,7 +301,12 @@ impl Simulation {
         let head = self.head.state(self.time);
         let s = &self.strands[i];
         let mut points = Vec::new();
-        sample_centreline(&s.strand.geometry, &s.q, per_element, &mut points);
+        sample_centreline(
+            &s.system.strand.geometry,
+            &s.state.q,
+            per_element,
+            &mut points,
+        );
         points
             .iter()
             .map(|y| {
@@ -482,11 +318,11 @@ impl Simulation {
     /// Position of strand i at arc length s, head coordinates.
     pub fn position_at(&self, i: usize, s: f64) -> nalgebra::Vector3<f64> {
         let st = &self.strands[i];
-        pose_at(&st.strand.geometry, &st.q, s).position
+        pose_at(&st.system.strand.geometry, &st.state.q, s).position
     }
 }
 
-impl crate::output::FrameSource for Simulation {
+impl FrameSource for Simulation {
     fn time(&self) -> f64 {
         self.time
     }
@@ -494,13 +330,13 @@ impl crate::output::FrameSource for Simulation {
         self.strands.len()
     }
     fn strand_name(&self, i: usize) -> &str {
-        &self.strands[i].strand.name
+        &self.strands[i].system.strand.name
     }
     fn q(&self, i: usize) -> &[f64] {
-        &self.strands[i].q
+        &self.strands[i].state.q
     }
     fn v(&self, i: usize) -> &[f64] {
-        &self.strands[i].v
+        &self.strands[i].state.v
     }
     fn centreline_world(&mut self, i: usize, samples_per_element: usize) -> Vec<[f64; 3]> {
         Simulation::centreline_world(self, i, samples_per_element)

@@ -6,10 +6,10 @@
 mod common;
 use common::*;
 use nalgebra::{DMatrix, DVector, Vector3};
-use superhelix_runtime::kernel::{BodyField, EvalInput, StrandKernel, StrandTerms, Terms};
-use superhelix_runtime::material::CrossSection;
-use superhelix_runtime::simulation::{IntegratorKind, KernelChoice, SimulationConfig};
-use superhelix_runtime::strand::Strand;
+use superhelix_runtime::config::{IntegratorKind, KernelChoice, SimulationConfig};
+use superhelix_runtime::kernels::kernel::{BodyField, EvalInput, StrandKernel, StrandTerms, Terms};
+use superhelix_runtime::model::material::CrossSection;
+use superhelix_runtime::model::strand::Strand;
 use superhelix_runtime::{GenericKernel, HeadMotion, QuadratureRule, Simulation};
 
 /// The smooth preset's cross-section, E = 1 GPa, circular; `stiffness` scales E.
@@ -245,7 +245,7 @@ fn bdf2_forgets_its_history_when_the_state_is_set() {
     // After set_state the next step is a fresh start (implicit Euler), so a simulation
     // that ran before and one that did not continue identically from the same state.
     let strand = preset_strand(
-        superhelix_runtime::material::Preset::Wavy,
+        superhelix_runtime::model::material::Preset::Wavy,
         5,
         0.15,
         Vector3::x(),

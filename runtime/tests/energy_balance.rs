@@ -5,12 +5,13 @@
 mod common;
 use common::*;
 use nalgebra::Vector3;
-use superhelix_runtime::effects::GlobalEffects;
-use superhelix_runtime::energy_balance::{balance, measure, StateEnergy};
-use superhelix_runtime::material::Preset;
-use superhelix_runtime::simulation::{IntegratorKind, KernelChoice, SimulationConfig};
-use superhelix_runtime::strand::{PointLoad, Strand};
-use superhelix_runtime::{GenericKernel, HeadMotion, QuadratureRule, Simulation, StrandTerms};
+use superhelix_runtime::config::{IntegratorKind, KernelChoice, SimulationConfig};
+use superhelix_runtime::forces::effects::GlobalEffects;
+use superhelix_runtime::model::material::Preset;
+use superhelix_runtime::model::strand::{PointLoad, Strand};
+use superhelix_runtime::solver::energy_balance::{balance, measure, StateEnergy};
+use superhelix_runtime::solver::{StepContext, StrandSystem};
+use superhelix_runtime::{GenericKernel, HeadMotion, QuadratureRule, Simulation};
 
 const GRAVITY: Vector3<f64> = Vector3::new(0.0, 0.0, -9.81);
 
@@ -43,36 +44,18 @@ fn strand(drag: bool) -> Strand {
 /// returns (Σ ΔE − W over the steps, Σ |W|, Σ estimated dissipation).
 fn balance_sums(sim: &mut Simulation, head: &HeadMotion, steps: usize) -> (f64, f64, f64) {
     let strand = sim.strand(0).clone();
-    let mut kernel = GenericKernel::new(strand.geometry.clone(), QuadratureRule::default());
-    let n = strand.geometry.dofs();
-    let mut terms = StrandTerms::new(n);
-    let mut jac = vec![Vector3::zeros(); n];
-    let stiffness = strand.stiffness_diagonal();
-    let friction: Vec<f64> = strand
-        .geometry
-        .lengths
-        .iter()
-        .flat_map(|l| [l * strand.internal_friction; 3])
-        .collect();
-    let effects = GlobalEffects {
-        gravity: Some(GRAVITY),
-        head_moves: true,
+    let kernel = GenericKernel::new(strand.geometry.clone(), QuadratureRule::default());
+    let context = StepContext {
+        effects: GlobalEffects {
+            gravity: Some(GRAVITY),
+            head_moves: true,
+        },
+        integrator: IntegratorKind::default(),
     };
+    let mut system = StrandSystem::new(strand, Box::new(kernel), context);
     let mut at = |sim: &Simulation| -> StateEnergy {
         let t = sim.time();
-        measure(
-            &strand,
-            &mut kernel,
-            &mut terms,
-            &mut jac,
-            &stiffness,
-            &friction,
-            &effects,
-            &head.state(t),
-            t,
-            sim.q(0),
-            sim.v(0),
-        )
+        measure(&mut system, &head.state(t), t, sim.q(0), sim.v(0))
     };
     let mut previous = at(sim);
     let (mut unbalanced, mut work, mut dissipated) = (0.0, 0.0, 0.0);

@@ -6,10 +6,10 @@ mod common;
 use common::*;
 use faer::Mat;
 use nalgebra::{Matrix3, Vector3};
-use superhelix_runtime::kernel::{BodyField, EvalInput, StrandKernel, StrandTerms, Terms};
-use superhelix_runtime::quadrature::gauss_legendre;
-use superhelix_runtime::reconstruction::pose_at;
-use superhelix_runtime::strand::StrandGeometry;
+use superhelix_runtime::kernels::kernel::{BodyField, EvalInput, StrandKernel, StrandTerms, Terms};
+use superhelix_runtime::model::quadrature::gauss_legendre;
+use superhelix_runtime::model::reconstruction::pose_at;
+use superhelix_runtime::model::strand::StrandGeometry;
 use superhelix_runtime::{GenericKernel, QuadratureRule};
 
 const WL: [f64; 6] = [0.0, 1e-12, 1e-6, 1e-3, 1.0, 50.0];
@@ -416,10 +416,10 @@ fn point_hessian_matches_finite_differences_of_the_jacobian() {
 
 #[test]
 fn moment_assembly_reproduces_the_mass_matrix_and_gravity_force() {
-    use superhelix_runtime::moments::{
+    use superhelix_runtime::kernels::moments::{
         assemble_mass_and_gravity, bodies_at_rest, end_derivatives, ElementMoments,
     };
-    use superhelix_runtime::reconstruction::{darboux, element_ends, Pose};
+    use superhelix_runtime::model::reconstruction::{darboux, element_ends, Pose};
     for (g, q, _) in cases() {
         let n = g.elements();
         let dofs = 3 * n;
@@ -469,10 +469,10 @@ fn moment_assembly_reproduces_the_mass_matrix_and_gravity_force() {
 
 /// `assemble_force` with quadrature moments for (q, v, field), rotary inertia off.
 fn force_from_moments(g: &StrandGeometry, q: &[f64], v: &[f64], f: &BodyField) -> Vec<f64> {
-    use superhelix_runtime::moments::{
+    use superhelix_runtime::kernels::moments::{
         assemble_force, end_derivatives, frame_motions, ElementMoments, FrameMotion, Wrench,
     };
-    use superhelix_runtime::reconstruction::{darboux, element_ends, Pose};
+    use superhelix_runtime::model::reconstruction::{darboux, element_ends, Pose};
     let n = g.elements();
     let mut ends = vec![Pose::default(); n + 1];
     element_ends(g, q, &mut ends);
@@ -535,10 +535,10 @@ fn moment_assembly_reproduces_the_full_generalized_force() {
             assert_vec_close(&ours, &reference, 1e-10, what);
         }
         // q̇ = 0 and a uniform field: the existing moment assembly
-        use superhelix_runtime::moments::{
+        use superhelix_runtime::kernels::moments::{
             assemble_mass_and_gravity, bodies_at_rest, end_derivatives, ElementMoments,
         };
-        use superhelix_runtime::reconstruction::{darboux, element_ends, Pose};
+        use superhelix_runtime::model::reconstruction::{darboux, element_ends, Pose};
         let n = g.elements();
         let c0 = Vector3::new(0.3, -1.0, -9.81) * g.mass_per_length;
         let mut ends = vec![Pose::default(); n + 1];

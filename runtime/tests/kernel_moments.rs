@@ -5,8 +5,8 @@ mod common;
 use common::*;
 use faer::Mat;
 use nalgebra::{Matrix3, Vector3};
-use superhelix_runtime::kernel::{BodyField, EvalInput, StrandKernel, StrandTerms, Terms};
-use superhelix_runtime::kernel_moments::{MomentKernel, QuadratureMoments};
+use superhelix_runtime::kernels::kernel::{BodyField, EvalInput, StrandKernel, StrandTerms, Terms};
+use superhelix_runtime::kernels::moments::kernel::{MomentKernel, QuadratureMoments};
 use superhelix_runtime::{GenericKernel, QuadratureRule};
 
 fn rel_mat(a: &Mat<f64>, b: &Mat<f64>) -> f64 {

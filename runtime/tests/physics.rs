@@ -4,10 +4,10 @@
 mod common;
 use common::*;
 use nalgebra::{DMatrix, Vector3};
-use superhelix_runtime::kernel::{BodyField, EvalInput, StrandKernel, StrandTerms, Terms};
-use superhelix_runtime::material::{CrossSection, Preset};
-use superhelix_runtime::simulation::{IntegratorKind, KernelChoice, Mode, SimulationConfig};
-use superhelix_runtime::strand::{PointLoad, Strand};
+use superhelix_runtime::config::{IntegratorKind, KernelChoice, Mode, SimulationConfig};
+use superhelix_runtime::kernels::kernel::{BodyField, EvalInput, StrandKernel, StrandTerms, Terms};
+use superhelix_runtime::model::material::{CrossSection, Preset};
+use superhelix_runtime::model::strand::{PointLoad, Strand};
 use superhelix_runtime::{GenericKernel, HeadMotion, QuadratureRule, Simulation};
 
 fn config(integrator: IntegratorKind, dt: f64) -> SimulationConfig {

@@ -4,9 +4,9 @@
 mod common;
 use common::*;
 use nalgebra::{Matrix3, Vector3};
-use superhelix_runtime::material::{helix_curvature, HelixForm};
-use superhelix_runtime::reconstruction::{pose_at, Pose};
-use superhelix_runtime::strand::StrandGeometry;
+use superhelix_runtime::model::material::{helix_curvature, HelixForm};
+use superhelix_runtime::model::reconstruction::{pose_at, Pose};
+use superhelix_runtime::model::strand::StrandGeometry;
 
 const WL: [f64; 6] = [0.0, 1e-12, 1e-6, 1e-3, 1.0, 50.0];
 

@@ -3,7 +3,7 @@
 
 use super::reader::{Node, Range};
 use super::strands::{read_template, strand_rng, Template};
-use crate::simulation::StrandSetup;
+use crate::config::StrandSetup;
 use nalgebra::Vector3;
 use std::collections::HashMap;
 

@@ -1,7 +1,7 @@
 //! The `[head]` table: the rigid motion of every root.
 
 use super::reader::{Bound, Node, Range};
-use crate::head_motion::{HeadMotion, Keyframe};
+use crate::forces::head_motion::{HeadMotion, Keyframe};
 use nalgebra::Vector3;
 
 /// Motion kinds as written in scenes.

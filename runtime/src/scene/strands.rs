@@ -2,9 +2,11 @@
 //! it becomes.
 
 use super::reader::{Bound, Node, Range};
-use crate::material::{helix_curvature, CrossSection, HelixForm, Material, Preset, PresetParams};
-use crate::simulation::StrandSetup;
-use crate::strand::{PointLoad, Strand, StrandGeometry};
+use crate::config::StrandSetup;
+use crate::model::material::{
+    helix_curvature, CrossSection, HelixForm, Material, Preset, PresetParams,
+};
+use crate::model::strand::{PointLoad, Strand, StrandGeometry};
 use nalgebra::{Matrix3, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;

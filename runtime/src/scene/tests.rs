@@ -1,6 +1,6 @@
 use super::*;
-use crate::head_motion::HeadMotion;
-use crate::material::{helix_curvature, CrossSection, HelixForm, Preset};
+use crate::forces::head_motion::HeadMotion;
+use crate::model::material::{helix_curvature, CrossSection, HelixForm, Preset};
 use nalgebra::Vector3;
 use proptest::prelude::*;
 

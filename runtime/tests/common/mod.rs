@@ -2,7 +2,7 @@
 #![allow(dead_code)]
 
 use nalgebra::{Matrix3, Vector3};
-use superhelix_runtime::strand::StrandGeometry;
+use superhelix_runtime::model::strand::StrandGeometry;
 
 /// Deterministic xorshift generator (tests only).
 pub struct Rng(pub u64);
@@ -60,9 +60,9 @@ pub fn q_with_wl(geom: &StrandGeometry, wl: &[f64], rng: &mut Rng) -> Vec<f64> {
     q
 }
 
-use superhelix_runtime::material::{helix_curvature, CrossSection, HelixForm, Preset};
-use superhelix_runtime::simulation::{SimulationConfig, SimulationSetup, StrandSetup};
-use superhelix_runtime::strand::Strand;
+use superhelix_runtime::config::{SimulationConfig, SimulationSetup, StrandSetup};
+use superhelix_runtime::model::material::{helix_curvature, CrossSection, HelixForm, Preset};
+use superhelix_runtime::model::strand::Strand;
 use superhelix_runtime::{Environment, HeadMotion};
 
 /// A strand of N equal elements from a preset, root at the origin, n0 = `direction`,

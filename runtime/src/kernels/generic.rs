@@ -7,13 +7,13 @@
 //! `dp_k = F_Q ∂p_Q(l_Q)/∂d_i` and `dθ_k = F_Q w_i(l_Q)`; within the point's own element
 //! `J_k = F_P ∂p_P(u)/∂d_i`. Second derivatives follow the same pattern: for k upstream
 //! of l, `∂²y/∂q_k∂q_l = dθ_k × J_l(s)`; within one element they come from second
-//! derivatives of the element's closed form (jets in d, see [`crate::jet`]).
+//! derivatives of the element's closed form (jets in d, see [`crate::model::jet`]).
 
-use crate::element::{element_jets, local_pose, ElementJets};
-use crate::kernel::{EvalInput, KernelFactory, StrandKernel, StrandTerms, Terms};
-use crate::quadrature::gauss_legendre;
-use crate::reconstruction::{darboux, element_ends, Pose};
-use crate::strand::StrandGeometry;
+use crate::kernels::kernel::{EvalInput, KernelFactory, StrandKernel, StrandTerms, Terms};
+use crate::model::element::{element_jets, local_pose, ElementJets};
+use crate::model::quadrature::gauss_legendre;
+use crate::model::reconstruction::{darboux, element_ends, Pose};
+use crate::model::strand::StrandGeometry;
 use faer::Mat;
 use nalgebra::{Matrix3, Vector3};
 

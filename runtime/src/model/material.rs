@@ -27,7 +27,7 @@ pub struct Material {
     /// about n2. The stiffness matrix is `K = diag(l_Q · stiffness[i])`.
     pub stiffness: [f64; 3],
     /// Rotary inertia per unit length of the cross-section about (n0, n1, n2), kg·m:
-    /// ρ(I1 + I2), ρI1, ρI2. See [`crate::strand::StrandGeometry::rotary_inertia`].
+    /// ρ(I1 + I2), ρI1, ρI2. See [`crate::model::strand::StrandGeometry::rotary_inertia`].
     pub rotary_inertia: [f64; 3],
 }
 

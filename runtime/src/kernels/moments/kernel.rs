@@ -1,25 +1,27 @@
 //! A strand kernel assembled from element moments (docs/moment-assembly.md): M and the
-//! gravity force in O(N²) ([`crate::moments::assemble_mass_and_gravity`]), the full force
-//! (field and −b) in O(N) ([`crate::moments::assemble_force`]), the damping, field stiffness
-//! and ∂b/∂q̇ in O(N²) ([`crate::moment_jacobians`]), rotary inertia from
-//! [`crate::moment_rotary`].
+//! gravity force in O(N²) ([`crate::kernels::moments::assemble_mass_and_gravity`]), the full force
+//! (field and −b) in O(N) ([`crate::kernels::moments::assemble_force`]), the damping, field stiffness
+//! and ∂b/∂q̇ in O(N²) ([`crate::kernels::moments::jacobians`]), rotary inertia from
+//! [`crate::kernels::moments::rotary`].
 //!
 //! The element moments come from a [`MomentSource`]: the generated closed forms
 //! (`superhelix-generated`) or, as a reference, [`QuadratureMoments`]. Buffers are sized
 //! once at construction; `evaluate` allocates nothing.
 
-use crate::element::{ElementPoint, RotaryPoints};
-use crate::kernel::{EvalInput, StrandKernel, StrandTerms};
-use crate::moment_jacobians::{
+use crate::kernels::kernel::{EvalInput, StrandKernel, StrandTerms};
+use crate::kernels::moments::jacobians::{
     add_field_hessian, add_velocity_jacobian, add_weighted_gram, VelocityRow,
 };
-use crate::moment_rotary::{add_rotary_terms, rotary_element, rotary_points, RotaryElement};
-use crate::moments::{
+use crate::kernels::moments::rotary::{
+    add_rotary_terms, rotary_element, rotary_points, RotaryElement,
+};
+use crate::kernels::moments::{
     assemble_force, assemble_mass_gram_and_gravity, end_derivatives_from, frame_motions,
     suffix_bodies, ElementMoments, EndDerivatives, FrameMotion, SuffixBody, Wrench,
 };
-use crate::reconstruction::{darboux, Pose};
-use crate::strand::StrandGeometry;
+use crate::model::element::{ElementPoint, RotaryPoints};
+use crate::model::reconstruction::{darboux, Pose};
+use crate::model::strand::StrandGeometry;
 use faer::Mat;
 use nalgebra::{Matrix3, Vector3};
 
@@ -298,7 +300,7 @@ impl<S: MomentSource> StrandKernel for MomentKernel<S> {
                 &self.moments,
                 &self.motions,
                 v,
-                &crate::kernel::BodyField::zero(),
+                &crate::kernels::kernel::BodyField::zero(),
                 &mut out.velocity_term,
             );
             for b in out.velocity_term.iter_mut() {

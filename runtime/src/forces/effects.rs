@@ -6,8 +6,8 @@
 //! in q; point loads go through J(s)ᵀ. An effect the scene does not name is `None` or
 //! zero here and costs nothing: no field term, no point evaluation.
 
-use crate::head_motion::HeadState;
-use crate::kernel::BodyField;
+use crate::forces::head_motion::HeadState;
+use crate::kernels::kernel::BodyField;
 use nalgebra::{Matrix3, Vector3};
 
 /// Global effects of a simulation.

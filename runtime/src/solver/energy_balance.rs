@@ -29,10 +29,10 @@
 //! - Otherwise the bound is E(start) + W, W by the trapezoidal rule over the step, with an
 //!   allowance for the error of that estimate ([`WORK_ALLOWANCE`]).
 
-use crate::effects::{body_field, GlobalEffects};
-use crate::head_motion::HeadState;
-use crate::kernel::{BodyField, EvalInput, StrandKernel, StrandTerms, Terms};
-use crate::strand::Strand;
+use super::system::StrandSystem;
+use crate::forces::effects::body_field;
+use crate::forces::head_motion::HeadState;
+use crate::kernels::kernel::{BodyField, EvalInput, Terms};
 use nalgebra::Vector3;
 
 /// The energy of one state (q, q̇) at one time, with what the balance of a step needs.
@@ -102,22 +102,24 @@ pub const ROUNDOFF: f64 = 1e-12;
 /// Measure the energy of (q, q̇) at time `t` with the head in state `head`: one kernel
 /// evaluation of M (and ∫ρS y ds with it); when the head rotates, also of the force, with
 /// the body field reduced to its part C1 linear in y, so that `force + b` is the
-/// generalized force of C1 and q̇ᵀ(force + b) its power. `stiffness` and `friction` are
-/// the diagonals of K and Γ. The ceiling is E.
-#[allow(clippy::too_many_arguments)]
+/// generalized force of C1 and q̇ᵀ(force + b) its power. The ceiling is E.
 pub fn measure(
-    strand: &Strand,
-    kernel: &mut dyn StrandKernel,
-    terms: &mut StrandTerms,
-    jac: &mut [Vector3<f64>],
-    stiffness: &[f64],
-    friction: &[f64],
-    effects: &GlobalEffects,
+    system: &mut StrandSystem,
     head: &HeadState,
     t: f64,
     q: &[f64],
     v: &[f64],
 ) -> StateEnergy {
+    let StrandSystem {
+        strand,
+        kernel,
+        workspace,
+        context,
+    } = system;
+    let kernel = kernel.as_mut();
+    let (terms, jac) = (&mut workspace.terms, &mut workspace.jac);
+    let (stiffness, friction) = (&workspace.stiffness, &workspace.friction);
+    let effects = &context.effects;
     let rho_s = strand.material.mass_per_length;
     let full = body_field(effects, head, rho_s, strand.air_drag);
     let field = BodyField {

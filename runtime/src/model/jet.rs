@@ -2,7 +2,7 @@
 //! element): value, gradient and Hessian. Used by the generic kernel to differentiate
 //! the per-element closed forms exactly — no finite differences anywhere.
 
-use crate::helix_functions::Series3;
+use crate::model::helix_functions::Series3;
 use std::ops::{Add, Mul, Neg, Sub};
 
 /// A scalar with its gradient and Hessian with respect to three variables.

@@ -1,12 +1,12 @@
 //! Rotations from rotation vectors: `exp([φ]×)`, the right Jacobian `J_r(φ)` and its time
 //! derivative, with the coefficient functions evaluated by Taylor series near φ = 0.
 
-use crate::helix_functions::abc;
+use crate::model::helix_functions::abc;
 use nalgebra::{Matrix3, Vector3};
 
 /// The coefficient functions of the rotation formulas at θ = |φ|, written in x = θ²:
 /// `a = sinθ/θ`, `b = (1 − cosθ)/θ²`, `c = (θ − sinθ)/θ³`, and `db/dx`, `dc/dx` — the
-/// same functions as the helix element's, from [`crate::helix_functions::abc`].
+/// same functions as the helix element's, from [`crate::model::helix_functions::abc`].
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Coefficients {
     pub a: f64,

@@ -2,7 +2,7 @@
 //! partial eigendecomposition: only the eigenvectors of the smaller side of the spectrum
 //! (the negative eigenvalues, or the positive ones with `H⁻ = H − H⁺`).
 //!
-//! The step needs H⁻ of the field stiffness (see `integrator.rs`), and a full
+//! The step needs H⁻ of the field stiffness (see `solver/system.rs`), and a full
 //! eigendecomposition (faer's `self_adjoint_evd`, ~150k instructions for 15 × 15) was
 //! the largest single cost of a generated N = 5 step. Neither faer nor nalgebra exposes
 //! a subset of eigenvectors (LAPACK's `dstebz`/`dstein` route), so this module does it

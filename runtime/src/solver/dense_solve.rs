@@ -8,7 +8,7 @@ use faer::linalg::evd;
 use faer::linalg::lu::partial_pivoting as lu;
 use faer::{Mat, MatMut, Par};
 
-use crate::spectral_projection::SpectralProjection;
+use crate::solver::spectral_projection::SpectralProjection;
 
 /// Workspace for solving `A x = b` with a 3N × 3N matrix.
 pub struct DenseSolver {

@@ -9,8 +9,8 @@
 //! `F(s) = c0 + C1 y(s) + C2 ẏ(s)`, which covers gravity, the fictitious forces of
 //! head motion and air drag (eq. 5a in the head frame).
 
-use crate::reconstruction::{element_ends, Pose};
-use crate::strand::StrandGeometry;
+use crate::model::reconstruction::{element_ends, Pose};
+use crate::model::strand::StrandGeometry;
 use faer::Mat;
 use nalgebra::{Matrix3, Vector3};
 

@@ -10,9 +10,9 @@
 //! the frame with respect to d_i is `∂E/∂d_i = [P(u) e_i]× E(u)` (the left Jacobian of
 //! SO(3) times u is P(u)), so `w_i(u) = P(u) e_i` is the element's angular derivative.
 
-use crate::helix_functions::{abc, abc_values};
-use crate::jet::{cross, Jet};
-use crate::lanes::{F4, M, V};
+use crate::model::helix_functions::{abc, abc_values};
+use crate::model::jet::{cross, Jet};
+use crate::model::lanes::{F4, M, V};
 use nalgebra::{Matrix3, Vector3};
 
 /// Frame rotation E(u) and position p(u) = P(u) e0 of an element with Darboux vector
@@ -81,7 +81,7 @@ pub struct ElementPoint {
 }
 
 /// The fields of [`ElementPoint`] that the rotary-inertia quadrature
-/// (`moment_rotary::rotary_element`) reads, E(u), w_i(u) and ∂w_i/∂d_j, at up to four
+/// (`kernels::moments::rotary::rotary_element`) reads, E(u), w_i(u) and ∂w_i/∂d_j, at up to four
 /// abscissae of one element, one per lane of [`F4`] (the layout the quadrature
 /// evaluates its integrands in).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

@@ -1,6 +1,6 @@
 //! A strand's static description: geometry, material, natural shape, loads.
 
-use crate::material::Material;
+use crate::model::material::Material;
 use nalgebra::{Matrix3, Vector3};
 
 /// What a kernel needs to know of a strand's shape: the clamped root frame in head

@@ -11,14 +11,14 @@
 //! element's frequencies keeps them far below the kernels' 1e-10 agreement); M's rotary
 //! part uses the closed-form moments `rot`, `rot_w`, `rot_ww`.
 
-use crate::element::RotaryPoints;
-use crate::lanes::{
+use crate::kernels::moments::{ElementMoments, EndDerivatives, FrameMotion};
+use crate::model::element::RotaryPoints;
+use crate::model::lanes::{
     add, cross, cross_matrix, dot, mat_add, mat_mul, mat_scale, mat_vec, scale, transpose, Real,
     F4, M, V,
 };
-use crate::moments::{ElementMoments, EndDerivatives, FrameMotion};
-use crate::quadrature::gauss_legendre;
-use crate::reconstruction::Pose;
+use crate::model::quadrature::gauss_legendre;
+use crate::model::reconstruction::Pose;
 use nalgebra::{Matrix3, Vector3};
 
 type V3 = Vector3<f64>;
@@ -386,7 +386,7 @@ pub fn add_rotary_terms(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::element::{local_pose, ElementPoint};
+    use crate::model::element::{local_pose, ElementPoint};
 
     /// The rotary integrals one point at a time with nalgebra: the code the lane version
     /// replaced, kept as the reference it must match bit for bit.

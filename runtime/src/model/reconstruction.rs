@@ -2,8 +2,8 @@
 //! centreline and material frames at element ends and at any arc length, chained from
 //! the clamped root, `F_{Q+1} = F_Q E_Q(l_Q)`, `r_{Q+1} = r_Q + F_Q P_Q(l_Q) e0`.
 
-use crate::element::local_pose;
-use crate::strand::StrandGeometry;
+use crate::model::element::local_pose;
+use crate::model::strand::StrandGeometry;
 use nalgebra::{Matrix3, Vector3};
 
 /// A point of the centreline with its material frame (columns n0, n1, n2).

@@ -1,10 +1,9 @@
 //! Static equilibrium: `∇(U + V) = external forces`, i.e. F(q, 0) = 0, solved by Newton
 //! with the exact stiffness and a backtracking line search on the energy.
 
-use crate::head_motion::HeadState;
-use crate::integrator::{assemble, energy, StepContext, StrandWorkspace};
-use crate::kernel::{StrandKernel, Terms};
-use crate::strand::Strand;
+use super::system::StrandSystem;
+use crate::forces::head_motion::HeadState;
+use crate::kernels::kernel::Terms;
 
 /// How a static solve went.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -45,13 +44,7 @@ fn backtrack(energy_at: &mut impl FnMut(f64) -> f64, e0: f64, slope: f64) -> Res
 /// E = U − ρS g·∫y − Σ f·y_p is minimised: Newton directions from the Hessian
 /// −∂F/∂q (shifted by λ·diag(K) when not positive definite, λ growing until it is),
 /// then backtracking until E decreases (Armijo).
-pub fn solve_static(
-    strand: &Strand,
-    kernel: &mut dyn StrandKernel,
-    ws: &mut StrandWorkspace,
-    ctx: &StepContext,
-    q: &mut [f64],
-) -> Result<StaticReport, String> {
+pub fn solve_static(system: &mut StrandSystem, q: &mut [f64]) -> Result<StaticReport, String> {
     let n = q.len();
     let zero = vec![0.0; n];
     let head = HeadState::rest();
@@ -64,13 +57,14 @@ pub fn solve_static(
     let mut trial = vec![0.0; n];
     let mut force = vec![0.0; n];
     for iteration in 0..=STATIC_MAX_ITERATIONS {
-        assemble(strand, kernel, ws, ctx, &head, q, &zero, terms);
+        system.assemble(&head, q, &zero, terms);
+        let ws = &mut system.workspace;
         force.copy_from_slice(&ws.terms.force);
         let residual = max_abs(&force);
         if iteration == 0 {
             // scale: the largest elastic or external generalized force in play
             let elastic: f64 = (0..n)
-                .map(|i| (ws.stiffness[i] * (q[i] - strand.natural[i])).abs())
+                .map(|i| (ws.stiffness[i] * (q[i] - system.strand.natural[i])).abs())
                 .fold(0.0, f64::max);
             report.force_scale = residual.max(elastic).max(1e-300);
         }
@@ -109,7 +103,7 @@ pub fn solve_static(
         }
         let step: Vec<f64> = ws.solver.solution().to_vec();
         let slope: f64 = -force.iter().zip(&step).map(|(f, d)| f * d).sum::<f64>();
-        let e0 = energy(strand, kernel, ws, ctx, q, &zero);
+        let e0 = system.energy(q, &zero);
         // Near the solution the energy decrease falls below the rounding of E: take the
         // full Newton step (quadratic convergence) instead of a meaningless line search.
         let alpha = if slope.abs() > 1e-10 * e0.abs() {
@@ -117,7 +111,7 @@ pub fn solve_static(
                 for i in 0..n {
                     trial[i] = q[i] + alpha * step[i];
                 }
-                energy(strand, kernel, ws, ctx, &trial, &zero)
+                system.energy(&trial, &zero)
             };
             backtrack(&mut energy_at, e0, slope)?
         } else {

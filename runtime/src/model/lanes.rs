@@ -1,6 +1,6 @@
 //! Small fixed-size algebra over a scalar that is either `f64` or [`F4`], four `f64`
 //! lanes, so that one source evaluates an integrand at one quadrature point or at four at
-//! once (the rotary-inertia quadrature, [`crate::moment_rotary`]); and [`F4`]'s mixed
+//! once (the rotary-inertia quadrature, [`crate::kernels::moments::rotary`]); and [`F4`]'s mixed
 //! operations with `f64`, so that the generated closed forms of four elements run as one
 //! (`superhelix-generated`'s `*_closed_x4` functions).
 //!
@@ -8,9 +8,9 @@
 //! `Vector3<f64>` (a product's column sum left to right, a dot product `(a₀b₀ + a₁b₁) +
 //! a₂b₂`, the cross product's component formulas), so each lane gives the bits nalgebra
 //! gives for that point (checked in the tests). nalgebra's own generic code over a SIMD
-//! scalar (simba's `AutoF64x4`) was tried first: its matrices went through `try_map`
-//! closures and `memcpy` calls that were not inlined, and the rotary quadrature became
-//! 20 % slower instead of faster.
+//! scalar (simba's `AutoF64x4`) does not serve here: its matrices go through `try_map`
+//! closures and `memcpy` calls that are not inlined, and the rotary quadrature is 20 %
+//! slower with it instead of faster.
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 

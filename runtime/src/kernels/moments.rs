@@ -8,11 +8,18 @@
 //!
 //! [`ElementMoments::by_quadrature`] is the reference the generated closed forms are
 //! checked against; [`assemble_mass_and_gravity`] is the assembly both feed.
+//!
+//! The kernel built on them is [`kernel::MomentKernel`]; the Jacobians of the implicit
+//! step are in [`jacobians`], the rotary-inertia quadrature in [`rotary`].
 
-use crate::element::{element_jets, local_pose};
-use crate::kernel::BodyField;
-use crate::quadrature::gauss_legendre;
-use crate::reconstruction::Pose;
+pub mod jacobians;
+pub mod kernel;
+pub mod rotary;
+
+use crate::kernels::kernel::BodyField;
+use crate::model::element::{element_jets, local_pose};
+use crate::model::quadrature::gauss_legendre;
+use crate::model::reconstruction::Pose;
 use nalgebra::{Matrix3, Vector3};
 
 type V3 = Vector3<f64>;
@@ -370,13 +377,13 @@ pub fn assemble_mass_gram_and_gravity(
 
 /// End derivatives of element `q` (frame `frame` at its start) from its jets at u = l.
 pub fn end_derivatives(frame: &Matrix3<f64>, d: &Vector3<f64>, l: f64) -> EndDerivatives {
-    end_derivatives_from(frame, &crate::element::ElementPoint::by_jets(d, l))
+    end_derivatives_from(frame, &crate::model::element::ElementPoint::by_jets(d, l))
 }
 
 /// End derivatives from the element's local derivatives at u = l.
 pub fn end_derivatives_from(
     frame: &Matrix3<f64>,
-    e: &crate::element::ElementPoint,
+    e: &crate::model::element::ElementPoint,
 ) -> EndDerivatives {
     EndDerivatives {
         dp: e.dp.map(|v| frame * v),

@@ -1,0 +1,164 @@
+//! The settings of a run and what a simulation is built from: plain data (the scene's
+//! `[simulation]` table, the strands and their initial states, the head motion and the
+//! environment), and the step and frame counts that follow from it.
+
+use crate::forces::environment::Environment;
+use crate::forces::head_motion::HeadMotion;
+use crate::kernels::generic::QuadratureRule;
+use crate::model::strand::Strand;
+
+/// Dynamic time stepping or static equilibrium.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Mode {
+    /// Time stepping.
+    #[default]
+    Dynamic,
+    /// Equilibrium: ∇(U + V) = external forces, solved by Newton with a line search.
+    Static,
+}
+
+/// Time integrator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum IntegratorKind {
+    /// One Newton step of backward Euler per time step (paper section 3.4); default.
+    #[default]
+    LinearlyImplicitEuler,
+    /// Backward Euler solved by Newton iterations to a residual tolerance.
+    NewtonImplicitEuler,
+    /// Variable-step BDF2 linearised once per step about the extrapolated state: second
+    /// order, L-stable, on the linearly implicit Euler step's matrix (one factorisation
+    /// per step); its first step (and any restart) is a linearly implicit Euler step.
+    Bdf2,
+    /// Classical explicit Runge–Kutta 4: a reference for tests, needs small steps.
+    Rk4,
+}
+
+impl IntegratorKind {
+    /// Every integrator, in the order scenes and messages list them.
+    pub const ALL: [IntegratorKind; 4] = [
+        Self::LinearlyImplicitEuler,
+        Self::NewtonImplicitEuler,
+        Self::Bdf2,
+        Self::Rk4,
+    ];
+    /// Name as written in scenes.
+    pub fn name(self) -> &'static str {
+        match self {
+            IntegratorKind::LinearlyImplicitEuler => "linearly-implicit-euler",
+            IntegratorKind::NewtonImplicitEuler => "newton-implicit-euler",
+            IntegratorKind::Bdf2 => "bdf2",
+            IntegratorKind::Rk4 => "rk4",
+        }
+    }
+    /// Parse a scene name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+}
+
+/// Which strand kernels to use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum KernelChoice {
+    /// Generated kernels where they exist for a strand's N, generic otherwise.
+    #[default]
+    Auto,
+    /// Always the generic runtime-N path.
+    Generic,
+    /// Generated kernels; an error when a strand's N has none.
+    Generated,
+}
+
+impl KernelChoice {
+    /// Name as written in scenes.
+    pub fn name(self) -> &'static str {
+        match self {
+            KernelChoice::Auto => "auto",
+            KernelChoice::Generic => "generic",
+            KernelChoice::Generated => "generated",
+        }
+    }
+    /// Parse a scene name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        [Self::Auto, Self::Generic, Self::Generated]
+            .into_iter()
+            .find(|k| k.name() == name)
+    }
+}
+
+/// Settings of a run (the scene's `[simulation]` table).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimulationConfig {
+    /// Dynamic or static.
+    pub mode: Mode,
+    /// Time step, seconds (> 0).
+    pub dt: f64,
+    /// Simulated duration, seconds (≥ 0).
+    pub duration: f64,
+    /// Frames written per simulated second (> 0).
+    pub output_fps: f64,
+    /// Integrator.
+    pub integrator: IntegratorKind,
+    /// Kernel choice.
+    pub kernels: KernelChoice,
+    /// Quadrature of the generic kernels.
+    pub quadrature: QuadratureRule,
+}
+
+impl Default for SimulationConfig {
+    fn default() -> Self {
+        Self {
+            mode: Mode::Dynamic,
+            dt: 1.0 / 30.0,
+            duration: 2.0,
+            output_fps: 30.0,
+            integrator: IntegratorKind::LinearlyImplicitEuler,
+            kernels: KernelChoice::Auto,
+            quadrature: QuadratureRule::default(),
+        }
+    }
+}
+
+/// One strand and its initial state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StrandSetup {
+    /// The strand.
+    pub strand: Strand,
+    /// Initial generalized coordinates (3N).
+    pub q0: Vec<f64>,
+}
+
+/// Everything needed to build a [`Simulation`](crate::Simulation); what a scene file becomes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimulationSetup {
+    /// Run settings.
+    pub config: SimulationConfig,
+    /// Gravity.
+    pub environment: Environment,
+    /// Rigid motion of the head (of every root).
+    pub head: HeadMotion,
+    /// The strands.
+    pub strands: Vec<StrandSetup>,
+    /// Centreline points written per element (plus the root) in outputs.
+    pub samples_per_element: usize,
+}
+
+/// Number of time steps of a dynamic run: `ceil(duration / dt)` (up to rounding of the
+/// ratio), so that the last state is at or after `duration`. 0 in static mode.
+pub fn total_steps(config: &SimulationConfig) -> usize {
+    let ratio = config.duration / config.dt;
+    if config.mode == Mode::Static || !ratio.is_finite() || ratio <= 0.0 {
+        return 0;
+    }
+    (ratio - 1e-9 * ratio.max(1.0)).ceil().max(0.0) as usize
+}
+
+/// Nominal frame times `k / output_fps` for `k = 0..=floor(duration · output_fps)`;
+/// `[0]` in static mode.
+pub fn frame_times(config: &SimulationConfig) -> Vec<f64> {
+    let product = config.duration * config.output_fps;
+    if config.mode == Mode::Static || !product.is_finite() || product <= 0.0 {
+        return vec![0.0];
+    }
+    let last = (product + 1e-9 * product.max(1.0)).floor().max(0.0) as usize;
+    (0..=last).map(|k| k as f64 / config.output_fps).collect()
+}

@@ -1,0 +1,9 @@
+//! Forces and effects: the environment (gravity), the rigid motion of the head and the
+//! fictitious forces it causes, composed with air drag into one body field per strand and
+//! step ([`effects`]), and the point loads applied through J(s)ᵀ ([`point_loads`]).
+//! Contacts and electrostatics will live here too, beside the effects they add to.
+
+pub mod effects;
+pub mod environment;
+pub mod head_motion;
+pub mod point_loads;

@@ -1,0 +1,227 @@
+//! The step of one strand and its adaptive splitting: an implicit step is checked after
+//! the fact (failure, element rotation, energy balance) and split into halves,
+//! recursively, when it is not acceptable; RK4 takes the step as it is.
+
+use super::bdf2::{bdf2, record_history, BDF2_MAX_RATIO};
+use super::energy_balance::{self, StateEnergy};
+use super::linearly_implicit::linearly_implicit_euler;
+use super::newton::newton_implicit_euler;
+use super::rk4::rk4;
+use super::stats::StepStats;
+use super::system::{HeadInterval, StrandState, StrandSystem, StrandWorkspace};
+use crate::config::IntegratorKind;
+
+/// Largest rotation an implicit step may put into one element, radians: the change of
+/// `l_Q |d_Q|` over the step. Beyond it the step's linearisation of M(q), b and the
+/// forces no longer holds and energy can be created, so the step is split in two.
+pub const MAX_ELEMENT_ROTATION: f64 = 0.2;
+/// How many times a step may be halved (down to h / 2^depth).
+pub const MAX_SUBSTEP_DEPTH: usize = 8;
+/// With the head moving uniformly (inertial head frame), a step that creates more energy
+/// than this fraction of the energy scale S = T + U + |c0| L² (beyond round-off) is split
+/// in two; a smaller excess is removed from the velocities instead (see
+/// `implicit_adaptive`). A step of a first-order scheme that resolves the motion errs by
+/// O(h²) in E; one that creates 0.1 % of S at once does not resolve it (the straight
+/// strands after a stop created 1.6e-4 to 1.1 S per step, the kinked ones far more), and
+/// its halves are more accurate. Below it, halving again mostly costs: a strand whose
+/// fastest motion is far beyond any substep (the 3 rad kinks) errs in E at every depth.
+pub const ENERGY_SPLIT_FRACTION: f64 = 1e-3;
+/// The same as [`ENERGY_SPLIT_FRACTION`] for a head that rotates or accelerates, where
+/// the head's work over the step is a trapezoidal estimate: ordinary steps of the demo
+/// scene (2 Hz, ±30° at 1/30 s) exceed estimate plus allowance by up to 1e-2 S, so a
+/// lower threshold only splits steps that are fine; the instabilities it is for create
+/// more than S per step.
+pub const WORK_SPLIT_FRACTION: f64 = 1e-2;
+
+/// Advance one strand's `state` over `interval` (from t by h) with the integrator of
+/// the system's context; the head's states come from the interval (its two ends, and
+/// the midpoint for RK4). Implicit steps are checked after the fact: split into halves,
+/// recursively, when they fail, rotate an element by more than [`MAX_ELEMENT_ROTATION`]
+/// or create energy ([`crate::solver::energy_balance`]), with the excess energy of the
+/// deepest (or a nearly right) step removed from its velocities; Newton solves that do
+/// not converge are replaced by the linearly implicit step (see `implicit_adaptive`; the
+/// counts are in [`StepStats`]). On failure, returns the cause.
+pub fn step(
+    system: &mut StrandSystem,
+    interval: &HeadInterval,
+    state: &mut StrandState,
+    stats: &mut StepStats,
+) -> Result<(), String> {
+    match system.context.integrator {
+        IntegratorKind::Rk4 => rk4(system, interval, state),
+        _ => {
+            let start = start_energy(system, interval, state);
+            let end = implicit_adaptive(system, interval, state, &start, stats)?;
+            let ws = &mut system.workspace;
+            ws.last_energy = Some(end);
+            ws.last_q.copy_from_slice(&state.q);
+            ws.last_v.copy_from_slice(&state.v);
+            Ok(())
+        }
+    }?;
+    let (q, v) = (&state.q, &state.v);
+    if let Some(i) = q.iter().chain(v.iter()).position(|x| !x.is_finite()) {
+        let what = if i < q.len() { "q" } else { "q̇" };
+        return Err(format!("non-finite {what}[{}] after the step", i % q.len()));
+    }
+    Ok(())
+}
+
+/// The energy of the state at the interval's start: the end of the previous step when it
+/// is that state (the usual case), measured otherwise.
+fn start_energy(
+    system: &mut StrandSystem,
+    interval: &HeadInterval,
+    state: &StrandState,
+) -> StateEnergy {
+    let t = interval.t;
+    let ws = &system.workspace;
+    if let Some(e) = ws.last_energy {
+        if (e.time - t).abs() <= 1e-12 * t.abs().max(1.0)
+            && ws.last_q == state.q
+            && ws.last_v == state.v
+        {
+            return e;
+        }
+    }
+    energy_balance::measure(system, &interval.start, t, &state.q, &state.v)
+}
+
+/// Largest l_Q |Δd_Q| between two states.
+fn max_element_rotation(lengths: &[f64], q: &[f64], q0: &[f64]) -> f64 {
+    lengths
+        .iter()
+        .enumerate()
+        .map(|(k, l)| {
+            let d: f64 = (0..3).map(|i| (q[3 * k + i] - q0[3 * k + i]).powi(2)).sum();
+            l * d.sqrt()
+        })
+        .fold(0.0, f64::max)
+}
+
+/// One implicit step of `state` over `interval` (t to t + h; the state's energy at t is
+/// `start`), checked after the fact and split into the interval's two halves
+/// (recursively, at most [`MAX_SUBSTEP_DEPTH`] deep) when it is not acceptable. Returns
+/// the energy of the end state.
+///
+/// - A Newton solve that does not converge (or meets a singular Jacobian) is never
+///   accepted: the linearly implicit step of the same h replaces it, under the same checks
+///   (counted in [`StepStats::newton_unconverged`]).
+/// - A step that fails (a singular matrix, non-finite values) or rotates an element by
+///   more than [`MAX_ELEMENT_ROTATION`] is split; at the deepest substep a failure is an
+///   error and a large rotation is accepted.
+/// - The energy balance ([`energy_balance::balance`]): E(end) must not exceed its bound
+///   plus an allowance. With the head moving uniformly the bound is the ceiling (the
+///   energy at the start of that phase less the estimated dissipation since, or E(start)
+///   when higher) and the allowance round-off; otherwise E(start) plus the head's work W
+///   (trapezoidal estimate) and the allowance covers the estimate's error. A step whose
+///   excess is above [`ENERGY_SPLIT_FRACTION`] S (uniform head) or
+///   [`WORK_SPLIT_FRACTION`] S (moving head) is split. A smaller excess, or any at the
+///   deepest substep, is removed by scaling the velocities by the λ < 1 that brings E
+///   down to bound plus allowance ([`StepStats::energy_limited`]): the exact dynamics
+///   cannot gain more (friction and drag only dissipate), the excess of a first-order step
+///   is its local error, so the correction is of the order of the error the step makes
+///   anyway (it moves q̇ by excess / (2T) relative), and it is what keeps a step that
+///   cannot resolve the motion from feeding energy in. When the potential energy alone
+///   exceeds the bound, the step is split, or, at the deepest substep, accepted as it is
+///   and counted ([`StepStats::energy_unbalanced`]), for the caller's own checks.
+fn implicit_adaptive(
+    system: &mut StrandSystem,
+    interval: &HeadInterval,
+    state: &mut StrandState,
+    start: &StateEnergy,
+    stats: &mut StepStats,
+) -> Result<StateEnergy, String> {
+    let kind = system.context.integrator;
+    let h = interval.h;
+    let ws = &mut system.workspace;
+    ws.saved_q.copy_from_slice(&state.q);
+    ws.saved_v.copy_from_slice(&state.v);
+    let prev_h = ws.prev_h;
+    let deepest = interval.depth == MAX_SUBSTEP_DEPTH;
+    let unconverged_before = stats.newton_unconverged;
+    let mut outcome = match kind {
+        IntegratorKind::NewtonImplicitEuler => {
+            newton_implicit_euler(system, interval, state, stats)
+        }
+        // BDF2 takes whole steps; a step split for rotating too much is taken as linearly
+        // implicit Euler substeps
+        IntegratorKind::Bdf2
+            if interval.depth == 0 && prev_h > 0.0 && h <= BDF2_MAX_RATIO * prev_h =>
+        {
+            bdf2(system, interval, state, stats)
+        }
+        _ => linearly_implicit_euler(system, interval, state, stats),
+    };
+    if kind == IntegratorKind::NewtonImplicitEuler
+        && (outcome.is_err() || stats.newton_unconverged > unconverged_before)
+    {
+        // never accept an unconverged (or failed) Newton solve: take the linearly implicit
+        // step instead, under the same checks
+        stats.newton_unconverged = unconverged_before + 1;
+        state.q.copy_from_slice(&system.workspace.saved_q);
+        state.v.copy_from_slice(&system.workspace.saved_v);
+        outcome = linearly_implicit_euler(system, interval, state, stats);
+    }
+    let finite = state.q.iter().chain(state.v.iter()).all(|x| x.is_finite());
+    let acceptable = outcome.is_ok()
+        && finite
+        && max_element_rotation(
+            &system.strand.geometry.lengths,
+            &state.q,
+            &system.workspace.saved_q,
+        ) <= MAX_ELEMENT_ROTATION;
+    if acceptable || deepest {
+        outcome?;
+        if !finite {
+            return Err(format!(
+                "non-finite state after a substep of {h:.3e} s (at the deepest split)"
+            ));
+        }
+        let mut end =
+            energy_balance::measure(system, &interval.end, interval.t + h, &state.q, &state.v);
+        let inertial = interval.uniform;
+        let balance = energy_balance::balance(start, &end, inertial);
+        let excess = balance.excess;
+        // an accepted step: its end bounds the next, and it is BDF2's history
+        let accept = |ws: &mut StrandWorkspace, mut end: StateEnergy| {
+            end.ceiling = energy_balance::end_ceiling(start, &end, inertial);
+            record_history(kind, ws, h);
+            Ok(end)
+        };
+        if excess <= 0.0 {
+            return accept(&mut system.workspace, end);
+        }
+        let fraction = if inertial {
+            ENERGY_SPLIT_FRACTION
+        } else {
+            WORK_SPLIT_FRACTION
+        };
+        let split = !deepest && excess > fraction * start.scale;
+        if !split {
+            // the kinetic energy that brings E down to the bound plus the allowance
+            let kinetic = end.kinetic - excess;
+            if kinetic >= 0.0 && end.kinetic > 0.0 {
+                let lambda = (kinetic / end.kinetic).sqrt();
+                for x in state.v.iter_mut() {
+                    *x *= lambda;
+                }
+                end.scale_velocities(lambda);
+                stats.energy_limited += 1;
+                return accept(&mut system.workspace, end);
+            }
+            if deepest {
+                stats.energy_unbalanced += 1;
+                return accept(&mut system.workspace, end);
+            }
+        }
+        stats.energy_rejected += 1;
+    }
+    stats.substeps += 1;
+    state.q.copy_from_slice(&system.workspace.saved_q);
+    state.v.copy_from_slice(&system.workspace.saved_v);
+    let first = interval.first_half();
+    let middle = implicit_adaptive(system, &first, state, start, stats)?;
+    let second = interval.second_half(&first);
+    implicit_adaptive(system, &second, state, &middle, stats)
+}

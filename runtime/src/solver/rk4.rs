@@ -1,0 +1,68 @@
+//! Classical explicit Runge–Kutta 4: a reference for tests.
+
+use super::system::{HeadInterval, StrandState, StrandSystem};
+use crate::forces::head_motion::HeadState;
+use crate::kernels::kernel::Terms;
+
+/// q̈ = M⁻¹ F(q, q̇) with the head in state `head`, into `acc`.
+fn acceleration(
+    system: &mut StrandSystem,
+    head: &HeadState,
+    q: &[f64],
+    v: &[f64],
+    acc: &mut [f64],
+) -> Result<(), String> {
+    let terms = Terms {
+        mass: true,
+        force: true,
+        ..Default::default()
+    };
+    system.assemble(head, q, v, terms);
+    let ws = &mut system.workspace;
+    ws.solver.matrix.copy_from(&ws.terms.mass);
+    ws.solver.rhs_mut().copy_from_slice(&ws.terms.force);
+    if !ws.solver.solve_spd() {
+        return Err("RK4: the mass matrix is not positive definite".into());
+    }
+    acc.copy_from_slice(ws.solver.solution());
+    Ok(())
+}
+
+/// Classical RK4 on (q, q̇); a reference for tests (explicit: needs small steps).
+pub fn rk4(
+    system: &mut StrandSystem,
+    interval: &HeadInterval,
+    state: &mut StrandState,
+) -> Result<(), String> {
+    let h = interval.h;
+    let (q, v) = (&mut state.q[..], &mut state.v[..]);
+    let heads = [interval.start, interval.state_at(0.5), interval.end];
+    let n = q.len();
+    let mut s = std::mem::take(&mut system.workspace.scratch);
+    let result = (|| {
+        let [qs, vs, acc, dq, dv, _] = &mut s;
+        dq.fill(0.0);
+        dv.fill(0.0);
+        acc.fill(0.0);
+        vs.copy_from_slice(v);
+        // (c, weight, head at t + c h): stage state (q + c h k_q, v + c h k_v) of the previous stage
+        for (c, weight, head) in [(0.0, 1.0, 0), (0.5, 2.0, 1), (0.5, 2.0, 1), (1.0, 1.0, 2)] {
+            for i in 0..n {
+                qs[i] = q[i] + c * h * vs[i];
+                vs[i] = v[i] + c * h * acc[i];
+            }
+            acceleration(system, &heads[head], qs, vs, acc)?;
+            for i in 0..n {
+                dq[i] += weight * vs[i];
+                dv[i] += weight * acc[i];
+            }
+        }
+        for i in 0..n {
+            q[i] += h / 6.0 * dq[i];
+            v[i] += h / 6.0 * dv[i];
+        }
+        Ok(())
+    })();
+    system.workspace.scratch = s;
+    result
+}

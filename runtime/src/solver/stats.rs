@@ -1,0 +1,38 @@
+//! Counters of what the solvers had to do, per strand and summed over a simulation.
+
+/// Counters of what the solvers had to do.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct StepStats {
+    /// Steps where the eigendecomposition of the field stiffness failed and it was
+    /// left explicit.
+    pub stiffness_dropped: usize,
+    /// Newton iterations performed (Newton implicit Euler).
+    pub newton_iterations: usize,
+    /// Newton solves that did not converge (or met a singular Jacobian) at the deepest
+    /// substep and were replaced by the linearly implicit step there.
+    pub newton_unconverged: usize,
+    /// Implicit steps split in two: they rotated an element too much, did not converge,
+    /// or failed the energy balance.
+    pub substeps: usize,
+    /// Of the splits, those for the energy balance ([`crate::solver::energy_balance`]).
+    pub energy_rejected: usize,
+    /// Steps whose velocities were scaled down so that the energy does not exceed the
+    /// start's plus the head's work (see [`crate::solver::adaptive`]).
+    pub energy_limited: usize,
+    /// Steps accepted at the deepest substep although their energy exceeds the balance
+    /// (the potential energy alone above the bound, so that no velocity scaling can help).
+    pub energy_unbalanced: usize,
+}
+
+impl StepStats {
+    /// Add another's counts.
+    pub fn add(&mut self, o: &StepStats) {
+        self.stiffness_dropped += o.stiffness_dropped;
+        self.newton_iterations += o.newton_iterations;
+        self.newton_unconverged += o.newton_unconverged;
+        self.substeps += o.substeps;
+        self.energy_rejected += o.energy_rejected;
+        self.energy_limited += o.energy_limited;
+        self.energy_unbalanced += o.energy_unbalanced;
+    }
+}

@@ -1,0 +1,403 @@
+//! What the step of one strand works on: the [`StrandSystem`] (strand, kernel, buffers,
+//! step context), its [`StrandState`] (q, q̇), the [`HeadInterval`] of the step (the
+//! head's state at its two ends, computed once), and the shared assembly of the full
+//! force F(q, q̇) and of the linearly implicit step matrix that every integrator and the
+//! static solve build on.
+//!
+//! Each strand owns a [`StrandWorkspace`] sized once: a step allocates nothing.
+
+use super::dense_solve::DenseSolver;
+use super::energy_balance::StateEnergy;
+use super::stats::StepStats;
+use crate::config::IntegratorKind;
+use crate::forces::effects::{body_field, GlobalEffects};
+use crate::forces::head_motion::{HeadMotion, HeadState};
+use crate::forces::point_loads::{add_point_loads, point_load_potential};
+use crate::kernels::kernel::{EvalInput, StrandKernel, StrandTerms, Terms};
+use crate::model::strand::Strand;
+use nalgebra::Vector3;
+
+/// Per-strand buffers of the integrators.
+pub struct StrandWorkspace {
+    /// Kernel outputs plus the strand's own forces.
+    pub terms: StrandTerms,
+    /// Linear solver.
+    pub solver: DenseSolver,
+    pub(crate) jac: Vec<Vector3<f64>>,
+    /// Diagonal of K.
+    pub stiffness: Vec<f64>,
+    /// Diagonal of the internal friction matrix γ l_Q.
+    pub friction: Vec<f64>,
+    pub(super) scratch: [Vec<f64>; 6],
+    pub(super) saved_q: Vec<f64>,
+    pub(super) saved_v: Vec<f64>,
+    /// BDF2 history: the state one step back and that step's length (0: none).
+    pub(super) prev_q: Vec<f64>,
+    pub(super) prev_v: Vec<f64>,
+    pub(super) prev_h: f64,
+    /// The energy of the state the last implicit step ended in, and that state.
+    pub(super) last_energy: Option<StateEnergy>,
+    pub(super) last_q: Vec<f64>,
+    pub(super) last_v: Vec<f64>,
+}
+
+impl StrandWorkspace {
+    /// Buffers for this strand.
+    pub fn new(strand: &Strand) -> Self {
+        let n = strand.geometry.dofs();
+        let friction = strand
+            .geometry
+            .lengths
+            .iter()
+            .flat_map(|l| [l * strand.internal_friction; 3])
+            .collect();
+        StrandWorkspace {
+            terms: StrandTerms::new(n),
+            solver: DenseSolver::new(n),
+            jac: vec![Vector3::zeros(); n],
+            stiffness: strand.stiffness_diagonal(),
+            friction,
+            scratch: std::array::from_fn(|_| vec![0.0; n]),
+            saved_q: vec![0.0; n],
+            saved_v: vec![0.0; n],
+            prev_q: vec![0.0; n],
+            prev_v: vec![0.0; n],
+            prev_h: 0.0,
+            last_energy: None,
+            last_q: vec![0.0; n],
+            last_v: vec![0.0; n],
+        }
+    }
+
+    /// Forget the state history of the two-step integrator (BDF2): its next step starts
+    /// afresh, with a linearly implicit Euler step. Call it whenever the state is set
+    /// from outside the integrator.
+    pub fn forget_history(&mut self) {
+        self.prev_h = 0.0;
+    }
+}
+
+/// What every strand's step shares: the world's effects and the integrator.
+#[derive(Debug, Clone, Copy)]
+pub struct StepContext {
+    /// Global effects.
+    pub effects: GlobalEffects,
+    /// The time integrator.
+    pub integrator: IntegratorKind,
+}
+
+/// The state of one strand: generalized coordinates q and velocities q̇ (3N each).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct StrandState {
+    /// q, rad/m.
+    pub q: Vec<f64>,
+    /// q̇, rad/(m·s).
+    pub v: Vec<f64>,
+}
+
+/// One strand's system: what travels together through its steps (the strand, its
+/// kernel, its buffers, the step context).
+pub struct StrandSystem {
+    /// The strand.
+    pub strand: Strand,
+    /// Its kernel.
+    pub kernel: Box<dyn StrandKernel>,
+    /// Its buffers.
+    pub workspace: StrandWorkspace,
+    /// The effects and integrator of its steps.
+    pub context: StepContext,
+}
+
+/// What an assembly contained beyond elasticity and friction.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Assembled {
+    /// The stiffness holds field or point-load terms (not only −K).
+    pub field_stiffness: bool,
+    /// The damping holds a skew (gyroscopic, Coriolis) part.
+    pub gyroscopic: bool,
+}
+
+impl StrandSystem {
+    /// The system of `strand` on `kernel`, its buffers sized once.
+    pub fn new(strand: Strand, kernel: Box<dyn StrandKernel>, context: StepContext) -> Self {
+        StrandSystem {
+            workspace: StrandWorkspace::new(&strand),
+            strand,
+            kernel,
+            context,
+        }
+    }
+
+    /// Evaluate the strand's full force F(q, q̇) (kernel terms, elasticity −K(q − q_n),
+    /// internal friction −γ l q̇, point loads Jᵀ f) with the head in state `head`, and the
+    /// requested Jacobians, into `workspace.terms`: `stiffness` = ∂F/∂q (less ∂b/∂q),
+    /// `damping` = ∂F/∂q̇ (less ∂b/∂q̇, which is in `velocity_term_jacobian`).
+    pub fn assemble(&mut self, head: &HeadState, q: &[f64], v: &[f64], terms: Terms) -> Assembled {
+        let StrandSystem {
+            strand,
+            kernel,
+            workspace: ws,
+            context: ctx,
+        } = self;
+        let kernel = kernel.as_mut();
+        let field = body_field(
+            &ctx.effects,
+            head,
+            strand.material.mass_per_length,
+            strand.air_drag,
+        );
+        // the kernel computes only what the scene's effects make non-zero
+        let position_field = field.uniform != Vector3::zeros() || field.has_linear();
+        let velocity_field = field.velocity != nalgebra::Matrix3::zeros();
+        let kernel_terms = Terms {
+            stiffness: terms.stiffness && position_field,
+            damping: terms.damping && velocity_field,
+            ..terms
+        };
+        kernel.evaluate(
+            &EvalInput {
+                q,
+                v,
+                field,
+                terms: kernel_terms,
+            },
+            &mut ws.terms,
+        );
+        let t = &mut ws.terms;
+        let n = q.len();
+        if terms.stiffness && !kernel_terms.stiffness {
+            t.stiffness.fill(0.0);
+        }
+        if terms.damping && !kernel_terms.damping {
+            t.damping.fill(0.0);
+        }
+        if terms.force {
+            for i in 0..n {
+                t.force[i] -= ws.stiffness[i] * (q[i] - strand.natural[i]) + ws.friction[i] * v[i];
+            }
+        }
+        if terms.stiffness {
+            for i in 0..n {
+                t.stiffness[(i, i)] -= ws.stiffness[i];
+            }
+        }
+        if terms.damping {
+            for i in 0..n {
+                t.damping[(i, i)] -= ws.friction[i];
+            }
+        }
+        add_point_loads(
+            &strand.point_loads,
+            &head.rotation,
+            kernel,
+            q,
+            &mut ws.jac,
+            terms,
+            t,
+        );
+        Assembled {
+            field_stiffness: position_field || !strand.point_loads.is_empty(),
+            gyroscopic: ctx.effects.head_moves && head.omega != Vector3::zeros() && terms.damping,
+        }
+    }
+
+    /// Kinetic energy ½ q̇ᵀ M(q) q̇ (relative to the head).
+    pub fn kinetic_energy(&mut self, q: &[f64], v: &[f64]) -> f64 {
+        self.energy_parts(q, v).0
+    }
+
+    /// Total energy T + U + V (gravity and point loads; with a still head), for tests and
+    /// diagnostics.
+    pub fn energy(&mut self, q: &[f64], v: &[f64]) -> f64 {
+        let (kinetic, potential) = self.energy_parts(q, v);
+        kinetic + potential
+    }
+
+    /// (T, U + V) of [`StrandSystem::energy`].
+    fn energy_parts(&mut self, q: &[f64], v: &[f64]) -> (f64, f64) {
+        let StrandSystem {
+            strand,
+            kernel,
+            workspace: ws,
+            context: ctx,
+        } = self;
+        let kernel = kernel.as_mut();
+        let terms = Terms {
+            mass: true,
+            force: true,
+            ..Default::default()
+        };
+        let field = body_field(
+            &ctx.effects,
+            &HeadState::rest(),
+            strand.material.mass_per_length,
+            0.0,
+        );
+        kernel.evaluate(&EvalInput { q, v, field, terms }, &mut ws.terms);
+        let m = &ws.terms.mass;
+        let n = q.len();
+        let mut kinetic = 0.0;
+        for j in 0..n {
+            for i in 0..n {
+                kinetic += 0.5 * v[i] * m[(i, j)] * v[j];
+            }
+        }
+        let elastic: f64 = (0..n)
+            .map(|i| 0.5 * ws.stiffness[i] * (q[i] - strand.natural[i]).powi(2))
+            .sum();
+        let gravity = ctx
+            .effects
+            .gravity
+            .map_or(0.0, |g| -ws.terms.first_moment.dot(&g));
+        let loads = point_load_potential(&strand.point_loads, kernel, q, &mut ws.jac);
+        (kinetic, elastic + gravity + loads)
+    }
+}
+
+/// One (sub)step's time interval [t, t + h] and the head's state at its two ends, each
+/// computed once; halved by [`HeadInterval::first_half`] and
+/// [`HeadInterval::second_half`] when the step is split.
+#[derive(Debug, Clone, Copy)]
+pub struct HeadInterval<'a> {
+    /// The head's motion, for the states inside the interval.
+    pub motion: &'a HeadMotion,
+    /// Start time, s.
+    pub t: f64,
+    /// Length, s.
+    pub h: f64,
+    /// The head at t.
+    pub start: HeadState,
+    /// The head at t + h.
+    pub end: HeadState,
+    /// Whether the head moves uniformly over the interval
+    /// ([`HeadMotion::uniform_over`]).
+    pub uniform: bool,
+    /// How many times the time step was halved to reach this interval.
+    pub depth: usize,
+}
+
+impl<'a> HeadInterval<'a> {
+    /// The interval [t, t + h] of a whole time step.
+    pub fn new(motion: &'a HeadMotion, t: f64, h: f64) -> Self {
+        HeadInterval {
+            motion,
+            t,
+            h,
+            start: motion.state(t),
+            end: motion.state(t + h),
+            uniform: motion.uniform_over(t, t + h),
+            depth: 0,
+        }
+    }
+
+    /// The head's state at t + c h.
+    pub fn state_at(&self, c: f64) -> HeadState {
+        self.motion.state(self.t + c * self.h)
+    }
+
+    /// The first half [t, t + h/2].
+    pub fn first_half(&self) -> Self {
+        let h = 0.5 * self.h;
+        HeadInterval {
+            h,
+            end: self.motion.state(self.t + h),
+            uniform: self.motion.uniform_over(self.t, self.t + h),
+            depth: self.depth + 1,
+            ..*self
+        }
+    }
+
+    /// The second half, following `first` (this interval's [`HeadInterval::first_half`]):
+    /// [t + h/2, t + h/2 + h/2], its end state this interval's when the end time is the
+    /// same number.
+    pub fn second_half(&self, first: &HeadInterval<'a>) -> Self {
+        let t = first.t + first.h;
+        let h = first.h;
+        let end_time = t + h;
+        HeadInterval {
+            motion: self.motion,
+            t,
+            h,
+            start: first.end,
+            end: if end_time == self.t + self.h {
+                self.end
+            } else {
+                self.motion.state(end_time)
+            },
+            uniform: self.motion.uniform_over(t, end_time),
+            depth: first.depth,
+        }
+    }
+}
+
+impl StrandWorkspace {
+    /// The matrix of the linearly implicit step, `M − h D_v + (h/2) B − h² D_q` (see
+    /// [`super::linearly_implicit`]), into `solver.matrix`, from a full assembly in
+    /// `terms`. Leaves H⁻ (the negative semidefinite part of the symmetrised field
+    /// stiffness) in `terms.stiffness`; returns whether D_q holds it (false: no field
+    /// stiffness, or its eigendecomposition failed and it stays explicit, counted in
+    /// [`StepStats::stiffness_dropped`]), for [`StrandWorkspace::apply_dq`].
+    pub(super) fn step_matrix(
+        &mut self,
+        assembled: Assembled,
+        h: f64,
+        stats: &mut StepStats,
+    ) -> bool {
+        let ws = self;
+        let n = ws.stiffness.len();
+        let field_stiffness = assembled.field_stiffness && {
+            // H = sym(stiffness) + K, projected
+            let st = &mut ws.terms.stiffness;
+            for j in 0..n {
+                for i in 0..j {
+                    let m = 0.5 * (st[(i, j)] + st[(j, i)]);
+                    st[(i, j)] = m;
+                    st[(j, i)] = m;
+                }
+                st[(j, j)] += ws.stiffness[j];
+            }
+            let ok = ws
+                .solver
+                .project_negative_semidefinite(&mut ws.terms.stiffness);
+            if !ok {
+                stats.stiffness_dropped += 1;
+            }
+            ok
+        };
+        let t = &ws.terms;
+        // column by column on slices (the same arithmetic as entry by entry)
+        for j in 0..n {
+            let mass = &t.mass.col_as_slice(j)[..n];
+            let damping = &t.damping.col_as_slice(j)[..n];
+            let jacobian = &t.velocity_term_jacobian.col_as_slice(j)[..n];
+            let stiffness = &t.stiffness.col_as_slice(j)[..n];
+            let out = &mut ws.solver.matrix.col_as_slice_mut(j)[..n];
+            for i in 0..n {
+                let mut dq = if field_stiffness { stiffness[i] } else { 0.0 };
+                if i == j {
+                    dq -= ws.stiffness[i];
+                }
+                out[i] = mass[i] - h * damping[i] + 0.5 * h * jacobian[i] - h * h * dq;
+            }
+        }
+        field_stiffness
+    }
+
+    /// `out = (H⁻ − K) x` with H⁻ as left by [`StrandWorkspace::step_matrix`] (in
+    /// `terms.stiffness` when `field_stiffness`).
+    pub(super) fn apply_dq(&self, field_stiffness: bool, x: &[f64], out: &mut [f64]) {
+        let n = x.len();
+        for i in 0..n {
+            out[i] = -self.stiffness[i] * x[i];
+        }
+        if field_stiffness {
+            let h = &self.terms.stiffness;
+            for j in 0..n {
+                let xj = x[j];
+                for i in 0..n {
+                    out[i] += h[(i, j)] * xj;
+                }
+            }
+        }
+    }
+}
