@@ -55,5 +55,5 @@ pub use strand::{PointLoad, Strand, StrandGeometry};
 pub use head_motion::{Keyframe, KeyframeTrack};
 /// Re-exported so that users of the trait need not name nalgebra themselves.
 pub use nalgebra::{Matrix3, Vector3};
-pub use output::{run_to_frames, write_frames, FrameSource, Frames, RunSummary, StrandFrames};
+pub use output::{run_to_frames, FrameSource, Frames, RunSummary, StrandFrames};
 pub use scene::{parse_scene, validate_scene};

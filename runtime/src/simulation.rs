@@ -132,6 +132,9 @@ pub struct StrandSetup {
     pub strand: Strand,
     /// Initial generalized coordinates (3N).
     pub q0: Vec<f64>,
+    /// Output group (one USD prim and one preview colour per group): the patch name for
+    /// the strands of a patch, by default the strand's own name.
+    pub group: String,
 }
 
 /// Everything needed to build a [`Simulation`]; what a scene file becomes.
@@ -147,6 +150,8 @@ pub struct SimulationSetup {
     pub strands: Vec<StrandSetup>,
     /// Centreline points written per element (plus the root) in outputs.
     pub samples_per_element: usize,
+    /// The scene's `[output]` formats and size limit.
+    pub output: crate::output::OutputSettings,
 }
 
 /// One strand of a running simulation: its model, kernel, state and buffers.
@@ -157,6 +162,7 @@ struct StrandSim {
     q: Vec<f64>,
     v: Vec<f64>,
     stats: StepStats,
+    group: String,
 }
 
 /// A running simulation. Built from a [`SimulationSetup`]; advanced by [`Simulation::step`].
@@ -283,6 +289,7 @@ impl Simulation {
                 v: vec![0.0; n],
                 strand: s.strand,
                 stats: StepStats::default(),
+                group: s.group,
             });
         }
         Ok(Simulation {
@@ -495,6 +502,12 @@ impl crate::output::FrameSource for Simulation {
     }
     fn strand_name(&self, i: usize) -> &str {
         &self.strands[i].strand.name
+    }
+    fn strand_group(&self, i: usize) -> &str {
+        &self.strands[i].group
+    }
+    fn strand_radius(&self, i: usize) -> f64 {
+        crate::output::driver::display_radius(&self.strands[i].strand.material)
     }
     fn q(&self, i: usize) -> &[f64] {
         &self.strands[i].q
