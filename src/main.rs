@@ -303,7 +303,7 @@ fn run(
         }
         StopReason::Failed(e) => {
             eprintln!("error: {e}");
-            eprintln!("stopped at t = {:.3} s: {kept}", outcome.time);
+            eprintln!("{kept}");
             Ok(ExitCode::FAILURE)
         }
     }
