@@ -17,6 +17,14 @@ use std::fmt;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+pub mod frames;
+pub mod npy;
+pub mod obj;
+pub mod plan;
+pub mod preview;
+pub mod products;
+pub mod usd;
+
 /// What the driver needs of a running simulation. Strand indices run over
 /// `0..strand_count()`.
 pub trait FrameSource {
