@@ -10,6 +10,7 @@ pub mod bench;
 pub mod compare;
 pub mod cpu_time;
 pub mod quadrature_table;
+pub mod render;
 pub mod stress;
 pub mod study;
 pub mod study_plot;

@@ -16,15 +16,32 @@ fn check_usd(dir: &Path) -> (bool, String) {
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/check_usd.py");
     let out = match Command::new("python3").arg(script).arg(dir).output() {
         Ok(out) => out,
-        Err(e) => panic!("cannot run python3 ({e}): install Python 3, then `pip install usd-core numpy`"),
+        Err(e) => {
+            panic!("cannot run python3 ({e}): install Python 3, then `pip install usd-core numpy`")
+        }
     };
-    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
-    assert_ne!(out.status.code(), Some(2), "the USD check cannot run: `pip install usd-core numpy`\n{text}");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_ne!(
+        out.status.code(),
+        Some(2),
+        "the USD check cannot run: `pip install usd-core numpy`\n{text}"
+    );
     (out.status.success(), text)
 }
 
 fn usda_only() -> Formats {
-    Formats { json: false, npy: true, usda: true, png: false, gif: false, obj: false }
+    Formats {
+        json: false,
+        npy: true,
+        usda: true,
+        png: false,
+        gif: false,
+        obj: false,
+    }
 }
 
 #[test]
@@ -34,25 +51,39 @@ fn pxr_reads_the_points_of_every_group_at_several_times() {
     assert_eq!(layout.groups(), ["solo", "front", "back"]);
     let mut store = NpyFrameStore::open(&dir).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(store.frame_count(), 7);
-    write_products(&mut store, &usda_only(), &dir, &PreviewOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    write_products(&mut store, &usda_only(), &dir, &PreviewOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"));
     let (passed, text) = check_usd(&dir);
     assert!(passed, "{text}");
-    assert!(text.contains("3 BasisCurves prims, 7 frames, time codes [0, 3, 6]"), "{text}");
+    assert!(
+        text.contains("3 BasisCurves prims, 7 frames, time codes [0, 3, 6]"),
+        "{text}"
+    );
 
     // the check fails when one coordinate of the middle frame is off by 2e-6 m
     let usda = dir.join("hair.usda");
     let original = std::fs::read_to_string(&usda).unwrap_or_else(|e| panic!("{e}"));
     let mut points = Vec::new();
-    store.points(3, &mut points).unwrap_or_else(|e| panic!("{e}"));
+    store
+        .points(3, &mut points)
+        .unwrap_or_else(|e| panic!("{e}"));
     let offsets = layout.point_offsets();
     // strand "front_1_0" (index 2) is the second curve of the "front" prim
     let p = points[offsets[2] + 4];
     let fmt = |x: f64| superhelix::runtime::output::usd::format_f32(x as f32);
     let old = format!("({}, {}, {})", fmt(p[0]), fmt(p[1]), fmt(p[2]));
     let new = format!("({}, {}, {})", fmt(p[0]), fmt(p[1]), fmt(p[2] + 2e-6));
-    let front = original.find("def BasisCurves \"front\"").unwrap_or_else(|| panic!("no front prim"));
-    let frame3 = front + original[front..].find("            3: [").unwrap_or_else(|| panic!("no frame 3"));
-    let at = frame3 + original[frame3..].find(&old).unwrap_or_else(|| panic!("{old} not in frame 3"));
+    let front = original
+        .find("def BasisCurves \"front\"")
+        .unwrap_or_else(|| panic!("no front prim"));
+    let frame3 = front
+        + original[front..]
+            .find("            3: [")
+            .unwrap_or_else(|| panic!("no frame 3"));
+    let at = frame3
+        + original[frame3..]
+            .find(&old)
+            .unwrap_or_else(|| panic!("{old} not in frame 3"));
     let broken = format!("{}{}{}", &original[..at], new, &original[at + old.len()..]);
     std::fs::write(&usda, broken).unwrap_or_else(|e| panic!("{e}"));
     let (passed, text) = check_usd(&dir);

@@ -44,7 +44,8 @@ elements = 2
 
 /// A fresh scratch directory.
 pub fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("superhelix-writers-{}-{name}", std::process::id()));
+    let dir =
+        std::env::temp_dir().join(format!("superhelix-writers-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
     dir
@@ -95,7 +96,13 @@ pub fn simulate_to_npy(scene: &str, dir: &Path) -> FrameLayout {
             points.extend(sim.centreline_world(i, spe));
             q.extend_from_slice(sim.q(i));
         }
-        let view = FrameView { index: k, time: t, state_time: sim.time(), points: &points, q: &q };
+        let view = FrameView {
+            index: k,
+            time: t,
+            state_time: sim.time(),
+            points: &points,
+            q: &q,
+        };
         sink.write_frame(&view).unwrap_or_else(|e| panic!("{e}"));
     }
     sink.finish().unwrap_or_else(|e| panic!("{e}"));

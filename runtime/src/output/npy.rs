@@ -175,7 +175,8 @@ impl NpyFrameSink {
         let json = serde_json::to_vec_pretty(layout).map_err(|e| io_error(&index, e.into()))?;
         write_atomically(&index, &json)?;
         let total_points = layout.total_points();
-        let points = GrowingNpy::create(dir.join(NPY_FILE), "<f4", 4, vec![total_points as u64, 3])?;
+        let points =
+            GrowingNpy::create(dir.join(NPY_FILE), "<f4", 4, vec![total_points as u64, 3])?;
         let times = GrowingNpy::create(dir.join(TIMES_FILE), "<f8", 8, vec![2])?;
         Ok(Self {
             points,
@@ -261,8 +262,7 @@ fn read_header(file: &mut File, path: &Path) -> Result<NpyHeader> {
         1 => (u16::from_le_bytes([pre[8], pre[9]]) as usize, PREAMBLE),
         2 | 3 => {
             let mut more = [0u8; 2];
-            file.read_exact(&mut more)
-                .map_err(|e| io_error(path, e))?;
+            file.read_exact(&mut more).map_err(|e| io_error(path, e))?;
             (
                 u32::from_le_bytes([pre[8], pre[9], more[0], more[1]]) as usize,
                 PREAMBLE + 2,
@@ -340,7 +340,12 @@ impl NpyFrameStore {
             .file_name()
             .and_then(|n| n.to_str())
             .and_then(|n| n.strip_suffix(".npy"))
-            .ok_or_else(|| bad_file(&npy, "expected a .npy file or a directory holding frames.npy"))?
+            .ok_or_else(|| {
+                bad_file(
+                    &npy,
+                    "expected a .npy file or a directory holding frames.npy",
+                )
+            })?
             .to_string();
         let times_path = npy.with_file_name(format!("{stem}.times.npy"));
         let index_path = npy.with_file_name(format!("{stem}.index.json"));
@@ -356,12 +361,22 @@ impl NpyFrameStore {
         let mut file = File::open(&npy).map_err(|e| io_error(&npy, e))?;
         let header = read_header(&mut file, &npy)?;
         if header.descr != "<f4" || header.fortran_order {
-            return Err(bad_file(&npy, format!("expected little-endian float32 in C order ('<f4'), found '{}'", header.descr)));
+            return Err(bad_file(
+                &npy,
+                format!(
+                    "expected little-endian float32 in C order ('<f4'), found '{}'",
+                    header.descr
+                ),
+            ));
         }
         if header.shape.len() != 3 || header.shape[1] != total_points || header.shape[2] != 3 {
             return Err(bad_file(
                 &npy,
-                format!("shape {:?} does not match [frames, {total_points}, 3] of {}", header.shape, index_path.display()),
+                format!(
+                    "shape {:?} does not match [frames, {total_points}, 3] of {}",
+                    header.shape,
+                    index_path.display()
+                ),
             ));
         }
         let len = file.metadata().map_err(|e| io_error(&npy, e))?.len();
@@ -369,10 +384,20 @@ impl NpyFrameStore {
 
         let mut tfile = File::open(&times_path).map_err(|e| io_error(&times_path, e))?;
         let theader = read_header(&mut tfile, &times_path)?;
-        if theader.descr != "<f8" || theader.fortran_order || theader.shape.len() != 2 || theader.shape[1] != 2 {
-            return Err(bad_file(&times_path, "expected little-endian float64 of shape [frames, 2]"));
+        if theader.descr != "<f8"
+            || theader.fortran_order
+            || theader.shape.len() != 2
+            || theader.shape[1] != 2
+        {
+            return Err(bad_file(
+                &times_path,
+                "expected little-endian float64 of shape [frames, 2]",
+            ));
         }
-        let tlen = tfile.metadata().map_err(|e| io_error(&times_path, e))?.len();
+        let tlen = tfile
+            .metadata()
+            .map_err(|e| io_error(&times_path, e))?
+            .len();
         let time_frames = rows_present(&theader, tlen, 16);
         let frames = point_frames.min(time_frames);
         let mut bytes = vec![0u8; 16 * frames];
@@ -426,7 +451,11 @@ impl FrameStore for NpyFrameStore {
         if k >= self.frames {
             return Err(Error::invalid(
                 "frame",
-                format!("frame {k} does not exist: {} holds frames 0..{}", self.path.display(), self.frames),
+                format!(
+                    "frame {k} does not exist: {} holds frames 0..{}",
+                    self.path.display(),
+                    self.frames
+                ),
             ));
         }
         let n = self.layout.total_points();
@@ -451,7 +480,8 @@ mod tests {
     use crate::output::frames::StrandInfo;
 
     fn scratch(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("superhelix-npy-{}-{name}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("superhelix-npy-{}-{name}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         dir
     }
@@ -547,7 +577,9 @@ mod tests {
             assert_eq!(h.shape, vec![frames as u64, 14, 3]);
             assert_eq!(h.descr, "<f4");
             assert!(!h.fortran_order);
-            let len = std::fs::metadata(dir.join(NPY_FILE)).map(|m| m.len()).unwrap_or(0);
+            let len = std::fs::metadata(dir.join(NPY_FILE))
+                .map(|m| m.len())
+                .unwrap_or(0);
             assert_eq!(len, h.data_start + (frames * 14 * 12) as u64);
             let t = header_of(&dir.join(TIMES_FILE));
             assert_eq!(t.shape, vec![frames as u64, 2]);
@@ -563,8 +595,12 @@ mod tests {
         let path = dir.join(NPY_FILE);
         let start = header_of(&path).data_start;
         // two and a half frames of data, the header still claiming three
-        let file = std::fs::OpenOptions::new().write(true).open(&path).unwrap_or_else(|e| panic!("{e}"));
-        file.set_len(start + (14 * 12 * 5 / 2) as u64).unwrap_or_else(|e| panic!("{e}"));
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .open(&path)
+            .unwrap_or_else(|e| panic!("{e}"));
+        file.set_len(start + (14 * 12 * 5 / 2) as u64)
+            .unwrap_or_else(|e| panic!("{e}"));
         drop(file);
         let mut store = open(&dir);
         assert_eq!(store.frame_count(), 2);
@@ -587,7 +623,8 @@ mod tests {
             assert_eq!(&bytes[6..8], &[1, 0], "{name}: version 1.0");
             let len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
             assert_eq!((10 + len) % 64, 0, "{name}: data aligned to 64 bytes");
-            let header = std::str::from_utf8(&bytes[10..10 + len]).unwrap_or_else(|e| panic!("{e}"));
+            let header =
+                std::str::from_utf8(&bytes[10..10 + len]).unwrap_or_else(|e| panic!("{e}"));
             assert!(header.is_ascii());
             assert!(header.ends_with('\n'), "{name}: header ends with a newline");
             assert_eq!(
@@ -603,7 +640,13 @@ mod tests {
         let dir = scratch("wrong-size");
         let mut sink = write(&dir, 1);
         let points = frame_points(1, 3);
-        let view = FrameView { index: 1, time: 0.0, state_time: 0.0, points: &points, q: &[] };
+        let view = FrameView {
+            index: 1,
+            time: 0.0,
+            state_time: 0.0,
+            points: &points,
+            q: &[],
+        };
         assert!(matches!(sink.write_frame(&view), Err(Error::Invalid(_))));
         assert_eq!(sink.frames_written(), 1);
     }
@@ -614,7 +657,10 @@ mod tests {
         drop(write(&dir, 1));
         std::fs::write(dir.join(NPY_FILE), b"hello").unwrap_or_else(|e| panic!("{e}"));
         match NpyFrameStore::open(&dir) {
-            Err(e) => assert!(e.to_string().contains("frames.npy") && e.to_string().contains("not an .npy"), "{e}"),
+            Err(e) => assert!(
+                e.to_string().contains("frames.npy") && e.to_string().contains("not an .npy"),
+                "{e}"
+            ),
             Ok(_) => panic!("opened a file that is not npy"),
         }
     }

@@ -29,7 +29,11 @@ pub fn obj_text(store: &mut dyn FrameStore, frame: usize) -> Result<String> {
     );
     for (i, strand) in layout.strands.iter().enumerate() {
         // OBJ names end at the line: keep them on one line
-        let name: String = strand.name.chars().map(|c| if c.is_whitespace() { '_' } else { c }).collect();
+        let name: String = strand
+            .name
+            .chars()
+            .map(|c| if c.is_whitespace() { '_' } else { c })
+            .collect();
         let _ = writeln!(text, "o {name}");
         let range = offsets[i]..offsets[i + 1];
         for p in points.get(range.clone()).unwrap_or(&[]) {
@@ -56,7 +60,10 @@ pub fn obj_text(store: &mut dyn FrameStore, frame: usize) -> Result<String> {
 pub fn write_obj(path: &Path, store: &mut dyn FrameStore) -> Result<()> {
     let frames = store.frame_count();
     if frames == 0 {
-        return Err(Error::invalid("frames", "no frame to write: the run wrote none"));
+        return Err(Error::invalid(
+            "frames",
+            "no frame to write: the run wrote none",
+        ));
     }
     let text = obj_text(store, frames - 1)?;
     write_atomically(path, text.as_bytes())

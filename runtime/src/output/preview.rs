@@ -170,7 +170,11 @@ impl PreviewOptions {
             if !SIZE_RANGE.contains(&v) {
                 problems.push(crate::error::FieldError::new(
                     format!("{prefix}{name}"),
-                    format!("{v} is out of range: must be in {}..={} pixels", SIZE_RANGE.start(), SIZE_RANGE.end()),
+                    format!(
+                        "{v} is out of range: must be in {}..={} pixels",
+                        SIZE_RANGE.start(),
+                        SIZE_RANGE.end()
+                    ),
                 ));
             }
         }
@@ -182,7 +186,11 @@ impl PreviewOptions {
         } else if self.width / (self.views.len() as u32) < 32 {
             problems.push(crate::error::FieldError::new(
                 format!("{prefix}width"),
-                format!("{} pixels leave less than 32 per view for {} views", self.width, self.views.len()),
+                format!(
+                    "{} pixels leave less than 32 per view for {} views",
+                    self.width,
+                    self.views.len()
+                ),
             ));
         }
         if self.gif_max_frames == 0 {
@@ -192,7 +200,9 @@ impl PreviewOptions {
             ));
         }
         for (i, b) in self.bodies.iter().enumerate() {
-            if !b.centre.iter().chain(&b.radii).all(|v| v.is_finite()) || b.radii.iter().any(|&r| r < 0.0) {
+            if !b.centre.iter().chain(&b.radii).all(|v| v.is_finite())
+                || b.radii.iter().any(|&r| r < 0.0)
+            {
                 problems.push(crate::error::FieldError::new(
                     format!("{prefix}bodies[{i}]"),
                     "centre must be finite and radii finite and >= 0",
@@ -281,7 +291,10 @@ impl Camera {
     /// The camera showing `bounds` whole in every panel of `options`.
     pub fn fit(bounds: &Bounds, options: &PreviewOptions) -> Camera {
         let b = if bounds.is_empty() {
-            Bounds { lo: [-0.1; 3], hi: [0.1; 3] }
+            Bounds {
+                lo: [-0.1; 3],
+                hi: [0.1; 3],
+            }
         } else {
             *bounds
         };
@@ -350,7 +363,10 @@ pub fn render_frame(
     label: Option<&str>,
 ) -> Result<Pixmap> {
     let mut pixmap = Pixmap::new(camera.width, camera.height).ok_or_else(|| {
-        Error::invalid("width", format!("cannot make a {} x {} picture", camera.width, camera.height))
+        Error::invalid(
+            "width",
+            format!("cannot make a {} x {} picture", camera.width, camera.height),
+        )
     })?;
     pixmap.fill(Color::WHITE);
     let groups = layout.groups();
@@ -361,17 +377,39 @@ pub fn render_frame(
         let x0 = camera.panel_width * i as f64 + 4.0;
         let x1 = camera.panel_width * (i + 1) as f64 - 4.0;
         let (y0, y1) = (4.0, camera.height as f64 - BOTTOM + 6.0);
-        if let Some(rect) = Rect::from_ltrb(x0 as f32 + 0.5, y0 as f32 + 0.5, x1 as f32 - 0.5, y1 as f32 - 0.5) {
+        if let Some(rect) = Rect::from_ltrb(
+            x0 as f32 + 0.5,
+            y0 as f32 + 0.5,
+            x1 as f32 - 0.5,
+            y1 as f32 - 0.5,
+        ) {
             let path = PathBuilder::from_rect(rect);
-            pixmap.stroke_path(&path, &paint([FRAME_GREY; 3]), &fine, Transform::identity(), None);
+            pixmap.stroke_path(
+                &path,
+                &paint([FRAME_GREY; 3]),
+                &fine,
+                Transform::identity(),
+                None,
+            );
         }
         // bodies
         for b in bodies {
             let (r, u) = camera.views[i].axes();
             let (cx, cy) = camera.project(i, b.centre);
-            let (rx, ry) = ((b.radii[r] * camera.scale) as f32, (b.radii[u] * camera.scale) as f32);
-            if let Some(path) = Rect::from_ltrb(cx - rx, cy - ry, cx + rx, cy + ry).and_then(PathBuilder::from_oval) {
-                pixmap.fill_path(&path, &paint([BODY_GREY; 3]), FillRule::Winding, Transform::identity(), None);
+            let (rx, ry) = (
+                (b.radii[r] * camera.scale) as f32,
+                (b.radii[u] * camera.scale) as f32,
+            );
+            if let Some(path) =
+                Rect::from_ltrb(cx - rx, cy - ry, cx + rx, cy + ry).and_then(PathBuilder::from_oval)
+            {
+                pixmap.fill_path(
+                    &path,
+                    &paint([BODY_GREY; 3]),
+                    FillRule::Winding,
+                    Transform::identity(),
+                    None,
+                );
             }
         }
         // strands, one path per group
@@ -398,7 +436,13 @@ pub fn render_frame(
             }
             if let Some(path) = pb.finish() {
                 let w = width.min(12.0) as f32;
-                pixmap.stroke_path(&path, &paint(group_colour(g)), &stroke(w), Transform::identity(), None);
+                pixmap.stroke_path(
+                    &path,
+                    &paint(group_colour(g)),
+                    &stroke(w),
+                    Transform::identity(),
+                    None,
+                );
             }
         }
     }
@@ -449,7 +493,13 @@ fn draw_scale_bar(pixmap: &mut Pixmap, camera: &Camera) {
     pb.line_to(x0 + px, y);
     pb.line_to(x0 + px, y - 4.0);
     if let Some(path) = pb.finish() {
-        pixmap.stroke_path(&path, &paint([INK_GREY; 3]), &stroke(1.5), Transform::identity(), None);
+        pixmap.stroke_path(
+            &path,
+            &paint([INK_GREY; 3]),
+            &stroke(1.5),
+            Transform::identity(),
+            None,
+        );
     }
     draw_text(pixmap, &label, x0 + px + 8.0, y - 10.0, 10.0);
 }
@@ -457,21 +507,33 @@ fn draw_scale_bar(pixmap: &mut Pixmap, camera: &Camera) {
 /// Strokes of a glyph on a 4 × 6 grid (y down; lower case on rows 2..6).
 fn glyph(c: char) -> &'static [&'static [(f32, f32)]] {
     match c {
-        '0' => &[&[(0., 0.), (4., 0.), (4., 6.), (0., 6.), (0., 0.)], &[(4., 0.), (0., 6.)]],
+        '0' => &[
+            &[(0., 0.), (4., 0.), (4., 6.), (0., 6.), (0., 0.)],
+            &[(4., 0.), (0., 6.)],
+        ],
         '1' => &[&[(1., 1.), (2., 0.), (2., 6.)], &[(1., 6.), (3., 6.)]],
         '2' => &[&[(0., 0.), (4., 0.), (4., 3.), (0., 3.), (0., 6.), (4., 6.)]],
-        '3' => &[&[(0., 0.), (4., 0.), (4., 6.), (0., 6.)], &[(1., 3.), (4., 3.)]],
+        '3' => &[
+            &[(0., 0.), (4., 0.), (4., 6.), (0., 6.)],
+            &[(1., 3.), (4., 3.)],
+        ],
         '4' => &[&[(0., 0.), (0., 3.), (4., 3.)], &[(4., 0.), (4., 6.)]],
         '5' => &[&[(4., 0.), (0., 0.), (0., 3.), (4., 3.), (4., 6.), (0., 6.)]],
         '6' => &[&[(4., 0.), (0., 0.), (0., 6.), (4., 6.), (4., 3.), (0., 3.)]],
         '7' => &[&[(0., 0.), (4., 0.), (1.5, 6.)]],
-        '8' => &[&[(0., 0.), (4., 0.), (4., 6.), (0., 6.), (0., 0.)], &[(0., 3.), (4., 3.)]],
+        '8' => &[
+            &[(0., 0.), (4., 0.), (4., 6.), (0., 6.), (0., 0.)],
+            &[(0., 3.), (4., 3.)],
+        ],
         '9' => &[&[(4., 3.), (0., 3.), (0., 0.), (4., 0.), (4., 6.), (0., 6.)]],
         '.' => &[&[(1.5, 5.5), (2., 6.)]],
         '=' => &[&[(0., 2.5), (4., 2.5)], &[(0., 4.5), (4., 4.5)]],
         '-' => &[&[(0., 3.5), (4., 3.5)]],
         'c' => &[&[(4., 2.), (0., 2.), (0., 6.), (4., 6.)]],
-        'm' => &[&[(0., 6.), (0., 2.), (4., 2.), (4., 6.)], &[(2., 2.), (2., 6.)]],
+        'm' => &[
+            &[(0., 6.), (0., 2.), (4., 2.), (4., 6.)],
+            &[(2., 2.), (2., 6.)],
+        ],
         's' => &[&[(4., 2.), (0., 2.), (0., 4.), (4., 4.), (4., 6.), (0., 6.)]],
         't' => &[&[(1.5, 0.), (1.5, 6.), (4., 6.)], &[(0., 2.), (3.5, 2.)]],
         _ => &[],
@@ -496,7 +558,13 @@ fn draw_text(pixmap: &mut Pixmap, text: &str, x: f32, y: f32, height: f32) {
         }
     }
     if let Some(path) = pb.finish() {
-        pixmap.stroke_path(&path, &paint([INK_GREY; 3]), &stroke(1.3), Transform::identity(), None);
+        pixmap.stroke_path(
+            &path,
+            &paint([INK_GREY; 3]),
+            &stroke(1.3),
+            Transform::identity(),
+            None,
+        );
     }
 }
 
@@ -555,7 +623,10 @@ struct Quantizer {
 
 impl Quantizer {
     fn new(palette: Vec<[u8; 3]>) -> Self {
-        Self { palette, seen: HashMap::new() }
+        Self {
+            palette,
+            seen: HashMap::new(),
+        }
     }
 
     fn index(&mut self, rgb: [u8; 3]) -> u8 {
@@ -564,7 +635,9 @@ impl Quantizer {
         }
         let mut best = (u32::MAX, 0usize);
         for (i, p) in self.palette.iter().enumerate() {
-            let d: u32 = (0..3).map(|c| (p[c] as i32 - rgb[c] as i32).pow(2) as u32).sum();
+            let d: u32 = (0..3)
+                .map(|c| (p[c] as i32 - rgb[c] as i32).pow(2) as u32)
+                .sum();
             if d < best.0 {
                 best = (d, i);
             }
@@ -577,7 +650,9 @@ impl Quantizer {
 
     /// Palette indices of an opaque RGBA picture.
     fn indices(&mut self, rgba: &[u8]) -> Vec<u8> {
-        rgba.chunks_exact(4).map(|p| self.index([p[0], p[1], p[2]])).collect()
+        rgba.chunks_exact(4)
+            .map(|p| self.index([p[0], p[1], p[2]]))
+            .collect()
     }
 }
 
@@ -607,7 +682,11 @@ pub fn write_gif(
 ) -> Result<()> {
     let count = store.frame_count();
     let frames = gif_frames(count, options.gif_max_frames);
-    let step = if frames.len() > 1 { frames[1] - frames[0] } else { 1 };
+    let step = if frames.len() > 1 {
+        frames[1] - frames[0]
+    } else {
+        1
+    };
     let fps = store.layout().output_fps;
     let delay = ((100.0 * step as f64 / fps).round() as u16).max(2);
     let tmp = temporary_path(path);
@@ -623,13 +702,21 @@ pub fn write_gif(
     })?;
     let (w, h) = (camera.width as u16, camera.height as u16);
     let mut encoder = gif::Encoder::new(BufWriter::new(file), w, h, &flat).map_err(gif_error)?;
-    encoder.set_repeat(gif::Repeat::Infinite).map_err(gif_error)?;
+    encoder
+        .set_repeat(gif::Repeat::Infinite)
+        .map_err(gif_error)?;
     let mut quantizer = Quantizer::new(palette);
     let mut points = Vec::new();
     for &k in &frames {
         store.points(k, &mut points)?;
         let label = time_label(store.time(k));
-        let pixmap = render_frame(store.layout(), &points, camera, &options.bodies, Some(&label))?;
+        let pixmap = render_frame(
+            store.layout(),
+            &points,
+            camera,
+            &options.bodies,
+            Some(&label),
+        )?;
         let frame = gif::Frame {
             width: w,
             height: h,
@@ -660,20 +747,31 @@ mod tests {
 
     #[test]
     fn views_parse_and_name_what_is_allowed() {
-        assert_eq!(View::parse_list("front,side,top"), Ok(vec![View::Front, View::Side, View::Top]));
+        assert_eq!(
+            View::parse_list("front,side,top"),
+            Ok(vec![View::Front, View::Side, View::Top])
+        );
         assert_eq!(View::parse_list(" top "), Ok(vec![View::Top]));
-        assert!(View::parse_list("front,back").is_err_and(|e| e.contains("'back'") && e.contains("front, side, top")));
+        assert!(View::parse_list("front,back")
+            .is_err_and(|e| e.contains("'back'") && e.contains("front, side, top")));
         assert!(View::parse_list("side,side").is_err());
     }
 
     #[test]
     fn options_out_of_range_name_their_field() {
-        let mut o = PreviewOptions { width: 10, ..PreviewOptions::default() };
-        assert!(o.check("--").is_err_and(|e| e.to_string().contains("--width")));
+        let mut o = PreviewOptions {
+            width: 10,
+            ..PreviewOptions::default()
+        };
+        assert!(o
+            .check("--")
+            .is_err_and(|e| e.to_string().contains("--width")));
         o.width = 1200;
         assert!(o.check("--").is_ok());
         o.views.clear();
-        assert!(o.check("output.").is_err_and(|e| e.to_string().contains("output.views")));
+        assert!(o
+            .check("output.")
+            .is_err_and(|e| e.to_string().contains("output.views")));
     }
 
     #[test]
@@ -698,12 +796,26 @@ mod tests {
     fn the_gif_palette_holds_the_drawing_colours_exactly() {
         let p = gif_palette();
         assert!(p.len() <= 256, "{}", p.len());
-        for c in PALETTE.iter().chain(&[[255; 3], [BODY_GREY; 3], [FRAME_GREY; 3], [INK_GREY; 3]]) {
+        for c in PALETTE
+            .iter()
+            .chain(&[[255; 3], [BODY_GREY; 3], [FRAME_GREY; 3], [INK_GREY; 3]])
+        {
             let mut q = Quantizer::new(p.clone());
             let i = q.index(*c) as usize;
-            let d: i32 = (0..3).map(|k| (p[i][k] as i32 - c[k] as i32).abs()).max().unwrap_or(0);
+            let d: i32 = (0..3)
+                .map(|k| (p[i][k] as i32 - c[k] as i32).abs())
+                .max()
+                .unwrap_or(0);
             // greys are 255/31 apart: the nearest is within 4 levels; group colours exact
-            assert!(d <= if PALETTE.contains(c) || *c == [255; 3] { 0 } else { 4 }, "{c:?} -> {:?}", p[i]);
+            assert!(
+                d <= if PALETTE.contains(c) || *c == [255; 3] {
+                    0
+                } else {
+                    4
+                },
+                "{c:?} -> {:?}",
+                p[i]
+            );
         }
     }
 }

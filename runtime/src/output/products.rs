@@ -32,7 +32,10 @@ pub fn write_products(
     if shown >= count {
         return Err(Error::invalid(
             "preview.frame",
-            format!("{shown} is out of range: the run wrote frames 0..={}", count - 1),
+            format!(
+                "{shown} is out of range: the run wrote frames 0..={}",
+                count - 1
+            ),
         ));
     }
     std::fs::create_dir_all(dir).map_err(|source| Error::Io {
@@ -108,7 +111,11 @@ mod tests {
             coordinates: 3,
         };
         let layout = FrameLayout {
-            strands: vec![strand("l0", "left"), strand("r 0", "right"), strand("l1", "left")],
+            strands: vec![
+                strand("l0", "left"),
+                strand("r 0", "right"),
+                strand("l1", "left"),
+            ],
             output_fps: 25.0,
             planned_frames: frames,
         };
@@ -118,7 +125,15 @@ mod tests {
                 let swing = 0.05 * (k as f64 * 0.3).sin();
                 roots
                     .iter()
-                    .flat_map(|&x| (0..5).map(move |j| [x + swing * j as f64 / 4.0, 0.01 * j as f64, -0.05 * j as f64]))
+                    .flat_map(|&x| {
+                        (0..5).map(move |j| {
+                            [
+                                x + swing * j as f64 / 4.0,
+                                0.01 * j as f64,
+                                -0.05 * j as f64,
+                            ]
+                        })
+                    })
                     .collect()
             })
             .collect();
@@ -126,13 +141,21 @@ mod tests {
     }
 
     fn scratch(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("superhelix-products-{}-{name}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("superhelix-products-{}-{name}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         dir
     }
 
     fn all() -> Formats {
-        Formats { json: false, npy: false, usda: true, png: true, gif: true, obj: true }
+        Formats {
+            json: false,
+            npy: false,
+            usda: true,
+            png: true,
+            gif: true,
+            obj: true,
+        }
     }
 
     fn ok<T>(r: Result<T>) -> T {
@@ -147,34 +170,98 @@ mod tests {
     fn every_product_is_written_and_nothing_else() {
         let dir = scratch("all");
         let mut s = store(12);
-        let files = ok(write_products(&mut s, &all(), &dir, &PreviewOptions::default()));
-        let names: Vec<_> = files.iter().filter_map(|f| f.file_name()?.to_str()).collect();
-        assert_eq!(names, ["hair.usda", "preview.png", "preview_first.png", "preview.gif", "last_frame.obj"]);
+        let files = ok(write_products(
+            &mut s,
+            &all(),
+            &dir,
+            &PreviewOptions::default(),
+        ));
+        let names: Vec<_> = files
+            .iter()
+            .filter_map(|f| f.file_name()?.to_str())
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "hair.usda",
+                "preview.png",
+                "preview_first.png",
+                "preview.gif",
+                "last_frame.obj"
+            ]
+        );
         let mut present: Vec<_> = std::fs::read_dir(&dir)
-            .map(|d| d.filter_map(|e| e.ok()?.file_name().into_string().ok()).collect())
+            .map(|d| {
+                d.filter_map(|e| e.ok()?.file_name().into_string().ok())
+                    .collect()
+            })
             .unwrap_or_default();
         present.sort();
         // no temporary file is left
-        assert_eq!(present, ["hair.usda", "last_frame.obj", "preview.gif", "preview.png", "preview_first.png"]);
-        let only_obj = Formats { usda: false, png: false, gif: false, ..all() };
+        assert_eq!(
+            present,
+            [
+                "hair.usda",
+                "last_frame.obj",
+                "preview.gif",
+                "preview.png",
+                "preview_first.png"
+            ]
+        );
+        let only_obj = Formats {
+            usda: false,
+            png: false,
+            gif: false,
+            ..all()
+        };
         let dir2 = scratch("obj-only");
-        assert_eq!(ok(write_products(&mut s, &only_obj, &dir2, &PreviewOptions::default())).len(), 1);
-        assert!(ok(write_products(&mut store(0), &all(), &scratch("none"), &PreviewOptions::default())).is_empty());
+        assert_eq!(
+            ok(write_products(
+                &mut s,
+                &only_obj,
+                &dir2,
+                &PreviewOptions::default()
+            ))
+            .len(),
+            1
+        );
+        assert!(ok(write_products(
+            &mut store(0),
+            &all(),
+            &scratch("none"),
+            &PreviewOptions::default()
+        ))
+        .is_empty());
     }
 
     #[test]
     fn a_frame_out_of_range_is_refused() {
-        let view = PreviewOptions { frame: Some(12), ..PreviewOptions::default() };
+        let view = PreviewOptions {
+            frame: Some(12),
+            ..PreviewOptions::default()
+        };
         let e = write_products(&mut store(12), &all(), &scratch("frame"), &view);
-        assert!(e.is_err_and(|e| e.to_string().contains("preview.frame") && e.to_string().contains("0..=11")));
+        assert!(e.is_err_and(
+            |e| e.to_string().contains("preview.frame") && e.to_string().contains("0..=11")
+        ));
     }
 
     #[test]
     fn the_obj_holds_the_last_frame_as_one_polyline_per_strand() {
         let dir = scratch("obj");
         let mut s = store(7);
-        let formats = Formats { usda: false, png: false, gif: false, ..all() };
-        ok(write_products(&mut s, &formats, &dir, &PreviewOptions::default()));
+        let formats = Formats {
+            usda: false,
+            png: false,
+            gif: false,
+            ..all()
+        };
+        ok(write_products(
+            &mut s,
+            &formats,
+            &dir,
+            &PreviewOptions::default(),
+        ));
         let text = read(&dir.join(OBJ_FILE));
         let objects: Vec<&str> = text.lines().filter(|l| l.starts_with("o ")).collect();
         assert_eq!(objects, ["o l0", "o r_0", "o l1"]);
@@ -190,7 +277,10 @@ mod tests {
         for (v, p) in vertices.iter().zip(&s.frames[6]) {
             for c in 0..3 {
                 // written as float32: relative error below 2^-24
-                assert!((v[c] - p[c]).abs() <= 1e-7 * p[c].abs().max(1e-3), "{v:?} vs {p:?}");
+                assert!(
+                    (v[c] - p[c]).abs() <= 1e-7 * p[c].abs().max(1e-3),
+                    "{v:?} vs {p:?}"
+                );
             }
         }
         let lines: Vec<&str> = text.lines().filter(|l| l.starts_with("l ")).collect();
@@ -201,8 +291,18 @@ mod tests {
     fn the_usda_has_one_curves_prim_per_group_with_every_frame() {
         let dir = scratch("usda");
         let mut s = store(3);
-        let formats = Formats { png: false, gif: false, obj: false, ..all() };
-        ok(write_products(&mut s, &formats, &dir, &PreviewOptions::default()));
+        let formats = Formats {
+            png: false,
+            gif: false,
+            obj: false,
+            ..all()
+        };
+        ok(write_products(
+            &mut s,
+            &formats,
+            &dir,
+            &PreviewOptions::default(),
+        ));
         let text = read(&dir.join(USDA_FILE));
         assert!(text.starts_with("#usda 1.0\n"));
         for needle in [
@@ -231,10 +331,16 @@ mod tests {
         )));
         // frame 2 of group "left" = strands l0 then l1
         let left = text.split("def BasisCurves \"right\"").next().unwrap_or("");
-        let line = left.lines().find(|l| l.trim_start().starts_with("2: [")).unwrap_or("");
+        let line = left
+            .lines()
+            .find(|l| l.trim_start().starts_with("2: ["))
+            .unwrap_or("");
         let first = s.frames[2][0];
         let f = |c: usize| crate::output::usd::format_f32(first[c] as f32);
-        assert!(line.starts_with(&format!("            2: [({}, {}, {})", f(0), f(1), f(2))), "{line}");
+        assert!(
+            line.starts_with(&format!("            2: [({}, {}, {})", f(0), f(1), f(2))),
+            "{line}"
+        );
         assert_eq!(line.matches('(').count(), 10);
         assert!(!dir.join("hair.usda.tmp").exists());
     }
@@ -246,18 +352,36 @@ mod tests {
         let view = PreviewOptions {
             width: 400,
             height: 300,
-            bodies: vec![PreviewBody { centre: [0.0, 0.0, 0.05], radii: [0.04; 3] }],
+            bodies: vec![PreviewBody {
+                centre: [0.0, 0.0, 0.05],
+                radii: [0.04; 3],
+            }],
             ..PreviewOptions::default()
         };
-        let formats = Formats { usda: false, gif: false, obj: false, ..all() };
+        let formats = Formats {
+            usda: false,
+            gif: false,
+            obj: false,
+            ..all()
+        };
         ok(write_products(&mut s, &formats, &dir, &view));
         let bytes = std::fs::read(dir.join(PNG_FILE)).unwrap_or_default();
         let pixmap = tiny_skia::Pixmap::decode_png(&bytes).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!((pixmap.width(), pixmap.height()), (400, 300));
-        let count = |rgb: [u8; 3]| pixmap.data().chunks_exact(4).filter(|p| p[..3] == rgb).count();
+        let count = |rgb: [u8; 3]| {
+            pixmap
+                .data()
+                .chunks_exact(4)
+                .filter(|p| p[..3] == rgb)
+                .count()
+        };
         // fully covered pixels of each group's colour: a 20 cm strand at ~1000 px/m
         for g in 0..2 {
-            assert!(count(group_colour(g)) > 40, "group {g}: {}", count(group_colour(g)));
+            assert!(
+                count(group_colour(g)) > 40,
+                "group {g}: {}",
+                count(group_colour(g))
+            );
         }
         assert_eq!(count(group_colour(2)), 0);
         assert!(count([0xdd; 3]) > 1000, "body");
@@ -267,8 +391,18 @@ mod tests {
     fn the_gif_has_the_frames_at_the_output_rate() {
         let dir = scratch("gif");
         let mut s = store(9);
-        let view = PreviewOptions { width: 200, height: 100, gif_max_frames: 4, ..PreviewOptions::default() };
-        let formats = Formats { usda: false, png: false, obj: false, ..all() };
+        let view = PreviewOptions {
+            width: 200,
+            height: 100,
+            gif_max_frames: 4,
+            ..PreviewOptions::default()
+        };
+        let formats = Formats {
+            usda: false,
+            png: false,
+            obj: false,
+            ..all()
+        };
         ok(write_products(&mut s, &formats, &dir, &view));
         let bytes = std::fs::read(dir.join(GIF_FILE)).unwrap_or_default();
         assert_eq!(&bytes[..6], b"GIF89a");

@@ -46,7 +46,13 @@ pub fn prim_names(names: &[&str]) -> Vec<String> {
     for name in names {
         let mut id: String = name
             .chars()
-            .map(|c| if c.is_ascii_alphanumeric() || c == '_' { c } else { '_' })
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || c == '_' {
+                    c
+                } else {
+                    '_'
+                }
+            })
             .collect();
         if !id.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_') {
             id.insert(0, '_');
@@ -76,7 +82,10 @@ fn vec3(out: &mut String, p: [f64; 3]) {
 pub fn write_usda(path: &Path, store: &mut dyn FrameStore) -> Result<()> {
     let frames = store.frame_count();
     if frames == 0 {
-        return Err(Error::invalid("frames", "no frame to write: the run wrote none"));
+        return Err(Error::invalid(
+            "frames",
+            "no frame to write: the run wrote none",
+        ));
     }
     let tmp = temporary_path(path);
     let io = |e: std::io::Error| Error::Io {
@@ -107,7 +116,10 @@ pub fn write_usda(path: &Path, store: &mut dyn FrameStore) -> Result<()> {
             .filter(|&i| layout.strands[i].group == *group)
             .collect();
         text.clear();
-        let counts: Vec<String> = members.iter().map(|&i| layout.strands[i].points.to_string()).collect();
+        let counts: Vec<String> = members
+            .iter()
+            .map(|&i| layout.strands[i].points.to_string())
+            .collect();
         let _ = write!(
             text,
             "    def BasisCurves \"{prim}\"\n    {{\n        uniform token type = \"linear\"\n        uniform token wrap = \"nonperiodic\"\n        int[] curveVertexCounts = [{}]\n        point3f[] points.timeSamples = {{\n",
@@ -189,7 +201,17 @@ mod tests {
 
     #[test]
     fn floats_read_back_exactly() {
-        for x in [0.0f32, 1.0, -0.1, 1.0 / 3.0, 3.4e-18, -2.5e-5, 1e-4, 123456.79, 3.0e9] {
+        for x in [
+            0.0f32,
+            1.0,
+            -0.1,
+            1.0 / 3.0,
+            3.4e-18,
+            -2.5e-5,
+            1e-4,
+            123456.79,
+            3.0e9,
+        ] {
             let s = format_f32(x);
             assert_eq!(s.parse::<f32>().ok(), Some(x), "{s}");
         }
