@@ -90,3 +90,55 @@ fn pxr_reads_the_points_of_every_group_at_several_times() {
     assert!(!passed, "a point off by 2e-6 m passed:\n{text}");
     assert!(text.contains("at time 3: points differ"), "{text}");
 }
+
+/// numpy opens frames.npy of a run that has not finished (as a killed run leaves it)
+/// with exactly the frames written.
+#[test]
+fn numpy_loads_the_frames_of_an_unfinished_run() {
+    use superhelix::runtime::output::frames::{FrameLayout, FrameSink, FrameView, StrandInfo};
+    use superhelix::runtime::output::npy::NpyFrameSink;
+    let dir = support::scratch("numpy");
+    let layout = FrameLayout {
+        strands: vec![StrandInfo {
+            name: "a".into(),
+            group: "a".into(),
+            radius: 5e-5,
+            points: 4,
+            coordinates: 3,
+        }],
+        output_fps: 10.0,
+        planned_frames: 10,
+    };
+    let mut sink = NpyFrameSink::create(&dir, &layout).unwrap_or_else(|e| panic!("{e}"));
+    for k in 0..3 {
+        let points: Vec<[f64; 3]> = (0..4).map(|i| [k as f64, i as f64, 0.25]).collect();
+        let view = FrameView {
+            index: k,
+            time: 0.1 * k as f64,
+            state_time: 0.1 * k as f64,
+            points: &points,
+            q: &[0.0; 3],
+        };
+        sink.write_frame(&view).unwrap_or_else(|e| panic!("{e}"));
+    }
+    let code = format!(
+        "import numpy as np; p = np.load('{0}/frames.npy'); t = np.load('{0}/frames.times.npy'); \
+         print(p.shape, p.dtype, t.shape, t.dtype, p[2, 3].tolist(), t[2].tolist())",
+        dir.display()
+    );
+    let out = Command::new("python3")
+        .args(["-c", &code])
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run python3 ({e}): `pip install numpy`"));
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.status.success(), "{text}");
+    assert_eq!(
+        text.trim(),
+        "(3, 4, 3) float32 (3, 2) float64 [2.0, 3.0, 0.25] [0.2, 0.2]"
+    );
+    drop(sink);
+}
