@@ -10,6 +10,7 @@ pub mod bench;
 pub mod compare;
 pub mod cpu_time;
 pub mod quadrature_table;
+pub mod render;
 pub mod stress;
 pub mod study;
 pub mod study_plot;
@@ -21,7 +22,9 @@ pub use superhelix_runtime::{
     Result, RunSummary, Simulation, SimulationSetup,
 };
 
-use runtime::output::products::{write_products, PreviewOptions};
+use runtime::output::npy::{NpyFrameSink, NpyFrameStore, INDEX_FILE, NPY_FILE, TIMES_FILE};
+use runtime::output::preview::PreviewOptions;
+use runtime::output::products::write_products;
 use runtime::output::{
     self, FrameSink, JsonFrameSink, JsonFrameStore, MemoryFrames, RunOutcome, StopReason,
 };
@@ -102,15 +105,24 @@ pub fn run_planned<S: FrameSource + ?Sized>(
         true => Some(JsonFrameSink::create(&json_path, &layout)?),
         false => None,
     };
+    let mut npy = match formats.npy {
+        true => Some(NpyFrameSink::create(&plan.dir, &layout)?),
+        false => None,
+    };
     let products = Formats {
         json: false,
         npy: false,
         ..formats
     };
-    let mut memory =
-        (products != Formats::NONE && !formats.json).then(|| MemoryFrames::new(layout.clone()));
+    // the post-run files read the frames back from frames.npy or frames.json; only
+    // without either are the frames kept in memory
+    let mut memory = (products != Formats::NONE && !formats.json && !formats.npy)
+        .then(|| MemoryFrames::new(layout.clone()));
     let mut sinks: Vec<&mut dyn FrameSink> = Vec::new();
     if let Some(sink) = json.as_mut() {
+        sinks.push(sink);
+    }
+    if let Some(sink) = npy.as_mut() {
         sinks.push(sink);
     }
     if let Some(sink) = memory.as_mut() {
@@ -129,13 +141,23 @@ pub fn run_planned<S: FrameSource + ?Sized>(
     if formats.json && json_path.exists() {
         files.push(json_path.clone());
     }
+    if formats.npy {
+        for name in [NPY_FILE, TIMES_FILE, INDEX_FILE] {
+            let path = plan.dir.join(name);
+            if path.exists() {
+                files.push(path);
+            }
+        }
+    }
     let mut products_error = None;
     if products != Formats::NONE && outcome.frames_written() > 0 {
+        let view = PreviewOptions::default();
         let written = match memory.as_mut() {
-            Some(store) => write_products(store, &products, &plan.dir, &PreviewOptions::default()),
-            None => JsonFrameStore::open(&json_path).and_then(|mut store| {
-                write_products(&mut store, &products, &plan.dir, &PreviewOptions::default())
-            }),
+            Some(store) => write_products(store, &products, &plan.dir, &view),
+            None if formats.npy => NpyFrameStore::open(&plan.dir.join(NPY_FILE))
+                .and_then(|mut store| write_products(&mut store, &products, &plan.dir, &view)),
+            None => JsonFrameStore::open(&json_path)
+                .and_then(|mut store| write_products(&mut store, &products, &plan.dir, &view)),
         };
         match written {
             Ok(written) => files.extend(written),

@@ -137,6 +137,33 @@ enum Command {
         #[arg(long)]
         integrator: Option<String>,
     },
+    /// Re-render the preview pictures (preview.png, preview_first.png, preview.gif) from
+    /// frames a run wrote, with other camera settings.
+    Render {
+        /// frames.npy, frames.json, or the run's output directory.
+        frames: PathBuf,
+        /// Output directory.
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+        /// Picture width, pixels (64..=8192).
+        #[arg(long, default_value_t = 1200)]
+        width: u32,
+        /// Picture height, pixels (64..=8192).
+        #[arg(long, default_value_t = 600)]
+        height: u32,
+        /// Panels from left to right, a comma list of front, side, top.
+        #[arg(long, default_value = "front,side")]
+        views: String,
+        /// Frame shown in preview.png (default: the last one).
+        #[arg(long, value_name = "K")]
+        frame: Option<usize>,
+        /// Write preview.gif (the default).
+        #[arg(long, overrides_with = "no_gif")]
+        gif: bool,
+        /// Do not write preview.gif.
+        #[arg(long, overrides_with = "gif")]
+        no_gif: bool,
+    },
     /// What accuracy costs: error against cost of N, dt, integrator and kernels on four
     /// reference problems; writes DIR/report.md and one PNG per problem.
     Study {
@@ -209,6 +236,30 @@ fn main() -> ExitCode {
             integrator,
         } => stress(quick, filter.as_deref(), verbose, integrator.as_deref()),
         Command::Study { quick, out } => study(quick, &out),
+        Command::Render {
+            frames,
+            out,
+            width,
+            height,
+            views,
+            frame,
+            gif: _,
+            no_gif,
+        } => superhelix::render::render(&superhelix::render::RenderRequest {
+            frames,
+            out,
+            width,
+            height,
+            views,
+            frame,
+            gif: !no_gif,
+        })
+        .map(|files| {
+            for f in &files {
+                println!("wrote {}", f.display());
+            }
+            ExitCode::SUCCESS
+        }),
     };
     match result {
         Ok(code) => code,

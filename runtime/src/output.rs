@@ -7,8 +7,11 @@
 //! - [`driver`]: the run loop ([`run_streaming`]), its stop flag and early stops.
 //! - [`json`]: `frames.json`, streamed frame-major.
 //! - [`memory`]: frames in memory.
+//! - [`npy`]: `frames.npy`, `frames.times.npy`, `frames.index.json`, streamed.
 //! - [`plan`]: which files a run writes ([`Formats`]), their estimated sizes, the size
 //!   limit and the checks of the output directory.
+//! - [`products`]: the files written after the run from the frames written
+//!   (`hair.usda` by [`usd`], the previews by [`preview`], `last_frame.obj` by [`obj`]).
 //!
 //! The driver reaches the simulation only through [`FrameSource`].
 
@@ -16,8 +19,12 @@ pub mod driver;
 pub mod frames;
 pub mod json;
 pub mod memory;
+pub mod npy;
+pub mod obj;
 pub mod plan;
+pub mod preview;
 pub mod products;
+pub mod usd;
 
 pub use driver::{frame_layout, run_streaming, RunOutcome, StopReason};
 pub use frames::{FrameLayout, FrameSink, FrameStore, FrameView, StrandInfo};

@@ -173,12 +173,13 @@ pub const JSON_BYTES_PER_NUMBER: f64 = 21.5;
 const JSON_BYTES_PER_FRAME: u64 = 100;
 /// Bytes of an npy header (the writer pads it to a fixed size).
 const NPY_HEADER_BYTES: u64 = 128;
-/// Bytes `hair.usda` spends per float (a `%g`-style coordinate and its separators).
-const USDA_BYTES_PER_FLOAT: f64 = 12.0;
-/// Estimated size of one preview PNG.
-const PNG_BYTES: u64 = 150_000;
-/// Estimated bytes per frame of the preview GIF.
-const GIF_BYTES_PER_FRAME: u64 = 40_000;
+/// Bytes `hair.usda` spends per float (a coordinate and its separators; the demo scene's
+/// file has 14).
+const USDA_BYTES_PER_FLOAT: f64 = 14.0;
+/// Estimated size of one preview PNG (1200 × 600; the demo scene's are 75–80 kB).
+const PNG_BYTES: u64 = 100_000;
+/// Estimated bytes per frame of the preview GIF (the demo scene's: 15 kB).
+const GIF_BYTES_PER_FRAME: u64 = 20_000;
 /// Most frames the preview GIF holds (longer runs are subsampled).
 const GIF_MAX_FRAMES: u64 = 200;
 /// Bytes of `last_frame.obj` per point: a vertex line and its share of the line records.
