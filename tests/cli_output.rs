@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use superhelix::runtime::output::npy::NpyFrameStore;
 use superhelix::runtime::output::{FrameStore, JsonFrameStore};
 
 fn superhelix(args: &[&str]) -> Output {
@@ -265,8 +266,9 @@ fn a_diverging_run_keeps_its_frames_and_names_the_strand_and_time() {
     }
 }
 
-/// Ctrl-C in the middle of a long run: exit 130, the message, and every frame written
-/// readable and consecutive.
+/// Ctrl-C in the middle of a long run: exit 130, the message, every frame written
+/// readable and consecutive, frames.npy equal to frames.json to float32 precision, and
+/// the post-run files written from the frames kept.
 #[cfg(unix)]
 #[test]
 fn sigint_stops_the_run_and_keeps_every_frame_written() {
@@ -280,7 +282,14 @@ fn sigint_stops_the_run_and_keeps_every_frame_written() {
     );
     let out_dir = dir.join("out");
     let mut child = Command::new(env!("CARGO_BIN_EXE_superhelix"))
-        .args(["run", &scene, "--out", &s(&out_dir), "--format", "json"])
+        .args([
+            "run",
+            &scene,
+            "--out",
+            &s(&out_dir),
+            "--format",
+            "json,npy,obj",
+        ])
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
@@ -357,4 +366,28 @@ fn sigint_stops_the_run_and_keeps_every_frame_written() {
             .map(|x| x.as_f64().unwrap_or(f64::NAN))
             .all(f64::is_finite));
     }
+    // frames.npy holds the same frames, rounded to float32
+    let mut npy =
+        NpyFrameStore::open(&out_dir.join("frames.npy")).unwrap_or_else(|e| panic!("{e}"));
+    let mut json =
+        JsonFrameStore::open(&out_dir.join("frames.json")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(npy.frame_count(), written);
+    assert_eq!(npy.layout(), json.layout());
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    for k in 0..written {
+        assert_eq!(npy.time(k), json.time(k));
+        npy.points(k, &mut a).unwrap_or_else(|e| panic!("{e}"));
+        json.points(k, &mut b).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(a.len(), b.len());
+        for (p, q) in a.iter().zip(&b) {
+            for i in 0..3 {
+                // f32 rounding: half an ulp of float32, relative 2^-24
+                assert!(
+                    (p[i] - q[i]).abs() <= q[i].abs() * 6e-8,
+                    "frame {k}: {p:?} vs {q:?}"
+                );
+            }
+        }
+    }
+    assert!(out_dir.join("last_frame.obj").is_file(), "{}", stdout(&out));
 }
