@@ -216,6 +216,7 @@ fn strands(o: &BenchOptions) -> Vec<StrandSetup> {
             };
             StrandSetup {
                 q0: strand.natural.clone(),
+                group: strand.name.clone(),
                 strand,
             }
         })
@@ -250,6 +251,7 @@ pub fn setup(o: &BenchOptions) -> Result<SimulationSetup> {
         },
         strands: strands(o),
         samples_per_element: 1,
+        output: Default::default(),
     })
 }
 

@@ -10,6 +10,7 @@ pub mod bench;
 pub mod compare;
 pub mod cpu_time;
 pub mod quadrature_table;
+pub mod render;
 pub mod stress;
 pub mod study;
 pub mod study_plot;
@@ -21,7 +22,15 @@ pub use superhelix_runtime::{
     Result, RunSummary, Simulation, SimulationSetup,
 };
 
+use runtime::output::npy::{NpyFrameSink, NpyFrameStore, INDEX_FILE, NPY_FILE, TIMES_FILE};
+use runtime::output::preview::PreviewOptions;
+use runtime::output::products::write_products;
+use runtime::output::{
+    self, FrameSink, JsonFrameSink, JsonFrameStore, MemoryFrames, RunOutcome, StopReason,
+};
+pub use runtime::output::{Formats, OutputPlan};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
 
 /// The scene `superhelix run` uses without a scene file: the four presets of the paper
 /// (smooth, wavy, curly, fuzzy) on a head shaking at 2 Hz by ±30° for 2 s.
@@ -45,30 +54,146 @@ pub fn open_simulation(setup: SimulationSetup) -> Result<Box<dyn FrameSource>> {
     Ok(Box::new(Simulation::new(setup, kernel_factory())?))
 }
 
-/// Run a parsed scene on `source` and write `out_dir/frames.json`. `progress(step,
-/// total)` is called after every step. Returns the summary and the file written.
-pub fn run_setup<S: FrameSource + ?Sized>(
-    setup: &SimulationSetup,
-    source: &mut S,
-    out_dir: &Path,
-    progress: impl FnMut(usize, usize),
-) -> Result<(RunSummary, PathBuf)> {
-    let (frames, summary) =
-        runtime::output::run_to_frames(source, &setup.config, setup.samples_per_element, progress)?;
-    let path = out_dir.join(FRAMES_FILE);
-    runtime::output::write_frames(&path, &frames)?;
-    Ok((summary, path))
+/// How `run` writes its output, besides the scene's `[output]` section.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RunOptions {
+    /// `--format`: replaces the scene's formats.
+    pub formats: Option<Formats>,
+    /// `--allow-large-output`: lifts the limit on the planned output size.
+    pub allow_large_output: bool,
 }
 
-/// Parse `scene_text`, simulate it and write `out_dir/frames.json`.
+/// The output plan of a parsed scene written to `out_dir` (the limit is not checked:
+/// see [`OutputPlan::check_limit`]).
+pub fn plan_output(setup: &SimulationSetup, out_dir: &Path, options: &RunOptions) -> OutputPlan {
+    OutputPlan::new(
+        &output::plan::setup_layout(setup),
+        &setup.output,
+        options.formats,
+        options.allow_large_output,
+        out_dir,
+    )
+}
+
+/// What a run did and wrote.
+#[derive(Debug)]
+pub struct RunReport {
+    /// Frames written, why the run stopped, the summary.
+    pub outcome: RunOutcome,
+    /// Every file written, in order.
+    pub files: Vec<PathBuf>,
+    /// Why the post-run files (hair.usda, previews, obj) could not all be written.
+    pub products_error: Option<Error>,
+}
+
+/// Run a parsed scene on `source` and write the files of `plan` into `plan.dir`
+/// (which must exist: see [`output::plan::prepare_out_dir`]): the frame files while
+/// the run goes, then the post-run files from the frames written, also when the run
+/// stops early (the stop flag, a divergence, a failed write). `progress(step, total)`
+/// is called after every step. An error means nothing was simulated.
+pub fn run_planned<S: FrameSource + ?Sized>(
+    setup: &SimulationSetup,
+    source: &mut S,
+    plan: &OutputPlan,
+    stop: &AtomicBool,
+    progress: impl FnMut(usize, usize),
+) -> Result<RunReport> {
+    let layout = output::frame_layout(source, &setup.config, setup.samples_per_element);
+    let formats = plan.formats;
+    let json_path = plan.dir.join(FRAMES_FILE);
+    let mut json = match formats.json {
+        true => Some(JsonFrameSink::create(&json_path, &layout)?),
+        false => None,
+    };
+    let mut npy = match formats.npy {
+        true => Some(NpyFrameSink::create(&plan.dir, &layout)?),
+        false => None,
+    };
+    let products = Formats {
+        json: false,
+        npy: false,
+        ..formats
+    };
+    // the post-run files read the frames back from frames.npy or frames.json; only
+    // without either are the frames kept in memory
+    let mut memory = (products != Formats::NONE && !formats.json && !formats.npy)
+        .then(|| MemoryFrames::new(layout.clone()));
+    let mut sinks: Vec<&mut dyn FrameSink> = Vec::new();
+    if let Some(sink) = json.as_mut() {
+        sinks.push(sink);
+    }
+    if let Some(sink) = npy.as_mut() {
+        sinks.push(sink);
+    }
+    if let Some(sink) = memory.as_mut() {
+        sinks.push(sink);
+    }
+    let outcome = output::run_streaming(
+        source,
+        &setup.config,
+        setup.samples_per_element,
+        &mut sinks,
+        stop,
+        progress,
+    );
+    drop(sinks);
+    let mut files = Vec::new();
+    if formats.json && json_path.exists() {
+        files.push(json_path.clone());
+    }
+    if formats.npy {
+        for name in [NPY_FILE, TIMES_FILE, INDEX_FILE] {
+            let path = plan.dir.join(name);
+            if path.exists() {
+                files.push(path);
+            }
+        }
+    }
+    let mut products_error = None;
+    if products != Formats::NONE && outcome.frames_written() > 0 {
+        let view = PreviewOptions::default();
+        let written = match memory.as_mut() {
+            Some(store) => write_products(store, &products, &plan.dir, &view),
+            None if formats.npy => NpyFrameStore::open(&plan.dir.join(NPY_FILE))
+                .and_then(|mut store| write_products(&mut store, &products, &plan.dir, &view)),
+            None => JsonFrameStore::open(&json_path)
+                .and_then(|mut store| write_products(&mut store, &products, &plan.dir, &view)),
+        };
+        match written {
+            Ok(written) => files.extend(written),
+            Err(e) => products_error = Some(e),
+        }
+    }
+    Ok(RunReport {
+        outcome,
+        files,
+        products_error,
+    })
+}
+
+/// Parse `scene_text`, simulate it and write its output (the scene's formats) into
+/// `out_dir`, refusing a plan over the size limit. `progress(step, total)` is called
+/// after every step. Returns the summary and the files written; a run that stops early
+/// is an error (its frames are kept).
 pub fn run_scene(
     scene_text: &str,
     out_dir: &Path,
     progress: impl FnMut(usize, usize),
-) -> Result<(RunSummary, PathBuf)> {
+) -> Result<(RunSummary, Vec<PathBuf>)> {
     let setup = parse_scene(scene_text)?;
+    let plan = plan_output(&setup, out_dir, &RunOptions::default());
+    plan.check_limit()?;
+    output::plan::prepare_out_dir(out_dir)?;
     let mut source = open_simulation(setup.clone())?;
-    run_setup(&setup, source.as_mut(), out_dir, progress)
+    let never = AtomicBool::new(false);
+    let report = run_planned(&setup, source.as_mut(), &plan, &never, progress)?;
+    match report.outcome.stop {
+        StopReason::Failed(e) => Err(e),
+        StopReason::Completed | StopReason::Interrupted => match report.products_error {
+            Some(e) => Err(e),
+            None => Ok((report.outcome.summary, report.files)),
+        },
+    }
 }
 
 /// Number of strands and of time steps of a valid scene, or every problem found.
@@ -78,7 +203,6 @@ pub fn check_scene(scene_text: &str) -> std::result::Result<(usize, usize), Vec<
         Err(_) => Err(validate_scene(scene_text)),
     }
 }
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -6,6 +6,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 use superhelix::{Error, FieldError};
 
 /// Super-Helix hair dynamics (Bertails et al. 2006).
@@ -18,13 +19,22 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Simulate a scene and write DIR/frames.json (the built-in demo scene without SCENE).
+    /// Simulate a scene and write its frames and previews into DIR (the built-in demo
+    /// scene without SCENE). Ctrl-C stops the run and keeps every frame written.
     Run {
         /// Scene file (TOML); without it, the built-in demo scene.
         scene: Option<PathBuf>,
         /// Output directory.
         #[arg(long, value_name = "DIR", default_value = "out")]
         out: PathBuf,
+        /// Files to write, replacing the scene's [output] formats: json, npy, usda, png,
+        /// gif, obj, preview (= png + gif); repeatable or comma-separated.
+        #[arg(long, value_name = "FORMATS")]
+        format: Vec<String>,
+        /// Write the output even when its planned size exceeds the limit (2 GB, or the
+        /// scene's [output] max_bytes).
+        #[arg(long)]
+        allow_large_output: bool,
     },
     /// Check a scene file and list every problem.
     Validate {
@@ -127,6 +137,33 @@ enum Command {
         #[arg(long)]
         integrator: Option<String>,
     },
+    /// Re-render the preview pictures (preview.png, preview_first.png, preview.gif) from
+    /// frames a run wrote, with other camera settings.
+    Render {
+        /// frames.npy, frames.json, or the run's output directory.
+        frames: PathBuf,
+        /// Output directory.
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+        /// Picture width, pixels (64..=8192).
+        #[arg(long, default_value_t = 1200)]
+        width: u32,
+        /// Picture height, pixels (64..=8192).
+        #[arg(long, default_value_t = 600)]
+        height: u32,
+        /// Panels from left to right, a comma list of front, side, top.
+        #[arg(long, default_value = "front,side")]
+        views: String,
+        /// Frame shown in preview.png (default: the last one).
+        #[arg(long, value_name = "K")]
+        frame: Option<usize>,
+        /// Write preview.gif (the default).
+        #[arg(long, overrides_with = "no_gif")]
+        gif: bool,
+        /// Do not write preview.gif.
+        #[arg(long, overrides_with = "gif")]
+        no_gif: bool,
+    },
     /// What accuracy costs: error against cost of N, dt, integrator and kernels on four
     /// reference problems; writes DIR/report.md and one PNG per problem.
     Study {
@@ -142,7 +179,12 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Run { scene, out } => run(scene.as_deref(), &out),
+        Command::Run {
+            scene,
+            out,
+            format,
+            allow_large_output,
+        } => run(scene.as_deref(), &out, &format, allow_large_output),
         Command::Validate { scene } => validate(&scene),
         Command::Bench {
             elements,
@@ -194,6 +236,30 @@ fn main() -> ExitCode {
             integrator,
         } => stress(quick, filter.as_deref(), verbose, integrator.as_deref()),
         Command::Study { quick, out } => study(quick, &out),
+        Command::Render {
+            frames,
+            out,
+            width,
+            height,
+            views,
+            frame,
+            gif: _,
+            no_gif,
+        } => superhelix::render::render(&superhelix::render::RenderRequest {
+            frames,
+            out,
+            width,
+            height,
+            views,
+            frame,
+            gif: !no_gif,
+        })
+        .map(|files| {
+            for f in &files {
+                println!("wrote {}", f.display());
+            }
+            ExitCode::SUCCESS
+        }),
     };
     match result {
         Ok(code) => code,
@@ -211,13 +277,48 @@ fn read_scene(path: &Path) -> Result<String, Error> {
     })
 }
 
-fn run(scene: Option<&Path>, out: &Path) -> Result<ExitCode, Error> {
+/// Raised by Ctrl-C: the run stops between two steps and keeps its frames.
+static STOP: AtomicBool = AtomicBool::new(false);
+
+fn run(
+    scene: Option<&Path>,
+    out: &Path,
+    format: &[String],
+    allow_large_output: bool,
+) -> Result<ExitCode, Error> {
+    use superhelix::runtime::output::plan::prepare_out_dir;
+    use superhelix::runtime::output::StopReason;
     let text = match scene {
         Some(path) => read_scene(path)?,
         None => superhelix::DEFAULT_SCENE.to_string(),
     };
+    let setup = superhelix::parse_scene(&text)?;
+    let options = superhelix::RunOptions {
+        formats: match format.is_empty() {
+            true => None,
+            false => Some(superhelix::Formats::from_cli(format)?),
+        },
+        allow_large_output,
+    };
+    let plan = superhelix::plan_output(&setup, out, &options);
+    println!("{plan}");
+    if let Some(note) = &plan.note {
+        println!("{note}");
+    }
+    plan.check_limit()?;
+    prepare_out_dir(out)?;
+    // A second Ctrl-C ends the process at once (the frames written stay readable).
+    let handler = ctrlc::set_handler(|| {
+        if STOP.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+    });
+    if let Err(e) = handler {
+        eprintln!("warning: Ctrl-C will not stop the run cleanly: {e}");
+    }
+    let mut source = superhelix::open_simulation(setup.clone())?;
     let bar = progress_bar();
-    let (summary, path) = superhelix::run_scene(&text, out, |step, total| {
+    let report = superhelix::run_planned(&setup, source.as_mut(), &plan, &STOP, |step, total| {
         if let Some(bar) = &bar {
             bar.set_length(total as u64);
             bar.set_position(step as u64);
@@ -226,8 +327,37 @@ fn run(scene: Option<&Path>, out: &Path) -> Result<ExitCode, Error> {
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
-    println!("{}: {summary}", path.display());
-    Ok(ExitCode::SUCCESS)
+    for file in &report.files {
+        println!("wrote {}", file.display());
+    }
+    if let Some(e) = &report.products_error {
+        eprintln!("error: {e}");
+    }
+    let outcome = &report.outcome;
+    let kept = format!(
+        "{} of {} frames written to {}",
+        outcome.frames_written(),
+        outcome.planned_frames,
+        out.display()
+    );
+    match &outcome.stop {
+        StopReason::Completed => {
+            println!("{}", outcome.summary);
+            Ok(match report.products_error {
+                Some(_) => ExitCode::FAILURE,
+                None => ExitCode::SUCCESS,
+            })
+        }
+        StopReason::Interrupted => {
+            eprintln!("interrupted at t = {:.3} s: {kept}", outcome.time);
+            Ok(ExitCode::from(130))
+        }
+        StopReason::Failed(e) => {
+            eprintln!("error: {e}");
+            eprintln!("{kept}");
+            Ok(ExitCode::FAILURE)
+        }
+    }
 }
 
 /// A progress bar on stderr, only when stderr is a terminal.
@@ -246,17 +376,27 @@ fn progress_bar() -> Option<ProgressBar> {
 
 fn validate(path: &Path) -> Result<ExitCode, Error> {
     let text = read_scene(path)?;
-    match superhelix::check_scene(&text) {
-        Ok((strands, steps)) => {
-            println!("ok: {strands} strands, {steps} steps");
-            Ok(ExitCode::SUCCESS)
-        }
-        Err(problems) => {
+    let setup = match superhelix::parse_scene(&text) {
+        Ok(setup) => setup,
+        Err(_) => {
+            let problems = superhelix::validate_scene(&text);
             print_problems(&problems);
             eprintln!("{}: {} problem(s)", path.display(), problems.len());
-            Ok(ExitCode::FAILURE)
+            return Ok(ExitCode::FAILURE);
         }
+    };
+    let strands = setup.strands.len();
+    let steps = superhelix::runtime::scene::step_count(&setup);
+    let plural = if strands == 1 { "" } else { "s" };
+    println!("ok: {strands} strand{plural}, {steps} steps");
+    let plan =
+        superhelix::plan_output(&setup, Path::new("out"), &superhelix::RunOptions::default());
+    println!("{plan}");
+    if let Some(note) = &plan.note {
+        println!("{note}");
     }
+    plan.check_limit()?;
+    Ok(ExitCode::SUCCESS)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -514,12 +654,19 @@ fn study(quick: bool, out: &Path) -> Result<ExitCode, Error> {
 
 fn print_problems(problems: &[FieldError]) {
     for p in problems {
-        println!("{p}");
+        eprintln!("{p}");
     }
 }
 
 fn report(e: &Error) {
     match e {
+        // options and the output plan are not scene fields
+        Error::Invalid(problems)
+            if problems.len() == 1
+                && (problems[0].field.starts_with("--") || problems[0].field == "output") =>
+        {
+            eprintln!("error: {}", problems[0]);
+        }
         Error::Invalid(problems) => {
             eprintln!("error: invalid scene:");
             for p in problems {

@@ -396,6 +396,7 @@ impl StrandSpec {
                 point_loads: Vec::new(),
             },
             q0,
+            group: self.preset.name().to_string(),
         }
     }
 }
@@ -427,6 +428,7 @@ fn setup(
         head,
         strands: vec![strand],
         samples_per_element: 1,
+        output: Default::default(),
     }
 }
 

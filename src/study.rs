@@ -450,9 +450,11 @@ fn setup_of(
         head,
         strands: vec![StrandSetup {
             q0: strand.natural.clone(),
+            group: strand.name.clone(),
             strand,
         }],
         samples_per_element: 1,
+        output: Default::default(),
     }
 }
 

@@ -113,8 +113,8 @@ fn validate_accepts_the_example_scenes_and_the_default_scene() {
     }
     let out = superhelix(&["validate", &repo("src/default_scene.toml")]);
     assert_eq!(
-        String::from_utf8_lossy(&out.stdout).trim(),
-        "ok: 16 strands, 60 steps"
+        String::from_utf8_lossy(&out.stdout).lines().next(),
+        Some("ok: 16 strands, 60 steps")
     );
 }
 
@@ -150,61 +150,103 @@ fn as_f64(v: &serde_json::Value) -> f64 {
 }
 
 #[test]
-
 fn run_writes_frames_of_the_default_scene() {
     let dir = scratch("run-default");
     let out_dir = dir.join("out");
     let out = superhelix(&["run", "--out", &out_dir.to_string_lossy()]);
     assert_eq!(out.status.code(), Some(0), "{}", text(&out));
-    let summary = String::from_utf8_lossy(&out.stdout);
-    assert_eq!(summary.lines().count(), 1, "{summary}");
+    // the plan, every file written, the summary
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let lines: Vec<&str> = stdout.lines().collect();
+    assert!(lines[0].starts_with("output: "), "{stdout}");
+    let frames_path = out_dir.join("frames.json");
+    assert!(
+        lines.contains(&format!("wrote {}", frames_path.display()).as_str()),
+        "{stdout}"
+    );
+    let summary = lines.last().copied().unwrap_or_default();
     assert!(
         summary.contains("strand-steps/s") && summary.contains("max |q̇|"),
-        "{summary}"
+        "{stdout}"
     );
 
-    let json = std::fs::read_to_string(out_dir.join("frames.json"))
-        .unwrap_or_else(|e| panic!("frames.json: {e}"));
+    let json = std::fs::read_to_string(&frames_path).unwrap_or_else(|e| panic!("frames.json: {e}"));
     let frames: serde_json::Value =
         serde_json::from_str(&json).unwrap_or_else(|e| panic!("frames.json: {e}"));
+    assert_eq!(frames["format"], "superhelix-frames");
+    assert_eq!(frames["version"], 2);
     let setup =
         superhelix::parse_scene(superhelix::DEFAULT_SCENE).unwrap_or_else(|e| panic!("{e}"));
     let expected_frames = (setup.config.duration * setup.config.output_fps).floor() as usize + 1;
-    let times = frames["frame_times"]
-        .as_array()
-        .unwrap_or_else(|| panic!("frame_times"));
-    assert_eq!(times.len(), expected_frames);
-    for (k, t) in times.iter().enumerate() {
-        assert!((as_f64(t) - k as f64 / setup.config.output_fps).abs() < 1e-9);
-    }
-    let strands = frames["strands"]
+    let layout = &frames["layout"];
+    assert_eq!(
+        layout["planned_frames"].as_u64(),
+        Some(expected_frames as u64)
+    );
+    let strands = layout["strands"]
         .as_array()
         .unwrap_or_else(|| panic!("strands"));
     assert_eq!(strands.len(), setup.strands.len());
+    let mut offsets = vec![0];
     for (json, s) in strands.iter().zip(&setup.strands) {
         assert_eq!(json["name"], s.strand.name.as_str());
-        let points = json["points"]
+        // the patch names of the default scene are the groups
+        assert!(s
+            .strand
+            .name
+            .starts_with(json["group"].as_str().unwrap_or("?")));
+        let n = s.strand.geometry.elements();
+        let points = 1 + n * setup.samples_per_element;
+        assert_eq!(json["points"].as_u64(), Some(points as u64));
+        assert_eq!(json["coordinates"].as_u64(), Some(3 * n as u64));
+        offsets.push(offsets.last().copied().unwrap_or(0) + points);
+    }
+    let total_q: usize = setup.strands.iter().map(|s| s.q0.len()).sum();
+    let list = frames["frames"]
+        .as_array()
+        .unwrap_or_else(|| panic!("frames"));
+    assert_eq!(list.len(), expected_frames);
+    for (k, frame) in list.iter().enumerate() {
+        assert_eq!(frame["index"].as_u64(), Some(k as u64));
+        assert!((as_f64(&frame["time"]) - k as f64 / setup.config.output_fps).abs() < 1e-9);
+        let points = frame["points"]
             .as_array()
             .unwrap_or_else(|| panic!("points"));
-        let q = json["q"].as_array().unwrap_or_else(|| panic!("q"));
-        assert_eq!((points.len(), q.len()), (expected_frames, expected_frames));
-        let n = s.strand.geometry.elements();
-        for (frame_points, frame_q) in points.iter().zip(q) {
-            let frame_points = frame_points.as_array().unwrap_or_else(|| panic!("frame"));
-            assert_eq!(frame_points.len(), 1 + n * setup.samples_per_element);
-            assert_eq!(frame_q.as_array().map(Vec::len), Some(3 * n));
-            for p in frame_points {
-                assert!(p
-                    .as_array()
-                    .is_some_and(|p| p.len() == 3 && p.iter().all(|x| as_f64(x).is_finite())));
-            }
+        assert_eq!(points.len(), offsets.last().copied().unwrap_or(0));
+        assert_eq!(frame["q"].as_array().map(Vec::len), Some(total_q));
+        for p in points {
+            assert!(p
+                .as_array()
+                .is_some_and(|p| p.len() == 3 && p.iter().all(|x| as_f64(x).is_finite())));
         }
-        // The head is at rest at t = 0 (X = 0, R = I): the first point is the root.
-        let root = &points[0][0];
+    }
+    // The head is at rest at t = 0 (X = 0, R = I): each strand's first point is its root.
+    let first = list[0]["points"]
+        .as_array()
+        .unwrap_or_else(|| panic!("points"));
+    for (s, &offset) in setup.strands.iter().zip(&offsets) {
+        let root = &first[offset];
         for i in 0..3 {
             assert!((as_f64(&root[i]) - s.strand.geometry.root_position[i]).abs() < 1e-12);
         }
     }
+    // the plan's estimate of frames.json is within 10% of the file
+    let planned = lines[0]
+        .split("frames.json ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|mb| mb.parse::<f64>().ok())
+        .unwrap_or_else(|| panic!("{}", lines[0]));
+    assert!(
+        lines[0].contains(&format!("frames.json {planned} MB")),
+        "{}",
+        lines[0]
+    );
+    let size = json.len() as f64 / 1e6;
+    assert!(
+        (planned / size - 1.0).abs() < 0.1,
+        "planned {planned} MB, file {size} MB"
+    );
 }
 
 /// The integrator a scene file selects (its `integrator` key, or the default).

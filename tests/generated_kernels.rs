@@ -33,6 +33,7 @@ fn setup(n: usize, kernels: KernelChoice, integrator: IntegratorKind) -> Simulat
         })
         .map(|s| StrandSetup {
             q0: s.natural.clone(),
+            group: s.name.clone(),
             strand: s,
         })
         .collect();
@@ -55,6 +56,7 @@ fn setup(n: usize, kernels: KernelChoice, integrator: IntegratorKind) -> Simulat
         },
         strands,
         samples_per_element: 2,
+        output: Default::default(),
     }
 }
 

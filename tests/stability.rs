@@ -89,10 +89,12 @@ fn run(
             .into_iter()
             .map(|s| StrandSetup {
                 q0: s.natural.clone(),
+                group: s.name.clone(),
                 strand: s,
             })
             .collect(),
         samples_per_element: 4,
+        output: Default::default(),
     };
     let mut sim = Simulation::new(setup, superhelix::kernel_factory()).expect("valid setup");
     let omega_max = amplitude * 2.0 * std::f64::consts::PI * hz;

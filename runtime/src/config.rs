@@ -2,6 +2,10 @@
 //! `[simulation]` table, the strands and their initial states, the head motion and the
 //! environment), and the step and frame counts that follow from it.
 
+pub mod formats;
+
+pub use formats::{Formats, OutputSettings};
+
 use crate::forces::environment::Environment;
 use crate::forces::head_motion::HeadMotion;
 use crate::kernels::generic::QuadratureRule;
@@ -125,6 +129,9 @@ pub struct StrandSetup {
     pub strand: Strand,
     /// Initial generalized coordinates (3N).
     pub q0: Vec<f64>,
+    /// Output group (one USD prim and one preview colour per group): the patch name for
+    /// the strands of a patch, by default the strand's own name.
+    pub group: String,
 }
 
 /// Everything needed to build a [`Simulation`](crate::Simulation); what a scene file becomes.
@@ -140,6 +147,8 @@ pub struct SimulationSetup {
     pub strands: Vec<StrandSetup>,
     /// Centreline points written per element (plus the root) in outputs.
     pub samples_per_element: usize,
+    /// The scene's `[output]` formats and size limit.
+    pub output: OutputSettings,
 }
 
 /// Number of time steps of a dynamic run: `ceil(duration / dt)` (up to rounding of the

@@ -59,5 +59,5 @@ pub use simulation::Simulation;
 pub use forces::head_motion::{Keyframe, KeyframeTrack};
 /// Re-exported so that users of the trait need not name nalgebra themselves.
 pub use nalgebra::{Matrix3, Vector3};
-pub use output::{run_to_frames, write_frames, FrameSource, Frames, RunSummary, StrandFrames};
+pub use output::{run_to_frames, FrameSource, Frames, RunSummary, StrandFrames};
 pub use scene::{parse_scene, validate_scene};

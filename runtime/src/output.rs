@@ -1,22 +1,44 @@
-//! Outputs: the `frames.json` file and the driver that runs a simulation to it.
+//! Outputs: the run driver that streams frames to files as they are computed, the
+//! `frames.json` format, the output plan.
 //!
-//! `frames.json` is `{ "frame_times": [...], "state_times": [...], "strands": [ { "name":
-//! ..., "points": [frame][point][3], "q": [frame][3N] } ] }`, all SI: `frame_times[k] =
-//! k / output_fps` for `k = 0..=floor(duration · output_fps)`; `state_times[k]` is the
-//! simulated time of the state written as frame k; `points` are world coordinates in
-//! metres, root first, then `samples_per_element` points per element; `q` are the
-//! generalized coordinates (τ, κ1, κ2 per element, rad/m). Static mode writes one frame
-//! at time 0. No non-finite number is ever written.
+//! - [`frames`]: the layout of a run's frames, one frame ([`FrameView`]), the
+//!   [`FrameSink`] (a file written while the run goes) and [`FrameStore`] (read access
+//!   to the frames written) traits.
+//! - [`driver`]: the run loop ([`run_streaming`]), its stop flag and early stops.
+//! - [`json`]: `frames.json`, streamed frame-major.
+//! - [`memory`]: frames in memory.
+//! - [`npy`]: `frames.npy`, `frames.times.npy`, `frames.index.json`, streamed.
+//! - [`plan`]: which files a run writes ([`Formats`]), their estimated sizes, the size
+//!   limit and the checks of the output directory.
+//! - [`products`]: the files written after the run from the frames written
+//!   (`hair.usda` by [`usd`], the previews by [`preview`], `last_frame.obj` by [`obj`]).
 //!
-//! The driver ([`run_to_frames`]) reaches the simulation only through [`FrameSource`].
+//! The driver reaches the simulation only through [`FrameSource`].
 
-use crate::config::{frame_times, total_steps};
+pub mod driver;
+pub mod frames;
+pub mod json;
+pub mod memory;
+pub mod npy;
+pub mod obj;
+pub mod plan;
+pub mod preview;
+pub mod products;
+pub mod usd;
+
+pub use driver::{frame_layout, run_streaming, RunOutcome, StopReason};
+pub use frames::{FrameLayout, FrameSink, FrameStore, FrameView, StrandInfo};
+pub use json::{JsonFrameSink, JsonFrameStore};
+pub use memory::MemoryFrames;
+pub use plan::{Formats, OutputPlan, OutputSettings};
+
+pub use crate::config::{frame_times, total_steps};
 use crate::config::{Mode, SimulationConfig};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use serde::{Deserialize, Serialize};
 use std::fmt;
-use std::path::Path;
-use std::time::{Duration, Instant};
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
 
 /// What the driver needs of a running simulation. Strand indices run over
 /// `0..strand_count()`.
@@ -27,6 +49,15 @@ pub trait FrameSource {
     fn strand_count(&self) -> usize;
     /// Name of strand `i`.
     fn strand_name(&self, i: usize) -> &str;
+    /// Group of strand `i` (see [`StrandInfo::group`]); by default its name.
+    fn strand_group(&self, i: usize) -> &str {
+        self.strand_name(i)
+    }
+    /// Display radius of strand `i`, m (see [`StrandInfo::radius`]); by default
+    /// [`driver::DEFAULT_DISPLAY_RADIUS`].
+    fn strand_radius(&self, _i: usize) -> f64 {
+        driver::DEFAULT_DISPLAY_RADIUS
+    }
     /// Generalized coordinates of strand `i` (3N).
     fn q(&self, i: usize) -> &[f64];
     /// Generalized velocities q̇ of strand `i` (3N).
@@ -40,7 +71,7 @@ pub trait FrameSource {
     fn solve_static(&mut self) -> Result<()>;
 }
 
-/// The contents of `frames.json`.
+/// Every frame of a run, strand-major (what [`run_to_frames`] returns).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Frames {
     /// Nominal frame times `k / output_fps`, seconds.
@@ -109,169 +140,34 @@ impl fmt::Display for RunSummary {
     }
 }
 
-/// Run `source` as `config` says and collect the frames.
+/// Run `source` as `config` says and collect the frames in memory, strand-major.
 ///
-/// Dynamic mode takes [`total_steps`] fixed steps. Frame k (nominal time `t_k = k /
-/// output_fps`) records the state at the first step time `t ≥ t_k − dt/2`, i.e. the
-/// state nearest to `t_k` (when `output_fps > 1/dt` consecutive frames may repeat a
-/// state). Any frame still unrecorded after the last step gets the final state.
-/// `progress(step, total_steps)` is called after every step. Static mode solves for the
-/// equilibrium and records one frame.
-///
-/// Every recorded number and every velocity is checked: a non-finite value stops the run
-/// with [`Error::Diverged`], naming the strand and the time.
+/// The frame timing is [`run_streaming`]'s. `progress(step, total_steps)` is called
+/// after every step. A non-finite coordinate, velocity or point stops the run with
+/// [`crate::Error::Diverged`], naming the strand and the time (the frames of a stopped run are
+/// kept by [`run_streaming`] with a [`MemoryFrames`] sink).
 pub fn run_to_frames<S: FrameSource + ?Sized>(
     source: &mut S,
     config: &SimulationConfig,
     samples_per_element: usize,
-    mut progress: impl FnMut(usize, usize),
+    progress: impl FnMut(usize, usize),
 ) -> Result<(Frames, RunSummary)> {
-    let started = Instant::now();
-    let mut recorder = Recorder::new(source, frame_times(config), samples_per_element);
-    let mut max_speed = check_state(source)?;
-    let steps = total_steps(config);
-    if config.mode == Mode::Static {
-        source.solve_static()?;
-        check_state(source)?;
-        progress(1, 1);
-    } else {
-        recorder.record_due(source, source.time() + 0.5 * config.dt)?;
-        for step in 1..=steps {
-            source.step()?;
-            max_speed = max_speed.max(check_state(source)?);
-            recorder.record_due(source, source.time() + 0.5 * config.dt)?;
-            progress(step, steps);
-        }
-    }
-    recorder.record_due(source, f64::INFINITY)?;
-    let frames = recorder.frames;
-    let summary = RunSummary {
-        mode: config.mode,
-        steps,
-        strands: source.strand_count(),
-        frames: frames.frame_times.len(),
-        wall_time: started.elapsed(),
-        max_speed,
-    };
-    Ok((frames, summary))
-}
-
-/// Write `frames` as JSON to `path`, creating the parent directory if needed.
-pub fn write_frames(path: &Path, frames: &Frames) -> Result<()> {
-    let io_error = |source: std::io::Error| Error::Io {
-        path: path.display().to_string(),
+    let mut memory = MemoryFrames::new(frame_layout(source, config, samples_per_element));
+    let never = AtomicBool::new(false);
+    let outcome = run_streaming(
         source,
-    };
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(io_error)?;
-    }
-    let file = std::fs::File::create(path).map_err(io_error)?;
-    let mut writer = std::io::BufWriter::new(file);
-    serde_json::to_writer(&mut writer, frames).map_err(|e| io_error(e.into()))?;
-    std::io::Write::flush(&mut writer).map_err(io_error)
-}
-
-/// Collects frames as the run goes.
-struct Recorder {
-    frames: Frames,
-    nominal: Vec<f64>,
-    samples_per_element: usize,
-}
-
-impl Recorder {
-    fn new<S: FrameSource + ?Sized>(
-        source: &S,
-        nominal: Vec<f64>,
-        samples_per_element: usize,
-    ) -> Self {
-        let strands = (0..source.strand_count())
-            .map(|i| StrandFrames {
-                name: source.strand_name(i).to_string(),
-                points: Vec::new(),
-                q: Vec::new(),
-            })
-            .collect();
-        let frames = Frames {
-            frame_times: Vec::new(),
-            state_times: Vec::new(),
-            strands,
-        };
-        Self {
-            frames,
-            nominal,
-            samples_per_element,
+        config,
+        samples_per_element,
+        &mut [&mut memory],
+        &never,
+        progress,
+    );
+    match outcome.stop {
+        StopReason::Failed(e) => Err(e),
+        StopReason::Completed | StopReason::Interrupted => {
+            Ok((memory.to_frames(), outcome.summary))
         }
     }
-
-    /// Record the current state for every pending frame whose nominal time is `<= until`.
-    fn record_due<S: FrameSource + ?Sized>(&mut self, source: &mut S, until: f64) -> Result<()> {
-        while let Some(&t) = self.nominal.get(self.frames.frame_times.len()) {
-            if t > until {
-                break;
-            }
-            self.record(source, t)?;
-        }
-        Ok(())
-    }
-
-    fn record<S: FrameSource + ?Sized>(&mut self, source: &mut S, nominal: f64) -> Result<()> {
-        let time = source.time();
-        for (i, strand) in self.frames.strands.iter_mut().enumerate() {
-            let q = source.q(i).to_vec();
-            let points = source.centreline_world(i, self.samples_per_element);
-            ensure_finite(
-                source,
-                i,
-                points.iter().flatten().copied(),
-                "non-finite centreline point",
-            )?;
-            strand.q.push(q);
-            strand.points.push(points);
-        }
-        self.frames.frame_times.push(nominal);
-        self.frames.state_times.push(time);
-        Ok(())
-    }
-}
-
-/// Largest |q̇| over the strands; [`Error::Diverged`] if a coordinate or velocity is
-/// not finite.
-fn check_state<S: FrameSource + ?Sized>(source: &S) -> Result<f64> {
-    let mut max_speed = 0.0_f64;
-    for i in 0..source.strand_count() {
-        ensure_finite(
-            source,
-            i,
-            source.q(i).iter().copied(),
-            "non-finite generalized coordinates",
-        )?;
-        let v = source.v(i);
-        ensure_finite(
-            source,
-            i,
-            v.iter().copied(),
-            "non-finite generalized velocity",
-        )?;
-        max_speed = max_speed.max(v.iter().map(|x| x * x).sum::<f64>().sqrt());
-    }
-    Ok(max_speed)
-}
-
-fn ensure_finite<S: FrameSource + ?Sized>(
-    source: &S,
-    i: usize,
-    mut values: impl Iterator<Item = f64>,
-    cause: &str,
-) -> Result<()> {
-    if values.all(f64::is_finite) {
-        return Ok(());
-    }
-    Err(Error::Diverged {
-        strand: source.strand_name(i).to_string(),
-        index: i,
-        time: source.time(),
-        cause: cause.to_string(),
-    })
 }
 
 #[cfg(test)]

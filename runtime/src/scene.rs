@@ -20,6 +20,8 @@ use crate::config::{IntegratorKind, KernelChoice, Mode, SimulationConfig, Simula
 use crate::error::{Error, FieldError, Result};
 use crate::forces::environment::Environment;
 use crate::kernels::generic::QuadratureRule;
+use crate::output::plan::FORMAT_NAMES;
+use crate::output::{Formats, OutputSettings};
 use reader::{Bound, Errors, Node, Range};
 use toml::{Table, Value};
 
@@ -38,6 +40,8 @@ pub const MAX_FRAMES: f64 = 1e6;
 pub const MAX_QUADRATURE_ORDER: i64 = 64;
 /// Most centreline points written per element.
 pub const MAX_SAMPLES_PER_ELEMENT: i64 = 64;
+/// Largest `[output] max_bytes` (1 EB).
+pub const MAX_OUTPUT_BYTES: f64 = 1e18;
 /// Centreline points written per element by default.
 pub const DEFAULT_SAMPLES_PER_ELEMENT: usize = 4;
 
@@ -101,9 +105,10 @@ fn read_scene(mut root: Node<'_>) -> SimulationSetup {
         .map(read_environment)
         .unwrap_or_default();
     let head = head::read_head(root.table("head"));
-    let samples_per_element = root
-        .table("output")
-        .map_or(DEFAULT_SAMPLES_PER_ELEMENT, read_output);
+    let (samples_per_element, output) = root.table("output").map_or(
+        (DEFAULT_SAMPLES_PER_ELEMENT, OutputSettings::default()),
+        read_output,
+    );
     let strands = assembly::read_strands(&mut root, env_drag);
     root.finish();
     SimulationSetup {
@@ -112,6 +117,7 @@ fn read_scene(mut root: Node<'_>) -> SimulationSetup {
         head,
         strands,
         samples_per_element,
+        output,
     }
 }
 
@@ -232,15 +238,69 @@ fn read_environment(mut n: Node<'_>) -> (Environment, Option<f64>) {
     (Environment { gravity }, air_drag)
 }
 
-fn read_output(mut n: Node<'_>) -> usize {
+/// `[output]`: the sampling, the formats and the size limit.
+fn read_output(mut n: Node<'_>) -> (usize, OutputSettings) {
     let cap = "the cap on points per element";
     let samples = n.optional(
         "samples_per_element",
         DEFAULT_SAMPLES_PER_ELEMENT,
         |n, k| n.count(k, 1, MAX_SAMPLES_PER_ELEMENT, cap),
     );
+    let formats = read_formats(&mut n);
+    let max_bytes = if n.has("max_bytes") {
+        n.f64(
+            "max_bytes",
+            Range::new(Bound::Excl(0.0), Bound::Incl(MAX_OUTPUT_BYTES)),
+        )
+        .map(|b| b as u64)
+    } else {
+        None
+    };
     n.finish();
-    samples.unwrap_or(DEFAULT_SAMPLES_PER_ELEMENT)
+    let settings = OutputSettings { formats, max_bytes };
+    (samples.unwrap_or(DEFAULT_SAMPLES_PER_ELEMENT), settings)
+}
+
+/// `formats = ["json", ...]`: problems name `output.formats[i]` and the allowed names.
+fn read_formats(n: &mut Node<'_>) -> Option<Formats> {
+    let value = n.raw("formats")?;
+    let Value::Array(items) = value else {
+        n.error(
+            "formats",
+            format!(
+                "expected a list of format names ({}), got {}",
+                FORMAT_NAMES.join(", "),
+                reader::kind(value)
+            ),
+        );
+        return None;
+    };
+    let mut names = Vec::new();
+    for (i, item) in items.iter().enumerate() {
+        match item {
+            Value::String(s) => names.push(s.as_str()),
+            other => {
+                n.error(
+                    &format!("formats[{i}]"),
+                    format!(
+                        "expected a format name ({}), got {}",
+                        FORMAT_NAMES.join(", "),
+                        reader::kind(other)
+                    ),
+                );
+                return None;
+            }
+        }
+    }
+    match Formats::from_names("formats", &names) {
+        Ok(formats) => Some(formats),
+        Err(problems) => {
+            for p in problems {
+                n.error(&p.field, p.message);
+            }
+            None
+        }
+    }
 }
 
 #[cfg(test)]

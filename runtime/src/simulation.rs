@@ -23,6 +23,7 @@ struct StrandSim {
     system: StrandSystem,
     state: StrandState,
     stats: StepStats,
+    group: String,
 }
 
 /// A running simulation. Built from a [`SimulationSetup`]; advanced by [`Simulation::step`].
@@ -149,6 +150,7 @@ impl Simulation {
                     v: vec![0.0; n],
                 },
                 stats: StepStats::default(),
+                group: s.group,
             });
         }
         Ok(Simulation {
@@ -331,6 +333,12 @@ impl FrameSource for Simulation {
     }
     fn strand_name(&self, i: usize) -> &str {
         &self.strands[i].system.strand.name
+    }
+    fn strand_group(&self, i: usize) -> &str {
+        &self.strands[i].group
+    }
+    fn strand_radius(&self, i: usize) -> f64 {
+        crate::output::driver::display_radius(&self.strands[i].system.strand.material)
     }
     fn q(&self, i: usize) -> &[f64] {
         &self.strands[i].state.q

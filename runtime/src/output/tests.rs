@@ -1,4 +1,7 @@
 use super::*;
+use crate::error::Error;
+
+mod streaming;
 
 /// A fake simulation: strand i is a straight line along x from (0, i, 0) whose tip bends
 /// in z as q = sin(t); it can be told to produce a NaN at a given step.
@@ -155,27 +158,6 @@ fn zero_duration_writes_the_initial_state() {
     let (frames, summary) =
         run_to_frames(&mut Fake::new(1, 0.1), &cfg, 2, |_, _| {}).expect("runs");
     assert_eq!((summary.steps, frames.frame_times.len()), (0, 1));
-}
-
-#[test]
-fn frames_json_has_the_documented_structure() {
-    let cfg = config(0.5, 1.0, 2.0);
-    let (frames, _) = run_to_frames(&mut Fake::new(1, 0.5), &cfg, 1, |_, _| {}).expect("runs");
-    let dir = std::env::temp_dir().join(format!("superhelix-output-test-{}", std::process::id()));
-    let path = dir.join("nested").join("frames.json");
-    write_frames(&path, &frames).expect("writes");
-    let text = std::fs::read_to_string(&path).expect("reads");
-    let _ = std::fs::remove_dir_all(&dir);
-    let json: serde_json::Value = serde_json::from_str(&text).expect("json");
-    assert_eq!(json["frame_times"].as_array().map(Vec::len), Some(3));
-    assert_eq!(json["strands"][0]["name"], "a");
-    assert_eq!(
-        json["strands"][0]["points"][2][1].as_array().map(Vec::len),
-        Some(3)
-    );
-    assert_eq!(json["strands"][0]["q"][2].as_array().map(Vec::len), Some(6));
-    let back: Frames = serde_json::from_str(&text).expect("round trip");
-    assert_eq!(back, frames);
 }
 
 #[test]

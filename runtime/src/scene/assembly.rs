@@ -21,12 +21,14 @@ pub(super) fn read_strands(root: &mut Node<'_>, env_drag: Option<f64>) -> Vec<St
         let name = n.optional("name", format!("strand{i}"), |n, k| {
             n.string(k).map(str::to_string)
         });
+        let group = read_group(&mut n);
         let root_position = n.optional("root", Vector3::zeros(), Node::vec3);
         let template = read_template(&mut n, env_drag);
-        if let Some(name) = name {
+        if let (Some(name), Some(group)) = (name, group) {
             names.claim(&n, &name);
+            let group = group.unwrap_or_else(|| name.clone());
             let mut rng = strand_rng(template.seed.unwrap_or(i as u64), 0);
-            out.extend(root_position.and_then(|r| template.build(name, r, &mut rng)));
+            out.extend(root_position.and_then(|r| template.build(name, group, r, &mut rng)));
         }
         n.finish();
     }
@@ -47,6 +49,20 @@ pub(super) fn read_strands(root: &mut Node<'_>, env_drag: Option<f64>) -> Vec<St
         root.error("strands", msg);
     }
     out
+}
+
+/// The optional `group` of a `[[strands]]` entry: `Some(None)` when absent (the strand
+/// is its own group), `None` when invalid (reported).
+fn read_group(n: &mut Node<'_>) -> Option<Option<String>> {
+    if !n.has("group") {
+        return Some(None);
+    }
+    let group = n.string("group")?;
+    if group.is_empty() {
+        n.error("group", "must be a non-empty name");
+        return None;
+    }
+    Some(Some(group.to_string()))
 }
 
 /// Names in use, to reject duplicates; counts the strands declared.
@@ -115,7 +131,7 @@ fn read_patch(
             let offset =
                 u * (i as f64 - 0.5 * (nx - 1) as f64) + v * (j as f64 - 0.5 * (ny - 1) as f64);
             let mut rng = strand_rng(seed, 1 + (i * ny + j) as u64);
-            out.extend(template.build(strand_name, center + offset, &mut rng));
+            out.extend(template.build(strand_name, name.clone(), center + offset, &mut rng));
         }
     }
 }

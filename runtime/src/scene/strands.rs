@@ -114,12 +114,14 @@ fn check_derived(n: &Node<'_>, material: &Material, natural: Option<&[f64]>) {
 }
 
 impl Template {
-    /// The strand named `name` with its root at `root` (head coordinates). Natural
+    /// The strand named `name`, of output group `group`, with its root at `root` (head
+    /// coordinates). Natural
     /// curvatures get their random variation from `rng` (see [`vary`]). `None` when a
     /// part of the template was invalid.
     pub(super) fn build(
         &self,
         name: String,
+        group: String,
         root: Vector3<f64>,
         rng: &mut ChaCha8Rng,
     ) -> Option<StrandSetup> {
@@ -140,7 +142,7 @@ impl Template {
             air_drag: self.air_drag,
             point_loads: self.point_loads.clone()?,
         };
-        Some(StrandSetup { strand, q0 })
+        Some(StrandSetup { strand, q0, group })
     }
 }
 

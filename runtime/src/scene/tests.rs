@@ -431,3 +431,58 @@ proptest! {
         let _ = parse_scene(&String::from_utf8_lossy(&text));
     }
 }
+
+#[test]
+fn strands_get_their_group_and_output_reads_formats_and_max_bytes() {
+    let s = setup(
+        "[output]\nformats = [\"npy\", \"preview\"]\nmax_bytes = 5e9\n\
+         [[strands]]\nname = \"a\"\nlength = 0.1\ngroup = \"fringe\"\n\
+         [[strands]]\nname = \"b\"\nlength = 0.1\n\
+         [[patches]]\nname = \"crown\"\ncount = [1, 2]\nsize = [0.0, 0.01]\nlength = 0.1\n",
+    );
+    let groups: Vec<&str> = s.strands.iter().map(|s| s.group.as_str()).collect();
+    assert_eq!(groups, vec!["fringe", "b", "crown", "crown"]);
+    let formats = s.output.formats.map(|f| f.names());
+    assert_eq!(formats, Some(vec!["npy", "png", "gif"]));
+    assert_eq!(s.output.max_bytes, Some(5_000_000_000));
+    assert_eq!(
+        setup("[[strands]]\nlength = 0.1\n").output,
+        OutputSettings::default()
+    );
+    let broken = [
+        (
+            "[output]\nformats = [\"json\", \"vtk\"]\n",
+            "output.formats[1]",
+            "json, npy, usda, png, gif, obj, preview",
+        ),
+        (
+            "[output]\nformats = [\"json\", 3]\n",
+            "output.formats[1]",
+            "expected a format name",
+        ),
+        (
+            "[output]\nformats = \"json\"\n",
+            "output.formats",
+            "expected a list",
+        ),
+        ("[output]\nformats = []\n", "output.formats", "at least one"),
+        ("[output]\nmax_bytes = 0\n", "output.max_bytes", "(0, "),
+        (
+            "[[strands]]\ngroup = \"\"\n",
+            "strands[1].group",
+            "non-empty",
+        ),
+        ("[[strands]]\ngroup = 1\n", "strands[1].group", "a string"),
+    ];
+    for (extra, field, message) in broken {
+        let text = format!("[[strands]]\nlength = 0.1\n{extra}");
+        let text = text.replace("[[strands]]\ngroup", "[[strands]]\nlength = 0.1\ngroup");
+        let errors = validate_scene(&text);
+        assert!(
+            errors
+                .iter()
+                .any(|e| e.field == field && e.message.contains(message)),
+            "{field} / {message}: {errors:?}"
+        );
+    }
+}

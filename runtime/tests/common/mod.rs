@@ -131,9 +131,11 @@ pub fn setup(
             .into_iter()
             .map(|s| StrandSetup {
                 q0: s.natural.clone(),
+                group: s.name.clone(),
                 strand: s,
             })
             .collect(),
         samples_per_element: 4,
+        output: Default::default(),
     }
 }

@@ -1,0 +1,284 @@
+//! The run loop: steps a [`FrameSource`] and streams every frame to a list of
+//! [`FrameSink`]s as soon as it is computed.
+//!
+//! Frame timing: dynamic mode takes [`total_steps`] fixed steps. Frame k (nominal time
+//! `t_k = k / output_fps`) records the state at the first step time `t ≥ t_k − dt/2`,
+//! i.e. the state nearest to `t_k` (when `output_fps > 1/dt` consecutive frames may
+//! repeat a state). Any frame still unrecorded after the last step gets the final state.
+//! Static mode solves for the equilibrium and records one frame at time 0.
+//!
+//! The run stops early when the stop flag is raised (checked between steps), when a
+//! coordinate, velocity or centreline point is not finite ([`Error::Diverged`], naming
+//! the strand, the time and the cause: no non-finite number is ever written), when a step
+//! fails, or when a sink cannot write. In every case every sink is finished, so every
+//! frame written stays readable, and the [`RunOutcome`] says how many frames were
+//! written and why the run stopped.
+
+use super::frames::{FrameLayout, FrameSink, FrameView, StrandInfo};
+use super::{frame_times, total_steps, FrameSource, RunSummary};
+use crate::error::{Error, Result};
+use crate::config::{Mode, SimulationConfig};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+/// Why a run stopped.
+#[derive(Debug)]
+pub enum StopReason {
+    /// Every planned frame was written.
+    Completed,
+    /// The stop flag was raised (Ctrl-C).
+    Interrupted,
+    /// A step failed, a value became non-finite or a sink could not write.
+    Failed(Error),
+}
+
+/// What a run did: its summary (whose `frames` counts the frames written), why it
+/// stopped, and the simulated time it reached.
+#[derive(Debug)]
+pub struct RunOutcome {
+    /// Steps, frames written, wall-clock time, largest speed.
+    pub summary: RunSummary,
+    /// Frames the run planned to write.
+    pub planned_frames: usize,
+    /// Why the run stopped.
+    pub stop: StopReason,
+    /// Simulated time when the run stopped, s.
+    pub time: f64,
+}
+
+impl RunOutcome {
+    /// Frames written to every sink.
+    pub fn frames_written(&self) -> usize {
+        self.summary.frames
+    }
+}
+
+/// Display radius of a strand from its material: for an elliptic cross-section of
+/// semi-axes a, b the rotary inertias per length are ρI1 = ρπab³/4 and ρI2 = ρπa³b/4
+/// and the mass per length ρπab, so b = 2·sqrt(ρI1/ρS) and a = 2·sqrt(ρI2/ρS); the
+/// radius is (a + b)/2. Strands without rotary inertia get [`DEFAULT_DISPLAY_RADIUS`].
+pub fn display_radius(material: &crate::model::material::Material) -> f64 {
+    let m = material.mass_per_length;
+    let [_, i1, i2] = material.rotary_inertia;
+    let radius = (i1 / m).sqrt() + (i2 / m).sqrt();
+    if radius.is_finite() && radius > 0.0 {
+        radius
+    } else {
+        DEFAULT_DISPLAY_RADIUS
+    }
+}
+
+/// Display radius of a strand whose cross-section is unknown, m (a typical hair).
+pub const DEFAULT_DISPLAY_RADIUS: f64 = 5e-5;
+
+/// The layout of the frames a run of `source` under `config` writes.
+pub fn frame_layout<S: FrameSource + ?Sized>(
+    source: &S,
+    config: &SimulationConfig,
+    samples_per_element: usize,
+) -> FrameLayout {
+    let strands = (0..source.strand_count())
+        .map(|i| {
+            let coordinates = source.q(i).len();
+            StrandInfo {
+                name: source.strand_name(i).to_string(),
+                group: source.strand_group(i).to_string(),
+                radius: source.strand_radius(i),
+                points: 1 + samples_per_element * coordinates / 3,
+                coordinates,
+            }
+        })
+        .collect();
+    FrameLayout {
+        strands,
+        output_fps: config.output_fps,
+        planned_frames: frame_times(config).len(),
+    }
+}
+
+/// Run `source` as `config` says, handing every frame to every sink in `sinks` as it is
+/// computed (see the module documentation for the frame timing and early stops).
+/// `stop` is checked between steps; `progress(step, total_steps)` is called after every
+/// step. Every sink is finished before this returns, whatever the outcome.
+pub fn run_streaming<S: FrameSource + ?Sized>(
+    source: &mut S,
+    config: &SimulationConfig,
+    samples_per_element: usize,
+    sinks: &mut [&mut dyn FrameSink],
+    stop: &AtomicBool,
+    mut progress: impl FnMut(usize, usize),
+) -> RunOutcome {
+    let started = Instant::now();
+    let nominal = frame_times(config);
+    let planned_frames = nominal.len();
+    let steps = total_steps(config);
+    let mut streamer = Streamer {
+        nominal,
+        samples_per_element,
+        written: 0,
+        points: Vec::new(),
+        q: Vec::new(),
+        sinks,
+    };
+    let mut max_speed = 0.0;
+    let result = run_loop(
+        source,
+        config,
+        steps,
+        &mut streamer,
+        stop,
+        &mut max_speed,
+        &mut progress,
+    );
+    let mut stop_reason = match result {
+        Ok(true) => StopReason::Completed,
+        Ok(false) => StopReason::Interrupted,
+        Err(e) => StopReason::Failed(e),
+    };
+    for sink in streamer.sinks.iter_mut() {
+        if let Err(e) = sink.finish() {
+            if !matches!(stop_reason, StopReason::Failed(_)) {
+                stop_reason = StopReason::Failed(e);
+            }
+        }
+    }
+    let summary = RunSummary {
+        mode: config.mode,
+        steps,
+        strands: source.strand_count(),
+        frames: streamer.written,
+        wall_time: started.elapsed(),
+        max_speed,
+    };
+    RunOutcome {
+        summary,
+        planned_frames,
+        stop: stop_reason,
+        time: source.time(),
+    }
+}
+
+/// The steps and frames of a run; `Ok(false)` when the stop flag ended it.
+fn run_loop<S: FrameSource + ?Sized>(
+    source: &mut S,
+    config: &SimulationConfig,
+    steps: usize,
+    streamer: &mut Streamer<'_, '_>,
+    stop: &AtomicBool,
+    max_speed: &mut f64,
+    progress: &mut impl FnMut(usize, usize),
+) -> Result<bool> {
+    *max_speed = check_state(source)?;
+    if config.mode == Mode::Static {
+        if stop.load(Ordering::Relaxed) {
+            return Ok(false);
+        }
+        source.solve_static()?;
+        check_state(source)?;
+        progress(1, 1);
+    } else {
+        streamer.write_due(source, source.time() + 0.5 * config.dt)?;
+        for step in 1..=steps {
+            if stop.load(Ordering::Relaxed) {
+                return Ok(false);
+            }
+            source.step()?;
+            *max_speed = max_speed.max(check_state(source)?);
+            streamer.write_due(source, source.time() + 0.5 * config.dt)?;
+            progress(step, steps);
+        }
+    }
+    streamer.write_due(source, f64::INFINITY)?;
+    Ok(true)
+}
+
+/// Builds each frame once and hands it to every sink.
+struct Streamer<'s, 'k> {
+    nominal: Vec<f64>,
+    samples_per_element: usize,
+    written: usize,
+    points: Vec<[f64; 3]>,
+    q: Vec<f64>,
+    sinks: &'s mut [&'k mut dyn FrameSink],
+}
+
+impl Streamer<'_, '_> {
+    /// Write the current state for every pending frame whose nominal time is `<= until`.
+    fn write_due<S: FrameSource + ?Sized>(&mut self, source: &mut S, until: f64) -> Result<()> {
+        while let Some(&t) = self.nominal.get(self.written) {
+            if t > until {
+                break;
+            }
+            self.write(source, t)?;
+        }
+        Ok(())
+    }
+
+    fn write<S: FrameSource + ?Sized>(&mut self, source: &mut S, nominal: f64) -> Result<()> {
+        self.points.clear();
+        self.q.clear();
+        for i in 0..source.strand_count() {
+            let points = source.centreline_world(i, self.samples_per_element);
+            ensure_finite(
+                source,
+                i,
+                points.iter().flatten().copied(),
+                "non-finite centreline point",
+            )?;
+            self.points.extend_from_slice(&points);
+            self.q.extend_from_slice(source.q(i));
+        }
+        let frame = FrameView {
+            index: self.written,
+            time: nominal,
+            state_time: source.time(),
+            points: &self.points,
+            q: &self.q,
+        };
+        for sink in self.sinks.iter_mut() {
+            sink.write_frame(&frame)?;
+        }
+        self.written += 1;
+        Ok(())
+    }
+}
+
+/// Largest |q̇| over the strands; [`Error::Diverged`] if a coordinate or velocity is
+/// not finite.
+fn check_state<S: FrameSource + ?Sized>(source: &S) -> Result<f64> {
+    let mut max_speed = 0.0_f64;
+    for i in 0..source.strand_count() {
+        ensure_finite(
+            source,
+            i,
+            source.q(i).iter().copied(),
+            "non-finite generalized coordinates",
+        )?;
+        let v = source.v(i);
+        ensure_finite(
+            source,
+            i,
+            v.iter().copied(),
+            "non-finite generalized velocity",
+        )?;
+        max_speed = max_speed.max(v.iter().map(|x| x * x).sum::<f64>().sqrt());
+    }
+    Ok(max_speed)
+}
+
+fn ensure_finite<S: FrameSource + ?Sized>(
+    source: &S,
+    i: usize,
+    mut values: impl Iterator<Item = f64>,
+    cause: &str,
+) -> Result<()> {
+    if values.all(f64::is_finite) {
+        return Ok(());
+    }
+    Err(Error::Diverged {
+        strand: source.strand_name(i).to_string(),
+        index: i,
+        time: source.time(),
+        cause: cause.to_string(),
+    })
+}

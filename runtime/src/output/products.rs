@@ -1,0 +1,419 @@
+//! The files written after a run from its frames: `hair.usda`, `preview.png`,
+//! `preview_first.png`, `preview.gif`, `last_frame.obj`, as [`Formats`] says.
+
+use super::frames::FrameStore;
+use super::obj::{write_obj, OBJ_FILE};
+use super::plan::Formats;
+use super::preview::{
+    frame_bounds, write_frame_png, write_gif, Camera, PreviewOptions, FIRST_PNG_FILE, GIF_FILE,
+    PNG_FILE,
+};
+use super::usd::{write_usda, USDA_FILE};
+use crate::error::{Error, Result};
+use std::path::{Path, PathBuf};
+
+/// Write the post-run files `formats` asks for (`usda`, `png`, `gif`, `obj`; `json` and
+/// `npy` are written while the run goes) into `dir` from the frames of `store`, with the
+/// camera settings `view`. Returns the files written; nothing when `store` has no frame.
+/// `view.frame` (default: the last frame) must be a frame of `store`.
+pub fn write_products(
+    store: &mut dyn FrameStore,
+    formats: &Formats,
+    dir: &Path,
+    view: &PreviewOptions,
+) -> Result<Vec<PathBuf>> {
+    let count = store.frame_count();
+    let mut written = Vec::new();
+    if count == 0 {
+        return Ok(written);
+    }
+    view.check("preview.")?;
+    let shown = view.frame.unwrap_or(count - 1);
+    if shown >= count {
+        return Err(Error::invalid(
+            "preview.frame",
+            format!(
+                "{shown} is out of range: the run wrote frames 0..={}",
+                count - 1
+            ),
+        ));
+    }
+    std::fs::create_dir_all(dir).map_err(|source| Error::Io {
+        path: dir.display().to_string(),
+        source,
+    })?;
+    if formats.usda {
+        let path = dir.join(USDA_FILE);
+        write_usda(&path, store)?;
+        written.push(path);
+    }
+    if formats.png || formats.gif {
+        let bounds = frame_bounds(store, &view.bodies)?;
+        let camera = Camera::fit(&bounds, view);
+        if formats.png {
+            for (name, k) in [(PNG_FILE, shown), (FIRST_PNG_FILE, 0)] {
+                let path = dir.join(name);
+                write_frame_png(&path, store, k, &camera, &view.bodies)?;
+                written.push(path);
+            }
+        }
+        if formats.gif {
+            let path = dir.join(GIF_FILE);
+            write_gif(&path, store, &camera, view)?;
+            written.push(path);
+        }
+    }
+    if formats.obj {
+        let path = dir.join(OBJ_FILE);
+        write_obj(&path, store)?;
+        written.push(path);
+    }
+    Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::output::frames::{FrameLayout, StrandInfo};
+    use crate::output::preview::{group_colour, PreviewBody};
+
+    /// Frames held in memory.
+    struct VecStore {
+        layout: FrameLayout,
+        frames: Vec<Vec<[f64; 3]>>,
+    }
+
+    impl FrameStore for VecStore {
+        fn layout(&self) -> &FrameLayout {
+            &self.layout
+        }
+        fn frame_count(&self) -> usize {
+            self.frames.len()
+        }
+        fn time(&self, k: usize) -> f64 {
+            k as f64 / self.layout.output_fps
+        }
+        fn points(&mut self, k: usize, out: &mut Vec<[f64; 3]>) -> Result<()> {
+            out.clear();
+            out.extend_from_slice(&self.frames[k]);
+            Ok(())
+        }
+    }
+
+    /// Two groups ("left": two strands, "right": one) of 5-point strands hanging from
+    /// z = 0 and swinging in x over `frames` frames.
+    fn store(frames: usize) -> VecStore {
+        let strand = |name: &str, group: &str| StrandInfo {
+            name: name.into(),
+            group: group.into(),
+            radius: 4e-5,
+            points: 5,
+            coordinates: 3,
+        };
+        let layout = FrameLayout {
+            strands: vec![
+                strand("l0", "left"),
+                strand("r 0", "right"),
+                strand("l1", "left"),
+            ],
+            output_fps: 25.0,
+            planned_frames: frames,
+        };
+        let roots = [-0.1, 0.1, -0.05];
+        let frames = (0..frames)
+            .map(|k| {
+                let swing = 0.05 * (k as f64 * 0.3).sin();
+                roots
+                    .iter()
+                    .flat_map(|&x| {
+                        (0..5).map(move |j| {
+                            [
+                                x + swing * j as f64 / 4.0,
+                                0.01 * j as f64,
+                                -0.05 * j as f64,
+                            ]
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        VecStore { layout, frames }
+    }
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("superhelix-products-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        dir
+    }
+
+    fn all() -> Formats {
+        Formats {
+            json: false,
+            npy: false,
+            usda: true,
+            png: true,
+            gif: true,
+            obj: true,
+        }
+    }
+
+    fn ok<T>(r: Result<T>) -> T {
+        r.unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn read(path: &Path) -> String {
+        std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+    }
+
+    #[test]
+    fn every_product_is_written_and_nothing_else() {
+        let dir = scratch("all");
+        let mut s = store(12);
+        let files = ok(write_products(
+            &mut s,
+            &all(),
+            &dir,
+            &PreviewOptions::default(),
+        ));
+        let names: Vec<_> = files
+            .iter()
+            .filter_map(|f| f.file_name()?.to_str())
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "hair.usda",
+                "preview.png",
+                "preview_first.png",
+                "preview.gif",
+                "last_frame.obj"
+            ]
+        );
+        let mut present: Vec<_> = std::fs::read_dir(&dir)
+            .map(|d| {
+                d.filter_map(|e| e.ok()?.file_name().into_string().ok())
+                    .collect()
+            })
+            .unwrap_or_default();
+        present.sort();
+        // no temporary file is left
+        assert_eq!(
+            present,
+            [
+                "hair.usda",
+                "last_frame.obj",
+                "preview.gif",
+                "preview.png",
+                "preview_first.png"
+            ]
+        );
+        let only_obj = Formats {
+            usda: false,
+            png: false,
+            gif: false,
+            ..all()
+        };
+        let dir2 = scratch("obj-only");
+        assert_eq!(
+            ok(write_products(
+                &mut s,
+                &only_obj,
+                &dir2,
+                &PreviewOptions::default()
+            ))
+            .len(),
+            1
+        );
+        assert!(ok(write_products(
+            &mut store(0),
+            &all(),
+            &scratch("none"),
+            &PreviewOptions::default()
+        ))
+        .is_empty());
+    }
+
+    #[test]
+    fn a_frame_out_of_range_is_refused() {
+        let view = PreviewOptions {
+            frame: Some(12),
+            ..PreviewOptions::default()
+        };
+        let e = write_products(&mut store(12), &all(), &scratch("frame"), &view);
+        assert!(e.is_err_and(
+            |e| e.to_string().contains("preview.frame") && e.to_string().contains("0..=11")
+        ));
+    }
+
+    #[test]
+    fn the_obj_holds_the_last_frame_as_one_polyline_per_strand() {
+        let dir = scratch("obj");
+        let mut s = store(7);
+        let formats = Formats {
+            usda: false,
+            png: false,
+            gif: false,
+            ..all()
+        };
+        ok(write_products(
+            &mut s,
+            &formats,
+            &dir,
+            &PreviewOptions::default(),
+        ));
+        let text = read(&dir.join(OBJ_FILE));
+        let objects: Vec<&str> = text.lines().filter(|l| l.starts_with("o ")).collect();
+        assert_eq!(objects, ["o l0", "o r_0", "o l1"]);
+        let vertices: Vec<[f64; 3]> = text
+            .lines()
+            .filter_map(|l| l.strip_prefix("v "))
+            .map(|l| {
+                let v: Vec<f64> = l.split(' ').filter_map(|x| x.parse().ok()).collect();
+                [v[0], v[1], v[2]]
+            })
+            .collect();
+        assert_eq!(vertices.len(), 15);
+        for (v, p) in vertices.iter().zip(&s.frames[6]) {
+            for c in 0..3 {
+                // written as float32: relative error below 2^-24
+                assert!(
+                    (v[c] - p[c]).abs() <= 1e-7 * p[c].abs().max(1e-3),
+                    "{v:?} vs {p:?}"
+                );
+            }
+        }
+        let lines: Vec<&str> = text.lines().filter(|l| l.starts_with("l ")).collect();
+        assert_eq!(lines, ["l 1 2 3 4 5", "l 6 7 8 9 10", "l 11 12 13 14 15"]);
+    }
+
+    #[test]
+    fn the_usda_has_one_curves_prim_per_group_with_every_frame() {
+        let dir = scratch("usda");
+        let mut s = store(3);
+        let formats = Formats {
+            png: false,
+            gif: false,
+            obj: false,
+            ..all()
+        };
+        ok(write_products(
+            &mut s,
+            &formats,
+            &dir,
+            &PreviewOptions::default(),
+        ));
+        let text = read(&dir.join(USDA_FILE));
+        assert!(text.starts_with("#usda 1.0\n"));
+        for needle in [
+            "upAxis = \"Z\"",
+            "metersPerUnit = 1",
+            "timeCodesPerSecond = 25",
+            "startTimeCode = 0",
+            "endTimeCode = 2",
+            "def BasisCurves \"left\"",
+            "def BasisCurves \"right\"",
+            "uniform token type = \"linear\"",
+            "int[] curveVertexCounts = [5, 5]",
+            "int[] curveVertexCounts = [5]",
+            "interpolation = \"vertex\"",
+            // 2 x radius 4e-5
+            "float[] widths = [8e-5, 8e-5, 8e-5, 8e-5, 8e-5]",
+        ] {
+            assert!(text.contains(needle), "{needle} missing");
+        }
+        let [r, g, b] = group_colour(1);
+        assert!(text.contains(&format!(
+            "primvars:displayColor = [({}, {}, {})]",
+            r as f32 / 255.0,
+            g as f32 / 255.0,
+            b as f32 / 255.0
+        )));
+        // frame 2 of group "left" = strands l0 then l1
+        let left = text.split("def BasisCurves \"right\"").next().unwrap_or("");
+        let line = left
+            .lines()
+            .find(|l| l.trim_start().starts_with("2: ["))
+            .unwrap_or("");
+        let first = s.frames[2][0];
+        let f = |c: usize| crate::output::usd::format_f32(first[c] as f32);
+        assert!(
+            line.starts_with(&format!("            2: [({}, {}, {})", f(0), f(1), f(2))),
+            "{line}"
+        );
+        assert_eq!(line.matches('(').count(), 10);
+        assert!(!dir.join("hair.usda.tmp").exists());
+    }
+
+    #[test]
+    fn pictures_show_each_group_in_its_colour_and_bodies_in_grey() {
+        let dir = scratch("png");
+        let mut s = store(4);
+        let view = PreviewOptions {
+            width: 400,
+            height: 300,
+            bodies: vec![PreviewBody {
+                centre: [0.0, 0.0, 0.05],
+                radii: [0.04; 3],
+            }],
+            ..PreviewOptions::default()
+        };
+        let formats = Formats {
+            usda: false,
+            gif: false,
+            obj: false,
+            ..all()
+        };
+        ok(write_products(&mut s, &formats, &dir, &view));
+        let bytes = std::fs::read(dir.join(PNG_FILE)).unwrap_or_default();
+        let pixmap = tiny_skia::Pixmap::decode_png(&bytes).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!((pixmap.width(), pixmap.height()), (400, 300));
+        let count = |rgb: [u8; 3]| {
+            pixmap
+                .data()
+                .chunks_exact(4)
+                .filter(|p| p[..3] == rgb)
+                .count()
+        };
+        // fully covered pixels of each group's colour: a 20 cm strand at ~1000 px/m
+        for g in 0..2 {
+            assert!(
+                count(group_colour(g)) > 40,
+                "group {g}: {}",
+                count(group_colour(g))
+            );
+        }
+        assert_eq!(count(group_colour(2)), 0);
+        assert!(count([0xdd; 3]) > 1000, "body");
+    }
+
+    #[test]
+    fn the_gif_has_the_frames_at_the_output_rate() {
+        let dir = scratch("gif");
+        let mut s = store(9);
+        let view = PreviewOptions {
+            width: 200,
+            height: 100,
+            gif_max_frames: 4,
+            ..PreviewOptions::default()
+        };
+        let formats = Formats {
+            usda: false,
+            png: false,
+            obj: false,
+            ..all()
+        };
+        ok(write_products(&mut s, &formats, &dir, &view));
+        let bytes = std::fs::read(dir.join(GIF_FILE)).unwrap_or_default();
+        assert_eq!(&bytes[..6], b"GIF89a");
+        assert_eq!(u16::from_le_bytes([bytes[6], bytes[7]]), 200);
+        assert_eq!(u16::from_le_bytes([bytes[8], bytes[9]]), 100);
+        // frames 0, 3, 6, 8: four image descriptors with a delay of 3 / 25 s = 12 cs
+        let controls: Vec<u16> = bytes
+            .windows(8)
+            .filter(|w| w[0] == 0x21 && w[1] == 0xf9 && w[2] == 4)
+            .map(|w| u16::from_le_bytes([w[4], w[5]]))
+            .collect();
+        assert_eq!(controls, [12, 12, 12, 12]);
+    }
+}

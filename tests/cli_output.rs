@@ -1,0 +1,393 @@
+//! `superhelix run` and `validate` and their output: the plan and its limit, formats,
+//! `--out` checks, a diverging run, and Ctrl-C in the middle of a run.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use superhelix::runtime::output::npy::NpyFrameStore;
+use superhelix::runtime::output::{FrameStore, JsonFrameStore};
+
+fn superhelix(args: &[&str]) -> Output {
+    match Command::new(env!("CARGO_BIN_EXE_superhelix"))
+        .args(args)
+        .output()
+    {
+        Ok(out) => out,
+        Err(e) => panic!("cannot start superhelix: {e}"),
+    }
+}
+
+fn stdout(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!(
+        "superhelix-cli-output-{}-{name}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+    dir
+}
+
+fn write(dir: &Path, name: &str, contents: &str) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, contents).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    path.to_string_lossy().into_owned()
+}
+
+fn s(p: &Path) -> String {
+    p.to_string_lossy().into_owned()
+}
+
+/// 13 lines: 1000 strands of 40 points at 300 frames per second for 10 s.
+const HUGE: &str = "[simulation]\nmode = \"dynamic\"\nduration = 10.0\noutput_fps = 300\n\
+[output]\nsamples_per_element = 4\nformats = [\"json\"]\n\
+[[patches]]\nname = \"carpet\"\ncount = [40, 25]\nsize = [0.1, 0.1]\nlength = 0.1\nelements = 10\n";
+
+#[test]
+fn validate_says_strand_or_strands_and_prints_the_plan() {
+    let dir = scratch("validate");
+    let one = write(&dir, "one.toml", "[[strands]]\nlength = 0.3\n");
+    let out = superhelix(&["validate", &one]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let text = stdout(&out);
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "ok: 1 strand, 60 steps");
+    assert!(
+        lines[1].starts_with("output: ") && lines[1].contains("frames.json"),
+        "{text}"
+    );
+    let two = write(
+        &dir,
+        "two.toml",
+        "[[strands]]\nlength = 0.3\n[[strands]]\nlength = 0.2\n",
+    );
+    assert!(stdout(&superhelix(&["validate", &two])).starts_with("ok: 2 strands, 60 steps\n"));
+    // problems go to stderr, one a line
+    let bad = write(
+        &dir,
+        "bad.toml",
+        "[[strands]]\nlength = 0.3\npoisson = 0.7\n[simulation]\ndt = 0.0\n",
+    );
+    let out = superhelix(&["validate", &bad]);
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(stdout(&out), "");
+    let err = stderr(&out);
+    assert!(
+        err.lines().any(|l| l.starts_with("strands[0].poisson: ")),
+        "{err}"
+    );
+    assert!(
+        err.lines().any(|l| l.starts_with("simulation.dt: ")),
+        "{err}"
+    );
+    assert!(
+        err.lines()
+            .last()
+            .is_some_and(|l| l.ends_with("2 problem(s)")),
+        "{err}"
+    );
+}
+
+#[test]
+fn an_oversized_plan_is_refused_by_validate_and_run_unless_lifted() {
+    let dir = scratch("huge");
+    let huge = write(&dir, "huge.toml", HUGE);
+    assert_eq!(HUGE.lines().count(), 13);
+    let out = superhelix(&["validate", &huge]);
+    assert_eq!(out.status.code(), Some(1), "{}", stdout(&out));
+    let err = stderr(&out);
+    assert!(
+        err.contains("GB")
+            && err.contains("2.0 GB")
+            && err.contains("max_bytes")
+            && err.contains("--allow-large-output"),
+        "{err}"
+    );
+    // run refuses before simulating or creating anything
+    let out_dir = dir.join("out");
+    let out = superhelix(&["run", &huge, "--out", &s(&out_dir)]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        stderr(&out).contains("--allow-large-output"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!out_dir.exists());
+    // max_bytes in the scene lifts the limit for validate (and so for run)
+    let lifted = HUGE.replace("[output]\n", "[output]\nmax_bytes = 1e11\n");
+    let lifted = write(&dir, "lifted.toml", &lifted);
+    let out = superhelix(&["validate", &lifted]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    // under the default formats the frames go to frames.npy, and the run says so
+    let default = write(
+        &dir,
+        "default.toml",
+        &HUGE.replace("formats = [\"json\"]\n", ""),
+    );
+    let out = superhelix(&["validate", &default]);
+    let text = stdout(&out);
+    let plan = text.lines().nth(1).unwrap_or_default();
+    assert!(
+        plan.contains("(frames.npy ") && !plan.contains("frames.json"),
+        "{text}"
+    );
+    assert!(text.contains("writing frames.npy instead"), "{text}");
+    // and at 5.9 GB this plan is over the limit too
+    assert_eq!(out.status.code(), Some(1), "{text}");
+}
+
+#[test]
+fn allow_large_output_lifts_the_limit_of_run() {
+    // a plan of a few kB against a limit of 1 kB: refused, then allowed and written
+    let dir = scratch("allow");
+    let scene = write(
+        &dir,
+        "small.toml",
+        "[simulation]\nduration = 0.1\n[output]\nmax_bytes = 1000\nformats = [\"json\"]\n[[strands]]\nlength = 0.1\n",
+    );
+    let out_dir = dir.join("out");
+    let out = superhelix(&["run", &scene, "--out", &s(&out_dir)]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(stderr(&out).contains("1.0 kB"), "{}", stderr(&out));
+    let out = superhelix(&["run", &scene, "--out", &s(&out_dir), "--allow-large-output"]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert!(out_dir.join("frames.json").is_file());
+}
+
+#[test]
+fn format_replaces_the_scene_list_and_bad_names_are_refused() {
+    let dir = scratch("format");
+    let scene = write(
+        &dir,
+        "scene.toml",
+        "[simulation]\nduration = 0.1\n[output]\nformats = [\"usda\"]\n[[strands]]\nlength = 0.1\n",
+    );
+    let out_dir = dir.join("out");
+    let out = superhelix(&["run", &scene, "--out", &s(&out_dir), "--format", "json"]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let plan = stdout(&out);
+    let first = plan.lines().next().unwrap_or_default();
+    assert!(
+        first.contains("(frames.json ") && !first.contains("hair.usda"),
+        "{plan}"
+    );
+    for bad in [
+        &["--format", "json,vtk"][..],
+        &["--format", "json", "--format", "pdf"],
+    ] {
+        let mut args = vec!["run", &scene, "--out"];
+        let o = s(&dir.join("never"));
+        args.push(&o);
+        args.extend_from_slice(bad);
+        let out = superhelix(&args);
+        assert_eq!(out.status.code(), Some(1));
+        let err = stderr(&out);
+        assert!(
+            err.contains("--format[1]") && err.contains("json, npy, usda"),
+            "{err}"
+        );
+        assert!(!dir.join("never").exists());
+    }
+    let bad_scene = write(
+        &dir,
+        "bad.toml",
+        "[output]\nformats = [\"json\", \"vrml\"]\n[[strands]]\nlength = 0.1\n",
+    );
+    let out = superhelix(&["validate", &bad_scene]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        stderr(&out).contains("output.formats[1]: unknown format \"vrml\""),
+        "{}",
+        stderr(&out)
+    );
+}
+
+#[test]
+fn out_pointing_at_a_file_is_refused_before_simulating() {
+    let dir = scratch("out-file");
+    let file = dir.join("taken");
+    std::fs::write(&file, "not a directory").unwrap_or_else(|e| panic!("{e}"));
+    // a long run: refusing it at once shows nothing was simulated
+    let scene = write(
+        &dir,
+        "long.toml",
+        "[simulation]\nduration = 1000.0\n[[strands]]\nlength = 0.3\n",
+    );
+    let started = std::time::Instant::now();
+    let out = superhelix(&["run", &scene, "--out", &s(&file)]);
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(
+        stderr(&out).trim(),
+        format!(
+            "error: --out: {} is a file, expected a directory",
+            file.display()
+        )
+    );
+    assert!(!stdout(&out).contains("steps x"), "{}", stdout(&out));
+    assert!(started.elapsed().as_secs() < 60);
+}
+
+#[test]
+fn a_diverging_run_keeps_its_frames_and_names_the_strand_and_time() {
+    let dir = scratch("diverge");
+    // rk4 at dt = 0.1 s on a short, stiff fuzzy strand: valid, unstable at the second step
+    let scene = write(
+        &dir,
+        "diverge.toml",
+        "[simulation]\ndt = 0.1\nduration = 2.0\noutput_fps = 10\nintegrator = \"rk4\"\n\
+         [[strands]]\nname = \"stiff\"\nlength = 0.1\nelements = 10\npreset = \"fuzzy\"\n",
+    );
+    assert_eq!(superhelix(&["validate", &scene]).status.code(), Some(0));
+    let out_dir = dir.join("out");
+    let out = superhelix(&["run", &scene, "--out", &s(&out_dir), "--format", "json"]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = stderr(&out);
+    assert!(
+        err.contains("strand 'stiff'") && err.contains("failed at t = 0.2"),
+        "{err}"
+    );
+    let store =
+        JsonFrameStore::open(&out_dir.join("frames.json")).unwrap_or_else(|e| panic!("{e}"));
+    let kept = store.frame_count();
+    assert!(kept >= 1, "{err}");
+    assert!(
+        err.contains(&format!("{kept} of 21 frames written to ")),
+        "{err}"
+    );
+    assert!(store.is_complete());
+    for k in 0..kept {
+        assert!(store.q(k).is_some_and(|q| q.iter().all(|x| x.is_finite())));
+    }
+}
+
+/// Ctrl-C in the middle of a long run: exit 130, the message, every frame written
+/// readable and consecutive, frames.npy equal to frames.json to float32 precision, and
+/// the post-run files written from the frames kept.
+#[cfg(unix)]
+#[test]
+fn sigint_stops_the_run_and_keeps_every_frame_written() {
+    let dir = scratch("sigint");
+    // 100 strands over 20 s: far longer than the test waits
+    let scene = write(
+        &dir,
+        "long.toml",
+        "[simulation]\nduration = 20.0\n\
+         [[patches]]\nname = \"p\"\ncount = [10, 10]\nsize = [0.05, 0.05]\nlength = 0.2\nelements = 8\npreset = \"wavy\"\n",
+    );
+    let out_dir = dir.join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_superhelix"))
+        .args([
+            "run",
+            &scene,
+            "--out",
+            &s(&out_dir),
+            "--format",
+            "json,npy,obj",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot start superhelix: {e}"));
+    let partial = out_dir.join("frames.json.partial");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
+    loop {
+        let frames = std::fs::read(&partial)
+            .ok()
+            .and_then(|b| JsonFrameStore::from_bytes(&b).ok())
+            .map_or(0, |s| s.frame_count());
+        if frames >= 2 {
+            break;
+        }
+        if let Ok(Some(status)) = child.try_wait() {
+            panic!("the run ended before it could be interrupted: {status}");
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "no frames after 120 s"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let pid = child.id() as libc::pid_t;
+    // SAFETY: kill(2) on the child's pid, which has not been reaped yet.
+    assert_eq!(unsafe { libc::kill(pid, libc::SIGINT) }, 0);
+    let out = child
+        .wait_with_output()
+        .unwrap_or_else(|e| panic!("wait: {e}"));
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    let line = err
+        .lines()
+        .find(|l| l.starts_with("interrupted at t = "))
+        .unwrap_or_else(|| panic!("no interruption message in {err}"));
+    // "interrupted at t = 0.533 s: 17 of 601 frames written to out/"
+    let written: usize = line
+        .split(": ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    assert!(
+        line.contains(&format!(
+            "{written} of 601 frames written to {}",
+            out_dir.display()
+        )),
+        "{line}"
+    );
+    assert!(written >= 2, "{line}");
+    assert!(!partial.exists());
+    let text =
+        std::fs::read_to_string(out_dir.join("frames.json")).unwrap_or_else(|e| panic!("{e}"));
+    let json: serde_json::Value =
+        serde_json::from_str(&text).unwrap_or_else(|e| panic!("frames.json: {e}"));
+    let frames = json["frames"]
+        .as_array()
+        .unwrap_or_else(|| panic!("frames"));
+    assert_eq!(frames.len(), written);
+    for (k, frame) in frames.iter().enumerate() {
+        assert_eq!(frame["index"].as_u64(), Some(k as u64));
+        let t = frame["time"].as_f64().unwrap_or(f64::NAN);
+        assert!((t - k as f64 / 30.0).abs() < 1e-9, "frame {k} at {t}");
+        let points = frame["points"]
+            .as_array()
+            .unwrap_or_else(|| panic!("points"));
+        assert_eq!(points.len(), 100 * 33);
+        let numbers = points
+            .iter()
+            .flat_map(|p| p.as_array().into_iter().flatten())
+            .chain(frame["q"].as_array().into_iter().flatten());
+        assert!(numbers.clone().count() == 100 * 33 * 3 + 100 * 24);
+        assert!(numbers
+            .map(|x| x.as_f64().unwrap_or(f64::NAN))
+            .all(f64::is_finite));
+    }
+    // frames.npy holds the same frames, rounded to float32
+    let mut npy =
+        NpyFrameStore::open(&out_dir.join("frames.npy")).unwrap_or_else(|e| panic!("{e}"));
+    let mut json =
+        JsonFrameStore::open(&out_dir.join("frames.json")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(npy.frame_count(), written);
+    assert_eq!(npy.layout(), json.layout());
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    for k in 0..written {
+        assert_eq!(npy.time(k), json.time(k));
+        npy.points(k, &mut a).unwrap_or_else(|e| panic!("{e}"));
+        json.points(k, &mut b).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(a.len(), b.len());
+        for (p, q) in a.iter().zip(&b) {
+            for i in 0..3 {
+                // f32 rounding: half an ulp of float32, relative 2^-24
+                assert!(
+                    (p[i] - q[i]).abs() <= q[i].abs() * 6e-8,
+                    "frame {k}: {p:?} vs {q:?}"
+                );
+            }
+        }
+    }
+    assert!(out_dir.join("last_frame.obj").is_file(), "{}", stdout(&out));
+}

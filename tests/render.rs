@@ -1,0 +1,159 @@
+//! `superhelix render`: pictures re-rendered from a frames.npy written by a test run.
+
+mod support;
+
+use std::path::Path;
+use std::process::{Command, Output};
+use superhelix::runtime::output::preview::group_colour;
+
+fn superhelix(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_superhelix"))
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot start superhelix: {e}"))
+}
+
+fn text(out: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}
+
+fn decode(path: &Path) -> tiny_skia::Pixmap {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    tiny_skia::Pixmap::decode_png(&bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// Pixels of exactly `rgb` (opaque pictures: premultiplied = straight).
+fn count(p: &tiny_skia::Pixmap, rgb: [u8; 3]) -> usize {
+    p.data().chunks_exact(4).filter(|px| px[..3] == rgb).count()
+}
+
+fn non_white(p: &tiny_skia::Pixmap) -> usize {
+    p.data()
+        .chunks_exact(4)
+        .filter(|px| px[..3] != [255, 255, 255])
+        .count()
+}
+
+#[test]
+fn render_draws_the_strands_with_the_camera_asked_for() {
+    let dir = support::scratch("render");
+    support::simulate_to_npy(support::SCENE, &dir);
+    let out = dir.join("pictures");
+    let o = superhelix(&[
+        "render",
+        &dir.join("frames.npy").to_string_lossy(),
+        "--out",
+        &out.to_string_lossy(),
+        "--width",
+        "900",
+        "--height",
+        "300",
+        "--views",
+        "front,side,top",
+        "--frame",
+        "2",
+        "--no-gif",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let png = decode(&out.join("preview.png"));
+    assert_eq!((png.width(), png.height()), (900, 300));
+    assert!(!out.join("preview.gif").exists(), "--no-gif wrote a GIF");
+    // three groups, each in its own colour; a 10-20 cm strand is >= 60 px long here
+    for g in 0..3 {
+        assert!(
+            count(&png, group_colour(g)) >= 30,
+            "group {g}: {} px",
+            count(&png, group_colour(g))
+        );
+    }
+    assert!(
+        non_white(&png) > 500,
+        "{} non-white pixels",
+        non_white(&png)
+    );
+    let first = decode(&out.join("preview_first.png"));
+    assert_eq!((first.width(), first.height()), (900, 300));
+    assert_ne!(png.data(), first.data(), "frame 2 drawn like frame 0");
+
+    // from the directory, with the GIF by default
+    let o = superhelix(&[
+        "render",
+        &dir.to_string_lossy(),
+        "--out",
+        &out.to_string_lossy(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(
+        (
+            decode(&out.join("preview.png")).width(),
+            decode(&out.join("preview.png")).height()
+        ),
+        (1200, 600)
+    );
+    let gif = std::fs::read(out.join("preview.gif")).unwrap_or_default();
+    assert_eq!(&gif[..6], b"GIF89a");
+}
+
+#[test]
+fn render_refuses_bad_input_naming_the_option() {
+    let dir = support::scratch("render-bad");
+    support::simulate_to_npy(support::SCENE, &dir);
+    let frames = dir.join("frames.npy").to_string_lossy().to_string();
+    let out = dir.join("pictures").to_string_lossy().to_string();
+    for (args, needle) in [
+        (vec!["--width", "10"], "--width"),
+        (vec!["--height", "100000"], "--height"),
+        (vec!["--width", "wide"], "--width"),
+        (vec!["--views", "front,back"], "--views"),
+        (vec!["--views", ""], "--views"),
+        (vec!["--frame", "7"], "--frame"),
+    ] {
+        let mut all = vec!["render", &frames, "--out", &out];
+        all.extend(&args);
+        let o = superhelix(&all);
+        assert!(!o.status.success(), "{args:?} accepted");
+        assert!(
+            text(&o).contains(needle),
+            "{args:?}: {needle} not in {}",
+            text(&o)
+        );
+    }
+    let missing = dir.join("nowhere.npy").to_string_lossy().to_string();
+    let o = superhelix(&["render", &missing, "--out", &out]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o).contains("FRAMES") && text(&o).contains("nowhere.npy"),
+        "{}",
+        text(&o)
+    );
+    assert!(!Path::new(&out).join("preview.png").exists());
+}
+
+/// The demo scene's pictures: every patch visible in its own colour.
+#[test]
+fn the_default_scene_reads_well() {
+    let dir = support::scratch("default");
+    support::simulate_to_npy(superhelix::DEFAULT_SCENE, &dir);
+    let out = dir.join("pictures");
+    let o = superhelix(&[
+        "render",
+        &dir.to_string_lossy(),
+        "--out",
+        &out.to_string_lossy(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    for name in ["preview.png", "preview_first.png"] {
+        let png = decode(&out.join(name));
+        for g in 0..4 {
+            assert!(
+                count(&png, group_colour(g)) >= 100,
+                "{name} group {g}: {} px",
+                count(&png, group_colour(g))
+            );
+        }
+    }
+}
