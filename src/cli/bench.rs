@@ -1,0 +1,144 @@
+//! `superhelix bench`: time S independent strands of N elements, or a scene's strands.
+
+use super::common::{integrator, kernels, preset, with_threads};
+use clap::Args;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use superhelix::bench::{
+    bench, bench_setup, restrict_effects, scene_effects, BenchOptions, BenchReport, EffectSet,
+};
+use superhelix::runtime::QuadratureRule;
+use superhelix::Error;
+
+/// Arguments of `bench`.
+#[derive(Args)]
+pub struct BenchArgs {
+    /// Elements per strand N.
+    #[arg(long, default_value_t = 5)]
+    elements: usize,
+    /// Number of strands S.
+    #[arg(long, default_value_t = 100)]
+    strands: usize,
+    /// Time steps T (dt = 1/30 s).
+    #[arg(long, default_value_t = 30)]
+    steps: usize,
+    /// Kernels: generated, generic or auto (default auto, or the scene's).
+    #[arg(long)]
+    kernels: Option<String>,
+    /// Effects, a comma list of gravity, drag, friction, head, point-loads (or none);
+    /// default gravity,drag,friction, or with --scene the scene's own.
+    #[arg(long)]
+    effects: Option<String>,
+    /// Bench this scene's strands (and effects, head motion, dt) instead of S
+    /// generated strands of N elements; --elements, --strands and --preset are then
+    /// ignored.
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Hair type: smooth, wavy, curly, fuzzy.
+    #[arg(long, default_value = "wavy")]
+    preset: String,
+    /// Integrator: linearly-implicit-euler, newton-implicit-euler, bdf2, rk4 (default
+    /// linearly-implicit-euler, or with --scene the scene's own).
+    #[arg(long)]
+    integrator: Option<String>,
+    /// Gauss-Legendre points per element of the generic kernels (default: adaptive).
+    #[arg(long)]
+    quadrature: Option<usize>,
+    /// Worker threads the strands are spread over (default: one per core). With 1,
+    /// the CPU time per strand-step is the step's own cost, free of the scheduling
+    /// and shared-core effects of parallel runs.
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+/// Run `bench`.
+pub fn run(args: BenchArgs) -> Result<ExitCode, Error> {
+    let threads = args.threads;
+    with_threads(threads, || match &args.scene {
+        Some(path) => bench_scene(path, &args),
+        None => bench_generated(&args),
+    })
+}
+
+fn bench_generated(args: &BenchArgs) -> Result<ExitCode, Error> {
+    let kernel_name = args.kernels.as_deref().unwrap_or("auto");
+    let effects = args.effects.as_deref().unwrap_or("gravity,drag,friction");
+    let integrator_name = args
+        .integrator
+        .as_deref()
+        .unwrap_or("linearly-implicit-euler");
+    let options = BenchOptions {
+        elements: args.elements,
+        strands: args.strands,
+        steps: args.steps,
+        kernels: kernels(kernel_name)?,
+        effects: EffectSet::parse(effects)?,
+        preset: preset(&args.preset)?,
+        integrator: integrator(integrator_name)?,
+        quadrature: match args.quadrature {
+            Some(0) => return Err(Error::invalid("--quadrature", "must be >= 1")),
+            Some(n) => QuadratureRule::Fixed(n),
+            None => QuadratureRule::Adaptive,
+        },
+        ..BenchOptions::default()
+    };
+    let report = bench(&options)?;
+    println!(
+        "N={} strands={} steps={} kernels={kernel_name} ({}) effects={effects} integrator={integrator_name}",
+        args.elements, args.strands, args.steps, report.kernel
+    );
+    print_report(&report);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `bench --scene`: time the scene's own strands, optionally restricted to some effects.
+fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Error::invalid("--scene", format!("cannot read {}: {e}", path.display())))?;
+    let mut setup = superhelix::parse_scene(&text)?;
+    if let Some(list) = &args.effects {
+        restrict_effects(&mut setup, EffectSet::parse(list)?)?;
+    }
+    if let Some(k) = &args.kernels {
+        setup.config.kernels = kernels(k)?;
+    }
+    if let Some(name) = &args.integrator {
+        setup.config.integrator = integrator(name)?;
+    }
+    let names = scene_effects(&setup).names().join(",");
+    let integrator = setup.config.integrator.name();
+    let steps = args.steps;
+    let report = bench_setup(setup, steps)?;
+    println!(
+        "scene={} steps={steps} kernels ({}) effects={names} integrator={integrator}",
+        path.display(),
+        report.kernel
+    );
+    print_report(&report);
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_report(report: &BenchReport) {
+    // every split discards its attempt and solves two halves
+    let solves = report.strand_steps + 2 * report.substeps;
+    println!(
+        "wall {:.3} s, {:.2} us per strand-step, {} substeps, {} threads",
+        report.seconds,
+        1e6 / report.strand_steps_per_second,
+        report.substeps,
+        report.threads,
+    );
+    if let Some(cpu) = report.cpu_seconds {
+        println!(
+            "cpu {:.3} s: {:.2} us of CPU per strand-step, {:.2} us per implicit solve ({} solves)",
+            cpu,
+            1e6 * cpu / report.strand_steps.max(1) as f64,
+            1e6 * cpu / solves.max(1) as f64,
+            solves
+        );
+    }
+    println!(
+        "strand_steps_per_second={:.1}",
+        report.strand_steps_per_second
+    );
+}

@@ -1,0 +1,89 @@
+//! Plumbing shared by the commands: reading a scene, the progress bar, parsing the names
+//! of options, the worker pool and the error report.
+
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
+use std::path::Path;
+use superhelix::runtime::config::{IntegratorKind, KernelChoice};
+use superhelix::runtime::model::material::Preset;
+use superhelix::Error;
+
+/// The text of the scene file at `path`.
+pub fn read_scene(path: &Path) -> Result<String, Error> {
+    std::fs::read_to_string(path).map_err(|source| Error::Io {
+        path: path.display().to_string(),
+        source,
+    })
+}
+
+/// A progress bar on stderr, only when stderr is a terminal.
+pub fn progress_bar() -> Option<ProgressBar> {
+    if !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let bar = ProgressBar::new(0);
+    if let Ok(style) =
+        ProgressStyle::with_template("{bar:40} {pos}/{len} steps {elapsed} (eta {eta})")
+    {
+        bar.set_style(style);
+    }
+    Some(bar)
+}
+
+/// `--integrator NAME`.
+pub fn integrator(name: &str) -> Result<IntegratorKind, Error> {
+    IntegratorKind::from_name(name).ok_or_else(|| {
+        Error::invalid(
+            "--integrator",
+            "must be linearly-implicit-euler, newton-implicit-euler, bdf2 or rk4",
+        )
+    })
+}
+
+/// `--kernels NAME`.
+pub fn kernels(name: &str) -> Result<KernelChoice, Error> {
+    KernelChoice::from_name(name)
+        .ok_or_else(|| Error::invalid("--kernels", "must be generated, generic or auto"))
+}
+
+/// `--preset NAME`.
+pub fn preset(name: &str) -> Result<Preset, Error> {
+    Preset::from_name(name)
+        .ok_or_else(|| Error::invalid("--preset", "must be smooth, wavy, curly or fuzzy"))
+}
+
+/// Run `f` on a pool of `threads` workers (`--threads`), or on the global pool.
+pub fn with_threads<T: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> Result<T, Error> + Send,
+) -> Result<T, Error> {
+    match threads {
+        None => f(),
+        Some(0) => Err(Error::invalid("--threads", "must be >= 1")),
+        Some(t) => rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build()
+            .map_err(|e| Error::invalid("--threads", format!("cannot start {t} threads: {e}")))?
+            .install(f),
+    }
+}
+
+/// Print an error on stderr.
+pub fn report(e: &Error) {
+    match e {
+        // options and the output plan are not scene fields
+        Error::Invalid(problems)
+            if problems.len() == 1
+                && (problems[0].field.starts_with("--") || problems[0].field == "output") =>
+        {
+            eprintln!("error: {}", problems[0]);
+        }
+        Error::Invalid(problems) => {
+            eprintln!("error: invalid scene:");
+            for p in problems {
+                eprintln!("  {p}");
+            }
+        }
+        other => eprintln!("error: {other}"),
+    }
+}

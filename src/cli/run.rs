@@ -1,0 +1,108 @@
+//! `superhelix run [SCENE] [--out DIR]`: simulate a scene, streaming its frames to DIR,
+//! then write the pictures and the USD stage. Ctrl-C stops the run between two steps and
+//! keeps every frame written.
+
+use super::common::{progress_bar, read_scene};
+use clap::Args;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use superhelix::runtime::output::plan::prepare_out_dir;
+use superhelix::runtime::output::StopReason;
+use superhelix::Error;
+
+/// Arguments of `run`.
+#[derive(Args)]
+pub struct RunArgs {
+    /// Scene file (TOML); without it, the built-in demo scene.
+    scene: Option<PathBuf>,
+    /// Output directory.
+    #[arg(long, value_name = "DIR", default_value = "out")]
+    out: PathBuf,
+    /// Files to write, replacing the scene's [output] formats: json, npy, usda, png,
+    /// gif, obj, preview (= png + gif); repeatable or comma-separated.
+    #[arg(long, value_name = "FORMATS")]
+    format: Vec<String>,
+    /// Write the output even when its planned size exceeds the limit (2 GB, or the
+    /// scene's [output] max_bytes).
+    #[arg(long)]
+    allow_large_output: bool,
+}
+
+/// Raised by Ctrl-C: the run stops between two steps and keeps its frames.
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// Run `run`.
+pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
+    let out: &Path = &args.out;
+    let text = match &args.scene {
+        Some(path) => read_scene(path)?,
+        None => superhelix::DEFAULT_SCENE.to_string(),
+    };
+    let setup = superhelix::parse_scene(&text)?;
+    let options = superhelix::RunOptions {
+        formats: match args.format.is_empty() {
+            true => None,
+            false => Some(superhelix::Formats::from_cli(&args.format)?),
+        },
+        allow_large_output: args.allow_large_output,
+    };
+    let plan = superhelix::plan_output(&setup, out, &options);
+    println!("{plan}");
+    if let Some(note) = &plan.note {
+        println!("{note}");
+    }
+    plan.check_limit()?;
+    prepare_out_dir(out)?;
+    // A second Ctrl-C ends the process at once (the frames written stay readable).
+    let handler = ctrlc::set_handler(|| {
+        if STOP.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+    });
+    if let Err(e) = handler {
+        eprintln!("warning: Ctrl-C will not stop the run cleanly: {e}");
+    }
+    let mut source = superhelix::open_simulation(setup.clone())?;
+    let bar = progress_bar();
+    let report = superhelix::run_planned(&setup, source.as_mut(), &plan, &STOP, |step, total| {
+        if let Some(bar) = &bar {
+            bar.set_length(total as u64);
+            bar.set_position(step as u64);
+        }
+    })?;
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    for file in &report.files {
+        println!("wrote {}", file.display());
+    }
+    if let Some(e) = &report.products_error {
+        eprintln!("error: {e}");
+    }
+    let outcome = &report.outcome;
+    let kept = format!(
+        "{} of {} frames written to {}",
+        outcome.frames_written(),
+        outcome.planned_frames,
+        out.display()
+    );
+    match &outcome.stop {
+        StopReason::Completed => {
+            println!("{}", outcome.summary);
+            Ok(match report.products_error {
+                Some(_) => ExitCode::FAILURE,
+                None => ExitCode::SUCCESS,
+            })
+        }
+        StopReason::Interrupted => {
+            eprintln!("interrupted at t = {:.3} s: {kept}", outcome.time);
+            Ok(ExitCode::from(130))
+        }
+        StopReason::Failed(e) => {
+            eprintln!("error: {e}");
+            eprintln!("{kept}");
+            Ok(ExitCode::FAILURE)
+        }
+    }
+}

@@ -1,0 +1,60 @@
+//! `superhelix stress`: the hard cases.
+
+use super::common::integrator;
+use clap::Args;
+use std::process::ExitCode;
+use superhelix::stress;
+use superhelix::Error;
+
+/// Arguments of `stress`.
+#[derive(Args)]
+pub struct StressArgs {
+    /// Only the quick subset (the one `cargo test` runs).
+    #[arg(long)]
+    quick: bool,
+    /// Only the cases whose name contains SUBSTR.
+    #[arg(long, value_name = "SUBSTR")]
+    filter: Option<String>,
+    /// Also print one line per case with what was measured.
+    #[arg(long)]
+    verbose: bool,
+    /// Run every case with this integrator (linearly-implicit-euler, newton-implicit-euler,
+    /// bdf2, rk4): cases are then named `<case>@<integrator>`, the conservative group keeps
+    /// its cases of that integrator, and the known failures (of linearly implicit Euler)
+    /// do not apply.
+    #[arg(long)]
+    integrator: Option<String>,
+}
+
+/// Run `stress`.
+pub fn run(args: StressArgs) -> Result<ExitCode, Error> {
+    let mut cases: Vec<stress::Case> = if args.quick {
+        stress::quick_cases()
+    } else {
+        stress::all_cases()
+    };
+    if let Some(name) = &args.integrator {
+        cases = stress::with_integrator(cases, integrator(name)?);
+    }
+    let filter = args.filter.as_deref();
+    let cases: Vec<stress::Case> = cases
+        .into_iter()
+        .filter(|c| filter.is_none_or(|f| c.name.contains(f)))
+        .collect();
+    let start = std::time::Instant::now();
+    let results = stress::run_cases(&cases);
+    if args.verbose {
+        for r in &results {
+            println!("{}", stress::detail_line(r));
+        }
+    }
+    print!(
+        "{}",
+        stress::render(&results, start.elapsed().as_secs_f64())
+    );
+    Ok(if results.iter().all(|r| r.passed()) {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}

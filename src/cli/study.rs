@@ -1,0 +1,56 @@
+//! `superhelix study`: what accuracy costs.
+
+use clap::Args;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use superhelix::study::{run_study, write_report, StudyOptions};
+use superhelix::Error;
+
+/// Arguments of `study`.
+#[derive(Args)]
+pub struct StudyArgs {
+    /// The reduced grid (under two minutes on two cores; run by CI).
+    #[arg(long)]
+    quick: bool,
+    /// Output directory.
+    #[arg(long, value_name = "DIR", default_value = "study")]
+    out: PathBuf,
+}
+
+/// Run `study`.
+pub fn run(args: StudyArgs) -> Result<ExitCode, Error> {
+    let out = &args.out;
+    let options = StudyOptions {
+        quick: args.quick,
+        command: format!(
+            "superhelix study{} --out {}",
+            if args.quick { " --quick" } else { "" },
+            out.display()
+        ),
+    };
+    let study = run_study(&options, superhelix::kernel_factory())?;
+    let files = write_report(&study, out)?;
+    for problem in &study.problems {
+        let best = problem
+            .budgets()
+            .iter()
+            .rev()
+            .find_map(|&b| problem.best_within(b));
+        if let Some(p) = best {
+            if let Ok(m) = &p.outcome {
+                println!(
+                    "{}: {} points, most accurate within the largest budget: {} (error {:.2e})",
+                    problem.key,
+                    problem.points.len(),
+                    p.setting.label(),
+                    m.error
+                );
+            }
+        }
+    }
+    for f in &files {
+        println!("wrote {}", f.display());
+    }
+    println!("study_seconds={:.1}", study.wall_seconds);
+    Ok(ExitCode::SUCCESS)
+}

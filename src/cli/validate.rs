@@ -1,0 +1,44 @@
+//! `superhelix validate SCENE`: every problem of a scene, on stderr, or its size and the
+//! output it would write.
+
+use super::common::read_scene;
+use clap::Args;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use superhelix::Error;
+
+/// Arguments of `validate`.
+#[derive(Args)]
+pub struct ValidateArgs {
+    /// Scene file (TOML).
+    scene: PathBuf,
+}
+
+/// Run `validate`.
+pub fn run(args: ValidateArgs) -> Result<ExitCode, Error> {
+    let path = &args.scene;
+    let text = read_scene(path)?;
+    let setup = match superhelix::parse_scene(&text) {
+        Ok(setup) => setup,
+        Err(_) => {
+            let problems = superhelix::validate_scene(&text);
+            for p in &problems {
+                eprintln!("{p}");
+            }
+            eprintln!("{}: {} problem(s)", path.display(), problems.len());
+            return Ok(ExitCode::FAILURE);
+        }
+    };
+    let strands = setup.strands.len();
+    let steps = superhelix::runtime::scene::step_count(&setup);
+    let plural = if strands == 1 { "" } else { "s" };
+    println!("ok: {strands} strand{plural}, {steps} steps");
+    let plan =
+        superhelix::plan_output(&setup, Path::new("out"), &superhelix::RunOptions::default());
+    println!("{plan}");
+    if let Some(note) = &plan.note {
+        println!("{note}");
+    }
+    plan.check_limit()?;
+    Ok(ExitCode::SUCCESS)
+}
