@@ -101,4 +101,39 @@ mod tests {
         assert!(matches!(setup.head, HeadMotion::Oscillate { .. }));
         assert_eq!(check_scene(DEFAULT_SCENE), Ok((setup.strands.len(), 60)));
     }
+
+    /// `scenes/cantilever.toml` (incompressible, ν = 0.5) bends as beam theory says:
+    /// δ = F L³/(3EI), less the midpoint-rule error 1/(4N²) of N elements of constant
+    /// curvature (`runtime/tests/physics.rs`); the load keeps δ/L ≈ 2.7e-3, so geometric
+    /// nonlinearity (of order (δ/L)² ≈ 7e-6) is below the 1e-4 tolerance.
+    #[test]
+    fn the_cantilever_scene_is_incompressible_and_deflects_as_beam_theory() {
+        let text = include_str!("../scenes/cantilever.toml");
+        let setup = match parse_scene(text) {
+            Ok(s) => s,
+            Err(e) => panic!("{e}"),
+        };
+        let strand = setup.strands[0].strand.clone();
+        let m = strand.material;
+        assert!((m.stiffness[0] / m.stiffness[1] - 2.0 / 3.0).abs() < 1e-14, "G = E/3");
+        let length: f64 = strand.geometry.lengths.iter().sum();
+        let n = strand.geometry.elements() as f64;
+        let force = -strand.point_loads[0].force.z;
+        let beam = force * length.powi(3) / (3.0 * m.stiffness[1]);
+        let mut sim = match Simulation::new(setup, kernel_factory()) {
+            Ok(s) => s,
+            Err(e) => panic!("{e}"),
+        };
+        let report = match sim.solve_static() {
+            Ok(r) => r[0],
+            Err(e) => panic!("{e}"),
+        };
+        assert!(report.converged, "{report:?}");
+        let tip = -sim.position_at(0, length).z;
+        let expected = beam * (1.0 - 1.0 / (4.0 * n * n));
+        assert!(
+            (tip / expected - 1.0).abs() < 1e-4,
+            "tip {tip:e} vs {expected:e} (beam theory {beam:e})"
+        );
+    }
 }

@@ -183,7 +183,7 @@ fn read_cross_section(n: &mut Node<'_>, preset: &CrossSection) -> CrossSection {
         poisson: field(
             "poisson",
             preset.poisson,
-            Range::new(Bound::Incl(0.0), Bound::Excl(0.5)),
+            Range::new(Bound::Excl(-1.0), Bound::Incl(0.5)),
         ),
         density: field("density", preset.density, Range::POSITIVE),
     }

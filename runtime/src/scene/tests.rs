@@ -194,7 +194,8 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("[[strands]]\nlength = 0.3\nradius = 0.0", "strands[0].radius", "> 0"),
     ("[[strands]]\nlength = 0.3\nyoungs_modulus = -1e9", "strands[0].youngs_modulus", "> 0"),
     ("[[strands]]\nlength = 0.3\ndensity = 0", "strands[0].density", "> 0"),
-    ("[[strands]]\nlength = 0.3\npoisson = 0.5", "strands[0].poisson", "must be in [0, 0.5)"),
+    ("[[strands]]\nlength = 0.3\npoisson = 0.51", "strands[0].poisson", "must be in (-1, 0.5]"),
+    ("[[strands]]\nlength = 0.3\npoisson = -1.0", "strands[0].poisson", "must be in (-1, 0.5]"),
     ("[[strands]]\nlength = 0.3\nellipticity = 0.9", "strands[0].ellipticity", ">= 1"),
     ("[[strands]]\nlength = 0.3\nhelix_radius = -0.01", "strands[0].helix_radius", ">= 0"),
     ("[[strands]]\nlength = 0.3\nhelix_step = -0.01", "strands[0].helix_step", ">= 0"),
@@ -430,4 +431,22 @@ proptest! {
         text.splice(pos..end, insert.bytes());
         let _ = parse_scene(&String::from_utf8_lossy(&text));
     }
+}
+
+#[test]
+fn poisson_accepts_the_whole_isotropic_range_and_gives_g_of_e_over_three_at_one_half() {
+    // (−1, 0.5]: 0.5 (incompressible) and −0.99 are valid; G = E / (2 (1 + ν)).
+    for nu in [0.5, -0.99, 0.0] {
+        let s = setup(&format!(
+            "[[strands]]\nlength = 0.3\nellipticity = 1.0\nyoungs_modulus = 1.2e9\nradius = 5e-5\npoisson = {nu}"
+        ));
+        let m = s.strands[0].strand.material;
+        // circle: GJ = G · 2I and EI = E · I, so GJ / EI = 2G / E = 1 / (1 + ν)
+        let ratio = m.stiffness[0] / m.stiffness[1];
+        assert!((ratio - 1.0 / (1.0 + nu)).abs() < 1e-14, "nu {nu}: {ratio}");
+    }
+    let s = setup("[[strands]]\nlength = 0.3\nellipticity = 1.0\npoisson = 0.5");
+    let m = s.strands[0].strand.material;
+    // at ν = 0.5: G = E/3, GJ = (E/3) · 2I = (2/3) EI
+    assert!((m.stiffness[0] / m.stiffness[1] - 2.0 / 3.0).abs() < 1e-14);
 }
