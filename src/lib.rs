@@ -1,9 +1,10 @@
 //! # superhelix
 //!
-//! Facade over the Super-Helix runtime (`superhelix-runtime`) and the generated fixed-N
-//! kernels (`superhelix-generated`), and the library half of the `superhelix` command:
-//! running a scene to `frames.json` and validating scenes, and the hard cases of
-//! `superhelix stress` ([`stress`]).
+//! Super-Helix hair dynamics: the runtime (`superhelix-runtime`) with the generated
+//! fixed-N kernels of this build (`superhelix-generated`), and the library half of the
+//! `superhelix` command: running a scene to `frames.json`, validating scenes, and the
+//! measurements of `bench`, `compare-kernels`, `quadrature-table`, `study` ([`study`])
+//! and `stress` ([`stress`]).
 #![warn(missing_docs)]
 
 pub mod bench;

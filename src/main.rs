@@ -127,10 +127,10 @@ enum Command {
         #[arg(long)]
         integrator: Option<String>,
     },
-    /// What accuracy costs: error against cost of N, dt, integrator and kernels on four
-    /// reference problems; writes DIR/report.md and one PNG per problem.
+    /// What accuracy costs: error against cost of N, dt, integrator and kernels on
+    /// reference problems; writes DIR/report.md and one plot per problem.
     Study {
-        /// The reduced grid (under two minutes on two cores; run by CI).
+        /// Only a reduced grid of each problem (the one `cargo test` runs).
         #[arg(long)]
         quick: bool,
         /// Output directory.
