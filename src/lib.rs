@@ -72,11 +72,16 @@ pub fn run_scene(
     run_setup(&setup, source.as_mut(), out_dir, progress)
 }
 
-/// Number of strands and of time steps of a valid scene, or every problem found.
+/// Number of strands and of time steps of a valid scene, or every problem found: those
+/// of the scene file and those `run` meets before its first step (the simulation is built
+/// with this build's generated kernels and its initial state checked).
 pub fn check_scene(scene_text: &str) -> std::result::Result<(usize, usize), Vec<FieldError>> {
-    match parse_scene(scene_text) {
-        Ok(setup) => Ok((setup.strands.len(), runtime::scene::step_count(&setup))),
-        Err(_) => Err(validate_scene(scene_text)),
+    let setup = parse_scene(scene_text).map_err(|_| validate_scene(scene_text))?;
+    let counts = (setup.strands.len(), runtime::scene::step_count(&setup));
+    match Simulation::new(setup, kernel_factory()) {
+        Ok(_) => Ok(counts),
+        Err(Error::Invalid(problems)) => Err(problems),
+        Err(other) => Err(vec![FieldError::new("<scene>", other.to_string())]),
     }
 }
 
@@ -116,7 +121,10 @@ mod tests {
         };
         let strand = setup.strands[0].strand.clone();
         let m = strand.material;
-        assert!((m.stiffness[0] / m.stiffness[1] - 2.0 / 3.0).abs() < 1e-14, "G = E/3");
+        assert!(
+            (m.stiffness[0] / m.stiffness[1] - 2.0 / 3.0).abs() < 1e-14,
+            "G = E/3"
+        );
         let length: f64 = strand.geometry.lengths.iter().sum();
         let n = strand.geometry.elements() as f64;
         let force = -strand.point_loads[0].force.z;

@@ -22,6 +22,7 @@ pub mod environment;
 pub mod error;
 pub mod head_motion;
 pub mod helix_functions;
+pub mod initial_state;
 pub mod integrator;
 pub mod jet;
 pub mod kernel;
@@ -56,4 +57,4 @@ pub use head_motion::{Keyframe, KeyframeTrack};
 /// Re-exported so that users of the trait need not name nalgebra themselves.
 pub use nalgebra::{Matrix3, Vector3};
 pub use output::{run_to_frames, write_frames, FrameSource, Frames, RunSummary, StrandFrames};
-pub use scene::{parse_scene, validate_scene};
+pub use scene::{parse_scene, validate_scene, validate_scene_with};

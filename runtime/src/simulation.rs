@@ -4,6 +4,7 @@ use crate::effects::GlobalEffects;
 use crate::environment::Environment;
 use crate::error::{Error, FieldError, Result};
 use crate::head_motion::HeadMotion;
+use crate::initial_state::check_initial_state;
 use crate::integrator::{
     energy, kinetic_energy, step_strand, StepContext, StepStats, StrandWorkspace,
 };
@@ -234,8 +235,9 @@ fn make_kernel(
     rule: QuadratureRule,
     geometry: &StrandGeometry,
     generated: Option<&dyn KernelFactory>,
+    index: usize,
     name: &str,
-) -> Result<Box<dyn StrandKernel>> {
+) -> std::result::Result<Box<dyn StrandKernel>, FieldError> {
     let from_generated = || generated.and_then(|f| f.create(geometry));
     let generic = || Box::new(GenericKernel::new(geometry.clone(), rule)) as Box<dyn StrandKernel>;
     match choice {
@@ -243,20 +245,25 @@ fn make_kernel(
         KernelChoice::Auto => Ok(from_generated().unwrap_or_else(generic)),
         KernelChoice::Generated => from_generated().ok_or_else(|| {
             let available = generated.map(|f| f.available()).unwrap_or_default();
-            Error::Kernel(format!(
-                "strand '{name}' has N = {} elements and there is no generated kernel for it \
-                 (generated kernels exist for N in {available:?}; build with SUPERHELIX_N={} to add it, \
-                 or use kernels = \"auto\" or \"generic\")",
-                geometry.elements(),
-                geometry.elements()
-            ))
+            FieldError::new(
+                "simulation.kernels",
+                format!(
+                    "strand '{name}' (strands[{index}]) has N = {n} elements and there is no generated kernel for it \
+                     (generated kernels exist for N in {available:?}; build with SUPERHELIX_N={n} to add it, \
+                     or use kernels = \"auto\" or \"generic\")",
+                    n = geometry.elements(),
+                ),
+            )
         }),
     }
 }
 
 impl Simulation {
     /// Build the simulation: one kernel per strand (generated where `generated` has one
-    /// and the configuration allows it), workspaces sized once.
+    /// and the configuration allows it), workspaces sized once. The initial state is
+    /// checked as the first step would meet it ([`crate::initial_state`]): a missing
+    /// generated kernel, a non-finite centreline, force or mass matrix, and under RK4 a
+    /// dt beyond its stability limit are [`Error::Invalid`], every problem listed.
     pub fn new(setup: SimulationSetup, generated: Option<&dyn KernelFactory>) -> Result<Self> {
         check_setup(&setup)?;
         let head_moves = setup.head != HeadMotion::Still;
@@ -266,24 +273,50 @@ impl Simulation {
                 head_moves,
             },
         };
+        let head0 = setup.head.state(0.0);
+        let rk4_dt = (setup.config.integrator == IntegratorKind::Rk4
+            && setup.config.mode == Mode::Dynamic)
+            .then_some(setup.config.dt);
+        let mut errors = Vec::new();
         let mut strands = Vec::with_capacity(setup.strands.len());
-        for s in setup.strands {
-            let kernel = make_kernel(
+        for (index, s) in setup.strands.into_iter().enumerate() {
+            let mut kernel = match make_kernel(
                 setup.config.kernels,
                 setup.config.quadrature,
                 &s.strand.geometry,
                 generated,
+                index,
                 &s.strand.name,
-            )?;
+            ) {
+                Ok(kernel) => kernel,
+                Err(e) => {
+                    errors.push(e);
+                    continue;
+                }
+            };
+            let mut workspace = StrandWorkspace::new(&s.strand);
+            errors.extend(check_initial_state(
+                index,
+                &s.strand,
+                kernel.as_mut(),
+                &mut workspace,
+                &context,
+                &head0,
+                &s.q0,
+                rk4_dt,
+            ));
             let n = s.q0.len();
             strands.push(StrandSim {
-                workspace: StrandWorkspace::new(&s.strand),
+                workspace,
                 kernel,
                 q: s.q0,
                 v: vec![0.0; n],
                 strand: s.strand,
                 stats: StepStats::default(),
             });
+        }
+        if !errors.is_empty() {
+            return Err(Error::Invalid(errors));
         }
         Ok(Simulation {
             config: setup.config,
