@@ -1607,6 +1607,7 @@ fn problem_plot(problem: &ProblemResult) -> Result<Option<String>> {
             &problem.error_title,
             &series,
             None,
+            plotters::chart::SeriesLabelPosition::LowerRight,
         )
         .map(Some);
     }

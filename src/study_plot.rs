@@ -122,13 +122,14 @@ pub struct Series {
     pub line: bool,
 }
 
-/// A log–log plot as SVG text.
+/// A log–log plot as SVG text, the legend at `legend_at` inside the plotting area.
 pub fn log_log_svg(
     title: &str,
     x_title: &str,
     y_title: &str,
     series: &[Series],
     extra_line: Option<(&str, Vec<(f64, f64)>)>,
+    legend_at: SeriesLabelPosition,
 ) -> Result<String> {
     let (x0, x1) = decades(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
     let (y0, y1) = decades(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
@@ -205,7 +206,7 @@ pub fn log_log_svg(
         }
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
+            .position(legend_at)
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)
             .label_font(("sans-serif", 14))
@@ -256,5 +257,6 @@ pub fn plot(problem: &ProblemResult) -> Result<String> {
         &problem.error_title,
         &series,
         Some(("Pareto front", front)),
+        SeriesLabelPosition::LowerLeft,
     )
 }
