@@ -327,7 +327,7 @@ impl Grid {
             static_repeats: 5,
             floppy_rates: vec![30, 100, 300, 1000, 3000],
             floppy_reference_rate: 60000,
-            rotary_rate: 20000,
+            rotary_rate: 100000,
         }
     }
     /// The reduced grid of `--quick` (CI).
@@ -353,7 +353,7 @@ impl Grid {
             static_repeats: 3,
             floppy_rates: vec![30, 100, 300, 1000],
             floppy_reference_rate: 30000,
-            rotary_rate: 10000,
+            rotary_rate: 100000,
         }
     }
 
@@ -1203,15 +1203,18 @@ fn rotary_problem(grid: &Grid, factory: Option<&dyn KernelFactory>) -> Result<Pr
         ),
     ];
     let rate = grid.rotary_rate;
-    let steps = (ROTARY_DURATION * rate as f64).round() as usize;
     let setting = Setting {
         elements: FLOPPY_N,
         rate: Some(rate),
         integrator: Some(IntegratorKind::Bdf2),
         kernels: Kernels::Generated,
     };
-    let mut rotary = Vec::new();
-    for (case, natural) in cases {
+    let measure = |natural: [f64; 3], case: &str, rate: u32| -> Result<RotaryChange> {
+        let steps = (ROTARY_DURATION * rate as f64).round() as usize;
+        let setting = Setting {
+            rate: Some(rate),
+            ..setting
+        };
         let runs: Vec<_> = [true, false]
             .par_iter()
             .map(|&with_rotary| {
@@ -1232,12 +1235,16 @@ fn rotary_problem(grid: &Grid, factory: Option<&dyn KernelFactory>) -> Result<Pr
                 state_trajectory(setup, factory, steps)
             })
             .collect();
-        let mut runs = runs.into_iter();
-        let (Some(with), Some(without)) = (runs.next(), runs.next()) else {
-            continue;
-        };
         let fail = |e: String| Error::invalid("study.rotary", format!("{case}: {e}"));
-        let (with, without) = (with.map_err(fail)?, without.map_err(fail)?);
+        let mut runs = runs.into_iter();
+        let with = runs
+            .next()
+            .unwrap_or_else(|| Err("no run".into()))
+            .map_err(fail)?;
+        let without = runs
+            .next()
+            .unwrap_or_else(|| Err("no run".into()))
+            .map_err(fail)?;
         let centreline = with
             .iter()
             .zip(&without)
@@ -1248,13 +1255,29 @@ fn rotary_problem(grid: &Grid, factory: Option<&dyn KernelFactory>) -> Result<Pr
             })
             .fold(0.0, f64::max)
             / FLOPPY_LENGTH;
-        rotary.push(RotaryChange {
+        Ok(RotaryChange {
             case: case.to_string(),
             twist: relative_change(&with, &without, |k| k % 3 == 0),
             bending: relative_change(&with, &without, |k| k % 3 != 0),
             centreline,
-        });
+        })
+    };
+    let mut rotary = Vec::new();
+    for (case, natural) in cases {
+        rotary.push(measure(natural, case, rate)?);
     }
+    let half = measure(cases[0].1, cases[0].0, rate / 2)?;
+    let show = |x: Option<f64>| x.map_or("-".into(), |v| format!("{v:.3e}"));
+    let notes = format!(
+        "Converged in dt: at dt = 2/{rate} s the twisted strand's changes are {} (twist), {} \
+         (bending), {:.3e} (centreline), against {}, {}, {:.3e} at 1/{rate} s.",
+        show(half.twist),
+        show(half.bending),
+        half.centreline,
+        show(rotary[0].twist),
+        show(rotary[0].bending),
+        rotary[0].centreline
+    );
     Ok(ProblemResult {
         key: "rotary",
         title: "What the cross-sections' rotary inertia changes".into(),
@@ -1276,7 +1299,7 @@ fn rotary_problem(grid: &Grid, factory: Option<&dyn KernelFactory>) -> Result<Pr
         ),
         is_static: false,
         points: Vec::new(),
-        notes: String::new(),
+        notes,
         spatial: Vec::new(),
         error_title: String::new(),
         convergence: Vec::new(),
