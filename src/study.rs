@@ -1154,12 +1154,15 @@ fn floppy_problem(grid: &Grid, factory: Option<&dyn KernelFactory>) -> Result<Pr
 
 const ROTARY_DURATION: f64 = 0.2;
 
+/// Generalized coordinates and centreline (world) of a strand at one time.
+type State = (Vec<f64>, Vec<[f64; 3]>);
+
 /// q and the centreline after every step (and at the start) of a BDF2 run.
 fn state_trajectory(
     setup: SimulationSetup,
     factory: Option<&dyn KernelFactory>,
     steps: usize,
-) -> std::result::Result<Vec<(Vec<f64>, Vec<[f64; 3]>)>, String> {
+) -> std::result::Result<Vec<State>, String> {
     let mut sim = Simulation::new(setup, factory).map_err(|e| e.to_string())?;
     let mut out = Vec::with_capacity(steps + 1);
     out.push((sim.q(0).to_vec(), sim.centreline_world(0, 4)));
@@ -1173,11 +1176,7 @@ fn state_trajectory(
 /// max over t of |a_sel(t) − b_sel(t)| / max over t of |b_sel(t) − b_sel(0)|: the
 /// change relative to the motion of the coordinates k of q with `select(k)`; `None`
 /// when they do not move (beyond 1e-9 rad/m).
-fn relative_change(
-    a: &[(Vec<f64>, Vec<[f64; 3]>)],
-    b: &[(Vec<f64>, Vec<[f64; 3]>)],
-    select: impl Fn(usize) -> bool,
-) -> Option<f64> {
+fn relative_change(a: &[State], b: &[State], select: impl Fn(usize) -> bool) -> Option<f64> {
     let norm = |x: &mut dyn Iterator<Item = f64>| x.map(|v| v * v).sum::<f64>().sqrt();
     let start = &b.first()?.0;
     let (mut diff, mut motion) = (0.0f64, 0.0f64);
