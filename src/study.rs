@@ -3,7 +3,7 @@
 //! setting's error against a reference is set against its cost; the report names the
 //! Pareto-best setting for common budgets.
 //!
-//! The four problems ([`PROBLEMS`]):
+//! The six problems ([`PROBLEMS`]):
 //!
 //! 1. `swing`: a straight 20 cm strand of the smooth preset released horizontal under
 //!    gravity, no drag, no internal friction. Error: largest distance, over the
@@ -17,6 +17,16 @@
 //!    periods) against Euler–Bernoulli ω1 = 1.8751² √(EI/(ρS L⁴)). Error |ω/ω1 − 1|.
 //! 4. `cantilever`: a straight 10 cm fibre, a tip load F giving δ = F L³/(3EI) = 1e-4 L,
 //!    static solve. Error |δ_N/δ − 1| (the model's value is exactly 1/(4N²)).
+//! 5. `floppy`: convergence in dt. A floppy N = 3 strand with nearly straight elements
+//!    released under gravity, frictionless and with the preset's internal friction;
+//!    linearly implicit Euler and BDF2 over a range of dt, tip error over 1 s against
+//!    BDF2 at a very small step with second-order Richardson extrapolation
+//!    ((4 x(h/2) − x(h))/3, checked one halving finer), and the measured orders.
+//!    Frictionless, linearly implicit Euler damps the stiff twist modes and barely
+//!    converges; BDF2 converges at second order: the integrator for accuracy.
+//! 6. `rotary`: what the cross-sections' rotary inertia changes, against the paper's
+//!    kinetic energy (5b) without it: the twist, bending and centreline of two curved
+//!    N = 3 strands (one twisted, one planar) over 0.2 s.
 //!
 //! The reference of `swing` and `curly` is N = 20 with generated kernels and the
 //! linearly implicit Euler integrator at two small steps h and h/2, combined by
@@ -171,7 +181,7 @@ pub struct Point {
 /// One problem's results.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ProblemResult {
-    /// Key (`swing`, …), also the PNG's name.
+    /// Key (`swing`, …), also the plot file's name.
     pub key: &'static str,
     /// Title.
     pub title: String,
