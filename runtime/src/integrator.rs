@@ -966,7 +966,7 @@ fn acceleration(
             format!(
                 "RK4: the mass matrix at a stage state is not positive definite (largest |q| = {largest:.3e} rad/m): \
                  the explicit steps have grown unstable (dt beyond the stability limit of the stiffest mode, \
-                 which shrinks as elements straighten); use a smaller dt or an implicit integrator"
+                 which changes along the motion); use a smaller dt or an implicit integrator"
             )
         } else {
             "RK4: a stage state is not finite: the explicit steps diverged (dt beyond the stability limit \
