@@ -38,8 +38,8 @@ enum Command {
     /// line per failed case, a table per group, last line `cases=<n> failed=<m>`; exit
     /// code 1 when a case fails.
     Stress(cli::stress::StressArgs),
-    /// What accuracy costs: error against cost of N, dt, integrator and kernels on four
-    /// reference problems; writes DIR/report.md and one PNG per problem.
+    /// What accuracy costs: error against cost of N, dt, integrator and kernels on
+    /// reference problems; writes DIR/report.md and one plot per problem.
     Study(cli::study::StudyArgs),
 }
 

@@ -1,277 +1,262 @@
-//! The PNG plots of `superhelix study`: error against cost, log–log, one colour per
-//! series (integrator and kernels), the Pareto front as a black line.
+//! The plots of `superhelix study`, as SVG: a title, axis titles with units, log–log
+//! axes with labelled ticks, and a legend inside the picture.
 //!
-//! plotters is built without a font backend: its text needs a TrueType font from the
-//! system or shipped with us, and neither is available offline, so the axes carry decade
-//! grid lines and numeric tick labels drawn with a small built-in pixel font
-//! ([`draw_text`], digits and 'e' only); the legend (which colour is which series) is
-//! written in report.md ([`Legend::describe`]). plotters renders into an RGB buffer and
-//! tiny-skia encodes it as PNG.
+//! SVG because its text is SVG `<text>` drawn by the viewer: plotters' SVG backend needs
+//! no font file, where a PNG would need a TrueType font compiled in. `report.md` embeds
+//! the SVGs as images.
+//!
+//! Every series keeps one colour and marker in every plot: the colour is looked up in a
+//! fixed table by the setting (integrator and kernels, [`series_style`]; friction for the
+//! convergence plot), never by order of appearance.
 
 use crate::runtime::{Error, IntegratorKind, Result};
-use crate::study::ProblemResult;
+use crate::study::{Kernels, ProblemResult, Setting};
 use plotters::prelude::*;
-use std::fmt::Write as _;
 
 /// Width and height of a plot, pixels.
 pub const SIZE: (u32, u32) = (960, 640);
 
-/// Named colours of the series, in order.
-pub const PALETTE: [(&str, RGBColor); 10] = [
-    ("blue", RGBColor(31, 119, 180)),
-    ("orange", RGBColor(255, 127, 14)),
-    ("green", RGBColor(44, 160, 44)),
-    ("red", RGBColor(214, 39, 40)),
-    ("purple", RGBColor(148, 103, 189)),
-    ("brown", RGBColor(140, 86, 75)),
-    ("pink", RGBColor(227, 119, 194)),
-    ("grey", RGBColor(127, 127, 127)),
-    ("olive", RGBColor(188, 189, 34)),
-    ("cyan", RGBColor(23, 190, 207)),
-];
-
-/// What a plot shows, for the report.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Legend {
-    /// Series name and colour name.
-    pub series: Vec<(String, &'static str)>,
-    /// Decades of the x axis (cost in ms), 10^a..10^b.
-    pub x_decades: (i32, i32),
-    /// Decades of the y axis (error), 10^a..10^b.
-    pub y_decades: (i32, i32),
+/// A marker shape.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Marker {
+    /// Filled circle: linearly implicit Euler, statics.
+    Circle,
+    /// Filled triangle: Newton implicit Euler.
+    Triangle,
+    /// Cross: BDF2.
+    Cross,
+    /// Square outline: RK4.
+    Square,
 }
 
-impl Legend {
-    /// One markdown sentence: axes and series colours.
-    pub fn describe(&self, x: &str, unit: &str, y: &str) -> String {
-        let mut s = format!(
-            "x = {x} ({unit}, log scale, 1e{} to 1e{}), y = {y} (log scale, 1e{} to 1e{}); grey \
-             lines at every decade, labelled with the exponent; colours: ",
-            self.x_decades.0, self.x_decades.1, self.y_decades.0, self.y_decades.1
-        );
-        let parts: Vec<String> = self
-            .series
-            .iter()
-            .map(|(name, colour)| format!("{name} = {colour}"))
-            .collect();
-        let _ = write!(
-            s,
-            "{}; filled circles: linearly implicit Euler or statics, triangles: Newton implicit \
-             Euler, crosses: BDF2; black line: Pareto front.",
-            parts.join(", ")
-        );
-        s
+/// Colour and marker of a series.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Style {
+    /// Colour.
+    pub colour: RGBColor,
+    /// Marker.
+    pub marker: Marker,
+}
+
+/// Marker of an integrator (statics: circle).
+pub fn marker_of(integrator: Option<IntegratorKind>) -> Marker {
+    match integrator {
+        Some(IntegratorKind::NewtonImplicitEuler) => Marker::Triangle,
+        Some(IntegratorKind::Bdf2) => Marker::Cross,
+        Some(IntegratorKind::Rk4) => Marker::Square,
+        _ => Marker::Circle,
     }
+}
+
+/// The fixed colour of a setting's series: generated kernels by integrator (linearly
+/// implicit Euler blue, Newton implicit Euler orange, BDF2 green, RK4 red, statics
+/// blue), generic kernels by rule (2 points purple, 4 brown, 8 pink, adaptive grey,
+/// other orders olive).
+pub fn series_style(setting: &Setting) -> Style {
+    use crate::runtime::QuadratureRule::{Adaptive, Fixed};
+    let colour = match setting.kernels {
+        Kernels::Generated => match setting.integrator {
+            Some(IntegratorKind::NewtonImplicitEuler) => RGBColor(255, 127, 14),
+            Some(IntegratorKind::Bdf2) => RGBColor(44, 160, 44),
+            Some(IntegratorKind::Rk4) => RGBColor(214, 39, 40),
+            _ => RGBColor(31, 119, 180),
+        },
+        Kernels::Generic(Fixed(2)) => RGBColor(148, 103, 189),
+        Kernels::Generic(Fixed(4)) => RGBColor(140, 86, 75),
+        Kernels::Generic(Fixed(8)) => RGBColor(227, 119, 194),
+        Kernels::Generic(Adaptive) => RGBColor(127, 127, 127),
+        Kernels::Generic(Fixed(_)) => RGBColor(188, 189, 34),
+    };
+    Style {
+        colour,
+        marker: marker_of(setting.integrator),
+    }
+}
+
+/// Colour of a convergence series: the integrator's colour, darker with friction.
+pub fn convergence_style(integrator: IntegratorKind, friction: bool) -> Style {
+    let base = series_style(&Setting {
+        elements: 1,
+        rate: Some(1),
+        integrator: Some(integrator),
+        kernels: Kernels::Generated,
+    });
+    let RGBColor(r, g, b) = base.colour;
+    let colour = if friction {
+        RGBColor(r / 2, g / 2, b / 2)
+    } else {
+        base.colour
+    };
+    Style { colour, ..base }
 }
 
 fn plot_error(e: impl std::fmt::Display) -> Error {
     Error::invalid("study.plot", e.to_string())
 }
 
-fn decades(values: impl Iterator<Item = f64>) -> (i32, i32) {
+fn decades(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let (lo, hi) = values
         .filter(|v| v.is_finite() && *v > 0.0)
         .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
             (lo.min(v), hi.max(v))
         });
     if !lo.is_finite() {
-        return (-1, 0);
+        return (0.1, 1.0);
     }
     let (a, b) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
-    (a, b.max(a + 1))
+    (10f64.powi(a), 10f64.powi(b.max(a + 1)))
 }
 
 /// Smallest error drawn (exact zeros are drawn here).
 const ERROR_FLOOR: f64 = 1e-12;
 
-/// Draw the plot of one problem; returns the PNG bytes and the legend.
-pub fn plot(problem: &ProblemResult) -> Result<(Vec<u8>, Legend)> {
-    let ok: Vec<(String, Option<IntegratorKind>, f64, f64, bool)> = problem
-        .points
-        .iter()
-        .filter_map(|p| {
-            p.outcome.as_ref().ok().map(|m| {
-                (
-                    p.setting.series(),
-                    p.setting.integrator,
-                    m.cost * 1e3,
-                    m.error.max(ERROR_FLOOR),
-                    p.pareto,
-                )
-            })
-        })
-        .collect();
-    let mut names: Vec<String> = Vec::new();
-    for (name, ..) in &ok {
-        if !names.contains(name) {
-            names.push(name.clone());
-        }
-    }
-    let x_decades = decades(ok.iter().map(|p| p.2));
-    let y_decades = decades(ok.iter().map(|p| p.3));
-    let (w, h) = SIZE;
-    let mut buf = vec![255u8; (w * h * 3) as usize];
-    let (left, bottom, right, top) = (90i32, 50i32, 30i32, 30i32);
+/// One named series of points.
+pub struct Series {
+    /// Legend text.
+    pub name: String,
+    /// Colour and marker.
+    pub style: Style,
+    /// (x, y) points.
+    pub points: Vec<(f64, f64)>,
+    /// Join the points with a line.
+    pub line: bool,
+}
+
+/// A log–log plot as SVG text, the legend at `legend_at` inside the plotting area.
+pub fn log_log_svg(
+    title: &str,
+    x_title: &str,
+    y_title: &str,
+    series: &[Series],
+    extra_line: Option<(&str, Vec<(f64, f64)>)>,
+    legend_at: SeriesLabelPosition,
+) -> Result<String> {
+    let (x0, x1) = decades(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
+    let (y0, y1) = decades(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
+    let mut svg = String::new();
     {
-        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, SIZE).into_drawing_area();
         root.fill(&WHITE).map_err(plot_error)?;
-        let area = root.margin(top as u32, bottom as u32, left as u32, right as u32);
-        let (x0, x1) = (10f64.powi(x_decades.0), 10f64.powi(x_decades.1));
-        let (y0, y1) = (10f64.powi(y_decades.0), 10f64.powi(y_decades.1));
-        let mut chart = ChartBuilder::on(&area)
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 24))
+            .margin(15)
+            .x_label_area_size(55)
+            .y_label_area_size(85)
             .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
             .map_err(plot_error)?;
-        let grey = RGBColor(210, 210, 210);
-        for e in x_decades.0..=x_decades.1 {
-            let x = 10f64.powi(e);
-            chart
-                .draw_series(LineSeries::new([(x, y0), (x, y1)], grey))
-                .map_err(plot_error)?;
-        }
-        for e in y_decades.0..=y_decades.1 {
-            let y = 10f64.powi(e);
-            chart
-                .draw_series(LineSeries::new([(x0, y), (x1, y)], grey))
-                .map_err(plot_error)?;
-        }
-        let mut front: Vec<(f64, f64)> = ok.iter().filter(|p| p.4).map(|p| (p.2, p.3)).collect();
-        front.sort_by(|a, b| a.0.total_cmp(&b.0));
         chart
-            .draw_series(LineSeries::new(front, BLACK.stroke_width(2)))
+            .configure_mesh()
+            .x_desc(x_title)
+            .y_desc(y_title)
+            .x_label_formatter(&|x| format!("{x:.0e}"))
+            .y_label_formatter(&|y| format!("{y:.0e}"))
+            .label_style(("sans-serif", 15))
+            .axis_desc_style(("sans-serif", 18))
+            .draw()
             .map_err(plot_error)?;
-        for (i, name) in names.iter().enumerate() {
-            let colour = PALETTE[i % PALETTE.len()].1;
-            for p in ok.iter().filter(|p| &p.0 == name) {
-                match p.1 {
-                    Some(IntegratorKind::NewtonImplicitEuler) => chart
-                        .draw_series(std::iter::once(TriangleMarker::new(
-                            (p.2, p.3),
-                            7,
-                            colour.filled(),
-                        )))
-                        .map_err(plot_error)?,
-                    Some(IntegratorKind::Bdf2) => chart
-                        .draw_series(std::iter::once(Cross::new(
-                            (p.2, p.3),
-                            6,
-                            colour.stroke_width(3),
-                        )))
-                        .map_err(plot_error)?,
-                    _ => chart
-                        .draw_series(std::iter::once(Circle::new((p.2, p.3), 5, colour.filled())))
-                        .map_err(plot_error)?,
-                };
+        if let Some((name, line)) = extra_line {
+            chart
+                .draw_series(LineSeries::new(line, BLACK.stroke_width(2)))
+                .map_err(plot_error)?
+                .label(name)
+                .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+        }
+        for s in series {
+            let colour = s.style.colour;
+            if s.line {
+                chart
+                    .draw_series(LineSeries::new(s.points.clone(), colour.stroke_width(1)))
+                    .map_err(plot_error)?;
             }
+            let pts = s.points.clone();
+            let anno = match s.style.marker {
+                Marker::Circle => chart
+                    .draw_series(pts.into_iter().map(|p| Circle::new(p, 5, colour.filled())))
+                    .map_err(plot_error)?
+                    .label(s.name.clone())
+                    .legend(move |(x, y)| Circle::new((x + 10, y), 5, colour.filled())),
+                Marker::Triangle => chart
+                    .draw_series(
+                        pts.into_iter()
+                            .map(|p| TriangleMarker::new(p, 7, colour.filled())),
+                    )
+                    .map_err(plot_error)?
+                    .label(s.name.clone())
+                    .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 7, colour.filled())),
+                Marker::Cross => chart
+                    .draw_series(
+                        pts.into_iter()
+                            .map(|p| Cross::new(p, 6, colour.stroke_width(3))),
+                    )
+                    .map_err(plot_error)?
+                    .label(s.name.clone())
+                    .legend(move |(x, y)| Cross::new((x + 10, y), 6, colour.stroke_width(3))),
+                Marker::Square => chart
+                    .draw_series(pts.into_iter().map(|p| {
+                        EmptyElement::at(p)
+                            + Rectangle::new([(-5, -5), (5, 5)], colour.stroke_width(2))
+                    }))
+                    .map_err(plot_error)?
+                    .label(s.name.clone())
+                    .legend(move |(x, y)| {
+                        Rectangle::new([(x + 5, y - 5), (x + 15, y + 5)], colour.stroke_width(2))
+                    }),
+            };
+            let _ = anno;
         }
-        // frame and decade exponents (pixel font)
-        let (pw, ph) = (w as i32 - left - right, h as i32 - top - bottom);
-        root.draw(&Rectangle::new(
-            [(left, top), (left + pw, top + ph)],
-            BLACK.stroke_width(1),
-        ))
-        .map_err(plot_error)?;
-        let nx = (x_decades.1 - x_decades.0) as f64;
-        for e in x_decades.0..=x_decades.1 {
-            let px = left + ((e - x_decades.0) as f64 / nx * pw as f64).round() as i32;
-            let label = format!("1e{e}");
-            let tw = text_width(&label, 3);
-            draw_text(&root, &label, (px - tw / 2, top + ph + 10), 3).map_err(plot_error)?;
-        }
-        let ny = (y_decades.1 - y_decades.0) as f64;
-        for e in y_decades.0..=y_decades.1 {
-            let py = top + ph - ((e - y_decades.0) as f64 / ny * ph as f64).round() as i32;
-            let label = format!("1e{e}");
-            let tw = text_width(&label, 3);
-            draw_text(&root, &label, (left - tw - 8, py - 7), 3).map_err(plot_error)?;
-        }
+        chart
+            .configure_series_labels()
+            .position(legend_at)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .draw()
+            .map_err(plot_error)?;
         root.present().map_err(plot_error)?;
     }
-    let legend = Legend {
-        series: names
-            .iter()
-            .enumerate()
-            .map(|(i, n)| (n.clone(), PALETTE[i % PALETTE.len()].0))
-            .collect(),
-        x_decades,
-        y_decades,
-    };
-    Ok((encode_png(w, h, &buf)?, legend))
+    Ok(svg)
 }
 
-/// 3x5 pixel glyphs of the characters of tick labels, rows top to bottom, 3 bits each.
-fn glyph(c: char) -> Option<[u8; 5]> {
-    Some(match c {
-        '0' => [7, 5, 5, 5, 7],
-        '1' => [2, 6, 2, 2, 7],
-        '2' => [7, 1, 7, 4, 7],
-        '3' => [7, 1, 7, 1, 7],
-        '4' => [5, 5, 7, 1, 1],
-        '5' => [7, 4, 7, 1, 7],
-        '6' => [7, 4, 7, 5, 7],
-        '7' => [7, 1, 2, 2, 2],
-        '8' => [7, 5, 7, 5, 7],
-        '9' => [7, 5, 7, 1, 7],
-        'e' => [0, 7, 7, 4, 7],
-        '-' => [0, 0, 7, 0, 0],
-        '.' => [0, 0, 0, 0, 2],
-        _ => return None,
-    })
-}
-
-fn text_width(text: &str, scale: i32) -> i32 {
-    text.chars().count() as i32 * 4 * scale
-}
-
-/// Draw `text` (digits, `e`, `-`, `.`) with its top-left corner at `at`, each font
-/// pixel a `scale`×`scale` square.
-pub fn draw_text<DB: DrawingBackend>(
-    area: &DrawingArea<DB, plotters::coord::Shift>,
-    text: &str,
-    at: (i32, i32),
-    scale: i32,
-) -> std::result::Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-    for (i, c) in text.chars().enumerate() {
-        let Some(rows) = glyph(c) else { continue };
-        let x0 = at.0 + i as i32 * 4 * scale;
-        for (r, bits) in rows.iter().enumerate() {
-            for col in 0..3 {
-                if bits & (4 >> col) != 0 {
-                    let x = x0 + col * scale;
-                    let y = at.1 + r as i32 * scale;
-                    area.draw(&Rectangle::new(
-                        [(x, y), (x + scale - 1, y + scale - 1)],
-                        BLACK.filled(),
-                    ))?;
-                }
-            }
+/// Draw the error-against-cost plot of one problem: the SVG text.
+pub fn plot(problem: &ProblemResult) -> Result<String> {
+    let mut series: Vec<Series> = Vec::new();
+    for p in &problem.points {
+        let Ok(m) = &p.outcome else { continue };
+        let name = p.setting.series();
+        let point = (m.cost * 1e3, m.error.max(ERROR_FLOOR));
+        match series.iter_mut().find(|s| s.name == name) {
+            Some(s) => s.points.push(point),
+            None => series.push(Series {
+                name,
+                style: series_style(&p.setting),
+                points: vec![point],
+                line: false,
+            }),
         }
     }
-    Ok(())
-}
-
-/// A PNG of `rgb` (row-major, 3 bytes per pixel) through tiny-skia's encoder.
-pub fn encode_png(w: u32, h: u32, rgb: &[u8]) -> Result<Vec<u8>> {
-    let mut pixmap = tiny_skia::Pixmap::new(w, h)
-        .ok_or_else(|| plot_error(format!("cannot make a {w} x {h} image")))?;
-    for (px, c) in pixmap
-        .data_mut()
-        .chunks_exact_mut(4)
-        .zip(rgb.chunks_exact(3))
-    {
-        px.copy_from_slice(&[c[0], c[1], c[2], 255]);
-    }
-    pixmap.encode_png().map_err(plot_error)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn png_has_signature_and_chunks() {
-        let png = encode_png(2, 1, &[255, 0, 0, 0, 0, 255]).expect("encodes");
-        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
-        assert_eq!(&png[12..16], b"IHDR");
-        assert_eq!(&png[png.len() - 8..png.len() - 4], b"IEND");
-    }
+    let mut front: Vec<(f64, f64)> = problem
+        .points
+        .iter()
+        .filter(|p| p.pareto)
+        .filter_map(|p| {
+            p.outcome
+                .as_ref()
+                .ok()
+                .map(|m| (m.cost * 1e3, m.error.max(ERROR_FLOOR)))
+        })
+        .collect();
+    front.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let x_title = if problem.is_static {
+        "cost: CPU time per static solve (ms)"
+    } else {
+        "cost: CPU time per strand per simulated second (ms)"
+    };
+    log_log_svg(
+        &problem.title,
+        x_title,
+        &problem.error_title,
+        &series,
+        Some(("Pareto front", front)),
+        SeriesLabelPosition::LowerLeft,
+    )
 }

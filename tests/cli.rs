@@ -41,6 +41,14 @@ fn repo(path: &str) -> String {
 
 const STRAND: &str = "[[strands]]\nlength = 0.3\n";
 
+/// An N this build has no generated kernels for.
+fn no_generated_kernel() -> usize {
+    let available = superhelix::kernel_factory()
+        .map(|f| f.available())
+        .unwrap_or_default();
+    (1..=200).find(|n| !available.contains(n)).unwrap_or(200)
+}
+
 /// Broken scenes and a field path each must report.
 fn broken() -> Vec<(String, &'static str)> {
     vec![
@@ -63,6 +71,14 @@ fn broken() -> Vec<(String, &'static str)> {
         ("[[strands]]\nlength = 0.3\n[[strands.point_loads]]\ns = 0.4\nforce = [0.0, 0.0, 1.0]\n".to_string(), "strands[0].point_loads[0].s"),
         (format!("{STRAND}[[strands]]\nlength = 0.2\nhelix_radius = -1.0\n"), "strands[1].helix_radius"),
         ("[simulation]\ndt = 0.01\n".to_string(), "strands"),
+        // what `run` refuses before its first step
+        ("[[strands]]\nlength = 1e300\n".to_string(), "strands[0].length"),
+        ("[[strands]]\nlength = 0.3\nelements = 1\nq0 = [1e300, 0.0, 0.0]\n".to_string(), "strands[0].q0[0]"),
+        ("[[strands]]\nlength = 0.3\nradius = 1e200\n".to_string(), "strands[0].radius"),
+        ("[[strands]]\nlength = 0.3\nnatural = [0.0, 1e7, 0.0]\n".to_string(), "strands[0].natural"),
+        ("[[strands]]\nlength = 0.3\n[[strands.point_loads]]\ns = 0.3\nforce = [0.0, 0.0, 1e300]\n".to_string(), "strands[0].point_loads[0].force"),
+        (format!("[simulation]\nkernels = \"generated\"\n[[strands]]\nlength = 0.3\nelements = {}\n", no_generated_kernel()), "simulation.kernels"),
+        (format!("[simulation]\nintegrator = \"rk4\"\ndt = 0.0333333\n{STRAND}"), "simulation.dt"),
     ]
 }
 
@@ -365,4 +381,59 @@ fn bench_runs_on_the_threads_it_is_given_and_refuses_zero() {
         "{}",
         text(&out)
     );
+}
+
+#[test]
+fn validate_and_run_refuse_rk4_beyond_its_stability_limit_with_the_cause() {
+    let dir = scratch("rk4");
+    // wavy, N = 5: the stiffest mode at q0 has |lambda| = 3.5e3 1/s, limit 7.95e-4 s
+    let scene = |dt: f64| {
+        format!("[simulation]\nintegrator = \"rk4\"\ndt = {dt}\nduration = 0.002\n[[strands]]\nlength = 0.3\npreset = \"wavy\"\nelements = 5\n")
+    };
+    let bad = write(&dir, "bad.toml", &scene(1.0 / 30.0));
+    let out = superhelix(&["validate", &bad.to_string_lossy()]);
+    let all = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{all}");
+    assert!(
+        all.contains("simulation.dt: explicit rk4 is unstable"),
+        "{all}"
+    );
+    assert!(!all.contains("positive definite"), "{all}");
+    // the largest dt accepted, as the message states it, is accepted; 1.2 x it is not
+    let allowed: f64 = all
+        .split("that = ")
+        .nth(1)
+        .and_then(|t| t.split(" s;").next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("no largest dt in: {all}"));
+    assert!((3e-4..7e-4).contains(&allowed), "{allowed}");
+    let out = superhelix(&[
+        "run",
+        &bad.to_string_lossy(),
+        "--out",
+        &dir.join("o1").to_string_lossy(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out).contains("simulation.dt: explicit rk4 is unstable"),
+        "{}",
+        text(&out)
+    );
+    let near = write(&dir, "near.toml", &scene(1.2 * allowed));
+    assert_eq!(
+        superhelix(&["validate", &near.to_string_lossy()])
+            .status
+            .code(),
+        Some(1)
+    );
+    let good = write(&dir, "good.toml", &scene(0.99 * allowed));
+    let out = superhelix(&["validate", &good.to_string_lossy()]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let out = superhelix(&[
+        "run",
+        &good.to_string_lossy(),
+        "--out",
+        &dir.join("o2").to_string_lossy(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
 }

@@ -60,4 +60,4 @@ pub use forces::head_motion::{Keyframe, KeyframeTrack};
 /// Re-exported so that users of the trait need not name nalgebra themselves.
 pub use nalgebra::{Matrix3, Vector3};
 pub use output::{run_to_frames, FrameSource, Frames, RunSummary, StrandFrames};
-pub use scene::{parse_scene, validate_scene};
+pub use scene::{parse_scene, validate_scene, validate_scene_with};

@@ -125,13 +125,16 @@ impl RunSummary {
 impl fmt::Display for RunSummary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let wall = self.wall_time.as_secs_f64();
+        let strands = match self.strands {
+            1 => "1 strand".to_string(),
+            n => format!("{n} strands"),
+        };
         match self.mode {
-            Mode::Static => write!(f, "static: {} strands solved in {wall:.3} s", self.strands),
+            Mode::Static => write!(f, "static: {strands} solved in {wall:.3} s"),
             Mode::Dynamic => write!(
                 f,
-                "{} steps x {} strands in {wall:.3} s: {:.0} strand-steps/s, max |q̇| = {:.4e} rad/(m s), {} frames",
+                "{} steps x {strands} in {wall:.3} s: {:.0} strand-steps/s, max |q̇| = {:.4e} rad/(m s), {} frames",
                 self.steps,
-                self.strands,
                 self.strand_steps_per_second(),
                 self.max_speed,
                 self.frames

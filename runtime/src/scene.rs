@@ -20,8 +20,10 @@ use crate::config::{IntegratorKind, KernelChoice, Mode, SimulationConfig, Simula
 use crate::error::{Error, FieldError, Result};
 use crate::forces::environment::Environment;
 use crate::kernels::generic::QuadratureRule;
+use crate::kernels::kernel::KernelFactory;
 use crate::output::plan::FORMAT_NAMES;
 use crate::output::{Formats, OutputSettings};
+use crate::simulation::Simulation;
 use reader::{Bound, Errors, Node, Range};
 use toml::{Table, Value};
 
@@ -61,14 +63,30 @@ pub fn parse_scene(text: &str) -> Result<SimulationSetup> {
     }
 }
 
-/// Every problem of a scene (empty when it is valid). A syntax error is reported as one
-/// problem of the field `<toml>`.
+/// Every problem of a scene (empty when it is valid), with no generated kernels (see
+/// [`validate_scene_with`]). A syntax error is reported as one problem of the field
+/// `<toml>`.
 pub fn validate_scene(text: &str) -> Vec<FieldError> {
+    validate_scene_with(text, None)
+}
+
+/// Every problem of a scene (empty when it is valid): those of [`parse_scene`], then
+/// those [`Simulation::new`] finds with the kernels of `generated` (a missing generated
+/// kernel, an initial state that is not finite, a dt beyond RK4's stability limit), so
+/// that a scene this accepts runs its first step. A syntax error is reported as one
+/// problem of the field `<toml>`.
+pub fn validate_scene_with(text: &str, generated: Option<&dyn KernelFactory>) -> Vec<FieldError> {
+    let problems = |e: Error| match e {
+        Error::Invalid(errors) => errors,
+        Error::Parse(message) => vec![FieldError::new("<toml>", message)],
+        other => vec![FieldError::new("<toml>", other.to_string())],
+    };
     match parse_scene(text) {
-        Ok(_) => Vec::new(),
-        Err(Error::Invalid(errors)) => errors,
-        Err(Error::Parse(message)) => vec![FieldError::new("<toml>", message)],
-        Err(other) => vec![FieldError::new("<toml>", other.to_string())],
+        Ok(setup) => match Simulation::new(setup, generated) {
+            Ok(_) => Vec::new(),
+            Err(e) => problems(e),
+        },
+        Err(e) => problems(e),
     }
 }
 

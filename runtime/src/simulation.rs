@@ -2,7 +2,7 @@
 //! [`Simulation::new`] builds one [`StrandSystem`] per strand from a
 //! [`SimulationSetup`]; [`Simulation::step`] advances them all over one time step.
 
-use crate::config::{KernelChoice, SimulationConfig, SimulationSetup};
+use crate::config::{IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup};
 use crate::error::{Error, FieldError, Result};
 use crate::forces::effects::GlobalEffects;
 use crate::forces::head_motion::HeadMotion;
@@ -11,6 +11,7 @@ use crate::kernels::kernel::{KernelFactory, StrandKernel};
 use crate::model::reconstruction::{pose_at, sample_centreline};
 use crate::model::strand::{Strand, StrandGeometry};
 use crate::output::FrameSource;
+use crate::solver::initial_state::check_initial_state;
 use crate::solver::{
     solve_static, step, HeadInterval, StaticReport, StepContext, StepStats, StrandState,
     StrandSystem,
@@ -100,8 +101,9 @@ fn make_kernel(
     rule: QuadratureRule,
     geometry: &StrandGeometry,
     generated: Option<&dyn KernelFactory>,
+    index: usize,
     name: &str,
-) -> Result<Box<dyn StrandKernel>> {
+) -> std::result::Result<Box<dyn StrandKernel>, FieldError> {
     let from_generated = || generated.and_then(|f| f.create(geometry));
     let generic = || Box::new(GenericKernel::new(geometry.clone(), rule)) as Box<dyn StrandKernel>;
     match choice {
@@ -109,20 +111,25 @@ fn make_kernel(
         KernelChoice::Auto => Ok(from_generated().unwrap_or_else(generic)),
         KernelChoice::Generated => from_generated().ok_or_else(|| {
             let available = generated.map(|f| f.available()).unwrap_or_default();
-            Error::Kernel(format!(
-                "strand '{name}' has N = {} elements and there is no generated kernel for it \
-                 (generated kernels exist for N in {available:?}; build with SUPERHELIX_N={} to add it, \
-                 or use kernels = \"auto\" or \"generic\")",
-                geometry.elements(),
-                geometry.elements()
-            ))
+            FieldError::new(
+                "simulation.kernels",
+                format!(
+                    "strand '{name}' (strands[{index}]) has N = {n} elements and there is no generated kernel for it \
+                     (generated kernels exist for N in {available:?}; build with SUPERHELIX_N={n} to add it, \
+                     or use kernels = \"auto\" or \"generic\")",
+                    n = geometry.elements(),
+                ),
+            )
         }),
     }
 }
 
 impl Simulation {
     /// Build the simulation: one kernel per strand (generated where `generated` has one
-    /// and the configuration allows it), workspaces sized once.
+    /// and the configuration allows it), workspaces sized once. The initial state is
+    /// checked as the first step would meet it ([`crate::solver::initial_state`]): a
+    /// missing generated kernel, a non-finite centreline, force or mass matrix, and under
+    /// RK4 a dt beyond its stability limit are [`Error::Invalid`], every problem listed.
     pub fn new(setup: SimulationSetup, generated: Option<&dyn KernelFactory>) -> Result<Self> {
         check_setup(&setup)?;
         let head_moves = setup.head != HeadMotion::Still;
@@ -133,18 +140,38 @@ impl Simulation {
             },
             integrator: setup.config.integrator,
         };
+        let head0 = setup.head.state(0.0);
+        let rk4_dt = (setup.config.integrator == IntegratorKind::Rk4
+            && setup.config.mode == Mode::Dynamic)
+            .then_some(setup.config.dt);
+        let mut errors = Vec::new();
         let mut strands = Vec::with_capacity(setup.strands.len());
-        for s in setup.strands {
-            let kernel = make_kernel(
+        for (index, s) in setup.strands.into_iter().enumerate() {
+            let kernel = match make_kernel(
                 setup.config.kernels,
                 setup.config.quadrature,
                 &s.strand.geometry,
                 generated,
+                index,
                 &s.strand.name,
-            )?;
+            ) {
+                Ok(kernel) => kernel,
+                Err(e) => {
+                    errors.push(e);
+                    continue;
+                }
+            };
+            let mut system = StrandSystem::new(s.strand, kernel, context);
+            errors.extend(check_initial_state(
+                index,
+                &mut system,
+                &head0,
+                &s.q0,
+                rk4_dt,
+            ));
             let n = s.q0.len();
             strands.push(StrandSim {
-                system: StrandSystem::new(s.strand, kernel, context),
+                system,
                 state: StrandState {
                     q: s.q0,
                     v: vec![0.0; n],
@@ -152,6 +179,9 @@ impl Simulation {
                 stats: StepStats::default(),
                 group: s.group,
             });
+        }
+        if !errors.is_empty() {
+            return Err(Error::Invalid(errors));
         }
         Ok(Simulation {
             config: setup.config,

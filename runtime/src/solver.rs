@@ -11,6 +11,7 @@ pub mod adaptive;
 pub mod bdf2;
 pub mod dense_solve;
 pub mod energy_balance;
+pub mod initial_state;
 pub mod linearly_implicit;
 pub mod newton;
 pub mod rk4;

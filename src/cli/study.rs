@@ -9,7 +9,7 @@ use superhelix::Error;
 /// Arguments of `study`.
 #[derive(Args)]
 pub struct StudyArgs {
-    /// The reduced grid (under two minutes on two cores; run by CI).
+    /// Only a reduced grid of each problem (the one `cargo test` runs).
     #[arg(long)]
     quick: bool,
     /// Output directory.

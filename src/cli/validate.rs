@@ -5,7 +5,7 @@ use super::common::read_scene;
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use superhelix::Error;
+use superhelix::{Error, FieldError};
 
 /// Arguments of `validate`.
 #[derive(Args)]
@@ -18,23 +18,30 @@ pub struct ValidateArgs {
 pub fn run(args: ValidateArgs) -> Result<ExitCode, Error> {
     let path = &args.scene;
     let text = read_scene(path)?;
-    let setup = match superhelix::parse_scene(&text) {
-        Ok(setup) => setup,
-        Err(_) => {
-            let problems = superhelix::validate_scene(&text);
-            for p in &problems {
-                eprintln!("{p}");
-            }
-            eprintln!("{}: {} problem(s)", path.display(), problems.len());
-            return Ok(ExitCode::FAILURE);
-        }
+    // the scene file, then what `run` meets before its first step (kernels of this
+    // build, the initial state, RK4's stability limit)
+    let problems = match superhelix::parse_scene(&text) {
+        Err(_) => superhelix::validate_scene(&text),
+        Ok(setup) => match superhelix::open_simulation(setup.clone()) {
+            Ok(_) => return report_valid(&setup),
+            Err(Error::Invalid(problems)) => problems,
+            Err(other) => vec![FieldError::new("<scene>", other.to_string())],
+        },
     };
+    for p in &problems {
+        eprintln!("{p}");
+    }
+    eprintln!("{}: {} problem(s)", path.display(), problems.len());
+    Ok(ExitCode::FAILURE)
+}
+
+/// The counts and the output plan of a valid scene; refused when the plan is too large.
+fn report_valid(setup: &superhelix::SimulationSetup) -> Result<ExitCode, Error> {
     let strands = setup.strands.len();
-    let steps = superhelix::runtime::scene::step_count(&setup);
+    let steps = superhelix::runtime::scene::step_count(setup);
     let plural = if strands == 1 { "" } else { "s" };
     println!("ok: {strands} strand{plural}, {steps} steps");
-    let plan =
-        superhelix::plan_output(&setup, Path::new("out"), &superhelix::RunOptions::default());
+    let plan = superhelix::plan_output(setup, Path::new("out"), &superhelix::RunOptions::default());
     println!("{plan}");
     if let Some(note) = &plan.note {
         println!("{note}");

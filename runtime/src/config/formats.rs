@@ -142,4 +142,3 @@ pub struct OutputSettings {
     /// `crate::output::plan::DEFAULT_MAX_BYTES`.
     pub max_bytes: Option<u64>,
 }
-

@@ -12,7 +12,8 @@ pub struct CrossSection {
     pub ellipticity: f64,
     /// Young's modulus E, pascals.
     pub youngs_modulus: f64,
-    /// Poisson ratio ν (0 ≤ ν < 0.5).
+    /// Poisson ratio ν, in (−1, 0.5] (the range of an isotropic elastic material; 0.5 is
+    /// incompressible, G = E/3).
     pub poisson: f64,
     /// Density ρ, kg/m³ (1300 for hair).
     pub density: f64,

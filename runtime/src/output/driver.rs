@@ -16,8 +16,8 @@
 
 use super::frames::{FrameLayout, FrameSink, FrameView, StrandInfo};
 use super::{frame_times, total_steps, FrameSource, RunSummary};
-use crate::error::{Error, Result};
 use crate::config::{Mode, SimulationConfig};
+use crate::error::{Error, Result};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 

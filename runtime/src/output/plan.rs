@@ -14,8 +14,8 @@
 use super::driver::display_radius;
 use super::frame_times;
 use super::frames::{FrameLayout, StrandInfo};
-use crate::error::{Error, Result};
 use crate::config::SimulationSetup;
+use crate::error::{Error, Result};
 use std::fmt;
 use std::path::{Path, PathBuf};
 

@@ -245,7 +245,13 @@ impl<'a> Node<'a> {
         if range.contains(x) {
             Some(x)
         } else {
-            self.error(key, format!("{range}, got {x}"));
+            // large and tiny values in exponent form (1e300, not 300 digits)
+            let got = if x != 0.0 && !(1e-6..1e9).contains(&x.abs()) {
+                format!("{x:e}")
+            } else {
+                format!("{x}")
+            };
+            self.error(key, format!("{range}, got {got}"));
             None
         }
     }

@@ -21,6 +21,16 @@ pub const DEFAULT_ELEMENTS: usize = 10;
 const DEFAULT_DIRECTION: [f64; 3] = [0.0, 0.0, -1.0];
 /// A normal closer to the direction than this (after orthogonalisation) is "parallel".
 const PARALLEL_TOLERANCE: f64 = 1e-6;
+/// Longest strand (and element), metres: far beyond hair, and small enough that no
+/// product of lengths in the kernels overflows.
+pub const MAX_LENGTH: f64 = 100.0;
+/// Largest cross-section radius, metres.
+pub const MAX_RADIUS: f64 = 1.0;
+/// Largest |τ|, |κ1|, |κ2| of `q0` and of the natural curvatures, rad/m: a fibre bent
+/// to a radius of 1 µm; the trigonometric terms of the reconstruction stay accurate.
+pub const MAX_CURVATURE: f64 = 1e6;
+/// Largest magnitude of a point load, newtons.
+pub const MAX_POINT_LOAD: f64 = 1e6;
 /// Relative tolerance of `sum(element_lengths) == length`.
 const LENGTH_SUM_TOLERANCE: f64 = 1e-9;
 
@@ -110,6 +120,8 @@ fn check_derived(n: &Node<'_>, material: &Material, natural: Option<&[f64]>) {
     }
     if natural.is_some_and(|q| !q.iter().all(|x| x.is_finite())) {
         n.error("natural", "the natural curvatures are not finite: check the magnitudes of helix_radius, helix_step, natural_profile and the element lengths");
+    } else if natural.is_some_and(|q| q.iter().any(|x| x.abs() > MAX_CURVATURE)) {
+        n.error("natural", format!("the natural curvatures must be within [-{MAX_CURVATURE:e}, {MAX_CURVATURE:e}] rad/m: check helix_radius, helix_step, natural and natural_profile"));
     }
 }
 
@@ -177,7 +189,11 @@ fn read_cross_section(n: &mut Node<'_>, preset: &CrossSection) -> CrossSection {
         n.optional_f64(key, default, range).unwrap_or(default)
     };
     CrossSection {
-        radius: field("radius", preset.radius, Range::POSITIVE),
+        radius: field(
+            "radius",
+            preset.radius,
+            Range::new(Bound::Excl(0.0), Bound::Incl(MAX_RADIUS)),
+        ),
         ellipticity: field(
             "ellipticity",
             preset.ellipticity,
@@ -187,7 +203,7 @@ fn read_cross_section(n: &mut Node<'_>, preset: &CrossSection) -> CrossSection {
         poisson: field(
             "poisson",
             preset.poisson,
-            Range::new(Bound::Incl(0.0), Bound::Excl(0.5)),
+            Range::new(Bound::Excl(-1.0), Bound::Incl(0.5)),
         ),
         density: field("density", preset.density, Range::POSITIVE),
     }
@@ -225,7 +241,8 @@ fn least_aligned_axis(v: &Vector3<f64>) -> Vector3<f64> {
 /// strand length (as given, or the sum of `element_lengths`).
 fn read_lengths(n: &mut Node<'_>) -> Option<(Vec<f64>, f64)> {
     let length_given = n.has("length");
-    let length = n.f64("length", Range::POSITIVE);
+    let length_range = Range::new(Bound::Excl(0.0), Bound::Incl(MAX_LENGTH));
+    let length = n.f64("length", length_range);
     let elements_given = n.has("elements");
     let elements = n.optional("elements", DEFAULT_ELEMENTS, |n, k| {
         n.count(k, 1, MAX_ELEMENTS as i64, ELEMENTS_CAP)
@@ -241,7 +258,7 @@ fn read_lengths(n: &mut Node<'_>) -> Option<(Vec<f64>, f64)> {
             )
         };
     }
-    let list = n.f64_list("element_lengths", Range::POSITIVE);
+    let list = n.f64_list("element_lengths", length_range);
     if elements_given {
         n.error(
             "element_lengths",
@@ -415,7 +432,10 @@ fn read_initial(n: &mut Node<'_>, dofs: Option<usize>) -> Option<Initial> {
     if !n.has("q0") {
         return initial;
     }
-    let q0 = n.f64_list("q0", Range::ANY);
+    let q0 = n.f64_list(
+        "q0",
+        Range::new(Bound::Incl(-MAX_CURVATURE), Bound::Incl(MAX_CURVATURE)),
+    );
     if initial_given {
         n.error("q0", "give either initial or q0, not both");
         return None;
@@ -449,6 +469,12 @@ fn read_point_loads(n: &mut Node<'_>, length: Option<f64>) -> Option<Vec<PointLo
                 "[fx, fy, fz] in newtons, world coordinates",
                 Node::vec3,
             );
+            if force.is_some_and(|f| f.norm() > MAX_POINT_LOAD) {
+                p.error(
+                    "force",
+                    format!("must have a magnitude <= {MAX_POINT_LOAD:e} N"),
+                );
+            }
             p.finish();
             Some(PointLoad {
                 s: s?,

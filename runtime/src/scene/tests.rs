@@ -186,15 +186,20 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("strands = 5", "strands", "array of tables"),
     ("[[strands]]\nlenght = 0.3", "strands[0].lenght", "unknown field (did you mean 'length'?)"),
     ("[[strands]]\nlenght = 0.3", "strands[0].length", "required"),
-    ("[[strands]]\nlength = -0.3", "strands[0].length", "must be > 0 and finite, got -0.3"),
+    ("[[strands]]\nlength = -0.3", "strands[0].length", "must be in (0, 100], got -0.3"),
+    ("[[strands]]\nlength = 1e300", "strands[0].length", "must be in (0, 100], got 1e300"),
+    ("[[strands]]\nlength = 0.3\nradius = 2.0", "strands[0].radius", "must be in (0, 1]"),
+    ("[[strands]]\nlength = 0.3\nelements = 1\nq0 = [0.0, -2e6, 0.0]", "strands[0].q0[1]", "must be in [-1000000, 1000000]"),
+    ("[[strands]]\nlength = 0.3\nnatural = [0.0, 2e6, 0.0]", "strands[0].natural", "within [-1e6, 1e6] rad/m"),
     ("[[strands]]\nlength = 0.3\nelements = 0", "strands[0].elements", "must be an integer >= 1"),
     ("[[strands]]\nlength = 0.3\nelements = 500", "strands[0].elements", "<= 200"),
     ("[[strands]]\nlength = 0.3\nelements = 2.5", "strands[0].elements", "expected an integer"),
     ("[[strands]]\nlength = 0.3\npreset = \"frizzy\"", "strands[0].preset", "allowed: smooth, wavy, curly, fuzzy"),
-    ("[[strands]]\nlength = 0.3\nradius = 0.0", "strands[0].radius", "> 0"),
+    ("[[strands]]\nlength = 0.3\nradius = 0.0", "strands[0].radius", "must be in (0, 1]"),
     ("[[strands]]\nlength = 0.3\nyoungs_modulus = -1e9", "strands[0].youngs_modulus", "> 0"),
     ("[[strands]]\nlength = 0.3\ndensity = 0", "strands[0].density", "> 0"),
-    ("[[strands]]\nlength = 0.3\npoisson = 0.5", "strands[0].poisson", "must be in [0, 0.5)"),
+    ("[[strands]]\nlength = 0.3\npoisson = 0.51", "strands[0].poisson", "must be in (-1, 0.5]"),
+    ("[[strands]]\nlength = 0.3\npoisson = -1.0", "strands[0].poisson", "must be in (-1, 0.5]"),
     ("[[strands]]\nlength = 0.3\nellipticity = 0.9", "strands[0].ellipticity", ">= 1"),
     ("[[strands]]\nlength = 0.3\nhelix_radius = -0.01", "strands[0].helix_radius", ">= 0"),
     ("[[strands]]\nlength = 0.3\nhelix_step = -0.01", "strands[0].helix_step", ">= 0"),
@@ -216,7 +221,7 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("[[strands]]\nlength = 0.3\ndirection = [1.0, 0.0, 0.0]\nnormal = [-2.0, 0.0, 0.0]", "strands[0].normal", "parallel"),
     ("[[strands]]\nlength = 0.3\nelement_lengths = [0.1, 0.1]", "strands[0].element_lengths", "must sum to length = 0.3"),
     ("[[strands]]\nlength = 0.3\nelements = 2\nelement_lengths = [0.1, 0.2]", "strands[0].element_lengths", "not both"),
-    ("[[strands]]\nelement_lengths = [0.1, -0.2]", "strands[0].element_lengths[1]", "> 0"),
+    ("[[strands]]\nelement_lengths = [0.1, -0.2]", "strands[0].element_lengths[1]", "must be in (0, 100]"),
     ("[[strands]]\nlength = 0.3\n[[strands.point_loads]]\ns = 0.5\nforce = [0.0, 0.0, 1.0]", "strands[0].point_loads[0].s", "must be in [0, 0.3]"),
     ("[[strands]]\nlength = 0.3\n[[strands.point_loads]]\ns = 0.1", "strands[0].point_loads[0].force", "required"),
     ("[[strands]]\nname = \"a\"\nlength = 0.3\n[[strands]]\nname = \"a\"\nlength = 0.3", "strands[1].name", "duplicate"),
@@ -485,4 +490,22 @@ fn strands_get_their_group_and_output_reads_formats_and_max_bytes() {
             "{field} / {message}: {errors:?}"
         );
     }
+}
+
+#[test]
+fn poisson_accepts_the_whole_isotropic_range_and_gives_g_of_e_over_three_at_one_half() {
+    // (−1, 0.5]: 0.5 (incompressible) and −0.99 are valid; G = E / (2 (1 + ν)).
+    for nu in [0.5, -0.99, 0.0] {
+        let s = setup(&format!(
+            "[[strands]]\nlength = 0.3\nellipticity = 1.0\nyoungs_modulus = 1.2e9\nradius = 5e-5\npoisson = {nu}"
+        ));
+        let m = s.strands[0].strand.material;
+        // circle: GJ = G · 2I and EI = E · I, so GJ / EI = 2G / E = 1 / (1 + ν)
+        let ratio = m.stiffness[0] / m.stiffness[1];
+        assert!((ratio - 1.0 / (1.0 + nu)).abs() < 1e-14, "nu {nu}: {ratio}");
+    }
+    let s = setup("[[strands]]\nlength = 0.3\nellipticity = 1.0\npoisson = 0.5");
+    let m = s.strands[0].strand.material;
+    // at ν = 0.5: G = E/3, GJ = (E/3) · 2I = (2/3) EI
+    assert!((m.stiffness[0] / m.stiffness[1] - 2.0 / 3.0).abs() < 1e-14);
 }

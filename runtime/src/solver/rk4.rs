@@ -22,7 +22,19 @@ fn acceleration(
     ws.solver.matrix.copy_from(&ws.terms.mass);
     ws.solver.rhs_mut().copy_from_slice(&ws.terms.force);
     if !ws.solver.solve_spd() {
-        return Err("RK4: the mass matrix is not positive definite".into());
+        let finite = q.iter().chain(v).all(|x| x.is_finite());
+        let largest = q.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+        return Err(if finite {
+            format!(
+                "RK4: the mass matrix at a stage state is not positive definite (largest |q| = {largest:.3e} rad/m): \
+                 the explicit steps have grown unstable (dt beyond the stability limit of the stiffest mode, \
+                 which changes along the motion); use a smaller dt or an implicit integrator"
+            )
+        } else {
+            "RK4: a stage state is not finite: the explicit steps diverged (dt beyond the stability limit \
+             of the stiffest mode); use a smaller dt or an implicit integrator"
+                .to_string()
+        });
     }
     acc.copy_from_slice(ws.solver.solution());
     Ok(())

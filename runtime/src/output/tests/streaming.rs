@@ -1,11 +1,11 @@
 //! The streaming driver, frames.json, the memory store and the output plan.
 
 use super::{config, Fake};
+use crate::config::SimulationConfig;
 use crate::error::Error;
 use crate::output::json::PARTIAL_SUFFIX;
 use crate::output::plan::{json_bytes, prepare_out_dir, Bytes, JSON_TO_NPY_BYTES};
 use crate::output::*;
-use crate::config::SimulationConfig;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 
