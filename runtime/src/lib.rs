@@ -4,8 +4,8 @@
 //! the generic runtime-N strand kernel (closed-form reconstruction, numerical
 //! quadrature of the dynamic terms), the integrators, the forces, scenes and outputs.
 //!
-//! Conventions (units, ordering of `q`, frames, stiffness formulas): see the `docs/`
-//! folder of the repository; the README summarises them.
+//! Conventions (units, ordering of `q`, frames, stiffness formulas): see `docs/model.md`
+//! in the repository.
 //!
 //! The runtime reaches a strand's dynamic terms only through the [`StrandKernel`]
 //! trait, implemented here by [`GenericKernel`] (any N, Gauss–Legendre quadrature) and
@@ -22,7 +22,7 @@
 //! | [`solver`] | time stepping and statics: the strand system, one file per integrator, the adaptive splitting, energy balance, dense solves |
 //! | [`simulation`] | [`Simulation`]: built from a setup, advanced by `step` |
 //! | [`scene`] | scene files (TOML) read into a [`SimulationSetup`] |
-//! | [`output`] | `frames.json` and the driver that runs a simulation to it |
+//! | [`output`] | the run driver that streams frames to files, the file formats (frames.json, .npy, .usda, pictures, .obj), the output plan |
 //!
 //! Data flows scene → [`SimulationSetup`] → [`Simulation::new`] (one
 //! [`solver::StrandSystem`] per strand) → [`Simulation::step`] → the solver's step →
