@@ -18,20 +18,12 @@
 //!   (the closed-form element moments lose ~ε (W·l)² there). Every checked-in N is run
 //!   here: 2000 configurations for N ≤ 6, 1000 above.
 
-use std::process::{Command, Output};
+mod support;
+
 use superhelix::compare::{compare_kernels, Candidate, CompareOptions, CompareReport};
 use superhelix::quadrature_table::{quadrature_table, TableOptions, ORDERS};
 use superhelix::runtime::model::material::Preset;
-
-fn superhelix(args: &[&str]) -> Output {
-    match Command::new(env!("CARGO_BIN_EXE_superhelix"))
-        .args(args)
-        .output()
-    {
-        Ok(out) => out,
-        Err(e) => panic!("cannot start superhelix: {e}"),
-    }
-}
+use support::superhelix;
 
 fn run(options: CompareOptions) -> CompareReport {
     compare_kernels(&options, superhelix::kernel_factory())

@@ -1,8 +1,14 @@
-//! A short simulation streamed into `frames.npy`, for the tests of the written files.
+//! What the integration tests share: running the `superhelix` binary, scratch
+//! directories and files, and a short simulation streamed into `frames.npy`.
+// Each test crate compiles this module and uses a part of it.
+#![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
-use superhelix::runtime::output::frames::{FrameLayout, FrameSink, FrameView, StrandInfo};
+use std::process::{Command, Output};
+use std::sync::atomic::AtomicBool;
+use superhelix::runtime::output::frames::FrameLayout;
 use superhelix::runtime::output::npy::NpyFrameSink;
+use superhelix::runtime::output::{frame_layout, run_streaming, StopReason};
 
 /// Two patches ("front": 2 strands, "back": 1) and a single strand ("solo"), 0.2 s at 30 fps.
 pub const SCENE: &str = r#"
@@ -42,69 +48,68 @@ length = 0.1
 elements = 2
 "#;
 
-/// A fresh scratch directory.
+/// Run the `superhelix` binary with `args`.
+pub fn superhelix(args: &[&str]) -> Output {
+    match Command::new(env!("CARGO_BIN_EXE_superhelix"))
+        .args(args)
+        .output()
+    {
+        Ok(out) => out,
+        Err(e) => panic!("cannot start superhelix: {e}"),
+    }
+}
+
+/// Standard output of a finished command.
+pub fn stdout(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// Standard error of a finished command.
+pub fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Standard output then standard error.
+pub fn text(out: &Output) -> String {
+    format!("{}{}", stdout(out), stderr(out))
+}
+
+/// A fresh scratch directory for one test (named by the test binary's process).
 pub fn scratch(name: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("superhelix-writers-{}-{name}", std::process::id()));
+    let dir = std::env::temp_dir().join(format!("superhelix-test-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
     dir
 }
 
-/// Group of a strand of this scene: patch strands are named `<patch>_<i>_<j>`.
-fn group_of(name: &str) -> String {
-    let parts: Vec<&str> = name.rsplitn(3, '_').collect();
-    if parts.len() == 3 && parts[..2].iter().all(|p| p.parse::<usize>().is_ok()) {
-        parts[2].to_string()
-    } else {
-        name.to_string()
-    }
+/// Write `contents` to `dir/name`; returns the path.
+pub fn write(dir: &Path, name: &str, contents: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, contents).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    path
 }
 
-/// Simulate `scene`, writing every frame (the state nearest to `k / output_fps`) to
-/// `dir/frames.npy`; returns the layout.
+/// Run `scene` through the run driver with only the `frames.npy` sink into `dir`;
+/// returns the layout.
 pub fn simulate_to_npy(scene: &str, dir: &Path) -> FrameLayout {
     let setup = superhelix::parse_scene(scene).unwrap_or_else(|e| panic!("{e}"));
     let spe = setup.samples_per_element;
     let mut sim = superhelix::open_simulation(setup.clone()).unwrap_or_else(|e| panic!("{e}"));
-    let frames = (setup.config.duration * setup.config.output_fps + 1e-9).floor() as usize + 1;
-    let layout = FrameLayout {
-        strands: setup
-            .strands
-            .iter()
-            .map(|s| StrandInfo {
-                name: s.strand.name.clone(),
-                group: group_of(&s.strand.name),
-                radius: 5e-5,
-                points: 1 + spe * s.strand.geometry.lengths.len(),
-                coordinates: s.q0.len(),
-            })
-            .collect(),
-        output_fps: setup.config.output_fps,
-        planned_frames: frames,
-    };
+    let layout = frame_layout(sim.as_ref(), &setup.config, spe);
     let mut sink = NpyFrameSink::create(dir, &layout).unwrap_or_else(|e| panic!("{e}"));
-    let dt = setup.config.dt;
-    for k in 0..frames {
-        let t = k as f64 / setup.config.output_fps;
-        while sim.time() + 0.5 * dt < t {
-            sim.step().unwrap_or_else(|e| panic!("{e}"));
-        }
-        let mut points = Vec::new();
-        let mut q = Vec::new();
-        for i in 0..sim.strand_count() {
-            points.extend(sim.centreline_world(i, spe));
-            q.extend_from_slice(sim.q(i));
-        }
-        let view = FrameView {
-            index: k,
-            time: t,
-            state_time: sim.time(),
-            points: &points,
-            q: &q,
-        };
-        sink.write_frame(&view).unwrap_or_else(|e| panic!("{e}"));
-    }
-    sink.finish().unwrap_or_else(|e| panic!("{e}"));
+    let stop = AtomicBool::new(false);
+    let outcome = run_streaming(
+        sim.as_mut(),
+        &setup.config,
+        spe,
+        &mut [&mut sink],
+        &stop,
+        |_, _| {},
+    );
+    assert!(
+        matches!(outcome.stop, StopReason::Completed),
+        "{:?}",
+        outcome.stop
+    );
     layout
 }
