@@ -46,11 +46,8 @@ pub fn kernel_factory() -> Option<&'static dyn KernelFactory> {
     superhelix_generated::kernel_factory()
 }
 
-/// A running simulation of `setup`, as the output driver sees it.
-///
-/// The physics engine ([`Simulation`]) is being written concurrently; until it
-/// implements [`FrameSource`] this returns an error instead of running. Once it does,
-/// the body is `Ok(Box::new(Simulation::new(setup, kernel_factory())?))`.
+/// A running simulation of `setup` with this build's generated kernels, as the output
+/// driver sees it.
 pub fn open_simulation(setup: SimulationSetup) -> Result<Box<dyn FrameSource>> {
     Ok(Box::new(Simulation::new(setup, kernel_factory())?))
 }
@@ -197,18 +194,18 @@ pub fn run_scene(
     }
 }
 
-/// Number of strands and of time steps of a valid scene, or every problem found: those
-/// of the scene file and those `run` meets before its first step (the simulation is built
-/// with this build's generated kernels and its initial state checked).
-pub fn check_scene(scene_text: &str) -> std::result::Result<(usize, usize), Vec<FieldError>> {
-    let setup = parse_scene(scene_text).map_err(|_| validate_scene(scene_text))?;
-    let counts = (setup.strands.len(), runtime::scene::step_count(&setup));
-    match Simulation::new(setup, kernel_factory()) {
-        Ok(_) => Ok(counts),
-        Err(Error::Invalid(problems)) => Err(problems),
-        Err(other) => Err(vec![FieldError::new("<scene>", other.to_string())]),
-    }
+/// The setup of a scene `run` would accept, or every problem found: those of the scene
+/// file and those `run` meets before its first step (the simulation is built with this
+/// build's generated kernels and every strand's initial state is checked).
+pub fn check_scene(scene_text: &str) -> std::result::Result<SimulationSetup, Vec<FieldError>> {
+    let built = parse_scene(scene_text).and_then(|setup| {
+        Simulation::new(setup.clone(), kernel_factory())?;
+        Ok(setup)
+    });
+    // the failure path lists every problem, not only the first stage's
+    built.map_err(|_| runtime::validate_scene_with(scene_text, kernel_factory()))
 }
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -229,7 +226,8 @@ mod tests {
             );
         }
         assert!(matches!(setup.head, HeadMotion::Oscillate { .. }));
-        assert_eq!(check_scene(DEFAULT_SCENE), Ok((setup.strands.len(), 60)));
+        assert_eq!(check_scene(DEFAULT_SCENE), Ok(setup.clone()));
+        assert_eq!(runtime::scene::step_count(&setup), 60);
     }
 
     /// `scenes/cantilever.toml` (incompressible, ν = 0.5) bends as beam theory says:

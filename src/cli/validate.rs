@@ -5,7 +5,7 @@ use super::common::read_scene;
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use superhelix::{Error, FieldError};
+use superhelix::Error;
 
 /// Arguments of `validate`.
 #[derive(Args)]
@@ -18,21 +18,16 @@ pub struct ValidateArgs {
 pub fn run(args: ValidateArgs) -> Result<ExitCode, Error> {
     let path = &args.scene;
     let text = read_scene(path)?;
-    // the scene file, then what `run` meets before its first step (kernels of this
-    // build, the initial state, RK4's stability limit)
-    let problems = match superhelix::parse_scene(&text) {
-        Err(_) => superhelix::validate_scene(&text),
-        Ok(setup) => match superhelix::open_simulation(setup.clone()) {
-            Ok(_) => return report_valid(&setup),
-            Err(Error::Invalid(problems)) => problems,
-            Err(other) => vec![FieldError::new("<scene>", other.to_string())],
-        },
-    };
-    for p in &problems {
-        eprintln!("{p}");
+    match superhelix::check_scene(&text) {
+        Ok(setup) => report_valid(&setup),
+        Err(problems) => {
+            for p in &problems {
+                eprintln!("{p}");
+            }
+            eprintln!("{}: {} problem(s)", path.display(), problems.len());
+            Ok(ExitCode::FAILURE)
+        }
     }
-    eprintln!("{}: {} problem(s)", path.display(), problems.len());
-    Ok(ExitCode::FAILURE)
 }
 
 /// The counts and the output plan of a valid scene; refused when the plan is too large.
