@@ -75,6 +75,15 @@ pub enum View {
 }
 
 impl View {
+    /// The panel's label: the view's name and its axes, right then up.
+    pub fn label(self) -> &'static str {
+        match self {
+            View::Front => "front (x-z)",
+            View::Side => "side (y-z)",
+            View::Top => "top (x-y)",
+        }
+    }
+
     /// The view's name: `front`, `side` or `top`.
     pub fn name(self) -> &'static str {
         match self {
@@ -354,7 +363,8 @@ fn stroke(width: f32) -> Stroke {
 }
 
 /// Draw frame `points` (all strands of `layout`) as `camera` sees it, with `bodies` and
-/// an optional `label` (digits, `.`, `=`, `c`, `m`, `s`, `t` and spaces) at the top left.
+/// an optional `label` (digits, `.`, `=`, `-`, `(`, `)`, spaces and the letters
+/// `c d e f i m n o p r s t x y z`) at the top left; each panel is labelled with its view.
 pub fn render_frame(
     layout: &FrameLayout,
     points: &[[f64; 3]],
@@ -392,6 +402,16 @@ pub fn render_frame(
                 None,
             );
         }
+        // the view's name and axes at the panel's top right
+        let name = camera.views[i].label();
+        let text_width = 6.5 * 10.0 / 6.0 * name.chars().count() as f64;
+        draw_text(
+            &mut pixmap,
+            name,
+            (x1 - 8.0 - text_width) as f32,
+            10.0,
+            10.0,
+        );
         // bodies
         for b in bodies {
             let (r, u) = camera.views[i].axes();
@@ -536,6 +556,25 @@ fn glyph(c: char) -> &'static [&'static [(f32, f32)]] {
         ],
         's' => &[&[(4., 2.), (0., 2.), (0., 4.), (4., 4.), (4., 6.), (0., 6.)]],
         't' => &[&[(1.5, 0.), (1.5, 6.), (4., 6.)], &[(0., 2.), (3.5, 2.)]],
+        'd' => &[&[(4., 0.), (4., 6.), (0., 6.), (0., 2.), (4., 2.)]],
+        'e' => &[&[(0., 4.), (4., 4.), (4., 2.), (0., 2.), (0., 6.), (4., 6.)]],
+        'f' => &[
+            &[(4., 0.), (2., 0.), (1., 1.), (1., 6.)],
+            &[(0., 2.5), (3., 2.5)],
+        ],
+        'i' => &[&[(2., 2.), (2., 6.)], &[(2., 0.), (2., 0.7)]],
+        'n' => &[
+            &[(0., 6.), (0., 2.)],
+            &[(0., 3.), (1., 2.), (4., 2.), (4., 6.)],
+        ],
+        'o' => &[&[(0., 2.), (4., 2.), (4., 6.), (0., 6.), (0., 2.)]],
+        'p' => &[&[(0., 8.), (0., 2.), (4., 2.), (4., 5.), (0., 5.)]],
+        'r' => &[&[(0., 6.), (0., 2.)], &[(0., 3.), (1., 2.), (4., 2.)]],
+        'x' => &[&[(0., 2.), (4., 6.)], &[(4., 2.), (0., 6.)]],
+        'y' => &[&[(0., 2.), (2., 5.)], &[(4., 2.), (1., 8.)]],
+        'z' => &[&[(0., 2.), (4., 2.), (0., 6.), (4., 6.)]],
+        '(' => &[&[(3., 0.), (1.5, 2.), (1.5, 5.), (3., 7.)]],
+        ')' => &[&[(1., 0.), (2.5, 2.), (2.5, 5.), (1., 7.)]],
         _ => &[],
     }
 }
