@@ -10,11 +10,13 @@
 //! - [`npy`]: `frames.npy`, `frames.times.npy`, `frames.index.json`, streamed.
 //! - [`plan`]: which files a run writes ([`Formats`]), their estimated sizes, the size
 //!   limit and the checks of the output directory.
+//! - [`atomic`]: files written whole or not at all (a temporary file and a rename).
 //! - [`products`]: the files written after the run from the frames written
 //!   (`hair.usda` by [`usd`], the previews by [`preview`], `last_frame.obj` by [`obj`]).
 //!
 //! The driver reaches the simulation only through [`FrameSource`].
 
+pub mod atomic;
 pub mod driver;
 pub mod frames;
 pub mod json;

@@ -31,6 +31,7 @@
 //! only what this module writes (little-endian float32 `[n, points, 3]` and float64
 //! `[n, 2]`), a few dozen lines.
 
+use super::atomic::{io_error, write_atomically};
 use super::frames::{FrameLayout, FrameSink, FrameStore, FrameView};
 use crate::error::{Error, Result};
 use std::fs::File;
@@ -50,13 +51,6 @@ const MAGIC: &[u8; 6] = b"\x93NUMPY";
 const PREAMBLE: usize = 10;
 /// Alignment of the data start required by the format.
 const ALIGN: usize = 64;
-
-fn io_error(path: &Path, source: std::io::Error) -> Error {
-    Error::Io {
-        path: path.display().to_string(),
-        source,
-    }
-}
 
 fn bad_file(path: &Path, message: impl Into<String>) -> Error {
     io_error(
@@ -223,21 +217,6 @@ impl FrameSink for NpyFrameSink {
         self.times.finish()?;
         self.points.finish()
     }
-}
-
-/// Write `bytes` to `path` through a temporary file in the same directory and a rename,
-/// so that `path` is either the old file or the whole new one.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = temporary_path(path);
-    std::fs::write(&tmp, bytes).map_err(|e| io_error(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| io_error(path, e))
-}
-
-/// `<path>.tmp`, the temporary file [`write_atomically`] renames.
-pub fn temporary_path(path: &Path) -> PathBuf {
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(".tmp");
-    path.with_file_name(name)
 }
 
 /// A parsed `.npy` header.

@@ -4,8 +4,8 @@
 //! Z up), then one line element `l i j k ...` through them (1-based indices counted over
 //! the whole file). Written to a temporary file and renamed.
 
+use super::atomic::write_atomically;
 use super::frames::FrameStore;
-use super::npy::write_atomically;
 use super::usd::format_f32;
 use crate::error::{Error, Result};
 use std::fmt::Write as _;

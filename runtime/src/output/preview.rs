@@ -22,11 +22,10 @@
 //! which is exact for the background, the frame and the strands' own colours and close
 //! for their anti-aliased edges.
 
+use super::atomic::{write_atomically, AtomicFile};
 use super::frames::{FrameLayout, FrameStore};
-use super::npy::temporary_path;
 use crate::error::{Error, Result};
 use std::collections::HashMap;
-use std::io::{BufWriter, Write};
 use std::path::Path;
 use tiny_skia::{
     Color, FillRule, LineCap, LineJoin, Paint, PathBuilder, Pixmap, Rect, Stroke, Transform,
@@ -618,7 +617,7 @@ pub fn write_png(path: &Path, pixmap: &Pixmap) -> Result<()> {
         path: path.display().to_string(),
         source: std::io::Error::other(e.to_string()),
     })?;
-    super::npy::write_atomically(path, &bytes)
+    write_atomically(path, &bytes)
 }
 
 /// Render frame `k` of `store` and write it as the PNG `path`.
@@ -728,19 +727,12 @@ pub fn write_gif(
     };
     let fps = store.layout().output_fps;
     let delay = ((100.0 * step as f64 / fps).round() as u16).max(2);
-    let tmp = temporary_path(path);
-    let gif_error = |e: gif::EncodingError| Error::Io {
-        path: tmp.display().to_string(),
-        source: std::io::Error::other(e.to_string()),
-    };
     let palette = gif_palette();
     let flat: Vec<u8> = palette.iter().flatten().copied().collect();
-    let file = std::fs::File::create(&tmp).map_err(|e| Error::Io {
-        path: tmp.display().to_string(),
-        source: e,
-    })?;
+    let (file, writer) = AtomicFile::create(path)?;
+    let gif_error = |e: gif::EncodingError| file.error(std::io::Error::other(e.to_string()));
     let (w, h) = (camera.width as u16, camera.height as u16);
-    let mut encoder = gif::Encoder::new(BufWriter::new(file), w, h, &flat).map_err(gif_error)?;
+    let mut encoder = gif::Encoder::new(writer, w, h, &flat).map_err(gif_error)?;
     encoder
         .set_repeat(gif::Repeat::Infinite)
         .map_err(gif_error)?;
@@ -765,19 +757,8 @@ pub fn write_gif(
         };
         encoder.write_frame(&frame).map_err(gif_error)?;
     }
-    let mut out = encoder.into_inner().map_err(|e| Error::Io {
-        path: tmp.display().to_string(),
-        source: e,
-    })?;
-    out.flush().map_err(|e| Error::Io {
-        path: tmp.display().to_string(),
-        source: e,
-    })?;
-    drop(out);
-    std::fs::rename(&tmp, path).map_err(|e| Error::Io {
-        path: path.display().to_string(),
-        source: e,
-    })
+    let out = encoder.into_inner().map_err(|e| file.error(e))?;
+    file.commit(out)
 }
 
 #[cfg(test)]

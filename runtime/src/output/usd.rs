@@ -17,12 +17,12 @@
 //! the shortest decimal that reads back to the same float32. The stage is streamed, one
 //! frame of one group at a time, into a temporary file that is renamed when complete.
 
+use super::atomic::AtomicFile;
 use super::frames::FrameStore;
-use super::npy::temporary_path;
 use super::preview::group_colour;
 use crate::error::{Error, Result};
 use std::fmt::Write as _;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::Path;
 
 /// Name of the USD file in the output directory.
@@ -87,13 +87,8 @@ pub fn write_usda(path: &Path, store: &mut dyn FrameStore) -> Result<()> {
             "no frame to write: the run wrote none",
         ));
     }
-    let tmp = temporary_path(path);
-    let io = |e: std::io::Error| Error::Io {
-        path: tmp.display().to_string(),
-        source: e,
-    };
-    let file = std::fs::File::create(&tmp).map_err(io)?;
-    let mut w = BufWriter::new(file);
+    let (file, mut w) = AtomicFile::create(path)?;
+    let io = |e: std::io::Error| file.error(e);
     let layout = store.layout().clone();
     let fps = layout.output_fps;
     let offsets = layout.point_offsets();
@@ -187,12 +182,7 @@ pub fn write_usda(path: &Path, store: &mut dyn FrameStore) -> Result<()> {
         w.write_all(text.as_bytes()).map_err(io)?;
     }
     w.write_all(b"}\n").map_err(io)?;
-    w.flush().map_err(io)?;
-    drop(w);
-    std::fs::rename(&tmp, path).map_err(|e| Error::Io {
-        path: path.display().to_string(),
-        source: e,
-    })
+    file.commit(w)
 }
 
 #[cfg(test)]
