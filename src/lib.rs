@@ -40,10 +40,11 @@ pub const DEFAULT_SCENE: &str = include_str!("default_scene.toml");
 /// Name of the file `run` writes in its output directory.
 pub const FRAMES_FILE: &str = "frames.json";
 
-/// The generated kernels of this build (for the N of `superhelix_generated::factory::sizes`;
-/// other N use the generic runtime-N kernel under `kernels = "auto"`).
+/// The generated kernels of this build (for the N of
+/// `superhelix_runtime::kernels::closed_form::sizes`; other N use the generic runtime-N
+/// kernel under `kernels = "auto"`).
 pub fn kernel_factory() -> Option<&'static dyn KernelFactory> {
-    superhelix_generated::kernel_factory()
+    Some(superhelix_runtime::kernels::closed_form::kernel_factory())
 }
 
 /// A running simulation of `setup` with this build's generated kernels, as the output

@@ -751,7 +751,7 @@ fn first_moment(geometry: &StrandGeometry, q: &[f64], ends: &[Pose]) -> Vector3<
         let rule = gauss_legendre(12 + (d.norm() * l).ceil() as usize);
         let start = &ends[k];
         let mut local = Vector3::zeros();
-        for (x, w) in rule.nodes.iter().zip(&rule.weights) {
+        for (x, w) in rule.nodes().iter().zip(rule.weights()) {
             let (_, p) = local_pose(&d, 0.5 * l * (x + 1.0));
             local += p * *w;
         }

@@ -408,7 +408,7 @@ pub(crate) fn multiversioned(
         #[doc = #doc]
         #attrs
         pub fn #name(#params) {
-            #[cfg(target_arch = "x86_64")]
+            #[cfg(all(target_arch = "x86_64", feature = "std"))]
             {
                 if std::arch::is_x86_feature_detected!("avx2") {
                     // SAFETY: the CPU supports AVX2, checked just above.
@@ -425,7 +425,7 @@ pub(crate) fn multiversioned(
             #inner(#args);
         }
 
-        #[cfg(target_arch = "x86_64")]
+        #[cfg(all(target_arch = "x86_64", feature = "std"))]
         #[target_feature(enable = "avx2")]
         fn #avx2(#params) {
             #inner(#args);

@@ -314,8 +314,10 @@ fn point_function(
         },
     );
     quote! {
-        use superhelix_runtime::model::element::ElementPoint;
-        use superhelix_runtime::{Matrix3, Vector3};
+        use nalgebra::{Matrix3, Vector3};
+        use superhelix_kernels::element::ElementPoint;
+        #[allow(unused_imports)]
+        use superhelix_kernels::math::Elementary as _;
 
         #[doc = #doc_switch]
         pub const #switch: f64 = #xs;
@@ -553,8 +555,8 @@ fn rotary_points_function(code: &PointCode) -> TokenStream {
         },
     );
     quote! {
-        use superhelix_runtime::model::element::RotaryPoints;
-        use superhelix_runtime::model::lanes::F4;
+        use superhelix_kernels::element::RotaryPoints;
+        use superhelix_kernels::lanes::F4;
 
         #function
     }

@@ -423,7 +423,9 @@ pub fn generate_function(
         },
     );
     let tokens = quote! {
-        use superhelix_runtime::model::lanes::F4;
+        use superhelix_kernels::lanes::F4;
+        #[allow(unused_imports)]
+        use superhelix_kernels::math::Elementary as _;
         #[doc = #doc_outputs]
         pub const #outputs_const: [&str; #k_lit] = [#(#names),*];
         #[doc = #doc_switch]

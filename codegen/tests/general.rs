@@ -9,10 +9,10 @@ use superhelix_codegen::{generate_function, helix, GenerateOptions, Graph, Helix
 /// Gauss–Legendre nodes and weights on [−1, 1]: the runtime's rule (tested there).
 fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
     let r = superhelix_runtime::model::quadrature::gauss_legendre(n);
-    r.nodes
+    r.nodes()
         .iter()
         .copied()
-        .zip(r.weights.iter().copied())
+        .zip(r.weights().iter().copied())
         .collect()
 }
 

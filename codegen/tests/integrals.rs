@@ -180,10 +180,10 @@ fn m_related_values(d: [f64; 3], u: f64) -> Vec<f64> {
 /// Gauss–Legendre nodes and weights on [−1, 1]: the runtime's rule (tested there).
 fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
     let r = superhelix_runtime::model::quadrature::gauss_legendre(n);
-    r.nodes
+    r.nodes()
         .iter()
         .copied()
-        .zip(r.weights.iter().copied())
+        .zip(r.weights().iter().copied())
         .collect()
 }
 

@@ -6,7 +6,9 @@
 //   low-degree Taylor branch (W*l < 0.75, degree 16, agreement with the Taylor branch 3.40e-16, truncation 2.24e-16): 1476 adds, 3008 muls, 0 divs, 0 trig, 0 sqrt (4484 total) (before CSE: 31656 total)
 //   Taylor branch: 3537 adds, 3603 muls, 0 divs, 0 trig, 0 sqrt (7140 total) (before CSE: 59622 total)
 //   closed branch: 1123 adds, 2401 muls, 1 divs, 1 trig, 0 sqrt (3526 total) (before CSE: 76950 total)
-use superhelix_runtime::model::lanes::F4;
+use superhelix_kernels::lanes::F4;
+#[allow(unused_imports)]
+use superhelix_kernels::math::Elementary as _;
 #[doc = " Names of the outputs of [`centreline_force`], in order."]
 pub const CENTRELINE_FORCE_OUTPUTS: [&str; 135] = [
     "d2p_00_0",
@@ -158,7 +160,7 @@ pub const CENTRELINE_FORCE_LOW_SWITCH: f64 = 0.75;
     clippy::unreadable_literal
 )]
 pub fn centreline_force(d: &[f64; 3], l: f64, out: &mut [f64; 135]) {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "std"))]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             unsafe { centreline_force_avx2(d, l, out) };
@@ -172,7 +174,7 @@ pub fn centreline_force(d: &[f64; 3], l: f64, out: &mut [f64; 135]) {
 pub fn centreline_force_portable(d: &[f64; 3], l: f64, out: &mut [f64; 135]) {
     centreline_force_body(d, l, out);
 }
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", feature = "std"))]
 #[target_feature(enable = "avx2")]
 fn centreline_force_avx2(d: &[f64; 3], l: f64, out: &mut [f64; 135]) {
     centreline_force_body(d, l, out);
@@ -5485,7 +5487,7 @@ fn centreline_force_body(d: &[f64; 3], l: f64, out: &mut [f64; 135]) {
     clippy::unreadable_literal
 )]
 pub fn centreline_force_closed_x4(d: &[F4; 3], l: F4, out: &mut [F4; 135]) {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "std"))]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             unsafe { centreline_force_closed_x4_avx2(d, l, out) };
@@ -5499,7 +5501,7 @@ pub fn centreline_force_closed_x4(d: &[F4; 3], l: F4, out: &mut [F4; 135]) {
 pub fn centreline_force_closed_x4_portable(d: &[F4; 3], l: F4, out: &mut [F4; 135]) {
     centreline_force_closed_x4_body(d, l, out);
 }
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", feature = "std"))]
 #[target_feature(enable = "avx2")]
 fn centreline_force_closed_x4_avx2(d: &[F4; 3], l: F4, out: &mut [F4; 135]) {
     centreline_force_closed_x4_body(d, l, out);

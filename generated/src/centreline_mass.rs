@@ -6,7 +6,9 @@
 //   low-degree Taylor branch (W*l < 0.25, degree 10, agreement with the Taylor branch 2.78e-16, truncation 1.39e-16): 390 adds, 874 muls, 0 divs, 0 trig, 0 sqrt (1264 total) (before CSE: 5755 total)
 //   Taylor branch: 552 adds, 1036 muls, 0 divs, 0 trig, 0 sqrt (1588 total) (before CSE: 10939 total)
 //   closed branch: 312 adds, 719 muls, 1 divs, 1 trig, 0 sqrt (1033 total) (before CSE: 15407 total)
-use superhelix_runtime::model::lanes::F4;
+use superhelix_kernels::lanes::F4;
+#[allow(unused_imports)]
+use superhelix_kernels::math::Elementary as _;
 #[doc = " Names of the outputs of [`centreline_mass`], in order."]
 pub const CENTRELINE_MASS_OUTPUTS: [&str; 51] = [
     "p_0",
@@ -74,7 +76,7 @@ pub const CENTRELINE_MASS_LOW_SWITCH: f64 = 0.25;
     clippy::unreadable_literal
 )]
 pub fn centreline_mass(d: &[f64; 3], l: f64, out: &mut [f64; 51]) {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "std"))]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             unsafe { centreline_mass_avx2(d, l, out) };
@@ -88,7 +90,7 @@ pub fn centreline_mass(d: &[f64; 3], l: f64, out: &mut [f64; 51]) {
 pub fn centreline_mass_portable(d: &[f64; 3], l: f64, out: &mut [f64; 51]) {
     centreline_mass_body(d, l, out);
 }
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", feature = "std"))]
 #[target_feature(enable = "avx2")]
 fn centreline_mass_avx2(d: &[f64; 3], l: f64, out: &mut [f64; 51]) {
     centreline_mass_body(d, l, out);
@@ -1393,7 +1395,7 @@ fn centreline_mass_body(d: &[f64; 3], l: f64, out: &mut [f64; 51]) {
     clippy::unreadable_literal
 )]
 pub fn centreline_mass_closed_x4(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "std"))]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             unsafe { centreline_mass_closed_x4_avx2(d, l, out) };
@@ -1407,7 +1409,7 @@ pub fn centreline_mass_closed_x4(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
 pub fn centreline_mass_closed_x4_portable(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
     centreline_mass_closed_x4_body(d, l, out);
 }
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", feature = "std"))]
 #[target_feature(enable = "avx2")]
 fn centreline_mass_closed_x4_avx2(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
     centreline_mass_closed_x4_body(d, l, out);

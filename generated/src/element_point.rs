@@ -8,8 +8,10 @@
 //   Taylor radial functions: 48 adds, 67 muls, 0 divs, 0 trig, 0 sqrt (115 total)
 //   closed radial functions: 12 adds, 41 muls, 1 divs, 1 trig, 1 sqrt (56 total)
 //   shared polynomial part: 111 adds, 196 muls, 0 divs, 0 trig, 0 sqrt (307 total)
-use superhelix_runtime::model::element::ElementPoint;
-use superhelix_runtime::{Matrix3, Vector3};
+use nalgebra::{Matrix3, Vector3};
+use superhelix_kernels::element::ElementPoint;
+#[allow(unused_imports)]
+use superhelix_kernels::math::Elementary as _;
 #[doc = " Switch on `W u` of [`element_point_into`]: the Taylor branch is used below it."]
 pub const ELEMENT_POINT_SWITCH: f64 = 1.0;
 #[doc = " The element's local functions at abscissa `u` for Darboux vector `d` (see `ElementPoint`), in closed form: E(u), p(u), ∂p/∂d_i, ∂²p/∂d_i∂d_j, w_i(u) = P(u) e_i, ∂w_i/∂d_j.\n\n The radial functions of `z = (W u)²` are taken from their Taylor series for `W u < 1` (degrees in `W u`: a0: 16, b0: 14, b1: 14, b2: 12, c0: 14, c1: 14, c2: 12), from their closed forms above; the polynomial part in `d` and `u` is common to both. The branches agree to 4.9e-15 at the switch, relative to the largest entry of each field. Allocation-free and panic-free."]
@@ -21,7 +23,7 @@ pub const ELEMENT_POINT_SWITCH: f64 = 1.0;
     clippy::unreadable_literal
 )]
 pub fn element_point_into(d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "std"))]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             unsafe { element_point_into_avx2(d, u, out) };
@@ -35,7 +37,7 @@ pub fn element_point_into(d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
 pub fn element_point_into_portable(d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
     element_point_into_body(d, u, out);
 }
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", feature = "std"))]
 #[target_feature(enable = "avx2")]
 fn element_point_into_avx2(d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
     element_point_into_body(d, u, out);

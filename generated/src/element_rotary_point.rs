@@ -8,8 +8,10 @@
 //   Taylor radial functions: 35 adds, 48 muls, 0 divs, 0 trig, 0 sqrt (83 total)
 //   closed radial functions: 6 adds, 25 muls, 1 divs, 1 trig, 1 sqrt (34 total)
 //   shared polynomial part: 63 adds, 93 muls, 0 divs, 0 trig, 0 sqrt (156 total)
-use superhelix_runtime::model::element::ElementPoint;
-use superhelix_runtime::{Matrix3, Vector3};
+use nalgebra::{Matrix3, Vector3};
+use superhelix_kernels::element::ElementPoint;
+#[allow(unused_imports)]
+use superhelix_kernels::math::Elementary as _;
 #[doc = " Switch on `W u` of [`element_rotary_point_into`]: the Taylor branch is used below it."]
 pub const ELEMENT_ROTARY_POINT_SWITCH: f64 = 1.0;
 #[doc = " The fields of `ElementPoint` that the rotary-inertia quadrature reads, at abscissa `u` for Darboux vector `d`, in closed form: E(u), p(u), ∂p/∂d_i, w_i(u) = P(u) e_i, ∂w_i/∂d_j, the same functions as `element_point_into` without the second derivatives. `out.d2p` is not written: it keeps whatever it held (do not read it after this call).\n\n The radial functions of `z = (W u)²` are taken from their Taylor series for `W u < 1` (degrees in `W u`: a0: 16, b0: 14, b1: 14, c0: 14, c1: 12), from their closed forms above; the polynomial part in `d` and `u` is common to both. The branches agree to 8.9e-16 at the switch, relative to the largest entry of each field. Allocation-free and panic-free."]
@@ -21,7 +23,7 @@ pub const ELEMENT_ROTARY_POINT_SWITCH: f64 = 1.0;
     clippy::unreadable_literal
 )]
 pub fn element_rotary_point_into(d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "std"))]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             unsafe { element_rotary_point_into_avx2(d, u, out) };
@@ -35,7 +37,7 @@ pub fn element_rotary_point_into(d: &Vector3<f64>, u: f64, out: &mut ElementPoin
 pub fn element_rotary_point_into_portable(d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
     element_rotary_point_into_body(d, u, out);
 }
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", feature = "std"))]
 #[target_feature(enable = "avx2")]
 fn element_rotary_point_into_avx2(d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
     element_rotary_point_into_body(d, u, out);
@@ -227,8 +229,8 @@ fn element_rotary_point_into_body(d: &Vector3<f64>, u: f64, out: &mut ElementPoi
         ],
     ];
 }
-use superhelix_runtime::model::element::RotaryPoints;
-use superhelix_runtime::model::lanes::F4;
+use superhelix_kernels::element::RotaryPoints;
+use superhelix_kernels::lanes::F4;
 #[doc = " [`element_rotary_point_into`] at up to four abscissae `u[k]` of one element (any beyond the fourth are ignored), into lane k of `out`: the same bits, lane by lane, as the one-point function. Each lane's radial functions are taken on their own (the switch is per abscissa); the polynomial part runs once on four lanes. The lanes beyond `u.len()` hold finite values of no meaning. Allocation-free and panic-free."]
 #[allow(
     unused_variables,
@@ -238,7 +240,7 @@ use superhelix_runtime::model::lanes::F4;
     clippy::unreadable_literal
 )]
 pub fn element_rotary_points_into(d: &Vector3<f64>, u: &[f64], out: &mut RotaryPoints) {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "std"))]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             unsafe { element_rotary_points_into_avx2(d, u, out) };
@@ -252,7 +254,7 @@ pub fn element_rotary_points_into(d: &Vector3<f64>, u: &[f64], out: &mut RotaryP
 pub fn element_rotary_points_into_portable(d: &Vector3<f64>, u: &[f64], out: &mut RotaryPoints) {
     element_rotary_points_into_body(d, u, out);
 }
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", feature = "std"))]
 #[target_feature(enable = "avx2")]
 fn element_rotary_points_into_avx2(d: &Vector3<f64>, u: &[f64], out: &mut RotaryPoints) {
     element_rotary_points_into_body(d, u, out);

@@ -5,7 +5,7 @@
 //! `generated_files_are_fresh` fails with the stale file's name when they are out of date).
 //!
 //! Every per-element integral of the moment-based assembly
-//! (`superhelix_runtime::kernels::moments::ElementMoments`) is generated in closed form, in three
+//! (`superhelix_kernels::moments::ElementMoments`) is generated in closed form, in three
 //! functions with their own Taylor switch and degree (see each file's header):
 //! [`centreline_mass()`] (what M needs), [`centreline_force()`] (what only the force needs)
 //! and [`rotary_basis()`] (the rotary inertia); [`element_moments_into`] fills every field,
@@ -15,7 +15,11 @@
 //! [`element_rotary_points_into`] that at four abscissae at once (SIMD lanes). [`kernel_factory`]
 //! offers, for each N in [`factory::sizes`], the runtime's `MomentKernel` fed by these
 //! closed forms ([`GeneratedKernel`]).
+#![no_std]
 #![warn(missing_docs)]
+
+#[cfg(feature = "std")]
+extern crate std;
 
 /// Generated: the centreline moments of M (see the file's header for op counts).
 #[rustfmt::skip]
@@ -35,15 +39,15 @@ pub mod rotary_basis;
 pub use centreline_force::{centreline_force, centreline_force_closed_x4, CENTRELINE_FORCE_SWITCH};
 pub use centreline_mass::{centreline_mass, centreline_mass_closed_x4, CENTRELINE_MASS_SWITCH};
 pub use rotary_basis::{rotary_basis, rotary_basis_closed_x4, ROTARY_BASIS_SWITCH};
-use superhelix_runtime::model::lanes::F4;
+use superhelix_kernels::lanes::F4;
 
-pub mod factory;
 /// Generated: the numbers of elements with checked-in kernels.
 pub mod sizes;
 
-pub use factory::{ClosedForm, GeneratedFactory, GeneratedKernel};
-use superhelix_runtime::kernels::moments::ElementMoments;
-use superhelix_runtime::{KernelFactory, Matrix3, Vector3};
+include!(concat!(env!("OUT_DIR"), "/extra_sizes.rs"));
+
+use nalgebra::{Matrix3, Vector3};
+use superhelix_kernels::moments::ElementMoments;
 
 /// Index of entry (r, c) in the packed upper triangle (00, 01, 02, 11, 12, 22).
 const SYM: [[usize; 3]; 3] = [[0, 1, 2], [1, 3, 4], [2, 4, 5]];
@@ -139,7 +143,7 @@ fn rotary_into(d: &[f64; 3], l: f64, rotary: &[f64; 3], m: &mut ElementMoments) 
     }
 }
 
-/// Every field of the element moments (`superhelix_runtime::kernels::moments::ElementMoments`)
+/// Every field of the element moments (`superhelix_kernels::moments::ElementMoments`)
 /// in closed form, for Darboux vector `d`, length `l` and rotary inertia `rotary` =
 /// diag D: the same integrals as `ElementMoments::by_quadrature`. Allocates nothing and
 /// cannot panic.
@@ -202,7 +206,7 @@ pub fn element_moments_batch_into(
 
 /// `W l` exactly as the generated functions' prologue computes it (their branch test).
 fn element_wl(d: &[f64; 3], l: f64) -> f64 {
-    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * l
+    superhelix_kernels::math::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) * l
 }
 
 /// Run one generated element function over elements `0..n` and hand each element's
@@ -278,7 +282,7 @@ pub fn element_moments(d: &Vector3<f64>, l: f64, rotary: &[f64; 3]) -> ElementMo
 }
 
 /// The element moments that M and the first-moment Jacobian need
-/// (`superhelix_runtime::kernels::moments::assemble_mass_and_gravity`), in closed form: `first`,
+/// (`superhelix_kernels::moments::assemble_mass_and_gravity`), in closed form: `first`,
 /// `second`, `dfirst`, `cross`, `gram`, `pdp` and the rotary fields, without the cost of
 /// the force-only ones (`d2first`, `cross2`, `pd2p`, `dpdp`, `dpd2p`), which are left at
 /// zero: `assemble_force` needs [`element_moments`].
@@ -292,11 +296,6 @@ pub fn mass_moments(d: &Vector3<f64>, l: f64, rotary: &[f64; 3]) -> ElementMomen
     m
 }
 
-/// The generated kernels of this build (see [`factory::sizes`]).
-pub fn kernel_factory() -> Option<&'static dyn KernelFactory> {
-    static FACTORY: GeneratedFactory = GeneratedFactory;
-    Some(&FACTORY)
-}
 
 /// Generated: the element's local functions at one abscissa, `ElementPoint` in closed
 /// form (see the file's header for the switch, agreement and op counts).

@@ -6,7 +6,9 @@
 //   low-degree Taylor branch (W*l < 0.5, degree 14, agreement with the Taylor branch 5.00e-16, truncation 3.36e-16): 1087 adds, 2072 muls, 0 divs, 0 trig, 0 sqrt (3159 total) (before CSE: 26599 total)
 //   Taylor branch: 2834 adds, 2770 muls, 0 divs, 0 trig, 0 sqrt (5604 total) (before CSE: 56551 total)
 //   closed branch: 875 adds, 1684 muls, 1 divs, 1 trig, 0 sqrt (2561 total) (before CSE: 92981 total)
-use superhelix_runtime::model::lanes::F4;
+use superhelix_kernels::lanes::F4;
+#[allow(unused_imports)]
+use superhelix_kernels::math::Elementary as _;
 #[doc = " Names of the outputs of [`rotary_basis`], in order."]
 pub const ROTARY_BASIS_OUTPUTS: [&str; 63] = [
     "ee_0_00",
@@ -86,7 +88,7 @@ pub const ROTARY_BASIS_LOW_SWITCH: f64 = 0.5;
     clippy::unreadable_literal
 )]
 pub fn rotary_basis(d: &[f64; 3], l: f64, out: &mut [f64; 63]) {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "std"))]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             unsafe { rotary_basis_avx2(d, l, out) };
@@ -100,7 +102,7 @@ pub fn rotary_basis(d: &[f64; 3], l: f64, out: &mut [f64; 63]) {
 pub fn rotary_basis_portable(d: &[f64; 3], l: f64, out: &mut [f64; 63]) {
     rotary_basis_body(d, l, out);
 }
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", feature = "std"))]
 #[target_feature(enable = "avx2")]
 fn rotary_basis_avx2(d: &[f64; 3], l: f64, out: &mut [f64; 63]) {
     rotary_basis_body(d, l, out);
@@ -3971,7 +3973,7 @@ fn rotary_basis_body(d: &[f64; 3], l: f64, out: &mut [f64; 63]) {
     clippy::unreadable_literal
 )]
 pub fn rotary_basis_closed_x4(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "std"))]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             unsafe { rotary_basis_closed_x4_avx2(d, l, out) };
@@ -3985,7 +3987,7 @@ pub fn rotary_basis_closed_x4(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
 pub fn rotary_basis_closed_x4_portable(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     rotary_basis_closed_x4_body(d, l, out);
 }
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", feature = "std"))]
 #[target_feature(enable = "avx2")]
 fn rotary_basis_closed_x4_avx2(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     rotary_basis_closed_x4_body(d, l, out);

@@ -3,6 +3,7 @@
 //! kernel (Gauss–Legendre quadrature); [`moments`] assembles a strand from element
 //! moments, the path the generated closed forms of `superhelix-generated` feed.
 
+pub mod closed_form;
 pub mod generic;
 pub mod kernel;
 pub mod moments;

@@ -4,11 +4,7 @@
 //! are built on: the helix functions a, b, c, jets, the four-lane algebra ([`lanes`],
 //! also the kernels'), Gauss–Legendre rules. Uses no other module of the crate.
 
-pub mod element;
-pub mod helix_functions;
-pub mod jet;
-pub mod lanes;
+pub use superhelix_kernels::{element, helix_functions, jet, lanes, quadrature};
 pub mod material;
-pub mod quadrature;
 pub mod reconstruction;
 pub mod strand;

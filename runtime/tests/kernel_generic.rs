@@ -72,7 +72,7 @@ fn points(g: &StrandGeometry) -> Vec<(f64, f64)> {
     let mut start = 0.0;
     let mut out = Vec::new();
     for &l in &g.lengths {
-        for (x, w) in rule.nodes.iter().zip(&rule.weights) {
+        for (x, w) in rule.nodes().iter().zip(rule.weights()) {
             out.push((start + 0.5 * l * (x + 1.0), 0.5 * l * w));
         }
         start += l;

@@ -453,7 +453,7 @@ impl StrandKernel for GenericKernel {
             let d = darboux(q, p);
             let rule = gauss_legendre(self.rule.order(d.norm() * l));
             let m = 3 * (p + 1);
-            for (x, wgl) in rule.nodes.iter().zip(&rule.weights) {
+            for (x, wgl) in rule.nodes().iter().zip(rule.weights()) {
                 let u = 0.5 * l * (x + 1.0);
                 let w = 0.5 * l * wgl;
                 let jets = element_jets(&d, u, has_rotary);

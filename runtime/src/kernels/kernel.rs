@@ -12,39 +12,8 @@
 use crate::model::reconstruction::{element_ends, Pose};
 use crate::model::strand::StrandGeometry;
 use faer::Mat;
-use nalgebra::{Matrix3, Vector3};
-
-/// An external force per unit length affine in position and velocity:
-/// `F = uniform + linear · y + velocity · ẏ` (N/m), head coordinates.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BodyField {
-    /// c0, N/m: gravity ρS Rᵀ(g − Ẍ) and the drag of the head's translation −ν RᵀẊ.
-    pub uniform: Vector3<f64>,
-    /// C1, N/m²: `−ρS([α]× + [ω]×²) − ν[ω]×` (Euler, centrifugal, drag of rotation).
-    pub linear: Matrix3<f64>,
-    /// C2, N·s/m²: `−2ρS[ω]× − ν I` (Coriolis and drag of the strand's own motion).
-    pub velocity: Matrix3<f64>,
-}
-
-impl BodyField {
-    /// No force.
-    pub fn zero() -> Self {
-        BodyField {
-            uniform: Vector3::zeros(),
-            linear: Matrix3::zeros(),
-            velocity: Matrix3::zeros(),
-        }
-    }
-    /// True when the linear part is zero (no head rotation).
-    pub fn has_linear(&self) -> bool {
-        self.linear != Matrix3::zeros()
-    }
-    /// If the velocity part is a multiple of the identity, that multiple.
-    pub fn isotropic_velocity(&self) -> Option<f64> {
-        let c = self.velocity[(0, 0)];
-        (self.velocity == Matrix3::identity() * c).then_some(c)
-    }
-}
+use nalgebra::Vector3;
+pub use superhelix_kernels::body_field::BodyField;
 
 /// Which outputs [`StrandKernel::evaluate`] must fill. What is not asked is not computed
 /// (and its buffer is left untouched).

@@ -2,8 +2,8 @@
 //! element): value, gradient and Hessian. Used by the generic kernel to differentiate
 //! the per-element closed forms exactly — no finite differences anywhere.
 
-use crate::model::helix_functions::Series3;
-use std::ops::{Add, Mul, Neg, Sub};
+use crate::helix_functions::Series3;
+use core::ops::{Add, Mul, Neg, Sub};
 
 /// A scalar with its gradient and Hessian with respect to three variables.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -133,6 +133,8 @@ pub fn cross(a: &[Jet; 3], b: &[Jet; 3]) -> [Jet; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+    #[allow(unused_imports)]
+    use std::{format, vec, vec::Vec};
 
     #[test]
     fn product_rule_on_a_cubic() {

@@ -5,16 +5,16 @@
 //! Every column k of an element Q moves the strand beyond Q rigidly,
 //! `J_k(y) = v_k + ω_k × y`; a vector field g integrated against it needs only
 //! `∫ g` and `∫ y × g` over the part beyond Q. Those two integrals come from the suffix
-//! bodies ([`crate::kernels::moments::SuffixBody`]: mass, ∫y, ∫y yᵀ, ∫ẏ, ∫y ẏᵀ) when g is affine in y and ẏ,
+//! bodies ([`crate::moments::SuffixBody`]: mass, ∫y, ∫y yᵀ, ∫ẏ, ∫y ẏᵀ) when g is affine in y and ẏ,
 //! which holds for C1 J_l, C2 J_l, f·∂²y and J̇_m. The own columns of an element
 //! (`J_i = F ∂p/∂d_i`) contract with its moments.
 //!
-//! The rotary-inertia parts of b and ∂b/∂q̇ are in [`crate::kernels::moments::rotary`].
+//! The rotary-inertia parts of b and ∂b/∂q̇ are in [`crate::moments::rotary`].
 
-use crate::kernels::moments::{
+use crate::moments::{
     axial, cross_moment, ElementMoments, EndDerivatives, FrameMotion, SuffixBody,
 };
-use crate::model::reconstruction::Pose;
+use crate::pose::Pose;
 use nalgebra::{Matrix3, Vector3};
 
 type V3 = Vector3<f64>;
@@ -37,7 +37,7 @@ fn weighted_rigid(w: &M3, body: &SuffixBody, v: &V3, om: &V3) -> (V3, V3) {
 
 /// Adds `scale · ∫ J_k · W J_l ds` to `out(k, l)` for all k, l (`out` column-major,
 /// 3N × 3N), for any 3 × 3 W: the damping (W = C2) and the linear-field part of the
-/// stiffness (W = C1). `bodies` from [`crate::kernels::moments::suffix_bodies`] (positions only
+/// stiffness (W = C1). `bodies` from [`crate::moments::suffix_bodies`] (positions only
 /// needed).
 pub fn add_weighted_gram(
     w: &M3,
@@ -190,7 +190,7 @@ pub struct VelocityRow {
 
 /// Adds `scale · ∫ J_k · J̇_l ds` to `out(k, l)` for all k, l: with scale = 2ρS this is
 /// the centreline part of B = ∂b/∂q̇ (b = ∫ ρS Jᵀ J̇ q̇, and J̇_l = ∂ẏ/∂q_l).
-/// `bodies` from [`crate::kernels::moments::suffix_bodies`] with velocities, `motions` from [`crate::kernels::moments::frame_motions`];
+/// `bodies` from [`crate::moments::suffix_bodies`] with velocities, `motions` from [`crate::moments::frame_motions`];
 /// `rows` is scratch of length 3N.
 ///
 /// A row k = (Q, i) downstream of a column l = (Q2, j) receives `J_k · J̇_l` integrated

@@ -1,6 +1,6 @@
 //! Small fixed-size algebra over a scalar that is either `f64` or [`F4`], four `f64`
 //! lanes, so that one source evaluates an integrand at one quadrature point or at four at
-//! once (the rotary-inertia quadrature, [`crate::kernels::moments::rotary`]); and [`F4`]'s mixed
+//! once (the rotary-inertia quadrature, [`crate::moments::rotary`]); and [`F4`]'s mixed
 //! operations with `f64`, so that the generated closed forms of four elements run as one
 //! (`superhelix-generated`'s `*_closed_x4` functions).
 //!
@@ -12,7 +12,7 @@
 //! closures and `memcpy` calls that are not inlined, and the rotary quadrature is 20 %
 //! slower with it instead of faster.
 
-use std::ops::{Add, Div, Mul, Neg, Sub};
+use core::ops::{Add, Div, Mul, Neg, Sub};
 
 /// A scalar of the lane algebra: `f64` or [`F4`].
 pub trait Real:
@@ -96,13 +96,13 @@ impl F4 {
     /// `(sin x, cos x)` lane by lane (`f64::sin_cos`).
     #[inline(always)]
     pub fn sin_cos(self) -> (F4, F4) {
-        let [a, b, c, d] = self.0.map(f64::sin_cos);
+        let [a, b, c, d] = self.0.map(crate::math::sin_cos);
         (F4([a.0, b.0, c.0, d.0]), F4([a.1, b.1, c.1, d.1]))
     }
     /// `√x` lane by lane.
     #[inline(always)]
     pub fn sqrt(self) -> F4 {
-        F4(self.0.map(f64::sqrt))
+        F4(self.0.map(crate::math::sqrt))
     }
 }
 
@@ -214,13 +214,15 @@ pub fn mat_scale<T: Real>(a: &M<T>, s: T) -> M<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    #[allow(unused_imports)]
+    use std::{format, vec, vec::Vec};
     use nalgebra::{Matrix3, Vector3};
 
     fn v(a: &Vector3<f64>) -> V<f64> {
         [a[0], a[1], a[2]]
     }
     fn m(a: &Matrix3<f64>) -> M<f64> {
-        std::array::from_fn(|c| std::array::from_fn(|r| a[(r, c)]))
+        core::array::from_fn(|c| core::array::from_fn(|r| a[(r, c)]))
     }
 
     /// Each operation gives nalgebra's bits, over inputs spanning many magnitudes (where
@@ -262,13 +264,13 @@ mod tests {
     #[test]
     fn lanes_are_independent_f64_computations() {
         let f = |k: usize, c: usize, r: usize| ((k * 7 + c * 3 + r) as f64).sin() * 1e3;
-        let a: M<F4> = std::array::from_fn(|c| {
-            std::array::from_fn(|r| F4(std::array::from_fn(|k| f(k, c, r))))
+        let a: M<F4> = core::array::from_fn(|c| {
+            core::array::from_fn(|r| F4(core::array::from_fn(|k| f(k, c, r))))
         });
         let b = transpose(&a);
         let p = mat_mul(&a, &cross_matrix(&b[1]));
         for k in 0..4 {
-            let ak: M<f64> = std::array::from_fn(|c| std::array::from_fn(|r| a[c][r].0[k]));
+            let ak: M<f64> = core::array::from_fn(|c| core::array::from_fn(|r| a[c][r].0[k]));
             let pk = mat_mul(&ak, &cross_matrix(&transpose(&ak)[1]));
             for c in 0..3 {
                 for r in 0..3 {

@@ -70,8 +70,8 @@ pub fn abc(z: f64) -> Abc {
             c: series(z, 3),
         };
     }
-    let x = z.sqrt();
-    let (s, co) = x.sin_cos();
+    let x = crate::math::sqrt(z);
+    let (s, co) = crate::math::sin_cos(x);
     let a = s / x;
     let b = (1.0 - co) / z;
     let c = (x - s) / (z * x);
@@ -114,14 +114,16 @@ pub fn abc_values(z: f64) -> (f64, f64, f64) {
         let r = abc(z);
         return (r.a.f, r.b.f, r.c.f);
     }
-    let x = z.sqrt();
-    let (s, co) = x.sin_cos();
+    let x = crate::math::sqrt(z);
+    let (s, co) = crate::math::sin_cos(x);
     (s / x, (1.0 - co) / z, (x - s) / (z * x))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    #[allow(unused_imports)]
+    use std::{format, vec, vec::Vec};
 
     fn closed(x: f64) -> (f64, f64, f64) {
         (

@@ -11,14 +11,14 @@
 //! element's frequencies keeps them far below the kernels' 1e-10 agreement); M's rotary
 //! part uses the closed-form moments `rot`, `rot_w`, `rot_ww`.
 
-use crate::kernels::moments::{ElementMoments, EndDerivatives, FrameMotion};
-use crate::model::element::RotaryPoints;
-use crate::model::lanes::{
+use crate::moments::{ElementMoments, EndDerivatives, FrameMotion};
+use crate::element::RotaryPoints;
+use crate::lanes::{
     add, cross, cross_matrix, dot, mat_add, mat_mul, mat_scale, mat_vec, scale, transpose, Real,
     F4, M, V,
 };
-use crate::model::quadrature::gauss_legendre;
-use crate::model::reconstruction::Pose;
+use crate::quadrature::gauss_legendre;
+use crate::pose::Pose;
 use nalgebra::{Matrix3, Vector3};
 
 type V3 = Vector3<f64>;
@@ -35,7 +35,7 @@ type M3 = Matrix3<f64>;
 /// too): beyond, an element is a coil of more than 38 turns and its rotary terms are
 /// under-resolved rather than a step taking seconds.
 pub fn rotary_points(wl: f64) -> usize {
-    6 + wl.ceil().min(240.0) as usize
+    6 + crate::math::ceil(wl).min(240.0) as usize
 }
 
 /// Per-element rotary integrals, head coordinates.
@@ -203,7 +203,7 @@ pub fn rotary_element(
     points: usize,
     jacobian: bool,
 ) -> RotaryElement {
-    #[cfg(target_arch = "x86_64")]
+    #[cfg(all(target_arch = "x86_64", feature = "std", not(target_feature = "avx2")))]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2, checked just above.
@@ -216,7 +216,7 @@ pub fn rotary_element(
 }
 
 /// [`rotary_element`] compiled with AVX2.
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", feature = "std", not(target_feature = "avx2")))]
 #[target_feature(enable = "avx2")]
 #[allow(clippy::too_many_arguments)]
 fn rotary_element_avx2(
@@ -255,8 +255,8 @@ fn rotary_element_body(
     let motion = ElementMotion {
         om: splat(&om),
         al: splat(&al),
-        qd: std::array::from_fn(|i| F4::splat(qd[i])),
-        qq: std::array::from_fn(|i| std::array::from_fn(|j| F4::splat(qd[i] * qd[j]))),
+        qd: core::array::from_fn(|i| F4::splat(qd[i])),
+        qq: core::array::from_fn(|i| core::array::from_fn(|j| F4::splat(qd[i] * qd[j]))),
         rotary: rotary.map(F4::splat),
     };
     let mut out = RotaryElement::default();
@@ -268,7 +268,7 @@ fn rotary_element_body(
     // `used` are never summed
     let mut points = RotaryPoints::default();
     let mut u = [0.0; LANES];
-    for (nodes, wgl) in rule.nodes.chunks(LANES).zip(rule.weights.chunks(LANES)) {
+    for (nodes, wgl) in rule.nodes().chunks(LANES).zip(rule.weights().chunks(LANES)) {
         let used = nodes.len();
         let mut weights = F4::zero();
         for k in 0..used {
@@ -386,7 +386,9 @@ pub fn add_rotary_terms(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::element::{local_pose, ElementPoint};
+    #[allow(unused_imports)]
+    use std::{format, vec, vec::Vec};
+    use crate::element::{local_pose, ElementPoint};
 
     /// The rotary integrals one point at a time with nalgebra: the code the lane version
     /// replaced, kept as the reference it must match bit for bit.
@@ -416,7 +418,7 @@ mod tests {
             }
         }
         let mut point = ElementPoint::default();
-        for (x, wgl) in rule.nodes.iter().zip(&rule.weights) {
+        for (x, wgl) in rule.nodes().iter().zip(rule.weights()) {
             let wt = 0.5 * l * wgl;
             eval(0.5 * l * (x + 1.0), &mut point);
             let e = &point.frame;

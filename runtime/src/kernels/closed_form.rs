@@ -1,21 +1,22 @@
-//! The generated kernels as the runtime sees them: the closed-form element integrals
-//! ([`crate::element_moments`]) as a [`MomentSource`], assembled by the runtime's
-//! [`MomentKernel`], for the numbers of elements this build was generated for
+//! The generated kernels as the runtime sees them: the closed-form element integrals of
+//! `superhelix-generated` as a [`MomentSource`], assembled by the runtime's
+//! [`MomentKernel`], for the numbers of elements that build was generated for
 //! ([`sizes()`]: the checked-in list plus `SUPERHELIX_N` at build time).
 
-use superhelix_runtime::kernels::moments::kernel::{MomentKernel, MomentSource};
-use superhelix_runtime::kernels::moments::ElementMoments;
-use superhelix_runtime::model::element::{ElementPoint, RotaryPoints};
-use superhelix_runtime::{KernelFactory, StrandGeometry, StrandKernel, Vector3};
+use crate::kernels::kernel::{KernelFactory, StrandKernel};
+use crate::kernels::moments::kernel::{MomentKernel, MomentSource};
+use crate::kernels::moments::ElementMoments;
+use crate::model::element::{ElementPoint, RotaryPoints};
+use crate::model::strand::StrandGeometry;
+use nalgebra::Vector3;
+use superhelix_generated as generated;
 
-include!(concat!(env!("OUT_DIR"), "/extra_sizes.rs"));
-
-/// Numbers of elements with kernels in this build: [`crate::sizes::CHECKED_IN_SIZES`]
+/// Numbers of elements with kernels in this build: [`generated::sizes::CHECKED_IN_SIZES`]
 /// and those requested by `SUPERHELIX_N` when it was built.
 pub fn sizes() -> Vec<usize> {
-    let mut all: Vec<usize> = crate::sizes::CHECKED_IN_SIZES
+    let mut all: Vec<usize> = generated::sizes::CHECKED_IN_SIZES
         .iter()
-        .chain(EXTRA_SIZES)
+        .chain(generated::EXTRA_SIZES)
         .copied()
         .collect();
     all.sort_unstable();
@@ -29,7 +30,7 @@ pub struct ClosedForm;
 
 impl MomentSource for ClosedForm {
     fn moments(&self, d: &Vector3<f64>, l: f64, rotary: &[f64; 3], out: &mut ElementMoments) {
-        crate::element_moments_into(d, l, rotary, out);
+        generated::element_moments_into(d, l, rotary, out);
     }
     fn moments_batch(
         &self,
@@ -38,16 +39,16 @@ impl MomentSource for ClosedForm {
         rotary: &[f64; 3],
         out: &mut [ElementMoments],
     ) {
-        crate::element_moments_batch_into(d, l, rotary, out);
+        generated::element_moments_batch_into(d, l, rotary, out);
     }
     fn point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
-        crate::element_point_into(d, u, out);
+        generated::element_point_into(d, u, out);
     }
     fn rotary_point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
-        crate::element_rotary_point_into(d, u, out);
+        generated::element_rotary_point_into(d, u, out);
     }
     fn rotary_points(&self, d: &Vector3<f64>, u: &[f64], out: &mut RotaryPoints) {
-        crate::element_rotary_points_into(d, u, out);
+        generated::element_rotary_points_into(d, u, out);
     }
     fn describe(&self) -> String {
         "closed form".to_string()
@@ -74,4 +75,10 @@ impl KernelFactory for GeneratedFactory {
     fn available(&self) -> Vec<usize> {
         sizes()
     }
+}
+
+/// The generated kernels of this build (see [`sizes()`]).
+pub fn kernel_factory() -> &'static dyn KernelFactory {
+    static FACTORY: GeneratedFactory = GeneratedFactory;
+    &FACTORY
 }

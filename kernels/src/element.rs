@@ -10,9 +10,9 @@
 //! the frame with respect to d_i is `∂E/∂d_i = [P(u) e_i]× E(u)` (the left Jacobian of
 //! SO(3) times u is P(u)), so `w_i(u) = P(u) e_i` is the element's angular derivative.
 
-use crate::model::helix_functions::{abc, abc_values};
-use crate::model::jet::{cross, Jet};
-use crate::model::lanes::{F4, M, V};
+use crate::helix_functions::{abc, abc_values};
+use crate::jet::{cross, Jet};
+use crate::lanes::{F4, M, V};
 use nalgebra::{Matrix3, Vector3};
 
 /// Frame rotation E(u) and position p(u) = P(u) e0 of an element with Darboux vector
@@ -127,10 +127,10 @@ impl ElementPoint {
         ElementPoint {
             frame,
             p,
-            dp: std::array::from_fn(|i| jets.dp(i)),
-            d2p: std::array::from_fn(|i| std::array::from_fn(|j| jets.d2p(i, j))),
-            w: std::array::from_fn(|i| jets.w_value(i)),
-            dw: std::array::from_fn(|i| std::array::from_fn(|j| jets.dw(i, j))),
+            dp: core::array::from_fn(|i| jets.dp(i)),
+            d2p: core::array::from_fn(|i| core::array::from_fn(|j| jets.d2p(i, j))),
+            w: core::array::from_fn(|i| jets.w_value(i)),
+            dw: core::array::from_fn(|i| core::array::from_fn(|j| jets.dw(i, j))),
         }
     }
 }
@@ -175,6 +175,8 @@ pub fn element_jets(d: &Vector3<f64>, u: f64, with_w: bool) -> ElementJets {
 #[cfg(test)]
 mod tests {
     use super::*;
+    #[allow(unused_imports)]
+    use std::{format, vec, vec::Vec};
 
     #[test]
     fn pose_is_a_rotation_and_p_integrates_the_tangent() {

@@ -1,0 +1,40 @@
+//! # superhelix-kernels
+//!
+//! The part of the Super-Helix model (Bertails et al. 2006) that one strand's time step
+//! needs, with no allocation and no `std`: what a game engine vendors with the generated
+//! fixed-N kernels of `superhelix-generated`.
+//!
+//! - [`element`]: the helical element in closed form (paper appendix A, eq. 7): its
+//!   local frame E(u) and centreline p(u) and their derivatives with respect to the
+//!   Darboux vector; [`helix_functions`] and [`jet`] are what it is built on.
+//! - [`moments`]: the per-element integrals ([`moments::ElementMoments`]) and their
+//!   assembly into the terms of the equation of motion (paper eq. 4–6): M(q) and the
+//!   gravity force in O(N²), the full force in O(N), the Jacobians in O(N²), the rotary
+//!   inertia ([`moments::rotary`]).
+//! - [`body_field`]: gravity, head motion and drag as a force per unit length affine in
+//!   position and velocity.
+//! - [`lanes`]: four f64 lanes (`F4`), what the generated closed forms and the rotary
+//!   quadrature evaluate four points or elements at once with.
+//!
+//! Without features the crate is `no_std` and takes its elementary functions from
+//! `libm`; the `std` feature (the runtime's) takes them from std, caches the
+//! Gauss–Legendre rules and picks AVX2 code at run time.
+#![no_std]
+#![warn(missing_docs)]
+#![allow(clippy::needless_range_loop, clippy::too_many_arguments)]
+
+#[cfg(any(feature = "std", test))]
+extern crate std;
+
+pub mod body_field;
+pub mod element;
+pub mod helix_functions;
+pub mod jet;
+pub mod lanes;
+pub mod math;
+pub mod moments;
+pub mod pose;
+pub mod quadrature;
+
+pub use body_field::BodyField;
+pub use pose::{darboux, Pose};

@@ -1,0 +1,575 @@
+//! Assembly from element moments (design page "Efficient assembly"): a change of q in
+//! element Q moves everything beyond element Q rigidly, so M and the first-moment
+//! Jacobian need, per element, only integrals over the element of its local centreline
+//! p(u), of the derivatives ∂p/∂d_i and of the rotary inertia; the part beyond an
+//! element enters through the suffix sums of mass, first and second moments, as for
+//! composite rigid bodies. O(N²) work with O(1) per entry, no quadrature at run time
+//! once the moments are closed forms.
+//!
+//! [`ElementMoments::by_quadrature`] is the reference the generated closed forms are
+//! checked against; [`assemble_mass_and_gravity`] is the assembly both feed.
+//!
+//! The runtime's kernel built on them is its `MomentKernel`; the Jacobians of the implicit
+//! step are in [`jacobians`], the rotary-inertia quadrature in [`rotary`].
+
+pub mod jacobians;
+pub mod rotary;
+
+use crate::body_field::BodyField;
+use crate::element::{element_jets, local_pose};
+use crate::quadrature::gauss_legendre;
+use crate::pose::Pose;
+use nalgebra::{Matrix3, Vector3};
+
+type V3 = Vector3<f64>;
+
+/// Integrals over one element, u ∈ [0, l], in the element's start frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ElementMoments {
+    /// ∫ p du.
+    pub first: Vector3<f64>,
+    /// ∫ p pᵀ du.
+    pub second: Matrix3<f64>,
+    /// `dfirst[i]` = ∫ ∂p/∂d_i du.
+    pub dfirst: [Vector3<f64>; 3],
+    /// `cross[i]` = ∫ p × ∂p/∂d_i du.
+    pub cross: [Vector3<f64>; 3],
+    /// `gram[i][j]` = ∫ ∂p/∂d_i · ∂p/∂d_j du.
+    pub gram: Matrix3<f64>,
+    /// ∫ E D Eᵀ du, D = diag(rotary inertia).
+    pub rot: Matrix3<f64>,
+    /// `rot_w[j]` = ∫ E D Eᵀ w_j du.
+    pub rot_w: [Vector3<f64>; 3],
+    /// `rot_ww[i][j]` = ∫ w_iᵀ E D Eᵀ w_j du.
+    pub rot_ww: Matrix3<f64>,
+    /// `pdp[i]` = ∫ p (∂p/∂d_i)ᵀ du, full 3×3: entry (a, b) = ∫ p_a ∂p_b/∂d_i du
+    /// (`cross[i]` is its antisymmetric part). Force only.
+    pub pdp: [Matrix3<f64>; 3],
+    /// `d2first[i][j]` = ∫ ∂²p/∂d_i∂d_j du (symmetric in i, j). Force only.
+    pub d2first: [[Vector3<f64>; 3]; 3],
+    /// `cross2[i][j]` = ∫ p × ∂²p/∂d_i∂d_j du (symmetric in i, j). Force only.
+    pub cross2: [[Vector3<f64>; 3]; 3],
+    /// `pd2p[i][j]` = ∫ p (∂²p/∂d_i∂d_j)ᵀ du, full 3×3 (`cross2` is its antisymmetric
+    /// part; symmetric in i, j). Stiffness of a linear field only.
+    pub pd2p: [[Matrix3<f64>; 3]; 3],
+    /// `dpdp[i][j]` = ∫ ∂p/∂d_i (∂p/∂d_j)ᵀ du, full 3×3 (`gram` holds its traces).
+    /// Force only.
+    pub dpdp: [[Matrix3<f64>; 3]; 3],
+    /// `dpd2p[i][j][k]` = ∫ ∂p/∂d_i · ∂²p/∂d_j∂d_k du (symmetric in j, k). Force only.
+    pub dpd2p: [[[f64; 3]; 3]; 3],
+}
+
+impl ElementMoments {
+    /// The moments by `points`-point Gauss–Legendre quadrature (the reference).
+    pub fn by_quadrature(d: &Vector3<f64>, l: f64, rotary: &[f64; 3], points: usize) -> Self {
+        let rule = gauss_legendre(points);
+        let dmat = Matrix3::from_diagonal(&Vector3::from(*rotary));
+        let mut m = ElementMoments::default();
+        for (x, wgl) in rule.nodes().iter().zip(rule.weights()) {
+            let u = 0.5 * l * (x + 1.0);
+            let w = 0.5 * l * wgl;
+            let jets = element_jets(d, u, true);
+            let p = jets.p_value();
+            let dp = [jets.dp(0), jets.dp(1), jets.dp(2)];
+            let d2p: [[Vector3<f64>; 3]; 3] =
+                core::array::from_fn(|i| core::array::from_fn(|j| jets.d2p(i, j)));
+            let (e, _) = local_pose(d, u);
+            let inertia = e * dmat * e.transpose();
+            let wv = [jets.w_value(0), jets.w_value(1), jets.w_value(2)];
+            m.first += p * w;
+            m.second += p * p.transpose() * w;
+            m.rot += inertia * w;
+            for i in 0..3 {
+                m.dfirst[i] += dp[i] * w;
+                m.cross[i] += p.cross(&dp[i]) * w;
+                m.rot_w[i] += inertia * wv[i] * w;
+                m.pdp[i] += p * dp[i].transpose() * w;
+                for j in 0..3 {
+                    m.gram[(i, j)] += dp[i].dot(&dp[j]) * w;
+                    m.rot_ww[(i, j)] += wv[i].dot(&(inertia * wv[j])) * w;
+                    m.d2first[i][j] += d2p[i][j] * w;
+                    m.cross2[i][j] += p.cross(&d2p[i][j]) * w;
+                    m.pd2p[i][j] += p * d2p[i][j].transpose() * w;
+                    m.dpdp[i][j] += dp[i] * dp[j].transpose() * w;
+                    for k in 0..3 {
+                        m.dpd2p[i][j][k] += dp[i].dot(&d2p[j][k]) * w;
+                    }
+                }
+            }
+        }
+        m
+    }
+}
+
+/// Derivatives at the end of element Q, head coordinates: `dp[i]` = F_Q ∂p(l)/∂d_i,
+/// `dtheta[i]` = F_Q w_i(l), and the second derivatives the velocity recursions of
+/// [`assemble_force`] need.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct EndDerivatives {
+    /// Derivative of the end position.
+    pub dp: [Vector3<f64>; 3],
+    /// Angular derivative of the end frame.
+    pub dtheta: [Vector3<f64>; 3],
+    /// `d2p[i][j]` = F_Q ∂²p(l)/∂d_i∂d_j.
+    pub d2p: [[Vector3<f64>; 3]; 3],
+    /// `dw[i][j]` = F_Q ∂w_i(l)/∂d_j.
+    pub dw: [[Vector3<f64>; 3]; 3],
+}
+
+/// Integrals over the elements P..N−1 (per unit mass per length) with x = y − r_P, the
+/// position relative to the body's start: a composite body with the velocity field of
+/// the strand. (About r_P rather than the head origin, so that curls far from the root
+/// keep their digits.)
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SuffixBody {
+    /// Length ∫ ds.
+    pub mass: f64,
+    /// ∫ x.
+    pub first: Vector3<f64>,
+    /// ∫ x xᵀ.
+    pub second: Matrix3<f64>,
+    /// ∫ ẏ.
+    pub velocity: Vector3<f64>,
+    /// ∫ x ẏᵀ.
+    pub moment_velocity: Matrix3<f64>,
+    /// Σ ∫ E D Eᵀ, the rotary inertia (head coordinates, not per unit mass).
+    pub rot: Matrix3<f64>,
+}
+
+impl SuffixBody {
+    /// The same body about a reference point `delta` behind the current one
+    /// (x' = x + delta).
+    fn shifted(&self, delta: &Vector3<f64>) -> SuffixBody {
+        SuffixBody {
+            mass: self.mass,
+            first: self.first + delta * self.mass,
+            second: self.second
+                + self.first * delta.transpose()
+                + delta * self.first.transpose()
+                + delta * delta.transpose() * self.mass,
+            velocity: self.velocity,
+            moment_velocity: self.moment_velocity + delta * self.velocity.transpose(),
+            rot: self.rot,
+        }
+    }
+
+    /// Linear and angular "momentum" of the rigid velocity field v + ω × x over the body
+    /// (per unit ρS): `∫ (v + ω × x)` and `∫ x × (v + ω × x)`.
+    fn momentum(&self, v: &Vector3<f64>, w: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+        let lin = v * self.mass + w.cross(&self.first);
+        let ang =
+            self.first.cross(v) + (Matrix3::identity() * self.second.trace() - self.second) * w;
+        (lin, ang)
+    }
+}
+
+/// One element's contribution to [`SuffixBody`] (with or without the velocity parts).
+fn element_body(
+    pose: &Pose,
+    l: f64,
+    m: &ElementMoments,
+    motion: &FrameMotion,
+    qd: &[f64],
+    with_velocity: bool,
+) -> SuffixBody {
+    let f = pose.frame;
+    let a = f * m.first;
+    let fs = f * m.second * f.transpose();
+    let (mut velocity, mut moment_velocity) = (Vector3::zeros(), Matrix3::zeros());
+    if with_velocity {
+        let mut pi = Vector3::zeros();
+        let mut n_pi = Matrix3::zeros();
+        for j in 0..3 {
+            pi += m.dfirst[j] * qd[j];
+            n_pi += m.pdp[j] * qd[j];
+        }
+        velocity = motion.velocity * l + motion.omega.cross(&a) + f * pi;
+        moment_velocity = a * motion.velocity.transpose() - fs * motion.omega.cross_matrix()
+            + f * n_pi * f.transpose();
+    }
+    SuffixBody {
+        mass: l,
+        first: a,
+        second: fs,
+        velocity,
+        moment_velocity,
+        rot: f * m.rot * f.transpose(),
+    }
+}
+
+/// `bodies[P]` = elements P..N−1 about r_P, `bodies[N]` empty. The velocity parts are filled
+/// when `with_velocity` (they need `motions` and q̇).
+pub fn suffix_bodies(
+    ends: &[Pose],
+    lengths: &[f64],
+    moments: &[ElementMoments],
+    motions: &[FrameMotion],
+    velocities: &[f64],
+    with_velocity: bool,
+    bodies: &mut [SuffixBody],
+) {
+    let n = lengths.len();
+    bodies[n] = SuffixBody::default();
+    for p in (0..n).rev() {
+        let e = element_body(
+            &ends[p],
+            lengths[p],
+            &moments[p],
+            &motions[p],
+            &velocities[3 * p..3 * p + 3],
+            with_velocity,
+        );
+        let next = bodies[p + 1].shifted(&(ends[p + 1].position - ends[p].position));
+        bodies[p] = SuffixBody {
+            mass: next.mass + e.mass,
+            first: next.first + e.first,
+            second: next.second + e.second,
+            velocity: next.velocity + e.velocity,
+            moment_velocity: next.moment_velocity + e.moment_velocity,
+            rot: next.rot + e.rot,
+        };
+    }
+}
+
+/// The suffix bodies of [`suffix_bodies`] without the velocity parts, in a new vector:
+/// the convenient call for a strand at rest (tests, statics).
+#[cfg(feature = "std")]
+pub fn bodies_at_rest(
+    ends: &[Pose],
+    lengths: &[f64],
+    moments: &[ElementMoments],
+) -> std::vec::Vec<SuffixBody> {
+    let n = lengths.len();
+    let mut bodies = std::vec![SuffixBody::default(); n + 1];
+    suffix_bodies(
+        ends,
+        lengths,
+        moments,
+        &std::vec![FrameMotion::default(); n + 1],
+        &std::vec![0.0; 3 * n],
+        false,
+        &mut bodies,
+    );
+    bodies
+}
+
+/// M (3N × 3N, column-major into `mass`) and the generalized force of a uniform force
+/// per length `c0` (`force`), from element ends, end derivatives, element moments and
+/// the suffix bodies ([`suffix_bodies`], positions part). `rho_s` is the mass per length.
+#[allow(clippy::too_many_arguments)]
+pub fn assemble_mass_and_gravity(
+    bodies: &[SuffixBody],
+    rho_s: f64,
+    lengths: &[f64],
+    ends: &[Pose],
+    end_derivs: &[EndDerivatives],
+    moments: &[ElementMoments],
+    c0: &Vector3<f64>,
+    mass: &mut [f64],
+    force: &mut [f64],
+    first_moment: &mut Vector3<f64>,
+) {
+    assemble_mass_gram_and_gravity(
+        bodies,
+        rho_s,
+        lengths,
+        ends,
+        end_derivs,
+        moments,
+        c0,
+        mass,
+        None,
+        force,
+        first_moment,
+    );
+}
+
+/// [`assemble_mass_and_gravity`], and with it, when `gram` is given, the centreline's
+/// Gram matrix `∫ J_kᵀ J_l ds` (column-major, 3N × 3N): M without ρS and the rotary
+/// inertia, which is all the damping of an isotropic drag needs (`−ν ∫ JᵀJ ds`).
+#[allow(clippy::too_many_arguments)]
+pub fn assemble_mass_gram_and_gravity(
+    bodies: &[SuffixBody],
+    rho_s: f64,
+    lengths: &[f64],
+    ends: &[Pose],
+    end_derivs: &[EndDerivatives],
+    moments: &[ElementMoments],
+    c0: &Vector3<f64>,
+    mass: &mut [f64],
+    mut gram: Option<&mut [f64]>,
+    force: &mut [f64],
+    first_moment: &mut Vector3<f64>,
+) {
+    let n = lengths.len();
+    let dofs = 3 * n;
+    *first_moment = (bodies[0].first + ends[0].position * bodies[0].mass) * rho_s;
+    mass.iter_mut().for_each(|x| *x = 0.0);
+    // entry (k, l) and its mirror of M (and of the Gram matrix, centreline part only)
+    let mut put = |k: usize, l: usize, val: f64, centreline: f64| {
+        mass[l * dofs + k] = val;
+        mass[k * dofs + l] = val;
+        if let Some(g) = gram.as_deref_mut() {
+            g[l * dofs + k] = centreline;
+            g[k * dofs + l] = centreline;
+        }
+    };
+    for q in 0..n {
+        let e = &end_derivs[q];
+        let fq = ends[q].frame;
+        let mq = &moments[q];
+        for i in 0..3 {
+            let k = 3 * q + i;
+            // J_k = v + w × (y − r_{Q+1}) beyond Q
+            let w = e.dtheta[i];
+            let v = e.dp[i];
+            // force: rigid part beyond Q plus own part
+            let (lin, _) = bodies[q + 1].momentum(&v, &w);
+            force[k] = c0.dot(&(lin + fq * mq.dfirst[i]));
+            // same element (both own in Q): rigid beyond + gram + rotary
+            for j in i..3 {
+                let wl = e.dtheta[j];
+                let vl = e.dp[j];
+                let (lin, ang) = bodies[q + 1].momentum(&vl, &wl);
+                let centreline = v.dot(&lin) + w.dot(&ang) + mq.gram[(i, j)];
+                let val = rho_s * centreline + w.dot(&(bodies[q + 1].rot * wl)) + mq.rot_ww[(i, j)];
+                put(k, 3 * q + j, val, centreline);
+            }
+        }
+    }
+    // pairs across elements Q < Q': rigid beyond Q' plus the mixed own part in Q'; column
+    // by column, so that the column's own products are formed once for all rows upstream
+    for q2 in 1..n {
+        let e2 = &end_derivs[q2];
+        let f2 = ends[q2].frame;
+        let m2 = &moments[q2];
+        let beyond = &bodies[q2 + 1];
+        // per column j: F ∂_j∫p, F ∫p × ∂_j p, ∫I beyond · θ_j and F ∫I w_j
+        let columns: [[V3; 4]; 3] = core::array::from_fn(|j| {
+            [
+                f2 * m2.dfirst[j],
+                f2 * m2.cross[j],
+                beyond.rot * e2.dtheta[j],
+                f2 * m2.rot_w[j],
+            ]
+        });
+        for q in 0..q2 {
+            let e = &end_derivs[q];
+            let r_end = ends[q + 1].position;
+            for i in 0..3 {
+                let k = 3 * q + i;
+                let w = e.dtheta[i];
+                let v = e.dp[i];
+                // J_k at r_{Q'} and at r_{Q'+1}
+                let base = v + w.cross(&(ends[q2].position - r_end));
+                let at_end = v + w.cross(&(ends[q2 + 1].position - r_end));
+                let (lin, ang) = beyond.momentum(&at_end, &w);
+                for (j, [dfirst, cross, rot_beyond, rot_own]) in columns.iter().enumerate() {
+                    let rigid = e2.dp[j].dot(&lin) + e2.dtheta[j].dot(&ang);
+                    let mixed = base.dot(dfirst) + w.dot(cross);
+                    let val = rho_s * (rigid + mixed) + w.dot(rot_beyond) + w.dot(rot_own);
+                    put(k, 3 * q2 + j, val, rigid + mixed);
+                }
+            }
+        }
+    }
+}
+
+/// End derivatives of element `q` (frame `frame` at its start) from its jets at u = l.
+pub fn end_derivatives(frame: &Matrix3<f64>, d: &Vector3<f64>, l: f64) -> EndDerivatives {
+    end_derivatives_from(frame, &crate::element::ElementPoint::by_jets(d, l))
+}
+
+/// End derivatives from the element's local derivatives at u = l.
+pub fn end_derivatives_from(
+    frame: &Matrix3<f64>,
+    e: &crate::element::ElementPoint,
+) -> EndDerivatives {
+    EndDerivatives {
+        dp: e.dp.map(|v| frame * v),
+        dtheta: e.w.map(|v| frame * v),
+        d2p: e.d2p.map(|row| row.map(|v| frame * v)),
+        dw: e.dw.map(|row| row.map(|v| frame * v)),
+    }
+}
+
+/// Force and torque (about the element's start) that the force per length exerts on one
+/// element.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Wrench {
+    /// Resultant ∫ f du.
+    pub force: Vector3<f64>,
+    /// Moment about the element's start r_P: ∫ (y − r_P) × f du.
+    pub torque: Vector3<f64>,
+}
+
+/// `∫ x × z` from `k` = ∫ x zᵀ.
+pub fn axial(k: &Matrix3<f64>) -> Vector3<f64> {
+    Vector3::new(
+        k[(1, 2)] - k[(2, 1)],
+        k[(2, 0)] - k[(0, 2)],
+        k[(0, 1)] - k[(1, 0)],
+    )
+}
+
+/// `∫ x × (A z)` from `n` = ∫ x zᵀ.
+pub fn cross_moment(a: &Matrix3<f64>, n: &Matrix3<f64>) -> Vector3<f64> {
+    axial(&(n * a.transpose()))
+}
+
+/// Motion of an element's start frame at velocities q̇ and q̈ = 0 (head coordinates).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FrameMotion {
+    /// Angular velocity Ω of the frame.
+    pub omega: Vector3<f64>,
+    /// Angular acceleration Ω̇ (q̈ = 0).
+    pub alpha: Vector3<f64>,
+    /// Velocity ṙ of the start point.
+    pub velocity: Vector3<f64>,
+    /// Acceleration r̈ of the start point (q̈ = 0).
+    pub acceleration: Vector3<f64>,
+}
+
+/// The recursion of docs/moment-assembly.md ("Velocity and acceleration of the base
+/// frame"): `motions[P]` for P = 0..=N (the root is fixed in head coordinates).
+pub fn frame_motions(
+    ends: &[Pose],
+    end_derivs: &[EndDerivatives],
+    velocities: &[f64],
+    motions: &mut [FrameMotion],
+) {
+    let n = end_derivs.len();
+    motions[0] = FrameMotion::default();
+    for p in 0..n {
+        let m = motions[p];
+        let e = &end_derivs[p];
+        let span = ends[p + 1].position - ends[p].position;
+        let qd = [
+            velocities[3 * p],
+            velocities[3 * p + 1],
+            velocities[3 * p + 2],
+        ];
+        let mut w_hat = Vector3::zeros();
+        let mut w_dot = Vector3::zeros();
+        let mut pi_l = Vector3::zeros();
+        let mut pidot_l = Vector3::zeros();
+        for i in 0..3 {
+            w_hat += e.dtheta[i] * qd[i];
+            pi_l += e.dp[i] * qd[i];
+            for j in 0..3 {
+                let qq = qd[i] * qd[j];
+                w_dot += e.dw[i][j] * qq;
+                pidot_l += e.d2p[i][j] * qq;
+            }
+        }
+        motions[p + 1] = FrameMotion {
+            omega: m.omega + w_hat,
+            alpha: m.alpha + m.omega.cross(&w_hat) + w_dot,
+            velocity: m.velocity + m.omega.cross(&span) + pi_l,
+            acceleration: m.acceleration
+                + m.alpha.cross(&span)
+                + m.omega.cross(&m.omega.cross(&span))
+                + m.omega.cross(&pi_l) * 2.0
+                + pidot_l,
+        };
+    }
+}
+
+/// The generalized force `force` = ∫ Jᵀ(c0 + C1 y + C2 ẏ) ds − b(q, q̇) of the
+/// centreline (rotary inertia not included) in O(N), from element ends, end derivatives
+/// and element moments (docs/moment-assembly.md, "Generalized force").
+///
+/// `motions` ([`frame_motions`]) carry the angular velocity Ω, angular acceleration Ω̇
+/// (at q̈ = 0), velocity ṙ and acceleration r̈ of each element's start frame; on element P the force
+/// per length, inertial term −ρS ÿ included, is affine in p, π = Σ ∂_i p q̇_i and
+/// π̇ = Σ ∂²_ij p q̇_i q̇_j, so its own columns and its wrench are moment contractions.
+/// A backward pass adds the wrenches summed from the tip to the upstream columns.
+/// `wrenches` is scratch of length N.
+#[allow(clippy::too_many_arguments)]
+pub fn assemble_force(
+    wrenches: &mut [Wrench],
+    rho_s: f64,
+    lengths: &[f64],
+    ends: &[Pose],
+    end_derivs: &[EndDerivatives],
+    moments: &[ElementMoments],
+    motions: &[FrameMotion],
+    velocities: &[f64],
+    field: &BodyField,
+    force: &mut [f64],
+) {
+    let n = lengths.len();
+    let (c0, c1, c2) = (&field.uniform, &field.linear, &field.velocity);
+    for p in 0..n {
+        let f = ends[p].frame;
+        let r = ends[p].position;
+        let m = &moments[p];
+        let FrameMotion {
+            omega,
+            alpha,
+            velocity: vel,
+            acceleration: acc,
+        } = motions[p];
+        let qd = [
+            velocities[3 * p],
+            velocities[3 * p + 1],
+            velocities[3 * p + 2],
+        ];
+        // f(u) = g0 + G1 F p + H2 F π − ρS F π̇, in the element frame: a0 + A p + B π − ρS π̇
+        let wx = omega.cross_matrix();
+        let g0 = c0 + c1 * r + c2 * vel - acc * rho_s;
+        let g1 = c1 + c2 * wx - (alpha.cross_matrix() + wx * wx) * rho_s;
+        let h2 = c2 - wx * (2.0 * rho_s);
+        let a0 = f.transpose() * g0;
+        let a = f.transpose() * g1 * f;
+        let b = f.transpose() * h2 * f;
+        // moments contracted with q̇ of this element
+        let mut pi1 = Vector3::zeros(); // ∫ π
+        let mut n_pi = Matrix3::zeros(); // ∫ p πᵀ
+        let mut pi2 = Vector3::zeros(); // ∫ π̇
+        let mut c_pi2 = Vector3::zeros(); // ∫ p × π̇
+        for j in 0..3 {
+            pi1 += m.dfirst[j] * qd[j];
+            n_pi += m.pdp[j] * qd[j];
+            for k in 0..3 {
+                let qq = qd[j] * qd[k];
+                pi2 += m.d2first[j][k] * qq;
+                c_pi2 += m.cross2[j][k] * qq;
+            }
+        }
+        // own columns: ∫ ∂_i p · Fᵀf
+        for i in 0..3 {
+            let mut g_pi = Matrix3::zeros(); // ∫ ∂_i p πᵀ
+            let mut t = 0.0; // ∫ ∂_i p · π̇
+            for j in 0..3 {
+                g_pi += m.dpdp[i][j] * qd[j];
+                for k in 0..3 {
+                    t += m.dpd2p[i][j][k] * qd[j] * qd[k];
+                }
+            }
+            force[3 * p + i] =
+                m.dfirst[i].dot(&a0) + (a * m.pdp[i]).trace() + b.dot(&g_pi) - rho_s * t;
+        }
+        // wrench of element P about the origin
+        let res = a0 * lengths[p] + a * m.first + b * pi1 - pi2 * rho_s;
+        let mom = m.first.cross(&a0) + cross_moment(&a, &m.second) + cross_moment(&b, &n_pi)
+            - c_pi2 * rho_s;
+        // torque about the element's start r_P
+        wrenches[p] = Wrench {
+            force: f * res,
+            torque: f * mom,
+        };
+    }
+    // upstream columns: dp_k · ΣR + ω_k · Στ over the elements beyond, torques about
+    // r_{Q+1} (moved along the chain element by element, never through the origin)
+    let mut beyond = Wrench::default();
+    for q in (0..n).rev() {
+        let e = &end_derivs[q];
+        for i in 0..3 {
+            force[3 * q + i] += e.dp[i].dot(&beyond.force) + e.dtheta[i].dot(&beyond.torque);
+        }
+        let delta = ends[q + 1].position - ends[q].position;
+        beyond.torque += delta.cross(&beyond.force) + wrenches[q].torque;
+        beyond.force += wrenches[q].force;
+    }
+}
