@@ -47,7 +47,43 @@ pub mod sizes;
 include!(concat!(env!("OUT_DIR"), "/extra_sizes.rs"));
 
 use nalgebra::{Matrix3, Vector3};
+use superhelix_kernels::element::{ElementPoint, RotaryPoints};
 use superhelix_kernels::moments::ElementMoments;
+use superhelix_kernels::strand_terms::MomentSource;
+
+/// The closed-form element integrals and local functions.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ClosedForm;
+
+impl MomentSource for ClosedForm {
+    fn moments(&self, d: &Vector3<f64>, l: f64, rotary: &[f64; 3], out: &mut ElementMoments) {
+        crate::element_moments_into(d, l, rotary, out);
+    }
+    fn moments_batch(
+        &self,
+        d: &[Vector3<f64>],
+        l: &[f64],
+        rotary: &[f64; 3],
+        out: &mut [ElementMoments],
+    ) {
+        crate::element_moments_batch_into(d, l, rotary, out);
+    }
+    fn point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
+        crate::element_point_into(d, u, out);
+    }
+    fn rotary_point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
+        crate::element_rotary_point_into(d, u, out);
+    }
+    fn rotary_points(&self, d: &Vector3<f64>, u: &[f64], out: &mut RotaryPoints) {
+        crate::element_rotary_points_into(d, u, out);
+    }
+    fn describe(&self) -> &'static str {
+        "closed form"
+    }
+    fn is_generated(&self) -> bool {
+        true
+    }
+}
 
 /// Index of entry (r, c) in the packed upper triangle (00, 01, 02, 11, 12, 22).
 const SYM: [[usize; 3]; 3] = [[0, 1, 2], [1, 3, 4], [2, 4, 5]];
@@ -295,7 +331,6 @@ pub fn mass_moments(d: &Vector3<f64>, l: f64, rotary: &[f64; 3]) -> ElementMomen
     rotary_into(&dd, l, rotary, &mut m);
     m
 }
-
 
 /// Generated: the element's local functions at one abscissa, `ElementPoint` in closed
 /// form (see the file's header for the switch, agreement and op counts).

@@ -28,13 +28,16 @@ extern crate std;
 
 pub mod body_field;
 pub mod element;
+pub mod head;
 pub mod helix_functions;
 pub mod jet;
 pub mod lanes;
+pub mod material;
 pub mod math;
 pub mod moments;
 pub mod pose;
 pub mod quadrature;
+pub mod strand_terms;
 
 pub use body_field::BodyField;
 pub use pose::{darboux, Pose};

@@ -2,7 +2,6 @@
 //! (the runtime's build: the same bits as the rest of the runtime) and from `libm`
 //! otherwise (an engine's `no_std` build).
 
-
 /// √x.
 #[inline(always)]
 pub fn sqrt(x: f64) -> f64 {
@@ -80,4 +79,13 @@ impl Elementary for f64 {
     fn cos(self) -> f64 {
         cos(self)
     }
+}
+
+/// xⁿ for an integer n.
+#[inline(always)]
+pub fn powi(x: f64, n: i32) -> f64 {
+    #[cfg(feature = "std")]
+    return std::primitive::f64::powi(x, n);
+    #[cfg(not(feature = "std"))]
+    return libm::pow(x, n as f64);
 }

@@ -8,7 +8,7 @@
 
 use crate::forces::head_motion::HeadState;
 use crate::kernels::kernel::BodyField;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 
 /// Global effects of a simulation.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -20,27 +20,7 @@ pub struct GlobalEffects {
 }
 
 /// The force per unit length on a strand of mass per length `rho_s` and air drag `nu`
-/// with the head in state `head`:
-///
-/// ```text
-/// c0 = ρS Rᵀ(g − Ẍ) − ν RᵀẊ
-/// C1 = −ρS([α]× + [ω]×²) − ν[ω]×
-/// C2 = −2ρS[ω]× − ν I
-/// ```
+/// with the head in state `head` ([`superhelix_kernels::head::body_field`]).
 pub fn body_field(effects: &GlobalEffects, head: &HeadState, rho_s: f64, nu: f64) -> BodyField {
-    let mut field = BodyField::zero();
-    let rt = head.rotation.transpose();
-    if let Some(g) = effects.gravity {
-        field.uniform += rt * g * rho_s;
-    }
-    if nu != 0.0 {
-        field.velocity -= Matrix3::identity() * nu;
-    }
-    if effects.head_moves {
-        let w = head.omega.cross_matrix();
-        field.uniform -= rt * (head.acceleration * rho_s + head.velocity * nu);
-        field.linear -= (head.alpha.cross_matrix() + w * w) * rho_s + w * nu;
-        field.velocity -= w * (2.0 * rho_s);
-    }
-    field
+    superhelix_kernels::head::body_field(effects.gravity, effects.head_moves, head, rho_s, nu)
 }

@@ -9,51 +9,11 @@ mod so3;
 mod spline;
 
 use crate::error::FieldError;
-use nalgebra::{Matrix3, Vector3, Vector6};
+use nalgebra::{Vector3, Vector6};
 use spline::ClampedSpline;
 use std::f64::consts::PI;
 
-/// The head's position, orientation and their first two time derivatives at one time.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HeadState {
-    /// X: world position of the head origin, metres.
-    pub position: Vector3<f64>,
-    /// R: orientation, head coordinates to world coordinates.
-    pub rotation: Matrix3<f64>,
-    /// Ẋ, world coordinates, m/s.
-    pub velocity: Vector3<f64>,
-    /// Ẍ, world coordinates, m/s².
-    pub acceleration: Vector3<f64>,
-    /// ω, head coordinates, rad/s: `Ṙ = R [ω]×`.
-    pub omega: Vector3<f64>,
-    /// α = dω/dt, head coordinates, rad/s².
-    pub alpha: Vector3<f64>,
-}
-
-impl HeadState {
-    /// The head at rest at the origin: X = 0, R = I, all derivatives zero.
-    pub fn rest() -> Self {
-        Self {
-            position: Vector3::zeros(),
-            rotation: Matrix3::identity(),
-            velocity: Vector3::zeros(),
-            acceleration: Vector3::zeros(),
-            omega: Vector3::zeros(),
-            alpha: Vector3::zeros(),
-        }
-    }
-
-    /// World coordinates `X + R y` of the point with head coordinates `y`.
-    pub fn to_world(&self, y: &Vector3<f64>) -> Vector3<f64> {
-        self.position + self.rotation * y
-    }
-}
-
-impl Default for HeadState {
-    fn default() -> Self {
-        Self::rest()
-    }
-}
+pub use superhelix_kernels::head::HeadState;
 
 /// One key of a keyframed head motion.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -15,35 +15,7 @@ use faer::Mat;
 use nalgebra::Vector3;
 pub use superhelix_kernels::body_field::BodyField;
 
-/// Which outputs [`StrandKernel::evaluate`] must fill. What is not asked is not computed
-/// (and its buffer is left untouched).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Terms {
-    /// M(q) = ∫ ρS JᵀJ ds.
-    pub mass: bool,
-    /// `force` = ∫ Jᵀ F ds − b(q, q̇), and `velocity_term` = b.
-    pub force: bool,
-    /// `stiffness` = ∂/∂q of ∫ Jᵀ(c0 + C1 y) ds: the Hessian of the first moment
-    /// contracted with the field, plus ∫ JᵀC1J.
-    pub stiffness: bool,
-    /// `damping` = ∫ Jᵀ C2 J ds = ∂(∫ JᵀF)/∂q̇.
-    pub damping: bool,
-    /// `velocity_term_jacobian` = ∂b/∂q̇ = 2 ∫ ρS Jᵀ J̇ ds.
-    pub velocity_term_jacobian: bool,
-}
-
-impl Terms {
-    /// Everything.
-    pub fn all() -> Self {
-        Terms {
-            mass: true,
-            force: true,
-            stiffness: true,
-            damping: true,
-            velocity_term_jacobian: true,
-        }
-    }
-}
+pub use superhelix_kernels::strand_terms::Terms;
 
 /// Input of one evaluation.
 #[derive(Debug, Clone, Copy)]

@@ -43,21 +43,17 @@ impl CrossSection {
     /// `EI1 = E π a b³/4`, `EI2 = E π a³ b/4`, `GJ = G π a³ b³/(a² + b²)`,
     /// `G = E / (2(1+ν))`, `ρS = ρ π a b`.
     pub fn material(&self) -> Material {
-        let (a, b) = self.semi_axes();
-        let pi = std::f64::consts::PI;
-        let e = self.youngs_modulus;
-        let g = e / (2.0 * (1.0 + self.poisson));
-        let i1 = pi * a * b.powi(3) / 4.0;
-        let i2 = pi * a.powi(3) * b / 4.0;
-        let rho = self.density;
+        let t = superhelix_kernels::material::section_terms(
+            self.radius,
+            self.ellipticity,
+            self.youngs_modulus,
+            self.poisson,
+            self.density,
+        );
         Material {
-            mass_per_length: rho * pi * a * b,
-            stiffness: [
-                g * pi * a.powi(3) * b.powi(3) / (a * a + b * b),
-                e * i1,
-                e * i2,
-            ],
-            rotary_inertia: [rho * (i1 + i2), rho * i1, rho * i2],
+            mass_per_length: t.mass_per_length,
+            stiffness: t.stiffness,
+            rotary_inertia: t.rotary_inertia,
         }
     }
 }
@@ -77,17 +73,7 @@ pub enum HelixForm {
 /// Natural (τ, κ1, κ2) of a helix of radius `radius` and step (rise per turn) `step`,
 /// both in metres. A zero radius gives a straight strand (0, 0, 0).
 pub fn helix_curvature(radius: f64, step: f64, form: HelixForm) -> [f64; 3] {
-    if radius <= 0.0 {
-        return [0.0, 0.0, 0.0];
-    }
-    let c = step / (2.0 * std::f64::consts::PI);
-    match form {
-        HelixForm::Exact => {
-            let den = radius * radius + c * c;
-            [c / den, radius / den, 0.0]
-        }
-        HelixForm::Paper => [c / (radius * radius), 1.0 / radius, 0.0],
-    }
+    superhelix_kernels::material::helix_curvature(radius, step, form == HelixForm::Exact)
 }
 
 /// The four hair types of the paper's appendix B.

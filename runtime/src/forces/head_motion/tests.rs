@@ -1,4 +1,5 @@
 use super::*;
+use nalgebra::Matrix3;
 
 const H: f64 = 1e-5;
 

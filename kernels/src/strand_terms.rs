@@ -1,0 +1,432 @@
+//! The terms of one strand's equation of motion (paper eq. 4–6) from element moments:
+//! the driver shared by the runtime's runtime-N moment kernel (buffers in `Vec`s) and
+//! the fixed-N strands of `superhelix-generated` (buffers in arrays of literal size).
+//!
+//! [`evaluate_terms`] computes what [`Terms`] asks for at (q, q̇) in a [`BodyField`]: M(q)
+//! and the gravity force in O(N²) ([`crate::moments::assemble_mass_gram_and_gravity`]),
+//! the force ∫ JᵀF − b in O(N) ([`crate::moments::assemble_force`]), the field
+//! stiffness, the damping and ∂b/∂q̇ in O(N²) ([`crate::moments::jacobians`]), and the
+//! rotary inertia's parts ([`crate::moments::rotary`]). Allocates nothing.
+
+use crate::body_field::BodyField;
+use crate::element::{ElementPoint, RotaryPoints};
+use crate::moments::jacobians::{
+    add_field_hessian, add_velocity_jacobian, add_weighted_gram, VelocityRow,
+};
+use crate::moments::rotary::{add_rotary_terms, rotary_element, rotary_points, RotaryElement};
+use crate::moments::{
+    assemble_force, assemble_mass_gram_and_gravity, end_derivatives_from, frame_motions,
+    suffix_bodies, ElementMoments, EndDerivatives, FrameMotion, SuffixBody, Wrench,
+};
+use crate::pose::{darboux, Pose};
+use nalgebra::{Matrix3, Vector3};
+
+/// Where the moment assembly gets its per-element integrals.
+pub trait MomentSource {
+    /// Fill every field of `out` for Darboux vector `d`, length `l`, rotary inertia
+    /// `rotary` (= diag D).
+    fn moments(&self, d: &Vector3<f64>, l: f64, rotary: &[f64; 3], out: &mut ElementMoments);
+    /// [`MomentSource::moments`] for elements `d[p]`, `l[p]` into `out[p]` (one element
+    /// after the other unless a source does better).
+    fn moments_batch(
+        &self,
+        d: &[Vector3<f64>],
+        l: &[f64],
+        rotary: &[f64; 3],
+        out: &mut [ElementMoments],
+    ) {
+        for ((d, &l), out) in d.iter().zip(l).zip(out.iter_mut()) {
+            self.moments(d, l, rotary, out);
+        }
+    }
+    /// E(u), p(u), w_i(u) and their d-derivatives (see [`ElementPoint`]).
+    fn point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
+        *out = ElementPoint::by_jets(d, u);
+    }
+    /// The fields of [`ElementPoint`] the rotary-inertia quadrature
+    /// ([`rotary_element`]) reads: `frame`, `w` and `dw` (the generated source also fills
+    /// `p` and `dp`, which are `w[0]` and `dw[0]`), the same values as
+    /// [`MomentSource::point`]; `out.d2p` is unspecified afterwards (a source may leave
+    /// it as it was). Defaults to [`MomentSource::point`].
+    fn rotary_point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
+        self.point(d, u, out);
+    }
+    /// [`MomentSource::rotary_point`] at the abscissae `u` (at most four; any beyond are
+    /// ignored), lane k of `out` for `u[k]`; the lanes beyond `u.len()` are unspecified
+    /// afterwards. Defaults to [`MomentSource::rotary_point`] point by point; a source
+    /// may evaluate the four lanes together, but must give the same bits.
+    fn rotary_points(&self, d: &Vector3<f64>, u: &[f64], out: &mut RotaryPoints) {
+        let mut point = ElementPoint::default();
+        for (k, &u) in u.iter().take(4).enumerate() {
+            self.rotary_point(d, u, &mut point);
+            out.set_lane(k, &point);
+        }
+    }
+    /// Short description (`closed form`, `quadrature moments`).
+    fn describe(&self) -> &'static str;
+    /// True for generated closed forms.
+    fn is_generated(&self) -> bool;
+}
+
+/// Which outputs [`evaluate_terms`] must fill. What is not asked is not computed (and
+/// its buffer is left untouched).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Terms {
+    /// M(q) = ∫ ρS JᵀJ ds.
+    pub mass: bool,
+    /// `force` = ∫ Jᵀ F ds − b(q, q̇), and `velocity_term` = b.
+    pub force: bool,
+    /// `stiffness` = ∂/∂q of ∫ Jᵀ(c0 + C1 y) ds: the Hessian of the first moment
+    /// contracted with the field, plus ∫ JᵀC1J.
+    pub stiffness: bool,
+    /// `damping` = ∫ Jᵀ C2 J ds = ∂(∫ JᵀF)/∂q̇.
+    pub damping: bool,
+    /// `velocity_term_jacobian` = ∂b/∂q̇ = 2 ∫ ρS Jᵀ J̇ ds.
+    pub velocity_term_jacobian: bool,
+}
+
+impl Terms {
+    /// Everything.
+    pub fn all() -> Self {
+        Terms {
+            mass: true,
+            force: true,
+            stiffness: true,
+            damping: true,
+            velocity_term_jacobian: true,
+        }
+    }
+}
+
+/// What the terms depend on besides q and q̇: the clamped root, the element lengths, the
+/// mass per length and the rotary inertia of the cross-section.
+#[derive(Debug, Clone, Copy)]
+pub struct StrandShape<'a> {
+    /// Root position r_0, head coordinates, metres.
+    pub root_position: Vector3<f64>,
+    /// Root frame F_0 (columns n0, n1, n2; n0 the tangent).
+    pub root_frame: Matrix3<f64>,
+    /// Element lengths l_Q; N = `lengths.len()`.
+    pub lengths: &'a [f64],
+    /// ρS, kg/m.
+    pub mass_per_length: f64,
+    /// ρ(I1 + I2), ρI1, ρI2, kg·m (zeros: the paper's kinetic energy without rotary
+    /// inertia).
+    pub rotary_inertia: [f64; 3],
+}
+
+/// The buffers of one evaluation, sized for N elements (3N coordinates): `ends`,
+/// `motions` and `bodies` N + 1 long, the 3N × 3N matrices column-major (9N² long),
+/// `velocity_rows` 3N long, the others N long. The owner keeps them (a `Vec` each in the
+/// runtime, arrays of literal size in a fixed-N strand).
+pub struct MomentBuffers<'a> {
+    /// Poses at the element ends.
+    pub ends: &'a mut [Pose],
+    /// The Darboux vector of each element.
+    pub darboux: &'a mut [Vector3<f64>],
+    /// End derivatives of each element.
+    pub end_derivs: &'a mut [EndDerivatives],
+    /// Element moments.
+    pub moments: &'a mut [ElementMoments],
+    /// Frame motions at the element ends.
+    pub motions: &'a mut [FrameMotion],
+    /// Suffix bodies.
+    pub bodies: &'a mut [SuffixBody],
+    /// Suffix wrenches of the force assembly.
+    pub wrenches: &'a mut [Wrench],
+    /// Rotary-inertia integrals of each element.
+    pub rotary: &'a mut [RotaryElement],
+    /// Scratch of the rotary terms.
+    pub beyond: &'a mut [(Matrix3<f64>, Matrix3<f64>)],
+    /// Scratch of ∂b/∂q̇.
+    pub velocity_rows: &'a mut [VelocityRow],
+    /// M at the prepared q (column-major), valid when `*mass_valid`.
+    pub mass: &'a mut [f64],
+    /// The centreline Gram matrix ∫ JᵀJ ds at the prepared q, with `mass`.
+    pub gram: &'a mut [f64],
+    /// Whether `mass` and `gram` hold the prepared q's.
+    pub mass_valid: &'a mut bool,
+    /// Column-major 3N × 3N scratch (the stiffness, damping and ∂b/∂q̇ in turn).
+    pub matrix: &'a mut [f64],
+    /// 3N scratch.
+    pub vector: &'a mut [f64],
+    /// The q the ends, end derivatives and moments were prepared for (NaN before the
+    /// first evaluation: equal to no q).
+    pub prepared: &'a mut [f64],
+}
+
+/// Which matrix [`evaluate_terms`] hands to its sink.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TermMatrix {
+    /// M(q).
+    Mass,
+    /// ∂(∫ Jᵀ (c0 + C1 y) ds)/∂q.
+    Stiffness,
+    /// ∫ Jᵀ C2 J ds.
+    Damping,
+    /// ∂b/∂q̇.
+    VelocityTermJacobian,
+}
+
+/// The vector outputs of [`evaluate_terms`] (3N each), and ∫ρS y ds.
+pub struct TermVectors<'a> {
+    /// ∫ Jᵀ F ds − b(q, q̇).
+    pub force: &'a mut [f64],
+    /// b(q, q̇) = ∫ ρS Jᵀ (J̇ q̇) ds.
+    pub velocity_term: &'a mut [f64],
+    /// ∫ ρS y ds (with `mass` or `force`).
+    pub first_moment: &'a mut Vector3<f64>,
+}
+
+/// Element ends, end derivatives and moments for q, all from the source. They depend on
+/// q only: kept when q is the one they were prepared for.
+pub fn prepare<S: MomentSource + ?Sized>(
+    source: &S,
+    shape: &StrandShape<'_>,
+    b: &mut MomentBuffers<'_>,
+    q: &[f64],
+) {
+    if *b.prepared == *q {
+        return;
+    }
+    b.prepared.copy_from_slice(q);
+    *b.mass_valid = false;
+    b.ends[0] = Pose {
+        position: shape.root_position,
+        frame: shape.root_frame,
+    };
+    let mut point = ElementPoint::default();
+    for (p, &l) in shape.lengths.iter().enumerate() {
+        let d = darboux(q, p);
+        b.darboux[p] = d;
+        source.point(&d, l, &mut point);
+        let start = b.ends[p];
+        b.ends[p + 1] = Pose {
+            position: start.position + start.frame * point.p,
+            frame: start.frame * point.frame,
+        };
+        b.end_derivs[p] = end_derivatives_from(&start.frame, &point);
+    }
+    source.moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
+}
+
+/// `m` is a multiple of the identity.
+fn is_scalar(m: &Matrix3<f64>) -> bool {
+    *m == Matrix3::identity() * m[(0, 0)]
+}
+
+/// ∫ρS y ds from the suffix bodies.
+fn first_moment(b: &MomentBuffers<'_>, rho_s: f64) -> Vector3<f64> {
+    (b.bodies[0].first + b.ends[0].position * b.bodies[0].mass) * rho_s
+}
+
+/// Evaluate the terms `terms` asks for at (q, q̇) in `field`: each requested matrix is
+/// handed to `sink` (column-major, 3N × 3N) once assembled, the vectors written into
+/// `out`. Allocates nothing.
+#[allow(clippy::too_many_arguments)]
+pub fn evaluate_terms<S: MomentSource + ?Sized>(
+    source: &S,
+    shape: &StrandShape<'_>,
+    b: &mut MomentBuffers<'_>,
+    q: &[f64],
+    v: &[f64],
+    field: &BodyField,
+    terms: Terms,
+    out: &mut TermVectors<'_>,
+    sink: &mut dyn FnMut(TermMatrix, &[f64]),
+) {
+    let t = terms;
+    prepare(source, shape, b, q);
+    let rho_s = shape.mass_per_length;
+    let has_rotary = shape.rotary_inertia != [0.0; 3];
+    let lengths = shape.lengths;
+    let needs_velocity = t.force || t.velocity_term_jacobian;
+    if needs_velocity {
+        frame_motions(b.ends, b.end_derivs, v, b.motions);
+    }
+    suffix_bodies(
+        b.ends,
+        lengths,
+        b.moments,
+        b.motions,
+        v,
+        t.velocity_term_jacobian,
+        b.bodies,
+    );
+    if t.mass {
+        if *b.mass_valid {
+            *out.first_moment = first_moment(b, rho_s);
+        } else {
+            assemble_mass_gram_and_gravity(
+                b.bodies,
+                rho_s,
+                lengths,
+                b.ends,
+                b.end_derivs,
+                b.moments,
+                &field.uniform,
+                b.mass,
+                Some(&mut *b.gram),
+                b.vector,
+                out.first_moment,
+            );
+            *b.mass_valid = true;
+        }
+        sink(TermMatrix::Mass, b.mass);
+    }
+    if has_rotary && needs_velocity {
+        for p in 0..lengths.len() {
+            let d = b.darboux[p];
+            let l = lengths[p];
+            b.rotary[p] = rotary_element(
+                &|u: &[f64], out: &mut RotaryPoints| source.rotary_points(&d, u, out),
+                l,
+                &shape.rotary_inertia,
+                &b.moments[p],
+                &b.ends[p],
+                &b.motions[p],
+                &v[3 * p..3 * p + 3],
+                rotary_points(d.norm() * l),
+                t.velocity_term_jacobian,
+            );
+        }
+    }
+    if t.force {
+        *out.first_moment = first_moment(b, rho_s);
+        // −b of the centreline, then the field with ρS = 0 (the assembly is linear in
+        // the field and in ρS)
+        assemble_force(
+            b.wrenches,
+            rho_s,
+            lengths,
+            b.ends,
+            b.end_derivs,
+            b.moments,
+            b.motions,
+            v,
+            &BodyField::zero(),
+            out.velocity_term,
+        );
+        for x in out.velocity_term.iter_mut() {
+            *x = -*x;
+        }
+        if has_rotary {
+            add_rotary_terms(
+                b.end_derivs,
+                b.rotary,
+                b.motions,
+                v,
+                Some(&mut *out.velocity_term),
+                None,
+                b.beyond,
+            );
+        }
+        assemble_force(
+            b.wrenches,
+            0.0,
+            lengths,
+            b.ends,
+            b.end_derivs,
+            b.moments,
+            b.motions,
+            v,
+            field,
+            out.force,
+        );
+        for (f, x) in out.force.iter_mut().zip(out.velocity_term.iter()) {
+            *f -= x;
+        }
+    }
+    if t.stiffness {
+        b.matrix.fill(0.0);
+        add_field_hessian(
+            &field.uniform,
+            &field.linear,
+            b.ends,
+            b.end_derivs,
+            b.moments,
+            b.bodies,
+            b.matrix,
+        );
+        if field.has_linear() {
+            add_weighted_gram(
+                &field.linear,
+                1.0,
+                b.ends,
+                b.end_derivs,
+                b.moments,
+                b.bodies,
+                b.matrix,
+            );
+        }
+        sink(TermMatrix::Stiffness, b.matrix);
+    }
+    if t.damping && *b.mass_valid && is_scalar(&field.velocity) {
+        // C2 = −ν I: −ν ∫ JᵀJ ds, kept with M
+        let c = field.velocity[(0, 0)];
+        for (m, g) in b.matrix.iter_mut().zip(b.gram.iter()) {
+            *m = c * g;
+        }
+        sink(TermMatrix::Damping, b.matrix);
+    } else if t.damping {
+        b.matrix.fill(0.0);
+        add_weighted_gram(
+            &field.velocity,
+            1.0,
+            b.ends,
+            b.end_derivs,
+            b.moments,
+            b.bodies,
+            b.matrix,
+        );
+        sink(TermMatrix::Damping, b.matrix);
+    }
+    if t.velocity_term_jacobian {
+        b.matrix.fill(0.0);
+        add_velocity_jacobian(
+            2.0 * rho_s,
+            b.ends,
+            b.end_derivs,
+            b.moments,
+            b.motions,
+            b.bodies,
+            v,
+            b.velocity_rows,
+            b.matrix,
+        );
+        if has_rotary {
+            add_rotary_terms(
+                b.end_derivs,
+                b.rotary,
+                b.motions,
+                v,
+                None,
+                Some(&mut *b.matrix),
+                b.beyond,
+            );
+        }
+        sink(TermMatrix::VelocityTermJacobian, b.matrix);
+    }
+}
+
+/// The poses at the N + 1 element ends for q, from the source's element points.
+pub fn element_ends<S: MomentSource + ?Sized>(
+    source: &S,
+    shape: &StrandShape<'_>,
+    q: &[f64],
+    ends: &mut [Pose],
+) {
+    ends[0] = Pose {
+        position: shape.root_position,
+        frame: shape.root_frame,
+    };
+    let mut point = ElementPoint::default();
+    for (p, &l) in shape.lengths.iter().enumerate() {
+        source.point(&darboux(q, p), l, &mut point);
+        let start = ends[p];
+        ends[p + 1] = Pose {
+            position: start.position + start.frame * point.p,
+            frame: start.frame * point.frame,
+        };
+    }
+}
