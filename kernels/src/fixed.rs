@@ -1,0 +1,74 @@
+//! One strand of N elements with every size a constant: the step an engine embeds.
+//!
+//! A fixed-N strand is three things, all plain data of literal size, no allocation:
+//!
+//! - [`FixedStrand`]: what a strand keeps from one step to the next (its parameters
+//!   [`FixedParams`], its state q, q̇ and the eigenbasis its projection reuses):
+//!   ~1.7 kB at N = 5 ([`FixedStrand::BYTES`]);
+//! - [`FixedWorkspace`]: the scratch of one step, shared by every strand a worker steps
+//!   (one per thread, not per strand);
+//! - [`step`]: the linearly implicit Euler step of paper section 3.4 with the runtime's
+//!   treatment of its terms (see [`step`]).
+//!
+//! The const parameters are N (elements), D = 3N (coordinates), E = N + 1 (element
+//! ends) and B = ⌊D/2⌋ (columns of the kept eigenbasis); `superhelix-generated` writes,
+//! for each N it is generated for, a module with these literal sizes and the generated
+//! closed forms as the [`MomentSource`].
+
+mod dense;
+mod params;
+mod step;
+mod workspace;
+
+pub use dense::{lu_solve, negative_semidefinite_part, Projection};
+pub use params::{FixedParams, ParamsError};
+pub use step::{centreline, evaluate, step, StepError, StepInput, StepReport};
+pub use workspace::FixedWorkspace;
+
+use crate::strand_terms::MomentSource;
+
+/// What a fixed-N strand keeps between steps: its parameters, its state and the basis
+/// of the last spectral projection (reused while it still splits the stiffness).
+#[derive(Debug, Clone)]
+pub struct FixedStrand<const N: usize, const D: usize, const B: usize> {
+    /// Geometry, material, natural shape, friction and drag.
+    pub params: FixedParams<N, D>,
+    /// Generalized coordinates q (twist and curvatures per element), rad/m.
+    pub q: [f64; D],
+    /// Generalized velocities q̇, rad/(m·s).
+    pub v: [f64; D],
+    /// The kept eigenbasis of the projection (columns of length D, `basis_k` of them).
+    pub basis: [[f64; D]; B],
+    /// Columns of `basis` in use (0: none).
+    pub basis_k: usize,
+    /// Whether the basis spans the negative (else the positive) eigenvalues.
+    pub basis_negative: bool,
+}
+
+impl<const N: usize, const D: usize, const B: usize> FixedStrand<N, D, B> {
+    /// Bytes a strand keeps (its size in memory).
+    pub const BYTES: usize = core::mem::size_of::<Self>();
+
+    /// A strand at rest in its natural shape (q = q_n, q̇ = 0).
+    pub fn at_rest(params: FixedParams<N, D>) -> Self {
+        FixedStrand {
+            q: params.natural,
+            v: [0.0; D],
+            params,
+            basis: [[0.0; D]; B],
+            basis_k: 0,
+            basis_negative: true,
+        }
+    }
+
+    /// Set the state (q, q̇), forgetting the kept basis.
+    pub fn set_state(&mut self, q: &[f64; D], v: &[f64; D]) {
+        self.q = *q;
+        self.v = *v;
+        self.basis_k = 0;
+    }
+}
+
+/// The closed forms as a source, for code generic over the source.
+pub trait Source: MomentSource {}
+impl<S: MomentSource> Source for S {}

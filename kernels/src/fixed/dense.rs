@@ -1,0 +1,188 @@
+//! Dense linear algebra of the fixed-N step on column-major `[[f64; D]; D]` arrays
+//! (`a[c][r]` is row r of column c): LU with partial pivoting, and the negative
+//! semidefinite part of a symmetric matrix.
+
+use crate::math::sqrt;
+
+/// LU-factor `a` with partial pivoting (Golub & Van Loan, algorithm 3.4.1) and solve
+/// `a x = b` in place (`b` becomes x). Returns false, with `a` and `b` overwritten, when
+/// a pivot is zero or the solution is not finite.
+pub fn lu_solve<const D: usize>(
+    a: &mut [[f64; D]; D],
+    b: &mut [f64; D],
+    pivots: &mut [usize; D],
+) -> bool {
+    for k in 0..D {
+        // pivot: the largest entry of column k at or below the diagonal
+        let mut p = k;
+        let mut best = a[k][k].abs();
+        for r in k + 1..D {
+            let x = a[k][r].abs();
+            if x > best {
+                best = x;
+                p = r;
+            }
+        }
+        pivots[k] = p;
+        if best == 0.0 || !best.is_finite() {
+            return false;
+        }
+        if p != k {
+            for col in a.iter_mut() {
+                col.swap(k, p);
+            }
+        }
+        let inv = 1.0 / a[k][k];
+        for r in k + 1..D {
+            a[k][r] *= inv;
+        }
+        for c in k + 1..D {
+            let akc = a[c][k];
+            if akc != 0.0 {
+                let (left, right) = a.split_at_mut(c);
+                let lk = &left[k];
+                let col = &mut right[0];
+                for r in k + 1..D {
+                    col[r] -= lk[r] * akc;
+                }
+            }
+        }
+    }
+    // P b, then L y = P b (unit lower), then U x = y
+    for k in 0..D {
+        b.swap(k, pivots[k]);
+    }
+    for c in 0..D {
+        let bc = b[c];
+        for r in c + 1..D {
+            b[r] -= a[c][r] * bc;
+        }
+    }
+    for c in (0..D).rev() {
+        b[c] /= a[c][c];
+        let bc = b[c];
+        for r in 0..c {
+            b[r] -= a[c][r] * bc;
+        }
+    }
+    b.iter().all(|x| x.is_finite())
+}
+
+/// How [`negative_semidefinite_part`] obtained its result.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Projection {
+    /// −H is positive definite (a Cholesky factorisation succeeded): H is its own part.
+    Definite,
+    /// By an eigendecomposition.
+    Decomposed,
+    /// The matrix holds a value that is not finite: left unchanged.
+    Failed,
+}
+
+/// Cholesky factorisation of the symmetric `a` (lower triangle read; the factor
+/// overwrites it). False when `a` is not numerically positive definite.
+fn cholesky<const D: usize>(a: &mut [[f64; D]; D]) -> bool {
+    for j in 0..D {
+        let mut d = a[j][j];
+        for k in 0..j {
+            d -= a[k][j] * a[k][j];
+        }
+        if !(d > 0.0) || !d.is_finite() {
+            return false;
+        }
+        let d = sqrt(d);
+        a[j][j] = d;
+        for i in j + 1..D {
+            let mut s = a[j][i];
+            for k in 0..j {
+                s -= a[k][i] * a[k][j];
+            }
+            a[j][i] = s / d;
+        }
+    }
+    true
+}
+
+/// Replace the symmetric `h` (both triangles) by its negative semidefinite part
+/// `U min(Λ, 0) Uᵀ`: itself when −h is positive definite (one Cholesky factorisation
+/// says so), else from the cyclic Jacobi eigendecomposition (Golub & Van Loan,
+/// algorithm 8.5.3) in `vectors`, `values`.
+pub fn negative_semidefinite_part<const D: usize>(
+    h: &mut [[f64; D]; D],
+    vectors: &mut [[f64; D]; D],
+    values: &mut [f64; D],
+) -> Projection {
+    if !h.iter().flatten().all(|x| x.is_finite()) {
+        return Projection::Failed;
+    }
+    for c in 0..D {
+        for r in 0..D {
+            vectors[c][r] = -h[c][r];
+        }
+    }
+    if cholesky(vectors) {
+        return Projection::Definite;
+    }
+    // Jacobi on a copy in `vectors`' place: a = h, v = I
+    let mut a = *h;
+    for c in 0..D {
+        for r in 0..D {
+            vectors[c][r] = if r == c { 1.0 } else { 0.0 };
+        }
+    }
+    let scale: f64 = h.iter().flatten().map(|x| x * x).sum();
+    for _sweep in 0..60 {
+        let mut off = 0.0;
+        for c in 0..D {
+            for r in 0..c {
+                off += a[c][r] * a[c][r];
+            }
+        }
+        if off <= 1e-32 * scale {
+            break;
+        }
+        for p in 0..D {
+            for q in p + 1..D {
+                let apq = a[q][p];
+                if apq == 0.0 {
+                    continue;
+                }
+                let theta = (a[q][q] - a[p][p]) / (2.0 * apq);
+                let t = theta.signum() / (theta.abs() + sqrt(theta * theta + 1.0));
+                let t = if theta == 0.0 { 1.0 } else { t };
+                let cs = 1.0 / sqrt(t * t + 1.0);
+                let sn = t * cs;
+                // A ← Jᵀ A J on rows and columns p, q
+                for k in 0..D {
+                    let (akp, akq) = (a[p][k], a[q][k]);
+                    a[p][k] = cs * akp - sn * akq;
+                    a[q][k] = sn * akp + cs * akq;
+                }
+                for k in 0..D {
+                    let (apk, aqk) = (a[k][p], a[k][q]);
+                    a[k][p] = cs * apk - sn * aqk;
+                    a[k][q] = sn * apk + cs * aqk;
+                }
+                for k in 0..D {
+                    let (vkp, vkq) = (vectors[p][k], vectors[q][k]);
+                    vectors[p][k] = cs * vkp - sn * vkq;
+                    vectors[q][k] = sn * vkp + cs * vkq;
+                }
+            }
+        }
+    }
+    for i in 0..D {
+        values[i] = a[i][i].min(0.0);
+    }
+    for c in 0..D {
+        for r in 0..=c {
+            let mut s = 0.0;
+            for k in 0..D {
+                s += vectors[k][r] * values[k] * vectors[k][c];
+            }
+            h[c][r] = s;
+            h[r][c] = s;
+        }
+    }
+    Projection::Decomposed
+}

@@ -1,0 +1,141 @@
+//! The parameters of a fixed-N strand, checked once when it is made.
+
+use crate::material::SectionTerms;
+use crate::strand_terms::StrandShape;
+use nalgebra::{Matrix3, Vector3};
+
+/// Everything a fixed-N strand's mechanics depends on besides its state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FixedParams<const N: usize, const D: usize> {
+    /// Root position r_0 in head coordinates, metres.
+    pub root_position: Vector3<f64>,
+    /// Root frame F_0 in head coordinates: columns (n0, n1, n2), n0 the tangent.
+    pub root_frame: Matrix3<f64>,
+    /// Element lengths l_Q, metres.
+    pub lengths: [f64; N],
+    /// Natural twist and curvatures q_n, rad/m, in the order of q.
+    pub natural: [f64; D],
+    /// Diagonal of K = diag(l_Q · (GJ, EI1, EI2)) (eq. 5c), N·m.
+    pub stiffness: [f64; D],
+    /// Diagonal of the internal friction γ l_Q (3 per element), kg·m⁴/s.
+    pub friction: [f64; D],
+    /// ρS, kg/m.
+    pub mass_per_length: f64,
+    /// Air drag ν, kg/(m·s).
+    pub air_drag: f64,
+    /// Rotary inertia per unit length (ρ(I1 + I2), ρI1, ρI2), kg·m.
+    pub rotary_inertia: [f64; 3],
+}
+
+/// A parameter outside its allowed range: the field and what it must be.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ParamsError {
+    /// The field, e.g. `lengths`.
+    pub field: &'static str,
+    /// What it must be, e.g. `finite and > 0`.
+    pub expected: &'static str,
+}
+
+impl core::fmt::Display for ParamsError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "{}: must be {}", self.field, self.expected)
+    }
+}
+
+fn positive(x: f64) -> bool {
+    x.is_finite() && x > 0.0
+}
+
+fn non_negative(x: f64) -> bool {
+    x.is_finite() && x >= 0.0
+}
+
+impl<const N: usize, const D: usize> FixedParams<N, D> {
+    /// The parameters of a strand rooted at `root_position` with frame `root_frame`
+    /// (orthonormal, head coordinates), elements of lengths `lengths`, cross-section
+    /// terms `section` ([`crate::material::section_terms`]), natural (τ, κ1, κ2) per
+    /// element `natural` (3N, rad/m), internal friction γ (kg·m³/s) and air drag ν
+    /// (kg/(m·s)). Refuses a value outside its range, naming it.
+    pub fn new(
+        root_position: [f64; 3],
+        root_frame: [[f64; 3]; 3],
+        lengths: [f64; N],
+        section: &SectionTerms,
+        natural: [f64; D],
+        internal_friction: f64,
+        air_drag: f64,
+    ) -> Result<Self, ParamsError> {
+        let err = |field, expected| Err(ParamsError { field, expected });
+        if D != 3 * N || N == 0 {
+            return err("elements", "N ≥ 1 with D = 3N coordinates");
+        }
+        if !root_position.iter().all(|x| x.is_finite()) {
+            return err("root_position", "finite");
+        }
+        let frame = Matrix3::from_fn(|r, c| root_frame[c][r]);
+        let orthonormal = (frame.transpose() * frame - Matrix3::identity()).amax() <= 1e-9
+            && frame.determinant() > 0.0;
+        if !frame.iter().all(|x| x.is_finite()) || !orthonormal {
+            return err(
+                "root_frame",
+                "a rotation (orthonormal columns n0, n1, n2 within 1e-9, det > 0)",
+            );
+        }
+        if !lengths.iter().all(|&l| positive(l) && l <= 100.0) {
+            return err("lengths", "finite, > 0 and ≤ 100 m");
+        }
+        if !positive(section.mass_per_length) {
+            return err("mass_per_length", "finite and > 0");
+        }
+        if !section.stiffness.iter().all(|&k| positive(k)) {
+            return err("stiffness", "finite and > 0");
+        }
+        if !section.rotary_inertia.iter().all(|&i| non_negative(i)) {
+            return err("rotary_inertia", "finite and ≥ 0");
+        }
+        if !natural.iter().all(|&x| x.is_finite() && x.abs() <= 1e6) {
+            return err("natural", "finite, |x| ≤ 1e6 rad/m");
+        }
+        if !non_negative(internal_friction) {
+            return err("internal_friction", "finite and ≥ 0");
+        }
+        if !non_negative(air_drag) {
+            return err("air_drag", "finite and ≥ 0");
+        }
+        let mut stiffness = [0.0; D];
+        let mut friction = [0.0; D];
+        for (p, &l) in lengths.iter().enumerate() {
+            for i in 0..3 {
+                stiffness[3 * p + i] = l * section.stiffness[i];
+                friction[3 * p + i] = l * internal_friction;
+            }
+        }
+        Ok(FixedParams {
+            root_position: Vector3::from(root_position),
+            root_frame: frame,
+            lengths,
+            natural,
+            stiffness,
+            friction,
+            mass_per_length: section.mass_per_length,
+            air_drag,
+            rotary_inertia: section.rotary_inertia,
+        })
+    }
+
+    /// The shape the moment assembly reads.
+    pub fn shape(&self) -> StrandShape<'_> {
+        StrandShape {
+            root_position: self.root_position,
+            root_frame: self.root_frame,
+            lengths: &self.lengths,
+            mass_per_length: self.mass_per_length,
+            rotary_inertia: self.rotary_inertia,
+        }
+    }
+
+    /// Total length L, metres.
+    pub fn length(&self) -> f64 {
+        self.lengths.iter().sum()
+    }
+}

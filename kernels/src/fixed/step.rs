@@ -1,0 +1,257 @@
+//! The fixed-N step: the terms of the equation of motion, the linearly implicit Euler
+//! step, and the centreline.
+
+use super::dense::{lu_solve, negative_semidefinite_part, Projection};
+use super::workspace::FixedWorkspace;
+use super::FixedStrand;
+use crate::head::{body_field, HeadState};
+use crate::pose::Pose;
+use crate::strand_terms::{
+    element_ends, evaluate_terms, MomentSource, TermMatrix, TermVectors, Terms,
+};
+use nalgebra::Vector3;
+
+/// What one step of a strand needs besides the strand: the head at the end of the step
+/// and the world's effects.
+#[derive(Debug, Clone, Copy)]
+pub struct StepInput {
+    /// The head's state at the end of the step (position, rotation and their first two
+    /// derivatives).
+    pub head: HeadState,
+    /// Gravity in world coordinates, m/s² (`None`: no gravity).
+    pub gravity: Option<Vector3<f64>>,
+    /// Whether the head moves: the fictitious forces of its motion are built only then.
+    pub head_moves: bool,
+}
+
+/// What a successful step reports.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepReport {
+    /// Largest rotation the step put into one element, radians: `l_Q |Δd_Q|`. Beyond
+    /// ~0.2 the step's linearisation no longer holds: take smaller steps.
+    pub max_element_rotation: f64,
+    /// How the stabilising part of the field stiffness was found (`None`: the field has
+    /// no stiffness, e.g. no gravity and a still head).
+    pub projection: Option<Projection>,
+}
+
+/// Why a step failed; the strand keeps the state it had before the step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepError {
+    /// The step matrix is singular (a zero pivot or a non-finite solution).
+    SingularMatrix,
+    /// The step produced a value that is not finite: q or q̇ (`velocity`) at `index`.
+    NonFinite {
+        /// Index into q.
+        index: usize,
+        /// Whether it was q̇ (else q).
+        velocity: bool,
+    },
+    /// The time step is not finite and > 0.
+    TimeStep,
+}
+
+impl core::fmt::Display for StepError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            StepError::SingularMatrix => write!(f, "singular step matrix"),
+            StepError::NonFinite { index, velocity } => write!(
+                f,
+                "non-finite {}[{index}] after the step",
+                if *velocity { "q̇" } else { "q" }
+            ),
+            StepError::TimeStep => write!(f, "dt: must be finite and > 0"),
+        }
+    }
+}
+
+/// Fill the terms of the equation of motion at the strand's state with the head in
+/// `input.head` into `ws`: M, F = ∫JᵀF − b − K(q − q_n) − γ l q̇, b, and (when the field
+/// has them) ∂F/∂q and ∂F/∂q̇ less ∂b/∂q, and ∂b/∂q̇. Returns whether the stiffness
+/// holds field terms.
+pub fn evaluate<S: MomentSource, const N: usize, const D: usize, const E: usize, const B: usize>(
+    source: &S,
+    strand: &FixedStrand<N, D, B>,
+    input: &StepInput,
+    ws: &mut FixedWorkspace<N, D, E>,
+) -> bool {
+    let p = &strand.params;
+    let (q, v) = (&strand.q, &strand.v);
+    let field = body_field(
+        input.gravity,
+        input.head_moves,
+        &input.head,
+        p.mass_per_length,
+        p.air_drag,
+    );
+    let position_field = field.uniform != Vector3::zeros() || field.has_linear();
+    let velocity_field = field.velocity != nalgebra::Matrix3::zeros();
+    let terms = Terms {
+        mass: true,
+        force: true,
+        stiffness: position_field,
+        damping: velocity_field,
+        velocity_term_jacobian: true,
+    };
+    ws.forget();
+    let FixedWorkspace {
+        assembly,
+        stiffness,
+        damping,
+        velocity_jacobian,
+        force,
+        velocity_term,
+        first_moment,
+        ..
+    } = ws;
+    let mut vectors = TermVectors {
+        force,
+        velocity_term,
+        first_moment,
+    };
+    let mut sink = |which: TermMatrix, m: &[f64]| {
+        let target = match which {
+            TermMatrix::Mass => return,
+            TermMatrix::Stiffness => &mut *stiffness,
+            TermMatrix::Damping => &mut *damping,
+            TermMatrix::VelocityTermJacobian => &mut *velocity_jacobian,
+        };
+        target.as_flattened_mut().copy_from_slice(m);
+    };
+    evaluate_terms(
+        source,
+        &p.shape(),
+        &mut assembly.buffers(),
+        q,
+        v,
+        &field,
+        terms,
+        &mut vectors,
+        &mut sink,
+    );
+    if !position_field {
+        ws.stiffness = [[0.0; D]; D];
+    }
+    if !velocity_field {
+        ws.damping = [[0.0; D]; D];
+    }
+    for i in 0..D {
+        ws.force[i] -= p.stiffness[i] * (q[i] - p.natural[i]) + p.friction[i] * v[i];
+        ws.stiffness[i][i] -= p.stiffness[i];
+        ws.damping[i][i] -= p.friction[i];
+    }
+    position_field
+}
+
+/// Advance `strand` by `h` seconds: one linearly implicit Euler step (paper section
+/// 3.4) with the runtime's treatment of its terms,
+///
+/// ```text
+/// (M − h D_v + (h/2) B − h² D_q) q̇⁺ = M q̇ + h (F + b) − h D_v q̇,   q⁺ = q + h q̇⁺
+/// ```
+///
+/// D_q = H⁻ − K with H⁻ the negative semidefinite part of the symmetrised field
+/// stiffness (a destabilising stiffness stays explicit), D_v = ∂F/∂q̇ less ∂b/∂q̇
+/// (friction, drag, Coriolis), and b ≈ ½ B q̇⁺ taken semi-implicitly (B = ∂b/∂q̇).
+/// The runtime adds checks after the fact (energy balance, step splitting); this step
+/// does not: an engine keeps `max_element_rotation` of the report below ~0.2 by its
+/// choice of h. Allocates nothing; on failure the strand keeps its state.
+pub fn step<S: MomentSource, const N: usize, const D: usize, const E: usize, const B: usize>(
+    source: &S,
+    strand: &mut FixedStrand<N, D, B>,
+    input: &StepInput,
+    h: f64,
+    ws: &mut FixedWorkspace<N, D, E>,
+) -> Result<StepReport, StepError> {
+    if !(h.is_finite() && h > 0.0) {
+        return Err(StepError::TimeStep);
+    }
+    let field_stiffness = evaluate(source, strand, input, ws);
+    let p = &strand.params;
+    let projection = if field_stiffness {
+        // H = sym(stiffness) + K, projected onto its negative semidefinite part
+        let st = &mut ws.stiffness;
+        for j in 0..D {
+            for i in 0..j {
+                let m = 0.5 * (st[i][j] + st[j][i]);
+                st[i][j] = m;
+                st[j][i] = m;
+            }
+            st[j][j] += p.stiffness[j];
+        }
+        Some(negative_semidefinite_part(
+            &mut ws.stiffness,
+            &mut ws.eigen,
+            &mut ws.eigenvalues,
+        ))
+    } else {
+        None
+    };
+    let use_h = matches!(
+        projection,
+        Some(Projection::Definite) | Some(Projection::Decomposed)
+    );
+    let (q, v) = (&mut strand.q, &mut strand.v);
+    for j in 0..D {
+        for i in 0..D {
+            let mut dq = if use_h { ws.stiffness[j][i] } else { 0.0 };
+            if i == j {
+                dq -= p.stiffness[i];
+            }
+            ws.matrix_a[j][i] = ws.assembly.mass[j][i] - h * ws.damping[j][i]
+                + 0.5 * h * ws.velocity_jacobian[j][i]
+                - h * h * dq;
+        }
+    }
+    for i in 0..D {
+        ws.rhs[i] = h * (ws.force[i] + ws.velocity_term[i]);
+    }
+    for j in 0..D {
+        let vj = v[j];
+        for i in 0..D {
+            ws.rhs[i] += (ws.assembly.mass[j][i] - h * ws.damping[j][i]) * vj;
+        }
+    }
+    if !lu_solve(&mut ws.matrix_a, &mut ws.rhs, &mut ws.pivots) {
+        return Err(StepError::SingularMatrix);
+    }
+    let mut q_new = *q;
+    for i in 0..D {
+        q_new[i] += h * ws.rhs[i];
+    }
+    if let Some(i) = q_new.iter().position(|x| !x.is_finite()) {
+        return Err(StepError::NonFinite {
+            index: i,
+            velocity: false,
+        });
+    }
+    let mut rotation: f64 = 0.0;
+    for (k, l) in p.lengths.iter().enumerate() {
+        let d: f64 = (0..3)
+            .map(|i| (q_new[3 * k + i] - q[3 * k + i]) * (q_new[3 * k + i] - q[3 * k + i]))
+            .sum();
+        rotation = rotation.max(l * crate::math::sqrt(d));
+    }
+    *q = q_new;
+    *v = ws.rhs;
+    Ok(StepReport {
+        max_element_rotation: rotation,
+        projection,
+    })
+}
+
+/// The centreline at the N + 1 element ends, root first, in head coordinates (metres),
+/// from the element points of `source`.
+pub fn centreline<
+    S: MomentSource,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+>(
+    source: &S,
+    strand: &FixedStrand<N, D, B>,
+    ends: &mut [Pose; E],
+) {
+    element_ends(source, &strand.params.shape(), &strand.q, ends);
+}
