@@ -23,7 +23,7 @@ mod workspace;
 pub use dense::{lu_solve, negative_semidefinite_part, Projection};
 pub use params::{FixedParams, ParamsError};
 pub use step::{centreline, evaluate, step, StepError, StepInput, StepReport};
-pub use workspace::FixedWorkspace;
+pub use workspace::{Assembly, FixedWorkspace};
 
 use crate::strand_terms::MomentSource;
 

@@ -32,9 +32,11 @@ pub struct FixedWorkspace<const N: usize, const D: usize, const E: usize> {
     pub(super) eigenvalues: [f64; D],
 }
 
-/// The moment assembly's buffers.
+/// The moment assembly's buffers at a fixed N (the [`MomentBuffers`] of
+/// [`crate::strand_terms::evaluate_terms`] in arrays of literal size): what a fixed-N
+/// kernel of the runtime keeps, and part of a [`FixedWorkspace`].
 #[derive(Debug, Clone)]
-pub(super) struct Assembly<const N: usize, const D: usize, const E: usize> {
+pub struct Assembly<const N: usize, const D: usize, const E: usize> {
     pub(super) ends: [Pose; E],
     pub(super) darboux: [Vector3<f64>; N],
     pub(super) end_derivs: [EndDerivatives; N],
@@ -67,24 +69,7 @@ impl<const N: usize, const D: usize, const E: usize> FixedWorkspace<N, D, E> {
     /// rather than on a small stack).
     pub fn new() -> Self {
         FixedWorkspace {
-            assembly: Assembly {
-                ends: [Pose::default(); E],
-                darboux: [Vector3::zeros(); N],
-                end_derivs: [EndDerivatives::default(); N],
-                moments: [ElementMoments::default(); N],
-                motions: [FrameMotion::default(); E],
-                bodies: [SuffixBody::default(); E],
-                wrenches: [Wrench::default(); N],
-                rotary: [RotaryElement::default(); N],
-                beyond: [(Matrix3::zeros(), Matrix3::zeros()); N],
-                velocity_rows: [VelocityRow::default(); D],
-                mass: [[0.0; D]; D],
-                gram: [[0.0; D]; D],
-                mass_valid: false,
-                matrix: [[0.0; D]; D],
-                vector: [0.0; D],
-                prepared: [f64::NAN; D],
-            },
+            assembly: Assembly::new(),
             stiffness: [[0.0; D]; D],
             damping: [[0.0; D]; D],
             velocity_jacobian: [[0.0; D]; D],
@@ -107,9 +92,37 @@ impl<const N: usize, const D: usize, const E: usize> FixedWorkspace<N, D, E> {
     }
 }
 
+impl<const N: usize, const D: usize, const E: usize> Default for Assembly<N, D, E> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl<const N: usize, const D: usize, const E: usize> Assembly<N, D, E> {
+    /// Empty buffers (nothing prepared).
+    pub fn new() -> Self {
+        Assembly {
+            ends: [Pose::default(); E],
+            darboux: [Vector3::zeros(); N],
+            end_derivs: [EndDerivatives::default(); N],
+            moments: [ElementMoments::default(); N],
+            motions: [FrameMotion::default(); E],
+            bodies: [SuffixBody::default(); E],
+            wrenches: [Wrench::default(); N],
+            rotary: [RotaryElement::default(); N],
+            beyond: [(Matrix3::zeros(), Matrix3::zeros()); N],
+            velocity_rows: [VelocityRow::default(); D],
+            mass: [[0.0; D]; D],
+            gram: [[0.0; D]; D],
+            mass_valid: false,
+            matrix: [[0.0; D]; D],
+            vector: [0.0; D],
+            prepared: [f64::NAN; D],
+        }
+    }
+
     /// The moment assembly's view of the buffers.
-    pub(super) fn buffers(&mut self) -> MomentBuffers<'_> {
+    pub fn buffers(&mut self) -> MomentBuffers<'_> {
         MomentBuffers {
             ends: &mut self.ends,
             darboux: &mut self.darboux,
