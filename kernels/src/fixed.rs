@@ -8,23 +8,27 @@
 //! - [`FixedWorkspace`]: the scratch of one step, shared by every strand a worker steps
 //!   (one per thread, not per strand);
 //! - [`step`]: the linearly implicit Euler step of paper section 3.4 with the runtime's
-//!   treatment of its terms (see [`step`]).
+//!   treatment of its terms ([`linearly_implicit`]), checked after the fact and split as
+//!   the runtime's step is (energy balance, element rotation).
 //!
 //! The const parameters are N (elements), D = 3N (coordinates), E = N + 1 (element
 //! ends) and B = ⌊D/2⌋ (columns of the kept eigenbasis); `superhelix-generated` writes,
 //! for each N it is generated for, a module with these literal sizes and the generated
 //! closed forms as the [`MomentSource`].
 
+mod adaptive;
 mod dense;
 mod params;
 mod step;
 mod workspace;
 
+pub use adaptive::{step, Effects, ExtrapolatedHead, HeadTrajectory, StepCounts, StillHead};
 pub use dense::{lu_solve, negative_semidefinite_part, Projection};
 pub use params::{FixedParams, ParamsError};
-pub use step::{centreline, evaluate, step, StepError, StepInput, StepReport};
+pub use step::{centreline, evaluate, linearly_implicit, StepError, StepInput, StepReport};
 pub use workspace::{Assembly, FixedWorkspace};
 
+use crate::energy::StateEnergy;
 use crate::strand_terms::MomentSource;
 
 /// What a fixed-N strand keeps between steps: its parameters, its state and the basis
@@ -43,6 +47,8 @@ pub struct FixedStrand<const N: usize, const D: usize, const B: usize> {
     pub basis_k: usize,
     /// Whether the basis spans the negative (else the positive) eigenvalues.
     pub basis_negative: bool,
+    /// The energy of the state the last checked step ended in (the next step's start).
+    pub last_energy: Option<StateEnergy>,
 }
 
 impl<const N: usize, const D: usize, const B: usize> FixedStrand<N, D, B> {
@@ -58,6 +64,7 @@ impl<const N: usize, const D: usize, const B: usize> FixedStrand<N, D, B> {
             basis: [[0.0; D]; B],
             basis_k: 0,
             basis_negative: true,
+            last_energy: None,
         }
     }
 
@@ -66,6 +73,7 @@ impl<const N: usize, const D: usize, const B: usize> FixedStrand<N, D, B> {
         self.q = *q;
         self.v = *v;
         self.basis_k = 0;
+        self.last_energy = None;
     }
 }
 

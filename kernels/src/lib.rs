@@ -28,6 +28,7 @@ extern crate std;
 
 pub mod body_field;
 pub mod element;
+pub mod energy;
 pub mod fixed;
 pub mod head;
 pub mod helix_functions;

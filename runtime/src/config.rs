@@ -89,6 +89,35 @@ impl KernelChoice {
     }
 }
 
+/// Which engine steps the strands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Engine {
+    /// The runtime's step: any integrator and kernel, checked after the fact (energy
+    /// balance, a step split when it rotates an element too far), buffers per strand.
+    #[default]
+    Runtime,
+    /// The fixed-N step an engine embeds (`superhelix-kernels`): linearly implicit Euler
+    /// on the generated fixed-N code, no checks after the fact, one workspace per worker
+    /// thread and ~1.7 kB per strand at N = 5: for full heads.
+    Embedded,
+}
+
+impl Engine {
+    /// Name as written in scenes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Engine::Runtime => "runtime",
+            Engine::Embedded => "embedded",
+        }
+    }
+    /// Parse a scene name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        [Self::Runtime, Self::Embedded]
+            .into_iter()
+            .find(|k| k.name() == name)
+    }
+}
+
 /// Settings of a run (the scene's `[simulation]` table).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimulationConfig {
@@ -106,6 +135,8 @@ pub struct SimulationConfig {
     pub kernels: KernelChoice,
     /// Quadrature of the generic kernels.
     pub quadrature: QuadratureRule,
+    /// The engine that steps the strands.
+    pub engine: Engine,
 }
 
 impl Default for SimulationConfig {
@@ -118,6 +149,7 @@ impl Default for SimulationConfig {
             integrator: IntegratorKind::LinearlyImplicitEuler,
             kernels: KernelChoice::Auto,
             quadrature: QuadratureRule::default(),
+            engine: Engine::Runtime,
         }
     }
 }

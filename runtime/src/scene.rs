@@ -16,7 +16,9 @@ mod reader;
 mod strands;
 
 use crate::config::total_steps;
-use crate::config::{IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup};
+use crate::config::{
+    Engine, IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup,
+};
 use crate::error::{Error, FieldError, Result};
 use crate::forces::environment::Environment;
 use crate::kernels::generic::QuadratureRule;
@@ -171,6 +173,9 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
         )
     });
     let quadrature = n.optional("quadrature", d.quadrature, read_quadrature);
+    let engine = n.optional("engine", d.engine, |n, k| {
+        n.choice(k, &["runtime", "embedded"], Engine::from_name)
+    });
     let config = SimulationConfig {
         mode: mode.unwrap_or(d.mode),
         dt: dt.unwrap_or(d.dt),
@@ -179,6 +184,7 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
         integrator: integrator.unwrap_or(d.integrator),
         kernels: kernels.unwrap_or(d.kernels),
         quadrature: quadrature.unwrap_or(d.quadrature),
+        engine: engine.unwrap_or(d.engine),
     };
     if dt.is_some() && duration.is_some() && fps.is_some() {
         check_run_size(&n, &config);

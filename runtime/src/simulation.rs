@@ -2,7 +2,9 @@
 //! [`Simulation::new`] builds one [`StrandSystem`] per strand from a
 //! [`SimulationSetup`]; [`Simulation::step`] advances them all over one time step.
 
-use crate::config::{IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup};
+use crate::config::{
+    Engine, IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup,
+};
 use crate::error::{Error, FieldError, Result};
 use crate::forces::effects::GlobalEffects;
 use crate::forces::head_motion::HeadMotion;
@@ -11,6 +13,7 @@ use crate::kernels::kernel::{KernelFactory, StrandKernel};
 use crate::model::reconstruction::{pose_at, sample_centreline};
 use crate::model::strand::{Strand, StrandGeometry};
 use crate::output::FrameSource;
+use crate::solver::embedded::{group_for, EmbeddedGroup};
 use crate::solver::initial_state::check_initial_state;
 use crate::solver::{
     solve_static, step, HeadInterval, StaticReport, StepContext, StepStats, StrandState,
@@ -27,14 +30,117 @@ struct StrandSim {
     group: String,
 }
 
+/// The strands of the embedded engine ([`Engine::Embedded`]): per strand its description
+/// and where its state lives (a group of its N, a position in it).
+struct EmbeddedStrands {
+    strands: Vec<(Strand, String, usize, usize)>,
+    groups: Vec<(usize, Box<dyn EmbeddedGroup>)>,
+    gravity: Option<nalgebra::Vector3<f64>>,
+    head_moves: bool,
+    counts: superhelix_kernels::fixed::StepCounts,
+}
+
 /// A running simulation. Built from a [`SimulationSetup`]; advanced by [`Simulation::step`].
 pub struct Simulation {
     config: SimulationConfig,
     head: HeadMotion,
     samples_per_element: usize,
     strands: Vec<StrandSim>,
+    embedded: Option<EmbeddedStrands>,
     time: f64,
     steps: usize,
+}
+
+/// The embedded engine's strands of `setup`, or every reason it cannot take them.
+fn embedded_strands(setup: SimulationSetup) -> Result<(Simulation, ())> {
+    let mut errors = Vec::new();
+    let c = &setup.config;
+    if c.integrator != IntegratorKind::LinearlyImplicitEuler {
+        errors.push(FieldError::new(
+            "simulation.engine",
+            format!(
+                "the embedded engine steps with linearly-implicit-euler only (integrator = \"{}\"); \
+                 use engine = \"runtime\" for other integrators",
+                c.integrator.name()
+            ),
+        ));
+    }
+    if c.mode == Mode::Static {
+        errors.push(FieldError::new(
+            "simulation.engine",
+            "the embedded engine has no static solve; use engine = \"runtime\" with mode = \"static\"",
+        ));
+    }
+    if c.kernels == KernelChoice::Generic {
+        errors.push(FieldError::new(
+            "simulation.kernels",
+            "the embedded engine runs on generated fixed-N code; kernels = \"generic\" needs engine = \"runtime\"",
+        ));
+    }
+    let mut groups: Vec<(usize, Box<dyn EmbeddedGroup>)> = Vec::new();
+    let mut strands = Vec::with_capacity(setup.strands.len());
+    for (index, s) in setup.strands.into_iter().enumerate() {
+        let n = s.strand.geometry.elements();
+        if !s.strand.point_loads.is_empty() {
+            errors.push(FieldError::new(
+                format!("strands[{index}].point_loads"),
+                "the embedded engine has no point loads; use engine = \"runtime\"",
+            ));
+            continue;
+        }
+        let g = match groups.iter().position(|(m, _)| *m == n) {
+            Some(g) => g,
+            None => match group_for(n) {
+                Some(group) => {
+                    groups.push((n, group));
+                    groups.len() - 1
+                }
+                None => {
+                    errors.push(FieldError::new(
+                        "simulation.engine",
+                        format!(
+                            "strand '{}' (strands[{index}]) has N = {n} elements and this build has no \
+                             fixed-N code for it (build with SUPERHELIX_N={n} to add it, or use engine = \"runtime\")",
+                            s.strand.name
+                        ),
+                    ));
+                    continue;
+                }
+            },
+        };
+        let group = &mut groups[g].1;
+        let position = group.len();
+        if !group.push(&s.strand, &s.q0) {
+            errors.push(FieldError::new(
+                format!("strands[{index}].q0"),
+                format!("must have 3N = {} values", 3 * n),
+            ));
+            continue;
+        }
+        strands.push((s.strand, s.group, g, position));
+    }
+    if !errors.is_empty() {
+        return Err(Error::Invalid(errors));
+    }
+    let head_moves = setup.head != HeadMotion::Still;
+    Ok((
+        Simulation {
+            embedded: Some(EmbeddedStrands {
+                strands,
+                groups,
+                gravity: setup.environment.gravity,
+                head_moves,
+                counts: Default::default(),
+            }),
+            config: setup.config,
+            head: setup.head,
+            samples_per_element: setup.samples_per_element,
+            strands: Vec::new(),
+            time: 0.0,
+            steps: 0,
+        },
+        (),
+    ))
 }
 
 /// Check the parts of a setup the scene reader may not have (for users of the API).
@@ -132,6 +238,9 @@ impl Simulation {
     /// RK4 a dt beyond its stability limit are [`Error::Invalid`], every problem listed.
     pub fn new(setup: SimulationSetup, generated: Option<&dyn KernelFactory>) -> Result<Self> {
         check_setup(&setup)?;
+        if setup.config.engine == Engine::Embedded {
+            return embedded_strands(setup).map(|(sim, ())| sim);
+        }
         let head_moves = setup.head != HeadMotion::Still;
         let context = StepContext {
             effects: GlobalEffects {
@@ -188,6 +297,7 @@ impl Simulation {
             head: setup.head,
             samples_per_element: setup.samples_per_element,
             strands,
+            embedded: None,
             time: 0.0,
             steps: 0,
         })
@@ -199,6 +309,32 @@ impl Simulation {
     pub fn step(&mut self) -> Result<()> {
         let h = self.config.dt;
         let t = self.time;
+        if let Some(e) = &mut self.embedded {
+            let effects = superhelix_kernels::fixed::Effects {
+                gravity: e.gravity,
+                head_moves: e.head_moves,
+            };
+            for (g, (_, group)) in e.groups.iter_mut().enumerate() {
+                if let Some((position, cause)) =
+                    group.step(&self.head, &effects, t, h, &mut e.counts)
+                {
+                    let index = e
+                        .strands
+                        .iter()
+                        .position(|s| s.2 == g && s.3 == position)
+                        .unwrap_or(0);
+                    return Err(Error::Diverged {
+                        strand: e.strands[index].0.name.clone(),
+                        index,
+                        time: t + h,
+                        cause,
+                    });
+                }
+            }
+            self.time = t + h;
+            self.steps += 1;
+            return Ok(());
+        }
         let interval = HeadInterval::new(&self.head, t, h);
         let failure = self
             .strands
@@ -227,6 +363,12 @@ impl Simulation {
     /// Solve every strand's static equilibrium in place (gravity and point loads, head at
     /// rest).
     pub fn solve_static(&mut self) -> Result<Vec<StaticReport>> {
+        if self.embedded.is_some() {
+            return Err(Error::invalid(
+                "simulation.engine",
+                "the embedded engine has no static solve; use engine = \"runtime\"",
+            ));
+        }
         let reports: Vec<std::result::Result<StaticReport, (usize, String)>> = self
             .strands
             .par_iter_mut()
@@ -273,22 +415,45 @@ impl Simulation {
     }
     /// Number of strands.
     pub fn strand_count(&self) -> usize {
-        self.strands.len()
+        match &self.embedded {
+            Some(e) => e.strands.len(),
+            None => self.strands.len(),
+        }
     }
     /// Strand i.
     pub fn strand(&self, i: usize) -> &Strand {
-        &self.strands[i].system.strand
+        match &self.embedded {
+            Some(e) => &e.strands[i].0,
+            None => &self.strands[i].system.strand,
+        }
     }
     /// Generalized coordinates of strand i.
     pub fn q(&self, i: usize) -> &[f64] {
-        &self.strands[i].state.q
+        match &self.embedded {
+            Some(e) => {
+                let (_, _, g, p) = &e.strands[i];
+                e.groups[*g].1.q(*p)
+            }
+            None => &self.strands[i].state.q,
+        }
     }
     /// Generalized velocities of strand i.
     pub fn v(&self, i: usize) -> &[f64] {
-        &self.strands[i].state.v
+        match &self.embedded {
+            Some(e) => {
+                let (_, _, g, p) = &e.strands[i];
+                e.groups[*g].1.v(*p)
+            }
+            None => &self.strands[i].state.v,
+        }
     }
     /// Set the state of strand i (lengths must be 3N).
     pub fn set_state(&mut self, i: usize, q: &[f64], v: &[f64]) {
+        if let Some(e) = &mut self.embedded {
+            let (_, _, g, p) = e.strands[i];
+            e.groups[g].1.set_state(p, q, v);
+            return;
+        }
         let s = &mut self.strands[i];
         s.state.q.copy_from_slice(q);
         s.state.v.copy_from_slice(v);
@@ -296,15 +461,30 @@ impl Simulation {
     }
     /// Description of strand i's kernel.
     pub fn kernel_description(&self, i: usize) -> String {
-        self.strands[i].system.kernel.description()
+        match &self.embedded {
+            Some(e) => format!(
+                "embedded fixed-N step (N = {})",
+                e.strands[i].0.geometry.elements()
+            ),
+            None => self.strands[i].system.kernel.description(),
+        }
     }
     /// Whether strand i runs on a generated kernel.
     pub fn uses_generated_kernel(&self, i: usize) -> bool {
-        self.strands[i].system.kernel.is_generated()
+        match &self.embedded {
+            Some(_) => true,
+            None => self.strands[i].system.kernel.is_generated(),
+        }
     }
     /// Solver counters summed over strands.
     pub fn stats(&self) -> StepStats {
         let mut total = StepStats::default();
+        if let Some(e) = &self.embedded {
+            total.substeps = e.counts.substeps;
+            total.energy_rejected = e.counts.energy_rejected;
+            total.energy_limited = e.counts.energy_limited;
+            total.energy_unbalanced = e.counts.energy_unbalanced;
+        }
         for s in &self.strands {
             total.add(&s.stats);
         }
@@ -312,18 +492,25 @@ impl Simulation {
     }
     /// Largest |q̇| entry over all strands, rad/(m·s).
     pub fn max_speed(&self) -> f64 {
-        self.strands
-            .iter()
-            .flat_map(|s| s.state.v.iter())
+        (0..self.strand_count())
+            .flat_map(|i| self.v(i).iter())
             .fold(0.0, |m, v| m.max(v.abs()))
     }
     /// Total energy T + U + V_gravity + V_loads of strand i (meaningful with a still head).
     pub fn energy(&mut self, i: usize) -> f64 {
+        if self.embedded.is_some() {
+            let (q, v) = (self.q(i).to_vec(), self.v(i).to_vec());
+            return self.measuring_system(i).energy(&q, &v);
+        }
         let s = &mut self.strands[i];
         s.system.energy(&s.state.q, &s.state.v)
     }
     /// Kinetic energy ½ q̇ᵀ M q̇ of strand i relative to the head, joules.
     pub fn kinetic_energy(&mut self, i: usize) -> f64 {
+        if self.embedded.is_some() {
+            let (q, v) = (self.q(i).to_vec(), self.v(i).to_vec());
+            return self.measuring_system(i).kinetic_energy(&q, &v);
+        }
         let s = &mut self.strands[i];
         s.system.kinetic_energy(&s.state.q, &s.state.v)
     }
@@ -331,11 +518,10 @@ impl Simulation {
     /// per element.
     pub fn centreline_world(&mut self, i: usize, per_element: usize) -> Vec<[f64; 3]> {
         let head = self.head.state(self.time);
-        let s = &self.strands[i];
         let mut points = Vec::new();
         sample_centreline(
-            &s.system.strand.geometry,
-            &s.state.q,
+            &self.strand(i).geometry,
+            self.q(i),
             per_element,
             &mut points,
         );
@@ -349,8 +535,31 @@ impl Simulation {
     }
     /// Position of strand i at arc length s, head coordinates.
     pub fn position_at(&self, i: usize, s: f64) -> nalgebra::Vector3<f64> {
-        let st = &self.strands[i];
-        pose_at(&st.system.strand.geometry, &st.state.q, s).position
+        pose_at(&self.strand(i).geometry, self.q(i), s).position
+    }
+
+    /// A runtime system of strand i of the embedded engine, for measurements (energy).
+    fn measuring_system(&self, i: usize) -> StrandSystem {
+        let strand = self.strand(i).clone();
+        let kernel = Box::new(crate::kernels::moments::kernel::MomentKernel::new(
+            strand.geometry.clone(),
+            superhelix_generated::ClosedForm,
+        ));
+        let (gravity, head_moves) = self
+            .embedded
+            .as_ref()
+            .map_or((None, false), |e| (e.gravity, e.head_moves));
+        StrandSystem::new(
+            strand,
+            kernel,
+            StepContext {
+                effects: GlobalEffects {
+                    gravity,
+                    head_moves,
+                },
+                integrator: IntegratorKind::LinearlyImplicitEuler,
+            },
+        )
     }
 }
 
@@ -359,22 +568,25 @@ impl FrameSource for Simulation {
         self.time
     }
     fn strand_count(&self) -> usize {
-        self.strands.len()
+        Simulation::strand_count(self)
     }
     fn strand_name(&self, i: usize) -> &str {
-        &self.strands[i].system.strand.name
+        &self.strand(i).name
     }
     fn strand_group(&self, i: usize) -> &str {
-        &self.strands[i].group
+        match &self.embedded {
+            Some(e) => &e.strands[i].1,
+            None => &self.strands[i].group,
+        }
     }
     fn strand_radius(&self, i: usize) -> f64 {
-        crate::output::driver::display_radius(&self.strands[i].system.strand.material)
+        crate::output::driver::display_radius(&self.strand(i).material)
     }
     fn q(&self, i: usize) -> &[f64] {
-        &self.strands[i].state.q
+        Simulation::q(self, i)
     }
     fn v(&self, i: usize) -> &[f64] {
-        &self.strands[i].state.v
+        Simulation::v(self, i)
     }
     fn centreline_world(&mut self, i: usize, samples_per_element: usize) -> Vec<[f64; 3]> {
         Simulation::centreline_world(self, i, samples_per_element)

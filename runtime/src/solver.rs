@@ -10,6 +10,7 @@
 pub mod adaptive;
 pub mod bdf2;
 pub mod dense_solve;
+pub mod embedded;
 pub mod energy_balance;
 pub mod initial_state;
 pub mod linearly_implicit;

@@ -4,6 +4,7 @@
 use super::dense::{lu_solve, negative_semidefinite_part, Projection};
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
+use crate::body_field::BodyField;
 use crate::head::{body_field, HeadState};
 use crate::pose::Pose;
 use crate::strand_terms::{
@@ -65,35 +66,25 @@ impl core::fmt::Display for StepError {
     }
 }
 
-/// Fill the terms of the equation of motion at the strand's state with the head in
-/// `input.head` into `ws`: M, F = ∫JᵀF − b − K(q − q_n) − γ l q̇, b, and (when the field
-/// has them) ∂F/∂q and ∂F/∂q̇ less ∂b/∂q, and ∂b/∂q̇. Returns whether the stiffness
-/// holds field terms.
-pub fn evaluate<S: MomentSource, const N: usize, const D: usize, const E: usize, const B: usize>(
+/// The kernel terms `terms` at (q, q̇) in `field` into `ws` (M in the assembly's
+/// buffers, the force ∫JᵀF − b, b and ∫ρS y, and the requested matrices), reusing
+/// the element moments when q is the one `ws` was prepared for.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn evaluate_at<
+    S: MomentSource,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+>(
     source: &S,
     strand: &FixedStrand<N, D, B>,
-    input: &StepInput,
+    q: &[f64; D],
+    v: &[f64; D],
+    field: &BodyField,
+    terms: Terms,
     ws: &mut FixedWorkspace<N, D, E>,
-) -> bool {
-    let p = &strand.params;
-    let (q, v) = (&strand.q, &strand.v);
-    let field = body_field(
-        input.gravity,
-        input.head_moves,
-        &input.head,
-        p.mass_per_length,
-        p.air_drag,
-    );
-    let position_field = field.uniform != Vector3::zeros() || field.has_linear();
-    let velocity_field = field.velocity != nalgebra::Matrix3::zeros();
-    let terms = Terms {
-        mass: true,
-        force: true,
-        stiffness: position_field,
-        damping: velocity_field,
-        velocity_term_jacobian: true,
-    };
-    ws.forget();
+) {
     let FixedWorkspace {
         assembly,
         stiffness,
@@ -120,15 +111,56 @@ pub fn evaluate<S: MomentSource, const N: usize, const D: usize, const E: usize,
     };
     evaluate_terms(
         source,
-        &p.shape(),
+        &strand.params.shape(),
         &mut assembly.buffers(),
         q,
         v,
-        &field,
+        field,
         terms,
         &mut vectors,
         &mut sink,
     );
+}
+
+/// Fill the terms of the step at the strand's state with the head in `input.head` into
+/// `ws`: M, F = ∫JᵀF − b − K(q − q_n) − γ l q̇, b, and (when the field has them) ∂F/∂q
+/// and ∂F/∂q̇ less ∂b/∂q, and ∂b/∂q̇. Returns whether the stiffness holds field terms.
+pub fn evaluate<S: MomentSource, const N: usize, const D: usize, const E: usize, const B: usize>(
+    source: &S,
+    strand: &FixedStrand<N, D, B>,
+    input: &StepInput,
+    ws: &mut FixedWorkspace<N, D, E>,
+) -> bool {
+    ws.forget();
+    assemble(source, strand, input, ws)
+}
+
+/// [`evaluate`] without forgetting what `ws` was prepared for.
+fn assemble<S: MomentSource, const N: usize, const D: usize, const E: usize, const B: usize>(
+    source: &S,
+    strand: &FixedStrand<N, D, B>,
+    input: &StepInput,
+    ws: &mut FixedWorkspace<N, D, E>,
+) -> bool {
+    let p = &strand.params;
+    let (q, v) = (&strand.q, &strand.v);
+    let field = body_field(
+        input.gravity,
+        input.head_moves,
+        &input.head,
+        p.mass_per_length,
+        p.air_drag,
+    );
+    let position_field = field.uniform != Vector3::zeros() || field.has_linear();
+    let velocity_field = field.velocity != nalgebra::Matrix3::zeros();
+    let terms = Terms {
+        mass: true,
+        force: true,
+        stiffness: position_field,
+        damping: velocity_field,
+        velocity_term_jacobian: true,
+    };
+    evaluate_at(source, strand, q, v, &field, terms, ws);
     if !position_field {
         ws.stiffness = [[0.0; D]; D];
     }
@@ -153,10 +185,18 @@ pub fn evaluate<S: MomentSource, const N: usize, const D: usize, const E: usize,
 /// D_q = H⁻ − K with H⁻ the negative semidefinite part of the symmetrised field
 /// stiffness (a destabilising stiffness stays explicit), D_v = ∂F/∂q̇ less ∂b/∂q̇
 /// (friction, drag, Coriolis), and b ≈ ½ B q̇⁺ taken semi-implicitly (B = ∂b/∂q̇).
-/// The runtime adds checks after the fact (energy balance, step splitting); this step
-/// does not: an engine keeps `max_element_rotation` of the report below ~0.2 by its
-/// choice of h. Allocates nothing; on failure the strand keeps its state.
-pub fn step<S: MomentSource, const N: usize, const D: usize, const E: usize, const B: usize>(
+/// This is the step without checks after the fact: [`super::adaptive::step`] adds the
+/// runtime's (energy balance, splitting a step that rotates an element too far), which
+/// a strand on a moving head needs at game time steps. Without them, keep
+/// `max_element_rotation` of the report below ~0.2 by the choice of h. Allocates
+/// nothing; on failure the strand keeps its state.
+pub fn linearly_implicit<
+    S: MomentSource,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+>(
     source: &S,
     strand: &mut FixedStrand<N, D, B>,
     input: &StepInput,
@@ -166,7 +206,7 @@ pub fn step<S: MomentSource, const N: usize, const D: usize, const E: usize, con
     if !(h.is_finite() && h > 0.0) {
         return Err(StepError::TimeStep);
     }
-    let field_stiffness = evaluate(source, strand, input, ws);
+    let field_stiffness = assemble(source, strand, input, ws);
     let p = &strand.params;
     let projection = if field_stiffness {
         // H = sym(stiffness) + K, projected onto its negative semidefinite part

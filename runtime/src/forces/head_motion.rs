@@ -354,3 +354,12 @@ fn along(direction: &Vector3<f64>, offset: Profile) -> HeadState {
 
 #[cfg(test)]
 mod tests;
+
+impl superhelix_kernels::fixed::HeadTrajectory for HeadMotion {
+    fn state(&self, t: f64) -> HeadState {
+        HeadMotion::state(self, t)
+    }
+    fn uniform_over(&self, t0: f64, t1: f64) -> bool {
+        HeadMotion::uniform_over(self, t0, t1)
+    }
+}

@@ -11,27 +11,9 @@ use super::stats::StepStats;
 use super::system::{HeadInterval, StrandState, StrandSystem, StrandWorkspace};
 use crate::config::IntegratorKind;
 
-/// Largest rotation an implicit step may put into one element, radians: the change of
-/// `l_Q |d_Q|` over the step. Beyond it the step's linearisation of M(q), b and the
-/// forces no longer holds and energy can be created, so the step is split in two.
-pub const MAX_ELEMENT_ROTATION: f64 = 0.2;
-/// How many times a step may be halved (down to h / 2^depth).
-pub const MAX_SUBSTEP_DEPTH: usize = 8;
-/// With the head moving uniformly (inertial head frame), a step that creates more energy
-/// than this fraction of the energy scale S = T + U + |c0| L² (beyond round-off) is split
-/// in two; a smaller excess is removed from the velocities instead (see
-/// `implicit_adaptive`). A step of a first-order scheme that resolves the motion errs by
-/// O(h²) in E; one that creates 0.1 % of S at once does not resolve it (the straight
-/// strands after a stop created 1.6e-4 to 1.1 S per step, the kinked ones far more), and
-/// its halves are more accurate. Below it, halving again mostly costs: a strand whose
-/// fastest motion is far beyond any substep (the 3 rad kinks) errs in E at every depth.
-pub const ENERGY_SPLIT_FRACTION: f64 = 1e-3;
-/// The same as [`ENERGY_SPLIT_FRACTION`] for a head that rotates or accelerates, where
-/// the head's work over the step is a trapezoidal estimate: ordinary steps of the demo
-/// scene (2 Hz, ±30° at 1/30 s) exceed estimate plus allowance by up to 1e-2 S, so a
-/// lower threshold only splits steps that are fine; the instabilities it is for create
-/// more than S per step.
-pub const WORK_SPLIT_FRACTION: f64 = 1e-2;
+pub use superhelix_kernels::energy::{
+    ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION, MAX_SUBSTEP_DEPTH, WORK_SPLIT_FRACTION,
+};
 
 /// Advance one strand's `state` over `interval` (from t by h) with the integrator of
 /// the system's context; the head's states come from the interval (its two ends, and

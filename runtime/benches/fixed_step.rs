@@ -1,0 +1,121 @@
+//! Criterion bench: one step of a fixed-N strand (`superhelix_kernels::fixed::step`
+//! with the generated closed forms) at N = 5, hair-like (curly preset, 20 cm, hanging
+//! 17° off vertical), gravity, air drag and internal friction, dt = 1/30 s, and its parts:
+//! the step without its checks (`fixed::linearly_implicit`), the terms (`fixed::evaluate`)
+//! and the element moments alone.
+//! `cargo bench -p superhelix-runtime --bench fixed_step`.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use nalgebra::Vector3;
+use std::hint::black_box;
+use std::time::Duration;
+use superhelix_generated::ClosedForm;
+use superhelix_kernels::fixed::{
+    self, Effects, FixedParams, FixedStrand, FixedWorkspace, StepCounts, StepInput, StillHead,
+};
+use superhelix_kernels::head::HeadState;
+use superhelix_kernels::material::{helix_curvature, section_terms};
+use superhelix_kernels::moments::ElementMoments;
+use superhelix_kernels::strand_terms::MomentSource;
+
+const N: usize = 5;
+const D: usize = 15;
+const E: usize = 6;
+const B: usize = 7;
+
+fn strand() -> FixedStrand<N, D, B> {
+    let section = section_terms(50e-6, 1.1, 1.5e9, 0.48, 1300.0);
+    let k = helix_curvature(0.006, 0.005, true);
+    let n0 = Vector3::new(0.3, 0.0, -1.0).normalize();
+    let n1 = Vector3::y();
+    let n2 = n0.cross(&n1);
+    let frame = [[n0.x, n0.y, n0.z], [n1.x, n1.y, n1.z], [n2.x, n2.y, n2.z]];
+    let natural = core::array::from_fn(|i| k[i % 3]);
+    let params =
+        FixedParams::<N, D>::new([0.0; 3], frame, [0.04; N], &section, natural, 5e-11, 5e-6)
+            .expect("valid parameters");
+    FixedStrand::at_rest(params)
+}
+
+fn bench(c: &mut Criterion) {
+    let mut group = c.benchmark_group("fixed_n5");
+    group
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3))
+        .sample_size(40);
+    let input = StepInput {
+        head: HeadState::rest(),
+        gravity: Some(Vector3::new(0.0, 0.0, -9.81)),
+        head_moves: false,
+    };
+    let mut ws = Box::new(FixedWorkspace::<N, D, E>::new());
+    // a state in motion: a few steps from rest
+    let effects = Effects {
+        gravity: input.gravity,
+        head_moves: false,
+    };
+    let mut counts = StepCounts::default();
+    let h = 1.0 / 30.0;
+    let mut s = strand();
+    for k in 0..5 {
+        let t = k as f64 * h;
+        fixed::step(
+            &ClosedForm,
+            &mut s,
+            &StillHead,
+            &effects,
+            t,
+            h,
+            &mut ws,
+            &mut counts,
+        )
+        .expect("step");
+    }
+    let start = s.clone();
+    group.bench_function("step", |b| {
+        b.iter(|| {
+            let mut s = start.clone();
+            fixed::step(
+                &ClosedForm,
+                &mut s,
+                &StillHead,
+                &effects,
+                5.0 * h,
+                h,
+                &mut ws,
+                &mut counts,
+            )
+            .expect("step");
+            black_box(s.q[0])
+        })
+    });
+    group.bench_function("linearly_implicit", |b| {
+        b.iter(|| {
+            let mut s = start.clone();
+            fixed::linearly_implicit(&ClosedForm, &mut s, &input, h, &mut ws).expect("step");
+            black_box(s.q[0])
+        })
+    });
+    group.bench_function("evaluate", |b| {
+        b.iter(|| black_box(fixed::evaluate(&ClosedForm, &start, &input, &mut ws)))
+    });
+    let d: Vec<Vector3<f64>> = (0..N)
+        .map(|p| Vector3::new(start.q[3 * p], start.q[3 * p + 1], start.q[3 * p + 2]))
+        .collect();
+    let mut out = [ElementMoments::default(); N];
+    group.bench_function("element_moments", |b| {
+        b.iter(|| {
+            ClosedForm.moments_batch(
+                black_box(&d),
+                &[0.04; N],
+                &start.params.rotary_inertia,
+                &mut out,
+            );
+            black_box(out[0].first[0])
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,189 @@
+//! The embedded engine: strands stepped by the fixed-N step of `superhelix-kernels` (the
+//! step an engine embeds), kept in arrays of literal size, with one workspace per worker
+//! instead of one per strand.
+//!
+//! A strand costs [`FixedStrand::BYTES`] here (≈ 1.7 kB at N = 5) against the runtime
+//! engine's per-strand buffers (≈ 70 kB at N = 5): what lets a full head of 150,000
+//! strands fit in memory. The step is linearly implicit Euler with the same terms as the
+//! runtime's (see `superhelix_kernels::fixed::step`), without the runtime's checks after
+//! the fact (energy balance, splitting a step that rotates an element too far).
+
+use crate::model::strand::Strand;
+use rayon::prelude::*;
+use superhelix_generated::ClosedForm;
+use superhelix_kernels::fixed::{
+    self, Effects, FixedParams, FixedStrand, FixedWorkspace, HeadTrajectory, StepCounts,
+};
+
+/// Strands of one N stepped by the fixed-N step.
+pub trait EmbeddedGroup: Send + Sync {
+    /// Number of strands.
+    fn len(&self) -> usize;
+    /// True when there are none.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Add a strand at state (q, q̇ = 0); false when its N is not this group's.
+    fn push(&mut self, strand: &Strand, q0: &[f64]) -> bool;
+    /// Step every strand from `t` by `h` in parallel (the checked fixed-N step), one
+    /// workspace per chunk of strands, adding the checks' counters to `counts`; the first
+    /// failure as (position in the group, cause).
+    fn step(
+        &mut self,
+        head: &(dyn HeadTrajectory + Sync),
+        effects: &Effects,
+        t: f64,
+        h: f64,
+        counts: &mut StepCounts,
+    ) -> Option<(usize, String)>;
+    /// q of strand `i`.
+    fn q(&self, i: usize) -> &[f64];
+    /// q̇ of strand `i`.
+    fn v(&self, i: usize) -> &[f64];
+    /// Set the state of strand `i` (lengths must be 3N).
+    fn set_state(&mut self, i: usize, q: &[f64], v: &[f64]);
+    /// Bytes one strand keeps.
+    fn strand_bytes(&self) -> usize;
+    /// Bytes of one workspace.
+    fn workspace_bytes(&self) -> usize;
+}
+
+/// [`EmbeddedGroup`] for N elements (D = 3N coordinates, E = N + 1 ends, a kept
+/// eigenbasis of B = D/2 columns).
+pub struct Group<const N: usize, const D: usize, const E: usize, const B: usize> {
+    strands: Vec<FixedStrand<N, D, B>>,
+}
+
+impl<const N: usize, const D: usize, const E: usize, const B: usize> Default for Group<N, D, E, B> {
+    fn default() -> Self {
+        Group {
+            strands: Vec::new(),
+        }
+    }
+}
+
+/// The fixed-N parameters of a runtime strand.
+fn params<const N: usize, const D: usize>(s: &Strand) -> Option<FixedParams<N, D>> {
+    let g = &s.geometry;
+    if g.lengths.len() != N || s.natural.len() != D {
+        return None;
+    }
+    let stiffness = s.stiffness_diagonal();
+    Some(FixedParams {
+        root_position: g.root_position,
+        root_frame: g.root_frame,
+        lengths: core::array::from_fn(|k| g.lengths[k]),
+        natural: core::array::from_fn(|i| s.natural[i]),
+        stiffness: core::array::from_fn(|i| stiffness[i]),
+        friction: core::array::from_fn(|i| g.lengths[i / 3] * s.internal_friction),
+        mass_per_length: g.mass_per_length,
+        air_drag: s.air_drag,
+        rotary_inertia: g.rotary_inertia,
+    })
+}
+
+impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGroup
+    for Group<N, D, E, B>
+{
+    fn len(&self) -> usize {
+        self.strands.len()
+    }
+    fn push(&mut self, strand: &Strand, q0: &[f64]) -> bool {
+        let Some(params) = params::<N, D>(strand) else {
+            return false;
+        };
+        if q0.len() != D {
+            return false;
+        }
+        let mut s = FixedStrand::at_rest(params);
+        s.q.copy_from_slice(q0);
+        self.strands.push(s);
+        true
+    }
+    fn step(
+        &mut self,
+        head: &(dyn HeadTrajectory + Sync),
+        effects: &Effects,
+        t: f64,
+        h: f64,
+        counts: &mut StepCounts,
+    ) -> Option<(usize, String)> {
+        // chunks of ~1/16 of a thread's share: load balance, and one workspace per chunk
+        let threads = rayon::current_num_threads().max(1);
+        let chunk = self.strands.len().div_ceil(16 * threads).max(1);
+        let (failure, total) = self
+            .strands
+            .par_chunks_mut(chunk)
+            .enumerate()
+            .map(|(c, strands)| {
+                let mut ws = Box::new(FixedWorkspace::<N, D, E>::new());
+                let mut first = None;
+                let mut counts = StepCounts::default();
+                for (k, s) in strands.iter_mut().enumerate() {
+                    let r = fixed::step(&ClosedForm, s, head, effects, t, h, &mut ws, &mut counts);
+                    if let Err(e) = r {
+                        first.get_or_insert((c * chunk + k, e.to_string()));
+                    }
+                }
+                (first, counts)
+            })
+            .reduce(
+                || (None, StepCounts::default()),
+                |(a, mut ca), (b, cb)| {
+                    ca.add(&cb);
+                    let first = match (a, b) {
+                        (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
+                        (a, b) => a.or(b),
+                    };
+                    (first, ca)
+                },
+            );
+        counts.add(&total);
+        failure
+    }
+    fn q(&self, i: usize) -> &[f64] {
+        &self.strands[i].q
+    }
+    fn v(&self, i: usize) -> &[f64] {
+        &self.strands[i].v
+    }
+    fn set_state(&mut self, i: usize, q: &[f64], v: &[f64]) {
+        let s = &mut self.strands[i];
+        s.q.copy_from_slice(q);
+        s.v.copy_from_slice(v);
+        s.basis_k = 0;
+        s.last_energy = None;
+    }
+    fn strand_bytes(&self) -> usize {
+        FixedStrand::<N, D, B>::BYTES
+    }
+    fn workspace_bytes(&self) -> usize {
+        FixedWorkspace::<N, D, E>::BYTES
+    }
+}
+
+/// An empty group for strands of `n` elements, when this build has the fixed-N code
+/// for that N.
+pub fn group_for(n: usize) -> Option<Box<dyn EmbeddedGroup>> {
+    macro_rules! sizes {
+        ($($n:literal => $d:literal, $e:literal, $b:literal;)*) => {
+            match n {
+                $($n => Some(Box::new(Group::<$n, $d, $e, $b>::default()) as Box<dyn EmbeddedGroup>),)*
+                _ => None,
+            }
+        };
+    }
+    sizes! {
+        1 => 3, 2, 1;
+        2 => 6, 3, 3;
+        3 => 9, 4, 4;
+        4 => 12, 5, 6;
+        5 => 15, 6, 7;
+        6 => 18, 7, 9;
+        8 => 24, 9, 12;
+        10 => 30, 11, 15;
+        12 => 36, 13, 18;
+        15 => 45, 16, 22;
+        20 => 60, 21, 30;
+    }
+}
