@@ -263,7 +263,7 @@ pub fn step<S: MomentSource, const N: usize, const D: usize, const E: usize, con
     ws: &mut FixedWorkspace<N, D, E>,
     counts: &mut StepCounts,
 ) -> Result<StepReport, StepError> {
-    if !(h.is_finite() && h > 0.0) || !t.is_finite() {
+    if !(h.is_finite() && h > 0.0 && t.is_finite()) {
         return Err(StepError::TimeStep);
     }
     ws.forget();

@@ -87,7 +87,7 @@ fn cholesky<const D: usize>(a: &mut [[f64; D]; D]) -> bool {
         for k in 0..j {
             d -= a[k][j] * a[k][j];
         }
-        if !(d > 0.0) || !d.is_finite() {
+        if d.is_nan() || d <= 0.0 || !d.is_finite() {
             return false;
         }
         let d = sqrt(d);
