@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 use superhelix_runtime::config::{
-    IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup, StrandSetup,
+    Engine, IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup, StrandSetup,
 };
 use superhelix_runtime::model::material::{helix_curvature, HelixForm, Preset};
 use superhelix_runtime::model::strand::{PointLoad, Strand, StrandGeometry};
@@ -111,6 +111,10 @@ pub struct BenchOptions {
     pub quadrature: QuadratureRule,
     /// Time step, s.
     pub dt: f64,
+    /// Strand length, m.
+    pub length: f64,
+    /// The engine stepping the strands.
+    pub engine: Engine,
 }
 
 impl Default for BenchOptions {
@@ -125,6 +129,8 @@ impl Default for BenchOptions {
             integrator: IntegratorKind::LinearlyImplicitEuler,
             quadrature: QuadratureRule::Adaptive,
             dt: 1.0 / 30.0,
+            length: 0.2,
+            engine: Engine::Runtime,
         }
     }
 }
@@ -169,6 +175,12 @@ fn check(o: &BenchOptions) -> Result<()> {
             "must be in 1..=10000000",
         ));
     }
+    if !(o.length.is_finite() && o.length > 0.0 && o.length <= 10.0) {
+        problems.push(superhelix_runtime::FieldError::new(
+            "--length",
+            "must be finite, > 0 and <= 10 m",
+        ));
+    }
     if problems.is_empty() {
         Ok(())
     } else {
@@ -176,13 +188,13 @@ fn check(o: &BenchOptions) -> Result<()> {
     }
 }
 
-/// The strands of a benchmark: 20 cm strands of the preset leaving a 10 cm head
+/// The strands of a benchmark: strands (20 cm unless `length` says otherwise) of the preset leaving a 10 cm head
 /// sideways, roots spread around it.
 fn strands(o: &BenchOptions) -> Vec<StrandSetup> {
     let p = o.preset.params();
     let material = p.cross_section.material();
     let natural = helix_curvature(p.helix_radius, p.helix_step, HelixForm::Exact);
-    let length = 0.2;
+    let length = o.length;
     (0..o.strands)
         .map(|i| {
             let angle = i as f64 * 2.399963; // golden angle: roots spread evenly
@@ -234,6 +246,7 @@ pub fn setup(o: &BenchOptions) -> Result<SimulationSetup> {
             integrator: o.integrator,
             kernels: o.kernels,
             quadrature: o.quadrature,
+            engine: o.engine,
             ..SimulationConfig::default()
         },
         environment: Environment {

@@ -21,6 +21,9 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+/// The no_std core the generated code runs on (element, moments, the fixed-N step).
+pub use superhelix_kernels as kernels;
+
 /// Generated: the centreline moments of M (see the file's header for op counts).
 #[rustfmt::skip]
 #[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]

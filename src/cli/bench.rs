@@ -44,6 +44,14 @@ pub struct BenchArgs {
     /// Gauss-Legendre points per element of the generic kernels (default: adaptive).
     #[arg(long)]
     quadrature: Option<usize>,
+    /// Engine: runtime (the runtime's step, buffers per strand) or embedded (the
+    /// fixed-N step an engine embeds, one workspace per thread); default runtime, or
+    /// with --scene the scene's own.
+    #[arg(long)]
+    engine: Option<String>,
+    /// Strand length, metres (ignored with --scene).
+    #[arg(long, default_value_t = 0.2)]
+    length: f64,
     /// Worker threads the strands are spread over (default: one per core). With 1,
     /// the CPU time per strand-step is the step's own cost, free of the scheduling
     /// and shared-core effects of parallel runs.
@@ -80,12 +88,19 @@ fn bench_generated(args: &BenchArgs) -> Result<ExitCode, Error> {
             Some(n) => QuadratureRule::Fixed(n),
             None => QuadratureRule::Adaptive,
         },
+        length: args.length,
+        engine: engine(args.engine.as_deref().unwrap_or("runtime"))?,
         ..BenchOptions::default()
     };
     let report = bench(&options)?;
     println!(
-        "N={} strands={} steps={} kernels={kernel_name} ({}) effects={effects} integrator={integrator_name}",
-        args.elements, args.strands, args.steps, report.kernel
+        "N={} strands={} steps={} length={} m engine={} kernels={kernel_name} ({}) effects={effects} integrator={integrator_name}",
+        args.elements,
+        args.strands,
+        args.steps,
+        args.length,
+        options.engine.name(),
+        report.kernel
     );
     print_report(&report);
     Ok(ExitCode::SUCCESS)
@@ -105,6 +120,9 @@ fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
     if let Some(name) = &args.integrator {
         setup.config.integrator = integrator(name)?;
     }
+    if let Some(name) = &args.engine {
+        setup.config.engine = engine(name)?;
+    }
     let names = scene_effects(&setup).names().join(",");
     let integrator = setup.config.integrator.name();
     let steps = args.steps;
@@ -116,6 +134,12 @@ fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
     );
     print_report(&report);
     Ok(ExitCode::SUCCESS)
+}
+
+/// The engine named by `--engine`.
+fn engine(name: &str) -> Result<superhelix::runtime::config::Engine, Error> {
+    superhelix::runtime::config::Engine::from_name(name)
+        .ok_or_else(|| Error::invalid("--engine", "must be runtime or embedded"))
 }
 
 fn print_report(report: &BenchReport) {
