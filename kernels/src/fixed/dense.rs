@@ -186,3 +186,97 @@ pub fn negative_semidefinite_part<const D: usize>(
     }
     Projection::Decomposed
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Deterministic values in [-1, 1].
+    fn values(seed: u64) -> impl FnMut() -> f64 {
+        let mut s = seed;
+        move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        }
+    }
+
+    #[test]
+    fn lu_solve_gives_a_small_residual_and_refuses_a_singular_matrix() {
+        const D: usize = 15;
+        let mut next = values(7);
+        let a: [[f64; D]; D] = core::array::from_fn(|_| core::array::from_fn(|_| next()));
+        let b: [f64; D] = core::array::from_fn(|_| next());
+        let (mut lu, mut x, mut piv) = (a, b, [0; D]);
+        assert!(lu_solve(&mut lu, &mut x, &mut piv));
+        for r in 0..D {
+            let ax: f64 = (0..D).map(|c| a[c][r] * x[c]).sum();
+            assert!((ax - b[r]).abs() < 1e-12, "row {r}: {ax} vs {}", b[r]);
+        }
+        let mut singular = a;
+        singular[3] = singular[5];
+        let (mut x, mut piv) = (b, [0; D]);
+        assert!(!lu_solve(&mut singular, &mut x, &mut piv) || x.iter().any(|v| v.abs() > 1e12));
+    }
+
+    #[test]
+    fn negative_part_of_a_known_spectrum() {
+        const D: usize = 6;
+        // Q diag(λ) Qᵀ with Q a product of plane rotations
+        let lambda = [-3.0, -1e-3, 0.0, 2.0, 5.0, -0.5];
+        let mut q = [[0.0; D]; D];
+        for i in 0..D {
+            q[i][i] = 1.0;
+        }
+        let mut next = values(11);
+        for _ in 0..20 {
+            let (i, j) = (
+                (next().abs() * 6.0) as usize % D,
+                (next().abs() * 6.0) as usize % D,
+            );
+            if i == j {
+                continue;
+            }
+            let th = next() * 3.0;
+            let (s, c) = crate::math::sin_cos(th);
+            for k in 0..D {
+                let (a, b) = (q[i][k], q[j][k]);
+                q[i][k] = c * a - s * b;
+                q[j][k] = s * a + c * b;
+            }
+        }
+        let build = |l: &[f64; D]| -> [[f64; D]; D] {
+            core::array::from_fn(|c| {
+                core::array::from_fn(|r| (0..D).map(|k| q[k][r] * l[k] * q[k][c]).sum())
+            })
+        };
+        let mut h = build(&lambda);
+        let expected = build(&lambda.map(|l: f64| l.min(0.0)));
+        let (mut v, mut w) = ([[0.0; D]; D], [0.0; D]);
+        assert_eq!(
+            negative_semidefinite_part(&mut h, &mut v, &mut w),
+            Projection::Decomposed
+        );
+        for c in 0..D {
+            for r in 0..D {
+                assert!((h[c][r] - expected[c][r]).abs() < 1e-12, "({r}, {c})");
+            }
+        }
+        // negative definite: its own part, by Cholesky
+        let mut nd = build(&[-1.0, -2.0, -3.0, -0.5, -4.0, -1e-2]);
+        let copy = nd;
+        assert_eq!(
+            negative_semidefinite_part(&mut nd, &mut v, &mut w),
+            Projection::Definite
+        );
+        assert_eq!(nd, copy);
+        // not finite: refused, unchanged
+        let mut bad = copy;
+        bad[2][1] = f64::NAN;
+        assert_eq!(
+            negative_semidefinite_part(&mut bad, &mut v, &mut w),
+            Projection::Failed
+        );
+    }
+}
