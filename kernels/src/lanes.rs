@@ -214,9 +214,9 @@ pub fn mat_scale<T: Real>(a: &M<T>, s: T) -> M<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::{Matrix3, Vector3};
     #[allow(unused_imports)]
     use std::{format, vec, vec::Vec};
-    use nalgebra::{Matrix3, Vector3};
 
     fn v(a: &Vector3<f64>) -> V<f64> {
         [a[0], a[1], a[2]]

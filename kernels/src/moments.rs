@@ -17,8 +17,8 @@ pub mod rotary;
 
 use crate::body_field::BodyField;
 use crate::element::{element_jets, local_pose};
-use crate::quadrature::gauss_legendre;
 use crate::pose::Pose;
+use crate::quadrature::gauss_legendre;
 use nalgebra::{Matrix3, Vector3};
 
 type V3 = Vector3<f64>;

@@ -1,7 +1,6 @@
 //! Gauss–Legendre quadrature rules: computed once per order and cached with the `std`
 //! feature, computed on the stack at each call without it.
 
-
 /// Highest order available.
 pub const MAX_ORDER: usize = 256;
 

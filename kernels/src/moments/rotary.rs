@@ -11,14 +11,14 @@
 //! element's frequencies keeps them far below the kernels' 1e-10 agreement); M's rotary
 //! part uses the closed-form moments `rot`, `rot_w`, `rot_ww`.
 
-use crate::moments::{ElementMoments, EndDerivatives, FrameMotion};
 use crate::element::RotaryPoints;
 use crate::lanes::{
     add, cross, cross_matrix, dot, mat_add, mat_mul, mat_scale, mat_vec, scale, transpose, Real,
     F4, M, V,
 };
-use crate::quadrature::gauss_legendre;
+use crate::moments::{ElementMoments, EndDerivatives, FrameMotion};
 use crate::pose::Pose;
+use crate::quadrature::gauss_legendre;
 use nalgebra::{Matrix3, Vector3};
 
 type V3 = Vector3<f64>;
@@ -386,9 +386,9 @@ pub fn add_rotary_terms(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::element::{local_pose, ElementPoint};
     #[allow(unused_imports)]
     use std::{format, vec, vec::Vec};
-    use crate::element::{local_pose, ElementPoint};
 
     /// The rotary integrals one point at a time with nalgebra: the code the lane version
     /// replaced, kept as the reference it must match bit for bit.

@@ -7,7 +7,6 @@ use crate::model::strand::StrandGeometry;
 use nalgebra::Vector3;
 pub use superhelix_kernels::pose::{darboux, Pose};
 
-
 /// Poses at the N + 1 element ends (root first), in head coordinates.
 /// `ends.len()` must be N + 1.
 pub fn element_ends(geom: &StrandGeometry, q: &[f64], ends: &mut [Pose]) {
