@@ -19,7 +19,21 @@
 //! the outputs of j's group (the entries of one tensor), which is the error an
 //! assembly contracting the whole tensor sees. Samples: pseudo-random unit directions
 //! of d (seeded, reproducible), `|d| = x/l`, with l alternating between 1 and 0.01.
+//!
+//! # f32
+//! With [`Float::F32`] the measurement is the one the f32 code needs: the sample points
+//! are rounded to f32 (the inputs the code sees), and each branch is evaluated *in f32
+//! arithmetic* ([`crate::graph::Evaluator::eval_f32`]) and compared with an f64
+//! reference at the same inputs: the Taylor series of degree `N + 8` evaluated in f64
+//! (its truncation and round-off are far below f32's). The truncation of the Taylor
+//! branch is still measured in f64, as above, against the f32 targets
+//! ([`SwitchOptions::for_f32`]). A candidate is taken when the larger of the two
+//! branches' errors (their "agreement") is within the targets; errors are relative to
+//! the largest `|reference|` of the output's group *at the same sample point* (stricter
+//! than the scale over all directions: an element whose entries are all small is
+//! measured at its own size).
 
+use crate::float::Float;
 use crate::graph::{Graph, Id};
 use crate::helix::HelixSymbols;
 
@@ -60,6 +74,88 @@ pub(crate) fn samples(x: f64, n: usize, seed: u64) -> Vec<([f64; 3], f64)> {
             ([e[0] * x / l, e[1] * x / l, e[2] * x / l], l)
         })
         .collect()
+}
+
+/// [`samples`] rounded to `float` (the inputs generated code of that type sees).
+pub(crate) fn samples_in(x: f64, n: usize, seed: u64, float: Float) -> Vec<([f64; 3], f64)> {
+    let mut pts = samples(x, n, seed);
+    for (d, l) in pts.iter_mut() {
+        *d = d.map(|v| float.round(v));
+        *l = float.round(*l);
+    }
+    pts
+}
+
+/// Values of `ids` at every sample evaluated in `float` arithmetic (f32: the bindings
+/// computed as the f32 prologue does, [`HelixSymbols::bindings_f32`]).
+pub(crate) fn evaluate_in(
+    g: &Graph,
+    h: &HelixSymbols,
+    ids: &[Id],
+    pts: &[([f64; 3], f64)],
+    float: Float,
+) -> Vec<Vec<f64>> {
+    match float {
+        Float::F64 => evaluate(g, h, ids, pts),
+        Float::F32 => {
+            let ev = g.evaluator(ids);
+            pts.iter()
+                .map(|(d, l)| ev.eval_f32(g, &h.bindings_f32(*d, *l, 0.0)))
+                .collect()
+        }
+    }
+}
+
+/// Relative difference between `a` and the reference `b` of every output, the worst
+/// over all samples, with the scale taken *per sample*: the largest `|b|` over the
+/// outputs of the group at that sample (see the module docs, "f32"). A sample whose
+/// group scale is zero counts 0 if `a` is zero there too, else infinity.
+pub(crate) fn relative_per_point(a: &[Vec<f64>], b: &[Vec<f64>], groups: &[usize]) -> Vec<f64> {
+    let k = b.first().map_or(0, |v| v.len());
+    let ng = groups.iter().copied().max().map_or(0, |m| m + 1);
+    let mut worst = vec![0.0f64; k];
+    for (va, vb) in a.iter().zip(b) {
+        let mut scale = vec![0.0f64; ng];
+        for j in 0..k {
+            scale[groups[j]] = scale[groups[j]].max(vb[j].abs());
+        }
+        for j in 0..k {
+            let e = (va[j] - vb[j]).abs();
+            let r = if e == 0.0 {
+                0.0
+            } else if scale[groups[j]] > 0.0 {
+                e / scale[groups[j]]
+            } else {
+                f64::INFINITY
+            };
+            worst[j] = worst[j].max(r);
+        }
+    }
+    worst
+}
+
+fn max_of(v: &[f64]) -> f64 {
+    v.iter().copied().fold(0.0, f64::max)
+}
+
+/// The errors of the Taylor branch `s` and of the closed form `closed`, evaluated in
+/// f32 at `pts`, against the f64 values `reference` there ([`relative_per_point`] per
+/// output under `groups`).
+fn f32_errors(
+    g: &Graph,
+    h: &HelixSymbols,
+    closed: &[Id],
+    s: &[Id],
+    reference: &[Vec<f64>],
+    pts: &[([f64; 3], f64)],
+    groups: &[usize],
+) -> (Vec<f64>, Vec<f64>) {
+    let sv = evaluate_in(g, h, s, pts, Float::F32);
+    let cv = evaluate_in(g, h, closed, pts, Float::F32);
+    (
+        relative_per_point(&sv, reference, groups),
+        relative_per_point(&cv, reference, groups),
+    )
 }
 
 /// Values of `ids` at every sample: `out[sample][output]`.
@@ -127,6 +223,16 @@ pub struct SwitchChoice {
     pub agreement_per_output: f64,
     /// Estimated largest relative truncation error of the Taylor branch at `x*`.
     pub truncation: f64,
+    /// With [`Float::F32`]: the largest error of the Taylor branch in f32 at `x*`
+    /// against the f64 reference, over both sample sets (per point and group, see the
+    /// module docs); NaN for f64.
+    pub series_error: f64,
+    /// The same for the closed form in f32.
+    pub closed_error: f64,
+    /// Whether the agreement target was met (always, for f64: without, there is no
+    /// switch); with [`Float::F32`], `false` means that no candidate met it and the
+    /// switch is the one of smallest error ([`pick_f32`]).
+    pub target_met: bool,
 }
 
 /// Targets and search ranges of the switch selection.
@@ -231,6 +337,21 @@ impl Default for SwitchOptions {
     }
 }
 
+impl SwitchOptions {
+    /// These options with the targets of f32 code ([`Float::F32`]): a truncation
+    /// target of one f32 unit round-off (`2^-24`, the Taylor branch as exact as one f32
+    /// operation) and an agreement target of 16 round-offs (`2^-20`, about what the
+    /// f64 targets are in f64 round-offs: 1e-15 ≈ 9 and 1e-14 ≈ 90 units of `2^-53`,
+    /// both scaled to f32's), which the error of either f32 branch against the f64
+    /// reference must meet at the switch.
+    pub fn for_f32(mut self) -> SwitchOptions {
+        let u = Float::F32.unit_roundoff();
+        self.truncation_target = u;
+        self.agreement_target = 16.0 * u;
+        self
+    }
+}
+
 /// Builds the Taylor branch of every output at a given order.
 pub(crate) type SeriesBuilder<'a> =
     dyn FnMut(&mut Graph, u32) -> Result<Vec<Id>, crate::CodegenError> + 'a;
@@ -244,7 +365,11 @@ pub(crate) fn choose(
     series: &mut SeriesBuilder<'_>,
     groups: &[usize],
     opts: &SwitchOptions,
+    float: Float,
 ) -> Result<SwitchChoice, crate::CodegenError> {
+    if float == Float::F32 {
+        return choose_f32(g, h, closed, series, groups, opts);
+    }
     let mut order = opts.min_order;
     let mut best: Option<SwitchChoice> = None;
     let mut pending: Option<SwitchChoice> = None;
@@ -275,6 +400,9 @@ pub(crate) fn choose(
             agreement,
             agreement_per_output: f64::NAN,
             truncation: trunc,
+            series_error: f64::NAN,
+            closed_error: f64::NAN,
+            target_met: true,
         };
         if best.is_none_or(|b| agreement < b.agreement) {
             best = Some(c);
@@ -317,6 +445,187 @@ pub(crate) fn choose(
     )))
 }
 
+/// The smallest even order from `*order` up whose truncation at `pts` (against the
+/// series of order + 8, in f64) is within the target, or the largest tried; with its
+/// truncation.
+#[allow(clippy::too_many_arguments)]
+fn order_for(
+    g: &mut Graph,
+    h: &HelixSymbols,
+    series: &mut SeriesBuilder<'_>,
+    groups: &[usize],
+    pts: &[([f64; 3], f64)],
+    order: &mut u32,
+    limit: u32,
+    target: f64,
+) -> Result<f64, crate::CodegenError> {
+    loop {
+        let reference = series(g, *order + 8)?;
+        let s = series(g, *order)?;
+        let r = evaluate(g, h, &reference, pts);
+        let sv = evaluate(g, h, &s, pts);
+        let t = max_relative(&sv, &r, groups);
+        if t <= target || *order + 2 > limit {
+            return Ok(t);
+        }
+        *order += 2;
+    }
+}
+
+/// What the f32 selection measured at one candidate switch: the errors of the two
+/// branches computed in f32 against the f64 reference, on the selection samples and
+/// on all samples (selection and check sets).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct F32Candidate {
+    /// The candidate `x*`.
+    pub x: f64,
+    /// Error of the Taylor branch on the selection samples.
+    pub series_sel: f64,
+    /// Error of the closed form on the selection samples.
+    pub closed_sel: f64,
+    /// Error of the Taylor branch on all samples.
+    pub series_all: f64,
+    /// Error of the closed form on all samples.
+    pub closed_all: f64,
+}
+
+/// The f32 selection rule over the measured candidates (in increasing order): the
+/// error of candidate i is the larger error of its Taylor branch at `x_i` and of the
+/// closed form at `x_i` and (with `confirm_next`) at `x_{i+1}` — what the function errs
+/// by just below and just above the switch. The first candidate whose error is within
+/// `safety · target` on the selection samples and within `target` on all samples is
+/// taken, as for f64; when none is (the f32 closed forms do not reach a few f32
+/// round-offs anywhere on the candidate range), the one with the smallest error on all
+/// samples, where the two branches' error curves cross. Returns the index, its error
+/// on all samples, and whether the target was met. `None` without candidates.
+pub(crate) fn pick_f32(
+    c: &[F32Candidate],
+    target: f64,
+    safety: f64,
+    confirm_next: bool,
+) -> Option<(usize, f64, bool)> {
+    // (Taylor, closed) on the selection samples or on all
+    let at = |k: usize, sel: bool| {
+        if sel {
+            (c[k].series_sel, c[k].closed_sel)
+        } else {
+            (c[k].series_all, c[k].closed_all)
+        }
+    };
+    let err = |i: usize, sel: bool| {
+        let (s, cl) = at(i, sel);
+        let next = if confirm_next && i + 1 < c.len() {
+            at(i + 1, sel).1
+        } else {
+            0.0
+        };
+        s.max(cl).max(next)
+    };
+    // with confirm_next, the last candidate has no next to confirm it
+    let usable = if confirm_next && c.len() > 1 {
+        c.len() - 1
+    } else {
+        c.len()
+    };
+    if let Some(i) =
+        (0..usable).find(|&i| err(i, true) <= safety * target && err(i, false) <= target)
+    {
+        return Some((i, err(i, false), true));
+    }
+    (0..usable)
+        .min_by(|&a, &b| err(a, false).total_cmp(&err(b, false)))
+        .map(|i| (i, err(i, false), false))
+}
+
+/// [`choose`] for [`Float::F32`] (see the module docs, "f32" and [`pick_f32`]): every
+/// candidate measured (up to the first whose truncation target no order up to
+/// `max_order` meets), the Taylor order from the truncation target as for f64, each
+/// branch in f32 against the f64 reference (the Taylor series of degree `order + 8` in
+/// f64).
+fn choose_f32(
+    g: &mut Graph,
+    h: &HelixSymbols,
+    closed: &[Id],
+    series: &mut SeriesBuilder<'_>,
+    groups: &[usize],
+    opts: &SwitchOptions,
+) -> Result<SwitchChoice, crate::CodegenError> {
+    let float = Float::F32;
+    let mut order = opts.min_order;
+    let mut measured: Vec<(F32Candidate, u32, f64)> = Vec::new();
+    for &x in &opts.candidates {
+        let pts = samples_in(x, opts.samples, opts.seed, float);
+        let trunc = order_for(
+            g,
+            h,
+            series,
+            groups,
+            &pts,
+            &mut order,
+            opts.max_order,
+            opts.truncation_target,
+        )?;
+        if trunc > opts.truncation_target {
+            break;
+        }
+        let mut all = pts.clone();
+        all.extend(samples_in(x, opts.check_samples, opts.seed ^ 0xa5a5, float));
+        let s = series(g, order)?;
+        let reference = series(g, order + 8)?;
+        let rv = evaluate(g, h, &reference, &all);
+        let (es, ec) = f32_errors(g, h, closed, &s, &rv, &all, groups);
+        let n = pts.len();
+        let (ss, cs) = f32_errors(g, h, closed, &s, &rv[..n], &pts, groups);
+        measured.push((
+            F32Candidate {
+                x,
+                series_sel: max_of(&ss),
+                closed_sel: max_of(&cs),
+                series_all: max_of(&es),
+                closed_all: max_of(&ec),
+            },
+            order,
+            trunc,
+        ));
+    }
+    let cands: Vec<F32Candidate> = measured.iter().map(|m| m.0).collect();
+    let Some((i, agreement, target_met)) = pick_f32(
+        &cands,
+        opts.agreement_target,
+        opts.safety,
+        opts.confirm_next,
+    ) else {
+        return Err(crate::CodegenError::NoSwitch(format!(
+            "no candidate x* meets the (f32) truncation target {:e}",
+            opts.truncation_target
+        )));
+    };
+    let (c, order, truncation) = measured[i];
+    // the per-output figure, for the record
+    let mut all = samples_in(c.x, opts.samples, opts.seed, float);
+    all.extend(samples_in(
+        c.x,
+        opts.check_samples,
+        opts.seed ^ 0xa5a5,
+        float,
+    ));
+    let s = series(g, order)?;
+    let reference = series(g, order + 8)?;
+    let rv = evaluate(g, h, &reference, &all);
+    let own: Vec<usize> = (0..closed.len()).collect();
+    let (ps, pc) = f32_errors(g, h, closed, &s, &rv, &all, &own);
+    Ok(SwitchChoice {
+        x_star: c.x,
+        order,
+        agreement,
+        agreement_per_output: max_of(&ps).max(max_of(&pc)),
+        truncation,
+        series_error: c.series_all,
+        closed_error: c.closed_all,
+        target_met,
+    })
+}
+
 /// The low-degree Taylor branch below the main one.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LowTier {
@@ -335,6 +644,10 @@ pub struct LowTier {
 /// whose truncation target is met at an even degree ≤ half the main degree, that
 /// degree, and its measured agreement with the main Taylor branch there (which differs
 /// only by truncation). `None` if no candidate qualifies.
+///
+/// With [`Float::F32`] the agreement is the error of the low branch evaluated in f32
+/// against the f64 reference (the series of the main degree + 8 in f64), at sample
+/// points rounded to f32.
 pub(crate) fn choose_low(
     g: &mut Graph,
     h: &HelixSymbols,
@@ -342,11 +655,43 @@ pub(crate) fn choose_low(
     groups: &[usize],
     opts: &SwitchOptions,
     main: &SwitchChoice,
+    float: Float,
 ) -> Result<Option<LowTier>, crate::CodegenError> {
     let limit = (main.order / 2) & !1;
     let mut order = opts.min_order;
     let mut best = None;
     for &x in opts.candidates.iter().filter(|&&x| x < main.x_star) {
+        if float == Float::F32 {
+            let mut pts = samples_in(x, opts.samples, opts.seed, float);
+            let trunc = order_for(
+                g,
+                h,
+                series,
+                groups,
+                &pts,
+                &mut order,
+                limit,
+                opts.truncation_target,
+            )?;
+            if trunc > opts.truncation_target {
+                break;
+            }
+            pts.extend(samples_in(x, opts.check_samples, opts.seed ^ 0xa5a5, float));
+            let low = series(g, order)?;
+            let reference = series(g, main.order + 8)?;
+            let rv = evaluate(g, h, &reference, &pts);
+            let lv = evaluate_in(g, h, &low, &pts, float);
+            let agreement = max_of(&relative_per_point(&lv, &rv, groups));
+            if agreement <= opts.agreement_target {
+                best = Some(LowTier {
+                    x,
+                    order,
+                    truncation: trunc,
+                    agreement,
+                });
+            }
+            continue;
+        }
         let pts = samples(x, opts.samples, opts.seed);
         let trunc = loop {
             let reference = series(g, order + 8)?;
@@ -398,6 +743,12 @@ pub struct ScanRow {
     pub agreement: f64,
     /// Index of the output with the worst agreement.
     pub worst: usize,
+    /// With [`Float::F32`]: the error of the Taylor branch in f32 against the f64
+    /// reference over both sample sets (the agreement is the larger of this and
+    /// `closed_error`); NaN for f64.
+    pub series_error: f64,
+    /// The same for the closed form in f32.
+    pub closed_error: f64,
 }
 
 /// Measure every candidate (no early exit), for diagnostics.
@@ -408,10 +759,43 @@ pub(crate) fn scan(
     series: &mut SeriesBuilder<'_>,
     groups: &[usize],
     opts: &SwitchOptions,
+    float: Float,
 ) -> Result<Vec<ScanRow>, crate::CodegenError> {
     let mut order = opts.min_order;
     let mut rows = Vec::new();
     for &x in &opts.candidates {
+        if float == Float::F32 {
+            let mut pts = samples_in(x, opts.samples, opts.seed, float);
+            let trunc = order_for(
+                g,
+                h,
+                series,
+                groups,
+                &pts,
+                &mut order,
+                opts.max_order,
+                opts.truncation_target,
+            )?;
+            pts.extend(samples_in(x, opts.check_samples, opts.seed ^ 0xa5a5, float));
+            let s = series(g, order)?;
+            let reference = series(g, order + 8)?;
+            let rv = evaluate(g, h, &reference, &pts);
+            let (es, ec) = f32_errors(g, h, closed, &s, &rv, &pts, groups);
+            let per: Vec<f64> = es.iter().zip(&ec).map(|(a, b)| a.max(*b)).collect();
+            let worst = (0..per.len())
+                .max_by(|&a, &b| per[a].total_cmp(&per[b]))
+                .unwrap_or(0);
+            rows.push(ScanRow {
+                x,
+                order,
+                truncation: trunc,
+                agreement: per.get(worst).copied().unwrap_or(0.0),
+                worst,
+                series_error: max_of(&es),
+                closed_error: max_of(&ec),
+            });
+            continue;
+        }
         let pts = samples(x, opts.samples, opts.seed);
         let trunc = loop {
             let reference = series(g, order + 8)?;
@@ -439,7 +823,59 @@ pub(crate) fn scan(
             truncation: trunc,
             agreement: per.get(worst).copied().unwrap_or(0.0),
             worst,
+            series_error: f64::NAN,
+            closed_error: f64::NAN,
         });
     }
     Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cand(x: f64, s: f64, c: f64) -> F32Candidate {
+        F32Candidate {
+            x,
+            series_sel: s,
+            closed_sel: c,
+            series_all: s,
+            closed_all: c,
+        }
+    }
+
+    #[test]
+    fn f32_pick_takes_the_first_candidate_within_the_target_else_the_smallest_error() {
+        // the closed form's error falls, the Taylor branch's rises
+        let c = [
+            cand(1.0, 1.0, 50.0),
+            cand(2.0, 2.0, 9.0),
+            cand(3.0, 4.0, 3.0),
+            cand(4.0, 8.0, 2.0),
+            cand(5.0, 30.0, 1.0),
+        ];
+        // within 10 (5 on the selection samples): 3.0 (its next closed, 2.0, passes too)
+        assert_eq!(pick_f32(&c, 10.0, 0.5, true), Some((2, 4.0, true)));
+        // without confirm_next the same here; 2.0 fails the safety margin (9 > 5)
+        assert_eq!(pick_f32(&c, 10.0, 0.5, false), Some((2, 4.0, true)));
+        // with confirm_next, the next closed form counts: 2.0's error is max(2, 9, 3)
+        assert_eq!(pick_f32(&c, 20.0, 0.5, true), Some((1, 9.0, true)));
+        // nowhere within 1: the smallest error, max(Taylor, closed, next closed)
+        assert_eq!(pick_f32(&c, 1.0, 0.5, true), Some((2, 4.0, false)));
+        assert_eq!(pick_f32(&[], 1.0, 0.5, true), None);
+        // one candidate: no next to confirm it, taken on its own
+        assert_eq!(pick_f32(&c[..1], 1.0, 0.5, true), Some((0, 50.0, false)));
+    }
+
+    #[test]
+    fn per_point_scale_is_the_group_at_that_point() {
+        // two samples, two outputs in one group; the second sample is 1000 times smaller
+        let b = vec![vec![1.0, 0.5], vec![1e-3, 5e-4]];
+        let a = vec![vec![1.0, 0.5], vec![1e-3, 5e-4 + 1e-6]];
+        let per_point = relative_per_point(&a, &b, &[0, 0]);
+        assert!((per_point[1] - 1e-3).abs() < 1e-12, "{per_point:?}");
+        // the f64 measure divides by the largest over the samples
+        let over_samples = relative_per_output(&a, &b, &[0, 0]);
+        assert!((over_samples[1] - 1e-6).abs() < 1e-15, "{over_samples:?}");
+    }
 }

@@ -7,6 +7,7 @@
 //! `sin_cos` call. Every operation written is counted.
 
 use crate::cse::{bindings, OpCounts};
+use crate::float::Float;
 use crate::graph::{Graph, Id, Node};
 use crate::number::Num;
 use proc_macro2::{Ident, Literal, Span, TokenStream};
@@ -27,18 +28,37 @@ enum Prec {
 
 /// A non-negative float literal (shortest round-trip form).
 pub(crate) fn literal(v: f64) -> TokenStream {
+    literal_in(v, Float::F64)
+}
+
+/// A non-negative float literal of `v` rounded to `float`, in the shortest form that
+/// reads back as that value of that type (unsuffixed: the type comes from the context).
+/// Panics when a nonzero `v` rounds to zero or infinity in `float`.
+pub(crate) fn literal_in(v: f64, float: Float) -> TokenStream {
     debug_assert!(v >= 0.0 && v.is_finite());
+    // Display and LowerExp print the shortest digits that read back as the value
+    let (plain, exp) = match float {
+        Float::F64 => (format!("{v}"), format!("{v:e}")),
+        Float::F32 => {
+            let r = v as f32;
+            assert!(
+                r.is_finite() && (r == 0.0) == (v == 0.0),
+                "constant {v:e} is not representable as f32"
+            );
+            (format!("{r}"), format!("{r:e}"))
+        }
+    };
+    let v = float.round(v);
     let s = if v == 0.0 {
         "0.0".to_string()
     } else if (1e-5..1e16).contains(&v) {
-        let s = format!("{v}");
-        if s.contains('.') {
-            s
+        if plain.contains('.') {
+            plain
         } else {
-            format!("{s}.0")
+            format!("{plain}.0")
         }
     } else {
-        format!("{v:e}")
+        exp
     };
     TokenStream::from(proc_macro2::TokenTree::Literal(
         Literal::from_str(&s).expect("float literal"),
@@ -57,6 +77,7 @@ pub(crate) struct Emitter<'a> {
     pub ops: OpCounts,
     next: usize,
     prefix: &'static str,
+    float: Float,
 }
 
 impl<'a> Emitter<'a> {
@@ -77,7 +98,14 @@ impl<'a> Emitter<'a> {
             ops: OpCounts::default(),
             next: 0,
             prefix,
+            float: Float::F64,
         }
+    }
+
+    /// The same emitter writing its constants as literals of `float` (f64 by default).
+    pub fn with_float(mut self, float: Float) -> Emitter<'a> {
+        self.float = float;
+        self
     }
 
     fn fresh(&mut self) -> Ident {
@@ -226,7 +254,7 @@ impl<'a> Emitter<'a> {
     fn product(&mut self, c: Num, factors: &[Id]) -> TokenStream {
         let mut parts: Vec<TokenStream> = Vec::new();
         if !c.is_one() || factors.is_empty() {
-            parts.push(literal(c.to_f64()));
+            parts.push(literal_in(c.to_f64(), self.float));
         }
         for &f in factors {
             let t = match self.g.node(f) {
@@ -247,7 +275,7 @@ impl<'a> Emitter<'a> {
             return (false, n.clone());
         }
         match self.g.node(t) {
-            Node::Const(c) => (c.is_negative(), literal(c.abs().to_f64())),
+            Node::Const(c) => (c.is_negative(), literal_in(c.abs().to_f64(), self.float)),
             Node::Mul(ch) => {
                 let ch = ch.clone();
                 let (c, f) = match self.g.as_const(ch[0]) {
@@ -267,7 +295,7 @@ impl<'a> Emitter<'a> {
         }
         let (tokens, compound) = match self.g.node(id).clone() {
             Node::Const(c) => {
-                let l = literal(c.abs().to_f64());
+                let l = literal_in(c.abs().to_f64(), self.float);
                 if c.is_negative() {
                     (quote!(-#l), true)
                 } else {
@@ -278,9 +306,14 @@ impl<'a> Emitter<'a> {
             Node::Add(ch) => {
                 let mut terms: Vec<(bool, TokenStream)> =
                     ch.iter().map(|&t| self.signed(t)).collect();
-                // lead with a positive term when there is one
+                // lead with a positive term when there is one; in f32, only when it is
+                // the second (a + b = b + a): otherwise the terms stay in the graph's
+                // order, the order `Evaluator::eval_f32` sums them in, so that the f32
+                // selection measures the rounding of the code as written
                 if let Some(k) = terms.iter().position(|t| !t.0) {
-                    terms.swap(0, k);
+                    if self.float == Float::F64 || k == 1 {
+                        terms.swap(0, k);
+                    }
                 }
                 self.ops.adds += terms.len() as u64 - 1;
                 let mut out = if terms[0].0 {
@@ -371,6 +404,20 @@ pub fn format_with_timeout(code: &str, limit: std::time::Duration) -> String {
     }
 }
 
+/// The lints a generated function is exempt from: generated names are not snake case
+/// everywhere, constants carry every digit.
+pub(crate) fn generated_attrs() -> TokenStream {
+    quote! {
+        #[allow(
+            unused_variables,
+            clippy::all,
+            clippy::pedantic,
+            clippy::excessive_precision,
+            clippy::unreadable_literal
+        )]
+    }
+}
+
 /// A generated function `pub fn name(params) { body }` (documented by `doc`) written
 /// three times: the body as an `#[inline(always)]` function, a copy compiled with AVX2
 /// enabled, and `name`, which calls the AVX2 copy when the CPU has it
@@ -394,16 +441,7 @@ pub(crate) fn multiversioned(
         " [`{name}`] compiled for the baseline target only (what [`{name}`] runs on a CPU \
          without AVX2); for the test that both agree bit for bit."
     );
-    // generated names are not snake case everywhere, constants carry every digit
-    let attrs = quote! {
-        #[allow(
-            unused_variables,
-            clippy::all,
-            clippy::pedantic,
-            clippy::excessive_precision,
-            clippy::unreadable_literal
-        )]
-    };
+    let attrs = generated_attrs();
     quote! {
         #[doc = #doc]
         #attrs
@@ -458,6 +496,22 @@ mod tests {
             (y, Ident::new("y", Span::call_site())),
         ];
         (vec![first, second], symbols)
+    }
+
+    #[test]
+    fn f32_literals_are_the_shortest_that_read_back_as_the_f32_value() {
+        let f = |v: f64| literal_in(v, Float::F32).to_string();
+        assert_eq!(f(1.0 / 3.0), "0.33333334");
+        assert_eq!(f(0.5), "0.5");
+        assert_eq!(f(2.0), "2.0");
+        assert_eq!(f(1.0 / 120.0 / 5040.0), "1.6534392e-6");
+        assert_eq!(f(0.0), "0.0");
+        for v in [1.0 / 3.0, 1e-30, 123456.789, 7.0 / 11.0] {
+            let back: f32 = f(v).parse().unwrap();
+            assert_eq!(back, v as f32, "{v}");
+        }
+        // the f64 form is unchanged
+        assert_eq!(literal(1.0 / 3.0).to_string(), "0.3333333333333333");
     }
 
     #[test]

@@ -445,6 +445,50 @@ impl Evaluator {
         }
         self.roots.iter().map(|r| val[r.index()]).collect()
     }
+
+    /// [`Evaluator::eval`] in `f32` arithmetic: every bound value and constant rounded
+    /// to `f32`, every operation done in `f32` the way the f32 emitter writes it (sums and
+    /// products left to right in the order of the node's children, integer powers by the
+    /// emitter's repeated multiplications from `b` or `1 / b`, `sin`/`cos` of `f32`), the
+    /// results widened to `f64`: what generated f32 code of the same expressions
+    /// computes, operation for operation (the test `f32_evaluation_is_the_emitted_code`
+    /// of superhelix-generated compares them bit for bit).
+    pub fn eval_f32(&self, g: &Graph, bindings: &[(Id, f64)]) -> Vec<f64> {
+        let mut val = vec![0.0f32; g.len()];
+        for &i in &self.order {
+            val[i] = match &g.nodes[i] {
+                Node::Const(c) => c.to_f64() as f32,
+                Node::Sym(s) => bindings
+                    .iter()
+                    .find(|(id, _)| id.index() == i)
+                    .map(|b| b.1 as f32)
+                    .unwrap_or_else(|| {
+                        panic!("no value bound to symbol {}", g.symbols[*s as usize])
+                    }),
+                Node::Add(ch) => ch.iter().fold(0.0f32, |a, c| a + val[c.index()]),
+                Node::Mul(ch) => ch.iter().fold(1.0f32, |a, c| a * val[c.index()]),
+                Node::Pow(b, e) => power_f32(val[b.index()], *e),
+                Node::Sin(a) => val[a.index()].sin(),
+                Node::Cos(a) => val[a.index()].cos(),
+            };
+        }
+        self.roots.iter().map(|r| val[r.index()] as f64).collect()
+    }
+}
+
+/// `b^e` in f32 by the emitter's multiplications (`emit::Emitter::power`): `b`, `1 / b`
+/// for `e = ±1`, the square of `b^(e/2)` for even `e`, `b^(e∓1) · b^(±1)` for odd.
+fn power_f32(b: f32, e: i32) -> f32 {
+    match e {
+        0 => 1.0,
+        1 => b,
+        -1 => 1.0 / b,
+        e if e % 2 == 0 => {
+            let h = power_f32(b, e / 2);
+            h * h
+        }
+        e => power_f32(b, e - e.signum()) * power_f32(b, e.signum()),
+    }
 }
 
 #[cfg(test)]
@@ -531,6 +575,21 @@ mod tests {
             g.mul2(x2, y2)
         };
         assert_eq!(p, x2y2);
+    }
+
+    #[test]
+    fn f32_evaluation_rounds_every_operation_to_f32() {
+        let mut g = Graph::new();
+        let x = g.symbol("x");
+        let third = g.rational(1, 3);
+        let e = g.mul2(third, x);
+        let one = g.one();
+        let s = g.add2(e, one);
+        let ev = g.evaluator(&[s]);
+        let x0 = 0.1f64;
+        let want = (1.0f32 / 3.0) * (x0 as f32) + 1.0;
+        assert_eq!(ev.eval_f32(&g, &[(x, x0)]), vec![want as f64]);
+        assert_ne!(ev.eval(&g, &[(x, x0)])[0], want as f64);
     }
 
     #[test]

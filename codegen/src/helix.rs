@@ -61,6 +61,28 @@ impl HelixSymbols {
             (self.dl[2], d[2] * l),
         ]
     }
+
+    /// [`HelixSymbols::bindings`] computed in `f32` arithmetic from `d`, `l`, `u` rounded
+    /// to `f32`, as the prologue of generated f32 code computes them (`W = sqrt(d·d)`,
+    /// `x = W l`, `dl = d l`); the values are widened to `f64` (exact).
+    pub fn bindings_f32(&self, d: [f64; 3], l: f64, u: f64) -> Vec<(Id, f64)> {
+        let d = d.map(|x| x as f32);
+        let (l, u) = (l as f32, u as f32);
+        let w = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let f = |x: f32| x as f64;
+        vec![
+            (self.d[0], f(d[0])),
+            (self.d[1], f(d[1])),
+            (self.d[2], f(d[2])),
+            (self.w, f(w)),
+            (self.l, f(l)),
+            (self.u, f(u)),
+            (self.x, f(w * l)),
+            (self.dl[0], f(d[0] * l)),
+            (self.dl[1], f(d[1] * l)),
+            (self.dl[2], f(d[2] * l)),
+        ]
+    }
 }
 
 /// `d × v`.

@@ -24,9 +24,9 @@
 //! the field.) Symmetry: `∂²p/∂d_i∂d_j` is generated for `i ≤ j` only, and `w_0 = p`,
 //! `∂w_0/∂d_j = ∂p/∂d_j` are not generated twice.
 
-use crate::emit::literal;
+use crate::emit::{literal, literal_in};
 use crate::point::{generate_point, radial_family, PointCode, PointOptions, PointSpec};
-use crate::{format, CodegenError, Graph, HelixSymbols, Id, VERSION};
+use crate::{format, CodegenError, Float, Graph, HelixSymbols, Id, VERSION};
 use proc_macro2::{Ident, Span, TokenStream};
 use quote::quote;
 
@@ -36,6 +36,13 @@ pub const ELEMENT_POINT: &str = "element_point";
 
 /// File (relative to `generated/src/`) holding [`ELEMENT_POINT`].
 pub const ELEMENT_POINT_FILE: &str = "element_point.rs";
+
+/// Name of the generated f32 function: [`ELEMENT_POINT`]'s outputs in f32, into a flat
+/// array (see [`generate_element_point_f32`]).
+pub const ELEMENT_POINT_F32: &str = "element_point_f32";
+
+/// File (relative to `generated/src/`) holding [`ELEMENT_POINT_F32`].
+pub const ELEMENT_POINT_F32_FILE: &str = "element_point_f32.rs";
 
 /// Name of the generated function filling the fields of an `ElementPoint` that the
 /// rotary-inertia quadrature reads (`element_rotary_point_into`): everything but
@@ -396,6 +403,129 @@ pub fn generate_element_point() -> Result<(PointCode, String), CodegenError> {
         "a0 = u a(z); b, c = u^2 b(z), u^3 c(z) and two derivatives each",
         "frame, p, dp, d2p, w, dw",
         &code,
+    );
+    let text = format(&format!("{header}{tokens}\n"));
+    Ok((code, text))
+}
+
+/// The options of [`generate_element_point_f32`]: [`PointOptions::default`] for f32
+/// ([`PointOptions::for_f32`]).
+pub fn element_point_f32_options() -> PointOptions {
+    PointOptions::default().for_f32()
+}
+
+/// The spec and the measured code of [`ELEMENT_POINT_F32`] in `g` (what
+/// [`generate_element_point_f32`] writes; its radial functions' branches are
+/// `code.series` and `code.closed`, functions of `u` and the symbols `wu` = W u and
+/// `zu` = (W u)², and its outputs `spec.outputs`, functions of `d`, `u` and the radial
+/// symbols).
+pub fn element_point_f32_code(
+    g: &mut Graph,
+    h: &HelixSymbols,
+) -> Result<(PointSpec, PointCode), CodegenError> {
+    let spec = element_point_spec(g, h);
+    let switch = ident("ELEMENT_POINT_F32_SWITCH");
+    let code = generate_point(g, h, &spec, &switch, &element_point_f32_options())?;
+    Ok((spec, code))
+}
+
+/// Generate [`ELEMENT_POINT_F32`] in closed form: the outputs of [`element_point_spec`]
+/// in f32, `element_point_f32(d: &[f32; 3], u: f32, out: &mut [f32; 63])` with the
+/// names in `ELEMENT_POINT_F32_OUTPUTS` (`frame_rc` = E(u)_rc, `p_m`, `dp_i_m` =
+/// (∂p/∂d_i)_m, `d2p_ij_m` for i ≤ j, `w_i_m` and `dw_i_j_m` for i = 1, 2; `w_0 = p`,
+/// `dw_0_j = dp_j`), the switch and Taylor degrees chosen for f32
+/// ([`element_point_f32_options`]). Scalar, one plain function (no AVX2 copy). Returns
+/// the measured code and the formatted file.
+pub fn generate_element_point_f32() -> Result<(PointCode, String), CodegenError> {
+    let mut g = Graph::new();
+    let h = HelixSymbols::new(&mut g);
+    let (spec, code) = element_point_f32_code(&mut g, &h)?;
+    let switch = ident("ELEMENT_POINT_F32_SWITCH");
+    let opts = element_point_f32_options();
+    let xs = literal_in(code.switch, Float::F32);
+    let body = &code.body;
+    let names: Vec<&str> = spec.outputs.iter().map(|o| o.0.as_str()).collect();
+    let outputs: Vec<Ident> = names.iter().map(|n| ident(n)).collect();
+    let slots: Vec<proc_macro2::Literal> = (0..names.len())
+        .map(proc_macro2::Literal::usize_unsuffixed)
+        .collect();
+    let k = proc_macro2::Literal::usize_unsuffixed(names.len());
+    let selection = if code.target_met {
+        format!(
+            "the first candidate where the outputs through either branch (through the closed \
+             one also at the next candidate) are within {:.1e} of the f64 values",
+            opts.agreement_target
+        )
+    } else {
+        format!(
+            "no candidate has the outputs through both branches within {:.1e} of the f64 values: \
+             the candidate of smallest error ({:.1e}, through the closed branch also at the next \
+             candidate)",
+            opts.agreement_target, code.agreement
+        )
+    };
+    let doc = format!(
+        " The element's local functions at abscissa `u` for Darboux vector `d`, in f32: the \
+         fields of `ElementPoint` (E(u), p(u), ∂p/∂d_i, ∂²p/∂d_i∂d_j, w_i(u) = P(u) e_i, \
+         ∂w_i/∂d_j) as `out[k]` named `ELEMENT_POINT_F32_OUTPUTS[k]`: `frame_rc` = E_rc, `p_m`, \
+         `dp_i_m` = (∂p/∂d_i)_m, `d2p_ij_m` for i ≤ j (symmetric), `w_i_m` and `dw_i_j_m` for \
+         i = 1, 2 (`w_0 = p`, `∂w_0/∂d_j = ∂p/∂d_j`).\n\n The radial functions of `z = (W u)²` \
+         are taken from their Taylor series for `W u < {}` (degrees in `W u`: {}), from their \
+         closed forms above. The switch is {selection}. At the switch, computed in f32, the \
+         outputs through the Taylor branch err by {:.1e} and through the closed one by {:.1e} \
+         against the f64 values, relative to the largest entry of each field at the same point. \
+         Allocation-free and panic-free.",
+        code.switch,
+        orders(&code).join(", "),
+        code.series_error,
+        code.closed_error
+    );
+    let doc_switch =
+        " Switch on `W u` of [`element_point_f32`]: the Taylor branch is used below it.";
+    let doc_outputs = " Names of the outputs of [`element_point_f32`], in order.";
+    let attrs = crate::emit::generated_attrs();
+    let tokens = quote! {
+        #[allow(unused_imports)]
+        use superhelix_kernels::math::Elementary as _;
+
+        #[doc = #doc_outputs]
+        pub const ELEMENT_POINT_F32_OUTPUTS: [&str; #k] = [#(#names),*];
+
+        #[doc = #doc_switch]
+        pub const #switch: f32 = #xs;
+
+        #[doc = #doc]
+        #attrs
+        pub fn element_point_f32(d: &[f32; 3], u: f32, out: &mut [f32; #k]) {
+            let d0 = d[0];
+            let d1 = d[1];
+            let d2 = d[2];
+            #body
+            #(out[#slots] = #outputs;)*
+        }
+    };
+    let n = code.radial_names.len();
+    let header = format!(
+        "// @generated by superhelix-codegen {VERSION}\n\
+         // {ELEMENT_POINT_F32}: ElementPoint at one abscissa u in f32, 63 distinct outputs (frame 9, \
+         p 3, dp 9, d2p 18 of 27 by symmetry, w 6 and dw 18 besides w_0 = p, dw_0 = dp) into a flat \
+         array\n\
+         // {n} radial functions of z = (W u)^2 (a0 = u a(z); b, c = u^2 b(z), u^3 c(z) and two \
+         derivatives each), Taylor degrees in W u: {}\n\
+         // switch W*u = {} (Taylor below): {selection}\n\
+         // error in f32 against f64 at the switch: Taylor branch {:.2e}, closed branch {:.2e}; \
+         truncation {:.2e}: largest |f32 - f64| over {} sample points (inputs rounded to f32), \
+         relative to the largest |f64 entry| of the same field (frame, p, dp, d2p, w, dw) at the \
+         same point\n\
+         // ops after CSE (as emitted): Taylor path {}; closed path {}\n",
+        orders(&code).join(", "),
+        code.switch,
+        code.series_error,
+        code.closed_error,
+        code.truncation,
+        code.agreement_samples,
+        code.ops_series_path(),
+        code.ops_closed_path(),
     );
     let text = format(&format!("{header}{tokens}\n"));
     Ok((code, text))

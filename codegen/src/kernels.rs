@@ -2,7 +2,7 @@
 //! into `generated/src/` (see the README, "Regenerating kernels").
 
 use crate::{
-    format, generate_function, helix, CodegenError, GenerateOptions, GeneratedCode, Graph,
+    format, generate_function, helix, CodegenError, Float, GenerateOptions, GeneratedCode, Graph,
     HelixSymbols, Id, Measure,
 };
 
@@ -20,6 +20,20 @@ impl Kernel {
     /// File of the function, relative to `generated/src/`.
     pub fn file(&self) -> String {
         format!("{}.rs", self.name)
+    }
+
+    /// Name of the function (and module) in `float`: the f64 name, with `_f32` appended
+    /// for [`Float::F32`].
+    pub fn name_in(&self, float: Float) -> String {
+        match float {
+            Float::F64 => self.name.to_string(),
+            Float::F32 => format!("{}_f32", self.name),
+        }
+    }
+
+    /// File of the function in `float`, relative to `generated/src/`.
+    pub fn file_in(&self, float: Float) -> String {
+        format!("{}.rs", self.name_in(float))
     }
 }
 
@@ -61,6 +75,18 @@ pub fn element_options() -> GenerateOptions {
     o
 }
 
+/// [`element_options`] for code of type `float`: for [`Float::F32`], the f32 targets
+/// ([`crate::SwitchOptions::for_f32`]: truncation 2^-24, error of either branch in f32
+/// against the f64 reference 2^-20 at the switch), measured the same way otherwise.
+pub fn element_options_for(float: Float) -> GenerateOptions {
+    let mut o = element_options();
+    o.float = float;
+    if float == Float::F32 {
+        o.switch = o.switch.for_f32();
+    }
+    o
+}
+
 /// The rotary-inertia basis: for each column a of E(u), `ee_a_rc` = ∫ E_ra E_ca,
 /// `eew_a_j_r` = ∫ E_ra (E_a·w_j), `eww_a_ij` = ∫ (E_a·w_i)(E_a·w_j), from which
 /// ∫ E D Eᵀ, ∫ E D Eᵀ w_j and ∫ w_iᵀ E D Eᵀ w_j follow for any diagonal D.
@@ -95,13 +121,27 @@ pub fn rotary_integrands(g: &mut Graph, h: &HelixSymbols) -> Vec<(String, Id)> {
 
 /// Generate one element-moment function.
 pub fn generate(k: &Kernel) -> Result<GeneratedCode, CodegenError> {
+    generate_in(k, Float::F64)
+}
+
+/// Generate one element-moment function in `float` (named [`Kernel::name_in`], with
+/// [`element_options_for`]).
+pub fn generate_in(k: &Kernel, float: Float) -> Result<GeneratedCode, CodegenError> {
     let mut g = Graph::new();
     let h = HelixSymbols::new(&mut g);
     let list = (k.list)(&mut g, &h);
-    generate_function(&mut g, &h, k.name, &list, &element_options())
+    generate_function(
+        &mut g,
+        &h,
+        &k.name_in(float),
+        &list,
+        &element_options_for(float),
+    )
 }
 
-/// Every checked-in generated file: (path relative to `generated/src/`, formatted text).
+/// Every checked-in generated file: (path relative to `generated/src/`, formatted text):
+/// the f64 kernels, `sizes.rs`, then the f32 versions of the element moments and of the
+/// element point (`*_f32.rs`).
 pub fn checked_in_files() -> Result<Vec<(String, String)>, CodegenError> {
     let mut files = Vec::new();
     // per-element op counts (after CSE) of the cheapest and dearest branch, for sizes.rs
@@ -143,6 +183,16 @@ pub fn checked_in_files() -> Result<Vec<(String, String)>, CodegenError> {
             point: (a.min(b), a.max(b)),
             rotary_point: (ra.min(rb), ra.max(rb)),
         }),
+    ));
+    // the f32 versions (scalar only): the element moments and the element point
+    for k in ELEMENT_KERNELS.iter() {
+        let code = generate_in(k, Float::F32)?;
+        files.push((k.file_in(Float::F32), format(&code.code)));
+    }
+    let (_, point_f32_text) = crate::kernel_point::generate_element_point_f32()?;
+    files.push((
+        crate::kernel_point::ELEMENT_POINT_F32_FILE.to_string(),
+        point_f32_text,
     ));
     Ok(files)
 }

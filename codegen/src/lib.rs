@@ -34,6 +34,11 @@
 //! first on `W l < <NAME>_LOW_SWITCH` to a Taylor branch of about half the degree).
 //! "Agree" is measured per output or per tensor group ([`Measure`]). It allocates nothing and cannot
 //! panic (constant indices into a fixed-size array, float arithmetic only).
+//!
+//! With [`GenerateOptions::float`] = [`Float::F32`] the same function is written in f32
+//! (`d: &[f32; 3], l: f32, out: &mut [f32; K]`, f32 literals and switch, one scalar
+//! function), its switch and degree chosen by measuring each branch in f32 arithmetic
+//! against an f64 reference ([`branch`], "f32"; [`SwitchOptions::for_f32`]).
 
 #![warn(missing_docs)]
 // index loops over 0..3 read like the formulas they implement
@@ -43,6 +48,7 @@ pub mod branch;
 pub mod cse;
 mod diff;
 pub mod emit;
+pub mod float;
 pub mod graph;
 pub mod helix;
 pub mod integrate;
@@ -56,6 +62,7 @@ pub mod sizes;
 pub use branch::{LowTier, Measure, ScanRow, SwitchChoice, SwitchOptions};
 pub use cse::OpCounts;
 pub use emit::format;
+pub use float::Float;
 pub use graph::{Evaluator, Graph, Id, Node};
 pub use helix::HelixSymbols;
 pub use integrate::ElementIntegral;
@@ -103,6 +110,12 @@ pub struct GenerateOptions {
     /// Write `sin(nWl)`, `cos(nWl)` from `sin(Wl)`, `cos(Wl)` by the multiple-angle
     /// recurrences (one `sin_cos` call).
     pub multiple_angles: bool,
+    /// Type the function computes in. [`Float::F32`] writes f32 arguments, outputs,
+    /// literals and switch, measures the branches in f32 arithmetic against an f64
+    /// reference ([`branch`], "f32"; give `switch` the f32 targets with
+    /// [`SwitchOptions::for_f32`]), and writes neither the four-lane `_closed_x4` copy
+    /// nor the AVX2 multiversioning (one plain scalar function).
+    pub float: Float,
 }
 
 impl Default for GenerateOptions {
@@ -110,6 +123,7 @@ impl Default for GenerateOptions {
         GenerateOptions {
             switch: SwitchOptions::default(),
             multiple_angles: true,
+            float: Float::F64,
         }
     }
 }
@@ -146,10 +160,21 @@ pub struct GeneratedCode {
     pub agreement_per_output: f64,
     /// Estimated largest relative truncation error of the Taylor branch at `x*`.
     pub truncation: f64,
+    /// Type of the emitted code.
+    pub float: Float,
+    /// With [`Float::F32`]: the largest error of the Taylor branch in f32 at `x*`
+    /// against the f64 reference ([`SwitchChoice::series_error`]); NaN for f64.
+    pub series_error: f64,
+    /// The same for the closed form in f32.
+    pub closed_error: f64,
+    /// Whether the switch meets the agreement target ([`SwitchChoice::target_met`]).
+    pub target_met: bool,
     /// Closed-form DAG of every output.
     pub closed: Vec<Id>,
     /// Taylor-branch DAG of every output.
     pub series: Vec<Id>,
+    /// Low-degree Taylor-branch DAG of every output (empty without that branch).
+    pub low_series: Vec<Id>,
 }
 
 fn is_ident(s: &str) -> bool {
@@ -220,7 +245,15 @@ pub fn switch_scan(
     let mut prep = Prepared::new(g, h, integrands, opts)?;
     let closed = prep.closed.clone();
     let mut series_at = |g: &mut Graph, order: u32| prep.series(g, order);
-    branch::scan(g, h, &closed, &mut series_at, &groups, &opts.switch)
+    branch::scan(
+        g,
+        h,
+        &closed,
+        &mut series_at,
+        &groups,
+        &opts.switch,
+        opts.float,
+    )
 }
 
 /// Integrate every named integrand over the element and emit one Rust function that
@@ -246,10 +279,11 @@ pub fn generate_function(
     let mut prep = Prepared::new(g, h, integrands, opts)?;
     let closed = prep.closed.clone();
     let mut series_at = |g: &mut Graph, order: u32| prep.series(g, order);
-    let choice = branch::choose(g, h, &closed, &mut series_at, &groups, &opts.switch)?;
+    let float = opts.float;
+    let choice = branch::choose(g, h, &closed, &mut series_at, &groups, &opts.switch, float)?;
     let series = series_at(g, choice.order)?;
     let low = if opts.switch.low_tier {
-        branch::choose_low(g, h, &mut series_at, &groups, &opts.switch, &choice)?
+        branch::choose_low(g, h, &mut series_at, &groups, &opts.switch, &choice, float)?
     } else {
         None
     };
@@ -292,11 +326,11 @@ pub fn generate_function(
         let k = proc_macro2::Literal::usize_unsuffixed(k);
         quote!(out[#k] = #e;)
     };
-    let mut et = emit::Emitter::new(g, &low_series, &symbols, "t");
+    let mut et = emit::Emitter::new(g, &low_series, &symbols, "t").with_float(float);
     et.run_scheduled(&low_series, store);
-    let mut es = emit::Emitter::new(g, &series, &symbols, "s");
+    let mut es = emit::Emitter::new(g, &series, &symbols, "s").with_float(float);
     es.run_scheduled(&series, store);
-    let mut ec = emit::Emitter::new(g, &closed, &symbols, "c");
+    let mut ec = emit::Emitter::new(g, &closed, &symbols, "c").with_float(float);
     ec.run_scheduled(&closed, store);
     // the closed branch again for four elements at once (F4 lanes; a constant output
     // becomes all lanes)
@@ -305,7 +339,9 @@ pub fn generate_function(
         quote!(out[#k] = F4::from(#e);)
     };
     let mut ec4 = emit::Emitter::new(g, &closed, &symbols, "c");
-    ec4.run_scheduled(&closed, store_x4);
+    if float == Float::F64 {
+        ec4.run_scheduled(&closed, store_x4);
+    }
     let prologue = OpCounts {
         adds: 2,
         muls: 7,
@@ -325,28 +361,39 @@ pub fn generate_function(
     let upper = name.to_uppercase();
     let outputs_const = ident(&format!("{upper}_OUTPUTS"));
     let switch_const = ident(&format!("{upper}_SWITCH"));
-    let xs = emit::literal(choice.x_star);
+    let xs = emit::literal_in(choice.x_star, float);
+    let ty = float.ty();
     let (ss, cs) = (&es.stmts, &ec.stmts);
     let k_lit = proc_macro2::Literal::usize_unsuffixed(k);
-    let mut doc = format!(
-        " Element integrals `∫_0^l … du` for Darboux vector `d` and length `l`.\n\n \
-         Taylor branch (degree {} in W) for `W l < {}`, closed form above; the branches \
-         agree to {:.1e} at the switch, relative {}.\n\n Outputs:\n",
-        choice.order,
-        choice.x_star,
-        agreement,
-        match opts.switch.measure {
-            Measure::Output => "to the size of each output",
-            Measure::Group => "to the largest entry of the output's group",
-        }
-    );
+    let mut doc = match float {
+        Float::F64 => format!(
+            " Element integrals `∫_0^l … du` for Darboux vector `d` and length `l`.\n\n \
+             Taylor branch (degree {} in W) for `W l < {}`, closed form above; the branches \
+             agree to {:.1e} at the switch, relative {}.\n\n Outputs:\n",
+            choice.order,
+            choice.x_star,
+            agreement,
+            match opts.switch.measure {
+                Measure::Output => "to the size of each output",
+                Measure::Group => "to the largest entry of the output's group",
+            }
+        ),
+        Float::F32 => format!(
+            " Element integrals `∫_0^l … du` for Darboux vector `d` and length `l`, in f32.\n\n \
+             Taylor branch (degree {} in W) for `W l < {}`, closed form above. At the switch, \
+             computed in f32, the Taylor branch errs by {:.1e} and the closed form by {:.1e} \
+             against the f64 values, relative to the largest entry of the output's group at \
+             the same point (the selection's samples).\n\n Outputs:\n",
+            choice.order, choice.x_star, choice.series_error, choice.closed_error,
+        ),
+    };
     for (i, n) in names.iter().enumerate() {
         doc.push_str(&format!(" - `out[{i}]`: `{n}`\n"));
     }
     let (low_const, low_branch) = match &low {
         Some(t) => {
             let c = ident(&format!("{upper}_LOW_SWITCH"));
-            let xl = emit::literal(t.x);
+            let xl = emit::literal_in(t.x, float);
             let doc_low = format!(
                 " Switch on `W l` of [`{name}`]: the Taylor branch of degree {} below.",
                 t.order
@@ -355,7 +402,7 @@ pub fn generate_function(
             (
                 quote! {
                     #[doc = #doc_low]
-                    pub const #c: f64 = #xl;
+                    pub const #c: #ty = #xl;
                 },
                 quote! {
                     if x < #c {
@@ -370,11 +417,18 @@ pub fn generate_function(
     if let Some(t) = &low {
         doc.insert_str(
             doc.find("\n\n Outputs:").unwrap_or(doc.len()),
-            &format!(
-                " Below `W l < {}` a Taylor branch of degree {} (agreeing with the other \
-                 to {:.1e}) saves nearly straight elements half the work.",
-                t.x, t.order, t.agreement
-            ),
+            &match float {
+                Float::F64 => format!(
+                    " Below `W l < {}` a Taylor branch of degree {} (agreeing with the other \
+                     to {:.1e}) saves nearly straight elements half the work.",
+                    t.x, t.order, t.agreement
+                ),
+                Float::F32 => format!(
+                    " Below `W l < {}` a Taylor branch of degree {} (in f32 within {:.1e} of \
+                     the f64 values) saves nearly straight elements half the work.",
+                    t.x, t.order, t.agreement
+                ),
+            },
         );
     }
     let doc_outputs = format!(" Names of the outputs of [`{name}`], in order.");
@@ -390,84 +444,146 @@ pub fn generate_function(
         let dl1 = d1 * l;
         let dl2 = d2 * l;
     };
-    let function = emit::multiversioned(
-        &fname,
-        &doc,
-        quote!(d: &[f64; 3], l: f64, out: &mut [f64; #k_lit]),
-        quote!(d, l, out),
-        quote! {
-            #prologue
-            #low_branch
-            if x < #switch_const {
-                #(#ss)*
-            } else {
-                #(#cs)*
-            }
-        },
-    );
-    let cs4 = &ec4.stmts;
-    let doc_x4 = format!(
-        " The closed-form branch of [`{name}`] for four elements at once, one per lane: \
-         lane k of `out` is, bit for bit, [`{name}`] of lane k of `d` and `l` when its \
-         `W l ≥` [`{switch_const}`] (below, the closed form loses digits to cancellation: \
-         callers take [`{name}`] there)."
-    );
-    let function_x4 = emit::multiversioned(
-        &ident(&format!("{name}_closed_x4")),
-        &doc_x4,
-        quote!(d: &[F4; 3], l: F4, out: &mut [F4; #k_lit]),
-        quote!(d, l, out),
-        quote! {
-            #prologue
-            #(#cs4)*
-        },
-    );
-    let tokens = quote! {
-        use superhelix_kernels::lanes::F4;
-        #[allow(unused_imports)]
-        use superhelix_kernels::math::Elementary as _;
-        #[doc = #doc_outputs]
-        pub const #outputs_const: [&str; #k_lit] = [#(#names),*];
-        #[doc = #doc_switch]
-        pub const #switch_const: f64 = #xs;
-        #low_const
-        #function
-        #function_x4
+    let body = quote! {
+        #prologue
+        #low_branch
+        if x < #switch_const {
+            #(#ss)*
+        } else {
+            #(#cs)*
+        }
     };
-    let header = format!(
-        "// @generated by superhelix-codegen {VERSION}\n\
-         // {name}: {k} outputs; switch W*l = {} (Taylor degree {} below), branch agreement {:.2e}, \
-         truncation {:.2e}\n\
-         // agreement measured {}; per output: {:.2e}\n\
-         // ops before CSE (as trees): {ops_before}\n\
-         // ops after CSE (as emitted): {ops_after}\n\
-         {}\
-         //   Taylor branch: {} (before CSE: {} total)\n\
-         //   closed branch: {} (before CSE: {} total)\n",
-        choice.x_star,
-        choice.order,
-        agreement,
-        choice.truncation,
-        opts.switch.measure,
-        choice.agreement_per_output,
-        match &low {
-            Some(t) => format!(
-                "//   low-degree Taylor branch (W*l < {}, degree {}, agreement with the \
-                 Taylor branch {:.2e}, truncation {:.2e}): {} (before CSE: {} total)\n",
-                t.x,
-                t.order,
-                t.agreement,
-                t.truncation,
-                et.ops,
-                tree_low.total()
-            ),
-            None => String::new(),
-        },
-        es.ops,
-        tree_series.total(),
-        ec.ops,
-        tree_closed.total()
-    );
+    let tokens = match float {
+        Float::F64 => {
+            let function = emit::multiversioned(
+                &fname,
+                &doc,
+                quote!(d: &[f64; 3], l: f64, out: &mut [f64; #k_lit]),
+                quote!(d, l, out),
+                body,
+            );
+            let cs4 = &ec4.stmts;
+            let doc_x4 = format!(
+                " The closed-form branch of [`{name}`] for four elements at once, one per lane: \
+                 lane k of `out` is, bit for bit, [`{name}`] of lane k of `d` and `l` when its \
+                 `W l ≥` [`{switch_const}`] (below, the closed form loses digits to cancellation: \
+                 callers take [`{name}`] there)."
+            );
+            let function_x4 = emit::multiversioned(
+                &ident(&format!("{name}_closed_x4")),
+                &doc_x4,
+                quote!(d: &[F4; 3], l: F4, out: &mut [F4; #k_lit]),
+                quote!(d, l, out),
+                quote! {
+                    #prologue
+                    #(#cs4)*
+                },
+            );
+            quote! {
+                use superhelix_kernels::lanes::F4;
+                #[allow(unused_imports)]
+                use superhelix_kernels::math::Elementary as _;
+                #[doc = #doc_outputs]
+                pub const #outputs_const: [&str; #k_lit] = [#(#names),*];
+                #[doc = #doc_switch]
+                pub const #switch_const: f64 = #xs;
+                #low_const
+                #function
+                #function_x4
+            }
+        }
+        Float::F32 => {
+            let attrs = emit::generated_attrs();
+            quote! {
+                #[allow(unused_imports)]
+                use superhelix_kernels::math::Elementary as _;
+                #[doc = #doc_outputs]
+                pub const #outputs_const: [&str; #k_lit] = [#(#names),*];
+                #[doc = #doc_switch]
+                pub const #switch_const: f32 = #xs;
+                #low_const
+                #[doc = #doc]
+                #attrs
+                pub fn #fname(d: &[f32; 3], l: f32, out: &mut [f32; #k_lit]) {
+                    #body
+                }
+            }
+        }
+    };
+    let low_line = |what: &str| match &low {
+        Some(t) => format!(
+            "//   low-degree Taylor branch (W*l < {}, degree {}, {what} {:.2e}, truncation \
+             {:.2e}): {} (before CSE: {} total)\n",
+            t.x,
+            t.order,
+            t.agreement,
+            t.truncation,
+            et.ops,
+            tree_low.total()
+        ),
+        None => String::new(),
+    };
+    let header = match float {
+        Float::F64 => format!(
+            "// @generated by superhelix-codegen {VERSION}\n\
+             // {name}: {k} outputs; switch W*l = {} (Taylor degree {} below), branch agreement {:.2e}, \
+             truncation {:.2e}\n\
+             // agreement measured {}; per output: {:.2e}\n\
+             // ops before CSE (as trees): {ops_before}\n\
+             // ops after CSE (as emitted): {ops_after}\n\
+             {}\
+             //   Taylor branch: {} (before CSE: {} total)\n\
+             //   closed branch: {} (before CSE: {} total)\n",
+            choice.x_star,
+            choice.order,
+            agreement,
+            choice.truncation,
+            opts.switch.measure,
+            choice.agreement_per_output,
+            low_line("agreement with the Taylor branch"),
+            es.ops,
+            tree_series.total(),
+            ec.ops,
+            tree_closed.total()
+        ),
+        Float::F32 => format!(
+            "// @generated by superhelix-codegen {VERSION}\n\
+             // {name}: {k} outputs in f32; switch W*l = {} (Taylor degree {} below); error in f32 \
+             against f64 at the switch: Taylor branch {:.2e}, closed branch {:.2e}; truncation {:.2e}\n\
+             // switch: {}\n\
+             // errors relative to the largest |f64 value| of the output's tensor group at the same \
+             sample point (inputs rounded to f32); per output: {:.2e}\n\
+             // ops before CSE (as trees): {ops_before}\n\
+             // ops after CSE (as emitted): {ops_after}\n\
+             {}\
+             //   Taylor branch: {} (before CSE: {} total)\n\
+             //   closed branch: {} (before CSE: {} total)\n",
+            choice.x_star,
+            choice.order,
+            choice.series_error,
+            choice.closed_error,
+            choice.truncation,
+            if choice.target_met {
+                format!(
+                    "the first candidate where both branches (the closed form also at the next \
+                     candidate) are within the error target {:.2e}",
+                    opts.switch.agreement_target
+                )
+            } else {
+                format!(
+                    "no candidate has both branches within the error target {:.2e}: the one of \
+                     smallest error ({:.2e}, the closed form also at the next candidate)",
+                    opts.switch.agreement_target, agreement
+                )
+            },
+            choice.agreement_per_output,
+            low_line("error in f32 against f64"),
+            es.ops,
+            tree_series.total(),
+            ec.ops,
+            tree_closed.total()
+        ),
+    };
     Ok(GeneratedCode {
         name: name.to_string(),
         outputs: names.iter().map(|s| s.to_string()).collect(),
@@ -483,7 +599,12 @@ pub fn generate_function(
         agreement,
         agreement_per_output: choice.agreement_per_output,
         truncation: choice.truncation,
+        float,
+        series_error: choice.series_error,
+        closed_error: choice.closed_error,
+        target_met: choice.target_met,
         closed,
         series,
+        low_series,
     })
 }

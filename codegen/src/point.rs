@@ -22,9 +22,10 @@
 //!    `sin_cos` in the closed branch only), then the polynomial part once after it,
 //!    common to both branches, with CSE across all outputs.
 
-use crate::branch::Rng;
+use crate::branch::{pick_f32, F32Candidate, Rng};
 use crate::cse::{tree_ops, OpCounts};
 use crate::emit::Emitter;
+use crate::float::Float;
 use crate::graph::{Evaluator, Graph, Id, Node};
 use crate::helix::HelixSymbols;
 use crate::number::Num;
@@ -255,6 +256,25 @@ pub struct PointOptions {
     pub per_function_orders: bool,
     /// Seed of the sample directions.
     pub seed: u64,
+    /// Type of the generated code. With [`Float::F32`] (see [`PointOptions::for_f32`])
+    /// the sample points are rounded to f32, the outputs of each branch are computed in
+    /// f32 arithmetic (the radial functions, then the polynomial part) and compared with
+    /// the f64 outputs of the Taylor series of degree `N + 8` at the same inputs; the
+    /// switch is taken by [`crate::branch::pick_f32`]'s rule (the closed form also at the
+    /// next candidate), and the degrees by the truncation target as for f64.
+    pub float: Float,
+}
+
+impl PointOptions {
+    /// These options for f32 code: [`Float::F32`] with the f32 targets of
+    /// [`crate::SwitchOptions::for_f32`] (truncation 2^-24, error 2^-20).
+    pub fn for_f32(mut self) -> PointOptions {
+        let u = Float::F32.unit_roundoff();
+        self.float = Float::F32;
+        self.truncation_target = u;
+        self.agreement_target = 16.0 * u;
+        self
+    }
 }
 
 impl Default for PointOptions {
@@ -273,6 +293,7 @@ impl Default for PointOptions {
             max_order: 60,
             per_function_orders: true,
             seed: 0x0e1e_9017,
+            float: Float::F64,
         }
     }
 }
@@ -293,6 +314,17 @@ pub struct PointCode {
     pub truncation: f64,
     /// Number of sample points the reported agreement is the worst over.
     pub agreement_samples: usize,
+    /// Type of the generated code.
+    pub float: Float,
+    /// With [`Float::F32`]: the largest error of the outputs through the Taylor branch
+    /// in f32 at the switch against the f64 reference (see [`PointOptions::float`]);
+    /// NaN for f64.
+    pub series_error: f64,
+    /// The same through the closed branch.
+    pub closed_error: f64,
+    /// Whether the switch meets the agreement target (see
+    /// [`crate::SwitchChoice::target_met`]).
+    pub target_met: bool,
     /// `let z = u * u * (d0 * d0 + d1 * d1 + d2 * d2);`
     pub ops_prologue: OpCounts,
     /// The radial functions' Taylor branch as emitted.
@@ -358,6 +390,16 @@ fn samples(x: f64, n: usize, seed: u64) -> Vec<([f64; 3], f64)> {
         .collect()
 }
 
+/// [`samples`] rounded to `float`.
+fn samples_in(x: f64, n: usize, seed: u64, float: Float) -> Vec<([f64; 3], f64)> {
+    let mut pts = samples(x, n, seed);
+    for (d, u) in pts.iter_mut() {
+        *d = d.map(|v| float.round(v));
+        *u = float.round(*u);
+    }
+    pts
+}
+
 /// Evaluates the outputs from the radial functions' branches.
 struct Measure<'a> {
     g: &'a Graph,
@@ -386,6 +428,31 @@ impl Measure<'_> {
                 ];
                 b.extend(self.radial.iter().copied().zip(r));
                 self.outputs.eval(self.g, &b)
+            })
+            .collect()
+    }
+
+    /// [`Measure::outputs`] in f32 arithmetic, as generated f32 code computes them:
+    /// `z = u u (d·d)` and `x = sqrt(z)` in f32, the radial functions' branch and then
+    /// the outputs evaluated in f32 ([`Evaluator::eval_f32`]).
+    fn outputs_f32(&self, branch: &[Id], pts: &[([f64; 3], f64)]) -> Vec<Vec<f64>> {
+        let ev = self.g.evaluator(branch);
+        pts.iter()
+            .map(|(d, u)| {
+                let (d, u) = (d.map(|v| v as f32), *u as f32);
+                let z = u * u * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+                let x = z.sqrt();
+                let f = |v: f32| v as f64;
+                let rb = [(self.pb[0], f(u)), (self.pb[1], f(x)), (self.pb[2], f(z))];
+                let r = ev.eval_f32(self.g, &rb);
+                let mut b: Vec<(Id, f64)> = vec![
+                    (self.h.d[0], f(d[0])),
+                    (self.h.d[1], f(d[1])),
+                    (self.h.d[2], f(d[2])),
+                    (self.h.u, f(u)),
+                ];
+                b.extend(self.radial.iter().copied().zip(r));
+                self.outputs.eval_f32(self.g, &b)
             })
             .collect()
     }
@@ -524,8 +591,11 @@ pub fn generate_point(
     let mut order = opts.min_order;
     let mut best: Option<(f64, f64)> = None;
     let mut chosen = None;
+    let float = opts.float;
+    // f32: every candidate measured, then picked (x*, degrees, truncation, errors)
+    let mut measured: Vec<(F32Candidate, Vec<u32>, f64)> = Vec::new();
     for &x in &opts.candidates {
-        let pts = samples(x, opts.samples, opts.seed);
+        let pts = samples_in(x, opts.samples, opts.seed, float);
         // every series this candidate may need, built before measuring (the measure
         // borrows the graph)
         let (trunc, orders) = loop {
@@ -561,6 +631,31 @@ pub fn generate_point(
         let s = series_at(g, &mut pb, &orders)?;
         let m = measure(g, h, &pb, &radial_syms, &outputs, &spec.groups);
         let sv = m.outputs(&s, &pts);
+        if float == Float::F32 {
+            // each branch in f32 against the f64 outputs of the degree + 8 series
+            let more = samples_in(x, opts.check_samples, opts.seed ^ 0xa5a5, float);
+            let (rv, rm) = (m.outputs(&reference, &pts), m.outputs(&reference, &more));
+            let trunc = m
+                .deviation(&sv, &rv)
+                .max(m.deviation(&m.outputs(&s, &more), &rm));
+            let err = |branch: &[Id], p: &[([f64; 3], f64)], r: &[Vec<f64>]| {
+                m.deviation(&m.outputs_f32(branch, p), r)
+            };
+            let (ss, cs) = (err(&s, &pts, &rv), err(&closed, &pts, &rv));
+            let (sm, cm) = (err(&s, &more, &rm), err(&closed, &more, &rm));
+            measured.push((
+                F32Candidate {
+                    x,
+                    series_sel: ss,
+                    closed_sel: cs,
+                    series_all: ss.max(sm),
+                    closed_all: cs.max(cm),
+                },
+                orders,
+                trunc,
+            ));
+            continue;
+        }
         let agreement = m.deviation(&m.outputs(&closed, &pts), &sv);
         // truncation of the degrees as chosen (per function)
         let trunc = m.deviation(&sv, &m.outputs(&reference, &pts));
@@ -579,6 +674,15 @@ pub fn generate_point(
             }
         }
     }
+    let (mut series_error, mut closed_error, mut target_met) = (f64::NAN, f64::NAN, true);
+    if float == Float::F32 {
+        let cands: Vec<F32Candidate> = measured.iter().map(|m| m.0).collect();
+        if let Some((i, error, met)) = pick_f32(&cands, opts.agreement_target, opts.safety, true) {
+            let (c, orders, trunc) = measured.swap_remove(i);
+            (series_error, closed_error, target_met) = (c.series_all, c.closed_all, met);
+            chosen = Some((c.x, orders, error, trunc));
+        }
+    }
     let Some((x_star, orders, agreement, truncation)) = chosen else {
         return Err(CodegenError::NoSwitch(format!(
             "no candidate x* meets agreement {:e} with truncation {:e}; best (x*, agreement): {:?}",
@@ -594,14 +698,16 @@ pub fn generate_point(
         &series,
         &[(u_id, ident_u.clone()), (pb.z, ident("z"))],
         "s",
-    );
+    )
+    .with_float(float);
     let series_exprs = es.run(&series);
     let mut ec = Emitter::new(
         g,
         &closed,
         &[(u_id, ident_u.clone()), (pb.x, ident("x"))],
         "q",
-    );
+    )
+    .with_float(float);
     let closed_exprs = ec.run(&closed);
     let mut symbols: Vec<(Id, Ident)> = vec![
         (h.d[0], ident("d0")),
@@ -610,7 +716,7 @@ pub fn generate_point(
         (u_id, ident_u),
     ];
     symbols.extend(spec.radial.iter().map(|r| (r.symbol, ident(&r.name))));
-    let mut em = Emitter::new(g, &outputs, &symbols, "t");
+    let mut em = Emitter::new(g, &outputs, &symbols, "t").with_float(float);
     let output_exprs = em.run(&outputs);
 
     let radial_idents: Vec<Ident> = spec.radial.iter().map(|r| ident(&r.name)).collect();
@@ -664,6 +770,10 @@ pub fn generate_point(
         agreement,
         truncation,
         agreement_samples: opts.samples + opts.check_samples,
+        float,
+        series_error,
+        closed_error,
+        target_met,
         ops_prologue,
         ops_series: es.ops,
         ops_closed: ec.ops + sqrt,

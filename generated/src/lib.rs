@@ -15,6 +15,12 @@
 //! [`element_rotary_points_into`] that at four abscissae at once (SIMD lanes). [`kernel_factory`]
 //! offers, for each N in [`factory::sizes`], the runtime's `MomentKernel` fed by these
 //! closed forms ([`GeneratedKernel`]).
+//!
+//! In f32, for engines that compute in f32: [`centreline_mass_f32()`],
+//! [`centreline_force_f32()`], [`rotary_basis_f32()`] and [`element_point_f32()`] (into a
+//! flat array named by [`ELEMENT_POINT_F32_OUTPUTS`]), scalar, with switches and Taylor
+//! degrees chosen for f32 (docs/kernels.md, "f32 kernels", has what f32 costs against
+//! f64).
 #![no_std]
 #![warn(missing_docs)]
 
@@ -351,3 +357,32 @@ pub mod element_rotary_point;
 pub use element_rotary_point::{
     element_rotary_point_into, element_rotary_points_into, ELEMENT_ROTARY_POINT_SWITCH,
 };
+
+/// Generated: the centreline moments of M in f32 (see the file's header for the switch,
+/// the f32 errors and op counts).
+#[rustfmt::skip]
+#[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]
+pub mod centreline_mass_f32;
+
+/// Generated: the force-only centreline moments in f32 (see the file's header).
+#[rustfmt::skip]
+#[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]
+pub mod centreline_force_f32;
+
+/// Generated: the rotary-inertia basis in f32 (see the file's header).
+#[rustfmt::skip]
+#[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]
+pub mod rotary_basis_f32;
+
+/// Generated: the element's local functions at one abscissa in f32, into a flat array
+/// (see the file's header).
+#[rustfmt::skip]
+#[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]
+pub mod element_point_f32;
+
+pub use centreline_force_f32::{centreline_force_f32, CENTRELINE_FORCE_F32_SWITCH};
+pub use centreline_mass_f32::{centreline_mass_f32, CENTRELINE_MASS_F32_SWITCH};
+pub use element_point_f32::{
+    element_point_f32, ELEMENT_POINT_F32_OUTPUTS, ELEMENT_POINT_F32_SWITCH,
+};
+pub use rotary_basis_f32::{rotary_basis_f32, ROTARY_BASIS_F32_SWITCH};
