@@ -38,6 +38,7 @@ pub mod material;
 pub mod math;
 pub mod moments;
 pub mod pose;
+pub mod projection;
 pub mod quadrature;
 pub mod strand_terms;
 

@@ -68,14 +68,21 @@ pub fn lu_solve<const D: usize>(
     b.iter().all(|x| x.is_finite())
 }
 
-/// How [`negative_semidefinite_part`] obtained its result.
+/// How the stabilising part of the field stiffness was obtained.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Projection {
     /// −H is positive definite (a Cholesky factorisation succeeded): H is its own part.
     Definite,
-    /// By an eigendecomposition.
+    /// By an eigendecomposition (partial, of the smaller side of the spectrum, or the
+    /// full Jacobi decomposition when that fails its checks).
     Decomposed,
-    /// The matrix holds a value that is not finite: left unchanged.
+    /// In the eigenbasis the strand kept from an earlier step (it still splits H).
+    Reused,
+    /// The same H as the last projection of this step (a split step starts again from
+    /// the same state): the same result.
+    Repeated,
+    /// The matrix holds a value that is not finite: left unchanged, the stiffness stays
+    /// explicit.
     Failed,
 }
 

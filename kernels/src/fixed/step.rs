@@ -2,11 +2,14 @@
 //! step, and the centreline.
 
 use super::dense::{lu_solve, negative_semidefinite_part, Projection};
-use super::workspace::FixedWorkspace;
+use super::workspace::{FixedWorkspace, ProjectionArrays};
 use super::FixedStrand;
 use crate::body_field::BodyField;
 use crate::head::{body_field, HeadState};
 use crate::pose::Pose;
+use crate::projection::{
+    cholesky, ProjectionBasis, ProjectionOutcome, ProjectionScratch, SpectralProjection,
+};
 use crate::strand_terms::{
     element_ends, evaluate_terms, MomentSource, TermMatrix, TermVectors, Terms,
 };
@@ -219,18 +222,17 @@ pub fn linearly_implicit<
             }
             st[j][j] += p.stiffness[j];
         }
-        Some(negative_semidefinite_part(
+        Some(project(
             &mut ws.stiffness,
-            &mut ws.eigen,
-            &mut ws.eigenvalues,
+            &mut strand.basis,
+            &mut strand.basis_k,
+            &mut strand.basis_negative,
+            &mut ws.projection,
         ))
     } else {
         None
     };
-    let use_h = matches!(
-        projection,
-        Some(Projection::Definite) | Some(Projection::Decomposed)
-    );
+    let use_h = matches!(projection, Some(p) if p != Projection::Failed);
     let (q, v) = (&mut strand.q, &mut strand.v);
     for j in 0..D {
         for i in 0..D {
@@ -294,4 +296,103 @@ pub fn centreline<
     ends: &mut [Pose; E],
 ) {
     element_ends(source, &strand.params.shape(), &strand.q, ends);
+}
+
+/// Replace the symmetric `h` by its negative semidefinite part as the runtime's step does:
+/// the same input as the last call of this step gives the last result; −H positive
+/// definite leaves H; otherwise the shared partial eigendecomposition
+/// ([`crate::projection`]), reusing the strand's kept basis while it splits H, and the
+/// full Jacobi decomposition when that fails its checks.
+fn project<const D: usize, const B: usize>(
+    h: &mut [[f64; D]; D],
+    basis: &mut [[f64; D]; B],
+    basis_k: &mut usize,
+    basis_negative: &mut bool,
+    p: &mut ProjectionArrays<D>,
+) -> Projection {
+    let repeated = p.last_valid
+        && (0..D).all(|j| {
+            h[j][j..]
+                .iter()
+                .zip(&p.last_input[j][j..])
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+        });
+    if repeated {
+        *h = p.last_output;
+        return Projection::Repeated;
+    }
+    for j in 0..D {
+        p.last_input[j][j..].copy_from_slice(&h[j][j..]);
+    }
+    let outcome = project_uncached(h, basis, basis_k, basis_negative, p);
+    p.last_valid = outcome != Projection::Failed;
+    if p.last_valid {
+        p.last_output = *h;
+    }
+    outcome
+}
+
+/// [`project`] without the repeat check.
+fn project_uncached<const D: usize, const B: usize>(
+    h: &mut [[f64; D]; D],
+    basis: &mut [[f64; D]; B],
+    basis_k: &mut usize,
+    basis_negative: &mut bool,
+    p: &mut ProjectionArrays<D>,
+) -> Projection {
+    for j in 0..D {
+        for i in j..D {
+            p.dense[j][i] = -h[j][i];
+        }
+    }
+    if cholesky(p.dense.as_flattened_mut(), D) {
+        return Projection::Definite;
+    }
+    for j in 0..D {
+        for i in j..D {
+            p.dense[j][i] = h[j][i];
+            p.dense[i][j] = h[j][i];
+        }
+    }
+    let [tau, diag, off, eigenvalues, selected, scratch, u0, u1, u2, mult, x] = &mut p.vectors;
+    let spectral = SpectralProjection::new(
+        D,
+        ProjectionBasis {
+            vectors: basis.as_flattened_mut(),
+            k: basis_k,
+            negative: basis_negative,
+        },
+        ProjectionScratch {
+            a: p.a.as_flattened_mut(),
+            tau,
+            diag,
+            off,
+            eigenvalues,
+            selected,
+            scratch,
+            u0,
+            u1,
+            u2,
+            mult,
+            pivot: &mut p.pivot,
+            x,
+            hu: p.hu.as_flattened_mut(),
+            coupling: p.coupling.as_flattened_mut(),
+            rotated: p.rotated.as_flattened_mut().as_flattened_mut(),
+        },
+    );
+    if let Some(mut spectral) = spectral {
+        match spectral.negative_part(p.dense.as_flattened_mut()) {
+            ProjectionOutcome::Failed => spectral.forget_basis(),
+            outcome => {
+                *h = p.dense;
+                return if outcome == ProjectionOutcome::Reused {
+                    Projection::Reused
+                } else {
+                    Projection::Decomposed
+                };
+            }
+        }
+    }
+    negative_semidefinite_part(h, &mut p.eigen, &mut p.eigenvalues)
 }

@@ -27,7 +27,24 @@ pub struct FixedWorkspace<const N: usize, const D: usize, const E: usize> {
     pub(super) first_moment: Vector3<f64>,
     pub(super) rhs: [f64; D],
     pub(super) pivots: [usize; D],
-    /// Scratch of the projection.
+    /// Scratch of the projection: the shared algorithm's
+    /// ([`crate::projection::ProjectionScratch`]) and the full Jacobi fallback's.
+    pub(super) projection: ProjectionArrays<D>,
+}
+
+/// The projection's scratch and the step's cache of its last input and output.
+#[derive(Debug, Clone)]
+pub(super) struct ProjectionArrays<const D: usize> {
+    pub(super) a: [[f64; D]; D],
+    pub(super) vectors: [[f64; D]; 11],
+    pub(super) pivot: [bool; D],
+    pub(super) hu: [[f64; D]; D],
+    pub(super) coupling: [[f64; D]; D],
+    pub(super) rotated: [[[f64; D]; D]; 2],
+    pub(super) dense: [[f64; D]; D],
+    pub(super) last_input: [[f64; D]; D],
+    pub(super) last_output: [[f64; D]; D],
+    pub(super) last_valid: bool,
     pub(super) eigen: [[f64; D]; D],
     pub(super) eigenvalues: [f64; D],
 }
@@ -79,8 +96,20 @@ impl<const N: usize, const D: usize, const E: usize> FixedWorkspace<N, D, E> {
             first_moment: Vector3::zeros(),
             rhs: [0.0; D],
             pivots: [0; D],
-            eigen: [[0.0; D]; D],
-            eigenvalues: [0.0; D],
+            projection: ProjectionArrays {
+                a: [[0.0; D]; D],
+                vectors: [[0.0; D]; 11],
+                pivot: [false; D],
+                hu: [[0.0; D]; D],
+                coupling: [[0.0; D]; D],
+                rotated: [[[0.0; D]; D]; 2],
+                dense: [[0.0; D]; D],
+                last_input: [[0.0; D]; D],
+                last_output: [[0.0; D]; D],
+                last_valid: false,
+                eigen: [[0.0; D]; D],
+                eigenvalues: [0.0; D],
+            },
         }
     }
 
@@ -89,6 +118,7 @@ impl<const N: usize, const D: usize, const E: usize> FixedWorkspace<N, D, E> {
     pub fn forget(&mut self) {
         self.assembly.prepared[0] = f64::NAN;
         self.assembly.mass_valid = false;
+        self.projection.last_valid = false;
     }
 }
 

@@ -120,25 +120,13 @@ impl DenseSolver {
     /// [`Self::project_negative_semidefinite`] without the repeat check.
     fn project_uncached(&mut self, h: &mut Mat<f64>) -> bool {
         let n = h.nrows();
+        // −H positive definite (shared with the embedded step's decision)
         for j in 0..n {
-            let (from, to) = (
-                &h.col_as_slice(j)[j..n],
-                &mut self.scaled.col_as_slice_mut(j)[j..n],
-            );
-            for (t, f) in to.iter_mut().zip(from) {
-                *t = -*f;
+            for (i, &x) in h.col_as_slice(j)[..n].iter().enumerate().skip(j) {
+                self.dense[j * n + i] = -x;
             }
         }
-        let stack = MemStack::new(&mut self.buffer);
-        if llt::factor::cholesky_in_place(
-            self.scaled.as_mut(),
-            Default::default(),
-            Par::Seq,
-            stack,
-            Default::default(),
-        )
-        .is_ok()
-        {
+        if superhelix_kernels::projection::cholesky(&mut self.dense, n) {
             return true;
         }
         for j in 0..n {
