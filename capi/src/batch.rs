@@ -1,0 +1,348 @@
+//! The strands of a batch at one N behind an object-safe trait, and the workspace of
+//! one step, so that the C functions need not know N.
+
+use crate::sizes::{visit_size, SizeVisitor};
+use core::any::Any;
+use core::cell::UnsafeCell;
+use nalgebra::Vector3;
+use superhelix_generated::ClosedForm;
+use superhelix_kernels::fixed::{
+    self, Effects, ExtrapolatedHead, FixedParams, FixedStrand, FixedWorkspace, ParamsError,
+    StepCounts, StepError, StepInput,
+};
+use superhelix_kernels::head::HeadState;
+use superhelix_kernels::material::SectionTerms;
+use superhelix_kernels::pose::Pose;
+
+/// One strand's parameters in run-time sized form (checked by [`FixedParams::new`]).
+pub(crate) struct StrandSpec<'a> {
+    pub root_position: [f64; 3],
+    pub root_frame: [[f64; 3]; 3],
+    pub lengths: &'a [f64],
+    pub section: SectionTerms,
+    pub natural: &'a [f64],
+    pub internal_friction: f64,
+    pub air_drag: f64,
+}
+
+/// Why a batch could not be made: the strand and its parameter error, or no memory.
+pub(crate) enum BuildError {
+    Params(usize, ParamsError),
+    OutOfMemory,
+}
+
+/// How the strands of a batch are stepped: the world and the step's kind.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct StepSettings {
+    /// The head at the end of the step, gravity and whether the head moves.
+    pub input: StepInput,
+    /// The checked step (`fixed::step`: energy balance and splitting, as the runtime);
+    /// else the plain linearly implicit step (`fixed::linearly_implicit`).
+    pub checked: bool,
+}
+
+/// What stepping a range of strands found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct RangeOutcome {
+    /// Strands whose step failed (they kept their state).
+    pub failed: usize,
+    /// The first of them and its error.
+    pub first: Option<(usize, StepError)>,
+    /// Largest `max_element_rotation` over the strands stepped.
+    pub max_element_rotation: f64,
+    /// The checks' counters, summed over the strands.
+    pub counts: StepCounts,
+}
+
+/// One step of `strand` by `dt` as `settings` say; on failure the strand is back in
+/// the state it had.
+pub(crate) fn step_strand<const N: usize, const D: usize, const E: usize, const B: usize>(
+    strand: &mut FixedStrand<N, D, B>,
+    settings: &StepSettings,
+    dt: f64,
+    ws: &mut FixedWorkspace<N, D, E>,
+    counts: &mut StepCounts,
+) -> Result<f64, StepError> {
+    let input = &settings.input;
+    if !settings.checked {
+        return fixed::linearly_implicit(&ClosedForm, strand, input, dt, ws)
+            .map(|r| r.max_element_rotation);
+    }
+    // every step runs in its own time [0, dt]: the energy the strand kept is that of
+    // its present state, the start of this step
+    if let Some(e) = strand.last_energy.as_mut() {
+        e.time = 0.0;
+    }
+    // the head as set is its state at the end of the step; the substeps follow the
+    // motion extrapolated back from it (a still head: its pose throughout)
+    let mut state = input.head;
+    if !input.head_moves {
+        state.velocity = Vector3::zeros();
+        state.acceleration = Vector3::zeros();
+        state.omega = Vector3::zeros();
+        state.alpha = Vector3::zeros();
+    }
+    let head = ExtrapolatedHead { t0: dt, state };
+    let effects = Effects {
+        gravity: input.gravity,
+        head_moves: input.head_moves,
+    };
+    let (q, v) = (strand.q, strand.v);
+    fixed::step(&ClosedForm, strand, &head, &effects, 0.0, dt, ws, counts)
+        .map(|r| r.max_element_rotation)
+        .inspect_err(|_| strand.set_state(&q, &v))
+}
+
+/// The strands of one batch, all with the same N.
+pub(crate) trait Group: Send + Sync {
+    /// N.
+    fn elements(&self) -> usize;
+    /// Number of strands.
+    fn len(&self) -> usize;
+    /// Bytes one strand keeps.
+    fn strand_bytes(&self) -> usize;
+    /// A workspace for this N.
+    fn new_workspace(&self) -> Workspace;
+    /// Step strands `first..first + count` (in range) with `ws` (of this N; else
+    /// `None`). Every strand is stepped; one whose step fails keeps its state.
+    ///
+    /// # Safety
+    /// No other reference to those strands may be in use during the call: the caller
+    /// steps disjoint ranges from different threads, and nothing else meanwhile.
+    unsafe fn step_range(
+        &self,
+        first: usize,
+        count: usize,
+        settings: &StepSettings,
+        dt: f64,
+        ws: &mut Workspace,
+    ) -> Option<RangeOutcome>;
+    /// Forget the energy each strand kept of its state (after a change of the world
+    /// that changes it: gravity, whether the head moves).
+    fn forget_energy(&mut self);
+    /// The N + 1 element ends of strand `i` in world coordinates into `out` (3(N + 1)
+    /// values).
+    fn centreline(&self, i: usize, head: &HeadState, out: &mut [f64]);
+    /// q and (when given) q̇ of strand `i` into the first 3N values of each.
+    fn state(&self, i: usize, q: &mut [f64], v: Option<&mut [f64]>);
+    /// Set q and q̇ (zero when `None`) of strand `i` from 3N values each.
+    fn set_state(&mut self, i: usize, q: &[f64], v: Option<&[f64]>);
+}
+
+/// The scratch of one step at one N.
+pub(crate) struct Workspace {
+    /// N.
+    pub elements: usize,
+    /// Bytes of the fixed-N workspace.
+    pub bytes: usize,
+    inner: Box<dyn Any + Send>,
+}
+
+/// The strands of a batch at N elements.
+struct Strands<const N: usize, const D: usize, const E: usize, const B: usize> {
+    strands: Box<[UnsafeCell<FixedStrand<N, D, B>>]>,
+}
+
+// SAFETY: the strands are plain numbers (no pointers, no interior state besides the
+// cells). Shared access from several threads happens only through `Group::step_range`
+// (each call on its own disjoint range, as its safety contract requires) and the
+// read-only methods, which the C API documents must not run concurrently with a step
+// of the same strands.
+unsafe impl<const N: usize, const D: usize, const E: usize, const B: usize> Sync
+    for Strands<N, D, E, B>
+{
+}
+
+impl<const N: usize, const D: usize, const E: usize, const B: usize> Strands<N, D, E, B> {
+    fn strand(&self, i: usize) -> &FixedStrand<N, D, B> {
+        // SAFETY: no `&mut` to a strand outlives `step_range` or `set_state`, and neither
+        // runs concurrently with a reader (the C API's contract), so this shared
+        // reference aliases no live mutable one.
+        unsafe { &*self.strands[i].get() }
+    }
+}
+
+impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for Strands<N, D, E, B> {
+    fn elements(&self) -> usize {
+        N
+    }
+
+    fn len(&self) -> usize {
+        self.strands.len()
+    }
+
+    fn strand_bytes(&self) -> usize {
+        FixedStrand::<N, D, B>::BYTES
+    }
+
+    fn new_workspace(&self) -> Workspace {
+        workspace::<N, D, E>()
+    }
+
+    unsafe fn step_range(
+        &self,
+        first: usize,
+        count: usize,
+        settings: &StepSettings,
+        dt: f64,
+        ws: &mut Workspace,
+    ) -> Option<RangeOutcome> {
+        let ws = ws.inner.downcast_mut::<FixedWorkspace<N, D, E>>()?;
+        let cells = self.strands.get(first..first.checked_add(count)?)?;
+        let mut outcome = RangeOutcome {
+            failed: 0,
+            first: None,
+            max_element_rotation: 0.0,
+            counts: StepCounts::default(),
+        };
+        for (k, cell) in cells.iter().enumerate() {
+            // SAFETY: the caller guarantees that nothing else uses the strands of this
+            // range during the call, so this is the only reference to the strand.
+            let strand = unsafe { &mut *cell.get() };
+            match step_strand(strand, settings, dt, ws, &mut outcome.counts) {
+                Ok(rotation) => {
+                    outcome.max_element_rotation = outcome.max_element_rotation.max(rotation);
+                }
+                Err(e) => {
+                    outcome.failed += 1;
+                    outcome.first.get_or_insert((first + k, e));
+                }
+            }
+        }
+        Some(outcome)
+    }
+
+    fn forget_energy(&mut self) {
+        for s in self.strands.iter_mut() {
+            s.get_mut().last_energy = None;
+        }
+    }
+
+    fn centreline(&self, i: usize, head: &HeadState, out: &mut [f64]) {
+        let mut ends = [Pose::default(); E];
+        fixed::centreline(&ClosedForm, self.strand(i), &mut ends);
+        for (end, xyz) in ends.iter().zip(out.chunks_exact_mut(3)) {
+            let w = head.to_world(&end.position);
+            xyz.copy_from_slice(w.as_slice());
+        }
+    }
+
+    fn state(&self, i: usize, q: &mut [f64], v: Option<&mut [f64]>) {
+        let s = self.strand(i);
+        q[..D].copy_from_slice(&s.q);
+        if let Some(v) = v {
+            v[..D].copy_from_slice(&s.v);
+        }
+    }
+
+    fn set_state(&mut self, i: usize, q: &[f64], v: Option<&[f64]>) {
+        let s = self.strands[i].get_mut();
+        let mut qq = [0.0; D];
+        qq.copy_from_slice(&q[..D]);
+        let mut vv = [0.0; D];
+        if let Some(v) = v {
+            vv.copy_from_slice(&v[..D]);
+        }
+        s.set_state(&qq, &vv);
+    }
+}
+
+/// A workspace at N elements.
+fn workspace<const N: usize, const D: usize, const E: usize>() -> Workspace {
+    Workspace {
+        elements: N,
+        bytes: FixedWorkspace::<N, D, E>::BYTES,
+        inner: Box::new(FixedWorkspace::<N, D, E>::new()),
+    }
+}
+
+/// Builds the strands of a batch.
+struct Build<'a, 'b> {
+    specs: &'a [StrandSpec<'b>],
+}
+
+impl SizeVisitor for Build<'_, '_> {
+    type Output = Result<Box<dyn Group>, BuildError>;
+
+    fn visit<const N: usize, const D: usize, const E: usize, const B: usize>(self) -> Self::Output {
+        let mut strands = Vec::new();
+        strands
+            .try_reserve_exact(self.specs.len())
+            .map_err(|_| BuildError::OutOfMemory)?;
+        for (i, s) in self.specs.iter().enumerate() {
+            let mut lengths = [0.0; N];
+            lengths.copy_from_slice(&s.lengths[..N]);
+            let mut natural = [0.0; D];
+            natural.copy_from_slice(&s.natural[..D]);
+            let params = FixedParams::<N, D>::new(
+                s.root_position,
+                s.root_frame,
+                lengths,
+                &s.section,
+                natural,
+                s.internal_friction,
+                s.air_drag,
+            )
+            .map_err(|e| BuildError::Params(i, e))?;
+            strands.push(UnsafeCell::new(FixedStrand::<N, D, B>::at_rest(params)));
+        }
+        Ok(Box::new(Strands::<N, D, E, B> {
+            strands: strands.into_boxed_slice(),
+        }))
+    }
+}
+
+/// The strands of `specs` (each with N elements: `lengths` N values, `natural` 3N), at
+/// rest in their natural shape; `None` when N has no generated code.
+pub(crate) fn build(
+    n: usize,
+    specs: &[StrandSpec<'_>],
+) -> Option<Result<Box<dyn Group>, BuildError>> {
+    visit_size(n, Build { specs })
+}
+
+struct MakeWorkspace;
+
+impl SizeVisitor for MakeWorkspace {
+    type Output = Workspace;
+    fn visit<const N: usize, const D: usize, const E: usize, const B: usize>(self) -> Self::Output {
+        workspace::<N, D, E>()
+    }
+}
+
+/// A workspace for `n` elements; `None` when N has no generated code.
+pub(crate) fn new_workspace(n: usize) -> Option<Workspace> {
+    visit_size(n, MakeWorkspace)
+}
+
+/// Bytes of one strand and of one workspace at N elements.
+struct Bytes;
+
+impl SizeVisitor for Bytes {
+    type Output = (usize, usize);
+    fn visit<const N: usize, const D: usize, const E: usize, const B: usize>(self) -> Self::Output {
+        (
+            FixedStrand::<N, D, B>::BYTES,
+            FixedWorkspace::<N, D, E>::BYTES,
+        )
+    }
+}
+
+/// (bytes per strand, bytes per workspace) at `n` elements; `None` when N has no
+/// generated code.
+pub(crate) fn bytes(n: usize) -> Option<(usize, usize)> {
+    visit_size(n, Bytes)
+}
+
+/// The settings of a new batch: the head at rest at the origin, no gravity, the
+/// checked step.
+pub(crate) fn initial_settings() -> StepSettings {
+    StepSettings {
+        input: StepInput {
+            head: HeadState::rest(),
+            gravity: None,
+            head_moves: false,
+        },
+        checked: true,
+    }
+}
