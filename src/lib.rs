@@ -14,6 +14,7 @@ pub mod quadrature_table;
 pub mod render;
 pub mod stress;
 pub mod study;
+pub mod study_cost;
 pub mod study_plot;
 
 pub use superhelix_generated as generated;

@@ -453,6 +453,8 @@ pub struct Study {
     pub wall_seconds: f64,
     /// How costs were measured.
     pub clock: Clock,
+    /// Cost of one strand-step against N for each path ([`crate::study_cost`]).
+    pub cost: Vec<crate::study_cost::CostPoint>,
 }
 
 // ---------------------------------------------------------------- problem set-ups
@@ -1395,12 +1397,18 @@ pub fn run_study(options: &StudyOptions, factory: Option<&dyn KernelFactory>) ->
     let cantilever = cantilever_problem(&grid, factory);
     let floppy = floppy_problem(&grid, factory)?;
     let rotary = rotary_problem(&grid, factory)?;
+    let cost = if options.quick {
+        crate::study_cost::cost_by_elements(&[1, 5, 10], 10, 5)?
+    } else {
+        crate::study_cost::cost_by_elements(&crate::study_cost::ELEMENTS, 20, 30)?
+    };
     Ok(Study {
         options: options.clone(),
         grid,
         problems: vec![swing, curly, frequency, cantilever, floppy, rotary],
         wall_seconds: wall.elapsed().as_secs_f64(),
         clock: Clock::current(),
+        cost,
     })
 }
 
@@ -1589,6 +1597,18 @@ pub fn render_report(study: &Study, plots: &[Option<String>]) -> String {
         }
         let _ = writeln!(s);
     }
+    let _ = writeln!(
+        s,
+        "## Cost of one strand-step against N (`cost`)\n\n\
+         The bench's strands (wavy preset, 20 cm, gravity, air drag, internal friction, \
+         dt = 1/30 s; `superhelix bench`), CPU time of the process per strand-step, for the \
+         generic runtime-N kernel (Gauss–Legendre quadrature), the runtime engine on the \
+         generated kernels, and the embedded engine (the fixed-N step an engine embeds: \
+         arrays of literal size, one workspace per thread). All three take the same steps, \
+         checked and split by the same rules.\n\n![cost against N]({})\n",
+        COST_PLOT
+    );
+    let _ = writeln!(s, "{}", crate::study_cost::cost_table(&study.cost));
     s
 }
 
@@ -1673,6 +1693,10 @@ pub fn write_report(study: &Study, dir: &Path) -> Result<Vec<PathBuf>> {
             None => plots.push(None),
         }
     }
+    let cost_svg = crate::study_cost::cost_plot(&study.cost)?;
+    let path = dir.join(COST_PLOT);
+    std::fs::write(&path, cost_svg).map_err(|e| io(&path, e))?;
+    files.push(path);
     let path = dir.join("report.md");
     std::fs::write(&path, render_report(study, &plots)).map_err(|e| io(&path, e))?;
     files.push(path);
@@ -1682,6 +1706,9 @@ pub fn write_report(study: &Study, dir: &Path) -> Result<Vec<PathBuf>> {
     files.push(path);
     Ok(files)
 }
+
+/// File name of the cost-against-N plot.
+pub const COST_PLOT: &str = "cost_by_elements.svg";
 
 /// The results as JSON (`study.json`): per problem, every point's setting, error,
 /// signed error, cost (s) and Pareto flag, or its failure.
@@ -1731,5 +1758,6 @@ pub fn to_json(study: &Study) -> serde_json::Value {
         "quick": study.options.quick,
         "wall_seconds": study.wall_seconds,
         "problems": problems,
+        "cost_by_elements": study.cost.iter().map(|c| json!({"path": c.path, "elements": c.n, "us_per_strand_step": c.us_per_strand_step, "substeps": c.substeps})).collect::<Vec<_>>(),
     })
 }
