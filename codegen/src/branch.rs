@@ -231,7 +231,7 @@ pub struct SwitchChoice {
     pub closed_error: f64,
     /// Whether the agreement target was met (always, for f64: without, there is no
     /// switch); with [`Float::F32`], `false` means that no candidate met it and the
-    /// switch is the one of smallest error ([`pick_f32`]).
+    /// switch is the one of smallest error (`pick_f32`).
     pub target_met: bool,
 }
 

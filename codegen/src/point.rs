@@ -260,7 +260,7 @@ pub struct PointOptions {
     /// the sample points are rounded to f32, the outputs of each branch are computed in
     /// f32 arithmetic (the radial functions, then the polynomial part) and compared with
     /// the f64 outputs of the Taylor series of degree `N + 8` at the same inputs; the
-    /// switch is taken by [`crate::branch::pick_f32`]'s rule (the closed form also at the
+    /// switch is taken by `pick_f32`'s rule (`branch.rs`) (the closed form also at the
     /// next candidate), and the degrees by the truncation target as for f64.
     pub float: Float,
 }

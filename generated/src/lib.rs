@@ -12,9 +12,12 @@
 //! [`mass_moments`] only those of M. [`element_point_into`] gives an element's local
 //! functions at one abscissa, [`element_rotary_point_into`] the same without the second
 //! derivatives `d2p` (what the rotary-inertia quadrature reads), and
-//! [`element_rotary_points_into`] that at four abscissae at once (SIMD lanes). [`kernel_factory`]
-//! offers, for each N in [`factory::sizes`], the runtime's `MomentKernel` fed by these
-//! closed forms ([`GeneratedKernel`]).
+//! [`element_rotary_points_into`] that at four abscissae at once (SIMD lanes).
+//! [`ClosedForm`] is all of them as a `MomentSource`: what the runtime's kernels and the
+//! fixed-N step of `superhelix_kernels::fixed` (re-exported as [`kernels`]) run on.
+//!
+//! The crate is `#![no_std]` and allocates nothing; the `std` feature (the runtime's) takes
+//! the elementary functions from std and picks AVX2 code at run time.
 //!
 //! In f32, for engines that compute in f32: [`centreline_mass_f32()`],
 //! [`centreline_force_f32()`], [`rotary_basis_f32()`] and [`element_point_f32()`] (into a
