@@ -80,6 +80,15 @@ impl MomentSource for ClosedForm {
     ) {
         crate::element_moments_batch_into(d, l, rotary, out);
     }
+    fn mass_moments_batch(
+        &self,
+        d: &[Vector3<f64>],
+        l: &[f64],
+        rotary: &[f64; 3],
+        out: &mut [ElementMoments],
+    ) {
+        crate::mass_moments_batch_into(d, l, rotary, out);
+    }
     fn point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
         crate::element_point_into(d, u, out);
     }
@@ -217,6 +226,28 @@ pub fn element_moments_batch_into(
     rotary: &[f64; 3],
     out: &mut [ElementMoments],
 ) {
+    moments_batch(d, l, rotary, out, true);
+}
+
+/// [`element_moments_batch_into`] for the fields of M only (the `mass_moments` fields;
+/// the force-only fields are left as they were): the same bits for those fields.
+pub fn mass_moments_batch_into(
+    d: &[Vector3<f64>],
+    l: &[f64],
+    rotary: &[f64; 3],
+    out: &mut [ElementMoments],
+) {
+    moments_batch(d, l, rotary, out, false);
+}
+
+/// The batch of [`element_moments_batch_into`], with the force-only fields when `force`.
+fn moments_batch(
+    d: &[Vector3<f64>],
+    l: &[f64],
+    rotary: &[f64; 3],
+    out: &mut [ElementMoments],
+    force: bool,
+) {
     let n = d.len().min(l.len()).min(out.len());
     let dd = |p: usize| [d[p][0], d[p][1], d[p][2]];
     each_element(
@@ -228,15 +259,17 @@ pub fn element_moments_batch_into(
         centreline_mass_closed_x4,
         |p, o: &[f64; 51]| fill_mass(o, &mut out[p]),
     );
-    each_element(
-        n,
-        &dd,
-        l,
-        CENTRELINE_FORCE_SWITCH,
-        centreline_force,
-        centreline_force_closed_x4,
-        |p, o: &[f64; 135]| fill_force(o, &mut out[p]),
-    );
+    if force {
+        each_element(
+            n,
+            &dd,
+            l,
+            CENTRELINE_FORCE_SWITCH,
+            centreline_force,
+            centreline_force_closed_x4,
+            |p, o: &[f64; 135]| fill_force(o, &mut out[p]),
+        );
+    }
     if rotary.iter().all(|&x| x == 0.0) {
         out[..n].iter_mut().for_each(clear_rotary);
     } else {

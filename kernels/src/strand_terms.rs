@@ -39,6 +39,18 @@ pub trait MomentSource {
             self.moments(d, l, rotary, out);
         }
     }
+    /// [`MomentSource::moments_batch`] for the fields of M only (those the mass
+    /// assembly reads; the others may be left as they were), the same bits for those.
+    /// Defaults to the full batch.
+    fn mass_moments_batch(
+        &self,
+        d: &[Vector3<f64>],
+        l: &[f64],
+        rotary: &[f64; 3],
+        out: &mut [ElementMoments],
+    ) {
+        self.moments_batch(d, l, rotary, out);
+    }
     /// E(u), p(u), w_i(u) and their d-derivatives (see [`ElementPoint`]).
     fn point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
         *out = ElementPoint::by_jets(d, u);
@@ -208,6 +220,61 @@ pub fn prepare<S: MomentSource + ?Sized>(
         b.end_derivs[p] = end_derivatives_from(&start.frame, &point);
     }
     source.moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
+}
+
+/// M, the centreline Gram matrix (into the buffers, `mass_valid` set) and ∫ρS y ds at q,
+/// from the element moments of M only ([`MomentSource::mass_moments_batch`]): what an
+/// energy measurement needs, for the cost of the moments M needs. The buffers are left
+/// prepared for no q (a later evaluation at q computes every moment).
+pub fn evaluate_mass<S: MomentSource + ?Sized>(
+    source: &S,
+    shape: &StrandShape<'_>,
+    b: &mut MomentBuffers<'_>,
+    q: &[f64],
+    first_moment: &mut Vector3<f64>,
+) {
+    b.prepared[0] = f64::NAN;
+    b.ends[0] = Pose {
+        position: shape.root_position,
+        frame: shape.root_frame,
+    };
+    let mut point = ElementPoint::default();
+    for (p, &l) in shape.lengths.iter().enumerate() {
+        let d = darboux(q, p);
+        b.darboux[p] = d;
+        source.point(&d, l, &mut point);
+        let start = b.ends[p];
+        b.ends[p + 1] = Pose {
+            position: start.position + start.frame * point.p,
+            frame: start.frame * point.frame,
+        };
+        b.end_derivs[p] = end_derivatives_from(&start.frame, &point);
+    }
+    source.mass_moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
+    let n = shape.lengths.len();
+    suffix_bodies(
+        b.ends,
+        shape.lengths,
+        b.moments,
+        b.motions,
+        &b.vector[..3 * n],
+        false,
+        b.bodies,
+    );
+    assemble_mass_gram_and_gravity(
+        b.bodies,
+        shape.mass_per_length,
+        shape.lengths,
+        b.ends,
+        b.end_derivs,
+        b.moments,
+        &Vector3::zeros(),
+        b.mass,
+        Some(&mut *b.gram),
+        b.vector,
+        first_moment,
+    );
+    *b.mass_valid = true;
 }
 
 /// `m` is a multiple of the identity.

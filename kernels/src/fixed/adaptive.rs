@@ -202,7 +202,19 @@ fn measure<S: MomentSource, const N: usize, const D: usize, const E: usize, cons
         force: field.has_linear(),
         ..Default::default()
     };
-    evaluate_at(source, strand, q, v, &field, terms, ws);
+    if field.has_linear() {
+        evaluate_at(source, strand, q, v, &field, terms, ws);
+    } else {
+        // M and ∫ρS y only: the moments of M, not the force's
+        let shape = p.shape();
+        crate::strand_terms::evaluate_mass(
+            source,
+            &shape,
+            &mut ws.assembly.buffers(),
+            q,
+            &mut ws.first_moment,
+        );
+    }
     let m = &ws.assembly.mass;
     let mut kinetic = 0.0;
     for j in 0..D {

@@ -108,9 +108,10 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         h: f64,
         counts: &mut StepCounts,
     ) -> Option<(usize, String)> {
-        // chunks of ~1/16 of a thread's share: load balance, and one workspace per chunk
+        // a quarter of a thread's share per chunk (load balance), at least 64 strands
+        // (one workspace per chunk: making one costs about as much as a step)
         let threads = rayon::current_num_threads().max(1);
-        let chunk = self.strands.len().div_ceil(16 * threads).max(1);
+        let chunk = self.strands.len().div_ceil(4 * threads).max(64);
         let (failure, total) = self
             .strands
             .par_chunks_mut(chunk)
