@@ -39,7 +39,8 @@ pub const MAX_WL: f64 = 100.0;
 /// The kernel compared with the reference.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Candidate {
-    /// The generated closed-form kernel of [`crate::kernel_factory`] (the default).
+    /// The generated fixed-N kernel of [`crate::kernel_factory`] (the default; for the N
+    /// it lists in `available()`).
     Generated,
     /// [`GenericKernel`] with its adaptive rule (`8 + ⌈1.5 |d| l⌉` points per element):
     /// for developing and testing the comparison before the generated kernels exist.
@@ -549,14 +550,17 @@ fn candidate_kernel(
             geometry.clone(),
             QuadratureRule::Fixed(k),
         ))),
-        Candidate::Generated => factory.and_then(|f| f.create(geometry)).ok_or_else(|| {
-            let available = factory.map(|f| f.available()).unwrap_or_default();
-            Error::Kernel(format!(
-                "no generated kernel for N = {n} elements (this build has generated kernels \
-                 for N in {available:?}); compare one of those N, or a generic candidate \
-                 with --candidate generic-adaptive"
-            ))
-        }),
+        Candidate::Generated => factory
+            .filter(|f| f.available().contains(&n))
+            .and_then(|f| f.create(geometry))
+            .ok_or_else(|| {
+                let available = factory.map(|f| f.available()).unwrap_or_default();
+                Error::Kernel(format!(
+                    "no generated kernel for N = {n} elements (this build has generated fixed-N \
+                 kernels for N in {available:?}; SUPERHELIX_N={n} generates one at build time); \
+                 compare one of those N, or a generic candidate with --candidate generic-adaptive"
+                ))
+            }),
     }
 }
 

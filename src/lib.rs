@@ -41,9 +41,9 @@ pub const DEFAULT_SCENE: &str = include_str!("default_scene.toml");
 /// Name of the file `run` writes in its output directory.
 pub const FRAMES_FILE: &str = "frames.json";
 
-/// The generated kernels of this build (for the N of
-/// `superhelix_runtime::kernels::closed_form::sizes`; other N use the generic runtime-N
-/// kernel under `kernels = "auto"`).
+/// The generated kernels of this build: the generated fixed-N code for the N of
+/// `superhelix_runtime::kernels::closed_form::sizes`, the moment assembly on the
+/// generated closed forms for every other N (what `kernels = "auto"` uses).
 pub fn kernel_factory() -> Option<&'static dyn KernelFactory> {
     Some(superhelix_runtime::kernels::closed_form::kernel_factory())
 }

@@ -140,8 +140,10 @@ pub fn generate_in(k: &Kernel, float: Float) -> Result<GeneratedCode, CodegenErr
 }
 
 /// Every checked-in generated file: (path relative to `generated/src/`, formatted text):
-/// the f64 kernels, `sizes.rs`, then the f32 versions of the element moments and of the
-/// element point (`*_f32.rs`).
+/// the f64 kernels, `sizes.rs`, the f32 versions of the element moments and of the
+/// element point (`*_f32.rs`), and the per-N modules of
+/// [`CHECKED_IN_SIZES`](crate::sizes::CHECKED_IN_SIZES) with their declaring file in
+/// [`FIXED_DIR`], written by [`crate::Kernels`] exactly as a build script gets them.
 pub fn checked_in_files() -> Result<Vec<(String, String)>, CodegenError> {
     let mut files = Vec::new();
     // per-element op counts (after CSE) of the cheapest and dearest branch, for sizes.rs
@@ -176,13 +178,20 @@ pub fn checked_in_files() -> Result<Vec<(String, String)>, CodegenError> {
         crate::kernel_point::ELEMENT_ROTARY_POINT_FILE.to_string(),
         rotary_point_text,
     ));
+    let ops = crate::sizes::ElementOps {
+        moments: (moments_min, moments_max),
+        point: (a.min(b), a.max(b)),
+        rotary_point: (ra.min(rb), ra.max(rb)),
+    };
+    if ops != crate::sizes::ELEMENT_OPS {
+        return Err(CodegenError::StaleElementOps(format!(
+            "the element functions now cost {ops:?}; set superhelix_codegen::sizes::ELEMENT_OPS \
+             (codegen/src/sizes.rs) to these values and regenerate"
+        )));
+    }
     files.push((
         crate::sizes::SIZES_FILE.to_string(),
-        crate::sizes::sizes_file(&crate::sizes::ElementOps {
-            moments: (moments_min, moments_max),
-            point: (a.min(b), a.max(b)),
-            rotary_point: (ra.min(rb), ra.max(rb)),
-        }),
+        crate::sizes::sizes_file(&ops),
     ));
     // the f32 versions (scalar only): the element moments and the element point
     for k in ELEMENT_KERNELS.iter() {
@@ -194,5 +203,17 @@ pub fn checked_in_files() -> Result<Vec<(String, String)>, CodegenError> {
         crate::kernel_point::ELEMENT_POINT_F32_FILE.to_string(),
         point_f32_text,
     ));
+    // the per-N modules and their dispatch: the same call a build script makes
+    let fixed = crate::Kernels::new()
+        .elements(&crate::sizes::CHECKED_IN_SIZES)
+        .files()
+        .map_err(|e| CodegenError::Unsupported(e.to_string()))?;
+    for (name, text) in fixed {
+        files.push((format!("{FIXED_DIR}/{name}"), text));
+    }
     Ok(files)
 }
+
+/// Folder (relative to `generated/src/`) of the checked-in per-N modules and of their
+/// declaring file ([`crate::fixed_n::KERNELS_FILE`]).
+pub const FIXED_DIR: &str = "fixed";

@@ -10,7 +10,11 @@
 //!    with no division by W;
 //! 3. [`generate_function`] picks the switch `x*` on `W l` and the Taylor order by
 //!    measuring both branches ([`branch`]), eliminates common subexpressions across all
-//!    outputs ([`cse`]) and prints one Rust function ([`emit`]); [`format()`] runs rustfmt.
+//!    outputs ([`cse`]) and prints one Rust function ([`emit`]); [`format()`] runs rustfmt;
+//! 4. [`Kernels`] writes, for each N, the module of the fixed-N strand with every size a
+//!    literal, and the dispatch of a run-time N to them ([`fixed_n`]): the checked-in
+//!    sizes, and from a build script any other N (`generated/build.rs` for
+//!    `SUPERHELIX_N`).
 //!
 //! ```
 //! use superhelix_codegen::{format, generate_function, helix, GenerateOptions, Graph, HelixSymbols};
@@ -48,6 +52,7 @@ pub mod branch;
 pub mod cse;
 mod diff;
 pub mod emit;
+pub mod fixed_n;
 pub mod float;
 pub mod graph;
 pub mod helix;
@@ -62,6 +67,7 @@ pub mod sizes;
 pub use branch::{LowTier, Measure, ScanRow, SwitchChoice, SwitchOptions};
 pub use cse::OpCounts;
 pub use emit::format;
+pub use fixed_n::{Kernels, KernelsError};
 pub use float::Float;
 pub use graph::{Evaluator, Graph, Id, Node};
 pub use helix::HelixSymbols;
@@ -87,6 +93,9 @@ pub enum CodegenError {
     BadName(String),
     /// No switch meets the targets.
     NoSwitch(String),
+    /// The element functions' operation counts differ from
+    /// [`sizes::ELEMENT_OPS`], which the per-N modules cite.
+    StaleElementOps(String),
 }
 
 impl fmt::Display for CodegenError {
@@ -96,6 +105,7 @@ impl fmt::Display for CodegenError {
             CodegenError::NotRegular(s) => write!(f, "integrand not regular at W = 0: {s}"),
             CodegenError::BadName(s) => write!(f, "bad name: {s}"),
             CodegenError::NoSwitch(s) => write!(f, "no switch found: {s}"),
+            CodegenError::StaleElementOps(s) => write!(f, "stale operation counts: {s}"),
         }
     }
 }

@@ -8,7 +8,7 @@ pub const CHECKED_IN_SIZES: [usize; 11] = [1, 2, 3, 4, 5, 6, 8, 10, 12, 15, 20];
 pub const SIZES_FILE: &str = "sizes.rs";
 
 /// Operations (after CSE) of the generated per-element code, (cheapest, dearest branch).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ElementOps {
     /// All element moments (the three moment functions).
     pub moments: (u64, u64),
@@ -18,6 +18,16 @@ pub struct ElementOps {
     /// point).
     pub rotary_point: (u64, u64),
 }
+
+/// The operation counts of the checked-in element functions, which the headers of the
+/// per-N modules ([`crate::fixed_n`]) cite without generating the element functions (a
+/// build script writes them in no time). [`crate::kernels::checked_in_files`] generates
+/// the element functions and refuses to go on when their counts differ from these.
+pub const ELEMENT_OPS: ElementOps = ElementOps {
+    moments: (7120, 14332),
+    point: (370, 429),
+    rotary_point: (197, 246),
+};
 
 /// The text of `generated/src/sizes.rs`.
 pub fn sizes_file(ops: &ElementOps) -> String {
@@ -43,12 +53,14 @@ pub fn sizes_file(ops: &ElementOps) -> String {
          // Closed-form ops per kernel evaluation (after CSE; element moments {m0}..{m1} and\n\
          // element point {p0}..{p1} per element, cheapest..dearest Taylor/closed branch),\n\
          // N x (moments + end point); the rotary quadrature adds 6 + ceil(W l) rotary\n\
-         // points ({r0}..{r1} ops each) per element and the runtime's O(N^2) assembly\n\
-         // comes on top:\n\
+         // points ({r0}..{r1} ops each) per element, and the O(N^2) assembly and O(D^3)\n\
+         // solve come on top (estimated in each fixed/n<N>.rs):\n\
          {per_n}\
-         //! Numbers of elements N with checked-in kernels. A kernel for N is the runtime's\n\
-         //! moment assembly (O(N²) loops over N elements) fed by the generated per-element\n\
-         //! closed forms, which do not depend on N; `SUPERHELIX_N` adds sizes at build time.\n\n\
+         //! Numbers of elements N with checked-in kernels: for each, a module `fixed::n<N>`\n\
+         //! (`fixed/n<N>.rs`) with every size a literal, whose step runs the moment assembly\n\
+         //! (O(N²) loops over N elements) on arrays of literal size, fed by the generated\n\
+         //! per-element closed forms (which do not depend on N); `SUPERHELIX_N` generates\n\
+         //! modules for other sizes at build time.\n\n\
          /// Numbers of elements with checked-in kernels.\n\
          pub const CHECKED_IN_SIZES: [usize; {count}] = [{list}];\n",
         version = env!("CARGO_PKG_VERSION"),

@@ -3,8 +3,8 @@
 // Closed-form ops per kernel evaluation (after CSE; element moments 7120..14332 and
 // element point 370..429 per element, cheapest..dearest Taylor/closed branch),
 // N x (moments + end point); the rotary quadrature adds 6 + ceil(W l) rotary
-// points (197..246 ops each) per element and the runtime's O(N^2) assembly
-// comes on top:
+// points (197..246 ops each) per element, and the O(N^2) assembly and O(D^3)
+// solve come on top (estimated in each fixed/n<N>.rs):
 // N =  1: 7490 .. 14761 ops
 // N =  2: 14980 .. 29522 ops
 // N =  3: 22470 .. 44283 ops
@@ -16,9 +16,11 @@
 // N = 12: 89880 .. 177132 ops
 // N = 15: 112350 .. 221415 ops
 // N = 20: 149800 .. 295220 ops
-//! Numbers of elements N with checked-in kernels. A kernel for N is the runtime's
-//! moment assembly (O(N²) loops over N elements) fed by the generated per-element
-//! closed forms, which do not depend on N; `SUPERHELIX_N` adds sizes at build time.
+//! Numbers of elements N with checked-in kernels: for each, a module `fixed::n<N>`
+//! (`fixed/n<N>.rs`) with every size a literal, whose step runs the moment assembly
+//! (O(N²) loops over N elements) on arrays of literal size, fed by the generated
+//! per-element closed forms (which do not depend on N); `SUPERHELIX_N` generates
+//! modules for other sizes at build time.
 
 /// Numbers of elements with checked-in kernels.
 pub const CHECKED_IN_SIZES: [usize; 11] = [1, 2, 3, 4, 5, 6, 8, 10, 12, 15, 20];

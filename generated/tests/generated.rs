@@ -321,6 +321,9 @@ fn generated_files_are_fresh() {
         let path = dir.join(&name);
         let current = std::fs::read_to_string(&path).unwrap_or_default();
         if update {
+            if let Some(parent) = path.parent() {
+                std::fs::create_dir_all(parent).expect("create the folder");
+            }
             std::fs::write(&path, &text).expect("write");
             continue;
         }

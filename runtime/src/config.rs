@@ -63,12 +63,14 @@ impl IntegratorKind {
 /// Which strand kernels to use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum KernelChoice {
-    /// Generated kernels where they exist for a strand's N, generic otherwise.
+    /// The generated fixed-N kernel where this build has one for a strand's N, the
+    /// moment assembly on the generated closed forms (any N) otherwise.
     #[default]
     Auto,
-    /// Always the generic runtime-N path.
+    /// Always the generic runtime-N path (Gauss–Legendre quadrature).
     Generic,
-    /// Generated kernels; an error when a strand's N has none.
+    /// The generated fixed-N kernels; an error when a strand's N has none in this build
+    /// (`SUPERHELIX_N` generates others at build time).
     Generated,
 }
 

@@ -8,6 +8,7 @@ use crate::config::{
 use crate::error::{Error, FieldError, Result};
 use crate::forces::effects::GlobalEffects;
 use crate::forces::head_motion::HeadMotion;
+use crate::kernels::closed_form::moment_kernel;
 use crate::kernels::generic::{GenericKernel, QuadratureRule};
 use crate::kernels::kernel::{KernelFactory, StrandKernel};
 use crate::model::reconstruction::{pose_at, sample_centreline};
@@ -210,23 +211,32 @@ fn make_kernel(
     index: usize,
     name: &str,
 ) -> std::result::Result<Box<dyn StrandKernel>, FieldError> {
+    let n = geometry.elements();
     let from_generated = || generated.and_then(|f| f.create(geometry));
-    let generic = || Box::new(GenericKernel::new(geometry.clone(), rule)) as Box<dyn StrandKernel>;
     match choice {
-        KernelChoice::Generic => Ok(generic()),
-        KernelChoice::Auto => Ok(from_generated().unwrap_or_else(generic)),
-        KernelChoice::Generated => from_generated().ok_or_else(|| {
+        KernelChoice::Generic => Ok(Box::new(GenericKernel::new(geometry.clone(), rule))),
+        // the factory's kernel (fixed-N code where the build has it, the moment path
+        // otherwise), and without a factory the moment path: the closed forms are always
+        // linked in, so a strand never falls back to quadrature silently
+        KernelChoice::Auto => Ok(from_generated().unwrap_or_else(|| moment_kernel(geometry))),
+        KernelChoice::Generated => {
             let available = generated.map(|f| f.available()).unwrap_or_default();
-            FieldError::new(
-                "simulation.kernels",
-                format!(
-                    "strand '{name}' (strands[{index}]) has N = {n} elements and there is no generated kernel for it \
-                     (generated kernels exist for N in {available:?}; build with SUPERHELIX_N={n} to add it, \
-                     or use kernels = \"auto\" or \"generic\")",
-                    n = geometry.elements(),
-                ),
-            )
-        }),
+            available
+                .contains(&n)
+                .then(from_generated)
+                .flatten()
+                .ok_or_else(|| {
+                    FieldError::new(
+                        "simulation.kernels",
+                        format!(
+                            "strand '{name}' (strands[{index}]) has N = {n} elements and this build has no \
+                             generated fixed-N code for it (it has N in {available:?}); build with \
+                             SUPERHELIX_N={n} to generate it, or use kernels = \"auto\" (the moment \
+                             assembly on the generated closed forms) or \"generic\""
+                        ),
+                    )
+                })
+        }
     }
 }
 

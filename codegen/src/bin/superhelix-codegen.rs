@@ -37,7 +37,11 @@ fn main() -> ExitCode {
         stale += 1;
         if check {
             eprintln!("stale: {}", path.display());
-        } else if let Err(e) = std::fs::write(&path, text) {
+        } else if let Err(e) = path
+            .parent()
+            .map_or(Ok(()), std::fs::create_dir_all)
+            .and_then(|()| std::fs::write(&path, text))
+        {
             eprintln!("error: {}: {e}", path.display());
             return ExitCode::FAILURE;
         } else {

@@ -1,7 +1,9 @@
 //! The one trait through which the runtime reaches a strand's dynamic terms.
 //!
-//! Implemented by [`crate::GenericKernel`] (runtime N, Gauss–Legendre quadrature) and by
-//! the generated fixed-N kernels; the two are interchangeable and compared in tests.
+//! Implemented by [`crate::GenericKernel`] (runtime N, Gauss–Legendre quadrature), by the
+//! moment assembly ([`crate::kernels::moments::kernel::MomentKernel`]) and by the generated
+//! fixed-N kernels ([`crate::kernels::fixed_kernel::FixedKernel`]); they are
+//! interchangeable and compared in tests.
 //!
 //! All quantities are in head coordinates (design page "Energies and the equation of
 //! motion"). External forces per unit length are described by a [`BodyField`], affine
@@ -71,10 +73,12 @@ pub trait StrandKernel: Send {
     /// The strand's geometry.
     fn geometry(&self) -> &StrandGeometry;
 
-    /// Human-readable description (`generic (adaptive quadrature)`, `generated N=5`).
+    /// Human-readable description (`generic (adaptive Gauss-Legendre)`,
+    /// `generated fixed-N (N = 5)`, `moment assembly (closed form), N = 40`).
     fn description(&self) -> String;
 
-    /// True for generated fixed-N kernels.
+    /// True for kernels on generated code: the generated fixed-N kernels and the moment
+    /// assembly fed by the generated closed forms.
     fn is_generated(&self) -> bool;
 
     /// Fill the requested terms of the equation of motion at (q, q̇).
@@ -101,6 +105,7 @@ pub trait StrandKernel: Send {
 pub trait KernelFactory: Send + Sync {
     /// A kernel for this geometry, or `None` when this factory has none for its N.
     fn create(&self, geometry: &StrandGeometry) -> Option<Box<dyn StrandKernel>>;
-    /// The numbers of elements this factory serves.
+    /// The numbers of elements this factory has generated fixed-N code for (what
+    /// `kernels = "generated"` requires); `create` may serve other N too.
     fn available(&self) -> Vec<usize>;
 }

@@ -163,28 +163,19 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
     }
 }
 
+/// Makes the empty [`Group`] of the visited size.
+struct MakeGroup;
+
+impl superhelix_generated::SizeVisitor for MakeGroup {
+    type Output = Box<dyn EmbeddedGroup>;
+    fn visit<const N: usize, const D: usize, const E: usize, const B: usize>(self) -> Self::Output {
+        Box::new(Group::<N, D, E, B>::default())
+    }
+}
+
 /// An empty group for strands of `n` elements, when this build has the fixed-N code
-/// for that N.
+/// for that N (`superhelix_generated::fixed::SIZES`: the checked-in sizes and those of
+/// `SUPERHELIX_N`).
 pub fn group_for(n: usize) -> Option<Box<dyn EmbeddedGroup>> {
-    macro_rules! sizes {
-        ($($n:literal => $d:literal, $e:literal, $b:literal;)*) => {
-            match n {
-                $($n => Some(Box::new(Group::<$n, $d, $e, $b>::default()) as Box<dyn EmbeddedGroup>),)*
-                _ => None,
-            }
-        };
-    }
-    sizes! {
-        1 => 3, 2, 1;
-        2 => 6, 3, 3;
-        3 => 9, 4, 4;
-        4 => 12, 5, 6;
-        5 => 15, 6, 7;
-        6 => 18, 7, 9;
-        8 => 24, 9, 12;
-        10 => 30, 11, 15;
-        12 => 36, 13, 18;
-        15 => 45, 16, 22;
-        20 => 60, 21, 30;
-    }
+    superhelix_generated::visit_size(n, MakeGroup)
 }

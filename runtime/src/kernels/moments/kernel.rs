@@ -115,7 +115,7 @@ impl<S: MomentSource + Send> MomentKernel<S> {
 }
 
 /// Copy a column-major n × n `src` into `mat` (overwrite).
-fn store(src: &[f64], mat: &mut Mat<f64>) {
+pub(crate) fn store(src: &[f64], mat: &mut Mat<f64>) {
     let n = mat.nrows();
     for c in 0..n {
         mat.col_as_slice_mut(c)
@@ -130,7 +130,7 @@ impl<S: MomentSource + Send> StrandKernel for MomentKernel<S> {
 
     fn description(&self) -> String {
         format!(
-            "moment assembly ({}), N={}",
+            "moment assembly ({}), N = {}",
             self.source.describe(),
             self.geom.elements()
         )
@@ -225,69 +225,101 @@ impl<S: MomentSource + Send> StrandKernel for MomentKernel<S> {
         jac: &mut [Vector3<f64>],
         hessian: Option<(Vector3<f64>, &mut Mat<f64>)>,
     ) -> Vector3<f64> {
-        let (e, u) = self.geom.locate(s);
-        // ends and end derivatives of the elements up to e
-        self.ends[0] = Pose {
-            position: self.geom.root_position,
-            frame: self.geom.root_frame,
+        if *q != *self.prepared {
+            // the ends written below are q's: the prepared element data no longer hold
+            self.prepared[0] = f64::NAN;
+            self.mass_valid = false;
+        }
+        point_from_source(
+            &self.source,
+            &self.geom,
+            &mut self.ends,
+            &mut self.end_derivs,
+            q,
+            s,
+            jac,
+            hessian,
+        )
+    }
+}
+
+/// y(s) and J(s) (into `jac`, 3N columns), and c · ∂²y/∂q² added to H when `hessian` is
+/// (c, H), for a strand of geometry `geom` at q, from the element points of `source`:
+/// the chain of rigid element ends up to the element holding s (`ends`, N + 1 long, and
+/// `end_derivs`, N long, are scratch and hold q's values up to that element afterwards).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn point_from_source<S: MomentSource + ?Sized>(
+    source: &S,
+    geom: &StrandGeometry,
+    ends: &mut [Pose],
+    end_derivs: &mut [EndDerivatives],
+    q: &[f64],
+    s: f64,
+    jac: &mut [Vector3<f64>],
+    hessian: Option<(Vector3<f64>, &mut Mat<f64>)>,
+) -> Vector3<f64> {
+    let (e, u) = geom.locate(s);
+    // ends and end derivatives of the elements up to e
+    ends[0] = Pose {
+        position: geom.root_position,
+        frame: geom.root_frame,
+    };
+    let mut pt = ElementPoint::default();
+    for p in 0..e {
+        let d = darboux(q, p);
+        source.point(&d, geom.lengths[p], &mut pt);
+        let start = ends[p];
+        ends[p + 1] = Pose {
+            position: start.position + start.frame * pt.p,
+            frame: start.frame * pt.frame,
         };
-        let mut pt = ElementPoint::default();
-        for p in 0..e {
-            let d = darboux(q, p);
-            self.source.point(&d, self.geom.lengths[p], &mut pt);
-            let start = self.ends[p];
-            self.ends[p + 1] = Pose {
-                position: start.position + start.frame * pt.p,
-                frame: start.frame * pt.frame,
-            };
-            self.end_derivs[p] = end_derivatives_from(&start.frame, &pt);
-        }
-        self.source.point(&darboux(q, e), u, &mut pt);
-        let f = self.ends[e].frame;
-        let y = self.ends[e].position + f * pt.p;
-        for col in jac.iter_mut() {
-            *col = Vector3::zeros();
-        }
-        for qe in 0..e {
-            let ed = &self.end_derivs[qe];
-            let rho = y - self.ends[qe + 1].position;
-            for i in 0..3 {
-                jac[3 * qe + i] = ed.dp[i] + ed.dtheta[i].cross(&rho);
-            }
-        }
+        end_derivs[p] = end_derivatives_from(&start.frame, &pt);
+    }
+    source.point(&darboux(q, e), u, &mut pt);
+    let f = ends[e].frame;
+    let y = ends[e].position + f * pt.p;
+    for col in jac.iter_mut() {
+        *col = Vector3::zeros();
+    }
+    for qe in 0..e {
+        let ed = &end_derivs[qe];
+        let rho = y - ends[qe + 1].position;
         for i in 0..3 {
-            jac[3 * e + i] = f * pt.dp[i];
+            jac[3 * qe + i] = ed.dp[i] + ed.dtheta[i].cross(&rho);
         }
-        if let Some((c, h)) = hessian {
-            // k upstream of l (different elements): c·(dθ_k × J_l)
-            for l in 3..3 * (e + 1) {
-                for k in 0..3 * (l / 3) {
-                    let val = c.cross(&self.end_derivs[k / 3].dtheta[k % 3]).dot(&jac[l]);
-                    h[(k, l)] += val;
-                    h[(l, k)] += val;
-                }
+    }
+    for i in 0..3 {
+        jac[3 * e + i] = f * pt.dp[i];
+    }
+    if let Some((c, h)) = hessian {
+        // k upstream of l (different elements): c·(dθ_k × J_l)
+        for l in 3..3 * (e + 1) {
+            for k in 0..3 * (l / 3) {
+                let val = c.cross(&end_derivs[k / 3].dtheta[k % 3]).dot(&jac[l]);
+                h[(k, l)] += val;
+                h[(l, k)] += val;
             }
-            // pairs within an element upstream of e
-            for qe in 0..e {
-                let ed = &self.end_derivs[qe];
-                let rho = y - self.ends[qe + 1].position;
-                for i in 0..3 {
-                    for j in 0..3 {
-                        let d2 = ed.d2p[i][j]
-                            + ed.dw[i][j].cross(&rho)
-                            + ed.dtheta[i].cross(&ed.dtheta[j].cross(&rho));
-                        h[(3 * qe + i, 3 * qe + j)] += c.dot(&d2);
-                    }
-                }
-            }
-            // pairs within element e
-            let cf = f.transpose() * c;
+        }
+        // pairs within an element upstream of e
+        for qe in 0..e {
+            let ed = &end_derivs[qe];
+            let rho = y - ends[qe + 1].position;
             for i in 0..3 {
                 for j in 0..3 {
-                    h[(3 * e + i, 3 * e + j)] += cf.dot(&pt.d2p[i][j]);
+                    let d2 = ed.d2p[i][j]
+                        + ed.dw[i][j].cross(&rho)
+                        + ed.dtheta[i].cross(&ed.dtheta[j].cross(&rho));
+                    h[(3 * qe + i, 3 * qe + j)] += c.dot(&d2);
                 }
             }
         }
-        y
+        // pairs within element e
+        let cf = f.transpose() * c;
+        for i in 0..3 {
+            for j in 0..3 {
+                h[(3 * e + i, 3 * e + j)] += cf.dot(&pt.d2p[i][j]);
+            }
+        }
     }
+    y
 }
