@@ -128,19 +128,22 @@ fn every_status_has_its_value_and_a_message() {
 }
 
 #[test]
-fn supported_elements_are_the_checked_in_sizes() {
-    let mut sizes = [0usize; 32];
+fn supported_elements_are_the_sizes_of_the_build() {
+    // the checked-in sizes, and those of SUPERHELIX_N when superhelix-generated was built
+    // with it
+    let build = &superhelix_generated::fixed::SIZES;
+    let mut sizes = [0usize; 256];
     let mut count = 0;
-    // SAFETY: 32 values of room, valid count pointer.
-    let s = unsafe { sh_supported_elements(sizes.as_mut_ptr(), 32, &mut count) };
+    // SAFETY: 256 values of room, valid count pointer.
+    let s = unsafe { sh_supported_elements(sizes.as_mut_ptr(), 256, &mut count) };
     assert_eq!(s, ShStatus::Ok);
-    assert_eq!(
-        &sizes[..count],
-        &superhelix_generated::sizes::CHECKED_IN_SIZES[..]
-    );
+    assert_eq!(&sizes[..count], &build[..]);
+    assert!(superhelix_generated::sizes::CHECKED_IN_SIZES
+        .iter()
+        .all(|n| build.contains(n)));
     // SAFETY: capacity 0 with NULL, valid count pointer.
     let s = unsafe { sh_supported_elements(null_mut(), 0, &mut count) };
-    assert_eq!((s, count), (ShStatus::BufferTooSmall, 11));
+    assert_eq!((s, count), (ShStatus::BufferTooSmall, build.len()));
     // SAFETY: NULL count is refused before any write.
     let s = unsafe { sh_supported_elements(sizes.as_mut_ptr(), 32, null_mut()) };
     assert_eq!(s, ShStatus::NullPointer);
