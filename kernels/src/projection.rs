@@ -605,7 +605,7 @@ impl<'a> SpectralProjection<'a> {
                 *v *= inverse;
             }
             if converged {
-                self.vectors[j * n..(j + 1) * n].copy_from_slice(&self.x);
+                self.vectors[j * n..(j + 1) * n].copy_from_slice(self.x);
                 return true;
             }
             converged = self.residual(lambda) <= tolerance;
