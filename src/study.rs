@@ -1602,10 +1602,12 @@ pub fn render_report(study: &Study, plots: &[Option<String>]) -> String {
         "## Cost of one strand-step against N (`cost`)\n\n\
          The bench's strands (wavy preset, 20 cm, gravity, air drag, internal friction, \
          dt = 1/30 s; `superhelix bench`), CPU time of the process per strand-step, for the \
-         generic runtime-N kernel (Gauss–Legendre quadrature), the runtime engine on the \
-         generated kernels, and the embedded engine (the fixed-N step an engine embeds: \
+         generic runtime-N kernel (Gauss–Legendre quadrature), the moment assembly on the \
+         generated closed forms (any N), the generated fixed-N kernel in the runtime engine, \
+         and the embedded engine (the fixed-N step an engine embeds: \
          arrays of literal size, one workspace per thread). All three take the same steps, \
-         checked and split by the same rules.\n\n![cost against N]({})\n",
+         checked and split by the same rules (`kernels = \"generic\"`, `\"moment\"`, \
+         `\"generated\"`; `engine = \"embedded\"`).\n\n![cost against N]({})\n",
         COST_PLOT
     );
     let _ = writeln!(s, "{}", crate::study_cost::cost_table(&study.cost));

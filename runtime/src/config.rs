@@ -72,6 +72,9 @@ pub enum KernelChoice {
     /// The generated fixed-N kernels; an error when a strand's N has none in this build
     /// (`SUPERHELIX_N` generates others at build time).
     Generated,
+    /// The moment assembly on the generated closed forms for every N (what `auto` uses
+    /// for an N without fixed-N code): the yardstick of the fixed-N kernels.
+    Moment,
 }
 
 impl KernelChoice {
@@ -81,11 +84,12 @@ impl KernelChoice {
             KernelChoice::Auto => "auto",
             KernelChoice::Generic => "generic",
             KernelChoice::Generated => "generated",
+            KernelChoice::Moment => "moment",
         }
     }
     /// Parse a scene name.
     pub fn from_name(name: &str) -> Option<Self> {
-        [Self::Auto, Self::Generic, Self::Generated]
+        [Self::Auto, Self::Generic, Self::Generated, Self::Moment]
             .into_iter()
             .find(|k| k.name() == name)
     }

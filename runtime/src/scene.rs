@@ -168,7 +168,7 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
     let kernels = n.optional("kernels", d.kernels, |n, k| {
         n.choice(
             k,
-            &["auto", "generic", "generated"],
+            &["auto", "generic", "generated", "moment"],
             KernelChoice::from_name,
         )
     });

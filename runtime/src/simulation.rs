@@ -72,10 +72,13 @@ fn embedded_strands(setup: SimulationSetup) -> Result<(Simulation, ())> {
             "the embedded engine has no static solve; use engine = \"runtime\" with mode = \"static\"",
         ));
     }
-    if c.kernels == KernelChoice::Generic {
+    if matches!(c.kernels, KernelChoice::Generic | KernelChoice::Moment) {
         errors.push(FieldError::new(
             "simulation.kernels",
-            "the embedded engine runs on generated fixed-N code; kernels = \"generic\" needs engine = \"runtime\"",
+            format!(
+                "the embedded engine runs on generated fixed-N code; kernels = \"{}\" needs engine = \"runtime\"",
+                c.kernels.name()
+            ),
         ));
     }
     let mut groups: Vec<(usize, Box<dyn EmbeddedGroup>)> = Vec::new();
@@ -215,6 +218,7 @@ fn make_kernel(
     let from_generated = || generated.and_then(|f| f.create(geometry));
     match choice {
         KernelChoice::Generic => Ok(Box::new(GenericKernel::new(geometry.clone(), rule))),
+        KernelChoice::Moment => Ok(moment_kernel(geometry)),
         // the factory's kernel (fixed-N code where the build has it, the moment path
         // otherwise), and without a factory the moment path: the closed forms are always
         // linked in, so a strand never falls back to quadrature silently

@@ -43,7 +43,7 @@ pub fn integrator(name: &str) -> Result<IntegratorKind, Error> {
 /// `--kernels NAME`.
 pub fn kernels(name: &str) -> Result<KernelChoice, Error> {
     KernelChoice::from_name(name)
-        .ok_or_else(|| Error::invalid("--kernels", "must be generated, generic or auto"))
+        .ok_or_else(|| Error::invalid("--kernels", "must be auto, generated, moment or generic"))
 }
 
 /// `--preset NAME`.
