@@ -309,8 +309,13 @@ pub fn module_text(n: usize, ops: &ElementOps) -> String {
          //     damping 1, db/dqdot ~32, step matrix ~13 per entry):  ~{asm}\n\
          //   O(D^3) LU with partial pivoting, 2/3 D^3 + 2 D^2:     ~{lu}\n\
          //   projection of the field stiffness: Cholesky D^3/3 ~{chol} when -H is\n\
-         //     definite, else cyclic Jacobi ~{jac} per sweep\n\
-         //   total (Cholesky case): ~{t0} .. ~{t1}\n",
+         //     definite, else the kept eigenbasis's check or a partial\n\
+         //     eigendecomposition (Householder tridiagonalisation 4/3 D^3 ~{tri} and\n\
+         //     the smaller side's eigenvectors); cyclic Jacobi ~{jac} per sweep only\n\
+         //     when that fails its checks\n\
+         //   total (Cholesky case): ~{t0} .. ~{t1}\n\
+         // The checked step (`step`) adds an energy measurement per (sub)step (M at the\n\
+         // new state: the moments of M and its O(N^2) assembly), and its splits.\n",
         version = crate::VERSION,
         b_plural = if b == 1 { "" } else { "s" },
         cf0 = c.closed_forms.0,
@@ -322,6 +327,7 @@ pub fn module_text(n: usize, ops: &ElementOps) -> String {
         lu = c.lu,
         chol = c.projection_definite,
         jac = c.jacobi_sweep,
+        tri = 4 * d * d * d / 3,
     );
     let items = format!(
         "\n\

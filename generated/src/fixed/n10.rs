@@ -11,8 +11,13 @@
 //     damping 1, db/dqdot ~32, step matrix ~13 per entry):  ~74250
 //   O(D^3) LU with partial pivoting, 2/3 D^3 + 2 D^2:     ~19800
 //   projection of the field stiffness: Cholesky D^3/3 ~9000 when -H is
-//     definite, else cyclic Jacobi ~234900 per sweep
+//     definite, else the kept eigenbasis's check or a partial
+//     eigendecomposition (Householder tridiagonalisation 4/3 D^3 ~36000 and
+//     the smaller side's eigenvectors); cyclic Jacobi ~234900 per sweep only
+//     when that fails its checks
 //   total (Cholesky case): ~189770 .. ~275260
+// The checked step (`step`) adds an energy measurement per (sub)step (M at the
+// new state: the moments of M and its O(N^2) assembly), and its splits.
 
 /// Number of elements N.
 pub const N: usize = 10;
