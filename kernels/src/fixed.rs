@@ -4,7 +4,7 @@
 //!
 //! - [`FixedStrand`]: what a strand keeps from one step to the next (its parameters
 //!   [`FixedParams`], its state q, q̇ and the eigenbasis its projection reuses):
-//!   ~1.7 kB at N = 5 ([`FixedStrand::BYTES`]);
+//!   1768 B at N = 5 ([`FixedStrand::BYTES`]);
 //! - [`FixedWorkspace`]: the scratch of one step, shared by every strand a worker steps
 //!   (one per thread, not per strand);
 //! - [`step`]: the linearly implicit Euler step of paper section 3.4 with the runtime's

@@ -103,8 +103,8 @@ pub enum Engine {
     #[default]
     Runtime,
     /// The fixed-N step an engine embeds (`superhelix-kernels`): linearly implicit Euler
-    /// on the generated fixed-N code, no checks after the fact, one workspace per worker
-    /// thread and ~1.7 kB per strand at N = 5: for full heads.
+    /// on the generated fixed-N code with the runtime's checks after the fact, one
+    /// workspace per worker thread and 1.8 kB per strand at N = 5: for full heads.
     Embedded,
 }
 

@@ -2,11 +2,12 @@
 //! step an engine embeds), kept in arrays of literal size, with one workspace per worker
 //! instead of one per strand.
 //!
-//! A strand costs [`FixedStrand::BYTES`] here (≈ 1.7 kB at N = 5) against the runtime
-//! engine's per-strand buffers (≈ 70 kB at N = 5): what lets a full head of 150,000
-//! strands fit in memory. The step is linearly implicit Euler with the same terms as the
-//! runtime's (see `superhelix_kernels::fixed::step`), without the runtime's checks after
-//! the fact (energy balance, splitting a step that rotates an element too far).
+//! A strand costs [`FixedStrand::BYTES`] here (1768 B at N = 5) against the runtime
+//! engine's per-strand buffers (≈ 74 kB at N = 5): what lets a full head of 150,000
+//! strands fit in memory (417 MB). The step is the checked fixed-N step
+//! (`superhelix_kernels::fixed::step`): the runtime's linearly implicit Euler step with
+//! its checks after the fact (energy balance, splitting a step that rotates an element
+//! too far), the same steps to round-off (`runtime/tests/fixed_step.rs`).
 
 use crate::model::strand::Strand;
 use rayon::prelude::*;
