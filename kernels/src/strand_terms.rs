@@ -203,6 +203,18 @@ pub fn prepare<S: MomentSource + ?Sized>(
     }
     b.prepared.copy_from_slice(q);
     *b.mass_valid = false;
+    ends_and_derivatives(source, shape, b, q);
+    source.moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
+}
+
+/// The Darboux vectors, element ends and end derivatives of q, from the source's element
+/// points.
+fn ends_and_derivatives<S: MomentSource + ?Sized>(
+    source: &S,
+    shape: &StrandShape<'_>,
+    b: &mut MomentBuffers<'_>,
+    q: &[f64],
+) {
     b.ends[0] = Pose {
         position: shape.root_position,
         frame: shape.root_frame,
@@ -219,7 +231,6 @@ pub fn prepare<S: MomentSource + ?Sized>(
         };
         b.end_derivs[p] = end_derivatives_from(&start.frame, &point);
     }
-    source.moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
 }
 
 /// M, the centreline Gram matrix (into the buffers, `mass_valid` set) and ∫ρS y ds at q,
@@ -234,22 +245,7 @@ pub fn evaluate_mass<S: MomentSource + ?Sized>(
     first_moment: &mut Vector3<f64>,
 ) {
     b.prepared[0] = f64::NAN;
-    b.ends[0] = Pose {
-        position: shape.root_position,
-        frame: shape.root_frame,
-    };
-    let mut point = ElementPoint::default();
-    for (p, &l) in shape.lengths.iter().enumerate() {
-        let d = darboux(q, p);
-        b.darboux[p] = d;
-        source.point(&d, l, &mut point);
-        let start = b.ends[p];
-        b.ends[p + 1] = Pose {
-            position: start.position + start.frame * point.p,
-            frame: start.frame * point.frame,
-        };
-        b.end_derivs[p] = end_derivatives_from(&start.frame, &point);
-    }
+    ends_and_derivatives(source, shape, b, q);
     source.mass_moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
     let n = shape.lengths.len();
     suffix_bodies(

@@ -7,12 +7,11 @@ mod common;
 use common::{preset_strand, setup};
 use nalgebra::Vector3;
 use superhelix_generated::ClosedForm;
-use superhelix_kernels::fixed::{
-    self, Effects, FixedParams, FixedStrand, FixedWorkspace, StepCounts,
-};
+use superhelix_kernels::fixed::{self, Effects, FixedStrand, FixedWorkspace, StepCounts};
 use superhelix_runtime::config::SimulationConfig;
 use superhelix_runtime::model::material::Preset;
 use superhelix_runtime::model::strand::Strand;
+use superhelix_runtime::solver::embedded::fixed_params;
 use superhelix_runtime::{HeadMotion, Simulation};
 
 const N: usize = 5;
@@ -22,20 +21,7 @@ const B: usize = 7;
 
 /// The fixed-N strand of a runtime strand.
 fn fixed_strand(s: &Strand) -> FixedStrand<N, D, B> {
-    let g = &s.geometry;
-    let stiffness = s.stiffness_diagonal();
-    let params = FixedParams::<N, D> {
-        root_position: g.root_position,
-        root_frame: g.root_frame,
-        lengths: core::array::from_fn(|k| g.lengths[k]),
-        natural: core::array::from_fn(|i| s.natural[i]),
-        stiffness: core::array::from_fn(|i| stiffness[i]),
-        friction: core::array::from_fn(|i| g.lengths[i / 3] * s.internal_friction),
-        mass_per_length: g.mass_per_length,
-        air_drag: s.air_drag,
-        rotary_inertia: g.rotary_inertia,
-    };
-    FixedStrand::at_rest(params)
+    FixedStrand::at_rest(fixed_params::<N, D>(s).expect("a strand of N elements"))
 }
 
 /// Steps the runtime and the fixed strand (starting from the fixed strand's q) side by

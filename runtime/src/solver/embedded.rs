@@ -63,8 +63,9 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Default for
     }
 }
 
-/// The fixed-N parameters of a runtime strand.
-fn params<const N: usize, const D: usize>(s: &Strand) -> Option<FixedParams<N, D>> {
+/// The fixed-N parameters of a runtime strand (`None` when it does not have N elements
+/// and 3N natural values).
+pub fn fixed_params<const N: usize, const D: usize>(s: &Strand) -> Option<FixedParams<N, D>> {
     let g = &s.geometry;
     if g.lengths.len() != N || s.natural.len() != D {
         return None;
@@ -90,7 +91,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         self.strands.len()
     }
     fn push(&mut self, strand: &Strand, q0: &[f64]) -> bool {
-        let Some(params) = params::<N, D>(strand) else {
+        let Some(params) = fixed_params::<N, D>(strand) else {
             return false;
         };
         if q0.len() != D {
