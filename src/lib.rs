@@ -9,6 +9,7 @@
 
 pub mod bench;
 pub mod compare;
+pub mod coulomb;
 pub mod cpu_time;
 pub mod quadrature_table;
 pub mod render;

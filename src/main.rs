@@ -31,6 +31,8 @@ enum Command {
     /// quadrature reference on K random configurations; last line
     /// `max_relative_deviation=<v>`.
     CompareKernels(cli::compare_kernels::CompareKernelsArgs),
+    /// Coulomb potential and field of a point set (.npy in and out) by the fast multipole method.
+    Coulomb(cli::coulomb::CoulombArgs),
     /// Markdown table of the generic kernel's error and time per strand-step against its
     /// Gauss-Legendre order, against the closed-form kernel (or a 256-point stand-in).
     QuadratureTable(cli::quadrature_table::QuadratureTableArgs),
@@ -50,6 +52,7 @@ fn main() -> ExitCode {
         Command::Render(args) => cli::render::run(args),
         Command::Bench(args) => cli::bench::run(args),
         Command::CompareKernels(args) => cli::compare_kernels::run(args),
+        Command::Coulomb(args) => cli::coulomb::run(args),
         Command::QuadratureTable(args) => cli::quadrature_table::run(args),
         Command::Stress(args) => cli::stress::run(args),
         Command::Study(args) => cli::study::run(args),
