@@ -227,6 +227,7 @@ fn strands(o: &BenchOptions) -> Vec<StrandSetup> {
                 },
             };
             StrandSetup {
+                charge_per_length: None,
                 q0: strand.natural.clone(),
                 group: strand.name.clone(),
                 strand,
@@ -240,6 +241,7 @@ fn strands(o: &BenchOptions) -> Vec<StrandSetup> {
 pub fn setup(o: &BenchOptions) -> Result<SimulationSetup> {
     check(o)?;
     Ok(SimulationSetup {
+        electrostatics: None,
         config: SimulationConfig {
             dt: o.dt,
             duration: o.dt * o.steps as f64,

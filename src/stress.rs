@@ -386,6 +386,7 @@ impl StrandSpec {
             ),
         };
         StrandSetup {
+            charge_per_length: None,
             strand: Strand {
                 name: self.preset.name().to_string(),
                 geometry: StrandGeometry::new(root, frame, vec![l; n], &material),
@@ -415,6 +416,7 @@ fn setup(
     integrator: IntegratorKind,
 ) -> SimulationSetup {
     SimulationSetup {
+        electrostatics: None,
         config: SimulationConfig {
             dt: 1.0 / fps as f64,
             duration,

@@ -511,6 +511,7 @@ fn setup_of(
 ) -> SimulationSetup {
     let (kernels, quadrature) = setting.kernels.config();
     SimulationSetup {
+        electrostatics: None,
         config: SimulationConfig {
             mode: if setting.rate.is_some() {
                 Mode::Dynamic
@@ -531,6 +532,7 @@ fn setup_of(
         },
         head,
         strands: vec![StrandSetup {
+            charge_per_length: None,
             q0: strand.natural.clone(),
             group: strand.name.clone(),
             strand,

@@ -32,12 +32,14 @@ fn setup(n: usize, kernels: KernelChoice, integrator: IntegratorKind) -> Simulat
             }
         })
         .map(|s| StrandSetup {
+            charge_per_length: None,
             q0: s.natural.clone(),
             group: s.name.clone(),
             strand: s,
         })
         .collect();
     SimulationSetup {
+        electrostatics: None,
         config: SimulationConfig {
             dt: 1.0 / 30.0,
             duration: 1.0,

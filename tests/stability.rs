@@ -69,6 +69,7 @@ fn run(
         .collect();
     let amplitude = deg.to_radians();
     let setup = SimulationSetup {
+        electrostatics: None,
         config: SimulationConfig {
             dt,
             duration,
@@ -88,6 +89,7 @@ fn run(
         strands: strands
             .into_iter()
             .map(|s| StrandSetup {
+                charge_per_length: None,
                 q0: s.natural.clone(),
                 group: s.name.clone(),
                 strand: s,

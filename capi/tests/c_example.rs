@@ -287,6 +287,7 @@ fn runtime_q(
         point_loads: Vec::new(),
     };
     let setup = SimulationSetup {
+        electrostatics: None,
         config: SimulationConfig {
             dt: DT,
             duration: STEPS as f64 * DT,
@@ -295,6 +296,7 @@ fn runtime_q(
         environment: Environment { gravity },
         head: HeadMotion::Still,
         strands: vec![StrandSetup {
+            charge_per_length: None,
             strand: runtime_strand,
             q0: q0.to_vec(),
             group: "example".into(),

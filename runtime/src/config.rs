@@ -170,6 +170,9 @@ pub struct StrandSetup {
     /// Output group (one USD prim and one preview colour per group): the patch name for
     /// the strands of a patch, by default the strand's own name.
     pub group: String,
+    /// The strand's own charge per length, C/m (`strands[i].charge_per_length`); `None`:
+    /// the scene's `electrostatics.charge_per_length`.
+    pub charge_per_length: Option<f64>,
 }
 
 /// Everything needed to build a [`Simulation`](crate::Simulation); what a scene file becomes.
@@ -187,6 +190,8 @@ pub struct SimulationSetup {
     pub samples_per_element: usize,
     /// The scene's `[output]` formats and size limit.
     pub output: OutputSettings,
+    /// Static electricity (`[electrostatics]`); `None`: no charge, nothing built for it.
+    pub electrostatics: Option<crate::forces::electrostatics::ElectrostaticsConfig>,
 }
 
 /// Number of time steps of a dynamic run: `ceil(duration / dt)` (up to rounding of the

@@ -1,9 +1,11 @@
 //! Forces and effects: the environment (gravity), the rigid motion of the head and the
 //! fictitious forces it causes, composed with air drag into one body field per strand and
 //! step ([`effects`]), and the point loads applied through J(s)ᵀ ([`point_loads`]).
-//! Contacts and electrostatics will live here too, beside the effects they add to.
+//! Static electricity ([`electrostatics`]): charged tracer particles and their Coulomb
+//! forces. Contacts will live here too.
 
 pub mod effects;
+pub mod electrostatics;
 pub mod environment;
 pub mod head_motion;
 pub mod point_loads;

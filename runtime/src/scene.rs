@@ -11,6 +11,7 @@
 //! allowed range.
 
 mod assembly;
+mod electrostatics;
 mod head;
 mod reader;
 mod strands;
@@ -130,6 +131,24 @@ fn read_scene(mut root: Node<'_>) -> SimulationSetup {
         read_output,
     );
     let strands = assembly::read_strands(&mut root, env_drag);
+    let electrostatics = match root.table("electrostatics") {
+        Some(n) => electrostatics::read_electrostatics(n, &strands),
+        None => {
+            for (i, s) in strands.iter().enumerate() {
+                if s.charge_per_length.is_some_and(|l| l != 0.0) {
+                    root.error(
+                        "electrostatics",
+                        format!(
+                            "strand '{}' (strands[{i}]) sets charge_per_length: add an [electrostatics] table",
+                            s.strand.name
+                        ),
+                    );
+                    break;
+                }
+            }
+            None
+        }
+    };
     root.finish();
     SimulationSetup {
         config,
@@ -138,6 +157,7 @@ fn read_scene(mut root: Node<'_>) -> SimulationSetup {
         strands,
         samples_per_element,
         output,
+        electrostatics,
     }
 }
 

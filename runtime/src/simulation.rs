@@ -20,12 +20,17 @@ use crate::solver::{
     solve_static, step, HeadInterval, StaticReport, StepContext, StepStats, StrandState,
     StrandSystem,
 };
+use crate::forces::electrostatics::{Electrostatics, FieldSummary};
+use crate::model::reconstruction::pose_at as strand_pose_at;
+use crate::model::strand::PointLoad;
 use rayon::prelude::*;
 
 /// One strand of a running simulation: its system (model, kernel, buffers), state and
 /// counters.
 struct StrandSim {
     system: StrandSystem,
+    /// Point loads of the scene; the electrostatic loads follow them in the strand's list.
+    scene_loads: usize,
     state: StrandState,
     stats: StepStats,
     group: String,
@@ -41,6 +46,30 @@ struct EmbeddedStrands {
     counts: superhelix_kernels::fixed::StepCounts,
 }
 
+/// One charging step of [`Simulation::solve_charged_static`].
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ChargingStage {
+    /// Fraction of the full charge.
+    pub charge_fraction: f64,
+    /// Outer iterations (force refreshes after a Newton solve of every strand).
+    pub iterations: usize,
+    /// Largest `‖F(q)‖∞ / scale` over the strands with the last forces.
+    pub residual: f64,
+    /// Whether it met the tolerance.
+    pub converged: bool,
+    /// The field at the end.
+    pub field: FieldSummary,
+}
+
+/// How a charged static solve went.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ChargedStaticReport {
+    /// Each charging step.
+    pub stages: Vec<ChargingStage>,
+    /// The strands' last Newton solves.
+    pub strands: Vec<StaticReport>,
+}
+
 /// A running simulation. Built from a [`SimulationSetup`]; advanced by [`Simulation::step`].
 pub struct Simulation {
     config: SimulationConfig,
@@ -48,6 +77,7 @@ pub struct Simulation {
     samples_per_element: usize,
     strands: Vec<StrandSim>,
     embedded: Option<EmbeddedStrands>,
+    electrostatics: Option<Electrostatics>,
     time: f64,
     steps: usize,
 }
@@ -79,6 +109,12 @@ fn embedded_strands(setup: SimulationSetup) -> Result<(Simulation, ())> {
                 "the embedded engine runs on generated fixed-N code; kernels = \"{}\" needs engine = \"runtime\"",
                 c.kernels.name()
             ),
+        ));
+    }
+    if setup.electrostatics.is_some() {
+        errors.push(FieldError::new(
+            "electrostatics",
+            "the embedded engine has no electrostatics; use engine = \"runtime\"",
         ));
     }
     let mut groups: Vec<(usize, Box<dyn EmbeddedGroup>)> = Vec::new();
@@ -140,6 +176,7 @@ fn embedded_strands(setup: SimulationSetup) -> Result<(Simulation, ())> {
             head: setup.head,
             samples_per_element: setup.samples_per_element,
             strands: Vec::new(),
+            electrostatics: None,
             time: 0.0,
             steps: 0,
         },
@@ -294,6 +331,7 @@ impl Simulation {
             ));
             let n = s.q0.len();
             strands.push(StrandSim {
+                scene_loads: system.strand.point_loads.len(),
                 system,
                 state: StrandState {
                     q: s.q0,
@@ -303,18 +341,77 @@ impl Simulation {
                 group: s.group,
             });
         }
+        let electrostatics = match setup.electrostatics {
+            Some(config) => {
+                let list: Vec<&crate::model::strand::Strand> =
+                    strands.iter().map(|s| &s.system.strand).collect();
+                match Electrostatics::new(config, &list) {
+                    Ok(e) => Some(e),
+                    Err(e) => {
+                        errors.push(FieldError::new("electrostatics", e));
+                        None
+                    }
+                }
+            }
+            None => None,
+        };
         if !errors.is_empty() {
             return Err(Error::Invalid(errors));
         }
-        Ok(Simulation {
+        let mut sim = Simulation {
             config: setup.config,
             head: setup.head,
             samples_per_element: setup.samples_per_element,
             strands,
             embedded: None,
+            electrostatics,
             time: 0.0,
             steps: 0,
-        })
+        };
+        if sim.electrostatics.is_some() && sim.config.mode == Mode::Dynamic {
+            let head = sim.head.state(0.0);
+            sim.update_electrostatics(&head).map_err(|cause| Error::Diverged {
+                strand: "(electrostatics)".into(),
+                index: 0,
+                time: 0.0,
+                cause,
+            })?;
+        }
+        Ok(sim)
+    }
+
+    /// The electrostatic state, when the scene has `[electrostatics]`.
+    pub fn electrostatics(&self) -> Option<&Electrostatics> {
+        self.electrostatics.as_ref()
+    }
+
+    /// Mutable access to the electrostatic state (e.g. to set the charge scale).
+    pub fn electrostatics_mut(&mut self) -> Option<&mut Electrostatics> {
+        self.electrostatics.as_mut()
+    }
+
+    /// Recompute the Coulomb forces at the current state with the head at `head`, and
+    /// make them the strands' electrostatic point loads (after the scene's own).
+    pub fn update_electrostatics(&mut self, head: &crate::forces::head_motion::HeadState) -> std::result::Result<FieldSummary, String> {
+        let Some(e) = &mut self.electrostatics else {
+            return Ok(FieldSummary::default());
+        };
+        let strands: Vec<(&StrandGeometry, &[f64])> = self
+            .strands
+            .iter()
+            .map(|s| (&s.system.strand.geometry, &s.state.q[..]))
+            .collect();
+        let summary = e.update(|i, s| {
+            let y = strand_pose_at(strands[i].0, strands[i].1, s).position;
+            head.position + head.rotation * y
+        })?;
+        drop(strands);
+        for (i, sim) in self.strands.iter_mut().enumerate() {
+            let loads = &mut sim.system.strand.point_loads;
+            loads.truncate(sim.scene_loads);
+            loads.extend(e.loads(i).map(|l| PointLoad { s: l.s, force: l.force }));
+        }
+        Ok(summary)
     }
 
     /// Advance every strand by one time step `dt` (in parallel over strands). On failure
@@ -349,6 +446,18 @@ impl Simulation {
             self.steps += 1;
             return Ok(());
         }
+        if let Some(e) = &self.electrostatics {
+            let every = e.config().update_every.max(1);
+            if self.steps % every == 0 && self.steps > 0 {
+                let head = self.head.state(t);
+                self.update_electrostatics(&head).map_err(|cause| Error::Diverged {
+                    strand: "(electrostatics)".into(),
+                    index: 0,
+                    time: t,
+                    cause,
+                })?;
+            }
+        }
         let interval = HeadInterval::new(&self.head, t, h);
         let failure = self
             .strands
@@ -375,8 +484,84 @@ impl Simulation {
     }
 
     /// Solve every strand's static equilibrium in place (gravity and point loads, head at
-    /// rest).
+    /// rest); with `[electrostatics]`, the charged equilibrium of
+    /// [`Simulation::solve_charged_static`].
     pub fn solve_static(&mut self) -> Result<Vec<StaticReport>> {
+        if self.electrostatics.is_some() {
+            return self.solve_charged_static().map(|r| r.strands);
+        }
+        self.solve_static_strands()
+    }
+
+    /// The largest generalized force `‖F(q)‖∞` of each strand at rest (elasticity, gravity
+    /// and the current point loads), head at rest.
+    fn static_forces(&mut self) -> Vec<f64> {
+        let rest = crate::forces::head_motion::HeadState::rest();
+        let terms = crate::kernels::kernel::Terms { force: true, ..Default::default() };
+        self.strands
+            .par_iter_mut()
+            .map(|s| {
+                let zero = vec![0.0; s.state.q.len()];
+                s.system.assemble(&rest, &s.state.q, &zero, terms);
+                s.system.workspace.terms.force.iter().fold(0.0, |m: f64, f| m.max(f.abs()))
+            })
+            .collect()
+    }
+
+    /// The charged static equilibrium (paper section 4): Newton on every strand with the
+    /// exact elastic and gravity stiffness and the Coulomb forces held as dead loads, the
+    /// forces refreshed in an outer iteration. The charge is brought up in
+    /// `charging_steps` steps (1: at once; n: the fraction `ln(1 + k)/ln(1 + n)` at step
+    /// k). Each step's outer iteration ends when every strand's `‖F(q)‖∞` with forces
+    /// refreshed at its configuration is at most `tolerance` times its force scale (the
+    /// largest of gravity's, elasticity's and the Coulomb generalized force at the start).
+    pub fn solve_charged_static(&mut self) -> Result<ChargedStaticReport> {
+        let Some(e) = &self.electrostatics else {
+            return Err(Error::invalid("electrostatics", "the scene has no [electrostatics]"));
+        };
+        let c = e.config().clone();
+        let rest = crate::forces::head_motion::HeadState::rest();
+        let fail = |cause: String, time: f64| Error::Diverged {
+            strand: "(electrostatics)".into(),
+            index: 0,
+            time,
+            cause,
+        };
+        let mut report = ChargedStaticReport::default();
+        let mut scale: Option<Vec<f64>> = None;
+        let steps = c.charging_steps.max(1);
+        for k in 1..=steps {
+            let fraction = if steps == 1 {
+                1.0
+            } else {
+                (1.0 + k as f64).ln() / (1.0 + steps as f64).ln()
+            };
+            if let Some(e) = &mut self.electrostatics {
+                e.set_charge_scale(fraction);
+            }
+            let mut stage = ChargingStage { charge_fraction: fraction, ..Default::default() };
+            for iteration in 0..=c.max_iterations {
+                stage.field = self.update_electrostatics(&rest).map_err(|e| fail(e, self.time))?;
+                let forces = self.static_forces();
+                let scale = scale.get_or_insert_with(|| forces.iter().map(|f| f.max(1e-300)).collect());
+                stage.residual = forces.iter().zip(scale.iter()).map(|(f, s)| f / s).fold(0.0, f64::max);
+                stage.iterations = iteration;
+                if iteration > 0 && stage.residual <= c.tolerance {
+                    stage.converged = true;
+                    break;
+                }
+                if iteration == c.max_iterations {
+                    break;
+                }
+                report.strands = self.solve_static_strands()?;
+            }
+            report.stages.push(stage);
+        }
+        Ok(report)
+    }
+
+    /// Every strand's equilibrium with its current loads.
+    fn solve_static_strands(&mut self) -> Result<Vec<StaticReport>> {
         if self.embedded.is_some() {
             return Err(Error::invalid(
                 "simulation.engine",

@@ -282,6 +282,7 @@ fn terms_match_the_runtime_moment_kernel() {
 fn steps_match_the_runtime_step_of_the_same_strand() {
     let strand = runtime_strand();
     let setup = SimulationSetup {
+        electrostatics: None,
         config: SimulationConfig {
             dt: H,
             duration: STEPS as f64 * H,
@@ -292,6 +293,7 @@ fn steps_match_the_runtime_step_of_the_same_strand() {
         },
         head: HeadMotion::Still,
         strands: vec![StrandSetup {
+            charge_per_length: None,
             q0: strand.natural.clone(),
             group: strand.name.clone(),
             strand,

@@ -1,14 +1,15 @@
 //! The strands of a scene: `[[strands]]` entries one by one, `[[patches]]` as grids of
-//! identical strands; names, seeds and the caps on their number.
+//! identical strands, `[[tresses]]` as fibres over an elliptic cross-section; names, seeds
+//! and the caps on their number.
 
-use super::reader::{Node, Range};
+use super::reader::{Bound, Node, Range};
 use super::strands::{read_template, strand_rng, Template};
 use crate::config::StrandSetup;
 use nalgebra::Vector3;
 use std::collections::HashMap;
 
 /// Most strands a scene may have (all patches included).
-pub const MAX_STRANDS: usize = 10_000;
+pub const MAX_STRANDS: usize = 150_000;
 /// Most strands along one side of a patch.
 const MAX_PATCH_SIDE: i64 = 1_000;
 
@@ -36,10 +37,14 @@ pub(super) fn read_strands(root: &mut Node<'_>, env_drag: Option<f64>) -> Vec<St
         read_patch(&mut n, i, env_drag, &mut names, &mut out);
         n.finish();
     }
+    for (i, mut n) in root.tables("tresses").into_iter().enumerate() {
+        read_tress(&mut n, i, env_drag, &mut names, &mut out);
+        n.finish();
+    }
     if names.count == 0 {
         root.error(
             "strands",
-            "the scene has no strands: add [[strands]] or [[patches]]",
+            "the scene has no strands: add [[strands]], [[patches]] or [[tresses]]",
         );
     } else if names.count > MAX_STRANDS {
         let msg = format!(
@@ -133,6 +138,54 @@ fn read_patch(
             let mut rng = strand_rng(seed, 1 + (i * ny + j) as u64);
             out.extend(template.build(strand_name, name.clone(), center + offset, &mut rng));
         }
+    }
+}
+
+/// A `[[tresses]]` entry: `count` fibres with their roots spread uniformly over an
+/// ellipse of semi-axes `semi_axes = [a, b]` around `center`, a along n1 (`normal`) and b
+/// along n2 = n0 × n1, in the plane across the fibres' `direction` n0 (the paper's tress
+/// of fibres over an elliptic cross-section). Roots follow a sunflower (Fermat spiral)
+/// pattern, `r_k = sqrt((k + ½)/count)`, angle `k` times the golden angle, scaled to the
+/// ellipse: even in area, no two roots at one point. Fibre k is `<name>_<k>` and draws
+/// its curvature variation from the tress `seed` on stream `1 + k`.
+fn read_tress(
+    n: &mut Node<'_>,
+    index: usize,
+    env_drag: Option<f64>,
+    names: &mut Names,
+    out: &mut Vec<StrandSetup>,
+) {
+    let name = n.optional("name", format!("tress{index}"), |n, k| {
+        n.string(k).map(str::to_string)
+    });
+    let center = n.optional("center", Vector3::zeros(), Node::vec3);
+    let count = n.required("count", "the number of fibres", |n, k| {
+        n.count(k, 1, MAX_STRANDS as i64, "the cap on strands")
+    });
+    let axes = n.required("semi_axes", "[a, b] in m", |n, k| n.fixed_list(k, 2, Range::new(Bound::Incl(0.0), Bound::Incl(10.0))));
+    let template = read_template(n, env_drag);
+    let (Some(name), Some(center), Some(count), Some(axes), Some(frame)) =
+        (name, center, count, axes, template.frame)
+    else {
+        return;
+    };
+    if names.count + count > MAX_STRANDS {
+        let msg = format!("{count} fibres would bring the scene over the cap of {MAX_STRANDS} strands");
+        n.error("count", msg);
+        names.count += count;
+        return;
+    }
+    let (u, v) = (frame.column(1).into_owned(), frame.column(2).into_owned());
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let seed = template.seed.unwrap_or(index as u64);
+    for k in 0..count {
+        let strand_name = format!("{name}_{k}");
+        names.claim(n, &strand_name);
+        let r = ((k as f64 + 0.5) / count as f64).sqrt();
+        let angle = k as f64 * golden;
+        let root = center + u * (axes[0] * r * angle.cos()) + v * (axes[1] * r * angle.sin());
+        let mut rng = strand_rng(seed, 1 + k as u64);
+        out.extend(template.build(strand_name, name.clone(), root, &mut rng));
     }
 }
 

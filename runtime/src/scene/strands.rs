@@ -31,6 +31,9 @@ pub const MAX_RADIUS: f64 = 1.0;
 pub const MAX_CURVATURE: f64 = 1e6;
 /// Largest magnitude of a point load, newtons.
 pub const MAX_POINT_LOAD: f64 = 1e6;
+/// Allowed charge per length, C/m: far beyond any charged fibre (the paper's is
+/// ~2.6·10⁻¹¹ C/m).
+pub const MAX_CHARGE_RANGE: Range = Range::new(Bound::Incl(-1e-3), Bound::Incl(1e-3));
 /// Relative tolerance of `sum(element_lengths) == length`.
 const LENGTH_SUM_TOLERANCE: f64 = 1e-9;
 
@@ -59,6 +62,7 @@ pub(super) struct Template {
     air_drag: f64,
     initial: Option<Initial>,
     point_loads: Option<Vec<PointLoad>>,
+    charge_per_length: Option<f64>,
 }
 
 /// Read the template fields of a strand or patch table. `env_drag` is the scene's
@@ -91,6 +95,11 @@ pub(super) fn read_template(n: &mut Node<'_>, env_drag: Option<f64>) -> Template
     );
     let initial = read_initial(n, lengths.as_ref().map(|l| 3 * l.len()));
     let point_loads = read_point_loads(n, length);
+    let charge_per_length = if n.has("charge_per_length") {
+        n.f64("charge_per_length", MAX_CHARGE_RANGE)
+    } else {
+        None
+    };
     let material = cross_section.material();
     check_derived(n, &material, natural.as_deref());
     Template {
@@ -104,6 +113,7 @@ pub(super) fn read_template(n: &mut Node<'_>, env_drag: Option<f64>) -> Template
         air_drag: air_drag.unwrap_or(params.air_drag),
         initial,
         point_loads,
+        charge_per_length,
     }
 }
 
@@ -154,7 +164,12 @@ impl Template {
             air_drag: self.air_drag,
             point_loads: self.point_loads.clone()?,
         };
-        Some(StrandSetup { strand, q0, group })
+        Some(StrandSetup {
+            strand,
+            q0,
+            group,
+            charge_per_length: self.charge_per_length,
+        })
     }
 }
 

@@ -124,12 +124,14 @@ pub fn setup(
     head: HeadMotion,
 ) -> SimulationSetup {
     SimulationSetup {
+        electrostatics: None,
         config,
         environment: Environment { gravity },
         head,
         strands: strands
             .into_iter()
             .map(|s| StrandSetup {
+                charge_per_length: None,
                 q0: s.natural.clone(),
                 group: s.name.clone(),
                 strand: s,
