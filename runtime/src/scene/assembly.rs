@@ -2,7 +2,7 @@
 //! identical strands; names, seeds and the caps on their number.
 
 use super::reader::{Node, Range};
-use super::strands::{read_template, strand_rng, Template};
+use super::strands::{read_template, strand_rng, StrandDefaults, Template};
 use crate::config::StrandSetup;
 use nalgebra::Vector3;
 use std::collections::HashMap;
@@ -14,7 +14,7 @@ const MAX_PATCH_SIDE: i64 = 1_000;
 
 /// The strands of `[[strands]]` then of `[[patches]]`, in order. Problems are recorded
 /// on the nodes; the result then lacks the invalid strands.
-pub(super) fn read_strands(root: &mut Node<'_>, env_drag: Option<f64>) -> Vec<StrandSetup> {
+pub(super) fn read_strands(root: &mut Node<'_>, defaults: &StrandDefaults) -> Vec<StrandSetup> {
     let mut names = Names::default();
     let mut out = Vec::new();
     for (i, mut n) in root.tables("strands").into_iter().enumerate() {
@@ -23,7 +23,7 @@ pub(super) fn read_strands(root: &mut Node<'_>, env_drag: Option<f64>) -> Vec<St
         });
         let group = read_group(&mut n);
         let root_position = n.optional("root", Vector3::zeros(), Node::vec3);
-        let template = read_template(&mut n, env_drag);
+        let template = read_template(&mut n, defaults);
         if let (Some(name), Some(group)) = (name, group) {
             names.claim(&n, &name);
             let group = group.unwrap_or_else(|| name.clone());
@@ -33,7 +33,7 @@ pub(super) fn read_strands(root: &mut Node<'_>, env_drag: Option<f64>) -> Vec<St
         n.finish();
     }
     for (i, mut n) in root.tables("patches").into_iter().enumerate() {
-        read_patch(&mut n, i, env_drag, &mut names, &mut out);
+        read_patch(&mut n, i, defaults, &mut names, &mut out);
         n.finish();
     }
     if names.count == 0 {
@@ -94,7 +94,7 @@ impl Names {
 fn read_patch(
     n: &mut Node<'_>,
     index: usize,
-    env_drag: Option<f64>,
+    defaults: &StrandDefaults,
     names: &mut Names,
     out: &mut Vec<StrandSetup>,
 ) {
@@ -109,7 +109,7 @@ fn read_patch(
             (1, MAX_PATCH_SIDE, "the cap on strands along a patch side"),
         )
     });
-    let template = read_template(n, env_drag);
+    let template = read_template(n, defaults);
     let steps = read_spacing(n, &template, count.as_deref());
     let (Some(name), Some(center), Some(count), Some((u, v))) = (name, center, count, steps) else {
         return;
