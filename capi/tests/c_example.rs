@@ -46,6 +46,7 @@ const SECTION: CrossSection = CrossSection {
     youngs_modulus: 1.5e9,
     poisson: 0.48,
     density: 1300.0,
+    shear_factor: 1.0,
 };
 
 /// The compiled example (built once per test process).

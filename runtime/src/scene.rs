@@ -24,10 +24,12 @@ use crate::error::{Error, FieldError, Result};
 use crate::forces::environment::Environment;
 use crate::kernels::generic::QuadratureRule;
 use crate::kernels::kernel::KernelFactory;
+use crate::model::humidity::{HumidityScaling, MAX_HUMIDITY, MIN_HUMIDITY};
 use crate::output::plan::FORMAT_NAMES;
 use crate::output::{Formats, OutputSettings};
 use crate::simulation::Simulation;
 use reader::{Bound, Errors, Node, Range};
+use strands::StrandDefaults;
 use toml::{Table, Value};
 
 pub use assembly::MAX_STRANDS;
@@ -121,7 +123,7 @@ fn read_scene(mut root: Node<'_>) -> SimulationSetup {
         .table("simulation")
         .map(read_simulation)
         .unwrap_or_default();
-    let (environment, env_drag) = root
+    let (environment, defaults) = root
         .table("environment")
         .map(read_environment)
         .unwrap_or_default();
@@ -130,7 +132,7 @@ fn read_scene(mut root: Node<'_>) -> SimulationSetup {
         (DEFAULT_SAMPLES_PER_ELEMENT, OutputSettings::default()),
         read_output,
     );
-    let strands = assembly::read_strands(&mut root, env_drag);
+    let strands = assembly::read_strands(&mut root, &defaults);
     let electrostatics = match root.table("electrostatics") {
         Some(n) => electrostatics::read_electrostatics(n, &strands),
         None => {
@@ -255,8 +257,9 @@ fn read_quadrature(n: &mut Node<'_>, key: &'static str) -> Option<QuadratureRule
     }
 }
 
-/// Gravity and the scene-wide air drag (which strands inherit unless they set their own).
-fn read_environment(mut n: Node<'_>) -> (Environment, Option<f64>) {
+/// Gravity, and what strands take from the environment: the scene-wide air drag (unless
+/// they set their own) and the relative humidity (which their preset values follow).
+fn read_environment(mut n: Node<'_>) -> (Environment, StrandDefaults) {
     let default = Environment::default();
     let gravity = match n.raw("gravity") {
         None => default.gravity,
@@ -278,8 +281,16 @@ fn read_environment(mut n: Node<'_>) -> (Environment, Option<f64>) {
     } else {
         None
     };
+    let humidity = if n.has("relative_humidity") {
+        let range = Range::new(Bound::Incl(MIN_HUMIDITY), Bound::Incl(MAX_HUMIDITY));
+        n.f64("relative_humidity", range)
+            .and_then(HumidityScaling::at)
+    } else {
+        None
+    };
     n.finish();
-    (Environment { gravity }, air_drag)
+    let defaults = StrandDefaults { air_drag, humidity };
+    (Environment { gravity }, defaults)
 }
 
 /// `[output]`: the sampling, the formats and the size limit.

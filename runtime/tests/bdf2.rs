@@ -20,6 +20,7 @@ fn round_fibre(stiffness: f64) -> CrossSection {
         youngs_modulus: 1e9 * stiffness,
         poisson: 0.48,
         density: 1300.0,
+        shear_factor: 1.0,
     }
 }
 

@@ -27,6 +27,7 @@ fn round_fibre() -> CrossSection {
         youngs_modulus: 1e9,
         poisson: 0.48,
         density: 1300.0,
+        shear_factor: 1.0,
     }
 }
 

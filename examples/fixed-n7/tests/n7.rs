@@ -41,6 +41,7 @@ const HAIR: CrossSection = CrossSection {
     youngs_modulus: 1e9,
     poisson: 0.48,
     density: 1300.0,
+    shear_factor: 1.0,
 };
 
 /// Reports the const parameters it is visited with.

@@ -17,6 +17,17 @@ pub struct CrossSection {
     pub poisson: f64,
     /// Density ρ, kg/m³ (1300 for hair).
     pub density: f64,
+    /// Factor on the torsion modulus: G = `shear_factor` · E / (2(1 + ν)). 1 makes the
+    /// section isotropic in the sense of its Poisson ratio; the humidity model
+    /// ([`crate::model::humidity`]) sets it to g(RH)/e(RH) relative to the reference
+    /// humidity, since water lowers the torsion modulus of hair much more than Young's
+    /// modulus (the effective Poisson ratio is then (1 + ν)/`shear_factor` − 1).
+    #[serde(default = "unit_factor")]
+    pub shear_factor: f64,
+}
+
+fn unit_factor() -> f64 {
+    1.0
 }
 
 /// What the dynamics needs of the material: mass per length and the three stiffnesses.
@@ -41,7 +52,7 @@ impl CrossSection {
 
     /// Mass per length and stiffnesses by the textbook formulas of the design page:
     /// `EI1 = E π a b³/4`, `EI2 = E π a³ b/4`, `GJ = G π a³ b³/(a² + b²)`,
-    /// `G = E / (2(1+ν))`, `ρS = ρ π a b`.
+    /// `G = s E / (2(1+ν))` with s = `shear_factor`, `ρS = ρ π a b`.
     pub fn material(&self) -> Material {
         let t = superhelix_kernels::material::section_terms(
             self.radius,
@@ -50,9 +61,10 @@ impl CrossSection {
             self.poisson,
             self.density,
         );
+        let [torsion, bend1, bend2] = t.stiffness;
         Material {
             mass_per_length: t.mass_per_length,
-            stiffness: t.stiffness,
+            stiffness: [torsion * self.shear_factor, bend1, bend2],
             rotary_inertia: t.rotary_inertia,
         }
     }
@@ -93,7 +105,8 @@ pub enum Preset {
 /// Everything a preset sets.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PresetParams {
-    /// Cross-section and material.
+    /// Cross-section and material, as measured at 65 % relative humidity (the reference
+    /// of [`crate::model::humidity`]).
     pub cross_section: CrossSection,
     /// Radius of the natural helix, metres (0 = straight).
     pub helix_radius: f64,
@@ -134,6 +147,7 @@ impl Preset {
             youngs_modulus: e_gpa * 1e9,
             poisson: 0.48,
             density: 1300.0,
+            shear_factor: 1.0,
         };
         match self {
             Preset::Smooth => PresetParams {
@@ -180,6 +194,7 @@ mod tests {
             youngs_modulus: 1e9,
             poisson: 0.5,
             density: 1300.0,
+            shear_factor: 1.0,
         };
         let m = cs.material();
         let i = std::f64::consts::PI * 50e-6_f64.powi(4) / 4.0;

@@ -3,7 +3,7 @@
 //! and the caps on their number.
 
 use super::reader::{Bound, Node, Range};
-use super::strands::{read_template, strand_rng, Template};
+use super::strands::{read_template, strand_rng, StrandDefaults, Template};
 use crate::config::StrandSetup;
 use nalgebra::Vector3;
 use std::collections::HashMap;
@@ -15,7 +15,7 @@ const MAX_PATCH_SIDE: i64 = 1_000;
 
 /// The strands of `[[strands]]` then of `[[patches]]`, in order. Problems are recorded
 /// on the nodes; the result then lacks the invalid strands.
-pub(super) fn read_strands(root: &mut Node<'_>, env_drag: Option<f64>) -> Vec<StrandSetup> {
+pub(super) fn read_strands(root: &mut Node<'_>, defaults: &StrandDefaults) -> Vec<StrandSetup> {
     let mut names = Names::default();
     let mut out = Vec::new();
     for (i, mut n) in root.tables("strands").into_iter().enumerate() {
@@ -24,7 +24,7 @@ pub(super) fn read_strands(root: &mut Node<'_>, env_drag: Option<f64>) -> Vec<St
         });
         let group = read_group(&mut n);
         let root_position = n.optional("root", Vector3::zeros(), Node::vec3);
-        let template = read_template(&mut n, env_drag);
+        let template = read_template(&mut n, defaults);
         if let (Some(name), Some(group)) = (name, group) {
             names.claim(&n, &name);
             let group = group.unwrap_or_else(|| name.clone());
@@ -34,11 +34,11 @@ pub(super) fn read_strands(root: &mut Node<'_>, env_drag: Option<f64>) -> Vec<St
         n.finish();
     }
     for (i, mut n) in root.tables("patches").into_iter().enumerate() {
-        read_patch(&mut n, i, env_drag, &mut names, &mut out);
+        read_patch(&mut n, i, defaults, &mut names, &mut out);
         n.finish();
     }
     for (i, mut n) in root.tables("tresses").into_iter().enumerate() {
-        read_tress(&mut n, i, env_drag, &mut names, &mut out);
+        read_tress(&mut n, i, defaults, &mut names, &mut out);
         n.finish();
     }
     if names.count == 0 {
@@ -99,7 +99,7 @@ impl Names {
 fn read_patch(
     n: &mut Node<'_>,
     index: usize,
-    env_drag: Option<f64>,
+    defaults: &StrandDefaults,
     names: &mut Names,
     out: &mut Vec<StrandSetup>,
 ) {
@@ -114,7 +114,7 @@ fn read_patch(
             (1, MAX_PATCH_SIDE, "the cap on strands along a patch side"),
         )
     });
-    let template = read_template(n, env_drag);
+    let template = read_template(n, defaults);
     let steps = read_spacing(n, &template, count.as_deref());
     let (Some(name), Some(center), Some(count), Some((u, v))) = (name, center, count, steps) else {
         return;
@@ -151,7 +151,7 @@ fn read_patch(
 fn read_tress(
     n: &mut Node<'_>,
     index: usize,
-    env_drag: Option<f64>,
+    defaults: &StrandDefaults,
     names: &mut Names,
     out: &mut Vec<StrandSetup>,
 ) {
@@ -163,7 +163,7 @@ fn read_tress(
         n.count(k, 1, MAX_STRANDS as i64, "the cap on strands")
     });
     let axes = n.required("semi_axes", "[a, b] in m", |n, k| n.fixed_list(k, 2, Range::new(Bound::Incl(0.0), Bound::Incl(10.0))));
-    let template = read_template(n, env_drag);
+    let template = read_template(n, defaults);
     let (Some(name), Some(center), Some(count), Some(axes), Some(frame)) =
         (name, center, count, axes, template.frame)
     else {

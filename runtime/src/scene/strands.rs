@@ -3,6 +3,7 @@
 
 use super::reader::{Bound, Node, Range};
 use crate::config::StrandSetup;
+use crate::model::humidity::HumidityScaling;
 use crate::model::material::{
     helix_curvature, CrossSection, HelixForm, Material, Preset, PresetParams,
 };
@@ -48,6 +49,17 @@ enum Initial {
     Given(Vec<f64>),
 }
 
+/// What `[environment]` sets for every strand: the scene-wide air drag (strands that do
+/// not set their own take it) and the humidity of the air (preset values follow it).
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct StrandDefaults {
+    /// `environment.air_drag`.
+    pub air_drag: Option<f64>,
+    /// The factors of `environment.relative_humidity` over the reference 65 %; `None`
+    /// when the scene has no humidity (presets' values as they are).
+    pub humidity: Option<HumidityScaling>,
+}
+
 /// Everything of a strand but its name, root and random variation: the fields shared by
 /// `[[strands]]` entries and `[[patches]]`. `None` parts were invalid (and reported).
 #[derive(Debug, Clone)]
@@ -65,15 +77,21 @@ pub(super) struct Template {
     charge_per_length: Option<f64>,
 }
 
-/// Read the template fields of a strand or patch table. `env_drag` is the scene's
-/// `environment.air_drag`.
-pub(super) fn read_template(n: &mut Node<'_>, env_drag: Option<f64>) -> Template {
+/// Read the template fields of a strand or patch table, with the defaults of the
+/// scene's `[environment]`.
+pub(super) fn read_template(n: &mut Node<'_>, defaults: &StrandDefaults) -> Template {
     let names: Vec<&str> = Preset::ALL.iter().map(|p| p.name()).collect();
     let preset = n.optional("preset", Preset::Smooth, |n, k| {
         n.choice(k, &names, Preset::from_name)
     });
     let params = preset.unwrap_or(Preset::Smooth).params();
-    let cross_section = read_cross_section(n, &params.cross_section);
+    // the preset's section is taken as measured at 65 % RH; the strand's own fields
+    // replace the humid values field by field
+    let preset_section = match defaults.humidity {
+        Some(humidity) => humidity.section(&params.cross_section),
+        None => params.cross_section,
+    };
+    let cross_section = read_cross_section(n, &preset_section);
     let frame = read_frame(n);
     let (lengths, length) = read_lengths(n).unzip();
     let natural = read_natural(n, &params, lengths.as_deref(), length);
@@ -90,7 +108,7 @@ pub(super) fn read_template(n: &mut Node<'_>, env_drag: Option<f64>) -> Template
     );
     let air_drag = n.optional_f64(
         "air_drag",
-        env_drag.unwrap_or(params.air_drag),
+        defaults.air_drag.unwrap_or(params.air_drag),
         Range::NON_NEGATIVE,
     );
     let initial = read_initial(n, lengths.as_ref().map(|l| 3 * l.len()));
@@ -199,7 +217,15 @@ fn vary(natural: &[f64], variation: f64, rng: &mut ChaCha8Rng) -> Vec<f64> {
     out
 }
 
+/// The section of the strand: each field as the strand gives it, else the preset's
+/// (`preset`, at the scene's humidity). The preset's `shear_factor` goes with its Poisson
+/// ratio: a strand that sets `poisson` sets G = E / (2(1 + ν)) itself.
 fn read_cross_section(n: &mut Node<'_>, preset: &CrossSection) -> CrossSection {
+    let shear_factor = if n.has("poisson") {
+        1.0
+    } else {
+        preset.shear_factor
+    };
     let mut field = |key: &'static str, default: f64, range: Range| {
         n.optional_f64(key, default, range).unwrap_or(default)
     };
@@ -221,6 +247,7 @@ fn read_cross_section(n: &mut Node<'_>, preset: &CrossSection) -> CrossSection {
             Range::new(Bound::Excl(-1.0), Bound::Incl(0.5)),
         ),
         density: field("density", preset.density, Range::POSITIVE),
+        shear_factor,
     }
 }
 

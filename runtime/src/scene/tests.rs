@@ -175,6 +175,11 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("[environment]\nair_drag = -1.0\n[[strands]]\nlength = 0.3", "environment.air_drag", ">= 0"),
     ("[environment]\ngravity = \"down\"\n[[strands]]\nlength = 0.3", "environment.gravity", "none"),
     ("[environment]\ngravity = [0.0, 1.0]\n[[strands]]\nlength = 0.3", "environment.gravity", "exactly 3"),
+    ("[environment]\nrelative_humidity = 120\n[[strands]]\nlength = 0.3", "environment.relative_humidity", "must be in [0, 100], got 120"),
+    ("[environment]\nrelative_humidity = -0.5\n[[strands]]\nlength = 0.3", "environment.relative_humidity", "must be in [0, 100], got -0.5"),
+    ("[environment]\nrelative_humidity = nan\n[[strands]]\nlength = 0.3", "environment.relative_humidity", "must be in [0, 100], got NaN"),
+    ("[environment]\nrelative_humidity = \"wet\"\n[[strands]]\nlength = 0.3", "environment.relative_humidity", "expected a number"),
+    ("[environment]\nhumidity = 50\n[[strands]]\nlength = 0.3", "environment.humidity", "unknown field"),
     ("[output]\nsamples_per_element = 0\n[[strands]]\nlength = 0.3", "output.samples_per_element", ">= 1"),
     ("[head]\nmotion = { kind = \"spin\" }\n[[strands]]\nlength = 0.3", "head.motion.kind", "oscillate"),
     ("[head]\nmotion = { kind = \"oscillate\", axis = [0.0, 0.0, 1.0], angle_deg = 30.0 }\n[[strands]]\nlength = 0.3", "head.motion.frequency_hz", "required"),
@@ -508,4 +513,114 @@ fn poisson_accepts_the_whole_isotropic_range_and_gives_g_of_e_over_three_at_one_
     let m = s.strands[0].strand.material;
     // at ν = 0.5: G = E/3, GJ = (E/3) · 2I = (2/3) EI
     assert!((m.stiffness[0] / m.stiffness[1] - 2.0 / 3.0).abs() < 1e-14);
+}
+
+/// One strand of each preset and a patch of two, with `environment` in `[environment]`
+/// and `strand_fields` in every strand and the patch.
+fn humid_scene(environment: &str, strand_fields: &str) -> SimulationSetup {
+    let mut text = format!("[environment]\n{environment}\n");
+    for preset in Preset::ALL {
+        text += &format!(
+            "[[strands]]\nname = \"{}\"\npreset = \"{}\"\nlength = 0.2\nelements = 3\n{strand_fields}\n",
+            preset.name(),
+            preset.name()
+        );
+    }
+    text += &format!("[[patches]]\npreset = \"curly\"\ncount = [2, 1]\nsize = [0.01, 0.0]\nlength = 0.2\nelements = 3\n{strand_fields}\n");
+    setup(&text)
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a / b - 1.0).abs()
+}
+
+#[test]
+fn without_humidity_or_at_65_percent_every_strand_keeps_its_values_bit_for_bit() {
+    let plain = humid_scene("", "");
+    assert_eq!(humid_scene("relative_humidity = 65", ""), plain);
+    assert_eq!(humid_scene("relative_humidity = 65.0", ""), plain);
+    for (s, preset) in plain.strands.iter().zip(Preset::ALL) {
+        // powi may round differently when constant-folded: compare to 1e-15
+        let (got, want) = (s.strand.material, preset.params().cross_section.material());
+        assert_eq!(got.mass_per_length, want.mass_per_length);
+        for i in 0..3 {
+            assert!(rel(got.stiffness[i], want.stiffness[i]) <= 1e-15);
+            assert!(rel(got.rotary_inertia[i], want.rotary_inertia[i]) <= 1e-15);
+        }
+    }
+    assert_ne!(humid_scene("relative_humidity = 64.9", ""), plain);
+}
+
+#[test]
+fn preset_values_follow_the_isotherms() {
+    use crate::model::humidity::HumidityScaling;
+    let plain = humid_scene("", "");
+    for rh in [0.0, 30.0, 82.5, 100.0] {
+        let humid = humid_scene(&format!("relative_humidity = {rh}"), "");
+        let f = HumidityScaling::at(rh).unwrap();
+        let r4 = f.radius.powi(4);
+        for (a, b) in plain.strands.iter().zip(&humid.strands) {
+            let name = &b.strand.name;
+            let (a, b) = (a.strand.material, b.strand.material);
+            assert!(rel(b.mass_per_length, a.mass_per_length * f.mass_per_length) < 1e-14);
+            assert!(rel(b.stiffness[0], a.stiffness[0] * f.torsion_modulus * r4) < 1e-14);
+            for i in [1, 2] {
+                assert!(
+                    rel(b.stiffness[i], a.stiffness[i] * f.youngs_modulus * r4) < 1e-14,
+                    "{name} at {rh} %"
+                );
+            }
+            // the rotary inertia ρI follows density · r⁴ = mass factor · r²
+            let m = f.mass_per_length * f.radius * f.radius;
+            assert!(rel(b.rotary_inertia[1], a.rotary_inertia[1] * m) < 1e-14);
+        }
+        let geometry = &humid.strands[0].strand.geometry;
+        assert_eq!(
+            geometry.mass_per_length,
+            humid.strands[0].strand.material.mass_per_length
+        );
+    }
+}
+
+#[test]
+fn a_strands_own_material_values_are_not_changed_by_the_humidity() {
+    use crate::model::humidity::HumidityScaling;
+    let own = "radius = 4e-5\nyoungs_modulus = 3e9\ndensity = 1250\npoisson = 0.3";
+    let plain = humid_scene("", own);
+    for rh in [0.0, 65.0, 100.0] {
+        let humid = humid_scene(&format!("relative_humidity = {rh}"), own);
+        for (a, b) in plain.strands.iter().zip(&humid.strands) {
+            assert_eq!(a.strand.material, b.strand.material, "at {rh} %");
+        }
+    }
+
+    // one field at a time: that field stays, the others follow the humidity
+    let f = HumidityScaling::at(100.0).unwrap();
+    let smooth_strand = |fields: &str| {
+        let setup = humid_scene("relative_humidity = 100", fields);
+        let plain = humid_scene("", fields);
+        (
+            setup.strands[0].strand.material,
+            plain.strands[0].strand.material,
+        )
+    };
+    let r2 = f.radius * f.radius;
+    // youngs_modulus: E as given; G keeps the preset's G/E, which follows g/e
+    let (m, m0) = smooth_strand("youngs_modulus = 3e9");
+    assert!(rel(m.stiffness[1], m0.stiffness[1] * r2 * r2) < 1e-14);
+    assert!(rel(m.stiffness[0], m0.stiffness[0] * r2 * r2 * f.shear()) < 1e-14);
+    assert!(rel(m.mass_per_length, m0.mass_per_length * f.mass_per_length) < 1e-14);
+    // radius: no swelling; the humid density gives the mass per length
+    let (m, m0) = smooth_strand("radius = 4e-5");
+    assert!(rel(m.stiffness[1], m0.stiffness[1] * f.youngs_modulus) < 1e-14);
+    assert!(rel(m.stiffness[0], m0.stiffness[0] * f.torsion_modulus) < 1e-14);
+    assert!(rel(m.mass_per_length, m0.mass_per_length * f.density()) < 1e-14);
+    // density: the area swells, the density stays
+    let (m, m0) = smooth_strand("density = 1250");
+    assert!(rel(m.mass_per_length, m0.mass_per_length * r2) < 1e-14);
+    assert!(rel(m.stiffness[1], m0.stiffness[1] * f.youngs_modulus * r2 * r2) < 1e-14);
+    // poisson: G = E / (2(1 + ν)) with the humid E (a circle: GJ / EI = 1 / (1 + ν))
+    let (m, m0) = smooth_strand("poisson = 0.3");
+    assert!(rel(m.stiffness[0] / m.stiffness[1], 1.0 / 1.3) < 1e-14);
+    assert!(rel(m.stiffness[1], m0.stiffness[1] * f.youngs_modulus * r2 * r2) < 1e-14);
 }
