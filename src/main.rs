@@ -33,6 +33,8 @@ enum Command {
     CompareKernels(cli::compare_kernels::CompareKernelsArgs),
     /// Coulomb potential and field of a point set (.npy in and out) by the fast multipole method.
     Coulomb(cli::coulomb::CoulombArgs),
+    /// The paper's static-electricity experiments on a curly tress (report, pictures, plot).
+    Electrostatics(cli::electrostatics::ElectrostaticsArgs),
     /// Markdown table of the generic kernel's error and time per strand-step against its
     /// Gauss-Legendre order, against the closed-form kernel (or a 256-point stand-in).
     QuadratureTable(cli::quadrature_table::QuadratureTableArgs),
@@ -53,6 +55,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => cli::bench::run(args),
         Command::CompareKernels(args) => cli::compare_kernels::run(args),
         Command::Coulomb(args) => cli::coulomb::run(args),
+        Command::Electrostatics(args) => cli::electrostatics::run(args),
         Command::QuadratureTable(args) => cli::quadrature_table::run(args),
         Command::Stress(args) => cli::stress::run(args),
         Command::Study(args) => cli::study::run(args),

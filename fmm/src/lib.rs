@@ -33,7 +33,7 @@ pub mod samples;
 pub mod tree;
 
 pub use direct::{direct_at, direct_sum, Softening};
-pub use fmm::{Fmm, FmmOptions, FmmStats, Potentials, MAX_ORDER};
+pub use fmm::{expected_error, Fmm, FmmOptions, FmmStats, Potentials, ERROR_BY_ORDER, MAX_ORDER};
 
 /// Why an evaluation was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -46,6 +46,74 @@ struct EmbeddedStrands {
     counts: superhelix_kernels::fixed::StepCounts,
 }
 
+/// Depth of the Anderson acceleration of the charged static solve's outer iteration.
+const ANDERSON_DEPTH: usize = 5;
+
+/// Anderson acceleration (type II) of a fixed-point iteration x ↦ G(x): the next iterate
+/// is the combination of the last `depth` values of G whose residuals `G(x) − x` combine
+/// to the smallest norm (least squares by normal equations, regularised). Turns the
+/// linear convergence of the charged statics' outer iteration (forces refreshed after
+/// each solve) into a much faster one.
+struct Anderson {
+    depth: usize,
+    last: Option<(Vec<f64>, Vec<f64>)>,
+    df: std::collections::VecDeque<Vec<f64>>,
+    dg: std::collections::VecDeque<Vec<f64>>,
+}
+
+impl Anderson {
+    fn new(depth: usize) -> Self {
+        Anderson { depth, last: None, df: Default::default(), dg: Default::default() }
+    }
+
+    /// The next iterate after x with G(x) = g.
+    fn next(&mut self, x: &[f64], g: &[f64]) -> Vec<f64> {
+        let f: Vec<f64> = g.iter().zip(x).map(|(a, b)| a - b).collect();
+        if let Some((f0, g0)) = self.last.take() {
+            self.df.push_back(f.iter().zip(&f0).map(|(a, b)| a - b).collect());
+            self.dg.push_back(g.iter().zip(&g0).map(|(a, b)| a - b).collect());
+            if self.df.len() > self.depth {
+                self.df.pop_front();
+                self.dg.pop_front();
+            }
+        }
+        self.last = Some((f.clone(), g.to_vec()));
+        let m = self.df.len();
+        if m == 0 {
+            return g.to_vec();
+        }
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+        let mut a = nalgebra::DMatrix::<f64>::zeros(m, m);
+        let mut b = nalgebra::DVector::<f64>::zeros(m);
+        for i in 0..m {
+            for j in 0..m {
+                a[(i, j)] = dot(&self.df[i], &self.df[j]);
+            }
+            b[i] = dot(&self.df[i], &f);
+        }
+        let trace: f64 = (0..m).map(|i| a[(i, i)]).sum();
+        for i in 0..m {
+            a[(i, i)] += 1e-10 * trace.max(1e-300);
+        }
+        let Some(gamma) = a.cholesky().map(|c| c.solve(&b)) else {
+            self.df.clear();
+            self.dg.clear();
+            return g.to_vec();
+        };
+        let mut next = g.to_vec();
+        for i in 0..m {
+            for (v, d) in next.iter_mut().zip(&self.dg[i]) {
+                *v -= gamma[i] * d;
+            }
+        }
+        if next.iter().all(|v| v.is_finite()) {
+            next
+        } else {
+            g.to_vec()
+        }
+    }
+}
+
 /// One charging step of [`Simulation::solve_charged_static`].
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ChargingStage {
@@ -493,6 +561,17 @@ impl Simulation {
         self.solve_static_strands()
     }
 
+    /// The generalized force F(q) at zero velocity of strand `i`, head at rest: elasticity,
+    /// gravity and its point loads (the scene's and the electrostatic ones).
+    pub fn static_force(&mut self, i: usize) -> Vec<f64> {
+        let rest = crate::forces::head_motion::HeadState::rest();
+        let terms = crate::kernels::kernel::Terms { force: true, ..Default::default() };
+        let s = &mut self.strands[i];
+        let zero = vec![0.0; s.state.q.len()];
+        s.system.assemble(&rest, &s.state.q, &zero, terms);
+        s.system.workspace.terms.force.clone()
+    }
+
     /// The largest generalized force `‖F(q)‖∞` of each strand at rest (elasticity, gravity
     /// and the current point loads), head at rest.
     fn static_forces(&mut self) -> Vec<f64> {
@@ -512,7 +591,8 @@ impl Simulation {
     /// exact elastic and gravity stiffness and the Coulomb forces held as dead loads, the
     /// forces refreshed in an outer iteration. The charge is brought up in
     /// `charging_steps` steps (1: at once; n: the fraction `ln(1 + k)/ln(1 + n)` at step
-    /// k). Each step's outer iteration ends when every strand's `‖F(q)‖∞` with forces
+    /// k). The outer iteration is accelerated (Anderson, depth 5, on the strands'
+    /// coordinates). Each step's outer iteration ends when every strand's `‖F(q)‖∞` with forces
     /// refreshed at its configuration is at most `tolerance` times its force scale (the
     /// largest of gravity's, elasticity's and the Coulomb generalized force at the start).
     pub fn solve_charged_static(&mut self) -> Result<ChargedStaticReport> {
@@ -540,6 +620,7 @@ impl Simulation {
                 e.set_charge_scale(fraction);
             }
             let mut stage = ChargingStage { charge_fraction: fraction, ..Default::default() };
+            let mut anderson = Anderson::new(ANDERSON_DEPTH);
             for iteration in 0..=c.max_iterations {
                 stage.field = self.update_electrostatics(&rest).map_err(|e| fail(e, self.time))?;
                 let forces = self.static_forces();
@@ -553,7 +634,16 @@ impl Simulation {
                 if iteration == c.max_iterations {
                     break;
                 }
+                let x: Vec<f64> = self.strands.iter().flat_map(|s| s.state.q.iter().copied()).collect();
                 report.strands = self.solve_static_strands()?;
+                let g: Vec<f64> = self.strands.iter().flat_map(|s| s.state.q.iter().copied()).collect();
+                let next = anderson.next(&x, &g);
+                let mut at = 0;
+                for s in &mut self.strands {
+                    let n = s.state.q.len();
+                    s.state.q.copy_from_slice(&next[at..at + n]);
+                    at += n;
+                }
             }
             report.stages.push(stage);
         }

@@ -196,6 +196,14 @@ impl Electrostatics {
             .map(|(&s, &force)| PointLoad { s, force })
     }
 
+    /// The electrostatic energy of the particles at the last update,
+    /// `U = ½ k Σ_i q_i Φ_i` (J): its gradient with respect to a particle's position is
+    /// minus the force on it, so `−∂U/∂q` of a strand is its generalized Coulomb force.
+    pub fn energy(&self) -> f64 {
+        0.5 * COULOMB_CONSTANT
+            * self.charges.iter().zip(&self.field.potential).map(|(q, p)| q * p).sum::<f64>()
+    }
+
     /// Positions (world, m) and forces (N) of every particle from the last update.
     pub fn particles(&self) -> (&[[f64; 3]], &[Vector3<f64>]) {
         (&self.points, &self.forces)

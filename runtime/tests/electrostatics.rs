@@ -1,0 +1,144 @@
+//! Static electricity: the coupling Σ J(s_i)ᵀ F_i against the gradient of the
+//! electrostatic energy, the charged equilibrium, charged dynamics, and a scene without
+//! charge building nothing.
+
+use superhelix_runtime::forces::head_motion::HeadState;
+use superhelix_runtime::{parse_scene, Simulation};
+
+fn sim(text: &str) -> Simulation {
+    let setup = parse_scene(text).unwrap_or_else(|e| panic!("{e}"));
+    Simulation::new(setup, None).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Two short fibres side by side, 4 mm apart, strongly charged.
+const PAIR: &str = r#"
+[simulation]
+mode = "static"
+[environment]
+gravity = "none"
+[electrostatics]
+charge_per_length = -2e-9
+particle_density = 400
+method = "direct"
+[[strands]]
+root = [0.0, 0.0, 0.0]
+direction = [0.3, 0.1, -1.0]
+length = 0.05
+elements = 3
+preset = "wavy"
+[[strands]]
+root = [0.004, 0.0, 0.0]
+direction = [-0.2, 0.0, -1.0]
+length = 0.05
+elements = 3
+preset = "wavy"
+"#;
+
+/// The generalized force the particles put on a strand is −∂U/∂q of the electrostatic
+/// energy U = ½ k Σ q_i Φ_i (central differences of U in each coordinate).
+#[test]
+fn generalized_coulomb_force_is_minus_the_energy_gradient() {
+    let mut s = sim(PAIR);
+    let rest = HeadState::rest();
+    // The force of elasticity alone (charge 0), then with the charge.
+    s.electrostatics_mut().expect("charged").set_charge_scale(0.0);
+    s.update_electrostatics(&rest).expect("update");
+    let elastic = s.static_force(0);
+    s.electrostatics_mut().expect("charged").set_charge_scale(1.0);
+    s.update_electrostatics(&rest).expect("update");
+    let total = s.static_force(0);
+    let coulomb: Vec<f64> = total.iter().zip(&elastic).map(|(a, b)| a - b).collect();
+    let q0 = s.q(0).to_vec();
+    let v0 = vec![0.0; q0.len()];
+    let scale = coulomb.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+    assert!(scale > 0.0);
+    for j in 0..q0.len() {
+        let h = 1e-5;
+        let mut energy = [0.0; 2];
+        for (k, sign) in [1.0, -1.0].into_iter().enumerate() {
+            let mut q = q0.clone();
+            q[j] += sign * h;
+            s.set_state(0, &q, &v0);
+            s.update_electrostatics(&rest).expect("update");
+            energy[k] = s.electrostatics().expect("charged").energy();
+        }
+        let fd = -(energy[0] - energy[1]) / (2.0 * h);
+        assert!(
+            (fd - coulomb[j]).abs() <= 1e-6 * scale,
+            "q[{j}]: J^T F = {:e}, -dU/dq = {fd:e}",
+            coulomb[j]
+        );
+    }
+}
+
+/// Charged fibres hanging side by side push each other apart, and the outer iteration
+/// ends below its tolerance, in one step and in logarithmic steps alike (both reach the
+/// same equilibrium here: the fibres are far from any instability).
+#[test]
+fn charged_equilibrium_repels_and_converges() {
+    let text = |charge: &str| {
+        format!(
+            "[simulation]\nmode = \"static\"\n{charge}\n[[strands]]\nroot = [0.0, 0.0, 0.0]\nlength = 0.2\nelements = 5\n\
+             preset = \"smooth\"\n[[strands]]\nroot = [0.003, 0.0, 0.0]\nlength = 0.2\nelements = 5\npreset = \"smooth\"\n"
+        )
+    };
+    let tips = |s: &mut Simulation| {
+        let a = s.position_at(0, 0.2);
+        let b = s.position_at(1, 0.2);
+        (a - b).norm()
+    };
+    let mut plain = sim(&text(""));
+    plain.solve_static().expect("static");
+    let apart = tips(&mut plain);
+    for steps in [1, 4] {
+        let charged = format!("[electrostatics]\ncharge_per_length = -1e-9\ncharging_steps = {steps}\ntolerance = 1e-8");
+        let mut s = sim(&text(&charged));
+        let report = s.solve_charged_static().expect("charged static");
+        assert_eq!(report.stages.len(), steps);
+        let last = report.stages.last().expect("stage");
+        assert!(last.converged && last.residual <= 1e-8, "{last:?}");
+        // Without acceleration this took more than 30 outer iterations.
+        assert!(last.iterations <= 12, "{last:?}");
+        assert_eq!(last.charge_fraction, 1.0);
+        let d = tips(&mut s);
+        assert!(d > apart + 1e-3, "tips {d} m apart charged, {apart} m uncharged");
+    }
+}
+
+/// A scene without [electrostatics] builds no particles and adds no loads; with it, the
+/// strands carry one load per particle after their own.
+#[test]
+fn a_scene_without_charge_builds_nothing() {
+    let base = "[[strands]]\nlength = 0.1\nelements = 2\n[[strands.point_loads]]\ns = 0.05\nforce = [0.0, 0.0, 1e-6]\n";
+    let s = sim(base);
+    assert!(s.electrostatics().is_none());
+    assert_eq!(s.strand(0).point_loads.len(), 1);
+    let s = sim(&format!("[electrostatics]\nparticle_density = 100\n{base}"));
+    let e = s.electrostatics().expect("charged");
+    assert_eq!(e.tracers().len(), 10);
+    assert_eq!(s.strand(0).point_loads.len(), 11);
+    assert_eq!(s.strand(0).point_loads[0].force.z, 1e-6);
+}
+
+/// Charged fibres in a dynamic run move apart over time (forces refreshed every step),
+/// and nothing becomes non-finite.
+#[test]
+fn charged_dynamics_moves_fibres_apart() {
+    let text = |charge: &str| {
+        format!(
+            "[simulation]\ndt = 0.01\nduration = 0.3\n[environment]\ngravity = \"none\"\n{charge}\n\
+             [[strands]]\nroot = [0.0, 0.0, 0.0]\nlength = 0.1\nelements = 4\ninitial = \"straight\"\n\
+             [[strands]]\nroot = [0.002, 0.0, 0.0]\nlength = 0.1\nelements = 4\ninitial = \"straight\"\n"
+        )
+    };
+    let mut distances = Vec::new();
+    for charge in ["", "[electrostatics]\ncharge_per_length = -1e-9\nmethod = \"fmm\"\naccuracy = 1e-8"] {
+        let mut s = sim(&text(charge));
+        for _ in 0..30 {
+            s.step().expect("step");
+        }
+        distances.push((s.position_at(0, 0.1) - s.position_at(1, 0.1)).norm());
+    }
+    assert!((distances[0] - 0.002).abs() < 1e-9, "uncharged straight fibres stay put: {}", distances[0]);
+    assert!(distances[1] > 0.004, "charged tips only {} m apart", distances[1]);
+}

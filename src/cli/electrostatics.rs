@@ -1,0 +1,56 @@
+//! `superhelix electrostatics`: the paper's experiments on a charged tress.
+
+use clap::Args;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use superhelix::electrostatics_study::{run_experiments, write_report, ExperimentOptions};
+use superhelix::Error;
+
+/// Arguments of `electrostatics`.
+#[derive(Args)]
+pub struct ElectrostaticsArgs {
+    /// Folder of the report, its plot and each case's files.
+    #[arg(long, default_value = "electrostatics")]
+    out: PathBuf,
+    /// Fibres of the tress.
+    #[arg(long, default_value_t = 300)]
+    fibres: usize,
+    /// Elements per fibre.
+    #[arg(long, default_value_t = 10)]
+    elements: usize,
+    /// Highest multipole order of experiment 2.
+    #[arg(long, default_value_t = 14)]
+    max_order: usize,
+}
+
+/// Run `electrostatics`.
+pub fn run(args: ElectrostaticsArgs) -> Result<ExitCode, Error> {
+    if args.fibres == 0 {
+        return Err(Error::invalid("--fibres", "must be >= 1"));
+    }
+    if !(1..=superhelix_fmm::MAX_ORDER).contains(&args.max_order) {
+        return Err(Error::invalid("--max-order", "must be in [1, 40]"));
+    }
+    let options = ExperimentOptions {
+        fibres: args.fibres,
+        elements: args.elements,
+        orders: (1..=args.max_order).collect(),
+        ..Default::default()
+    };
+    std::fs::create_dir_all(&args.out).map_err(|source| Error::Io { path: args.out.display().to_string(), source })?;
+    let e = run_experiments(&options, &args.out, |name| eprintln!("{name} …"))?;
+    for f in write_report(&e, &args.out)? {
+        println!("wrote {}", f.display());
+    }
+    for c in &e.cases {
+        println!(
+            "{:45} tips {:6.2} mm from the axis, {:5.2} cm deep, mean field {:6.2} kV/m, {:.1} s",
+            c.description,
+            c.tip_spread * 1e3,
+            c.tip_depth * 1e2,
+            c.mean_field / 1e3,
+            c.seconds
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
