@@ -40,7 +40,10 @@ pub struct CoulombReport {
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> Error + '_ {
-    move |source| Error::Io { path: path.display().to_string(), source }
+    move |source| Error::Io {
+        path: path.display().to_string(),
+        source,
+    }
 }
 
 /// Read an `.npy` array of float64 or float32 with its shape.
@@ -50,16 +53,28 @@ pub fn read_array(path: &Path, field: &str) -> Result<(Vec<f64>, Vec<u64>)> {
         .map_err(|e| Error::invalid(field, format!("{}: not an .npy file: {e}", path.display())))?;
     let shape = file.shape().to_vec();
     if file.order() != npyz::Order::C {
-        return Err(Error::invalid(field, format!("{}: must be in C order", path.display())));
+        return Err(Error::invalid(
+            field,
+            format!("{}: must be in C order", path.display()),
+        ));
     }
-    let descr = file.dtype().descr().trim_matches(|c| c == '\'' || c == '"').to_string();
+    let descr = file
+        .dtype()
+        .descr()
+        .trim_matches(|c| c == '\'' || c == '"')
+        .to_string();
     let data = match descr.as_str() {
         "<f8" => file.into_vec::<f64>(),
-        "<f4" => file.into_vec::<f32>().map(|v| v.into_iter().map(f64::from).collect()),
+        "<f4" => file
+            .into_vec::<f32>()
+            .map(|v| v.into_iter().map(f64::from).collect()),
         other => {
             return Err(Error::invalid(
                 field,
-                format!("{}: dtype {other}: must be float64 or float32 (little-endian)", path.display()),
+                format!(
+                    "{}: dtype {other}: must be float64 or float32 (little-endian)",
+                    path.display()
+                ),
             ))
         }
     }
@@ -88,13 +103,19 @@ pub fn write_array(path: &Path, data: &[f64], shape: &[u64]) -> Result<()> {
 pub fn read_input(points: &Path, charges: &Path) -> Result<(Vec<[f64; 3]>, Vec<f64>)> {
     let (p, pshape) = read_array(points, "--points")?;
     if pshape.len() != 2 || pshape[1] != 3 {
-        return Err(Error::invalid("--points", format!("shape {pshape:?}: must be [n, 3]")));
+        return Err(Error::invalid(
+            "--points",
+            format!("shape {pshape:?}: must be [n, 3]"),
+        ));
     }
     let (q, qshape) = read_array(charges, "--charges")?;
     if qshape.len() != 1 || qshape[0] != pshape[0] {
         return Err(Error::invalid(
             "--charges",
-            format!("shape {qshape:?}: must be [{}], one charge per point", pshape[0]),
+            format!(
+                "shape {qshape:?}: must be [{}], one charge per point",
+                pshape[0]
+            ),
         ));
     }
     let pts: Vec<[f64; 3]> = p.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
@@ -102,18 +123,28 @@ pub fn read_input(points: &Path, charges: &Path) -> Result<(Vec<[f64; 3]>, Vec<f
         return Err(Error::invalid("--points", format!("row {i} is not finite")));
     }
     if let Some(i) = q.iter().position(|v| !v.is_finite()) {
-        return Err(Error::invalid("--charges", format!("entry {i} is not finite")));
+        return Err(Error::invalid(
+            "--charges",
+            format!("entry {i} is not finite"),
+        ));
     }
     Ok((pts, q))
 }
 
 /// The potential and field (times `constant`) of `charges` at `points`.
-pub fn evaluate(points: &[[f64; 3]], charges: &[f64], method: Method, constant: f64) -> Result<(Potentials, CoulombReport)> {
+pub fn evaluate(
+    points: &[[f64; 3]],
+    charges: &[f64],
+    method: Method,
+    constant: f64,
+) -> Result<(Potentials, CoulombReport)> {
     let start = Instant::now();
     let (mut out, stats) = match method {
         Method::Fmm(options) => {
             let mut fmm = Fmm::new(options).map_err(|e| Error::invalid("--eps", e.to_string()))?;
-            let (out, stats) = fmm.evaluate(points, charges).map_err(|e| Error::invalid("--points", e.to_string()))?;
+            let (out, stats) = fmm
+                .evaluate(points, charges)
+                .map_err(|e| Error::invalid("--points", e.to_string()))?;
             (out, Some(stats))
         }
         Method::Direct(softening) => {
@@ -126,11 +157,25 @@ pub fn evaluate(points: &[[f64; 3]], charges: &[f64], method: Method, constant: 
         out.potential.iter_mut().for_each(|v| *v *= constant);
         out.field.iter_mut().flatten().for_each(|v| *v *= constant);
     }
-    Ok((out, CoulombReport { particles: points.len(), seconds, stats, written: Vec::new() }))
+    Ok((
+        out,
+        CoulombReport {
+            particles: points.len(),
+            seconds,
+            stats,
+            written: Vec::new(),
+        },
+    ))
 }
 
 /// Read the input files, evaluate, write `potential.npy` and `field.npy` into `out`.
-pub fn coulomb_files(points: &Path, charges: &Path, method: Method, constant: f64, out: &Path) -> Result<CoulombReport> {
+pub fn coulomb_files(
+    points: &Path,
+    charges: &Path,
+    method: Method,
+    constant: f64,
+    out: &Path,
+) -> Result<CoulombReport> {
     let (pts, q) = read_input(points, charges)?;
     let (result, mut report) = evaluate(&pts, &q, method, constant)?;
     std::fs::create_dir_all(out).map_err(io(out))?;

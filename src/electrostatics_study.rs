@@ -68,6 +68,9 @@ pub struct TressCase {
     pub rms_spread: f64,
     /// Mean height of the tips below the root plane, m (the sag).
     pub tip_depth: f64,
+    /// Volume of the axis-aligned box around every centreline point, m³ (the space the
+    /// tress takes).
+    pub box_volume: f64,
     /// Mean |E| over the particles, V/m (0 uncharged).
     pub mean_field: f64,
     /// Largest force on a particle, N.
@@ -129,7 +132,10 @@ pub fn tress_scene(
         s.push_str("gravity = \"none\"\n");
     }
     if let Some((steps, accuracy)) = charged {
-        let _ = write!(s, "\n[electrostatics]\ncharging_steps = {steps}\naccuracy = {accuracy:e}\n");
+        let _ = write!(
+            s,
+            "\n[electrostatics]\ncharging_steps = {steps}\naccuracy = {accuracy:e}\n"
+        );
     }
     let _ = write!(
         s,
@@ -178,26 +184,41 @@ impl FrameSource for Solved<'_> {
 }
 
 /// Solve a tress scene and measure it; its picture and files go to `dir`.
-fn run_case(name: &str, description: &str, scene: &str, dir: &Path) -> Result<(TressCase, Simulation, SimulationSetup)> {
+fn run_case(
+    name: &str,
+    description: &str,
+    scene: &str,
+    dir: &Path,
+) -> Result<(TressCase, Simulation, SimulationSetup)> {
     let setup = parse_scene(scene)?;
     let mut sim = Simulation::new(setup.clone(), kernel_factory())?;
     let start = Instant::now();
     let (iterations, residual) = if sim.electrostatics().is_some() {
         let r = sim.solve_charged_static()?;
-        (r.stages.iter().map(|s| s.iterations).collect(), r.stages.last().map_or(0.0, |s| s.residual))
+        (
+            r.stages.iter().map(|s| s.iterations).collect(),
+            r.stages.last().map_or(0.0, |s| s.residual),
+        )
     } else {
         sim.solve_static()?;
         (Vec::new(), 0.0)
     };
     let seconds = start.elapsed().as_secs_f64();
-    let (mean_field, max_force) = sim.electrostatics().map_or((0.0, 0.0), |e| (e.last().mean_field, e.last().max_force));
+    let (mean_field, max_force) = sim
+        .electrostatics()
+        .map_or((0.0, 0.0), |e| (e.last().mean_field, e.last().max_force));
     let mut tips = Vec::new();
     let (mut tip_r, mut depth, mut rms, mut count) = (0.0, 0.0, 0.0, 0usize);
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for i in 0..sim.strand_count() {
         let line = sim.centreline_world(i, 4);
         for p in &line {
             rms += p[0] * p[0] + p[1] * p[1];
             count += 1;
+            for a in 0..3 {
+                lo[a] = lo[a].min(p[a]);
+                hi[a] = hi[a].max(p[a]);
+            }
         }
         if let Some(t) = line.last() {
             tip_r += (t[0] * t[0] + t[1] * t[1]).sqrt();
@@ -212,6 +233,7 @@ fn run_case(name: &str, description: &str, scene: &str, dir: &Path) -> Result<(T
         tip_spread: tip_r / n,
         rms_spread: (rms / count.max(1) as f64).sqrt(),
         tip_depth: depth / n,
+        box_volume: (0..3).map(|a| (hi[a] - lo[a]).max(0.0)).product(),
         mean_field,
         max_force,
         iterations,
@@ -221,7 +243,10 @@ fn run_case(name: &str, description: &str, scene: &str, dir: &Path) -> Result<(T
     };
     let out = dir.join(name);
     prepare_out_dir(&out)?;
-    std::fs::write(out.join("scene.toml"), scene).map_err(|source| Error::Io { path: out.join("scene.toml").display().to_string(), source })?;
+    std::fs::write(out.join("scene.toml"), scene).map_err(|source| Error::Io {
+        path: out.join("scene.toml").display().to_string(),
+        source,
+    })?;
     let plan = plan_output(&setup, &out, &RunOptions::default());
     let never = AtomicBool::new(false);
     let report = run_planned(&setup, &mut Solved(&mut sim), &plan, &never, |_, _| {})?;
@@ -234,11 +259,21 @@ fn run_case(name: &str, description: &str, scene: &str, dir: &Path) -> Result<(T
 /// Experiment 2 on the particles of a solved charged simulation.
 fn order_study(sim: &Simulation, orders: &[usize]) -> Result<(Vec<OrderPoint>, usize, f64)> {
     let Some(e) = sim.electrostatics() else {
-        return Err(Error::invalid("electrostatics", "experiment 2 needs the charged tress"));
+        return Err(Error::invalid(
+            "electrostatics",
+            "experiment 2 needs the charged tress",
+        ));
     };
     let (points, _) = e.particles();
-    let charges: Vec<f64> = e.tracers().charge.iter().map(|q| q * e.charge_scale()).collect();
-    let softening = Softening { radius: e.config().softening };
+    let charges: Vec<f64> = e
+        .tracers()
+        .charge
+        .iter()
+        .map(|q| q * e.charge_scale())
+        .collect();
+    let softening = Softening {
+        radius: e.config().softening,
+    };
     let one = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
@@ -248,7 +283,12 @@ fn order_study(sim: &Simulation, orders: &[usize]) -> Result<(Vec<OrderPoint>, u
     let direct_seconds = start.elapsed().as_secs_f64();
     let mut out = Vec::new();
     for &p in orders {
-        let options = FmmOptions { order: p, theta: 0.5, leaf_size: 64, softening };
+        let options = FmmOptions {
+            order: p,
+            theta: 0.5,
+            leaf_size: 64,
+            softening,
+        };
         let mut fmm = Fmm::new(options).map_err(|e| Error::invalid("order", e.to_string()))?;
         let start = Instant::now();
         let (field, _) = one
@@ -280,14 +320,38 @@ fn norm(v: &[f64; 3]) -> f64 {
 }
 
 /// Run experiments 1 and 2, writing each case's files into `dir/<case>/`.
-pub fn run_experiments(options: &ExperimentOptions, dir: &Path, mut progress: impl FnMut(&str)) -> Result<Experiments> {
+pub fn run_experiments(
+    options: &ExperimentOptions,
+    dir: &Path,
+    mut progress: impl FnMut(&str),
+) -> Result<Experiments> {
     let (f, n, acc) = (options.fibres, options.elements, options.accuracy);
     let specs: Vec<(&str, &str, String)> = vec![
-        ("uncharged", "uncharged, RH 65 %", tress_scene(f, n, 65.0, true, None, VARIATION)),
-        ("charged_rh65", "charged, RH 65 %", tress_scene(f, n, 65.0, true, Some((1, acc)), VARIATION)),
-        ("charged_rh100", "charged, RH 100 %", tress_scene(f, n, 100.0, true, Some((1, acc)), VARIATION)),
-        ("charged_no_gravity", "charged, RH 65 %, no gravity", tress_scene(f, n, 65.0, false, Some((1, acc)), VARIATION)),
-        ("charged_log5", "charged in 5 logarithmic steps, RH 65 %", tress_scene(f, n, 65.0, true, Some((5, acc)), VARIATION)),
+        (
+            "uncharged",
+            "uncharged, RH 65 %",
+            tress_scene(f, n, 65.0, true, None, VARIATION),
+        ),
+        (
+            "charged_rh65",
+            "charged, RH 65 %",
+            tress_scene(f, n, 65.0, true, Some((1, acc)), VARIATION),
+        ),
+        (
+            "charged_rh100",
+            "charged, RH 100 %",
+            tress_scene(f, n, 100.0, true, Some((1, acc)), VARIATION),
+        ),
+        (
+            "charged_no_gravity",
+            "charged, RH 65 %, no gravity",
+            tress_scene(f, n, 65.0, false, Some((1, acc)), VARIATION),
+        ),
+        (
+            "charged_log5",
+            "charged in 5 logarithmic steps, RH 65 %",
+            tress_scene(f, n, 65.0, true, Some((5, acc)), VARIATION),
+        ),
     ];
     let mut cases = Vec::new();
     let mut orders = Vec::new();
@@ -307,18 +371,39 @@ pub fn run_experiments(options: &ExperimentOptions, dir: &Path, mut progress: im
         progress(&name);
         // Without variation: per-element variation would give each N another natural shape.
         let scene = tress_scene(f, elements, 65.0, true, Some((1, acc)), 0.0);
-        let (case, _, _) = run_case(&name, &format!("charged, RH 65 %, N = {elements}"), &scene, dir)?;
+        let (case, _, _) = run_case(
+            &name,
+            &format!("charged, RH 65 %, N = {elements}"),
+            &scene,
+            dir,
+        )?;
         by_n.push((elements, case));
     }
-    let finest = by_n.iter().max_by_key(|(n, _)| *n).map(|(_, c)| c.tips.clone()).unwrap_or_default();
+    let finest = by_n
+        .iter()
+        .max_by_key(|(n, _)| *n)
+        .map(|(_, c)| c.tips.clone())
+        .unwrap_or_default();
     let by_elements = by_n
         .iter()
         .map(|(n, c)| {
-            let d: f64 = c.tips.iter().zip(&finest).map(|(a, b)| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sum();
+            let d: f64 = c
+                .tips
+                .iter()
+                .zip(&finest)
+                .map(|(a, b)| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2))
+                .sum();
             (*n, c.tip_spread, (d / c.tips.len().max(1) as f64).sqrt())
         })
         .collect();
-    Ok(Experiments { options: options.clone(), cases, by_elements, orders, particles, direct_seconds })
+    Ok(Experiments {
+        options: options.clone(),
+        cases,
+        by_elements,
+        orders,
+        particles,
+        direct_seconds,
+    })
 }
 
 /// The plot of experiment 2: error against time, one point per order.
@@ -326,19 +411,38 @@ pub fn order_plot(e: &Experiments) -> Result<String> {
     let series = vec![
         Series {
             name: "mean direction error (rad)".into(),
-            style: Style { colour: RGBColor(31, 119, 180), marker: Marker::Circle },
-            points: e.orders.iter().map(|o| (o.seconds, o.mean_direction_error.max(1e-16))).collect(),
+            style: Style {
+                colour: RGBColor(31, 119, 180),
+                marker: Marker::Circle,
+            },
+            points: e
+                .orders
+                .iter()
+                .map(|o| (o.seconds, o.mean_direction_error.max(1e-16)))
+                .collect(),
             line: true,
         },
         Series {
             name: "worst relative |E| error".into(),
-            style: Style { colour: RGBColor(214, 39, 40), marker: Marker::Triangle },
-            points: e.orders.iter().map(|o| (o.seconds, o.worst_magnitude_error.max(1e-16))).collect(),
+            style: Style {
+                colour: RGBColor(214, 39, 40),
+                marker: Marker::Triangle,
+            },
+            points: e
+                .orders
+                .iter()
+                .map(|o| (o.seconds, o.worst_magnitude_error.max(1e-16)))
+                .collect(),
             line: true,
         },
     ];
     log_log_svg(
-        &format!("Multipole order p = {}…{} on the charged tress ({} particles)", e.orders.first().map_or(0, |o| o.order), e.orders.last().map_or(0, |o| o.order), e.particles),
+        &format!(
+            "Multipole order p = {}…{} on the charged tress ({} particles)",
+            e.orders.first().map_or(0, |o| o.order),
+            e.orders.last().map_or(0, |o| o.order),
+            e.particles
+        ),
         "seconds (one thread)",
         "error against the direct sum",
         &series,
@@ -363,16 +467,17 @@ pub fn render_report(e: &Experiments) -> String {
         o.accuracy
     );
     let _ = writeln!(s, "## Experiment 1: the tress\n");
-    let _ = writeln!(s, "| case | tip distance from axis (mm) | RMS distance from axis (mm) | tip depth (cm) | mean field (kV/m) | largest force (N) | outer iterations | residual | seconds |");
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "| case | tip distance from axis (mm) | RMS distance from axis (mm) | tip depth (cm) | box volume (cm³) | mean field (kV/m) | largest force (N) | outer iterations | residual | seconds |");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
     for c in &e.cases {
         let _ = writeln!(
             s,
-            "| {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2e} | {:?} | {:.1e} | {:.1} |",
+            "| {} | {:.2} | {:.2} | {:.2} | {:.1} | {:.2} | {:.2e} | {:?} | {:.1e} | {:.1} |",
             c.description,
             c.tip_spread * 1e3,
             c.rms_spread * 1e3,
             c.tip_depth * 1e2,
+            c.box_volume * 1e6,
             c.mean_field / 1e3,
             c.max_force,
             c.iterations,
@@ -390,16 +495,26 @@ pub fn render_report(e: &Experiments) -> String {
         );
     }
     for c in &e.cases {
-        let _ = writeln!(s, "### {}\n\n![{}]({}/preview.png)\n", c.description, c.description, c.name);
+        let _ = writeln!(
+            s,
+            "### {}\n\n![{}]({}/preview.png)\n",
+            c.description, c.description, c.name
+        );
     }
     let _ = writeln!(s, "## Which N suffices\n");
-    let _ = writeln!(s, "| N | tip distance from axis (mm) | RMS distance of the tips from the finest N's (mm) |");
+    let _ = writeln!(
+        s,
+        "| N | tip distance from axis (mm) | RMS distance of the tips from the finest N's (mm) |"
+    );
     let _ = writeln!(s, "|---|---|---|");
     for (n, spread, d) in &e.by_elements {
         let _ = writeln!(s, "| {n} | {:.3} | {:.3} |", spread * 1e3, d * 1e3);
     }
     if !e.orders.is_empty() {
-        let _ = writeln!(s, "\n## Experiment 2: multipole order against accuracy and time\n");
+        let _ = writeln!(
+            s,
+            "\n## Experiment 2: multipole order against accuracy and time\n"
+        );
         let _ = writeln!(
             s,
             "The field at the {} particles of the charged tress (RH 65 %) by the multipole method (θ = 0.5, leaves of 64) \

@@ -10,8 +10,8 @@
 pub mod bench;
 pub mod compare;
 pub mod coulomb;
-pub mod electrostatics_study;
 pub mod cpu_time;
+pub mod electrostatics_study;
 pub mod quadrature_table;
 pub mod render;
 pub mod stress;

@@ -14,11 +14,18 @@ fn main() {
     let n = pts.len();
     let sample: Vec<usize> = (0..2000).map(|k| (k * 7919) % n).collect();
     let (phi0, e0) = direct_at(&pts, &q, &sample, Softening::NONE);
-    let mut fmm = Fmm::new(FmmOptions { order, theta, leaf_size: leaf, softening: Softening::NONE }).unwrap();
+    let mut fmm = Fmm::new(FmmOptions {
+        order,
+        theta,
+        leaf_size: leaf,
+        softening: Softening::NONE,
+    })
+    .unwrap();
     let t = Instant::now();
     let (out, stats) = fmm.evaluate(&pts, &q).unwrap();
     let secs = t.elapsed().as_secs_f64();
-    let (mut num, mut den, mut worst, mut angle, mut pn, mut pd) = (0.0, 0.0, 0.0f64, 0.0, 0.0, 0.0);
+    let (mut num, mut den, mut worst, mut angle, mut pn, mut pd) =
+        (0.0, 0.0, 0.0f64, 0.0, 0.0, 0.0);
     for (k, &i) in sample.iter().enumerate() {
         let e = out.field[i];
         let d = [e[0] - e0[k][0], e[1] - e0[k][1], e[2] - e0[k][2]];
@@ -27,7 +34,8 @@ fn main() {
         num += dn * dn;
         den += en * en;
         worst = worst.max(dn / en);
-        let dot = (e[0] * e0[k][0] + e[1] * e0[k][1] + e[2] * e0[k][2]) / (en * (e[0].powi(2) + e[1].powi(2) + e[2].powi(2)).sqrt());
+        let dot = (e[0] * e0[k][0] + e[1] * e0[k][1] + e[2] * e0[k][2])
+            / (en * (e[0].powi(2) + e[1].powi(2) + e[2].powi(2)).sqrt());
         angle += dot.clamp(-1.0, 1.0).acos();
         pn += (out.potential[i] - phi0[k]).powi(2);
         pd += phi0[k].powi(2);

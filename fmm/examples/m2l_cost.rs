@@ -20,7 +20,9 @@ fn libc_time() -> (i64, i64) {
 fn main() {
     let p: usize = std::env::args().nth(1).map_or(12, |v| v.parse().unwrap());
     let mut s = Scratch::new(p);
-    let mp: Vec<C> = (0..tri_len(p)).map(|k| C::new(1.0 / (k + 1) as f64, 0.5 / (k + 2) as f64)).collect();
+    let mp: Vec<C> = (0..tri_len(p))
+        .map(|k| C::new(1.0 / (k + 1) as f64, 0.5 / (k + 2) as f64))
+        .collect();
     let mut l = vec![C::new(0.0, 0.0); tri_len(p)];
     let mut best = f64::INFINITY;
     for _ in 0..5 {

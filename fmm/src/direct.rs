@@ -39,7 +39,13 @@ pub(crate) struct SourceSlices<'a> {
 /// Add to the potential `phi` and the field `e = −∇Φ` at the four targets `t` the
 /// contribution of the sources `s`, softened over `a2 = a²`.
 #[inline(always)]
-fn four_targets(t: [[f64; 3]; 4], s: &SourceSlices, a2: f64, phi: &mut [f64; 4], e: &mut [[f64; 4]; 3]) {
+fn four_targets(
+    t: [[f64; 3]; 4],
+    s: &SourceSlices,
+    a2: f64,
+    phi: &mut [f64; 4],
+    e: &mut [[f64; 4]; 3],
+) {
     let tx = [t[0][0], t[1][0], t[2][0], t[3][0]];
     let ty = [t[0][1], t[1][1], t[2][1], t[3][1]];
     let tz = [t[0][2], t[1][2], t[2][2], t[3][2]];
@@ -129,7 +135,8 @@ pub(crate) fn add_interactions(
     let a2 = softening.radius * softening.radius;
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
             // SAFETY: the processor has AVX2 and FMA (checked just above).
             unsafe { targets_avx2(targets, s, a2, phi, field) };
             return;
@@ -151,12 +158,21 @@ pub(crate) fn self_potential(q: f64, softening: Softening) -> f64 {
 /// The potential `Φ_i = Σ_{j≠i} q_j φ(|x_i − x_j|)` and the field `E_i = −∇Φ(x_i)` of
 /// every charge due to all others, by the direct O(n²) sum, in parallel over targets
 /// (rayon). Unit: the kernel `1/r` (multiply by `1/(4πε₀)` for SI).
-pub fn direct_sum(points: &[[f64; 3]], charges: &[f64], softening: Softening) -> (Vec<f64>, Vec<[f64; 3]>) {
+pub fn direct_sum(
+    points: &[[f64; 3]],
+    charges: &[f64],
+    softening: Softening,
+) -> (Vec<f64>, Vec<[f64; 3]>) {
     let n = points.len();
     let x: Vec<f64> = points.iter().map(|p| p[0]).collect();
     let y: Vec<f64> = points.iter().map(|p| p[1]).collect();
     let z: Vec<f64> = points.iter().map(|p| p[2]).collect();
-    let s = SourceSlices { x: &x, y: &y, z: &z, q: charges };
+    let s = SourceSlices {
+        x: &x,
+        y: &y,
+        z: &z,
+        q: charges,
+    };
     let mut phi = vec![0.0; n];
     let mut field = vec![[0.0; 3]; n];
     const CHUNK: usize = 64;
@@ -185,7 +201,12 @@ pub fn direct_at(
     let x: Vec<f64> = points.iter().map(|p| p[0]).collect();
     let y: Vec<f64> = points.iter().map(|p| p[1]).collect();
     let z: Vec<f64> = points.iter().map(|p| p[2]).collect();
-    let s = SourceSlices { x: &x, y: &y, z: &z, q: charges };
+    let s = SourceSlices {
+        x: &x,
+        y: &y,
+        z: &z,
+        q: charges,
+    };
     let t: Vec<[f64; 3]> = targets.iter().map(|&i| points[i]).collect();
     let mut phi = vec![0.0; t.len()];
     let mut field = vec![[0.0; 3]; t.len()];

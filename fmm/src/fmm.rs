@@ -58,26 +58,53 @@ impl FmmOptions {
     /// (whose `eps = 1e-6` gives ~1e-7 there), so that equal `eps` compares equal errors.
     pub fn for_accuracy(eps: f64) -> Result<Self, FmmError> {
         if !(eps.is_finite() && eps > 0.0 && eps < 1.0) {
-            return Err(FmmError::Option { name: "eps", value: eps, allowed: "(0, 1)" });
+            return Err(FmmError::Option {
+                name: "eps",
+                value: eps,
+                allowed: "(0, 1)",
+            });
         }
         let target = eps / 10.0;
-        let order = (1..=MAX_ORDER).find(|&p| expected_error(p) <= target).unwrap_or(MAX_ORDER);
-        Ok(FmmOptions { order, theta: 0.5, leaf_size: 64, softening: Softening::NONE })
+        let order = (1..=MAX_ORDER)
+            .find(|&p| expected_error(p) <= target)
+            .unwrap_or(MAX_ORDER);
+        Ok(FmmOptions {
+            order,
+            theta: 0.5,
+            leaf_size: 64,
+            softening: Softening::NONE,
+        })
     }
 
     fn check(&self) -> Result<(), FmmError> {
         if !(1..=MAX_ORDER).contains(&self.order) {
-            return Err(FmmError::Option { name: "order", value: self.order as f64, allowed: "1 ..= 40" });
+            return Err(FmmError::Option {
+                name: "order",
+                value: self.order as f64,
+                allowed: "1 ..= 40",
+            });
         }
         if !(self.theta > 0.0 && self.theta < 1.0) {
-            return Err(FmmError::Option { name: "theta", value: self.theta, allowed: "(0, 1)" });
+            return Err(FmmError::Option {
+                name: "theta",
+                value: self.theta,
+                allowed: "(0, 1)",
+            });
         }
         if self.leaf_size == 0 {
-            return Err(FmmError::Option { name: "leaf_size", value: 0.0, allowed: ">= 1" });
+            return Err(FmmError::Option {
+                name: "leaf_size",
+                value: 0.0,
+                allowed: ">= 1",
+            });
         }
         let a = self.softening.radius;
         if !(a.is_finite() && a >= 0.0) {
-            return Err(FmmError::Option { name: "softening", value: a, allowed: "finite, >= 0" });
+            return Err(FmmError::Option {
+                name: "softening",
+                value: a,
+                allowed: "finite, >= 0",
+            });
         }
         Ok(())
     }
@@ -157,7 +184,11 @@ impl Fmm {
     }
 
     /// The potential and field at every point due to all other charges.
-    pub fn evaluate(&mut self, points: &[[f64; 3]], charges: &[f64]) -> Result<(Potentials, FmmStats), FmmError> {
+    pub fn evaluate(
+        &mut self,
+        points: &[[f64; 3]],
+        charges: &[f64],
+    ) -> Result<(Potentials, FmmStats), FmmError> {
         let mut out = Potentials::default();
         let stats = self.evaluate_into(points, charges, &mut out)?;
         Ok((out, stats))
@@ -237,14 +268,25 @@ impl Fmm {
             .iter()
             .map(|&(a, b)| nodes[a as usize].len() * nodes[b as usize].len())
             .sum();
-        csr(&m2l_pairs, nodes.len(), &mut self.m2l_start, &mut self.m2l_source);
-        csr(&p2p_pairs, nodes.len(), &mut self.p2p_start, &mut self.p2p_source);
+        csr(
+            &m2l_pairs,
+            nodes.len(),
+            &mut self.m2l_start,
+            &mut self.m2l_source,
+        );
+        csr(
+            &p2p_pairs,
+            nodes.len(),
+            &mut self.p2p_start,
+            &mut self.p2p_source,
+        );
         lap(2, &mut stats);
 
         // M2L.
         self.locals.clear();
         self.locals.resize(nodes.len() * nc, C::new(0.0, 0.0));
-        let (m2l_start, m2l_source, multipoles) = (&self.m2l_start, &self.m2l_source, &self.multipoles);
+        let (m2l_start, m2l_source, multipoles) =
+            (&self.m2l_start, &self.m2l_source, &self.multipoles);
         self.locals
             .par_chunks_mut(nc)
             .enumerate()
@@ -254,7 +296,13 @@ impl Fmm {
                 |s, (i, l)| {
                     for &b in &m2l_source[m2l_start[i] as usize..m2l_start[i + 1] as usize] {
                         let b = b as usize;
-                        m2l(nodes[b].centre, nodes[i].centre, &multipoles[b * nc..(b + 1) * nc], l, s);
+                        m2l(
+                            nodes[b].centre,
+                            nodes[i].centre,
+                            &multipoles[b * nc..(b + 1) * nc],
+                            l,
+                            s,
+                        );
                     }
                 },
             );
@@ -270,7 +318,13 @@ impl Fmm {
                     || Scratch::new(p),
                     |s, (l, node)| {
                         let parent = node.parent as usize;
-                        l2l(nodes[parent].centre, node.centre, &upper[parent * nc..(parent + 1) * nc], l, s);
+                        l2l(
+                            nodes[parent].centre,
+                            node.centre,
+                            &upper[parent * nc..(parent + 1) * nc],
+                            l,
+                            s,
+                        );
                     },
                 );
         }
@@ -284,7 +338,8 @@ impl Fmm {
         let mut leaves: Vec<u32> = tree.leaves.clone();
         leaves.sort_unstable_by_key(|&i| nodes[i as usize].start);
         let mut work = Vec::with_capacity(leaves.len());
-        let (mut phi_rest, mut field_rest) = (&mut self.tree_potential[..], &mut self.tree_field[..]);
+        let (mut phi_rest, mut field_rest) =
+            (&mut self.tree_potential[..], &mut self.tree_field[..]);
         for &leaf in &leaves {
             let len = nodes[leaf as usize].len();
             let (a, b) = std::mem::take(&mut phi_rest).split_at_mut(len);
@@ -308,7 +363,12 @@ impl Fmm {
                 }
                 for &b in &p2p_source[p2p_start[leaf] as usize..p2p_start[leaf + 1] as usize] {
                     let r = nodes[b as usize].range();
-                    let src = SourceSlices { x: &sx[r.clone()], y: &sy[r.clone()], z: &sz[r.clone()], q: &sq[r] };
+                    let src = SourceSlices {
+                        x: &sx[r.clone()],
+                        y: &sy[r.clone()],
+                        z: &sz[r.clone()],
+                        q: &sq[r],
+                    };
                     add_interactions(targets, &src, softening, phi, field);
                 }
                 for (k, ph) in phi.iter_mut().enumerate() {

@@ -68,13 +68,22 @@ pub enum FmmError {
 
 pub(crate) fn check_input(points: &[[f64; 3]], charges: &[f64]) -> Result<(), FmmError> {
     if points.len() != charges.len() {
-        return Err(FmmError::Lengths { points: points.len(), charges: charges.len() });
+        return Err(FmmError::Lengths {
+            points: points.len(),
+            charges: charges.len(),
+        });
     }
     if let Some(i) = points.iter().position(|p| !p.iter().all(|v| v.is_finite())) {
-        return Err(FmmError::NonFinite { what: "points", index: i });
+        return Err(FmmError::NonFinite {
+            what: "points",
+            index: i,
+        });
     }
     if let Some(i) = charges.iter().position(|q| !q.is_finite()) {
-        return Err(FmmError::NonFinite { what: "charges", index: i });
+        return Err(FmmError::NonFinite {
+            what: "charges",
+            index: i,
+        });
     }
     Ok(())
 }

@@ -18,8 +18,8 @@
 //! Each follows from the addition theorems of [`crate::harmonics`]; `tests` check each
 //! against a direct sum.
 
-use crate::harmonics::{irregular, regular, signed, tri, tri_len};
 use crate::fmm::MAX_ORDER;
+use crate::harmonics::{irregular, regular, signed, tri, tri_len};
 use num_complex::Complex64 as C;
 
 /// Per-thread scratch of the operators for order `p`.
@@ -76,7 +76,11 @@ pub fn p2m(c: [f64; 3], x: &[[f64; 3]], q: &[f64], m: &mut [C], s: &mut Scratch)
 /// M2M: add the expansion `child` about `c_child`, moved to `c_parent`, to `parent`.
 pub fn m2m(c_child: [f64; 3], c_parent: [f64; 3], child: &[C], parent: &mut [C], s: &mut Scratch) {
     let p = s.p;
-    let d = [c_child[0] - c_parent[0], c_child[1] - c_parent[1], c_child[2] - c_parent[2]];
+    let d = [
+        c_child[0] - c_parent[0],
+        c_child[1] - c_parent[1],
+        c_child[2] - c_parent[2],
+    ];
     regular(d, p, &mut s.r);
     for n in 0..=p {
         for m in 0..=n {
@@ -102,7 +106,8 @@ pub fn m2m(c_child: [f64; 3], c_parent: [f64; 3], child: &[C], parent: &mut [C],
 pub fn m2l(c_multipole: [f64; 3], c_local: [f64; 3], mp: &[C], local: &mut [C], s: &mut Scratch) {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
             // SAFETY: the processor has AVX2 and FMA (checked just above).
             unsafe { m2l_avx2(c_multipole, c_local, mp, local, s) };
             return;
@@ -113,15 +118,31 @@ pub fn m2l(c_multipole: [f64; 3], c_local: [f64; 3], mp: &[C], local: &mut [C], 
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn m2l_avx2(c_multipole: [f64; 3], c_local: [f64; 3], mp: &[C], local: &mut [C], s: &mut Scratch) {
+unsafe fn m2l_avx2(
+    c_multipole: [f64; 3],
+    c_local: [f64; 3],
+    mp: &[C],
+    local: &mut [C],
+    s: &mut Scratch,
+) {
     m2l_generic(c_multipole, c_local, mp, local, s)
 }
 
 #[inline(always)]
-fn m2l_generic(c_multipole: [f64; 3], c_local: [f64; 3], mp: &[C], local: &mut [C], s: &mut Scratch) {
+fn m2l_generic(
+    c_multipole: [f64; 3],
+    c_local: [f64; 3],
+    mp: &[C],
+    local: &mut [C],
+    s: &mut Scratch,
+) {
     let p = s.p;
     let w = 2 * p + 1;
-    let d = [c_local[0] - c_multipole[0], c_local[1] - c_multipole[1], c_local[2] - c_multipole[2]];
+    let d = [
+        c_local[0] - c_multipole[0],
+        c_local[1] - c_multipole[1],
+        c_local[2] - c_multipole[2],
+    ];
     irregular(d, p, &mut s.i);
     let (ire, iim) = s.full_i.split_at_mut((p + 1) * w);
     let (mre, mim) = s.full_m.split_at_mut((p + 1) * w);
@@ -166,7 +187,11 @@ fn m2l_generic(c_multipole: [f64; 3], c_local: [f64; 3], mp: &[C], local: &mut [
 /// L2L: add the local expansion `parent` about `c_parent`, moved to `c_child`, to `child`.
 pub fn l2l(c_parent: [f64; 3], c_child: [f64; 3], parent: &[C], child: &mut [C], s: &mut Scratch) {
     let p = s.p;
-    let d = [c_child[0] - c_parent[0], c_child[1] - c_parent[1], c_child[2] - c_parent[2]];
+    let d = [
+        c_child[0] - c_parent[0],
+        c_child[1] - c_parent[1],
+        c_child[2] - c_parent[2],
+    ];
     regular(d, p, &mut s.r);
     for j in 0..=p {
         for i in 0..=j {
@@ -203,7 +228,13 @@ pub fn l2p(c: [f64; 3], local: &[C], x: [f64; 3], s: &mut Scratch) -> (f64, [f64
     let zero = C::new(0.0, 0.0);
     for n in 1..=p {
         let k = (n - 1) as isize;
-        let rr = |m: isize| if m.abs() <= k { signed(r, n - 1, m).conj() } else { zero };
+        let rr = |m: isize| {
+            if m.abs() <= k {
+                signed(r, n - 1, m).conj()
+            } else {
+                zero
+            }
+        };
         for m in -(n as isize)..=(n as isize) {
             let l = signed(local, n, m);
             let up = rr(m + 1);

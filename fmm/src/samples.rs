@@ -9,7 +9,13 @@ use std::f64::consts::PI;
 pub fn uniform_cube(n: usize, seed: u64) -> (Vec<[f64; 3]>, Vec<f64>) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let points = (0..n)
-        .map(|_| [rng.random_range(0.0..1.0), rng.random_range(0.0..1.0), rng.random_range(0.0..1.0)])
+        .map(|_| {
+            [
+                rng.random_range(0.0..1.0),
+                rng.random_range(0.0..1.0),
+                rng.random_range(0.0..1.0),
+            ]
+        })
         .collect();
     let charges = (0..n).map(|_| rng.random_range(-1.0..1.0)).collect();
     (points, charges)
@@ -39,11 +45,19 @@ pub fn curly_fibres(fibres: usize, per_fibre: usize, seed: u64) -> (Vec<[f64; 3]
         for k in 0..per_fibre {
             let t = (k as f64 + 0.5) * spacing;
             if t < lead {
-                points.push([root[0] + t * normal[0], root[1] + t * normal[1], root[2] + t * normal[2]]);
+                points.push([
+                    root[0] + t * normal[0],
+                    root[1] + t * normal[1],
+                    root[2] + t * normal[2],
+                ]);
             } else {
                 let u = t - lead;
                 let angle = phase + 2.0 * PI * u / turn;
-                let base = [root[0] + lead * normal[0], root[1] + lead * normal[1], root[2] + lead * normal[2]];
+                let base = [
+                    root[0] + lead * normal[0],
+                    root[1] + lead * normal[1],
+                    root[2] + lead * normal[2],
+                ];
                 points.push([
                     base[0] + radius * (angle.cos() - phase.cos()),
                     base[1] + radius * (angle.sin() - phase.sin()),
@@ -52,6 +66,8 @@ pub fn curly_fibres(fibres: usize, per_fibre: usize, seed: u64) -> (Vec<[f64; 3]
             }
         }
     }
-    let charges = (0..points.len()).map(|_| rng.random_range(-1.0..1.0)).collect();
+    let charges = (0..points.len())
+        .map(|_| rng.random_range(-1.0..1.0))
+        .collect();
     (points, charges)
 }

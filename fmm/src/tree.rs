@@ -105,7 +105,8 @@ impl Octree {
             .par_iter()
             .enumerate()
             .map(|(i, p)| {
-                let k = spread(cell(p[0], 0)) | spread(cell(p[1], 1)) << 1 | spread(cell(p[2], 2)) << 2;
+                let k =
+                    spread(cell(p[0], 0)) | spread(cell(p[1], 1)) << 1 | spread(cell(p[2], 2)) << 2;
                 (k, i as u32)
             })
             .collect();
@@ -115,7 +116,8 @@ impl Octree {
         self.order.clear();
         self.order.extend(pairs.iter().map(|p| p.1));
         self.points.clear();
-        self.points.extend(self.order.iter().map(|&i| points[i as usize]));
+        self.points
+            .extend(self.order.iter().map(|&i| points[i as usize]));
         self.nodes.clear();
         self.levels.clear();
         self.leaves.clear();
@@ -183,7 +185,11 @@ impl Octree {
             if node.is_empty() {
                 return;
             }
-            let c = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0, (lo[2] + hi[2]) / 2.0];
+            let c = [
+                (lo[0] + hi[0]) / 2.0,
+                (lo[1] + hi[1]) / 2.0,
+                (lo[2] + hi[2]) / 2.0,
+            ];
             let mut r2: f64 = 0.0;
             for p in &pts[node.range()] {
                 let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];

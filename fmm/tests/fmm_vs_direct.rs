@@ -22,7 +22,12 @@ fn errors(points: &[[f64; 3]], q: &[f64], options: FmmOptions, sample: &[usize])
 }
 
 fn options(order: usize) -> FmmOptions {
-    FmmOptions { order, theta: 0.5, leaf_size: 64, softening: Softening::NONE }
+    FmmOptions {
+        order,
+        theta: 0.5,
+        leaf_size: 64,
+        softening: Softening::NONE,
+    }
 }
 
 /// Hair-like, 100,000 particles: every order within 3× the error table (the table was
@@ -35,8 +40,15 @@ fn hair_like_set_meets_the_error_table() {
     let mut last = f64::INFINITY;
     for p in [2, 5, 8, 12] {
         let (field, potential) = errors(&points, &q, options(p), &sample);
-        assert!(field <= 3.0 * expected_error(p), "p = {p}: field error {field:e}, table {:e}", expected_error(p));
-        assert!(potential <= 3.0 * expected_error(p), "p = {p}: potential error {potential:e}");
+        assert!(
+            field <= 3.0 * expected_error(p),
+            "p = {p}: field error {field:e}, table {:e}",
+            expected_error(p)
+        );
+        assert!(
+            potential <= 3.0 * expected_error(p),
+            "p = {p}: potential error {potential:e}"
+        );
         assert!(field < last);
         last = field;
     }
@@ -59,7 +71,11 @@ fn random_set_meets_the_error_table() {
             }
         }
         let err = (num / den).sqrt();
-        assert!(err <= 3.0 * expected_error(p), "p = {p}: {err:e} against {:e}", expected_error(p));
+        assert!(
+            err <= 3.0 * expected_error(p),
+            "p = {p}: {err:e} against {:e}",
+            expected_error(p)
+        );
     }
 }
 
@@ -72,7 +88,11 @@ fn requested_accuracy_is_met() {
     for eps in [1e-2, 1e-4, 1e-6] {
         let o = FmmOptions::for_accuracy(eps).expect("eps");
         let (field, _) = errors(&points, &q, o, &sample);
-        assert!(field <= 0.3 * eps, "eps = {eps:e} (p = {}): {field:e}", o.order);
+        assert!(
+            field <= 0.3 * eps,
+            "eps = {eps:e} (p = {}): {field:e}",
+            o.order
+        );
     }
 }
 
@@ -108,7 +128,10 @@ fn crossing_fibres_give_bounded_forces() {
     let mut fmm = Fmm::new(o).expect("options");
     let (out, stats) = fmm.evaluate(&points, &q).expect("evaluate");
     assert!(stats.m2l > 0);
-    let scale = e.iter().map(|f| f.iter().map(|v| v.abs()).fold(0.0, f64::max)).fold(0.0, f64::max);
+    let scale = e
+        .iter()
+        .map(|f| f.iter().map(|v| v.abs()).fold(0.0, f64::max))
+        .fold(0.0, f64::max);
     let worst = out
         .field
         .iter()
@@ -116,7 +139,11 @@ fn crossing_fibres_give_bounded_forces() {
         .flat_map(|(a, b)| (0..3).map(move |k| (a[k] - b[k]).abs()))
         .fold(0.0, f64::max);
     // p = 10: the table's 1.8e-6 (relative l2) for the worst component, 10× margin.
-    assert!(worst <= 2e-5 * scale, "multipole against direct: {:e} of the largest field", worst / scale);
+    assert!(
+        worst <= 2e-5 * scale,
+        "multipole against direct: {:e} of the largest field",
+        worst / scale
+    );
 }
 
 /// Without softening, particles at one point do not act on each other (no NaN), and a
@@ -141,12 +168,27 @@ fn bad_input_is_refused() {
     let mut fmm = Fmm::new(options(4)).expect("options");
     assert_eq!(
         fmm.evaluate(&[[0.0; 3]], &[]).unwrap_err(),
-        FmmError::Lengths { points: 1, charges: 0 }
+        FmmError::Lengths {
+            points: 1,
+            charges: 0
+        }
     );
     assert_eq!(
         fmm.evaluate(&[[0.0, f64::NAN, 0.0]], &[1.0]).unwrap_err(),
-        FmmError::NonFinite { what: "points", index: 0 }
+        FmmError::NonFinite {
+            what: "points",
+            index: 0
+        }
     );
-    assert!(matches!(Fmm::new(FmmOptions { theta: 1.5, ..options(4) }), Err(FmmError::Option { name: "theta", .. })));
-    assert!(matches!(FmmOptions::for_accuracy(0.0), Err(FmmError::Option { name: "eps", .. })));
+    assert!(matches!(
+        Fmm::new(FmmOptions {
+            theta: 1.5,
+            ..options(4)
+        }),
+        Err(FmmError::Option { name: "theta", .. })
+    ));
+    assert!(matches!(
+        FmmOptions::for_accuracy(0.0),
+        Err(FmmError::Option { name: "eps", .. })
+    ));
 }

@@ -52,7 +52,10 @@ fn p2m_expansion_converges_at_its_bound() {
             let d = ((x[0] - c[0]).powi(2) + (x[1] - c[1]).powi(2) + (x[2] - c[2]).powi(2)).sqrt();
             let bound = qabs / (d - 0.5) * (0.5 / d).powi(p as i32 + 1);
             let err = (m2p(c, &m, x, &mut s) - direct(x, &pts, &q).0).abs();
-            assert!(err <= bound, "p = {p}: error {err:e} above the bound {bound:e}");
+            assert!(
+                err <= bound,
+                "p = {p}: error {err:e} above the bound {bound:e}"
+            );
             assert!(err <= 1e-3_f64.max(bound * 1e-0));
         }
     }
@@ -76,7 +79,10 @@ fn m2m_equals_the_parents_own_expansion() {
     let mut total = zeros(p);
     let mut own = zeros(p);
     let mut scale: f64 = 0.0;
-    for (k, c) in [[0.2, 0.1, -0.15], [-0.25, 0.2, 0.1], [0.1, -0.3, 0.25]].into_iter().enumerate() {
+    for (k, c) in [[0.2, 0.1, -0.15], [-0.25, 0.2, 0.1], [0.1, -0.3, 0.25]]
+        .into_iter()
+        .enumerate()
+    {
         let (pts, q) = cluster(c, 0.15, 20, 10 + k as u64);
         let mut child = zeros(p);
         p2m(c, &pts, &q, &mut child, &mut s);
@@ -86,8 +92,15 @@ fn m2m_equals_the_parents_own_expansion() {
     for v in &own {
         scale = scale.max(v.norm());
     }
-    let worst = total.iter().zip(&own).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
-    assert!(worst <= 1e-13 * scale, "M2M differs by {worst:e} (scale {scale:e})");
+    let worst = total
+        .iter()
+        .zip(&own)
+        .map(|(a, b)| (a - b).norm())
+        .fold(0.0, f64::max);
+    assert!(
+        worst <= 1e-13 * scale,
+        "M2M differs by {worst:e} (scale {scale:e})"
+    );
 }
 
 /// M2L then L2P: potential and field at targets near the local centre against the
@@ -118,8 +131,14 @@ fn m2l_and_l2p_match_the_direct_sum() {
         }
         let ratio: f64 = 1.0 / (d - 1.0);
         let bound = 4.0 * (p as f64 + 2.0) * ratio.powi(p as i32 + 1);
-        assert!(worst <= bound, "p = {p}: relative error {worst:e} above {bound:e}");
-        assert!(worst < last, "p = {p}: no improvement ({worst:e} after {last:e})");
+        assert!(
+            worst <= bound,
+            "p = {p}: relative error {worst:e} above {bound:e}"
+        );
+        assert!(
+            worst < last,
+            "p = {p}: no improvement ({worst:e} after {last:e})"
+        );
         last = worst;
     }
     assert!(last < 1e-8, "p = 15 reached only {last:e}");
@@ -144,9 +163,14 @@ fn l2l_is_exact_and_l2p_gradient_is_the_derivative() {
     for x in [[3.25, -0.85, 1.9], [3.1, -1.0, 1.8], [3.3, -0.8, 1.95]] {
         let (a, ga) = l2p(cl, &l, x, &mut s);
         let (b, gb) = l2p(child, &lc, x, &mut s);
-        assert!((a - b).abs() <= 1e-13 * a.abs().max(1.0), "L2L potential {a} vs {b}");
+        assert!(
+            (a - b).abs() <= 1e-13 * a.abs().max(1.0),
+            "L2L potential {a} vs {b}"
+        );
         for k in 0..3 {
-            assert!((ga[k] - gb[k]).abs() <= 1e-12 * ga.iter().map(|v| v.abs()).fold(0.0, f64::max));
+            assert!(
+                (ga[k] - gb[k]).abs() <= 1e-12 * ga.iter().map(|v| v.abs()).fold(0.0, f64::max)
+            );
         }
         let h = 1e-5;
         for k in 0..3 {

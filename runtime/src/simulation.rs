@@ -7,11 +7,14 @@ use crate::config::{
 };
 use crate::error::{Error, FieldError, Result};
 use crate::forces::effects::GlobalEffects;
+use crate::forces::electrostatics::{Electrostatics, FieldSummary};
 use crate::forces::head_motion::HeadMotion;
 use crate::kernels::closed_form::moment_kernel;
 use crate::kernels::generic::{GenericKernel, QuadratureRule};
 use crate::kernels::kernel::{KernelFactory, StrandKernel};
+use crate::model::reconstruction::pose_at as strand_pose_at;
 use crate::model::reconstruction::{pose_at, sample_centreline};
+use crate::model::strand::PointLoad;
 use crate::model::strand::{Strand, StrandGeometry};
 use crate::output::FrameSource;
 use crate::solver::embedded::{group_for, EmbeddedGroup};
@@ -20,9 +23,6 @@ use crate::solver::{
     solve_static, step, HeadInterval, StaticReport, StepContext, StepStats, StrandState,
     StrandSystem,
 };
-use crate::forces::electrostatics::{Electrostatics, FieldSummary};
-use crate::model::reconstruction::pose_at as strand_pose_at;
-use crate::model::strand::PointLoad;
 use rayon::prelude::*;
 
 /// One strand of a running simulation: its system (model, kernel, buffers), state and
@@ -63,15 +63,22 @@ struct Anderson {
 
 impl Anderson {
     fn new(depth: usize) -> Self {
-        Anderson { depth, last: None, df: Default::default(), dg: Default::default() }
+        Anderson {
+            depth,
+            last: None,
+            df: Default::default(),
+            dg: Default::default(),
+        }
     }
 
     /// The next iterate after x with G(x) = g.
     fn next(&mut self, x: &[f64], g: &[f64]) -> Vec<f64> {
         let f: Vec<f64> = g.iter().zip(x).map(|(a, b)| a - b).collect();
         if let Some((f0, g0)) = self.last.take() {
-            self.df.push_back(f.iter().zip(&f0).map(|(a, b)| a - b).collect());
-            self.dg.push_back(g.iter().zip(&g0).map(|(a, b)| a - b).collect());
+            self.df
+                .push_back(f.iter().zip(&f0).map(|(a, b)| a - b).collect());
+            self.dg
+                .push_back(g.iter().zip(&g0).map(|(a, b)| a - b).collect());
             if self.df.len() > self.depth {
                 self.df.pop_front();
                 self.dg.pop_front();
@@ -438,12 +445,13 @@ impl Simulation {
         };
         if sim.electrostatics.is_some() && sim.config.mode == Mode::Dynamic {
             let head = sim.head.state(0.0);
-            sim.update_electrostatics(&head).map_err(|cause| Error::Diverged {
-                strand: "(electrostatics)".into(),
-                index: 0,
-                time: 0.0,
-                cause,
-            })?;
+            sim.update_electrostatics(&head)
+                .map_err(|cause| Error::Diverged {
+                    strand: "(electrostatics)".into(),
+                    index: 0,
+                    time: 0.0,
+                    cause,
+                })?;
         }
         Ok(sim)
     }
@@ -460,7 +468,10 @@ impl Simulation {
 
     /// Recompute the Coulomb forces at the current state with the head at `head`, and
     /// make them the strands' electrostatic point loads (after the scene's own).
-    pub fn update_electrostatics(&mut self, head: &crate::forces::head_motion::HeadState) -> std::result::Result<FieldSummary, String> {
+    pub fn update_electrostatics(
+        &mut self,
+        head: &crate::forces::head_motion::HeadState,
+    ) -> std::result::Result<FieldSummary, String> {
         let Some(e) = &mut self.electrostatics else {
             return Ok(FieldSummary::default());
         };
@@ -477,7 +488,10 @@ impl Simulation {
         for (i, sim) in self.strands.iter_mut().enumerate() {
             let loads = &mut sim.system.strand.point_loads;
             loads.truncate(sim.scene_loads);
-            loads.extend(e.loads(i).map(|l| PointLoad { s: l.s, force: l.force }));
+            loads.extend(e.loads(i).map(|l| PointLoad {
+                s: l.s,
+                force: l.force,
+            }));
         }
         Ok(summary)
     }
@@ -518,12 +532,13 @@ impl Simulation {
             let every = e.config().update_every.max(1);
             if self.steps % every == 0 && self.steps > 0 {
                 let head = self.head.state(t);
-                self.update_electrostatics(&head).map_err(|cause| Error::Diverged {
-                    strand: "(electrostatics)".into(),
-                    index: 0,
-                    time: t,
-                    cause,
-                })?;
+                self.update_electrostatics(&head)
+                    .map_err(|cause| Error::Diverged {
+                        strand: "(electrostatics)".into(),
+                        index: 0,
+                        time: t,
+                        cause,
+                    })?;
             }
         }
         let interval = HeadInterval::new(&self.head, t, h);
@@ -565,7 +580,10 @@ impl Simulation {
     /// gravity and its point loads (the scene's and the electrostatic ones).
     pub fn static_force(&mut self, i: usize) -> Vec<f64> {
         let rest = crate::forces::head_motion::HeadState::rest();
-        let terms = crate::kernels::kernel::Terms { force: true, ..Default::default() };
+        let terms = crate::kernels::kernel::Terms {
+            force: true,
+            ..Default::default()
+        };
         let s = &mut self.strands[i];
         let zero = vec![0.0; s.state.q.len()];
         s.system.assemble(&rest, &s.state.q, &zero, terms);
@@ -576,13 +594,21 @@ impl Simulation {
     /// and the current point loads), head at rest.
     fn static_forces(&mut self) -> Vec<f64> {
         let rest = crate::forces::head_motion::HeadState::rest();
-        let terms = crate::kernels::kernel::Terms { force: true, ..Default::default() };
+        let terms = crate::kernels::kernel::Terms {
+            force: true,
+            ..Default::default()
+        };
         self.strands
             .par_iter_mut()
             .map(|s| {
                 let zero = vec![0.0; s.state.q.len()];
                 s.system.assemble(&rest, &s.state.q, &zero, terms);
-                s.system.workspace.terms.force.iter().fold(0.0, |m: f64, f| m.max(f.abs()))
+                s.system
+                    .workspace
+                    .terms
+                    .force
+                    .iter()
+                    .fold(0.0, |m: f64, f| m.max(f.abs()))
             })
             .collect()
     }
@@ -597,7 +623,10 @@ impl Simulation {
     /// largest of gravity's, elasticity's and the Coulomb generalized force at the start).
     pub fn solve_charged_static(&mut self) -> Result<ChargedStaticReport> {
         let Some(e) = &self.electrostatics else {
-            return Err(Error::invalid("electrostatics", "the scene has no [electrostatics]"));
+            return Err(Error::invalid(
+                "electrostatics",
+                "the scene has no [electrostatics]",
+            ));
         };
         let c = e.config().clone();
         let rest = crate::forces::head_motion::HeadState::rest();
@@ -619,13 +648,23 @@ impl Simulation {
             if let Some(e) = &mut self.electrostatics {
                 e.set_charge_scale(fraction);
             }
-            let mut stage = ChargingStage { charge_fraction: fraction, ..Default::default() };
+            let mut stage = ChargingStage {
+                charge_fraction: fraction,
+                ..Default::default()
+            };
             let mut anderson = Anderson::new(ANDERSON_DEPTH);
             for iteration in 0..=c.max_iterations {
-                stage.field = self.update_electrostatics(&rest).map_err(|e| fail(e, self.time))?;
+                stage.field = self
+                    .update_electrostatics(&rest)
+                    .map_err(|e| fail(e, self.time))?;
                 let forces = self.static_forces();
-                let scale = scale.get_or_insert_with(|| forces.iter().map(|f| f.max(1e-300)).collect());
-                stage.residual = forces.iter().zip(scale.iter()).map(|(f, s)| f / s).fold(0.0, f64::max);
+                let scale =
+                    scale.get_or_insert_with(|| forces.iter().map(|f| f.max(1e-300)).collect());
+                stage.residual = forces
+                    .iter()
+                    .zip(scale.iter())
+                    .map(|(f, s)| f / s)
+                    .fold(0.0, f64::max);
                 stage.iterations = iteration;
                 if iteration > 0 && stage.residual <= c.tolerance {
                     stage.converged = true;
@@ -634,9 +673,17 @@ impl Simulation {
                 if iteration == c.max_iterations {
                     break;
                 }
-                let x: Vec<f64> = self.strands.iter().flat_map(|s| s.state.q.iter().copied()).collect();
+                let x: Vec<f64> = self
+                    .strands
+                    .iter()
+                    .flat_map(|s| s.state.q.iter().copied())
+                    .collect();
                 report.strands = self.solve_static_strands()?;
-                let g: Vec<f64> = self.strands.iter().flat_map(|s| s.state.q.iter().copied()).collect();
+                let g: Vec<f64> = self
+                    .strands
+                    .iter()
+                    .flat_map(|s| s.state.q.iter().copied())
+                    .collect();
                 let next = anderson.next(&x, &g);
                 let mut at = 0;
                 for s in &mut self.strands {

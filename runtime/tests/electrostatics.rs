@@ -41,10 +41,14 @@ fn generalized_coulomb_force_is_minus_the_energy_gradient() {
     let mut s = sim(PAIR);
     let rest = HeadState::rest();
     // The force of elasticity alone (charge 0), then with the charge.
-    s.electrostatics_mut().expect("charged").set_charge_scale(0.0);
+    s.electrostatics_mut()
+        .expect("charged")
+        .set_charge_scale(0.0);
     s.update_electrostatics(&rest).expect("update");
     let elastic = s.static_force(0);
-    s.electrostatics_mut().expect("charged").set_charge_scale(1.0);
+    s.electrostatics_mut()
+        .expect("charged")
+        .set_charge_scale(1.0);
     s.update_electrostatics(&rest).expect("update");
     let total = s.static_force(0);
     let coulomb: Vec<f64> = total.iter().zip(&elastic).map(|(a, b)| a - b).collect();
@@ -101,7 +105,10 @@ fn charged_equilibrium_repels_and_converges() {
         assert!(last.iterations <= 12, "{last:?}");
         assert_eq!(last.charge_fraction, 1.0);
         let d = tips(&mut s);
-        assert!(d > apart + 1e-3, "tips {d} m apart charged, {apart} m uncharged");
+        assert!(
+            d > apart + 1e-3,
+            "tips {d} m apart charged, {apart} m uncharged"
+        );
     }
 }
 
@@ -132,13 +139,24 @@ fn charged_dynamics_moves_fibres_apart() {
         )
     };
     let mut distances = Vec::new();
-    for charge in ["", "[electrostatics]\ncharge_per_length = -1e-9\nmethod = \"fmm\"\naccuracy = 1e-8"] {
+    for charge in [
+        "",
+        "[electrostatics]\ncharge_per_length = -1e-9\nmethod = \"fmm\"\naccuracy = 1e-8",
+    ] {
         let mut s = sim(&text(charge));
         for _ in 0..30 {
             s.step().expect("step");
         }
         distances.push((s.position_at(0, 0.1) - s.position_at(1, 0.1)).norm());
     }
-    assert!((distances[0] - 0.002).abs() < 1e-9, "uncharged straight fibres stay put: {}", distances[0]);
-    assert!(distances[1] > 0.004, "charged tips only {} m apart", distances[1]);
+    assert!(
+        (distances[0] - 0.002).abs() < 1e-9,
+        "uncharged straight fibres stay put: {}",
+        distances[0]
+    );
+    assert!(
+        distances[1] > 0.004,
+        "charged tips only {} m apart",
+        distances[1]
+    );
 }

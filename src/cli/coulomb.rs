@@ -54,11 +54,14 @@ pub fn run(args: CoulombArgs) -> Result<ExitCode, Error> {
     if !args.constant.is_finite() {
         return Err(Error::invalid("--constant", "must be finite"));
     }
-    let softening = Softening { radius: args.softening };
+    let softening = Softening {
+        radius: args.softening,
+    };
     let method = if args.direct {
         Method::Direct(softening)
     } else {
-        let mut o = FmmOptions::for_accuracy(args.eps).map_err(|e| Error::invalid("--eps", e.to_string()))?;
+        let mut o = FmmOptions::for_accuracy(args.eps)
+            .map_err(|e| Error::invalid("--eps", e.to_string()))?;
         if let Some(p) = args.order {
             o.order = p;
         }
@@ -72,7 +75,13 @@ pub fn run(args: CoulombArgs) -> Result<ExitCode, Error> {
         Method::Fmm(o)
     };
     let report = with_threads(args.threads, || {
-        coulomb_files(&args.points, &args.charges, method, args.constant, &args.out)
+        coulomb_files(
+            &args.points,
+            &args.charges,
+            method,
+            args.constant,
+            &args.out,
+        )
     })?;
     match (method, report.stats) {
         (Method::Fmm(o), Some(s)) => println!(

@@ -37,7 +37,10 @@ pub fn run(args: ElectrostaticsArgs) -> Result<ExitCode, Error> {
         orders: (1..=args.max_order).collect(),
         ..Default::default()
     };
-    std::fs::create_dir_all(&args.out).map_err(|source| Error::Io { path: args.out.display().to_string(), source })?;
+    std::fs::create_dir_all(&args.out).map_err(|source| Error::Io {
+        path: args.out.display().to_string(),
+        source,
+    })?;
     let e = run_experiments(&options, &args.out, |name| eprintln!("{name} …"))?;
     for f in write_report(&e, &args.out)? {
         println!("wrote {}", f.display());

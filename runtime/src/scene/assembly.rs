@@ -162,7 +162,9 @@ fn read_tress(
     let count = n.required("count", "the number of fibres", |n, k| {
         n.count(k, 1, MAX_STRANDS as i64, "the cap on strands")
     });
-    let axes = n.required("semi_axes", "[a, b] in m", |n, k| n.fixed_list(k, 2, Range::new(Bound::Incl(0.0), Bound::Incl(10.0))));
+    let axes = n.required("semi_axes", "[a, b] in m", |n, k| {
+        n.fixed_list(k, 2, Range::new(Bound::Incl(0.0), Bound::Incl(10.0)))
+    });
     let template = read_template(n, defaults);
     let (Some(name), Some(center), Some(count), Some(axes), Some(frame)) =
         (name, center, count, axes, template.frame)
@@ -170,7 +172,8 @@ fn read_tress(
         return;
     };
     if names.count + count > MAX_STRANDS {
-        let msg = format!("{count} fibres would bring the scene over the cap of {MAX_STRANDS} strands");
+        let msg =
+            format!("{count} fibres would bring the scene over the cap of {MAX_STRANDS} strands");
         n.error("count", msg);
         names.count += count;
         return;

@@ -13,31 +13,58 @@ pub const MAX_PARTICLES: usize = 50_000_000;
 
 /// Read `[electrostatics]` for `strands`; strands with their own `charge_per_length`
 /// keep it.
-pub(super) fn read_electrostatics(mut n: Node<'_>, strands: &[StrandSetup]) -> Option<ElectrostaticsConfig> {
+pub(super) fn read_electrostatics(
+    mut n: Node<'_>,
+    strands: &[StrandSetup],
+) -> Option<ElectrostaticsConfig> {
     let d = ElectrostaticsConfig::paper(0);
     let density = n.optional_f64(
         "particle_density",
         PAPER_PARTICLE_DENSITY,
         Range::new(Bound::Excl(0.0), Bound::Incl(1e5)),
     );
-    let lambda = n.optional_f64("charge_per_length", PAPER_CHARGE_PER_LENGTH, MAX_CHARGE_RANGE);
-    let accuracy = n.optional_f64("accuracy", d.accuracy, Range::new(Bound::Incl(1e-14), Bound::Incl(0.1)));
+    let lambda = n.optional_f64(
+        "charge_per_length",
+        PAPER_CHARGE_PER_LENGTH,
+        MAX_CHARGE_RANGE,
+    );
+    let accuracy = n.optional_f64(
+        "accuracy",
+        d.accuracy,
+        Range::new(Bound::Incl(1e-14), Bound::Incl(0.1)),
+    );
     let softening = if n.has("softening") {
-        n.f64("softening", Range::new(Bound::Incl(0.0), Bound::Incl(1.0))).map(Some)
+        n.f64("softening", Range::new(Bound::Incl(0.0), Bound::Incl(1.0)))
+            .map(Some)
     } else {
         Some(None)
     };
-    let update_every = n.optional("update_every", 1, |n, k| n.count(k, 1, 1_000_000, "the cap on steps between updates"));
+    let update_every = n.optional("update_every", 1, |n, k| {
+        n.count(k, 1, 1_000_000, "the cap on steps between updates")
+    });
     let names = ["auto", "fmm", "direct"];
-    let method = n.optional("method", CoulombMethod::Auto, |n, k| n.choice(k, &names, CoulombMethod::from_name));
-    let charging_steps = n.optional("charging_steps", 1, |n, k| n.count(k, 1, 1000, "the cap on charging steps"));
-    let tolerance = n.optional_f64("tolerance", d.tolerance, Range::new(Bound::Excl(0.0), Bound::Excl(1.0)));
-    let max_iterations =
-        n.optional("max_iterations", d.max_iterations, |n, k| n.count(k, 1, 1000, "the cap on outer iterations"));
+    let method = n.optional("method", CoulombMethod::Auto, |n, k| {
+        n.choice(k, &names, CoulombMethod::from_name)
+    });
+    let charging_steps = n.optional("charging_steps", 1, |n, k| {
+        n.count(k, 1, 1000, "the cap on charging steps")
+    });
+    let tolerance = n.optional_f64(
+        "tolerance",
+        d.tolerance,
+        Range::new(Bound::Excl(0.0), Bound::Excl(1.0)),
+    );
+    let max_iterations = n.optional("max_iterations", d.max_iterations, |n, k| {
+        n.count(k, 1, 1000, "the cap on outer iterations")
+    });
     let (density, lambda) = (density?, lambda?);
     let particles: f64 = strands
         .iter()
-        .map(|s| (s.strand.geometry.lengths.iter().sum::<f64>() * density).round().max(1.0))
+        .map(|s| {
+            (s.strand.geometry.lengths.iter().sum::<f64>() * density)
+                .round()
+                .max(1.0)
+        })
         .sum();
     if particles > MAX_PARTICLES as f64 {
         n.error(
@@ -47,7 +74,10 @@ pub(super) fn read_electrostatics(mut n: Node<'_>, strands: &[StrandSetup]) -> O
     }
     let config = ElectrostaticsConfig {
         particle_density: density,
-        charge_per_length: strands.iter().map(|s| s.charge_per_length.unwrap_or(lambda)).collect(),
+        charge_per_length: strands
+            .iter()
+            .map(|s| s.charge_per_length.unwrap_or(lambda))
+            .collect(),
         accuracy: accuracy?,
         softening: softening?.unwrap_or(1.0 / density),
         update_every: update_every?,

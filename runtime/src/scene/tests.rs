@@ -178,6 +178,19 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("[environment]\nrelative_humidity = 120\n[[strands]]\nlength = 0.3", "environment.relative_humidity", "must be in [0, 100], got 120"),
     ("[environment]\nrelative_humidity = -0.5\n[[strands]]\nlength = 0.3", "environment.relative_humidity", "must be in [0, 100], got -0.5"),
     ("[environment]\nrelative_humidity = nan\n[[strands]]\nlength = 0.3", "environment.relative_humidity", "must be in [0, 100], got NaN"),
+    ("[electrostatics]\nparticle_density = 0\n[[strands]]\nlength = 0.3", "electrostatics.particle_density", "must be in (0, 100000]"),
+    ("[electrostatics]\ncharge_per_length = 1.0\n[[strands]]\nlength = 0.3", "electrostatics.charge_per_length", "must be in [-0.001, 0.001]"),
+    ("[electrostatics]\naccuracy = 0.5\n[[strands]]\nlength = 0.3", "electrostatics.accuracy", "must be in"),
+    ("[electrostatics]\nmethod = \"tree\"\n[[strands]]\nlength = 0.3", "electrostatics.method", "auto, fmm, direct"),
+    ("[electrostatics]\ncharging_steps = 0\n[[strands]]\nlength = 0.3", "electrostatics.charging_steps", ">= 1"),
+    ("[electrostatics]\nsoftening = -1e-3\n[[strands]]\nlength = 0.3", "electrostatics.softening", "must be in [0, 1]"),
+    ("[electrostatics]\nparticle_density = 1e5\n[[patches]]\nlength = 100\ncount = [100, 100]\nsize = [1.0, 1.0]", "electrostatics.particle_density", "cap of 50000000"),
+    ("[electrostatics]\ncharges = 1\n[[strands]]\nlength = 0.3", "electrostatics.charges", "unknown field"),
+    ("[[strands]]\nlength = 0.3\ncharge_per_length = -1e-11", "electrostatics", "add an [electrostatics] table"),
+    ("[[tresses]]\nlength = 0.3\nsemi_axes = [0.01, 0.005]", "tresses[0].count", "required"),
+    ("[[tresses]]\nlength = 0.3\ncount = 10", "tresses[0].semi_axes", "required"),
+    ("[[tresses]]\nlength = 0.3\ncount = 10\nsemi_axes = [0.01]", "tresses[0].semi_axes", "exactly 2"),
+    ("[[tresses]]\nlength = 0.3\ncount = 0\nsemi_axes = [0.01, 0.01]", "tresses[0].count", ">= 1"),
     ("[environment]\nrelative_humidity = \"wet\"\n[[strands]]\nlength = 0.3", "environment.relative_humidity", "expected a number"),
     ("[environment]\nhumidity = 50\n[[strands]]\nlength = 0.3", "environment.humidity", "unknown field"),
     ("[output]\nsamples_per_element = 0\n[[strands]]\nlength = 0.3", "output.samples_per_element", ">= 1"),
@@ -623,4 +636,37 @@ fn a_strands_own_material_values_are_not_changed_by_the_humidity() {
     let (m, m0) = smooth_strand("poisson = 0.3");
     assert!(rel(m.stiffness[0] / m.stiffness[1], 1.0 / 1.3) < 1e-14);
     assert!(rel(m.stiffness[1], m0.stiffness[1] * f.youngs_modulus * r2 * r2) < 1e-14);
+}
+
+#[test]
+fn tresses_spread_roots_over_their_ellipse_and_electrostatics_takes_each_strands_charge() {
+    let s = setup(
+        "[electrostatics]\ncharge_per_length = -2e-11\n[[tresses]]\nname = \"t\"\ncount = 200\nsemi_axes = [0.02, 0.01]\n\
+         center = [0.0, 0.0, 0.1]\ndirection = [0.0, 0.0, -1.0]\nnormal = [1.0, 0.0, 0.0]\nlength = 0.3\n\
+         [[strands]]\nname = \"own\"\nlength = 0.1\ncharge_per_length = 5e-12",
+    );
+    assert_eq!(s.strands.len(), 201);
+    let tress: Vec<_> = s.strands.iter().filter(|t| t.group == "t").collect();
+    assert_eq!(tress.len(), 200);
+    let (mut sx, mut sy) = (0.0f64, 0.0f64);
+    for t in &tress {
+        let r = t.strand.geometry.root_position;
+        assert!((r.z - 0.1).abs() < 1e-15);
+        let e = (r.x / 0.02).powi(2) + (r.y / 0.01).powi(2);
+        assert!(e <= 1.0, "root outside the ellipse: {r:?}");
+        sx += r.x;
+        sy += r.y;
+    }
+    // Uniform over the ellipse: centred, and a quarter of the roots within half the radius.
+    assert!((sx / 200.0).abs() < 1e-3 && (sy / 200.0).abs() < 1e-3);
+    let inner = tress.iter().filter(|t| {
+        let r = t.strand.geometry.root_position;
+        (r.x / 0.02).powi(2) + (r.y / 0.01).powi(2) <= 0.25
+    });
+    assert_eq!(inner.count(), 50);
+    let e = s.electrostatics.expect("electrostatics");
+    assert_eq!(e.charge_per_length.len(), 201);
+    assert_eq!(e.charge_per_length[0], 5e-12, "[[strands]] come first");
+    assert!(e.charge_per_length[1..].iter().all(|l| *l == -2e-11));
+    assert_eq!(e.softening, 1.0 / 330.0);
 }

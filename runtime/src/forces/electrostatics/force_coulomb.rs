@@ -41,9 +41,13 @@ impl CoulombMethod {
 
     /// From a scene name.
     pub fn from_name(name: &str) -> Option<Self> {
-        [CoulombMethod::Auto, CoulombMethod::Fmm, CoulombMethod::Direct]
-            .into_iter()
-            .find(|m| m.name() == name)
+        [
+            CoulombMethod::Auto,
+            CoulombMethod::Fmm,
+            CoulombMethod::Direct,
+        ]
+        .into_iter()
+        .find(|m| m.name() == name)
     }
 }
 
@@ -87,8 +91,11 @@ impl Electrostatics {
             CoulombMethod::Auto => n >= DIRECT_BELOW,
         };
         let fmm = if multipole {
-            let mut options = FmmOptions::for_accuracy(config.accuracy).map_err(|e| e.to_string())?;
-            options.softening = Softening { radius: config.softening };
+            let mut options =
+                FmmOptions::for_accuracy(config.accuracy).map_err(|e| e.to_string())?;
+            options.softening = Softening {
+                radius: config.softening,
+            };
             Some(Fmm::new(options).map_err(|e| e.to_string())?)
         } else {
             None
@@ -138,7 +145,10 @@ impl Electrostatics {
 
     /// Recompute the forces with the particles at `position(i, s)` (world coordinates of
     /// arc length s on strand i).
-    pub fn update(&mut self, position: impl Fn(usize, f64) -> Vector3<f64> + Sync) -> Result<FieldSummary, String> {
+    pub fn update(
+        &mut self,
+        position: impl Fn(usize, f64) -> Vector3<f64> + Sync,
+    ) -> Result<FieldSummary, String> {
         let start = Instant::now();
         let strands = self.tracers.offsets.len() - 1;
         {
@@ -146,7 +156,12 @@ impl Electrostatics {
             let tracers = &self.tracers;
             let per_strand: Vec<Vec<[f64; 3]>> = (0..strands)
                 .into_par_iter()
-                .map(|i| tracers.s[tracers.of(i)].iter().map(|&s| position(i, s).into()).collect())
+                .map(|i| {
+                    tracers.s[tracers.of(i)]
+                        .iter()
+                        .map(|&s| position(i, s).into())
+                        .collect()
+                })
                 .collect();
             self.points.clear();
             for v in per_strand {
@@ -154,11 +169,15 @@ impl Electrostatics {
             }
         }
         self.charges.clear();
-        self.charges.extend(self.tracers.charge.iter().map(|q| q * self.scale));
-        let softening = Softening { radius: self.config.softening };
+        self.charges
+            .extend(self.tracers.charge.iter().map(|q| q * self.scale));
+        let softening = Softening {
+            radius: self.config.softening,
+        };
         match &mut self.fmm {
             Some(fmm) => {
-                fmm.evaluate_into(&self.points, &self.charges, &mut self.field).map_err(|e| e.to_string())?;
+                fmm.evaluate_into(&self.points, &self.charges, &mut self.field)
+                    .map_err(|e| e.to_string())?;
             }
             None => {
                 let (potential, field) = direct_sum(&self.points, &self.charges, softening);
@@ -167,13 +186,22 @@ impl Electrostatics {
         }
         let mut sum = 0.0;
         let mut max_force: f64 = 0.0;
-        for ((f, e), q) in self.forces.iter_mut().zip(&self.field.field).zip(&self.charges) {
+        for ((f, e), q) in self
+            .forces
+            .iter_mut()
+            .zip(&self.field.field)
+            .zip(&self.charges)
+        {
             let e = Vector3::from(*e) * COULOMB_CONSTANT;
             *f = e * *q;
             sum += e.norm();
             max_force = max_force.max(f.norm());
         }
-        if let Some(i) = self.forces.iter().position(|f| !(f.x.is_finite() && f.y.is_finite() && f.z.is_finite())) {
+        if let Some(i) = self
+            .forces
+            .iter()
+            .position(|f| !(f.x.is_finite() && f.y.is_finite() && f.z.is_finite()))
+        {
             return Err(format!("the Coulomb force on particle {i} is not finite"));
         }
         let n = self.forces.len();
@@ -201,7 +229,12 @@ impl Electrostatics {
     /// minus the force on it, so `−∂U/∂q` of a strand is its generalized Coulomb force.
     pub fn energy(&self) -> f64 {
         0.5 * COULOMB_CONSTANT
-            * self.charges.iter().zip(&self.field.potential).map(|(q, p)| q * p).sum::<f64>()
+            * self
+                .charges
+                .iter()
+                .zip(&self.field.potential)
+                .map(|(q, p)| q * p)
+                .sum::<f64>()
     }
 
     /// Positions (world, m) and forces (N) of every particle from the last update.

@@ -21,7 +21,10 @@ impl Tracers {
     /// of equal pieces (`s_k = (k + ½) L / n`), each carrying `λ L / n` so that the
     /// strand's charge is exactly `λ L`. A strand with λ = 0 carries none.
     pub fn place(strands: &[&Strand], density: f64, charge_per_length: &[f64]) -> Self {
-        let mut t = Tracers { offsets: vec![0], ..Default::default() };
+        let mut t = Tracers {
+            offsets: vec![0],
+            ..Default::default()
+        };
         for (strand, &lambda) in strands.iter().zip(charge_per_length) {
             let length: f64 = strand.geometry.lengths.iter().sum();
             if lambda != 0.0 {
