@@ -6,6 +6,7 @@ pub mod bench;
 pub mod common;
 pub mod compare_kernels;
 pub mod coulomb;
+pub mod coulomb_scaling;
 pub mod electrostatics;
 pub mod quadrature_table;
 pub mod render;

@@ -10,6 +10,7 @@
 pub mod bench;
 pub mod compare;
 pub mod coulomb;
+pub mod coulomb_scaling;
 pub mod cpu_time;
 pub mod electrostatics_study;
 pub mod quadrature_table;

@@ -33,6 +33,8 @@ enum Command {
     CompareKernels(cli::compare_kernels::CompareKernelsArgs),
     /// Coulomb potential and field of a point set (.npy in and out) by the fast multipole method.
     Coulomb(cli::coulomb::CoulombArgs),
+    /// Cost of the multipole method against particles (10^4 ... 4*10^6) and the direct sum's rate.
+    CoulombScaling(cli::coulomb_scaling::CoulombScalingArgs),
     /// The paper's static-electricity experiments on a curly tress (report, pictures, plot).
     Electrostatics(cli::electrostatics::ElectrostaticsArgs),
     /// Markdown table of the generic kernel's error and time per strand-step against its
@@ -55,6 +57,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => cli::bench::run(args),
         Command::CompareKernels(args) => cli::compare_kernels::run(args),
         Command::Coulomb(args) => cli::coulomb::run(args),
+        Command::CoulombScaling(args) => cli::coulomb_scaling::run(args),
         Command::Electrostatics(args) => cli::electrostatics::run(args),
         Command::QuadratureTable(args) => cli::quadrature_table::run(args),
         Command::Stress(args) => cli::stress::run(args),
