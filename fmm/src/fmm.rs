@@ -6,7 +6,7 @@
 
 use crate::direct::{add_interactions, self_potential, Softening, SourceSlices};
 use crate::harmonics::tri_len;
-use crate::operators::{l2l, l2p, m2l, m2m, p2m, Scratch};
+use crate::operators::{l2l, l2p, m2l_batch, m2m, p2m, BatchScratch, Scratch, LANES};
 use crate::tree::Octree;
 use crate::FmmError;
 use num_complex::Complex64 as C;
@@ -282,27 +282,25 @@ impl Fmm {
         );
         lap(2, &mut stats);
 
-        // M2L.
+        // M2L, four sources at a time.
         self.locals.clear();
         self.locals.resize(nodes.len() * nc, C::new(0.0, 0.0));
-        let (m2l_start, m2l_source, multipoles) =
-            (&self.m2l_start, &self.m2l_source, &self.multipoles);
+        let (m2l_start, m2l_source, multipoles) = (&self.m2l_start, &self.m2l_source, &self.multipoles);
         self.locals
             .par_chunks_mut(nc)
             .enumerate()
             .with_min_len(4)
             .for_each_init(
-                || Scratch::new(p),
+                || BatchScratch::new(p),
                 |s, (i, l)| {
-                    for &b in &m2l_source[m2l_start[i] as usize..m2l_start[i + 1] as usize] {
-                        let b = b as usize;
-                        m2l(
-                            nodes[b].centre,
-                            nodes[i].centre,
-                            &multipoles[b * nc..(b + 1) * nc],
-                            l,
-                            s,
-                        );
+                    let list = &m2l_source[m2l_start[i] as usize..m2l_start[i + 1] as usize];
+                    for chunk in list.chunks(LANES) {
+                        let mut batch: [([f64; 3], &[C]); LANES] = [([0.0; 3], &[]); LANES];
+                        for (slot, &b) in batch.iter_mut().zip(chunk) {
+                            let b = b as usize;
+                            *slot = (nodes[b].centre, &multipoles[b * nc..(b + 1) * nc]);
+                        }
+                        m2l_batch(&batch[..chunk.len()], nodes[i].centre, l, s);
                     }
                 },
             );

@@ -183,3 +183,38 @@ fn l2l_is_exact_and_l2p_gradient_is_the_derivative() {
         }
     }
 }
+
+/// The batched M2L (four sources in the lanes of one register) equals four single M2Ls
+/// to round-off, for full and partial batches.
+#[test]
+fn batched_m2l_equals_single_m2l() {
+    use superhelix_fmm::operators::{m2l_batch, BatchScratch};
+    let p = 9;
+    let mut s = Scratch::new(p);
+    let mut bs = BatchScratch::new(p);
+    let cl = [0.1, 0.2, -0.3];
+    let centres = [[3.0, 0.5, 1.0], [-2.5, 2.0, 0.0], [0.4, -3.1, 1.2], [1.0, 1.0, -3.5]];
+    let mps: Vec<Vec<C>> = centres
+        .iter()
+        .enumerate()
+        .map(|(k, &c)| {
+            let (pts, q) = cluster(c, 0.5, 15, 20 + k as u64);
+            let mut m = zeros(p);
+            p2m(c, &pts, &q, &mut m, &mut s);
+            m
+        })
+        .collect();
+    for count in [1, 3, 4] {
+        let mut single = zeros(p);
+        for k in 0..count {
+            m2l(centres[k], cl, &mps[k], &mut single, &mut s);
+        }
+        let batch: Vec<([f64; 3], &[C])> = (0..count).map(|k| (centres[k], &mps[k][..])).collect();
+        let mut batched = zeros(p);
+        m2l_batch(&batch, cl, &mut batched, &mut bs);
+        let scale = single.iter().map(|v| v.norm()).fold(0.0, f64::max);
+        for (a, b) in single.iter().zip(&batched) {
+            assert!((a - b).norm() <= 1e-13 * scale, "{count} sources: {a} vs {b}");
+        }
+    }
+}
