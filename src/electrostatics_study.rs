@@ -47,8 +47,8 @@ impl Default for ExperimentOptions {
     fn default() -> Self {
         ExperimentOptions {
             fibres: 300,
-            elements: 10,
-            element_counts: vec![5, 10, 20],
+            elements: 30,
+            element_counts: vec![10, 20, 30, 60],
             orders: (1..=14).collect(),
             accuracy: 1e-6,
         }

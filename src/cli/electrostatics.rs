@@ -15,8 +15,8 @@ pub struct ElectrostaticsArgs {
     /// Fibres of the tress.
     #[arg(long, default_value_t = 300)]
     fibres: usize,
-    /// Elements per fibre.
-    #[arg(long, default_value_t = 10)]
+    /// Elements per fibre (the report's "which N" table says why 30).
+    #[arg(long, default_value_t = 30)]
     elements: usize,
     /// Highest multipole order of experiment 2.
     #[arg(long, default_value_t = 14)]
