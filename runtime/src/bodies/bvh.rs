@@ -1,6 +1,6 @@
 //! A bounding volume hierarchy over triangles for closest-point queries: axis-aligned
 //! boxes, split at the median centroid along the longest side of the centroids' box,
-//! leaves of at most [`LEAF_SIZE`] triangles. A query visits the nearer child first and
+//! leaves of at most `LEAF_SIZE` (4) triangles. A query visits the nearer child first and
 //! skips every box farther than the best distance found so far (or than a bound the
 //! caller knows), so it touches O(log n) nodes for a point near a mesh of n triangles.
 

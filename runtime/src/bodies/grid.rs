@@ -2,7 +2,8 @@
 //! and gradient), and extended beyond the grid's box.
 //!
 //! Inside the box the field is the trilinear interpolant of the eight nodes of the cell
-//! (continuous; its gradient is the interpolant's, discontinuous across cell faces). Outside, with p the point of the box closest to x,
+//! (continuous; its gradient is the interpolant's, discontinuous across cell faces).
+//! Outside, with p the point of the box closest to x,
 //!
 //! ```text
 //! f(x) = f(p) + |x − p|

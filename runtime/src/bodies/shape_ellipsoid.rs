@@ -6,11 +6,11 @@
 //! `rᵢ = (eᵢ/e2)²` and s the root of `F(s) = Σ (rᵢ zᵢ / (s + rᵢ))² − 1`, `zᵢ = yᵢ/eᵢ`.
 //! F is strictly decreasing on the bracket `[z2 − 1, |(r0 z0, r1 z1, z2)| − 1]` (`[z2 − 1, 0]`
 //! inside), so bisection to the last representable midpoint finds it in at most
-//! [`MAX_BISECTIONS`] steps. The bisection runs in `w = s + 1` (with `rᵢ − 1` formed
+//! `MAX_BISECTIONS` (1074) steps. The bisection runs in `w = s + 1` (with `rᵢ − 1` formed
 //! without cancellation), which keeps full relative precision for points near the
-//! shortest axis inside, where s is near −1. Points with a zero coordinate (on a symmetry plane, an axis,
-//! the centre) take the lower-dimensional cases of the paper, where the closest point may
-//! leave the plane (inside, near the centre).
+//! shortest axis inside, where s is near −1. Points with a zero coordinate (on a symmetry
+//! plane, an axis, the centre) take the lower-dimensional cases of the paper, where the
+//! closest point may leave the plane (inside, near the centre).
 
 use super::proximity::Proximity;
 use nalgebra::{Matrix3, Vector3};
