@@ -265,6 +265,7 @@ pub fn setup(o: &BenchOptions) -> Result<SimulationSetup> {
             HeadMotion::Still
         },
         strands: strands(o),
+        bodies: Vec::new(),
         samples_per_element: 1,
         output: Default::default(),
     })

@@ -203,12 +203,21 @@ pub fn run_scene(
 /// file and those `run` meets before its first step (the simulation is built with this
 /// build's generated kernels and every strand's initial state is checked).
 pub fn check_scene(scene_text: &str) -> std::result::Result<SimulationSetup, Vec<FieldError>> {
-    let built = parse_scene(scene_text).and_then(|setup| {
+    check_scene_at(scene_text, Path::new(""))
+}
+
+/// [`check_scene`] for a scene file in folder `scene_dir`: relative file paths in the
+/// scene (a mesh body's `path`) are resolved against that folder.
+pub fn check_scene_at(
+    scene_text: &str,
+    scene_dir: &Path,
+) -> std::result::Result<SimulationSetup, Vec<FieldError>> {
+    let built = runtime::parse_scene_at(scene_text, scene_dir).and_then(|setup| {
         Simulation::new(setup.clone(), kernel_factory())?;
         Ok(setup)
     });
     // the failure path lists every problem, not only the first stage's
-    built.map_err(|_| runtime::validate_scene_with(scene_text, kernel_factory()))
+    built.map_err(|_| runtime::validate_scene_at(scene_text, scene_dir, kernel_factory()))
 }
 
 #[cfg(test)]

@@ -429,6 +429,7 @@ fn setup(
         },
         head,
         strands: vec![strand],
+        bodies: Vec::new(),
         samples_per_element: 1,
         output: Default::default(),
     }

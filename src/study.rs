@@ -537,6 +537,7 @@ fn setup_of(
             group: strand.name.clone(),
             strand,
         }],
+        bodies: Vec::new(),
         samples_per_element: 1,
         output: Default::default(),
     }

@@ -406,3 +406,31 @@ fn validate_and_run_refuse_rk4_beyond_its_stability_limit_with_the_cause() {
     ]);
     assert_eq!(out.status.code(), Some(0), "{}", text(&out));
 }
+
+/// A mesh body's `path` is relative to the scene file, not to the working directory.
+#[test]
+fn validate_reads_a_mesh_body_relative_to_the_scene_file() {
+    let dir = scratch("mesh-body");
+    let _ = std::fs::create_dir_all(dir.join("meshes"));
+    write(
+        &dir,
+        "meshes/tetra.obj",
+        "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
+    );
+    let body = "[[bodies]]\nshape = \"mesh\"\npath = \"meshes/tetra.obj\"\ncell = 0.01\n";
+    let scene = write(&dir, "scene.toml", &format!("{STRAND}{body}"));
+    let out = superhelix(&["validate", &scene.to_string_lossy()]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let missing = write(
+        &dir,
+        "missing.toml",
+        &format!("{STRAND}{}", body.replace("tetra", "none")),
+    );
+    let out = superhelix(&["validate", &missing.to_string_lossy()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out).contains("bodies[0].path: cannot read"),
+        "{}",
+        text(&out)
+    );
+}

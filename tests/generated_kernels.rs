@@ -57,6 +57,7 @@ fn setup(n: usize, kernels: KernelChoice, integrator: IntegratorKind) -> Simulat
             center: Vector3::zeros(),
         },
         strands,
+        bodies: Vec::new(),
         samples_per_element: 2,
         output: Default::default(),
     }

@@ -95,6 +95,7 @@ fn run(
                 strand: s,
             })
             .collect(),
+        bodies: Vec::new(),
         samples_per_element: 4,
         output: Default::default(),
     };

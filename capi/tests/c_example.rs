@@ -302,6 +302,7 @@ fn runtime_q(
             q0: q0.to_vec(),
             group: "example".into(),
         }],
+        bodies: Vec::new(),
         samples_per_element: 4,
         output: Default::default(),
     };

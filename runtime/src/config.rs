@@ -1,11 +1,12 @@
 //! The settings of a run and what a simulation is built from: plain data (the scene's
-//! `[simulation]` table, the strands and their initial states, the head motion and the
-//! environment), and the step and frame counts that follow from it.
+//! `[simulation]` table, the strands and their initial states, the head motion, the
+//! bodies and the environment), and the step and frame counts that follow from it.
 
 pub mod formats;
 
 pub use formats::{Formats, OutputSettings};
 
+use crate::bodies::BodySetup;
 use crate::forces::environment::Environment;
 use crate::forces::head_motion::HeadMotion;
 use crate::kernels::generic::QuadratureRule;
@@ -186,6 +187,8 @@ pub struct SimulationSetup {
     pub head: HeadMotion,
     /// The strands.
     pub strands: Vec<StrandSetup>,
+    /// The bodies (head, obstacles); empty when the scene has none.
+    pub bodies: Vec<BodySetup>,
     /// Centreline points written per element (plus the root) in outputs.
     pub samples_per_element: usize,
     /// The scene's `[output]` formats and size limit.

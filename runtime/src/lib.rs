@@ -17,6 +17,7 @@
 //! |---|---|
 //! | [`model`] | the helix model and its reconstruction: strand, material, helical element, centreline and frames from q |
 //! | [`kernels`] | the [`StrandKernel`] trait and its implementations: generic runtime-N, assembly from element moments |
+//! | [`bodies`] | the bodies of a scene (head, obstacles) as signed distance fields: spheres, ellipsoids, capsules, planes exact; closed OBJ meshes sampled on a grid; attached to the head or fixed in the world |
 //! | [`forces`] | effects and head motion: environment, body field, head motion, point loads (contacts and electrostatics to come) |
 //! | [`config`] | the settings of a run and the [`SimulationSetup`] a simulation is built from (plain data) |
 //! | [`solver`] | time stepping and statics: the strand system, one file per integrator, the adaptive splitting, energy balance, dense solves |
@@ -27,13 +28,14 @@
 //! Data flows scene → [`SimulationSetup`] → [`Simulation::new`] (one
 //! [`solver::StrandSystem`] per strand) → [`Simulation::step`] → the solver's step →
 //! kernels → output. Each module uses only the ones before it in the order
-//! error → model → kernels → forces → config → output → solver → simulation → scene
+//! error → model → kernels → bodies → forces → config → output → solver → simulation → scene
 //! (`runtime/tests/architecture.rs` checks it); the output reaches a simulation only
 //! through its [`FrameSource`] trait, which [`Simulation`] implements.
 #![warn(missing_docs)]
 // Numerical kernels index several arrays in step; explicit index loops read best there.
 #![allow(clippy::needless_range_loop, clippy::too_many_arguments)]
 
+pub mod bodies;
 pub mod config;
 pub mod error;
 pub mod forces;
@@ -44,6 +46,7 @@ pub mod scene;
 pub mod simulation;
 pub mod solver;
 
+pub use bodies::{Bodies, BodySetup, PlacedBodies, Proximity};
 pub use config::{
     IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup, StrandSetup,
 };
@@ -60,4 +63,6 @@ pub use forces::head_motion::{Keyframe, KeyframeTrack};
 /// Re-exported so that users of the trait need not name nalgebra themselves.
 pub use nalgebra::{Matrix3, Vector3};
 pub use output::{run_to_frames, FrameSource, Frames, RunSummary, StrandFrames};
-pub use scene::{parse_scene, validate_scene, validate_scene_with};
+pub use scene::{
+    parse_scene, parse_scene_at, validate_scene, validate_scene_at, validate_scene_with,
+};

@@ -7,11 +7,12 @@
 //! scene with several mistakes reports all of them at once ([`Error::Invalid`]). Nothing
 //! here panics on any input.
 //!
-//! The README's "Scene format" section documents every field, its unit, default and
+//! `docs/scene-format.md` documents every field, its unit, default and
 //! allowed range.
 
 mod assembly;
 mod electrostatics;
+mod bodies;
 mod head;
 mod reader;
 mod strands;
@@ -30,6 +31,7 @@ use crate::output::{Formats, OutputSettings};
 use crate::simulation::Simulation;
 use reader::{Bound, Errors, Node, Range};
 use strands::StrandDefaults;
+use std::path::Path;
 use toml::{Table, Value};
 
 pub use assembly::MAX_STRANDS;
@@ -53,13 +55,21 @@ pub const MAX_OUTPUT_BYTES: f64 = 1e18;
 pub const DEFAULT_SAMPLES_PER_ELEMENT: usize = 4;
 
 /// Parse and validate a scene. Every problem found is listed in [`Error::Invalid`];
-/// a TOML syntax error is [`Error::Parse`].
+/// a TOML syntax error is [`Error::Parse`]. Relative file paths in the scene (a mesh
+/// body's `path`) are taken as they are, i.e. relative to the working directory: a scene
+/// read from a file is parsed with [`parse_scene_at`].
 pub fn parse_scene(text: &str) -> Result<SimulationSetup> {
+    parse_scene_at(text, Path::new(""))
+}
+
+/// [`parse_scene`] for a scene file in folder `scene_dir`: relative file paths in it are
+/// resolved against that folder.
+pub fn parse_scene_at(text: &str, scene_dir: &Path) -> Result<SimulationSetup> {
     let table: Table = text
         .parse()
         .map_err(|e: toml::de::Error| Error::Parse(describe_syntax_error(text, &e)))?;
     let errors = Errors::default();
-    let setup = read_scene(Node::root(&table, Errors::clone(&errors)));
+    let setup = read_scene(Node::root(&table, Errors::clone(&errors)), scene_dir);
     let errors = errors.take();
     if errors.is_empty() {
         Ok(setup)
@@ -81,12 +91,22 @@ pub fn validate_scene(text: &str) -> Vec<FieldError> {
 /// that a scene this accepts runs its first step. A syntax error is reported as one
 /// problem of the field `<toml>`.
 pub fn validate_scene_with(text: &str, generated: Option<&dyn KernelFactory>) -> Vec<FieldError> {
+    validate_scene_at(text, Path::new(""), generated)
+}
+
+/// [`validate_scene_with`] for a scene file in folder `scene_dir` (relative file paths
+/// resolved against it, as [`parse_scene_at`] does).
+pub fn validate_scene_at(
+    text: &str,
+    scene_dir: &Path,
+    generated: Option<&dyn KernelFactory>,
+) -> Vec<FieldError> {
     let problems = |e: Error| match e {
         Error::Invalid(errors) => errors,
         Error::Parse(message) => vec![FieldError::new("<toml>", message)],
         other => vec![FieldError::new("<toml>", other.to_string())],
     };
-    match parse_scene(text) {
+    match parse_scene_at(text, scene_dir) {
         Ok(setup) => match Simulation::new(setup, generated) {
             Ok(_) => Vec::new(),
             Err(e) => problems(e),
@@ -118,7 +138,7 @@ fn describe_syntax_error(text: &str, e: &toml::de::Error) -> String {
     format!("line {line}, column {column}: {message}")
 }
 
-fn read_scene(mut root: Node<'_>) -> SimulationSetup {
+fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> SimulationSetup {
     let config = root
         .table("simulation")
         .map(read_simulation)
@@ -151,12 +171,14 @@ fn read_scene(mut root: Node<'_>) -> SimulationSetup {
             None
         }
     };
+    let bodies = bodies::read_bodies(&mut root, scene_dir);
     root.finish();
     SimulationSetup {
         config,
         environment,
         head,
         strands,
+        bodies,
         samples_per_element,
         output,
         electrostatics,

@@ -2,6 +2,7 @@
 //! [`Simulation::new`] builds one [`StrandSystem`] per strand from a
 //! [`SimulationSetup`]; [`Simulation::step`] advances them all over one time step.
 
+use crate::bodies::{Bodies, PlacedBodies};
 use crate::config::{
     Engine, IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup,
 };
@@ -149,6 +150,7 @@ pub struct ChargedStaticReport {
 pub struct Simulation {
     config: SimulationConfig,
     head: HeadMotion,
+    bodies: Bodies,
     samples_per_element: usize,
     strands: Vec<StrandSim>,
     embedded: Option<EmbeddedStrands>,
@@ -157,9 +159,13 @@ pub struct Simulation {
     steps: usize,
 }
 
-/// The embedded engine's strands of `setup`, or every reason it cannot take them.
-fn embedded_strands(setup: SimulationSetup) -> Result<(Simulation, ())> {
-    let mut errors = Vec::new();
+/// The embedded engine's strands of `setup`, or every reason it cannot take them (after
+/// `errors`, the problems already found).
+fn embedded_strands(
+    setup: SimulationSetup,
+    bodies: Bodies,
+    mut errors: Vec<FieldError>,
+) -> Result<(Simulation, ())> {
     let c = &setup.config;
     if c.integrator != IntegratorKind::LinearlyImplicitEuler {
         errors.push(FieldError::new(
@@ -249,6 +255,7 @@ fn embedded_strands(setup: SimulationSetup) -> Result<(Simulation, ())> {
             }),
             config: setup.config,
             head: setup.head,
+            bodies,
             samples_per_element: setup.samples_per_element,
             strands: Vec::new(),
             electrostatics: None,
@@ -362,10 +369,17 @@ impl Simulation {
     /// checked as the first step would meet it ([`crate::solver::initial_state`]): a
     /// missing generated kernel, a non-finite centreline, force or mass matrix, and under
     /// RK4 a dt beyond its stability limit are [`Error::Invalid`], every problem listed.
+    /// The bodies are built here ([`Bodies::build`]: mesh files read, their fields
+    /// sampled); their problems are listed with the others.
     pub fn new(setup: SimulationSetup, generated: Option<&dyn KernelFactory>) -> Result<Self> {
         check_setup(&setup)?;
+        let (bodies, mut errors) = match Bodies::build(&setup.bodies) {
+            Ok(bodies) => (bodies, Vec::new()),
+            Err(Error::Invalid(errors)) => (Bodies::default(), errors),
+            Err(e) => return Err(e),
+        };
         if setup.config.engine == Engine::Embedded {
-            return embedded_strands(setup).map(|(sim, ())| sim);
+            return embedded_strands(setup, bodies, errors).map(|(sim, ())| sim);
         }
         let head_moves = setup.head != HeadMotion::Still;
         let context = StepContext {
@@ -379,7 +393,6 @@ impl Simulation {
         let rk4_dt = (setup.config.integrator == IntegratorKind::Rk4
             && setup.config.mode == Mode::Dynamic)
             .then_some(setup.config.dt);
-        let mut errors = Vec::new();
         let mut strands = Vec::with_capacity(setup.strands.len());
         for (index, s) in setup.strands.into_iter().enumerate() {
             let kernel = match make_kernel(
@@ -436,6 +449,7 @@ impl Simulation {
         let mut sim = Simulation {
             config: setup.config,
             head: setup.head,
+            bodies,
             samples_per_element: setup.samples_per_element,
             strands,
             embedded: None,
@@ -731,6 +745,12 @@ impl Simulation {
                 })
             })
             .collect()
+    }
+
+    /// The scene's bodies placed at the head state of the current time: signed distances,
+    /// normals and closest points of world points. Empty when the scene has no bodies.
+    pub fn bodies(&self) -> PlacedBodies<'_> {
+        self.bodies.at(self.head.state(self.time))
     }
 
     /// Simulated time, seconds.

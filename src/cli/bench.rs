@@ -110,7 +110,7 @@ fn bench_generated(args: &BenchArgs) -> Result<ExitCode, Error> {
 fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| Error::invalid("--scene", format!("cannot read {}: {e}", path.display())))?;
-    let mut setup = superhelix::parse_scene(&text)?;
+    let mut setup = superhelix::runtime::parse_scene_at(&text, super::common::scene_dir(path))?;
     if let Some(list) = &args.effects {
         restrict_effects(&mut setup, EffectSet::parse(list)?)?;
     }

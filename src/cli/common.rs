@@ -8,6 +8,12 @@ use superhelix::runtime::config::{IntegratorKind, KernelChoice};
 use superhelix::runtime::model::material::Preset;
 use superhelix::Error;
 
+/// The folder of the scene file at `path`: relative file paths in the scene (a mesh
+/// body's `path`) are resolved against it.
+pub fn scene_dir(path: &Path) -> &Path {
+    path.parent().unwrap_or(Path::new(""))
+}
+
 /// The text of the scene file at `path`.
 pub fn read_scene(path: &Path) -> Result<String, Error> {
     std::fs::read_to_string(path).map_err(|source| Error::Io {

@@ -2,7 +2,7 @@
 //! then write the pictures and the USD stage. Ctrl-C stops the run between two steps and
 //! keeps every frame written.
 
-use super::common::{progress_bar, read_scene};
+use super::common::{progress_bar, read_scene, scene_dir};
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -35,11 +35,11 @@ static STOP: AtomicBool = AtomicBool::new(false);
 /// Run `run`.
 pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
     let out: &Path = &args.out;
-    let text = match &args.scene {
-        Some(path) => read_scene(path)?,
-        None => superhelix::DEFAULT_SCENE.to_string(),
+    let (text, dir) = match &args.scene {
+        Some(path) => (read_scene(path)?, scene_dir(path)),
+        None => (superhelix::DEFAULT_SCENE.to_string(), Path::new("")),
     };
-    let setup = superhelix::parse_scene(&text)?;
+    let setup = superhelix::runtime::parse_scene_at(&text, dir)?;
     let options = superhelix::RunOptions {
         formats: match args.format.is_empty() {
             true => None,

@@ -1,7 +1,7 @@
 //! `superhelix validate SCENE`: every problem of a scene, on stderr, or its size and the
 //! output it would write.
 
-use super::common::read_scene;
+use super::common::{read_scene, scene_dir};
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -18,7 +18,7 @@ pub struct ValidateArgs {
 pub fn run(args: ValidateArgs) -> Result<ExitCode, Error> {
     let path = &args.scene;
     let text = read_scene(path)?;
-    match superhelix::check_scene(&text) {
+    match superhelix::check_scene_at(&text, scene_dir(path)) {
         Ok(setup) => report_valid(&setup),
         Err(problems) => {
             for p in &problems {

@@ -299,6 +299,7 @@ fn steps_match_the_runtime_step_of_the_same_strand() {
             group: strand.name.clone(),
             strand,
         }],
+        bodies: Vec::new(),
         samples_per_element: 2,
         output: Default::default(),
     };

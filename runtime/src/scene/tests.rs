@@ -247,6 +247,27 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("[[patches]]\nlength = 0.3\ncount = [2, 2]", "patches[0].size", "coincide"),
     ("[[patches]]\nlength = 0.3\ncount = [1000, 1000]\nsize = [0.01, 0.01]", "patches[0].count", "cap"),
     ("[[patches]]\nlength = 0.3\ncount = [2, 1]\nsize = [0.01, 0.0]\nspacing_u = [0.0, 0.01, 0.0]", "patches[0].size", "not both"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nradius = 0.1", "bodies[0].shape", "required: one of sphere, ellipsoid, capsule, plane, mesh"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"cube\"", "bodies[0].shape", "allowed: sphere, ellipsoid, capsule, plane, mesh"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"", "bodies[0].radius", "required: radius in m; must be in (0, 1000]"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.0", "bodies[0].radius", "must be in (0, 1000], got 0"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.1\ncenter = [0.0, 0.0]", "bodies[0].center", "exactly 3"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.1\nradii = [0.1, 0.1, 0.1]", "bodies[0].radii", "unknown field (did you mean 'radius'?)"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.1\nattached = \"hand\"", "bodies[0].attached", "allowed: head, world"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"ellipsoid\"\nradii = [0.1, 0.1]", "bodies[0].radii", "exactly 3"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"ellipsoid\"\nradii = [0.1, -0.1, 0.1]", "bodies[0].radii[1]", "must be in (0, 1000]"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"ellipsoid\"\nradii = [0.1, 0.1, 0.1]\nrotation_axis_angle_deg = [0.0, nan, 0.0]", "bodies[0].rotation_axis_angle_deg[1]", "finite"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"capsule\"\nstart = [0.0, 0.0, 0.0]\nradius = 0.02", "bodies[0].end", "required"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"capsule\"\nstart = [0.0, 0.0, 0.0]\nend = [0.0, 0.0, 0.1]\nradius = 2000.0", "bodies[0].radius", "must be in (0, 1000]"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"plane\"\nnormal = [0.0, 0.0, 0.0]", "bodies[0].normal", "non-zero"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"plane\"", "bodies[0].normal", "required"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"mesh\"", "bodies[0].path", "required: the OBJ file"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"mesh\"\npath = \"\"", "bodies[0].path", "must name an OBJ file"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"mesh\"\npath = \"no-such-head.obj\"", "bodies[0].path", "cannot read 'no-such-head.obj'"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"mesh\"\npath = \"head.obj\"\ncell = 0.0", "bodies[0].cell", "must be in (0, 1000]"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"mesh\"\npath = \"head.obj\"\nscale = -1.0", "bodies[0].scale", "must be in (0, 1000000]"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.1\n[[bodies]]\nshape = \"plane\"\nnormal = [0.0, 0.0, 1.0]\nname = \"body0\"", "bodies[1].name", "duplicate body name 'body0'"),
+    ("bodies = 5\n[[strands]]\nlength = 0.3", "bodies", "array of tables"),
 ];
 
 #[test]
@@ -430,6 +451,8 @@ const LINES: &[&str] = &[
     "natural_profile = [{ s = 0.0, value = [1.0, 2.0, 3.0] }]", "q0 = [0.0, 0.0, 0.0]", "direction = [0.0, 0.0, 0.0]",
     "normal = [1.0, 0.0, 0.0]", "curvature_variation = 0.5", "[[strands.point_loads]]", "s = 0.1", "force = [0.0, 0.0, 1.0]",
     "[[patches]]", "count = [2, 3]", "size = [0.01, 0.02]", "spacing_u = [0.0, 0.0, 0.0]", "length = -1", "elements = 0",
+    "[[bodies]]", "shape = \"sphere\"", "shape = \"mesh\"", "radius = 0.1", "radii = [0.1, 0.2, 0.3]", "path = \"head.obj\"",
+    "attached = \"world\"", "normal = [0.0, 0.0, 1.0]", "cell = -1",
 ];
 
 proptest! {
@@ -669,4 +692,75 @@ fn tresses_spread_roots_over_their_ellipse_and_electrostatics_takes_each_strands
     assert_eq!(e.charge_per_length[0], 5e-12, "[[strands]] come first");
     assert!(e.charge_per_length[1..].iter().all(|l| *l == -2e-11));
     assert_eq!(e.softening, 1.0 / 330.0);
+}
+
+#[test]
+fn bodies_become_their_setups_and_a_scene_without_them_has_none() {
+    use crate::bodies::{Attachment, ShapeSetup};
+    use nalgebra::Rotation3;
+    assert!(setup("[[strands]]\nlength = 0.1\n").bodies.is_empty());
+    let s = parse_scene_at(
+        r#"
+[[strands]]
+length = 0.1
+[[bodies]]
+name = "head"
+shape = "ellipsoid"
+center = [0.0, 0.0, 0.08]
+radii = [0.08, 0.1, 0.12]
+rotation_axis_angle_deg = [0.0, 0.0, 90.0]
+[[bodies]]
+shape = "sphere"
+radius = 0.05
+attached = "world"
+[[bodies]]
+shape = "capsule"
+start = [0.0, 0.0, 0.0]
+end = [0.0, 0.0, -0.1]
+radius = 0.04
+[[bodies]]
+shape = "plane"
+point = [0.0, 0.0, -1.0]
+normal = [0.0, 0.0, 2.0]
+attached = "world"
+[[bodies]]
+shape = "mesh"
+path = "meshes/head.obj"
+cell = 0.004
+scale = 0.01
+translation = [0.0, 0.0, 0.1]
+"#,
+        std::path::Path::new("/scenes"),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let names: Vec<&str> = s.bodies.iter().map(|b| b.name.as_str()).collect();
+    assert_eq!(names, ["head", "body1", "body2", "body3", "body4"]);
+    let attached: Vec<Attachment> = s.bodies.iter().map(|b| b.attached).collect();
+    use Attachment::{Head, World};
+    assert_eq!(attached, [Head, World, Head, World, Head]);
+    let ShapeSetup::Ellipsoid {
+        radii, rotation, ..
+    } = &s.bodies[0].shape
+    else {
+        panic!("{:?}", s.bodies[0].shape)
+    };
+    assert_eq!(*radii, Vector3::new(0.08, 0.1, 0.12));
+    assert!((rotation * Vector3::x() - Vector3::y()).norm() < 1e-15);
+    assert_eq!(
+        s.bodies[3].shape,
+        ShapeSetup::Plane {
+            point: Vector3::new(0.0, 0.0, -1.0),
+            normal: Vector3::z()
+        }
+    );
+    assert_eq!(
+        s.bodies[4].shape,
+        ShapeSetup::Mesh {
+            path: "/scenes/meshes/head.obj".into(),
+            cell: Some(0.004),
+            scale: 0.01,
+            rotation: Rotation3::identity().into_inner(),
+            translation: Vector3::new(0.0, 0.0, 0.1),
+        }
+    );
 }

@@ -137,6 +137,7 @@ pub fn setup(
                 strand: s,
             })
             .collect(),
+        bodies: Vec::new(),
         samples_per_element: 4,
         output: Default::default(),
     }
