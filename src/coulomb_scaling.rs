@@ -39,14 +39,21 @@ pub struct Scaling {
 /// Measure sizes `sizes` (particles; hair-like sets of fibres of 100) at `eps` on the
 /// current rayon pool, and the direct sum on `direct_particles`.
 pub fn measure(sizes: &[usize], eps: f64, direct_particles: usize) -> Result<Scaling> {
-    let options = FmmOptions::for_accuracy(eps).map_err(|e| Error::invalid("--eps", e.to_string()))?;
+    let options =
+        FmmOptions::for_accuracy(eps).map_err(|e| Error::invalid("--eps", e.to_string()))?;
     let mut fmm = Fmm::new(options).map_err(|e| Error::invalid("--eps", e.to_string()))?;
     let mut points = Vec::new();
     for &n in sizes {
         let (p, q) = curly_fibres(n.div_ceil(100), 100, 1);
         let start = Instant::now();
-        let (_, stats) = fmm.evaluate(&p, &q).map_err(|e| Error::invalid("particles", e.to_string()))?;
-        points.push(ScalingPoint { particles: p.len(), seconds: start.elapsed().as_secs_f64(), stats });
+        let (_, stats) = fmm
+            .evaluate(&p, &q)
+            .map_err(|e| Error::invalid("particles", e.to_string()))?;
+        points.push(ScalingPoint {
+            particles: p.len(),
+            seconds: start.elapsed().as_secs_f64(),
+            stats,
+        });
     }
     let (p, q) = curly_fibres(direct_particles.div_ceil(100), 100, 2);
     let start = Instant::now();
@@ -54,7 +61,13 @@ pub fn measure(sizes: &[usize], eps: f64, direct_particles: usize) -> Result<Sca
     let seconds = start.elapsed().as_secs_f64();
     let threads = rayon::current_num_threads();
     let rate = (p.len() as f64).powi(2) / seconds / threads as f64;
-    Ok(Scaling { eps, options, threads, points, direct: (p.len(), seconds, rate) })
+    Ok(Scaling {
+        eps,
+        options,
+        threads,
+        points,
+        direct: (p.len(), seconds, rate),
+    })
 }
 
 /// The table, as Markdown.
@@ -65,7 +78,10 @@ pub fn render(s: &Scaling) -> String {
         "eps = {:e} (p = {}, θ = {}, leaves of {}), {} thread(s); hair-like particles (curly fibres of 100)\n",
         s.eps, s.options.order, s.options.theta, s.options.leaf_size, s.threads
     );
-    let _ = writeln!(t, "| particles | seconds | µs per particle | boxes | M2L | direct pairs |");
+    let _ = writeln!(
+        t,
+        "| particles | seconds | µs per particle | boxes | M2L | direct pairs |"
+    );
     let _ = writeln!(t, "|---|---|---|---|---|---|");
     for p in &s.points {
         let _ = writeln!(
@@ -91,12 +107,27 @@ pub fn render(s: &Scaling) -> String {
 pub fn plot(s: &Scaling) -> Result<String> {
     let series = vec![Series {
         name: format!("multipole method, eps = {:e}", s.eps),
-        style: Style { colour: RGBColor(31, 119, 180), marker: Marker::Circle },
-        points: s.points.iter().map(|p| (p.particles as f64, p.seconds)).collect(),
+        style: Style {
+            colour: RGBColor(31, 119, 180),
+            marker: Marker::Circle,
+        },
+        points: s
+            .points
+            .iter()
+            .map(|p| (p.particles as f64, p.seconds))
+            .collect(),
         line: true,
     }];
     let linear = s.points.first().map(|f| {
-        s.points.iter().map(|p| (p.particles as f64, f.seconds * p.particles as f64 / f.particles as f64)).collect()
+        s.points
+            .iter()
+            .map(|p| {
+                (
+                    p.particles as f64,
+                    f.seconds * p.particles as f64 / f.particles as f64,
+                )
+            })
+            .collect()
     });
     log_log_svg(
         &format!("Cost against particles ({} thread(s))", s.threads),

@@ -6,7 +6,10 @@ use superhelix_fmm::samples::curly_fibres;
 use superhelix_fmm::{direct_sum, Fmm, FmmOptions, Softening};
 
 fn bench(c: &mut Criterion) {
-    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("pool");
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("pool");
     let (points, q) = curly_fibres(200, 100, 1);
     for eps in [1e-3, 1e-6] {
         let mut fmm = Fmm::new(FmmOptions::for_accuracy(eps).expect("eps")).expect("options");
@@ -15,7 +18,9 @@ fn bench(c: &mut Criterion) {
         });
     }
     let (p, q) = curly_fibres(50, 100, 2);
-    c.bench_function("direct/5000", |b| b.iter(|| one.install(|| direct_sum(&p, &q, Softening::NONE))));
+    c.bench_function("direct/5000", |b| {
+        b.iter(|| one.install(|| direct_sum(&p, &q, Softening::NONE)))
+    });
 }
 
 criterion_group! {

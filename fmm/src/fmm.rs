@@ -285,7 +285,8 @@ impl Fmm {
         // M2L, four sources at a time.
         self.locals.clear();
         self.locals.resize(nodes.len() * nc, C::new(0.0, 0.0));
-        let (m2l_start, m2l_source, multipoles) = (&self.m2l_start, &self.m2l_source, &self.multipoles);
+        let (m2l_start, m2l_source, multipoles) =
+            (&self.m2l_start, &self.m2l_source, &self.multipoles);
         self.locals
             .par_chunks_mut(nc)
             .enumerate()

@@ -188,11 +188,17 @@ fn m2l_generic(
 /// sums as [`m2l`], with the four sources in the four lanes of every operation (one
 /// AVX2 register of f64), so that the vector units do four translations for the price
 /// of one. Lanes beyond `sources.len()` are idle.
-pub fn m2l_batch(sources: &[([f64; 3], &[C])], c_local: [f64; 3], local: &mut [C], s: &mut BatchScratch) {
+pub fn m2l_batch(
+    sources: &[([f64; 3], &[C])],
+    c_local: [f64; 3],
+    local: &mut [C],
+    s: &mut BatchScratch,
+) {
     debug_assert!(sources.len() <= LANES);
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
             // SAFETY: the processor has AVX2 and FMA (checked just above).
             unsafe { m2l_batch_avx2(sources, c_local, local, s) };
             return;
@@ -231,12 +237,22 @@ impl BatchScratch {
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn m2l_batch_avx2(sources: &[([f64; 3], &[C])], c_local: [f64; 3], local: &mut [C], s: &mut BatchScratch) {
+unsafe fn m2l_batch_avx2(
+    sources: &[([f64; 3], &[C])],
+    c_local: [f64; 3],
+    local: &mut [C],
+    s: &mut BatchScratch,
+) {
     m2l_batch_generic(sources, c_local, local, s)
 }
 
 #[inline(always)]
-fn m2l_batch_generic(sources: &[([f64; 3], &[C])], c_local: [f64; 3], local: &mut [C], s: &mut BatchScratch) {
+fn m2l_batch_generic(
+    sources: &[([f64; 3], &[C])],
+    c_local: [f64; 3],
+    local: &mut [C],
+    s: &mut BatchScratch,
+) {
     let p = s.p;
     let w = 2 * p + 1;
     for lane in 0..LANES {
@@ -251,7 +267,11 @@ fn m2l_batch_generic(sources: &[([f64; 3], &[C])], c_local: [f64; 3], local: &mu
             }
             continue;
         };
-        irregular([c_local[0] - c[0], c_local[1] - c[1], c_local[2] - c[2]], p, &mut s.one);
+        irregular(
+            [c_local[0] - c[0], c_local[1] - c[1], c_local[2] - c[2]],
+            p,
+            &mut s.one,
+        );
         for n in 0..=p {
             for m in -(n as isize)..=(n as isize) {
                 let at = n * w + (m + p as isize) as usize;

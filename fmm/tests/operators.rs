@@ -193,7 +193,12 @@ fn batched_m2l_equals_single_m2l() {
     let mut s = Scratch::new(p);
     let mut bs = BatchScratch::new(p);
     let cl = [0.1, 0.2, -0.3];
-    let centres = [[3.0, 0.5, 1.0], [-2.5, 2.0, 0.0], [0.4, -3.1, 1.2], [1.0, 1.0, -3.5]];
+    let centres = [
+        [3.0, 0.5, 1.0],
+        [-2.5, 2.0, 0.0],
+        [0.4, -3.1, 1.2],
+        [1.0, 1.0, -3.5],
+    ];
     let mps: Vec<Vec<C>> = centres
         .iter()
         .enumerate()
@@ -214,7 +219,10 @@ fn batched_m2l_equals_single_m2l() {
         m2l_batch(&batch, cl, &mut batched, &mut bs);
         let scale = single.iter().map(|v| v.norm()).fold(0.0, f64::max);
         for (a, b) in single.iter().zip(&batched) {
-            assert!((a - b).norm() <= 1e-13 * scale, "{count} sources: {a} vs {b}");
+            assert!(
+                (a - b).norm() <= 1e-13 * scale,
+                "{count} sources: {a} vs {b}"
+            );
         }
     }
 }

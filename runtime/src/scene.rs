@@ -11,8 +11,8 @@
 //! allowed range.
 
 mod assembly;
-mod electrostatics;
 mod bodies;
+mod electrostatics;
 mod head;
 mod reader;
 mod strands;
@@ -30,8 +30,8 @@ use crate::output::plan::FORMAT_NAMES;
 use crate::output::{Formats, OutputSettings};
 use crate::simulation::Simulation;
 use reader::{Bound, Errors, Node, Range};
-use strands::StrandDefaults;
 use std::path::Path;
+use strands::StrandDefaults;
 use toml::{Table, Value};
 
 pub use assembly::MAX_STRANDS;
@@ -152,9 +152,10 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> SimulationSetup {
         (DEFAULT_SAMPLES_PER_ELEMENT, OutputSettings::default()),
         read_output,
     );
-    let strands = assembly::read_strands(&mut root, &defaults);
+    let bodies = bodies::read_bodies(&mut root, scene_dir);
+    let strands = assembly::read_strands(&mut root, &defaults, &bodies);
     let electrostatics = match root.table("electrostatics") {
-        Some(n) => electrostatics::read_electrostatics(n, &strands),
+        Some(n) => electrostatics::read_electrostatics(n, &strands, &bodies),
         None => {
             for (i, s) in strands.iter().enumerate() {
                 if s.charge_per_length.is_some_and(|l| l != 0.0) {
@@ -171,7 +172,6 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> SimulationSetup {
             None
         }
     };
-    let bodies = bodies::read_bodies(&mut root, scene_dir);
     root.finish();
     SimulationSetup {
         config,

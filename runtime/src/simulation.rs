@@ -494,10 +494,19 @@ impl Simulation {
             .iter()
             .map(|s| (&s.system.strand.geometry, &s.state.q[..]))
             .collect();
-        let summary = e.update(|i, s| {
-            let y = strand_pose_at(strands[i].0, strands[i].1, s).position;
-            head.position + head.rotation * y
-        })?;
+        let scalp = e
+            .config()
+            .scalp
+            .as_ref()
+            .and_then(|sc| self.bodies.as_slice().iter().find(|b| b.name == sc.body))
+            .map(|b| (b, head));
+        let summary = e.update(
+            |i, s| {
+                let y = strand_pose_at(strands[i].0, strands[i].1, s).position;
+                head.position + head.rotation * y
+            },
+            scalp,
+        )?;
         drop(strands);
         for (i, sim) in self.strands.iter_mut().enumerate() {
             let loads = &mut sim.system.strand.point_loads;

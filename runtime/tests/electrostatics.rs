@@ -160,3 +160,75 @@ fn charged_dynamics_moves_fibres_apart() {
         distances[1]
     );
 }
+
+const HEAD: &str =
+    "[[bodies]]\nname = \"head\"\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 0.1\n";
+
+/// Scalp hair is rooted on the body's surface, leaves along the normal, within its cap.
+#[test]
+fn scalp_hair_grows_from_the_surface_along_the_normal() {
+    let s = sim(&format!(
+        "{HEAD}[[scalp_hair]]\nbody = \"head\"\ncount = 50\nmax_angle_deg = 60\nlength = 0.05\nelements = 2\n"
+    ));
+    assert_eq!(s.strand_count(), 50);
+    for i in 0..50 {
+        let g = &s.strand(i).geometry;
+        let r = g.root_position;
+        assert!((r.norm() - 0.1).abs() < 1e-12, "root {r:?} off the sphere");
+        let n0 = g.root_frame.column(0).into_owned();
+        assert!(
+            (n0 - r / 0.1).norm() < 1e-12,
+            "direction {n0:?} not the normal"
+        );
+        assert!(
+            r.z / 0.1 >= 60f64.to_radians().cos() - 1e-12,
+            "root {r:?} outside the cap"
+        );
+    }
+}
+
+/// The charged scalp's field (eq. 8) is k Q/d² along the normal outside, bounded by
+/// k Q/a² at and inside the surface; charged fibres on a charged scalp stand off the head.
+#[test]
+fn charged_scalp_repels_and_stays_bounded() {
+    use superhelix_runtime::forces::electrostatics::{scalp_field, COULOMB_CONSTANT};
+    let s = sim(&format!(
+        "{HEAD}[[strands]]\nroot = [0.0, 0.0, 0.1]\nlength = 0.05\n"
+    ));
+    let body = &s.bodies().bodies()[0];
+    let head = HeadState::rest();
+    let (q, a) = (1e-9, 0.003);
+    let out = scalp_field(body, &head, &nalgebra::Vector3::new(0.0, 0.0, 0.12), q, a);
+    assert!((out.z - COULOMB_CONSTANT * q / 0.02f64.powi(2)).abs() < 1e-9 * out.z && out.x == 0.0);
+    let max = COULOMB_CONSTANT * q / (a * a);
+    for x in [
+        [0.0, 0.0, 0.1005],
+        [0.0, 0.05, 0.05],
+        [0.0, 0.0, 0.0],
+        [0.01, 0.0, 0.0],
+    ] {
+        let f = scalp_field(body, &head, &nalgebra::Vector3::from(x), q, a);
+        assert!(
+            f.norm() <= max * (1.0 + 1e-12) && f.norm().is_finite(),
+            "{x:?}: {f:?}"
+        );
+    }
+    let inside = scalp_field(body, &head, &nalgebra::Vector3::new(0.0, 0.05, 0.0), q, a);
+    assert!(inside.y > 0.0, "inside: pushed outward, got {inside:?}");
+    let tips = |charge: &str| {
+        let mut s = sim(&format!(
+            "[simulation]\nmode = \"static\"\n{charge}\n{HEAD}[[scalp_hair]]\nbody = \"head\"\ncount = 12\n\
+             max_angle_deg = 80\nlength = 0.1\nelements = 4\npreset = \"smooth\"\n"
+        ));
+        s.solve_static().expect("static");
+        (0..12).map(|i| s.position_at(i, 0.1).norm()).sum::<f64>() / 12.0
+    };
+    let plain = tips("");
+    let charged = tips(
+        "[electrostatics]\ncharge_per_length = -1e-9\nscalp_body = \"head\"\nscalp_charge = -1e-8",
+    );
+    assert!(
+        charged > plain + 1e-3,
+        "tips {charged} m from the centre charged, {plain} m uncharged"
+    );
+}

@@ -21,6 +21,13 @@ pub struct ElectrostaticsArgs {
     /// Highest multipole order of experiment 2.
     #[arg(long, default_value_t = 14)]
     max_order: usize,
+    /// Run experiment 3 instead: the charged half scalp (--fibres defaults to 65,000 and
+    /// --elements to 10 there).
+    #[arg(long)]
+    half_scalp: bool,
+    /// Requested field accuracy of experiment 3.
+    #[arg(long, default_value_t = 1e-3)]
+    accuracy: f64,
 }
 
 /// Run `electrostatics`.
@@ -30,6 +37,35 @@ pub fn run(args: ElectrostaticsArgs) -> Result<ExitCode, Error> {
     }
     if !(1..=superhelix_fmm::MAX_ORDER).contains(&args.max_order) {
         return Err(Error::invalid("--max-order", "must be in [1, 40]"));
+    }
+    std::fs::create_dir_all(&args.out).map_err(|source| Error::Io {
+        path: args.out.display().to_string(),
+        source,
+    })?;
+    if args.half_scalp {
+        let fibres = if args.fibres == 300 {
+            65_000
+        } else {
+            args.fibres
+        };
+        let elements = if args.elements == 30 {
+            10
+        } else {
+            args.elements
+        };
+        let h = superhelix::electrostatics_study::run_half_scalp(
+            fibres,
+            elements,
+            args.accuracy,
+            &args.out,
+        )?;
+        println!(
+            "half scalp: {fibres} fibres, {} particles: charged static solve {:.1} s ({:?} outer iterations, residual {:.1e}), \
+             setup {:.1} s, mean field {:.2} kV/m",
+            h.particles, h.case.seconds, h.case.iterations, h.case.residual, h.setup_seconds, h.case.mean_field / 1e3
+        );
+        println!("wrote {}", args.out.join("half_scalp.md").display());
+        return Ok(ExitCode::SUCCESS);
     }
     let options = ExperimentOptions {
         fibres: args.fibres,

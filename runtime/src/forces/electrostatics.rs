@@ -17,7 +17,9 @@
 pub mod force_coulomb;
 pub mod tracers;
 
-pub use force_coulomb::{CoulombMethod, Electrostatics, FieldSummary, COULOMB_CONSTANT};
+pub use force_coulomb::{
+    scalp_field, CoulombMethod, Electrostatics, FieldSummary, COULOMB_CONSTANT,
+};
 pub use tracers::Tracers;
 
 /// One statcoulomb in coulombs (10⁻¹ / c, c in m/s).
@@ -52,6 +54,22 @@ pub struct ElectrostaticsConfig {
     pub tolerance: f64,
     /// Statics: most outer iterations per charging step.
     pub max_iterations: usize,
+    /// The charged scalp (paper section 2.4, eq. 8): a body of the scene and its charge.
+    pub scalp: Option<ScalpCharge>,
+}
+
+/// A charged body (the scalp) repelling the particles (paper eq. 8): the field of a charge
+/// `charge` at the body's closest surface point, `E = k Q_S / r² n` along the outward
+/// normal n, r the distance to the surface, bounded by `r ≥ a` (the softening); a
+/// particle found inside the body gets the surface's largest field `k Q_S / a²` outward
+/// (the paper's fallback for a particle inside: a force that does not decay), which
+/// pushes it out over the next steps without a kick.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScalpCharge {
+    /// The body's name (`[[bodies]]`).
+    pub body: String,
+    /// Q_S, C (same sign as the fibres' charge: repulsion).
+    pub charge: f64,
 }
 
 impl ElectrostaticsConfig {
@@ -67,6 +85,7 @@ impl ElectrostaticsConfig {
             charging_steps: 1,
             tolerance: 1e-6,
             max_iterations: 30,
+            scalp: None,
         }
     }
 }

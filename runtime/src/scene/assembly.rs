@@ -4,6 +4,7 @@
 
 use super::reader::{Bound, Node, Range};
 use super::strands::{read_template, strand_rng, StrandDefaults, Template};
+use crate::bodies::{BodySetup, ShapeSetup};
 use crate::config::StrandSetup;
 use nalgebra::Vector3;
 use std::collections::HashMap;
@@ -15,7 +16,11 @@ const MAX_PATCH_SIDE: i64 = 1_000;
 
 /// The strands of `[[strands]]` then of `[[patches]]`, in order. Problems are recorded
 /// on the nodes; the result then lacks the invalid strands.
-pub(super) fn read_strands(root: &mut Node<'_>, defaults: &StrandDefaults) -> Vec<StrandSetup> {
+pub(super) fn read_strands(
+    root: &mut Node<'_>,
+    defaults: &StrandDefaults,
+    bodies: &[BodySetup],
+) -> Vec<StrandSetup> {
     let mut names = Names::default();
     let mut out = Vec::new();
     for (i, mut n) in root.tables("strands").into_iter().enumerate() {
@@ -41,10 +46,14 @@ pub(super) fn read_strands(root: &mut Node<'_>, defaults: &StrandDefaults) -> Ve
         read_tress(&mut n, i, defaults, &mut names, &mut out);
         n.finish();
     }
+    for (i, mut n) in root.tables("scalp_hair").into_iter().enumerate() {
+        read_scalp_hair(&mut n, i, defaults, bodies, &mut names, &mut out);
+        n.finish();
+    }
     if names.count == 0 {
         root.error(
             "strands",
-            "the scene has no strands: add [[strands]], [[patches]] or [[tresses]]",
+            "the scene has no strands: add [[strands]], [[patches]], [[tresses]] or [[scalp_hair]]",
         );
     } else if names.count > MAX_STRANDS {
         let msg = format!(
@@ -189,6 +198,124 @@ fn read_tress(
         let root = center + u * (axes[0] * r * angle.cos()) + v * (axes[1] * r * angle.sin());
         let mut rng = strand_rng(seed, 1 + k as u64);
         out.extend(template.build(strand_name, name.clone(), root, &mut rng));
+    }
+}
+
+/// A `[[scalp_hair]]` entry: `count` fibres rooted on the surface of the sphere or
+/// ellipsoid body `body`, over the cap of directions within `max_angle_deg` of `axis`
+/// (from the body's centre, head coordinates), each leaving along the surface normal and
+/// combed towards `comb` (its n1 is `comb` projected on the tangent plane). Directions
+/// follow a Fibonacci spiral over the cap (`cos θ_k` uniform, azimuth `k` times the
+/// golden angle: even in solid angle); the root is where the ray from the centre meets the
+/// surface. Fibre k is `<name>_<k>` and draws its curvature variation from `seed` on
+/// stream `1 + k`.
+fn read_scalp_hair(
+    n: &mut Node<'_>,
+    index: usize,
+    defaults: &StrandDefaults,
+    bodies: &[BodySetup],
+    names: &mut Names,
+    out: &mut Vec<StrandSetup>,
+) {
+    let name = n.optional("name", format!("scalp_hair{index}"), |n, k| {
+        n.string(k).map(str::to_string)
+    });
+    let body_name = n.required(
+        "body",
+        "the name of a sphere or ellipsoid in [[bodies]]",
+        |n, k| n.string(k).map(str::to_string),
+    );
+    let count = n.required("count", "the number of fibres", |n, k| {
+        n.count(k, 1, MAX_STRANDS as i64, "the cap on strands")
+    });
+    let axis = n.optional("axis", Vector3::z(), Node::unit);
+    let angle = n.optional_f64(
+        "max_angle_deg",
+        90.0,
+        Range::new(Bound::Excl(0.0), Bound::Incl(180.0)),
+    );
+    let comb = n.optional("comb", -Vector3::z(), Node::unit);
+    for key in ["direction", "normal"] {
+        if n.has(key) {
+            n.error(key, "scalp hair leaves along the surface normal: remove it");
+        }
+    }
+    let template = read_template(n, defaults);
+    let (Some(name), Some(body_name), Some(count), Some(axis), Some(angle), Some(comb)) =
+        (name, body_name, count, axis, angle, comb)
+    else {
+        return;
+    };
+    let shape = bodies
+        .iter()
+        .find(|b| b.name == body_name)
+        .map(|b| &b.shape);
+    let (center, radii, rotation) = match shape {
+        Some(ShapeSetup::Sphere { center, radius }) => (
+            *center,
+            Vector3::repeat(*radius),
+            nalgebra::Matrix3::identity(),
+        ),
+        Some(ShapeSetup::Ellipsoid {
+            center,
+            radii,
+            rotation,
+        }) => (*center, *radii, *rotation),
+        Some(_) => {
+            n.error(
+                "body",
+                format!(
+                    "'{body_name}' is not a sphere or an ellipsoid: scalp hair is rooted on those"
+                ),
+            );
+            return;
+        }
+        None => {
+            n.error("body", format!("no body named '{body_name}' in [[bodies]]"));
+            return;
+        }
+    };
+    if names.count + count > MAX_STRANDS {
+        n.error(
+            "count",
+            format!("{count} fibres would bring the scene over the cap of {MAX_STRANDS} strands"),
+        );
+        names.count += count;
+        return;
+    }
+    let (u, v) = {
+        let u = super::strands::perpendicular(&axis);
+        (u, axis.cross(&u))
+    };
+    let cos_max = angle.to_radians().cos();
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let seed = template.seed.unwrap_or(index as u64);
+    for k in 0..count {
+        let z = 1.0 - (1.0 - cos_max) * (k as f64 + 0.5) / count as f64;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = k as f64 * golden;
+        let dir = axis * z + u * (r * phi.cos()) + v * (r * phi.sin());
+        // The ray centre + t dir meets the ellipsoid where |Rᵀ dir ⊘ radii| t = 1.
+        let local = rotation.transpose() * dir;
+        let scaled = local.component_div(&radii);
+        let root = center + dir / scaled.norm();
+        let normal = (rotation * local.component_div(&radii.component_mul(&radii))).normalize();
+        let along = comb - normal * normal.dot(&comb);
+        let n1 = if along.norm() > 1e-6 {
+            along.normalize()
+        } else {
+            super::strands::perpendicular(&normal)
+        };
+        let mut t: Template = template.clone();
+        t.frame = Some(nalgebra::Matrix3::from_columns(&[
+            normal,
+            n1,
+            normal.cross(&n1),
+        ]));
+        let strand_name = format!("{name}_{k}");
+        names.claim(n, &strand_name);
+        let mut rng = strand_rng(seed, 1 + k as u64);
+        out.extend(t.build(strand_name, name.clone(), root, &mut rng));
     }
 }
 

@@ -2,9 +2,11 @@
 //! computed (see `forces::electrostatics`).
 
 use super::reader::{Bound, Node, Range};
+use crate::bodies::BodySetup;
 use crate::config::StrandSetup;
 use crate::forces::electrostatics::{
-    CoulombMethod, ElectrostaticsConfig, PAPER_CHARGE_PER_LENGTH, PAPER_PARTICLE_DENSITY,
+    CoulombMethod, ElectrostaticsConfig, ScalpCharge, PAPER_CHARGE_PER_LENGTH,
+    PAPER_PARTICLE_DENSITY,
 };
 use crate::scene::strands::MAX_CHARGE_RANGE;
 
@@ -16,6 +18,7 @@ pub const MAX_PARTICLES: usize = 50_000_000;
 pub(super) fn read_electrostatics(
     mut n: Node<'_>,
     strands: &[StrandSetup],
+    bodies: &[BodySetup],
 ) -> Option<ElectrostaticsConfig> {
     let d = ElectrostaticsConfig::paper(0);
     let density = n.optional_f64(
@@ -57,6 +60,44 @@ pub(super) fn read_electrostatics(
     let max_iterations = n.optional("max_iterations", d.max_iterations, |n, k| {
         n.count(k, 1, 1000, "the cap on outer iterations")
     });
+    let scalp = match (n.has("scalp_body"), n.has("scalp_charge")) {
+        (false, false) => Some(None),
+        (true, true) => {
+            let body = n.string("scalp_body").map(str::to_string);
+            let charge = n.f64(
+                "scalp_charge",
+                Range::new(Bound::Incl(-1e-3), Bound::Incl(1e-3)),
+            );
+            match (body, charge) {
+                (Some(body), Some(charge)) if bodies.iter().any(|b| b.name == body) => {
+                    Some(Some(ScalpCharge { body, charge }))
+                }
+                (Some(body), Some(_)) => {
+                    let names: Vec<&str> = bodies.iter().map(|b| b.name.as_str()).collect();
+                    n.error(
+                        "scalp_body",
+                        format!("no body named '{body}' in [[bodies]] (bodies: {names:?})"),
+                    );
+                    None
+                }
+                _ => None,
+            }
+        }
+        (true, false) => {
+            n.error(
+                "scalp_charge",
+                "required with scalp_body: the scalp's charge Q_S in C",
+            );
+            None
+        }
+        (false, true) => {
+            n.error(
+                "scalp_body",
+                "required with scalp_charge: the name of the charged body",
+            );
+            None
+        }
+    };
     let (density, lambda) = (density?, lambda?);
     let particles: f64 = strands
         .iter()
@@ -85,6 +126,7 @@ pub(super) fn read_electrostatics(
         charging_steps: charging_steps?,
         tolerance: tolerance?,
         max_iterations: max_iterations?,
+        scalp: scalp?,
     };
     n.finish();
     Some(config)

@@ -7,10 +7,31 @@
 
 use super::tracers::Tracers;
 use super::ElectrostaticsConfig;
+use crate::bodies::Body;
+use crate::forces::head_motion::HeadState;
 use crate::model::strand::{PointLoad, Strand};
 use nalgebra::Vector3;
 use std::time::Instant;
 use superhelix_fmm::{direct_sum, Fmm, FmmOptions, Potentials, Softening};
+
+/// The field (V/m) of the charged scalp `body` (charge `charge`, C) at the world point
+/// `x`, head at `head`: `k Q_S / max(d, a)² n` outside (d the distance to the surface, n
+/// the outward normal), `k Q_S / a² n` inside (paper eq. 8 and its fallback; see
+/// [`super::ScalpCharge`]). Bounded by `k |Q_S| / a²` for `a > 0`.
+pub fn scalp_field(
+    body: &Body,
+    head: &HeadState,
+    x: &Vector3<f64>,
+    charge: f64,
+    a: f64,
+) -> Vector3<f64> {
+    let p = body.query(head, x);
+    let r = if p.distance > a { p.distance } else { a };
+    if r <= 0.0 {
+        return Vector3::zeros();
+    }
+    p.normal * (COULOMB_CONSTANT * charge / (r * r))
+}
 
 /// Coulomb's constant `1/(4πε₀)`, N·m²/C² (CODATA 2018).
 pub const COULOMB_CONSTANT: f64 = 8.987_551_792_3e9;
@@ -145,9 +166,12 @@ impl Electrostatics {
 
     /// Recompute the forces with the particles at `position(i, s)` (world coordinates of
     /// arc length s on strand i).
+    ///
+    /// `scalp`: the charged body ([`super::ScalpCharge`]) and the head state it is placed at.
     pub fn update(
         &mut self,
         position: impl Fn(usize, f64) -> Vector3<f64> + Sync,
+        scalp: Option<(&Body, &HeadState)>,
     ) -> Result<FieldSummary, String> {
         let start = Instant::now();
         let strands = self.tracers.offsets.len() - 1;
@@ -183,6 +207,20 @@ impl Electrostatics {
                 let (potential, field) = direct_sum(&self.points, &self.charges, softening);
                 self.field = Potentials { potential, field };
             }
+        }
+        if let (Some((body, head)), Some(sc)) = (scalp, &self.config.scalp) {
+            use rayon::prelude::*;
+            let (a, qs) = (self.config.softening, sc.charge * self.scale);
+            self.field
+                .field
+                .par_iter_mut()
+                .zip(&self.points)
+                .for_each(|(e, x)| {
+                    let add = scalp_field(body, head, &Vector3::from(*x), qs, a) / COULOMB_CONSTANT;
+                    for k in 0..3 {
+                        e[k] += add[k];
+                    }
+                });
         }
         let mut sum = 0.0;
         let mut max_force: f64 = 0.0;
