@@ -22,7 +22,7 @@ pub struct ElectrostaticsArgs {
     #[arg(long, default_value_t = 14)]
     max_order: usize,
     /// Run experiment 3 instead: the charged half scalp (--fibres defaults to 65,000 and
-    /// --elements to 10 there).
+    /// --elements to 5 there).
     #[arg(long)]
     half_scalp: bool,
     /// Requested field accuracy of experiment 3.
@@ -49,7 +49,7 @@ pub fn run(args: ElectrostaticsArgs) -> Result<ExitCode, Error> {
             args.fibres
         };
         let elements = if args.elements == 30 {
-            10
+            5
         } else {
             args.elements
         };
