@@ -388,7 +388,7 @@ impl Fmm {
     }
 
     /// The dual traversal: (target, source) pairs for M2L and, for target leaves, P2P.
-    fn traverse(&self) -> (Vec<(u32, u32)>, Vec<(u32, u32)>) {
+    fn traverse(&self) -> (Pairs, Pairs) {
         let nodes = &self.tree.nodes;
         let mut m2l_pairs = Vec::new();
         let mut p2p_pairs = Vec::new();
@@ -427,6 +427,9 @@ impl Fmm {
         (m2l_pairs, p2p_pairs)
     }
 }
+
+/// (target, source) box pairs.
+type Pairs = Vec<(u32, u32)>;
 
 /// Pairs (target, source) into compressed rows by target.
 fn csr(pairs: &[(u32, u32)], rows: usize, start: &mut Vec<u32>, source: &mut Vec<u32>) {

@@ -52,7 +52,7 @@ pub fn signed(t: &[C], n: usize, m: isize) -> C {
         t[tri(n, m as usize)]
     } else {
         let v = t[tri(n, (-m) as usize)].conj();
-        if m & 1 == 1 || m & 1 == -1 {
+        if m & 1 == 1 {
             -v
         } else {
             v

@@ -1,6 +1,8 @@
 //! The multipole method against the direct sum, at several orders, on random and on
 //! hair-like sets; the softened near field; input errors.
 
+#![allow(clippy::needless_range_loop)] // coordinates indexed by axis read as the formulas
+
 use superhelix_fmm::samples::{curly_fibres, uniform_cube};
 use superhelix_fmm::{direct_at, direct_sum, expected_error, Fmm, FmmError, FmmOptions, Softening};
 

@@ -1,5 +1,7 @@
 //! Each translation operator alone against the direct sum it stands for.
 
+#![allow(clippy::needless_range_loop)] // coordinates indexed by axis read as the formulas
+
 use num_complex::Complex64 as C;
 use superhelix_fmm::harmonics::tri_len;
 use superhelix_fmm::operators::{l2l, l2p, m2l, m2m, m2p, p2m, Scratch};
