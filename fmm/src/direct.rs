@@ -163,31 +163,8 @@ pub fn direct_sum(
     charges: &[f64],
     softening: Softening,
 ) -> (Vec<f64>, Vec<[f64; 3]>) {
-    let n = points.len();
-    let x: Vec<f64> = points.iter().map(|p| p[0]).collect();
-    let y: Vec<f64> = points.iter().map(|p| p[1]).collect();
-    let z: Vec<f64> = points.iter().map(|p| p[2]).collect();
-    let s = SourceSlices {
-        x: &x,
-        y: &y,
-        z: &z,
-        q: charges,
-    };
-    let mut phi = vec![0.0; n];
-    let mut field = vec![[0.0; 3]; n];
-    const CHUNK: usize = 64;
-    phi.par_chunks_mut(CHUNK)
-        .zip(field.par_chunks_mut(CHUNK))
-        .enumerate()
-        .for_each(|(c, (ph, fi))| {
-            let start = c * CHUNK;
-            let t = &points[start..start + ph.len()];
-            add_interactions(t, &s, softening, ph, fi);
-            for (k, p) in ph.iter_mut().enumerate() {
-                *p -= self_potential(charges[start + k], softening);
-            }
-        });
-    (phi, field)
+    let all: Vec<usize> = (0..points.len()).collect();
+    direct_at(points, charges, &all, softening)
 }
 
 /// The potential and field at the charges `targets` (indices into `points`) due to all

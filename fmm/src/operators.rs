@@ -29,22 +29,18 @@ pub struct Scratch {
     r: Vec<C>,
     /// Irregular harmonics up to degree p (triangular).
     i: Vec<C>,
-    /// Irregular harmonics with every m, `[n][m + p]`: real parts, then imaginary parts.
-    full_i: Vec<f64>,
-    /// A multipole expansion with every m, laid out as `full_i`.
-    full_m: Vec<f64>,
+    /// M2L's buffers ([`m2l`] is a batch of one).
+    batch: BatchScratch,
 }
 
 impl Scratch {
     /// Scratch for expansions of order `p`.
     pub fn new(p: usize) -> Self {
-        let width = 2 * p + 1;
         Scratch {
             p,
             r: vec![C::new(0.0, 0.0); tri_len(p)],
             i: vec![C::new(0.0, 0.0); tri_len(p)],
-            full_i: vec![0.0; 2 * (p + 1) * width],
-            full_m: vec![0.0; 2 * (p + 1) * width],
+            batch: BatchScratch::new(p),
         }
     }
 
@@ -104,84 +100,7 @@ pub fn m2m(c_child: [f64; 3], c_parent: [f64; 3], child: &[C], parent: &mut [C],
 /// (`L_n^{0..n} += M_j^k I_{j+n}^{k+0..k+n}`, real and imaginary parts in separate rows)
 /// so that the compiler vectorises it.
 pub fn m2l(c_multipole: [f64; 3], c_local: [f64; 3], mp: &[C], local: &mut [C], s: &mut Scratch) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the processor has AVX2 and FMA (checked just above).
-            unsafe { m2l_avx2(c_multipole, c_local, mp, local, s) };
-            return;
-        }
-    }
-    m2l_generic(c_multipole, c_local, mp, local, s)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn m2l_avx2(
-    c_multipole: [f64; 3],
-    c_local: [f64; 3],
-    mp: &[C],
-    local: &mut [C],
-    s: &mut Scratch,
-) {
-    m2l_generic(c_multipole, c_local, mp, local, s)
-}
-
-#[inline(always)]
-fn m2l_generic(
-    c_multipole: [f64; 3],
-    c_local: [f64; 3],
-    mp: &[C],
-    local: &mut [C],
-    s: &mut Scratch,
-) {
-    let p = s.p;
-    let w = 2 * p + 1;
-    let d = [
-        c_local[0] - c_multipole[0],
-        c_local[1] - c_multipole[1],
-        c_local[2] - c_multipole[2],
-    ];
-    irregular(d, p, &mut s.i);
-    let (ire, iim) = s.full_i.split_at_mut((p + 1) * w);
-    let (mre, mim) = s.full_m.split_at_mut((p + 1) * w);
-    for n in 0..=p {
-        for m in -(n as isize)..=(n as isize) {
-            let at = n * w + (m + p as isize) as usize;
-            let v = signed(&s.i, n, m);
-            ire[at] = v.re;
-            iim[at] = v.im;
-            let v = signed(mp, n, m);
-            mre[at] = v.re;
-            mim[at] = v.im;
-        }
-    }
-    let mut acc_re = [0.0; MAX_ORDER + 1];
-    let mut acc_im = [0.0; MAX_ORDER + 1];
-    for n in 0..=p {
-        let (are, aim) = (&mut acc_re[..=n], &mut acc_im[..=n]);
-        are.fill(0.0);
-        aim.fill(0.0);
-        for j in 0..=(p - n) {
-            let row = (j + n) * w + p - j;
-            let mrow = j * w + p - j;
-            for k in 0..=2 * j {
-                let (ar, ai) = (mre[mrow + k], mim[mrow + k]);
-                // I_{j+n}^{k'+m}, m = 0..=n, k' = k − j.
-                let start = row + k;
-                let (br, bi) = (&ire[start..start + n + 1], &iim[start..start + n + 1]);
-                for (((x, y), b), c) in are.iter_mut().zip(aim.iter_mut()).zip(br).zip(bi) {
-                    *x += ar * b - ai * c;
-                    *y += ar * c + ai * b;
-                }
-            }
-        }
-        let sg = sign(n);
-        for m in 0..=n {
-            local[tri(n, m)] += C::new(are[m] * sg, aim[m] * sg);
-        }
-    }
+    m2l_batch(&[(c_multipole, mp)], c_local, local, &mut s.batch)
 }
 
 /// M2L of up to four multipole expansions into one local expansion at once: the same
