@@ -9,7 +9,6 @@
 //! figures of its spread. Experiment 2: the field of the charged tress's particles by the
 //! multipole method at p = 1 … 14 against the direct sum.
 
-use crate::runtime::forces::electrostatics::COULOMB_CONSTANT;
 use crate::runtime::output::plan::prepare_out_dir;
 use crate::runtime::{Error, FrameSource, Result, Simulation, SimulationSetup};
 use crate::study_plot::{log_log_svg, Marker, Series, Style};
@@ -531,7 +530,6 @@ pub fn render_report(e: &Experiments) -> String {
             );
         }
     }
-    let _ = COULOMB_CONSTANT;
     s
 }
 

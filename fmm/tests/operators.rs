@@ -58,7 +58,6 @@ fn p2m_expansion_converges_at_its_bound() {
                 err <= bound,
                 "p = {p}: error {err:e} above the bound {bound:e}"
             );
-            assert!(err <= 1e-3_f64.max(bound * 1e-0));
         }
     }
     // And it does converge: p = 16 at d/ρ ≥ 4 is below 1e-9 of the potential.
@@ -186,8 +185,9 @@ fn l2l_is_exact_and_l2p_gradient_is_the_derivative() {
     }
 }
 
-/// The batched M2L (four sources in the lanes of one register) equals four single M2Ls
-/// to round-off, for full and partial batches.
+/// A batch of up to four M2Ls (four sources in the lanes of one register; a single M2L is
+/// a batch of one, checked against the direct sum above) equals the sum of the sources'
+/// M2Ls one by one: the lanes do not mix, idle lanes add nothing.
 #[test]
 fn batched_m2l_equals_single_m2l() {
     use superhelix_fmm::operators::{m2l_batch, BatchScratch};

@@ -15,7 +15,6 @@ use crate::kernels::generic::{GenericKernel, QuadratureRule};
 use crate::kernels::kernel::{KernelFactory, StrandKernel};
 use crate::model::reconstruction::pose_at as strand_pose_at;
 use crate::model::reconstruction::{pose_at, sample_centreline};
-use crate::model::strand::PointLoad;
 use crate::model::strand::{Strand, StrandGeometry};
 use crate::output::FrameSource;
 use crate::solver::embedded::{group_for, EmbeddedGroup};
@@ -511,10 +510,7 @@ impl Simulation {
         for (i, sim) in self.strands.iter_mut().enumerate() {
             let loads = &mut sim.system.strand.point_loads;
             loads.truncate(sim.scene_loads);
-            loads.extend(e.loads(i).map(|l| PointLoad {
-                s: l.s,
-                force: l.force,
-            }));
+            loads.extend(e.loads(i));
         }
         Ok(summary)
     }
