@@ -242,6 +242,7 @@ pub fn setup(o: &BenchOptions) -> Result<SimulationSetup> {
     check(o)?;
     Ok(SimulationSetup {
         electrostatics: None,
+        contacts: None,
         config: SimulationConfig {
             dt: o.dt,
             duration: o.dt * o.steps as f64,

@@ -417,6 +417,7 @@ fn setup(
 ) -> SimulationSetup {
     SimulationSetup {
         electrostatics: None,
+        contacts: None,
         config: SimulationConfig {
             dt: 1.0 / fps as f64,
             duration,

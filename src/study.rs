@@ -512,6 +512,7 @@ fn setup_of(
     let (kernels, quadrature) = setting.kernels.config();
     SimulationSetup {
         electrostatics: None,
+        contacts: None,
         config: SimulationConfig {
             mode: if setting.rate.is_some() {
                 Mode::Dynamic

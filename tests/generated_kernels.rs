@@ -40,6 +40,7 @@ fn setup(n: usize, kernels: KernelChoice, integrator: IntegratorKind) -> Simulat
         .collect();
     SimulationSetup {
         electrostatics: None,
+        contacts: None,
         config: SimulationConfig {
             dt: 1.0 / 30.0,
             duration: 1.0,

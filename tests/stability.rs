@@ -70,6 +70,7 @@ fn run(
     let amplitude = deg.to_radians();
     let setup = SimulationSetup {
         electrostatics: None,
+        contacts: None,
         config: SimulationConfig {
             dt,
             duration,

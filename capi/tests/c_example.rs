@@ -289,6 +289,7 @@ fn runtime_q(
     };
     let setup = SimulationSetup {
         electrostatics: None,
+        contacts: None,
         config: SimulationConfig {
             dt: DT,
             duration: STEPS as f64 * DT,

@@ -195,6 +195,9 @@ pub struct SimulationSetup {
     pub output: OutputSettings,
     /// Static electricity (`[electrostatics]`); `None`: no charge, nothing built for it.
     pub electrostatics: Option<crate::forces::electrostatics::ElectrostaticsConfig>,
+    /// Contacts with bodies and between strands (`[contacts]`); `None`: none, nothing
+    /// built for them.
+    pub contacts: Option<crate::forces::contacts::ContactConfig>,
 }
 
 /// Number of time steps of a dynamic run: `ceil(duration / dt)` (up to rounding of the

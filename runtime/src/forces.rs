@@ -2,8 +2,9 @@
 //! fictitious forces it causes, composed with air drag into one body field per strand and
 //! step ([`effects`]), and the point loads applied through J(s)ᵀ ([`point_loads`]).
 //! Static electricity ([`electrostatics`]): charged tracer particles and their Coulomb
-//! forces. Contacts will live here too.
+//! forces. Contacts with bodies and between strands ([`contacts`]).
 
+pub mod contacts;
 pub mod effects;
 pub mod electrostatics;
 pub mod environment;

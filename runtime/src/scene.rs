@@ -12,6 +12,7 @@
 
 mod assembly;
 mod bodies;
+mod contacts;
 mod electrostatics;
 mod head;
 mod reader;
@@ -172,6 +173,9 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> SimulationSetup {
             None
         }
     };
+    let contacts = root
+        .table("contacts")
+        .and_then(|n| contacts::read_contacts(n, &bodies));
     root.finish();
     SimulationSetup {
         config,
@@ -182,6 +186,7 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> SimulationSetup {
         samples_per_element,
         output,
         electrostatics,
+        contacts,
     }
 }
 

@@ -7,6 +7,9 @@ use crate::config::{
     Engine, IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup,
 };
 use crate::error::{Error, FieldError, Result};
+use crate::forces::contacts::{
+    ContactParams, ContactSummary, HairHair, HairHairParams, PairCounts, StrandContacts,
+};
 use crate::forces::effects::GlobalEffects;
 use crate::forces::electrostatics::{Electrostatics, FieldSummary};
 use crate::forces::head_motion::HeadMotion;
@@ -154,6 +157,7 @@ pub struct Simulation {
     strands: Vec<StrandSim>,
     embedded: Option<EmbeddedStrands>,
     electrostatics: Option<Electrostatics>,
+    hair_hair: Option<HairHair>,
     time: f64,
     steps: usize,
 }
@@ -195,6 +199,12 @@ fn embedded_strands(
         errors.push(FieldError::new(
             "electrostatics",
             "the embedded engine has no electrostatics; use engine = \"runtime\"",
+        ));
+    }
+    if setup.contacts.is_some() {
+        errors.push(FieldError::new(
+            "contacts",
+            "the embedded engine has no contacts; use engine = \"runtime\"",
         ));
     }
     let mut groups: Vec<(usize, Box<dyn EmbeddedGroup>)> = Vec::new();
@@ -258,6 +268,7 @@ fn embedded_strands(
             samples_per_element: setup.samples_per_element,
             strands: Vec::new(),
             electrostatics: None,
+            hair_hair: None,
             time: 0.0,
             steps: 0,
         },
@@ -286,6 +297,9 @@ fn check_setup(setup: &SimulationSetup) -> Result<()> {
             "strands",
             "at least one strand is required",
         ));
+    }
+    if let Some(c) = &setup.contacts {
+        errors.extend(c.check());
     }
     for (i, s) in setup.strands.iter().enumerate() {
         let g = &s.strand.geometry;
@@ -392,6 +406,15 @@ impl Simulation {
         let rk4_dt = (setup.config.integrator == IntegratorKind::Rk4
             && setup.config.mode == Mode::Dynamic)
             .then_some(setup.config.dt);
+        let contact_bodies: Option<std::sync::Arc<[crate::bodies::Body]>> =
+            setup.contacts.as_ref().map(|c| {
+                bodies
+                    .as_slice()
+                    .iter()
+                    .filter(|b| c.bodies.as_ref().is_none_or(|names| names.contains(&b.name)))
+                    .cloned()
+                    .collect()
+            });
         let mut strands = Vec::with_capacity(setup.strands.len());
         for (index, s) in setup.strands.into_iter().enumerate() {
             let kernel = match make_kernel(
@@ -409,6 +432,17 @@ impl Simulation {
                 }
             };
             let mut system = StrandSystem::new(s.strand, kernel, context);
+            if let (Some(c), Some(b)) = (&setup.contacts, &contact_bodies) {
+                let g = &system.strand.geometry;
+                let rho_s = system.strand.material.mass_per_length;
+                system.contacts = Some(StrandContacts::new(
+                    g,
+                    b.clone(),
+                    ContactParams::new(c, rho_s),
+                    c.hair_hair.as_ref().map(|h| HairHairParams::new(h, rho_s)),
+                    c.samples_per_element,
+                ));
+            }
             errors.extend(check_initial_state(
                 index,
                 &mut system,
@@ -453,9 +487,20 @@ impl Simulation {
             strands,
             embedded: None,
             electrostatics,
+            hair_hair: setup
+                .contacts
+                .as_ref()
+                .and_then(|c| c.hair_hair.as_ref())
+                .map(|h| HairHair::new(h.search_every)),
             time: 0.0,
             steps: 0,
         };
+        // contact points touching a body at the start stick where they are (Coulomb)
+        for st in &mut sim.strands {
+            if let Some(c) = &mut st.system.contacts {
+                c.update_anchors(&head0, &st.system.strand.geometry, &st.state.q);
+            }
+        }
         if sim.electrostatics.is_some() && sim.config.mode == Mode::Dynamic {
             let head = sim.head.state(0.0);
             sim.update_electrostatics(&head)
@@ -560,15 +605,22 @@ impl Simulation {
                     })?;
             }
         }
+        if self.hair_hair.is_some() {
+            self.update_hair_pairs(t, h);
+        }
         let interval = HeadInterval::new(&self.head, t, h);
         let failure = self
             .strands
             .par_iter_mut()
             .enumerate()
             .map(|(i, s)| {
-                step(&mut s.system, &interval, &mut s.state, &mut s.stats)
-                    .err()
-                    .map(|cause| (i, cause))
+                let outcome = step(&mut s.system, &interval, &mut s.state, &mut s.stats);
+                if outcome.is_ok() {
+                    if let Some(c) = &mut s.system.contacts {
+                        c.update_anchors(&interval.end, &s.system.strand.geometry, &s.state.q);
+                    }
+                }
+                outcome.err().map(|cause| (i, cause))
             })
             .flatten()
             .min_by_key(|(i, _)| *i);
@@ -583,6 +635,78 @@ impl Simulation {
         self.time = t + h;
         self.steps += 1;
         Ok(())
+    }
+
+    /// Track and search the hair–hair pairs at the state of time `t` (head there) and give
+    /// each strand its partner points for the step of length `h`.
+    fn update_hair_pairs(&mut self, t: f64, h: f64) {
+        let head = self.head.state(t);
+        let points: Vec<Vec<nalgebra::Vector3<f64>>> = self
+            .strands
+            .par_iter_mut()
+            .map(|s| match &mut s.system.contacts {
+                Some(c) => {
+                    c.sample_poses(&s.system.strand.geometry, &s.state.q);
+                    c.sample_positions()
+                        .map(|y| head.position + head.rotation * y)
+                        .collect()
+                }
+                None => Vec::new(),
+            })
+            .collect();
+        let reach = self
+            .strands
+            .iter()
+            .filter_map(|s| s.system.contacts.as_ref()?.hair_params().map(|p| 2.0 * p.radius))
+            .fold(0.0, f64::max);
+        let Some(hh) = &mut self.hair_hair else {
+            return;
+        };
+        let fall = self
+            .strands
+            .first()
+            .and_then(|s| s.system.context.effects.gravity)
+            .map_or(0.0, |g| g.norm() * h * h);
+        let arcs: Vec<&[(f64, f64)]> = self
+            .strands
+            .iter()
+            .map(|s| s.system.contacts.as_ref().map_or(&[][..], |c| c.samples()))
+            .collect();
+        let partners = hh.update(&points, &arcs, reach, h, fall);
+        drop(arcs);
+        for (s, p) in self.strands.iter_mut().zip(partners) {
+            if let Some(c) = &mut s.system.contacts {
+                c.set_partners(p);
+            }
+        }
+    }
+
+    /// What the contacts of strand `i` found at its last evaluation (`None`: the scene has
+    /// no `[contacts]`).
+    pub fn contact_summary(&self, i: usize) -> Option<ContactSummary> {
+        self.strands.get(i)?.system.contacts.as_ref().map(|c| c.summary())
+    }
+
+    /// The deepest point of any strand's centreline inside a body at the current state,
+    /// m (0: none; `None`: no `[contacts]`), with the head at its current state.
+    pub fn max_penetration(&mut self) -> Option<f64> {
+        let head = self.head.state(self.time);
+        let mut any = false;
+        let mut deepest: f64 = 0.0;
+        for s in &mut self.strands {
+            if let Some(c) = &mut s.system.contacts {
+                any = true;
+                let r = c.params().radius;
+                let depth = c.max_depth(&head, &s.system.strand.geometry, &s.state.q);
+                deepest = deepest.max(depth - r);
+            }
+        }
+        any.then_some(deepest.max(0.0))
+    }
+
+    /// The hair–hair pairs of the last step (`None`: no hair–hair interaction).
+    pub fn hair_pairs(&self) -> Option<PairCounts> {
+        self.hair_hair.as_ref().map(|h| h.counts())
     }
 
     /// Solve every strand's static equilibrium in place (gravity and point loads, head at

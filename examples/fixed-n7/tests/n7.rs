@@ -284,6 +284,7 @@ fn steps_match_the_runtime_step_of_the_same_strand() {
     let strand = runtime_strand();
     let setup = SimulationSetup {
         electrostatics: None,
+        contacts: None,
         config: SimulationConfig {
             dt: H,
             duration: STEPS as f64 * H,

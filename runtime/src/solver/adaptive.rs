@@ -58,7 +58,8 @@ fn start_energy(
 ) -> StateEnergy {
     let t = interval.t;
     let ws = &system.workspace;
-    if let Some(e) = ws.last_energy {
+    let history = system.contacts.as_ref().is_some_and(|c| c.has_history());
+    if let Some(e) = ws.last_energy.filter(|_| !history) {
         if (e.time - t).abs() <= 1e-12 * t.abs().max(1.0)
             && ws.last_q == state.q
             && ws.last_v == state.v
@@ -152,7 +153,16 @@ fn implicit_adaptive(
             &system.strand.geometry.lengths,
             &state.q,
             &system.workspace.saved_q,
-        ) <= MAX_ELEMENT_ROTATION;
+        ) <= MAX_ELEMENT_ROTATION
+        && match &mut system.contacts {
+            Some(c) => c.step_acceptable(
+                &interval.end,
+                &system.strand.geometry,
+                &system.workspace.saved_q,
+                &state.q,
+            ),
+            None => true,
+        };
     if acceptable || deepest {
         outcome?;
         if !finite {

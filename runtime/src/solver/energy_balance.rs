@@ -26,6 +26,7 @@ pub fn measure(
         kernel,
         workspace,
         context,
+        contacts,
     } = system;
     let kernel = kernel.as_mut();
     let (terms, jac) = (&mut workspace.terms, &mut workspace.jac);
@@ -85,6 +86,13 @@ pub fn measure(
             load_moment += f.dot(&y);
             load_rate += w.cross(&f).dot(&y);
         }
+    }
+    if let Some(c) = contacts {
+        // the contact potential joins V (with the point loads' part, so that round-off
+        // is scaled by it); its rate at fixed q joins the point loads' rate
+        let (potential, rate) = c.energy(head, &strand.geometry, q);
+        load_moment -= potential;
+        load_rate += rate;
     }
     let dissipation = (0..n).map(|i| friction[i] * v[i] * v[i]).sum::<f64>()
         + 2.0 * strand.air_drag / rho_s * kinetic;

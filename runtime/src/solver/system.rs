@@ -10,6 +10,7 @@ use super::dense_solve::DenseSolver;
 use super::energy_balance::StateEnergy;
 use super::stats::StepStats;
 use crate::config::IntegratorKind;
+use crate::forces::contacts::StrandContacts;
 use crate::forces::effects::{body_field, GlobalEffects};
 use crate::forces::head_motion::{HeadMotion, HeadState};
 use crate::forces::point_loads::{add_point_loads, point_load_potential};
@@ -106,6 +107,8 @@ pub struct StrandSystem {
     pub workspace: StrandWorkspace,
     /// The effects and integrator of its steps.
     pub context: StepContext,
+    /// Its contacts with bodies and other strands (`None`: the scene has no `[contacts]`).
+    pub contacts: Option<StrandContacts>,
 }
 
 /// What an assembly contained beyond elasticity and friction.
@@ -125,6 +128,7 @@ impl StrandSystem {
             strand,
             kernel,
             context,
+            contacts: None,
         }
     }
 
@@ -138,6 +142,7 @@ impl StrandSystem {
             kernel,
             workspace: ws,
             context: ctx,
+            contacts,
         } = self;
         let kernel = kernel.as_mut();
         let field = body_field(
@@ -195,8 +200,12 @@ impl StrandSystem {
             terms,
             t,
         );
+        let touching = match contacts {
+            Some(c) => c.add_to_terms(head, kernel, q, v, terms, &mut ws.jac, t),
+            None => false,
+        };
         Assembled {
-            field_stiffness: position_field || !strand.point_loads.is_empty(),
+            field_stiffness: position_field || !strand.point_loads.is_empty() || touching,
             gyroscopic: ctx.effects.head_moves && head.omega != Vector3::zeros() && terms.damping,
         }
     }
@@ -220,6 +229,7 @@ impl StrandSystem {
             kernel,
             workspace: ws,
             context: ctx,
+            contacts,
         } = self;
         let kernel = kernel.as_mut();
         let terms = Terms {
@@ -250,7 +260,10 @@ impl StrandSystem {
             .gravity
             .map_or(0.0, |g| -ws.terms.first_moment.dot(&g));
         let loads = point_load_potential(&strand.point_loads, kernel, q, &mut ws.jac);
-        (kinetic, elastic + gravity + loads)
+        let touching = contacts
+            .as_mut()
+            .map_or(0.0, |c| c.energy(&HeadState::rest(), &strand.geometry, q).0);
+        (kinetic, elastic + gravity + loads + touching)
     }
 }
 

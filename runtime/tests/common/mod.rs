@@ -125,6 +125,7 @@ pub fn setup(
 ) -> SimulationSetup {
     SimulationSetup {
         electrostatics: None,
+        contacts: None,
         config,
         environment: Environment { gravity },
         head,

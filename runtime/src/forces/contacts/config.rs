@@ -1,0 +1,219 @@
+//! What a scene's `[contacts]` table asks for: which bodies the strands touch, how thick
+//! a strand is for contacts, the penalty of the normal response, the friction model, and
+//! optionally hair–hair interaction (`[contacts.hair_hair]`).
+
+use crate::error::FieldError;
+
+/// Standard gravity used to scale the default penalty stiffness, m/s² (independent of the
+/// scene's gravity, so that the default does not vanish without gravity).
+pub const STANDARD_GRAVITY: f64 = 9.80665;
+
+/// Default penalty stiffness relative to a strand's weight per length and contact radius:
+/// `k = DEFAULT_STIFFNESS_FACTOR · ρS g₀ / r`, so that a strand resting on a body under
+/// its own weight sinks by `r / DEFAULT_STIFFNESS_FACTOR`.
+pub const DEFAULT_STIFFNESS_FACTOR: f64 = 1e4;
+
+/// How the tangential (friction) force of a hair–body contact is modelled.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Friction {
+    /// Frictionless contact.
+    None,
+    /// The paper's tangential viscous friction (section 4.2), scaled by the normal force:
+    /// `f_t = −μ(θ) f_n v_t / v_s`, Coulomb's force at the slip speed v_s.
+    Viscous {
+        /// μ, ≥ 0.
+        coefficient: f64,
+        /// v_s, m/s, > 0.
+        slip_speed: f64,
+    },
+    /// Coulomb friction with real sticking: each contact point is held to an anchor on
+    /// the body by a tangential spring while `|f_t| ≤ μ_s(θ) f_n`, and slides (its anchor
+    /// dragged behind it) with `|f_t| = μ_k(θ) f_n` otherwise.
+    Coulomb {
+        /// μ_s, ≥ 0.
+        static_coefficient: f64,
+        /// μ_k, in [0, μ_s].
+        kinetic_coefficient: f64,
+        /// Tangential spring stiffness over the normal penalty stiffness, > 0.
+        stiffness_ratio: f64,
+    },
+}
+
+/// Hair–hair interaction between the simulated strands (Choe et al. 2005: dissipative
+/// penalty forces between hair volumes; pairs tracked over time after Raghupathi et al.
+/// 2003).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HairHairConfig {
+    /// Radius of the hair volume a strand stands for, m: two strands interact when their
+    /// centrelines come closer than twice this.
+    pub radius: f64,
+    /// Penalty stiffness, N/m² (force per metre of strand per metre of overlap); `None`:
+    /// the same default rule as hair–body contacts.
+    pub stiffness: Option<f64>,
+    /// Damping ratio of the relative velocity of the two points (normal and tangential),
+    /// in [0, 10]: the dissipative part of the penalty.
+    pub damping_ratio: f64,
+    /// Steps between two searches of the broad phase (a spatial grid over every sample);
+    /// between them the pairs found are tracked by their closest points.
+    pub search_every: usize,
+}
+
+impl Default for HairHairConfig {
+    fn default() -> Self {
+        HairHairConfig {
+            radius: 2e-3,
+            stiffness: None,
+            damping_ratio: 1.0,
+            search_every: 1,
+        }
+    }
+}
+
+/// The scene's `[contacts]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContactConfig {
+    /// Names of the bodies the strands touch; `None`: every body of the scene.
+    pub bodies: Option<Vec<String>>,
+    /// Contact radius of a strand, m: a centreline point touches a body when it comes
+    /// closer to the surface than this. A guide strand stands for a clump: its radius is
+    /// the clump's, not a fibre's.
+    pub radius: f64,
+    /// Normal penalty stiffness, N/m² (force per metre of strand per metre of depth);
+    /// `None`: [`DEFAULT_STIFFNESS_FACTOR`] `ρS g₀ / radius` for each strand.
+    pub stiffness: Option<f64>,
+    /// Damping ratio of the normal response, in [0, 10]: `c = 2 ζ √(k ρS)` per metre.
+    pub damping_ratio: f64,
+    /// Depth, m, beyond which the normal force stops growing (a strand that starts inside
+    /// a body is pushed out over several steps, never kicked out); `None`: the radius.
+    pub max_depth: Option<f64>,
+    /// The friction model.
+    pub friction: Friction,
+    /// Anisotropy α of the friction coefficient, in [0, 1): `μ(θ) = μ (1 + α cos θ)`,
+    /// θ the angle between the fibre's root-to-tip tangent and its sliding direction
+    /// (sliding towards the tip rubs against the cuticle scales: more friction).
+    pub anisotropy: f64,
+    /// Contact points per helical element, 1 to 64.
+    pub samples_per_element: usize,
+    /// A step that takes a contact point deeper than this (m) beyond its depth at the
+    /// start of the step is split; `None`: the radius.
+    pub split_depth: Option<f64>,
+    /// Hair–hair interaction; `None`: none, nothing built for it.
+    pub hair_hair: Option<HairHairConfig>,
+}
+
+impl Default for ContactConfig {
+    fn default() -> Self {
+        ContactConfig {
+            bodies: None,
+            radius: 1e-3,
+            stiffness: None,
+            damping_ratio: 0.5,
+            max_depth: None,
+            friction: Friction::Viscous {
+                coefficient: 0.3,
+                slip_speed: 0.05,
+            },
+            anisotropy: 0.3,
+            samples_per_element: 4,
+            split_depth: None,
+            hair_hair: None,
+        }
+    }
+}
+
+fn range(
+    errors: &mut Vec<FieldError>,
+    field: &str,
+    x: f64,
+    lo: f64,
+    hi: f64,
+    lo_open: bool,
+    text: &str,
+) {
+    let ok = x.is_finite() && (if lo_open { x > lo } else { x >= lo }) && x <= hi;
+    if !ok {
+        errors.push(FieldError::new(field, format!("{x}: must be in {text}")));
+    }
+}
+
+impl ContactConfig {
+    /// The problems of the configuration (field paths `contacts.…`).
+    pub fn check(&self) -> Vec<FieldError> {
+        let mut e = Vec::new();
+        range(&mut e, "contacts.radius", self.radius, 0.0, 0.1, true, "(0, 0.1] m");
+        if let Some(k) = self.stiffness {
+            range(&mut e, "contacts.stiffness", k, 0.0, 1e9, true, "(0, 1e9] N/m²");
+        }
+        range(&mut e, "contacts.damping_ratio", self.damping_ratio, 0.0, 10.0, false, "[0, 10]");
+        if let Some(d) = self.max_depth {
+            range(&mut e, "contacts.max_depth", d, 0.0, 1.0, true, "(0, 1] m");
+        }
+        if let Some(d) = self.split_depth {
+            range(&mut e, "contacts.split_depth", d, 0.0, 1.0, true, "(0, 1] m");
+        }
+        range(&mut e, "contacts.anisotropy", self.anisotropy, 0.0, 0.99, false, "[0, 0.99]");
+        if !(1..=64).contains(&self.samples_per_element) {
+            e.push(FieldError::new(
+                "contacts.samples_per_element",
+                format!("{}: must be in 1..=64", self.samples_per_element),
+            ));
+        }
+        match self.friction {
+            Friction::None => {}
+            Friction::Viscous {
+                coefficient,
+                slip_speed,
+            } => {
+                range(&mut e, "contacts.friction_coefficient", coefficient, 0.0, 10.0, false, "[0, 10]");
+                range(&mut e, "contacts.slip_speed", slip_speed, 0.0, 100.0, true, "(0, 100] m/s");
+            }
+            Friction::Coulomb {
+                static_coefficient,
+                kinetic_coefficient,
+                stiffness_ratio,
+            } => {
+                range(&mut e, "contacts.friction_coefficient", static_coefficient, 0.0, 10.0, false, "[0, 10]");
+                if !(kinetic_coefficient.is_finite()
+                    && kinetic_coefficient >= 0.0
+                    && kinetic_coefficient <= static_coefficient)
+                {
+                    e.push(FieldError::new(
+                        "contacts.kinetic_friction_coefficient",
+                        format!("{kinetic_coefficient}: must be in [0, friction_coefficient]"),
+                    ));
+                }
+                range(&mut e, "contacts.tangential_stiffness_ratio", stiffness_ratio, 0.0, 100.0, true, "(0, 100]");
+            }
+        }
+        if let Some(h) = &self.hair_hair {
+            range(&mut e, "contacts.hair_hair.radius", h.radius, 0.0, 0.1, true, "(0, 0.1] m");
+            if let Some(k) = h.stiffness {
+                range(&mut e, "contacts.hair_hair.stiffness", k, 0.0, 1e9, true, "(0, 1e9] N/m²");
+            }
+            range(&mut e, "contacts.hair_hair.damping_ratio", h.damping_ratio, 0.0, 10.0, false, "[0, 10]");
+            if !(1..=1000).contains(&h.search_every) {
+                e.push(FieldError::new(
+                    "contacts.hair_hair.search_every",
+                    format!("{}: must be in 1..=1000", h.search_every),
+                ));
+            }
+        }
+        e
+    }
+
+    /// The depth beyond which the normal force stops growing, m.
+    pub fn max_depth(&self) -> f64 {
+        self.max_depth.unwrap_or(self.radius)
+    }
+
+    /// The depth increase in one step beyond which the step is split, m.
+    pub fn split_depth(&self) -> f64 {
+        self.split_depth.unwrap_or(self.radius)
+    }
+
+    /// The normal penalty stiffness for a strand of mass per length `rho_s`, N/m².
+    pub fn stiffness_for(&self, rho_s: f64) -> f64 {
+        self.stiffness
+            .unwrap_or(DEFAULT_STIFFNESS_FACTOR * rho_s * STANDARD_GRAVITY / self.radius)
+    }
+}

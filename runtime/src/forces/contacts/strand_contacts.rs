@@ -1,0 +1,643 @@
+//! The contacts of one strand: penalty forces at sample points of its centreline against
+//! the scene's bodies (the paper's section 4.2: "a normal elastic response together with
+//! a tangential viscous friction force", anisotropic by "a cosine function [of] the
+//! orientation of hair fibers with respect to their sliding motion") and against the
+//! points of other strands it was paired with (hair–hair, [`super::hair_hair`]), with
+//! their stiffness and damping in the implicit step's matrices.
+//!
+//! Everything is computed in head coordinates. A sample at arc length s sits at y(s); a
+//! body attached to the head is fixed there, a body fixed in the world moves through the
+//! head frame with velocity `u = −(Rᵀ Ẋ + ω × y)`. For a sample of weight w (the arc
+//! length it stands for) at depth δ = r − d (d the signed distance to the surface, n the
+//! outward normal):
+//!
+//! ```text
+//! f_n = k w min(δ, δ_max) n                         normal penalty (elastic)
+//! f_d = −c w (n · v) n,  c = 2 ζ √(k ρS)            normal damping (dissipative)
+//! f_t = −μ(θ) |f_n| P v / v_s                       viscous friction, P = I − n nᵀ
+//!     or −k_t w P (y − a), |f_t| ≤ μ_s(θ) |f_n|     Coulomb: spring to an anchor a
+//! μ(θ) = μ (1 + α cos θ),  cos θ = t̂ · (sliding direction)
+//! ```
+//!
+//! v is the point's velocity relative to the body. The generalized force is Jᵀ f; the
+//! stiffness `−k w Jᵀ n nᵀ J − k_t w Jᵀ P J` plus the Hessian of y contracted with the
+//! elastic forces; the damping `−Jᵀ (c w n nᵀ + c_t P) J`. Both matrices of the contact
+//! part are symmetric negative semidefinite: they make the linearly implicit step stable
+//! at any penalty stiffness. Beyond δ_max the normal force is constant (no stiffness): a
+//! strand that starts inside a body is pushed out over several steps, never kicked.
+
+use super::config::{ContactConfig, Friction, HairHairConfig, STANDARD_GRAVITY};
+use crate::bodies::{Attachment, Body};
+use crate::forces::head_motion::HeadState;
+use crate::kernels::kernel::{StrandKernel, StrandTerms, Terms};
+use crate::model::element::local_pose;
+use crate::model::reconstruction::{darboux, pose_at, Pose};
+use crate::model::strand::StrandGeometry;
+use faer::Mat;
+use nalgebra::{Matrix3, Vector3};
+use std::sync::Arc;
+
+/// The resolved contact parameters of one strand.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactParams {
+    /// Contact radius r, m.
+    pub radius: f64,
+    /// Normal penalty stiffness k, N/m².
+    pub stiffness: f64,
+    /// Normal damping c per metre, N·s/m².
+    pub damping: f64,
+    /// δ_max, m.
+    pub max_depth: f64,
+    /// A step deepening a contact by more than this is split, m.
+    pub split_depth: f64,
+    /// Friction model.
+    pub friction: Friction,
+    /// α.
+    pub anisotropy: f64,
+}
+
+impl ContactParams {
+    /// The parameters of `config` for a strand of mass per length `rho_s`.
+    pub fn new(config: &ContactConfig, rho_s: f64) -> Self {
+        let k = config.stiffness_for(rho_s);
+        ContactParams {
+            radius: config.radius,
+            stiffness: k,
+            damping: 2.0 * config.damping_ratio * (k * rho_s).sqrt(),
+            max_depth: config.max_depth(),
+            split_depth: config.split_depth(),
+            friction: config.friction,
+            anisotropy: config.anisotropy,
+        }
+    }
+}
+
+/// Hair–hair penalty parameters of one strand.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HairHairParams {
+    /// Radius of the hair volume, m.
+    pub radius: f64,
+    /// Penalty stiffness, N/m².
+    pub stiffness: f64,
+    /// Damping per metre, N·s/m².
+    pub damping: f64,
+}
+
+impl HairHairParams {
+    /// The parameters of `config` for a strand of mass per length `rho_s`.
+    pub fn new(config: &HairHairConfig, rho_s: f64) -> Self {
+        let k = config.stiffness.unwrap_or(
+            super::config::DEFAULT_STIFFNESS_FACTOR * rho_s * STANDARD_GRAVITY / config.radius,
+        );
+        HairHairParams {
+            radius: config.radius,
+            stiffness: k,
+            damping: 2.0 * config.damping_ratio * (k * rho_s).sqrt(),
+        }
+    }
+}
+
+/// A point of another strand that one of this strand's samples was paired with for the
+/// coming step (hair–hair): it acts as a moving ball of radius `reach` around `point`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PartnerPoint {
+    /// This strand's arc length at the pair's closest point, m.
+    pub s: f64,
+    /// The arc length the pair stands for, m.
+    pub weight: f64,
+    /// The other strand's point, world coordinates, m.
+    pub point: Vector3<f64>,
+    /// Its velocity, world coordinates, m/s.
+    pub velocity: Vector3<f64>,
+    /// Distance below which the two interact (the sum of the two volumes' radii), m.
+    pub reach: f64,
+}
+
+/// Where a sticking contact point is held (Coulomb friction): a point of a body, in that
+/// body's coordinates (head coordinates for a body on the head, world otherwise).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Anchor {
+    body: usize,
+    point: Vector3<f64>,
+    /// The point slid over the last step: the spring holds the kinetic force and has no
+    /// stiffness along the sliding direction.
+    sliding: bool,
+}
+
+/// What the last evaluation found, for diagnostics and tests.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ContactSummary {
+    /// Samples touching a body.
+    pub body_contacts: usize,
+    /// Samples touching another strand.
+    pub hair_contacts: usize,
+    /// Deepest sample inside a body (distance of the centreline below the surface,
+    /// not the contact radius), m (0: none inside).
+    pub max_penetration: f64,
+    /// Sum of the normal forces of the bodies (elastic part), N.
+    pub normal_force: f64,
+}
+
+/// One sample's contact with a body at the current state.
+#[derive(Debug, Clone, Copy)]
+struct BodyHit {
+    body: usize,
+    distance: f64,
+    normal: Vector3<f64>,
+}
+
+/// The contacts of one strand (see the module page).
+pub struct StrandContacts {
+    bodies: Arc<[Body]>,
+    params: ContactParams,
+    hair: Option<HairHairParams>,
+    /// Arc lengths and weights of the samples.
+    samples: Vec<(f64, f64)>,
+    anchors: Vec<Option<Anchor>>,
+    partners: Vec<PartnerPoint>,
+    /// Positions and unit tangents of the samples at the last [`Self::sample_poses`].
+    poses: Vec<(Vector3<f64>, Vector3<f64>)>,
+    aj: Vec<Vector3<f64>>,
+    summary: ContactSummary,
+}
+
+/// Sample arc lengths and weights: `per` points per element at the centres of equal
+/// parts (the midpoint rule).
+fn sample_points(geom: &StrandGeometry, per: usize) -> Vec<(f64, f64)> {
+    let mut out = Vec::with_capacity(geom.lengths.len() * per);
+    let mut start = 0.0;
+    for &l in &geom.lengths {
+        for j in 0..per {
+            out.push((start + l * (j as f64 + 0.5) / per as f64, l / per as f64));
+        }
+        start += l;
+    }
+    out
+}
+
+impl StrandContacts {
+    /// The contacts of a strand of geometry `geom` with `bodies` (and other strands when
+    /// `hair` is given), `per` samples per element.
+    pub fn new(
+        geom: &StrandGeometry,
+        bodies: Arc<[Body]>,
+        params: ContactParams,
+        hair: Option<HairHairParams>,
+        per: usize,
+    ) -> Self {
+        let samples = sample_points(geom, per.max(1));
+        let n = samples.len();
+        StrandContacts {
+            bodies,
+            params,
+            hair,
+            anchors: vec![None; n],
+            partners: Vec::new(),
+            poses: vec![(Vector3::zeros(), Vector3::zeros()); n],
+            aj: vec![Vector3::zeros(); geom.dofs()],
+            samples,
+            summary: ContactSummary::default(),
+        }
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &ContactParams {
+        &self.params
+    }
+
+    /// The hair–hair parameters, when hair–hair interaction is on.
+    pub fn hair_params(&self) -> Option<&HairHairParams> {
+        self.hair.as_ref()
+    }
+
+    /// Arc lengths and weights of the samples.
+    pub fn samples(&self) -> &[(f64, f64)] {
+        &self.samples
+    }
+
+    /// What the last evaluation found.
+    pub fn summary(&self) -> ContactSummary {
+        self.summary
+    }
+
+    /// Set the partner points of the coming step (hair–hair).
+    pub fn set_partners(&mut self, partners: impl IntoIterator<Item = PartnerPoint>) {
+        self.partners.clear();
+        self.partners.extend(partners);
+    }
+
+    /// Whether the contact energy may change between steps without the strand moving
+    /// (anchors slide, partners change): then the energy of a step's start must be
+    /// measured again rather than taken from the end of the previous step.
+    pub fn has_history(&self) -> bool {
+        self.hair.is_some() || matches!(self.params.friction, Friction::Coulomb { .. })
+    }
+
+    /// The sample positions of the last [`Self::sample_poses`], head coordinates.
+    pub fn sample_positions(&self) -> impl Iterator<Item = Vector3<f64>> + '_ {
+        self.poses.iter().map(|p| p.0)
+    }
+
+    /// Positions y(s) and unit tangents of the samples at q, head coordinates.
+    pub fn sample_poses(&mut self, geom: &StrandGeometry, q: &[f64]) {
+        let mut start = Pose {
+            position: geom.root_position,
+            frame: geom.root_frame,
+        };
+        let mut k = 0;
+        let mut s0 = 0.0;
+        for (e, &l) in geom.lengths.iter().enumerate() {
+            let d = darboux(q, e);
+            while k < self.samples.len() && (self.samples[k].0 <= s0 + l || e + 1 == geom.lengths.len()) {
+                let (f, p) = local_pose(&d, self.samples[k].0 - s0);
+                let frame = start.frame * f;
+                self.poses[k] = (start.position + start.frame * p, frame.column(0).into());
+                k += 1;
+            }
+            let (f, p) = local_pose(&d, l);
+            start = Pose {
+                position: start.position + start.frame * p,
+                frame: start.frame * f,
+            };
+            s0 += l;
+        }
+    }
+
+    /// The body a head-frame point `y` touches most deeply (within the contact radius),
+    /// with the head in `head`.
+    fn body_hit(&self, head: &HeadState, y: &Vector3<f64>) -> Option<BodyHit> {
+        let mut best: Option<BodyHit> = None;
+        for (b, body) in self.bodies.iter().enumerate() {
+            let (distance, normal) = match body.attached {
+                Attachment::Head => {
+                    let p = body.shape.query(y);
+                    (p.distance, p.normal)
+                }
+                Attachment::World => {
+                    let x = head.position + head.rotation * y;
+                    let p = body.shape.query(&x);
+                    (p.distance, head.rotation.transpose() * p.normal)
+                }
+            };
+            if distance < self.params.radius && best.is_none_or(|h| distance < h.distance) {
+                best = Some(BodyHit {
+                    body: b,
+                    distance,
+                    normal,
+                });
+            }
+        }
+        best
+    }
+
+    /// The velocity, head coordinates, of body `b`'s material point at head-frame `y`.
+    fn body_velocity(&self, head: &HeadState, b: usize, y: &Vector3<f64>) -> Vector3<f64> {
+        match self.bodies[b].attached {
+            Attachment::Head => Vector3::zeros(),
+            Attachment::World => -(head.rotation.transpose() * head.velocity + head.omega.cross(y)),
+        }
+    }
+
+    /// The anchor of sample `k` in head coordinates when it is held to body `b`, and
+    /// whether it slid over the last step.
+    fn anchor_at(&self, head: &HeadState, k: usize, b: usize) -> Option<(Vector3<f64>, bool)> {
+        let a = self.anchors[k].filter(|a| a.body == b)?;
+        let point = match self.bodies[b].attached {
+            Attachment::Head => a.point,
+            Attachment::World => head.rotation.transpose() * (a.point - head.position),
+        };
+        Some((point, a.sliding))
+    }
+
+    /// The elastic forces (normal penalty and Coulomb spring) of sample `k` touching `hit`
+    /// at `y` with tangent `t`, head coordinates; the normal stiffness of the sample (k w
+    /// while below δ_max, else 0) and the tangential stiffness matrix of the spring (k_t w P
+    /// while it sticks; while it slides, or is stretched beyond the static limit, the
+    /// force is the kinetic one along the slip and only its turning has stiffness:
+    /// `(|f_t| / |slip|) (P − ŝŝᵀ)`).
+    fn elastic(
+        &self,
+        head: &HeadState,
+        k: usize,
+        hit: &BodyHit,
+        y: &Vector3<f64>,
+        t: &Vector3<f64>,
+    ) -> (Vector3<f64>, Vector3<f64>, f64, Matrix3<f64>) {
+        let p = &self.params;
+        let w = self.samples[k].1;
+        let depth = p.radius - hit.distance;
+        let n = hit.normal;
+        let normal = p.stiffness * w * depth.min(p.max_depth) * n;
+        let kn = if depth < p.max_depth {
+            p.stiffness * w
+        } else {
+            0.0
+        };
+        let (mut spring, mut kt) = (Vector3::zeros(), Matrix3::zeros());
+        if let Friction::Coulomb {
+            static_coefficient,
+            kinetic_coefficient,
+            stiffness_ratio,
+        } = p.friction
+        {
+            if let Some((a, sliding)) = self.anchor_at(head, k, hit.body) {
+                let tangent_plane = Matrix3::identity() - n * n.transpose();
+                let slip = tangent_plane * (y - a);
+                let stiff = stiffness_ratio * p.stiffness * w;
+                let norm = slip.norm();
+                let cos = if norm > 0.0 { t.dot(&slip) / norm } else { 0.0 };
+                let scale = 1.0 + p.anisotropy * cos;
+                let limit = static_coefficient * scale * normal.norm();
+                if (sliding || stiff * norm > limit) && norm > 0.0 {
+                    let kinetic = kinetic_coefficient * scale * normal.norm();
+                    let dir = slip / norm;
+                    spring = -kinetic * dir;
+                    kt = (kinetic / norm) * (tangent_plane - dir * dir.transpose());
+                } else {
+                    spring = -stiff * slip;
+                    kt = stiff * tangent_plane;
+                }
+            }
+        }
+        (normal, spring, kn, kt)
+    }
+
+    /// Add the contact forces at (q, q̇) with the head in `head` to `out` (force, and the
+    /// stiffness and damping when `terms` asks): see the module page. Returns whether a
+    /// contact added stiffness. `jac` is 3N columns of scratch.
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_to_terms(
+        &mut self,
+        head: &HeadState,
+        kernel: &mut dyn StrandKernel,
+        q: &[f64],
+        v: &[f64],
+        terms: Terms,
+        jac: &mut [Vector3<f64>],
+        out: &mut StrandTerms,
+    ) -> bool {
+        self.sample_poses(kernel.geometry(), q);
+        let mut summary = ContactSummary::default();
+        let mut stiffened = false;
+        for k in 0..self.samples.len() {
+            let (y, t) = self.poses[k];
+            let Some(hit) = self.body_hit(head, &y) else {
+                continue;
+            };
+            let (s, w) = self.samples[k];
+            summary.body_contacts += 1;
+            summary.max_penetration = summary.max_penetration.max(-hit.distance);
+            let (normal, spring, kn, kt) = self.elastic(head, k, &hit, &y, &t);
+            summary.normal_force += normal.norm();
+            let elastic = normal + spring;
+            let hess = terms.stiffness.then_some((elastic, &mut out.stiffness));
+            kernel.point(q, s, jac, hess);
+            let n = hit.normal;
+            let mut force = elastic;
+            let mut damping = Matrix3::zeros();
+            {
+                let vel = velocity(jac, v) - self.body_velocity(head, hit.body, &y);
+                let cn = self.params.damping * w;
+                force -= cn * n.dot(&vel) * n;
+                damping -= cn * n * n.transpose();
+                if let Friction::Viscous {
+                    coefficient,
+                    slip_speed,
+                } = self.params.friction
+                {
+                    let p = Matrix3::identity() - n * n.transpose();
+                    let slide = p * vel;
+                    let norm = slide.norm();
+                    let cos = if norm > 0.0 { t.dot(&slide) / norm } else { 0.0 };
+                    let ct = coefficient * (1.0 + self.params.anisotropy * cos) * normal.norm()
+                        / slip_speed;
+                    force -= ct * slide;
+                    damping -= ct * p;
+                }
+            }
+            if terms.force {
+                add_force(jac, &force, &mut out.force);
+            }
+            if terms.stiffness {
+                let a = -kn * n * n.transpose() - kt;
+                add_projected(jac, &a, &mut self.aj, &mut out.stiffness);
+                stiffened = true;
+            }
+            if terms.damping {
+                add_projected(jac, &damping, &mut self.aj, &mut out.damping);
+            }
+        }
+        if let Some(hh) = self.hair {
+            for i in 0..self.partners.len() {
+                let partner = self.partners[i];
+                let (s, w) = (partner.s, partner.weight);
+                let y = kernel.point(q, s, jac, None);
+                let p = head.rotation.transpose() * (partner.point - head.position);
+                let d = (y - p).norm();
+                if d >= partner.reach || d == 0.0 {
+                    continue;
+                }
+                summary.hair_contacts += 1;
+                let n = (y - p) / d;
+                let mut force = hh.stiffness * w * (partner.reach - d) * n;
+                // the partner's velocity as seen in the head frame
+                let vp = head.rotation.transpose() * (partner.velocity - head.velocity)
+                    - head.omega.cross(&p);
+                let vel = velocity(jac, v) - vp;
+                force -= hh.damping * w * vel;
+                if terms.force {
+                    add_force(jac, &force, &mut out.force);
+                }
+                if terms.stiffness {
+                    let a = -hh.stiffness * w * n * n.transpose();
+                    add_projected(jac, &a, &mut self.aj, &mut out.stiffness);
+                    stiffened = true;
+                }
+                if terms.damping {
+                    let a = -hh.damping * w * Matrix3::identity();
+                    add_projected(jac, &a, &mut self.aj, &mut out.damping);
+                }
+            }
+        }
+        self.summary = summary;
+        stiffened
+    }
+
+    /// The contact potential at q with the head in `head` (normal penalty, Coulomb springs,
+    /// hair–hair penalty), J; and its rate at fixed q through the motion of what the
+    /// strand touches (bodies fixed in the world while the head moves, partner points), W.
+    pub fn energy(&mut self, head: &HeadState, geom: &StrandGeometry, q: &[f64]) -> (f64, f64) {
+        self.sample_poses(geom, q);
+        let p = self.params;
+        let (mut potential, mut rate) = (0.0, 0.0);
+        for k in 0..self.samples.len() {
+            let (y, t) = self.poses[k];
+            let Some(hit) = self.body_hit(head, &y) else {
+                continue;
+            };
+            let w = self.samples[k].1;
+            let depth = p.radius - hit.distance;
+            let kw = p.stiffness * w;
+            potential += if depth <= p.max_depth {
+                0.5 * kw * depth * depth
+            } else {
+                kw * p.max_depth * (depth - 0.5 * p.max_depth)
+            };
+            let (normal, spring, _, _) = self.elastic(head, k, &hit, &y, &t);
+            if let Friction::Coulomb {
+                stiffness_ratio, ..
+            } = p.friction
+            {
+                potential += 0.5 * spring.norm_squared() / (stiffness_ratio * kw);
+            }
+            let u = self.body_velocity(head, hit.body, &y);
+            rate += (normal + spring).dot(&u);
+        }
+        if let Some(hh) = self.hair {
+            for partner in &self.partners {
+                let y = pose_at(geom, q, partner.s).position;
+                let w = partner.weight;
+                let pt = head.rotation.transpose() * (partner.point - head.position);
+                let d = (y - pt).norm();
+                if d >= partner.reach || d == 0.0 {
+                    continue;
+                }
+                let overlap = partner.reach - d;
+                potential += 0.5 * hh.stiffness * w * overlap * overlap;
+                let vp = head.rotation.transpose() * (partner.velocity - head.velocity)
+                    - head.omega.cross(&pt);
+                rate += hh.stiffness * w * overlap * ((y - pt) / d).dot(&vp);
+            }
+        }
+        (potential, rate)
+    }
+
+    /// The deepest penetration of the contact radius by a sample at q, m (0: none).
+    pub fn max_depth(&mut self, head: &HeadState, geom: &StrandGeometry, q: &[f64]) -> f64 {
+        self.sample_poses(geom, q);
+        (0..self.samples.len())
+            .filter_map(|k| self.body_hit(head, &self.poses[k].0))
+            .map(|h| self.params.radius - h.distance)
+            .fold(0.0, f64::max)
+    }
+
+    /// Whether a step from `q0` to `q1` (head in `head` at its end) is acceptable for the
+    /// contacts: no sample got deeper into a body, or into a partner's ball, than
+    /// [`ContactParams::split_depth`] beyond its depth at the start. The depth in a
+    /// partner's ball is measured along the line of centres at the start, so that a step
+    /// that carries a point through the other strand counts as deep.
+    pub fn step_acceptable(
+        &mut self,
+        head: &HeadState,
+        geom: &StrandGeometry,
+        q0: &[f64],
+        q1: &[f64],
+    ) -> bool {
+        let split = self.params.split_depth;
+        let body_depths = |c: &mut Self, q: &[f64], out: &mut Vec<f64>| {
+            c.sample_poses(geom, q);
+            out.clear();
+            out.extend((0..c.samples.len()).map(|k| {
+                c.body_hit(head, &c.poses[k].0)
+                    .map_or(0.0, |h| c.params.radius - h.distance)
+            }));
+        };
+        let (mut before, mut after) = (Vec::new(), Vec::new());
+        body_depths(self, q0, &mut before);
+        body_depths(self, q1, &mut after);
+        if !before.iter().zip(&after).all(|(b, a)| *a <= b.max(0.0) + split) {
+            return false;
+        }
+        let rt = head.rotation.transpose();
+        self.partners.iter().all(|p| {
+            let pt = rt * (p.point - head.position);
+            let d0 = pose_at(geom, q0, p.s).position - pt;
+            let norm = d0.norm();
+            if norm == 0.0 {
+                return true;
+            }
+            let along = (pose_at(geom, q1, p.s).position - pt).dot(&(d0 / norm));
+            p.reach - along <= (p.reach - norm).max(0.0) + split
+        })
+    }
+
+    /// After an accepted step (state q, head in `head`): stick new contact points where
+    /// they are, drag sliding anchors to the friction cone's edge, release the points that
+    /// left their body (Coulomb friction only).
+    pub fn update_anchors(&mut self, head: &HeadState, geom: &StrandGeometry, q: &[f64]) {
+        let Friction::Coulomb {
+            static_coefficient,
+            kinetic_coefficient,
+            stiffness_ratio,
+        } = self.params.friction
+        else {
+            return;
+        };
+        self.sample_poses(geom, q);
+        for k in 0..self.samples.len() {
+            let (y, t) = self.poses[k];
+            let Some(hit) = self.body_hit(head, &y) else {
+                self.anchors[k] = None;
+                continue;
+            };
+            let n = hit.normal;
+            let w = self.samples[k].1;
+            let depth = self.params.radius - hit.distance;
+            let fn_ = self.params.stiffness * w * depth.min(self.params.max_depth);
+            let stiff = stiffness_ratio * self.params.stiffness * w;
+            let (anchor, sliding) = match self.anchor_at(head, k, hit.body) {
+                Some((a, was_sliding)) => {
+                    let slip = (y - a) - n * n.dot(&(y - a));
+                    let norm = slip.norm();
+                    let cos = if norm > 0.0 { t.dot(&slip) / norm } else { 0.0 };
+                    let scale = 1.0 + self.params.anisotropy * cos;
+                    // the stretch the kinetic force holds, and the static limit's
+                    let keep = kinetic_coefficient * scale * fn_ / stiff;
+                    let limit = static_coefficient * scale * fn_ / stiff;
+                    let slides = if was_sliding { norm > keep } else { norm > limit };
+                    if slides && norm > 0.0 {
+                        // slide: the anchor is dragged behind, the spring holds the
+                        // kinetic force
+                        (y - slip * (keep / norm), true)
+                    } else {
+                        (a, false)
+                    }
+                }
+                None => (y, false),
+            };
+            let point = match self.bodies[hit.body].attached {
+                Attachment::Head => anchor,
+                Attachment::World => head.position + head.rotation * anchor,
+            };
+            self.anchors[k] = Some(Anchor {
+                body: hit.body,
+                point,
+                sliding,
+            });
+        }
+    }
+}
+
+/// ẏ = J q̇.
+fn velocity(jac: &[Vector3<f64>], v: &[f64]) -> Vector3<f64> {
+    jac.iter().zip(v).map(|(c, &x)| c * x).sum()
+}
+
+/// `force += Jᵀ f`.
+fn add_force(jac: &[Vector3<f64>], f: &Vector3<f64>, force: &mut [f64]) {
+    for (i, c) in jac.iter().enumerate() {
+        force[i] += c.dot(f);
+    }
+}
+
+/// `m += Jᵀ A J` (A symmetric), `aj` scratch of 3N columns.
+fn add_projected(jac: &[Vector3<f64>], a: &Matrix3<f64>, aj: &mut [Vector3<f64>], m: &mut Mat<f64>) {
+    for (o, c) in aj.iter_mut().zip(jac) {
+        *o = a * c;
+    }
+    for (j, col) in aj.iter().enumerate() {
+        for (i, c) in jac.iter().enumerate() {
+            m[(i, j)] += c.dot(col);
+        }
+    }
+}

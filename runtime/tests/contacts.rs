@@ -1,0 +1,246 @@
+//! Contacts against references nobody here wrote: a cantilever propped by a cylinder
+//! (beam theory), the dynamic rest state against the static solve, static friction on a
+//! slope below and above the friction angle, and two strands that must not pass through
+//! each other.
+
+use superhelix_runtime::{parse_scene, Simulation};
+
+fn sim(text: &str) -> Simulation {
+    let setup = parse_scene(text).unwrap_or_else(|e| panic!("{e}"));
+    Simulation::new(setup, None).unwrap_or_else(|e| panic!("{e}"))
+}
+
+const L: f64 = 0.03;
+const CONTACT_RADIUS: f64 = 1e-4;
+const CYLINDER_RADIUS: f64 = 0.01;
+
+/// A straight, round 3 cm strand clamped horizontally at the origin, its tip resting on a
+/// horizontal cylinder (a long capsule along y) whose top is under the tip.
+fn propped(mode: &str, extra: &str) -> String {
+    format!(
+        r#"
+[simulation]
+mode = "{mode}"
+dt = 0.005
+duration = 3.0
+[[bodies]]
+name = "cylinder"
+shape = "capsule"
+attached = "world"
+start = [{L}, -1.0, {z}]
+end = [{L}, 1.0, {z}]
+radius = {CYLINDER_RADIUS}
+[contacts]
+radius = {CONTACT_RADIUS}
+stiffness = 1e6
+friction = "none"
+samples_per_element = 64
+{extra}
+[[strands]]
+root = [0.0, 0.0, 0.0]
+direction = [1.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+length = {L}
+elements = 10
+radius = 5e-5
+ellipticity = 1.0
+youngs_modulus = 3.9e9
+natural = [0.0, 0.0, 0.0]
+initial = "straight"
+internal_friction = 5e-10
+air_drag = 5e-4
+"#,
+        z = -CYLINDER_RADIUS - CONTACT_RADIUS
+    )
+}
+
+/// Propped cantilever under its own weight w (fixed at x = 0, simply supported at x = L):
+/// deflection `w x² (3L² − 5Lx + 2x²) / (48 EI)` and prop reaction `3wL/8`.
+fn propped_deflection(w: f64, ei: f64, x: f64) -> f64 {
+    w * x * x * (3.0 * L * L - 5.0 * L * x + 2.0 * x * x) / (48.0 * ei)
+}
+
+#[test]
+fn a_cantilever_propped_by_a_cylinder_matches_beam_theory() {
+    let mut s = sim(&propped("static", ""));
+    s.solve_static().expect("static solve");
+    let m = &s.strand(0).material;
+    let (ei, w) = (m.stiffness[1], m.mass_per_length * 9.81);
+    let reaction = s.contact_summary(0).expect("contacts").normal_force;
+    let expected = 3.0 * w * L / 8.0;
+    // the reaction of a prop at the tip; the contact sits within one sample spacing
+    // (0.375 mm, 1.25 % of L) of the tip, which moves the reaction by about as much
+    let rel = (reaction - expected).abs() / expected;
+    assert!(rel < 0.03, "reaction {reaction:.4e} N vs 3wL/8 = {expected:.4e} N ({rel:.2e})");
+    // the deflection where it is largest (x = 0.5785 L) and at a quarter and three
+    // quarters; beam theory is linear: the strand deflects by ~1e-3 L here, its
+    // nonlinear terms are O(1e-6) relative
+    let vmax = propped_deflection(w, ei, 0.5785 * L);
+    for x in [0.25 * L, 0.5785 * L, 0.75 * L] {
+        let z = s.position_at(0, x).z;
+        let v = propped_deflection(w, ei, x);
+        let err = (-z - v).abs() / vmax;
+        assert!(err < 0.03, "x = {x}: deflection {:.4e} m vs {v:.4e} m ({err:.2e} of the largest)", -z);
+    }
+    // the tip rests on the cylinder at the contact radius, sunk by the penalty's depth
+    let tip = s.position_at(0, L);
+    assert!(tip.z.abs() < 0.05 * vmax, "tip at z = {:.3e} m", tip.z);
+}
+
+#[test]
+fn the_dynamic_rest_state_on_the_cylinder_is_the_static_solution() {
+    let mut statics = sim(&propped("static", ""));
+    statics.solve_static().expect("static solve");
+    let mut dynamics = sim(&propped("dynamic", ""));
+    for _ in 0..600 {
+        dynamics.step().expect("step");
+    }
+    let vmax = 3e-5; // the largest deflection is ~1e-3 L
+    let mut worst: f64 = 0.0;
+    for k in 0..=30 {
+        let x = L * k as f64 / 30.0;
+        let d = (statics.position_at(0, x) - dynamics.position_at(0, x)).norm();
+        worst = worst.max(d);
+    }
+    assert!(worst < 0.01 * vmax, "dynamic rest state {worst:.3e} m from the static solution");
+    assert!(dynamics.max_speed() < 1e-4, "still moving: {}", dynamics.max_speed());
+}
+
+/// A straight 10 cm strand lying across a plane tilted by `slope_deg` about x (downhill
+/// is +y), clamped at its root; Coulomb friction μ_s = μ_k = `mu`.
+fn slope(slope_deg: f64, mu: f64, friction: &str) -> String {
+    let b = slope_deg.to_radians();
+    let (sn, cs) = (b.sin(), b.cos());
+    let r = 1e-3;
+    // the centreline starts just inside the contact radius, so that it touches at t = 0
+    let h = r * (1.0 - 1e-3);
+    format!(
+        r#"
+[simulation]
+dt = 0.0333333333333333
+duration = 1.0
+[[bodies]]
+name = "slope"
+shape = "plane"
+attached = "world"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, {sn}, {cs}]
+[contacts]
+radius = {r}
+friction = "{friction}"
+friction_coefficient = {mu}
+anisotropy = 0.0
+[[strands]]
+root = [0.0, {y}, {z}]
+direction = [1.0, 0.0, 0.0]
+normal = [0.0, {cs}, {ms}]
+length = 0.1
+elements = 5
+preset = "smooth"
+ellipticity = 1.0
+natural = [0.0, 0.0, 0.0]
+initial = "straight"
+"#,
+        y = h * sn,
+        z = h * cs,
+        ms = -sn
+    )
+}
+
+/// Displacement of the tip downhill (along the plane, perpendicular to the strand) after
+/// one second.
+fn tip_slide(slope_deg: f64, mu: f64, friction: &str) -> f64 {
+    let mut s = sim(&slope(slope_deg, mu, friction));
+    let b = slope_deg.to_radians();
+    let downhill = nalgebra::Vector3::new(0.0, b.cos(), -b.sin());
+    let start = s.position_at(0, 0.1);
+    for _ in 0..30 {
+        s.step().expect("step");
+    }
+    (s.position_at(0, 0.1) - start).dot(&downhill)
+}
+
+#[test]
+fn static_friction_holds_below_the_friction_angle_and_slides_above() {
+    let mu: f64 = 0.4;
+    let angle = mu.atan().to_degrees(); // 21.8°
+    eprintln!("frictionless {:e} viscous {:e}", tip_slide(0.8 * angle, mu, "none"), tip_slide(0.8 * angle, mu, "viscous"));
+    let below = tip_slide(0.8 * angle, mu, "coulomb");
+    let above = tip_slide(1.25 * angle, mu, "coulomb");
+    let frictionless = tip_slide(0.8 * angle, mu, "none");
+    // held: the tangential springs stretch by about the weight over their stiffness,
+    // r / 1e4 = 0.1 µm; allow 10 µm
+    assert!(below.abs() < 1e-5, "below the friction angle the tip slid {below:.3e} m");
+    // above: the strand slides and bends in the plane until its elasticity holds it
+    assert!(above > 1e-3, "above the friction angle the tip slid only {above:.3e} m");
+    // and without friction it slides at the lower slope too
+    assert!(frictionless > 1e-3, "frictionless tip slid only {frictionless:.3e} m");
+    eprintln!("slide after 1 s: below {below:.3e} m, above {above:.3e} m, frictionless {frictionless:.3e} m");
+}
+
+/// A stiff strand along +x and a soft one along +y crossing 5 mm above it, both clamped
+/// horizontally; the soft one falls onto the stiff one.
+fn crossing(hair_hair: bool) -> String {
+    let table = if hair_hair {
+        "[contacts]\nfriction = \"none\"\n[contacts.hair_hair]\nradius = 1e-3\n"
+    } else {
+        ""
+    };
+    format!(
+        r#"
+[simulation]
+dt = 0.0333333333333333
+duration = 1.0
+{table}
+[[strands]]
+name = "stiff"
+root = [-0.05, 0.0, 0.0]
+direction = [1.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+length = 0.1
+elements = 5
+radius = 4e-4
+natural = [0.0, 0.0, 0.0]
+initial = "straight"
+[[strands]]
+name = "soft"
+root = [0.0, -0.05, 0.005]
+direction = [0.0, 1.0, 0.0]
+normal = [1.0, 0.0, 0.0]
+length = 0.1
+elements = 5
+preset = "smooth"
+natural = [0.0, 0.0, 0.0]
+initial = "straight"
+"#
+    )
+}
+
+/// Height of the soft strand above the stiff one where they cross (the soft strand's
+/// point at y ≈ 0 and the stiff one's at x ≈ 0), after each step.
+fn crossing_gaps(hair_hair: bool) -> Vec<f64> {
+    let mut s = sim(&crossing(hair_hair));
+    (0..30)
+        .map(|_| {
+            s.step().expect("step");
+            s.position_at(1, 0.05).z - s.position_at(0, 0.05).z
+        })
+        .collect()
+}
+
+#[test]
+fn two_strands_pushed_together_do_not_pass_through_each_other() {
+    let with = crossing_gaps(true);
+    let without = crossing_gaps(false);
+    // without hair–hair interaction the soft strand falls through the stiff one
+    assert!(
+        without.last().copied().unwrap_or(0.0) < -0.005,
+        "control: the soft strand should fall through, gaps {without:?}"
+    );
+    // with it, it rests on top: the gap stays near the interaction distance 2 mm, never
+    // below a quarter of it
+    let least = with.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(least > 0.5e-3, "the strands came within {least:.3e} m: {with:?}");
+    eprintln!("least gap {least:.3e} m, final {:.3e} m; control final {:.3e} m", with[29], without[29]);
+}
+
