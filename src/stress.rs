@@ -92,6 +92,14 @@ pub const MEAN_LEVEL: f64 = 0.5;
 /// Largest growth of the energy once the head moves uniformly, relative to the energy
 /// scale S.
 pub const ENERGY_TOLERANCE: f64 = 1e-6;
+
+/// Deepest a centreline point may be inside a body in the contact cases, m: the contact
+/// radius of those cases (a point at this depth has pushed through the whole penalty
+/// layer and as far again into the body).
+pub const PENETRATION_TOLERANCE: f64 = 1e-3;
+
+/// Contact radius of the contact cases, m.
+pub const CONTACT_RADIUS: f64 = 1e-3;
 /// Largest excess of an element's chord over its length, relative to the length.
 pub const STRETCH_TOLERANCE: f64 = 1e-12;
 /// Largest entry of `FᵀF − I` at an element end.
@@ -288,6 +296,8 @@ pub struct CaseResult {
     pub stretch: f64,
     /// Largest `|FᵀF − I|` entry at an element end.
     pub frame_error: f64,
+    /// Deepest a centreline point went inside a body, m (contact cases; 0 otherwise).
+    pub penetration: f64,
 }
 
 impl CaseResult {
@@ -710,7 +720,75 @@ pub fn all_cases() -> Vec<Case> {
             }
         }
     }
+    // contacts: a strand leaving the head sideways next to a head-attached ball, draping
+    // over a world-fixed bar below it (the shoulder), under every head motion, with the
+    // paper's viscous friction and with Coulomb friction
+    for &preset in &presets {
+        for n in [5, 10] {
+            for (tag, friction) in [
+                ("viscous", crate::runtime::forces::contacts::Friction::Viscous {
+                    coefficient: 0.3,
+                    slip_speed: 0.05,
+                }),
+                ("coulomb", crate::runtime::forces::contacts::Friction::Coulomb {
+                    static_coefficient: 0.4,
+                    kinetic_coefficient: 0.3,
+                    stiffness_ratio: 1.0,
+                }),
+            ] {
+                for motion in Motion::ALL {
+                    let mut c = case(
+                        format!("contacts/{}/N{n}/fps30/{}/{tag}", preset.name(), motion.name()),
+                        "contacts",
+                        n == 5 && tag == "viscous",
+                        StrandSpec::new(preset, n),
+                        motion.head(),
+                        30,
+                    );
+                    with_contacts(&mut c.setup, friction);
+                    if motion == Motion::Jolt {
+                        // the head keeps moving after the jolt: the fixed bar does work on
+                        // the strand, its energy need not stay
+                        c.checks.energy_from = None;
+                    }
+                    cases.push(c);
+                }
+            }
+        }
+    }
     cases
+}
+
+/// Add the contact cases' bodies and `[contacts]` to a setup: a ball of radius 7.5 cm on
+/// the head around its centre (the strand's root is 2.5 cm outside it: the natural coils
+/// of the wavy and curly presets, 2 and 1.2 cm across, start clear of it) and a bar
+/// fixed in the world, 8 cm thick, its top 6 cm below the root and 6 to 14 cm out.
+fn with_contacts(setup: &mut SimulationSetup, friction: crate::runtime::forces::contacts::Friction) {
+    use crate::runtime::bodies::{Attachment, BodySetup, ShapeSetup};
+    setup.bodies = vec![
+        BodySetup {
+            name: "head".into(),
+            attached: Attachment::Head,
+            shape: ShapeSetup::Sphere {
+                center: Vector3::zeros(),
+                radius: 0.075,
+            },
+        },
+        BodySetup {
+            name: "bar".into(),
+            attached: Attachment::World,
+            shape: ShapeSetup::Capsule {
+                start: Vector3::new(0.2, -0.3, -0.1),
+                end: Vector3::new(0.2, 0.3, -0.1),
+                radius: 0.04,
+            },
+        },
+    ];
+    setup.contacts = Some(crate::runtime::forces::contacts::ContactConfig {
+        radius: CONTACT_RADIUS,
+        friction,
+        ..Default::default()
+    });
 }
 
 /// The quick subset of [`all_cases`].
@@ -894,6 +972,7 @@ pub fn run_case_traced(case: &Case, trace: &mut dyn FnMut(&StepTrace)) -> CaseRe
         conservative: false,
         stretch: f64::NEG_INFINITY,
         frame_error: 0.0,
+        penetration: 0.0,
     };
     let fail = |result: &mut CaseResult, time: f64, cause: String| {
         result.failure = Some(Failure {
@@ -951,6 +1030,7 @@ pub fn run_case_traced(case: &Case, trace: &mut dyn FnMut(&StepTrace)) -> CaseRe
             sim.energy(0)
         } else {
             energy_with_kinetic(sim, 0, kinetic, &head.state(t), &gravity)
+                + sim.contact_potential(0)
         };
         // S: what can change hands (T, U, and gravity over the strand's length)
         let scale = kinetic + elastic_energy(&strand, sim.q(0)) + mass * gravity.norm() * length;
@@ -999,6 +1079,20 @@ pub fn run_case_traced(case: &Case, trace: &mut dyn FnMut(&StepTrace)) -> CaseRe
         if let Some(cause) = check.cause {
             fail(&mut result, t, cause);
             break;
+        }
+        if let Some(depth) = sim.max_penetration() {
+            result.penetration = result.penetration.max(depth);
+            if depth > PENETRATION_TOLERANCE {
+                fail(
+                    &mut result,
+                    t,
+                    format!(
+                        "penetration: a centreline point is {depth:.3e} m inside a body \
+                         (limit {PENETRATION_TOLERANCE:.0e} m)"
+                    ),
+                );
+                break;
+            }
         }
         let kinetic = sim.kinetic_energy(0);
         let energy_now = match case.checks.energy_from {

@@ -5,8 +5,9 @@
 //! its normalised gradient) and contacts need. The bodies themselves exert no force.
 //!
 //! A body is attached to the head (its geometry in head coordinates, moving rigidly
-//! with the head) or fixed in the world. Spheres, ellipsoids, capsules and planes are
-//! exact ([`shape_sphere`], [`shape_ellipsoid`], [`shape_capsule`], [`shape_plane`]); a
+//! with the head) or fixed in the world. Spheres, ellipsoids, capsules, cylinders and
+//! planes are exact ([`shape_sphere`], [`shape_ellipsoid`], [`shape_capsule`],
+//! [`shape_cylinder`], [`shape_plane`]); a
 //! closed triangle mesh read from OBJ ([`obj`], checked by [`triangle_mesh`]) is
 //! sampled exactly ([`mesh_distance`]: closest points through a [`bvh`], signs by the
 //! angle-weighted pseudonormal) on a regular [`grid`] and evaluated by trilinear
@@ -26,6 +27,7 @@ pub mod proximity;
 pub mod setup;
 pub mod shape;
 pub mod shape_capsule;
+pub mod shape_cylinder;
 pub mod shape_ellipsoid;
 pub mod shape_plane;
 pub mod shape_sphere;

@@ -495,10 +495,10 @@ impl Simulation {
             time: 0.0,
             steps: 0,
         };
-        // contact points touching a body at the start stick where they are (Coulomb)
+        // contact points inside a body at the start are let out slowly; Coulomb anchors
         for st in &mut sim.strands {
             if let Some(c) = &mut st.system.contacts {
-                c.update_anchors(&head0, &st.system.strand.geometry, &st.state.q);
+                c.start(&head0, &st.system.strand.geometry, &st.state.q);
             }
         }
         if sim.electrostatics.is_some() && sim.config.mode == Mode::Dynamic {
@@ -617,7 +617,7 @@ impl Simulation {
                 let outcome = step(&mut s.system, &interval, &mut s.state, &mut s.stats);
                 if outcome.is_ok() {
                     if let Some(c) = &mut s.system.contacts {
-                        c.update_anchors(&interval.end, &s.system.strand.geometry, &s.state.q);
+                        c.after_step(&interval.end, &s.system.strand.geometry, &s.state.q, h);
                     }
                 }
                 outcome.err().map(|cause| (i, cause))
@@ -702,6 +702,19 @@ impl Simulation {
             }
         }
         any.then_some(deepest.max(0.0))
+    }
+
+    /// The contact potential of strand `i` at its current state, the head in its state at
+    /// the current time, J (0 without `[contacts]`).
+    pub fn contact_potential(&mut self, i: usize) -> f64 {
+        let head = self.head.state(self.time);
+        let Some(s) = self.strands.get_mut(i) else {
+            return 0.0;
+        };
+        match &mut s.system.contacts {
+            Some(c) => c.energy(&head, &s.system.strand.geometry, &s.state.q).0,
+            None => 0.0,
+        }
     }
 
     /// The hair–hair pairs of the last step (`None`: no hair–hair interaction).

@@ -8,6 +8,7 @@ use super::proximity::Proximity;
 use super::setup::{BodySetup, ShapeSetup, MAX_GRID_NODES};
 use super::shape::Shape;
 use super::shape_capsule::Capsule;
+use super::shape_cylinder::Cylinder;
 use super::shape_ellipsoid::Ellipsoid;
 use super::shape_plane::Plane;
 use super::shape_sphere::Sphere;
@@ -130,6 +131,11 @@ fn build_shape(setup: &ShapeSetup) -> std::result::Result<Shape, FieldError> {
             rotation: *rotation,
         }),
         ShapeSetup::Capsule { start, end, radius } => Shape::Capsule(Capsule {
+            start: *start,
+            end: *end,
+            radius: *radius,
+        }),
+        ShapeSetup::Cylinder { start, end, radius } => Shape::Cylinder(Cylinder {
             start: *start,
             end: *end,
             radius: *radius,

@@ -70,6 +70,16 @@ pub enum ShapeSetup {
         /// Radius, m, in (0, [`MAX_BODY_SIZE`]].
         radius: f64,
     },
+    /// A solid cylinder with flat caps: the points within `radius` of the axis from
+    /// `start` to `end`, between the caps through the two ends.
+    Cylinder {
+        /// Centre of one cap, m.
+        start: Vector3<f64>,
+        /// Centre of the other cap, m (different from `start`).
+        end: Vector3<f64>,
+        /// Radius, m, in (0, [`MAX_BODY_SIZE`]].
+        radius: f64,
+    },
     /// The half-space behind a plane: `(y − point) · normal ≤ 0`.
     Plane {
         /// A point of the plane, m.
@@ -100,6 +110,7 @@ impl ShapeSetup {
             ShapeSetup::Sphere { .. } => "sphere",
             ShapeSetup::Ellipsoid { .. } => "ellipsoid",
             ShapeSetup::Capsule { .. } => "capsule",
+            ShapeSetup::Cylinder { .. } => "cylinder",
             ShapeSetup::Plane { .. } => "plane",
             ShapeSetup::Mesh { .. } => "mesh",
         }
@@ -156,6 +167,17 @@ impl BodySetup {
                 finite(&mut errors, "start", start.as_slice());
                 finite(&mut errors, "end", end.as_slice());
                 size(&mut errors, "radius", *radius);
+            }
+            ShapeSetup::Cylinder { start, end, radius } => {
+                finite(&mut errors, "start", start.as_slice());
+                finite(&mut errors, "end", end.as_slice());
+                size(&mut errors, "radius", *radius);
+                if start == end {
+                    errors.push(FieldError::new(
+                        at("end"),
+                        "must differ from start: a cylinder needs an axis",
+                    ));
+                }
             }
             ShapeSetup::Plane { point, normal } => {
                 finite(&mut errors, "point", point.as_slice());

@@ -4,6 +4,7 @@
 use super::mesh_sdf::MeshSdf;
 use super::proximity::Proximity;
 use super::shape_capsule::Capsule;
+use super::shape_cylinder::Cylinder;
 use super::shape_ellipsoid::Ellipsoid;
 use super::shape_plane::Plane;
 use super::shape_sphere::Sphere;
@@ -20,6 +21,8 @@ pub enum Shape {
     Ellipsoid(Ellipsoid),
     /// A capsule (exact).
     Capsule(Capsule),
+    /// A cylinder with flat caps (exact).
+    Cylinder(Cylinder),
     /// A half-space (exact).
     Plane(Plane),
     /// A closed mesh's signed distance on a grid (trilinear), shared between copies.
@@ -33,6 +36,7 @@ impl Shape {
             Shape::Sphere(s) => s.query(y),
             Shape::Ellipsoid(s) => s.query(y),
             Shape::Capsule(s) => s.query(y),
+            Shape::Cylinder(s) => s.query(y),
             Shape::Plane(s) => s.query(y),
             Shape::Mesh(s) => s.query(y),
         }

@@ -10,7 +10,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 /// Shapes as written in scenes.
-const SHAPES: [&str; 5] = ["sphere", "ellipsoid", "capsule", "plane", "mesh"];
+const SHAPES: [&str; 6] = ["sphere", "ellipsoid", "capsule", "plane", "mesh", "cylinder"];
 
 /// Radii, half-axes and cells, m.
 const SIZE: Range = Range::new(Bound::Excl(0.0), Bound::Incl(MAX_BODY_SIZE));
@@ -39,6 +39,7 @@ pub(super) fn read_bodies(root: &mut Node<'_>, scene_dir: &Path) -> Vec<BodySetu
             Some(2) => capsule(&mut n),
             Some(3) => plane(&mut n),
             Some(4) => mesh(&mut n, scene_dir),
+            Some(5) => cylinder(&mut n),
             _ => None,
         };
         if let Some(name) = &name {
@@ -111,6 +112,17 @@ fn capsule(n: &mut Node<'_>) -> Option<ShapeSetup> {
     );
     let radius = radius(n);
     Some(ShapeSetup::Capsule {
+        start: start?,
+        end: end?,
+        radius: radius?,
+    })
+}
+
+fn cylinder(n: &mut Node<'_>) -> Option<ShapeSetup> {
+    let start = n.required("start", "[x, y, z] in m, the centre of one cap", Node::vec3);
+    let end = n.required("end", "[x, y, z] in m, the centre of the other cap", Node::vec3);
+    let radius = radius(n);
+    Some(ShapeSetup::Cylinder {
         start: start?,
         end: end?,
         radius: radius?,

@@ -68,6 +68,11 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
     } else {
         Some(None)
     };
+    let depenetration_speed = n.optional_f64(
+        "depenetration_speed",
+        d.depenetration_speed,
+        Range::new(Bound::Excl(0.0), Bound::Incl(100.0)),
+    );
     let anisotropy = n.optional_f64(
         "anisotropy",
         d.anisotropy,
@@ -167,6 +172,7 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
         stiffness: stiffness?,
         damping_ratio: damping_ratio?,
         max_depth: max_depth?,
+        depenetration_speed: depenetration_speed?,
         friction,
         anisotropy: anisotropy?,
         samples_per_element: samples?,

@@ -172,7 +172,12 @@ fn implicit_adaptive(
         }
         let mut end =
             energy_balance::measure(system, &interval.end, interval.t + h, &state.q, &state.v);
-        let inertial = interval.uniform;
+        // contacts with what moves relative to the head (a world body while the head
+        // moves, other strands) do work: the step is then balanced against work
+        let inertial = interval.uniform
+            && !system.contacts.as_ref().is_some_and(|c| {
+                c.moves_relative(&interval.start) || c.moves_relative(&interval.end)
+            });
         let balance = energy_balance::balance(start, &end, inertial);
         let excess = balance.excess;
         // an accepted step: its end bounds the next, and it is BDF2's history

@@ -86,6 +86,10 @@ pub struct ContactConfig {
     /// Depth, m, beyond which the normal force stops growing (a strand that starts inside
     /// a body is pushed out over several steps, never kicked out); `None`: the radius.
     pub max_depth: Option<f64>,
+    /// Speed at which a strand that starts inside a body (within the contact radius) is
+    /// let out, m/s: each such point is allowed its starting depth without force, and the
+    /// allowance shrinks at this speed (no depenetration kick).
+    pub depenetration_speed: f64,
     /// The friction model.
     pub friction: Friction,
     /// Anisotropy α of the friction coefficient, in [0, 1): `μ(θ) = μ (1 + α cos θ)`,
@@ -109,6 +113,7 @@ impl Default for ContactConfig {
             stiffness: None,
             damping_ratio: 0.5,
             max_depth: None,
+            depenetration_speed: 0.05,
             friction: Friction::Viscous {
                 coefficient: 0.3,
                 slip_speed: 0.05,
@@ -151,6 +156,7 @@ impl ContactConfig {
         if let Some(d) = self.split_depth {
             range(&mut e, "contacts.split_depth", d, 0.0, 1.0, true, "(0, 1] m");
         }
+        range(&mut e, "contacts.depenetration_speed", self.depenetration_speed, 0.0, 100.0, true, "(0, 100] m/s");
         range(&mut e, "contacts.anisotropy", self.anisotropy, 0.0, 0.99, false, "[0, 0.99]");
         if !(1..=64).contains(&self.samples_per_element) {
             e.push(FieldError::new(

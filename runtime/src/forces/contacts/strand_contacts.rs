@@ -48,8 +48,10 @@ pub struct ContactParams {
     pub damping: f64,
     /// δ_max, m.
     pub max_depth: f64,
-    /// A step deepening a contact by more than this is split, m.
+    /// A step taking a new contact deeper than this is split, m.
     pub split_depth: f64,
+    /// Speed at which a point that started inside a body is let out, m/s.
+    pub depenetration_speed: f64,
     /// Friction model.
     pub friction: Friction,
     /// α.
@@ -66,6 +68,7 @@ impl ContactParams {
             damping: 2.0 * config.damping_ratio * (k * rho_s).sqrt(),
             max_depth: config.max_depth(),
             split_depth: config.split_depth(),
+            depenetration_speed: config.depenetration_speed,
             friction: config.friction,
             anisotropy: config.anisotropy,
         }
@@ -154,6 +157,9 @@ pub struct StrandContacts {
     /// Arc lengths and weights of the samples.
     samples: Vec<(f64, f64)>,
     anchors: Vec<Option<Anchor>>,
+    /// Depth each sample may have without force: what it had at the start, less what
+    /// [`ContactParams::depenetration_speed`] took away since (see [`Self::after_step`]).
+    allowance: Vec<f64>,
     partners: Vec<PartnerPoint>,
     /// Positions and unit tangents of the samples at the last [`Self::sample_poses`].
     poses: Vec<(Vector3<f64>, Vector3<f64>)>,
@@ -192,6 +198,7 @@ impl StrandContacts {
             params,
             hair,
             anchors: vec![None; n],
+            allowance: vec![0.0; n],
             partners: Vec::new(),
             poses: vec![(Vector3::zeros(), Vector3::zeros()); n],
             aj: vec![Vector3::zeros(); geom.dofs()],
@@ -230,7 +237,24 @@ impl StrandContacts {
     /// (anchors slide, partners change): then the energy of a step's start must be
     /// measured again rather than taken from the end of the previous step.
     pub fn has_history(&self) -> bool {
-        self.hair.is_some() || matches!(self.params.friction, Friction::Coulomb { .. })
+        self.hair.is_some()
+            || matches!(self.params.friction, Friction::Coulomb { .. })
+            || self.allowance.iter().any(|a| *a > 0.0)
+    }
+
+    /// Whether what the strand may touch moves relative to the head frame with the head
+    /// in `head`: a body fixed in the world while the head moves, or other strands. Then
+    /// contacts can do work on the strand even while the head moves uniformly.
+    pub fn moves_relative(&self, head: &HeadState) -> bool {
+        !self.partners.is_empty()
+            || (self.bodies.iter().any(|b| b.attached == Attachment::World)
+                && (head.velocity != Vector3::zeros() || head.omega != Vector3::zeros()))
+    }
+
+    /// The depth of sample `k` in `hit` that the penalty acts on: the depth less the
+    /// sample's allowance, m (≤ 0: no force).
+    fn effective_depth(&self, k: usize, hit: &BodyHit) -> f64 {
+        self.params.radius - hit.distance - self.allowance[k]
     }
 
     /// The sample positions of the last [`Self::sample_poses`], head coordinates.
@@ -325,9 +349,9 @@ impl StrandContacts {
     ) -> (Vector3<f64>, Vector3<f64>, f64, Matrix3<f64>) {
         let p = &self.params;
         let w = self.samples[k].1;
-        let depth = p.radius - hit.distance;
+        let depth = self.effective_depth(k, hit);
         let n = hit.normal;
-        let normal = p.stiffness * w * depth.min(p.max_depth) * n;
+        let normal = p.stiffness * w * depth.clamp(0.0, p.max_depth) * n;
         let kn = if depth < p.max_depth {
             p.stiffness * w
         } else {
@@ -381,7 +405,8 @@ impl StrandContacts {
         let mut stiffened = false;
         for k in 0..self.samples.len() {
             let (y, t) = self.poses[k];
-            let Some(hit) = self.body_hit(head, &y) else {
+            let Some(hit) = self.body_hit(head, &y).filter(|h| self.effective_depth(k, h) > 0.0)
+            else {
                 continue;
             };
             let (s, w) = self.samples[k];
@@ -472,11 +497,12 @@ impl StrandContacts {
         let (mut potential, mut rate) = (0.0, 0.0);
         for k in 0..self.samples.len() {
             let (y, t) = self.poses[k];
-            let Some(hit) = self.body_hit(head, &y) else {
+            let Some(hit) = self.body_hit(head, &y).filter(|h| self.effective_depth(k, h) > 0.0)
+            else {
                 continue;
             };
             let w = self.samples[k].1;
-            let depth = p.radius - hit.distance;
+            let depth = self.effective_depth(k, &hit);
             let kw = p.stiffness * w;
             potential += if depth <= p.max_depth {
                 0.5 * kw * depth * depth
@@ -522,10 +548,11 @@ impl StrandContacts {
     }
 
     /// Whether a step from `q0` to `q1` (head in `head` at its end) is acceptable for the
-    /// contacts: no sample got deeper into a body, or into a partner's ball, than
-    /// [`ContactParams::split_depth`] beyond its depth at the start. The depth in a
-    /// partner's ball is measured along the line of centres at the start, so that a step
-    /// that carries a point through the other strand counts as deep.
+    /// contacts: no sample that touched nothing at the start went deeper into a body, or
+    /// into a partner's ball, than [`ContactParams::split_depth`] (a fast approach is
+    /// resolved by substeps rather than met by a deep penalty). The depth in a partner's
+    /// ball is measured along the line of centres at the start, so that a step that
+    /// carries a point through the other strand counts as deep.
     pub fn step_acceptable(
         &mut self,
         head: &HeadState,
@@ -539,13 +566,15 @@ impl StrandContacts {
             out.clear();
             out.extend((0..c.samples.len()).map(|k| {
                 c.body_hit(head, &c.poses[k].0)
-                    .map_or(0.0, |h| c.params.radius - h.distance)
+                    .map_or(0.0, |h| c.effective_depth(k, &h))
             }));
         };
         let (mut before, mut after) = (Vec::new(), Vec::new());
         body_depths(self, q0, &mut before);
         body_depths(self, q1, &mut after);
-        if !before.iter().zip(&after).all(|(b, a)| *a <= b.max(0.0) + split) {
+        // a sample already touching has its penalty stiffness in the step's matrix (or,
+        // beyond δ_max, a constant force pushing it out): only new contacts are checked
+        if !before.iter().zip(&after).all(|(b, a)| *b > 0.0 || *a <= split) {
             return false;
         }
         let rt = head.rotation.transpose();
@@ -557,14 +586,46 @@ impl StrandContacts {
                 return true;
             }
             let along = (pose_at(geom, q1, p.s).position - pt).dot(&(d0 / norm));
-            p.reach - along <= (p.reach - norm).max(0.0) + split
+            norm < p.reach || p.reach - along <= split
         })
     }
 
-    /// After an accepted step (state q, head in `head`): stick new contact points where
-    /// they are, drag sliding anchors to the friction cone's edge, release the points that
-    /// left their body (Coulomb friction only).
-    pub fn update_anchors(&mut self, head: &HeadState, geom: &StrandGeometry, q: &[f64]) {
+    /// Before the first step (state q, head in `head`): a point that starts inside a body
+    /// (within the contact radius) is allowed its depth, so that it is let out at
+    /// [`ContactParams::depenetration_speed`] rather than kicked out; Coulomb anchors
+    /// are set where the touching points are.
+    pub fn start(&mut self, head: &HeadState, geom: &StrandGeometry, q: &[f64]) {
+        self.sample_poses(geom, q);
+        for k in 0..self.samples.len() {
+            self.allowance[k] = self
+                .body_hit(head, &self.poses[k].0)
+                .map_or(0.0, |h| (self.params.radius - h.distance).max(0.0));
+        }
+        self.update_anchors(head, geom, q);
+    }
+
+    /// After an accepted step of `h` seconds (state q, head in `head`): shrink the
+    /// allowances of the points that started inside a body by the depenetration speed
+    /// times h (and to their present depth); update the Coulomb anchors.
+    pub fn after_step(&mut self, head: &HeadState, geom: &StrandGeometry, q: &[f64], h: f64) {
+        if self.allowance.iter().any(|a| *a > 0.0) {
+            self.sample_poses(geom, q);
+            let shrink = self.params.depenetration_speed * h;
+            for k in 0..self.samples.len() {
+                if self.allowance[k] > 0.0 {
+                    let depth = self
+                        .body_hit(head, &self.poses[k].0)
+                        .map_or(0.0, |hit| (self.params.radius - hit.distance).max(0.0));
+                    self.allowance[k] = (self.allowance[k].min(depth) - shrink).max(0.0);
+                }
+            }
+        }
+        self.update_anchors(head, geom, q);
+    }
+
+    /// Stick new contact points where they are, drag sliding anchors to the friction
+    /// cone's edge, release the points that left their body (Coulomb friction only).
+    fn update_anchors(&mut self, head: &HeadState, geom: &StrandGeometry, q: &[f64]) {
         let Friction::Coulomb {
             static_coefficient,
             kinetic_coefficient,
@@ -576,13 +637,14 @@ impl StrandContacts {
         self.sample_poses(geom, q);
         for k in 0..self.samples.len() {
             let (y, t) = self.poses[k];
-            let Some(hit) = self.body_hit(head, &y) else {
+            let Some(hit) = self.body_hit(head, &y).filter(|h| self.effective_depth(k, h) > 0.0)
+            else {
                 self.anchors[k] = None;
                 continue;
             };
             let n = hit.normal;
             let w = self.samples[k].1;
-            let depth = self.params.radius - hit.distance;
+            let depth = self.effective_depth(k, &hit);
             let fn_ = self.params.stiffness * w * depth.min(self.params.max_depth);
             let stiff = stiffness_ratio * self.params.stiffness * w;
             let (anchor, sliding) = match self.anchor_at(head, k, hit.body) {
