@@ -30,6 +30,40 @@ pub enum Shape {
 }
 
 impl Shape {
+    /// Whether `y` is certainly farther than `r` outside the surface (a cheap test that
+    /// may answer false for some such points, never true for a nearer one).
+    pub fn farther_than(&self, y: &Vector3<f64>, r: f64) -> bool {
+        match self {
+            Shape::Ellipsoid(e) => e.farther_than(y, r),
+            _ => self
+                .bounding_ball()
+                .is_some_and(|(c, radius)| (y - c).norm_squared() > (radius + r) * (radius + r)),
+        }
+    }
+
+    /// A ball that holds the body's surface (centre, radius), in the body's coordinates;
+    /// `None` for a plane. A point farther than `radius + r` from the centre is farther
+    /// than r from the surface.
+    pub fn bounding_ball(&self) -> Option<(Vector3<f64>, f64)> {
+        match self {
+            Shape::Sphere(s) => Some((s.center, s.radius)),
+            Shape::Ellipsoid(e) => Some((e.center, e.radii.max())),
+            Shape::Capsule(c) => Some((
+                0.5 * (c.start + c.end),
+                0.5 * (c.end - c.start).norm() + c.radius,
+            )),
+            Shape::Cylinder(c) => Some((
+                0.5 * (c.start + c.end),
+                (0.25 * (c.end - c.start).norm_squared() + c.radius * c.radius).sqrt(),
+            )),
+            Shape::Plane(_) => None,
+            Shape::Mesh(m) => {
+                let (lo, hi) = (m.grid().origin(), m.grid().corner());
+                Some((0.5 * (lo + hi), 0.5 * (hi - lo).norm()))
+            }
+        }
+    }
+
     /// Signed distance, outward normal and closest surface point of `y`.
     pub fn query(&self, y: &Vector3<f64>) -> Proximity {
         match self {

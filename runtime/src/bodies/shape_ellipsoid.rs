@@ -48,6 +48,16 @@ impl Ellipsoid {
         }
     }
 
+    /// Whether `y` is certainly farther than `r` outside the surface, by a cheap bound:
+    /// with ρ = |D⁻¹ Rᵀ(y − c)| (D the half-axes), the distance is at least
+    /// (ρ − 1) min(a) when ρ > 1 (the ellipsoid scaled by ρ about its centre holds y and
+    /// lies at least that far outside it).
+    pub fn farther_than(&self, y: &Vector3<f64>, r: f64) -> bool {
+        let local = self.rotation.transpose() * (y - self.center);
+        let rho = local.component_div(&self.radii).norm();
+        (rho - 1.0) * self.radii.min() > r
+    }
+
     /// The closest surface point of `local` (ellipsoid axes, centred).
     fn closest_local(&self, local: &Vector3<f64>) -> Vector3<f64> {
         let a = self.radii;
@@ -174,5 +184,34 @@ fn closest_in_octant(e: [f64; 3], y: [f64; 3]) -> [f64; 3] {
         }
         let (x0, x1) = closest_on_ellipse(e0, e1, y0, y1);
         [x0, x1, 0.0]
+    }
+}
+
+#[cfg(test)]
+mod bound_tests {
+    use super::*;
+
+    /// The cheap test never calls a point far that is within r of the surface.
+    #[test]
+    fn farther_than_never_misses_a_near_point() {
+        let e = Ellipsoid {
+            center: Vector3::new(0.01, -0.02, 0.03),
+            radii: Vector3::new(0.075, 0.095, 0.11),
+            rotation: nalgebra::Rotation3::from_euler_angles(0.3, -0.2, 0.7).into_inner(),
+        };
+        let mut far = 0;
+        for i in 0..20_000 {
+            let t = i as f64;
+            let y = e.center
+                + Vector3::new((t * 0.731).sin(), (t * 1.313).cos(), (t * 0.419).sin()) * 0.2;
+            let d = e.query(&y).distance;
+            for r in [0.0, 0.002, 0.02] {
+                if e.farther_than(&y, r) {
+                    far += 1;
+                    assert!(d > r, "{y:?}: distance {d} but called farther than {r}");
+                }
+            }
+        }
+        assert!(far > 10_000, "the test should skip most far points: {far}");
     }
 }

@@ -152,6 +152,8 @@ struct BodyHit {
 /// The contacts of one strand (see the module page).
 pub struct StrandContacts {
     bodies: Arc<[Body]>,
+    /// The q of the poses in `poses` (empty: none).
+    posed: Vec<f64>,
     params: ContactParams,
     hair: Option<HairHairParams>,
     /// Arc lengths and weights of the samples.
@@ -195,6 +197,7 @@ impl StrandContacts {
         let n = samples.len();
         StrandContacts {
             bodies,
+            posed: Vec::new(),
             params,
             hair,
             anchors: vec![None; n],
@@ -264,6 +267,11 @@ impl StrandContacts {
 
     /// Positions y(s) and unit tangents of the samples at q, head coordinates.
     pub fn sample_poses(&mut self, geom: &StrandGeometry, q: &[f64]) {
+        if self.posed == q {
+            return;
+        }
+        self.posed.clear();
+        self.posed.extend_from_slice(q);
         let mut start = Pose {
             position: geom.root_position,
             frame: geom.root_frame,
@@ -292,6 +300,13 @@ impl StrandContacts {
     fn body_hit(&self, head: &HeadState, y: &Vector3<f64>) -> Option<BodyHit> {
         let mut best: Option<BodyHit> = None;
         for (b, body) in self.bodies.iter().enumerate() {
+            let local = match body.attached {
+                Attachment::Head => *y,
+                Attachment::World => head.position + head.rotation * y,
+            };
+            if body.shape.farther_than(&local, self.params.radius) {
+                continue;
+            }
             let (distance, normal) = match body.attached {
                 Attachment::Head => {
                     let p = body.shape.query(y);
