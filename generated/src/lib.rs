@@ -144,8 +144,12 @@ use nalgebra::{Matrix3, Vector3};
 use superhelix_kernels::element::{ElementPoint, RotaryPoints};
 use superhelix_kernels::moments::ElementMoments;
 use superhelix_kernels::strand_terms::MomentSource;
+use superhelix_kernels::Float;
 
-/// The closed-form element integrals and local functions.
+/// The closed-form element integrals and local functions: a `MomentSource` in f64 (the
+/// `*_closed_x4` SIMD batches, what the runtime runs on) and in f32 (the generated f32
+/// closed forms, [`element_moments_f32_into`] and [`element_point_f32_into`], element by
+/// element), so that `fixed::step(&ClosedForm, …)` steps a strand of either type.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct ClosedForm;
 
@@ -196,12 +200,12 @@ const SYM: [[usize; 3]; 3] = [[0, 1, 2], [1, 3, 4], [2, 4, 5]];
 const DPDPT: [usize; 6] = [72, 78, 87, 96, 102, 111];
 
 /// `(v_1 w_2 − v_2 w_1, …)` from `n(a, b)` = ∫ v_a w_b: ∫ v × w.
-fn cross_of(n: impl Fn(usize, usize) -> f64) -> Vector3<f64> {
+fn cross_of<T: Float>(n: impl Fn(usize, usize) -> T) -> Vector3<T> {
     Vector3::new(n(1, 2) - n(2, 1), n(2, 0) - n(0, 2), n(0, 1) - n(1, 0))
 }
 
 /// The fields of M's centreline moments from the output of [`centreline_mass`].
-fn fill_mass(o: &[f64; 51], m: &mut ElementMoments) {
+fn fill_mass<T: Float>(o: &[T; 51], m: &mut ElementMoments<T>) {
     let sym3 = |base: usize| Matrix3::from_fn(|r, c| o[base + SYM[r][c]]);
     m.first = Vector3::new(o[0], o[1], o[2]);
     m.second = sym3(3);
@@ -216,7 +220,7 @@ fn fill_mass(o: &[f64; 51], m: &mut ElementMoments) {
 }
 
 /// The force-only fields from the output of [`centreline_force`].
-fn fill_force(o: &[f64; 135], m: &mut ElementMoments) {
+fn fill_force<T: Float>(o: &[T; 135], m: &mut ElementMoments<T>) {
     for i in 0..3 {
         for j in 0..3 {
             let pij = SYM[i][j];
@@ -244,7 +248,7 @@ fn fill_force(o: &[f64; 135], m: &mut ElementMoments) {
 }
 
 /// The rotary fields for D = diag(`rotary`) from the output of [`rotary_basis`].
-fn fill_rotary(o: &[f64; 63], rotary: &[f64; 3], m: &mut ElementMoments) {
+fn fill_rotary<T: Float>(o: &[T; 63], rotary: &[T; 3], m: &mut ElementMoments<T>) {
     m.rot = Matrix3::zeros();
     m.rot_w = [Vector3::zeros(); 3];
     m.rot_ww = Matrix3::zeros();
@@ -265,7 +269,7 @@ fn fill_rotary(o: &[f64; 63], rotary: &[f64; 3], m: &mut ElementMoments) {
 }
 
 /// The rotary fields of an element without rotary inertia.
-fn clear_rotary(m: &mut ElementMoments) {
+fn clear_rotary<T: Float>(m: &mut ElementMoments<T>) {
     m.rot = Matrix3::zeros();
     m.rot_w = [Vector3::zeros(); 3];
     m.rot_ww = Matrix3::zeros();
@@ -504,3 +508,147 @@ pub use element_point_f32::{
     element_point_f32, ELEMENT_POINT_F32_OUTPUTS, ELEMENT_POINT_F32_SWITCH,
 };
 pub use rotary_basis_f32::{rotary_basis_f32, ROTARY_BASIS_F32_SWITCH};
+
+impl MomentSource<f32> for ClosedForm {
+    fn moments(&self, d: &Vector3<f32>, l: f32, rotary: &[f32; 3], out: &mut ElementMoments<f32>) {
+        element_moments_f32_into(d, l, rotary, out);
+    }
+    fn mass_moments_batch(
+        &self,
+        d: &[Vector3<f32>],
+        l: &[f32],
+        rotary: &[f32; 3],
+        out: &mut [ElementMoments<f32>],
+    ) {
+        for ((d, &l), out) in d.iter().zip(l).zip(out.iter_mut()) {
+            mass_moments_f32_into(d, l, rotary, out);
+        }
+    }
+    fn point(&self, d: &Vector3<f32>, u: f32, out: &mut ElementPoint<f32>) {
+        element_point_f32_into(d, u, out);
+    }
+    fn describe(&self) -> &'static str {
+        "closed form (f32)"
+    }
+    fn is_generated(&self) -> bool {
+        true
+    }
+}
+
+/// The rotary part in f32: the basis is skipped when the rotary inertia is zero.
+fn rotary_f32_into(d: &[f32; 3], l: f32, rotary: &[f32; 3], m: &mut ElementMoments<f32>) {
+    if rotary.iter().all(|&x| x == 0.0) {
+        clear_rotary(m);
+    } else {
+        let mut o = [0.0; 63];
+        rotary_basis_f32(d, l, &mut o);
+        fill_rotary(&o, rotary, m);
+    }
+}
+
+/// [`element_moments_into`] in f32: every field of the element moments from the
+/// generated f32 closed forms ([`centreline_mass_f32()`], [`centreline_force_f32()`],
+/// [`rotary_basis_f32()`]), computed in f32 throughout. Allocates nothing and cannot
+/// panic.
+pub fn element_moments_f32_into(
+    d: &Vector3<f32>,
+    l: f32,
+    rotary: &[f32; 3],
+    out: &mut ElementMoments<f32>,
+) {
+    let dd = [d[0], d[1], d[2]];
+    let mut om = [0.0; 51];
+    centreline_mass_f32(&dd, l, &mut om);
+    fill_mass(&om, out);
+    let mut of = [0.0; 135];
+    centreline_force_f32(&dd, l, &mut of);
+    fill_force(&of, out);
+    rotary_f32_into(&dd, l, rotary, out);
+}
+
+/// [`element_moments_f32_into`] for the fields of M only (the force-only fields are left
+/// as they were).
+pub fn mass_moments_f32_into(
+    d: &Vector3<f32>,
+    l: f32,
+    rotary: &[f32; 3],
+    out: &mut ElementMoments<f32>,
+) {
+    let dd = [d[0], d[1], d[2]];
+    let mut om = [0.0; 51];
+    centreline_mass_f32(&dd, l, &mut om);
+    fill_mass(&om, out);
+    rotary_f32_into(&dd, l, rotary, out);
+}
+
+/// Index of `d2p_ij_m` (i ≤ j) in the output of [`element_point_f32()`]: the symmetric
+/// pairs in the packed order 00, 01, 02, 11, 12, 22, three components each, after
+/// `frame` (9), `p` (3) and `dp` (9).
+const D2P_F32: usize = 21;
+/// Index of `w_1_0` in the output of [`element_point_f32()`] (`w_2_m` follows, then
+/// `dw_1_j_m` and `dw_2_j_m`, three by three).
+const W_F32: usize = 39;
+
+/// The element's local functions at abscissa `u` ([`ElementPoint`]) in f32, from
+/// [`element_point_f32()`] (the flat outputs named by [`ELEMENT_POINT_F32_OUTPUTS`]), with
+/// `w_0 = p` and `∂w_0/∂d_j = ∂p/∂d_j` filled in. Allocates nothing and cannot panic.
+pub fn element_point_f32_into(d: &Vector3<f32>, u: f32, out: &mut ElementPoint<f32>) {
+    let mut o = [0.0f32; 63];
+    element_point_f32(&[d[0], d[1], d[2]], u, &mut o);
+    let v = |k: usize| Vector3::new(o[k], o[k + 1], o[k + 2]);
+    out.frame = Matrix3::from_fn(|r, c| o[3 * r + c]);
+    out.p = v(9);
+    for i in 0..3 {
+        out.dp[i] = v(12 + 3 * i);
+        for j in 0..3 {
+            out.d2p[i][j] = v(D2P_F32 + 3 * SYM[i][j]);
+        }
+    }
+    out.w[0] = out.p;
+    out.dw[0] = out.dp;
+    for i in 1..3 {
+        out.w[i] = v(W_F32 + 3 * (i - 1));
+        for j in 0..3 {
+            out.dw[i][j] = v(W_F32 + 6 + 9 * (i - 1) + 3 * j);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use std::format;
+
+    /// The offsets of [`element_point_f32_into`] name the outputs they read.
+    #[test]
+    fn element_point_f32_layout() {
+        let name = |k: usize| ELEMENT_POINT_F32_OUTPUTS[k];
+        for r in 0..3 {
+            for c in 0..3 {
+                assert_eq!(name(3 * r + c), format!("frame_{r}{c}"));
+            }
+        }
+        for m in 0..3 {
+            assert_eq!(name(9 + m), format!("p_{m}"));
+            for i in 0..3 {
+                assert_eq!(name(12 + 3 * i + m), format!("dp_{i}_{m}"));
+                for j in i..3 {
+                    assert_eq!(
+                        name(D2P_F32 + 3 * SYM[i][j] + m),
+                        format!("d2p_{i}{j}_{m}")
+                    );
+                }
+            }
+            for i in 1..3 {
+                assert_eq!(name(W_F32 + 3 * (i - 1) + m), format!("w_{i}_{m}"));
+                for j in 0..3 {
+                    assert_eq!(
+                        name(W_F32 + 6 + 9 * (i - 1) + 3 * j + m),
+                        format!("dw_{i}_{j}_{m}")
+                    );
+                }
+            }
+        }
+    }
+}

@@ -30,6 +30,7 @@ pub mod body_field;
 pub mod element;
 pub mod energy;
 pub mod fixed;
+pub mod float;
 pub mod head;
 pub mod helix_functions;
 pub mod jet;
@@ -43,4 +44,5 @@ pub mod quadrature;
 pub mod strand_terms;
 
 pub use body_field::BodyField;
+pub use float::Float;
 pub use pose::{darboux, Pose};

@@ -1,30 +1,32 @@
 //! The parameters of a fixed-N strand, checked once when it is made.
 
+use crate::float::Float;
 use crate::material::SectionTerms;
 use crate::strand_terms::StrandShape;
 use nalgebra::{Matrix3, Vector3};
 
-/// Everything a fixed-N strand's mechanics depends on besides its state.
+/// Everything a fixed-N strand's mechanics depends on besides its state, in the step's
+/// float type `T` (`f64` unless named).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FixedParams<const N: usize, const D: usize> {
+pub struct FixedParams<const N: usize, const D: usize, T: Float = f64> {
     /// Root position r_0 in head coordinates, metres.
-    pub root_position: Vector3<f64>,
+    pub root_position: Vector3<T>,
     /// Root frame F_0 in head coordinates: columns (n0, n1, n2), n0 the tangent.
-    pub root_frame: Matrix3<f64>,
+    pub root_frame: Matrix3<T>,
     /// Element lengths l_Q, metres.
-    pub lengths: [f64; N],
+    pub lengths: [T; N],
     /// Natural twist and curvatures q_n, rad/m, in the order of q.
-    pub natural: [f64; D],
+    pub natural: [T; D],
     /// Diagonal of K = diag(l_Q · (GJ, EI1, EI2)) (eq. 5c), N·m.
-    pub stiffness: [f64; D],
+    pub stiffness: [T; D],
     /// Diagonal of the internal friction γ l_Q (3 per element), kg·m⁴/s.
-    pub friction: [f64; D],
+    pub friction: [T; D],
     /// ρS, kg/m.
-    pub mass_per_length: f64,
+    pub mass_per_length: T,
     /// Air drag ν, kg/(m·s).
-    pub air_drag: f64,
+    pub air_drag: T,
     /// Rotary inertia per unit length (ρ(I1 + I2), ρI1, ρI2), kg·m.
-    pub rotary_inertia: [f64; 3],
+    pub rotary_inertia: [T; 3],
 }
 
 /// A parameter outside its allowed range: the field and what it must be.
@@ -50,12 +52,14 @@ fn non_negative(x: f64) -> bool {
     x.is_finite() && x >= 0.0
 }
 
-impl<const N: usize, const D: usize> FixedParams<N, D> {
+impl<const N: usize, const D: usize, T: Float> FixedParams<N, D, T> {
     /// The parameters of a strand rooted at `root_position` with frame `root_frame`
     /// (orthonormal, head coordinates), elements of lengths `lengths`, cross-section
     /// terms `section` ([`crate::material::section_terms`]), natural (τ, κ1, κ2) per
     /// element `natural` (3N, rad/m), internal friction γ (kg·m³/s) and air drag ν
-    /// (kg/(m·s)). Refuses a value outside its range, naming it.
+    /// (kg/(m·s)). Refuses a value outside its range, naming it. The inputs are `f64`
+    /// in either float type: the products below are formed in `f64` and rounded to `T`
+    /// once (in f64, the values as given).
     pub fn new(
         root_position: [f64; 3],
         root_frame: [[f64; 3]; 3],
@@ -111,20 +115,20 @@ impl<const N: usize, const D: usize> FixedParams<N, D> {
             }
         }
         Ok(FixedParams {
-            root_position: Vector3::from(root_position),
-            root_frame: frame,
-            lengths,
-            natural,
-            stiffness,
-            friction,
-            mass_per_length: section.mass_per_length,
-            air_drag,
-            rotary_inertia: section.rotary_inertia,
+            root_position: Vector3::from(root_position).map(T::of),
+            root_frame: frame.map(T::of),
+            lengths: lengths.map(T::of),
+            natural: natural.map(T::of),
+            stiffness: stiffness.map(T::of),
+            friction: friction.map(T::of),
+            mass_per_length: T::of(section.mass_per_length),
+            air_drag: T::of(air_drag),
+            rotary_inertia: section.rotary_inertia.map(T::of),
         })
     }
 
     /// The shape the moment assembly reads.
-    pub fn shape(&self) -> StrandShape<'_> {
+    pub fn shape(&self) -> StrandShape<'_, T> {
         StrandShape {
             root_position: self.root_position,
             root_frame: self.root_frame,
@@ -135,7 +139,7 @@ impl<const N: usize, const D: usize> FixedParams<N, D> {
     }
 
     /// Total length L, metres.
-    pub fn length(&self) -> f64 {
-        self.lengths.iter().sum()
+    pub fn length(&self) -> T {
+        self.lengths.iter().copied().sum()
     }
 }
