@@ -76,6 +76,16 @@ impl<const N: usize, const D: usize, const B: usize, T: Float> FixedStrand<N, D,
         }
     }
 
+    /// The same strand in the float type `U`: its parameters and state rounded to `U`,
+    /// the kept basis and the last energy forgotten (the next step starts afresh).
+    pub fn cast<U: Float>(&self) -> FixedStrand<N, D, B, U> {
+        let c = |x: &T| U::of(x.as_f64());
+        let mut s = FixedStrand::at_rest(self.params.cast());
+        s.q = self.q.each_ref().map(c);
+        s.v = self.v.each_ref().map(c);
+        s
+    }
+
     /// Set the state (q, q̇), forgetting the kept basis.
     pub fn set_state(&mut self, q: &[T; D], v: &[T; D]) {
         self.q = *q;

@@ -138,6 +138,23 @@ impl<const N: usize, const D: usize, T: Float> FixedParams<N, D, T> {
         }
     }
 
+    /// The same parameters in the float type `U`, each value rounded to it (what
+    /// [`FixedParams::new`] gives in `U` from the same inputs).
+    pub fn cast<U: Float>(&self) -> FixedParams<N, D, U> {
+        let c = |x: &T| U::of(x.as_f64());
+        FixedParams {
+            root_position: self.root_position.map(|x| c(&x)),
+            root_frame: self.root_frame.map(|x| c(&x)),
+            lengths: self.lengths.each_ref().map(c),
+            natural: self.natural.each_ref().map(c),
+            stiffness: self.stiffness.each_ref().map(c),
+            friction: self.friction.each_ref().map(c),
+            mass_per_length: c(&self.mass_per_length),
+            air_drag: c(&self.air_drag),
+            rotary_inertia: self.rotary_inertia.each_ref().map(c),
+        }
+    }
+
     /// Total length L, metres.
     pub fn length(&self) -> T {
         self.lengths.iter().copied().sum()
