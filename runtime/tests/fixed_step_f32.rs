@@ -230,7 +230,8 @@ fn check(case: &str, o: &Outcome, bound: f64) {
 // 2. Along a transient the round-off of the state is carried and amplified by the
 // motion: a straight strand released horizontally (1 s, 198 split substeps at N = 5)
 // ends 16.3 (N = 5) and 6.1 (N = 20) epsilons from the f64 strand, bound 128; on the
-// shaking head (2 s) 0.7 and 3.0, bound 32.
+// shaking head (2 s) 0.7 and 3.0, bound 32; on a head that turns at 180°/s and stops
+// within 0.1 s (2 s, four presets) up to 8.6, bound 64.
 
 #[test]
 fn hanging_strand_at_rest_stays_at_rest_in_f32() {
@@ -287,5 +288,39 @@ fn strand_on_a_shaking_head_in_f32() {
         let case = format!("(c) N = {n}, curly strand on a head shaking at 2 Hz by ±30°, 2 s");
         check(&case, &o, 32.0);
         assert!(o.displacement.1 > 1e-2, "{case}: the strand did not move");
+    }
+}
+
+/// A strand on a head turning at 180°/s about the vertical that stops within 0.1 s at
+/// t = 0.5 s (the scene `sudden-stop`), 2 s.
+fn sudden_stop<const N: usize, const D: usize, const E: usize, const B: usize>(
+    preset: Preset,
+    length: f64,
+) -> Outcome {
+    let s = strand::<N, D, B>(preset, length, Vector3::new(1.0, 0.0, -1.0));
+    let head = HeadMotion::SuddenStop {
+        axis: Vector3::z(),
+        angular_speed: 180f64.to_radians(),
+        stop_time: 0.5,
+        stop_duration: 0.1,
+        center: Vector3::zeros(),
+    };
+    let effects = Effects {
+        head_moves: true,
+        ..gravity()
+    };
+    side_by_side::<N, D, E, B>(s, &head, effects, 60)
+}
+
+#[test]
+fn strands_on_a_head_that_stops_suddenly_in_f32() {
+    for p in [Preset::Smooth, Preset::Wavy, Preset::Curly, Preset::Fuzzy] {
+        for (n, o) in [
+            (5, sudden_stop::<5, 15, 6, 7>(p, 0.3)),
+            (20, sudden_stop::<20, 60, 21, 30>(p, 0.3)),
+        ] {
+            let case = format!("(d) N = {n}, {p:?} strand on a head stopping suddenly, 2 s");
+            check(&case, &o, 64.0);
+        }
     }
 }
