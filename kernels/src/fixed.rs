@@ -29,7 +29,9 @@ mod params;
 mod step;
 mod workspace;
 
-pub use adaptive::{step, Effects, ExtrapolatedHead, HeadTrajectory, StepCounts, StillHead};
+pub use adaptive::{
+    energy, step, Effects, ExtrapolatedHead, HeadTrajectory, StepCounts, StillHead,
+};
 pub use dense::{lu_solve, negative_semidefinite_part, Projection};
 pub use params::{FixedParams, ParamsError};
 pub use step::{centreline, evaluate, linearly_implicit, StepError, StepInput, StepReport};

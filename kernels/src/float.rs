@@ -9,12 +9,15 @@
 //! type's machine epsilon for round-off tolerances, and four lanes of the type for the
 //! rotary-inertia quadrature.
 //!
-//! Round-off tolerances (the energy balance's [`crate::energy::ROUNDOFF`], the residual
-//! of an eigenpair, the convergence of the QL and Jacobi iterations) scale with the
-//! type's epsilon ([`Float::roundoff`]); tolerances that are not round-off (how far an
-//! element may turn in one step, how much coupling a reused eigenbasis may have) are the
-//! same in both types.
+//! Round-off tolerances scale with the type's epsilon: the residual of an eigenpair, the
+//! convergence of the QL and Jacobi iterations ([`Float::EPSILON`], [`Float::roundoff`])
+//! and the energy balance's allowance for the round-off of an energy
+//! ([`Float::ENERGY_ROUNDOFF`]: 4504 ε in f64, 64 ε in f32, see
+//! [`crate::energy::ROUNDOFF_F32`]); tolerances that are not round-off (how far an
+//! element may turn in one step, how much coupling a reused eigenbasis may have, the
+//! energy the balance lets a step create) are the same in both types.
 
+use crate::energy::{ROUNDOFF, ROUNDOFF_F32};
 use crate::lanes::{Real, F32x4, F4};
 use core::cmp::Ordering;
 use nalgebra::RealField;
@@ -33,6 +36,10 @@ pub trait Float:
     const EPSILON_RATIO: f64;
     /// `"f64"` or `"f32"`.
     const NAME: &'static str;
+    /// Relative round-off allowed in an energy of the energy balance: [`ROUNDOFF`] in
+    /// `f64`, [`ROUNDOFF_F32`] in `f32` (see there why the two are not in the ratio of the
+    /// epsilons).
+    const ENERGY_ROUNDOFF: Self;
     /// `x` rounded to the type (exact for `f64`).
     fn of(x: f64) -> Self;
     /// The value as `f64` (exact).
@@ -69,6 +76,7 @@ impl Float for f64 {
     const EPSILON: f64 = f64::EPSILON;
     const EPSILON_RATIO: f64 = 1.0;
     const NAME: &'static str = "f64";
+    const ENERGY_ROUNDOFF: f64 = ROUNDOFF;
     #[inline(always)]
     fn of(x: f64) -> f64 {
         x
@@ -111,6 +119,7 @@ impl Float for f32 {
     const EPSILON: f32 = f32::EPSILON;
     const EPSILON_RATIO: f64 = f32::EPSILON as f64 / f64::EPSILON;
     const NAME: &'static str = "f32";
+    const ENERGY_ROUNDOFF: f32 = ROUNDOFF_F32;
     #[inline(always)]
     fn of(x: f64) -> f32 {
         x as f32

@@ -267,6 +267,32 @@ fn measure<
     }
 }
 
+/// The energy of the strand's state at time `t` with the head in `head`, as the checked
+/// step measures it for its energy balance (kinetic, elastic and potential energy, the
+/// energy scale, the head's power, the dissipation rate): what an engine can watch, and
+/// what the tests compare between float types.
+pub fn energy<
+    S: MomentSource<T>,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
+    source: &S,
+    strand: &FixedStrand<N, D, B, T>,
+    effects: &Effects,
+    head: &HeadState,
+    t: f64,
+    ws: &mut FixedWorkspace<N, D, E, T>,
+) -> StateEnergy<T> {
+    ws.forget();
+    let (q, v) = (strand.q, strand.v);
+    let e = measure(source, strand, effects, head, t, &q, &v, ws);
+    ws.forget();
+    e
+}
+
 /// Advance `strand` from time `t` by `h` seconds with the head moving as `head`: the
 /// linearly implicit Euler step ([`linearly_implicit`]) checked after the fact and split
 /// when it is not acceptable (see the module page), exactly the runtime's
