@@ -225,10 +225,7 @@ impl Kernels {
                 ));
             }
         }
-        files.push((
-            KERNELS_FILE.to_string(),
-            declaring_text_in(&sizes, &floats),
-        ));
+        files.push((KERNELS_FILE.to_string(), declaring_text_in(&sizes, &floats)));
         Ok(files)
     }
 

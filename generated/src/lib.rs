@@ -634,10 +634,7 @@ mod tests {
             for i in 0..3 {
                 assert_eq!(name(12 + 3 * i + m), format!("dp_{i}_{m}"));
                 for j in i..3 {
-                    assert_eq!(
-                        name(D2P_F32 + 3 * SYM[i][j] + m),
-                        format!("d2p_{i}{j}_{m}")
-                    );
+                    assert_eq!(name(D2P_F32 + 3 * SYM[i][j] + m), format!("d2p_{i}{j}_{m}"));
                 }
             }
             for i in 1..3 {

@@ -10,9 +10,9 @@
 //! the frame with respect to d_i is `∂E/∂d_i = [P(u) e_i]× E(u)` (the left Jacobian of
 //! SO(3) times u is P(u)), so `w_i(u) = P(u) e_i` is the element's angular derivative.
 
+use crate::float::Float;
 use crate::helix_functions::{abc, abc_values};
 use crate::jet::{cross, Jet};
-use crate::float::Float;
 use crate::lanes::{M, V};
 use nalgebra::{Matrix3, Vector3};
 

@@ -134,7 +134,11 @@ pub struct Balance<T: Float = f64> {
 pub const WORK_ALLOWANCE: f64 = 1.0;
 
 /// The balance of a step; `inertial` when the head moves uniformly over it.
-pub fn balance<T: Float>(start: &StateEnergy<T>, end: &StateEnergy<T>, inertial: bool) -> Balance<T> {
+pub fn balance<T: Float>(
+    start: &StateEnergy<T>,
+    end: &StateEnergy<T>,
+    inertial: bool,
+) -> Balance<T> {
     let roundoff = start.roundoff() + end.roundoff();
     let h = T::of(end.time - start.time);
     let half = T::of(0.5);

@@ -18,7 +18,7 @@
 //! energy the balance lets a step create) are the same in both types.
 
 use crate::energy::{ROUNDOFF, ROUNDOFF_F32};
-use crate::lanes::{Real, F32x4, F4};
+use crate::lanes::{F32x4, Real, F4};
 use core::cmp::Ordering;
 use nalgebra::RealField;
 

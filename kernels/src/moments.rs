@@ -17,9 +17,9 @@ pub mod rotary;
 
 use crate::body_field::BodyField;
 use crate::element::{element_jets, local_pose};
+use crate::float::Float;
 use crate::pose::Pose;
 use crate::quadrature::gauss_legendre;
-use crate::float::Float;
 use nalgebra::{Matrix3, Vector3};
 
 type V3<T> = Vector3<T>;

@@ -149,7 +149,11 @@ pub struct SpectralProjection<'a, T: Float = f64> {
 impl<'a, T: Float> SpectralProjection<'a, T> {
     /// The projection of n × n matrices on this storage (lengths as documented on
     /// [`ProjectionBasis`] and [`ProjectionScratch`]; `None` when one is too short).
-    pub fn new(n: usize, basis: ProjectionBasis<'a, T>, s: ProjectionScratch<'a, T>) -> Option<Self> {
+    pub fn new(
+        n: usize,
+        basis: ProjectionBasis<'a, T>,
+        s: ProjectionScratch<'a, T>,
+    ) -> Option<Self> {
         let nn = n * n;
         let long_enough = basis.vectors.len() >= n * (n / 2)
             && s.a.len() >= nn
@@ -666,7 +670,11 @@ impl<'a, T: Float> SpectralProjection<'a, T> {
                 cur_u1 = -m * below_u2;
             }
         }
-        self.u0[n - 1] = if cur_d == T::zero() { perturbation } else { cur_d };
+        self.u0[n - 1] = if cur_d == T::zero() {
+            perturbation
+        } else {
+            cur_d
+        };
         // the back substitution multiplies by the reciprocal pivots: its chain of
         // dependent operations then has no division (each factorisation serves two or
         // more solves)

@@ -10,6 +10,7 @@
 
 use crate::body_field::BodyField;
 use crate::element::{ElementPoint, RotaryPoints};
+use crate::float::Float;
 use crate::moments::jacobians::{
     add_field_hessian, add_velocity_jacobian, add_weighted_gram, VelocityRow,
 };
@@ -18,7 +19,6 @@ use crate::moments::{
     assemble_force, assemble_mass_gram_and_gravity, end_derivatives_from, frame_motions,
     suffix_bodies, ElementMoments, EndDerivatives, FrameMotion, SuffixBody, Wrench,
 };
-use crate::float::Float;
 use crate::pose::{darboux, Pose};
 use nalgebra::{Matrix3, Vector3};
 

@@ -126,7 +126,14 @@ fn side_by_side<const N: usize, const D: usize, const E: usize, const B: usize>(
         let (e64, e32) = (ends::<_, N, D, E, B>(&s64), ends::<_, N, D, E, B>(&s32));
         let at = head.state(t + DT);
         let narrow = fixed::energy(&ClosedForm, &s32, &effects, &at, t + DT, &mut ws32);
-        let wide = fixed::energy(&ClosedForm, &s32.cast::<f64>(), &effects, &at, t + DT, &mut ws_wide);
+        let wide = fixed::energy(
+            &ClosedForm,
+            &s32.cast::<f64>(),
+            &effects,
+            &at,
+            t + DT,
+            &mut ws_wide,
+        );
         let parts = wide.kinetic.abs() + wide.elastic.abs() + wide.potential.abs() + wide.scale;
         out.energy_roundoff = out
             .energy_roundoff
@@ -258,12 +265,32 @@ fn check(case: &str, o: &Outcome, bound: f64) {
 #[test]
 fn hanging_strand_at_rest_stays_at_rest_in_f32() {
     for (n, o) in [
-        (5, side_by_side::<5, 15, 6, 7>(hanging_at_rest::<5, 15, 6, 7>(), &StillHead, gravity(), 30)),
-        (20, side_by_side::<20, 60, 21, 30>(hanging_at_rest::<20, 60, 21, 30>(), &StillHead, gravity(), 30)),
+        (
+            5,
+            side_by_side::<5, 15, 6, 7>(
+                hanging_at_rest::<5, 15, 6, 7>(),
+                &StillHead,
+                gravity(),
+                30,
+            ),
+        ),
+        (
+            20,
+            side_by_side::<20, 60, 21, 30>(
+                hanging_at_rest::<20, 60, 21, 30>(),
+                &StillHead,
+                gravity(),
+                30,
+            ),
+        ),
     ] {
         let case = format!("(a) N = {n}, hanging at rest, 1 s");
         check(&case, &o, 4.0);
-        assert!(o.displacement.0 < 1e-12, "{case}: f64 moved {:e} L", o.displacement.0);
+        assert!(
+            o.displacement.0 < 1e-12,
+            "{case}: f64 moved {:e} L",
+            o.displacement.0
+        );
         assert!(
             o.displacement.1 <= 2.0 * EPS32,
             "{case}: f32 moved {:e} L",
@@ -281,7 +308,10 @@ fn released<const N: usize, const D: usize, const E: usize, const B: usize>() ->
 
 #[test]
 fn straight_strand_released_horizontally_in_f32() {
-    for (n, o) in [(5, released::<5, 15, 6, 7>()), (20, released::<20, 60, 21, 30>())] {
+    for (n, o) in [
+        (5, released::<5, 15, 6, 7>()),
+        (20, released::<20, 60, 21, 30>()),
+    ] {
         let case = format!("(b) N = {n}, straight curly strand released horizontally, 1 s");
         check(&case, &o, 128.0);
         assert!(o.displacement.1 > 0.5, "{case}: the strand did not fall");
@@ -306,7 +336,10 @@ fn shaking<const N: usize, const D: usize, const E: usize, const B: usize>() -> 
 
 #[test]
 fn strand_on_a_shaking_head_in_f32() {
-    for (n, o) in [(5, shaking::<5, 15, 6, 7>()), (20, shaking::<20, 60, 21, 30>())] {
+    for (n, o) in [
+        (5, shaking::<5, 15, 6, 7>()),
+        (20, shaking::<20, 60, 21, 30>()),
+    ] {
         let case = format!("(c) N = {n}, curly strand on a head shaking at 2 Hz by ±30°, 2 s");
         check(&case, &o, 32.0);
         assert!(o.displacement.1 > 1e-2, "{case}: the strand did not move");

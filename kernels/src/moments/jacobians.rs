@@ -11,10 +11,10 @@
 //!
 //! The rotary-inertia parts of b and ∂b/∂q̇ are in [`crate::moments::rotary`].
 
+use crate::float::Float;
 use crate::moments::{
     axial, cross_moment, ElementMoments, EndDerivatives, FrameMotion, SuffixBody,
 };
-use crate::float::Float;
 use crate::pose::Pose;
 use nalgebra::{Matrix3, Vector3};
 

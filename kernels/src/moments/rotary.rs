@@ -14,8 +14,8 @@
 use crate::element::RotaryPoints;
 use crate::float::Float;
 use crate::lanes::{
-    add, cross, cross_matrix, dot, mat_add, mat_mul, mat_scale, mat_vec, scale, transpose, Real,
-    M, V,
+    add, cross, cross_matrix, dot, mat_add, mat_mul, mat_scale, mat_vec, scale, transpose, Real, M,
+    V,
 };
 use crate::moments::{ElementMoments, EndDerivatives, FrameMotion};
 use crate::pose::Pose;
