@@ -379,3 +379,26 @@ fn strands_on_a_head_that_stops_suddenly_in_f32() {
         }
     }
 }
+
+/// What a strand and a workspace take in f32 against f64 (docs/embedding.md, "Memory"):
+/// about half (the time of the energy a strand keeps stays f64, pivot indices `usize`).
+#[test]
+fn f32_strand_and_workspace_take_about_half_the_memory() {
+    fn sizes<const N: usize, const D: usize, const E: usize, const B: usize>() -> [usize; 4] {
+        [
+            FixedStrand::<N, D, B>::BYTES,
+            FixedStrand::<N, D, B, f32>::BYTES,
+            FixedWorkspace::<N, D, E>::BYTES,
+            FixedWorkspace::<N, D, E, f32>::BYTES,
+        ]
+    }
+    for (n, [s64, s32, w64, w32]) in [
+        (5, sizes::<5, 15, 6, 7>()),
+        (10, sizes::<10, 30, 11, 15>()),
+        (20, sizes::<20, 60, 21, 30>()),
+    ] {
+        eprintln!("N = {n}: strand {s64} B (f64), {s32} B (f32); workspace {w64} B, {w32} B");
+        // half, but for the f64 time of the kept energy and the pivots' indices
+        assert!(100 * s32 <= 52 * s64 && 100 * w32 <= 52 * w64, "N = {n}");
+    }
+}
