@@ -598,10 +598,10 @@ pub fn element_point_f32_into(d: &Vector3<f32>, u: f32, out: &mut ElementPoint<f
     let v = |k: usize| Vector3::new(o[k], o[k + 1], o[k + 2]);
     out.frame = Matrix3::from_fn(|r, c| o[3 * r + c]);
     out.p = v(9);
-    for i in 0..3 {
+    for (i, pairs) in SYM.iter().enumerate() {
         out.dp[i] = v(12 + 3 * i);
-        for j in 0..3 {
-            out.d2p[i][j] = v(D2P_F32 + 3 * SYM[i][j]);
+        for (j, &pair) in pairs.iter().enumerate() {
+            out.d2p[i][j] = v(D2P_F32 + 3 * pair);
         }
     }
     out.w[0] = out.p;
@@ -622,6 +622,7 @@ mod tests {
 
     /// The offsets of [`element_point_f32_into`] name the outputs they read.
     #[test]
+    #[allow(clippy::needless_range_loop)]
     fn element_point_f32_layout() {
         let name = |k: usize| ELEMENT_POINT_F32_OUTPUTS[k];
         for r in 0..3 {

@@ -60,8 +60,9 @@ pub struct RotaryElement<T: Float = f64> {
     pub rot_w: [V3<T>; 3],
 }
 
-/// The integrands of [`RotaryElement`] at one quadrature point (or, with `T` = [`F4`], at
-/// four at once, one per lane), each already multiplied by the point's weight `wt`:
+/// The integrands of [`RotaryElement`] at one quadrature point (or, with `T` =
+/// [`crate::lanes::F4`] or [`crate::lanes::F32x4`], at four at once, one per lane), each
+/// already multiplied by the point's weight `wt`:
 /// summed over the points in order they are the element's integrals in its start frame.
 struct PointTerms<T> {
     torque: V<T>,
@@ -186,9 +187,10 @@ fn lane<T: Float>(a: &V<T::Lanes>, k: usize) -> V3<T> {
 /// of `out` for the abscissa `u[k]` (up to four at a time, see
 /// `MomentSource::rotary_points`); the Jacobian parts only when `jacobian`.
 ///
-/// The integrands are evaluated four points at a time (in the lanes of [`F4`])
-/// and summed point by point in order: the same values, bit for bit, as one point at a
-/// time with nalgebra (the unit tests check this).
+/// The integrands are evaluated four points at a time (in the lanes of
+/// [`Float::Lanes`]: [`crate::lanes::F4`] in f64, [`crate::lanes::F32x4`] in f32) and
+/// summed point by point in order: the same values, bit for bit, as one point at a time
+/// with nalgebra (the unit tests check this in f64).
 ///
 /// Like the generated kernels, it is compiled twice, for the baseline target and with
 /// AVX2 (four lanes in one register), and runs the AVX2 copy when the CPU has it; both
