@@ -114,7 +114,7 @@ impl<const N: usize, const D: usize, T: Float> FixedParams<N, D, T> {
                 friction[3 * p + i] = l * internal_friction;
             }
         }
-        Ok(FixedParams {
+        let p = FixedParams {
             root_position: Vector3::from(root_position).map(T::of),
             root_frame: frame.map(T::of),
             lengths: lengths.map(T::of),
@@ -124,7 +124,25 @@ impl<const N: usize, const D: usize, T: Float> FixedParams<N, D, T> {
             mass_per_length: T::of(section.mass_per_length),
             air_drag: T::of(air_drag),
             rotary_inertia: section.rotary_inertia.map(T::of),
-        })
+        };
+        // what f64 holds may overflow, or round to zero, in f32
+        let finite = |x: &[T]| x.iter().all(|x| x.is_finite());
+        let positive = |x: &[T]| x.iter().all(|&x| x.is_finite() && x > T::zero());
+        let representable = "representable in the step's float type (finite, and > 0 where > 0)";
+        let fields: [(&'static str, bool); 8] = [
+            ("root_position", finite(p.root_position.as_slice())),
+            ("lengths", positive(&p.lengths)),
+            ("natural", finite(&p.natural)),
+            ("stiffness", positive(&p.stiffness)),
+            ("internal_friction", finite(&p.friction)),
+            ("mass_per_length", positive(&[p.mass_per_length])),
+            ("air_drag", finite(&[p.air_drag])),
+            ("rotary_inertia", finite(&p.rotary_inertia)),
+        ];
+        if let Some((field, _)) = fields.iter().find(|(_, ok)| !ok) {
+            return err(field, representable);
+        }
+        Ok(p)
     }
 
     /// The shape the moment assembly reads.
@@ -158,5 +176,37 @@ impl<const N: usize, const D: usize, T: Float> FixedParams<N, D, T> {
     /// Total length L, metres.
     pub fn length(&self) -> T {
         self.lengths.iter().copied().sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::section_terms;
+
+    /// Values that f64 holds but f32 does not are refused in f32, naming the field.
+    #[test]
+    fn f32_parameters_must_be_representable_in_f32() {
+        let frame = [[0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]];
+        let section = section_terms(50e-6, 1.0, 1.5e9, 0.48, 1300.0);
+        let make = |section: &SectionTerms, drag: f64| {
+            FixedParams::<2, 6, f32>::new([0.0; 3], frame, [0.1; 2], section, [1.0; 6], 0.0, drag)
+        };
+        assert!(make(&section, 5e-6).is_ok());
+        let err = make(&section, 1e300).expect_err("air drag overflows f32");
+        assert_eq!(err.field, "air_drag");
+        let tiny = SectionTerms {
+            mass_per_length: 1e-60,
+            ..section
+        };
+        assert_eq!(
+            make(&tiny, 5e-6).expect_err("ρS rounds to 0").field,
+            "mass_per_length"
+        );
+        // the same values are fine in f64
+        assert!(
+            FixedParams::<2, 6>::new([0.0; 3], frame, [0.1; 2], &tiny, [1.0; 6], 0.0, 1e300)
+                .is_ok()
+        );
     }
 }
