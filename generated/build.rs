@@ -60,6 +60,7 @@ fn main() -> ExitCode {
     match Kernels::new()
         .elements(&sizes)
         .float(Float::F64)
+        .float(Float::F32)
         .write_to(&out)
     {
         Ok(_) => ExitCode::SUCCESS,

@@ -1,8 +1,8 @@
 //! The embeddable crates build without std and without alloc: `tests/no_std_probe` is a
 //! `#![no_std]` staticlib with its own panic handler and no global allocator that steps
-//! a strand with the generated kernels; it compiles only if neither std nor alloc is
-//! reached from superhelix-generated and superhelix-kernels. Their normal dependencies
-//! hold none of the heavy crates an engine would not vendor.
+//! a strand with the generated kernels, in f64 and in f32 (`n5::f32`); it compiles only
+//! if neither std nor alloc is reached from superhelix-generated and superhelix-kernels.
+//! Their normal dependencies hold none of the heavy crates an engine would not vendor.
 
 use std::path::Path;
 use std::process::Command;
@@ -30,6 +30,19 @@ fn generated_kernels_build_without_std_and_alloc() {
     );
     let lib = target.join("release/libsuperhelix_no_std_probe.a");
     assert!(lib.exists(), "{} was not written", lib.display());
+    let bytes = std::fs::read(&lib).expect("the probe library reads");
+    for symbol in ["superhelix_probe_step", "superhelix_probe_step_f32"] {
+        let name = symbol.as_bytes();
+        assert!(
+            bytes
+                .windows(name.len() + 1)
+                .any(|w| &w[..name.len()] == name
+                    && !w[name.len()].is_ascii_alphanumeric()
+                    && w[name.len()] != b'_'),
+            "{symbol} is not in {}",
+            lib.display()
+        );
+    }
 }
 
 #[test]

@@ -9,24 +9,30 @@
 //! `superhelix_kernels::fixed` with the generated closed forms (`ClosedForm`) as the
 //! moment source. Its header gives an estimate of what one step costs at that N.
 //!
+//! With [`Float::F32`] ([`Kernels::float`]) it writes the same module in f32,
+//! `n{N}_f32.rs`: the same names with the strand, its workspace and every operation of
+//! its step in f32, on the generated f32 closed forms (`ClosedForm` as an f32 moment
+//! source); it is declared as `n{N}::f32` (`n7::f32::step`, `n7::f32::Strand`, …).
+//!
 //! Beside the modules it writes [`KERNELS_FILE`], which declares them
-//! (`pub mod n7 { include!("n7.rs"); }`), lists them (`SIZES`) and dispatches a run-time
-//! N to the matching const parameters (`visit_size`, over
-//! `superhelix_generated::SizeVisitor`). A crate that depends on `superhelix-generated`
+//! (`pub mod n7 { include!("n7.rs"); pub mod f32 { include!("n7_f32.rs"); } }`), lists
+//! them (`SIZES`) and dispatches a run-time N to the matching const parameters
+//! (`visit_size`, over `superhelix_generated::SizeVisitor`). A crate that depends on `superhelix-generated`
 //! (and on this crate as a build-dependency) gets them with
 //!
 //! ```no_run
 //! // build.rs
 //! use superhelix_codegen::{Float, Kernels};
 //! let out = std::env::var("OUT_DIR").expect("cargo sets OUT_DIR");
-//! if let Err(e) = Kernels::new().elements(&[7]).float(Float::F64).write_to(&out) {
+//! if let Err(e) = Kernels::new().elements(&[7]).float(Float::F64).float(Float::F32).write_to(&out) {
 //!     eprintln!("error: {e}");
 //!     std::process::exit(1);
 //! }
 //! ```
 //!
 //! and, in its library, `include!(concat!(env!("OUT_DIR"), "/superhelix_kernels.rs"));`,
-//! after which `n7::step`, `n7::Strand` and `visit_size(7, …)` are its own. The emitted
+//! after which `n7::step`, `n7::Strand`, `n7::f32::step`, `n7::f32::Strand` and
+//! `visit_size(7, …)` are its own. The emitted
 //! code names everything by absolute paths (`::superhelix_generated::kernels::fixed::…`,
 //! `::superhelix_generated::ClosedForm`), so the same text compiles inside
 //! `superhelix-generated` (the checked-in sizes, `generated/src/fixed/`) and in any crate
@@ -53,9 +59,6 @@ pub const KERNELS_FILE: &str = "superhelix_kernels.rs";
 pub enum KernelsError {
     /// A number of elements outside `1..=`[`MAX_ELEMENTS`].
     Elements(usize),
-    /// A float type the fixed-N step does not have ([`Float::F32`]: the strand, its
-    /// workspace and step of `superhelix_kernels::fixed` are `f64`).
-    Float(Float),
     /// A path that is not valid UTF-8 (the declaring file names the modules by path).
     Path(PathBuf),
     /// Creating the directory or writing a file failed.
@@ -73,10 +76,6 @@ impl fmt::Display for KernelsError {
             KernelsError::Elements(n) => write!(
                 f,
                 "number of elements N = {n} is out of range: N must be in 1..={MAX_ELEMENTS}"
-            ),
-            KernelsError::Float(float) => write!(
-                f,
-                "float type {float} is not yet supported for the fixed-N step (use Float::F64)"
             ),
             KernelsError::Path(p) => write!(f, "{}: the path is not valid UTF-8", p.display()),
             KernelsError::Io { path, message } => write!(f, "{}: {message}", path.display()),
@@ -160,11 +159,11 @@ impl StepCost {
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct Kernels {
     elements: Vec<usize>,
-    float: Float,
+    floats: Vec<Float>,
 }
 
 impl Kernels {
-    /// No sizes, `f64`.
+    /// No sizes; `f64` unless [`Kernels::float`] adds a float type.
     pub fn new() -> Kernels {
         Kernels::default()
     }
@@ -176,19 +175,28 @@ impl Kernels {
         self
     }
 
-    /// The float type of the step (only [`Float::F64`] is available: the f32 element
-    /// functions exist, the fixed-N strand and step in f32 do not).
+    /// Add a float type to write the modules in (repeats are written once): for each N,
+    /// [`Float::F64`] writes `n{N}.rs` (the module `n{N}`), [`Float::F32`] writes
+    /// `n{N}_f32.rs` (the module `n{N}::f32`: the strand and its step in f32). Without
+    /// any, `f64` only.
     pub fn float(mut self, float: Float) -> Kernels {
-        self.float = float;
+        if !self.floats.contains(&float) {
+            self.floats.push(float);
+        }
         self
     }
 
+    /// The float types to write, `f64` first: those added, or `f64` alone.
+    pub fn floats(&self) -> Vec<Float> {
+        [Float::F64, Float::F32]
+            .into_iter()
+            .filter(|f| self.floats.is_empty() && *f == Float::F64 || self.floats.contains(f))
+            .collect()
+    }
+
     /// The numbers of elements, ascending, without repeats; an error names the first
-    /// one out of range, or a float type without a fixed-N step.
+    /// one out of range.
     pub fn sizes(&self) -> Result<Vec<usize>, KernelsError> {
-        if self.float != Float::F64 {
-            return Err(KernelsError::Float(self.float));
-        }
         if let Some(&n) = self
             .elements
             .iter()
@@ -202,15 +210,22 @@ impl Kernels {
         Ok(sizes)
     }
 
-    /// Every file as (name, text): `n{N}.rs` for each N, ascending, then
-    /// [`KERNELS_FILE`]. The texts depend only on the sizes (and this crate's version).
+    /// Every file as (name, text): for each N, ascending, `n{N}.rs` and `n{N}_f32.rs`
+    /// (those of the float types asked for), then [`KERNELS_FILE`]. The texts depend
+    /// only on the sizes and float types (and this crate's version).
     pub fn files(&self) -> Result<Vec<(String, String)>, KernelsError> {
         let sizes = self.sizes()?;
-        let mut files: Vec<(String, String)> = sizes
-            .iter()
-            .map(|&n| (module_file(n), module_text(n, &ELEMENT_OPS)))
-            .collect();
-        files.push((KERNELS_FILE.to_string(), declaring_text(&sizes)));
+        let floats = self.floats();
+        let mut files: Vec<(String, String)> = Vec::new();
+        for &n in &sizes {
+            for &float in &floats {
+                files.push((
+                    module_file_in(n, float),
+                    module_text_in(n, &ELEMENT_OPS, float),
+                ));
+            }
+        }
+        files.push((KERNELS_FILE.to_string(), declaring_text_in(&sizes, &floats)));
         Ok(files)
     }
 
@@ -243,7 +258,15 @@ impl Kernels {
 
 /// The file of the module for N elements.
 pub fn module_file(n: usize) -> String {
-    format!("n{n}.rs")
+    module_file_in(n, Float::F64)
+}
+
+/// The file of the module for N elements in `float`: `n{N}.rs` (f64), `n{N}_f32.rs`.
+pub fn module_file_in(n: usize, float: Float) -> String {
+    match float {
+        Float::F64 => format!("n{n}.rs"),
+        Float::F32 => format!("n{n}_f32.rs"),
+    }
 }
 
 /// The kept eigenbasis's columns for N elements: ⌊3N/2⌋.
@@ -291,15 +314,47 @@ fn step_result() -> String {
 /// The text of `n{N}.rs`: items only (no inner attributes or inner doc comments), so
 /// that it can be `include!`d into a module; laid out as rustfmt would.
 pub fn module_text(n: usize, ops: &ElementOps) -> String {
+    module_text_in(n, ops, Float::F64)
+}
+
+/// The text of the module for N elements in `float` ([`module_text`] for f64; for f32
+/// the same items on the f32 strand, workspace and step).
+pub fn module_text_in(n: usize, ops: &ElementOps, float: Float) -> String {
     let (d, e, b) = (3 * n, n + 1, basis(n));
     let c = StepCost::for_elements(n, ops);
     let (t0, t1) = c.total();
     let elements = elements_phrase(n);
+    let (first, type_arg, ends_type, in_float) = match float {
+        Float::F64 => (
+            format!(
+                "// The fixed-N strand of N = {n} ({elements}, {d} coordinates, {e} element ends,\n\
+                 // a kept eigenbasis of {b} column{b_plural}), stepped by superhelix-kernels' const-generic\n\
+                 // step with the generated closed forms (ClosedForm) as its moment source.\n",
+                b_plural = if b == 1 { "" } else { "s" },
+            ),
+            String::new(),
+            String::new(),
+            String::new(),
+        ),
+        Float::F32 => (
+            format!(
+                "// The fixed-N strand of N = {n} in f32 ({elements}, {d} coordinates, {e} element\n\
+                 // ends, a kept eigenbasis of {b} column{b_plural}): superhelix-kernels' const-generic\n\
+                 // step in f32 (the strand, its workspace and every operation of the step), with\n\
+                 // the generated f32 closed forms (ClosedForm as an f32 moment source). Times, the\n\
+                 // head's motion and gravity are f64, rounded to f32 where the step uses them.\n\
+                 // The operation counts below are those of the f64 module (the f32 closed forms\n\
+                 // have their own Taylor degrees: see the headers of generated/src/*_f32.rs).\n",
+                b_plural = if b == 1 { "" } else { "s" },
+            ),
+            ", f32".to_string(),
+            "<f32>".to_string(),
+            " in f32".to_string(),
+        ),
+    };
     let header = format!(
         "// @generated by superhelix-codegen {version}\n\
-         // The fixed-N strand of N = {n} ({elements}, {d} coordinates, {e} element ends,\n\
-         // a kept eigenbasis of {b} column{b_plural}), stepped by superhelix-kernels' const-generic\n\
-         // step with the generated closed forms (ClosedForm) as its moment source.\n\
+         {first}\
          // Cost of one linearly implicit step, floating-point operations (ESTIMATES: the\n\
          // closed forms are exact counts of the emitted code after CSE, the rest counted\n\
          // from the loops; still head, one evaluation of every term, one projection, one LU):\n\
@@ -317,7 +372,6 @@ pub fn module_text(n: usize, ops: &ElementOps) -> String {
          // The checked step (`step`) adds an energy measurement per (sub)step (M at the\n\
          // new state: the moments of M and its O(N^2) assembly), and its splits.\n",
         version = crate::VERSION,
-        b_plural = if b == 1 { "" } else { "s" },
         cf0 = c.closed_forms.0,
         cf1 = c.closed_forms.1,
         rp0 = c.rotary_points.0,
@@ -341,16 +395,16 @@ pub fn module_text(n: usize, ops: &ElementOps) -> String {
          pub const BASIS: usize = {b};\n\
          \n\
          /// What a strand of {elements} keeps between steps (parameters, q, q̇, the kept\n\
-         /// eigenbasis): `FixedStrand<{n}, {d}, {b}>`.\n\
-         pub type Strand = {FIXED}::FixedStrand<{n}, {d}, {b}>;\n\
-         /// The parameters of a strand of {elements}, checked by `Params::new`.\n\
-         pub type Params = {FIXED}::FixedParams<{n}, {d}>;\n\
-         /// The scratch of one step, one per worker: `FixedWorkspace<{n}, {d}, {e}>`.\n\
-         pub type Workspace = {FIXED}::FixedWorkspace<{n}, {d}, {e}>;\n\
-         /// The moment assembly's buffers at N = {n}.\n\
-         pub type Assembly = {FIXED}::Assembly<{n}, {d}, {e}>;\n\
-         /// The poses at the {e} element ends, root first, in head coordinates.\n\
-         pub type Ends = [::superhelix_generated::kernels::pose::Pose; {e}];\n\
+         /// eigenbasis){in_float}: `FixedStrand<{n}, {d}, {b}{type_arg}>`.\n\
+         pub type Strand = {FIXED}::FixedStrand<{n}, {d}, {b}{type_arg}>;\n\
+         /// The parameters of a strand of {elements}{in_float}, checked by `Params::new`.\n\
+         pub type Params = {FIXED}::FixedParams<{n}, {d}{type_arg}>;\n\
+         /// The scratch of one step{in_float}, one per worker: `FixedWorkspace<{n}, {d}, {e}{type_arg}>`.\n\
+         pub type Workspace = {FIXED}::FixedWorkspace<{n}, {d}, {e}{type_arg}>;\n\
+         /// The moment assembly's buffers at N = {n}{in_float}.\n\
+         pub type Assembly = {FIXED}::Assembly<{n}, {d}, {e}{type_arg}>;\n\
+         /// The poses at the {e} element ends, root first, in head coordinates{in_float}.\n\
+         pub type Ends = [::superhelix_generated::kernels::pose::Pose{ends_type}; {e}];\n\
          \n\
          /// Advance `strand` from time `t` by `h` seconds with the head moving as `head`:\n\
          /// the linearly implicit Euler step (paper section 3.4) checked after the fact and\n\
@@ -444,19 +498,49 @@ fn wrapped_list(prefix: &str, sizes: &[usize], suffix: &str) -> String {
 
 /// The text of [`KERNELS_FILE`] for `sizes` (ascending, in range).
 pub fn declaring_text(sizes: &[usize]) -> String {
+    declaring_text_in(sizes, &[Float::F64])
+}
+
+/// The text of [`KERNELS_FILE`] for `sizes` (ascending, in range) in the float types
+/// `floats` (each module `n{N}` holds the f64 items of `n{N}.rs` and the module
+/// `n{N}::f32` of `n{N}_f32.rs`, as asked).
+pub fn declaring_text_in(sizes: &[usize], floats: &[Float]) -> String {
+    let f64_items = floats.contains(&Float::F64);
+    let f32_items = floats.contains(&Float::F32);
     let mut s = format!(
         "// @generated by superhelix-codegen {version}\n\
          {list_lines}\
-         // (each in n<N>.rs beside this file), and the dispatch of a run-time N to them.\n",
+         // (each in {files} beside this file), and the dispatch of a run-time N to them.\n",
         version = crate::VERSION,
+        files = match (f64_items, f32_items) {
+            (true, true) => "n<N>.rs and n<N>_f32.rs",
+            (false, true) => "n<N>_f32.rs",
+            _ => "n<N>.rs",
+        },
         list_lines = wrapped_list("The fixed-N strand modules for N =", sizes, ""),
     );
     for &n in sizes {
+        let mut body = String::new();
+        if f64_items {
+            body.push_str(&format!("    include!(\"n{n}.rs\");\n"));
+        }
+        if f32_items {
+            if f64_items {
+                body.push('\n');
+            }
+            body.push_str(&format!(
+                "    /// The same strand in f32: the strand, its workspace and every operation of\n    \
+                 /// its step in f32, on the generated f32 closed forms (see `n{n}_f32.rs`).\n    \
+                 pub mod f32 {{\n        \
+                     include!(\"n{n}_f32.rs\");\n    \
+                 }}\n"
+            ));
+        }
         s.push_str(&format!(
             "\n/// The fixed-N strand of {elements} ({d} coordinates), stepped with the\n\
              /// generated closed forms (see the file's header for what a step costs).\n\
-             pub mod n{n} {{\n    \
-                 include!(\"n{n}.rs\");\n\
+             pub mod n{n} {{\n\
+             {body}\
              }}\n",
             elements = elements_phrase(n),
             d = 3 * n,
@@ -505,11 +589,11 @@ mod tests {
         assert!(e.to_string().contains("1..=200"), "{e}");
         let e = Kernels::new().elements(&[201]).sizes().unwrap_err();
         assert_eq!(e, KernelsError::Elements(201));
-        let e = Kernels::new().elements(&[7]).float(Float::F32).sizes();
-        assert!(e
-            .unwrap_err()
-            .to_string()
-            .contains("not yet supported for the fixed-N step"));
+        let k = Kernels::new().elements(&[7]);
+        assert_eq!(k.floats(), [Float::F64]);
+        assert_eq!(k.clone().float(Float::F32).floats(), [Float::F32]);
+        let both = k.float(Float::F32).float(Float::F64).float(Float::F32);
+        assert_eq!(both.floats(), [Float::F64, Float::F32]);
     }
 
     #[test]

@@ -142,8 +142,9 @@ pub fn generate_in(k: &Kernel, float: Float) -> Result<GeneratedCode, CodegenErr
 /// Every checked-in generated file: (path relative to `generated/src/`, formatted text):
 /// the f64 kernels, `sizes.rs`, the f32 versions of the element moments and of the
 /// element point (`*_f32.rs`), and the per-N modules of
-/// [`CHECKED_IN_SIZES`](crate::sizes::CHECKED_IN_SIZES) with their declaring file in
-/// [`FIXED_DIR`], written by [`crate::Kernels`] exactly as a build script gets them.
+/// [`CHECKED_IN_SIZES`](crate::sizes::CHECKED_IN_SIZES) in f64 and f32 with their
+/// declaring file in [`FIXED_DIR`], written by [`crate::Kernels`] exactly as a build
+/// script gets them.
 pub fn checked_in_files() -> Result<Vec<(String, String)>, CodegenError> {
     let mut files = Vec::new();
     // per-element op counts (after CSE) of the cheapest and dearest branch, for sizes.rs
@@ -206,6 +207,8 @@ pub fn checked_in_files() -> Result<Vec<(String, String)>, CodegenError> {
     // the per-N modules and their dispatch: the same call a build script makes
     let fixed = crate::Kernels::new()
         .elements(&crate::sizes::CHECKED_IN_SIZES)
+        .float(Float::F64)
+        .float(Float::F32)
         .files()
         .map_err(|e| CodegenError::Unsupported(e.to_string()))?;
     for (name, text) in fixed {

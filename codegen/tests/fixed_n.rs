@@ -81,7 +81,54 @@ fn write_to_writes_the_modules_and_their_dispatch() {
 }
 
 #[test]
-fn write_to_refuses_bad_sizes_and_f32_writing_nothing() {
+fn write_to_writes_the_f32_modules() {
+    let dir = temp_dir("n7-f32");
+    let written = Kernels::new()
+        .elements(&[7])
+        .float(Float::F32)
+        .write_to(&dir)
+        .expect("written");
+    let names: Vec<String> = written
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, ["n7_f32.rs", KERNELS_FILE]);
+    let n7 = std::fs::read_to_string(dir.join("n7_f32.rs")).expect("n7_f32.rs");
+    for item in [
+        "pub const N: usize = 7;",
+        "pub type Strand = ::superhelix_generated::kernels::fixed::FixedStrand<7, 21, 10, f32>;",
+        "pub type Params = ::superhelix_generated::kernels::fixed::FixedParams<7, 21, f32>;",
+        "pub type Workspace = ::superhelix_generated::kernels::fixed::FixedWorkspace<7, 21, 8, f32>;",
+        "pub type Ends = [::superhelix_generated::kernels::pose::Pose<f32>; 8];",
+        "pub fn step(",
+        "pub fn centreline(strand: &Strand, ends: &mut Ends)",
+    ] {
+        assert!(n7.contains(item), "{item} missing from n7_f32.rs:\n{n7}");
+    }
+    let decl = std::fs::read_to_string(dir.join(KERNELS_FILE)).expect("declaring file");
+    assert!(decl.contains("pub mod n7 {\n    /// "), "{decl}");
+    assert!(
+        decl.contains("    pub mod f32 {\n        include!(\"n7_f32.rs\");\n    }\n}"),
+        "{decl}"
+    );
+    assert!(!decl.contains("include!(\"n7.rs\")"), "{decl}");
+    // both: n7.rs and n7_f32.rs, declared in one module
+    let both = Kernels::new()
+        .elements(&[7])
+        .float(Float::F32)
+        .float(Float::F64)
+        .files()
+        .expect("files");
+    let names: Vec<&str> = both.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["n7.rs", "n7_f32.rs", KERNELS_FILE]);
+    assert!(both[2]
+        .1
+        .contains("pub mod n7 {\n    include!(\"n7.rs\");\n\n    /// The same strand in f32"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn write_to_refuses_bad_sizes_writing_nothing() {
     for (kernels, expected) in [
         (
             Kernels::new().elements(&[7, 0]),
@@ -90,10 +137,6 @@ fn write_to_refuses_bad_sizes_and_f32_writing_nothing() {
         (
             Kernels::new().elements(&[MAX_ELEMENTS + 1]),
             "N = 201 is out of range: N must be in 1..=200",
-        ),
-        (
-            Kernels::new().elements(&[7]).float(Float::F32),
-            "not yet supported for the fixed-N step",
         ),
     ] {
         let dir = temp_dir("refused");
@@ -114,11 +157,13 @@ fn the_checked_in_modules_are_what_the_api_writes() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../generated/src/fixed");
     let files = Kernels::new()
         .elements(&superhelix_codegen::sizes::CHECKED_IN_SIZES)
+        .float(Float::F64)
+        .float(Float::F32)
         .files()
         .expect("files");
     assert_eq!(
         files.len(),
-        superhelix_codegen::sizes::CHECKED_IN_SIZES.len() + 1
+        2 * superhelix_codegen::sizes::CHECKED_IN_SIZES.len() + 1
     );
     for (name, text) in files {
         let on_disk = std::fs::read_to_string(dir.join(&name)).unwrap_or_default();

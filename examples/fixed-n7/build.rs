@@ -1,5 +1,6 @@
-//! Writes the fixed-N strand of 7 elements and its dispatch into `OUT_DIR`
-//! (`n7.rs`, `superhelix_kernels.rs`), which `src/lib.rs` includes.
+//! Writes the fixed-N strand of 7 elements in f64 and in f32 and its dispatch into
+//! `OUT_DIR` (`n7.rs`, `n7_f32.rs`, `superhelix_kernels.rs`), which `src/lib.rs`
+//! includes.
 
 use std::process::ExitCode;
 use superhelix_codegen::{Float, Kernels};
@@ -13,6 +14,7 @@ fn main() -> ExitCode {
     match Kernels::new()
         .elements(&[7])
         .float(Float::F64)
+        .float(Float::F32)
         .write_to(out)
     {
         Ok(_) => ExitCode::SUCCESS,

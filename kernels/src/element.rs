@@ -10,9 +10,10 @@
 //! the frame with respect to d_i is `∂E/∂d_i = [P(u) e_i]× E(u)` (the left Jacobian of
 //! SO(3) times u is P(u)), so `w_i(u) = P(u) e_i` is the element's angular derivative.
 
+use crate::float::Float;
 use crate::helix_functions::{abc, abc_values};
 use crate::jet::{cross, Jet};
-use crate::lanes::{F4, M, V};
+use crate::lanes::{M, V};
 use nalgebra::{Matrix3, Vector3};
 
 /// Frame rotation E(u) and position p(u) = P(u) e0 of an element with Darboux vector
@@ -65,72 +66,75 @@ impl ElementJets {
 /// ∂w_i/∂d_j. The generated crate evaluates it in closed form; [`ElementPoint::by_jets`]
 /// is the reference.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct ElementPoint {
+pub struct ElementPoint<T: Float = f64> {
     /// E(u).
-    pub frame: Matrix3<f64>,
+    pub frame: Matrix3<T>,
     /// p(u).
-    pub p: Vector3<f64>,
+    pub p: Vector3<T>,
     /// `dp[i]` = ∂p/∂d_i.
-    pub dp: [Vector3<f64>; 3],
+    pub dp: [Vector3<T>; 3],
     /// `d2p[i][j]` = ∂²p/∂d_i∂d_j.
-    pub d2p: [[Vector3<f64>; 3]; 3],
+    pub d2p: [[Vector3<T>; 3]; 3],
     /// `w[i]` = P(u) e_i.
-    pub w: [Vector3<f64>; 3],
+    pub w: [Vector3<T>; 3],
     /// `dw[i][j]` = ∂w_i/∂d_j.
-    pub dw: [[Vector3<f64>; 3]; 3],
+    pub dw: [[Vector3<T>; 3]; 3],
 }
 
 /// The fields of [`ElementPoint`] that the rotary-inertia quadrature
 /// (`kernels::moments::rotary::rotary_element`) reads, E(u), w_i(u) and ∂w_i/∂d_j, at up to four
-/// abscissae of one element, one per lane of [`F4`] (the layout the quadrature
-/// evaluates its integrands in).
+/// abscissae of one element, one per lane of [`Float::Lanes`] (the layout the
+/// quadrature evaluates its integrands in: [`crate::lanes::F4`] in f64).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct RotaryPoints {
+pub struct RotaryPoints<T: Float = f64> {
     /// E(u) by columns: `frame[c][r]` = E(u)`[(r, c)]`.
-    pub frame: M<F4>,
+    pub frame: M<T::Lanes>,
     /// `w[i]` = P(u) e_i (`w[0]` = p).
-    pub w: [V<F4>; 3],
+    pub w: [V<T::Lanes>; 3],
     /// `dw[i][j]` = ∂w_i/∂d_j.
-    pub dw: [[V<F4>; 3]; 3],
+    pub dw: [[V<T::Lanes>; 3]; 3],
 }
 
-impl RotaryPoints {
+impl<T: Float> RotaryPoints<T> {
     /// Lane `k` set from the fields of `point`.
     ///
     /// # Panics
     ///
     /// When `k ≥ 4` (there are four lanes).
-    pub fn set_lane(&mut self, k: usize, point: &ElementPoint) {
+    pub fn set_lane(&mut self, k: usize, point: &ElementPoint<T>) {
         for c in 0..3 {
             for r in 0..3 {
-                self.frame[c][r].0[k] = point.frame[(r, c)];
+                T::set_lane(&mut self.frame[c][r], k, point.frame[(r, c)]);
             }
         }
         for i in 0..3 {
             for m in 0..3 {
-                self.w[i][m].0[k] = point.w[i][m];
+                T::set_lane(&mut self.w[i][m], k, point.w[i][m]);
             }
             for j in 0..3 {
                 for m in 0..3 {
-                    self.dw[i][j][m].0[k] = point.dw[i][j][m];
+                    T::set_lane(&mut self.dw[i][j][m], k, point.dw[i][j][m]);
                 }
             }
         }
     }
 }
 
-impl ElementPoint {
-    /// By second-order jets in d ([`element_jets`]) and [`local_pose`].
-    pub fn by_jets(d: &Vector3<f64>, u: f64) -> Self {
-        let jets = element_jets(d, u, true);
-        let (frame, p) = local_pose(d, u);
+impl<T: Float> ElementPoint<T> {
+    /// By second-order jets in d ([`element_jets`]) and [`local_pose`], computed in f64
+    /// and rounded to `T`.
+    pub fn by_jets(d: &Vector3<T>, u: T) -> Self {
+        let (d, u) = (d.map(T::as_f64), u.as_f64());
+        let jets = element_jets(&d, u, true);
+        let (frame, p) = local_pose(&d, u);
+        let v = |x: Vector3<f64>| x.map(T::of);
         ElementPoint {
-            frame,
-            p,
-            dp: core::array::from_fn(|i| jets.dp(i)),
-            d2p: core::array::from_fn(|i| core::array::from_fn(|j| jets.d2p(i, j))),
-            w: core::array::from_fn(|i| jets.w_value(i)),
-            dw: core::array::from_fn(|i| core::array::from_fn(|j| jets.dw(i, j))),
+            frame: frame.map(T::of),
+            p: v(p),
+            dp: core::array::from_fn(|i| v(jets.dp(i))),
+            d2p: core::array::from_fn(|i| core::array::from_fn(|j| v(jets.d2p(i, j)))),
+            w: core::array::from_fn(|i| v(jets.w_value(i))),
+            dw: core::array::from_fn(|i| core::array::from_fn(|j| v(jets.dw(i, j)))),
         }
     }
 }

@@ -29,50 +29,53 @@
 //! - Otherwise the bound is E(start) + W, W by the trapezoidal rule over the step, with an
 //!   allowance for the error of that estimate ([`WORK_ALLOWANCE`]).
 
+use crate::float::Float;
 use nalgebra::Vector3;
 
 /// The energy of one state (q, q̇) at one time, with what the balance of a step needs.
+///
+/// In the step's float type `T`, but for the time (`f64`, as the head trajectory's).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct StateEnergy {
+pub struct StateEnergy<T: Float = f64> {
     /// Time of the state, s.
     pub time: f64,
     /// T = ½ q̇ᵀ M(q) q̇, J.
-    pub kinetic: f64,
+    pub kinetic: T,
     /// U = ½ Σ K (q − q_n)², J.
-    pub elastic: f64,
+    pub elastic: T,
     /// V = −c0 · ∫ y ds − Σ f_l · y_l (head coordinates, at the head state of `time`), J.
-    pub potential: f64,
+    pub potential: T,
     /// ∫ y ds, m².
-    pub moment: Vector3<f64>,
+    pub moment: Vector3<T>,
     /// c0 (N/m) of the head state at `time`.
-    pub uniform: Vector3<f64>,
+    pub uniform: Vector3<T>,
     /// Power of the fictitious forces linear in y: q̇ᵀ ∫ Jᵀ C1 y ds, W.
-    pub power: f64,
+    pub power: T,
     /// Σ f_l · y_l of the point loads, J (the part of −V they make).
-    pub load_moment: f64,
+    pub load_moment: T,
     /// −Σ ḟ_l · y_l = Σ (ω × f_l) · y_l: the rate of V through the point loads' rotation
     /// at fixed q, W.
-    pub load_rate: f64,
+    pub load_rate: T,
     /// A bound on the dissipation rate D: q̇ᵀ Γ q̇ + (2ν/ρS) T (ν ∫|ẏ|² with the rotary
     /// part of T counted too), W.
-    pub dissipation: f64,
+    pub dissipation: T,
     /// The most energy the state may have, unless it is below E (see the module
     /// documentation), J; E itself after a step with a moving head.
-    pub ceiling: f64,
+    pub ceiling: T,
     /// Scale of the energy that can change hands: T + U + |c0| L², J.
-    pub scale: f64,
+    pub scale: T,
 }
 
-impl StateEnergy {
+impl<T: Float> StateEnergy<T> {
     /// E = T + U + V, J.
-    pub fn total(&self) -> f64 {
+    pub fn total(&self) -> T {
         self.kinetic + self.elastic + self.potential
     }
 
     /// A bound on the round-off of [`StateEnergy::total`]: its parts' magnitudes times
-    /// [`ROUNDOFF`].
-    pub fn roundoff(&self) -> f64 {
-        ROUNDOFF
+    /// [`ROUNDOFF`] (f64) or [`ROUNDOFF_F32`] (f32), [`Float::ENERGY_ROUNDOFF`].
+    pub fn roundoff(&self) -> T {
+        T::ENERGY_ROUNDOFF
             * (self.kinetic.abs()
                 + self.elastic.abs()
                 + self.potential.abs()
@@ -81,7 +84,7 @@ impl StateEnergy {
     }
 
     /// Scale the velocities by λ (T by λ², the power and the dissipation with them).
-    pub fn scale_velocities(&mut self, lambda: f64) {
+    pub fn scale_velocities(&mut self, lambda: T) {
         let kinetic = lambda * lambda * self.kinetic;
         self.scale += kinetic - self.kinetic;
         self.kinetic = kinetic;
@@ -92,24 +95,34 @@ impl StateEnergy {
 
 /// Relative round-off allowed in an energy: E is a sum of O(3N²) products, each good to
 /// 1e-16, and is evaluated to ~1e-14 of its parts (`stress`, the energy of a still head two
-/// ways); 1e-12 leaves a margin of 100.
+/// ways); 1e-12 (4504 ε) leaves a margin of 100.
 pub const ROUNDOFF: f64 = 1e-12;
+
+/// [`ROUNDOFF`] for the f32 step: 64 f32 epsilons, 7.6e-6. The f32 energy of the f32
+/// fixed-N step's states is within 1.4 ε of the f64 energy of the same states (relative
+/// to the parts |T| + |U| + |V| + S, over the runs of `runtime/tests/fixed_step_f32.rs`),
+/// and 64 ε also covers the 45 ε the f64 energy reaches in the hard cases, in ε, should
+/// f32 reach as many. [`ROUNDOFF`] in the ratio of the epsilons (4504 ε = 5.4e-4) would
+/// be of the order of the excess the balance acts on ([`ENERGY_SPLIT_FRACTION`]): it
+/// let pass, unlimited, steps that created 4e-4 to 1.5e-3 of the energy scale, which the
+/// f64 step limited or split (`examples/fixed-n7`, the f32 test).
+pub const ROUNDOFF_F32: f32 = 64.0 * f32::EPSILON;
 
 /// The energy balance of one step from `start` to `end`.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Balance {
+pub struct Balance<T: Float = f64> {
     /// The most energy the end state may have before the allowance, J: with the head
     /// moving uniformly, the larger of E(start) and the start's ceiling less the estimated
     /// dissipation over the step (which is also the end's ceiling); otherwise E(start)
     /// plus the head's work (trapezoidal estimate).
-    pub bound: f64,
+    pub bound: T,
     /// What E(end) may exceed `bound` by: round-off, plus the allowance for the error of
     /// the work estimate when the head does not move uniformly, J.
-    pub allowance: f64,
+    pub allowance: T,
     /// The head moved uniformly over the step.
     pub inertial: bool,
     /// E(end) − bound − allowance, J (≤ 0: the step is balanced).
-    pub excess: f64,
+    pub excess: T,
 }
 
 /// Relative allowance for the error of the trapezoidal estimate of the head's work over a
@@ -121,24 +134,32 @@ pub struct Balance {
 pub const WORK_ALLOWANCE: f64 = 1.0;
 
 /// The balance of a step; `inertial` when the head moves uniformly over it.
-pub fn balance(start: &StateEnergy, end: &StateEnergy, inertial: bool) -> Balance {
+pub fn balance<T: Float>(
+    start: &StateEnergy<T>,
+    end: &StateEnergy<T>,
+    inertial: bool,
+) -> Balance<T> {
     let roundoff = start.roundoff() + end.roundoff();
-    let h = end.time - start.time;
+    let h = T::of(end.time - start.time);
+    let half = T::of(0.5);
     let (bound, allowance) = if inertial {
-        let dissipated = 0.5 * h * (start.dissipation + end.dissipation);
+        let dissipated = half * h * (start.dissipation + end.dissipation);
         ((start.ceiling - dissipated).max(start.total()), roundoff)
     } else {
         let powers = [
-            0.5 * h * start.power,
-            0.5 * h * end.power,
-            0.5 * h * start.load_rate,
-            0.5 * h * end.load_rate,
+            half * h * start.power,
+            half * h * end.power,
+            half * h * start.load_rate,
+            half * h * end.load_rate,
             // −ċ0 · ∫y ds by the trapezoidal rule: −Δc0 · (mean ∫y ds)
-            -(end.uniform - start.uniform).dot(&(0.5 * (start.moment + end.moment))),
+            -(end.uniform - start.uniform).dot(&((start.moment + end.moment) * half)),
         ];
-        let work: f64 = powers.iter().sum();
-        let magnitude: f64 = powers.iter().map(|p| p.abs()).sum();
-        (start.total() + work, roundoff + WORK_ALLOWANCE * magnitude)
+        let work: T = powers.iter().copied().sum();
+        let magnitude: T = powers.iter().map(|p| p.abs()).sum();
+        (
+            start.total() + work,
+            roundoff + T::of(WORK_ALLOWANCE) * magnitude,
+        )
     };
     Balance {
         bound,
@@ -153,10 +174,10 @@ pub fn balance(start: &StateEnergy, end: &StateEnergy, inertial: bool) -> Balanc
 /// the step (not raised to the end's energy when that is higher, within round-off or by
 /// the fallback to E(start): the next step's bound takes the larger of the two anyway, and
 /// a ceiling raised by round-off step after step would creep); its energy otherwise.
-pub fn end_ceiling(start: &StateEnergy, end: &StateEnergy, inertial: bool) -> f64 {
+pub fn end_ceiling<T: Float>(start: &StateEnergy<T>, end: &StateEnergy<T>, inertial: bool) -> T {
     if inertial {
-        let h = end.time - start.time;
-        start.ceiling - 0.5 * h * (start.dissipation + end.dissipation)
+        let h = T::of(end.time - start.time);
+        start.ceiling - T::of(0.5) * h * (start.dissipation + end.dissipation)
     } else {
         end.total()
     }

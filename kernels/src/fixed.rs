@@ -15,6 +15,13 @@
 //! ends) and B = ⌊D/2⌋ (columns of the kept eigenbasis); `superhelix-generated` writes,
 //! for each N it is generated for, a module with these literal sizes and the generated
 //! closed forms as the [`MomentSource`].
+//!
+//! Each is generic over its float type `T` ([`Float`]: `f64`, the default, or `f32`),
+//! from one source: in `f64` the step gives the bits it always gave (the runtime's
+//! tests compare it with the runtime's step); in `f32` the strand, the workspace and
+//! every operation of the step are `f32`, on the generated f32 closed forms. Times (`t`,
+//! `h`), the head's motion and gravity stay `f64` in both (an engine's clock and head
+//! pose; they are rounded to `T` where the step uses them).
 
 mod adaptive;
 mod dense;
@@ -22,54 +29,67 @@ mod params;
 mod step;
 mod workspace;
 
-pub use adaptive::{step, Effects, ExtrapolatedHead, HeadTrajectory, StepCounts, StillHead};
+pub use adaptive::{
+    energy, step, Effects, ExtrapolatedHead, HeadTrajectory, StepCounts, StillHead,
+};
 pub use dense::{lu_solve, negative_semidefinite_part, Projection};
 pub use params::{FixedParams, ParamsError};
 pub use step::{centreline, evaluate, linearly_implicit, StepError, StepInput, StepReport};
 pub use workspace::{Assembly, FixedWorkspace};
 
 use crate::energy::StateEnergy;
+use crate::float::Float;
 use crate::strand_terms::MomentSource;
 
 /// What a fixed-N strand keeps between steps: its parameters, its state and the basis
 /// of the last spectral projection (reused while it still splits the stiffness).
 #[derive(Debug, Clone)]
-pub struct FixedStrand<const N: usize, const D: usize, const B: usize> {
+pub struct FixedStrand<const N: usize, const D: usize, const B: usize, T: Float = f64> {
     /// Geometry, material, natural shape, friction and drag.
-    pub params: FixedParams<N, D>,
+    pub params: FixedParams<N, D, T>,
     /// Generalized coordinates q (twist and curvatures per element), rad/m.
-    pub q: [f64; D],
+    pub q: [T; D],
     /// Generalized velocities q̇, rad/(m·s).
-    pub v: [f64; D],
+    pub v: [T; D],
     /// The kept eigenbasis of the projection (columns of length D, `basis_k` of them).
-    pub basis: [[f64; D]; B],
+    pub basis: [[T; D]; B],
     /// Columns of `basis` in use (0: none).
     pub basis_k: usize,
     /// Whether the basis spans the negative (else the positive) eigenvalues.
     pub basis_negative: bool,
     /// The energy of the state the last checked step ended in (the next step's start).
-    pub last_energy: Option<StateEnergy>,
+    pub last_energy: Option<StateEnergy<T>>,
 }
 
-impl<const N: usize, const D: usize, const B: usize> FixedStrand<N, D, B> {
+impl<const N: usize, const D: usize, const B: usize, T: Float> FixedStrand<N, D, B, T> {
     /// Bytes a strand keeps (its size in memory).
     pub const BYTES: usize = core::mem::size_of::<Self>();
 
     /// A strand at rest in its natural shape (q = q_n, q̇ = 0).
-    pub fn at_rest(params: FixedParams<N, D>) -> Self {
+    pub fn at_rest(params: FixedParams<N, D, T>) -> Self {
         FixedStrand {
             q: params.natural,
-            v: [0.0; D],
+            v: [T::zero(); D],
             params,
-            basis: [[0.0; D]; B],
+            basis: [[T::zero(); D]; B],
             basis_k: 0,
             basis_negative: true,
             last_energy: None,
         }
     }
 
+    /// The same strand in the float type `U`: its parameters and state rounded to `U`,
+    /// the kept basis and the last energy forgotten (the next step starts afresh).
+    pub fn cast<U: Float>(&self) -> FixedStrand<N, D, B, U> {
+        let c = |x: &T| U::of(x.as_f64());
+        let mut s = FixedStrand::at_rest(self.params.cast());
+        s.q = self.q.each_ref().map(c);
+        s.v = self.v.each_ref().map(c);
+        s
+    }
+
     /// Set the state (q, q̇), forgetting the kept basis.
-    pub fn set_state(&mut self, q: &[f64; D], v: &[f64; D]) {
+    pub fn set_state(&mut self, q: &[T; D], v: &[T; D]) {
         self.q = *q;
         self.v = *v;
         self.basis_k = 0;
@@ -78,5 +98,5 @@ impl<const N: usize, const D: usize, const B: usize> FixedStrand<N, D, B> {
 }
 
 /// The closed forms as a source, for code generic over the source.
-pub trait Source: MomentSource {}
-impl<S: MomentSource> Source for S {}
+pub trait Source<T: Float = f64>: MomentSource<T> {}
+impl<T: Float, S: MomentSource<T>> Source<T> for S {}

@@ -3,6 +3,7 @@
 //! (paper eq. 5a).
 
 use crate::body_field::BodyField;
+use crate::float::Float;
 use nalgebra::{Matrix3, Vector3};
 
 /// The head's position, orientation and their first two time derivatives at one time.
@@ -55,26 +56,30 @@ impl Default for HeadState {
 /// C1 = −ρS([α]× + [ω]×²) − ν[ω]×
 /// C2 = −2ρS[ω]× − ν I
 /// ```
-pub fn body_field(
+///
+/// In the type of `rho_s` and `nu`: the head's state and gravity (`f64`, as the head
+/// trajectory gives them) are rounded to it first.
+pub fn body_field<T: Float>(
     gravity: Option<Vector3<f64>>,
     head_moves: bool,
     head: &HeadState,
-    rho_s: f64,
-    nu: f64,
-) -> BodyField {
+    rho_s: T,
+    nu: T,
+) -> BodyField<T> {
     let mut field = BodyField::zero();
-    let rt = head.rotation.transpose();
+    let rt: Matrix3<T> = head.rotation.transpose().map(T::of);
     if let Some(g) = gravity {
-        field.uniform += rt * g * rho_s;
+        field.uniform += rt * g.map(T::of) * rho_s;
     }
-    if nu != 0.0 {
+    if nu != T::zero() {
         field.velocity -= Matrix3::identity() * nu;
     }
     if head_moves {
-        let w = head.omega.cross_matrix();
-        field.uniform -= rt * (head.acceleration * rho_s + head.velocity * nu);
-        field.linear -= (head.alpha.cross_matrix() + w * w) * rho_s + w * nu;
-        field.velocity -= w * (2.0 * rho_s);
+        let w = head.omega.map(T::of).cross_matrix();
+        field.uniform -=
+            rt * (head.acceleration.map(T::of) * rho_s + head.velocity.map(T::of) * nu);
+        field.linear -= (head.alpha.map(T::of).cross_matrix() + w * w) * rho_s + w * nu;
+        field.velocity -= w * (T::of(2.0) * rho_s);
     }
     field
 }

@@ -1,6 +1,6 @@
-//! Small fixed-size algebra over a scalar that is either `f64` or [`F4`], four `f64`
-//! lanes, so that one source evaluates an integrand at one quadrature point or at four at
-//! once (the rotary-inertia quadrature, [`crate::moments::rotary`]); and [`F4`]'s mixed
+//! Small fixed-size algebra over a scalar that is `f64` or [`F4`], four `f64` lanes (or
+//! `f32` and [`F32x4`] in the f32 step), so that one source evaluates an integrand at
+//! one quadrature point or at four at once (the rotary-inertia quadrature, [`crate::moments::rotary`]); and [`F4`]'s mixed
 //! operations with `f64`, so that the generated closed forms of four elements run as one
 //! (`superhelix-generated`'s `*_closed_x4` functions).
 //!
@@ -14,17 +14,20 @@
 
 use core::ops::{Add, Div, Mul, Neg, Sub};
 
-/// A scalar of the lane algebra: `f64` or [`F4`].
+/// A scalar of the lane algebra: `f64`, `f32`, [`F4`] or [`F32x4`].
 pub trait Real:
     Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
 {
+    /// The type of one lane.
+    type Scalar;
     /// All lanes zero.
     fn zero() -> Self;
     /// All lanes `x`.
-    fn splat(x: f64) -> Self;
+    fn splat(x: Self::Scalar) -> Self;
 }
 
 impl Real for f64 {
+    type Scalar = f64;
     #[inline(always)]
     fn zero() -> Self {
         0.0
@@ -35,28 +38,71 @@ impl Real for f64 {
     }
 }
 
+impl Real for f32 {
+    type Scalar = f32;
+    #[inline(always)]
+    fn zero() -> Self {
+        0.0
+    }
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        x
+    }
+}
+
 /// Four `f64` lanes; every operation acts lane by lane.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 #[repr(C, align(32))]
 pub struct F4(pub [f64; 4]);
 
+/// Four `f32` lanes (the rotary-inertia quadrature of the f32 step); every operation
+/// acts lane by lane.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C, align(16))]
+pub struct F32x4(pub [f32; 4]);
+
 macro_rules! lane_op {
-    ($trait:ident, $f:ident, $op:tt) => {
-        impl $trait for F4 {
-            type Output = F4;
+    ($lanes:ident, $trait:ident, $f:ident, $op:tt) => {
+        impl $trait for $lanes {
+            type Output = $lanes;
             #[inline(always)]
-            fn $f(self, b: F4) -> F4 {
+            fn $f(self, b: $lanes) -> $lanes {
                 let a = self.0;
                 let b = b.0;
-                F4([a[0] $op b[0], a[1] $op b[1], a[2] $op b[2], a[3] $op b[3]])
+                $lanes([a[0] $op b[0], a[1] $op b[1], a[2] $op b[2], a[3] $op b[3]])
             }
         }
     };
 }
-lane_op!(Add, add, +);
-lane_op!(Sub, sub, -);
-lane_op!(Mul, mul, *);
-lane_op!(Div, div, /);
+lane_op!(F4, Add, add, +);
+lane_op!(F4, Sub, sub, -);
+lane_op!(F4, Mul, mul, *);
+lane_op!(F4, Div, div, /);
+lane_op!(F32x4, Add, add, +);
+lane_op!(F32x4, Sub, sub, -);
+lane_op!(F32x4, Mul, mul, *);
+lane_op!(F32x4, Div, div, /);
+
+impl Neg for F32x4 {
+    type Output = F32x4;
+    #[inline(always)]
+    fn neg(self) -> F32x4 {
+        let a = self.0;
+        F32x4([-a[0], -a[1], -a[2], -a[3]])
+    }
+}
+
+impl Real for F32x4 {
+    type Scalar = f32;
+    #[inline(always)]
+    fn zero() -> Self {
+        F32x4([0.0; 4])
+    }
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        F32x4([x; 4])
+    }
+}
 
 // an `f64` on either side acts on every lane, its operand order kept (`2.0 * x` is
 // `[2.0 * x₀, …]`): the generated closed forms run on F4 as written for f64
@@ -116,6 +162,7 @@ impl Neg for F4 {
 }
 
 impl Real for F4 {
+    type Scalar = f64;
     #[inline(always)]
     fn zero() -> Self {
         F4([0.0; 4])

@@ -14,7 +14,10 @@
 //! - [`body_field`]: gravity, head motion and drag as a force per unit length affine in
 //!   position and velocity.
 //! - [`lanes`]: four f64 lanes (`F4`), what the generated closed forms and the rotary
-//!   quadrature evaluate four points or elements at once with.
+//!   quadrature evaluate four points or elements at once with (`F32x4` in f32).
+//! - [`float`]: the float type of the step ([`Float`]: `f64`, the default, or `f32`):
+//!   the fixed-N step ([`fixed`]), the assembly, the projection and the energy balance
+//!   are written once over it; in f64 they give the bits they always gave.
 //!
 //! Without features the crate is `no_std` and takes its elementary functions from
 //! `libm`; the `std` feature (the runtime's) takes them from std, caches the
@@ -30,6 +33,7 @@ pub mod body_field;
 pub mod element;
 pub mod energy;
 pub mod fixed;
+pub mod float;
 pub mod head;
 pub mod helix_functions;
 pub mod jet;
@@ -43,4 +47,5 @@ pub mod quadrature;
 pub mod strand_terms;
 
 pub use body_field::BodyField;
+pub use float::Float;
 pub use pose::{darboux, Pose};

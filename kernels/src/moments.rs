@@ -17,49 +17,50 @@ pub mod rotary;
 
 use crate::body_field::BodyField;
 use crate::element::{element_jets, local_pose};
+use crate::float::Float;
 use crate::pose::Pose;
 use crate::quadrature::gauss_legendre;
 use nalgebra::{Matrix3, Vector3};
 
-type V3 = Vector3<f64>;
+type V3<T> = Vector3<T>;
 
 /// Integrals over one element, u ∈ [0, l], in the element's start frame.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct ElementMoments {
+pub struct ElementMoments<T: Float = f64> {
     /// ∫ p du.
-    pub first: Vector3<f64>,
+    pub first: Vector3<T>,
     /// ∫ p pᵀ du.
-    pub second: Matrix3<f64>,
+    pub second: Matrix3<T>,
     /// `dfirst[i]` = ∫ ∂p/∂d_i du.
-    pub dfirst: [Vector3<f64>; 3],
+    pub dfirst: [Vector3<T>; 3],
     /// `cross[i]` = ∫ p × ∂p/∂d_i du.
-    pub cross: [Vector3<f64>; 3],
+    pub cross: [Vector3<T>; 3],
     /// `gram[i][j]` = ∫ ∂p/∂d_i · ∂p/∂d_j du.
-    pub gram: Matrix3<f64>,
+    pub gram: Matrix3<T>,
     /// ∫ E D Eᵀ du, D = diag(rotary inertia).
-    pub rot: Matrix3<f64>,
+    pub rot: Matrix3<T>,
     /// `rot_w[j]` = ∫ E D Eᵀ w_j du.
-    pub rot_w: [Vector3<f64>; 3],
+    pub rot_w: [Vector3<T>; 3],
     /// `rot_ww[i][j]` = ∫ w_iᵀ E D Eᵀ w_j du.
-    pub rot_ww: Matrix3<f64>,
+    pub rot_ww: Matrix3<T>,
     /// `pdp[i]` = ∫ p (∂p/∂d_i)ᵀ du, full 3×3: entry (a, b) = ∫ p_a ∂p_b/∂d_i du
     /// (`cross[i]` is its antisymmetric part). Force only.
-    pub pdp: [Matrix3<f64>; 3],
+    pub pdp: [Matrix3<T>; 3],
     /// `d2first[i][j]` = ∫ ∂²p/∂d_i∂d_j du (symmetric in i, j). Force only.
-    pub d2first: [[Vector3<f64>; 3]; 3],
+    pub d2first: [[Vector3<T>; 3]; 3],
     /// `cross2[i][j]` = ∫ p × ∂²p/∂d_i∂d_j du (symmetric in i, j). Force only.
-    pub cross2: [[Vector3<f64>; 3]; 3],
+    pub cross2: [[Vector3<T>; 3]; 3],
     /// `pd2p[i][j]` = ∫ p (∂²p/∂d_i∂d_j)ᵀ du, full 3×3 (`cross2` is its antisymmetric
     /// part; symmetric in i, j). Stiffness of a linear field only.
-    pub pd2p: [[Matrix3<f64>; 3]; 3],
+    pub pd2p: [[Matrix3<T>; 3]; 3],
     /// `dpdp[i][j]` = ∫ ∂p/∂d_i (∂p/∂d_j)ᵀ du, full 3×3 (`gram` holds its traces).
     /// Force only.
-    pub dpdp: [[Matrix3<f64>; 3]; 3],
+    pub dpdp: [[Matrix3<T>; 3]; 3],
     /// `dpd2p[i][j][k]` = ∫ ∂p/∂d_i · ∂²p/∂d_j∂d_k du (symmetric in j, k). Force only.
-    pub dpd2p: [[[f64; 3]; 3]; 3],
+    pub dpd2p: [[[T; 3]; 3]; 3],
 }
 
-impl ElementMoments {
+impl ElementMoments<f64> {
     /// The moments by `points`-point Gauss–Legendre quadrature (the reference).
     pub fn by_quadrature(d: &Vector3<f64>, l: f64, rotary: &[f64; 3], points: usize) -> Self {
         let rule = gauss_legendre(points);
@@ -105,15 +106,15 @@ impl ElementMoments {
 /// `dtheta[i]` = F_Q w_i(l), and the second derivatives the velocity recursions of
 /// [`assemble_force`] need.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct EndDerivatives {
+pub struct EndDerivatives<T: Float = f64> {
     /// Derivative of the end position.
-    pub dp: [Vector3<f64>; 3],
+    pub dp: [Vector3<T>; 3],
     /// Angular derivative of the end frame.
-    pub dtheta: [Vector3<f64>; 3],
+    pub dtheta: [Vector3<T>; 3],
     /// `d2p[i][j]` = F_Q ∂²p(l)/∂d_i∂d_j.
-    pub d2p: [[Vector3<f64>; 3]; 3],
+    pub d2p: [[Vector3<T>; 3]; 3],
     /// `dw[i][j]` = F_Q ∂w_i(l)/∂d_j.
-    pub dw: [[Vector3<f64>; 3]; 3],
+    pub dw: [[Vector3<T>; 3]; 3],
 }
 
 /// Integrals over the elements P..N−1 (per unit mass per length) with x = y − r_P, the
@@ -121,25 +122,25 @@ pub struct EndDerivatives {
 /// the strand. (About r_P rather than the head origin, so that curls far from the root
 /// keep their digits.)
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct SuffixBody {
+pub struct SuffixBody<T: Float = f64> {
     /// Length ∫ ds.
-    pub mass: f64,
+    pub mass: T,
     /// ∫ x.
-    pub first: Vector3<f64>,
+    pub first: Vector3<T>,
     /// ∫ x xᵀ.
-    pub second: Matrix3<f64>,
+    pub second: Matrix3<T>,
     /// ∫ ẏ.
-    pub velocity: Vector3<f64>,
+    pub velocity: Vector3<T>,
     /// ∫ x ẏᵀ.
-    pub moment_velocity: Matrix3<f64>,
+    pub moment_velocity: Matrix3<T>,
     /// Σ ∫ E D Eᵀ, the rotary inertia (head coordinates, not per unit mass).
-    pub rot: Matrix3<f64>,
+    pub rot: Matrix3<T>,
 }
 
-impl SuffixBody {
+impl<T: Float> SuffixBody<T> {
     /// The same body about a reference point `delta` behind the current one
     /// (x' = x + delta).
-    fn shifted(&self, delta: &Vector3<f64>) -> SuffixBody {
+    fn shifted(&self, delta: &Vector3<T>) -> SuffixBody<T> {
         SuffixBody {
             mass: self.mass,
             first: self.first + delta * self.mass,
@@ -155,7 +156,7 @@ impl SuffixBody {
 
     /// Linear and angular "momentum" of the rigid velocity field v + ω × x over the body
     /// (per unit ρS): `∫ (v + ω × x)` and `∫ x × (v + ω × x)`.
-    fn momentum(&self, v: &Vector3<f64>, w: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    fn momentum(&self, v: &Vector3<T>, w: &Vector3<T>) -> (Vector3<T>, Vector3<T>) {
         let lin = v * self.mass + w.cross(&self.first);
         let ang =
             self.first.cross(v) + (Matrix3::identity() * self.second.trace() - self.second) * w;
@@ -164,14 +165,14 @@ impl SuffixBody {
 }
 
 /// One element's contribution to [`SuffixBody`] (with or without the velocity parts).
-fn element_body(
-    pose: &Pose,
-    l: f64,
-    m: &ElementMoments,
-    motion: &FrameMotion,
-    qd: &[f64],
+fn element_body<T: Float>(
+    pose: &Pose<T>,
+    l: T,
+    m: &ElementMoments<T>,
+    motion: &FrameMotion<T>,
+    qd: &[T],
     with_velocity: bool,
-) -> SuffixBody {
+) -> SuffixBody<T> {
     let f = pose.frame;
     let a = f * m.first;
     let fs = f * m.second * f.transpose();
@@ -199,14 +200,14 @@ fn element_body(
 
 /// `bodies[P]` = elements P..N−1 about r_P, `bodies[N]` empty. The velocity parts are filled
 /// when `with_velocity` (they need `motions` and q̇).
-pub fn suffix_bodies(
-    ends: &[Pose],
-    lengths: &[f64],
-    moments: &[ElementMoments],
-    motions: &[FrameMotion],
-    velocities: &[f64],
+pub fn suffix_bodies<T: Float>(
+    ends: &[Pose<T>],
+    lengths: &[T],
+    moments: &[ElementMoments<T>],
+    motions: &[FrameMotion<T>],
+    velocities: &[T],
     with_velocity: bool,
-    bodies: &mut [SuffixBody],
+    bodies: &mut [SuffixBody<T>],
 ) {
     let n = lengths.len();
     bodies[n] = SuffixBody::default();
@@ -257,17 +258,17 @@ pub fn bodies_at_rest(
 /// per length `c0` (`force`), from element ends, end derivatives, element moments and
 /// the suffix bodies ([`suffix_bodies`], positions part). `rho_s` is the mass per length.
 #[allow(clippy::too_many_arguments)]
-pub fn assemble_mass_and_gravity(
-    bodies: &[SuffixBody],
-    rho_s: f64,
-    lengths: &[f64],
-    ends: &[Pose],
-    end_derivs: &[EndDerivatives],
-    moments: &[ElementMoments],
-    c0: &Vector3<f64>,
-    mass: &mut [f64],
-    force: &mut [f64],
-    first_moment: &mut Vector3<f64>,
+pub fn assemble_mass_and_gravity<T: Float>(
+    bodies: &[SuffixBody<T>],
+    rho_s: T,
+    lengths: &[T],
+    ends: &[Pose<T>],
+    end_derivs: &[EndDerivatives<T>],
+    moments: &[ElementMoments<T>],
+    c0: &Vector3<T>,
+    mass: &mut [T],
+    force: &mut [T],
+    first_moment: &mut Vector3<T>,
 ) {
     assemble_mass_gram_and_gravity(
         bodies,
@@ -288,25 +289,25 @@ pub fn assemble_mass_and_gravity(
 /// Gram matrix `∫ J_kᵀ J_l ds` (column-major, 3N × 3N): M without ρS and the rotary
 /// inertia, which is all the damping of an isotropic drag needs (`−ν ∫ JᵀJ ds`).
 #[allow(clippy::too_many_arguments)]
-pub fn assemble_mass_gram_and_gravity(
-    bodies: &[SuffixBody],
-    rho_s: f64,
-    lengths: &[f64],
-    ends: &[Pose],
-    end_derivs: &[EndDerivatives],
-    moments: &[ElementMoments],
-    c0: &Vector3<f64>,
-    mass: &mut [f64],
-    mut gram: Option<&mut [f64]>,
-    force: &mut [f64],
-    first_moment: &mut Vector3<f64>,
+pub fn assemble_mass_gram_and_gravity<T: Float>(
+    bodies: &[SuffixBody<T>],
+    rho_s: T,
+    lengths: &[T],
+    ends: &[Pose<T>],
+    end_derivs: &[EndDerivatives<T>],
+    moments: &[ElementMoments<T>],
+    c0: &Vector3<T>,
+    mass: &mut [T],
+    mut gram: Option<&mut [T]>,
+    force: &mut [T],
+    first_moment: &mut Vector3<T>,
 ) {
     let n = lengths.len();
     let dofs = 3 * n;
     *first_moment = (bodies[0].first + ends[0].position * bodies[0].mass) * rho_s;
-    mass.iter_mut().for_each(|x| *x = 0.0);
+    mass.iter_mut().for_each(|x| *x = T::zero());
     // entry (k, l) and its mirror of M (and of the Gram matrix, centreline part only)
-    let mut put = |k: usize, l: usize, val: f64, centreline: f64| {
+    let mut put = |k: usize, l: usize, val: T, centreline: T| {
         mass[l * dofs + k] = val;
         mass[k * dofs + l] = val;
         if let Some(g) = gram.as_deref_mut() {
@@ -345,7 +346,7 @@ pub fn assemble_mass_gram_and_gravity(
         let m2 = &moments[q2];
         let beyond = &bodies[q2 + 1];
         // per column j: F ∂_j∫p, F ∫p × ∂_j p, ∫I beyond · θ_j and F ∫I w_j
-        let columns: [[V3; 4]; 3] = core::array::from_fn(|j| {
+        let columns: [[V3<T>; 4]; 3] = core::array::from_fn(|j| {
             [
                 f2 * m2.dfirst[j],
                 f2 * m2.cross[j],
@@ -376,15 +377,15 @@ pub fn assemble_mass_gram_and_gravity(
 }
 
 /// End derivatives of element `q` (frame `frame` at its start) from its jets at u = l.
-pub fn end_derivatives(frame: &Matrix3<f64>, d: &Vector3<f64>, l: f64) -> EndDerivatives {
+pub fn end_derivatives<T: Float>(frame: &Matrix3<T>, d: &Vector3<T>, l: T) -> EndDerivatives<T> {
     end_derivatives_from(frame, &crate::element::ElementPoint::by_jets(d, l))
 }
 
 /// End derivatives from the element's local derivatives at u = l.
-pub fn end_derivatives_from(
-    frame: &Matrix3<f64>,
-    e: &crate::element::ElementPoint,
-) -> EndDerivatives {
+pub fn end_derivatives_from<T: Float>(
+    frame: &Matrix3<T>,
+    e: &crate::element::ElementPoint<T>,
+) -> EndDerivatives<T> {
     EndDerivatives {
         dp: e.dp.map(|v| frame * v),
         dtheta: e.w.map(|v| frame * v),
@@ -396,15 +397,15 @@ pub fn end_derivatives_from(
 /// Force and torque (about the element's start) that the force per length exerts on one
 /// element.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Wrench {
+pub struct Wrench<T: Float = f64> {
     /// Resultant ∫ f du.
-    pub force: Vector3<f64>,
+    pub force: Vector3<T>,
     /// Moment about the element's start r_P: ∫ (y − r_P) × f du.
-    pub torque: Vector3<f64>,
+    pub torque: Vector3<T>,
 }
 
 /// `∫ x × z` from `k` = ∫ x zᵀ.
-pub fn axial(k: &Matrix3<f64>) -> Vector3<f64> {
+pub fn axial<T: Float>(k: &Matrix3<T>) -> Vector3<T> {
     Vector3::new(
         k[(1, 2)] - k[(2, 1)],
         k[(2, 0)] - k[(0, 2)],
@@ -413,30 +414,30 @@ pub fn axial(k: &Matrix3<f64>) -> Vector3<f64> {
 }
 
 /// `∫ x × (A z)` from `n` = ∫ x zᵀ.
-pub fn cross_moment(a: &Matrix3<f64>, n: &Matrix3<f64>) -> Vector3<f64> {
+pub fn cross_moment<T: Float>(a: &Matrix3<T>, n: &Matrix3<T>) -> Vector3<T> {
     axial(&(n * a.transpose()))
 }
 
 /// Motion of an element's start frame at velocities q̇ and q̈ = 0 (head coordinates).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct FrameMotion {
+pub struct FrameMotion<T: Float = f64> {
     /// Angular velocity Ω of the frame.
-    pub omega: Vector3<f64>,
+    pub omega: Vector3<T>,
     /// Angular acceleration Ω̇ (q̈ = 0).
-    pub alpha: Vector3<f64>,
+    pub alpha: Vector3<T>,
     /// Velocity ṙ of the start point.
-    pub velocity: Vector3<f64>,
+    pub velocity: Vector3<T>,
     /// Acceleration r̈ of the start point (q̈ = 0).
-    pub acceleration: Vector3<f64>,
+    pub acceleration: Vector3<T>,
 }
 
 /// The recursion of docs/moment-assembly.md ("Velocity and acceleration of the base
 /// frame"): `motions[P]` for P = 0..=N (the root is fixed in head coordinates).
-pub fn frame_motions(
-    ends: &[Pose],
-    end_derivs: &[EndDerivatives],
-    velocities: &[f64],
-    motions: &mut [FrameMotion],
+pub fn frame_motions<T: Float>(
+    ends: &[Pose<T>],
+    end_derivs: &[EndDerivatives<T>],
+    velocities: &[T],
+    motions: &mut [FrameMotion<T>],
 ) {
     let n = end_derivs.len();
     motions[0] = FrameMotion::default();
@@ -469,7 +470,7 @@ pub fn frame_motions(
             acceleration: m.acceleration
                 + m.alpha.cross(&span)
                 + m.omega.cross(&m.omega.cross(&span))
-                + m.omega.cross(&pi_l) * 2.0
+                + m.omega.cross(&pi_l) * T::of(2.0)
                 + pidot_l,
         };
     }
@@ -486,17 +487,17 @@ pub fn frame_motions(
 /// A backward pass adds the wrenches summed from the tip to the upstream columns.
 /// `wrenches` is scratch of length N.
 #[allow(clippy::too_many_arguments)]
-pub fn assemble_force(
-    wrenches: &mut [Wrench],
-    rho_s: f64,
-    lengths: &[f64],
-    ends: &[Pose],
-    end_derivs: &[EndDerivatives],
-    moments: &[ElementMoments],
-    motions: &[FrameMotion],
-    velocities: &[f64],
-    field: &BodyField,
-    force: &mut [f64],
+pub fn assemble_force<T: Float>(
+    wrenches: &mut [Wrench<T>],
+    rho_s: T,
+    lengths: &[T],
+    ends: &[Pose<T>],
+    end_derivs: &[EndDerivatives<T>],
+    moments: &[ElementMoments<T>],
+    motions: &[FrameMotion<T>],
+    velocities: &[T],
+    field: &BodyField<T>,
+    force: &mut [T],
 ) {
     let n = lengths.len();
     let (c0, c1, c2) = (&field.uniform, &field.linear, &field.velocity);
@@ -519,7 +520,7 @@ pub fn assemble_force(
         let wx = omega.cross_matrix();
         let g0 = c0 + c1 * r + c2 * vel - acc * rho_s;
         let g1 = c1 + c2 * wx - (alpha.cross_matrix() + wx * wx) * rho_s;
-        let h2 = c2 - wx * (2.0 * rho_s);
+        let h2 = c2 - wx * (T::of(2.0) * rho_s);
         let a0 = f.transpose() * g0;
         let a = f.transpose() * g1 * f;
         let b = f.transpose() * h2 * f;
@@ -540,7 +541,7 @@ pub fn assemble_force(
         // own columns: ∫ ∂_i p · Fᵀf
         for i in 0..3 {
             let mut g_pi = Matrix3::zeros(); // ∫ ∂_i p πᵀ
-            let mut t = 0.0; // ∫ ∂_i p · π̇
+            let mut t = T::zero(); // ∫ ∂_i p · π̇
             for j in 0..3 {
                 g_pi += m.dpdp[i][j] * qd[j];
                 for k in 0..3 {

@@ -38,7 +38,7 @@
 //! to the next (the basis, ⌊n/2⌋ columns at most), [`ProjectionScratch`] what a worker
 //! can share between strands. Allocates nothing.
 
-use crate::math::sqrt;
+use crate::float::Float;
 
 /// Allowed residual of an eigenpair, in units of `n ε ‖T‖`.
 const RESIDUAL_TOLERANCE: f64 = 64.0;
@@ -61,10 +61,10 @@ pub const NEGLIGIBLE_EIGENVALUE: f64 = 1e-3;
 
 /// What a strand keeps for [`SpectralProjection::negative_part`]: the basis of its last
 /// decomposition.
-pub struct ProjectionBasis<'a> {
+pub struct ProjectionBasis<'a, T: Float = f64> {
     /// Columns of length n, column-major; at least n·⌊n/2⌋ long (the basis spans the
     /// smaller side of the spectrum).
-    pub vectors: &'a mut [f64],
+    pub vectors: &'a mut [T],
     /// Columns of `vectors` that hold the last decomposition's basis (0: none).
     pub k: &'a mut usize,
     /// Whether that basis spans the negative (else the positive) eigenvalues.
@@ -73,39 +73,39 @@ pub struct ProjectionBasis<'a> {
 
 /// The scratch of [`SpectralProjection::negative_part`] for n × n matrices: `a`, `hu`
 /// and `coupling` n² long, `rotated` 2n², `pivot` and the others n.
-pub struct ProjectionScratch<'a> {
+pub struct ProjectionScratch<'a, T: Float = f64> {
     /// Column-major copy of the matrix; the Householder vectors below its subdiagonal.
-    pub a: &'a mut [f64],
+    pub a: &'a mut [T],
     /// Householder factors.
-    pub tau: &'a mut [f64],
+    pub tau: &'a mut [T],
     /// Diagonal of T.
-    pub diag: &'a mut [f64],
+    pub diag: &'a mut [T],
     /// Off-diagonal of T.
-    pub off: &'a mut [f64],
+    pub off: &'a mut [T],
     /// Eigenvalues of T.
-    pub eigenvalues: &'a mut [f64],
+    pub eigenvalues: &'a mut [T],
     /// Eigenvalues of the side being computed.
-    pub selected: &'a mut [f64],
+    pub selected: &'a mut [T],
     /// Scratch vector.
-    pub scratch: &'a mut [f64],
+    pub scratch: &'a mut [T],
     /// Diagonal of U of the shifted tridiagonal LU (reciprocals).
-    pub u0: &'a mut [f64],
+    pub u0: &'a mut [T],
     /// First superdiagonal of U.
-    pub u1: &'a mut [f64],
+    pub u1: &'a mut [T],
     /// Second superdiagonal of U.
-    pub u2: &'a mut [f64],
+    pub u2: &'a mut [T],
     /// Multipliers of L.
-    pub mult: &'a mut [f64],
+    pub mult: &'a mut [T],
     /// Row swaps of L.
     pub pivot: &'a mut [bool],
     /// The iterate of the inverse iteration.
-    pub x: &'a mut [f64],
+    pub x: &'a mut [T],
     /// `H U` (n × k).
-    pub hu: &'a mut [f64],
+    pub hu: &'a mut [T],
     /// Its part outside span(U) (n × k).
-    pub coupling: &'a mut [f64],
+    pub coupling: &'a mut [T],
     /// `Uᵀ H U` (k × k), then G (n × n) after it.
-    pub rotated: &'a mut [f64],
+    pub rotated: &'a mut [T],
 }
 
 /// How [`SpectralProjection::negative_part`] went.
@@ -123,33 +123,37 @@ pub enum ProjectionOutcome {
 }
 
 /// The negative semidefinite part of an n × n symmetric matrix, on the caller's storage.
-pub struct SpectralProjection<'a> {
+pub struct SpectralProjection<'a, T: Float = f64> {
     n: usize,
-    a: &'a mut [f64],
-    tau: &'a mut [f64],
-    diag: &'a mut [f64],
-    off: &'a mut [f64],
-    eigenvalues: &'a mut [f64],
-    selected: &'a mut [f64],
-    vectors: &'a mut [f64],
-    scratch: &'a mut [f64],
-    u0: &'a mut [f64],
-    u1: &'a mut [f64],
-    u2: &'a mut [f64],
-    mult: &'a mut [f64],
+    a: &'a mut [T],
+    tau: &'a mut [T],
+    diag: &'a mut [T],
+    off: &'a mut [T],
+    eigenvalues: &'a mut [T],
+    selected: &'a mut [T],
+    vectors: &'a mut [T],
+    scratch: &'a mut [T],
+    u0: &'a mut [T],
+    u1: &'a mut [T],
+    u2: &'a mut [T],
+    mult: &'a mut [T],
     pivot: &'a mut [bool],
-    x: &'a mut [f64],
-    hu: &'a mut [f64],
-    coupling: &'a mut [f64],
-    rotated: &'a mut [f64],
+    x: &'a mut [T],
+    hu: &'a mut [T],
+    coupling: &'a mut [T],
+    rotated: &'a mut [T],
     basis_k: &'a mut usize,
     basis_negative: &'a mut bool,
 }
 
-impl<'a> SpectralProjection<'a> {
+impl<'a, T: Float> SpectralProjection<'a, T> {
     /// The projection of n × n matrices on this storage (lengths as documented on
     /// [`ProjectionBasis`] and [`ProjectionScratch`]; `None` when one is too short).
-    pub fn new(n: usize, basis: ProjectionBasis<'a>, s: ProjectionScratch<'a>) -> Option<Self> {
+    pub fn new(
+        n: usize,
+        basis: ProjectionBasis<'a, T>,
+        s: ProjectionScratch<'a, T>,
+    ) -> Option<Self> {
         let nn = n * n;
         let long_enough = basis.vectors.len() >= n * (n / 2)
             && s.a.len() >= nn
@@ -207,7 +211,7 @@ impl<'a> SpectralProjection<'a> {
     /// Replace the symmetric matrix `h` (n × n, column-major, both triangles filled) by
     /// its negative semidefinite part. Returns false, leaving `h` unchanged, when it holds
     /// a value that is not finite or an eigenpair fails its residual check.
-    pub fn negative_part(&mut self, h: &mut [f64]) -> ProjectionOutcome {
+    pub fn negative_part(&mut self, h: &mut [T]) -> ProjectionOutcome {
         let outcome = self.negative_part_inner(h);
         if outcome == ProjectionOutcome::Failed {
             *self.basis_k = 0;
@@ -215,17 +219,17 @@ impl<'a> SpectralProjection<'a> {
         outcome
     }
 
-    fn negative_part_inner(&mut self, h: &mut [f64]) -> ProjectionOutcome {
+    fn negative_part_inner(&mut self, h: &mut [T]) -> ProjectionOutcome {
         use ProjectionOutcome::*;
         let n = self.n;
         if h.len() != n * n {
             return Failed;
         }
-        let largest = h.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let largest = h.iter().fold(T::zero(), |m, x| m.max(x.abs()));
         if !largest.is_finite() {
             return Failed;
         }
-        if largest == 0.0 {
+        if largest == T::zero() {
             return Trivial;
         }
         if *self.basis_k > 0 && self.project_in_basis(h) {
@@ -234,10 +238,10 @@ impl<'a> SpectralProjection<'a> {
         *self.basis_k = 0;
         // work on H / 2^e with its largest entry in [0.5, 1) (exact): the QL rotations
         // may then take sqrt(f² + g²) instead of hypot without overflow or underflow
-        let scale = power_of_two_above(largest);
-        let inverse = 1.0 / scale;
+        let scale = largest.power_of_two_above();
+        let inverse = T::one() / scale;
         for (a, x) in self.a.iter_mut().zip(h.iter()) {
-            *a = x * inverse;
+            *a = *x * inverse;
         }
         self.tridiagonalise();
         self.eigenvalues.copy_from_slice(self.diag);
@@ -250,10 +254,10 @@ impl<'a> SpectralProjection<'a> {
         if !t_norm.is_finite() {
             return Failed;
         }
-        let negative = self.eigenvalues.iter().filter(|&&l| l < 0.0).count();
-        let positive = self.eigenvalues.iter().filter(|&&l| l > 0.0).count();
+        let negative = self.eigenvalues.iter().filter(|&&l| l < T::zero()).count();
+        let positive = self.eigenvalues.iter().filter(|&&l| l > T::zero()).count();
         if negative == 0 {
-            h.fill(0.0);
+            h.fill(T::zero());
             return Decomposed;
         }
         if positive == 0 {
@@ -264,16 +268,16 @@ impl<'a> SpectralProjection<'a> {
         let mut k = 0;
         for i in 0..n {
             let l = self.eigenvalues[i];
-            if (from_negative && l < 0.0) || (!from_negative && l > 0.0) {
+            if (from_negative && l < T::zero()) || (!from_negative && l > T::zero()) {
                 self.selected[k] = l;
                 k += 1;
             }
         }
         // nearby eigenvalues adjacent after sorting, for the reorthogonalisation
-        self.selected[..k].sort_unstable_by(f64::total_cmp);
-        let cluster = 1e-3 * t_norm;
-        let tolerance = RESIDUAL_TOLERANCE * n as f64 * f64::EPSILON * t_norm;
-        let perturbation = f64::EPSILON * t_norm;
+        self.selected[..k].sort_unstable_by(T::total_order);
+        let cluster = T::of(1e-3) * t_norm;
+        let tolerance = T::of(RESIDUAL_TOLERANCE * n as f64) * T::EPSILON * t_norm;
+        let perturbation = T::EPSILON * t_norm;
         let mut cluster_start = 0;
         for j in 0..k {
             if j > 0 && self.selected[j] - self.selected[j - 1] > cluster {
@@ -288,14 +292,14 @@ impl<'a> SpectralProjection<'a> {
         *self.basis_k = k;
         *self.basis_negative = from_negative;
         // the rank-k sum, lower triangle, then mirrored
-        let sign = if from_negative { 1.0 } else { -1.0 };
+        let sign = if from_negative { T::one() } else { -T::one() };
         for c in 0..n {
             let col = &mut self.a[c * n + c..(c + 1) * n];
             if from_negative {
-                col.fill(0.0);
+                col.fill(T::zero());
             } else {
                 for (a, x) in col.iter_mut().zip(&h[c * n + c..(c + 1) * n]) {
-                    *a = x * inverse;
+                    *a = *x * inverse;
                 }
             }
             for j in 0..k {
@@ -321,11 +325,11 @@ impl<'a> SpectralProjection<'a> {
 
     /// The reuse branch of [`Self::negative_part`] (see the module page): false, with
     /// `h` unchanged, when the basis of the last decomposition does not qualify.
-    fn project_in_basis(&mut self, h: &mut [f64]) -> bool {
+    fn project_in_basis(&mut self, h: &mut [T]) -> bool {
         let (n, k) = (self.n, *self.basis_k);
         let u = &self.vectors[..k * n];
-        let total: f64 = h.iter().map(|x| x * x).sum();
-        let bound = BASIS_REUSE_TOLERANCE * BASIS_REUSE_TOLERANCE * total;
+        let total: T = h.iter().map(|&x| x * x).sum();
+        let bound = T::of(BASIS_REUSE_TOLERANCE * BASIS_REUSE_TOLERANCE) * total;
         // W = H U, B = Uᵀ W (k × k), C = W − U B
         gemm(
             &mut self.hu[..n * k],
@@ -336,7 +340,7 @@ impl<'a> SpectralProjection<'a> {
             false,
             u,
             false,
-            1.0,
+            T::one(),
             false,
         );
         gemm(
@@ -348,7 +352,7 @@ impl<'a> SpectralProjection<'a> {
             true,
             &self.hu[..n * k],
             false,
-            1.0,
+            T::one(),
             false,
         );
         self.coupling[..n * k].copy_from_slice(&self.hu[..n * k]);
@@ -361,15 +365,15 @@ impl<'a> SpectralProjection<'a> {
             false,
             &self.rotated[..k * k],
             false,
-            -1.0,
+            -T::one(),
             true,
         );
-        let coupling: f64 = self.coupling[..n * k].iter().map(|x| x * x).sum();
-        if coupling.is_nan() || coupling > bound {
+        let coupling: T = self.coupling[..n * k].iter().map(|&x| x * x).sum();
+        if coupling.not_a_number() || coupling > bound {
             return false;
         }
-        let norm = sqrt(total);
-        let cut = NEGLIGIBLE_EIGENVALUE * norm;
+        let norm = total.sqrt();
+        let cut = T::of(NEGLIGIBLE_EIGENVALUE) * norm;
         let negative = *self.basis_negative;
         // the k × k block: −B positive definite (negative side) or B + cut I positive
         // semidefinite up to the cut (positive side), into `a`
@@ -379,7 +383,7 @@ impl<'a> SpectralProjection<'a> {
                 self.a[j * k + i] = if negative {
                     -b
                 } else {
-                    b + if i == j { cut } else { 0.0 }
+                    b + if i == j { cut } else { T::zero() }
                 };
             }
         }
@@ -389,7 +393,7 @@ impl<'a> SpectralProjection<'a> {
         // G = (I − UUᵀ) H (I − UUᵀ) = H − U Wᵀ − C Uᵀ (lower triangle), and the other
         // side's check: G + cut I + ‖H‖ UUᵀ (negative side: the rest non-negative up to
         // the cut) or −G + ‖H‖ UUᵀ (positive side: the rest negative definite)
-        let sign = if negative { 1.0 } else { -1.0 };
+        let sign = if negative { T::one() } else { -T::one() };
         let (_, g_all) = self.rotated.split_at_mut(k * k);
         let g_all = &mut g_all[..n * n];
         g_all.copy_from_slice(h);
@@ -402,7 +406,7 @@ impl<'a> SpectralProjection<'a> {
             false,
             &self.hu[..n * k],
             true,
-            -1.0,
+            -T::one(),
             true,
         );
         gemm(
@@ -414,7 +418,7 @@ impl<'a> SpectralProjection<'a> {
             false,
             u,
             true,
-            -1.0,
+            -T::one(),
             true,
         );
         gemm(
@@ -453,7 +457,7 @@ impl<'a> SpectralProjection<'a> {
                 false,
                 b,
                 false,
-                1.0,
+                T::one(),
                 false,
             );
             gemm(
@@ -465,7 +469,7 @@ impl<'a> SpectralProjection<'a> {
                 false,
                 u,
                 true,
-                1.0,
+                T::one(),
                 false,
             );
             // exactly symmetric
@@ -488,22 +492,22 @@ impl<'a> SpectralProjection<'a> {
             let (head, tail) = self.a.split_at_mut((k + 1) * n);
             let v = &mut head[k * n + k + 1..];
             let x0 = v[0];
-            let sigma: f64 = v[1..].iter().map(|x| x * x).sum();
-            if sigma == 0.0 {
-                self.tau[k] = 0.0;
+            let sigma: T = v[1..].iter().map(|&x| x * x).sum();
+            if sigma == T::zero() {
+                self.tau[k] = T::zero();
                 self.off[k] = x0;
                 continue;
             }
-            let norm = sqrt(x0 * x0 + sigma);
-            let alpha = if x0 >= 0.0 { -norm } else { norm };
+            let norm = (x0 * x0 + sigma).sqrt();
+            let alpha = if x0 >= T::zero() { -norm } else { norm };
             v[0] = x0 - alpha;
-            let tau = 2.0 / (v[0] * v[0] + sigma);
+            let tau = T::of(2.0) / (v[0] * v[0] + sigma);
             self.tau[k] = tau;
             self.off[k] = alpha;
             let v = &*v;
             // p = τ A₂₂ v over rows/columns k + 1 .. (symmetric, lower triangle)
             let p = &mut p[..m];
-            p.fill(0.0);
+            p.fill(T::zero());
             for jj in 0..m {
                 let col = &tail[jj * n + k + 1 + jj..(jj + 1) * n];
                 let vj = v[jj];
@@ -514,13 +518,13 @@ impl<'a> SpectralProjection<'a> {
                 }
                 p[jj] += dot;
             }
-            let mut vp = 0.0;
+            let mut vp = T::zero();
             for (pi, &vi) in p.iter_mut().zip(v) {
                 *pi *= tau;
                 vp += vi * *pi;
             }
             // w = p − (τ/2)(vᵀp) v; A₂₂ −= v wᵀ + w vᵀ
-            let half = 0.5 * tau * vp;
+            let half = T::of(0.5) * tau * vp;
             for (pi, &vi) in p.iter_mut().zip(v) {
                 *pi -= half * vi;
             }
@@ -538,14 +542,14 @@ impl<'a> SpectralProjection<'a> {
         if n >= 2 {
             self.off[n - 2] = self.a[(n - 2) * n + n - 1];
         }
-        self.off[n - 1] = 0.0;
+        self.off[n - 1] = T::zero();
     }
 
     /// `max_i |e_{i−1}| + |d_i| + |e_i|`: the 1-norm of T (= ‖H‖₁ up to rounding's
     /// change of basis; a bound of ‖T‖₂).
-    fn tridiagonal_norm(&self) -> f64 {
+    fn tridiagonal_norm(&self) -> T {
         let n = self.n;
-        let mut m = 0.0f64;
+        let mut m = T::zero();
         for i in 0..n {
             let mut s = self.diag[i].abs();
             if i > 0 {
@@ -566,8 +570,8 @@ impl<'a> SpectralProjection<'a> {
         &mut self,
         j: usize,
         cluster_start: usize,
-        perturbation: f64,
-        tolerance: f64,
+        perturbation: T,
+        tolerance: T,
     ) -> bool {
         let n = self.n;
         let lambda = self.selected[j];
@@ -578,7 +582,7 @@ impl<'a> SpectralProjection<'a> {
             state = state
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
-            self.x[i] = 0.5 + (state >> 11) as f64 / (1u64 << 53) as f64;
+            self.x[i] = T::of(0.5 + (state >> 11) as f64 / (1u64 << 53) as f64);
         }
         // after the residual test passes, one more sweep (LAPACK's `dstein` takes two)
         // takes the vector from "good enough" to rounding level
@@ -588,7 +592,7 @@ impl<'a> SpectralProjection<'a> {
             // reorthogonalise against the cluster (modified Gram–Schmidt)
             for c in cluster_start..j {
                 let y = &self.vectors[c * n..(c + 1) * n];
-                let mut dot = 0.0;
+                let mut dot = T::zero();
                 for i in 0..n {
                     dot += y[i] * self.x[i];
                 }
@@ -596,11 +600,11 @@ impl<'a> SpectralProjection<'a> {
                     self.x[i] -= dot * y[i];
                 }
             }
-            let norm = sqrt(self.x.iter().map(|v| v * v).sum::<f64>());
-            if !(norm.is_finite() && norm > 0.0) {
+            let norm = self.x.iter().map(|&v| v * v).sum::<T>().sqrt();
+            if !(norm.is_finite() && norm > T::zero()) {
                 return false;
             }
-            let inverse = 1.0 / norm;
+            let inverse = T::one() / norm;
             for v in self.x.iter_mut() {
                 *v *= inverse;
             }
@@ -614,10 +618,10 @@ impl<'a> SpectralProjection<'a> {
     }
 
     /// `‖T x − λ x‖₂` for the unit vector `x`.
-    fn residual(&self, lambda: f64) -> f64 {
+    fn residual(&self, lambda: T) -> T {
         let n = self.n;
         let (d, e, x) = (&self.diag, &self.off, &self.x);
-        let mut s = 0.0;
+        let mut s = T::zero();
         for i in 0..n {
             let mut r = (d[i] - lambda) * x[i];
             if i > 0 {
@@ -628,29 +632,29 @@ impl<'a> SpectralProjection<'a> {
             }
             s += r * r;
         }
-        sqrt(s)
+        s.sqrt()
     }
 
     /// LU factorisation with partial pivoting of `T − λI`: U with diagonals u0 (stored
     /// as reciprocals), u1, u2, the multipliers and row swaps of L. Zero pivots become
     /// `perturbation` (inverse iteration wants the near-singular solve).
-    fn factor_shifted(&mut self, lambda: f64, perturbation: f64) {
+    fn factor_shifted(&mut self, lambda: T, perturbation: T) {
         let n = self.n;
         let (d, e) = (&self.diag, &self.off);
         let mut cur_d = d[0] - lambda;
-        let mut cur_u1 = if n > 1 { e[0] } else { 0.0 };
+        let mut cur_u1 = if n > 1 { e[0] } else { T::zero() };
         for i in 0..n - 1 {
             let below_d = e[i];
             let below_u1 = d[i + 1] - lambda;
-            let below_u2 = if i + 2 < n { e[i + 1] } else { 0.0 };
+            let below_u2 = if i + 2 < n { e[i + 1] } else { T::zero() };
             if cur_d.abs() >= below_d.abs() {
-                if cur_d == 0.0 {
+                if cur_d == T::zero() {
                     cur_d = perturbation;
                 }
                 let m = below_d / cur_d;
                 self.u0[i] = cur_d;
                 self.u1[i] = cur_u1;
-                self.u2[i] = 0.0;
+                self.u2[i] = T::zero();
                 self.pivot[i] = false;
                 self.mult[i] = m;
                 cur_d = below_u1 - m * cur_u1;
@@ -666,12 +670,16 @@ impl<'a> SpectralProjection<'a> {
                 cur_u1 = -m * below_u2;
             }
         }
-        self.u0[n - 1] = if cur_d == 0.0 { perturbation } else { cur_d };
+        self.u0[n - 1] = if cur_d == T::zero() {
+            perturbation
+        } else {
+            cur_d
+        };
         // the back substitution multiplies by the reciprocal pivots: its chain of
         // dependent operations then has no division (each factorisation serves two or
         // more solves)
         for u in self.u0[..n].iter_mut() {
-            *u = 1.0 / *u;
+            *u = T::one() / *u;
         }
     }
 
@@ -703,13 +711,13 @@ impl<'a> SpectralProjection<'a> {
         let n = self.n;
         for r in (0..n.saturating_sub(2)).rev() {
             let tau = self.tau[r];
-            if tau == 0.0 {
+            if tau == T::zero() {
                 continue;
             }
             let v = &self.a[r * n + r + 1..(r + 1) * n];
             for y in self.vectors[..k * n].chunks_exact_mut(n) {
                 let y = &mut y[r + 1..];
-                let dot: f64 = v.iter().zip(y.iter()).map(|(a, b)| a * b).sum();
+                let dot: T = v.iter().zip(y.iter()).map(|(&a, &b)| a * b).sum();
                 let s = tau * dot;
                 for (yi, &vi) in y.iter_mut().zip(v) {
                     *yi -= s * vi;
@@ -719,18 +727,8 @@ impl<'a> SpectralProjection<'a> {
     }
 }
 
-/// The power of two just above the finite positive `x` (1 for a subnormal `x`, which
-/// needs no protection from overflow).
-fn power_of_two_above(x: f64) -> f64 {
-    let exponent = (x.to_bits() >> 52) & 0x7ff;
-    if exponent == 0 || exponent >= 0x7fe {
-        return 1.0;
-    }
-    f64::from_bits((exponent + 1) << 52)
-}
-
 /// Copy the lower triangle of the n × n column-major `a` onto its upper triangle.
-fn mirror_lower(a: &mut [f64], n: usize) {
+fn mirror_lower<T: Float>(a: &mut [T], n: usize) {
     for c in 0..n {
         for r in c + 1..n {
             a[r * n + c] = a[c * n + r];
@@ -741,7 +739,7 @@ fn mirror_lower(a: &mut [f64], n: usize) {
 /// Cholesky factorisation in place of the m × m matrix at the start of `a`
 /// (column-major, stride m, lower triangle read and overwritten by the factor): whether
 /// it is numerically positive definite (every pivot finite and > 0).
-pub fn cholesky(a: &mut [f64], m: usize) -> bool {
+pub fn cholesky<T: Float>(a: &mut [T], m: usize) -> bool {
     if a.len() < m * m {
         return false;
     }
@@ -750,12 +748,12 @@ pub fn cholesky(a: &mut [f64], m: usize) -> bool {
         for p in 0..j {
             d -= a[p * m + j] * a[p * m + j];
         }
-        if d.is_nan() || d <= 0.0 || !d.is_finite() {
+        if d.not_a_number() || d <= T::zero() || !d.is_finite() {
             return false;
         }
-        let d = sqrt(d);
+        let d = d.sqrt();
         a[j * m + j] = d;
-        let inverse = 1.0 / d;
+        let inverse = T::one() / d;
         for i in j + 1..m {
             let mut s = a[j * m + i];
             for p in 0..j {
@@ -771,21 +769,21 @@ pub fn cholesky(a: &mut [f64], m: usize) -> bool {
 /// m × inner (`a` stored inner × m when `a_t`), op(b) inner × n (`b` stored n × inner
 /// when `b_t`).
 #[allow(clippy::too_many_arguments)]
-fn gemm(
-    c: &mut [f64],
+fn gemm<T: Float>(
+    c: &mut [T],
     m: usize,
     n: usize,
     inner: usize,
-    a: &[f64],
+    a: &[T],
     a_t: bool,
-    b: &[f64],
+    b: &[T],
     b_t: bool,
-    alpha: f64,
+    alpha: T,
     accumulate: bool,
 ) {
     for j in 0..n {
         for i in 0..m {
-            let mut s = 0.0;
+            let mut s = T::zero();
             for p in 0..inner {
                 let aip = if a_t { a[i * inner + p] } else { a[p * m + i] };
                 let bpj = if b_t { b[p * n + j] } else { b[j * inner + p] };
@@ -816,7 +814,7 @@ fn gemm(
 /// criterion, so eigenvalues come with errors of order `ε ‖T‖`, which is what the
 /// inverse iteration's residual test (`≤ RESIDUAL_TOLERANCE · n ε ‖T‖`) checks each
 /// selected one against.
-fn ql_eigenvalues(d: &mut [f64], e: &mut [f64]) -> bool {
+fn ql_eigenvalues<T: Float>(d: &mut [T], e: &mut [T]) -> bool {
     let n = d.len();
     if n == 0 {
         return true;
@@ -826,14 +824,14 @@ fn ql_eigenvalues(d: &mut [f64], e: &mut [f64]) -> bool {
     for x in e2[..n - 1].iter_mut() {
         *x *= *x;
     }
-    e2[n - 1] = 0.0;
+    e2[n - 1] = T::zero();
     // f: the shifts so far (d[l..] hold eigenvalues minus f); t, b = ε t, c = b²
-    let (mut f, mut t, mut b, mut c) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    let (mut f, mut t, mut b, mut c) = (T::zero(), T::zero(), T::zero(), T::zero());
     for l in 0..n {
-        let size = d[l].abs() + sqrt(e2[l]);
+        let size = d[l].abs() + e2[l].sqrt();
         if t < size {
             t = size;
-            b = f64::EPSILON * t;
+            b = T::EPSILON * t;
             c = b * b;
         }
         let mut iterations = 0;
@@ -851,10 +849,10 @@ fn ql_eigenvalues(d: &mut [f64], e: &mut [f64]) -> bool {
                 return false;
             }
             // Wilkinson shift from the leading 2 × 2 block, subtracted from d[l..]
-            let s = sqrt(e2[l]);
+            let s = e2[l].sqrt();
             let g = d[l];
-            let p = (d[l + 1] - g) / (2.0 * s);
-            let r = sqrt(p * p + 1.0);
+            let p = (d[l + 1] - g) / (T::of(2.0) * s);
+            let r = (p * p + T::one()).sqrt();
             d[l] = s / (p + r.copysign(p));
             let h = g - d[l];
             for x in d[l + 1..].iter_mut() {
@@ -863,11 +861,11 @@ fn ql_eigenvalues(d: &mut [f64], e: &mut [f64]) -> bool {
             f += h;
             // the rational QL sweep from m up to l
             let mut g = d[m];
-            if g == 0.0 {
+            if g == T::zero() {
                 g = b;
             }
             let mut h = g;
-            let mut s = 0.0;
+            let mut s = T::zero();
             for i in (l..m).rev() {
                 let p = g * h;
                 let r = p + e2[i];
@@ -875,7 +873,7 @@ fn ql_eigenvalues(d: &mut [f64], e: &mut [f64]) -> bool {
                 s = e2[i] / r;
                 d[i + 1] = h + s * (h + d[i]);
                 g = d[i] - e2[i] / g;
-                if g == 0.0 {
+                if g == T::zero() {
                     g = b;
                 }
                 h = g * p / r;
@@ -883,11 +881,11 @@ fn ql_eigenvalues(d: &mut [f64], e: &mut [f64]) -> bool {
             e2[l] = s * g;
             d[l] = h;
             // converged (guarding the test against underflow)
-            if h == 0.0 || e2[l].abs() <= (c / h).abs() {
+            if h == T::zero() || e2[l].abs() <= (c / h).abs() {
                 break;
             }
             e2[l] *= h;
-            if e2[l] == 0.0 {
+            if e2[l] == T::zero() {
                 break;
             }
         }

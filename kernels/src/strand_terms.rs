@@ -10,6 +10,7 @@
 
 use crate::body_field::BodyField;
 use crate::element::{ElementPoint, RotaryPoints};
+use crate::float::Float;
 use crate::moments::jacobians::{
     add_field_hessian, add_velocity_jacobian, add_weighted_gram, VelocityRow,
 };
@@ -21,19 +22,20 @@ use crate::moments::{
 use crate::pose::{darboux, Pose};
 use nalgebra::{Matrix3, Vector3};
 
-/// Where the moment assembly gets its per-element integrals.
-pub trait MomentSource {
+/// Where the moment assembly gets its per-element integrals, in the float type `T`
+/// (`f64` unless named).
+pub trait MomentSource<T: Float = f64> {
     /// Fill every field of `out` for Darboux vector `d`, length `l`, rotary inertia
     /// `rotary` (= diag D).
-    fn moments(&self, d: &Vector3<f64>, l: f64, rotary: &[f64; 3], out: &mut ElementMoments);
+    fn moments(&self, d: &Vector3<T>, l: T, rotary: &[T; 3], out: &mut ElementMoments<T>);
     /// [`MomentSource::moments`] for elements `d[p]`, `l[p]` into `out[p]` (one element
     /// after the other unless a source does better).
     fn moments_batch(
         &self,
-        d: &[Vector3<f64>],
-        l: &[f64],
-        rotary: &[f64; 3],
-        out: &mut [ElementMoments],
+        d: &[Vector3<T>],
+        l: &[T],
+        rotary: &[T; 3],
+        out: &mut [ElementMoments<T>],
     ) {
         for ((d, &l), out) in d.iter().zip(l).zip(out.iter_mut()) {
             self.moments(d, l, rotary, out);
@@ -44,15 +46,15 @@ pub trait MomentSource {
     /// Defaults to the full batch.
     fn mass_moments_batch(
         &self,
-        d: &[Vector3<f64>],
-        l: &[f64],
-        rotary: &[f64; 3],
-        out: &mut [ElementMoments],
+        d: &[Vector3<T>],
+        l: &[T],
+        rotary: &[T; 3],
+        out: &mut [ElementMoments<T>],
     ) {
         self.moments_batch(d, l, rotary, out);
     }
     /// E(u), p(u), w_i(u) and their d-derivatives (see [`ElementPoint`]).
-    fn point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
+    fn point(&self, d: &Vector3<T>, u: T, out: &mut ElementPoint<T>) {
         *out = ElementPoint::by_jets(d, u);
     }
     /// The fields of [`ElementPoint`] the rotary-inertia quadrature
@@ -60,14 +62,14 @@ pub trait MomentSource {
     /// `p` and `dp`, which are `w[0]` and `dw[0]`), the same values as
     /// [`MomentSource::point`]; `out.d2p` is unspecified afterwards (a source may leave
     /// it as it was). Defaults to [`MomentSource::point`].
-    fn rotary_point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
+    fn rotary_point(&self, d: &Vector3<T>, u: T, out: &mut ElementPoint<T>) {
         self.point(d, u, out);
     }
     /// [`MomentSource::rotary_point`] at the abscissae `u` (at most four; any beyond are
     /// ignored), lane k of `out` for `u[k]`; the lanes beyond `u.len()` are unspecified
     /// afterwards. Defaults to [`MomentSource::rotary_point`] point by point; a source
     /// may evaluate the four lanes together, but must give the same bits.
-    fn rotary_points(&self, d: &Vector3<f64>, u: &[f64], out: &mut RotaryPoints) {
+    fn rotary_points(&self, d: &Vector3<T>, u: &[T], out: &mut RotaryPoints<T>) {
         let mut point = ElementPoint::default();
         for (k, &u) in u.iter().take(4).enumerate() {
             self.rotary_point(d, u, &mut point);
@@ -113,58 +115,58 @@ impl Terms {
 /// What the terms depend on besides q and q̇: the clamped root, the element lengths, the
 /// mass per length and the rotary inertia of the cross-section.
 #[derive(Debug, Clone, Copy)]
-pub struct StrandShape<'a> {
+pub struct StrandShape<'a, T: Float = f64> {
     /// Root position r_0, head coordinates, metres.
-    pub root_position: Vector3<f64>,
+    pub root_position: Vector3<T>,
     /// Root frame F_0 (columns n0, n1, n2; n0 the tangent).
-    pub root_frame: Matrix3<f64>,
+    pub root_frame: Matrix3<T>,
     /// Element lengths l_Q; N = `lengths.len()`.
-    pub lengths: &'a [f64],
+    pub lengths: &'a [T],
     /// ρS, kg/m.
-    pub mass_per_length: f64,
+    pub mass_per_length: T,
     /// ρ(I1 + I2), ρI1, ρI2, kg·m (zeros: the paper's kinetic energy without rotary
     /// inertia).
-    pub rotary_inertia: [f64; 3],
+    pub rotary_inertia: [T; 3],
 }
 
 /// The buffers of one evaluation, sized for N elements (3N coordinates): `ends`,
 /// `motions` and `bodies` N + 1 long, the 3N × 3N matrices column-major (9N² long),
 /// `velocity_rows` 3N long, the others N long. The owner keeps them (a `Vec` each in the
 /// runtime, arrays of literal size in a fixed-N strand).
-pub struct MomentBuffers<'a> {
+pub struct MomentBuffers<'a, T: Float = f64> {
     /// Poses at the element ends.
-    pub ends: &'a mut [Pose],
+    pub ends: &'a mut [Pose<T>],
     /// The Darboux vector of each element.
-    pub darboux: &'a mut [Vector3<f64>],
+    pub darboux: &'a mut [Vector3<T>],
     /// End derivatives of each element.
-    pub end_derivs: &'a mut [EndDerivatives],
+    pub end_derivs: &'a mut [EndDerivatives<T>],
     /// Element moments.
-    pub moments: &'a mut [ElementMoments],
+    pub moments: &'a mut [ElementMoments<T>],
     /// Frame motions at the element ends.
-    pub motions: &'a mut [FrameMotion],
+    pub motions: &'a mut [FrameMotion<T>],
     /// Suffix bodies.
-    pub bodies: &'a mut [SuffixBody],
+    pub bodies: &'a mut [SuffixBody<T>],
     /// Suffix wrenches of the force assembly.
-    pub wrenches: &'a mut [Wrench],
+    pub wrenches: &'a mut [Wrench<T>],
     /// Rotary-inertia integrals of each element.
-    pub rotary: &'a mut [RotaryElement],
+    pub rotary: &'a mut [RotaryElement<T>],
     /// Scratch of the rotary terms.
-    pub beyond: &'a mut [(Matrix3<f64>, Matrix3<f64>)],
+    pub beyond: &'a mut [(Matrix3<T>, Matrix3<T>)],
     /// Scratch of ∂b/∂q̇.
-    pub velocity_rows: &'a mut [VelocityRow],
+    pub velocity_rows: &'a mut [VelocityRow<T>],
     /// M at the prepared q (column-major), valid when `*mass_valid`.
-    pub mass: &'a mut [f64],
+    pub mass: &'a mut [T],
     /// The centreline Gram matrix ∫ JᵀJ ds at the prepared q, with `mass`.
-    pub gram: &'a mut [f64],
+    pub gram: &'a mut [T],
     /// Whether `mass` and `gram` hold the prepared q's.
     pub mass_valid: &'a mut bool,
     /// Column-major 3N × 3N scratch (the stiffness, damping and ∂b/∂q̇ in turn).
-    pub matrix: &'a mut [f64],
+    pub matrix: &'a mut [T],
     /// 3N scratch.
-    pub vector: &'a mut [f64],
+    pub vector: &'a mut [T],
     /// The q the ends, end derivatives and moments were prepared for (NaN before the
     /// first evaluation: equal to no q).
-    pub prepared: &'a mut [f64],
+    pub prepared: &'a mut [T],
 }
 
 /// Which matrix [`evaluate_terms`] hands to its sink.
@@ -181,22 +183,22 @@ pub enum TermMatrix {
 }
 
 /// The vector outputs of [`evaluate_terms`] (3N each), and ∫ρS y ds.
-pub struct TermVectors<'a> {
+pub struct TermVectors<'a, T: Float = f64> {
     /// ∫ Jᵀ F ds − b(q, q̇).
-    pub force: &'a mut [f64],
+    pub force: &'a mut [T],
     /// b(q, q̇) = ∫ ρS Jᵀ (J̇ q̇) ds.
-    pub velocity_term: &'a mut [f64],
+    pub velocity_term: &'a mut [T],
     /// ∫ ρS y ds (with `mass` or `force`).
-    pub first_moment: &'a mut Vector3<f64>,
+    pub first_moment: &'a mut Vector3<T>,
 }
 
 /// Element ends, end derivatives and moments for q, all from the source. They depend on
 /// q only: kept when q is the one they were prepared for.
-pub fn prepare<S: MomentSource + ?Sized>(
+pub fn prepare<T: Float, S: MomentSource<T> + ?Sized>(
     source: &S,
-    shape: &StrandShape<'_>,
-    b: &mut MomentBuffers<'_>,
-    q: &[f64],
+    shape: &StrandShape<'_, T>,
+    b: &mut MomentBuffers<'_, T>,
+    q: &[T],
 ) {
     if *b.prepared == *q {
         return;
@@ -209,11 +211,11 @@ pub fn prepare<S: MomentSource + ?Sized>(
 
 /// The Darboux vectors, element ends and end derivatives of q, from the source's element
 /// points.
-fn ends_and_derivatives<S: MomentSource + ?Sized>(
+fn ends_and_derivatives<T: Float, S: MomentSource<T> + ?Sized>(
     source: &S,
-    shape: &StrandShape<'_>,
-    b: &mut MomentBuffers<'_>,
-    q: &[f64],
+    shape: &StrandShape<'_, T>,
+    b: &mut MomentBuffers<'_, T>,
+    q: &[T],
 ) {
     b.ends[0] = Pose {
         position: shape.root_position,
@@ -237,14 +239,14 @@ fn ends_and_derivatives<S: MomentSource + ?Sized>(
 /// from the element moments of M only ([`MomentSource::mass_moments_batch`]): what an
 /// energy measurement needs, for the cost of the moments M needs. The buffers are left
 /// prepared for no q (a later evaluation at q computes every moment).
-pub fn evaluate_mass<S: MomentSource + ?Sized>(
+pub fn evaluate_mass<T: Float, S: MomentSource<T> + ?Sized>(
     source: &S,
-    shape: &StrandShape<'_>,
-    b: &mut MomentBuffers<'_>,
-    q: &[f64],
-    first_moment: &mut Vector3<f64>,
+    shape: &StrandShape<'_, T>,
+    b: &mut MomentBuffers<'_, T>,
+    q: &[T],
+    first_moment: &mut Vector3<T>,
 ) {
-    b.prepared[0] = f64::NAN;
+    b.prepared[0] = T::nan();
     ends_and_derivatives(source, shape, b, q);
     source.mass_moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
     let n = shape.lengths.len();
@@ -274,12 +276,12 @@ pub fn evaluate_mass<S: MomentSource + ?Sized>(
 }
 
 /// `m` is a multiple of the identity.
-fn is_scalar(m: &Matrix3<f64>) -> bool {
+fn is_scalar<T: Float>(m: &Matrix3<T>) -> bool {
     *m == Matrix3::identity() * m[(0, 0)]
 }
 
 /// ∫ρS y ds from the suffix bodies.
-fn first_moment(b: &MomentBuffers<'_>, rho_s: f64) -> Vector3<f64> {
+fn first_moment<T: Float>(b: &MomentBuffers<'_, T>, rho_s: T) -> Vector3<T> {
     (b.bodies[0].first + b.ends[0].position * b.bodies[0].mass) * rho_s
 }
 
@@ -287,21 +289,21 @@ fn first_moment(b: &MomentBuffers<'_>, rho_s: f64) -> Vector3<f64> {
 /// handed to `sink` (column-major, 3N × 3N) once assembled, the vectors written into
 /// `out`. Allocates nothing.
 #[allow(clippy::too_many_arguments)]
-pub fn evaluate_terms<S: MomentSource + ?Sized>(
+pub fn evaluate_terms<T: Float, S: MomentSource<T> + ?Sized>(
     source: &S,
-    shape: &StrandShape<'_>,
-    b: &mut MomentBuffers<'_>,
-    q: &[f64],
-    v: &[f64],
-    field: &BodyField,
+    shape: &StrandShape<'_, T>,
+    b: &mut MomentBuffers<'_, T>,
+    q: &[T],
+    v: &[T],
+    field: &BodyField<T>,
     terms: Terms,
-    out: &mut TermVectors<'_>,
-    sink: &mut dyn FnMut(TermMatrix, &[f64]),
+    out: &mut TermVectors<'_, T>,
+    sink: &mut dyn FnMut(TermMatrix, &[T]),
 ) {
     let t = terms;
     prepare(source, shape, b, q);
     let rho_s = shape.mass_per_length;
-    let has_rotary = shape.rotary_inertia != [0.0; 3];
+    let has_rotary = shape.rotary_inertia != [T::zero(); 3];
     let lengths = shape.lengths;
     let needs_velocity = t.force || t.velocity_term_jacobian;
     if needs_velocity {
@@ -342,14 +344,14 @@ pub fn evaluate_terms<S: MomentSource + ?Sized>(
             let d = b.darboux[p];
             let l = lengths[p];
             b.rotary[p] = rotary_element(
-                &|u: &[f64], out: &mut RotaryPoints| source.rotary_points(&d, u, out),
+                &|u: &[T], out: &mut RotaryPoints<T>| source.rotary_points(&d, u, out),
                 l,
                 &shape.rotary_inertia,
                 &b.moments[p],
                 &b.ends[p],
                 &b.motions[p],
                 &v[3 * p..3 * p + 3],
-                rotary_points(d.norm() * l),
+                rotary_points((d.norm() * l).as_f64()),
                 t.velocity_term_jacobian,
             );
         }
@@ -386,7 +388,7 @@ pub fn evaluate_terms<S: MomentSource + ?Sized>(
         }
         assemble_force(
             b.wrenches,
-            0.0,
+            T::zero(),
             lengths,
             b.ends,
             b.end_derivs,
@@ -397,11 +399,11 @@ pub fn evaluate_terms<S: MomentSource + ?Sized>(
             out.force,
         );
         for (f, x) in out.force.iter_mut().zip(out.velocity_term.iter()) {
-            *f -= x;
+            *f -= *x;
         }
     }
     if t.stiffness {
-        b.matrix.fill(0.0);
+        b.matrix.fill(T::zero());
         add_field_hessian(
             &field.uniform,
             &field.linear,
@@ -414,7 +416,7 @@ pub fn evaluate_terms<S: MomentSource + ?Sized>(
         if field.has_linear() {
             add_weighted_gram(
                 &field.linear,
-                1.0,
+                T::one(),
                 b.ends,
                 b.end_derivs,
                 b.moments,
@@ -428,14 +430,14 @@ pub fn evaluate_terms<S: MomentSource + ?Sized>(
         // C2 = −ν I: −ν ∫ JᵀJ ds, kept with M
         let c = field.velocity[(0, 0)];
         for (m, g) in b.matrix.iter_mut().zip(b.gram.iter()) {
-            *m = c * g;
+            *m = c * *g;
         }
         sink(TermMatrix::Damping, b.matrix);
     } else if t.damping {
-        b.matrix.fill(0.0);
+        b.matrix.fill(T::zero());
         add_weighted_gram(
             &field.velocity,
-            1.0,
+            T::one(),
             b.ends,
             b.end_derivs,
             b.moments,
@@ -445,9 +447,9 @@ pub fn evaluate_terms<S: MomentSource + ?Sized>(
         sink(TermMatrix::Damping, b.matrix);
     }
     if t.velocity_term_jacobian {
-        b.matrix.fill(0.0);
+        b.matrix.fill(T::zero());
         add_velocity_jacobian(
-            2.0 * rho_s,
+            T::of(2.0) * rho_s,
             b.ends,
             b.end_derivs,
             b.moments,
@@ -473,11 +475,11 @@ pub fn evaluate_terms<S: MomentSource + ?Sized>(
 }
 
 /// The poses at the N + 1 element ends for q, from the source's element points.
-pub fn element_ends<S: MomentSource + ?Sized>(
+pub fn element_ends<T: Float, S: MomentSource<T> + ?Sized>(
     source: &S,
-    shape: &StrandShape<'_>,
-    q: &[f64],
-    ends: &mut [Pose],
+    shape: &StrandShape<'_, T>,
+    q: &[T],
+    ends: &mut [Pose<T>],
 ) {
     ends[0] = Pose {
         position: shape.root_position,

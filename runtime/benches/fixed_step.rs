@@ -2,7 +2,9 @@
 //! with the generated closed forms) at N = 5, hair-like (curly preset, 20 cm, hanging
 //! 17° off vertical), gravity, air drag and internal friction, dt = 1/30 s, and its parts:
 //! the step without its checks (`fixed::linearly_implicit`), the terms (`fixed::evaluate`)
-//! and the element moments alone.
+//! and the element moments alone; and the same strand's step, step without checks and
+//! element moments in f32 (`*_f32`: the f32 strand, workspace and step on the generated
+//! f32 closed forms).
 //! `cargo bench -p superhelix-runtime --bench fixed_step`.
 
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -112,6 +114,61 @@ fn bench(c: &mut Criterion) {
                 &mut out,
             );
             black_box(out[0].first[0])
+        })
+    });
+    // the same in f32: the strand rounded to f32, moved by the same five steps in f32
+    let mut ws32 = Box::new(FixedWorkspace::<N, D, E, f32>::new());
+    let mut s32: FixedStrand<N, D, B, f32> = strand().cast();
+    for k in 0..5 {
+        let t = k as f64 * h;
+        fixed::step(
+            &ClosedForm,
+            &mut s32,
+            &StillHead,
+            &effects,
+            t,
+            h,
+            &mut ws32,
+            &mut counts,
+        )
+        .expect("step");
+    }
+    let start32 = s32.clone();
+    group.bench_function("step_f32", |b| {
+        b.iter(|| {
+            let mut s = start32.clone();
+            fixed::step(
+                &ClosedForm,
+                &mut s,
+                &StillHead,
+                &effects,
+                5.0 * h,
+                h,
+                &mut ws32,
+                &mut counts,
+            )
+            .expect("step");
+            black_box(s.q[0])
+        })
+    });
+    group.bench_function("linearly_implicit_f32", |b| {
+        b.iter(|| {
+            let mut s = start32.clone();
+            fixed::linearly_implicit(&ClosedForm, &mut s, &input, h, &mut ws32).expect("step");
+            black_box(s.q[0])
+        })
+    });
+    let d32: Vec<Vector3<f32>> = d.iter().map(|d| d.map(|x| x as f32)).collect();
+    let mut out32 = [ElementMoments::<f32>::default(); N];
+    group.bench_function("element_moments_f32", |b| {
+        b.iter(|| {
+            ClosedForm.moments_batch(
+                black_box(&d32),
+                &[0.04; N],
+                &start32.params.rotary_inertia,
+                &mut out32,
+            );
+            black_box(out32[0].first[0])
         })
     });
     group.finish();

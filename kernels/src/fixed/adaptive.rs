@@ -20,6 +20,7 @@ use crate::energy::{
     balance, end_ceiling, StateEnergy, ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION,
     MAX_SUBSTEP_DEPTH, WORK_SPLIT_FRACTION,
 };
+use crate::float::Float;
 use crate::head::{body_field, HeadState};
 use crate::strand_terms::{MomentSource, Terms};
 use nalgebra::{Matrix3, Vector3};
@@ -179,16 +180,23 @@ impl Interval {
 /// The energy of the state (q, q̇) at time t with the head in `head` (the runtime's
 /// `energy_balance::measure` for a strand without point loads).
 #[allow(clippy::too_many_arguments)]
-fn measure<S: MomentSource, const N: usize, const D: usize, const E: usize, const B: usize>(
+fn measure<
+    S: MomentSource<T>,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
     source: &S,
-    strand: &FixedStrand<N, D, B>,
+    strand: &FixedStrand<N, D, B, T>,
     effects: &Effects,
     head: &HeadState,
     t: f64,
-    q: &[f64; D],
-    v: &[f64; D],
-    ws: &mut FixedWorkspace<N, D, E>,
-) -> StateEnergy {
+    q: &[T; D],
+    v: &[T; D],
+    ws: &mut FixedWorkspace<N, D, E, T>,
+) -> StateEnergy<T> {
     let p = &strand.params;
     let rho_s = p.mass_per_length;
     let full = body_field(effects.gravity, effects.head_moves, head, rho_s, p.air_drag);
@@ -216,18 +224,19 @@ fn measure<S: MomentSource, const N: usize, const D: usize, const E: usize, cons
         );
     }
     let m = &ws.assembly.mass;
-    let mut kinetic = 0.0;
+    let half = T::of(0.5);
+    let mut kinetic = T::zero();
     for j in 0..D {
-        let mut mv = 0.0;
+        let mut mv = T::zero();
         for i in 0..D {
             mv += m[j][i] * v[i];
         }
-        kinetic += 0.5 * mv * v[j];
+        kinetic += half * mv * v[j];
     }
-    let elastic: f64 = (0..D)
+    let elastic: T = (0..D)
         .map(|i| {
             let x = q[i] - p.natural[i];
-            0.5 * p.stiffness[i] * (x * x)
+            half * p.stiffness[i] * (x * x)
         })
         .sum();
     let power = if field.has_linear() {
@@ -235,11 +244,11 @@ fn measure<S: MomentSource, const N: usize, const D: usize, const E: usize, cons
             .map(|i| v[i] * (ws.force[i] + ws.velocity_term[i]))
             .sum()
     } else {
-        0.0
+        T::zero()
     };
     let moment = ws.first_moment / rho_s;
-    let dissipation = (0..D).map(|i| p.friction[i] * v[i] * v[i]).sum::<f64>()
-        + 2.0 * p.air_drag / rho_s * kinetic;
+    let dissipation = (0..D).map(|i| p.friction[i] * v[i] * v[i]).sum::<T>()
+        + T::of(2.0) * p.air_drag / rho_s * kinetic;
     let length = p.length();
     let potential = -full.uniform.dot(&moment);
     StateEnergy {
@@ -250,12 +259,38 @@ fn measure<S: MomentSource, const N: usize, const D: usize, const E: usize, cons
         moment,
         uniform: full.uniform,
         power,
-        load_moment: 0.0,
-        load_rate: 0.0,
+        load_moment: T::zero(),
+        load_rate: T::zero(),
         dissipation,
         ceiling: kinetic + elastic + potential,
         scale: kinetic + elastic + full.uniform.norm() * length * length,
     }
+}
+
+/// The energy of the strand's state at time `t` with the head in `head`, as the checked
+/// step measures it for its energy balance (kinetic, elastic and potential energy, the
+/// energy scale, the head's power, the dissipation rate): what an engine can watch, and
+/// what the tests compare between float types.
+pub fn energy<
+    S: MomentSource<T>,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
+    source: &S,
+    strand: &FixedStrand<N, D, B, T>,
+    effects: &Effects,
+    head: &HeadState,
+    t: f64,
+    ws: &mut FixedWorkspace<N, D, E, T>,
+) -> StateEnergy<T> {
+    ws.forget();
+    let (q, v) = (strand.q, strand.v);
+    let e = measure(source, strand, effects, head, t, &q, &v, ws);
+    ws.forget();
+    e
 }
 
 /// Advance `strand` from time `t` by `h` seconds with the head moving as `head`: the
@@ -265,14 +300,21 @@ fn measure<S: MomentSource, const N: usize, const D: usize, const E: usize, cons
 /// the energy of its end state for its next step. Allocates nothing; on failure the
 /// strand keeps the state of its last accepted substep and the error says why.
 #[allow(clippy::too_many_arguments)]
-pub fn step<S: MomentSource, const N: usize, const D: usize, const E: usize, const B: usize>(
+pub fn step<
+    S: MomentSource<T>,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
     source: &S,
-    strand: &mut FixedStrand<N, D, B>,
+    strand: &mut FixedStrand<N, D, B, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
     t: f64,
     h: f64,
-    ws: &mut FixedWorkspace<N, D, E>,
+    ws: &mut FixedWorkspace<N, D, E, T>,
     counts: &mut StepCounts,
 ) -> Result<StepReport, StepError> {
     if !(h.is_finite() && h > 0.0 && t.is_finite()) {
@@ -290,13 +332,7 @@ pub fn step<S: MomentSource, const N: usize, const D: usize, const E: usize, con
     let q0 = strand.q;
     let end = adaptive(source, strand, head, effects, &interval, &start, ws, counts)?;
     strand.last_energy = Some(end);
-    let mut rotation: f64 = 0.0;
-    for (k, l) in strand.params.lengths.iter().enumerate() {
-        let d: f64 = (0..3)
-            .map(|i| (strand.q[3 * k + i] - q0[3 * k + i]) * (strand.q[3 * k + i] - q0[3 * k + i]))
-            .sum();
-        rotation = rotation.max(l * crate::math::sqrt(d));
-    }
+    let rotation = max_element_rotation(&strand.params.lengths, &strand.q, &q0);
     if let Some(i) = strand
         .q
         .iter()
@@ -309,41 +345,48 @@ pub fn step<S: MomentSource, const N: usize, const D: usize, const E: usize, con
         });
     }
     Ok(StepReport {
-        max_element_rotation: rotation,
+        max_element_rotation: rotation.as_f64(),
         projection: None,
     })
 }
 
 /// Largest l_Q |Δd_Q| between two states.
-fn max_element_rotation<const N: usize, const D: usize>(
-    lengths: &[f64; N],
-    q: &[f64; D],
-    q0: &[f64; D],
-) -> f64 {
+fn max_element_rotation<const N: usize, const D: usize, T: Float>(
+    lengths: &[T; N],
+    q: &[T; D],
+    q0: &[T; D],
+) -> T {
     lengths
         .iter()
         .enumerate()
-        .map(|(k, l)| {
-            let d: f64 = (0..3)
+        .map(|(k, &l)| {
+            let d: T = (0..3)
                 .map(|i| (q[3 * k + i] - q0[3 * k + i]) * (q[3 * k + i] - q0[3 * k + i]))
                 .sum();
-            l * crate::math::sqrt(d)
+            l * d.sqrt()
         })
-        .fold(0.0, f64::max)
+        .fold(T::zero(), T::max)
 }
 
 /// The runtime's `implicit_adaptive` for the linearly implicit Euler step.
 #[allow(clippy::too_many_arguments)]
-fn adaptive<S: MomentSource, const N: usize, const D: usize, const E: usize, const B: usize>(
+fn adaptive<
+    S: MomentSource<T>,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
     source: &S,
-    strand: &mut FixedStrand<N, D, B>,
+    strand: &mut FixedStrand<N, D, B, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
     interval: &Interval,
-    start: &StateEnergy,
-    ws: &mut FixedWorkspace<N, D, E>,
+    start: &StateEnergy<T>,
+    ws: &mut FixedWorkspace<N, D, E, T>,
     counts: &mut StepCounts,
-) -> Result<StateEnergy, StepError> {
+) -> Result<StateEnergy<T>, StepError> {
     let h = interval.h;
     let (saved_q, saved_v) = (strand.q, strand.v);
     let deepest = interval.depth == MAX_SUBSTEP_DEPTH;
@@ -356,7 +399,7 @@ fn adaptive<S: MomentSource, const N: usize, const D: usize, const E: usize, con
     let finite = outcome.is_ok();
     let acceptable = outcome.is_ok()
         && max_element_rotation(&strand.params.lengths, &strand.q, &saved_q)
-            <= MAX_ELEMENT_ROTATION;
+            <= T::of(MAX_ELEMENT_ROTATION);
     if acceptable || deepest {
         outcome?;
         if !finite {
@@ -375,7 +418,7 @@ fn adaptive<S: MomentSource, const N: usize, const D: usize, const E: usize, con
         );
         let inertial = interval.uniform;
         let excess = balance(start, &end, inertial).excess;
-        if excess <= 0.0 {
+        if excess <= T::zero() {
             end.ceiling = end_ceiling(start, &end, inertial);
             return Ok(end);
         }
@@ -384,11 +427,11 @@ fn adaptive<S: MomentSource, const N: usize, const D: usize, const E: usize, con
         } else {
             WORK_SPLIT_FRACTION
         };
-        let split = !deepest && excess > fraction * start.scale;
+        let split = !deepest && excess > T::of(fraction) * start.scale;
         if !split {
             let kinetic = end.kinetic - excess;
-            if kinetic >= 0.0 && end.kinetic > 0.0 {
-                let lambda = crate::math::sqrt(kinetic / end.kinetic);
+            if kinetic >= T::zero() && end.kinetic > T::zero() {
+                let lambda = (kinetic / end.kinetic).sqrt();
                 for x in strand.v.iter_mut() {
                     *x *= lambda;
                 }

@@ -1,15 +1,15 @@
-//! Dense linear algebra of the fixed-N step on column-major `[[f64; D]; D]` arrays
-//! (`a[c][r]` is row r of column c): LU with partial pivoting, and the negative
-//! semidefinite part of a symmetric matrix.
+//! Dense linear algebra of the fixed-N step on column-major `[[T; D]; D]` arrays
+//! (`a[c][r]` is row r of column c, T = f64 or f32): LU with partial pivoting, and the
+//! negative semidefinite part of a symmetric matrix.
 
-use crate::math::sqrt;
+use crate::float::Float;
 
 /// LU-factor `a` with partial pivoting (Golub & Van Loan, algorithm 3.4.1) and solve
 /// `a x = b` in place (`b` becomes x). Returns false, with `a` and `b` overwritten, when
 /// a pivot is zero or the solution is not finite.
-pub fn lu_solve<const D: usize>(
-    a: &mut [[f64; D]; D],
-    b: &mut [f64; D],
+pub fn lu_solve<T: Float, const D: usize>(
+    a: &mut [[T; D]; D],
+    b: &mut [T; D],
     pivots: &mut [usize; D],
 ) -> bool {
     for k in 0..D {
@@ -24,7 +24,7 @@ pub fn lu_solve<const D: usize>(
             }
         }
         pivots[k] = p;
-        if best == 0.0 || !best.is_finite() {
+        if best == T::zero() || !best.is_finite() {
             return false;
         }
         if p != k {
@@ -32,13 +32,13 @@ pub fn lu_solve<const D: usize>(
                 col.swap(k, p);
             }
         }
-        let inv = 1.0 / a[k][k];
+        let inv = T::one() / a[k][k];
         for r in k + 1..D {
             a[k][r] *= inv;
         }
         for c in k + 1..D {
             let akc = a[c][k];
-            if akc != 0.0 {
+            if akc != T::zero() {
                 let (left, right) = a.split_at_mut(c);
                 let lk = &left[k];
                 let col = &mut right[0];
@@ -88,16 +88,16 @@ pub enum Projection {
 
 /// Cholesky factorisation of the symmetric `a` (lower triangle read; the factor
 /// overwrites it). False when `a` is not numerically positive definite.
-fn cholesky<const D: usize>(a: &mut [[f64; D]; D]) -> bool {
+fn cholesky<T: Float, const D: usize>(a: &mut [[T; D]; D]) -> bool {
     for j in 0..D {
         let mut d = a[j][j];
         for k in 0..j {
             d -= a[k][j] * a[k][j];
         }
-        if d.is_nan() || d <= 0.0 || !d.is_finite() {
+        if d.not_a_number() || d <= T::zero() || !d.is_finite() {
             return false;
         }
-        let d = sqrt(d);
+        let d = d.sqrt();
         a[j][j] = d;
         for i in j + 1..D {
             let mut s = a[j][i];
@@ -114,10 +114,10 @@ fn cholesky<const D: usize>(a: &mut [[f64; D]; D]) -> bool {
 /// `U min(Λ, 0) Uᵀ`: itself when −h is positive definite (one Cholesky factorisation
 /// says so), else from the cyclic Jacobi eigendecomposition (Golub & Van Loan,
 /// algorithm 8.5.3) in `vectors`, `values`.
-pub fn negative_semidefinite_part<const D: usize>(
-    h: &mut [[f64; D]; D],
-    vectors: &mut [[f64; D]; D],
-    values: &mut [f64; D],
+pub fn negative_semidefinite_part<T: Float, const D: usize>(
+    h: &mut [[T; D]; D],
+    vectors: &mut [[T; D]; D],
+    values: &mut [T; D],
 ) -> Projection {
     if !h.iter().flatten().all(|x| x.is_finite()) {
         return Projection::Failed;
@@ -134,30 +134,32 @@ pub fn negative_semidefinite_part<const D: usize>(
     let mut a = *h;
     for c in 0..D {
         for r in 0..D {
-            vectors[c][r] = if r == c { 1.0 } else { 0.0 };
+            vectors[c][r] = if r == c { T::one() } else { T::zero() };
         }
     }
-    let scale: f64 = h.iter().flatten().map(|x| x * x).sum();
+    let scale: T = h.iter().flatten().map(|&x| x * x).sum();
+    // the off-diagonal part below (ε²-level, 1e-32 in f64) of the whole: converged
+    let converged = T::of(1e-32 * T::EPSILON_RATIO * T::EPSILON_RATIO);
     for _sweep in 0..60 {
-        let mut off = 0.0;
+        let mut off = T::zero();
         for c in 0..D {
             for r in 0..c {
                 off += a[c][r] * a[c][r];
             }
         }
-        if off <= 1e-32 * scale {
+        if off <= converged * scale {
             break;
         }
         for p in 0..D {
             for q in p + 1..D {
                 let apq = a[q][p];
-                if apq == 0.0 {
+                if apq == T::zero() {
                     continue;
                 }
-                let theta = (a[q][q] - a[p][p]) / (2.0 * apq);
-                let t = theta.signum() / (theta.abs() + sqrt(theta * theta + 1.0));
-                let t = if theta == 0.0 { 1.0 } else { t };
-                let cs = 1.0 / sqrt(t * t + 1.0);
+                let theta = (a[q][q] - a[p][p]) / (T::of(2.0) * apq);
+                let t = theta.signum() / (theta.abs() + (theta * theta + T::one()).sqrt());
+                let t = if theta == T::zero() { T::one() } else { t };
+                let cs = T::one() / (t * t + T::one()).sqrt();
                 let sn = t * cs;
                 // A ← Jᵀ A J on rows and columns p, q
                 for k in 0..D {
@@ -179,11 +181,11 @@ pub fn negative_semidefinite_part<const D: usize>(
         }
     }
     for i in 0..D {
-        values[i] = a[i][i].min(0.0);
+        values[i] = a[i][i].min(T::zero());
     }
     for c in 0..D {
         for r in 0..=c {
-            let mut s = 0.0;
+            let mut s = T::zero();
             for k in 0..D {
                 s += vectors[k][r] * values[k] * vectors[k][c];
             }

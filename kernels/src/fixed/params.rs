@@ -1,30 +1,32 @@
 //! The parameters of a fixed-N strand, checked once when it is made.
 
+use crate::float::Float;
 use crate::material::SectionTerms;
 use crate::strand_terms::StrandShape;
 use nalgebra::{Matrix3, Vector3};
 
-/// Everything a fixed-N strand's mechanics depends on besides its state.
+/// Everything a fixed-N strand's mechanics depends on besides its state, in the step's
+/// float type `T` (`f64` unless named).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FixedParams<const N: usize, const D: usize> {
+pub struct FixedParams<const N: usize, const D: usize, T: Float = f64> {
     /// Root position r_0 in head coordinates, metres.
-    pub root_position: Vector3<f64>,
+    pub root_position: Vector3<T>,
     /// Root frame F_0 in head coordinates: columns (n0, n1, n2), n0 the tangent.
-    pub root_frame: Matrix3<f64>,
+    pub root_frame: Matrix3<T>,
     /// Element lengths l_Q, metres.
-    pub lengths: [f64; N],
+    pub lengths: [T; N],
     /// Natural twist and curvatures q_n, rad/m, in the order of q.
-    pub natural: [f64; D],
+    pub natural: [T; D],
     /// Diagonal of K = diag(l_Q · (GJ, EI1, EI2)) (eq. 5c), N·m.
-    pub stiffness: [f64; D],
+    pub stiffness: [T; D],
     /// Diagonal of the internal friction γ l_Q (3 per element), kg·m⁴/s.
-    pub friction: [f64; D],
+    pub friction: [T; D],
     /// ρS, kg/m.
-    pub mass_per_length: f64,
+    pub mass_per_length: T,
     /// Air drag ν, kg/(m·s).
-    pub air_drag: f64,
+    pub air_drag: T,
     /// Rotary inertia per unit length (ρ(I1 + I2), ρI1, ρI2), kg·m.
-    pub rotary_inertia: [f64; 3],
+    pub rotary_inertia: [T; 3],
 }
 
 /// A parameter outside its allowed range: the field and what it must be.
@@ -50,12 +52,14 @@ fn non_negative(x: f64) -> bool {
     x.is_finite() && x >= 0.0
 }
 
-impl<const N: usize, const D: usize> FixedParams<N, D> {
+impl<const N: usize, const D: usize, T: Float> FixedParams<N, D, T> {
     /// The parameters of a strand rooted at `root_position` with frame `root_frame`
     /// (orthonormal, head coordinates), elements of lengths `lengths`, cross-section
     /// terms `section` ([`crate::material::section_terms`]), natural (τ, κ1, κ2) per
     /// element `natural` (3N, rad/m), internal friction γ (kg·m³/s) and air drag ν
-    /// (kg/(m·s)). Refuses a value outside its range, naming it.
+    /// (kg/(m·s)). Refuses a value outside its range, naming it. The inputs are `f64`
+    /// in either float type: the products below are formed in `f64` and rounded to `T`
+    /// once (in f64, the values as given).
     pub fn new(
         root_position: [f64; 3],
         root_frame: [[f64; 3]; 3],
@@ -110,21 +114,39 @@ impl<const N: usize, const D: usize> FixedParams<N, D> {
                 friction[3 * p + i] = l * internal_friction;
             }
         }
-        Ok(FixedParams {
-            root_position: Vector3::from(root_position),
-            root_frame: frame,
-            lengths,
-            natural,
-            stiffness,
-            friction,
-            mass_per_length: section.mass_per_length,
-            air_drag,
-            rotary_inertia: section.rotary_inertia,
-        })
+        let p = FixedParams {
+            root_position: Vector3::from(root_position).map(T::of),
+            root_frame: frame.map(T::of),
+            lengths: lengths.map(T::of),
+            natural: natural.map(T::of),
+            stiffness: stiffness.map(T::of),
+            friction: friction.map(T::of),
+            mass_per_length: T::of(section.mass_per_length),
+            air_drag: T::of(air_drag),
+            rotary_inertia: section.rotary_inertia.map(T::of),
+        };
+        // what f64 holds may overflow, or round to zero, in f32
+        let finite = |x: &[T]| x.iter().all(|x| x.is_finite());
+        let positive = |x: &[T]| x.iter().all(|&x| x.is_finite() && x > T::zero());
+        let representable = "representable in the step's float type (finite, and > 0 where > 0)";
+        let fields: [(&'static str, bool); 8] = [
+            ("root_position", finite(p.root_position.as_slice())),
+            ("lengths", positive(&p.lengths)),
+            ("natural", finite(&p.natural)),
+            ("stiffness", positive(&p.stiffness)),
+            ("internal_friction", finite(&p.friction)),
+            ("mass_per_length", positive(&[p.mass_per_length])),
+            ("air_drag", finite(&[p.air_drag])),
+            ("rotary_inertia", finite(&p.rotary_inertia)),
+        ];
+        if let Some((field, _)) = fields.iter().find(|(_, ok)| !ok) {
+            return err(field, representable);
+        }
+        Ok(p)
     }
 
     /// The shape the moment assembly reads.
-    pub fn shape(&self) -> StrandShape<'_> {
+    pub fn shape(&self) -> StrandShape<'_, T> {
         StrandShape {
             root_position: self.root_position,
             root_frame: self.root_frame,
@@ -134,8 +156,57 @@ impl<const N: usize, const D: usize> FixedParams<N, D> {
         }
     }
 
+    /// The same parameters in the float type `U`, each value rounded to it (what
+    /// [`FixedParams::new`] gives in `U` from the same inputs).
+    pub fn cast<U: Float>(&self) -> FixedParams<N, D, U> {
+        let c = |x: &T| U::of(x.as_f64());
+        FixedParams {
+            root_position: self.root_position.map(|x| c(&x)),
+            root_frame: self.root_frame.map(|x| c(&x)),
+            lengths: self.lengths.each_ref().map(c),
+            natural: self.natural.each_ref().map(c),
+            stiffness: self.stiffness.each_ref().map(c),
+            friction: self.friction.each_ref().map(c),
+            mass_per_length: c(&self.mass_per_length),
+            air_drag: c(&self.air_drag),
+            rotary_inertia: self.rotary_inertia.each_ref().map(c),
+        }
+    }
+
     /// Total length L, metres.
-    pub fn length(&self) -> f64 {
-        self.lengths.iter().sum()
+    pub fn length(&self) -> T {
+        self.lengths.iter().copied().sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::section_terms;
+
+    /// Values that f64 holds but f32 does not are refused in f32, naming the field.
+    #[test]
+    fn f32_parameters_must_be_representable_in_f32() {
+        let frame = [[0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]];
+        let section = section_terms(50e-6, 1.0, 1.5e9, 0.48, 1300.0);
+        let make = |section: &SectionTerms, drag: f64| {
+            FixedParams::<2, 6, f32>::new([0.0; 3], frame, [0.1; 2], section, [1.0; 6], 0.0, drag)
+        };
+        assert!(make(&section, 5e-6).is_ok());
+        let err = make(&section, 1e300).expect_err("air drag overflows f32");
+        assert_eq!(err.field, "air_drag");
+        let tiny = SectionTerms {
+            mass_per_length: 1e-60,
+            ..section
+        };
+        assert_eq!(
+            make(&tiny, 5e-6).expect_err("ρS rounds to 0").field,
+            "mass_per_length"
+        );
+        // the same values are fine in f64
+        assert!(
+            FixedParams::<2, 6>::new([0.0; 3], frame, [0.1; 2], &tiny, [1.0; 6], 0.0, 1e300)
+                .is_ok()
+        );
     }
 }

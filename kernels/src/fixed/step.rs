@@ -5,6 +5,7 @@ use super::dense::{lu_solve, negative_semidefinite_part, Projection};
 use super::workspace::{FixedWorkspace, ProjectionArrays};
 use super::FixedStrand;
 use crate::body_field::BodyField;
+use crate::float::Float;
 use crate::head::{body_field, HeadState};
 use crate::pose::Pose;
 use crate::projection::{
@@ -28,7 +29,7 @@ pub struct StepInput {
     pub head_moves: bool,
 }
 
-/// What a successful step reports.
+/// What a successful step reports (in `f64` whatever the step's float type).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StepReport {
     /// Largest rotation the step put into one element, radians: `l_Q |Δd_Q|`. Beyond
@@ -74,19 +75,20 @@ impl core::fmt::Display for StepError {
 /// the element moments when q is the one `ws` was prepared for.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn evaluate_at<
-    S: MomentSource,
+    S: MomentSource<T>,
     const N: usize,
     const D: usize,
     const E: usize,
     const B: usize,
+    T: Float,
 >(
     source: &S,
-    strand: &FixedStrand<N, D, B>,
-    q: &[f64; D],
-    v: &[f64; D],
-    field: &BodyField,
+    strand: &FixedStrand<N, D, B, T>,
+    q: &[T; D],
+    v: &[T; D],
+    field: &BodyField<T>,
     terms: Terms,
-    ws: &mut FixedWorkspace<N, D, E>,
+    ws: &mut FixedWorkspace<N, D, E, T>,
 ) {
     let FixedWorkspace {
         assembly,
@@ -103,7 +105,7 @@ pub(super) fn evaluate_at<
         velocity_term,
         first_moment,
     };
-    let mut sink = |which: TermMatrix, m: &[f64]| {
+    let mut sink = |which: TermMatrix, m: &[T]| {
         let target = match which {
             TermMatrix::Mass => return,
             TermMatrix::Stiffness => &mut *stiffness,
@@ -128,22 +130,36 @@ pub(super) fn evaluate_at<
 /// Fill the terms of the step at the strand's state with the head in `input.head` into
 /// `ws`: M, F = ∫JᵀF − b − K(q − q_n) − γ l q̇, b, and (when the field has them) ∂F/∂q
 /// and ∂F/∂q̇ less ∂b/∂q, and ∂b/∂q̇. Returns whether the stiffness holds field terms.
-pub fn evaluate<S: MomentSource, const N: usize, const D: usize, const E: usize, const B: usize>(
+pub fn evaluate<
+    S: MomentSource<T>,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
     source: &S,
-    strand: &FixedStrand<N, D, B>,
+    strand: &FixedStrand<N, D, B, T>,
     input: &StepInput,
-    ws: &mut FixedWorkspace<N, D, E>,
+    ws: &mut FixedWorkspace<N, D, E, T>,
 ) -> bool {
     ws.forget();
     assemble(source, strand, input, ws)
 }
 
 /// [`evaluate`] without forgetting what `ws` was prepared for.
-fn assemble<S: MomentSource, const N: usize, const D: usize, const E: usize, const B: usize>(
+fn assemble<
+    S: MomentSource<T>,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
     source: &S,
-    strand: &FixedStrand<N, D, B>,
+    strand: &FixedStrand<N, D, B, T>,
     input: &StepInput,
-    ws: &mut FixedWorkspace<N, D, E>,
+    ws: &mut FixedWorkspace<N, D, E, T>,
 ) -> bool {
     let p = &strand.params;
     let (q, v) = (&strand.q, &strand.v);
@@ -165,10 +181,10 @@ fn assemble<S: MomentSource, const N: usize, const D: usize, const E: usize, con
     };
     evaluate_at(source, strand, q, v, &field, terms, ws);
     if !position_field {
-        ws.stiffness = [[0.0; D]; D];
+        ws.stiffness = [[T::zero(); D]; D];
     }
     if !velocity_field {
-        ws.damping = [[0.0; D]; D];
+        ws.damping = [[T::zero(); D]; D];
     }
     for i in 0..D {
         ws.force[i] -= p.stiffness[i] * (q[i] - p.natural[i]) + p.friction[i] * v[i];
@@ -194,21 +210,24 @@ fn assemble<S: MomentSource, const N: usize, const D: usize, const E: usize, con
 /// `max_element_rotation` of the report below ~0.2 by the choice of h. Allocates
 /// nothing; on failure the strand keeps its state.
 pub fn linearly_implicit<
-    S: MomentSource,
+    S: MomentSource<T>,
     const N: usize,
     const D: usize,
     const E: usize,
     const B: usize,
+    T: Float,
 >(
     source: &S,
-    strand: &mut FixedStrand<N, D, B>,
+    strand: &mut FixedStrand<N, D, B, T>,
     input: &StepInput,
     h: f64,
-    ws: &mut FixedWorkspace<N, D, E>,
+    ws: &mut FixedWorkspace<N, D, E, T>,
 ) -> Result<StepReport, StepError> {
     if !(h.is_finite() && h > 0.0) {
         return Err(StepError::TimeStep);
     }
+    let h = T::of(h);
+    let half = T::of(0.5);
     let field_stiffness = assemble(source, strand, input, ws);
     let p = &strand.params;
     let projection = if field_stiffness {
@@ -216,7 +235,7 @@ pub fn linearly_implicit<
         let st = &mut ws.stiffness;
         for j in 0..D {
             for i in 0..j {
-                let m = 0.5 * (st[i][j] + st[j][i]);
+                let m = half * (st[i][j] + st[j][i]);
                 st[i][j] = m;
                 st[j][i] = m;
             }
@@ -236,12 +255,12 @@ pub fn linearly_implicit<
     let (q, v) = (&mut strand.q, &mut strand.v);
     for j in 0..D {
         for i in 0..D {
-            let mut dq = if use_h { ws.stiffness[j][i] } else { 0.0 };
+            let mut dq = if use_h { ws.stiffness[j][i] } else { T::zero() };
             if i == j {
                 dq -= p.stiffness[i];
             }
             ws.matrix_a[j][i] = ws.assembly.mass[j][i] - h * ws.damping[j][i]
-                + 0.5 * h * ws.velocity_jacobian[j][i]
+                + half * h * ws.velocity_jacobian[j][i]
                 - h * h * dq;
         }
     }
@@ -267,17 +286,17 @@ pub fn linearly_implicit<
             velocity: false,
         });
     }
-    let mut rotation: f64 = 0.0;
-    for (k, l) in p.lengths.iter().enumerate() {
-        let d: f64 = (0..3)
+    let mut rotation = T::zero();
+    for (k, &l) in p.lengths.iter().enumerate() {
+        let d: T = (0..3)
             .map(|i| (q_new[3 * k + i] - q[3 * k + i]) * (q_new[3 * k + i] - q[3 * k + i]))
             .sum();
-        rotation = rotation.max(l * crate::math::sqrt(d));
+        rotation = rotation.max(l * d.sqrt());
     }
     *q = q_new;
     *v = ws.rhs;
     Ok(StepReport {
-        max_element_rotation: rotation,
+        max_element_rotation: rotation.as_f64(),
         projection,
     })
 }
@@ -285,15 +304,16 @@ pub fn linearly_implicit<
 /// The centreline at the N + 1 element ends, root first, in head coordinates (metres),
 /// from the element points of `source`.
 pub fn centreline<
-    S: MomentSource,
+    S: MomentSource<T>,
     const N: usize,
     const D: usize,
     const E: usize,
     const B: usize,
+    T: Float,
 >(
     source: &S,
-    strand: &FixedStrand<N, D, B>,
-    ends: &mut [Pose; E],
+    strand: &FixedStrand<N, D, B, T>,
+    ends: &mut [Pose<T>; E],
 ) {
     element_ends(source, &strand.params.shape(), &strand.q, ends);
 }
@@ -303,19 +323,19 @@ pub fn centreline<
 /// definite leaves H; otherwise the shared partial eigendecomposition
 /// ([`crate::projection`]), reusing the strand's kept basis while it splits H, and the
 /// full Jacobi decomposition when that fails its checks.
-fn project<const D: usize, const B: usize>(
-    h: &mut [[f64; D]; D],
-    basis: &mut [[f64; D]; B],
+fn project<const D: usize, const B: usize, T: Float>(
+    h: &mut [[T; D]; D],
+    basis: &mut [[T; D]; B],
     basis_k: &mut usize,
     basis_negative: &mut bool,
-    p: &mut ProjectionArrays<D>,
+    p: &mut ProjectionArrays<D, T>,
 ) -> Projection {
     let repeated = p.last_valid
         && (0..D).all(|j| {
             h[j][j..]
                 .iter()
                 .zip(&p.last_input[j][j..])
-                .all(|(a, b)| a.to_bits() == b.to_bits())
+                .all(|(a, b)| a.same_bits(*b))
         });
     if repeated {
         *h = p.last_output;
@@ -333,12 +353,12 @@ fn project<const D: usize, const B: usize>(
 }
 
 /// [`project`] without the repeat check.
-fn project_uncached<const D: usize, const B: usize>(
-    h: &mut [[f64; D]; D],
-    basis: &mut [[f64; D]; B],
+fn project_uncached<const D: usize, const B: usize, T: Float>(
+    h: &mut [[T; D]; D],
+    basis: &mut [[T; D]; B],
     basis_k: &mut usize,
     basis_negative: &mut bool,
-    p: &mut ProjectionArrays<D>,
+    p: &mut ProjectionArrays<D, T>,
 ) -> Projection {
     for j in 0..D {
         for i in j..D {

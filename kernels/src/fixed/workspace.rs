@@ -1,5 +1,6 @@
 //! The scratch of one fixed-N step, one per worker thread.
 
+use crate::float::Float;
 use crate::moments::jacobians::VelocityRow;
 use crate::moments::rotary::RotaryElement;
 use crate::moments::{ElementMoments, EndDerivatives, FrameMotion, SuffixBody, Wrench};
@@ -12,73 +13,75 @@ use nalgebra::{Matrix3, Vector3};
 /// starts by forgetting what the previous strand left), so its size is paid once per
 /// thread: [`FixedWorkspace::BYTES`].
 #[derive(Debug, Clone)]
-pub struct FixedWorkspace<const N: usize, const D: usize, const E: usize> {
-    pub(super) assembly: Assembly<N, D, E>,
+pub struct FixedWorkspace<const N: usize, const D: usize, const E: usize, T: Float = f64> {
+    pub(super) assembly: Assembly<N, D, E, T>,
     /// ∂F/∂q less ∂b/∂q (then H, then H⁻), column-major.
-    pub(super) stiffness: [[f64; D]; D],
+    pub(super) stiffness: [[T; D]; D],
     /// ∂F/∂q̇ less ∂b/∂q̇, column-major.
-    pub(super) damping: [[f64; D]; D],
+    pub(super) damping: [[T; D]; D],
     /// ∂b/∂q̇, column-major.
-    pub(super) velocity_jacobian: [[f64; D]; D],
+    pub(super) velocity_jacobian: [[T; D]; D],
     /// The step matrix and its LU factors, column-major.
-    pub(super) matrix_a: [[f64; D]; D],
-    pub(super) force: [f64; D],
-    pub(super) velocity_term: [f64; D],
-    pub(super) first_moment: Vector3<f64>,
-    pub(super) rhs: [f64; D],
+    pub(super) matrix_a: [[T; D]; D],
+    pub(super) force: [T; D],
+    pub(super) velocity_term: [T; D],
+    pub(super) first_moment: Vector3<T>,
+    pub(super) rhs: [T; D],
     pub(super) pivots: [usize; D],
     /// Scratch of the projection: the shared algorithm's
     /// ([`crate::projection::ProjectionScratch`]) and the full Jacobi fallback's.
-    pub(super) projection: ProjectionArrays<D>,
+    pub(super) projection: ProjectionArrays<D, T>,
 }
 
 /// The projection's scratch and the step's cache of its last input and output.
 #[derive(Debug, Clone)]
-pub(super) struct ProjectionArrays<const D: usize> {
-    pub(super) a: [[f64; D]; D],
-    pub(super) vectors: [[f64; D]; 11],
+pub(super) struct ProjectionArrays<const D: usize, T: Float> {
+    pub(super) a: [[T; D]; D],
+    pub(super) vectors: [[T; D]; 11],
     pub(super) pivot: [bool; D],
-    pub(super) hu: [[f64; D]; D],
-    pub(super) coupling: [[f64; D]; D],
-    pub(super) rotated: [[[f64; D]; D]; 2],
-    pub(super) dense: [[f64; D]; D],
-    pub(super) last_input: [[f64; D]; D],
-    pub(super) last_output: [[f64; D]; D],
+    pub(super) hu: [[T; D]; D],
+    pub(super) coupling: [[T; D]; D],
+    pub(super) rotated: [[[T; D]; D]; 2],
+    pub(super) dense: [[T; D]; D],
+    pub(super) last_input: [[T; D]; D],
+    pub(super) last_output: [[T; D]; D],
     pub(super) last_valid: bool,
-    pub(super) eigen: [[f64; D]; D],
-    pub(super) eigenvalues: [f64; D],
+    pub(super) eigen: [[T; D]; D],
+    pub(super) eigenvalues: [T; D],
 }
 
 /// The moment assembly's buffers at a fixed N (the [`MomentBuffers`] of
 /// [`crate::strand_terms::evaluate_terms`] in arrays of literal size): what a fixed-N
 /// kernel of the runtime keeps, and part of a [`FixedWorkspace`].
 #[derive(Debug, Clone)]
-pub struct Assembly<const N: usize, const D: usize, const E: usize> {
-    pub(super) ends: [Pose; E],
-    pub(super) darboux: [Vector3<f64>; N],
-    pub(super) end_derivs: [EndDerivatives; N],
-    pub(super) moments: [ElementMoments; N],
-    pub(super) motions: [FrameMotion; E],
-    pub(super) bodies: [SuffixBody; E],
-    pub(super) wrenches: [Wrench; N],
-    pub(super) rotary: [RotaryElement; N],
-    pub(super) beyond: [(Matrix3<f64>, Matrix3<f64>); N],
-    pub(super) velocity_rows: [VelocityRow; D],
-    pub(super) mass: [[f64; D]; D],
-    pub(super) gram: [[f64; D]; D],
+pub struct Assembly<const N: usize, const D: usize, const E: usize, T: Float = f64> {
+    pub(super) ends: [Pose<T>; E],
+    pub(super) darboux: [Vector3<T>; N],
+    pub(super) end_derivs: [EndDerivatives<T>; N],
+    pub(super) moments: [ElementMoments<T>; N],
+    pub(super) motions: [FrameMotion<T>; E],
+    pub(super) bodies: [SuffixBody<T>; E],
+    pub(super) wrenches: [Wrench<T>; N],
+    pub(super) rotary: [RotaryElement<T>; N],
+    pub(super) beyond: [(Matrix3<T>, Matrix3<T>); N],
+    pub(super) velocity_rows: [VelocityRow<T>; D],
+    pub(super) mass: [[T; D]; D],
+    pub(super) gram: [[T; D]; D],
     pub(super) mass_valid: bool,
-    pub(super) matrix: [[f64; D]; D],
-    pub(super) vector: [f64; D],
-    pub(super) prepared: [f64; D],
+    pub(super) matrix: [[T; D]; D],
+    pub(super) vector: [T; D],
+    pub(super) prepared: [T; D],
 }
 
-impl<const N: usize, const D: usize, const E: usize> Default for FixedWorkspace<N, D, E> {
+impl<const N: usize, const D: usize, const E: usize, T: Float> Default
+    for FixedWorkspace<N, D, E, T>
+{
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const N: usize, const D: usize, const E: usize> FixedWorkspace<N, D, E> {
+impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N, D, E, T> {
     /// Bytes of one workspace.
     pub const BYTES: usize = core::mem::size_of::<Self>();
 
@@ -87,28 +90,28 @@ impl<const N: usize, const D: usize, const E: usize> FixedWorkspace<N, D, E> {
     pub fn new() -> Self {
         FixedWorkspace {
             assembly: Assembly::new(),
-            stiffness: [[0.0; D]; D],
-            damping: [[0.0; D]; D],
-            velocity_jacobian: [[0.0; D]; D],
-            matrix_a: [[0.0; D]; D],
-            force: [0.0; D],
-            velocity_term: [0.0; D],
+            stiffness: [[T::zero(); D]; D],
+            damping: [[T::zero(); D]; D],
+            velocity_jacobian: [[T::zero(); D]; D],
+            matrix_a: [[T::zero(); D]; D],
+            force: [T::zero(); D],
+            velocity_term: [T::zero(); D],
             first_moment: Vector3::zeros(),
-            rhs: [0.0; D],
+            rhs: [T::zero(); D],
             pivots: [0; D],
             projection: ProjectionArrays {
-                a: [[0.0; D]; D],
-                vectors: [[0.0; D]; 11],
+                a: [[T::zero(); D]; D],
+                vectors: [[T::zero(); D]; 11],
                 pivot: [false; D],
-                hu: [[0.0; D]; D],
-                coupling: [[0.0; D]; D],
-                rotated: [[[0.0; D]; D]; 2],
-                dense: [[0.0; D]; D],
-                last_input: [[0.0; D]; D],
-                last_output: [[0.0; D]; D],
+                hu: [[T::zero(); D]; D],
+                coupling: [[T::zero(); D]; D],
+                rotated: [[[T::zero(); D]; D]; 2],
+                dense: [[T::zero(); D]; D],
+                last_input: [[T::zero(); D]; D],
+                last_output: [[T::zero(); D]; D],
                 last_valid: false,
-                eigen: [[0.0; D]; D],
-                eigenvalues: [0.0; D],
+                eigen: [[T::zero(); D]; D],
+                eigenvalues: [T::zero(); D],
             },
         }
     }
@@ -116,19 +119,19 @@ impl<const N: usize, const D: usize, const E: usize> FixedWorkspace<N, D, E> {
     /// Forget the element moments of the last strand (the next evaluation computes
     /// them afresh).
     pub fn forget(&mut self) {
-        self.assembly.prepared[0] = f64::NAN;
+        self.assembly.prepared[0] = T::nan();
         self.assembly.mass_valid = false;
         self.projection.last_valid = false;
     }
 }
 
-impl<const N: usize, const D: usize, const E: usize> Default for Assembly<N, D, E> {
+impl<const N: usize, const D: usize, const E: usize, T: Float> Default for Assembly<N, D, E, T> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const N: usize, const D: usize, const E: usize> Assembly<N, D, E> {
+impl<const N: usize, const D: usize, const E: usize, T: Float> Assembly<N, D, E, T> {
     /// Empty buffers (nothing prepared).
     pub fn new() -> Self {
         Assembly {
@@ -142,17 +145,17 @@ impl<const N: usize, const D: usize, const E: usize> Assembly<N, D, E> {
             rotary: [RotaryElement::default(); N],
             beyond: [(Matrix3::zeros(), Matrix3::zeros()); N],
             velocity_rows: [VelocityRow::default(); D],
-            mass: [[0.0; D]; D],
-            gram: [[0.0; D]; D],
+            mass: [[T::zero(); D]; D],
+            gram: [[T::zero(); D]; D],
             mass_valid: false,
-            matrix: [[0.0; D]; D],
-            vector: [0.0; D],
-            prepared: [f64::NAN; D],
+            matrix: [[T::zero(); D]; D],
+            vector: [T::zero(); D],
+            prepared: [T::nan(); D],
         }
     }
 
     /// The moment assembly's view of the buffers.
-    pub fn buffers(&mut self) -> MomentBuffers<'_> {
+    pub fn buffers(&mut self) -> MomentBuffers<'_, T> {
         MomentBuffers {
             ends: &mut self.ends,
             darboux: &mut self.darboux,

@@ -11,24 +11,30 @@
 //!
 //! The rotary-inertia parts of b and ∂b/∂q̇ are in [`crate::moments::rotary`].
 
+use crate::float::Float;
 use crate::moments::{
     axial, cross_moment, ElementMoments, EndDerivatives, FrameMotion, SuffixBody,
 };
 use crate::pose::Pose;
 use nalgebra::{Matrix3, Vector3};
 
-type V3 = Vector3<f64>;
-type M3 = Matrix3<f64>;
+type V3<T> = Vector3<T>;
+type M3<T> = Matrix3<T>;
 
 /// Twist (v, ω) of upstream column i of element Q about the point `at`:
 /// J(y) = v + ω × (y − at), given `lever` = at − r_{Q+1}.
-fn twist(e: &EndDerivatives, lever: &V3, i: usize) -> (V3, V3) {
+fn twist<T: Float>(e: &EndDerivatives<T>, lever: &V3<T>, i: usize) -> (V3<T>, V3<T>) {
     let w = e.dtheta[i];
     (e.dp[i] + w.cross(lever), w)
 }
 
 /// `∫ g` and `∫ x × g` over a body for g = W (v + ω × x), x relative to its reference.
-fn weighted_rigid(w: &M3, body: &SuffixBody, v: &V3, om: &V3) -> (V3, V3) {
+fn weighted_rigid<T: Float>(
+    w: &M3<T>,
+    body: &SuffixBody<T>,
+    v: &V3<T>,
+    om: &V3<T>,
+) -> (V3<T>, V3<T>) {
     let wv = w * v;
     let lin = wv * body.mass + w * om.cross(&body.first);
     let ang = body.first.cross(&wv) + cross_moment(&(w * om.cross_matrix()), &body.second);
@@ -39,20 +45,20 @@ fn weighted_rigid(w: &M3, body: &SuffixBody, v: &V3, om: &V3) -> (V3, V3) {
 /// 3N × 3N), for any 3 × 3 W: the damping (W = C2) and the linear-field part of the
 /// stiffness (W = C1). `bodies` from [`crate::moments::suffix_bodies`] (positions only
 /// needed).
-pub fn add_weighted_gram(
-    w: &M3,
-    scale: f64,
-    ends: &[Pose],
-    end_derivs: &[EndDerivatives],
-    moments: &[ElementMoments],
-    bodies: &[SuffixBody],
-    out: &mut [f64],
+pub fn add_weighted_gram<T: Float>(
+    w: &M3<T>,
+    scale: T,
+    ends: &[Pose<T>],
+    end_derivs: &[EndDerivatives<T>],
+    moments: &[ElementMoments<T>],
+    bodies: &[SuffixBody<T>],
+    out: &mut [T],
 ) {
     let n = end_derivs.len();
     let dofs = 3 * n;
     let symmetric = w == &w.transpose();
     let wt = w.transpose();
-    let zero = V3::zeros();
+    let zero = V3::<T>::zeros();
     // pass 0: W, entries (k, l) with k in elements ≤ that of l;
     // pass 1: Wᵀ, entries (l, k) with k in elements < that of l
     for (pass, weight) in [w, &wt].into_iter().enumerate() {
@@ -108,14 +114,14 @@ pub fn add_weighted_gram(
 
 /// Adds `∫ f · ∂²y/∂q_k∂q_l ds` for f = c0 + C1 y to `out(k, l)` (symmetric): the
 /// Hessian part of the field stiffness (the rest is [`add_weighted_gram`] with C1).
-pub fn add_field_hessian(
-    c0: &V3,
-    c1: &M3,
-    ends: &[Pose],
-    end_derivs: &[EndDerivatives],
-    moments: &[ElementMoments],
-    bodies: &[SuffixBody],
-    out: &mut [f64],
+pub fn add_field_hessian<T: Float>(
+    c0: &V3<T>,
+    c1: &M3<T>,
+    ends: &[Pose<T>],
+    end_derivs: &[EndDerivatives<T>],
+    moments: &[ElementMoments<T>],
+    bodies: &[SuffixBody<T>],
+    out: &mut [T],
 ) {
     let n = end_derivs.len();
     let dofs = 3 * n;
@@ -152,7 +158,7 @@ pub fn add_field_hessian(
         // pairs k upstream of l: ω_k · ∫ J_l × f
         for j in 0..3 {
             let l = 3 * q2 + j;
-            let (vl, wl) = twist(e2, &V3::zeros(), j);
+            let (vl, wl) = twist(e2, &V3::<T>::zeros(), j);
             let own = f * (m2.dfirst[j].cross(&a0) + cross_moment(&a, &m2.pdp[j].transpose()));
             let u = own + vl.cross(&res) + y_rho * wl - wl * y_rho.trace();
             for q in 0..q2 {
@@ -169,7 +175,12 @@ pub fn add_field_hessian(
 
 /// `∫ g` and `∫ x × g` over a body for g = A + γ × x + t × ẏ, x relative to the body's
 /// reference point.
-fn jdot_rigid(body: &SuffixBody, a: &V3, gamma: &V3, t: &V3) -> (V3, V3) {
+fn jdot_rigid<T: Float>(
+    body: &SuffixBody<T>,
+    a: &V3<T>,
+    gamma: &V3<T>,
+    t: &V3<T>,
+) -> (V3<T>, V3<T>) {
     let x = &body.moment_velocity;
     let lin = a * body.mass + gamma.cross(&body.first) + t.cross(&body.velocity);
     let ang = body.first.cross(a) + gamma * body.second.trace() - body.second * gamma
@@ -180,12 +191,12 @@ fn jdot_rigid(body: &SuffixBody, a: &V3, gamma: &V3, t: &V3) -> (V3, V3) {
 
 /// Coefficients of one row of [`add_velocity_jacobian`] downstream of the column.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct VelocityRow {
-    a: V3,
-    beyond: V3,
-    own: V3,
-    gamma: V3,
-    t: V3,
+pub struct VelocityRow<T: Float = f64> {
+    a: V3<T>,
+    beyond: V3<T>,
+    own: V3<T>,
+    gamma: V3<T>,
+    t: V3<T>,
 }
 
 /// Adds `scale · ∫ J_k · J̇_l ds` to `out(k, l)` for all k, l: with scale = 2ρS this is
@@ -199,16 +210,16 @@ pub struct VelocityRow {
 /// A, γ and t ([`VelocityRow`]) are formed once per row, so each such entry costs a few
 /// dot products.
 #[allow(clippy::too_many_arguments)]
-pub fn add_velocity_jacobian(
-    scale: f64,
-    ends: &[Pose],
-    end_derivs: &[EndDerivatives],
-    moments: &[ElementMoments],
-    motions: &[FrameMotion],
-    bodies: &[SuffixBody],
-    velocities: &[f64],
-    rows: &mut [VelocityRow],
-    out: &mut [f64],
+pub fn add_velocity_jacobian<T: Float>(
+    scale: T,
+    ends: &[Pose<T>],
+    end_derivs: &[EndDerivatives<T>],
+    moments: &[ElementMoments<T>],
+    motions: &[FrameMotion<T>],
+    bodies: &[SuffixBody<T>],
+    velocities: &[T],
+    rows: &mut [VelocityRow<T>],
+    out: &mut [T],
 ) {
     let n = end_derivs.len();
     let dofs = 3 * n;
@@ -272,7 +283,7 @@ pub fn add_velocity_jacobian(
                 h1 += m2.d2first[j][i] * qd2[i];
                 hx += m2.cross2[j][i] * qd2[i];
             }
-            let zero = V3::zeros();
+            let zero = V3::<T>::zeros();
             let (lin_b, ang_b) = jdot_rigid(&bodies[q2 + 1], &a, &gamma, &t);
             // rows of element q2 itself (twists about r_m)
             for i in 0..3 {

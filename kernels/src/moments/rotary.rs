@@ -12,17 +12,18 @@
 //! part uses the closed-form moments `rot`, `rot_w`, `rot_ww`.
 
 use crate::element::RotaryPoints;
+use crate::float::Float;
 use crate::lanes::{
-    add, cross, cross_matrix, dot, mat_add, mat_mul, mat_scale, mat_vec, scale, transpose, Real,
-    F4, M, V,
+    add, cross, cross_matrix, dot, mat_add, mat_mul, mat_scale, mat_vec, scale, transpose, Real, M,
+    V,
 };
 use crate::moments::{ElementMoments, EndDerivatives, FrameMotion};
 use crate::pose::Pose;
 use crate::quadrature::gauss_legendre;
 use nalgebra::{Matrix3, Vector3};
 
-type V3 = Vector3<f64>;
-type M3 = Matrix3<f64>;
+type V3<T = f64> = Vector3<T>;
+type M3<T = f64> = Matrix3<T>;
 
 /// Gauss–Legendre points per element for the rotary integrals at W·l = `wl`. The
 /// integrands reach frequency 4W, but their parts above ~1.5W are small: against the
@@ -40,27 +41,28 @@ pub fn rotary_points(wl: f64) -> usize {
 
 /// Per-element rotary integrals, head coordinates.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct RotaryElement {
+pub struct RotaryElement<T: Float = f64> {
     /// ∫ τ, τ = I α + Ωs × I Ωs.
-    pub torque: V3,
+    pub torque: V3<T>,
     /// ∫ w_i · τ (element frame w_i, τ in the element frame).
-    pub b_own: [f64; 3],
+    pub b_own: [T; 3],
     /// ∫ Λ, `Λ = −I[Ωs]× + [Ωs]× I − [IΩs]×`.
-    pub lambda: M3,
+    pub lambda: M3<T>,
     /// ∫ Λᵀ F w_i.
-    pub lambda_w: [V3; 3],
+    pub lambda_w: [V3<T>; 3],
     /// ∫ ψ_j for the own columns j.
-    pub psi: [V3; 3],
+    pub psi: [V3<T>; 3],
     /// `own[(i, j)]` = ∫ F w_i · ψ_j.
-    pub own: M3,
+    pub own: M3<T>,
     /// ∫ I (head coordinates).
-    pub rot: M3,
+    pub rot: M3<T>,
     /// ∫ I F w_i (head coordinates).
-    pub rot_w: [V3; 3],
+    pub rot_w: [V3<T>; 3],
 }
 
-/// The integrands of [`RotaryElement`] at one quadrature point (or, with `T` = [`F4`], at
-/// four at once, one per lane), each already multiplied by the point's weight `wt`:
+/// The integrands of [`RotaryElement`] at one quadrature point (or, with `T` =
+/// [`crate::lanes::F4`] or [`crate::lanes::F32x4`], at four at once, one per lane), each
+/// already multiplied by the point's weight `wt`:
 /// summed over the points in order they are the element's integrals in its start frame.
 struct PointTerms<T> {
     torque: V<T>,
@@ -170,12 +172,13 @@ fn point_terms<T: Real>(
     out
 }
 
-/// Points evaluated together by [`rotary_element`] (the lanes of [`F4`]).
+/// Points evaluated together by [`rotary_element`] (the lanes of [`Float::Lanes`]).
 const LANES: usize = 4;
 
-/// Lane `k` of a vector of [`F4`].
-fn lane(a: &V<F4>, k: usize) -> V3 {
-    V3::new(a[0].0[k], a[1].0[k], a[2].0[k])
+/// Lane `k` of a vector of lanes.
+#[inline(always)]
+fn lane<T: Float>(a: &V<T::Lanes>, k: usize) -> V3<T> {
+    V3::new(T::lane(&a[0], k), T::lane(&a[1], k), T::lane(&a[2], k))
 }
 
 /// The rotary integrals of one element of length `l`, start pose
@@ -184,25 +187,26 @@ fn lane(a: &V<F4>, k: usize) -> V3 {
 /// of `out` for the abscissa `u[k]` (up to four at a time, see
 /// `MomentSource::rotary_points`); the Jacobian parts only when `jacobian`.
 ///
-/// The integrands are evaluated four points at a time (in the lanes of [`F4`])
-/// and summed point by point in order: the same values, bit for bit, as one point at a
-/// time with nalgebra (the unit tests check this).
+/// The integrands are evaluated four points at a time (in the lanes of
+/// [`Float::Lanes`]: [`crate::lanes::F4`] in f64, [`crate::lanes::F32x4`] in f32) and
+/// summed point by point in order: the same values, bit for bit, as one point at a time
+/// with nalgebra (the unit tests check this in f64).
 ///
 /// Like the generated kernels, it is compiled twice, for the baseline target and with
 /// AVX2 (four lanes in one register), and runs the AVX2 copy when the CPU has it; both
 /// give the same bits (Rust does not fuse a multiply and an add on its own).
 #[allow(clippy::too_many_arguments)]
-pub fn rotary_element(
-    eval: &dyn Fn(&[f64], &mut RotaryPoints),
-    l: f64,
-    rotary: &[f64; 3],
-    moments: &ElementMoments,
-    pose: &Pose,
-    motion: &FrameMotion,
-    qd: &[f64],
+pub fn rotary_element<T: Float>(
+    eval: &dyn Fn(&[T], &mut RotaryPoints<T>),
+    l: T,
+    rotary: &[T; 3],
+    moments: &ElementMoments<T>,
+    pose: &Pose<T>,
+    motion: &FrameMotion<T>,
+    qd: &[T],
     points: usize,
     jacobian: bool,
-) -> RotaryElement {
+) -> RotaryElement<T> {
     #[cfg(all(target_arch = "x86_64", feature = "std", not(target_feature = "avx2")))]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
@@ -219,45 +223,51 @@ pub fn rotary_element(
 #[cfg(all(target_arch = "x86_64", feature = "std", not(target_feature = "avx2")))]
 #[target_feature(enable = "avx2")]
 #[allow(clippy::too_many_arguments)]
-fn rotary_element_avx2(
-    eval: &dyn Fn(&[f64], &mut RotaryPoints),
-    l: f64,
-    rotary: &[f64; 3],
-    moments: &ElementMoments,
-    pose: &Pose,
-    motion: &FrameMotion,
-    qd: &[f64],
+fn rotary_element_avx2<T: Float>(
+    eval: &dyn Fn(&[T], &mut RotaryPoints<T>),
+    l: T,
+    rotary: &[T; 3],
+    moments: &ElementMoments<T>,
+    pose: &Pose<T>,
+    motion: &FrameMotion<T>,
+    qd: &[T],
     points: usize,
     jacobian: bool,
-) -> RotaryElement {
+) -> RotaryElement<T> {
     rotary_element_body(eval, l, rotary, moments, pose, motion, qd, points, jacobian)
 }
 
 /// The body of [`rotary_element`].
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn rotary_element_body(
-    eval: &dyn Fn(&[f64], &mut RotaryPoints),
-    l: f64,
-    rotary: &[f64; 3],
-    moments: &ElementMoments,
-    pose: &Pose,
-    motion: &FrameMotion,
-    qd: &[f64],
+fn rotary_element_body<T: Float>(
+    eval: &dyn Fn(&[T], &mut RotaryPoints<T>),
+    l: T,
+    rotary: &[T; 3],
+    moments: &ElementMoments<T>,
+    pose: &Pose<T>,
+    motion: &FrameMotion<T>,
+    qd: &[T],
     points: usize,
     jacobian: bool,
-) -> RotaryElement {
+) -> RotaryElement<T> {
     let f = pose.frame;
     let om = f.transpose() * motion.omega;
     let al = f.transpose() * motion.alpha;
     let rule = gauss_legendre(points);
-    let splat = |a: &V3| [F4::splat(a[0]), F4::splat(a[1]), F4::splat(a[2])];
+    let splat = |a: &V3<T>| {
+        [
+            T::Lanes::splat(a[0]),
+            T::Lanes::splat(a[1]),
+            T::Lanes::splat(a[2]),
+        ]
+    };
     let motion = ElementMotion {
         om: splat(&om),
         al: splat(&al),
-        qd: core::array::from_fn(|i| F4::splat(qd[i])),
-        qq: core::array::from_fn(|i| core::array::from_fn(|j| F4::splat(qd[i] * qd[j]))),
-        rotary: rotary.map(F4::splat),
+        qd: core::array::from_fn(|i| T::Lanes::splat(qd[i])),
+        qq: core::array::from_fn(|i| core::array::from_fn(|j| T::Lanes::splat(qd[i] * qd[j]))),
+        rotary: rotary.map(T::Lanes::splat),
     };
     let mut out = RotaryElement::default();
     let mut lambda = M3::zeros();
@@ -267,32 +277,33 @@ fn rotary_element_body(
     // the points' frames and angular derivatives, one point per lane; lanes beyond
     // `used` are never summed
     let mut points = RotaryPoints::default();
-    let mut u = [0.0; LANES];
+    let mut u = [T::zero(); LANES];
+    let (half, one) = (T::of(0.5), T::one());
     for (nodes, wgl) in rule.nodes().chunks(LANES).zip(rule.weights().chunks(LANES)) {
         let used = nodes.len();
-        let mut weights = F4::zero();
+        let mut weights = T::Lanes::zero();
         for k in 0..used {
-            u[k] = 0.5 * l * (nodes[k] + 1.0);
-            weights.0[k] = 0.5 * l * wgl[k];
+            u[k] = half * l * (T::of(nodes[k]) + one);
+            T::set_lane(&mut weights, k, half * l * T::of(wgl[k]));
         }
         eval(&u[..used], &mut points);
         let (e, w, dw) = (&points.frame, &points.w, &points.dw);
         let terms = point_terms(&motion, e, w, dw, weights, jacobian);
         for k in 0..used {
-            torque += lane(&terms.torque, k);
+            torque += lane::<T>(&terms.torque, k);
             for i in 0..3 {
-                out.b_own[i] += terms.b_own[i].0[k];
+                out.b_own[i] += T::lane(&terms.b_own[i], k);
             }
             if jacobian {
                 for c in 0..3 {
                     for r in 0..3 {
-                        lambda[(r, c)] += terms.lambda[c][r].0[k];
-                        out.own[(r, c)] += terms.own[c][r].0[k];
+                        lambda[(r, c)] += T::lane(&terms.lambda[c][r], k);
+                        out.own[(r, c)] += T::lane(&terms.own[c][r], k);
                     }
                 }
                 for i in 0..3 {
-                    lw[i] += lane(&terms.lambda_w[i], k);
-                    psi[i] += lane(&terms.psi[i], k);
+                    lw[i] += lane::<T>(&terms.lambda_w[i], k);
+                    psi[i] += lane::<T>(&terms.psi[i], k);
                 }
             }
         }
@@ -311,20 +322,20 @@ fn rotary_element_body(
 /// Adds the rotary-inertia part of b to `b` when given, and of ∂b/∂q̇ to `jac` (column-major 3N × 3N) when given. `elements` from
 /// [`rotary_element`]; `motions` from `moments::frame_motions`;
 /// `beyond_scratch` of length N.
-pub fn add_rotary_terms(
-    end_derivs: &[EndDerivatives],
-    elements: &[RotaryElement],
-    motions: &[FrameMotion],
-    velocities: &[f64],
-    b: Option<&mut [f64]>,
-    jac: Option<&mut [f64]>,
-    beyond_scratch: &mut [(M3, M3)],
+pub fn add_rotary_terms<T: Float>(
+    end_derivs: &[EndDerivatives<T>],
+    elements: &[RotaryElement<T>],
+    motions: &[FrameMotion<T>],
+    velocities: &[T],
+    b: Option<&mut [T]>,
+    jac: Option<&mut [T]>,
+    beyond_scratch: &mut [(M3<T>, M3<T>)],
 ) {
     let n = end_derivs.len();
     let dofs = 3 * n;
     // b: own part plus dθ_k · (torque beyond)
     if let Some(b) = b {
-        let mut beyond = V3::zeros();
+        let mut beyond = V3::<T>::zeros();
         for q in (0..n).rev() {
             for i in 0..3 {
                 b[3 * q + i] += elements[q].b_own[i] + end_derivs[q].dtheta[i].dot(&beyond);
@@ -335,7 +346,7 @@ pub fn add_rotary_terms(
     let Some(jac) = jac else { return };
     // suffix sums beyond element X of ∫ I and ∫ Λ: `beyond[X]` = Σ_{P > X}
     let beyond = beyond_scratch;
-    beyond[n - 1] = (M3::zeros(), M3::zeros());
+    beyond[n - 1] = (M3::<T>::zeros(), M3::<T>::zeros());
     for p in (0..n - 1).rev() {
         let e = &elements[p + 1];
         beyond[p] = (beyond[p + 1].0 + e.rot, beyond[p + 1].1 + e.lambda);
