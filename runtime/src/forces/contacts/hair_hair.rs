@@ -15,7 +15,8 @@
 //! 2. every `search_every` steps a broad phase finds new pairs: the samples of every
 //!    strand are hashed on a grid of cells of the search distance (the reach plus twice
 //!    the largest motion of a sample over the last step, or the distance a point at rest
-//!    falls in two steps when that is more; between 2 and 51 reaches), and
+//!    falls in two steps when that is more; between 2 and 1 + [`SEARCH_MARGIN`] reaches),
+//!    and
 //!    the sample pairs of different strands within it that are local minima of the
 //!    distance along both chains become pairs;
 //! 3. each pair is refined to the closest points of the two polylines near its samples
@@ -30,6 +31,11 @@
 use super::strand_contacts::PartnerPoint;
 use nalgebra::Vector3;
 use std::collections::HashMap;
+
+/// Most margin the search adds to the reach, in reaches: two strands approaching each
+/// other faster than this per step may pass without meeting (the cost of a wider search
+/// grows with the cube of its radius).
+pub const SEARCH_MARGIN: f64 = 4.0;
 
 /// A pair of samples of two strands: (strand, sample) each, the first strand lower.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -140,7 +146,7 @@ impl HairHair {
             .filter(|(a, b)| a.len() == b.len())
             .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).norm()))
             .fold(0.0, f64::max);
-        let reach_search = reach + (2.0 * moved).max(fall).clamp(reach, 50.0 * reach);
+        let reach_search = reach + (2.0 * moved).max(fall).clamp(reach, SEARCH_MARGIN * reach);
         // 1. track
         let mut tracked: Vec<Pair> = self
             .pairs

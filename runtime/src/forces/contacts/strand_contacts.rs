@@ -260,6 +260,22 @@ impl StrandContacts {
         self.params.radius - hit.distance - self.allowance[k]
     }
 
+    /// Whether the centreline at arc length `s` is certainly farther than `reach` from the
+    /// head-frame point `p`, judged from the nearest sample's pose (within half a sample
+    /// spacing of s, the centreline is within that arc length of the sample).
+    fn far_from(&self, s: f64, p: &Vector3<f64>, reach: f64) -> bool {
+        let k = self
+            .samples
+            .partition_point(|(arc, _)| *arc < s)
+            .min(self.samples.len().saturating_sub(1));
+        let near = |k: usize| {
+            let (arc, _) = self.samples[k];
+            (self.poses[k].0 - p).norm() - (arc - s).abs()
+        };
+        let lower = if k > 0 { near(k).max(near(k - 1)) } else { near(k) };
+        lower > reach
+    }
+
     /// The sample positions of the last [`Self::sample_poses`], head coordinates.
     pub fn sample_positions(&self) -> impl Iterator<Item = Vector3<f64>> + '_ {
         self.poses.iter().map(|p| p.0)
@@ -471,8 +487,11 @@ impl StrandContacts {
             for i in 0..self.partners.len() {
                 let partner = self.partners[i];
                 let (s, w) = (partner.s, partner.weight);
-                let y = kernel.point(q, s, jac, None);
                 let p = head.rotation.transpose() * (partner.point - head.position);
+                if self.far_from(s, &p, partner.reach) {
+                    continue;
+                }
+                let y = kernel.point(q, s, jac, None);
                 let d = (y - p).norm();
                 if d >= partner.reach || d == 0.0 {
                     continue;
