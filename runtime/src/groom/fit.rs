@@ -27,9 +27,10 @@
 //! equations by its Schur complement (as in bundle adjustment) and the linear system
 //! stays of size 3N + 3.
 //!
-//! **Start.** A sweep from root to tip fits each element in turn to the points along it
-//! (at least three), the elements after it following the same helix, the earlier ones
-//! held; the whole then goes to the joint fit.
+//! **Start.** The strand is grown from the root: for k = 1 … N the first k elements (the
+//! ones after them on the same helix as the k-th, the k-th starting as the (k−1)-th) are
+//! fitted to the points along them, σ and L held at the polyline's. The whole is then
+//! fitted with L free, then with the σ free too.
 //!
 //! **Error.** The fit error of a curve is the RMS and the largest of the distances
 //! `|y(s_i) − p_i|` over its points (the root's is zero by construction and not
@@ -46,6 +47,8 @@ use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 pub const DEFAULT_MAX_ITERATIONS: usize = 200;
 /// Most iterations of each element's fit in the sweep.
 const SWEEP_ITERATIONS: usize = 60;
+/// A relative fall of the cost below this is slow progress.
+const SLOW: f64 = 1e-7;
 /// Fewest points an element's fit in the sweep takes.
 const SWEEP_POINTS: usize = 3;
 
@@ -153,24 +156,20 @@ struct State {
     sigma: Vec<f64>,
 }
 
-/// What one Levenberg–Marquardt run moves.
+/// What one Levenberg–Marquardt run moves: the first `fitted` elements (the ones after
+/// them follow the last of these on the same helix) and the tilt, and the length and
+/// the arc lengths of the points when asked.
 #[derive(Debug, Clone, Copy)]
-enum Stage {
-    /// Element `element` (and the ones after it, on the same helix); the tilt too for
-    /// the first.
-    Element { element: usize },
-    /// Everything, over every point.
-    Joint,
+struct Stage {
+    fitted: usize,
+    length: bool,
+    sigma: bool,
 }
 
 impl Stage {
     /// Number of unknowns besides the σ.
-    fn unknowns(&self, elements: usize) -> usize {
-        match self {
-            Stage::Element { element: 0, .. } => 5,
-            Stage::Element { .. } => 3,
-            Stage::Joint => 3 * elements + 3,
-        }
+    fn unknowns(&self) -> usize {
+        3 * self.fitted + 2 + usize::from(self.length)
     }
 }
 
@@ -203,7 +202,7 @@ impl Problem {
 
     fn normal(&mut self, state: &State, stage: Stage, points: &[usize]) -> Normal {
         let n = self.unit.elements();
-        let p = stage.unknowns(n);
+        let p = stage.unknowns();
         let mut a = DMatrix::zeros(p, p);
         let mut g = DVector::zeros(p);
         let mut sigma = Vec::new();
@@ -222,32 +221,22 @@ impl Problem {
                     rows[(k, col)] += v[k];
                 }
             };
-            match stage {
-                Stage::Element { element, .. } => {
-                    for e in element..n {
-                        for k in 0..3 {
-                            put(k, scale * self.unit.jac[3 * e + k]);
-                        }
-                    }
-                    if element == 0 {
-                        let ly = unit_y * state.length;
-                        put(3, state.rotation * Vector3::y().cross(&ly));
-                        put(4, state.rotation * Vector3::z().cross(&ly));
-                    }
+            let f = stage.fitted;
+            for e in 0..n {
+                for k in 0..3 {
+                    put(3 * e.min(f - 1) + k, scale * self.unit.jac[3 * e + k]);
                 }
-                Stage::Joint => {
-                    for col in 0..3 * n {
-                        put(col, scale * self.unit.jac[col]);
-                    }
-                    put(3 * n, state.rotation * Vector3::y().cross(&(unit_y * state.length)));
-                    put(3 * n + 1, state.rotation * Vector3::z().cross(&(unit_y * state.length)));
-                    put(3 * n + 2, state.rotation * unit_y);
-                }
+            }
+            let ly = unit_y * state.length;
+            put(3 * f, state.rotation * Vector3::y().cross(&ly));
+            put(3 * f + 1, state.rotation * Vector3::z().cross(&ly));
+            if stage.length {
+                put(3 * f + 2, state.rotation * unit_y);
             }
             let rt = rows.transpose();
             a += &rt * &rows;
             g += &rt * DVector::from_column_slice(r.as_slice());
-            if matches!(stage, Stage::Joint) && i != last {
+            if stage.sigma && i != last {
                 let b = scale * self.unit.tangent(&state.c, state.sigma[i]);
                 let jb = &rt * DVector::from_column_slice(b.as_slice());
                 sigma.push((i, jb, b.norm_squared(), b.dot(&r)));
@@ -267,27 +256,18 @@ impl Problem {
         let n = self.unit.elements();
         let mut next = state.clone();
         let tilt = |a: f64, b: f64| Rotation3::new(Vector3::new(0.0, a, b)).into_inner();
-        match stage {
-            Stage::Element { element, .. } => {
-                for e in element..n {
-                    for k in 0..3 {
-                        next.c[3 * e + k] = state.c[3 * element + k] + dx[k];
-                    }
-                }
-                if element == 0 {
-                    next.rotation = state.rotation * tilt(dx[3], dx[4]);
-                }
+        let f = stage.fitted;
+        for e in 0..n {
+            for k in 0..3 {
+                next.c[3 * e + k] = state.c[3 * e.min(f - 1) + k] + dx[3 * e.min(f - 1) + k];
             }
-            Stage::Joint => {
-                for k in 0..3 * n {
-                    next.c[k] += dx[k];
-                }
-                next.rotation = state.rotation * tilt(dx[3 * n], dx[3 * n + 1]);
-                next.length += dx[3 * n + 2];
-                for &(i, d) in dsigma {
-                    next.sigma[i] = (state.sigma[i] + d).clamp(0.0, 1.0);
-                }
-            }
+        }
+        next.rotation = state.rotation * tilt(dx[3 * f], dx[3 * f + 1]);
+        if stage.length {
+            next.length += dx[3 * f + 2];
+        }
+        for &(i, d) in dsigma {
+            next.sigma[i] = (state.sigma[i] + d).clamp(0.0, 1.0);
         }
         next
     }
@@ -302,6 +282,7 @@ impl Problem {
     ) -> usize {
         let mut lambda = 1e-3;
         let mut iterations = 0;
+        let mut slow = 0;
         while iterations < max_iterations {
             iterations += 1;
             let normal = self.normal(state, stage, points);
@@ -323,8 +304,15 @@ impl Problem {
             }
             let Some((trial, cost)) = accepted else { break };
             *state = trial;
-            if normal.cost - cost <= 1e-12 * normal.cost {
-                break;
+            // converged when the cost falls by less than 10⁻⁷ of itself three times in
+            // a row (a residual at round-off ends it earlier: no step lowers it)
+            if normal.cost - cost <= SLOW * normal.cost {
+                slow += 1;
+                if slow == 3 {
+                    break;
+                }
+            } else {
+                slow = 0;
             }
         }
         iterations
@@ -361,6 +349,117 @@ fn damped_step(normal: &Normal, lambda: f64) -> Option<Step> {
         .map(|((i, jb, _, br), d)| (*i, -(br + jb.dot(&dx)) / d))
         .collect();
     Some((dx, dsigma))
+}
+
+/// The discrete shape of a polyline at an interior vertex: the curvature of the circle
+/// through it and its neighbours, the Frenet normal and binormal, the torsion (the mean
+/// of the turning rates of the binormal along the two segments), in the coordinates of
+/// the points.
+#[derive(Debug, Clone, Copy)]
+struct VertexShape {
+    sigma: f64,
+    curvature: f64,
+    normal: Vector3<f64>,
+    binormal: Vector3<f64>,
+    torsion: f64,
+}
+
+/// The [`VertexShape`] of every interior vertex of `points` (σ: of points 1.., as in
+/// [`State`]); vertices where the polyline does not turn are left out.
+fn vertex_shapes(points: &[Vector3<f64>], sigma: &[f64]) -> Vec<VertexShape> {
+    let mut out: Vec<(usize, VertexShape)> = Vec::new();
+    for i in 1..points.len().saturating_sub(1) {
+        let (a, b) = (points[i] - points[i - 1], points[i + 1] - points[i]);
+        let cross = a.cross(&b);
+        let denominator = a.norm() * b.norm() * (a + b).norm();
+        if cross.norm() <= 1e-12 * denominator.cbrt().powi(2) || denominator == 0.0 {
+            continue;
+        }
+        let binormal = cross.normalize();
+        let tangent = (a.normalize() + b.normalize()).normalize();
+        out.push((
+            i,
+            VertexShape {
+                sigma: sigma[i - 1],
+                curvature: 2.0 * cross.norm() / denominator,
+                normal: binormal.cross(&tangent),
+                binormal,
+                torsion: 0.0,
+            },
+        ));
+    }
+    // torsion of the segment between two turning vertices next to each other
+    let mut rates = vec![(0.0, 0usize); out.len()];
+    for k in 1..out.len() {
+        let ((i, a), (j, b)) = (out[k - 1], out[k]);
+        if j != i + 1 {
+            continue;
+        }
+        let segment = points[j] - points[i];
+        let angle = a
+            .binormal
+            .cross(&b.binormal)
+            .dot(&segment.normalize())
+            .atan2(a.binormal.dot(&b.binormal));
+        let rate = angle / segment.norm();
+        for idx in [k - 1, k] {
+            rates[idx].0 += rate;
+            rates[idx].1 += 1;
+        }
+    }
+    out.into_iter()
+        .zip(rates)
+        .map(|((_, mut v), (sum, count))| {
+            if count > 0 {
+                v.torsion = sum / count as f64;
+            }
+            v
+        })
+        .collect()
+}
+
+/// The dimensionless Darboux vector c = L (τ, κ sin θ, κ cos θ) of `element` from the
+/// polyline's curvature κ (mean over the element's vertices) and torsion τ (weighted by
+/// κ²), θ the angle of the strand's current n1 at the element's start from the Frenet
+/// normal there (the Frenet frame turns with (τ, 0, κ), the material frame is it turned
+/// by θ about the tangent). `None` where the element has no turning vertex.
+fn element_estimate(
+    unit: &UnitStrand,
+    state: &State,
+    shapes: &[VertexShape],
+    element: usize,
+    elements: usize,
+) -> Option<[f64; 3]> {
+    let (a, b) = (
+        element as f64 / elements as f64,
+        (element + 1) as f64 / elements as f64,
+    );
+    let inside: Vec<&VertexShape> = shapes
+        .iter()
+        .filter(|v| v.sigma >= a && v.sigma <= b)
+        .collect();
+    if inside.is_empty() {
+        return None;
+    }
+    let curvature = inside.iter().map(|v| v.curvature).sum::<f64>() / inside.len() as f64;
+    let weight: f64 = inside.iter().map(|v| v.curvature.powi(2)).sum();
+    let torsion = inside
+        .iter()
+        .map(|v| v.curvature.powi(2) * v.torsion)
+        .sum::<f64>()
+        / weight;
+    let first = inside
+        .iter()
+        .min_by(|x, y| (x.sigma - a).abs().total_cmp(&(y.sigma - a).abs()))?;
+    let n1 = state.rotation * pose_at(&unit.geometry, &state.c, a).frame.column(1);
+    let theta = n1.dot(&first.binormal).atan2(n1.dot(&first.normal));
+    let d = [
+        torsion,
+        curvature * theta.sin(),
+        curvature * theta.cos(),
+    ];
+    let c = d.map(|x| x * state.length);
+    c.iter().all(|x| x.is_finite()).then_some(c)
 }
 
 /// A unit vector perpendicular to the unit vector `v`, from `hint` when it is not
@@ -429,23 +528,49 @@ pub fn fit_curve(
         unit: UnitStrand::new(elements),
         targets,
     };
-    // the sweep: element by element from the root
-    let order: Vec<usize> = (0..m).collect();
-    for element in 0..elements {
-        let start = element as f64 / elements as f64;
-        let first = order.partition_point(|&i| state.sigma[i] <= start);
-        if first >= m {
-            break;
+    // the start: the strand grown element by element from the root, each prefix
+    // fitted to the points along it (at least three)
+    let local: Vec<Vector3<f64>> = std::iter::once(Vector3::zeros())
+        .chain(problem.targets.iter().copied())
+        .collect();
+    let shapes = vertex_shapes(&local, &state.sigma);
+    for fitted in 1..=elements {
+        let element = fitted - 1;
+        let end = fitted as f64 / elements as f64;
+        let last = state
+            .sigma
+            .partition_point(|&s| s <= end + 1e-12)
+            .max(SWEEP_POINTS)
+            .min(m);
+        let chosen: Vec<usize> = (0..last).collect();
+        // the new element: as the one before it, or the polyline's own curvature and
+        // torsion there, whichever starts closer
+        if let Some(d) = element_estimate(&problem.unit, &state, &shapes, element, elements) {
+            let copied = problem.cost(&state, &chosen);
+            let mut trial = state.clone();
+            for e in element..elements {
+                trial.c[3 * e..3 * e + 3].copy_from_slice(&d);
+            }
+            if problem.cost(&trial, &chosen) < copied {
+                state = trial;
+            }
         }
-        let end = (element + 1) as f64 / elements as f64;
-        let mut last = order.partition_point(|&i| state.sigma[i] <= end);
-        last = last.max(first + SWEEP_POINTS).min(m);
-        let chosen: Vec<usize> = (first..last).collect();
-        let stage = Stage::Element { element };
+        let stage = Stage {
+            fitted,
+            length: false,
+            sigma: false,
+        };
         problem.solve(&mut state, stage, &chosen, SWEEP_ITERATIONS);
     }
     let all: Vec<usize> = (0..m).collect();
-    let iterations = problem.solve(&mut state, Stage::Joint, &all, settings.max_iterations);
+    let mut stage = Stage {
+        fitted: elements,
+        length: true,
+        sigma: false,
+    };
+    let mut iterations = problem.solve(&mut state, stage, &all, settings.max_iterations);
+    stage.sigma = true;
+    iterations += problem.solve(&mut state, stage, &all, settings.max_iterations);
     // the error: distances at the fitted arc lengths
     let mut sum = 0.0;
     let mut max = 0.0;
