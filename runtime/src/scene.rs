@@ -167,7 +167,9 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> (SimulationSetup, Vec<Gro
     let bodies = bodies::read_bodies(&mut root, scene_dir);
     let mut grooms = groom::GroomContext {
         bodies: &bodies,
-        gravity: environment.gravity.map(|g| head.state(0.0).rotation.transpose() * g),
+        gravity: environment
+            .gravity
+            .map(|g| head.state(0.0).rotation.transpose() * g),
         scene_dir,
         reports: Vec::new(),
     };

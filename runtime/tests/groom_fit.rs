@@ -79,7 +79,10 @@ fn measured_style_helices() {
     let helix = analytic_helix(|_| 0.006, c, 5.0, 201);
     for n in [1, 3, 8, 20] {
         let fit = fit_curve(&helix, &FitSettings::new(n), None).expect("fits");
-        println!("circular helix, N = {n}: RMS {:.2e} L, max {:.2e} L", fit.error.rms, fit.error.max);
+        println!(
+            "circular helix, N = {n}: RMS {:.2e} L, max {:.2e} L",
+            fit.error.rms, fit.error.max
+        );
         assert!(fit.error.max <= 1e-8, "N = {n}: {:?}", fit.error);
         let exact = 5.0 * (2.0 * std::f64::consts::PI * 0.006f64).hypot(0.005);
         assert!((fit.length - exact).abs() <= 1e-8 * exact);
@@ -95,7 +98,10 @@ fn measured_style_helices() {
     let mut errors = Vec::new();
     for n in [2, 4, 8, 16, 32] {
         let fit = fit_curve(&cone, &FitSettings::new(n), None).expect("fits");
-        println!("widening helix, N = {n}: RMS {:.2e} L, max {:.2e} L", fit.error.rms, fit.error.max);
+        println!(
+            "widening helix, N = {n}: RMS {:.2e} L, max {:.2e} L",
+            fit.error.rms, fit.error.max
+        );
         errors.push((n, fit.error.rms, fit.error.max));
     }
     for w in errors.windows(2) {
@@ -118,7 +124,12 @@ fn random_curve(seed: u64) -> Curve {
         .map(|k| {
             let freq = 1.0 + (k / 3) as f64;
             let amp = 0.015 / (freq * freq) * rng.random_range(0.5..1.0);
-            (amp, freq, rng.random_range(0.0..std::f64::consts::TAU), k % 3)
+            (
+                amp,
+                freq,
+                rng.random_range(0.0..std::f64::consts::TAU),
+                k % 3,
+            )
         })
         .collect();
     let points = (0..400)
@@ -149,7 +160,11 @@ fn random_smooth_curves() {
                 "random curve {seed}, N = {n}: RMS {:.2e} L, max {:.2e} L, L = {:.4} m (polyline {:.4} m)",
                 fit.error.rms, fit.error.max, fit.length, fit.polyline_length
             );
-            assert!(fit.error.max <= bound, "seed {seed}, N = {n}: {:?}", fit.error);
+            assert!(
+                fit.error.max <= bound,
+                "seed {seed}, N = {n}: {:?}",
+                fit.error
+            );
             assert!(fit.error.max < previous);
             previous = fit.error.max;
             // the curve is sampled finely: its length is the polyline's to 1 %

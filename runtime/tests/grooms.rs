@@ -80,24 +80,45 @@ seed = 7
     for s in &setup.strands {
         let g = &s.strand.geometry;
         let p = placed.query(0, &g.root_position);
-        assert!(p.distance.abs() < 1e-9, "root off the surface by {}", p.distance);
+        assert!(
+            p.distance.abs() < 1e-9,
+            "root off the surface by {}",
+            p.distance
+        );
         let d = g.root_position;
         let angle = (d.z / d.norm()).acos().to_degrees();
-        assert!(angle <= 70.0 + 1e-9 && d.x <= 0.02 + 1e-12, "outside the region: {d:?}");
+        assert!(
+            angle <= 70.0 + 1e-9 && d.x <= 0.02 + 1e-12,
+            "outside the region: {d:?}"
+        );
         let (n0, n1) = (g.root_frame.column(0), g.root_frame.column(1));
         // n0 is the normal tilted by 20 degrees towards the comb
         assert!((n0.dot(&p.normal) - 20f64.to_radians().cos()).abs() < 1e-9);
         let along = comb - p.normal * p.normal.dot(&comb);
-        assert!(n0.cross(&p.normal).dot(&along.cross(&p.normal)) > 0.0, "tilted towards the comb");
+        assert!(
+            n0.cross(&p.normal).dot(&along.cross(&p.normal)) > 0.0,
+            "tilted towards the comb"
+        );
         assert!(n1.dot(&n0).abs() < 1e-12 && n1.dot(&along) > 0.0);
         assert!(s.group == "top" && s.strand.name.starts_with("top_"));
         lengths.push(g.length());
     }
-    let (lo, hi) = lengths.iter().fold((f64::MAX, 0.0f64), |(a, b), &l| (a.min(l), b.max(l)));
-    assert!(lo >= 0.12 * 0.8 - 1e-12 && hi <= 0.12 * 1.2 + 1e-12 && hi - lo > 0.03, "{lo} {hi}");
+    let (lo, hi) = lengths
+        .iter()
+        .fold((f64::MAX, 0.0f64), |(a, b), &l| (a.min(l), b.max(l)));
+    assert!(
+        lo >= 0.12 * 0.8 - 1e-12 && hi <= 0.12 * 1.2 + 1e-12 && hi - lo > 0.03,
+        "{lo} {hi}"
+    );
     let report = &reports[0];
     println!("{report}");
-    let GroomSource::Surface { min_spacing, packing_spacing, area, .. } = report.source else {
+    let GroomSource::Surface {
+        min_spacing,
+        packing_spacing,
+        area,
+        ..
+    } = report.source
+    else {
         panic!("surface");
     };
     assert!(min_spacing / packing_spacing > 0.5, "{report}");
@@ -106,7 +127,10 @@ seed = 7
     let again = setup_in(&text, &dir);
     assert_eq!(again.strands, setup.strands);
     let other = setup_in(&text.replace("seed = 7", "seed = 8"), &dir);
-    assert_ne!(other.strands[0].strand.geometry.root_position, setup.strands[0].strand.geometry.root_position);
+    assert_ne!(
+        other.strands[0].strand.geometry.root_position,
+        setup.strands[0].strand.geometry.root_position
+    );
 }
 
 #[test]
@@ -153,7 +177,10 @@ fn cube_obj(a: f64) -> String {
         [1, 5, 7, 3],
         [2, 4, 8, 6],
     ] {
-        s += &format!("f {} {} {}\nf {} {} {}\n", f[0], f[1], f[2], f[0], f[2], f[3]);
+        s += &format!(
+            "f {} {} {}\nf {} {} {}\n",
+            f[0], f[1], f[2], f[0], f[2], f[3]
+        );
     }
     s
 }
@@ -181,7 +208,11 @@ elements = 2
     for s in &setup.strands {
         let g = &s.strand.geometry;
         // a cap of 30 degrees from the centre stays on the top face (tan 30 < 1)
-        assert!((g.root_position.z - 0.1).abs() < 1e-12, "{:?}", g.root_position);
+        assert!(
+            (g.root_position.z - 0.1).abs() < 1e-12,
+            "{:?}",
+            g.root_position
+        );
         assert!(g.root_position.x.abs() <= 0.1 && g.root_position.y.abs() <= 0.1);
         assert!(g.root_frame.column(0).z > 0.5, "leaves outward");
     }
@@ -192,15 +223,28 @@ elements = 2
         .iter()
         .filter(|s| (s.strand.geometry.root_position.z + 0.1).abs() < 1e-12)
         .count();
-    assert!((15..=50).contains(&bottom), "{bottom} of 200 on the bottom face (1/6 of the area)");
+    assert!(
+        (15..=50).contains(&bottom),
+        "{bottom} of 200 on the bottom face (1/6 of the area)"
+    );
 }
 
 /// A polyline hair: a helix of radius `r` and step `step` hanging from `root`.
-fn helix_points(root: Vector3<f64>, r: f64, step: f64, turns: f64, count: usize) -> Vec<Vector3<f64>> {
+fn helix_points(
+    root: Vector3<f64>,
+    r: f64,
+    step: f64,
+    turns: f64,
+    count: usize,
+) -> Vec<Vector3<f64>> {
     (0..count)
         .map(|k| {
             let t = std::f64::consts::TAU * turns * k as f64 / (count - 1) as f64;
-            root + Vector3::new(r * (t.cos() - 1.0), r * t.sin(), -step * t / std::f64::consts::TAU)
+            root + Vector3::new(
+                r * (t.cos() - 1.0),
+                r * t.sin(),
+                -step * t / std::f64::consts::TAU,
+            )
         })
         .collect()
 }
@@ -234,7 +278,10 @@ elements = 8
     assert_eq!(setup.strands.len(), 3);
     let report = &reports[0];
     println!("{report}");
-    let GroomSource::Curves { curves, elements, .. } = &report.source else {
+    let GroomSource::Curves {
+        curves, elements, ..
+    } = &report.source
+    else {
         panic!("curves");
     };
     assert_eq!(*elements, 8);
@@ -244,7 +291,10 @@ elements = 8
         assert_eq!(c.points, 61);
     }
     let s = &setup.strands[1];
-    assert_eq!(s.strand.geometry.root_position, Vector3::new(0.03, 0.0, 0.1));
+    assert_eq!(
+        s.strand.geometry.root_position,
+        Vector3::new(0.03, 0.0, 0.1)
+    );
     assert_eq!(s.strand.geometry.elements(), 8);
     // sag-free by default for curves: the natural shape is not the fitted one
     assert!(report.sag_free_change.is_some_and(|c| c > 0.0));
@@ -260,7 +310,15 @@ fn usda_curves_written_by_the_project_and_by_pxr_are_read() {
     let dir = scratch("usda");
     // the project's writer: two groups, three strands, two frames; frame 0 is read
     let strands: Vec<Vec<Vector3<f64>>> = (0..3)
-        .map(|k| helix_points(Vector3::new(0.02 * k as f64, 0.01, 0.0), 0.007, 0.01, 2.0, 33))
+        .map(|k| {
+            helix_points(
+                Vector3::new(0.02 * k as f64, 0.01, 0.0),
+                0.007,
+                0.01,
+                2.0,
+                33,
+            )
+        })
         .collect();
     let layout = FrameLayout {
         strands: (0..3)
@@ -322,7 +380,10 @@ stage.GetRootLayer().Save()
 "#,
         path = dir.join("pxr.usda").display().to_string()
     );
-    match std::process::Command::new("python3").args(["-c", &script]).output() {
+    match std::process::Command::new("python3")
+        .args(["-c", &script])
+        .output()
+    {
         Ok(out) if out.status.success() => {
             let curves = read_curves(&dir.join("pxr.usda")).expect("pxr's file is read");
             assert_eq!(curves.len(), 2);
@@ -408,7 +469,8 @@ fn groom_problems_name_their_field_and_range() {
     let dir = scratch("problems");
     std::fs::write(dir.join("bad.obj"), "v 0 0 0\nv 0 0 -0.1\nl 1 5\n").expect("write");
     std::fs::write(dir.join("bad.usda"), "#usda 1.0\ndef BasisCurves \"c\" {\n int[] curveVertexCounts = [2]\n point3f[] points = [(0, 0, 0), (0, 0, oops)]\n}\n").expect("write");
-    let world = "[[bodies]]\nname = \"floor\"\nshape = \"sphere\"\nradius = 1.0\nattached = \"world\"\n\
+    let world =
+        "[[bodies]]\nname = \"floor\"\nshape = \"sphere\"\nradius = 1.0\nattached = \"world\"\n\
                  [[bodies]]\nname = \"ground\"\nshape = \"plane\"\nnormal = [0.0, 0.0, 1.0]\n";
     let cases: Vec<(String, &str, &str)> = vec![
         (format!("{HEAD}[[grooms]]\nbody = \"head\"\nlength = 0.1\n"), "grooms[0].count", "required: count (roots) or density"),
@@ -439,7 +501,9 @@ fn groom_problems_name_their_field_and_range() {
     for (text, field, what) in cases {
         let found = problems(&text, &dir);
         assert!(
-            found.lines().any(|l| l.starts_with(&format!("{field}: ")) && l.contains(what)),
+            found
+                .lines()
+                .any(|l| l.starts_with(&format!("{field}: ")) && l.contains(what)),
             "expected '{field}: ...{what}...' in:\n{found}\nfor\n{text}"
         );
     }
@@ -462,14 +526,20 @@ fn a_bound_on_the_fit_error_refuses_curves_that_miss_it() {
     std::fs::write(dir.join("zigzag.obj"), obj).expect("write");
     let text = "[[grooms]]\ncurves = \"zigzag.obj\"\nelements = 3\nmax_fit_error = 0.001\n";
     let found = problems(text, &dir);
-    assert!(found.contains("grooms[0].max_fit_error: 'zigzag.obj' line") || found.contains("zigzag.obj"), "{found}");
+    assert!(
+        found.contains("grooms[0].max_fit_error: 'zigzag.obj' line")
+            || found.contains("zigzag.obj"),
+        "{found}"
+    );
     let loose = setup_in(&text.replace("0.001", "0.5"), &dir);
     assert_eq!(loose.strands.len(), 1);
 }
 
 /// `scenes/<name>` of the repository.
 fn scene_file(name: &str) -> (String, PathBuf) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes").join(name);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../scenes")
+        .join(name);
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     (text, dir)
@@ -499,6 +569,14 @@ fn the_example_groom_scenes_are_valid() {
         } else {
             assert_eq!(setup.strands.len(), 100);
         }
+        // with the head still, the sag-free strands hold their shape
+        let still: String = text
+            .lines()
+            .filter(|l| *l != "[head]" && !l.starts_with("motion = "))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        let moved = max_motion(setup_in(&still, &dir), 30);
+        println!("{name}, head still: the largest motion in 1 s is {moved:.2e} m");
+        assert!(moved < 1e-3);
     }
 }
-

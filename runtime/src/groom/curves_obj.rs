@@ -104,7 +104,9 @@ pub fn parse_obj_curves(text: &str, name: &str) -> Result<Vec<Curve>, String> {
         }
     }
     if curves.is_empty() {
-        return Err(format!("'{name}' has no line records (l): no curve to read"));
+        return Err(format!(
+            "'{name}' has no line records (l): no curve to read"
+        ));
     }
     Ok(curves)
 }

@@ -139,7 +139,10 @@ impl UnitStrand {
 
     /// The unit tangent Y′(σ; c).
     fn tangent(&self, c: &[f64], sigma: f64) -> Vector3<f64> {
-        pose_at(&self.geometry, c, sigma).frame.column(0).into_owned()
+        pose_at(&self.geometry, c, sigma)
+            .frame
+            .column(0)
+            .into_owned()
     }
 }
 
@@ -325,7 +328,11 @@ type Step = (DVector<f64>, Vec<(usize, f64)>);
 
 fn damped_step(normal: &Normal, lambda: f64) -> Option<Step> {
     let p = normal.g.len();
-    let floor = 1e-9 * (0..p).map(|k| normal.a[(k, k)]).fold(0.0, f64::max).max(1e-300);
+    let floor = 1e-9
+        * (0..p)
+            .map(|k| normal.a[(k, k)])
+            .fold(0.0, f64::max)
+            .max(1e-300);
     let mut s = normal.a.clone();
     for k in 0..p {
         s[(k, k)] += lambda * (normal.a[(k, k)] + floor);
@@ -453,11 +460,7 @@ fn element_estimate(
         .min_by(|x, y| (x.sigma - a).abs().total_cmp(&(y.sigma - a).abs()))?;
     let n1 = state.rotation * pose_at(&unit.geometry, &state.c, a).frame.column(1);
     let theta = n1.dot(&first.binormal).atan2(n1.dot(&first.normal));
-    let d = [
-        torsion,
-        curvature * theta.sin(),
-        curvature * theta.cos(),
-    ];
+    let d = [torsion, curvature * theta.sin(), curvature * theta.cos()];
     let c = d.map(|x| x * state.length);
     c.iter().all(|x| x.is_finite()).then_some(c)
 }

@@ -32,9 +32,7 @@ impl Region {
     /// Whether the point `x` lies in the region (the centre itself is in no cap smaller
     /// than the whole sphere of directions).
     pub fn contains(&self, x: &Vector3<f64>) -> bool {
-        let in_cut = self
-            .cut
-            .is_none_or(|c| (x - c.point).dot(&c.normal) >= 0.0);
+        let in_cut = self.cut.is_none_or(|c| (x - c.point).dot(&c.normal) >= 0.0);
         if !in_cut {
             return false;
         }

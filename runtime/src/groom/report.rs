@@ -105,8 +105,8 @@ impl fmt::Display for GroomReport {
                 curves,
             } => {
                 let (rms, max, k) = self.worst_fit().unwrap_or_default();
-                let mean_rms = curves.iter().map(|c| c.error.rms).sum::<f64>()
-                    / curves.len().max(1) as f64;
+                let mean_rms =
+                    curves.iter().map(|c| c.error.rms).sum::<f64>() / curves.len().max(1) as f64;
                 write!(
                     f,
                     " fitted to the curves of '{path}' with N = {elements}: fit error \

@@ -3,7 +3,7 @@
 //! the position and material frame (n0, n1, n2) of its root).
 //!
 //! Candidates are drawn uniformly by area over the whole surface ([`Surface::sample`],
-//! seeded ChaCha8) and kept inside the [`Region`] until there are five per root
+//! ChaCha8 seeded by the groom's seed on streams of their own) and kept inside the [`Region`] until there are five per root
 //! (Yuksel's ratio); weighted sample elimination ([`super::poisson`]) then keeps exactly
 //! the number of roots asked for, or `round(density · area)` of them, the region's area
 //! being the surface's times the share of candidates inside it.
@@ -103,7 +103,13 @@ pub fn root_frame(normal: &Vector3<f64>, comb: &Vector3<f64>, tilt: f64) -> Matr
     Matrix3::from_columns(&[n0, n1, n0.cross(&n1)])
 }
 
-/// The seeded generator of a groom's candidates (`stream` 0: the area, 1: the roots).
+/// Stream of the candidates that measure the region's area.
+const AREA_STREAM: u64 = u64::MAX;
+/// Stream of the candidates the roots are chosen from (the strands of a groom use
+/// streams 1 + k).
+const ROOT_STREAM: u64 = u64::MAX - 1;
+
+/// The seeded generator of a groom's candidates on `stream`.
 fn rng(seed: u64, stream: u64) -> ChaCha8Rng {
     let mut r = ChaCha8Rng::seed_from_u64(seed);
     r.set_stream(stream);
@@ -112,7 +118,7 @@ fn rng(seed: u64, stream: u64) -> ChaCha8Rng {
 
 /// The share of `draws` candidates of `surface` inside `region`.
 fn region_share(surface: &Surface, region: &Region, seed: u64, draws: usize) -> f64 {
-    let mut r = rng(seed, 0);
+    let mut r = rng(seed, AREA_STREAM);
     let inside = (0..draws)
         .filter(|_| region.contains(&surface.sample(&mut r).position))
         .count();
@@ -158,7 +164,7 @@ pub fn sample_roots(surface: &Surface, settings: &RootSettings) -> Result<Roots,
         }
     };
     let wanted = CANDIDATES_PER_ROOT * count;
-    let mut r = rng(settings.seed, 1);
+    let mut r = rng(settings.seed, ROOT_STREAM);
     let mut candidates: Vec<SurfacePoint> = Vec::with_capacity(wanted);
     let mut draws = 0usize;
     while candidates.len() < wanted {

@@ -28,9 +28,13 @@ use nalgebra::Vector3;
 /// one `kernels = "auto"` steps it with).
 pub fn gravity_force(strand: &Strand, q: &[f64], gravity: &Vector3<f64>) -> Vec<f64> {
     let geometry = &strand.geometry;
-    let mut kernel: Box<dyn StrandKernel> = kernel_factory()
-        .create(geometry)
-        .unwrap_or_else(|| Box::new(GenericKernel::new(geometry.clone(), QuadratureRule::Adaptive)));
+    let mut kernel: Box<dyn StrandKernel> =
+        kernel_factory().create(geometry).unwrap_or_else(|| {
+            Box::new(GenericKernel::new(
+                geometry.clone(),
+                QuadratureRule::Adaptive,
+            ))
+        });
     let effects = GlobalEffects {
         gravity: Some(*gravity),
         head_moves: false,

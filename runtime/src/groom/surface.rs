@@ -107,9 +107,11 @@ impl Surface {
                 radius: *radius,
             },
             ShapeSetup::Plane { .. } => {
-                return Err("a plane has no bounded surface to root hair on; use a sphere, \
+                return Err(
+                    "a plane has no bounded surface to root hair on; use a sphere, \
                             an ellipsoid, a capsule or a mesh"
-                    .into())
+                        .into(),
+                )
             }
             ShapeSetup::Mesh {
                 path,

@@ -17,7 +17,10 @@ fn obj_polylines_are_read_and_joined() {
     assert_eq!(curves.len(), 2);
     assert_eq!(curves[0].points.len(), 3);
     assert_eq!(curves[0].points[2], Vector3::new(0.0, 0.5, -2.0));
-    assert_eq!(curves[1].points, vec![Vector3::new(1.0, 0.0, 0.0), Vector3::new(1.0, 0.0, -1.0)]);
+    assert_eq!(
+        curves[1].points,
+        vec![Vector3::new(1.0, 0.0, 0.0), Vector3::new(1.0, 0.0, -1.0)]
+    );
 }
 
 #[test]
@@ -74,7 +77,10 @@ def Xform "root" (
 "#;
     let curves = parse_usda_curves(text, "t.usda").expect("valid");
     assert_eq!(curves.len(), 3);
-    assert_eq!(curves[0].points, vec![Vector3::zeros(), Vector3::new(0.0, 0.0, -1.0)]);
+    assert_eq!(
+        curves[0].points,
+        vec![Vector3::zeros(), Vector3::new(0.0, 0.0, -1.0)]
+    );
     assert_eq!(curves[1].points.len(), 3);
     assert_eq!(curves[2].points[1], Vector3::new(0.0, 1.0, -0.1));
 }
@@ -111,30 +117,47 @@ fn regions_cap_and_cut() {
         }),
     };
     assert!(region.contains(&Vector3::new(0.1, 0.0, 1.0)));
-    assert!(!region.contains(&Vector3::new(-0.1, 0.0, 1.0)), "behind the cut");
-    assert!(!region.contains(&Vector3::new(1.0, 0.0, 0.2)), "outside the cap");
+    assert!(
+        !region.contains(&Vector3::new(-0.1, 0.0, 1.0)),
+        "behind the cut"
+    );
+    assert!(
+        !region.contains(&Vector3::new(1.0, 0.0, 0.2)),
+        "outside the cap"
+    );
 }
 
 #[test]
 fn surfaces_are_sampled_uniformly_by_area() {
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let surfaces = [
-        Surface::Sphere { center: Vector3::new(0.0, 0.0, 1.0), radius: 0.1 },
+        Surface::Sphere {
+            center: Vector3::new(0.0, 0.0, 1.0),
+            radius: 0.1,
+        },
         Surface::Ellipsoid {
             center: Vector3::zeros(),
             radii: Vector3::new(0.08, 0.1, 0.12),
             rotation: Matrix3::identity(),
         },
-        Surface::Capsule { start: Vector3::zeros(), end: Vector3::new(0.0, 0.0, 0.2), radius: 0.05 },
+        Surface::Capsule {
+            start: Vector3::zeros(),
+            end: Vector3::new(0.0, 0.0, 0.2),
+            radius: 0.05,
+        },
     ];
     // the ellipsoid's area against Knud Thomsen's formula (within 1.061 %), exact
     // formulas for the others
     let p = 1.6075;
     let (a, b, c): (f64, f64, f64) = (0.08, 0.1, 0.12);
-    let thomsen = 4.0 * std::f64::consts::PI
+    let thomsen = 4.0
+        * std::f64::consts::PI
         * (((a * b).powf(p) + (a * c).powf(p) + (b * c).powf(p)) / 3.0).powf(1.0 / p);
     let ellipsoid_area = surfaces[1].area();
-    assert!((ellipsoid_area / thomsen - 1.0).abs() < 0.011, "{ellipsoid_area} {thomsen}");
+    assert!(
+        (ellipsoid_area / thomsen - 1.0).abs() < 0.011,
+        "{ellipsoid_area} {thomsen}"
+    );
     for surface in &surfaces {
         // the share of points above the plane z = z0 is that of the area above it
         let n = 40_000;
@@ -153,9 +176,15 @@ fn surfaces_are_sampled_uniformly_by_area() {
     // measured by the same area quadrature restricted to it
     let e = &surfaces[1];
     let n = 200_000;
-    let cap = (0..n).filter(|_| e.sample(&mut rng).position.z > 0.06).count() as f64 / n as f64;
+    let cap = (0..n)
+        .filter(|_| e.sample(&mut rng).position.z > 0.06)
+        .count() as f64
+        / n as f64;
     let exact = ellipsoid_cap_share(0.06 / 0.12, &Vector3::new(a, b, c));
-    assert!((cap - exact).abs() < 4.0 * (exact * (1.0 - exact) / n as f64).sqrt(), "{cap} {exact}");
+    assert!(
+        (cap - exact).abs() < 4.0 * (exact * (1.0 - exact) / n as f64).sqrt(),
+        "{cap} {exact}"
+    );
 }
 
 /// The share of an ellipsoid's area with z/c > z0, by the midpoint rule in (z, φ) on the
@@ -168,7 +197,9 @@ fn ellipsoid_cap_share(z0: f64, radii: &Vector3<f64>) -> f64 {
         let r = (1.0 - z * z).sqrt();
         for j in 0..nphi {
             let phi = (j as f64 + 0.5) * 2.0 * std::f64::consts::PI / nphi as f64;
-            let w = Vector3::new(r * phi.cos(), r * phi.sin(), z).component_div(radii).norm();
+            let w = Vector3::new(r * phi.cos(), r * phi.sin(), z)
+                .component_div(radii)
+                .norm();
             all += w;
             if z > z0 {
                 cap += w;
@@ -181,9 +212,14 @@ fn ellipsoid_cap_share(z0: f64, radii: &Vector3<f64>) -> f64 {
 #[test]
 fn sample_elimination_keeps_the_count_and_spreads_the_points() {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
-    let surface = Surface::Sphere { center: Vector3::zeros(), radius: 0.1 };
+    let surface = Surface::Sphere {
+        center: Vector3::zeros(),
+        radius: 0.1,
+    };
     let count = 500;
-    let points: Vec<Vector3<f64>> = (0..5 * count).map(|_| surface.sample(&mut rng).position).collect();
+    let points: Vec<Vector3<f64>> = (0..5 * count)
+        .map(|_| surface.sample(&mut rng).position)
+        .collect();
     let kept = eliminate(&points, count, surface.area());
     assert_eq!(kept.len(), count);
     let kept_points: Vec<Vector3<f64>> = kept.iter().map(|&i| points[i]).collect();
@@ -193,5 +229,9 @@ fn sample_elimination_keeps_the_count_and_spreads_the_points() {
     let random = min_distance(&points[..count], packing) / packing;
     assert!(spread > 0.5, "{spread}");
     assert!(random < 0.2, "{random}");
-    assert_eq!(eliminate(&points, count, surface.area()), kept, "deterministic");
+    assert_eq!(
+        eliminate(&points, count, surface.area()),
+        kept,
+        "deterministic"
+    );
 }

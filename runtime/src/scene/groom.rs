@@ -10,12 +10,12 @@ use super::strands::{
 use crate::bodies::{Attachment, BodySetup};
 use crate::config::StrandSetup;
 use crate::groom::fit::{fit_curve, FitSettings, FittedCurve};
+use crate::groom::read_curves;
 use crate::groom::region::{PlaneCut, Region};
 use crate::groom::report::{CurveReport, GroomReport, GroomSource};
 use crate::groom::roots::{sample_roots, RootCount, RootSettings};
 use crate::groom::sag_free::sag_free_natural;
 use crate::groom::surface::Surface;
-use crate::groom::read_curves;
 use crate::model::strand::StrandGeometry;
 use nalgebra::{Rotation3, Vector3};
 use rand::RngExt;
@@ -43,7 +43,10 @@ pub(super) struct GroomContext<'a> {
 /// Fields of a strand a groom makes itself: refused in a `[[grooms]]` entry of either
 /// kind.
 const NOT_IN_GROOMS: [(&str, &str); 3] = [
-    ("direction", "a groom's strands leave along the surface normal or the curve: use comb and tilt_deg"),
+    (
+        "direction",
+        "a groom's strands leave along the surface normal or the curve: use comb and tilt_deg",
+    ),
     ("normal", "a groom sets each root frame's n1 from comb"),
     ("point_loads", "grooms do not take point loads"),
 ];
@@ -119,7 +122,10 @@ pub(super) fn read_groom(
     }
     let from_curves = n.has("curves");
     if from_curves && n.has("body") {
-        n.error("curves", "give either body (roots on a surface) or curves (a file), not both");
+        n.error(
+            "curves",
+            "give either body (roots on a surface) or curves (a file), not both",
+        );
         return;
     }
     if !from_curves && !n.has("body") {
@@ -130,7 +136,11 @@ pub(super) fn read_groom(
         return;
     }
     let refused: Vec<&'static str> = if from_curves {
-        SURFACE_ONLY.iter().chain(&NOT_WITH_CURVES).copied().collect()
+        SURFACE_ONLY
+            .iter()
+            .chain(&NOT_WITH_CURVES)
+            .copied()
+            .collect()
     } else {
         CURVES_ONLY.to_vec()
     };
@@ -172,7 +182,8 @@ pub(super) fn read_groom(
                 let strand_name = format!("{name}_{k}");
                 names.claim(n, &strand_name);
                 let mut rng = strand_rng(seed, 1 + k as u64);
-                let Some(mut s) = template.build(strand_name, name.clone(), root.position, &mut rng)
+                let Some(mut s) =
+                    template.build(strand_name, name.clone(), root.position, &mut rng)
                 else {
                     return;
                 };
@@ -204,7 +215,8 @@ pub(super) fn read_groom(
                 let strand_name = format!("{name}_{k}");
                 names.claim(n, &strand_name);
                 let mut rng = strand_rng(seed, 1 + k as u64);
-                let Some(mut s) = template.build(strand_name.clone(), name.clone(), fit.root, &mut rng)
+                let Some(mut s) =
+                    template.build(strand_name.clone(), name.clone(), fit.root, &mut rng)
                 else {
                     return;
                 };
@@ -385,7 +397,10 @@ fn read_surface_groom(
         return None;
     }
     if cut_point.is_some_and(|p| p.is_some()) && cut_normal.is_some_and(|c| c.is_none()) {
-        n.error("cut_point", "needs cut_normal (the side of the plane that is kept)");
+        n.error(
+            "cut_point",
+            "needs cut_normal (the side of the plane that is kept)",
+        );
         return None;
     }
     let body_name = body_name?;
@@ -460,11 +475,7 @@ fn read_curves_groom(
     ctx: &GroomContext<'_>,
 ) -> Option<(Template, Built)> {
     let path = n.string("curves").map(str::to_string);
-    let scale = n.optional_f64(
-        "scale",
-        1.0,
-        Range::new(Bound::Excl(0.0), Bound::Incl(1e6)),
-    );
+    let scale = n.optional_f64("scale", 1.0, Range::new(Bound::Excl(0.0), Bound::Incl(1e6)));
     let rotation = n
         .optional("rotation_axis_angle_deg", Vector3::zeros(), Node::vec3)
         .map(|v| Rotation3::new(v * 1f64.to_radians()).into_inner());
