@@ -248,9 +248,7 @@ impl StrandContacts {
         let mut s0 = 0.0;
         for (e, &l) in geom.lengths.iter().enumerate() {
             let d = darboux(q, e);
-            while k < self.samples.len()
-                && (self.samples[k].0 <= s0 + l || e + 1 == geom.lengths.len())
-            {
+            while k < self.samples.len() && (self.samples[k].0 <= s0 + l || e + 1 == geom.lengths.len()) {
                 let (f, p) = local_pose(&d, self.samples[k].0 - s0);
                 let frame = start.frame * f;
                 self.poses[k] = (start.position + start.frame * p, frame.column(0).into());
@@ -410,11 +408,7 @@ impl StrandContacts {
                     let p = Matrix3::identity() - n * n.transpose();
                     let slide = p * vel;
                     let norm = slide.norm();
-                    let cos = if norm > 0.0 {
-                        t.dot(&slide) / norm
-                    } else {
-                        0.0
-                    };
+                    let cos = if norm > 0.0 { t.dot(&slide) / norm } else { 0.0 };
                     let ct = coefficient * (1.0 + self.params.anisotropy * cos) * normal.norm()
                         / slip_speed;
                     force -= ct * slide;
@@ -551,11 +545,7 @@ impl StrandContacts {
         let (mut before, mut after) = (Vec::new(), Vec::new());
         body_depths(self, q0, &mut before);
         body_depths(self, q1, &mut after);
-        if !before
-            .iter()
-            .zip(&after)
-            .all(|(b, a)| *a <= b.max(0.0) + split)
-        {
+        if !before.iter().zip(&after).all(|(b, a)| *a <= b.max(0.0) + split) {
             return false;
         }
         let rt = head.rotation.transpose();
@@ -604,11 +594,7 @@ impl StrandContacts {
                     // the stretch the kinetic force holds, and the static limit's
                     let keep = kinetic_coefficient * scale * fn_ / stiff;
                     let limit = static_coefficient * scale * fn_ / stiff;
-                    let slides = if was_sliding {
-                        norm > keep
-                    } else {
-                        norm > limit
-                    };
+                    let slides = if was_sliding { norm > keep } else { norm > limit };
                     if slides && norm > 0.0 {
                         // slide: the anchor is dragged behind, the spring holds the
                         // kinetic force
@@ -645,12 +631,7 @@ fn add_force(jac: &[Vector3<f64>], f: &Vector3<f64>, force: &mut [f64]) {
 }
 
 /// `m += Jᵀ A J` (A symmetric), `aj` scratch of 3N columns.
-fn add_projected(
-    jac: &[Vector3<f64>],
-    a: &Matrix3<f64>,
-    aj: &mut [Vector3<f64>],
-    m: &mut Mat<f64>,
-) {
+fn add_projected(jac: &[Vector3<f64>], a: &Matrix3<f64>, aj: &mut [Vector3<f64>], m: &mut Mat<f64>) {
     for (o, c) in aj.iter_mut().zip(jac) {
         *o = a * c;
     }
