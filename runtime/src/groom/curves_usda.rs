@@ -106,6 +106,9 @@ fn tokenize(text: &str, name: &str) -> Result<Vec<(Token, usize)>, String> {
     Ok(out)
 }
 
+/// A time sample of `points`: time code, points, line.
+type Sample = (f64, Vec<Vector3<f64>>, usize);
+
 /// One `BasisCurves` prim as read.
 #[derive(Debug, Default)]
 struct CurvesPrim {
@@ -115,8 +118,8 @@ struct CurvesPrim {
     name: String,
     counts: Option<(Vec<usize>, usize)>,
     points: Option<(Vec<Vector3<f64>>, usize)>,
-    /// The earliest time sample of `points` (time, points, line).
-    sampled: Option<(f64, Vec<Vector3<f64>>, usize)>,
+    /// The earliest time sample of `points`.
+    sampled: Option<Sample>,
     kind: Option<(String, usize)>,
     basis: Option<(String, usize)>,
 }
@@ -243,9 +246,9 @@ impl Parser<'_> {
     }
 
     /// The value of a `points.timeSamples` dictionary: its earliest sample.
-    fn earliest_sample(&mut self) -> Result<Option<(f64, Vec<Vector3<f64>>, usize)>, String> {
+    fn earliest_sample(&mut self) -> Result<Option<Sample>, String> {
         self.expect('{')?;
-        let mut best: Option<(f64, Vec<Vector3<f64>>, usize)> = None;
+        let mut best: Option<Sample> = None;
         loop {
             let line = self.line();
             let time = match self.next() {

@@ -140,7 +140,7 @@ fn neighbour_lists(points: &[Vector3<f64>], reach: f64) -> Vec<Vec<(usize, f64)>
 /// which should be about the expected spacing); infinity for fewer than two points.
 pub fn min_distance(points: &[Vector3<f64>], cell: f64) -> f64 {
     let mut best = f64::INFINITY;
-    if points.len() < 2 || !(cell > 0.0) {
+    if points.len() < 2 || cell.is_nan() || cell <= 0.0 {
         return best;
     }
     let key = |p: &Vector3<f64>| p.map(|x| (x / cell).floor() as i64);
@@ -163,8 +163,9 @@ pub fn min_distance(points: &[Vector3<f64>], cell: f64) -> f64 {
             }
         }
     }
-    if best > cell {
-        // no pair within a cell of each other: fall back on every pair
+    if best > cell && points.len() <= 5_000 {
+        // no pair within a cell of each other: fall back on every pair (a larger set
+        // keeps the bound: the smallest distance is then at least the cell)
         for (i, p) in points.iter().enumerate() {
             for q in &points[i + 1..] {
                 best = best.min((q - p).norm());
