@@ -498,6 +498,14 @@ fn groom_problems_name_their_field_and_range() {
         ("[[grooms]]\ncurves = \"bad.obj\"\ncount = 2\n".to_string(), "grooms[0].count", "not taken by a groom with curves"),
         ("[[grooms]]\ncurves = \"bad.obj\"\nmax_fit_error = 0.0\n".to_string(), "grooms[0].max_fit_error", "must be in (0, 1]"),
     ];
+    // an entry of neither or both kinds still has its fields checked, not called unknown
+    for text in [
+        "[[grooms]]\ncount = 3\nlength = 0.1\npreset = \"curly\"\n".to_string(),
+        format!("{HEAD}[[grooms]]\nbody = \"head\"\ncurves = \"x.obj\"\ncount = 3\nlength = 0.1\n"),
+    ] {
+        let found = problems(&text, &dir);
+        assert!(!found.contains("unknown field"), "{found}");
+    }
     for (text, field, what) in cases {
         let found = problems(&text, &dir);
         assert!(

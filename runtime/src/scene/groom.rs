@@ -120,20 +120,22 @@ pub(super) fn read_groom(
             n.error(key, why);
         }
     }
-    let from_curves = n.has("curves");
-    if from_curves && n.has("body") {
+    // one kind or the other; with both or neither the entry is read as roots on a
+    // surface (so that its fields are checked) and makes no strand
+    let has_body = n.has("body");
+    let from_curves = n.has("curves") && !has_body;
+    let kind_known = has_body != n.has("curves");
+    if has_body && !from_curves && n.has("curves") {
         n.error(
             "curves",
             "give either body (roots on a surface) or curves (a file), not both",
         );
-        return;
     }
-    if !from_curves && !n.has("body") {
+    if !kind_known && !has_body {
         n.missing::<()>(
             "body",
             "the name of a body in [[bodies]] to root the strands on (or curves = a file)",
         );
-        return;
     }
     let refused: Vec<&'static str> = if from_curves {
         SURFACE_ONLY
@@ -142,7 +144,11 @@ pub(super) fn read_groom(
             .copied()
             .collect()
     } else {
-        CURVES_ONLY.to_vec()
+        CURVES_ONLY
+            .iter()
+            .copied()
+            .filter(|&k| kind_known || k != "curves")
+            .collect()
     };
     let why = if from_curves {
         "not taken by a groom with curves: the roots and shapes come from the file"
@@ -164,7 +170,9 @@ pub(super) fn read_groom(
     } else {
         read_surface_groom(n, &defaults, ctx)
     };
-    let (Some(name), Some(sag_free), Some((template, source))) = (name, sag_free, built) else {
+    let (Some(name), Some(sag_free), Some((template, source)), true) =
+        (name, sag_free, built, kind_known)
+    else {
         return;
     };
     let seed = template.seed.unwrap_or(index as u64);
@@ -174,7 +182,7 @@ pub(super) fn read_groom(
             roots,
             length_variation,
         } => {
-            if !claim(n, names, roots.roots.len()) {
+            if !claim(n, names, roots.roots.len(), "count") {
                 return;
             }
             let mut strands = Vec::with_capacity(roots.roots.len());
@@ -205,7 +213,7 @@ pub(super) fn read_groom(
             (strands, source)
         }
         Built::Curves { path, fits } => {
-            if !claim(n, names, fits.len()) {
+            if !claim(n, names, fits.len(), "curves") {
                 return;
             }
             let mut strands = Vec::with_capacity(fits.len());
@@ -264,11 +272,11 @@ pub(super) fn read_groom(
     out.extend(strands);
 }
 
-/// Count `count` more strands against the cap; an error on `count` when over it.
-fn claim(n: &Node<'_>, names: &mut Names, count: usize) -> bool {
+/// Count `count` more strands against the cap; an error on `field` when over it.
+fn claim(n: &Node<'_>, names: &mut Names, count: usize, field: &str) -> bool {
     if names.count + count > MAX_STRANDS {
         n.error(
-            "count",
+            field,
             format!("{count} strands would bring the scene over the cap of {MAX_STRANDS} strands"),
         );
         names.count += count;
