@@ -27,6 +27,7 @@ pub use superhelix_runtime::{
     Result, RunSummary, Simulation, SimulationSetup,
 };
 
+use runtime::groom::GroomReport;
 use runtime::output::npy::{NpyFrameSink, NpyFrameStore, INDEX_FILE, NPY_FILE, TIMES_FILE};
 use runtime::output::preview::PreviewOptions;
 use runtime::output::products::write_products;
@@ -212,9 +213,18 @@ pub fn check_scene_at(
     scene_text: &str,
     scene_dir: &Path,
 ) -> std::result::Result<SimulationSetup, Vec<FieldError>> {
-    let built = runtime::parse_scene_at(scene_text, scene_dir).and_then(|setup| {
-        Simulation::new(setup.clone(), kernel_factory())?;
-        Ok(setup)
+    check_scene_reporting(scene_text, scene_dir).map(|(setup, _)| setup)
+}
+
+/// [`check_scene_at`], with what the scene's `[[grooms]]` report (each curve's fit
+/// error, the roots' spread, the sag-free change), one per groom.
+pub fn check_scene_reporting(
+    scene_text: &str,
+    scene_dir: &Path,
+) -> std::result::Result<(SimulationSetup, Vec<GroomReport>), Vec<FieldError>> {
+    let built = runtime::parse_scene_reporting(scene_text, scene_dir).and_then(|parsed| {
+        Simulation::new(parsed.0.clone(), kernel_factory())?;
+        Ok(parsed)
     });
     // the failure path lists every problem, not only the first stage's
     built.map_err(|_| runtime::validate_scene_at(scene_text, scene_dir, kernel_factory()))

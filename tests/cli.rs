@@ -407,6 +407,19 @@ fn validate_and_run_refuse_rk4_beyond_its_stability_limit_with_the_cause() {
     assert_eq!(out.status.code(), Some(0), "{}", text(&out));
 }
 
+/// `validate` and `run` print each groom's report: the curves' fit errors.
+#[test]
+fn validate_prints_the_fit_error_of_imported_curves() {
+    let out = superhelix(&["validate", &repo("scenes/imported-curves.toml")]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.starts_with("ok: 12 strands, 90 steps"), "{stdout}");
+    assert!(
+        stdout.contains("groom 'curls': 12 strands fitted to the curves of 'data/curls.obj' with N = 10: fit error"),
+        "{stdout}"
+    );
+}
+
 /// A mesh body's `path` is relative to the scene file, not to the working directory.
 #[test]
 fn validate_reads_a_mesh_body_relative_to_the_scene_file() {

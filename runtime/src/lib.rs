@@ -19,6 +19,7 @@
 //! | [`kernels`] | the [`StrandKernel`] trait and its implementations: generic runtime-N, assembly from element moments |
 //! | [`bodies`] | the bodies of a scene (head, obstacles) as signed distance fields: spheres, ellipsoids, capsules, planes exact; closed OBJ meshes sampled on a grid; attached to the head or fixed in the world |
 //! | [`forces`] | effects and head motion: environment, body field, head motion, point loads (contacts and electrostatics to come) |
+//! | [`groom`] | many strands at once: Poisson-disk roots over a scalp region of a body, curves read from OBJ or USDA files and fitted as Super-Helices, a sag-free start (inverse statics) |
 //! | [`config`] | the settings of a run and the [`SimulationSetup`] a simulation is built from (plain data) |
 //! | [`solver`] | time stepping and statics: the strand system, one file per integrator, the adaptive splitting, energy balance, dense solves |
 //! | [`simulation`] | [`Simulation`]: built from a setup, advanced by `step` |
@@ -28,7 +29,8 @@
 //! Data flows scene → [`SimulationSetup`] → [`Simulation::new`] (one
 //! [`solver::StrandSystem`] per strand) → [`Simulation::step`] → the solver's step →
 //! kernels → output. Each module uses only the ones before it in the order
-//! error → model → kernels → bodies → forces → config → output → solver → simulation → scene
+//! error → model → kernels → bodies → forces → groom → config → output → solver → simulation →
+//! scene
 //! (`runtime/tests/architecture.rs` checks it); the output reaches a simulation only
 //! through its [`FrameSource`] trait, which [`Simulation`] implements.
 #![warn(missing_docs)]
@@ -39,6 +41,7 @@ pub mod bodies;
 pub mod config;
 pub mod error;
 pub mod forces;
+pub mod groom;
 pub mod kernels;
 pub mod model;
 pub mod output;
@@ -64,5 +67,6 @@ pub use forces::head_motion::{Keyframe, KeyframeTrack};
 pub use nalgebra::{Matrix3, Vector3};
 pub use output::{run_to_frames, FrameSource, Frames, RunSummary, StrandFrames};
 pub use scene::{
-    parse_scene, parse_scene_at, validate_scene, validate_scene_at, validate_scene_with,
+    parse_scene, parse_scene_at, parse_scene_reporting, validate_scene, validate_scene_at,
+    validate_scene_with,
 };

@@ -14,6 +14,7 @@ mod assembly;
 mod bodies;
 mod contacts;
 mod electrostatics;
+mod groom;
 mod head;
 mod reader;
 mod strands;
@@ -24,6 +25,7 @@ use crate::config::{
 };
 use crate::error::{Error, FieldError, Result};
 use crate::forces::environment::Environment;
+use crate::groom::GroomReport;
 use crate::kernels::generic::QuadratureRule;
 use crate::kernels::kernel::KernelFactory;
 use crate::model::humidity::{HumidityScaling, MAX_HUMIDITY, MIN_HUMIDITY};
@@ -66,14 +68,23 @@ pub fn parse_scene(text: &str) -> Result<SimulationSetup> {
 /// [`parse_scene`] for a scene file in folder `scene_dir`: relative file paths in it are
 /// resolved against that folder.
 pub fn parse_scene_at(text: &str, scene_dir: &Path) -> Result<SimulationSetup> {
+    parse_scene_reporting(text, scene_dir).map(|(setup, _)| setup)
+}
+
+/// [`parse_scene_at`], with what the scene's `[[grooms]]` report (the fit errors of
+/// curves, the roots' spread, the sag-free change), one per groom in order.
+pub fn parse_scene_reporting(
+    text: &str,
+    scene_dir: &Path,
+) -> Result<(SimulationSetup, Vec<GroomReport>)> {
     let table: Table = text
         .parse()
         .map_err(|e: toml::de::Error| Error::Parse(describe_syntax_error(text, &e)))?;
     let errors = Errors::default();
-    let setup = read_scene(Node::root(&table, Errors::clone(&errors)), scene_dir);
+    let parsed = read_scene(Node::root(&table, Errors::clone(&errors)), scene_dir);
     let errors = errors.take();
     if errors.is_empty() {
-        Ok(setup)
+        Ok(parsed)
     } else {
         Err(Error::Invalid(errors))
     }
@@ -139,7 +150,7 @@ fn describe_syntax_error(text: &str, e: &toml::de::Error) -> String {
     format!("line {line}, column {column}: {message}")
 }
 
-fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> SimulationSetup {
+fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> (SimulationSetup, Vec<GroomReport>) {
     let config = root
         .table("simulation")
         .map(read_simulation)
@@ -154,7 +165,16 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> SimulationSetup {
         read_output,
     );
     let bodies = bodies::read_bodies(&mut root, scene_dir);
-    let strands = assembly::read_strands(&mut root, &defaults, &bodies);
+    let mut grooms = groom::GroomContext {
+        bodies: &bodies,
+        gravity: environment
+            .gravity
+            .map(|g| head.state(0.0).rotation.transpose() * g),
+        scene_dir,
+        reports: Vec::new(),
+    };
+    let strands = assembly::read_strands(&mut root, &defaults, &mut grooms);
+    let reports = grooms.reports;
     let electrostatics = match root.table("electrostatics") {
         Some(n) => electrostatics::read_electrostatics(n, &strands, &bodies),
         None => {
@@ -177,7 +197,7 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> SimulationSetup {
         .table("contacts")
         .and_then(|n| contacts::read_contacts(n, &bodies));
     root.finish();
-    SimulationSetup {
+    let setup = SimulationSetup {
         config,
         environment,
         head,
@@ -187,7 +207,8 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> SimulationSetup {
         output,
         electrostatics,
         contacts,
-    }
+    };
+    (setup, reports)
 }
 
 fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
@@ -316,7 +337,11 @@ fn read_environment(mut n: Node<'_>) -> (Environment, StrandDefaults) {
         None
     };
     n.finish();
-    let defaults = StrandDefaults { air_drag, humidity };
+    let defaults = StrandDefaults {
+        air_drag,
+        humidity,
+        length_from_data: false,
+    };
     (Environment { gravity }, defaults)
 }
 

@@ -39,7 +39,10 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
         Some(path) => (read_scene(path)?, scene_dir(path)),
         None => (superhelix::DEFAULT_SCENE.to_string(), Path::new("")),
     };
-    let setup = superhelix::runtime::parse_scene_at(&text, dir)?;
+    let (setup, grooms) = superhelix::runtime::parse_scene_reporting(&text, dir)?;
+    for groom in &grooms {
+        println!("{groom}");
+    }
     let options = superhelix::RunOptions {
         formats: match args.format.is_empty() {
             true => None,

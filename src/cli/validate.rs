@@ -18,8 +18,8 @@ pub struct ValidateArgs {
 pub fn run(args: ValidateArgs) -> Result<ExitCode, Error> {
     let path = &args.scene;
     let text = read_scene(path)?;
-    match superhelix::check_scene_at(&text, scene_dir(path)) {
-        Ok(setup) => report_valid(&setup),
+    match superhelix::check_scene_reporting(&text, scene_dir(path)) {
+        Ok((setup, grooms)) => report_valid(&setup, &grooms),
         Err(problems) => {
             for p in &problems {
                 eprintln!("{p}");
@@ -30,12 +30,19 @@ pub fn run(args: ValidateArgs) -> Result<ExitCode, Error> {
     }
 }
 
-/// The counts and the output plan of a valid scene; refused when the plan is too large.
-fn report_valid(setup: &superhelix::SimulationSetup) -> Result<ExitCode, Error> {
+/// The counts, what the grooms report (fit errors, root spacing, sag-free change) and the
+/// output plan of a valid scene; refused when the plan is too large.
+fn report_valid(
+    setup: &superhelix::SimulationSetup,
+    grooms: &[superhelix::runtime::groom::GroomReport],
+) -> Result<ExitCode, Error> {
     let strands = setup.strands.len();
     let steps = superhelix::runtime::scene::step_count(setup);
     let plural = if strands == 1 { "" } else { "s" };
     println!("ok: {strands} strand{plural}, {steps} steps");
+    for groom in grooms {
+        println!("{groom}");
+    }
     let plan = superhelix::plan_output(setup, Path::new("out"), &superhelix::RunOptions::default());
     println!("{plan}");
     if let Some(note) = &plan.note {

@@ -1,7 +1,9 @@
 //! The strands of a scene: `[[strands]]` entries one by one, `[[patches]]` as grids of
-//! identical strands, `[[tresses]]` as fibres over an elliptic cross-section; names, seeds
+//! identical strands, `[[tresses]]` as fibres over an elliptic cross-section,
+//! `[[scalp_hair]]` on a sphere or ellipsoid, `[[grooms]]` (`super::groom`); names, seeds
 //! and the caps on their number.
 
+use super::groom::{read_groom, GroomContext};
 use super::reader::{Bound, Node, Range};
 use super::strands::{read_template, strand_rng, StrandDefaults, Template};
 use crate::bodies::{BodySetup, ShapeSetup};
@@ -19,8 +21,9 @@ const MAX_PATCH_SIDE: i64 = 1_000;
 pub(super) fn read_strands(
     root: &mut Node<'_>,
     defaults: &StrandDefaults,
-    bodies: &[BodySetup],
+    grooms: &mut GroomContext<'_>,
 ) -> Vec<StrandSetup> {
+    let bodies = grooms.bodies;
     let mut names = Names::default();
     let mut out = Vec::new();
     for (i, mut n) in root.tables("strands").into_iter().enumerate() {
@@ -50,10 +53,14 @@ pub(super) fn read_strands(
         read_scalp_hair(&mut n, i, defaults, bodies, &mut names, &mut out);
         n.finish();
     }
+    for (i, mut n) in root.tables("grooms").into_iter().enumerate() {
+        read_groom(&mut n, i, defaults, grooms, &mut names, &mut out);
+        n.finish();
+    }
     if names.count == 0 {
         root.error(
             "strands",
-            "the scene has no strands: add [[strands]], [[patches]], [[tresses]] or [[scalp_hair]]",
+            "the scene has no strands: add [[strands]], [[patches]], [[tresses]], [[scalp_hair]] or [[grooms]]",
         );
     } else if names.count > MAX_STRANDS {
         let msg = format!(
@@ -81,14 +88,14 @@ fn read_group(n: &mut Node<'_>) -> Option<Option<String>> {
 
 /// Names in use, to reject duplicates; counts the strands declared.
 #[derive(Default)]
-struct Names {
+pub(super) struct Names {
     first_use: HashMap<String, String>,
-    count: usize,
+    pub count: usize,
 }
 
 impl Names {
     /// Take `name` for a strand declared by node `n`; a duplicate is an error on `n.name`.
-    fn claim(&mut self, n: &Node<'_>, name: &str) {
+    pub fn claim(&mut self, n: &Node<'_>, name: &str) {
         self.count += 1;
         if let Some(previous) = self.first_use.get(name) {
             n.error(

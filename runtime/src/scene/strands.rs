@@ -58,6 +58,9 @@ pub(super) struct StrandDefaults {
     /// The factors of `environment.relative_humidity` over the reference 65 %; `None`
     /// when the scene has no humidity (presets' values as they are).
     pub humidity: Option<HumidityScaling>,
+    /// The strands' lengths come from elsewhere (a groom's curves): `length` is not
+    /// required, and without it the template has N elements of total length 1.
+    pub length_from_data: bool,
 }
 
 /// Everything of a strand but its name, root and random variation: the fields shared by
@@ -93,7 +96,7 @@ pub(super) fn read_template(n: &mut Node<'_>, defaults: &StrandDefaults) -> Temp
     };
     let cross_section = read_cross_section(n, &preset_section);
     let frame = read_frame(n);
-    let (lengths, length) = read_lengths(n).unzip();
+    let (lengths, length) = read_lengths(n, defaults.length_from_data).unzip();
     let natural = read_natural(n, &params, lengths.as_deref(), length);
     let variation = n.optional_f64(
         "curvature_variation",
@@ -154,6 +157,11 @@ fn check_derived(n: &Node<'_>, material: &Material, natural: Option<&[f64]>) {
 }
 
 impl Template {
+    /// N, the number of elements (`None` when the lengths were invalid).
+    pub(super) fn elements(&self) -> Option<usize> {
+        self.lengths.as_ref().map(Vec::len)
+    }
+
     /// The strand named `name`, of output group `group`, with its root at `root` (head
     /// coordinates). Natural
     /// curvatures get their random variation from `rng` (see [`vary`]). `None` when a
@@ -287,7 +295,7 @@ fn least_aligned_axis(v: &Vector3<f64>) -> Vector3<f64> {
 
 /// Element lengths from `length` and `elements`, or from `element_lengths`; and the
 /// strand length (as given, or the sum of `element_lengths`).
-fn read_lengths(n: &mut Node<'_>) -> Option<(Vec<f64>, f64)> {
+fn read_lengths(n: &mut Node<'_>, from_data: bool) -> Option<(Vec<f64>, f64)> {
     let length_given = n.has("length");
     let length_range = Range::new(Bound::Excl(0.0), Bound::Incl(MAX_LENGTH));
     let length = n.f64("length", length_range);
@@ -299,6 +307,9 @@ fn read_lengths(n: &mut Node<'_>) -> Option<(Vec<f64>, f64)> {
         return if length_given {
             let (length, count) = (length?, elements?);
             Some((vec![length / count as f64; count], length))
+        } else if from_data {
+            let count = elements?;
+            Some((vec![1.0 / count as f64; count], 1.0))
         } else {
             n.missing(
                 "length",

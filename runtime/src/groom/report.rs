@@ -1,0 +1,129 @@
+//! What a scene reports of its grooms: for roots on a surface, their number, the
+//! region's area and their spacing; for curves, each curve's fit error; for both, how
+//! far the sag-free start moved the natural curvatures.
+
+use super::fit::FitError;
+use std::fmt;
+
+/// The fit of one curve.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CurveReport {
+    /// Name of the strand made from it.
+    pub strand: String,
+    /// Where the curve comes from (`'curls.obj' line 12`).
+    pub origin: String,
+    /// Points of the curve.
+    pub points: usize,
+    /// Fitted length, m.
+    pub length: f64,
+    /// Length of the curve's polyline, m.
+    pub polyline_length: f64,
+    /// The fit's error, relative to the length.
+    pub error: FitError,
+}
+
+/// Where a groom's strands come from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum GroomSource {
+    /// Roots sampled on a body's surface.
+    Surface {
+        /// The body's name.
+        body: String,
+        /// Area of the region, m².
+        area: f64,
+        /// Smallest distance between two roots, m.
+        min_spacing: f64,
+        /// Spacing of the hexagonal packing of as many roots on the area, m.
+        packing_spacing: f64,
+    },
+    /// Curves read from a file and fitted.
+    Curves {
+        /// The file, as the scene names it.
+        path: String,
+        /// Elements per strand.
+        elements: usize,
+        /// Each curve's fit.
+        curves: Vec<CurveReport>,
+    },
+}
+
+/// What a scene reports of one `[[grooms]]` entry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GroomReport {
+    /// The groom's name (the group of its strands).
+    pub name: String,
+    /// Number of strands made.
+    pub strands: usize,
+    /// Where they come from.
+    pub source: GroomSource,
+    /// With a sag-free start: the largest change of a natural curvature or twist, rad/m
+    /// (`None` without it; 0 without gravity).
+    pub sag_free_change: Option<f64>,
+}
+
+impl GroomReport {
+    /// The largest RMS and the largest maximum fit error over the curves (relative to
+    /// each curve's length), and the index of the curve with the largest maximum;
+    /// `None` for roots on a surface.
+    pub fn worst_fit(&self) -> Option<(f64, f64, usize)> {
+        let GroomSource::Curves { curves, .. } = &self.source else {
+            return None;
+        };
+        let mut worst = (0.0f64, 0.0f64, 0usize);
+        for (k, c) in curves.iter().enumerate() {
+            worst.0 = worst.0.max(c.error.rms);
+            if c.error.max > worst.1 {
+                worst.1 = c.error.max;
+                worst.2 = k;
+            }
+        }
+        Some(worst)
+    }
+}
+
+impl fmt::Display for GroomReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "groom '{}': {} strands", self.name, self.strands)?;
+        match &self.source {
+            GroomSource::Surface {
+                body,
+                area,
+                min_spacing,
+                packing_spacing,
+            } => write!(
+                f,
+                " on '{body}' over {:.1} cm^2, closest roots {:.2} mm apart ({:.2} of the \
+                 hexagonal packing's {:.2} mm)",
+                area * 1e4,
+                min_spacing * 1e3,
+                min_spacing / packing_spacing,
+                packing_spacing * 1e3
+            )?,
+            GroomSource::Curves {
+                path,
+                elements,
+                curves,
+            } => {
+                let (rms, max, k) = self.worst_fit().unwrap_or_default();
+                let mean_rms =
+                    curves.iter().map(|c| c.error.rms).sum::<f64>() / curves.len().max(1) as f64;
+                write!(
+                    f,
+                    " fitted to the curves of '{path}' with N = {elements}: fit error \
+                     (relative to the length) RMS {mean_rms:.2e} on average, {rms:.2e} at \
+                     most; max {max:.2e}"
+                )?;
+                if let Some(c) = curves.get(k) {
+                    write!(f, " ({}, {})", c.strand, c.origin)?;
+                }
+            }
+        }
+        match self.sag_free_change {
+            Some(change) => write!(
+                f,
+                "; sag-free: natural curvatures changed by up to {change:.3e} rad/m"
+            ),
+            None => Ok(()),
+        }
+    }
+}
