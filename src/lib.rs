@@ -235,23 +235,19 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_default_scene_is_valid_and_shows_every_preset() {
+    fn the_default_scene_is_a_full_head_with_bodies_and_contacts() {
         let setup = match parse_scene(DEFAULT_SCENE) {
             Ok(s) => s,
             Err(e) => panic!("{e}"),
         };
-        for preset in ["smooth", "wavy", "curly", "fuzzy"] {
-            assert!(
-                setup
-                    .strands
-                    .iter()
-                    .any(|s| s.strand.name.starts_with(preset)),
-                "{preset}"
-            );
-        }
-        assert!(matches!(setup.head, HeadMotion::Oscillate { .. }));
+        assert_eq!(setup.strands.len(), 100);
+        let names: Vec<&str> = setup.bodies.iter().map(|b| b.name.as_str()).collect();
+        assert_eq!(names, ["head", "neck", "shoulders"]);
+        let contacts = setup.contacts.as_ref().expect("[contacts]");
+        assert!(contacts.hair_hair.is_some());
+        assert!(matches!(setup.head, HeadMotion::Keyframes(_)));
         assert_eq!(check_scene(DEFAULT_SCENE), Ok(setup.clone()));
-        assert_eq!(runtime::scene::step_count(&setup), 60);
+        assert_eq!(runtime::scene::step_count(&setup), 90);
     }
 
     /// `scenes/cantilever.toml` (incompressible, ν = 0.5) bends as beam theory says:

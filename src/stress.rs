@@ -726,19 +726,29 @@ pub fn all_cases() -> Vec<Case> {
     for &preset in &presets {
         for n in [5, 10] {
             for (tag, friction) in [
-                ("viscous", crate::runtime::forces::contacts::Friction::Viscous {
-                    coefficient: 0.3,
-                    slip_speed: 0.05,
-                }),
-                ("coulomb", crate::runtime::forces::contacts::Friction::Coulomb {
-                    static_coefficient: 0.4,
-                    kinetic_coefficient: 0.3,
-                    stiffness_ratio: 1.0,
-                }),
+                (
+                    "viscous",
+                    crate::runtime::forces::contacts::Friction::Viscous {
+                        coefficient: 0.3,
+                        slip_speed: 0.05,
+                    },
+                ),
+                (
+                    "coulomb",
+                    crate::runtime::forces::contacts::Friction::Coulomb {
+                        static_coefficient: 0.4,
+                        kinetic_coefficient: 0.3,
+                        stiffness_ratio: 1.0,
+                    },
+                ),
             ] {
                 for motion in Motion::ALL {
                     let mut c = case(
-                        format!("contacts/{}/N{n}/fps30/{}/{tag}", preset.name(), motion.name()),
+                        format!(
+                            "contacts/{}/N{n}/fps30/{}/{tag}",
+                            preset.name(),
+                            motion.name()
+                        ),
                         "contacts",
                         n == 5 && tag == "viscous",
                         StrandSpec::new(preset, n),
@@ -763,7 +773,10 @@ pub fn all_cases() -> Vec<Case> {
 /// the head around its centre (the strand's root is 2.5 cm outside it: the natural coils
 /// of the wavy and curly presets, 2 and 1.2 cm across, start clear of it) and a bar
 /// fixed in the world, 8 cm thick, its top 6 cm below the root and 6 to 14 cm out.
-fn with_contacts(setup: &mut SimulationSetup, friction: crate::runtime::forces::contacts::Friction) {
+fn with_contacts(
+    setup: &mut SimulationSetup,
+    friction: crate::runtime::forces::contacts::Friction,
+) {
     use crate::runtime::bodies::{Attachment, BodySetup, ShapeSetup};
     setup.bodies = vec![
         BodySetup {

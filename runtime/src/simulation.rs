@@ -411,7 +411,11 @@ impl Simulation {
                 bodies
                     .as_slice()
                     .iter()
-                    .filter(|b| c.bodies.as_ref().is_none_or(|names| names.contains(&b.name)))
+                    .filter(|b| {
+                        c.bodies
+                            .as_ref()
+                            .is_none_or(|names| names.contains(&b.name))
+                    })
                     .cloned()
                     .collect()
             });
@@ -657,7 +661,13 @@ impl Simulation {
         let reach = self
             .strands
             .iter()
-            .filter_map(|s| s.system.contacts.as_ref()?.hair_params().map(|p| 2.0 * p.radius))
+            .filter_map(|s| {
+                s.system
+                    .contacts
+                    .as_ref()?
+                    .hair_params()
+                    .map(|p| 2.0 * p.radius)
+            })
             .fold(0.0, f64::max);
         let Some(hh) = &mut self.hair_hair else {
             return;
@@ -684,7 +694,12 @@ impl Simulation {
     /// What the contacts of strand `i` found at its last evaluation (`None`: the scene has
     /// no `[contacts]`).
     pub fn contact_summary(&self, i: usize) -> Option<ContactSummary> {
-        self.strands.get(i)?.system.contacts.as_ref().map(|c| c.summary())
+        self.strands
+            .get(i)?
+            .system
+            .contacts
+            .as_ref()
+            .map(|c| c.summary())
     }
 
     /// The deepest point of any strand's centreline inside a body at the current state,

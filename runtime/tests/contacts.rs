@@ -71,7 +71,10 @@ fn a_cantilever_propped_by_a_cylinder_matches_beam_theory() {
     // the reaction of a prop at the tip; the contact sits within one sample spacing
     // (0.375 mm, 1.25 % of L) of the tip, which moves the reaction by about as much
     let rel = (reaction - expected).abs() / expected;
-    assert!(rel < 0.03, "reaction {reaction:.4e} N vs 3wL/8 = {expected:.4e} N ({rel:.2e})");
+    assert!(
+        rel < 0.03,
+        "reaction {reaction:.4e} N vs 3wL/8 = {expected:.4e} N ({rel:.2e})"
+    );
     // the deflection where it is largest (x = 0.5785 L) and at a quarter and three
     // quarters; beam theory is linear: the strand deflects by ~1e-3 L here, its
     // nonlinear terms are O(1e-6) relative
@@ -80,7 +83,11 @@ fn a_cantilever_propped_by_a_cylinder_matches_beam_theory() {
         let z = s.position_at(0, x).z;
         let v = propped_deflection(w, ei, x);
         let err = (-z - v).abs() / vmax;
-        assert!(err < 0.03, "x = {x}: deflection {:.4e} m vs {v:.4e} m ({err:.2e} of the largest)", -z);
+        assert!(
+            err < 0.03,
+            "x = {x}: deflection {:.4e} m vs {v:.4e} m ({err:.2e} of the largest)",
+            -z
+        );
     }
     // the tip rests on the cylinder at the contact radius, sunk by the penalty's depth
     let tip = s.position_at(0, L);
@@ -102,8 +109,15 @@ fn the_dynamic_rest_state_on_the_cylinder_is_the_static_solution() {
         let d = (statics.position_at(0, x) - dynamics.position_at(0, x)).norm();
         worst = worst.max(d);
     }
-    assert!(worst < 0.01 * vmax, "dynamic rest state {worst:.3e} m from the static solution");
-    assert!(dynamics.max_speed() < 1e-4, "still moving: {}", dynamics.max_speed());
+    assert!(
+        worst < 0.01 * vmax,
+        "dynamic rest state {worst:.3e} m from the static solution"
+    );
+    assert!(
+        dynamics.max_speed() < 1e-4,
+        "still moving: {}",
+        dynamics.max_speed()
+    );
 }
 
 /// A straight 10 cm strand lying across a plane tilted by `slope_deg` about x (downhill
@@ -164,17 +178,30 @@ fn tip_slide(slope_deg: f64, mu: f64, friction: &str) -> f64 {
 fn static_friction_holds_below_the_friction_angle_and_slides_above() {
     let mu: f64 = 0.4;
     let angle = mu.atan().to_degrees(); // 21.8°
-    eprintln!("frictionless {:e} viscous {:e}", tip_slide(0.8 * angle, mu, "none"), tip_slide(0.8 * angle, mu, "viscous"));
+    eprintln!(
+        "frictionless {:e} viscous {:e}",
+        tip_slide(0.8 * angle, mu, "none"),
+        tip_slide(0.8 * angle, mu, "viscous")
+    );
     let below = tip_slide(0.8 * angle, mu, "coulomb");
     let above = tip_slide(1.25 * angle, mu, "coulomb");
     let frictionless = tip_slide(0.8 * angle, mu, "none");
     // held: the tangential springs stretch by about the weight over their stiffness,
     // r / 1e4 = 0.1 µm; allow 10 µm
-    assert!(below.abs() < 1e-5, "below the friction angle the tip slid {below:.3e} m");
+    assert!(
+        below.abs() < 1e-5,
+        "below the friction angle the tip slid {below:.3e} m"
+    );
     // above: the strand slides and bends in the plane until its elasticity holds it
-    assert!(above > 1e-3, "above the friction angle the tip slid only {above:.3e} m");
+    assert!(
+        above > 1e-3,
+        "above the friction angle the tip slid only {above:.3e} m"
+    );
     // and without friction it slides at the lower slope too
-    assert!(frictionless > 1e-3, "frictionless tip slid only {frictionless:.3e} m");
+    assert!(
+        frictionless > 1e-3,
+        "frictionless tip slid only {frictionless:.3e} m"
+    );
     eprintln!("slide after 1 s: below {below:.3e} m, above {above:.3e} m, frictionless {frictionless:.3e} m");
 }
 
@@ -240,7 +267,12 @@ fn two_strands_pushed_together_do_not_pass_through_each_other() {
     // with it, it rests on top: the gap stays near the interaction distance 2 mm, never
     // below a quarter of it
     let least = with.iter().copied().fold(f64::INFINITY, f64::min);
-    assert!(least > 0.5e-3, "the strands came within {least:.3e} m: {with:?}");
-    eprintln!("least gap {least:.3e} m, final {:.3e} m; control final {:.3e} m", with[29], without[29]);
+    assert!(
+        least > 0.5e-3,
+        "the strands came within {least:.3e} m: {with:?}"
+    );
+    eprintln!(
+        "least gap {least:.3e} m, final {:.3e} m; control final {:.3e} m",
+        with[29], without[29]
+    );
 }
-

@@ -22,14 +22,22 @@ impl Cylinder {
     pub fn query(&self, y: &Vector3<f64>) -> Proximity {
         let axis = self.end - self.start;
         let length = axis.norm();
-        let a = if length > 0.0 { axis / length } else { Vector3::z() };
+        let a = if length > 0.0 {
+            axis / length
+        } else {
+            Vector3::z()
+        };
         let half = 0.5 * length;
         let centre = 0.5 * (self.start + self.end);
         let x = y - centre;
         let along = x.dot(&a);
         let radial = x - a * along;
         let rho = radial.norm();
-        let r_hat = if rho > 0.0 { radial / rho } else { any_unit(&a) };
+        let r_hat = if rho > 0.0 {
+            radial / rho
+        } else {
+            any_unit(&a)
+        };
         let cap = if along >= 0.0 { a } else { -a };
         let d_side = rho - self.radius;
         let d_cap = along.abs() - half;
@@ -74,7 +82,10 @@ mod tests {
         let inside = c.query(&Vector3::new(0.4, 0.0, 0.0));
         assert!((inside.distance + 0.1).abs() < 1e-15);
         let near_cap = c.query(&Vector3::new(0.0, 0.0, -0.95));
-        assert!((near_cap.distance + 0.05).abs() < 1e-15 && (near_cap.normal + Vector3::z()).norm() < 1e-15);
+        assert!(
+            (near_cap.distance + 0.05).abs() < 1e-15
+                && (near_cap.normal + Vector3::z()).norm() < 1e-15
+        );
     }
 
     /// The distance's gradient is the normal (central differences, away from the rims).
@@ -85,14 +96,22 @@ mod tests {
             end: Vector3::new(0.5, 0.3, 0.9),
             radius: 0.2,
         };
-        for y in [Vector3::new(0.9, 0.1, 0.2), Vector3::new(0.3, 0.0, 0.45), Vector3::new(1.0, 1.0, 1.5)] {
+        for y in [
+            Vector3::new(0.9, 0.1, 0.2),
+            Vector3::new(0.3, 0.0, 0.45),
+            Vector3::new(1.0, 1.0, 1.5),
+        ] {
             let q = c.query(&y);
             let h = 1e-6;
             let g = Vector3::from_fn(|i, _| {
                 let e = Vector3::from_fn(|j, _| if i == j { h } else { 0.0 });
                 (c.query(&(y + e)).distance - c.query(&(y - e)).distance) / (2.0 * h)
             });
-            assert!((g - q.normal).norm() < 1e-6, "{y:?}: {g:?} vs {:?}", q.normal);
+            assert!(
+                (g - q.normal).norm() < 1e-6,
+                "{y:?}: {g:?} vs {:?}",
+                q.normal
+            );
         }
     }
 }

@@ -106,6 +106,13 @@ impl Surface {
                 end: *end,
                 radius: *radius,
             },
+            ShapeSetup::Cylinder { .. } => {
+                return Err(
+                    "hair is not rooted on cylinders; use a sphere, an ellipsoid, a capsule \
+                     or a mesh"
+                        .into(),
+                )
+            }
             ShapeSetup::Plane { .. } => {
                 return Err(
                     "a plane has no bounded surface to root hair on; use a sphere, \

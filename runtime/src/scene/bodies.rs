@@ -10,7 +10,14 @@ use std::collections::HashMap;
 use std::path::Path;
 
 /// Shapes as written in scenes.
-const SHAPES: [&str; 6] = ["sphere", "ellipsoid", "capsule", "plane", "mesh", "cylinder"];
+const SHAPES: [&str; 6] = [
+    "sphere",
+    "ellipsoid",
+    "capsule",
+    "plane",
+    "mesh",
+    "cylinder",
+];
 
 /// Radii, half-axes and cells, m.
 const SIZE: Range = Range::new(Bound::Excl(0.0), Bound::Incl(MAX_BODY_SIZE));
@@ -120,7 +127,11 @@ fn capsule(n: &mut Node<'_>) -> Option<ShapeSetup> {
 
 fn cylinder(n: &mut Node<'_>) -> Option<ShapeSetup> {
     let start = n.required("start", "[x, y, z] in m, the centre of one cap", Node::vec3);
-    let end = n.required("end", "[x, y, z] in m, the centre of the other cap", Node::vec3);
+    let end = n.required(
+        "end",
+        "[x, y, z] in m, the centre of the other cap",
+        Node::vec3,
+    );
     let radius = radius(n);
     Some(ShapeSetup::Cylinder {
         start: start?,

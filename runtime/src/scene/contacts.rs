@@ -26,7 +26,10 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
                         ok = false;
                     }
                     None => {
-                        n.error("bodies", format!("[{i}]: expected a body name, got {}", kind(item)));
+                        n.error(
+                            "bodies",
+                            format!("[{i}]: expected a body name, got {}", kind(item)),
+                        );
                         ok = false;
                     }
                 }
@@ -34,7 +37,10 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
             ok.then_some(Some(list))
         }
         Some(v) => {
-            n.error("bodies", format!("expected a list of body names, got {}", kind(v)));
+            n.error(
+                "bodies",
+                format!("expected a list of body names, got {}", kind(v)),
+            );
             None
         }
     };
@@ -44,7 +50,11 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
             "the scene has no [[bodies]] and no [contacts.hair_hair]: nothing to touch",
         );
     }
-    let radius = n.optional_f64("radius", d.radius, Range::new(Bound::Excl(0.0), Bound::Incl(0.1)));
+    let radius = n.optional_f64(
+        "radius",
+        d.radius,
+        Range::new(Bound::Excl(0.0), Bound::Incl(0.1)),
+    );
     let stiffness = if n.has("stiffness") {
         n.f64("stiffness", Range::new(Bound::Excl(0.0), Bound::Incl(1e9)))
             .map(Some)
@@ -63,8 +73,11 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
         Some(None)
     };
     let split_depth = if n.has("split_depth") {
-        n.f64("split_depth", Range::new(Bound::Excl(0.0), Bound::Incl(1.0)))
-            .map(Some)
+        n.f64(
+            "split_depth",
+            Range::new(Bound::Excl(0.0), Bound::Incl(1.0)),
+        )
+        .map(Some)
     } else {
         Some(None)
     };
@@ -113,7 +126,11 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
         None => Some(None),
         Some(mut h) => {
             let hd = HairHairConfig::default();
-            let radius = h.optional_f64("radius", hd.radius, Range::new(Bound::Excl(0.0), Bound::Incl(0.1)));
+            let radius = h.optional_f64(
+                "radius",
+                hd.radius,
+                Range::new(Bound::Excl(0.0), Bound::Incl(0.1)),
+            );
             let stiffness = if h.has("stiffness") {
                 h.f64("stiffness", Range::new(Bound::Excl(0.0), Bound::Incl(1e9)))
                     .map(Some)

@@ -145,19 +145,67 @@ impl ContactConfig {
     /// The problems of the configuration (field paths `contacts.…`).
     pub fn check(&self) -> Vec<FieldError> {
         let mut e = Vec::new();
-        range(&mut e, "contacts.radius", self.radius, 0.0, 0.1, true, "(0, 0.1] m");
+        range(
+            &mut e,
+            "contacts.radius",
+            self.radius,
+            0.0,
+            0.1,
+            true,
+            "(0, 0.1] m",
+        );
         if let Some(k) = self.stiffness {
-            range(&mut e, "contacts.stiffness", k, 0.0, 1e9, true, "(0, 1e9] N/m²");
+            range(
+                &mut e,
+                "contacts.stiffness",
+                k,
+                0.0,
+                1e9,
+                true,
+                "(0, 1e9] N/m²",
+            );
         }
-        range(&mut e, "contacts.damping_ratio", self.damping_ratio, 0.0, 10.0, false, "[0, 10]");
+        range(
+            &mut e,
+            "contacts.damping_ratio",
+            self.damping_ratio,
+            0.0,
+            10.0,
+            false,
+            "[0, 10]",
+        );
         if let Some(d) = self.max_depth {
             range(&mut e, "contacts.max_depth", d, 0.0, 1.0, true, "(0, 1] m");
         }
         if let Some(d) = self.split_depth {
-            range(&mut e, "contacts.split_depth", d, 0.0, 1.0, true, "(0, 1] m");
+            range(
+                &mut e,
+                "contacts.split_depth",
+                d,
+                0.0,
+                1.0,
+                true,
+                "(0, 1] m",
+            );
         }
-        range(&mut e, "contacts.depenetration_speed", self.depenetration_speed, 0.0, 100.0, true, "(0, 100] m/s");
-        range(&mut e, "contacts.anisotropy", self.anisotropy, 0.0, 0.99, false, "[0, 0.99]");
+        range(
+            &mut e,
+            "contacts.depenetration_speed",
+            self.depenetration_speed,
+            0.0,
+            100.0,
+            true,
+            "(0, 100] m/s",
+        );
+        range(
+            &mut e,
+            "contacts.anisotropy",
+            self.anisotropy,
+            0.0,
+            0.99,
+            false,
+            "[0, 0.99]",
+        );
         if !(1..=64).contains(&self.samples_per_element) {
             e.push(FieldError::new(
                 "contacts.samples_per_element",
@@ -170,15 +218,39 @@ impl ContactConfig {
                 coefficient,
                 slip_speed,
             } => {
-                range(&mut e, "contacts.friction_coefficient", coefficient, 0.0, 10.0, false, "[0, 10]");
-                range(&mut e, "contacts.slip_speed", slip_speed, 0.0, 100.0, true, "(0, 100] m/s");
+                range(
+                    &mut e,
+                    "contacts.friction_coefficient",
+                    coefficient,
+                    0.0,
+                    10.0,
+                    false,
+                    "[0, 10]",
+                );
+                range(
+                    &mut e,
+                    "contacts.slip_speed",
+                    slip_speed,
+                    0.0,
+                    100.0,
+                    true,
+                    "(0, 100] m/s",
+                );
             }
             Friction::Coulomb {
                 static_coefficient,
                 kinetic_coefficient,
                 stiffness_ratio,
             } => {
-                range(&mut e, "contacts.friction_coefficient", static_coefficient, 0.0, 10.0, false, "[0, 10]");
+                range(
+                    &mut e,
+                    "contacts.friction_coefficient",
+                    static_coefficient,
+                    0.0,
+                    10.0,
+                    false,
+                    "[0, 10]",
+                );
                 if !(kinetic_coefficient.is_finite()
                     && kinetic_coefficient >= 0.0
                     && kinetic_coefficient <= static_coefficient)
@@ -188,15 +260,47 @@ impl ContactConfig {
                         format!("{kinetic_coefficient}: must be in [0, friction_coefficient]"),
                     ));
                 }
-                range(&mut e, "contacts.tangential_stiffness_ratio", stiffness_ratio, 0.0, 100.0, true, "(0, 100]");
+                range(
+                    &mut e,
+                    "contacts.tangential_stiffness_ratio",
+                    stiffness_ratio,
+                    0.0,
+                    100.0,
+                    true,
+                    "(0, 100]",
+                );
             }
         }
         if let Some(h) = &self.hair_hair {
-            range(&mut e, "contacts.hair_hair.radius", h.radius, 0.0, 0.1, true, "(0, 0.1] m");
+            range(
+                &mut e,
+                "contacts.hair_hair.radius",
+                h.radius,
+                0.0,
+                0.1,
+                true,
+                "(0, 0.1] m",
+            );
             if let Some(k) = h.stiffness {
-                range(&mut e, "contacts.hair_hair.stiffness", k, 0.0, 1e9, true, "(0, 1e9] N/m²");
+                range(
+                    &mut e,
+                    "contacts.hair_hair.stiffness",
+                    k,
+                    0.0,
+                    1e9,
+                    true,
+                    "(0, 1e9] N/m²",
+                );
             }
-            range(&mut e, "contacts.hair_hair.damping_ratio", h.damping_ratio, 0.0, 10.0, false, "[0, 10]");
+            range(
+                &mut e,
+                "contacts.hair_hair.damping_ratio",
+                h.damping_ratio,
+                0.0,
+                10.0,
+                false,
+                "[0, 10]",
+            );
             if !(1..=1000).contains(&h.search_every) {
                 e.push(FieldError::new(
                     "contacts.hair_hair.search_every",

@@ -77,7 +77,11 @@ fn dist2(p: &[Vec<Vector3<f64>>], a: (usize, usize), b: (usize, usize)) -> f64 {
 /// other side's point.
 fn descend(p: &[Vec<Vector3<f64>>], pair: &mut Pair, which: usize) {
     loop {
-        let (own, other) = if which == 0 { (pair.a, pair.b) } else { (pair.b, pair.a) };
+        let (own, other) = if which == 0 {
+            (pair.a, pair.b)
+        } else {
+            (pair.b, pair.a)
+        };
         let here = dist2(p, own, other);
         let len = p[own.0].len();
         let mut best = (here, own.1);
@@ -184,7 +188,10 @@ impl HairHair {
             for (i, chain) in points.iter().enumerate() {
                 for (k, x) in chain.iter().enumerate() {
                     if x.iter().all(|c| c.is_finite()) {
-                        self.grid.entry(key(x)).or_default().push((i as u32, k as u32));
+                        self.grid
+                            .entry(key(x))
+                            .or_default()
+                            .push((i as u32, k as u32));
                     }
                 }
             }
@@ -229,13 +236,11 @@ impl HairHair {
         self.found_last = found;
         self.steps += 1;
         // 3. partners
-        let velocity = |s: usize, k: usize| {
-            match self.previous.get(s).and_then(|c| c.get(k)) {
-                Some(x0) if h > 0.0 && self.previous[s].len() == points[s].len() => {
-                    (points[s][k] - x0) / h
-                }
-                _ => Vector3::zeros(),
+        let velocity = |s: usize, k: usize| match self.previous.get(s).and_then(|c| c.get(k)) {
+            Some(x0) if h > 0.0 && self.previous[s].len() == points[s].len() => {
+                (points[s][k] - x0) / h
             }
+            _ => Vector3::zeros(),
         };
         let mut partners: Vec<Vec<PartnerPoint>> = vec![Vec::new(); points.len()];
         for p in &tracked {
@@ -248,9 +253,14 @@ impl HairHair {
                 let f = t.abs();
                 let (arc, wt) = arcs[s][k];
                 let (arc2, _) = arcs[s].get(j).copied().unwrap_or((arc, wt));
-                let x = points[s][k] + (points[s].get(j).copied().unwrap_or(points[s][k]) - points[s][k]) * f;
+                let x = points[s][k]
+                    + (points[s].get(j).copied().unwrap_or(points[s][k]) - points[s][k]) * f;
                 let v0 = velocity(s, k);
-                let v = if j < points[s].len() { v0 + (velocity(s, j) - v0) * f } else { v0 };
+                let v = if j < points[s].len() {
+                    v0 + (velocity(s, j) - v0) * f
+                } else {
+                    v0
+                };
                 (arc + (arc2 - arc) * f, wt, x, v)
             };
             let (sa, wa, xa, va) = at(p.a, ta);

@@ -1,6 +1,6 @@
 //! The contacts of one strand: penalty forces at sample points of its centreline against
 //! the scene's bodies (the paper's section 4.2: "a normal elastic response together with
-//! a tangential viscous friction force", anisotropic by "a cosine function [of] the
+//! a tangential viscous friction force", anisotropic by "a cosine function \[of\] the
 //! orientation of hair fibers with respect to their sliding motion") and against the
 //! points of other strands it was paired with (hair–hair, [`super::hair_hair`]), with
 //! their stiffness and damping in the implicit step's matrices.
@@ -272,7 +272,11 @@ impl StrandContacts {
             let (arc, _) = self.samples[k];
             (self.poses[k].0 - p).norm() - (arc - s).abs()
         };
-        let lower = if k > 0 { near(k).max(near(k - 1)) } else { near(k) };
+        let lower = if k > 0 {
+            near(k).max(near(k - 1))
+        } else {
+            near(k)
+        };
         lower > reach
     }
 
@@ -296,7 +300,9 @@ impl StrandContacts {
         let mut s0 = 0.0;
         for (e, &l) in geom.lengths.iter().enumerate() {
             let d = darboux(q, e);
-            while k < self.samples.len() && (self.samples[k].0 <= s0 + l || e + 1 == geom.lengths.len()) {
+            while k < self.samples.len()
+                && (self.samples[k].0 <= s0 + l || e + 1 == geom.lengths.len())
+            {
                 let (f, p) = local_pose(&d, self.samples[k].0 - s0);
                 let frame = start.frame * f;
                 self.poses[k] = (start.position + start.frame * p, frame.column(0).into());
@@ -436,7 +442,9 @@ impl StrandContacts {
         let mut stiffened = false;
         for k in 0..self.samples.len() {
             let (y, t) = self.poses[k];
-            let Some(hit) = self.body_hit(head, &y).filter(|h| self.effective_depth(k, h) > 0.0)
+            let Some(hit) = self
+                .body_hit(head, &y)
+                .filter(|h| self.effective_depth(k, h) > 0.0)
             else {
                 continue;
             };
@@ -464,7 +472,11 @@ impl StrandContacts {
                     let p = Matrix3::identity() - n * n.transpose();
                     let slide = p * vel;
                     let norm = slide.norm();
-                    let cos = if norm > 0.0 { t.dot(&slide) / norm } else { 0.0 };
+                    let cos = if norm > 0.0 {
+                        t.dot(&slide) / norm
+                    } else {
+                        0.0
+                    };
                     let ct = coefficient * (1.0 + self.params.anisotropy * cos) * normal.norm()
                         / slip_speed;
                     force -= ct * slide;
@@ -531,7 +543,9 @@ impl StrandContacts {
         let (mut potential, mut rate) = (0.0, 0.0);
         for k in 0..self.samples.len() {
             let (y, t) = self.poses[k];
-            let Some(hit) = self.body_hit(head, &y).filter(|h| self.effective_depth(k, h) > 0.0)
+            let Some(hit) = self
+                .body_hit(head, &y)
+                .filter(|h| self.effective_depth(k, h) > 0.0)
             else {
                 continue;
             };
@@ -608,7 +622,11 @@ impl StrandContacts {
         body_depths(self, q1, &mut after);
         // a sample already touching has its penalty stiffness in the step's matrix (or,
         // beyond δ_max, a constant force pushing it out): only new contacts are checked
-        if !before.iter().zip(&after).all(|(b, a)| *b > 0.0 || *a <= split) {
+        if !before
+            .iter()
+            .zip(&after)
+            .all(|(b, a)| *b > 0.0 || *a <= split)
+        {
             return false;
         }
         let rt = head.rotation.transpose();
@@ -671,7 +689,9 @@ impl StrandContacts {
         self.sample_poses(geom, q);
         for k in 0..self.samples.len() {
             let (y, t) = self.poses[k];
-            let Some(hit) = self.body_hit(head, &y).filter(|h| self.effective_depth(k, h) > 0.0)
+            let Some(hit) = self
+                .body_hit(head, &y)
+                .filter(|h| self.effective_depth(k, h) > 0.0)
             else {
                 self.anchors[k] = None;
                 continue;
@@ -690,7 +710,11 @@ impl StrandContacts {
                     // the stretch the kinetic force holds, and the static limit's
                     let keep = kinetic_coefficient * scale * fn_ / stiff;
                     let limit = static_coefficient * scale * fn_ / stiff;
-                    let slides = if was_sliding { norm > keep } else { norm > limit };
+                    let slides = if was_sliding {
+                        norm > keep
+                    } else {
+                        norm > limit
+                    };
                     if slides && norm > 0.0 {
                         // slide: the anchor is dragged behind, the spring holds the
                         // kinetic force
@@ -727,7 +751,12 @@ fn add_force(jac: &[Vector3<f64>], f: &Vector3<f64>, force: &mut [f64]) {
 }
 
 /// `m += Jᵀ A J` (A symmetric), `aj` scratch of 3N columns.
-fn add_projected(jac: &[Vector3<f64>], a: &Matrix3<f64>, aj: &mut [Vector3<f64>], m: &mut Mat<f64>) {
+fn add_projected(
+    jac: &[Vector3<f64>],
+    a: &Matrix3<f64>,
+    aj: &mut [Vector3<f64>],
+    m: &mut Mat<f64>,
+) {
     for (o, c) in aj.iter_mut().zip(jac) {
         *o = a * c;
     }
