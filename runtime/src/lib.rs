@@ -19,6 +19,7 @@
 //! | [`kernels`] | the [`StrandKernel`] trait and its implementations: generic runtime-N, assembly from element moments |
 //! | [`bodies`] | the bodies of a scene (head, obstacles) as signed distance fields: spheres, ellipsoids, capsules, planes exact; closed OBJ meshes sampled on a grid; attached to the head or fixed in the world |
 //! | [`forces`] | effects and head motion: environment, body field, head motion, point loads (contacts and electrostatics to come) |
+//! | [`render`] | render strands generated from the guides at every frame: root placement, semi-interpolation (paper section 4.1) |
 //! | [`config`] | the settings of a run and the [`SimulationSetup`] a simulation is built from (plain data) |
 //! | [`solver`] | time stepping and statics: the strand system, one file per integrator, the adaptive splitting, energy balance, dense solves |
 //! | [`simulation`] | [`Simulation`]: built from a setup, advanced by `step` |
@@ -28,7 +29,7 @@
 //! Data flows scene → [`SimulationSetup`] → [`Simulation::new`] (one
 //! [`solver::StrandSystem`] per strand) → [`Simulation::step`] → the solver's step →
 //! kernels → output. Each module uses only the ones before it in the order
-//! error → model → kernels → bodies → forces → config → output → solver → simulation → scene
+//! error → model → kernels → bodies → forces → render → config → output → solver → simulation → scene
 //! (`runtime/tests/architecture.rs` checks it); the output reaches a simulation only
 //! through its [`FrameSource`] trait, which [`Simulation`] implements.
 #![warn(missing_docs)]
@@ -42,6 +43,7 @@ pub mod forces;
 pub mod kernels;
 pub mod model;
 pub mod output;
+pub mod render;
 pub mod scene;
 pub mod simulation;
 pub mod solver;

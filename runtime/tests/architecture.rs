@@ -1,6 +1,6 @@
 //! The module graph of the runtime follows one order, so that it has no circle:
 //!
-//! error → model → kernels → bodies → forces → config → output → solver → simulation → scene
+//! error → model → kernels → bodies → forces → render → config → output → solver → simulation → scene
 //!
 //! A module may use (through `crate::...` paths) only itself and the modules before it.
 //! The test reads every file under `runtime/src`, takes the `crate::` paths of its code
@@ -13,12 +13,13 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 /// The top-level modules in dependency order.
-const ORDER: [&str; 10] = [
+const ORDER: [&str; 11] = [
     "error",
     "model",
     "kernels",
     "bodies",
     "forces",
+    "render",
     "config",
     "output",
     "solver",
