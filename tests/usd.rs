@@ -10,6 +10,7 @@ use superhelix::runtime::output::npy::NpyFrameStore;
 use superhelix::runtime::output::plan::Formats;
 use superhelix::runtime::output::preview::PreviewOptions;
 use superhelix::runtime::output::products::write_products;
+use superhelix::runtime::output::scenery::Scenery;
 
 /// Run the real-reader check on `dir`; (passed, output).
 fn check_usd(dir: &Path) -> (bool, String) {
@@ -51,8 +52,14 @@ fn pxr_reads_the_points_of_every_group_at_several_times() {
     assert_eq!(layout.groups(), ["solo", "front", "back"]);
     let mut store = NpyFrameStore::open(&dir).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(store.frame_count(), 7);
-    write_products(&mut store, &usda_only(), &dir, &PreviewOptions::default())
-        .unwrap_or_else(|e| panic!("{e}"));
+    write_products(
+        &mut store,
+        &usda_only(),
+        &dir,
+        &PreviewOptions::default(),
+        &Scenery::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     let (passed, text) = check_usd(&dir);
     assert!(passed, "{text}");
     assert!(

@@ -15,6 +15,7 @@ mod bodies;
 mod electrostatics;
 mod head;
 mod reader;
+mod render;
 mod strands;
 
 use crate::config::total_steps;
@@ -148,7 +149,7 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> SimulationSetup {
         .map(read_environment)
         .unwrap_or_default();
     let head = head::read_head(root.table("head"));
-    let (samples_per_element, output) = root.table("output").map_or(
+    let (samples_per_element, mut output) = root.table("output").map_or(
         (DEFAULT_SAMPLES_PER_ELEMENT, OutputSettings::default()),
         read_output,
     );
@@ -172,6 +173,9 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> SimulationSetup {
             None
         }
     };
+    output.render = root
+        .table("render")
+        .and_then(|n| render::read_render(n, &bodies));
     root.finish();
     SimulationSetup {
         config,
@@ -334,7 +338,11 @@ fn read_output(mut n: Node<'_>) -> (usize, OutputSettings) {
         None
     };
     n.finish();
-    let settings = OutputSettings { formats, max_bytes };
+    let settings = OutputSettings {
+        formats,
+        max_bytes,
+        render: None,
+    };
     (samples.unwrap_or(DEFAULT_SAMPLES_PER_ELEMENT), settings)
 }
 

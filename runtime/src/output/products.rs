@@ -1,5 +1,7 @@
 //! The files written after a run from its frames: `hair.usda`, `preview.png`,
-//! `preview_first.png`, `preview.gif`, `last_frame.obj`, as [`Formats`] says.
+//! `preview_first.png`, `preview.gif`, `last_frame.obj`, as [`Formats`] says; the stage
+//! and the pictures with the render strands and the pictures with the bodies of the
+//! run's [`Scenery`].
 
 use super::frames::FrameStore;
 use super::obj::{write_obj, OBJ_FILE};
@@ -8,19 +10,23 @@ use super::preview::{
     frame_bounds, write_frame_png, write_gif, Camera, PreviewOptions, FIRST_PNG_FILE, GIF_FILE,
     PNG_FILE,
 };
+use super::render_strands::RenderFrames;
+use super::scenery::Scenery;
 use super::usd::{write_usda, USDA_FILE};
 use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
 /// Write the post-run files `formats` asks for (`usda`, `png`, `gif`, `obj`; `json` and
 /// `npy` are written while the run goes) into `dir` from the frames of `store`, with the
-/// camera settings `view`. Returns the files written; nothing when `store` has no frame.
-/// `view.frame` (default: the last frame) must be a frame of `store`.
+/// camera settings `view`, the bodies and head motion of `scenery` and its render strands
+/// (placed once on the first frame). Returns the files written; nothing when `store` has
+/// no frame. `view.frame` (default: the last frame) must be a frame of `store`.
 pub fn write_products(
     store: &mut dyn FrameStore,
     formats: &Formats,
     dir: &Path,
     view: &PreviewOptions,
+    scenery: &Scenery,
 ) -> Result<Vec<PathBuf>> {
     let count = store.frame_count();
     let mut written = Vec::new();
@@ -42,24 +48,30 @@ pub fn write_products(
         path: dir.display().to_string(),
         source,
     })?;
+    let mut render = match &scenery.render {
+        Some(source) if formats.usda || formats.png || formats.gif => {
+            Some(RenderFrames::new(store, source, scenery)?)
+        }
+        _ => None,
+    };
     if formats.usda {
         let path = dir.join(USDA_FILE);
-        write_usda(&path, store)?;
+        write_usda(&path, store, render.as_mut().map(|r| (r, scenery)))?;
         written.push(path);
     }
     if formats.png || formats.gif {
-        let bounds = frame_bounds(store, &view.bodies)?;
+        let bounds = frame_bounds(store, scenery)?;
         let camera = Camera::fit(&bounds, view);
         if formats.png {
             for (name, k) in [(PNG_FILE, shown), (FIRST_PNG_FILE, 0)] {
                 let path = dir.join(name);
-                write_frame_png(&path, store, k, &camera, &view.bodies)?;
+                write_frame_png(&path, store, k, &camera, scenery, render.as_mut())?;
                 written.push(path);
             }
         }
         if formats.gif {
             let path = dir.join(GIF_FILE);
-            write_gif(&path, store, &camera, view)?;
+            write_gif(&path, store, &camera, view, scenery, render.as_mut())?;
             written.push(path);
         }
     }
@@ -175,6 +187,7 @@ mod tests {
             &all(),
             &dir,
             &PreviewOptions::default(),
+            &Scenery::default(),
         ));
         let names: Vec<_> = files
             .iter()
@@ -220,7 +233,8 @@ mod tests {
                 &mut s,
                 &only_obj,
                 &dir2,
-                &PreviewOptions::default()
+                &PreviewOptions::default(),
+                &Scenery::default(),
             ))
             .len(),
             1
@@ -229,7 +243,8 @@ mod tests {
             &mut store(0),
             &all(),
             &scratch("none"),
-            &PreviewOptions::default()
+            &PreviewOptions::default(),
+            &Scenery::default(),
         ))
         .is_empty());
     }
@@ -240,7 +255,13 @@ mod tests {
             frame: Some(12),
             ..PreviewOptions::default()
         };
-        let e = write_products(&mut store(12), &all(), &scratch("frame"), &view);
+        let e = write_products(
+            &mut store(12),
+            &all(),
+            &scratch("frame"),
+            &view,
+            &Scenery::default(),
+        );
         assert!(e.is_err_and(
             |e| e.to_string().contains("preview.frame") && e.to_string().contains("0..=11")
         ));
@@ -261,6 +282,7 @@ mod tests {
             &formats,
             &dir,
             &PreviewOptions::default(),
+            &Scenery::default(),
         ));
         let text = read(&dir.join(OBJ_FILE));
         let objects: Vec<&str> = text.lines().filter(|l| l.starts_with("o ")).collect();
@@ -302,6 +324,7 @@ mod tests {
             &formats,
             &dir,
             &PreviewOptions::default(),
+            &Scenery::default(),
         ));
         let text = read(&dir.join(USDA_FILE));
         assert!(text.starts_with("#usda 1.0\n"));
@@ -352,11 +375,11 @@ mod tests {
         let view = PreviewOptions {
             width: 400,
             height: 300,
-            bodies: vec![PreviewBody {
-                centre: [0.0, 0.0, 0.05],
-                radii: [0.04; 3],
-            }],
             ..PreviewOptions::default()
+        };
+        let scenery = Scenery {
+            bodies: vec![PreviewBody::sphere([0.0, 0.0, 0.05], 0.04)],
+            ..Scenery::default()
         };
         let formats = Formats {
             usda: false,
@@ -364,7 +387,7 @@ mod tests {
             obj: false,
             ..all()
         };
-        ok(write_products(&mut s, &formats, &dir, &view));
+        ok(write_products(&mut s, &formats, &dir, &view, &scenery));
         let bytes = std::fs::read(dir.join(PNG_FILE)).unwrap_or_default();
         let pixmap = tiny_skia::Pixmap::decode_png(&bytes).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!((pixmap.width(), pixmap.height()), (400, 300));
@@ -403,7 +426,13 @@ mod tests {
             obj: false,
             ..all()
         };
-        ok(write_products(&mut s, &formats, &dir, &view));
+        ok(write_products(
+            &mut s,
+            &formats,
+            &dir,
+            &view,
+            &Scenery::default(),
+        ));
         let bytes = std::fs::read(dir.join(GIF_FILE)).unwrap_or_default();
         assert_eq!(&bytes[..6], b"GIF89a");
         assert_eq!(u16::from_le_bytes([bytes[6], bytes[7]]), 200);
