@@ -273,15 +273,18 @@ pub fn frame_bounds(store: &mut dyn FrameStore, scenery: &Scenery) -> Result<Bou
     Ok(bounds)
 }
 
+/// A frame's render strands as a picture draws them: every point (strand after strand),
+/// points per strand, and the group index of each strand's colour.
+pub type RenderView<'a> = (&'a [[f32; 3]], usize, &'a [u16]);
+
 /// What a picture shows besides the guides: the bodies placed at the frame's head pose
 /// and the frame's render strands.
 #[derive(Debug, Clone, Default)]
 pub struct FrameScene<'a> {
     /// Bodies in world coordinates.
     pub bodies: Vec<PreviewShape>,
-    /// Render strands: every point (strand after strand), points per strand, and the
-    /// group index of each strand's colour.
-    pub render: Option<(&'a [[f32; 3]], usize, &'a [u16])>,
+    /// Render strands.
+    pub render: Option<RenderView<'a>>,
 }
 
 /// Where each view's panel is and the common scale.
@@ -518,7 +521,7 @@ fn draw_body(
                     .sum::<f64>()
             };
             let (a, b, d) = (m(r, r), m(r, u), m(u, u));
-            if !(a > 0.0) {
+            if a.is_nan() || a <= 0.0 {
                 return;
             }
             let l00 = a.sqrt();

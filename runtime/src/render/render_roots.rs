@@ -170,7 +170,7 @@ fn keep_triangle(
     }
     let normal = ab.cross(&ac);
     let area2 = normal.norm();
-    if !(area2 > 2.0 * MIN_SHAPE * longest * longest) {
+    if area2.is_nan() || area2 <= 2.0 * MIN_SHAPE * longest * longest {
         return false;
     }
     // circumcentre of the triangle in its plane
@@ -309,7 +309,7 @@ fn barycentric(t: [Vector3<f64>; 3], p: &Vector3<f64>) -> Option<([f64; 3], f64)
     let (d00, d01, d11) = (v0.dot(&v0), v0.dot(&v1), v1.dot(&v1));
     let (d20, d21) = (v2.dot(&v0), v2.dot(&v1));
     let denom = d00 * d11 - d01 * d01;
-    if !(denom > 0.0) {
+    if denom.is_nan() || denom <= 0.0 {
         return None;
     }
     let v = (d11 * d20 - d01 * d21) / denom;

@@ -4,8 +4,8 @@
 //!
 //! Guide k of a render strand with root r (head coordinates) carries the offset
 //! o_k = r − root_k (head coordinates), turned with the head: at a frame where the head
-//! has rotation R and guide k has centreline points P_k[j] (world, root first), the guide
-//! proposes the point P_k[j] + R o_k for sample j (its own shape, moved so that its root
+//! has rotation R and guide k has centreline points `P_k[j]` (world, root first), the guide
+//! proposes the point `P_k[j] + R o_k` for sample j (its own shape, moved so that its root
 //! falls on the render root). The render strand's sample j is
 //!
 //! ```text
@@ -18,8 +18,8 @@
 //! φ = 1 up to 3/4 of `tip_distance`, 0 from `tip_distance` on, smoothstep between (so
 //! that a guide leaves the blend without a jump in time), renormalised to sum 1 (the
 //! dominant guide always stays). Every ω sums to 1. At the root every guide proposes r
-//! itself, so S[0] = X + R r whatever the weights; with c ≡ 0 the strand is the classic
-//! interpolation Σ w̃_k P_k[j] plus the turned offset of r from the weighted root; with
+//! itself, so `S[0] = X + R r` whatever the weights; with c ≡ 0 the strand is the classic
+//! interpolation `Σ w̃_k P_k[j]` plus the turned offset of r from the weighted root; with
 //! c ≡ 1 it is its dominant guide moved to r (a lock of fixed offset).
 //!
 //! The per-frame work allocates nothing: the guides are converted into a reused f32
@@ -238,7 +238,7 @@ fn check_guides(rest: &[Vector3<f64>], points: usize) -> Result<()> {
 /// The roots of guide polylines `rest` of `points` points each and their root tangents
 /// (the direction of the first segment; +z when it has no length).
 pub fn guide_roots(rest: &[Vector3<f64>], points: usize) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
-    let guides = if points == 0 { 0 } else { rest.len() / points };
+    let guides = rest.len().checked_div(points).unwrap_or(0);
     let roots = (0..guides).map(|g| rest[g * points]).collect();
     let directions = (0..guides)
         .map(|g| {
