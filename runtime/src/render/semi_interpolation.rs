@@ -307,12 +307,12 @@ fn blend_strand(
         &guides[g[2]..g[2] + m],
         &guides[g[d]..g[d] + m],
     );
-    for j in 0..m {
-        let cj = c[j];
+    let samples = c.iter().zip(p0).zip(p1).zip(p2).zip(pd);
+    for (out, ((((&cj, q0), q1), q2), qd)) in line.iter_mut().zip(samples) {
         for x in 0..3 {
-            let interpolated = w[0] * p0[j][x] + w[1] * p1[j][x] + w[2] * p2[j][x] + a[x];
-            let clumped = pd[j][x] + bd[x];
-            line[j][x] = interpolated + cj * (clumped - interpolated);
+            let interpolated = w[0] * q0[x] + w[1] * q1[x] + w[2] * q2[x] + a[x];
+            let clumped = qd[x] + bd[x];
+            out[x] = interpolated + cj * (clumped - interpolated);
         }
     }
 }
