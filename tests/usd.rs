@@ -173,7 +173,7 @@ fn pxr_reads_the_render_strands() {
     let mut store = NpyFrameStore::open(&dir).unwrap_or_else(|e| panic!("{e}"));
     // the render strands as the library generates them, written beside the frames
     let mut render =
-        RenderFrames::new(&mut store, &source, &scenery).unwrap_or_else(|e| panic!("{e}"));
+        RenderFrames::new(&mut store, &source, &scenery, 1).unwrap_or_else(|e| panic!("{e}"));
     // the guides have 10, 13 and 7 points: render strands take the most
     assert_eq!(
         (render.strand_count(), render.points_per_strand()),

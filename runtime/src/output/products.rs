@@ -8,7 +8,7 @@ use super::obj::{write_obj, OBJ_FILE};
 use super::plan::Formats;
 use super::preview::{
     frame_bounds, write_frame_png, write_gif, Camera, PreviewOptions, FIRST_PNG_FILE, GIF_FILE,
-    PNG_FILE,
+    PNG_FILE, PREVIEW_RENDER_STRANDS,
 };
 use super::render_strands::RenderFrames;
 use super::scenery::Scenery;
@@ -48,9 +48,14 @@ pub fn write_products(
         path: dir.display().to_string(),
         source,
     })?;
+    // the stage takes every render strand, the pictures only those they draw
     let mut render = match &scenery.render {
         Some(source) if formats.usda || formats.png || formats.gif => {
-            Some(RenderFrames::new(store, source, scenery)?)
+            let stride = match formats.usda {
+                true => 1,
+                false => source.settings.strands.div_ceil(PREVIEW_RENDER_STRANDS),
+            };
+            Some(RenderFrames::new(store, source, scenery, stride)?)
         }
         _ => None,
     };

@@ -34,12 +34,14 @@ pub struct RenderFrames {
 
 impl RenderFrames {
     /// The render strands `source` asks for, placed on the guides of frame 0 of `store`;
-    /// `scenery` gives the head's pose. An error when the store has no frame or a guide
-    /// has fewer than 2 points.
+    /// `scenery` gives the head's pose. Only every `stride`-th render strand is built (1:
+    /// all; the pictures need at most [`super::preview::PREVIEW_RENDER_STRANDS`]). An
+    /// error when the store has no frame or a guide has fewer than 2 points.
     pub fn new(
         store: &mut dyn FrameStore,
         source: &RenderSource,
         scenery: &Scenery,
+        stride: usize,
     ) -> Result<Self> {
         if store.frame_count() == 0 {
             return Err(Error::invalid(
@@ -75,8 +77,13 @@ impl RenderFrames {
             .iter()
             .map(|p| to_head * (Vector3::from(*p) - head.position))
             .collect();
-        let interp =
-            SemiInterpolation::new(&source.settings, &rest, points, source.scalp.as_ref())?;
+        let interp = SemiInterpolation::subset(
+            &source.settings,
+            &rest,
+            points,
+            source.scalp.as_ref(),
+            (0..source.settings.strands).step_by(stride.max(1)),
+        )?;
         let names = layout.groups();
         let group_of: Vec<u16> = layout
             .strands

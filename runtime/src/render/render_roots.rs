@@ -14,7 +14,9 @@
 //! direction (the scalp normal with a scalp), whose render strands follow it alone.
 //!
 //! Render root i picks a triangle or disc with probability proportional to its area,
-//! then a uniform point in it (ChaCha8 seeded by `seed`, stream 0): in a triangle its
+//! then a uniform point in it, from three 64-bit draws of ChaCha8 seeded by `seed`
+//! (stream 0) at word 6i, so that any subset of the roots can be placed alone, the same
+//! as in the whole set ([`RenderRoots::place_subset`]): in a triangle its
 //! blend weights are its barycentric coordinates, in a disc the guide's weight is 1. With
 //! a scalp, the point is moved to the closest point of the scalp's surface. Its dominant
 //! guide is the one of largest weight.
@@ -23,7 +25,7 @@ use super::neighbours::PointGrid;
 use super::settings::{RenderSettings, DEFAULT_LOCK_RADIUS, DEFAULT_SPACING_FACTOR};
 use crate::bodies::Body;
 use nalgebra::Vector3;
-use rand::{RngExt, SeedableRng};
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::collections::HashSet;
 use superhelix_kernels::head::HeadState;
@@ -203,6 +205,18 @@ impl RenderRoots {
         settings: &RenderSettings,
         scalp: Option<&Body>,
     ) -> Self {
+        Self::place_subset(roots, directions, settings, scalp, 0..settings.strands)
+    }
+
+    /// The render roots of indices `indices` (each below `settings.strands`) of
+    /// [`RenderRoots::place`], in that order, without placing the others.
+    pub fn place_subset(
+        roots: &[Vector3<f64>],
+        directions: &[Vector3<f64>],
+        settings: &RenderSettings,
+        scalp: Option<&Body>,
+        indices: impl Iterator<Item = usize>,
+    ) -> Self {
         let sites = RootSites::new(roots, settings.max_spacing);
         if roots.is_empty() {
             return Self {
@@ -225,13 +239,17 @@ impl RenderRoots {
         }
         let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
         rng.set_stream(0);
-        let mut out = Vec::with_capacity(settings.strands);
-        for _ in 0..settings.strands {
-            let pick: f64 = rng.random::<f64>() * total;
+        // a uniform f64 in [0, 1) from the top 53 bits of one 64-bit draw
+        let uniform =
+            |rng: &mut ChaCha8Rng| (rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
+        let mut out = Vec::with_capacity(indices.size_hint().0);
+        for i in indices {
+            rng.set_word_pos(6 * i as u128);
+            let pick = uniform(&mut rng) * total;
             let site = cumulative
                 .partition_point(|&c| c <= pick)
                 .min(cumulative.len() - 1);
-            let (r1, r2): (f64, f64) = (rng.random(), rng.random());
+            let (r1, r2) = (uniform(&mut rng), uniform(&mut rng));
             let root = if site < sites.triangles.len() {
                 let t = sites.triangles[site];
                 let s = r1.sqrt();
@@ -243,7 +261,8 @@ impl RenderRoots {
                 let centre = roots[g as usize];
                 let axis = scalp
                     .map(|b| b.query(&rest, &centre).normal)
-                    .unwrap_or(directions[g as usize]);
+                    .or_else(|| directions.get(g as usize).copied())
+                    .unwrap_or_else(Vector3::z);
                 let (e1, e2) = across(&axis);
                 let (rho, phi) = (radius * r1.sqrt(), std::f64::consts::TAU * r2);
                 let p = centre + (e1 * phi.cos() + e2 * phi.sin()) * rho;

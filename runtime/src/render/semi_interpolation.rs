@@ -74,9 +74,22 @@ impl SemiInterpolation {
         points: usize,
         scalp: Option<&Body>,
     ) -> Result<Self> {
+        Self::subset(settings, rest, points, scalp, 0..settings.strands)
+    }
+
+    /// [`SemiInterpolation::new`] with only the render strands of indices `indices`
+    /// (each below `settings.strands`; e.g. every k-th for a picture): they are the same
+    /// strands as in the whole set ([`RenderRoots::place_subset`]).
+    pub fn subset(
+        settings: &RenderSettings,
+        rest: &[Vector3<f64>],
+        points: usize,
+        scalp: Option<&Body>,
+        indices: impl Iterator<Item = usize>,
+    ) -> Result<Self> {
         check_guides(rest, points)?;
         let (roots, directions) = guide_roots(rest, points);
-        let placed = RenderRoots::place(&roots, &directions, settings, scalp);
+        let placed = RenderRoots::place_subset(&roots, &directions, settings, scalp, indices);
         Self::with_roots(settings, rest, points, placed)
     }
 
@@ -204,17 +217,21 @@ impl SemiInterpolation {
 
     /// The weights w̃ of render strand `i`'s guides at a frame whose guide centrelines
     /// are `guides` (world, the layout of `new`): the root weights with the tip criterion
-    /// applied, summing to 1, and the guides they belong to.
-    pub fn effective_weights(&self, i: usize, guides: &[[f64; 3]]) -> ([u32; 3], [f64; 3]) {
-        let b = &self.blends[i];
+    /// applied, summing to 1, and the guides they belong to; `None` for a strand or a
+    /// guide layout that does not exist.
+    pub fn effective_weights(&self, i: usize, guides: &[[f64; 3]]) -> Option<([u32; 3], [f64; 3])> {
+        let b = self.blends.get(i)?;
         let m = self.points;
+        if guides.len() != self.guides * m {
+            return None;
+        }
         let tip = |g: u32| {
             let p = guides[(g as usize + 1) * m - 1];
             [p[0] as f32, p[1] as f32, p[2] as f32]
         };
         let tips = b.guides.map(tip);
         let w = tip_weights(b, &tips, self.tip_distance);
-        (b.guides, w.map(f64::from))
+        Some((b.guides, w.map(f64::from)))
     }
 }
 

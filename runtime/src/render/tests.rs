@@ -212,7 +212,9 @@ fn guides_with_distant_tips_are_not_interpolated_across() {
             let (far, own) = far_tips(i, &out, &interp);
             closest_to_far_row = closest_to_far_row.min(far);
             farthest_from_own_tip = farthest_from_own_tip.max(own);
-            let (_, w) = interp.effective_weights(i, &guides);
+            let (_, w) = interp
+                .effective_weights(i, &guides)
+                .unwrap_or_else(|| panic!("strand {i}"));
             assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-6, "{w:?}");
         }
         if expect_gap {
@@ -339,4 +341,30 @@ fn a_lone_guide_gets_a_lock_and_a_line_of_guides_gets_discs() {
         .iter()
         .all(|d| (d.1 - 0.005).abs() < 1e-12));
     assert!(SemiInterpolation::new(&settings(5, 0.5), &row[1..], M, None).is_err());
+}
+
+#[test]
+fn a_subset_of_the_render_strands_is_the_same_strands() {
+    let roots = grid_roots(5, 5);
+    let rest: Vec<Vector3<f64>> = roots
+        .iter()
+        .enumerate()
+        .flat_map(|(g, r)| wavy(*r, 0.2 * g as f64))
+        .collect();
+    let s = settings(1000, 0.5);
+    let mut all = ok(SemiInterpolation::new(&s, &rest, M, None));
+    let mut every_7th = ok(SemiInterpolation::subset(
+        &s,
+        &rest,
+        M,
+        None,
+        (0..1000).step_by(7),
+    ));
+    assert_eq!(every_7th.strand_count(), 143);
+    let guides = world(&rest);
+    let a = ok(all.frame(&guides, &Matrix3::identity())).to_vec();
+    let b = ok(every_7th.frame(&guides, &Matrix3::identity())).to_vec();
+    for (n, i) in (0..1000).step_by(7).enumerate() {
+        assert_eq!(a[i * M..(i + 1) * M], b[n * M..(n + 1) * M], "strand {i}");
+    }
 }
