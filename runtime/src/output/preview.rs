@@ -14,9 +14,9 @@
 //! (≥ 1.5 px wide) coloured by group with [`PALETTE`] (group g in order of first
 //! appearance gets `PALETTE[g % 10]` in every picture and in `hair.usda`); bodies are
 //! filled light grey under the strands, at the head's pose of each frame (how each shape
-//! is drawn: [`super::scenery`]); render strands (`[render]`) are thin translucent lines
-//! in the colour of their dominant guide's group, between the bodies and the guides (at
-//! most [`PREVIEW_RENDER_STRANDS`] of them: every k-th when there are more).
+//! is drawn: [`super::scenery`]); render strands (`[render]`) are one-pixel lines in a
+//! light shade of their dominant guide's group colour, between the bodies and the guides
+//! (at most [`PREVIEW_RENDER_STRANDS`] of them: every k-th when there are more).
 //!
 //! The GIF has every frame, or every k-th frame to keep at most
 //! [`PreviewOptions::gif_max_frames`], looped, each shown for k / output_fps s (rounded to
@@ -40,11 +40,14 @@ use tiny_skia::{
 pub use super::scenery::PreviewBody;
 
 /// Most render strands a picture draws (every k-th when there are more).
-pub const PREVIEW_RENDER_STRANDS: usize = 4000;
-/// Opacity of the render strands' lines.
-const RENDER_ALPHA: f32 = 0.35;
-/// Width of the render strands' lines, pixels.
-const RENDER_WIDTH: f32 = 0.7;
+pub const PREVIEW_RENDER_STRANDS: usize = 1000;
+/// Level (of 15) of the render strands' colour: their group colour blended with white at
+/// 5/15, an exact entry of the GIF's palette, drawn opaque (translucent lines would make
+/// every overlap a new colour for the GIF to match).
+const RENDER_LEVEL: u32 = 5;
+/// Width of the render strands' lines, pixels: 0 is a one-pixel anti-aliased hairline
+/// (the fastest stroke).
+const RENDER_WIDTH: f32 = 0.0;
 
 /// Name of the last frame's picture.
 pub const PNG_FILE: &str = "preview.png";
@@ -650,13 +653,11 @@ fn draw_render_strands(
             }
         }
         if let Some(path) = pb.finish() {
-            let [r, gr, b] = group_colour(g);
-            let mut paint = Paint::default();
-            paint.set_color_rgba8(r, gr, b, (RENDER_ALPHA * 255.0) as u8);
-            paint.anti_alias = true;
+            let light = group_colour(g)
+                .map(|v| (255 - ((255 - v as u32) * RENDER_LEVEL + 7) / 15) as u8);
             pixmap.stroke_path(
                 &path,
-                &paint,
+                &paint(light),
                 &stroke(RENDER_WIDTH),
                 Transform::identity(),
                 None,
