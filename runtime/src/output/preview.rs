@@ -653,8 +653,8 @@ fn draw_render_strands(
             }
         }
         if let Some(path) = pb.finish() {
-            let light = group_colour(g)
-                .map(|v| (255 - ((255 - v as u32) * RENDER_LEVEL + 7) / 15) as u8);
+            let light =
+                group_colour(g).map(|v| (255 - ((255 - v as u32) * RENDER_LEVEL + 7) / 15) as u8);
             pixmap.stroke_path(
                 &path,
                 &paint(light),
