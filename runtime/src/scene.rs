@@ -154,6 +154,9 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> SimulationSetup {
         read_output,
     );
     let bodies = bodies::read_bodies(&mut root, scene_dir);
+    output.render = root
+        .table("render")
+        .and_then(|n| render::read_render(n, &bodies));
     let strands = assembly::read_strands(&mut root, &defaults, &bodies);
     let electrostatics = match root.table("electrostatics") {
         Some(n) => electrostatics::read_electrostatics(n, &strands, &bodies),
@@ -173,9 +176,6 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> SimulationSetup {
             None
         }
     };
-    output.render = root
-        .table("render")
-        .and_then(|n| render::read_render(n, &bodies));
     root.finish();
     SimulationSetup {
         config,
