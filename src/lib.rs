@@ -31,6 +31,7 @@ use runtime::groom::GroomReport;
 use runtime::output::npy::{NpyFrameSink, NpyFrameStore, INDEX_FILE, NPY_FILE, TIMES_FILE};
 use runtime::output::preview::PreviewOptions;
 use runtime::output::products::write_products;
+use runtime::output::scenery::Scenery;
 use runtime::output::{
     self, FrameSink, JsonFrameSink, JsonFrameStore, MemoryFrames, RunOutcome, StopReason,
 };
@@ -156,13 +157,18 @@ pub fn run_planned<S: FrameSource + ?Sized>(
     let mut products_error = None;
     if products != Formats::NONE && outcome.frames_written() > 0 {
         let view = PreviewOptions::default();
-        let written = match memory.as_mut() {
-            Some(store) => write_products(store, &products, &plan.dir, &view),
-            None if formats.npy => NpyFrameStore::open(&plan.dir.join(NPY_FILE))
-                .and_then(|mut store| write_products(&mut store, &products, &plan.dir, &view)),
-            None => JsonFrameStore::open(&json_path)
-                .and_then(|mut store| write_products(&mut store, &products, &plan.dir, &view)),
-        };
+        let written = Scenery::from_setup(setup).and_then(|scenery| {
+            let write = |store: &mut dyn output::FrameStore| {
+                write_products(store, &products, &plan.dir, &view, &scenery)
+            };
+            match memory.as_mut() {
+                Some(store) => write(store),
+                None if formats.npy => {
+                    NpyFrameStore::open(&plan.dir.join(NPY_FILE)).and_then(|mut s| write(&mut s))
+                }
+                None => JsonFrameStore::open(&json_path).and_then(|mut s| write(&mut s)),
+            }
+        });
         match written {
             Ok(written) => files.extend(written),
             Err(e) => products_error = Some(e),

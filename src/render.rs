@@ -8,6 +8,7 @@ use superhelix_runtime::output::npy::{NpyFrameStore, NPY_FILE};
 use superhelix_runtime::output::plan::Formats;
 use superhelix_runtime::output::preview::{PreviewOptions, View};
 use superhelix_runtime::output::products::write_products;
+use superhelix_runtime::output::scenery::Scenery;
 use superhelix_runtime::{Error, Result};
 
 /// What `render` is asked to do.
@@ -114,5 +115,12 @@ pub fn render(request: &RenderRequest) -> Result<Vec<PathBuf>> {
         gif: request.gif,
         obj: false,
     };
-    write_products(store.as_mut(), &formats, &request.out, &options)
+    // frames alone carry no scene: no bodies, no render strands
+    write_products(
+        store.as_mut(),
+        &formats,
+        &request.out,
+        &options,
+        &Scenery::default(),
+    )
 }

@@ -369,3 +369,67 @@ fn sigint_stops_the_run_and_keeps_every_frame_written() {
     }
     assert!(out_dir.join("last_frame.obj").is_file(), "{}", stdout(&out));
 }
+
+/// `run` with `[render]`: the render strands are a prim of `hair.usda` and drawn in the
+/// picture; the plan counts them; the frames hold only the guides.
+#[test]
+fn run_writes_the_render_strands_of_a_render_table() {
+    let dir = scratch("render-table");
+    let scene = format!(
+        "{}\n[[bodies]]\nname = \"head\"\nshape = \"sphere\"\nradius = 0.03\ncenter = [0.0, 0.0, 0.04]\n\n[render]\nstrands = 40\nscalp_body = \"head\"\n",
+        support::SCENE
+    );
+    let path = write(&dir, "render.toml", &scene);
+    let plain = write(&dir, "plain.toml", support::SCENE);
+    let out_dir = dir.join("out");
+    let out = superhelix(&[
+        "run",
+        &path,
+        "--out",
+        &s(&out_dir),
+        "--format",
+        "npy,usda,png",
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let usda = std::fs::read_to_string(out_dir.join("hair.usda")).unwrap_or_default();
+    assert!(
+        usda.contains("def BasisCurves \"render\""),
+        "no render prim"
+    );
+    // 40 curves of 13 points (the most of any strand)
+    let counts = format!("int[] curveVertexCounts = [{}]", vec!["13"; 40].join(", "));
+    assert!(usda.contains(&counts), "render counts missing");
+    assert!(out_dir.join("preview.png").is_file());
+    // the frames are the guides' alone
+    let store = NpyFrameStore::open(&out_dir).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(store.layout().strands.len(), 4);
+    // the plan of the render scene is larger by the render strands' points:
+    // 40 x 13 points x 3 floats x 14 bytes x 7 frames + 40 x 40 bytes
+    let plan = |p: &str| -> String {
+        let out = superhelix(&["validate", p]);
+        assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+        stdout(&out)
+    };
+    let (with, without) = (plan(&path), plan(&plain));
+    let usda_bytes = |text: &str| -> f64 {
+        let at = text.find("hair.usda ").unwrap_or(0) + "hair.usda ".len();
+        let rest = &text[at..];
+        let number: String = rest
+            .chars()
+            .take_while(|c| *c == '.' || c.is_ascii_digit())
+            .collect();
+        let value: f64 = number.parse().unwrap_or(f64::NAN);
+        if rest[number.len()..].trim_start().starts_with("MB") {
+            value * 1e6
+        } else {
+            value * 1e3
+        }
+    };
+    let added = usda_bytes(&with) - usda_bytes(&without);
+    let expected = (40 * 13 * 3 * 14 * 7 + 40 * 40) as f64;
+    // the plan prints 3 significant digits
+    assert!(
+        (added - expected).abs() < 0.01 * expected + 1000.0,
+        "{with}\n{without}"
+    );
+}

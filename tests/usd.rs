@@ -10,6 +10,7 @@ use superhelix::runtime::output::npy::NpyFrameStore;
 use superhelix::runtime::output::plan::Formats;
 use superhelix::runtime::output::preview::PreviewOptions;
 use superhelix::runtime::output::products::write_products;
+use superhelix::runtime::output::scenery::Scenery;
 
 /// Run the real-reader check on `dir`; (passed, output).
 fn check_usd(dir: &Path) -> (bool, String) {
@@ -51,8 +52,14 @@ fn pxr_reads_the_points_of_every_group_at_several_times() {
     assert_eq!(layout.groups(), ["solo", "front", "back"]);
     let mut store = NpyFrameStore::open(&dir).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(store.frame_count(), 7);
-    write_products(&mut store, &usda_only(), &dir, &PreviewOptions::default())
-        .unwrap_or_else(|e| panic!("{e}"));
+    write_products(
+        &mut store,
+        &usda_only(),
+        &dir,
+        &PreviewOptions::default(),
+        &Scenery::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     let (passed, text) = check_usd(&dir);
     assert!(passed, "{text}");
     assert!(
@@ -141,4 +148,106 @@ fn numpy_loads_the_frames_of_an_unfinished_run() {
         "(3, 4, 3) float32 (3, 2) float64 [2.0, 3.0, 0.25] [0.2, 0.2]"
     );
     drop(sink);
+}
+
+/// The render strands of `[render]` are a last prim "render" under /hair that pxr reads
+/// back with the points the library generates (`render/frames.npy`), at several times,
+/// with the head turning.
+#[test]
+fn pxr_reads_the_render_strands() {
+    use superhelix::runtime::output::frames::{FrameLayout, FrameSink, FrameView, StrandInfo};
+    use superhelix::runtime::output::npy::NpyFrameSink;
+    use superhelix::runtime::output::render_strands::RenderFrames;
+    let dir = support::scratch("usd-render");
+    let scene = format!(
+        "{}\n[head]\nmotion = {{ kind = \"oscillate\", axis = [0.0, 0.0, 1.0], angle_deg = 20.0, frequency_hz = 2.0 }}\n\n[[bodies]]\nname = \"head\"\nshape = \"sphere\"\nradius = 0.04\ncenter = [0.0, 0.0, 0.05]\n\n[render]\nstrands = 60\nclumping = 0.5\ntip_distance = 0.1\nseed = 4\n",
+        support::SCENE
+    );
+    let setup = superhelix::parse_scene(&scene).unwrap_or_else(|e| panic!("{e}"));
+    support::simulate_to_npy(&scene, &dir);
+    let scenery = Scenery::from_setup(&setup).unwrap_or_else(|e| panic!("{e}"));
+    let source = scenery
+        .render
+        .clone()
+        .unwrap_or_else(|| panic!("no render"));
+    let mut store = NpyFrameStore::open(&dir).unwrap_or_else(|e| panic!("{e}"));
+    // the render strands as the library generates them, written beside the frames
+    let mut render =
+        RenderFrames::new(&mut store, &source, &scenery, 1).unwrap_or_else(|e| panic!("{e}"));
+    // the guides have 10, 13 and 7 points: render strands take the most
+    assert_eq!(
+        (render.strand_count(), render.points_per_strand()),
+        (60, 13)
+    );
+    let layout = FrameLayout {
+        strands: vec![StrandInfo {
+            name: "render".into(),
+            group: "render".into(),
+            radius: 5e-5,
+            points: 60 * 13,
+            coordinates: 0,
+        }],
+        output_fps: 30.0,
+        planned_frames: store.frame_count(),
+    };
+    let mut sink =
+        NpyFrameSink::create(&dir.join("render"), &layout).unwrap_or_else(|e| panic!("{e}"));
+    for k in 0..store.frame_count() {
+        let points: Vec<[f64; 3]> = render
+            .frame(&mut store, k, &scenery)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .iter()
+            .map(|p| p.map(f64::from))
+            .collect();
+        let view = FrameView {
+            index: k,
+            time: store.time(k),
+            state_time: store.time(k),
+            points: &points,
+            q: &[],
+        };
+        sink.write_frame(&view).unwrap_or_else(|e| panic!("{e}"));
+    }
+    sink.finish().unwrap_or_else(|e| panic!("{e}"));
+    let formats = Formats {
+        png: true,
+        ..usda_only()
+    };
+    write_products(
+        &mut store,
+        &formats,
+        &dir,
+        &PreviewOptions::default(),
+        &scenery,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let (passed, text) = check_usd(&dir);
+    assert!(passed, "{text}");
+    assert!(
+        text.contains("3 BasisCurves prims, 7 frames")
+            && text.contains("render prim: 60 curves of 13 points"),
+        "{text}"
+    );
+
+    // the check fails when a render point of the last frame is off by 2e-6 m
+    let usda = dir.join("hair.usda");
+    let original = std::fs::read_to_string(&usda).unwrap_or_else(|e| panic!("{e}"));
+    let prim = original
+        .find("def BasisCurves \"render\"")
+        .unwrap_or_else(|| panic!("no render prim"));
+    let frame6 = prim
+        + original[prim..]
+            .find("            6: [(")
+            .unwrap_or_else(|| panic!("no frame 6"));
+    let start = frame6 + "            6: [(".len();
+    let end = start + original[start..].find(',').unwrap_or(0);
+    let x: f32 = original[start..end]
+        .parse()
+        .unwrap_or_else(|e| panic!("{e}: {}", &original[start..end]));
+    let moved = superhelix::runtime::output::usd::format_f32(x + 2e-6);
+    let broken = format!("{}{}{}", &original[..start], moved, &original[end..]);
+    std::fs::write(&usda, broken).unwrap_or_else(|e| panic!("{e}"));
+    let (passed, text) = check_usd(&dir);
+    assert!(!passed, "a render point off by 2e-6 m passed:\n{text}");
+    assert!(text.contains("at time 6: render points differ"), "{text}");
 }

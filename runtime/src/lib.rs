@@ -17,9 +17,10 @@
 //! |---|---|
 //! | [`model`] | the helix model and its reconstruction: strand, material, helical element, centreline and frames from q |
 //! | [`kernels`] | the [`StrandKernel`] trait and its implementations: generic runtime-N, assembly from element moments |
-//! | [`bodies`] | the bodies of a scene (head, obstacles) as signed distance fields: spheres, ellipsoids, capsules, planes exact; closed OBJ meshes sampled on a grid; attached to the head or fixed in the world |
-//! | [`forces`] | effects and head motion: environment, body field, head motion, point loads (contacts and electrostatics to come) |
+//! | [`bodies`] | the bodies of a scene (head, obstacles) as signed distance fields: spheres, ellipsoids, capsules, cylinders, planes exact; closed OBJ meshes sampled on a grid; attached to the head or fixed in the world |
+//! | [`forces`] | effects and head motion: environment, body field, head motion, point loads, contacts with bodies and between strands, static electricity |
 //! | [`groom`] | many strands at once: Poisson-disk roots over a scalp region of a body, curves read from OBJ or USDA files and fitted as Super-Helices, a sag-free start (inverse statics) |
+//! | [`render`] | render strands generated from the guides at every frame: root placement, semi-interpolation (paper section 4.1) |
 //! | [`config`] | the settings of a run and the [`SimulationSetup`] a simulation is built from (plain data) |
 //! | [`solver`] | time stepping and statics: the strand system, one file per integrator, the adaptive splitting, energy balance, dense solves |
 //! | [`simulation`] | [`Simulation`]: built from a setup, advanced by `step` |
@@ -29,8 +30,8 @@
 //! Data flows scene → [`SimulationSetup`] → [`Simulation::new`] (one
 //! [`solver::StrandSystem`] per strand) → [`Simulation::step`] → the solver's step →
 //! kernels → output. Each module uses only the ones before it in the order
-//! error → model → kernels → bodies → forces → groom → config → output → solver → simulation →
-//! scene
+//! error → model → kernels → bodies → forces → groom → render → config → output → solver →
+//! simulation → scene
 //! (`runtime/tests/architecture.rs` checks it); the output reaches a simulation only
 //! through its [`FrameSource`] trait, which [`Simulation`] implements.
 #![warn(missing_docs)]
@@ -45,6 +46,7 @@ pub mod groom;
 pub mod kernels;
 pub mod model;
 pub mod output;
+pub mod render;
 pub mod scene;
 pub mod simulation;
 pub mod solver;

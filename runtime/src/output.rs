@@ -12,7 +12,9 @@
 //!   limit and the checks of the output directory.
 //! - [`atomic`]: files written whole or not at all (a temporary file and a rename).
 //! - [`products`]: the files written after the run from the frames written
-//!   (`hair.usda` by [`usd`], the previews by [`preview`], `last_frame.obj` by [`obj`]).
+//!   (`hair.usda` by [`usd`], the previews by [`preview`], `last_frame.obj` by [`obj`]),
+//!   with the head motion, bodies and render strands of the run's [`scenery`]; the
+//!   render strands of each frame by [`render_strands`].
 //!
 //! The driver reaches the simulation only through [`FrameSource`].
 
@@ -26,6 +28,8 @@ pub mod obj;
 pub mod plan;
 pub mod preview;
 pub mod products;
+pub mod render_strands;
+pub mod scenery;
 pub mod usd;
 
 pub use driver::{frame_layout, run_streaming, RunOutcome, StopReason};

@@ -17,6 +17,7 @@ mod electrostatics;
 mod groom;
 mod head;
 mod reader;
+mod render;
 mod strands;
 
 use crate::config::total_steps;
@@ -160,11 +161,14 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> (SimulationSetup, Vec<Gro
         .map(read_environment)
         .unwrap_or_default();
     let head = head::read_head(root.table("head"));
-    let (samples_per_element, output) = root.table("output").map_or(
+    let (samples_per_element, mut output) = root.table("output").map_or(
         (DEFAULT_SAMPLES_PER_ELEMENT, OutputSettings::default()),
         read_output,
     );
     let bodies = bodies::read_bodies(&mut root, scene_dir);
+    output.render = root
+        .table("render")
+        .and_then(|n| render::read_render(n, &bodies));
     let mut grooms = groom::GroomContext {
         bodies: &bodies,
         gravity: environment
@@ -364,7 +368,11 @@ fn read_output(mut n: Node<'_>) -> (usize, OutputSettings) {
         None
     };
     n.finish();
-    let settings = OutputSettings { formats, max_bytes };
+    let settings = OutputSettings {
+        formats,
+        max_bytes,
+        render: None,
+    };
     (samples.unwrap_or(DEFAULT_SAMPLES_PER_ELEMENT), settings)
 }
 

@@ -1,7 +1,7 @@
 //! The module graph of the runtime follows one order, so that it has no circle:
 //!
-//! error → model → kernels → bodies → forces → groom → config → output → solver → simulation
-//! → scene
+//! error → model → kernels → bodies → forces → groom → render → config → output → solver →
+//! simulation → scene
 //!
 //! A module may use (through `crate::...` paths) only itself and the modules before it.
 //! The test reads every file under `runtime/src`, takes the `crate::` paths of its code
@@ -21,6 +21,7 @@ const ORDER: [&str; 11] = [
     "bodies",
     "forces",
     "groom",
+    "render",
     "config",
     "output",
     "solver",

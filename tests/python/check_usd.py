@@ -7,8 +7,11 @@ Opens the stage with pxr.Usd, checks its time metadata, that every strand group 
 OUTDIR/frames.index.json is a BasisCurves prim under /hair with linear curves, one curve
 per strand with the strand's point count (their sum is the frame's point count), widths
 of 2 x radius per point, and that the points at the first, middle and last time codes
-equal frames.npy to 1e-6 m. Prints a summary; exits 1 on any failure, 2 when pxr or
-numpy is missing.
+equal frames.npy to 1e-6 m. When OUTDIR/render/frames.npy exists (the render strands,
+float32 [frames, R * M, 3]), /hair also holds a last BasisCurves prim "render" of R linear
+curves of M points each, one constant width, one colour per curve, whose points at the
+same time codes equal that file to 1e-6 m. Prints a summary; exits 1 on any failure, 2
+when pxr or numpy is missing.
 """
 
 import json
@@ -57,10 +60,17 @@ def main(outdir):
             groups.append(s["group"])
     hair = stage.GetPrimAtPath("/hair")
     prims = [p for p in hair.GetChildren()] if hair else []
+    render_file = os.path.join(outdir, "render", "frames.npy")
+    times = sorted({0, (count - 1) // 2, count - 1})
+    render_note = ""
+    if os.path.exists(render_file):
+        if prims and prims[-1].GetName() == "render":
+            render_note, render_worst = check_render(prims.pop(), np.load(render_file), times, failures)
+        else:
+            failures.append("no render prim last under /hair")
     if len(prims) != len(groups):
         failures.append(f"/hair has {len(prims)} children, expected one per group ({len(groups)})")
     curve_points = 0
-    times = sorted({0, (count - 1) // 2, count - 1})
     worst = 0.0
     for prim, group in zip(prims, groups):
         if prim.GetTypeName() != "BasisCurves":
@@ -93,16 +103,48 @@ def main(outdir):
                 failures.append(f"{prim.GetPath()} at time {t}: points differ from frames.npy by {err:.3e} m")
     if curve_points != total:
         failures.append(f"curveVertexCounts sum to {curve_points}, frames.index.json has {total} points")
-    return report(failures, len(prims), worst, count, times)
+    return report(failures, len(prims), worst, count, times, render_note)
 
 
-def report(failures, prims, worst, count=0, times=()):
+def check_render(prim, expected, times, failures):
+    """The render prim against the render strands of render/frames.npy."""
+    if prim.GetTypeName() != "BasisCurves":
+        failures.append(f"{prim.GetPath()} is a {prim.GetTypeName()}, expected BasisCurves")
+        return "", 0.0
+    curves = UsdGeom.BasisCurves(prim)
+    if curves.GetTypeAttr().Get() != "linear":
+        failures.append(f"{prim.GetPath()}: type {curves.GetTypeAttr().Get()}, expected linear")
+    counts = list(curves.GetCurveVertexCountsAttr().Get())
+    total = expected.shape[1]
+    if not counts or len(set(counts)) != 1 or sum(counts) != total:
+        failures.append(f"{prim.GetPath()}: {len(counts)} curves of {set(counts)} points, expected {total} points in equal curves")
+    widths = np.array(curves.GetWidthsAttr().Get())
+    if widths.shape != (1,) or curves.GetWidthsInterpolation() != UsdGeom.Tokens.constant or not widths[0] > 0:
+        failures.append(f"{prim.GetPath()}: expected one constant width > 0, got {widths} ({curves.GetWidthsInterpolation()})")
+    colours = curves.GetDisplayColorPrimvar()
+    if len(colours.Get()) != len(counts) or colours.GetInterpolation() != UsdGeom.Tokens.uniform:
+        failures.append(f"{prim.GetPath()}: expected one colour per curve")
+    worst = 0.0
+    for t in times:
+        got = np.array(curves.GetPointsAttr().Get(Usd.TimeCode(t)), dtype=np.float64)
+        want = expected[t].astype(np.float64)
+        if got.shape != want.shape:
+            failures.append(f"{prim.GetPath()} at time {t}: {got.shape} points, expected {want.shape}")
+            continue
+        err = float(np.max(np.abs(got - want)))
+        worst = max(worst, err)
+        if err > TOLERANCE:
+            failures.append(f"{prim.GetPath()} at time {t}: render points differ by {err:.3e} m")
+    return f", render prim: {len(counts)} curves of {counts[0] if counts else 0} points, max |usd - npy| = {worst:.3e} m", worst
+
+
+def report(failures, prims, worst, count=0, times=(), render_note=""):
     for f in failures:
         print(f"FAIL {f}")
     status = "FAILED" if failures else "ok"
     print(
         f"check_usd: {status}: {prims} BasisCurves prims, {count} frames, "
-        f"time codes {list(times)} checked, max |usd - npy| = {worst:.3e} m"
+        f"time codes {list(times)} checked, max |usd - npy| = {worst:.3e} m{render_note}"
     )
     return 1 if failures else 0
 

@@ -133,7 +133,7 @@ impl Formats {
     }
 }
 
-/// The scene's `[output]` choices besides the sampling.
+/// The scene's `[output]` choices besides the sampling, and its `[render]` table.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct OutputSettings {
     /// `formats`: the files to write; `None` for the default.
@@ -141,4 +141,7 @@ pub struct OutputSettings {
     /// `max_bytes`: the limit on the planned output, bytes; `None` for
     /// `crate::output::plan::DEFAULT_MAX_BYTES`.
     pub max_bytes: Option<u64>,
+    /// `[render]`: render strands generated from the strands at every frame for
+    /// `hair.usda` and the pictures; `None`: none, nothing built for them.
+    pub render: Option<crate::render::RenderSettings>,
 }

@@ -107,6 +107,11 @@ pub trait FrameStore {
     fn frame_count(&self) -> usize;
     /// Nominal time of frame k, s.
     fn time(&self, k: usize) -> f64;
+    /// Simulated time of the state written as frame k, s (what the head's pose at that
+    /// frame is computed for); by default the nominal time.
+    fn state_time(&self, k: usize) -> f64 {
+        self.time(k)
+    }
     /// All points of frame k (total_points of them), m.
     fn points(&mut self, k: usize, out: &mut Vec<[f64; 3]>) -> Result<()>;
 }

@@ -256,6 +256,10 @@ impl FrameStore for JsonFrameStore {
         self.frames.len()
     }
 
+    fn state_time(&self, k: usize) -> f64 {
+        JsonFrameStore::state_time(self, k)
+    }
+
     fn time(&self, k: usize) -> f64 {
         self.frames.get(k).map_or(f64::NAN, |f| f.time)
     }

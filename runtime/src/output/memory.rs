@@ -88,6 +88,10 @@ impl FrameStore for MemoryFrames {
         self.times.get(k).copied().unwrap_or(f64::NAN)
     }
 
+    fn state_time(&self, k: usize) -> f64 {
+        self.state_times.get(k).copied().unwrap_or(f64::NAN)
+    }
+
     fn points(&mut self, k: usize, out: &mut Vec<[f64; 3]>) -> Result<()> {
         let points = self.points.get(k).ok_or_else(|| {
             Error::invalid(

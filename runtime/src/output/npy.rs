@@ -420,6 +420,10 @@ impl FrameStore for NpyFrameStore {
         self.frames
     }
 
+    fn state_time(&self, k: usize) -> f64 {
+        NpyFrameStore::state_time(self, k)
+    }
+
     fn time(&self, k: usize) -> f64 {
         self.times
             .get(k)

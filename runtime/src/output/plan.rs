@@ -119,7 +119,7 @@ impl OutputPlan {
         Self {
             dir: dir.to_path_buf(),
             formats,
-            files: planned_files(layout, formats),
+            files: planned_files(layout, formats, settings.render.map(|r| r.strands)),
             frames: layout.planned_frames,
             note,
             limit,
@@ -221,7 +221,17 @@ pub fn json_bytes(layout: &FrameLayout) -> u64 {
     header.saturating_add(frame.saturating_mul(layout.planned_frames as u64))
 }
 
-fn planned_files(layout: &FrameLayout, formats: Formats) -> Vec<PlannedFile> {
+/// Bytes of `hair.usda` per render strand besides its points: its vertex count and its
+/// colour.
+const USDA_BYTES_PER_RENDER_STRAND: u64 = 40;
+
+/// The files of `formats` for frames of `layout`, with `render` render strands (of as
+/// many points as the longest guide) in `hair.usda` and none elsewhere.
+fn planned_files(
+    layout: &FrameLayout,
+    formats: Formats,
+    render: Option<usize>,
+) -> Vec<PlannedFile> {
     let frames = layout.planned_frames as u64;
     let points = layout.total_points() as u64;
     let mut files = Vec::new();
@@ -247,8 +257,11 @@ fn planned_files(layout: &FrameLayout, formats: Formats) -> Vec<PlannedFile> {
         });
     }
     if formats.usda {
-        let floats = (frames * points * 3) as f64;
-        let per_strand = 200 * layout.strands.len() as u64;
+        let render = render.unwrap_or(0) as u64;
+        let render_points =
+            render * layout.strands.iter().map(|s| s.points).max().unwrap_or(0) as u64;
+        let floats = (frames * (points + render_points) * 3) as f64;
+        let per_strand = 200 * layout.strands.len() as u64 + USDA_BYTES_PER_RENDER_STRAND * render;
         files.push(PlannedFile {
             name: "hair.usda",
             bytes: 1000 + per_strand + (floats * USDA_BYTES_PER_FLOAT).ceil() as u64,
@@ -310,4 +323,44 @@ pub fn prepare_out_dir(dir: &Path) -> Result<()> {
             probe.display()
         ))
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn render_strands_are_counted_in_the_stage_only() {
+        let strand = |points| StrandInfo {
+            name: "s".into(),
+            group: "g".into(),
+            radius: 5e-5,
+            points,
+            coordinates: 3,
+        };
+        let layout = FrameLayout {
+            strands: vec![strand(41), strand(21)],
+            output_fps: 30.0,
+            planned_frames: 10,
+        };
+        let bytes = |render: Option<usize>| planned_files(&layout, Formats::DEFAULT, render);
+        let (plain, rendered) = (bytes(None), bytes(Some(1000)));
+        let usda = |files: &[PlannedFile]| {
+            files
+                .iter()
+                .find(|f| f.name == "hair.usda")
+                .map(|f| f.bytes)
+        };
+        // 1000 strands of the longest guide's 41 points, 10 frames, 3 floats of 14 bytes
+        let extra = 10 * 1000 * 41 * 3 * 14 + 1000 * USDA_BYTES_PER_RENDER_STRAND;
+        assert_eq!(usda(&rendered), usda(&plain).map(|b| b + extra));
+        let others = |files: &[PlannedFile]| -> Vec<PlannedFile> {
+            files
+                .iter()
+                .filter(|f| f.name != "hair.usda")
+                .cloned()
+                .collect()
+        };
+        assert_eq!(others(&plain), others(&rendered));
+    }
 }

@@ -13,7 +13,10 @@
 //! corner, the nominal time at the top left; strands are anti-aliased polylines
 //! (≥ 1.5 px wide) coloured by group with [`PALETTE`] (group g in order of first
 //! appearance gets `PALETTE[g % 10]` in every picture and in `hair.usda`); bodies are
-//! filled light-grey ellipses drawn under the strands.
+//! filled light grey under the strands, at the head's pose of each frame (how each shape
+//! is drawn: [`super::scenery`]); render strands (`[render]`) are one-pixel lines in a
+//! light shade of their dominant guide's group colour, between the bodies and the guides
+//! (at most [`PREVIEW_RENDER_STRANDS`] of them: every k-th when there are more).
 //!
 //! The GIF has every frame, or every k-th frame to keep at most
 //! [`PreviewOptions::gif_max_frames`], looped, each shown for k / output_fps s (rounded to
@@ -24,12 +27,27 @@
 
 use super::atomic::{write_atomically, AtomicFile};
 use super::frames::{FrameLayout, FrameStore};
+use super::render_strands::RenderFrames;
+use super::scenery::{PreviewShape, Scenery};
 use crate::error::{Error, Result};
+use nalgebra::Vector3;
 use std::collections::HashMap;
 use std::path::Path;
 use tiny_skia::{
-    Color, FillRule, LineCap, LineJoin, Paint, PathBuilder, Pixmap, Rect, Stroke, Transform,
+    Color, FillRule, LineCap, LineJoin, Mask, Paint, PathBuilder, Pixmap, Rect, Stroke, Transform,
 };
+
+pub use super::scenery::PreviewBody;
+
+/// Most render strands a picture draws (every k-th when there are more).
+pub const PREVIEW_RENDER_STRANDS: usize = 1000;
+/// Level (of 15) of the render strands' colour: their group colour blended with white at
+/// 5/15, an exact entry of the GIF's palette, drawn opaque (translucent lines would make
+/// every overlap a new colour for the GIF to match).
+const RENDER_LEVEL: u32 = 5;
+/// Width of the render strands' lines, pixels: 0 is a one-pixel anti-aliased hairline
+/// (the fastest stroke).
+const RENDER_WIDTH: f32 = 0.0;
 
 /// Name of the last frame's picture.
 pub const PNG_FILE: &str = "preview.png";
@@ -127,15 +145,6 @@ impl View {
     }
 }
 
-/// A rigid body drawn under the strands: an ellipsoid with axis-aligned semi-axes.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PreviewBody {
-    /// Centre, world coordinates, m.
-    pub centre: [f64; 3],
-    /// Semi-axes along x, y, z, m (equal for a sphere).
-    pub radii: [f64; 3],
-}
-
 /// Camera settings of the preview pictures.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PreviewOptions {
@@ -147,21 +156,18 @@ pub struct PreviewOptions {
     pub views: Vec<View>,
     /// Frame drawn in `preview.png` (default: the last one).
     pub frame: Option<usize>,
-    /// Bodies drawn under the strands (the head, colliders).
-    pub bodies: Vec<PreviewBody>,
     /// Most frames the GIF holds (every k-th frame is taken to stay within).
     pub gif_max_frames: usize,
 }
 
 impl Default for PreviewOptions {
-    /// 1200 × 600, front and side, last frame, no bodies, at most 200 GIF frames.
+    /// 1200 × 600, front and side, last frame, at most 200 GIF frames.
     fn default() -> Self {
         Self {
             width: 1200,
             height: 600,
             views: vec![View::Front, View::Side],
             frame: None,
-            bodies: Vec::new(),
             gif_max_frames: 200,
         }
     }
@@ -207,16 +213,6 @@ impl PreviewOptions {
                 "must be >= 1",
             ));
         }
-        for (i, b) in self.bodies.iter().enumerate() {
-            if !b.centre.iter().chain(&b.radii).all(|v| v.is_finite())
-                || b.radii.iter().any(|&r| r < 0.0)
-            {
-                problems.push(crate::error::FieldError::new(
-                    format!("{prefix}bodies[{i}]"),
-                    "centre must be finite and radii finite and >= 0",
-                ));
-            }
-        }
         if problems.is_empty() {
             Ok(())
         } else {
@@ -259,8 +255,9 @@ impl Bounds {
     }
 }
 
-/// The box holding every point of every frame of `store` and every body.
-pub fn frame_bounds(store: &mut dyn FrameStore, bodies: &[PreviewBody]) -> Result<Bounds> {
+/// The box holding every point of every frame of `store` and every body of `scenery` at
+/// the head's pose of every frame (half-spaces left out).
+pub fn frame_bounds(store: &mut dyn FrameStore, scenery: &Scenery) -> Result<Bounds> {
     let mut bounds = Bounds::empty();
     let mut points = Vec::new();
     for k in 0..store.frame_count() {
@@ -268,13 +265,29 @@ pub fn frame_bounds(store: &mut dyn FrameStore, bodies: &[PreviewBody]) -> Resul
         for p in &points {
             bounds.include(*p);
         }
-    }
-    for b in bodies {
-        for s in [-1.0, 1.0] {
-            bounds.include([0, 1, 2].map(|c| b.centre[c] + s * b.radii[c]));
+        let head = scenery.head_at(store.state_time(k));
+        for b in &scenery.bodies {
+            if let Some((lo, hi)) = b.placed(&head).extent() {
+                bounds.include(lo);
+                bounds.include(hi);
+            }
         }
     }
     Ok(bounds)
+}
+
+/// A frame's render strands as a picture draws them: every point (strand after strand),
+/// points per strand, and the group index of each strand's colour.
+pub type RenderView<'a> = (&'a [[f32; 3]], usize, &'a [u16]);
+
+/// What a picture shows besides the guides: the bodies placed at the frame's head pose
+/// and the frame's render strands.
+#[derive(Debug, Clone, Default)]
+pub struct FrameScene<'a> {
+    /// Bodies in world coordinates.
+    pub bodies: Vec<PreviewShape>,
+    /// Render strands.
+    pub render: Option<RenderView<'a>>,
 }
 
 /// Where each view's panel is and the common scale.
@@ -361,14 +374,15 @@ fn stroke(width: f32) -> Stroke {
     }
 }
 
-/// Draw frame `points` (all strands of `layout`) as `camera` sees it, with `bodies` and
+/// Draw frame `points` (all strands of `layout`) as `camera` sees it, with the bodies and
+/// render strands of `scene` and
 /// an optional `label` (digits, `.`, `=`, `-`, `(`, `)`, spaces and the letters
 /// `c d e f i m n o p r s t x y z`) at the top left; each panel is labelled with its view.
 pub fn render_frame(
     layout: &FrameLayout,
     points: &[[f64; 3]],
     camera: &Camera,
-    bodies: &[PreviewBody],
+    scene: &FrameScene<'_>,
     label: Option<&str>,
 ) -> Result<Pixmap> {
     let mut pixmap = Pixmap::new(camera.width, camera.height).ok_or_else(|| {
@@ -411,25 +425,24 @@ pub fn render_frame(
             10.0,
             10.0,
         );
-        // bodies
-        for b in bodies {
-            let (r, u) = camera.views[i].axes();
-            let (cx, cy) = camera.project(i, b.centre);
-            let (rx, ry) = (
-                (b.radii[r] * camera.scale) as f32,
-                (b.radii[u] * camera.scale) as f32,
-            );
-            if let Some(path) =
-                Rect::from_ltrb(cx - rx, cy - ry, cx + rx, cy + ry).and_then(PathBuilder::from_oval)
-            {
-                pixmap.fill_path(
-                    &path,
-                    &paint([BODY_GREY; 3]),
-                    FillRule::Winding,
-                    Transform::identity(),
-                    None,
-                );
+        // bodies, clipped to the panel
+        if !scene.bodies.is_empty() {
+            let mask = panel_mask(camera, i, (x0, y0, x1, y1));
+            for b in &scene.bodies {
+                draw_body(&mut pixmap, camera, i, b, mask.as_ref());
             }
+        }
+        // render strands, thin and translucent, one path per group
+        if let Some((render, per_strand, colours)) = scene.render {
+            draw_render_strands(
+                &mut pixmap,
+                camera,
+                i,
+                render,
+                per_strand,
+                colours,
+                groups.len(),
+            );
         }
         // strands, one path per group
         for (g, group) in groups.iter().enumerate() {
@@ -470,6 +483,187 @@ pub fn render_frame(
         draw_text(&mut pixmap, text, 12.0, 8.0, 12.0);
     }
     Ok(pixmap)
+}
+
+/// A mask of panel `i`'s frame (`None` when it cannot be made).
+fn panel_mask(camera: &Camera, _i: usize, (x0, y0, x1, y1): (f64, f64, f64, f64)) -> Option<Mask> {
+    let mut mask = Mask::new(camera.width, camera.height)?;
+    let rect = Rect::from_ltrb(x0 as f32, y0 as f32, x1 as f32, y1 as f32)?;
+    mask.fill_path(
+        &PathBuilder::from_rect(rect),
+        FillRule::Winding,
+        false,
+        Transform::identity(),
+    );
+    Some(mask)
+}
+
+/// Fill body `shape` (world coordinates) in panel `i` in light grey.
+fn draw_body(
+    pixmap: &mut Pixmap,
+    camera: &Camera,
+    i: usize,
+    shape: &PreviewShape,
+    mask: Option<&Mask>,
+) {
+    let (r, u) = camera.views[i].axes();
+    let grey = paint([BODY_GREY; 3]);
+    let s = camera.scale;
+    let project = |p: &Vector3<f64>| camera.project(i, [p.x, p.y, p.z]);
+    match shape {
+        PreviewShape::Ellipsoid {
+            centre,
+            axes,
+            radii,
+        } => {
+            // the shadow of the ellipsoid is the ellipse of the 2 x 2 block (r, u) of
+            // M = Q diag(radii²) Qᵀ; its Cholesky factor maps the unit disc onto it
+            let m = |a: usize, b: usize| {
+                (0..3)
+                    .map(|k| axes[(a, k)] * axes[(b, k)] * radii[k] * radii[k])
+                    .sum::<f64>()
+            };
+            let (a, b, d) = (m(r, r), m(r, u), m(u, u));
+            if a.is_nan() || a <= 0.0 {
+                return;
+            }
+            let l00 = a.sqrt();
+            let l10 = b / l00;
+            let l11 = (d - l10 * l10).max(0.0).sqrt();
+            let (cx, cy) = project(centre);
+            // screen y points down
+            let t = Transform::from_row(
+                (s * l00) as f32,
+                (-s * l10) as f32,
+                0.0,
+                (-s * l11) as f32,
+                cx,
+                cy,
+            );
+            if let Some(path) =
+                Rect::from_ltrb(-1.0, -1.0, 1.0, 1.0).and_then(PathBuilder::from_oval)
+            {
+                pixmap.fill_path(&path, &grey, FillRule::Winding, t, mask);
+            }
+        }
+        PreviewShape::Capsule { start, end, radius } => {
+            let ((x0, y0), (x1, y1)) = (project(start), project(end));
+            let mut pb = PathBuilder::new();
+            pb.move_to(x0, y0);
+            // a zero-length line still gets its round caps
+            pb.line_to(x1 + 1e-3, y1);
+            if let Some(path) = pb.finish() {
+                let width = (2.0 * radius * s) as f32;
+                pixmap.stroke_path(&path, &grey, &stroke(width), Transform::identity(), mask);
+            }
+        }
+        PreviewShape::HalfSpace { point, normal } => {
+            let view = 3 - r - u;
+            let (nr, nu) = (normal[r], normal[u]);
+            let across = (nr * nr + nu * nu).sqrt();
+            if normal[view].abs() > 1e-6 || across == 0.0 {
+                return;
+            }
+            // the region behind the plane's line, far beyond the panel
+            let far = 10.0 * (camera.width.max(camera.height) as f64) / s;
+            let (nr, nu) = (nr / across, nu / across);
+            let (tr, tu) = (-nu, nr);
+            let at = |a: f64, b: f64| {
+                let mut p = [point.x, point.y, point.z];
+                p[r] += a * tr - b * nr;
+                p[u] += a * tu - b * nu;
+                camera.project(i, p)
+            };
+            let mut pb = PathBuilder::new();
+            let corners = [at(-far, 0.0), at(far, 0.0), at(far, far), at(-far, far)];
+            pb.move_to(corners[0].0, corners[0].1);
+            for c in &corners[1..] {
+                pb.line_to(c.0, c.1);
+            }
+            pb.close();
+            if let Some(path) = pb.finish() {
+                pixmap.fill_path(&path, &grey, FillRule::Winding, Transform::identity(), mask);
+            }
+        }
+        PreviewShape::Mesh {
+            vertices,
+            triangles,
+        } => {
+            // every projected triangle turned the same way: the winding rule fills their
+            // union, the mesh's shadow
+            let projected: Vec<(f32, f32)> = vertices.iter().map(project).collect();
+            let mut pb = PathBuilder::new();
+            for t in triangles.iter() {
+                let (Some(&a), Some(&b), Some(&c)) = (
+                    projected.get(t[0]),
+                    projected.get(t[1]),
+                    projected.get(t[2]),
+                ) else {
+                    continue;
+                };
+                let cross = (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0);
+                let (b, c) = if cross < 0.0 { (c, b) } else { (b, c) };
+                pb.move_to(a.0, a.1);
+                pb.line_to(b.0, b.1);
+                pb.line_to(c.0, c.1);
+                pb.close();
+            }
+            if let Some(path) = pb.finish() {
+                pixmap.fill_path(&path, &grey, FillRule::Winding, Transform::identity(), mask);
+            }
+        }
+    }
+}
+
+/// Draw the render strands `points` (`per_strand` points each) in panel `i`: at most
+/// [`PREVIEW_RENDER_STRANDS`], thin, translucent, in their groups' colours.
+fn draw_render_strands(
+    pixmap: &mut Pixmap,
+    camera: &Camera,
+    i: usize,
+    points: &[[f32; 3]],
+    per_strand: usize,
+    colours: &[u16],
+    groups: usize,
+) {
+    if per_strand == 0 {
+        return;
+    }
+    let count = points.len() / per_strand;
+    let step = count.div_ceil(PREVIEW_RENDER_STRANDS).max(1);
+    for g in 0..groups.max(1) {
+        let mut pb = PathBuilder::new();
+        for s in (0..count).step_by(step) {
+            if colours.get(s).copied().unwrap_or(0) as usize != g {
+                continue;
+            }
+            for (j, p) in points[s * per_strand..(s + 1) * per_strand]
+                .iter()
+                .enumerate()
+            {
+                let (x, y) = camera.project(i, p.map(f64::from));
+                if !(x.is_finite() && y.is_finite()) {
+                    continue;
+                }
+                if j == 0 {
+                    pb.move_to(x, y);
+                } else {
+                    pb.line_to(x, y);
+                }
+            }
+        }
+        if let Some(path) = pb.finish() {
+            let light =
+                group_colour(g).map(|v| (255 - ((255 - v as u32) * RENDER_LEVEL + 7) / 15) as u8);
+            pixmap.stroke_path(
+                &path,
+                &paint(light),
+                &stroke(RENDER_WIDTH),
+                Transform::identity(),
+                None,
+            );
+        }
+    }
 }
 
 /// The longest 1, 2 or 5 × 10ⁿ m not longer than `max` m, and its label.
@@ -620,18 +814,44 @@ pub fn write_png(path: &Path, pixmap: &Pixmap) -> Result<()> {
     write_atomically(path, &bytes)
 }
 
-/// Render frame `k` of `store` and write it as the PNG `path`.
+/// The scene of frame `k` of `store`: the bodies of `scenery` at the frame's head pose
+/// and, with `render`, the frame's render strands.
+pub fn frame_scene<'a>(
+    store: &mut dyn FrameStore,
+    k: usize,
+    scenery: &Scenery,
+    render: Option<&'a mut RenderFrames>,
+) -> Result<FrameScene<'a>> {
+    let head = scenery.head_at(store.state_time(k));
+    let bodies = scenery.bodies.iter().map(|b| b.placed(&head)).collect();
+    let render = match render {
+        None => None,
+        Some(r) => {
+            let per_strand = r.points_per_strand();
+            r.frame(store, k, scenery)?;
+            let r: &'a RenderFrames = r;
+            let (points, groups) = r.last_frame();
+            Some((points, per_strand, groups))
+        }
+    };
+    Ok(FrameScene { bodies, render })
+}
+
+/// Render frame `k` of `store` and write it as the PNG `path`, with the bodies of
+/// `scenery` and the render strands of `render`.
 pub fn write_frame_png(
     path: &Path,
     store: &mut dyn FrameStore,
     k: usize,
     camera: &Camera,
-    bodies: &[PreviewBody],
+    scenery: &Scenery,
+    render: Option<&mut RenderFrames>,
 ) -> Result<()> {
     let mut points = Vec::new();
     store.points(k, &mut points)?;
     let label = time_label(store.time(k));
-    let pixmap = render_frame(store.layout(), &points, camera, bodies, Some(&label))?;
+    let scene = frame_scene(store, k, scenery, render)?;
+    let pixmap = render_frame(store.layout(), &points, camera, &scene, Some(&label))?;
     write_png(path, &pixmap)
 }
 
@@ -711,12 +931,15 @@ pub fn gif_frames(count: usize, max_frames: usize) -> Vec<usize> {
     frames
 }
 
-/// Write the animation of `store` as the GIF `path` (see the module doc).
+/// Write the animation of `store` as the GIF `path` (see the module doc), with the bodies
+/// of `scenery` and the render strands of `render`.
 pub fn write_gif(
     path: &Path,
     store: &mut dyn FrameStore,
     camera: &Camera,
     options: &PreviewOptions,
+    scenery: &Scenery,
+    mut render: Option<&mut RenderFrames>,
 ) -> Result<()> {
     let count = store.frame_count();
     let frames = gif_frames(count, options.gif_max_frames);
@@ -741,13 +964,8 @@ pub fn write_gif(
     for &k in &frames {
         store.points(k, &mut points)?;
         let label = time_label(store.time(k));
-        let pixmap = render_frame(
-            store.layout(),
-            &points,
-            camera,
-            &options.bodies,
-            Some(&label),
-        )?;
+        let scene = frame_scene(store, k, scenery, render.as_deref_mut())?;
+        let pixmap = render_frame(store.layout(), &points, camera, &scene, Some(&label))?;
         let frame = gif::Frame {
             width: w,
             height: h,

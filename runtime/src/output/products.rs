@@ -1,26 +1,32 @@
 //! The files written after a run from its frames: `hair.usda`, `preview.png`,
-//! `preview_first.png`, `preview.gif`, `last_frame.obj`, as [`Formats`] says.
+//! `preview_first.png`, `preview.gif`, `last_frame.obj`, as [`Formats`] says; the stage
+//! and the pictures with the render strands and the pictures with the bodies of the
+//! run's [`Scenery`].
 
 use super::frames::FrameStore;
 use super::obj::{write_obj, OBJ_FILE};
 use super::plan::Formats;
 use super::preview::{
     frame_bounds, write_frame_png, write_gif, Camera, PreviewOptions, FIRST_PNG_FILE, GIF_FILE,
-    PNG_FILE,
+    PNG_FILE, PREVIEW_RENDER_STRANDS,
 };
+use super::render_strands::RenderFrames;
+use super::scenery::Scenery;
 use super::usd::{write_usda, USDA_FILE};
 use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
 /// Write the post-run files `formats` asks for (`usda`, `png`, `gif`, `obj`; `json` and
 /// `npy` are written while the run goes) into `dir` from the frames of `store`, with the
-/// camera settings `view`. Returns the files written; nothing when `store` has no frame.
-/// `view.frame` (default: the last frame) must be a frame of `store`.
+/// camera settings `view`, the bodies and head motion of `scenery` and its render strands
+/// (placed once on the first frame). Returns the files written; nothing when `store` has
+/// no frame. `view.frame` (default: the last frame) must be a frame of `store`.
 pub fn write_products(
     store: &mut dyn FrameStore,
     formats: &Formats,
     dir: &Path,
     view: &PreviewOptions,
+    scenery: &Scenery,
 ) -> Result<Vec<PathBuf>> {
     let count = store.frame_count();
     let mut written = Vec::new();
@@ -42,24 +48,35 @@ pub fn write_products(
         path: dir.display().to_string(),
         source,
     })?;
+    // the stage takes every render strand, the pictures only those they draw
+    let mut render = match &scenery.render {
+        Some(source) if formats.usda || formats.png || formats.gif => {
+            let stride = match formats.usda {
+                true => 1,
+                false => source.settings.strands.div_ceil(PREVIEW_RENDER_STRANDS),
+            };
+            Some(RenderFrames::new(store, source, scenery, stride)?)
+        }
+        _ => None,
+    };
     if formats.usda {
         let path = dir.join(USDA_FILE);
-        write_usda(&path, store)?;
+        write_usda(&path, store, render.as_mut().map(|r| (r, scenery)))?;
         written.push(path);
     }
     if formats.png || formats.gif {
-        let bounds = frame_bounds(store, &view.bodies)?;
+        let bounds = frame_bounds(store, scenery)?;
         let camera = Camera::fit(&bounds, view);
         if formats.png {
             for (name, k) in [(PNG_FILE, shown), (FIRST_PNG_FILE, 0)] {
                 let path = dir.join(name);
-                write_frame_png(&path, store, k, &camera, &view.bodies)?;
+                write_frame_png(&path, store, k, &camera, scenery, render.as_mut())?;
                 written.push(path);
             }
         }
         if formats.gif {
             let path = dir.join(GIF_FILE);
-            write_gif(&path, store, &camera, view)?;
+            write_gif(&path, store, &camera, view, scenery, render.as_mut())?;
             written.push(path);
         }
     }
@@ -175,6 +192,7 @@ mod tests {
             &all(),
             &dir,
             &PreviewOptions::default(),
+            &Scenery::default(),
         ));
         let names: Vec<_> = files
             .iter()
@@ -220,7 +238,8 @@ mod tests {
                 &mut s,
                 &only_obj,
                 &dir2,
-                &PreviewOptions::default()
+                &PreviewOptions::default(),
+                &Scenery::default(),
             ))
             .len(),
             1
@@ -229,7 +248,8 @@ mod tests {
             &mut store(0),
             &all(),
             &scratch("none"),
-            &PreviewOptions::default()
+            &PreviewOptions::default(),
+            &Scenery::default(),
         ))
         .is_empty());
     }
@@ -240,7 +260,13 @@ mod tests {
             frame: Some(12),
             ..PreviewOptions::default()
         };
-        let e = write_products(&mut store(12), &all(), &scratch("frame"), &view);
+        let e = write_products(
+            &mut store(12),
+            &all(),
+            &scratch("frame"),
+            &view,
+            &Scenery::default(),
+        );
         assert!(e.is_err_and(
             |e| e.to_string().contains("preview.frame") && e.to_string().contains("0..=11")
         ));
@@ -261,6 +287,7 @@ mod tests {
             &formats,
             &dir,
             &PreviewOptions::default(),
+            &Scenery::default(),
         ));
         let text = read(&dir.join(OBJ_FILE));
         let objects: Vec<&str> = text.lines().filter(|l| l.starts_with("o ")).collect();
@@ -302,6 +329,7 @@ mod tests {
             &formats,
             &dir,
             &PreviewOptions::default(),
+            &Scenery::default(),
         ));
         let text = read(&dir.join(USDA_FILE));
         assert!(text.starts_with("#usda 1.0\n"));
@@ -352,11 +380,11 @@ mod tests {
         let view = PreviewOptions {
             width: 400,
             height: 300,
-            bodies: vec![PreviewBody {
-                centre: [0.0, 0.0, 0.05],
-                radii: [0.04; 3],
-            }],
             ..PreviewOptions::default()
+        };
+        let scenery = Scenery {
+            bodies: vec![PreviewBody::sphere([0.0, 0.0, 0.05], 0.04)],
+            ..Scenery::default()
         };
         let formats = Formats {
             usda: false,
@@ -364,7 +392,7 @@ mod tests {
             obj: false,
             ..all()
         };
-        ok(write_products(&mut s, &formats, &dir, &view));
+        ok(write_products(&mut s, &formats, &dir, &view, &scenery));
         let bytes = std::fs::read(dir.join(PNG_FILE)).unwrap_or_default();
         let pixmap = tiny_skia::Pixmap::decode_png(&bytes).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!((pixmap.width(), pixmap.height()), (400, 300));
@@ -403,7 +431,13 @@ mod tests {
             obj: false,
             ..all()
         };
-        ok(write_products(&mut s, &formats, &dir, &view));
+        ok(write_products(
+            &mut s,
+            &formats,
+            &dir,
+            &view,
+            &Scenery::default(),
+        ));
         let bytes = std::fs::read(dir.join(GIF_FILE)).unwrap_or_default();
         assert_eq!(&bytes[..6], b"GIF89a");
         assert_eq!(u16::from_le_bytes([bytes[6], bytes[7]]), 200);
@@ -415,5 +449,201 @@ mod tests {
             .map(|w| u16::from_le_bytes([w[4], w[5]]))
             .collect();
         assert_eq!(controls, [12, 12, 12, 12]);
+    }
+}
+
+#[cfg(test)]
+mod body_pictures {
+    use crate::bodies::{Attachment, BodySetup, ShapeSetup};
+    use crate::forces::head_motion::HeadMotion;
+    use crate::output::frames::FrameLayout;
+    use crate::output::preview::{render_frame, Bounds, Camera, FrameScene, PreviewOptions};
+    use crate::output::scenery::{PreviewBody, Scenery};
+    use nalgebra::{Matrix3, Vector3};
+    use superhelix_kernels::head::HeadState;
+
+    const WHITE: f64 = 255.0;
+    const GREY: f64 = 221.0;
+
+    fn empty() -> FrameLayout {
+        FrameLayout {
+            strands: Vec::new(),
+            output_fps: 25.0,
+            planned_frames: 1,
+        }
+    }
+
+    fn camera() -> Camera {
+        let bounds = Bounds {
+            lo: [-0.2, -0.2, -0.4],
+            hi: [0.2, 0.2, 0.2],
+        };
+        let options = PreviewOptions {
+            width: 1200,
+            height: 800,
+            ..PreviewOptions::default()
+        };
+        Camera::fit(&bounds, &options)
+    }
+
+    /// Covered area (px²) and coverage-weighted centroid (px) in the front panel (the left
+    /// half) of `body` drawn at head state `head`: each pixel covers
+    /// (255 − v) / (255 − 221) of itself, from its anti-aliased grey v.
+    fn coverage(body: &PreviewBody, head: &HeadState) -> (f64, f64, f64) {
+        let scene = FrameScene {
+            bodies: vec![body.placed(head)],
+            render: None,
+        };
+        let pixmap =
+            render_frame(&empty(), &[], &camera(), &scene, None).unwrap_or_else(|e| panic!("{e}"));
+        let (w, h) = (pixmap.width() as usize, pixmap.height() as usize);
+        let (mut area, mut cx, mut cy) = (0.0, 0.0, 0.0);
+        for y in 40..h - 60 {
+            for x in 10..w / 2 - 10 {
+                let v = pixmap.data()[4 * (y * w + x)] as f64;
+                let c = ((WHITE - v) / (WHITE - GREY)).clamp(0.0, 1.0);
+                area += c;
+                cx += c * x as f64;
+                cy += c * y as f64;
+            }
+        }
+        (area, cx / area.max(1e-300), cy / area.max(1e-300))
+    }
+
+    #[test]
+    fn bodies_are_drawn_at_their_size_and_move_with_the_head() {
+        let s = camera().scale();
+        let ball = PreviewBody {
+            attached: Attachment::Head,
+            ..PreviewBody::sphere([0.0, 0.0, 0.08], 0.03)
+        };
+        let rest = HeadState::rest();
+        let (area, x0, y0) = coverage(&ball, &rest);
+        let expected = std::f64::consts::PI * (0.03 * s).powi(2);
+        // anti-aliased coverage: the area to 1 %
+        assert!(
+            (area / expected - 1.0).abs() < 0.01,
+            "{area} px² vs {expected}"
+        );
+        // the head 5 cm along x and turned by 90° about z: the ball, 8 cm above the
+        // origin on the z axis, moves by 5 cm along x only
+        let motion = HeadMotion::TranslateOscillate {
+            direction: Vector3::x(),
+            amplitude: 0.05,
+            frequency_hz: 1.0,
+        };
+        let mut moved = motion.state(0.25);
+        moved.rotation = Matrix3::new(0.0, -1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0);
+        let (area1, x1, y1) = coverage(&ball, &moved);
+        assert!((area1 - area).abs() < 0.01 * area);
+        assert!(
+            (x1 - x0 - 0.05 * s).abs() < 0.05,
+            "{} px vs {}",
+            x1 - x0,
+            0.05 * s
+        );
+        assert!((y1 - y0).abs() < 0.05);
+        // a body fixed in the world stays
+        let fixed = PreviewBody::sphere([0.0, 0.0, 0.08], 0.03);
+        let (_, xf, _) = coverage(&fixed, &moved);
+        assert!((xf - x0).abs() < 0.05);
+
+        // a capsule: a stadium of 2 r L + π r²; an ellipsoid turned in the x-z plane
+        let capsule = PreviewBody::from_setup(&BodySetup {
+            name: "c".into(),
+            attached: Attachment::World,
+            shape: ShapeSetup::Capsule {
+                start: Vector3::new(-0.05, 0.0, -0.3),
+                end: Vector3::new(0.05, 0.0, -0.3),
+                radius: 0.02,
+            },
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+        let (area, _, _) = coverage(&capsule, &rest);
+        let expected = (0.04 * 0.1 + std::f64::consts::PI * 0.0004) * s * s;
+        assert!((area / expected - 1.0).abs() < 0.01, "{area} vs {expected}");
+        let turn = nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), 0.7).into_inner();
+        let ellipsoid = PreviewBody::from_setup(&BodySetup {
+            name: "e".into(),
+            attached: Attachment::Head,
+            shape: ShapeSetup::Ellipsoid {
+                center: Vector3::zeros(),
+                radii: Vector3::new(0.06, 0.02, 0.03),
+                rotation: turn,
+            },
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+        // its shadow along y is the ellipse of half-axes 6 cm and 3 cm, turned
+        let (area, _, _) = coverage(&ellipsoid, &rest);
+        let expected = std::f64::consts::PI * 0.06 * 0.03 * s * s;
+        assert!((area / expected - 1.0).abs() < 0.01, "{area} vs {expected}");
+
+        // a cube mesh of side 4 cm: its shadow is a 4 cm square
+        let dir = std::env::temp_dir().join(format!("superhelix-mesh-{}", std::process::id()));
+        let _ = std::fs::create_dir_all(&dir);
+        let path = dir.join("cube.obj");
+        let cube = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+                    f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+        std::fs::write(&path, cube).unwrap_or_else(|e| panic!("{e}"));
+        let mesh = PreviewBody::from_setup(&BodySetup {
+            name: "m".into(),
+            attached: Attachment::World,
+            shape: ShapeSetup::Mesh {
+                path,
+                cell: None,
+                scale: 0.04,
+                rotation: Matrix3::identity(),
+                translation: Vector3::new(0.1, 0.0, 0.1),
+            },
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+        let (area, _, _) = coverage(&mesh, &rest);
+        let expected = 0.04 * 0.04 * s * s;
+        assert!((area / expected - 1.0).abs() < 0.02, "{area} vs {expected}");
+
+        // a floor seen edge on fills the panel below its line; seen from above, nothing
+        let floor = PreviewBody::from_setup(&BodySetup {
+            name: "f".into(),
+            attached: Attachment::World,
+            shape: ShapeSetup::Plane {
+                point: Vector3::new(0.0, 0.0, -0.35),
+                normal: Vector3::z(),
+            },
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+        let (area, _, cy) = coverage(&floor, &rest);
+        let (_, line) = camera().project(0, [0.0, 0.0, -0.35]);
+        assert!(
+            area > 100.0 && cy > line as f64,
+            "{area} px² at y {cy} vs the line at {line}"
+        );
+        let tilted = PreviewBody::from_setup(&BodySetup {
+            name: "t".into(),
+            attached: Attachment::World,
+            shape: ShapeSetup::Plane {
+                point: Vector3::new(0.0, 0.0, -0.35),
+                normal: Vector3::new(0.0, 0.6, 0.8),
+            },
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(coverage(&tilted, &rest).0, 0.0);
+        let scenery = Scenery {
+            head: motion,
+            bodies: vec![ball, floor],
+            render: None,
+        };
+        // the floor does not count in the bounds; the ball does, at every pose
+        assert!(scenery.bodies[1].placed(&rest).extent().is_none());
+        let (lo, hi) = scenery.bodies[0]
+            .placed(&scenery.head_at(0.25))
+            .extent()
+            .unwrap_or_else(|| panic!("no extent"));
+        for (got, want) in lo
+            .iter()
+            .chain(&hi)
+            .zip([0.02, -0.03, 0.05, 0.08, 0.03, 0.11])
+        {
+            assert!((got - want).abs() < 1e-15, "{lo:?} {hi:?}");
+        }
     }
 }

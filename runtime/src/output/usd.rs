@@ -10,6 +10,14 @@
 //!         float3[] extent           time-sampled bounding box of the group
 //!         float[] widths            2 x the strand's display radius, per vertex
 //!         color3f[] primvars:displayColor   the group's preview colour
+//!     def BasisCurves "render"      with `[render]`: the render strands, linear
+//!         int[] curveVertexCounts   points per render strand (the guides' most)
+//!         point3f[] points          time-sampled
+//!         float3[] extent           time-sampled
+//!         float[] widths            one width for all (constant): 2 × the guides' mean
+//!                                   display radius
+//!         color3f[] primvars:displayColor   per curve (uniform): the colour of the
+//!                                   render strand's dominant guide's group
 //! ```
 //!
 //! Group names become valid, unique USD identifiers (`[A-Za-z_][A-Za-z0-9_]*`; other
@@ -20,6 +28,8 @@
 use super::atomic::AtomicFile;
 use super::frames::FrameStore;
 use super::preview::group_colour;
+use super::render_strands::RenderFrames;
+use super::scenery::Scenery;
 use crate::error::{Error, Result};
 use std::fmt::Write as _;
 use std::io::Write;
@@ -78,8 +88,13 @@ fn vec3(out: &mut String, p: [f64; 3]) {
     );
 }
 
-/// Write every frame of `store` as the USD stage `path` (see the module doc).
-pub fn write_usda(path: &Path, store: &mut dyn FrameStore) -> Result<()> {
+/// Write every frame of `store` as the USD stage `path` (see the module doc), with the
+/// render strands of `render` (at the head poses of the scenery) as their own prim.
+pub fn write_usda(
+    path: &Path,
+    store: &mut dyn FrameStore,
+    render: Option<(&mut RenderFrames, &Scenery)>,
+) -> Result<()> {
     let frames = store.frame_count();
     if frames == 0 {
         return Err(Error::invalid(
@@ -93,7 +108,10 @@ pub fn write_usda(path: &Path, store: &mut dyn FrameStore) -> Result<()> {
     let fps = layout.output_fps;
     let offsets = layout.point_offsets();
     let groups = layout.groups();
-    let names = prim_names(&groups);
+    let mut all_names = groups.clone();
+    all_names.push("render");
+    let mut names = prim_names(&all_names);
+    let render_name = names.pop().unwrap_or_default();
 
     let mut text = String::new();
     let _ = write!(
@@ -176,13 +194,102 @@ pub fn write_usda(path: &Path, store: &mut dyn FrameStore) -> Result<()> {
             format_f32(gr as f32 / 255.0),
             format_f32(b as f32 / 255.0)
         );
-        if g + 1 < groups.len() {
+        if g + 1 < groups.len() || render.is_some() {
             text.push('\n');
         }
         w.write_all(text.as_bytes()).map_err(io)?;
     }
+    if let Some((render, scenery)) = render {
+        write_render_prim(&mut w, &io, &render_name, store, render, scenery)?;
+    }
     w.write_all(b"}\n").map_err(io)?;
     file.commit(w)
+}
+
+/// The `BasisCurves` prim `name` of the render strands, every frame.
+fn write_render_prim<W: Write>(
+    w: &mut W,
+    io: &dyn Fn(std::io::Error) -> Error,
+    name: &str,
+    store: &mut dyn FrameStore,
+    render: &mut RenderFrames,
+    scenery: &Scenery,
+) -> Result<()> {
+    let frames = store.frame_count();
+    let (count, m) = (render.strand_count(), render.points_per_strand());
+    let mut text = String::new();
+    let _ = write!(
+        text,
+        "    def BasisCurves \"{name}\"\n    {{\n        uniform token type = \"linear\"\n        uniform token wrap = \"nonperiodic\"\n        int[] curveVertexCounts = ["
+    );
+    for i in 0..count {
+        if i > 0 {
+            text.push_str(", ");
+        }
+        let _ = write!(text, "{m}");
+    }
+    text.push_str("]\n        point3f[] points.timeSamples = {\n");
+    w.write_all(text.as_bytes()).map_err(io)?;
+    let mut extents = Vec::with_capacity(frames);
+    for k in 0..frames {
+        let points = render.frame(store, k, scenery)?;
+        text.clear();
+        let _ = write!(text, "            {k}: [");
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        for (n, p) in points.iter().enumerate() {
+            if n > 0 {
+                text.push_str(", ");
+            }
+            let _ = write!(
+                text,
+                "({}, {}, {})",
+                format_f32(p[0]),
+                format_f32(p[1]),
+                format_f32(p[2])
+            );
+            for c in 0..3 {
+                lo[c] = lo[c].min(p[c]);
+                hi[c] = hi[c].max(p[c]);
+            }
+            if text.len() > 1 << 20 {
+                w.write_all(text.as_bytes()).map_err(io)?;
+                text.clear();
+            }
+        }
+        text.push_str("],\n");
+        w.write_all(text.as_bytes()).map_err(io)?;
+        extents.push((lo.map(f64::from), hi.map(f64::from)));
+    }
+    text.clear();
+    text.push_str("        }\n        float3[] extent.timeSamples = {\n");
+    for (k, (lo, hi)) in extents.iter().enumerate() {
+        let _ = write!(text, "            {k}: [");
+        vec3(&mut text, *lo);
+        text.push_str(", ");
+        vec3(&mut text, *hi);
+        text.push_str("],\n");
+    }
+    let _ = write!(
+        text,
+        "        }}\n        float[] widths = [{}] (\n            interpolation = \"constant\"\n        )\n        color3f[] primvars:displayColor = [",
+        format_f32(render.width() as f32)
+    );
+    for (i, &g) in render.groups().iter().enumerate() {
+        if i > 0 {
+            text.push_str(", ");
+        }
+        let [r, gr, b] = group_colour(g as usize);
+        let _ = write!(
+            text,
+            "({}, {}, {})",
+            format_f32(r as f32 / 255.0),
+            format_f32(gr as f32 / 255.0),
+            format_f32(b as f32 / 255.0)
+        );
+    }
+    text.push_str("] (\n            interpolation = \"uniform\"\n        )\n    }\n");
+    w.write_all(text.as_bytes()).map_err(io)
 }
 
 #[cfg(test)]

@@ -273,7 +273,46 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"mesh\"\npath = \"head.obj\"\nscale = -1.0", "bodies[0].scale", "must be in (0, 1000000]"),
     ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.1\n[[bodies]]\nshape = \"plane\"\nnormal = [0.0, 0.0, 1.0]\nname = \"body0\"", "bodies[1].name", "duplicate body name 'body0'"),
     ("bodies = 5\n[[strands]]\nlength = 0.3", "bodies", "array of tables"),
+    ("[[strands]]\nlength = 0.3\n[render]\nclumping = 0.5", "render.strands", "required: the number of render strands, an integer in [1, 10000000]"),
+    ("[[strands]]\nlength = 0.3\n[render]\nstrands = 0", "render.strands", "must be an integer >= 1"),
+    ("[[strands]]\nlength = 0.3\n[render]\nstrands = 20000000", "render.strands", "<= 10000000"),
+    ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10.5", "render.strands", "expected an integer"),
+    ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\nclumping = 1.5", "render.clumping", "must be in [0, 1], got 1.5"),
+    ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\ntip_distance = 0.0", "render.tip_distance", "must be in (0, 100], got 0"),
+    ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\nmax_spacing = -1.0", "render.max_spacing", "must be in (0, 100]"),
+    ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\nseed = -3", "render.seed", ">= 0"),
+    ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\nscalp_body = \"head\"", "render.scalp_body", "no body named 'head'"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nname = \"floor\"\nshape = \"plane\"\nnormal = [0.0, 0.0, 1.0]\nattached = \"world\"\n[render]\nstrands = 10\nscalp_body = \"floor\"", "render.scalp_body", "attached to the world"),
+    ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\nclumpiness = 0.5", "render.clumpiness", "unknown field; allowed fields here: clumping, max_spacing"),
+    ("render = 5\n[[strands]]\nlength = 0.3", "render", "table"),
 ];
+
+#[test]
+fn the_render_table_is_read_with_its_defaults() {
+    let plain = setup("[[strands]]\nlength = 0.3");
+    assert_eq!(plain.output.render, None);
+    let s = setup(
+        "[[strands]]\nlength = 0.3\n[[bodies]]\nname = \"head\"\nshape = \"sphere\"\nradius = 0.09\n[render]\nstrands = 1000",
+    );
+    assert_eq!(
+        s.output.render,
+        Some(crate::render::RenderSettings::new(1000))
+    );
+    let s = setup(
+        "[[strands]]\nlength = 0.3\n[[bodies]]\nname = \"head\"\nshape = \"sphere\"\nradius = 0.09\n[render]\nstrands = 20\nclumping = 0.8\ntip_distance = 0.05\nseed = 3\nmax_spacing = 0.02\nscalp_body = \"head\"",
+    );
+    assert_eq!(
+        s.output.render,
+        Some(crate::render::RenderSettings {
+            strands: 20,
+            clumping: 0.8,
+            tip_distance: Some(0.05),
+            seed: 3,
+            max_spacing: Some(0.02),
+            scalp_body: Some(0),
+        })
+    );
+}
 
 #[test]
 fn every_broken_scene_reports_its_field_and_range() {

@@ -1,0 +1,278 @@
+//! What the post-run files show besides the strands: the head's motion, the bodies as the
+//! pictures draw them, and the render strands asked for by `[render]`.
+//!
+//! Bodies are drawn from their exact silhouettes where that is cheap: a sphere or an
+//! ellipsoid projects to an ellipse, a capsule to a stadium, a mesh to the union of its
+//! projected triangles (the OBJ file is read again for it). A plane (a half-space) is drawn
+//! only in the panels that see it edge on (its normal across the view direction), as the
+//! grey region behind its line; in the other panels it would cover everything and is left
+//! out. Planes do not count in the pictures' bounds.
+
+use crate::bodies::obj::read_obj;
+use crate::bodies::{Attachment, Bodies, Body, BodySetup, ShapeSetup};
+use crate::config::SimulationSetup;
+use crate::error::{Error, Result};
+use crate::forces::head_motion::HeadMotion;
+use crate::render::RenderSettings;
+use nalgebra::{Matrix3, Vector3};
+use std::sync::Arc;
+use superhelix_kernels::head::HeadState;
+
+/// The shape of a body as the pictures draw it, in the coordinates of its attachment.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PreviewShape {
+    /// An ellipsoid: `centre + axes · diag(radii) · s`, |s| ≤ 1.
+    Ellipsoid {
+        /// Centre, m.
+        centre: Vector3<f64>,
+        /// The ellipsoid's axes (columns), orthonormal.
+        axes: Matrix3<f64>,
+        /// Semi-axes, m (equal for a sphere).
+        radii: Vector3<f64>,
+    },
+    /// The points within `radius` of the segment from `start` to `end`.
+    Capsule {
+        /// One end of the axis, m.
+        start: Vector3<f64>,
+        /// The other end, m.
+        end: Vector3<f64>,
+        /// Radius, m.
+        radius: f64,
+    },
+    /// The half-space behind a plane.
+    HalfSpace {
+        /// A point of the plane, m.
+        point: Vector3<f64>,
+        /// Unit outward normal.
+        normal: Vector3<f64>,
+    },
+    /// A closed triangle mesh.
+    Mesh {
+        /// Vertex positions, m.
+        vertices: Arc<Vec<Vector3<f64>>>,
+        /// Triangles, indices into the vertices.
+        triangles: Arc<Vec<[usize; 3]>>,
+    },
+}
+
+/// A body drawn under the strands, moving with the head or fixed in the world.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PreviewBody {
+    /// What it moves with.
+    pub attached: Attachment,
+    /// Its shape.
+    pub shape: PreviewShape,
+}
+
+impl PreviewBody {
+    /// A ball of `radius` at `centre`, fixed in the world.
+    pub fn sphere(centre: [f64; 3], radius: f64) -> Self {
+        Self {
+            attached: Attachment::World,
+            shape: PreviewShape::Ellipsoid {
+                centre: Vector3::from(centre),
+                axes: Matrix3::identity(),
+                radii: Vector3::repeat(radius),
+            },
+        }
+    }
+
+    /// The body as drawn, from its setup (a mesh file is read again).
+    pub fn from_setup(setup: &BodySetup) -> std::result::Result<Self, String> {
+        let shape = match &setup.shape {
+            ShapeSetup::Sphere { center, radius } => PreviewShape::Ellipsoid {
+                centre: *center,
+                axes: Matrix3::identity(),
+                radii: Vector3::repeat(*radius),
+            },
+            ShapeSetup::Ellipsoid {
+                center,
+                radii,
+                rotation,
+            } => PreviewShape::Ellipsoid {
+                centre: *center,
+                axes: *rotation,
+                radii: *radii,
+            },
+            ShapeSetup::Capsule { start, end, radius } => PreviewShape::Capsule {
+                start: *start,
+                end: *end,
+                radius: *radius,
+            },
+            // a cylinder is drawn as the capsule around its axis (its outline with
+            // rounded caps)
+            ShapeSetup::Cylinder { start, end, radius } => PreviewShape::Capsule {
+                start: *start,
+                end: *end,
+                radius: *radius,
+            },
+            ShapeSetup::Plane { point, normal } => PreviewShape::HalfSpace {
+                point: *point,
+                normal: *normal,
+            },
+            ShapeSetup::Mesh {
+                path,
+                scale,
+                rotation,
+                translation,
+                ..
+            } => {
+                let (vertices, triangles) = read_obj(path)?;
+                let vertices = vertices
+                    .iter()
+                    .map(|v| rotation * (v * *scale) + translation)
+                    .collect();
+                PreviewShape::Mesh {
+                    vertices: Arc::new(vertices),
+                    triangles: Arc::new(triangles),
+                }
+            }
+        };
+        Ok(Self {
+            attached: setup.attached,
+            shape,
+        })
+    }
+
+    /// The shape in world coordinates with the head in state `head`.
+    pub fn placed(&self, head: &HeadState) -> PreviewShape {
+        let (x, r) = match self.attached {
+            Attachment::World => return self.shape.clone(),
+            Attachment::Head => (head.position, head.rotation),
+        };
+        let at = |p: &Vector3<f64>| x + r * p;
+        match &self.shape {
+            PreviewShape::Ellipsoid {
+                centre,
+                axes,
+                radii,
+            } => PreviewShape::Ellipsoid {
+                centre: at(centre),
+                axes: r * axes,
+                radii: *radii,
+            },
+            PreviewShape::Capsule { start, end, radius } => PreviewShape::Capsule {
+                start: at(start),
+                end: at(end),
+                radius: *radius,
+            },
+            PreviewShape::HalfSpace { point, normal } => PreviewShape::HalfSpace {
+                point: at(point),
+                normal: r * normal,
+            },
+            PreviewShape::Mesh {
+                vertices,
+                triangles,
+            } => PreviewShape::Mesh {
+                vertices: Arc::new(vertices.iter().map(at).collect()),
+                triangles: Arc::clone(triangles),
+            },
+        }
+    }
+}
+
+impl PreviewShape {
+    /// Smallest and largest world x, y, z of the shape (`None` for a half-space).
+    pub fn extent(&self) -> Option<([f64; 3], [f64; 3])> {
+        let (lo, hi) = match self {
+            PreviewShape::Ellipsoid {
+                centre,
+                axes,
+                radii,
+            } => {
+                // half-width along world axis c: sqrt(Σ_k (axes[c][k] radii[k])²)
+                let half = Vector3::from_fn(|c, _| {
+                    (0..3)
+                        .map(|k| (axes[(c, k)] * radii[k]).powi(2))
+                        .sum::<f64>()
+                        .sqrt()
+                });
+                (centre - half, centre + half)
+            }
+            PreviewShape::Capsule { start, end, radius } => {
+                let r = Vector3::repeat(*radius);
+                (start.inf(end) - r, start.sup(end) + r)
+            }
+            PreviewShape::HalfSpace { .. } => return None,
+            PreviewShape::Mesh { vertices, .. } => {
+                let mut lo = Vector3::repeat(f64::INFINITY);
+                let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+                for v in vertices.iter() {
+                    lo = lo.inf(v);
+                    hi = hi.sup(v);
+                }
+                (lo, hi)
+            }
+        };
+        let ok = lo.iter().chain(hi.iter()).all(|v| v.is_finite());
+        ok.then(|| ([lo.x, lo.y, lo.z], [hi.x, hi.y, hi.z]))
+    }
+}
+
+/// The render strands asked for and the body their roots are projected onto.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderSource {
+    /// The scene's `[render]` table.
+    pub settings: RenderSettings,
+    /// The scalp (a body attached to the head), built.
+    pub scalp: Option<Body>,
+}
+
+/// What the post-run files show besides the strands.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Scenery {
+    /// The head's motion: the pose of the bodies on the head and of the render strands'
+    /// offsets at each frame (evaluated at the frame's simulated time).
+    pub head: HeadMotion,
+    /// Bodies drawn under the strands.
+    pub bodies: Vec<PreviewBody>,
+    /// Render strands (`None`: none).
+    pub render: Option<RenderSource>,
+}
+
+impl Scenery {
+    /// The scenery of a scene: its head motion, its bodies and its `[render]` table (the
+    /// scalp body is built, a mesh's field sampled). Errors name the body's field.
+    pub fn from_setup(setup: &SimulationSetup) -> Result<Self> {
+        let mut bodies = Vec::with_capacity(setup.bodies.len());
+        for (i, b) in setup.bodies.iter().enumerate() {
+            bodies.push(
+                PreviewBody::from_setup(b)
+                    .map_err(|m| Error::invalid(format!("bodies[{i}].path"), m))?,
+            );
+        }
+        let render = match setup.output.render {
+            None => None,
+            Some(settings) => {
+                let scalp = match settings.scalp_body {
+                    None => None,
+                    Some(i) => {
+                        let setup = setup.bodies.get(i).ok_or_else(|| {
+                            Error::invalid(
+                                "render.scalp_body",
+                                format!("body {i} does not exist ({} bodies)", setup.bodies.len()),
+                            )
+                        })?;
+                        let built = Bodies::build(std::slice::from_ref(setup))?;
+                        built.as_slice().first().cloned()
+                    }
+                };
+                Some(RenderSource { settings, scalp })
+            }
+        };
+        Ok(Self {
+            head: setup.head.clone(),
+            bodies,
+            render,
+        })
+    }
+
+    /// The head state at simulated time `t` (at rest for a time that is not finite).
+    pub fn head_at(&self, t: f64) -> HeadState {
+        if t.is_finite() {
+            self.head.state(t)
+        } else {
+            HeadState::rest()
+        }
+    }
+}

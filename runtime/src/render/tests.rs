@@ -1,0 +1,370 @@
+//! Tests of the render strands: placement, blend, the tip criterion, determinism.
+
+use super::render_roots::{RenderRoots, RootSites};
+use super::semi_interpolation::{guide_roots, SemiInterpolation};
+use super::settings::{clump_profile, RenderSettings};
+use crate::bodies::{Attachment, Body, Shape};
+use nalgebra::{Matrix3, Rotation3, Vector3};
+
+/// Points per guide: N = 10 elements sampled at 4 points each, plus the root.
+const M: usize = 41;
+
+fn ok<T>(r: crate::error::Result<T>) -> T {
+    r.unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A wavy 30 cm strand hanging from `root`, its shape varied by `phase`.
+fn wavy(root: Vector3<f64>, phase: f64) -> Vec<Vector3<f64>> {
+    (0..M)
+        .map(|j| {
+            let s = j as f64 / (M - 1) as f64;
+            root + Vector3::new(
+                0.02 * (9.0 * s + phase).sin() - 0.02 * phase.sin(),
+                0.015 * (1.0 - (7.0 * s).cos()),
+                -0.3 * s,
+            )
+        })
+        .collect()
+}
+
+/// Roots of an `nx` × `ny` grid in the plane z = 0, spacing 1 cm.
+fn grid_roots(nx: usize, ny: usize) -> Vec<Vector3<f64>> {
+    let mut roots = Vec::new();
+    for i in 0..nx {
+        for j in 0..ny {
+            roots.push(Vector3::new(0.01 * i as f64, 0.01 * j as f64, 0.0));
+        }
+    }
+    roots
+}
+
+fn world(points: &[Vector3<f64>]) -> Vec<[f64; 3]> {
+    points.iter().map(|p| [p.x, p.y, p.z]).collect()
+}
+
+fn settings(strands: usize, clumping: f64) -> RenderSettings {
+    RenderSettings {
+        clumping,
+        seed: 7,
+        ..RenderSettings::new(strands)
+    }
+}
+
+fn dist(a: [f32; 3], b: Vector3<f64>) -> f64 {
+    ((a[0] as f64 - b.x).powi(2) + (a[1] as f64 - b.y).powi(2) + (a[2] as f64 - b.z).powi(2)).sqrt()
+}
+
+#[test]
+fn identical_guides_give_render_strands_that_are_their_translations() {
+    // the same shape at every root of a 4 x 4 grid: every render strand is that shape
+    // moved to its own root, whatever its blend and clumping, even with the head turned
+    let roots = grid_roots(4, 4);
+    let rest: Vec<Vector3<f64>> = roots.iter().flat_map(|r| wavy(*r, 0.4)).collect();
+    let shape = wavy(Vector3::zeros(), 0.4);
+    for clumping in [0.0, 0.5, 1.0] {
+        let mut interp = ok(SemiInterpolation::new(
+            &settings(500, clumping),
+            &rest,
+            M,
+            None,
+        ));
+        let turn = Rotation3::from_axis_angle(&Vector3::z_axis(), 0.5).into_inner();
+        let shift = Vector3::new(0.1, -0.2, 0.05);
+        for rotation in [Matrix3::identity(), turn] {
+            let moved: Vec<Vector3<f64>> = rest.iter().map(|p| shift + rotation * p).collect();
+            let roots_placed: Vec<Vector3<f64>> =
+                interp.roots().roots.iter().map(|r| r.position).collect();
+            let out = ok(interp.frame(&world(&moved), &rotation)).to_vec();
+            let mut worst: f64 = 0.0;
+            for (i, line) in out.chunks_exact(M).enumerate() {
+                for j in 0..M {
+                    let expected = shift + rotation * (roots_placed[i] + shape[j]);
+                    worst = worst.max(dist(line[j], expected));
+                }
+            }
+            // f32 of coordinates below 0.5 m: 3e-8 each, a few roundings
+            assert!(worst < 5e-7, "clumping {clumping}: {worst:e} m");
+        }
+    }
+}
+
+#[test]
+fn a_render_strand_rooted_on_a_guide_root_reproduces_that_guide() {
+    // guides of different shapes; render roots exactly on guide roots 5 and 10 (inner
+    // roots of a 4 x 4 grid, corners of several triangles) and one between roots
+    let roots = grid_roots(4, 4);
+    let rest: Vec<Vector3<f64>> = roots
+        .iter()
+        .enumerate()
+        .flat_map(|(g, r)| wavy(*r, 0.3 * g as f64))
+        .collect();
+    let sites = RootSites::new(&roots, None);
+    let between = (roots[5] + roots[6] + roots[9]) / 3.0;
+    let placed = RenderRoots::at_positions(&roots, sites, &[roots[5], roots[10], between]);
+    assert_eq!(placed.roots[0].dominant_guide(), 5);
+    assert_eq!(placed.roots[1].dominant_guide(), 10);
+    let mut interp = ok(SemiInterpolation::with_roots(
+        &settings(0, 0.3),
+        &rest,
+        M,
+        placed,
+    ));
+    let out = ok(interp.frame(&world(&rest), &Matrix3::identity())).to_vec();
+    for (i, g) in [(0, 5), (1, 10)] {
+        for j in 0..M {
+            let d = dist(out[i * M + j], rest[g * M + j]);
+            assert!(d < 1e-7, "strand {i} point {j}: {d:e} m from guide {g}");
+        }
+    }
+    // the strand between three guides is none of them away from its root
+    let away = (1..M)
+        .map(|j| dist(out[2 * M + j], rest[5 * M + j]))
+        .fold(0.0, f64::max);
+    assert!(away > 1e-3, "{away:e}");
+}
+
+#[test]
+fn weights_are_barycentric_and_sum_to_one() {
+    let roots = grid_roots(5, 4);
+    let rest: Vec<Vector3<f64>> = roots.iter().flat_map(|r| wavy(*r, 0.0)).collect();
+    let interp = ok(SemiInterpolation::new(&settings(2000, 0.5), &rest, M, None));
+    assert_eq!(interp.strand_count(), 2000);
+    // a 5 x 4 grid of squares: both diagonals of each of the 12 squares, no lone guide
+    assert_eq!(interp.roots().sites.triangles.len(), 48);
+    assert!(interp.roots().sites.discs.is_empty());
+    for r in &interp.roots().roots {
+        let sum: f64 = r.weights.iter().sum();
+        assert!((sum - 1.0).abs() < 1e-12, "{:?}", r.weights);
+        assert!(r.weights.iter().all(|&w| w >= 0.0));
+        let blended: Vector3<f64> = (0..3)
+            .map(|k| roots[r.guides[k] as usize] * r.weights[k])
+            .sum();
+        assert!((blended - r.position).norm() < 1e-12);
+        assert!(r.weights[r.dominant as usize] >= r.weights.iter().cloned().fold(0.0, f64::max));
+    }
+    // even density: each quarter of the 4 cm x 3 cm grid holds a quarter of the roots
+    // (binomial, 2000 draws: sd 19; 5 sd = 97)
+    let mut quarters = [0usize; 4];
+    for r in &interp.roots().roots {
+        let q = usize::from(r.position.x > 0.02) + 2 * usize::from(r.position.y > 0.015);
+        quarters[q] += 1;
+    }
+    for q in quarters {
+        assert!((q as i64 - 500).abs() < 97, "{quarters:?}");
+    }
+}
+
+#[test]
+fn the_profile_goes_from_interpolated_to_clumped() {
+    assert_eq!(clump_profile(0.0, 1.0), 0.0);
+    assert_eq!(clump_profile(1.0, 0.0), 1.0);
+    // κ = 0.5: interpolated to u = 0.375, clumped from u = 0.625
+    assert_eq!(clump_profile(0.5, 0.375), 0.0);
+    assert_eq!(clump_profile(0.5, 0.625), 1.0);
+    assert!((clump_profile(0.5, 0.5) - 0.5).abs() < 1e-12);
+    // curlier (more clumping) starts nearer the root
+    assert!(clump_profile(0.7, 0.4) > clump_profile(0.5, 0.4));
+}
+
+#[test]
+fn guides_with_distant_tips_are_not_interpolated_across() {
+    // two rows of guides 1 cm apart whose tips part: row y = 0 swings to y = -15 cm, row
+    // y = 1 cm to y = +16 cm (Fig. 4d: close roots, distant tips)
+    let roots = grid_roots(4, 2);
+    let side = |r: &Vector3<f64>| if r.y > 0.005 { 1.0 } else { -1.0 };
+    let line = |r: &Vector3<f64>| -> Vec<Vector3<f64>> {
+        (0..M)
+            .map(|j| {
+                let s = j as f64 / (M - 1) as f64;
+                r + Vector3::new(0.0, side(r) * 0.15 * s * s, -0.25 * s)
+            })
+            .collect()
+    };
+    let rest: Vec<Vector3<f64>> = roots.iter().flat_map(line).collect();
+    let far_tips = |i: usize, out: &[[f32; 3]], interp: &SemiInterpolation| -> (f64, f64) {
+        let dominant = interp.roots().roots[i].dominant_guide();
+        // the nearest distance of the strand's lower half to any guide of the other row
+        let mut near_far_row = f64::INFINITY;
+        for (g, r) in roots.iter().enumerate() {
+            if side(r) == side(&roots[dominant]) {
+                continue;
+            }
+            for j in M / 2..M {
+                for jj in 0..M {
+                    near_far_row = near_far_row.min(dist(out[i * M + j], rest[g * M + jj]));
+                }
+            }
+        }
+        let to_own = dist(out[i * M + M - 1], rest[dominant * M + M - 1]);
+        (near_far_row, to_own)
+    };
+    let guides = world(&rest);
+    for (tip_distance, expect_gap) in [(Some(0.05), true), (None, false)] {
+        let s = RenderSettings {
+            tip_distance,
+            ..settings(400, 0.0)
+        };
+        let mut interp = ok(SemiInterpolation::new(&s, &rest, M, None));
+        let out = ok(interp.frame(&guides, &Matrix3::identity())).to_vec();
+        let mut closest_to_far_row = f64::INFINITY;
+        let mut farthest_from_own_tip: f64 = 0.0;
+        for i in 0..interp.strand_count() {
+            let (far, own) = far_tips(i, &out, &interp);
+            closest_to_far_row = closest_to_far_row.min(far);
+            farthest_from_own_tip = farthest_from_own_tip.max(own);
+            let (_, w) = interp
+                .effective_weights(i, &guides)
+                .unwrap_or_else(|| panic!("strand {i}"));
+            assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-6, "{w:?}");
+        }
+        if expect_gap {
+            // each strand keeps to its dominant guide's row: its lower half stays more
+            // than 5 cm from the other row (measured: 7.0 cm), its tip within its root
+            // offset (< 1.5 cm) of its own guide's tip (measured: 0.74 cm)
+            assert!(
+                closest_to_far_row > 0.05,
+                "{closest_to_far_row:e} m to the far row"
+            );
+            assert!(farthest_from_own_tip < 0.015, "{farthest_from_own_tip:e}");
+        } else {
+            // without the criterion strands between the rows fill the gap: some come
+            // within the 5 cm the criterion keeps (measured: 2.7 cm), and some tips end
+            // far from their dominant guide's (measured: 20 cm)
+            assert!(closest_to_far_row < 0.05, "{closest_to_far_row:e}");
+            assert!(farthest_from_own_tip > 0.05, "{farthest_from_own_tip:e}");
+        }
+    }
+}
+
+#[test]
+fn the_placement_is_determined_by_its_seed() {
+    let roots = grid_roots(6, 6);
+    let rest: Vec<Vector3<f64>> = roots
+        .iter()
+        .enumerate()
+        .flat_map(|(g, r)| wavy(*r, 0.1 * g as f64))
+        .collect();
+    let s = settings(1000, 0.5);
+    let mut a = ok(SemiInterpolation::new(&s, &rest, M, None));
+    let mut b = ok(SemiInterpolation::new(&s, &rest, M, None));
+    let other = ok(SemiInterpolation::new(
+        &RenderSettings { seed: 8, ..s },
+        &rest,
+        M,
+        None,
+    ));
+    assert_eq!(a.roots(), b.roots());
+    assert_ne!(a.roots().roots, other.roots().roots);
+    let guides = world(&rest);
+    let (pa, pb) = (
+        ok(a.frame(&guides, &Matrix3::identity())).to_vec(),
+        ok(b.frame(&guides, &Matrix3::identity())).to_vec(),
+    );
+    assert_eq!(pa, pb);
+    // the same buffer is reused from frame to frame
+    let first = ok(a.frame(&guides, &Matrix3::identity())).as_ptr();
+    let second = ok(a.frame(&guides, &Matrix3::identity())).as_ptr();
+    assert_eq!(first, second);
+    // a wrong number of guide points is an error, not a panic
+    assert!(a.frame(&guides[1..], &Matrix3::identity()).is_err());
+}
+
+#[test]
+fn roots_are_projected_onto_the_scalp() {
+    // guides on a sphere of radius 9 cm, pointing outward: the render roots lie on it
+    let radius = 0.09;
+    let mut rest = Vec::new();
+    for i in 0..6 {
+        for j in 0..6 {
+            let (th, ph) = (0.3 + 0.08 * i as f64, 0.08 * j as f64);
+            let n = Vector3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
+            for k in 0..M {
+                rest.push(n * (radius + 0.2 * k as f64 / (M - 1) as f64));
+            }
+        }
+    }
+    let scalp = Body {
+        name: "head".into(),
+        attached: Attachment::Head,
+        shape: Shape::Sphere(crate::bodies::shape_sphere::Sphere {
+            center: Vector3::zeros(),
+            radius,
+        }),
+    };
+    let interp = ok(SemiInterpolation::new(
+        &settings(300, 0.5),
+        &rest,
+        M,
+        Some(&scalp),
+    ));
+    for r in &interp.roots().roots {
+        assert!(
+            (r.position.norm() - radius).abs() < 1e-12,
+            "{}",
+            r.position.norm()
+        );
+    }
+    // without the scalp, roots inside triangles lie below the sphere (chords)
+    let (roots, _) = guide_roots(&rest, M);
+    let flat = RenderRoots::place(
+        &roots,
+        &vec![Vector3::z(); roots.len()],
+        &settings(300, 0.5),
+        None,
+    );
+    assert!(flat.roots.iter().any(|r| r.position.norm() < radius - 1e-6));
+}
+
+#[test]
+fn a_lone_guide_gets_a_lock_and_a_line_of_guides_gets_discs() {
+    let one: Vec<Vector3<f64>> = wavy(Vector3::zeros(), 0.0);
+    let mut interp = ok(SemiInterpolation::new(&settings(50, 0.5), &one, M, None));
+    assert_eq!(interp.roots().sites.discs.len(), 1);
+    let out = ok(interp.frame(&world(&one), &Matrix3::identity())).to_vec();
+    for line in out.chunks_exact(M) {
+        // within the default lock radius of the guide, at every point
+        for j in 0..M {
+            assert!(dist(line[j], one[j]) <= 0.0025 + 1e-7);
+        }
+    }
+    let row: Vec<Vector3<f64>> = (0..5)
+        .flat_map(|i| wavy(Vector3::new(0.01 * i as f64, 0.0, 0.0), 0.0))
+        .collect();
+    let line = ok(SemiInterpolation::new(&settings(50, 0.5), &row, M, None));
+    assert!(line.roots().sites.triangles.is_empty());
+    assert_eq!(line.roots().sites.discs.len(), 5);
+    // discs of half the spacing
+    assert!(line
+        .roots()
+        .sites
+        .discs
+        .iter()
+        .all(|d| (d.1 - 0.005).abs() < 1e-12));
+    assert!(SemiInterpolation::new(&settings(5, 0.5), &row[1..], M, None).is_err());
+}
+
+#[test]
+fn a_subset_of_the_render_strands_is_the_same_strands() {
+    let roots = grid_roots(5, 5);
+    let rest: Vec<Vector3<f64>> = roots
+        .iter()
+        .enumerate()
+        .flat_map(|(g, r)| wavy(*r, 0.2 * g as f64))
+        .collect();
+    let s = settings(1000, 0.5);
+    let mut all = ok(SemiInterpolation::new(&s, &rest, M, None));
+    let mut every_7th = ok(SemiInterpolation::subset(
+        &s,
+        &rest,
+        M,
+        None,
+        (0..1000).step_by(7),
+    ));
+    assert_eq!(every_7th.strand_count(), 143);
+    let guides = world(&rest);
+    let a = ok(all.frame(&guides, &Matrix3::identity())).to_vec();
+    let b = ok(every_7th.frame(&guides, &Matrix3::identity())).to_vec();
+    for (n, i) in (0..1000).step_by(7).enumerate() {
+        assert_eq!(a[i * M..(i + 1) * M], b[n * M..(n + 1) * M], "strand {i}");
+    }
+}
