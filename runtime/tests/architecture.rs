@@ -14,7 +14,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 /// The top-level modules in dependency order.
-const ORDER: [&str; 11] = [
+const ORDER: [&str; 12] = [
     "error",
     "model",
     "kernels",
