@@ -347,7 +347,7 @@ fn usda_curves_written_by_the_project_and_by_pxr_are_read() {
         frames.q.push(vec![0.0; 72]);
     }
     let path = dir.join("hair.usda");
-    write_usda(&path, &mut frames).expect("written");
+    write_usda(&path, &mut frames, None).expect("written");
     let curves = read_curves(&path).expect("read");
     assert_eq!(curves.len(), 3);
     for (c, s) in curves.iter().zip(&strands) {
