@@ -447,3 +447,28 @@ fn validate_reads_a_mesh_body_relative_to_the_scene_file() {
         text(&out)
     );
 }
+
+/// Every scene shipped in `scenes/` is valid: `superhelix validate` accepts it.
+#[test]
+fn every_shipped_scene_validates() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut count = 0;
+    for entry in std::fs::read_dir(&dir).expect("scenes/") {
+        let path = entry.expect("entry").path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            let out = std::process::Command::new(env!("CARGO_BIN_EXE_superhelix"))
+                .arg("validate")
+                .arg(&path)
+                .output()
+                .expect("runs");
+            assert!(
+                out.status.success(),
+                "{}: {}",
+                path.display(),
+                String::from_utf8_lossy(&out.stderr)
+            );
+            count += 1;
+        }
+    }
+    assert!(count >= 11, "{count} scenes");
+}
