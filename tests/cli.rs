@@ -221,16 +221,16 @@ fn run_writes_frames_of_the_default_scene() {
         }
     }
     // the plan's estimate of frames.json is within 10% of the file
-    let planned = lines[0]
+    let planned = lines[plan]
         .split("frames.json ")
         .nth(1)
         .and_then(|rest| rest.split(' ').next())
         .and_then(|mb| mb.parse::<f64>().ok())
-        .unwrap_or_else(|| panic!("{}", lines[0]));
+        .unwrap_or_else(|| panic!("{}", lines[plan]));
     assert!(
-        lines[0].contains(&format!("frames.json {planned} MB")),
+        lines[plan].contains(&format!("frames.json {planned} MB")),
         "{}",
-        lines[0]
+        lines[plan]
     );
     let size = json.len() as f64 / 1e6;
     assert!(

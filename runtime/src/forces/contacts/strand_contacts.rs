@@ -643,15 +643,19 @@ impl StrandContacts {
     }
 
     /// Before the first step (state q, head in `head`): a point that starts inside a body
-    /// (within the contact radius) is allowed its depth, so that it is let out at
+    /// (within the contact radius, deeper than where its penalty is a hundred times the
+    /// strand's weight) is allowed its depth, so that it is let out at
     /// [`ContactParams::depenetration_speed`] rather than kicked out; Coulomb anchors
     /// are set where the touching points are.
     pub fn start(&mut self, head: &HeadState, geom: &StrandGeometry, q: &[f64]) {
         self.sample_poses(geom, q);
+        // a depth whose penalty is within a hundred times the strand's weight is harmless
+        // and left to the penalty (a strand laid on a body at rest)
+        let harmless = 100.0 * geom.mass_per_length * STANDARD_GRAVITY / self.params.stiffness;
         for k in 0..self.samples.len() {
             self.allowance[k] = self
                 .body_hit(head, &self.poses[k].0)
-                .map_or(0.0, |h| (self.params.radius - h.distance).max(0.0));
+                .map_or(0.0, |h| (self.params.radius - h.distance - harmless).max(0.0));
         }
         self.update_anchors(head, geom, q);
     }
