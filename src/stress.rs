@@ -1225,7 +1225,7 @@ pub fn failure_line(r: &CaseResult) -> Option<String> {
 pub fn detail_line(r: &CaseResult) -> String {
     let opt = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.3e}"));
     format!(
-        "{} {} steps={} substeps={} limited={} unbalanced={} newton_fallbacks={} T/B={:.3} meanT/B={} dE/S={} rise/S={} stretch={:.2e} frame={:.2e} wall={:.2}s",
+        "{} {} steps={} substeps={} limited={} unbalanced={} newton_fallbacks={} T/B={:.3} meanT/B={} dE/S={} rise/S={} stretch={:.2e} frame={:.2e} penetration={:.2e} wall={:.2}s",
         if r.passed() { "ok  " } else { "FAIL" },
         r.name,
         r.steps,
@@ -1240,6 +1240,7 @@ pub fn detail_line(r: &CaseResult) -> String {
         opt(r.energy_rise),
         r.stretch,
         r.frame_error,
+        r.penetration,
         r.seconds
     )
 }
