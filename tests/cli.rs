@@ -148,7 +148,10 @@ fn run_writes_frames_of_the_default_scene() {
         .iter()
         .position(|l| l.starts_with("output: "))
         .unwrap_or_else(|| panic!("no plan: {stdout}"));
-    assert!(lines[..plan].iter().all(|l| l.starts_with("groom ")), "{stdout}");
+    assert!(
+        lines[..plan].iter().all(|l| l.starts_with("groom ")),
+        "{stdout}"
+    );
     let frames_path = out_dir.join("frames.json");
     assert!(
         lines.contains(&format!("wrote {}", frames_path.display()).as_str()),
@@ -452,4 +455,3 @@ fn validate_reads_a_mesh_body_relative_to_the_scene_file() {
         text(&out)
     );
 }
-

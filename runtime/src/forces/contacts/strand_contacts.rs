@@ -653,9 +653,9 @@ impl StrandContacts {
         // and left to the penalty (a strand laid on a body at rest)
         let harmless = 100.0 * geom.mass_per_length * STANDARD_GRAVITY / self.params.stiffness;
         for k in 0..self.samples.len() {
-            self.allowance[k] = self
-                .body_hit(head, &self.poses[k].0)
-                .map_or(0.0, |h| (self.params.radius - h.distance - harmless).max(0.0));
+            self.allowance[k] = self.body_hit(head, &self.poses[k].0).map_or(0.0, |h| {
+                (self.params.radius - h.distance - harmless).max(0.0)
+            });
         }
         self.update_anchors(head, geom, q);
     }
