@@ -254,6 +254,12 @@ impl StrandContacts {
                 && (head.velocity != Vector3::zeros() || head.omega != Vector3::zeros()))
     }
 
+    /// The body sample `k` at `y` presses into (its effective depth > 0), if any.
+    fn touching(&self, head: &HeadState, k: usize, y: &Vector3<f64>) -> Option<BodyHit> {
+        self.body_hit(head, y)
+            .filter(|h| self.effective_depth(k, h) > 0.0)
+    }
+
     /// The depth of sample `k` in `hit` that the penalty acts on: the depth less the
     /// sample's allowance, m (≤ 0: no force).
     fn effective_depth(&self, k: usize, hit: &BodyHit) -> f64 {
@@ -442,10 +448,7 @@ impl StrandContacts {
         let mut stiffened = false;
         for k in 0..self.samples.len() {
             let (y, t) = self.poses[k];
-            let Some(hit) = self
-                .body_hit(head, &y)
-                .filter(|h| self.effective_depth(k, h) > 0.0)
-            else {
+            let Some(hit) = self.touching(head, k, &y) else {
                 continue;
             };
             let (s, w) = self.samples[k];
@@ -543,10 +546,7 @@ impl StrandContacts {
         let (mut potential, mut rate) = (0.0, 0.0);
         for k in 0..self.samples.len() {
             let (y, t) = self.poses[k];
-            let Some(hit) = self
-                .body_hit(head, &y)
-                .filter(|h| self.effective_depth(k, h) > 0.0)
-            else {
+            let Some(hit) = self.touching(head, k, &y) else {
                 continue;
             };
             let w = self.samples[k].1;
@@ -693,10 +693,7 @@ impl StrandContacts {
         self.sample_poses(geom, q);
         for k in 0..self.samples.len() {
             let (y, t) = self.poses[k];
-            let Some(hit) = self
-                .body_hit(head, &y)
-                .filter(|h| self.effective_depth(k, h) > 0.0)
-            else {
+            let Some(hit) = self.touching(head, k, &y) else {
                 self.anchors[k] = None;
                 continue;
             };
