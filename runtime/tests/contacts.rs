@@ -14,9 +14,11 @@ const L: f64 = 0.03;
 const CONTACT_RADIUS: f64 = 1e-4;
 const CYLINDER_RADIUS: f64 = 0.01;
 
-/// A straight, round 3 cm strand clamped horizontally at the origin, its tip resting on a
-/// horizontal cylinder (a long capsule along y) whose top is under the tip.
-fn propped(mode: &str, extra: &str) -> String {
+/// A straight, round 3 cm strand of `elements` elements clamped horizontally at the
+/// origin, its tip resting on a horizontal cylinder (a long capsule along y) whose top is
+/// under the tip; 640 contact samples in all.
+fn propped(mode: &str, elements: usize) -> String {
+    let samples = 640 / elements;
     format!(
         r#"
 [simulation]
@@ -34,14 +36,13 @@ radius = {CYLINDER_RADIUS}
 radius = {CONTACT_RADIUS}
 stiffness = 1e6
 friction = "none"
-samples_per_element = 64
-{extra}
+samples_per_element = {samples}
 [[strands]]
 root = [0.0, 0.0, 0.0]
 direction = [1.0, 0.0, 0.0]
 normal = [0.0, 1.0, 0.0]
 length = {L}
-elements = 10
+elements = {elements}
 radius = 5e-5
 ellipticity = 1.0
 youngs_modulus = 3.9e9
@@ -62,43 +63,46 @@ fn propped_deflection(w: f64, ei: f64, x: f64) -> f64 {
 
 #[test]
 fn a_cantilever_propped_by_a_cylinder_matches_beam_theory() {
-    let mut s = sim(&propped("static", ""));
+    let mut s = sim(&propped("static", 40));
     s.solve_static().expect("static solve");
     let m = &s.strand(0).material;
     let (ei, w) = (m.stiffness[1], m.mass_per_length * 9.81);
     let reaction = s.contact_summary(0).expect("contacts").normal_force;
     let expected = 3.0 * w * L / 8.0;
     // the reaction of a prop at the tip; the contact sits within one sample spacing
-    // (0.375 mm, 1.25 % of L) of the tip, which moves the reaction by about as much
+    // (47 µm, 0.16 % of L) of the tip, which moves the reaction by about as much
+    // (measured 1.2e-3)
     let rel = (reaction - expected).abs() / expected;
     assert!(
-        rel < 0.03,
+        rel < 5e-3,
         "reaction {reaction:.4e} N vs 3wL/8 = {expected:.4e} N ({rel:.2e})"
     );
     // the deflection where it is largest (x = 0.5785 L) and at a quarter and three
     // quarters; beam theory is linear: the strand deflects by ~1e-3 L here, its
-    // nonlinear terms are O(1e-6) relative
+    // nonlinear terms are O(1e-6) relative. What remains is the model's: elements of
+    // constant curvature under a load that varies along them (2.4 % at N = 10, falling
+    // as 1/N², 0.15 % at N = 40) and the prop's offset above (measured 3.6e-3 at most)
     let vmax = propped_deflection(w, ei, 0.5785 * L);
     for x in [0.25 * L, 0.5785 * L, 0.75 * L] {
         let z = s.position_at(0, x).z;
         let v = propped_deflection(w, ei, x);
         let err = (-z - v).abs() / vmax;
         assert!(
-            err < 0.03,
+            err < 1e-2,
             "x = {x}: deflection {:.4e} m vs {v:.4e} m ({err:.2e} of the largest)",
             -z
         );
     }
     // the tip rests on the cylinder at the contact radius, sunk by the penalty's depth
     let tip = s.position_at(0, L);
-    assert!(tip.z.abs() < 0.05 * vmax, "tip at z = {:.3e} m", tip.z);
+    assert!(tip.z.abs() < 0.01 * vmax, "tip at z = {:.3e} m", tip.z);
 }
 
 #[test]
 fn the_dynamic_rest_state_on_the_cylinder_is_the_static_solution() {
-    let mut statics = sim(&propped("static", ""));
+    let mut statics = sim(&propped("static", 10));
     statics.solve_static().expect("static solve");
-    let mut dynamics = sim(&propped("dynamic", ""));
+    let mut dynamics = sim(&propped("dynamic", 10));
     for _ in 0..600 {
         dynamics.step().expect("step");
     }

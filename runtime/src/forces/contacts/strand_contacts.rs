@@ -159,6 +159,8 @@ pub struct StrandContacts {
     /// Arc lengths and weights of the samples.
     samples: Vec<(f64, f64)>,
     anchors: Vec<Option<Anchor>>,
+    /// Scratch of [`Self::step_acceptable`]: which samples touched at the step's start.
+    touched: Vec<bool>,
     /// Depth each sample may have without force: what it had at the start, less what
     /// [`ContactParams::depenetration_speed`] took away since (see [`Self::after_step`]).
     allowance: Vec<f64>,
@@ -201,6 +203,7 @@ impl StrandContacts {
             params,
             hair,
             anchors: vec![None; n],
+            touched: vec![false; n],
             allowance: vec![0.0; n],
             partners: Vec::new(),
             poses: vec![(Vector3::zeros(), Vector3::zeros()); n],
@@ -609,24 +612,21 @@ impl StrandContacts {
         q1: &[f64],
     ) -> bool {
         let split = self.params.split_depth;
-        let body_depths = |c: &mut Self, q: &[f64], out: &mut Vec<f64>| {
-            c.sample_poses(geom, q);
-            out.clear();
-            out.extend((0..c.samples.len()).map(|k| {
-                c.body_hit(head, &c.poses[k].0)
-                    .map_or(0.0, |h| c.effective_depth(k, &h))
-            }));
-        };
-        let (mut before, mut after) = (Vec::new(), Vec::new());
-        body_depths(self, q0, &mut before);
-        body_depths(self, q1, &mut after);
-        // a sample already touching has its penalty stiffness in the step's matrix (or,
-        // beyond δ_max, a constant force pushing it out): only new contacts are checked
-        if !before
-            .iter()
-            .zip(&after)
-            .all(|(b, a)| *b > 0.0 || *a <= split)
-        {
+        // which samples touch at the start: their penalty stiffness is in the step's
+        // matrix (or, beyond δ_max, a constant force pushes them out); only the others,
+        // new contacts, are checked
+        self.sample_poses(geom, q0);
+        for k in 0..self.samples.len() {
+            self.touched[k] = self.touching(head, k, &self.poses[k].0).is_some();
+        }
+        self.sample_poses(geom, q1);
+        let deep = (0..self.samples.len()).any(|k| {
+            !self.touched[k]
+                && self
+                    .body_hit(head, &self.poses[k].0)
+                    .is_some_and(|h| self.effective_depth(k, &h) > split)
+        });
+        if deep {
             return false;
         }
         let rt = head.rotation.transpose();
