@@ -149,6 +149,13 @@ pub struct BenchReport {
     pub cpu_seconds: Option<f64>,
     /// Implicit steps that were split (see `StepStats::substeps`).
     pub substeps: usize,
+    /// Of the splits, those for the energy balance (the rest split because a step
+    /// rotated an element too far or failed).
+    pub energy_rejected: usize,
+    /// Steps whose excess kinetic energy was removed from the velocities.
+    pub energy_limited: usize,
+    /// Implicit (sub)steps solved, accepted or not.
+    pub attempts: usize,
     /// Description of the kernel of strand 0.
     pub kernel: String,
     /// Worker threads the strands were spread over.
@@ -357,6 +364,9 @@ pub fn bench_setup(setup: SimulationSetup, steps: usize) -> Result<BenchReport> 
         strand_steps: strand_count * steps,
         cpu_seconds,
         substeps: sim.stats().substeps,
+        energy_rejected: sim.stats().energy_rejected,
+        energy_limited: sim.stats().energy_limited,
+        attempts: sim.stats().attempts,
         kernel: sim.kernel_description(0),
         threads: rayon::current_num_threads(),
     })

@@ -189,6 +189,26 @@ pub fn end_ceiling<T: Float>(start: &StateEnergy<T>, end: &StateEnergy<T>, inert
 pub const MAX_ELEMENT_ROTATION: f64 = 0.2;
 /// How many times a step may be halved (down to h / 2^depth).
 pub const MAX_SUBSTEP_DEPTH: usize = 8;
+
+/// How many halvings a step that rotated an element by `rotation` (> the limit
+/// [`MAX_ELEMENT_ROTATION`]) takes at once, at `depth`: the smallest j with
+/// `rotation / 2^j ≤ MAX_ELEMENT_ROTATION` (the rotation of a step is about
+/// proportional to its length), at least 1, at most down to [`MAX_SUBSTEP_DEPTH`]. The
+/// 2^j pieces are the intervals that halving j times gives, each checked as any step:
+/// halving level by level would solve every level in between, only to reject it.
+pub fn rotation_split_levels(rotation: f64, depth: usize) -> usize {
+    if rotation.is_nan() {
+        return 1;
+    }
+    let room = MAX_SUBSTEP_DEPTH.saturating_sub(depth).max(1);
+    let mut levels = 1;
+    let mut r = 0.5 * rotation;
+    while r > MAX_ELEMENT_ROTATION && levels < room {
+        r *= 0.5;
+        levels += 1;
+    }
+    levels
+}
 /// With the head moving uniformly (inertial head frame), a step that creates more energy
 /// than this fraction of the energy scale S = T + U + |c0| L² (beyond round-off) is split
 /// in two; a smaller excess is removed from the velocities instead (see
@@ -204,3 +224,54 @@ pub const ENERGY_SPLIT_FRACTION: f64 = 1e-3;
 /// lower threshold only splits steps that are fine; the instabilities it is for create
 /// more than S per step.
 pub const WORK_SPLIT_FRACTION: f64 = 1e-2;
+
+/// How many times the next step of a strand is halved before it is first tried, from
+/// `estimate`, the largest `2^depth r` over the (sub)steps of its last step that were
+/// accepted (r their element rotation, at their depth): the smallest j with
+/// `estimate / 2^j ≤ MAX_ELEMENT_ROTATION`, 0 when the whole step would pass, at most
+/// [`MAX_SUBSTEP_DEPTH`]. A strand whipping on a shaking head needs about as many pieces
+/// from one step to the next; trying the whole step first would only be rejected. The
+/// estimate follows the motion both ways: slower pieces give a smaller one, and the next
+/// step starts coarser.
+pub fn predicted_split_levels(estimate: f64) -> usize {
+    if estimate.is_nan() || estimate <= MAX_ELEMENT_ROTATION {
+        return 0;
+    }
+    rotation_split_levels(estimate, 0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_rotation_splits_into_the_pieces_that_bring_it_within_the_limit() {
+        let limit = MAX_ELEMENT_ROTATION;
+        // r / 2^j ≤ limit with the smallest j ≥ 1
+        assert_eq!(rotation_split_levels(1.0001 * limit, 0), 1);
+        assert_eq!(rotation_split_levels(2.0 * limit, 0), 1);
+        assert_eq!(rotation_split_levels(2.0001 * limit, 0), 2);
+        assert_eq!(rotation_split_levels(4.0 * limit, 0), 2);
+        assert_eq!(rotation_split_levels(4.0001 * limit, 0), 3);
+        // never below the deepest substep, always at least one halving
+        assert_eq!(rotation_split_levels(1e9, 0), MAX_SUBSTEP_DEPTH);
+        assert_eq!(rotation_split_levels(1e9, MAX_SUBSTEP_DEPTH - 2), 2);
+        assert_eq!(rotation_split_levels(1e9, MAX_SUBSTEP_DEPTH), 1);
+        assert_eq!(rotation_split_levels(f64::NAN, 0), 1);
+        assert_eq!(
+            rotation_split_levels(f64::INFINITY, 3),
+            MAX_SUBSTEP_DEPTH - 3
+        );
+    }
+
+    #[test]
+    fn the_next_step_starts_whole_unless_the_last_one_needed_pieces() {
+        let limit = MAX_ELEMENT_ROTATION;
+        assert_eq!(predicted_split_levels(0.0), 0);
+        assert_eq!(predicted_split_levels(limit), 0);
+        assert_eq!(predicted_split_levels(f64::NAN), 0);
+        assert_eq!(predicted_split_levels(1.5 * limit), 1);
+        assert_eq!(predicted_split_levels(3.0 * limit), 2);
+        assert_eq!(predicted_split_levels(f64::INFINITY), MAX_SUBSTEP_DEPTH);
+    }
+}

@@ -57,6 +57,10 @@ pub struct FixedStrand<const N: usize, const D: usize, const B: usize, T: Float 
     pub basis_k: usize,
     /// Whether the basis spans the negative (else the positive) eigenvalues.
     pub basis_negative: bool,
+    /// How many times the next checked step is halved before it is first tried
+    /// ([`crate::energy::predicted_split_levels`] of the last step; used only when the
+    /// next step continues from the last one's end, `last_energy`).
+    pub split_hint: u8,
     /// The energy of the state the last checked step ended in (the next step's start).
     pub last_energy: Option<StateEnergy<T>>,
 }
@@ -74,6 +78,7 @@ impl<const N: usize, const D: usize, const B: usize, T: Float> FixedStrand<N, D,
             basis: [[T::zero(); D]; B],
             basis_k: 0,
             basis_negative: true,
+            split_hint: 0,
             last_energy: None,
         }
     }

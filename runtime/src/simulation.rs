@@ -994,6 +994,7 @@ impl Simulation {
         let mut total = StepStats::default();
         if let Some(e) = &self.embedded {
             total.substeps = e.counts.substeps;
+            total.attempts = e.counts.attempts;
             total.energy_rejected = e.counts.energy_rejected;
             total.energy_limited = e.counts.energy_limited;
             total.energy_unbalanced = e.counts.energy_unbalanced;

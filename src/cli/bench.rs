@@ -143,13 +143,15 @@ fn engine(name: &str) -> Result<superhelix::runtime::config::Engine, Error> {
 }
 
 fn print_report(report: &BenchReport) {
-    // every split discards its attempt and solves two halves
-    let solves = report.strand_steps + 2 * report.substeps;
+    let solves = report.attempts;
     println!(
-        "wall {:.3} s, {:.2} us per strand-step, {} substeps, {} threads",
+        "wall {:.3} s, {:.2} us per strand-step, {} substeps ({} for the energy balance, {} for the rotation), {} energy-limited, {} threads",
         report.seconds,
         1e6 / report.strand_steps_per_second,
         report.substeps,
+        report.energy_rejected,
+        report.substeps - report.energy_rejected.min(report.substeps),
+        report.energy_limited,
         report.threads,
     );
     if let Some(cpu) = report.cpu_seconds {

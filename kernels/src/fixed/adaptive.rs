@@ -4,7 +4,8 @@
 //!
 //! - a step that fails (singular matrix, non-finite values) or rotates an element by more
 //!   than [`MAX_ELEMENT_ROTATION`] is split in two, recursively, at most
-//!   [`MAX_SUBSTEP_DEPTH`] deep;
+//!   [`MAX_SUBSTEP_DEPTH`] deep (a rotation r at once into the 2^j pieces of
+//!   [`rotation_split_levels`], r / 2^j within the limit);
 //! - E(end) must not exceed its bound (see [`crate::energy::balance`]); a step whose
 //!   excess is above [`ENERGY_SPLIT_FRACTION`] (head moving uniformly) or
 //!   [`WORK_SPLIT_FRACTION`] (otherwise) of the energy scale is split, a smaller excess
@@ -17,8 +18,8 @@ use super::step::{evaluate_at, linearly_implicit, StepError, StepInput, StepRepo
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::energy::{
-    balance, end_ceiling, StateEnergy, ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION,
-    MAX_SUBSTEP_DEPTH, WORK_SPLIT_FRACTION,
+    balance, end_ceiling, predicted_split_levels, rotation_split_levels, StateEnergy,
+    ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION, MAX_SUBSTEP_DEPTH, WORK_SPLIT_FRACTION,
 };
 use crate::float::Float;
 use crate::head::{body_field, HeadState};
@@ -107,6 +108,8 @@ pub struct Effects {
 pub struct StepCounts {
     /// Steps split into halves (each split counts once).
     pub substeps: usize,
+    /// Linearly implicit (sub)steps solved, accepted or not.
+    pub attempts: usize,
     /// Steps split because they created energy.
     pub energy_rejected: usize,
     /// Steps whose excess energy was removed from the velocities.
@@ -120,6 +123,7 @@ impl StepCounts {
     /// Add another count.
     pub fn add(&mut self, other: &StepCounts) {
         self.substeps += other.substeps;
+        self.attempts += other.attempts;
         self.energy_rejected += other.energy_rejected;
         self.energy_limited += other.energy_limited;
         self.energy_unbalanced += other.energy_unbalanced;
@@ -322,16 +326,23 @@ pub fn step<
     }
     ws.forget();
     let interval = Interval::new(head, t, h);
-    let start = match strand.last_energy {
-        Some(e) if (e.time - t).abs() <= 1e-12 * t.abs().max(1.0) => e,
+    let (start, levels) = match strand.last_energy {
+        Some(e) if (e.time - t).abs() <= 1e-12 * t.abs().max(1.0) => {
+            (e, usize::from(strand.split_hint))
+        }
         _ => {
             let (q, v) = (strand.q, strand.v);
-            measure(source, strand, effects, &interval.start, t, &q, &v, ws)
+            let e = measure(source, strand, effects, &interval.start, t, &q, &v, ws);
+            (e, 0)
         }
     };
     let q0 = strand.q;
-    let end = adaptive(source, strand, head, effects, &interval, &start, ws, counts)?;
+    ws.rotation_estimate = 0.0;
+    let end = split(
+        source, strand, head, effects, &interval, &start, ws, counts, levels,
+    )?;
     strand.last_energy = Some(end);
+    strand.split_hint = predicted_split_levels(ws.rotation_estimate) as u8;
     let rotation = max_element_rotation(&strand.params.lengths, &strand.q, &q0);
     if let Some(i) = strand
         .q
@@ -396,15 +407,22 @@ fn adaptive<
         head_moves: effects.head_moves,
     };
     let outcome = linearly_implicit(source, strand, &input, h, ws);
+    counts.attempts += 1;
     let finite = outcome.is_ok();
-    let acceptable = outcome.is_ok()
-        && max_element_rotation(&strand.params.lengths, &strand.q, &saved_q)
-            <= T::of(MAX_ELEMENT_ROTATION);
+    let rotation = if finite {
+        max_element_rotation(&strand.params.lengths, &strand.q, &saved_q).as_f64()
+    } else {
+        f64::INFINITY
+    };
+    let acceptable = finite && rotation <= MAX_ELEMENT_ROTATION;
     if acceptable || deepest {
         outcome?;
         if !finite {
             return Err(StepError::SingularMatrix);
         }
+        ws.rotation_estimate = ws
+            .rotation_estimate
+            .max(rotation * (1u64 << interval.depth) as f64);
         let (q, v) = (strand.q, strand.v);
         let mut end = measure(
             source,
@@ -448,11 +466,65 @@ fn adaptive<
         }
         counts.energy_rejected += 1;
     }
-    counts.substeps += 1;
     strand.q = saved_q;
     strand.v = saved_v;
+    let levels = if !acceptable && rotation.is_finite() && rotation > MAX_ELEMENT_ROTATION {
+        rotation_split_levels(rotation, interval.depth)
+    } else {
+        1
+    };
+    split(
+        source, strand, head, effects, interval, start, ws, counts, levels,
+    )
+}
+
+/// `interval` halved `levels` times (each halving counted in [`StepCounts::substeps`]),
+/// its pieces stepped in order by [`adaptive`]: the runtime's `split`.
+#[allow(clippy::too_many_arguments)]
+fn split<
+    S: MomentSource<T>,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
+    source: &S,
+    strand: &mut FixedStrand<N, D, B, T>,
+    head: &dyn HeadTrajectory,
+    effects: &Effects,
+    interval: &Interval,
+    start: &StateEnergy<T>,
+    ws: &mut FixedWorkspace<N, D, E, T>,
+    counts: &mut StepCounts,
+    levels: usize,
+) -> Result<StateEnergy<T>, StepError> {
+    if levels == 0 {
+        return adaptive(source, strand, head, effects, interval, start, ws, counts);
+    }
+    counts.substeps += 1;
     let first = interval.first_half(head);
-    let middle = adaptive(source, strand, head, effects, &first, start, ws, counts)?;
+    let middle = split(
+        source,
+        strand,
+        head,
+        effects,
+        &first,
+        start,
+        ws,
+        counts,
+        levels - 1,
+    )?;
     let second = interval.second_half(&first, head);
-    adaptive(source, strand, head, effects, &second, &middle, ws, counts)
+    split(
+        source,
+        strand,
+        head,
+        effects,
+        &second,
+        &middle,
+        ws,
+        counts,
+        levels - 1,
+    )
 }

@@ -31,6 +31,9 @@ pub struct FixedWorkspace<const N: usize, const D: usize, const E: usize, T: Flo
     /// Scratch of the projection: the shared algorithm's
     /// ([`crate::projection::ProjectionScratch`]) and the full Jacobi fallback's.
     pub(super) projection: ProjectionArrays<D, T>,
+    /// The checked step's largest `2^depth r` over its accepted pieces so far (see
+    /// [`crate::energy::predicted_split_levels`]).
+    pub(super) rotation_estimate: f64,
 }
 
 /// The projection's scratch and the step's cache of its last input and output.
@@ -113,6 +116,7 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
                 eigen: [[T::zero(); D]; D],
                 eigenvalues: [T::zero(); D],
             },
+            rotation_estimate: 0.0,
         }
     }
 

@@ -12,7 +12,8 @@ use super::system::{HeadInterval, StrandState, StrandSystem, StrandWorkspace};
 use crate::config::IntegratorKind;
 
 pub use superhelix_kernels::energy::{
-    ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION, MAX_SUBSTEP_DEPTH, WORK_SPLIT_FRACTION,
+    predicted_split_levels, rotation_split_levels, ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION,
+    MAX_SUBSTEP_DEPTH, WORK_SPLIT_FRACTION,
 };
 
 /// Advance one strand's `state` over `interval` (from t by h) with the integrator of
@@ -31,10 +32,19 @@ pub fn step(
 ) -> Result<(), String> {
     match system.context.integrator {
         IntegratorKind::Rk4 => rk4(system, interval, state),
-        _ => {
-            let start = start_energy(system, interval, state);
-            let end = implicit_adaptive(system, interval, state, &start, stats)?;
+        kind => {
+            let (start, continued) = start_energy(system, interval, state);
+            // the linearly implicit step starts as finely as its last step ended (the
+            // other integrators take their own whole step first)
+            let levels = if continued && kind == IntegratorKind::LinearlyImplicitEuler {
+                system.workspace.split_hint
+            } else {
+                0
+            };
+            system.workspace.rotation_estimate = 0.0;
+            let end = split(system, interval, state, &start, stats, levels)?;
             let ws = &mut system.workspace;
+            ws.split_hint = predicted_split_levels(ws.rotation_estimate);
             ws.last_energy = Some(end);
             ws.last_q.copy_from_slice(&state.q);
             ws.last_v.copy_from_slice(&state.v);
@@ -50,12 +60,12 @@ pub fn step(
 }
 
 /// The energy of the state at the interval's start: the end of the previous step when it
-/// is that state (the usual case), measured otherwise.
+/// is that state (the usual case; then true), measured otherwise.
 fn start_energy(
     system: &mut StrandSystem,
     interval: &HeadInterval,
     state: &StrandState,
-) -> StateEnergy {
+) -> (StateEnergy, bool) {
     let t = interval.t;
     let ws = &system.workspace;
     let history = system.contacts.as_ref().is_some_and(|c| c.has_history());
@@ -64,10 +74,13 @@ fn start_energy(
             && ws.last_q == state.q
             && ws.last_v == state.v
         {
-            return e;
+            return (e, true);
         }
     }
-    energy_balance::measure(system, &interval.start, t, &state.q, &state.v)
+    (
+        energy_balance::measure(system, &interval.start, t, &state.q, &state.v),
+        false,
+    )
 }
 
 /// Largest l_Q |Δd_Q| between two states.
@@ -92,7 +105,9 @@ fn max_element_rotation(lengths: &[f64], q: &[f64], q0: &[f64]) -> f64 {
 ///   (counted in [`StepStats::newton_unconverged`]).
 /// - A step that fails (a singular matrix, non-finite values) or rotates an element by
 ///   more than [`MAX_ELEMENT_ROTATION`] is split; at the deepest substep a failure is an
-///   error and a large rotation is accepted.
+///   error and a large rotation is accepted. A rotation r splits into the 2^j pieces of
+///   [`rotation_split_levels`] at once (r / 2^j within the limit): the levels between
+///   would mostly be solved only to be rejected.
 /// - The energy balance ([`energy_balance::balance`]): E(end) must not exceed its bound
 ///   plus an allowance. With the head moving uniformly the bound is the ceiling (the
 ///   energy at the start of that phase less the estimated dissipation since, or E(start)
@@ -146,14 +161,20 @@ fn implicit_adaptive(
         state.v.copy_from_slice(&system.workspace.saved_v);
         outcome = linearly_implicit_euler(system, interval, state, stats);
     }
+    stats.attempts += 1;
     let finite = state.q.iter().chain(state.v.iter()).all(|x| x.is_finite());
-    let acceptable = outcome.is_ok()
-        && finite
-        && max_element_rotation(
+    let rotation = if outcome.is_ok() && finite {
+        max_element_rotation(
             &system.strand.geometry.lengths,
             &state.q,
             &system.workspace.saved_q,
-        ) <= MAX_ELEMENT_ROTATION
+        )
+    } else {
+        f64::INFINITY
+    };
+    let acceptable = outcome.is_ok()
+        && finite
+        && rotation <= MAX_ELEMENT_ROTATION
         && match &mut system.contacts {
             Some(c) => c.step_acceptable(
                 &interval.end,
@@ -170,6 +191,10 @@ fn implicit_adaptive(
                 "non-finite state after a substep of {h:.3e} s (at the deepest split)"
             ));
         }
+        let ws = &mut system.workspace;
+        ws.rotation_estimate = ws
+            .rotation_estimate
+            .max(rotation * (1u64 << interval.depth) as f64);
         let mut end =
             energy_balance::measure(system, &interval.end, interval.t + h, &state.q, &state.v);
         // contacts with what moves relative to the head (a world body while the head
@@ -214,11 +239,34 @@ fn implicit_adaptive(
         }
         stats.energy_rejected += 1;
     }
-    stats.substeps += 1;
     state.q.copy_from_slice(&system.workspace.saved_q);
     state.v.copy_from_slice(&system.workspace.saved_v);
+    // a step rejected for its rotation alone goes down as many levels as the rotation
+    // asks for at once
+    let levels = if !acceptable && rotation.is_finite() && rotation > MAX_ELEMENT_ROTATION {
+        rotation_split_levels(rotation, interval.depth)
+    } else {
+        1
+    };
+    split(system, interval, state, start, stats, levels)
+}
+
+/// `interval` halved `levels` times (each halving counted in [`StepStats::substeps`]),
+/// its pieces stepped in order by [`implicit_adaptive`].
+fn split(
+    system: &mut StrandSystem,
+    interval: &HeadInterval,
+    state: &mut StrandState,
+    start: &StateEnergy,
+    stats: &mut StepStats,
+    levels: usize,
+) -> Result<StateEnergy, String> {
+    if levels == 0 {
+        return implicit_adaptive(system, interval, state, start, stats);
+    }
+    stats.substeps += 1;
     let first = interval.first_half();
-    let middle = implicit_adaptive(system, &first, state, start, stats)?;
+    let middle = split(system, &first, state, start, stats, levels - 1)?;
     let second = interval.second_half(&first);
-    implicit_adaptive(system, &second, state, &middle, stats)
+    split(system, &second, state, &middle, stats, levels - 1)
 }

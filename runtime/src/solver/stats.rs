@@ -14,6 +14,9 @@ pub struct StepStats {
     /// Implicit steps split in two: they rotated an element too much, did not converge,
     /// or failed the energy balance.
     pub substeps: usize,
+    /// Implicit (sub)steps attempted, accepted or not: the linear solves of the step
+    /// (a Newton step's iterations count once).
+    pub attempts: usize,
     /// Of the splits, those for the energy balance ([`crate::solver::energy_balance`]).
     pub energy_rejected: usize,
     /// Steps whose velocities were scaled down so that the energy does not exceed the
@@ -31,6 +34,7 @@ impl StepStats {
         self.newton_iterations += o.newton_iterations;
         self.newton_unconverged += o.newton_unconverged;
         self.substeps += o.substeps;
+        self.attempts += o.attempts;
         self.energy_rejected += o.energy_rejected;
         self.energy_limited += o.energy_limited;
         self.energy_unbalanced += o.energy_unbalanced;

@@ -40,6 +40,12 @@ pub struct StrandWorkspace {
     pub(super) last_energy: Option<StateEnergy>,
     pub(super) last_q: Vec<f64>,
     pub(super) last_v: Vec<f64>,
+    /// How many times the next step is halved before it is first tried
+    /// ([`superhelix_kernels::energy::predicted_split_levels`] of the last step; used
+    /// only when the next step continues from its end, `last_energy`).
+    pub(super) split_hint: usize,
+    /// The step's largest `2^depth r` over its accepted pieces so far.
+    pub(super) rotation_estimate: f64,
 }
 
 impl StrandWorkspace {
@@ -67,6 +73,8 @@ impl StrandWorkspace {
             last_energy: None,
             last_q: vec![0.0; n],
             last_v: vec![0.0; n],
+            split_hint: 0,
+            rotation_estimate: 0.0,
         }
     }
 
