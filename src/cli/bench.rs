@@ -145,7 +145,7 @@ fn engine(name: &str) -> Result<superhelix::runtime::config::Engine, Error> {
 fn print_report(report: &BenchReport) {
     let solves = report.attempts;
     println!(
-        "wall {:.3} s, {:.2} us per strand-step, {} substeps ({} for the energy balance, {} for the rotation), {} energy-limited, {} threads",
+        "wall {:.3} s, {:.2} us per strand-step, {} substeps ({} for the energy balance, {} for a rotation, a contact or a failure), {} energy-limited, {} threads",
         report.seconds,
         1e6 / report.strand_steps_per_second,
         report.substeps,
