@@ -225,21 +225,19 @@ pub const ENERGY_SPLIT_FRACTION: f64 = 1e-3;
 /// more than S per step.
 pub const WORK_SPLIT_FRACTION: f64 = 1e-2;
 
-/// How many times the next step of a strand is halved before it is first tried, from its
-/// last step: `estimate`, the largest `2^depth r` over the (sub)steps it accepted (r
-/// their element rotation, at their depth), and `shallowest`, the smallest depth among
-/// them. The smallest j with `estimate / 2^j ≤ MAX_ELEMENT_ROTATION` (0 when the whole
-/// step would pass), never deeper than `shallowest` (pieces made small for another
-/// reason, a contact or the energy balance, do not make the whole next step fine) nor
+/// How many times the next step of a strand is halved before it is first tried, from
+/// `estimate`, the largest `2^depth r` over the (sub)steps of its last step that were
+/// accepted (r their element rotation, at their depth): the smallest j with
+/// `estimate / 2^j ≤ MAX_ELEMENT_ROTATION`, 0 when the whole step would pass, at most
 /// [`MAX_SUBSTEP_DEPTH`]. A strand whipping on a shaking head needs about as many pieces
 /// from one step to the next; trying the whole step first would only be rejected. The
 /// prediction follows the motion both ways: slower pieces give a smaller estimate, and the
 /// next step starts coarser.
-pub fn predicted_split_levels(estimate: f64, shallowest: usize) -> usize {
+pub fn predicted_split_levels(estimate: f64) -> usize {
     if estimate.is_nan() || estimate <= MAX_ELEMENT_ROTATION {
         return 0;
     }
-    rotation_split_levels(estimate, 0).min(shallowest)
+    rotation_split_levels(estimate, 0)
 }
 
 #[cfg(test)]
@@ -269,18 +267,11 @@ mod tests {
     #[test]
     fn the_next_step_starts_whole_unless_the_last_one_needed_pieces() {
         let limit = MAX_ELEMENT_ROTATION;
-        let any = MAX_SUBSTEP_DEPTH;
-        assert_eq!(predicted_split_levels(0.0, any), 0);
-        assert_eq!(predicted_split_levels(limit, any), 0);
-        assert_eq!(predicted_split_levels(f64::NAN, any), 0);
-        assert_eq!(predicted_split_levels(1.5 * limit, any), 1);
-        assert_eq!(predicted_split_levels(3.0 * limit, any), 2);
-        assert_eq!(
-            predicted_split_levels(f64::INFINITY, any),
-            MAX_SUBSTEP_DEPTH
-        );
-        // a deep piece with a large 2^depth r, while pieces two levels up passed
-        assert_eq!(predicted_split_levels(100.0 * limit, 2), 2);
-        assert_eq!(predicted_split_levels(3.0 * limit, 0), 0);
+        assert_eq!(predicted_split_levels(0.0), 0);
+        assert_eq!(predicted_split_levels(limit), 0);
+        assert_eq!(predicted_split_levels(f64::NAN), 0);
+        assert_eq!(predicted_split_levels(1.5 * limit), 1);
+        assert_eq!(predicted_split_levels(3.0 * limit), 2);
+        assert_eq!(predicted_split_levels(f64::INFINITY), MAX_SUBSTEP_DEPTH);
     }
 }

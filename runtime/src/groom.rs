@@ -33,7 +33,7 @@ pub mod surface;
 
 pub use curves::Curve;
 pub use fit::{fit_curve, FitError, FitSettings, FittedCurve};
-pub use report::{CurveReport, GroomReport, GroomSource};
+pub use report::{ClearanceReport, CurveReport, GroomReport, GroomSource};
 pub use roots::{sample_roots, Root, RootCount, RootSettings, Roots};
 pub use sag_free::sag_free_natural;
 pub use surface::Surface;

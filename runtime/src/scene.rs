@@ -169,6 +169,9 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> (SimulationSetup, Vec<Gro
     output.render = root
         .table("render")
         .and_then(|n| render::read_render(n, &bodies));
+    let contacts = root
+        .table("contacts")
+        .and_then(|n| contacts::read_contacts(n, &bodies));
     let mut grooms = groom::GroomContext {
         bodies: &bodies,
         gravity: environment
@@ -176,6 +179,7 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> (SimulationSetup, Vec<Gro
             .map(|g| head.state(0.0).rotation.transpose() * g),
         scene_dir,
         reports: Vec::new(),
+        clearance: contacts.as_ref().map_or(0.0, |c| c.radius),
     };
     let strands = assembly::read_strands(&mut root, &defaults, &mut grooms);
     let reports = grooms.reports;
@@ -197,9 +201,6 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> (SimulationSetup, Vec<Gro
             None
         }
     };
-    let contacts = root
-        .table("contacts")
-        .and_then(|n| contacts::read_contacts(n, &bodies));
     root.finish();
     let setup = SimulationSetup {
         config,

@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 use superhelix_runtime::groom::{read_curves, GroomSource};
 use superhelix_runtime::kernels::closed_form::kernel_factory;
+use superhelix_runtime::model::reconstruction::sample_centreline;
 use superhelix_runtime::output::frames::{FrameLayout, StrandInfo};
 use superhelix_runtime::output::memory::MemoryFrames;
 use superhelix_runtime::output::usd::write_usda;
@@ -77,6 +78,7 @@ seed = 7
     let placed = bodies.at(HeadState::rest());
     let comb = Vector3::new(-1.0, 0.0, -1.0).normalize();
     let mut lengths = Vec::new();
+    let mut turned = 0;
     for s in &setup.strands {
         let g = &s.strand.geometry;
         let p = placed.query(0, &g.root_position);
@@ -92,14 +94,35 @@ seed = 7
             "outside the region: {d:?}"
         );
         let (n0, n1) = (g.root_frame.column(0), g.root_frame.column(1));
-        // n0 is the normal tilted by 20 degrees towards the comb
-        assert!((n0.dot(&p.normal) - 20f64.to_radians().cos()).abs() < 1e-9);
         let along = comb - p.normal * p.normal.dot(&comb);
+        let mut points = Vec::new();
+        sample_centreline(g, &s.q0, 8, &mut points);
+        // beyond its first point no point of a strand is inside the head
+        let deepest = points[1..]
+            .iter()
+            .map(|x| placed.query(0, x).distance)
+            .fold(f64::MAX, f64::min);
         assert!(
-            n0.cross(&p.normal).dot(&along.cross(&p.normal)) > 0.0,
-            "tilted towards the comb"
+            deepest >= -1e-12,
+            "{} enters the head by {deepest:e} m",
+            s.strand.name
         );
-        assert!(n1.dot(&n0).abs() < 1e-12 && n1.dot(&along) > 0.0);
+        // n0 is the normal tilted by 20 degrees towards the comb, n1 along the comb; or,
+        // when that frame would take the strand into the head, the axis of the first
+        // element's helix (its Darboux vector) is
+        let tilted = |d: &Vector3<f64>| {
+            (d.dot(&p.normal) - 20f64.to_radians().cos()).abs() < 1e-9
+                && d.cross(&p.normal).dot(&along.cross(&p.normal)) > 0.0
+        };
+        let as_groomed = tilted(&n0.into_owned()) && n1.dot(&along) > 0.0;
+        let axis = g.root_frame * Vector3::new(s.q0[0], s.q0[1], s.q0[2]).normalize();
+        assert!(
+            as_groomed || tilted(&axis),
+            "{}: neither frame",
+            s.strand.name
+        );
+        assert!(n1.dot(&n0).abs() < 1e-12 && (g.root_frame.determinant() - 1.0).abs() < 1e-12);
+        turned += usize::from(!as_groomed);
         assert!(s.group == "top" && s.strand.name.starts_with("top_"));
         lengths.push(g.length());
     }
@@ -112,6 +135,14 @@ seed = 7
     );
     let report = &reports[0];
     println!("{report}");
+    let clearance = report
+        .clearance
+        .expect("a surface groom reports its clearance");
+    assert_eq!(
+        (clearance.lifted, clearance.entering),
+        (turned, 0),
+        "{report}"
+    );
     let GroomSource::Surface {
         min_spacing,
         packing_spacing,
@@ -456,12 +487,27 @@ sag_free = {sag_free}
     assert_eq!(setup.strands.len(), 12);
     let held = max_motion(setup, 30);
     let sagging = max_motion(setup_in(&scene(false), &dir), 30);
+    // the same with the strands touching the head (contacts with Coulomb friction): the
+    // groom leaves the scalp at its tilt and no contact sample is within the contact
+    // radius at rest, so the contacts carry nothing and the groom still holds; the
+    // control sags onto the head and is held by it
+    let contacts = "\n[contacts]\nradius = 0.002\nfriction = \"coulomb\"\n";
+    let held_contacts = max_motion(setup_in(&format!("{}{contacts}", scene(true)), &dir), 30);
+    let sagging_contacts = max_motion(setup_in(&format!("{}{contacts}", scene(false)), &dir), 30);
     println!(
-        "largest motion of a centreline point in the first second: sag-free {:.3e} m, without {:.3e} m",
-        held, sagging
+        "largest motion of a centreline point in the first second: sag-free {:.3e} m, without {:.3e} m; with contacts {:.3e} m, without sag-free {:.3e} m",
+        held, sagging, held_contacts, sagging_contacts
     );
     assert!(held < 1e-3, "sag-free groom moved {held} m");
     assert!(sagging > 1e-2, "the control sagged only {sagging} m");
+    assert!(
+        held_contacts < 1e-3,
+        "sag-free groom with contacts moved {held_contacts} m"
+    );
+    assert!(
+        sagging_contacts > 1e-2,
+        "the control with contacts sagged only {sagging_contacts} m"
+    );
 }
 
 #[test]

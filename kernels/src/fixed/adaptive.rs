@@ -338,12 +338,11 @@ pub fn step<
     };
     let q0 = strand.q;
     ws.rotation_estimate = 0.0;
-    ws.shallowest = MAX_SUBSTEP_DEPTH;
     let end = split(
         source, strand, head, effects, &interval, &start, ws, counts, levels,
     )?;
     strand.last_energy = Some(end);
-    strand.split_hint = predicted_split_levels(ws.rotation_estimate, ws.shallowest) as u8;
+    strand.split_hint = predicted_split_levels(ws.rotation_estimate) as u8;
     let rotation = max_element_rotation(&strand.params.lengths, &strand.q, &q0);
     if let Some(i) = strand
         .q
@@ -424,7 +423,6 @@ fn adaptive<
         ws.rotation_estimate = ws
             .rotation_estimate
             .max(rotation * (1u64 << interval.depth) as f64);
-        ws.shallowest = ws.shallowest.min(interval.depth);
         let (q, v) = (strand.q, strand.v);
         let mut end = measure(
             source,

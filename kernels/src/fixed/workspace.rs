@@ -34,8 +34,6 @@ pub struct FixedWorkspace<const N: usize, const D: usize, const E: usize, T: Flo
     /// The checked step's largest `2^depth r` over its accepted pieces so far (see
     /// [`crate::energy::predicted_split_levels`]).
     pub(super) rotation_estimate: f64,
-    /// The smallest depth among its accepted pieces so far.
-    pub(super) shallowest: usize,
 }
 
 /// The projection's scratch and the step's cache of its last input and output.
@@ -119,7 +117,6 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
                 eigenvalues: [T::zero(); D],
             },
             rotation_estimate: 0.0,
-            shallowest: 0,
         }
     }
 

@@ -59,6 +59,28 @@ pub struct GroomReport {
     /// With a sag-free start: the largest change of a natural curvature or twist, rad/m
     /// (`None` without it; 0 without gravity).
     pub sag_free_change: Option<f64>,
+    /// Roots on a surface: how their strands were kept out of the body they grow from.
+    pub clearance: Option<ClearanceReport>,
+}
+
+/// How the strands of a groom on a surface were kept out of its body: a strand whose
+/// groomed shape enters the body (closer to its surface than the clearance beyond its
+/// root zone) has its root frame rolled about the root tangent, and if need be its tilt
+/// reduced, by as little as clears it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClearanceReport {
+    /// Clearance from the surface, m (the contact radius with `[contacts]`, else 0).
+    pub clearance: f64,
+    /// Strands whose root frame was turned.
+    pub lifted: usize,
+    /// Of those, the strands whose helix axis was aimed where the groom aims the tangent.
+    pub aimed: usize,
+    /// The largest roll of a root frame about its tangent, degrees.
+    pub max_roll_deg: f64,
+    /// The largest reduction of a tilt, degrees.
+    pub max_lift_deg: f64,
+    /// Strands that enter the body even along the normal (left as groomed).
+    pub entering: usize,
 }
 
 impl GroomReport {
@@ -116,6 +138,26 @@ impl fmt::Display for GroomReport {
                 if let Some(c) = curves.get(k) {
                     write!(f, " ({}, {})", c.strand, c.origin)?;
                 }
+            }
+        }
+        if let Some(c) = &self.clearance {
+            if c.lifted > 0 {
+                write!(
+                    f,
+                    "; {} root frames turned ({} with the curl's axis along the groomed direction; rolled by up to {:.0} deg, tilt reduced by up to {:.1} deg) to clear the body by {:.2} mm",
+                    c.lifted,
+                    c.aimed,
+                    c.max_roll_deg,
+                    c.max_lift_deg,
+                    c.clearance * 1e3
+                )?;
+            }
+            if c.entering > 0 {
+                write!(
+                    f,
+                    "; {} strands enter the body even along the normal (left as groomed)",
+                    c.entering
+                )?;
             }
         }
         match self.sag_free_change {

@@ -7,20 +7,22 @@ use super::reader::{Bound, Node, Range};
 use super::strands::{
     read_template, strand_rng, StrandDefaults, Template, MAX_CURVATURE, MAX_LENGTH,
 };
-use crate::bodies::{Attachment, BodySetup};
+use crate::bodies::{Attachment, Bodies, BodySetup, Shape};
 use crate::config::StrandSetup;
 use crate::groom::fit::{fit_curve, FitSettings, FittedCurve};
 use crate::groom::read_curves;
 use crate::groom::region::{PlaneCut, Region};
-use crate::groom::report::{CurveReport, GroomReport, GroomSource};
-use crate::groom::roots::{sample_roots, RootCount, RootSettings};
+use crate::groom::report::{ClearanceReport, CurveReport, GroomReport, GroomSource};
+use crate::groom::roots::{root_frame, sample_roots, Root, RootCount, RootSettings};
 use crate::groom::sag_free::sag_free_natural;
 use crate::groom::surface::Surface;
+use crate::model::reconstruction::sample_centreline;
 use crate::model::strand::StrandGeometry;
 use nalgebra::{Rotation3, Vector3};
 use rand::RngExt;
 use rayon::prelude::*;
 use std::path::Path;
+use superhelix_kernels::pose::darboux;
 use toml::Value;
 
 /// Largest root density, roots per m² (a scalp has about 2·10⁶).
@@ -38,6 +40,9 @@ pub(super) struct GroomContext<'a> {
     pub scene_dir: &'a Path,
     /// The reports of the grooms read so far.
     pub reports: Vec<GroomReport>,
+    /// How far from the surface of its body a groomed strand stays beyond its root zone,
+    /// m: the contact radius with `[contacts]`, else 0.
+    pub clearance: f64,
 }
 
 /// Fields of a strand a groom makes itself: refused in a `[[grooms]]` entry of either
@@ -176,15 +181,41 @@ pub(super) fn read_groom(
         return;
     };
     let seed = template.seed.unwrap_or(index as u64);
-    let (strands, source) = match source {
+    let (strands, source, clearance) = match source {
         Built::Surface {
             body,
             roots,
             length_variation,
+            comb,
+            tilt,
         } => {
             if !claim(n, names, roots.roots.len(), "count") {
                 return;
             }
+            let shape = match ctx
+                .bodies
+                .iter()
+                .find(|b| b.name == body)
+                .map(|b| Bodies::build(std::slice::from_ref(b)))
+            {
+                Some(Ok(built)) => built.as_slice()[0].shape.clone(),
+                Some(Err(e)) => {
+                    n.error("body", e.to_string());
+                    return;
+                }
+                None => {
+                    n.error("body", format!("no body named '{body}' in [[bodies]]"));
+                    return;
+                }
+            };
+            let mut clearance = ClearanceReport {
+                clearance: ctx.clearance,
+                lifted: 0,
+                aimed: 0,
+                max_roll_deg: 0.0,
+                max_lift_deg: 0.0,
+                entering: 0,
+            };
             let mut strands = Vec::with_capacity(roots.roots.len());
             for (k, root) in roots.roots.iter().enumerate() {
                 let strand_name = format!("{name}_{k}");
@@ -204,13 +235,30 @@ pub(super) fn read_groom(
                 }
                 strands.push(s);
             }
+            let lifts: Vec<Option<Lift>> = strands
+                .par_iter_mut()
+                .zip(&roots.roots)
+                .map(|(s, root)| lift(&shape, s, root, &comb, tilt, ctx.clearance))
+                .collect();
+            for l in lifts {
+                match l {
+                    Some(l) if l.roll == 0.0 && l.tilt == 0.0 && !l.aimed => {}
+                    Some(l) => {
+                        clearance.lifted += 1;
+                        clearance.aimed += usize::from(l.aimed);
+                        clearance.max_roll_deg = clearance.max_roll_deg.max(l.roll.to_degrees());
+                        clearance.max_lift_deg = clearance.max_lift_deg.max(l.tilt.to_degrees());
+                    }
+                    None => clearance.entering += 1,
+                }
+            }
             let source = GroomSource::Surface {
                 body,
                 area: roots.area,
                 min_spacing: roots.min_spacing,
                 packing_spacing: roots.packing_spacing,
             };
-            (strands, source)
+            (strands, source, Some(clearance))
         }
         Built::Curves { path, fits } => {
             if !claim(n, names, fits.len(), "curves") {
@@ -251,7 +299,7 @@ pub(super) fn read_groom(
                 elements,
                 curves: reports,
             };
-            (strands, source)
+            (strands, source, None)
         }
     };
     let mut strands = strands;
@@ -268,8 +316,137 @@ pub(super) fn read_groom(
         strands: strands.len(),
         source,
         sag_free_change,
+        clearance,
     });
     out.extend(strands);
+}
+
+/// Step of the tilt reduction of [`lift`], radians.
+const LIFT_STEP: f64 = 2.5 * std::f64::consts::PI / 180.0;
+/// Step of the roll of [`lift`], radians.
+const ROLL_STEP: f64 = 15.0 * std::f64::consts::PI / 180.0;
+
+/// How [`lift`] turned a root frame: a roll about the root tangent and a reduction of
+/// the tilt, radians.
+#[derive(Debug, Clone, Copy)]
+struct Lift {
+    roll: f64,
+    tilt: f64,
+    /// Whether the helix axis was aimed where the groom aims the tangent.
+    aimed: bool,
+}
+
+/// Whether the centreline of `s` (its q0) stays at least `clearance` from the surface of
+/// `shape` beyond its root zone: the points from the root on that are within the
+/// clearance, up to the first that is not and at most a quarter of the length (the
+/// contacts' root zone, which does not touch the body the strand grows from).
+fn clears(shape: &Shape, s: &StrandSetup, clearance: f64, points: &mut Vec<Vector3<f64>>) -> bool {
+    const PER_ELEMENT: usize = 8;
+    sample_centreline(&s.strand.geometry, &s.q0, PER_ELEMENT, points);
+    let quarter = 0.25 * s.strand.geometry.lengths.iter().sum::<f64>();
+    let mut arc = 0.0;
+    let mut in_zone = true;
+    let mut k = 0;
+    for &l in &s.strand.geometry.lengths {
+        for j in 1..=PER_ELEMENT {
+            k += 1;
+            let s_k = arc + l * j as f64 / PER_ELEMENT as f64;
+            let d = shape.query(&points[k]).distance;
+            if in_zone && (d >= clearance || s_k > quarter) {
+                in_zone = false;
+            }
+            if !in_zone && d < clearance {
+                return false;
+            }
+        }
+        arc += l;
+    }
+    true
+}
+
+/// Keep a groomed strand out of the body it grows from. A curl leaves its root tangent
+/// sideways (the axis of a helix of curvature κ and torsion τ, its Darboux vector, is at
+/// atan(κ/τ) from its tangent), so a wavy or curly strand combed along its scalp, or
+/// even standing along the normal, can curl back into it. When the groomed shape does
+/// not [`clears`] the body, these root frames are tried in turn, and the first that clears
+/// is kept:
+///
+/// 1. the groomed frame rolled about the root tangent by ±15°, ±30°, … up to 180° (which
+///    side the curl goes to is set by the roll, which the groom does not prescribe);
+/// 2. the frame that aims the axis of the first element's helix (its Darboux vector)
+///    where the groom aims the tangent (the normal tilted towards the comb), rolled about
+///    that direction by 0°, ±15°, … up to 180°: the curl winds around the groomed
+///    direction instead of leaving it;
+/// 3. both again with the tilt reduced by 2.5°, 5°, … towards the normal.
+///
+/// Returns what was turned (zero: as groomed), or `None` when nothing clears (the
+/// strand is left as groomed).
+fn lift(
+    shape: &Shape,
+    s: &mut StrandSetup,
+    root: &Root,
+    comb: &Vector3<f64>,
+    tilt: f64,
+    clearance: f64,
+) -> Option<Lift> {
+    let mut points = Vec::new();
+    if clears(shape, s, clearance, &mut points) {
+        return Some(Lift {
+            roll: 0.0,
+            tilt: 0.0,
+            aimed: false,
+        });
+    }
+    let groomed = s.strand.geometry.root_frame;
+    let tilt_steps = (tilt / LIFT_STEP).ceil() as usize;
+    let rolls = (std::f64::consts::PI / ROLL_STEP).round() as usize;
+    // the first element's helix axis in the root frame (none for a straight element)
+    let omega = darboux(&s.q0, 0);
+    let axis = (omega.norm() > 0.0).then(|| omega.normalize());
+    for k in 0..=tilt_steps {
+        let t = (tilt - k as f64 * LIFT_STEP).max(0.0);
+        let frame = root_frame(&root.normal, comb, t);
+        let direction = frame.column(0).into_owned();
+        // the same frame turned so that the helix axis is where the tangent was
+        let aimed = axis.map(|a| {
+            let from = frame * a;
+            match Rotation3::rotation_between(&from, &direction) {
+                Some(r) => r.into_inner() * frame,
+                // the axis opposite the direction: a half turn about n1
+                None => {
+                    Rotation3::from_axis_angle(
+                        &nalgebra::Unit::new_normalize(frame.column(1).into_owned()),
+                        std::f64::consts::PI,
+                    )
+                    .into_inner()
+                        * frame
+                }
+            }
+        });
+        for (is_aimed, base) in [(false, Some(frame)), (true, aimed)] {
+            let Some(base) = base else { continue };
+            for r in 0..=rolls {
+                for sign in [1.0, -1.0] {
+                    if sign < 0.0 && (r == 0 || r == rolls) {
+                        continue;
+                    }
+                    let phi = sign * r as f64 * ROLL_STEP;
+                    let turn =
+                        Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(direction), phi);
+                    s.strand.geometry.root_frame = turn.into_inner() * base;
+                    if clears(shape, s, clearance, &mut points) {
+                        return Some(Lift {
+                            roll: phi.abs(),
+                            tilt: tilt - t,
+                            aimed: is_aimed,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    s.strand.geometry.root_frame = groomed;
+    None
 }
 
 /// Count `count` more strands against the cap; an error on `field` when over it.
@@ -291,6 +468,8 @@ enum Built {
         body: String,
         roots: crate::groom::roots::Roots,
         length_variation: f64,
+        comb: Vector3<f64>,
+        tilt: f64,
     },
     Curves {
         path: String,
@@ -466,6 +645,8 @@ fn read_surface_groom(
                 body: body_name,
                 roots,
                 length_variation,
+                comb,
+                tilt: tilt.to_radians(),
             },
         )),
         Err(e) => {

@@ -46,10 +46,9 @@ pub fn step(
                 0
             };
             system.workspace.rotation_estimate = 0.0;
-            system.workspace.shallowest = MAX_SUBSTEP_DEPTH;
             let end = split(system, interval, state, &start, stats, levels)?;
             let ws = &mut system.workspace;
-            ws.split_hint = predicted_split_levels(ws.rotation_estimate, ws.shallowest);
+            ws.split_hint = predicted_split_levels(ws.rotation_estimate);
             ws.last_energy = Some(end);
             ws.last_q.copy_from_slice(&state.q);
             ws.last_v.copy_from_slice(&state.v);
@@ -204,7 +203,6 @@ fn implicit_adaptive(
         ws.rotation_estimate = ws
             .rotation_estimate
             .max(rotation * (1u64 << interval.depth) as f64);
-        ws.shallowest = ws.shallowest.min(interval.depth);
         let mut end =
             energy_balance::measure(system, &interval.end, interval.t + h, &state.q, &state.v);
         // contacts with what moves relative to the head (a world body while the head

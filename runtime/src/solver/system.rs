@@ -46,8 +46,6 @@ pub struct StrandWorkspace {
     pub(super) split_hint: usize,
     /// The step's largest `2^depth r` over its accepted pieces so far.
     pub(super) rotation_estimate: f64,
-    /// The smallest depth among the step's accepted pieces so far.
-    pub(super) shallowest: usize,
 }
 
 impl StrandWorkspace {
@@ -77,7 +75,6 @@ impl StrandWorkspace {
             last_v: vec![0.0; n],
             split_hint: 0,
             rotation_estimate: 0.0,
-            shallowest: 0,
         }
     }
 

@@ -164,6 +164,9 @@ pub struct StrandContacts {
     /// Depth each sample may have without force: what it had at the start, less what
     /// [`ContactParams::depenetration_speed`] took away since (see [`Self::after_step`]).
     allowance: Vec<f64>,
+    /// The root zone: the first `root_zone.1` samples do not touch body `root_zone.0`,
+    /// the body the strand grows from (see [`Self::start`]).
+    root_zone: (usize, usize),
     partners: Vec<PartnerPoint>,
     /// Positions and unit tangents of the samples at the last [`Self::sample_poses`].
     poses: Vec<(Vector3<f64>, Vector3<f64>)>,
@@ -205,6 +208,7 @@ impl StrandContacts {
             anchors: vec![None; n],
             touched: vec![false; n],
             allowance: vec![0.0; n],
+            root_zone: (0, 0),
             partners: Vec::new(),
             poses: vec![(Vector3::zeros(), Vector3::zeros()); n],
             aj: vec![Vector3::zeros(); geom.dofs()],
@@ -259,7 +263,7 @@ impl StrandContacts {
 
     /// The body sample `k` at `y` presses into (its effective depth > 0), if any.
     fn touching(&self, head: &HeadState, k: usize, y: &Vector3<f64>) -> Option<BodyHit> {
-        self.body_hit(head, y)
+        self.body_hit(head, k, y)
             .filter(|h| self.effective_depth(k, h) > 0.0)
     }
 
@@ -326,11 +330,27 @@ impl StrandContacts {
         }
     }
 
+    /// The body sample `k` at head-frame `y` touches most deeply (within the contact
+    /// radius), with the head in `head`; a sample of the root zone does not touch the
+    /// body its strand grows from.
+    fn body_hit(&self, head: &HeadState, k: usize, y: &Vector3<f64>) -> Option<BodyHit> {
+        let (root_body, zone) = self.root_zone;
+        self.nearest_body(head, y, (k < zone).then_some(root_body))
+    }
+
     /// The body a head-frame point `y` touches most deeply (within the contact radius),
-    /// with the head in `head`.
-    fn body_hit(&self, head: &HeadState, y: &Vector3<f64>) -> Option<BodyHit> {
+    /// with the head in `head`, other than `skip`.
+    fn nearest_body(
+        &self,
+        head: &HeadState,
+        y: &Vector3<f64>,
+        skip: Option<usize>,
+    ) -> Option<BodyHit> {
         let mut best: Option<BodyHit> = None;
         for (b, body) in self.bodies.iter().enumerate() {
+            if skip == Some(b) {
+                continue;
+            }
             let local = match body.attached {
                 Attachment::Head => *y,
                 Attachment::World => head.position + head.rotation * y,
@@ -593,7 +613,7 @@ impl StrandContacts {
     pub fn max_depth(&mut self, head: &HeadState, geom: &StrandGeometry, q: &[f64]) -> f64 {
         self.sample_poses(geom, q);
         (0..self.samples.len())
-            .filter_map(|k| self.body_hit(head, &self.poses[k].0))
+            .filter_map(|k| self.body_hit(head, k, &self.poses[k].0))
             .map(|h| self.params.radius - h.distance)
             .fold(0.0, f64::max)
     }
@@ -623,7 +643,7 @@ impl StrandContacts {
         let deep = (0..self.samples.len()).any(|k| {
             !self.touched[k]
                 && self
-                    .body_hit(head, &self.poses[k].0)
+                    .body_hit(head, k, &self.poses[k].0)
                     .is_some_and(|h| self.effective_depth(k, &h) > split)
         });
         if deep {
@@ -647,13 +667,33 @@ impl StrandContacts {
     /// strand's weight) is allowed its depth, so that it is let out at
     /// [`ContactParams::depenetration_speed`] rather than kicked out; Coulomb anchors
     /// are set where the touching points are.
+    ///
+    /// A strand grows from a body (its root within the contact radius of the scalp): its
+    /// samples from the root on that lie within the contact radius of that body, up to the
+    /// first one that does not and at most a quarter of the strand's length, are its root
+    /// zone, which does not touch that body. They stand for the hair leaving its follicle:
+    /// pushed out, they could not leave (the root is clamped) and would bend the strand
+    /// by a penalty of up to 10⁴ times its weight; a groom at rest would not stay at rest.
     pub fn start(&mut self, head: &HeadState, geom: &StrandGeometry, q: &[f64]) {
         self.sample_poses(geom, q);
+        self.root_zone = (0, 0);
+        if let Some(root) = self.nearest_body(head, &geom.root_position, None) {
+            let quarter = 0.25 * geom.lengths.iter().sum::<f64>();
+            let zone = (0..self.samples.len())
+                .take_while(|&k| {
+                    self.samples[k].0 <= quarter
+                        && self
+                            .nearest_body(head, &self.poses[k].0, None)
+                            .is_some_and(|h| h.body == root.body)
+                })
+                .count();
+            self.root_zone = (root.body, zone);
+        }
         // a depth whose penalty is within a hundred times the strand's weight is harmless
         // and left to the penalty (a strand laid on a body at rest)
         let harmless = 100.0 * geom.mass_per_length * STANDARD_GRAVITY / self.params.stiffness;
         for k in 0..self.samples.len() {
-            self.allowance[k] = self.body_hit(head, &self.poses[k].0).map_or(0.0, |h| {
+            self.allowance[k] = self.body_hit(head, k, &self.poses[k].0).map_or(0.0, |h| {
                 (self.params.radius - h.distance - harmless).max(0.0)
             });
         }
@@ -670,7 +710,7 @@ impl StrandContacts {
             for k in 0..self.samples.len() {
                 if self.allowance[k] > 0.0 {
                     let depth = self
-                        .body_hit(head, &self.poses[k].0)
+                        .body_hit(head, k, &self.poses[k].0)
                         .map_or(0.0, |hit| (self.params.radius - hit.distance).max(0.0));
                     self.allowance[k] = (self.allowance[k].min(depth) - shrink).max(0.0);
                 }
