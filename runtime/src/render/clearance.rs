@@ -21,9 +21,16 @@
 //! in blocks of [`BLOCK`]: the ball around a block's box, plus the clearance, is tested
 //! against each body's cheap bound ([`crate::bodies::Shape::farther_than`]); a block far from every
 //! body is left as blended. Only the points of near blocks (and of a strand already
-//! lifted) are queried, each against the bodies its own bound does not rule out.
+//! lifted) are queried, each against the bodies its own bound does not rule out. An
+//! ellipsoid is queried by Newton's method on the closest-point equation from a lower
+//! bound of its root, which converges from below in a few steps near the surface
+//! ([`ellipsoid_proximity`]), instead of the bisection of the exact query that the
+//! simulation's contacts use (same answer to rounding; the exact query is kept for deep
+//! points).
 
-use crate::bodies::{Attachment, Body};
+use crate::bodies::proximity::Proximity;
+use crate::bodies::shape_ellipsoid::Ellipsoid;
+use crate::bodies::{Attachment, Body, Shape};
 use crate::error::{Error, Result};
 use nalgebra::{Matrix3, Vector3};
 use superhelix_kernels::head::HeadState;
@@ -36,6 +43,8 @@ pub const RAMP_SLOPE: f64 = 0.25;
 pub const BLOCK: usize = 8;
 /// Most pushes of one point (out of one body into another's clearance, out again).
 const MAX_PUSHES: usize = 4;
+/// Most Newton steps of [`ellipsoid_proximity`] before it falls back to the exact query.
+pub const MAX_NEWTON: usize = 40;
 
 /// The bodies the render strands keep out of, and by how much.
 #[derive(Debug, Clone, PartialEq)]
@@ -112,33 +121,43 @@ impl Placed<'_> {
         })
     }
 
-    /// The deepest body within the clearance of `x` (world): its signed distance and
-    /// world normal; `None` when every body is at least the clearance away.
-    fn deepest(&self, x: &Vector3<f64>) -> Option<(f64, Vector3<f64>)> {
+    /// The deepest body within the clearance of `x` (world), but body `skip`: its index,
+    /// signed distance and world normal; `None` when every body is at least the
+    /// clearance away.
+    fn deepest(&self, x: &Vector3<f64>, skip: Option<usize>) -> Option<(usize, f64, Vector3<f64>)> {
         let c = self.keep.clearance;
-        let mut best: Option<(f64, Vector3<f64>, Attachment)> = None;
-        for b in &self.keep.bodies {
+        let mut best: Option<(usize, Proximity)> = None;
+        for (i, b) in self.keep.bodies.iter().enumerate() {
+            if skip == Some(i) {
+                continue;
+            }
             let y = self.local(b, x);
             if b.shape.farther_than(&y, c) {
                 continue;
             }
-            let p = b.shape.query(&y);
-            if p.distance < c && best.is_none_or(|(d, _, _)| p.distance < d) {
-                best = Some((p.distance, p.normal, b.attached));
+            let p = match &b.shape {
+                Shape::Ellipsoid(e) => ellipsoid_proximity(e, &y),
+                shape => shape.query(&y),
+            };
+            if p.distance < c && best.is_none_or(|(_, q)| p.distance < q.distance) {
+                best = Some((i, p));
             }
         }
-        best.map(|(d, n, attached)| match attached {
-            Attachment::World => (d, n),
-            Attachment::Head => (d, self.rotation * n),
+        best.map(|(i, p)| match self.keep.bodies[i].attached {
+            Attachment::World => (i, p.distance, p.normal),
+            Attachment::Head => (i, p.distance, self.rotation * p.normal),
         })
     }
 
-    /// `x` moved out of every body to the clearance (a few pushes at most).
+    /// `x` moved out of every body to the clearance (a few pushes at most). A body with
+    /// an exact distance is not asked again right after it pushed the point out.
     fn push_out(&self, mut x: Vector3<f64>) -> Vector3<f64> {
+        let mut skip = None;
         for _ in 0..MAX_PUSHES {
-            match self.deepest(&x) {
-                Some((d, n)) if (self.keep.clearance - d).is_finite() => {
+            match self.deepest(&x, skip) {
+                Some((i, d, n)) if (self.keep.clearance - d).is_finite() => {
                     x += (self.keep.clearance - d) * n;
+                    skip = (!matches!(self.keep.bodies[i].shape, Shape::Mesh(_))).then_some(i);
                 }
                 _ => break,
             }
@@ -174,8 +193,10 @@ impl Placed<'_> {
                     line[k] = to_f32(q);
                 }
                 carry = match line.get(k + 1) {
-                    Some(&next) => ramp(&delta, (vector(next) - p).norm()),
-                    None => Vector3::zeros(),
+                    Some(&next) if delta != Vector3::zeros() => {
+                        ramp(&delta, (vector(next) - p).norm())
+                    }
+                    _ => Vector3::zeros(),
                 };
             }
             j = end;
@@ -185,6 +206,9 @@ impl Placed<'_> {
         }
         // backward: lift the points before each push by the ramp too
         for k in (1..m - 1).rev() {
+            if offsets[k + 1] == [0.0; 3] {
+                continue;
+            }
             let next = vector(offsets[k + 1]);
             let here = vector(offsets[k]);
             let original = vector(line[k]) - here;
@@ -237,4 +261,70 @@ fn vector(p: [f32; 3]) -> Vector3<f64> {
 #[inline]
 fn to_f32(v: Vector3<f64>) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
+}
+
+/// Signed distance, outward normal and closest point of `y` (body coordinates) to the
+/// ellipsoid `e`: the closest point is `xᵢ = aᵢ² uᵢ / (t + aᵢ²)` (u = `y` in the axes)
+/// with t the root of `F(t) = Σ (aᵢ uᵢ / (t + aᵢ²))² − 1`, convex and decreasing for
+/// t > −min aᵢ². Newton's method starts at the first-order estimate of the root
+/// (t = d / |D⁻²x| for a point at distance d along the normal at x, with d from the
+/// gradient of |D⁻¹u|), kept above the lower bound `t₀ = maxᵢ (aᵢ|uᵢ| − aᵢ²)` (where one
+/// term alone is 1, so F(t₀) ≥ 0; t₀ ≥ 0 outside, where F(0) > 0); a step from above the
+/// root lands below it (F is convex), and from below the steps climb to it without
+/// overshooting; a step is never taken below t₀. Points on a symmetry plane of the axes or deep inside (t₀ within
+/// a hundredth of min aᵢ² of the pole, where the closest point may leave the plane or the
+/// steps crawl) take the exact query ([`Ellipsoid::query`]), as does a search that has not
+/// converged after [`MAX_NEWTON`] steps.
+pub fn ellipsoid_proximity(e: &Ellipsoid, y: &Vector3<f64>) -> Proximity {
+    let u = e.rotation.transpose() * (y - e.center);
+    let a = e.radii;
+    let a2 = a.component_mul(&a);
+    let rho2 = (0..3).map(|i| (u[i] / a[i]).powi(2)).sum::<f64>();
+    let pole = -a2.min();
+    let low = (0..3)
+        .map(|i| a[i] * u[i].abs() - a2[i])
+        .fold(f64::NEG_INFINITY, f64::max);
+    let low = if rho2 > 1.0 { low.max(0.0) } else { low };
+    let room = low - pole;
+    if u.iter().any(|&v| v == 0.0) || room.is_nan() || room <= 0.01 * a2.min() {
+        return e.query(y);
+    }
+    // first-order start: u = x + d n with n ∥ D⁻²x gives t = d / |D⁻²x| ≈ (ρ − 1) ρ / |D⁻²u|²
+    let rho = rho2.sqrt();
+    let guess = (rho - 1.0) * rho / u.component_div(&a2).norm_squared();
+    let mut t = if guess.is_finite() {
+        guess.max(low)
+    } else {
+        low
+    };
+    let mut converged = false;
+    for _ in 0..MAX_NEWTON {
+        let (mut f, mut df) = (-1.0, 0.0);
+        for i in 0..3 {
+            let q = a[i] * u[i] / (t + a2[i]);
+            f += q * q;
+            df -= 2.0 * q * q / (t + a2[i]);
+        }
+        let step = f / df;
+        if !step.is_finite() {
+            break;
+        }
+        // from above the root a step lands below it; never below the bound
+        t = (t - step).max(low);
+        if step.abs() <= 1e-15 * (t.abs() + a2.max()) {
+            converged = true;
+            break;
+        }
+    }
+    if !converged {
+        return e.query(y);
+    }
+    let x = Vector3::from_fn(|i, _| a2[i] * u[i] / (t + a2[i]));
+    let gap = (u - x).norm();
+    let normal = e.rotation * x.component_div(&a2).normalize();
+    Proximity {
+        distance: if rho2 < 1.0 { -gap } else { gap },
+        normal,
+        closest: e.center + e.rotation * x,
+    }
 }

@@ -285,7 +285,7 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\nclearance = -1e-3", "render.clearance", "must be in [0, 0.1]"),
     ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\nscalp_body = \"head\"", "render.scalp_body", "no body named 'head'"),
     ("[[strands]]\nlength = 0.3\n[[bodies]]\nname = \"floor\"\nshape = \"plane\"\nnormal = [0.0, 0.0, 1.0]\nattached = \"world\"\n[render]\nstrands = 10\nscalp_body = \"floor\"", "render.scalp_body", "attached to the world"),
-    ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\nclumpiness = 0.5", "render.clumpiness", "unknown field; allowed fields here: clumping, max_spacing"),
+    ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\nclumpiness = 0.5", "render.clumpiness", "unknown field; allowed fields here: clearance, clumping, max_spacing"),
     ("render = 5\n[[strands]]\nlength = 0.3", "render", "table"),
 ];
 
