@@ -9,15 +9,18 @@
 //!   local triangulation, with their guides and blend weights ([`RenderRoots`]).
 //! - [`semi_interpolation`]: the per-frame blend ([`SemiInterpolation`]): allocation-free,
 //!   in parallel over render strands, f32 output.
+//! - [`clearance`]: the render strands kept out of the scene's bodies ([`KeepOut`]).
 //! - [`neighbours`]: nearest guide roots through a grid of cells.
 //!
 //! `docs/interpolation.md` describes the model and its parameters.
 
+pub mod clearance;
 pub mod neighbours;
 pub mod render_roots;
 pub mod semi_interpolation;
 pub mod settings;
 
+pub use clearance::KeepOut;
 pub use render_roots::{RenderRoot, RenderRoots, RootSites};
 pub use semi_interpolation::SemiInterpolation;
 pub use settings::RenderSettings;

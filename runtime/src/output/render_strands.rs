@@ -7,11 +7,14 @@
 //! guides that have that count are taken as they are. The guides' rest shape (for the
 //! root placement and the clumping profile) is the first frame, brought into head
 //! coordinates with the head's pose at that frame.
+//!
+//! With bodies in the scene the render strands keep out of them by `[render] clearance`,
+//! by default the guides' mean fibre radius (half the width the strands are drawn with).
 
 use super::frames::FrameStore;
 use super::scenery::{RenderSource, Scenery};
 use crate::error::{Error, Result};
-use crate::render::SemiInterpolation;
+use crate::render::{KeepOut, SemiInterpolation};
 use nalgebra::Vector3;
 
 /// The render strands of the frames of a store.
@@ -84,6 +87,14 @@ impl RenderFrames {
             source.scalp.as_ref(),
             (0..source.settings.strands).step_by(stride.max(1)),
         )?;
+        let radius = layout.strands.iter().map(|s| s.radius).sum::<f64>() / guides.max(1) as f64;
+        let interp = match source.bodies.is_empty() {
+            true => interp,
+            false => {
+                let clearance = source.settings.clearance.unwrap_or(radius);
+                interp.keep_out(KeepOut::new(source.bodies.clone(), clearance)?)
+            }
+        };
         let names = layout.groups();
         let group_of: Vec<u16> = layout
             .strands
@@ -96,8 +107,7 @@ impl RenderFrames {
             .iter()
             .map(|r| group_of[r.dominant_guide()])
             .collect();
-        let width =
-            2.0 * layout.strands.iter().map(|s| s.radius).sum::<f64>() / guides.max(1) as f64;
+        let width = 2.0 * radius;
         Ok(Self {
             interp,
             offsets,
@@ -111,7 +121,7 @@ impl RenderFrames {
     }
 
     /// The render strands of frame `k` of `store` (points strand after strand, world
-    /// coordinates, m), with the head's pose from `scenery`.
+    /// coordinates, m), with the head's pose from `scenery`, kept out of the bodies.
     pub fn frame(
         &mut self,
         store: &mut dyn FrameStore,
@@ -133,7 +143,7 @@ impl RenderFrames {
             &mut self.guide_points,
         );
         let head = scenery.head_at(store.state_time(k));
-        self.interp.frame(&self.guide_points, &head.rotation)
+        self.interp.frame_at(&self.guide_points, &head)
     }
 
     /// The points of the last frame generated (strand after strand) and the group index

@@ -209,13 +209,17 @@ impl PreviewShape {
     }
 }
 
-/// The render strands asked for and the body their roots are projected onto.
+/// The render strands asked for, the body their roots are projected onto and the bodies
+/// they keep out of.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RenderSource {
     /// The scene's `[render]` table.
     pub settings: RenderSettings,
     /// The scalp (a body attached to the head), built.
     pub scalp: Option<Body>,
+    /// Every body of the scene, built: the render strands keep out of them by the
+    /// clearance (none: the strands are the blend alone).
+    pub bodies: Vec<Body>,
 }
 
 /// What the post-run files show besides the strands.
@@ -231,8 +235,9 @@ pub struct Scenery {
 }
 
 impl Scenery {
-    /// The scenery of a scene: its head motion, its bodies and its `[render]` table (the
-    /// scalp body is built, a mesh's field sampled). Errors name the body's field.
+    /// The scenery of a scene: its head motion, its bodies and its `[render]` table (with
+    /// it every body is built for the render strands, a mesh's field sampled). Errors name
+    /// the body's field.
     pub fn from_setup(setup: &SimulationSetup) -> Result<Self> {
         let mut bodies = Vec::with_capacity(setup.bodies.len());
         for (i, b) in setup.bodies.iter().enumerate() {
@@ -244,20 +249,22 @@ impl Scenery {
         let render = match setup.output.render {
             None => None,
             Some(settings) => {
+                // built once: the strands keep out of them, the scalp is one of them
+                let bodies = Bodies::build(&setup.bodies)?.as_slice().to_vec();
                 let scalp = match settings.scalp_body {
                     None => None,
-                    Some(i) => {
-                        let setup = setup.bodies.get(i).ok_or_else(|| {
-                            Error::invalid(
-                                "render.scalp_body",
-                                format!("body {i} does not exist ({} bodies)", setup.bodies.len()),
-                            )
-                        })?;
-                        let built = Bodies::build(std::slice::from_ref(setup))?;
-                        built.as_slice().first().cloned()
-                    }
+                    Some(i) => Some(bodies.get(i).cloned().ok_or_else(|| {
+                        Error::invalid(
+                            "render.scalp_body",
+                            format!("body {i} does not exist ({} bodies)", bodies.len()),
+                        )
+                    })?),
                 };
-                Some(RenderSource { settings, scalp })
+                Some(RenderSource {
+                    settings,
+                    scalp,
+                    bodies,
+                })
             }
         };
         Ok(Self {

@@ -25,13 +25,19 @@
 //! The per-frame work allocates nothing: the guides are converted into a reused f32
 //! buffer, and the render strands are written into a reused f32 buffer, in parallel over
 //! chunks of strands (rayon).
+//!
+//! With bodies ([`SemiInterpolation::keep_out`]), [`SemiInterpolation::frame_at`] then
+//! moves every render point that comes nearer a body than the clearance out of it
+//! ([`super::clearance`]).
 
+use super::clearance::KeepOut;
 use super::render_roots::RenderRoots;
 use super::settings::{clump_profile, smoothstep, RenderSettings};
 use crate::bodies::Body;
 use crate::error::{Error, Result};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
+use superhelix_kernels::head::HeadState;
 
 /// Render strands per parallel task.
 const CHUNK: usize = 256;
@@ -61,6 +67,10 @@ pub struct SemiInterpolation {
     tip_distance: Option<f32>,
     guide_points: Vec<[f32; 3]>,
     out: Vec<[f32; 3]>,
+    /// The bodies the strands keep out of (`None`: none).
+    keep_out: Option<KeepOut>,
+    /// Per chunk of strands, one strand's offsets (only with bodies).
+    scratch: Vec<[f32; 3]>,
 }
 
 impl SemiInterpolation {
@@ -151,7 +161,27 @@ impl SemiInterpolation {
             tip_distance: settings.tip_distance.map(|d| d as f32),
             guide_points: vec![[0.0; 3]; guides * points],
             out: vec![[0.0; 3]; strands * points],
+            keep_out: None,
+            scratch: Vec::new(),
         })
+    }
+
+    /// Keep the render strands of [`SemiInterpolation::frame_at`] out of `keep_out`'s
+    /// bodies (none: no change to the blend).
+    pub fn keep_out(mut self, keep_out: KeepOut) -> Self {
+        if keep_out.bodies().is_empty() {
+            self.keep_out = None;
+            self.scratch = Vec::new();
+        } else {
+            self.scratch = vec![[0.0; 3]; self.blends.len().div_ceil(CHUNK) * self.points];
+            self.keep_out = Some(keep_out);
+        }
+        self
+    }
+
+    /// The bodies the render strands keep out of, if any.
+    pub fn bodies(&self) -> Option<&KeepOut> {
+        self.keep_out.as_ref()
     }
 
     /// Number of render strands.
@@ -174,11 +204,29 @@ impl SemiInterpolation {
         &self.roots
     }
 
-    /// The render strands of one frame: `guides` are the guides' centrelines in world
-    /// coordinates (the layout of `new`), `rotation` the head's rotation R (head to
-    /// world). Returns every render strand's points, strand after strand, world
-    /// coordinates, m; allocates nothing. An error when `guides` has the wrong length.
+    /// The render strands of one frame, blended only (not kept out of the bodies):
+    /// `guides` are the guides' centrelines in world coordinates (the layout of `new`),
+    /// `rotation` the head's rotation R (head to world). Returns every render strand's
+    /// points, strand after strand, world coordinates, m; allocates nothing. An error when
+    /// `guides` has the wrong length.
     pub fn frame(&mut self, guides: &[[f64; 3]], rotation: &Matrix3<f64>) -> Result<&[[f32; 3]]> {
+        self.generate(guides, rotation, None)
+    }
+
+    /// [`SemiInterpolation::frame`] with the head in state `head`, then kept out of the
+    /// bodies of [`SemiInterpolation::keep_out`] (bodies on the head placed at `head`).
+    /// Without bodies the points are those of `frame(guides, &head.rotation)`, bit for bit.
+    pub fn frame_at(&mut self, guides: &[[f64; 3]], head: &HeadState) -> Result<&[[f32; 3]]> {
+        self.generate(guides, &head.rotation, Some(head))
+    }
+
+    /// The blend, and the bodies when `head` is given and there are some.
+    fn generate(
+        &mut self,
+        guides: &[[f64; 3]],
+        rotation: &Matrix3<f64>,
+        head: Option<&HeadState>,
+    ) -> Result<&[[f32; 3]]> {
         if guides.len() != self.guides * self.points {
             return Err(Error::invalid(
                 "render",
@@ -198,14 +246,32 @@ impl SemiInterpolation {
         let m = self.points;
         let (guide_points, profile, blends) = (&self.guide_points, &self.profile, &self.blends);
         let tip = self.tip_distance;
-        self.out
-            .par_chunks_mut(CHUNK * m)
-            .zip(blends.par_chunks(CHUNK))
-            .for_each(|(out, blends)| {
-                for (line, blend) in out.chunks_exact_mut(m).zip(blends) {
-                    blend_strand(line, blend, guide_points, profile, m, &r, tip);
-                }
-            });
+        let placed = match (head, &self.keep_out) {
+            (Some(head), Some(keep)) => Some(keep.at(head)),
+            _ => None,
+        };
+        match placed {
+            None => self
+                .out
+                .par_chunks_mut(CHUNK * m)
+                .zip(blends.par_chunks(CHUNK))
+                .for_each(|(out, blends)| {
+                    for (line, blend) in out.chunks_exact_mut(m).zip(blends) {
+                        blend_strand(line, blend, guide_points, profile, m, &r, tip);
+                    }
+                }),
+            Some(placed) => self
+                .out
+                .par_chunks_mut(CHUNK * m)
+                .zip(blends.par_chunks(CHUNK))
+                .zip(self.scratch.par_chunks_mut(m))
+                .for_each(|((out, blends), offsets)| {
+                    for (line, blend) in out.chunks_exact_mut(m).zip(blends) {
+                        blend_strand(line, blend, guide_points, profile, m, &r, tip);
+                        placed.apply(line, offsets);
+                    }
+                }),
+        }
         Ok(&self.out)
     }
 

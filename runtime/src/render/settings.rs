@@ -15,6 +15,8 @@ pub const DEFAULT_LOCK_RADIUS: f64 = 0.0025;
 /// `max_spacing` defaults to this many times the median spacing of the guide roots (the
 /// distance from each root to its nearest other root).
 pub const DEFAULT_SPACING_FACTOR: f64 = 3.0;
+/// Largest `clearance`, m.
+pub const MAX_RENDER_CLEARANCE: f64 = 0.1;
 
 /// The render strands of a scene (`[render]`), see `docs/interpolation.md`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -37,11 +39,15 @@ pub struct RenderSettings {
     /// Index (in `[[bodies]]`) of the body the render roots are projected onto; it is
     /// attached to the head. `None`: no projection.
     pub scalp_body: Option<usize>,
+    /// Distance (m) the render strands keep from the scene's bodies: every render point
+    /// (but the root) closer than this to a body is moved out along the body's normal
+    /// ([`super::clearance`]); `None`: the strands' mean fibre radius.
+    pub clearance: Option<f64>,
 }
 
 impl RenderSettings {
     /// `strands` render strands with the defaults: κ = [`DEFAULT_CLUMPING`], no tip
-    /// criterion, seed 0, the default spacing, no scalp.
+    /// criterion, seed 0, the default spacing, no scalp, the default clearance.
     pub fn new(strands: usize) -> Self {
         Self {
             strands,
@@ -50,6 +56,7 @@ impl RenderSettings {
             seed: 0,
             max_spacing: None,
             scalp_body: None,
+            clearance: None,
         }
     }
 

@@ -3,7 +3,7 @@
 
 use super::reader::{Bound, Node, Range};
 use crate::bodies::{Attachment, BodySetup};
-use crate::render::settings::{MAX_RENDER_DISTANCE, MAX_RENDER_STRANDS};
+use crate::render::settings::{MAX_RENDER_CLEARANCE, MAX_RENDER_DISTANCE, MAX_RENDER_STRANDS};
 use crate::render::RenderSettings;
 
 /// Read `[render]`; `bodies` are the scene's bodies (for `scalp_body`).
@@ -27,6 +27,15 @@ pub(super) fn read_render(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Rende
     };
     let max_spacing = if n.has("max_spacing") {
         n.f64("max_spacing", distance).map(Some)
+    } else {
+        Some(None)
+    };
+    let clearance = if n.has("clearance") {
+        n.f64(
+            "clearance",
+            Range::new(Bound::Incl(0.0), Bound::Incl(MAX_RENDER_CLEARANCE)),
+        )
+        .map(Some)
     } else {
         Some(None)
     };
@@ -63,5 +72,6 @@ pub(super) fn read_render(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Rende
         seed: seed?,
         max_spacing: max_spacing?,
         scalp_body: scalp_body?,
+        clearance: clearance?,
     })
 }

@@ -281,9 +281,11 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\ntip_distance = 0.0", "render.tip_distance", "must be in (0, 100], got 0"),
     ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\nmax_spacing = -1.0", "render.max_spacing", "must be in (0, 100]"),
     ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\nseed = -3", "render.seed", ">= 0"),
+    ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\nclearance = 0.5", "render.clearance", "must be in [0, 0.1], got 0.5"),
+    ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\nclearance = -1e-3", "render.clearance", "must be in [0, 0.1]"),
     ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\nscalp_body = \"head\"", "render.scalp_body", "no body named 'head'"),
     ("[[strands]]\nlength = 0.3\n[[bodies]]\nname = \"floor\"\nshape = \"plane\"\nnormal = [0.0, 0.0, 1.0]\nattached = \"world\"\n[render]\nstrands = 10\nscalp_body = \"floor\"", "render.scalp_body", "attached to the world"),
-    ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\nclumpiness = 0.5", "render.clumpiness", "unknown field; allowed fields here: clumping, max_spacing"),
+    ("[[strands]]\nlength = 0.3\n[render]\nstrands = 10\nclumpiness = 0.5", "render.clumpiness", "unknown field; allowed fields here: clearance, clumping, max_spacing"),
     ("render = 5\n[[strands]]\nlength = 0.3", "render", "table"),
 ];
 
@@ -299,7 +301,7 @@ fn the_render_table_is_read_with_its_defaults() {
         Some(crate::render::RenderSettings::new(1000))
     );
     let s = setup(
-        "[[strands]]\nlength = 0.3\n[[bodies]]\nname = \"head\"\nshape = \"sphere\"\nradius = 0.09\n[render]\nstrands = 20\nclumping = 0.8\ntip_distance = 0.05\nseed = 3\nmax_spacing = 0.02\nscalp_body = \"head\"",
+        "[[strands]]\nlength = 0.3\n[[bodies]]\nname = \"head\"\nshape = \"sphere\"\nradius = 0.09\n[render]\nstrands = 20\nclumping = 0.8\ntip_distance = 0.05\nseed = 3\nmax_spacing = 0.02\nscalp_body = \"head\"\nclearance = 0.001",
     );
     assert_eq!(
         s.output.render,
@@ -310,6 +312,7 @@ fn the_render_table_is_read_with_its_defaults() {
             seed: 3,
             max_spacing: Some(0.02),
             scalp_body: Some(0),
+            clearance: Some(0.001),
         })
     );
 }
