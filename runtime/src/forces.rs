@@ -8,5 +8,5 @@ pub mod contacts;
 pub mod effects;
 pub mod electrostatics;
 pub mod environment;
-pub mod head_motion;
+pub use crate::bodies::motion as head_motion;
 pub mod point_loads;
