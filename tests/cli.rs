@@ -28,6 +28,8 @@ fn broken() -> Vec<(String, &'static str)> {
         (format!("[simulation]\nkernels = \"gpu\"\n{STRAND}"), "simulation.kernels"),
         (format!("[simulation]\nmode = \"fast\"\n{STRAND}"), "simulation.mode"),
         (format!("[head]\nmotion = {{ kind = \"wobble\" }}\n{STRAND}"), "head.motion.kind"),
+        (format!("[[bodies]]\nshape = \"sphere\"\nradius = 0.02\n[bodies.motion]\nkind = \"keyframes\"\nkeys = [{{ t = 1.0 }}, {{ t = 0.5 }}]\n{STRAND}"), "bodies[0].motion.keys[1].t"),
+        (format!("[[bodies]]\nshape = \"sphere\"\nradius = 0.02\nattached = \"world\"\nmotion = {{ kind = \"still\" }}\n{STRAND}"), "bodies[0].motion"),
         ("[[strands]]\nlength = -0.3\n".to_string(), "strands[0].length"),
         ("[[strands]]\nlength = 0.3\nelements = 0\n".to_string(), "strands[0].elements"),
         ("[[strands]]\nlength = 0.3\npreset = \"frizzy\"\n".to_string(), "strands[0].preset"),

@@ -5,7 +5,8 @@
 //! its normalised gradient) and contacts need. The bodies themselves exert no force.
 //!
 //! A body is attached to the head (its geometry in head coordinates, moving rigidly
-//! with the head) or fixed in the world. Spheres, ellipsoids, capsules, cylinders and
+//! with the head), fixed in the world, or moves on its own rigid motion ([`motion`]: the
+//! same kinds of motion as the head's, keyframes among them). Spheres, ellipsoids, capsules, cylinders and
 //! planes are exact ([`shape_sphere`], [`shape_ellipsoid`], [`shape_capsule`],
 //! [`shape_cylinder`], [`shape_plane`]); a
 //! closed triangle mesh read from OBJ ([`obj`], checked by [`triangle_mesh`]) is
@@ -14,7 +15,7 @@
 //! interpolation ([`mesh_sdf`]).
 //!
 //! [`Bodies::build`] turns the scene's [`BodySetup`]s into [`Bodies`];
-//! [`Bodies::at`] places them at a head state for queries ([`PlacedBodies`]).
+//! [`Bodies::at`] places them at a time and head state for queries ([`PlacedBodies`]).
 
 pub mod body;
 pub mod bvh;
@@ -22,6 +23,7 @@ pub mod collection;
 pub mod grid;
 pub mod mesh_distance;
 pub mod mesh_sdf;
+pub mod motion;
 pub mod obj;
 pub mod proximity;
 pub mod setup;
@@ -34,7 +36,7 @@ pub mod shape_sphere;
 pub mod triangle;
 pub mod triangle_mesh;
 
-pub use body::Body;
+pub use body::{Body, Placement};
 pub use collection::{Bodies, PlacedBodies};
 pub use proximity::Proximity;
 pub use setup::{Attachment, BodySetup, ShapeSetup};

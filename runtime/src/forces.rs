@@ -8,5 +8,7 @@ pub mod contacts;
 pub mod effects;
 pub mod electrostatics;
 pub mod environment;
-pub mod head_motion;
+/// The rigid motion of the head (the module [`crate::bodies::motion`], shared with the
+/// bodies that move on their own).
+pub use crate::bodies::motion as head_motion;
 pub mod point_loads;

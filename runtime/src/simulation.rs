@@ -2,7 +2,7 @@
 //! [`Simulation::new`] builds one [`StrandSystem`] per strand from a
 //! [`SimulationSetup`]; [`Simulation::step`] advances them all over one time step.
 
-use crate::bodies::{Bodies, PlacedBodies};
+use crate::bodies::{Bodies, PlacedBodies, Placement};
 use crate::config::{
     Engine, IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup,
 };
@@ -402,7 +402,7 @@ impl Simulation {
             },
             integrator: setup.config.integrator,
         };
-        let head0 = setup.head.state(0.0);
+        let head0 = Placement::new(setup.head.state(0.0), 0.0);
         let rk4_dt = (setup.config.integrator == IntegratorKind::Rk4
             && setup.config.mode == Mode::Dynamic)
             .then_some(setup.config.dt);
@@ -547,7 +547,7 @@ impl Simulation {
             .scalp
             .as_ref()
             .and_then(|sc| self.bodies.as_slice().iter().find(|b| b.name == sc.body))
-            .map(|b| (b, head));
+            .map(|b| (b, b.frame(&Placement::new(*head, self.time))));
         let summary = e.update(
             |i, s| {
                 let y = strand_pose_at(strands[i].0, strands[i].1, s).position;
@@ -621,7 +621,7 @@ impl Simulation {
                 let outcome = step(&mut s.system, &interval, &mut s.state, &mut s.stats);
                 if outcome.is_ok() {
                     if let Some(c) = &mut s.system.contacts {
-                        c.after_step(&interval.end, &s.system.strand.geometry, &s.state.q, h);
+                        c.after_step(&interval.at_end(), &s.system.strand.geometry, &s.state.q, h);
                     }
                 }
                 outcome.err().map(|cause| (i, cause))
@@ -703,9 +703,9 @@ impl Simulation {
     }
 
     /// The deepest point of any strand's centreline inside a body at the current state,
-    /// m (0: none; `None`: no `[contacts]`), with the head at its current state.
+    /// m (0: none; `None`: no `[contacts]`), with the head and the bodies at the current time.
     pub fn max_penetration(&mut self) -> Option<f64> {
-        let head = self.head.state(self.time);
+        let head = Placement::new(self.head.state(self.time), self.time);
         let mut any = false;
         let mut deepest: f64 = 0.0;
         for s in &mut self.strands {
@@ -719,10 +719,10 @@ impl Simulation {
         any.then_some(deepest.max(0.0))
     }
 
-    /// The contact potential of strand `i` at its current state, the head in its state at
-    /// the current time, J (0 without `[contacts]`).
+    /// The contact potential of strand `i` at its current state, the head and the bodies
+    /// at the current time, J (0 without `[contacts]`).
     pub fn contact_potential(&mut self, i: usize) -> f64 {
-        let head = self.head.state(self.time);
+        let head = Placement::new(self.head.state(self.time), self.time);
         let Some(s) = self.strands.get_mut(i) else {
             return 0.0;
         };
@@ -750,7 +750,7 @@ impl Simulation {
     /// The generalized force F(q) at zero velocity of strand `i`, head at rest: elasticity,
     /// gravity and its point loads (the scene's and the electrostatic ones).
     pub fn static_force(&mut self, i: usize) -> Vec<f64> {
-        let rest = crate::forces::head_motion::HeadState::rest();
+        let rest = Placement::at_rest(0.0);
         let terms = crate::kernels::kernel::Terms {
             force: true,
             ..Default::default()
@@ -764,7 +764,7 @@ impl Simulation {
     /// The largest generalized force `‖F(q)‖∞` of each strand at rest (elasticity, gravity
     /// and the current point loads), head at rest.
     fn static_forces(&mut self) -> Vec<f64> {
-        let rest = crate::forces::head_motion::HeadState::rest();
+        let rest = Placement::at_rest(0.0);
         let terms = crate::kernels::kernel::Terms {
             force: true,
             ..Default::default()
@@ -800,7 +800,7 @@ impl Simulation {
             ));
         };
         let c = e.config().clone();
-        let rest = crate::forces::head_motion::HeadState::rest();
+        let rest = Placement::at_rest(0.0);
         let fail = |cause: String, time: f64| Error::Diverged {
             strand: "(electrostatics)".into(),
             index: 0,
@@ -826,7 +826,7 @@ impl Simulation {
             let mut anderson = Anderson::new(ANDERSON_DEPTH);
             for iteration in 0..=c.max_iterations {
                 stage.field = self
-                    .update_electrostatics(&rest)
+                    .update_electrostatics(&rest.head)
                     .map_err(|e| fail(e, self.time))?;
                 let forces = self.static_forces();
                 let scale =
@@ -904,10 +904,11 @@ impl Simulation {
             .collect()
     }
 
-    /// The scene's bodies placed at the head state of the current time: signed distances,
-    /// normals and closest points of world points. Empty when the scene has no bodies.
+    /// The scene's bodies placed at the current time (the head in its state then):
+    /// signed distances, normals and closest points of world points. Empty when the scene
+    /// has no bodies.
     pub fn bodies(&self) -> PlacedBodies<'_> {
-        self.bodies.at(self.head.state(self.time))
+        self.bodies.at(self.head.state(self.time), self.time)
     }
 
     /// Simulated time, seconds.

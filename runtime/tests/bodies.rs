@@ -3,7 +3,7 @@
 //! state as it moves; mesh problems reported by the scene check with their field.
 
 use nalgebra::Vector3;
-use superhelix_runtime::{parse_scene_at, validate_scene_at, HeadMotion, HeadState, Simulation};
+use superhelix_runtime::{parse_scene_at, validate_scene_at, HeadMotion, Simulation};
 
 /// An octahedron of half-diagonal 0.1 about the origin, as OBJ text.
 const OCTAHEDRON: &str = "v 0.1 0 0\nv -0.1 0 0\nv 0 0.1 0\nv 0 -0.1 0\nv 0 0 0.1\nv 0 0 -0.1\n\
@@ -73,7 +73,7 @@ fn bodies_on_the_head_follow_the_simulated_head_and_the_floor_stays() {
             assert_eq!(bodies.query(1, &x).distance, x.z + 1.0);
             // the mesh answers for the point carried into head coordinates
             let face = bodies.query(2, &x);
-            let local = bodies.bodies()[2].query(&HeadState::rest(), &y);
+            let local = bodies.bodies()[2].query(&Default::default(), &y);
             assert!((face.distance - local.distance).abs() < 1e-15);
             assert!((face.closest - head.to_world(&local.closest)).norm() < 1e-15);
             distances.push(scalp);

@@ -198,7 +198,13 @@ fn charged_scalp_repels_and_stays_bounded() {
     let body = &s.bodies().bodies()[0];
     let head = HeadState::rest();
     let (q, a) = (1e-9, 0.003);
-    let out = scalp_field(body, &head, &nalgebra::Vector3::new(0.0, 0.0, 0.12), q, a);
+    let out = scalp_field(
+        body,
+        Some(&head),
+        &nalgebra::Vector3::new(0.0, 0.0, 0.12),
+        q,
+        a,
+    );
     assert!((out.z - COULOMB_CONSTANT * q / 0.02f64.powi(2)).abs() < 1e-9 * out.z && out.x == 0.0);
     let max = COULOMB_CONSTANT * q / (a * a);
     for x in [
@@ -207,13 +213,19 @@ fn charged_scalp_repels_and_stays_bounded() {
         [0.0, 0.0, 0.0],
         [0.01, 0.0, 0.0],
     ] {
-        let f = scalp_field(body, &head, &nalgebra::Vector3::from(x), q, a);
+        let f = scalp_field(body, Some(&head), &nalgebra::Vector3::from(x), q, a);
         assert!(
             f.norm() <= max * (1.0 + 1e-12) && f.norm().is_finite(),
             "{x:?}: {f:?}"
         );
     }
-    let inside = scalp_field(body, &head, &nalgebra::Vector3::new(0.0, 0.05, 0.0), q, a);
+    let inside = scalp_field(
+        body,
+        Some(&head),
+        &nalgebra::Vector3::new(0.0, 0.05, 0.0),
+        q,
+        a,
+    );
     assert!(inside.y > 0.0, "inside: pushed outward, got {inside:?}");
     let tips = |charge: &str| {
         let mut s = sim(&format!(

@@ -75,7 +75,7 @@ seed = 7
     let (setup, reports) = parse_scene_reporting(&text, &dir).expect("valid");
     assert_eq!(setup.strands.len(), 300);
     let bodies = Bodies::build(&setup.bodies).expect("bodies");
-    let placed = bodies.at(HeadState::rest());
+    let placed = bodies.at(HeadState::rest(), 0.0);
     let comb = Vector3::new(-1.0, 0.0, -1.0).normalize();
     let mut lengths = Vec::new();
     let mut turned = 0;

@@ -1,7 +1,7 @@
-//! The bodies of a scene, built from their setups, and the same bodies placed at one head
-//! state for queries in world coordinates.
+//! The bodies of a scene, built from their setups, and the same bodies placed at one time
+//! and head state for queries in world coordinates.
 
-use super::body::Body;
+use super::body::{Body, Placement};
 use super::mesh_sdf::MeshSdf;
 use super::obj::read_obj;
 use super::proximity::Proximity;
@@ -40,7 +40,7 @@ impl Bodies {
             match build_shape(&setup.shape) {
                 Ok(shape) => bodies.push(Body {
                     name: setup.name.clone(),
-                    attached: setup.attached,
+                    attached: setup.attached.clone(),
                     shape,
                 }),
                 Err(e) => errors.push(FieldError::new(
@@ -71,20 +71,39 @@ impl Bodies {
         self.bodies.is_empty()
     }
 
-    /// The bodies with the head in state `head`: queries in world coordinates.
-    pub fn at(&self, head: HeadState) -> PlacedBodies<'_> {
+    /// Whether a body moves on its own motion ([`crate::bodies::Attachment::Motion`]).
+    pub fn any_motion(&self) -> bool {
+        self.bodies.iter().any(|b| b.attached.is_motion())
+    }
+
+    /// The bodies at time `t` with the head in state `head`: queries in world coordinates.
+    pub fn at(&self, head: HeadState, t: f64) -> PlacedBodies<'_> {
+        self.placed(Placement::new(head, t))
+    }
+
+    /// The bodies at `at`: queries in world coordinates. Each body on its own motion is
+    /// placed once, here.
+    pub fn placed(&self, at: Placement) -> PlacedBodies<'_> {
+        let frames = if self.any_motion() {
+            self.bodies.iter().map(|b| b.frame(&at)).collect()
+        } else {
+            Vec::new()
+        };
         PlacedBodies {
             bodies: &self.bodies,
-            head,
+            at,
+            frames,
         }
     }
 }
 
-/// The bodies at one head state.
-#[derive(Debug, Clone, Copy)]
+/// The bodies at one time and head state.
+#[derive(Debug, Clone)]
 pub struct PlacedBodies<'a> {
     bodies: &'a [Body],
-    head: HeadState,
+    at: Placement,
+    /// The frame of every body when one moves on its own motion (else empty: the head's).
+    frames: Vec<Option<HeadState>>,
 }
 
 impl<'a> PlacedBodies<'a> {
@@ -95,20 +114,36 @@ impl<'a> PlacedBodies<'a> {
 
     /// The head state they are placed at.
     pub fn head(&self) -> &HeadState {
-        &self.head
+        &self.at.head
+    }
+
+    /// The time and head state they are placed at.
+    pub fn placement(&self) -> &Placement {
+        &self.at
+    }
+
+    /// The state of body `i`'s frame ([`Body::frame`]): `None` for a body fixed in the
+    /// world.
+    pub fn frame(&self, i: usize) -> Option<HeadState> {
+        match self.frames.get(i) {
+            Some(f) => *f,
+            None => self.bodies[i].frame(&self.at),
+        }
     }
 
     /// Signed distance, normal and closest point of the world point `x` to body `i`.
     pub fn query(&self, i: usize, x: &Vector3<f64>) -> Proximity {
-        self.bodies[i].query(&self.head, x)
+        match self.frames.get(i) {
+            Some(f) => self.bodies[i].query_in(f.as_ref(), x),
+            None => self.bodies[i].query(&self.at, x),
+        }
     }
 
     /// The body `x` is deepest in or nearest to (smallest signed distance) and its answer;
     /// `None` without bodies.
     pub fn nearest(&self, x: &Vector3<f64>) -> Option<(usize, Proximity)> {
-        self.bodies
-            .iter()
-            .map(|b| b.query(&self.head, x))
+        (0..self.bodies.len())
+            .map(|i| self.query(i, x))
             .enumerate()
             .min_by(|a, b| a.1.distance.total_cmp(&b.1.distance))
     }

@@ -1,6 +1,7 @@
 //! What a scene says about its bodies (plain data, as `[[bodies]]` reads it) and the
 //! checks of that data for users of the API who build it by hand.
 
+use super::motion::HeadMotion;
 use crate::error::FieldError;
 use nalgebra::{Matrix3, Vector3};
 use std::path::PathBuf;
@@ -15,7 +16,7 @@ pub const MAX_GRID_NODES: usize = 1 << 24;
 pub const DEFAULT_CELLS_PER_SIDE: f64 = 64.0;
 
 /// What a body moves with.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub enum Attachment {
     /// Rigidly with the head: the body's geometry is in head coordinates, a point y of it
     /// is at `X(t) + R(t) y` in the world.
@@ -23,21 +24,30 @@ pub enum Attachment {
     Head,
     /// Fixed in the world: the body's geometry is in world coordinates.
     World,
+    /// On its own rigid motion, of the same kinds as the head's: the body's geometry is in
+    /// its own coordinates, a point y of it is at `X_b(t) + R_b(t) y` in the world, with
+    /// `X_b`, `R_b` (and their rates) the motion's state at time t.
+    Motion(HeadMotion),
 }
 
 impl Attachment {
-    /// Name as written in scenes.
-    pub fn name(self) -> &'static str {
+    /// Name as written in scenes (`attached = "…"`).
+    pub fn name(&self) -> &'static str {
         match self {
             Attachment::Head => "head",
             Attachment::World => "world",
+            Attachment::Motion(_) => "motion",
         }
     }
-    /// Parse a scene name.
+    /// Parse a scene name of an attachment without motion data (`head`, `world`).
     pub fn from_name(name: &str) -> Option<Self> {
         [Self::Head, Self::World]
             .into_iter()
             .find(|a| a.name() == name)
+    }
+    /// Whether the body moves on its own motion.
+    pub fn is_motion(&self) -> bool {
+        matches!(self, Attachment::Motion(_))
     }
 }
 

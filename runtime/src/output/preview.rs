@@ -267,7 +267,7 @@ pub fn frame_bounds(store: &mut dyn FrameStore, scenery: &Scenery) -> Result<Bou
         }
         let head = scenery.head_at(store.state_time(k));
         for b in &scenery.bodies {
-            if let Some((lo, hi)) = b.placed(&head).extent() {
+            if let Some((lo, hi)) = b.placed(&head, store.state_time(k)).extent() {
                 bounds.include(lo);
                 bounds.include(hi);
             }
@@ -823,7 +823,8 @@ pub fn frame_scene<'a>(
     render: Option<&'a mut RenderFrames>,
 ) -> Result<FrameScene<'a>> {
     let head = scenery.head_at(store.state_time(k));
-    let bodies = scenery.bodies.iter().map(|b| b.placed(&head)).collect();
+    let t = store.state_time(k);
+    let bodies = scenery.bodies.iter().map(|b| b.placed(&head, t)).collect();
     let render = match render {
         None => None,
         Some(r) => {

@@ -487,11 +487,16 @@ mod body_pictures {
     }
 
     /// Covered area (px²) and coverage-weighted centroid (px) in the front panel (the left
-    /// half) of `body` drawn at head state `head`: each pixel covers
+    /// half) of `body` drawn at head state `head` at t = 0: each pixel covers
     /// (255 − v) / (255 − 221) of itself, from its anti-aliased grey v.
     fn coverage(body: &PreviewBody, head: &HeadState) -> (f64, f64, f64) {
+        coverage_at(body, head, 0.0)
+    }
+
+    /// [`coverage`] at time `t`.
+    fn coverage_at(body: &PreviewBody, head: &HeadState, t: f64) -> (f64, f64, f64) {
         let scene = FrameScene {
-            bodies: vec![body.placed(head)],
+            bodies: vec![body.placed(head, t)],
             render: None,
         };
         let pixmap =
@@ -547,6 +552,18 @@ mod body_pictures {
         let fixed = PreviewBody::sphere([0.0, 0.0, 0.08], 0.03);
         let (_, xf, _) = coverage(&fixed, &moved);
         assert!((xf - x0).abs() < 0.05);
+        // a body on its own motion is drawn where its motion is at the frame's time,
+        // whatever the head does: 5 cm along x at t = 0.25 s, back at t = 0.5 s
+        let own = PreviewBody {
+            attached: Attachment::Motion(motion.clone()),
+            ..PreviewBody::sphere([0.0, 0.0, 0.08], 0.03)
+        };
+        let (area2, x2, y2) = coverage_at(&own, &rest, 0.25);
+        assert!((area2 - area).abs() < 0.01 * area);
+        assert!((x2 - x0 - 0.05 * s).abs() < 0.05, "{} px", x2 - x0);
+        assert!((y2 - y0).abs() < 0.05);
+        let (_, x3, _) = coverage_at(&own, &moved, 0.5);
+        assert!((x3 - x0).abs() < 0.05, "{} px", x3 - x0);
 
         // a capsule: a stadium of 2 r L + π r²; an ellipsoid turned in the x-z plane
         let capsule = PreviewBody::from_setup(&BodySetup {
@@ -633,9 +650,9 @@ mod body_pictures {
             render: None,
         };
         // the floor does not count in the bounds; the ball does, at every pose
-        assert!(scenery.bodies[1].placed(&rest).extent().is_none());
+        assert!(scenery.bodies[1].placed(&rest, 0.0).extent().is_none());
         let (lo, hi) = scenery.bodies[0]
-            .placed(&scenery.head_at(0.25))
+            .placed(&scenery.head_at(0.25), 0.25)
             .extent()
             .unwrap_or_else(|| panic!("no extent"));
         for (got, want) in lo

@@ -55,7 +55,8 @@ pub enum PreviewShape {
     },
 }
 
-/// A body drawn under the strands, moving with the head or fixed in the world.
+/// A body drawn under the strands, moving with the head, fixed in the world or on its own
+/// motion.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PreviewBody {
     /// What it moves with.
@@ -129,16 +130,21 @@ impl PreviewBody {
             }
         };
         Ok(Self {
-            attached: setup.attached,
+            attached: setup.attached.clone(),
             shape,
         })
     }
 
-    /// The shape in world coordinates with the head in state `head`.
-    pub fn placed(&self, head: &HeadState) -> PreviewShape {
-        let (x, r) = match self.attached {
+    /// The shape in world coordinates at simulated time `t` with the head in state `head`
+    /// (a body on its own motion at its pose of t, or of 0 for a time that is not finite).
+    pub fn placed(&self, head: &HeadState, t: f64) -> PreviewShape {
+        let (x, r) = match &self.attached {
             Attachment::World => return self.shape.clone(),
             Attachment::Head => (head.position, head.rotation),
+            Attachment::Motion(motion) => {
+                let state = motion.state(if t.is_finite() { t } else { 0.0 });
+                (state.position, state.rotation)
+            }
         };
         let at = |p: &Vector3<f64>| x + r * p;
         match &self.shape {

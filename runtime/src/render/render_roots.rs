@@ -23,7 +23,7 @@
 
 use super::neighbours::PointGrid;
 use super::settings::{RenderSettings, DEFAULT_LOCK_RADIUS, DEFAULT_SPACING_FACTOR};
-use crate::bodies::Body;
+use crate::bodies::{Body, Placement};
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -224,7 +224,7 @@ impl RenderRoots {
                 sites,
             };
         }
-        let rest = HeadState::rest();
+        let rest = Placement::new(HeadState::rest(), 0.0);
         // cumulative areas of the triangles, then of the discs
         let mut cumulative = Vec::with_capacity(sites.triangles.len() + sites.discs.len());
         let mut total = 0.0;

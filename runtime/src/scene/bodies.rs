@@ -1,7 +1,9 @@
-//! The `[[bodies]]` tables: the head and obstacles as shapes, attached to the head or
-//! fixed in the world. A mesh's `path` is taken relative to the scene file's folder; the
+//! The `[[bodies]]` tables: the head and obstacles as shapes, attached to the head, fixed
+//! in the world, or on their own rigid motion (a `[bodies.motion]` table, read as the
+//! head's `[head.motion]`). A mesh's `path` is taken relative to the scene file's folder; the
 //! file itself is read when the simulation is built ([`crate::bodies::Bodies::build`]).
 
+use super::head::read_motion;
 use super::reader::{Bound, Node, Range};
 use crate::bodies::setup::{MAX_BODY_SIZE, MAX_MESH_SCALE};
 use crate::bodies::{Attachment, BodySetup, ShapeSetup};
@@ -33,9 +35,7 @@ pub(super) fn read_bodies(root: &mut Node<'_>, scene_dir: &Path) -> Vec<BodySetu
         let name = n.optional("name", format!("body{i}"), |n, k| {
             n.string(k).map(str::to_string)
         });
-        let attached = n.optional("attached", Attachment::Head, |n, k| {
-            n.choice(k, &["head", "world"], Attachment::from_name)
-        });
+        let attached = attachment(&mut n);
         let what = format!("one of {}", SHAPES.join(", "));
         let kind = n.required("shape", &what, |n, k| {
             n.choice(k, &SHAPES, |s| SHAPES.iter().position(|&m| m == s))
@@ -72,6 +72,42 @@ pub(super) fn read_bodies(root: &mut Node<'_>, scene_dir: &Path) -> Vec<BodySetu
         }
     }
     out
+}
+
+/// Names of `attached`.
+const ATTACHED: [&str; 3] = ["head", "world", "motion"];
+
+/// `attached` and, for `attached = "motion"` (the default when the body has one), the
+/// `[bodies.motion]` table: the same kinds and fields as `[head.motion]`.
+fn attachment(n: &mut Node<'_>) -> Option<Attachment> {
+    let table = n.table("motion");
+    let has_motion = n.has("motion");
+    let default = if has_motion { "motion" } else { "head" };
+    let name = n.optional("attached", default, |n, k| {
+        n.choice(k, &ATTACHED, |s| {
+            ATTACHED.iter().find(|&&a| a == s).copied()
+        })
+    })?;
+    match (name, table) {
+        ("motion", Some(table)) => read_motion(table).map(Attachment::Motion),
+        // present but not a table: already reported
+        ("motion", None) if has_motion => None,
+        ("motion", None) => n.missing(
+            "motion",
+            "a [bodies.motion] table (kind = one of still, oscillate, translate-oscillate, \
+             keyframes, sudden-stop, jolt, and its fields, as in [head.motion])",
+        ),
+        (other, _) if has_motion => {
+            n.error(
+                "motion",
+                format!(
+                    "only for a body with attached = \"motion\" (this one has attached = \"{other}\")"
+                ),
+            );
+            None
+        }
+        (other, _) => Attachment::from_name(other),
+    }
 }
 
 fn center(n: &mut Node<'_>, key: &'static str) -> Option<Vector3<f64>> {

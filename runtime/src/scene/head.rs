@@ -1,4 +1,5 @@
-//! The `[head]` table: the rigid motion of every root.
+//! The `[head]` table: the rigid motion of every root; and the same motion table read for
+//! a body on its own motion (`[bodies.motion]`).
 
 use super::reader::{Bound, Node, Range};
 use crate::forces::head_motion::{HeadMotion, Keyframe};
@@ -25,17 +26,23 @@ pub(super) fn read_head(head: Option<Node<'_>>) -> HeadMotion {
     let Some(mut head) = head else {
         return HeadMotion::Still;
     };
-    let motion = head.table("motion").map(read_motion).unwrap_or_default();
+    let motion = head
+        .table("motion")
+        .and_then(read_motion)
+        .unwrap_or_default();
     head.finish();
     motion
 }
 
-fn read_motion(mut m: Node<'_>) -> HeadMotion {
+/// The rigid motion of a motion table (`[head.motion]`, `[bodies.motion]`): `kind` and
+/// the fields of that kind. `None` when invalid (problems are recorded).
+pub(super) fn read_motion(mut m: Node<'_>) -> Option<HeadMotion> {
     let what = format!("one of {}", KINDS.join(", "));
     let kind = m.required("kind", &what, |m, k| {
         m.choice(k, &KINDS, |name| KINDS.iter().position(|&n| n == name))
     });
     let motion = match kind {
+        Some(0) => Some(HeadMotion::Still),
         Some(1) => oscillate(&mut m),
         Some(2) => translate_oscillate(&mut m),
         Some(3) => keyframes(&mut m),
@@ -47,7 +54,7 @@ fn read_motion(mut m: Node<'_>) -> HeadMotion {
     if kind.is_some() {
         m.finish();
     }
-    motion.unwrap_or_default()
+    motion
 }
 
 fn center(m: &mut Node<'_>) -> Option<Vector3<f64>> {

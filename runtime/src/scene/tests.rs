@@ -273,6 +273,19 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"mesh\"\npath = \"head.obj\"\nscale = -1.0", "bodies[0].scale", "must be in (0, 1000000]"),
     ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.1\n[[bodies]]\nshape = \"plane\"\nnormal = [0.0, 0.0, 1.0]\nname = \"body0\"", "bodies[1].name", "duplicate body name 'body0'"),
     ("bodies = 5\n[[strands]]\nlength = 0.3", "bodies", "array of tables"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.02\nattached = \"motion\"", "bodies[0].motion", "required: a [bodies.motion] table"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.02\nattached = \"world\"\nmotion = { kind = \"still\" }", "bodies[0].motion", "only for a body with attached = \"motion\" (this one has attached = \"world\")"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.02\nattached = \"head\"\n[bodies.motion]\nkind = \"still\"", "bodies[0].motion", "only for a body with attached = \"motion\""),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.02\nmotion = 3", "bodies[0].motion", "expected a table"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.02\n[bodies.motion]\nkind = \"spin\"", "bodies[0].motion.kind", "allowed: still, oscillate, translate-oscillate, keyframes, sudden-stop, jolt"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.02\n[bodies.motion]\nkind = \"keyframes\"", "bodies[0].motion.keys", "required: a list of { t, position, rotation_axis_angle_deg }"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.02\n[bodies.motion]\nkind = \"keyframes\"\nkeys = [{ t = 1.0 }, { t = 0.5 }]", "bodies[0].motion.keys[1].t", "strictly increasing, got 0.5 after 1"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.02\n[bodies.motion]\nkind = \"keyframes\"\nkeys = [{ t = 0.0, position = [0.0, 0.1] }]", "bodies[0].motion.keys[0].position", "exactly 3"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.02\n[bodies.motion]\nkind = \"keyframes\"\nkeys = [{ t = 0.0, speed = 1.0 }]", "bodies[0].motion.keys[0].speed", "unknown field"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.02\n[bodies.motion]\nkind = \"oscillate\"\naxis = [0.0, 0.0, 1.0]\nangle_deg = 30.0\nfrequency_hz = 80.0", "bodies[0].motion.frequency_hz", "must be in [0, 50], got 80"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.02\n[bodies.motion]\nkind = \"oscillate\"\naxis = [0.0, 0.0, 1.0]\nangle_deg = 200.0\nfrequency_hz = 1.0", "bodies[0].motion.angle_deg", "must be in [0, 180]"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.02\n[bodies.motion]\nkind = \"translate-oscillate\"\ndirection = [0.0, 0.0, 0.0]\namplitude = 0.1\nfrequency_hz = 1.0", "bodies[0].motion.direction", "non-zero"),
+    ("[[strands]]\nlength = 0.3\n[[bodies]]\nshape = \"sphere\"\nradius = 0.02\n[bodies.motion]\nkind = \"translate-oscillate\"\ndirection = [1.0, 0.0, 0.0]\namplitude = -0.1\nfrequency_hz = 1.0", "bodies[0].motion.amplitude", ">= 0"),
     ("[[strands]]\nlength = 0.3\n[render]\nclumping = 0.5", "render.strands", "required: the number of render strands, an integer in [1, 10000000]"),
     ("[[strands]]\nlength = 0.3\n[render]\nstrands = 0", "render.strands", "must be an integer >= 1"),
     ("[[strands]]\nlength = 0.3\n[render]\nstrands = 20000000", "render.strands", "<= 10000000"),
@@ -741,6 +754,50 @@ fn tresses_spread_roots_over_their_ellipse_and_electrostatics_takes_each_strands
     assert_eq!(e.softening, 1.0 / 330.0);
 }
 
+/// A `[bodies.motion]` table makes the body move on its own (attached = "motion" by
+/// default then), read as `[head.motion]` is.
+#[test]
+fn a_body_with_a_motion_table_moves_on_its_own() {
+    use crate::bodies::Attachment;
+    use crate::forces::head_motion::HeadMotion;
+    let s = setup(
+        r#"
+[[strands]]
+length = 0.1
+[[bodies]]
+name = "comb"
+shape = "capsule"
+start = [0.0, -0.05, 0.0]
+end = [0.0, 0.05, 0.0]
+radius = 0.005
+[bodies.motion]
+kind = "keyframes"
+keys = [{ t = 0.0, position = [-0.05, 0.0, -0.05] }, { t = 1.0, position = [0.05, 0.0, -0.05], rotation_axis_angle_deg = [0.0, 0.0, 90.0] }]
+[[bodies]]
+name = "paddle"
+shape = "sphere"
+radius = 0.01
+attached = "motion"
+motion = { kind = "translate-oscillate", direction = [0.0, 2.0, 0.0], amplitude = 0.01, frequency_hz = 2.0 }
+"#,
+    );
+    let Attachment::Motion(HeadMotion::Keyframes(track)) = &s.bodies[0].attached else {
+        panic!("{:?}", s.bodies[0].attached)
+    };
+    assert_eq!(track.keys().len(), 2);
+    assert_eq!(track.keys()[1].position, Vector3::new(0.05, 0.0, -0.05));
+    assert!((track.keys()[1].rotation.z - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+    assert_eq!(
+        s.bodies[1].attached,
+        Attachment::Motion(HeadMotion::TranslateOscillate {
+            direction: Vector3::y(),
+            amplitude: 0.01,
+            frequency_hz: 2.0
+        })
+    );
+    assert_eq!(s.bodies[1].attached.name(), "motion");
+}
+
 #[test]
 fn bodies_become_their_setups_and_a_scene_without_them_has_none() {
     use crate::bodies::{Attachment, ShapeSetup};
@@ -782,7 +839,7 @@ translation = [0.0, 0.0, 0.1]
     .unwrap_or_else(|e| panic!("{e}"));
     let names: Vec<&str> = s.bodies.iter().map(|b| b.name.as_str()).collect();
     assert_eq!(names, ["head", "body1", "body2", "body3", "body4"]);
-    let attached: Vec<Attachment> = s.bodies.iter().map(|b| b.attached).collect();
+    let attached: Vec<Attachment> = s.bodies.iter().map(|b| b.attached.clone()).collect();
     use Attachment::{Head, World};
     assert_eq!(attached, [Head, World, Head, World, Head]);
     let ShapeSetup::Ellipsoid {

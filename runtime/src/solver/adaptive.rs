@@ -185,7 +185,8 @@ fn implicit_adaptive(
         && rotation <= MAX_ELEMENT_ROTATION
         && match &mut system.contacts {
             Some(c) => c.step_acceptable(
-                &interval.end,
+                &interval.at_start(),
+                &interval.at_end(),
                 &system.strand.geometry,
                 &system.workspace.saved_q,
                 &state.q,
@@ -206,11 +207,13 @@ fn implicit_adaptive(
         let mut end =
             energy_balance::measure(system, &interval.end, interval.t + h, &state.q, &state.v);
         // contacts with what moves relative to the head (a world body while the head
-        // moves, other strands) do work: the step is then balanced against work
+        // moves, a body on its own motion, other strands) do work: the step is then
+        // balanced against work
         let inertial = interval.uniform
-            && !system.contacts.as_ref().is_some_and(|c| {
-                c.moves_relative(&interval.start) || c.moves_relative(&interval.end)
-            });
+            && !system
+                .contacts
+                .as_ref()
+                .is_some_and(|c| c.moves_relative(&interval.at_start(), &interval.at_end()));
         let balance = energy_balance::balance(start, &end, inertial);
         let excess = balance.excess;
         // an accepted step: its end bounds the next, and it is BDF2's history

@@ -95,7 +95,7 @@ pub fn bdf2(
             qh[i] = a1 * q[i] - a2 * ws.prev_q[i];
             vh[i] = a1 * v[i] - a2 * ws.prev_v[i];
         }
-        let assembled = system.assemble(&interval.end, qt, vt, Terms::all());
+        let assembled = system.assemble(&interval.at_end(), qt, vt, Terms::all());
         let ws = &mut system.workspace;
         let field_stiffness = ws.step_matrix(assembled, bh, stats);
         // D_q (q̂ − q̃)

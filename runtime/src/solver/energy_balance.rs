@@ -4,6 +4,7 @@
 //! re-exported here.
 
 use super::system::StrandSystem;
+use crate::bodies::Placement;
 use crate::forces::effects::body_field;
 use crate::forces::head_motion::HeadState;
 use crate::kernels::kernel::{BodyField, EvalInput, Terms};
@@ -90,9 +91,11 @@ pub fn measure(
     if let Some(c) = contacts {
         // the contact potential joins V (with the point loads' part, so that round-off
         // is scaled by it); its rate at fixed q joins the point loads' rate
-        let (potential, rate) = c.energy(head, &strand.geometry, q);
+        // and so does the work of the drag of the bodies on their own motion
+        let at = Placement::new(*head, t);
+        let (potential, rate) = c.energy(&at, &strand.geometry, q);
         load_moment -= potential;
-        load_rate += rate;
+        load_rate += rate + c.drag_power(&at, kernel, q, v, jac);
     }
     let dissipation = (0..n).map(|i| friction[i] * v[i] * v[i]).sum::<f64>()
         + 2.0 * strand.air_drag / rho_s * kinetic;

@@ -26,8 +26,8 @@
 //! run-time error then says that the explicit steps grew unstable.
 
 use super::system::StrandSystem;
+use crate::bodies::Placement;
 use crate::error::FieldError;
-use crate::forces::head_motion::HeadState;
 use crate::kernels::kernel::Terms;
 use crate::model::reconstruction::sample_centreline;
 use nalgebra::DMatrix;
@@ -43,7 +43,7 @@ pub const RK4_SAFETY: f64 = 0.8;
 /// M is not positive definite or a term is not finite.
 pub fn linearised_spectral_radius(
     system: &mut StrandSystem,
-    head: &HeadState,
+    at: &Placement,
     q: &[f64],
 ) -> Option<f64> {
     let n = q.len();
@@ -55,7 +55,7 @@ pub fn linearised_spectral_radius(
         damping: true,
         velocity_term_jacobian: false,
     };
-    system.assemble(head, q, &v, terms);
+    system.assemble(at, q, &v, terms);
     let t = &system.workspace.terms;
     let mass = DMatrix::from_fn(n, n, |i, j| 0.5 * (t.mass[(i, j)] + t.mass[(j, i)]));
     let stiffness = DMatrix::from_fn(n, n, |i, j| {
@@ -81,13 +81,13 @@ pub fn linearised_spectral_radius(
     rho.is_finite().then_some(rho)
 }
 
-/// Every problem of strand `index`'s initial state `q0` (at rest, head state `head`):
+/// Every problem of strand `index`'s initial state `q0` (at rest, head and bodies at `place`):
 /// non-finite centreline, forces or mass matrix; with `rk4_dt`, a time step beyond
 /// RK4's stability limit (reported on `simulation.dt`).
 pub fn check_initial_state(
     index: usize,
     system: &mut StrandSystem,
-    head: &HeadState,
+    place: &Placement,
     q0: &[f64],
     rk4_dt: Option<f64>,
 ) -> Vec<FieldError> {
@@ -109,7 +109,7 @@ pub fn check_initial_state(
         force: true,
         ..Default::default()
     };
-    system.assemble(head, q0, &v, terms);
+    system.assemble(place, q0, &v, terms);
     let t = &system.workspace.terms;
     let n = q0.len();
     let force_finite = t.force[..n].iter().all(|x| x.is_finite());
@@ -126,7 +126,7 @@ pub fn check_initial_state(
     let Some(dt) = rk4_dt else {
         return Vec::new();
     };
-    match linearised_spectral_radius(system, head, q0) {
+    match linearised_spectral_radius(system, place, q0) {
         None => vec![FieldError::new(
             "simulation.integrator",
             format!(

@@ -40,7 +40,7 @@ pub fn linearly_implicit_euler(
     let h = interval.h;
     let (q, v) = (&mut state.q[..], &mut state.v[..]);
     let terms = Terms::all();
-    let assembled = system.assemble(&interval.end, q, v, terms);
+    let assembled = system.assemble(&interval.at_end(), q, v, terms);
     let n = q.len();
     let ws = &mut system.workspace;
     ws.step_matrix(assembled, h, stats);

@@ -39,7 +39,7 @@ pub fn newton_implicit_euler(
         for i in 0..n {
             q_new[i] = q[i] + h * v_new[i];
         }
-        system.assemble(&interval.end, q_new, v_new, Terms::all());
+        system.assemble(&interval.at_end(), q_new, v_new, Terms::all());
         stats.newton_iterations += 1;
         let ws = &mut system.workspace;
         let t = &ws.terms;

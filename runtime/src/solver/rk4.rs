@@ -1,13 +1,13 @@
 //! Classical explicit Runge–Kutta 4: a reference for tests.
 
 use super::system::{HeadInterval, StrandState, StrandSystem};
-use crate::forces::head_motion::HeadState;
+use crate::bodies::Placement;
 use crate::kernels::kernel::Terms;
 
-/// q̈ = M⁻¹ F(q, q̇) with the head in state `head`, into `acc`.
+/// q̈ = M⁻¹ F(q, q̇) with the head and the bodies at `at`, into `acc`.
 fn acceleration(
     system: &mut StrandSystem,
-    head: &HeadState,
+    at: &Placement,
     q: &[f64],
     v: &[f64],
     acc: &mut [f64],
@@ -17,7 +17,7 @@ fn acceleration(
         force: true,
         ..Default::default()
     };
-    system.assemble(head, q, v, terms);
+    system.assemble(at, q, v, terms);
     let ws = &mut system.workspace;
     ws.solver.matrix.copy_from(&ws.terms.mass);
     ws.solver.rhs_mut().copy_from_slice(&ws.terms.force);
@@ -48,7 +48,11 @@ pub fn rk4(
 ) -> Result<(), String> {
     let h = interval.h;
     let (q, v) = (&mut state.q[..], &mut state.v[..]);
-    let heads = [interval.start, interval.state_at(0.5), interval.end];
+    let heads = [
+        interval.at_start(),
+        Placement::new(interval.state_at(0.5), interval.t + 0.5 * h),
+        interval.at_end(),
+    ];
     let n = q.len();
     let mut s = std::mem::take(&mut system.workspace.scratch);
     let result = (|| {

@@ -2,7 +2,7 @@
 //! with the exact stiffness and a backtracking line search on the energy.
 
 use super::system::StrandSystem;
-use crate::forces::head_motion::HeadState;
+use crate::bodies::Placement;
 use crate::kernels::kernel::Terms;
 
 /// How a static solve went.
@@ -47,7 +47,8 @@ fn backtrack(energy_at: &mut impl FnMut(f64) -> f64, e0: f64, slope: f64) -> Res
 pub fn solve_static(system: &mut StrandSystem, q: &mut [f64]) -> Result<StaticReport, String> {
     let n = q.len();
     let zero = vec![0.0; n];
-    let head = HeadState::rest();
+    // the head at rest, a body on its own motion at rest at its pose of t = 0
+    let at = Placement::at_rest(0.0);
     let terms = Terms {
         force: true,
         stiffness: true,
@@ -57,7 +58,7 @@ pub fn solve_static(system: &mut StrandSystem, q: &mut [f64]) -> Result<StaticRe
     let mut trial = vec![0.0; n];
     let mut force = vec![0.0; n];
     for iteration in 0..=STATIC_MAX_ITERATIONS {
-        system.assemble(&head, q, &zero, terms);
+        system.assemble(&at, q, &zero, terms);
         let ws = &mut system.workspace;
         force.copy_from_slice(&ws.terms.force);
         let residual = max_abs(&force);

@@ -9,6 +9,7 @@
 use super::dense_solve::DenseSolver;
 use super::energy_balance::StateEnergy;
 use super::stats::StepStats;
+use crate::bodies::Placement;
 use crate::config::IntegratorKind;
 use crate::forces::contacts::StrandContacts;
 use crate::forces::effects::{body_field, GlobalEffects};
@@ -141,10 +142,12 @@ impl StrandSystem {
     }
 
     /// Evaluate the strand's full force F(q, q̇) (kernel terms, elasticity −K(q − q_n),
-    /// internal friction −γ l q̇, point loads Jᵀ f) with the head in state `head`, and the
-    /// requested Jacobians, into `workspace.terms`: `stiffness` = ∂F/∂q (less ∂b/∂q),
-    /// `damping` = ∂F/∂q̇ (less ∂b/∂q̇, which is in `velocity_term_jacobian`).
-    pub fn assemble(&mut self, head: &HeadState, q: &[f64], v: &[f64], terms: Terms) -> Assembled {
+    /// internal friction −γ l q̇, point loads Jᵀ f, contacts) with the head and the bodies
+    /// placed at `at`, and the requested Jacobians, into `workspace.terms`: `stiffness` =
+    /// ∂F/∂q (less ∂b/∂q), `damping` = ∂F/∂q̇ (less ∂b/∂q̇, which is in
+    /// `velocity_term_jacobian`).
+    pub fn assemble(&mut self, at: &Placement, q: &[f64], v: &[f64], terms: Terms) -> Assembled {
+        let head = &at.head;
         let StrandSystem {
             strand,
             kernel,
@@ -209,7 +212,7 @@ impl StrandSystem {
             t,
         );
         let touching = match contacts {
-            Some(c) => c.add_to_terms(head, kernel, q, v, terms, &mut ws.jac, t),
+            Some(c) => c.add_to_terms(at, kernel, q, v, terms, &mut ws.jac, t),
             None => false,
         };
         Assembled {
@@ -268,9 +271,9 @@ impl StrandSystem {
             .gravity
             .map_or(0.0, |g| -ws.terms.first_moment.dot(&g));
         let loads = point_load_potential(&strand.point_loads, kernel, q, &mut ws.jac);
-        let touching = contacts
-            .as_mut()
-            .map_or(0.0, |c| c.energy(&HeadState::rest(), &strand.geometry, q).0);
+        let touching = contacts.as_mut().map_or(0.0, |c| {
+            c.energy(&Placement::at_rest(0.0), &strand.geometry, q).0
+        });
         (kinetic, elastic + gravity + loads + touching)
     }
 }
@@ -314,6 +317,16 @@ impl<'a> HeadInterval<'a> {
     /// The head's state at t + c h.
     pub fn state_at(&self, c: f64) -> HeadState {
         self.motion.state(self.t + c * self.h)
+    }
+
+    /// The head and the bodies at t.
+    pub fn at_start(&self) -> Placement {
+        Placement::new(self.start, self.t)
+    }
+
+    /// The head and the bodies at t + h.
+    pub fn at_end(&self) -> Placement {
+        Placement::new(self.end, self.t + self.h)
     }
 
     /// The first half [t, t + h/2].

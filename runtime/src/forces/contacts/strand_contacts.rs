@@ -7,7 +7,10 @@
 //!
 //! Everything is computed in head coordinates. A sample at arc length s sits at y(s); a
 //! body attached to the head is fixed there, a body fixed in the world moves through the
-//! head frame with velocity `u = −(Rᵀ Ẋ + ω × y)`. For a sample of weight w (the arc
+//! head frame with velocity `u = −(Rᵀ Ẋ + ω × y)`, and a body on its own motion (state
+//! `X_b`, `R_b`, `Ẋ_b`, `ω_b` at the time of the query, placed once per time in
+//! [`StrandContacts`]) with `u = Rᵀ(Ẋ_b + R_b (ω_b × z) − Ẋ) − ω × y`, where
+//! `z = R_bᵀ(X + R y − X_b)` is the point in the body's coordinates. For a sample of weight w (the arc
 //! length it stands for) at depth δ = r − d (d the signed distance to the surface, n the
 //! outward normal):
 //!
@@ -27,7 +30,7 @@
 //! strand that starts inside a body is pushed out over several steps, never kicked.
 
 use super::config::{ContactConfig, Friction, HairHairConfig, STANDARD_GRAVITY};
-use crate::bodies::{Attachment, Body};
+use crate::bodies::{Attachment, Body, Placement};
 use crate::forces::head_motion::HeadState;
 use crate::kernels::kernel::{StrandKernel, StrandTerms, Terms};
 use crate::model::element::local_pose;
@@ -117,7 +120,8 @@ pub struct PartnerPoint {
 }
 
 /// Where a sticking contact point is held (Coulomb friction): a point of a body, in that
-/// body's coordinates (head coordinates for a body on the head, world otherwise).
+/// body's coordinates (head coordinates for a body on the head, its own for a body on its
+/// own motion, world otherwise).
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Anchor {
     body: usize,
@@ -152,6 +156,12 @@ struct BodyHit {
 /// The contacts of one strand (see the module page).
 pub struct StrandContacts {
     bodies: Arc<[Body]>,
+    /// Whether a body moves on its own motion: then `frames` holds the bodies' frames.
+    moving: bool,
+    /// The frame of each body on its own motion at the time and rest flag of `placed`
+    /// (`None` for the others).
+    frames: Vec<Option<HeadState>>,
+    placed: Option<(f64, bool)>,
     /// The q of the poses in `poses` (empty: none).
     posed: Vec<f64>,
     params: ContactParams,
@@ -200,7 +210,15 @@ impl StrandContacts {
     ) -> Self {
         let samples = sample_points(geom, per.max(1));
         let n = samples.len();
+        let moving = bodies.iter().any(|b| b.attached.is_motion());
         StrandContacts {
+            frames: if moving {
+                vec![None; bodies.len()]
+            } else {
+                Vec::new()
+            },
+            moving,
+            placed: None,
             bodies,
             posed: Vec::new(),
             params,
@@ -252,13 +270,53 @@ impl StrandContacts {
             || self.allowance.iter().any(|a| *a > 0.0)
     }
 
-    /// Whether what the strand may touch moves relative to the head frame with the head
-    /// in `head`: a body fixed in the world while the head moves, or other strands. Then
-    /// contacts can do work on the strand even while the head moves uniformly.
-    pub fn moves_relative(&self, head: &HeadState) -> bool {
+    /// Whether what the strand may touch moves relative to the head frame between `start`
+    /// and `end` (the two ends of a step): other strands; a body on its own motion unless
+    /// it is still over the whole step and the head still at both ends; a body fixed in
+    /// the world while the head moves at either end. Then contacts can do work on the
+    /// strand even while the head moves uniformly.
+    pub fn moves_relative(&self, start: &Placement, end: &Placement) -> bool {
+        let head_moves =
+            |h: &HeadState| h.velocity != Vector3::zeros() || h.omega != Vector3::zeros();
+        let head_still = !head_moves(&start.head) && !head_moves(&end.head);
         !self.partners.is_empty()
-            || (self.bodies.iter().any(|b| b.attached == Attachment::World)
-                && (head.velocity != Vector3::zeros() || head.omega != Vector3::zeros()))
+            || self.bodies.iter().any(|b| match &b.attached {
+                Attachment::Head => false,
+                Attachment::World => !head_still,
+                Attachment::Motion(m) => {
+                    let s = m.state(start.time);
+                    let still = start.at_rest
+                        || (m.uniform_over(start.time, end.time)
+                            && s.velocity == Vector3::zeros()
+                            && s.omega == Vector3::zeros());
+                    !(still && head_still)
+                }
+            })
+    }
+
+    /// Place the bodies on their own motion at `at` (once per time; nothing without such
+    /// bodies).
+    fn place(&mut self, at: &Placement) {
+        if !self.moving || self.placed == Some((at.time, at.at_rest)) {
+            return;
+        }
+        for (f, b) in self.frames.iter_mut().zip(self.bodies.iter()) {
+            *f = if b.attached.is_motion() {
+                b.frame(at)
+            } else {
+                None
+            };
+        }
+        self.placed = Some((at.time, at.at_rest));
+    }
+
+    /// The frame of body `b` on its own motion (placed by [`Self::place`]).
+    fn frame(&self, b: usize) -> HeadState {
+        self.frames
+            .get(b)
+            .copied()
+            .flatten()
+            .unwrap_or_else(HeadState::rest)
     }
 
     /// The body sample `k` at `y` presses into (its effective depth > 0), if any.
@@ -334,26 +392,45 @@ impl StrandContacts {
     /// radius), with the head in `head`; a sample of the root zone does not touch the
     /// body its strand grows from.
     fn body_hit(&self, head: &HeadState, k: usize, y: &Vector3<f64>) -> Option<BodyHit> {
+        self.body_hit_among(head, k, y, None)
+    }
+
+    /// [`Self::body_hit`] among the bodies on their own motion (`only = Some(true)`) or
+    /// the others (`Some(false)`).
+    fn body_hit_among(
+        &self,
+        head: &HeadState,
+        k: usize,
+        y: &Vector3<f64>,
+        only: Option<bool>,
+    ) -> Option<BodyHit> {
         let (root_body, zone) = self.root_zone;
-        self.nearest_body(head, y, (k < zone).then_some(root_body))
+        self.nearest_body(head, y, (k < zone).then_some(root_body), only)
     }
 
     /// The body a head-frame point `y` touches most deeply (within the contact radius),
-    /// with the head in `head`, other than `skip`.
+    /// with the head in `head` (bodies on their own motion as last placed), other than
+    /// `skip`; with `only`, among the bodies on their own motion (`Some(true)`) or the
+    /// others (`Some(false)`).
     fn nearest_body(
         &self,
         head: &HeadState,
         y: &Vector3<f64>,
         skip: Option<usize>,
+        only: Option<bool>,
     ) -> Option<BodyHit> {
         let mut best: Option<BodyHit> = None;
         for (b, body) in self.bodies.iter().enumerate() {
-            if skip == Some(b) {
+            if skip == Some(b) || only.is_some_and(|m| m != body.attached.is_motion()) {
                 continue;
             }
             let local = match body.attached {
                 Attachment::Head => *y,
                 Attachment::World => head.position + head.rotation * y,
+                Attachment::Motion(_) => {
+                    let f = self.frame(b);
+                    f.rotation.transpose() * (head.position + head.rotation * y - f.position)
+                }
             };
             if body.shape.farther_than(&local, self.params.radius) {
                 continue;
@@ -367,6 +444,14 @@ impl StrandContacts {
                     let x = head.position + head.rotation * y;
                     let p = body.shape.query(&x);
                     (p.distance, head.rotation.transpose() * p.normal)
+                }
+                Attachment::Motion(_) => {
+                    let p = body.shape.query(&local);
+                    let f = self.frame(b);
+                    (
+                        p.distance,
+                        head.rotation.transpose() * (f.rotation * p.normal),
+                    )
                 }
             };
             if distance < self.params.radius && best.is_none_or(|h| distance < h.distance) {
@@ -385,6 +470,12 @@ impl StrandContacts {
         match self.bodies[b].attached {
             Attachment::Head => Vector3::zeros(),
             Attachment::World => -(head.rotation.transpose() * head.velocity + head.omega.cross(y)),
+            Attachment::Motion(_) => {
+                let f = self.frame(b);
+                let z = f.rotation.transpose() * (head.position + head.rotation * y - f.position);
+                let world = f.velocity + f.rotation * f.omega.cross(&z);
+                head.rotation.transpose() * (world - head.velocity) - head.omega.cross(y)
+            }
         }
     }
 
@@ -395,6 +486,10 @@ impl StrandContacts {
         let point = match self.bodies[b].attached {
             Attachment::Head => a.point,
             Attachment::World => head.rotation.transpose() * (a.point - head.position),
+            Attachment::Motion(_) => {
+                let f = self.frame(b);
+                head.rotation.transpose() * (f.position + f.rotation * a.point - head.position)
+            }
         };
         Some((point, a.sliding))
     }
@@ -452,13 +547,13 @@ impl StrandContacts {
         (normal, spring, kn, kt)
     }
 
-    /// Add the contact forces at (q, q̇) with the head in `head` to `out` (force, and the
+    /// Add the contact forces at (q, q̇) with the bodies placed at `at` to `out` (force, and the
     /// stiffness and damping when `terms` asks): see the module page. Returns whether a
     /// contact added stiffness. `jac` is 3N columns of scratch.
     #[allow(clippy::too_many_arguments)]
     pub fn add_to_terms(
         &mut self,
-        head: &HeadState,
+        at: &Placement,
         kernel: &mut dyn StrandKernel,
         q: &[f64],
         v: &[f64],
@@ -466,6 +561,8 @@ impl StrandContacts {
         jac: &mut [Vector3<f64>],
         out: &mut StrandTerms,
     ) -> bool {
+        self.place(at);
+        let head = &at.head;
         self.sample_poses(kernel.geometry(), q);
         let mut summary = ContactSummary::default();
         let mut stiffened = false;
@@ -560,10 +657,13 @@ impl StrandContacts {
         stiffened
     }
 
-    /// The contact potential at q with the head in `head` (normal penalty, Coulomb springs,
-    /// hair–hair penalty), J; and its rate at fixed q through the motion of what the
-    /// strand touches (bodies fixed in the world while the head moves, partner points), W.
-    pub fn energy(&mut self, head: &HeadState, geom: &StrandGeometry, q: &[f64]) -> (f64, f64) {
+    /// The contact potential at q with the bodies placed at `at` (normal penalty, Coulomb
+    /// springs, hair–hair penalty), J; and its rate at fixed q through the motion of what
+    /// the strand touches (bodies fixed in the world while the head moves, bodies on their
+    /// own motion, partner points), W.
+    pub fn energy(&mut self, at: &Placement, geom: &StrandGeometry, q: &[f64]) -> (f64, f64) {
+        self.place(at);
+        let head = &at.head;
         self.sample_poses(geom, q);
         let p = self.params;
         let (mut potential, mut rate) = (0.0, 0.0);
@@ -609,8 +709,71 @@ impl StrandContacts {
         (potential, rate)
     }
 
+    /// The power, W, at (q, q̇) that the damping and viscous friction of the bodies on their
+    /// own motion put into the strand through the bodies' velocity u: both act on the
+    /// velocity relative to the body, `f = −c (ẏ − u)` (normal damping along n, viscous
+    /// friction in the tangent plane), and their part `c u` does the work `c u · ẏ` (the
+    /// part `−c ẏ` only dissipates). With [`Self::energy`]'s rate it is the work the energy
+    /// balance allows a step; 0 without such bodies (nothing is computed).
+    pub fn drag_power(
+        &mut self,
+        at: &Placement,
+        kernel: &mut dyn StrandKernel,
+        q: &[f64],
+        v: &[f64],
+        jac: &mut [Vector3<f64>],
+    ) -> f64 {
+        if !self.moving {
+            return 0.0;
+        }
+        self.place(at);
+        let head = &at.head;
+        self.sample_poses(kernel.geometry(), q);
+        let mut power = 0.0;
+        for k in 0..self.samples.len() {
+            let (y, t) = self.poses[k];
+            let Some(hit) = self.touching(head, k, &y) else {
+                continue;
+            };
+            if !self.bodies[hit.body].attached.is_motion() {
+                continue;
+            }
+            let u = self.body_velocity(head, hit.body, &y);
+            if u == Vector3::zeros() {
+                continue;
+            }
+            let (s, w) = self.samples[k];
+            kernel.point(q, s, jac, None);
+            let ydot = velocity(jac, v);
+            let n = hit.normal;
+            let mut f = self.params.damping * w * n.dot(&u) * n;
+            if let Friction::Viscous {
+                coefficient,
+                slip_speed,
+            } = self.params.friction
+            {
+                let p = Matrix3::identity() - n * n.transpose();
+                let slide = p * (ydot - u);
+                let norm = slide.norm();
+                let cos = if norm > 0.0 {
+                    t.dot(&slide) / norm
+                } else {
+                    0.0
+                };
+                let depth = self.effective_depth(k, &hit);
+                let normal = self.params.stiffness * w * depth.clamp(0.0, self.params.max_depth);
+                let ct = coefficient * (1.0 + self.params.anisotropy * cos) * normal / slip_speed;
+                f += ct * (p * u);
+            }
+            power += f.dot(&ydot);
+        }
+        power
+    }
+
     /// The deepest penetration of the contact radius by a sample at q, m (0: none).
-    pub fn max_depth(&mut self, head: &HeadState, geom: &StrandGeometry, q: &[f64]) -> f64 {
+    pub fn max_depth(&mut self, at: &Placement, geom: &StrandGeometry, q: &[f64]) -> f64 {
+        self.place(at);
+        let head = &at.head;
         self.sample_poses(geom, q);
         (0..self.samples.len())
             .filter_map(|k| self.body_hit(head, k, &self.poses[k].0))
@@ -618,26 +781,50 @@ impl StrandContacts {
             .fold(0.0, f64::max)
     }
 
-    /// Whether a step from `q0` to `q1` (head in `head` at its end) is acceptable for the
-    /// contacts: no sample that touched nothing at the start went deeper into a body, or
-    /// into a partner's ball, than [`ContactParams::split_depth`] (a fast approach is
-    /// resolved by substeps rather than met by a deep penalty). The depth in a partner's
-    /// ball is measured along the line of centres at the start, so that a step that
-    /// carries a point through the other strand counts as deep.
+    /// Whether a step from `q0` to `q1` (bodies placed at `start` and `end` at its two
+    /// ends) is acceptable for the contacts: no sample that touched nothing at the start
+    /// went deeper into a body, or into a partner's ball, than
+    /// [`ContactParams::split_depth`] (a fast approach is resolved by substeps rather than
+    /// met by a deep penalty). The depth in a partner's ball is measured along the line of
+    /// centres at the start, so that a step that carries a point through the other strand
+    /// counts as deep.
     pub fn step_acceptable(
         &mut self,
-        head: &HeadState,
+        start: &Placement,
+        end: &Placement,
         geom: &StrandGeometry,
         q0: &[f64],
         q1: &[f64],
     ) -> bool {
         let split = self.params.split_depth;
-        // which samples touch at the start: their penalty stiffness is in the step's
-        // matrix (or, beyond δ_max, a constant force pushes them out); only the others,
-        // new contacts, are checked
+        let head = &end.head;
+        // which samples touch at the start: for a body on the head or in the world, those
+        // whose penalty stiffness is in the step's matrix (q0 with the head at the end; or,
+        // beyond δ_max, a constant force pushes them out); for a body on its own motion,
+        // those touching it where it is at the start, so that a body sweeping into the
+        // strand within the step makes new, checked contacts. Only the others, new
+        // contacts, are checked
         self.sample_poses(geom, q0);
-        for k in 0..self.samples.len() {
-            self.touched[k] = self.touching(head, k, &self.poses[k].0).is_some();
+        if self.moving {
+            self.place(start);
+            for k in 0..self.samples.len() {
+                let y = self.poses[k].0;
+                self.touched[k] = self
+                    .body_hit_among(&start.head, k, &y, Some(true))
+                    .is_some_and(|h| self.effective_depth(k, &h) > 0.0);
+            }
+            self.place(end);
+            for k in 0..self.samples.len() {
+                let y = self.poses[k].0;
+                self.touched[k] = self.touched[k]
+                    || self
+                        .body_hit_among(head, k, &y, Some(false))
+                        .is_some_and(|h| self.effective_depth(k, &h) > 0.0);
+            }
+        } else {
+            for k in 0..self.samples.len() {
+                self.touched[k] = self.touching(head, k, &self.poses[k].0).is_some();
+            }
         }
         self.sample_poses(geom, q1);
         let deep = (0..self.samples.len()).any(|k| {
@@ -662,7 +849,7 @@ impl StrandContacts {
         })
     }
 
-    /// Before the first step (state q, head in `head`): a point that starts inside a body
+    /// Before the first step (state q, bodies placed at `at`): a point that starts inside a body
     /// (within the contact radius, deeper than where its penalty is a hundred times the
     /// strand's weight) is allowed its depth, so that it is let out at
     /// [`ContactParams::depenetration_speed`] rather than kicked out; Coulomb anchors
@@ -674,16 +861,18 @@ impl StrandContacts {
     /// zone, which does not touch that body. They stand for the hair leaving its follicle:
     /// pushed out, they could not leave (the root is clamped) and would bend the strand
     /// by a penalty of up to 10⁴ times its weight; a groom at rest would not stay at rest.
-    pub fn start(&mut self, head: &HeadState, geom: &StrandGeometry, q: &[f64]) {
+    pub fn start(&mut self, at: &Placement, geom: &StrandGeometry, q: &[f64]) {
+        self.place(at);
+        let head = &at.head;
         self.sample_poses(geom, q);
         self.root_zone = (0, 0);
-        if let Some(root) = self.nearest_body(head, &geom.root_position, None) {
+        if let Some(root) = self.nearest_body(head, &geom.root_position, None, None) {
             let quarter = 0.25 * geom.lengths.iter().sum::<f64>();
             let zone = (0..self.samples.len())
                 .take_while(|&k| {
                     self.samples[k].0 <= quarter
                         && self
-                            .nearest_body(head, &self.poses[k].0, None)
+                            .nearest_body(head, &self.poses[k].0, None, None)
                             .is_some_and(|h| h.body == root.body)
                 })
                 .count();
@@ -700,10 +889,12 @@ impl StrandContacts {
         self.update_anchors(head, geom, q);
     }
 
-    /// After an accepted step of `h` seconds (state q, head in `head`): shrink the
+    /// After an accepted step of `h` seconds (state q, bodies placed at `at`): shrink the
     /// allowances of the points that started inside a body by the depenetration speed
     /// times h (and to their present depth); update the Coulomb anchors.
-    pub fn after_step(&mut self, head: &HeadState, geom: &StrandGeometry, q: &[f64], h: f64) {
+    pub fn after_step(&mut self, at: &Placement, geom: &StrandGeometry, q: &[f64], h: f64) {
+        self.place(at);
+        let head = &at.head;
         if self.allowance.iter().any(|a| *a > 0.0) {
             self.sample_poses(geom, q);
             let shrink = self.params.depenetration_speed * h;
@@ -769,6 +960,10 @@ impl StrandContacts {
             let point = match self.bodies[hit.body].attached {
                 Attachment::Head => anchor,
                 Attachment::World => head.position + head.rotation * anchor,
+                Attachment::Motion(_) => {
+                    let f = self.frame(hit.body);
+                    f.rotation.transpose() * (head.position + head.rotation * anchor - f.position)
+                }
             };
             self.anchors[k] = Some(Anchor {
                 body: hit.body,

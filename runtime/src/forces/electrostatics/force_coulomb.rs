@@ -15,17 +15,18 @@ use std::time::Instant;
 use superhelix_fmm::{direct_sum, Fmm, FmmOptions, Potentials, Softening};
 
 /// The field (V/m) of the charged scalp `body` (charge `charge`, C) at the world point
-/// `x`, head at `head`: `k Q_S / max(d, a)² n` outside (d the distance to the surface, n
+/// `x`, the body's frame in state `frame` (see [`Body::frame`]; `None`: fixed in the
+/// world): `k Q_S / max(d, a)² n` outside (d the distance to the surface, n
 /// the outward normal), `k Q_S / a² n` inside (paper eq. 8 and its fallback; see
 /// [`super::ScalpCharge`]). Bounded by `k |Q_S| / a²` for `a > 0`.
 pub fn scalp_field(
     body: &Body,
-    head: &HeadState,
+    frame: Option<&HeadState>,
     x: &Vector3<f64>,
     charge: f64,
     a: f64,
 ) -> Vector3<f64> {
-    let p = body.query(head, x);
+    let p = body.query_in(frame, x);
     let r = if p.distance > a { p.distance } else { a };
     if r <= 0.0 {
         return Vector3::zeros();
@@ -167,11 +168,12 @@ impl Electrostatics {
     /// Recompute the forces with the particles at `position(i, s)` (world coordinates of
     /// arc length s on strand i).
     ///
-    /// `scalp`: the charged body ([`super::ScalpCharge`]) and the head state it is placed at.
+    /// `scalp`: the charged body ([`super::ScalpCharge`]) and the state of its frame
+    /// ([`Body::frame`]).
     pub fn update(
         &mut self,
         position: impl Fn(usize, f64) -> Vector3<f64> + Sync,
-        scalp: Option<(&Body, &HeadState)>,
+        scalp: Option<(&Body, Option<HeadState>)>,
     ) -> Result<FieldSummary, String> {
         let start = Instant::now();
         let strands = self.tracers.offsets.len() - 1;
@@ -208,7 +210,7 @@ impl Electrostatics {
                 self.field = Potentials { potential, field };
             }
         }
-        if let (Some((body, head)), Some(sc)) = (scalp, &self.config.scalp) {
+        if let (Some((body, frame)), Some(sc)) = (scalp, &self.config.scalp) {
             use rayon::prelude::*;
             let (a, qs) = (self.config.softening, sc.charge * self.scale);
             self.field
@@ -216,7 +218,8 @@ impl Electrostatics {
                 .par_iter_mut()
                 .zip(&self.points)
                 .for_each(|(e, x)| {
-                    let add = scalp_field(body, head, &Vector3::from(*x), qs, a) / COULOMB_CONSTANT;
+                    let add = scalp_field(body, frame.as_ref(), &Vector3::from(*x), qs, a)
+                        / COULOMB_CONSTANT;
                     for k in 0..3 {
                         e[k] += add[k];
                     }

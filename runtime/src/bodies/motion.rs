@@ -1,6 +1,7 @@
-//! Rigid motion of the head, i.e. of every strand root.
+//! Rigid motion of the head, i.e. of every strand root, and of a body on its own motion
+//! ([`super::Attachment::Motion`]); `crate::forces::head_motion` names the same module.
 //!
-//! A point with head coordinates `y` is at `x = X(t) + R(t) y` in the world. The head's
+//! A point with head (or body) coordinates `y` is at `x = X(t) + R(t) y` in the world. The head's
 //! state at time t ([`HeadState`]) carries X, R and the derivatives the equations of
 //! motion need: `Ẋ`, `Ẍ` in world coordinates, and the angular velocity ω and angular
 //! acceleration α = dω/dt in head coordinates (`Ṙ = R [ω]×`).
