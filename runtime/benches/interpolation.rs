@@ -15,7 +15,7 @@ use superhelix_kernels::head::HeadState;
 use superhelix_runtime::bodies::shape_capsule::Capsule;
 use superhelix_runtime::bodies::shape_ellipsoid::Ellipsoid;
 use superhelix_runtime::bodies::shape_sphere::Sphere;
-use superhelix_runtime::bodies::{Attachment, Body, Shape};
+use superhelix_runtime::bodies::{Attachment, Body, Placement, Shape};
 use superhelix_runtime::render::{KeepOut, RenderSettings, SemiInterpolation};
 
 const GUIDES_PER_SIDE: usize = 20;
@@ -188,7 +188,9 @@ fn bench(c: &mut Criterion) {
         .clone()
         .keep_out(KeepOut::new(bodies.clone(), 5e-5).expect("clearance"));
     let blended = plain.frame(&world, &rotation).expect("frame").to_vec();
-    let moved = kept.frame_at(&world, &head).expect("frame");
+    let moved = kept
+        .frame_at(&world, &Placement::new(head, 0.0))
+        .expect("frame");
     let changed = moved.iter().zip(&blended).filter(|(a, b)| a != b).count();
     let deepest: Vec<String> = bodies
         .iter()
@@ -214,7 +216,9 @@ fn bench(c: &mut Criterion) {
     });
     group.bench_function("frame_100k_draped_kept_out_of_head_and_shoulders", |b| {
         b.iter(|| {
-            let out = kept.frame_at(black_box(&world), &head).expect("frame");
+            let out = kept
+                .frame_at(black_box(&world), &Placement::new(head, 0.0))
+                .expect("frame");
             black_box(out[out.len() - 1][2])
         })
     });

@@ -142,8 +142,9 @@ impl RenderFrames {
             self.points,
             &mut self.guide_points,
         );
-        let head = scenery.head_at(store.state_time(k));
-        self.interp.frame_at(&self.guide_points, &head)
+        let time = store.state_time(k);
+        let at = crate::bodies::Placement::new(scenery.head_at(time), time);
+        self.interp.frame_at(&self.guide_points, &at)
     }
 
     /// The points of the last frame generated (strand after strand) and the group index

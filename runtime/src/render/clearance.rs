@@ -30,10 +30,9 @@
 
 use crate::bodies::proximity::Proximity;
 use crate::bodies::shape_ellipsoid::Ellipsoid;
-use crate::bodies::{Attachment, Body, Shape};
+use crate::bodies::{Body, Placement, Shape};
 use crate::error::{Error, Result};
 use nalgebra::{Matrix3, Vector3};
-use superhelix_kernels::head::HeadState;
 
 /// How fast the lift of a render strand around a body fades along the strand: the
 /// offset's length changes by at most this per unit arc length (m/m), on both sides of
@@ -76,33 +75,48 @@ impl KeepOut {
         self.clearance
     }
 
-    /// The bodies placed at head state `head`, for [`Placed::apply`].
-    pub(super) fn at<'a>(&'a self, head: &HeadState) -> Placed<'a> {
+    /// The bodies placed at `at` (bodies on the head at its state, bodies on their own
+    /// motion at their pose of `at.time`), for [`Placed::apply`].
+    pub(super) fn at<'a>(&'a self, at: &Placement) -> Placed<'a> {
         Placed {
             keep: self,
-            rotation: head.rotation,
-            to_head: head.rotation.transpose(),
-            position: head.position,
+            frames: self
+                .bodies
+                .iter()
+                .map(|b| {
+                    b.frame(at).map(|f| BodyFrame {
+                        rotation: f.rotation,
+                        to_local: f.rotation.transpose(),
+                        position: f.position,
+                    })
+                })
+                .collect(),
         }
     }
 }
 
-/// [`KeepOut`] at one head state.
+/// Where a body's coordinates are at one time: `x = position + rotation y`.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Placed<'a> {
-    keep: &'a KeepOut,
+struct BodyFrame {
     rotation: Matrix3<f64>,
-    to_head: Matrix3<f64>,
+    to_local: Matrix3<f64>,
     position: Vector3<f64>,
 }
 
+/// [`KeepOut`] at one time: each body's frame (`None`: fixed in the world).
+#[derive(Debug, Clone)]
+pub(super) struct Placed<'a> {
+    keep: &'a KeepOut,
+    frames: Vec<Option<BodyFrame>>,
+}
+
 impl Placed<'_> {
-    /// `x` (world) in the coordinates of `body`.
+    /// `x` (world) in the coordinates of body `i`.
     #[inline]
-    fn local(&self, body: &Body, x: &Vector3<f64>) -> Vector3<f64> {
-        match body.attached {
-            Attachment::World => *x,
-            Attachment::Head => self.to_head * (x - self.position),
+    fn local(&self, i: usize, x: &Vector3<f64>) -> Vector3<f64> {
+        match &self.frames[i] {
+            None => *x,
+            Some(f) => f.to_local * (x - f.position),
         }
     }
 
@@ -111,14 +125,11 @@ impl Placed<'_> {
     #[inline]
     fn far(&self, x: &Vector3<f64>, radius: f64) -> bool {
         let r = radius + self.keep.clearance;
-        let mut head = None;
-        self.keep.bodies.iter().all(|b| {
-            let y = match b.attached {
-                Attachment::World => *x,
-                Attachment::Head => *head.get_or_insert_with(|| self.local(b, x)),
-            };
-            b.shape.farther_than(&y, r)
-        })
+        self.keep
+            .bodies
+            .iter()
+            .enumerate()
+            .all(|(i, b)| b.shape.farther_than(&self.local(i, x), r))
     }
 
     /// The deepest body within the clearance of `x` (world), but body `skip`: its index,
@@ -131,7 +142,7 @@ impl Placed<'_> {
             if skip == Some(i) {
                 continue;
             }
-            let y = self.local(b, x);
+            let y = self.local(i, x);
             if b.shape.farther_than(&y, c) {
                 continue;
             }
@@ -143,9 +154,9 @@ impl Placed<'_> {
                 best = Some((i, p));
             }
         }
-        best.map(|(i, p)| match self.keep.bodies[i].attached {
-            Attachment::World => (i, p.distance, p.normal),
-            Attachment::Head => (i, p.distance, self.rotation * p.normal),
+        best.map(|(i, p)| match &self.frames[i] {
+            None => (i, p.distance, p.normal),
+            Some(f) => (i, p.distance, f.rotation * p.normal),
         })
     }
 

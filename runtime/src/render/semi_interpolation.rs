@@ -33,11 +33,10 @@
 use super::clearance::KeepOut;
 use super::render_roots::RenderRoots;
 use super::settings::{clump_profile, smoothstep, RenderSettings};
-use crate::bodies::Body;
+use crate::bodies::{Body, Placement};
 use crate::error::{Error, Result};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
-use superhelix_kernels::head::HeadState;
 
 /// Render strands per parallel task.
 const CHUNK: usize = 256;
@@ -213,11 +212,12 @@ impl SemiInterpolation {
         self.generate(guides, rotation, None)
     }
 
-    /// [`SemiInterpolation::frame`] with the head in state `head`, then kept out of the
-    /// bodies of [`SemiInterpolation::keep_out`] (bodies on the head placed at `head`).
-    /// Without bodies the points are those of `frame(guides, &head.rotation)`, bit for bit.
-    pub fn frame_at(&mut self, guides: &[[f64; 3]], head: &HeadState) -> Result<&[[f32; 3]]> {
-        self.generate(guides, &head.rotation, Some(head))
+    /// [`SemiInterpolation::frame`] with the head in state `at.head`, then kept out of the
+    /// bodies of [`SemiInterpolation::keep_out`] placed at `at` (bodies on the head at its
+    /// state, bodies on their own motion at their pose of `at.time`). Without bodies the
+    /// points are those of `frame(guides, &at.head.rotation)`, bit for bit.
+    pub fn frame_at(&mut self, guides: &[[f64; 3]], at: &Placement) -> Result<&[[f32; 3]]> {
+        self.generate(guides, &at.head.rotation, Some(at))
     }
 
     /// The blend, and the bodies when `head` is given and there are some.
@@ -225,7 +225,7 @@ impl SemiInterpolation {
         &mut self,
         guides: &[[f64; 3]],
         rotation: &Matrix3<f64>,
-        head: Option<&HeadState>,
+        head: Option<&Placement>,
     ) -> Result<&[[f32; 3]]> {
         if guides.len() != self.guides * self.points {
             return Err(Error::invalid(
@@ -260,7 +260,7 @@ impl SemiInterpolation {
                         blend_strand(line, blend, guide_points, profile, m, &r, tip);
                     }
                 }),
-            Some(placed) => self
+            Some(ref placed) => self
                 .out
                 .par_chunks_mut(CHUNK * m)
                 .zip(blends.par_chunks(CHUNK))

@@ -3,7 +3,7 @@
 use super::render_roots::{RenderRoots, RootSites};
 use super::semi_interpolation::{guide_roots, SemiInterpolation};
 use super::settings::{clump_profile, RenderSettings};
-use crate::bodies::{Attachment, Body, Shape};
+use crate::bodies::{Attachment, Body, Placement, Shape};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 /// Points per guide: N = 10 elements sampled at 4 points each, plus the root.
@@ -444,11 +444,7 @@ fn wrapped_guides(radii: [f64; 3]) -> Vec<Vector3<f64>> {
 /// the roots, and the largest turn between consecutive segments of a strand (rad) past
 /// its first point (the root does not move: a strand pushed out right from it turns
 /// there by what the push asks).
-fn closest_and_sharpest(
-    out: &[[f32; 3]],
-    bodies: &[Body],
-    head: &superhelix_kernels::head::HeadState,
-) -> (f64, f64) {
+fn closest_and_sharpest(out: &[[f32; 3]], bodies: &[Body], at: &Placement) -> (f64, f64) {
     let mut closest = f64::INFINITY;
     let mut sharpest: f64 = 0.0;
     for line in out.chunks_exact(M) {
@@ -458,7 +454,7 @@ fn closest_and_sharpest(
             .collect();
         for x in &p[1..] {
             for b in bodies {
-                closest = closest.min(b.distance(head, x));
+                closest = closest.min(b.distance(at, x));
             }
         }
         for w in p[1..].windows(3) {
@@ -494,7 +490,7 @@ fn render_strands_between_guides_wrapped_round_a_head_keep_out_of_it() {
                 .map(|p| [p.x as f32, p.y as f32, p.z as f32])
                 .collect::<Vec<_>>(),
             std::slice::from_ref(&body),
-            &head,
+            &Placement::new(head, 0.0),
         );
         assert!(
             guide_gap > 1.9e-3,
@@ -512,10 +508,11 @@ fn render_strands_between_guides_wrapped_round_a_head_keep_out_of_it() {
             .keep_out(ok(KeepOut::new(vec![body.clone()], clearance)));
         let mut plain = plain;
         let control = ok(plain.frame(&guides, &head.rotation)).to_vec();
-        let out = ok(kept.frame_at(&guides, &head)).to_vec();
+        let out = ok(kept.frame_at(&guides, &Placement::new(head, 0.0))).to_vec();
         let bodies = std::slice::from_ref(&body);
-        let (inside, control_turn) = closest_and_sharpest(&control, bodies, &head);
-        let (gap, turn) = closest_and_sharpest(&out, bodies, &head);
+        let (inside, control_turn) =
+            closest_and_sharpest(&control, bodies, &Placement::new(head, 0.0));
+        let (gap, turn) = closest_and_sharpest(&out, bodies, &Placement::new(head, 0.0));
         eprintln!(
             "{radii:?}: control {inside:e} m (turn {control_turn:.3} rad), kept {gap:e} m (turn {turn:.3} rad)"
         );
@@ -578,9 +575,9 @@ fn render_strands_keep_out_of_several_bodies() {
         .clone()
         .keep_out(ok(KeepOut::new(bodies.clone(), clearance)));
     let control = ok(plain.frame(&guides, &head.rotation)).to_vec();
-    let (inside, _) = closest_and_sharpest(&control, &bodies, &head);
-    let out = ok(kept.frame_at(&guides, &head)).to_vec();
-    let (gap, _) = closest_and_sharpest(&out, &bodies, &head);
+    let (inside, _) = closest_and_sharpest(&control, &bodies, &Placement::new(head, 0.0));
+    let out = ok(kept.frame_at(&guides, &Placement::new(head, 0.0))).to_vec();
+    let (gap, _) = closest_and_sharpest(&out, &bodies, &Placement::new(head, 0.0));
     // measured: the control goes 50 mm deep (the guides cross the shoulders)
     eprintln!("head and shoulders: control {inside:e} m, kept {gap:e} m");
     assert!(inside < -0.04, "control only {inside:e} m deep");
@@ -603,7 +600,7 @@ fn without_bodies_or_far_from_them_the_render_strands_are_the_blend_bit_for_bit(
     // no body: frame_at is frame
     let mut none = plain.clone().keep_out(ok(KeepOut::new(Vec::new(), 1e-3)));
     assert!(none.bodies().is_none());
-    assert!(ok(none.frame_at(&guides, &head)) == control.as_slice());
+    assert!(ok(none.frame_at(&guides, &Placement::new(head, 0.0))) == control.as_slice());
     // a ball 10 m away: every block is far, nothing moves
     let far = Body {
         name: "far".into(),
@@ -614,10 +611,10 @@ fn without_bodies_or_far_from_them_the_render_strands_are_the_blend_bit_for_bit(
         }),
     };
     let mut away = plain.clone().keep_out(ok(KeepOut::new(vec![far], 1e-3)));
-    assert!(ok(away.frame_at(&guides, &head)) == control.as_slice());
+    assert!(ok(away.frame_at(&guides, &Placement::new(head, 0.0))) == control.as_slice());
     // the head itself does move them
     let mut near = plain.keep_out(ok(KeepOut::new(vec![head_body([0.09; 3])], 1e-3)));
-    assert!(ok(near.frame_at(&guides, &head)) != control.as_slice());
+    assert!(ok(near.frame_at(&guides, &Placement::new(head, 0.0))) != control.as_slice());
     // a clearance that is not a distance is refused
     for bad in [-1e-3, f64::NAN, f64::INFINITY] {
         assert!(KeepOut::new(Vec::new(), bad).is_err(), "{bad}");
@@ -651,4 +648,54 @@ fn the_newton_ellipsoid_query_agrees_with_the_exact_one() {
             .max((fast.closest - exact.closest).norm());
     }
     assert!(worst < 1e-12, "{worst:e} m");
+}
+
+#[test]
+fn render_strands_keep_out_of_a_body_on_its_own_motion_where_it_is_at_that_time() {
+    // a shoulder-sized capsule that slides in on its own motion: far from the hanging
+    // guides at t = 0, across them at t = 0.25 s (a quarter period of its oscillation)
+    use super::clearance::KeepOut;
+    use crate::bodies::motion::HeadMotion;
+    use crate::bodies::shape_capsule::Capsule;
+    use superhelix_kernels::head::HeadState;
+    let radii = [0.075, 0.09, 0.1];
+    let rest = wrapped_guides(radii);
+    let sliding = Body {
+        name: "sliding".into(),
+        attached: Attachment::Motion(HeadMotion::TranslateOscillate {
+            direction: Vector3::x(),
+            amplitude: 0.5,
+            frequency_hz: 1.0,
+        }),
+        // at x = −0.5 m at rest; the motion adds 0.5 m sin(2πt)
+        shape: Shape::Capsule(Capsule {
+            start: Vector3::new(-0.5, -0.2, -0.17),
+            end: Vector3::new(-0.5, 0.2, -0.17),
+            radius: 0.05,
+        }),
+    };
+    let bodies = vec![sliding];
+    let head = HeadState::rest();
+    let guides = world(&rest);
+    let settings = RenderSettings {
+        max_spacing: Some(0.035),
+        ..settings(2000, 0.3)
+    };
+    let mut plain = ok(SemiInterpolation::new(&settings, &rest, M, None));
+    let clearance = 1e-3;
+    let mut kept = plain
+        .clone()
+        .keep_out(ok(KeepOut::new(bodies.clone(), clearance)));
+    let control = ok(plain.frame(&guides, &head.rotation)).to_vec();
+    // at t = 0 the capsule is half a metre away: nothing moves
+    let early = Placement::new(head, 0.0);
+    assert!(ok(kept.frame_at(&guides, &early)) == control.as_slice());
+    // at t = 0.25 s it crosses the guides: the control goes into it, the kept strands not
+    let late = Placement::new(head, 0.25);
+    let (inside, _) = closest_and_sharpest(&control, &bodies, &late);
+    let out = ok(kept.frame_at(&guides, &late)).to_vec();
+    let (gap, _) = closest_and_sharpest(&out, &bodies, &late);
+    eprintln!("sliding capsule at t = 0.25 s: control {inside:e} m, kept {gap:e} m");
+    assert!(inside < -0.01, "control only {inside:e} m deep");
+    assert!(gap > clearance - 1e-7, "{gap:e} m");
 }
