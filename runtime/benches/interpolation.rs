@@ -197,7 +197,12 @@ fn bench(c: &mut Criterion) {
         .map(|b| {
             let d = blended
                 .iter()
-                .map(|p| b.distance(&head, &Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64)))
+                .map(|p| {
+                    b.distance(
+                        &Placement::new(head, 0.0),
+                        &Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64),
+                    )
+                })
                 .fold(f64::INFINITY, f64::min);
             format!("{} {:.2} mm", b.name, d * 1e3)
         })
