@@ -491,11 +491,13 @@ impl Simulation {
             strands,
             embedded: None,
             electrostatics,
-            hair_hair: setup
-                .contacts
-                .as_ref()
-                .and_then(|c| c.hair_hair.as_ref())
-                .map(|h| HairHair::new(h.search_every)),
+            // strands that overlap at the start are let apart slowly, as points that start
+            // inside a body
+            hair_hair: setup.contacts.as_ref().and_then(|c| {
+                c.hair_hair.as_ref().map(|h| {
+                    HairHair::new(h.search_every).with_depenetration_speed(c.depenetration_speed)
+                })
+            }),
             time: 0.0,
             steps: 0,
         };

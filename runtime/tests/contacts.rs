@@ -459,3 +459,61 @@ fn a_strand_on_a_sliding_body_is_dragged_by_friction_on_the_relative_velocity() 
         );
     }
 }
+
+/// The stiff and the soft strand of [`crossing`] without gravity, the soft one starting
+/// 0.5 mm above the stiff one: 1.5 mm inside the 2 mm interaction distance, with a stiff
+/// hair–hair penalty (500 N/m², a hundred times the default for these strands, where an
+/// overlap is a kick). `depenetration_speed` (m/s) is the scene's.
+fn overlapping(depenetration_speed: f64) -> String {
+    crossing(true)
+        .replace(
+            "[contacts]\n",
+            &format!(
+                "[environment]\ngravity = [0.0, 0.0, 0.0]\n[contacts]\ndepenetration_speed = {depenetration_speed}\n"
+            ),
+        )
+        .replace("root = [0.0, -0.05, 0.005]", "root = [0.0, -0.05, 0.0005]")
+        .replace("radius = 1e-3\n", "radius = 1e-3\nstiffness = 500.0\n")
+}
+
+/// The largest speed of the soft strand's crossing point over 15 steps (0.5 s), and the
+/// final gap between the two strands there.
+fn let_apart(depenetration_speed: f64) -> (f64, f64) {
+    let mut s = sim(&overlapping(depenetration_speed));
+    let h = 1.0 / 30.0;
+    let mut fastest: f64 = 0.0;
+    let mut before = s.position_at(1, 0.05);
+    for _ in 0..15 {
+        s.step().expect("step");
+        let now = s.position_at(1, 0.05);
+        fastest = fastest.max((now - before).norm() / h);
+        before = now;
+    }
+    (fastest, s.position_at(1, 0.05).z - s.position_at(0, 0.05).z)
+}
+
+#[test]
+fn strands_that_start_overlapping_are_let_apart_without_a_kick() {
+    // a depenetration speed of 1 cm/s: the overlap is allowed at the start and the
+    // allowance shrinks at that speed, so the strands part at about that speed over
+    // some 0.15 s
+    let (fastest, gap) = let_apart(0.01);
+    // the control: an allowance gone within the first step: the whole penalty pushes the
+    // strands apart at once
+    let (kicked, _) = let_apart(100.0);
+    eprintln!(
+        "let apart: fastest {fastest:.3e} m/s, final gap {gap:.3e} m; kicked: {kicked:.3e} m/s"
+    );
+    assert!(
+        fastest <= 0.02,
+        "the soft strand moved at {fastest:.3e} m/s (twice the depenetration speed is 0.02)"
+    );
+    assert!(
+        gap >= 1.8e-3,
+        "the strands are still {gap:.3e} m apart after 0.5 s (interaction distance 2 mm)"
+    );
+    assert!(
+        kicked > 2.0 * fastest,
+        "control: without the allowance the kick ({kicked:.3e} m/s) should be far faster"
+    );
+}

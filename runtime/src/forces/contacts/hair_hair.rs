@@ -26,6 +26,11 @@
 //!    ball of radius reach (a penalty along the line of centres and a damping of the
 //!    relative velocity, both implicit on the strand's own side).
 //!
+//! A pair found already overlapping (at the first update, or after the two strands met
+//! between two searches) is allowed its overlap ([`HairHair::with_depenetration_speed`]):
+//! its reach is reduced by the allowance, which shrinks at the depenetration speed, so the
+//! two strands are let apart rather than kicked apart by the whole penalty at once.
+//!
 //! The cost per step is linear in the number of samples (the grid) plus the pairs.
 
 use super::strand_contacts::PartnerPoint;
@@ -56,6 +61,10 @@ pub struct HairHair {
     search_every: usize,
     tracked_last: usize,
     found_last: usize,
+    /// Overlap allowed to a pair of strands that overlapped at the first update (strand
+    /// indices, lower first), m; it shrinks at `depenetration_speed`.
+    allowance: HashMap<(usize, usize), f64>,
+    depenetration_speed: f64,
 }
 
 /// What the last update did.
@@ -111,6 +120,21 @@ impl HairHair {
             search_every: search_every.max(1),
             ..Default::default()
         }
+    }
+
+    /// Let two strands that overlap at the first update apart at `speed` (m/s) rather than
+    /// kick them apart: their overlap at the start is allowed (no force), and the
+    /// allowance shrinks by `speed` per second and to their present overlap (0, the
+    /// default: no allowance, any overlap is pushed out at once).
+    pub fn with_depenetration_speed(mut self, speed: f64) -> Self {
+        self.depenetration_speed = speed;
+        self
+    }
+
+    /// The overlap still allowed to strands `i` and `j` (m).
+    pub fn allowance(&self, i: usize, j: usize) -> f64 {
+        let key = if i < j { (i, j) } else { (j, i) };
+        self.allowance.get(&key).copied().unwrap_or(0.0)
     }
 
     /// The current pairs.
@@ -173,8 +197,13 @@ impl HairHair {
         tracked.sort_unstable();
         tracked.dedup();
         self.tracked_last = tracked.len();
+        // the pairs of strands already in contact: a pair the search finds between them
+        // again is no new meeting and takes no allowance
+        let known: std::collections::HashSet<(usize, usize)> =
+            tracked.iter().map(|p| (p.a.0, p.b.0)).collect();
         // 2. broad phase
         let mut found = 0;
+        let mut new_pairs = Vec::new();
         if self.steps % self.search_every == 0 {
             self.grid.values_mut().for_each(Vec::clear);
             let cell = reach_search;
@@ -229,6 +258,7 @@ impl HairHair {
                 if dist2(points, p.a, p.b) < r2 && tracked.binary_search(&p).is_err() {
                     let at = tracked.partition_point(|q| q < &p);
                     tracked.insert(at, p);
+                    new_pairs.push(p);
                     found += 1;
                 }
             }
@@ -243,8 +273,44 @@ impl HairHair {
             _ => Vector3::zeros(),
         };
         let mut partners: Vec<Vec<PartnerPoint>> = vec![Vec::new(); points.len()];
-        for p in &tracked {
-            let (ta, tb) = closest_on_chains(points, p.a, p.b);
+        let closest: Vec<(f64, f64)> = tracked
+            .iter()
+            .map(|p| closest_on_chains(points, p.a, p.b))
+            .collect();
+        // the allowances: a pair that is found already overlapping (at the first update,
+        // or after the two strands met between two searches) is allowed its overlap, so
+        // that it is let apart at the depenetration speed rather than pushed apart by its
+        // whole penalty at once; an allowance shrinks by that speed and to the pair's
+        // present overlap
+        if self.depenetration_speed > 0.0 {
+            new_pairs.sort_unstable();
+            let mut overlap: HashMap<(usize, usize), f64> = HashMap::new();
+            let mut fresh: HashMap<(usize, usize), f64> = HashMap::new();
+            for (p, &(ta, tb)) in tracked.iter().zip(&closest) {
+                let depth = reach - (point_at(points, p.a, ta) - point_at(points, p.b, tb)).norm();
+                if depth <= 0.0 {
+                    continue;
+                }
+                let key = (p.a.0, p.b.0);
+                let o = overlap.entry(key).or_insert(0.0);
+                *o = o.max(depth);
+                if new_pairs.binary_search(p).is_ok() && !known.contains(&key) {
+                    let f = fresh.entry(key).or_insert(0.0);
+                    *f = f.max(depth);
+                }
+            }
+            let shrink = self.depenetration_speed * h;
+            self.allowance.retain(|k, a| {
+                *a = a.min(overlap.get(k).copied().unwrap_or(0.0)) - shrink;
+                *a > 0.0
+            });
+            for (k, f) in fresh {
+                let a = self.allowance.entry(k).or_insert(0.0);
+                *a = a.max(f);
+            }
+        }
+        for (p, &(ta, tb)) in tracked.iter().zip(&closest) {
+            let reach = reach - self.allowance.get(&(p.a.0, p.b.0)).copied().unwrap_or(0.0);
             let at = |side: (usize, usize), t: f64| -> (f64, f64, Vector3<f64>, Vector3<f64>) {
                 // the point at parameter t ∈ [−1, 1] around sample side.1: its arc
                 // length, weight, position and velocity (linear between samples)
@@ -361,4 +427,14 @@ fn closest_on_chains(p: &[Vec<Vector3<f64>>], a: (usize, usize), b: (usize, usiz
         }
     }
     (best.0, best.1)
+}
+
+/// The point at parameter t ∈ [−1, 1] around sample `side` of its chain (linear between
+/// samples; as [`closest_on_chains`] returns).
+fn point_at(p: &[Vec<Vector3<f64>>], (s, k): (usize, usize), t: f64) -> Vector3<f64> {
+    let j = if t < 0.0 { k.wrapping_sub(1) } else { k + 1 };
+    match p[s].get(j) {
+        Some(x) => p[s][k] + (x - p[s][k]) * t.abs(),
+        None => p[s][k],
+    }
 }

@@ -93,7 +93,7 @@ impl HairHairParams {
     /// The parameters of `config` for a strand of mass per length `rho_s`.
     pub fn new(config: &HairHairConfig, rho_s: f64) -> Self {
         let k = config.stiffness.unwrap_or(
-            super::config::DEFAULT_STIFFNESS_FACTOR * rho_s * STANDARD_GRAVITY / config.radius,
+            super::config::DEFAULT_HAIR_STIFFNESS_FACTOR * rho_s * STANDARD_GRAVITY / config.radius,
         );
         HairHairParams {
             radius: config.radius,
