@@ -17,16 +17,24 @@
 //! interpolated path unless the body is near it. The root never moves: a root on the
 //! scalp stays there.
 //!
-//! **Cost.** Only a scene with bodies and render strands pays it. The points are tested
-//! in blocks of [`BLOCK`]: the ball around a block's box, plus the clearance, is tested
-//! against each body's cheap bound ([`crate::bodies::Shape::farther_than`]); a block far from every
-//! body is left as blended. Only the points of near blocks (and of a strand already
-//! lifted) are queried, each against the bodies its own bound does not rule out. An
-//! ellipsoid is queried by Newton's method on the closest-point equation from a lower
-//! bound of its root, which converges from below in a few steps near the surface
-//! ([`ellipsoid_proximity`]), instead of the bisection of the exact query that the
-//! simulation's contacts use (same answer to rounding; the exact query is kept for deep
-//! points).
+//! **Cost.** Only a scene with bodies and render strands pays it. At each frame every
+//! body is placed once: an ellipsoid gets one map from the world to its own axes (its
+//! frame's rotation and its own turned into one), every other body its frame and a world
+//! ball around its surface. The points are then tested in blocks of [`BLOCK`]: from the
+//! centre of the ball around a block's box, a lower bound of the distance to each body
+//! (for an ellipsoid (ρ − 1) min aᵢ with ρ = |D⁻¹u|, [`Ellipsoid::farther_than`]; for the
+//! others their ball) rules the block out when it is farther than the ball's radius plus
+//! the clearance from every body (the block is left as blended), and leaves a mask of the
+//! bodies the block may come near with the ball grown by a slack of 1 cm; a point within
+//! that grown ball (pushed or lifted by less) asks only the bodies of its block's mask,
+//! a point outside it asks them all. Each asked ellipsoid first compares ρ² with the
+//! bound's reach; only a point it does not rule out is queried, by Newton's method on
+//! the closest-point equation from a first-order start ([`ellipsoid_proximity`], one or
+//! two steps near the surface, one division a step), instead of the bisection of the
+//! exact query that the simulation's contacts use (same answer to 1e-12 m; the exact
+//! query is kept for deep points). The point then goes to the closest surface point
+//! plus the clearance along the normal there, which on a convex body is the clearance
+//! away from it whatever the surface point.
 
 use crate::bodies::proximity::Proximity;
 use crate::bodies::shape_ellipsoid::Ellipsoid;
@@ -255,7 +263,7 @@ impl<'a> Placed<'a> {
                 (_, None) => f64::NEG_INFINITY,
             };
             far &= bound > r;
-            if !(bound > grown) {
+            if bound.is_nan() || bound <= grown {
                 mask |= 1 << i;
             }
         }
@@ -278,7 +286,7 @@ impl<'a> Placed<'a> {
                 let u = e.to_axes * (x - e.origin);
                 let rho2 = u.component_mul(&u).dot(&e.inv_a2);
                 // NaN: not near, left as it is
-                if !(rho2 <= e.reach2) {
+                if rho2.is_nan() || rho2 > e.reach2 {
                     return None;
                 }
                 let (distance, closest, normal) = match closest_in_axes(&e.a, &e.a2, &u, rho2) {
@@ -322,6 +330,25 @@ impl<'a> Placed<'a> {
                 (p.distance < c && push.is_finite()).then(|| (p.distance, x + push * normal))
             }
         }
+    }
+
+    /// Whether `x` (world) is farther than the clearance from every body of `mask` (and
+    /// `mask` holds every body of index [`MASKED`] and above), by their cheap bounds.
+    #[inline]
+    fn clear(&self, x: &Vector3<f64>, mask: u64) -> bool {
+        let c = self.keep.clearance;
+        self.near.len() <= MASKED
+            && self.near.iter().enumerate().all(|(i, n)| {
+                mask & (1 << i) == 0
+                    || match (&n.placing, &n.ball) {
+                        (Placing::Ellipsoid(e), _) => {
+                            let u = e.to_axes * (x - e.origin);
+                            u.component_mul(&u).dot(&e.inv_a2) > e.reach2
+                        }
+                        (_, Some((centre, r))) => (x - centre).norm_squared() > (r + c) * (r + c),
+                        (_, None) => false,
+                    }
+            })
     }
 
     /// `x` moved out of every body to the clearance (a few pushes at most): each time out
@@ -380,6 +407,10 @@ impl<'a> Placed<'a> {
             }
             for k in j..end {
                 let p = vector(line[k]);
+                if carry == Vector3::zeros() && self.clear(&p, block.mask) {
+                    offsets[k] = [0.0; 3];
+                    continue;
+                }
                 let q = self.push_out(p + carry, &block);
                 let delta = q - p;
                 offsets[k] = to_f32(delta);
@@ -453,7 +484,10 @@ fn to_f32(v: Vector3<f64>) -> [f32; 3] {
 /// overshooting; a step is never taken below t₀. Points on a symmetry plane of the axes or deep inside (t₀ within
 /// a hundredth of min aᵢ² of the pole, where the closest point may leave the plane or the
 /// steps crawl) take the exact query ([`Ellipsoid::query`]), as does a search that has not
-/// converged after [`MAX_NEWTON`] steps.
+/// converged after [`MAX_NEWTON`] steps. The search stops after a step below 1e-6 of
+/// t + min aᵢ² (the error left is then about the square of that, convergence being
+/// quadratic). Each step takes one division: with sᵢ = t + aᵢ² and wᵢ the product of the
+/// other two, 1/sᵢ = wᵢ / Π sⱼ.
 pub fn ellipsoid_proximity(e: &Ellipsoid, y: &Vector3<f64>) -> Proximity {
     let u = e.rotation.transpose() * (y - e.center);
     let a = e.radii;
@@ -498,28 +532,30 @@ fn closest_in_axes(
     } else {
         low
     };
+    // with sᵢ = t + aᵢ², wᵢ = Π_{j≠i} sⱼ and p = Π sᵢ (so 1/sᵢ = wᵢ/p), F = Σ Aᵢwᵢ²/p² − 1
+    // and F' = −2 Σ Aᵢwᵢ³/p³ (Aᵢ = aᵢ²uᵢ²): one division per step
     let au = a.component_mul(u);
+    let big_a = au.component_mul(&au);
+    let terms = |t: f64| {
+        let s = a2.add_scalar(t);
+        let w = Vector3::new(s.y * s.z, s.x * s.z, s.x * s.y);
+        (w, s.x * w.x)
+    };
     for _ in 0..MAX_NEWTON {
-        let r = Vector3::new(1.0 / (t + a2.x), 1.0 / (t + a2.y), 1.0 / (t + a2.z));
-        let q = au.component_mul(&r);
-        let q2 = q.component_mul(&q);
-        let f = q2.x + q2.y + q2.z - 1.0;
-        let df = -2.0 * q2.dot(&r);
-        let step = f / df;
+        let (w, p) = terms(t);
+        let aw2 = big_a.component_mul(&w).component_mul(&w);
+        let step = (aw2.x + aw2.y + aw2.z - p * p) * p / (-2.0 * aw2.dot(&w));
         if !step.is_finite() {
             return None;
         }
         // from above the root a step lands below it; never below the bound
         t = (t - step).max(low);
-        // quadratic convergence: the next step would be below about 1e-15 of t + min aᵢ²
-        // (the scale of the steps and of the closest point's change with t)
-        if step.abs() <= 3e-8 * (t + a2min) {
-            let x = Vector3::new(
-                a2.x * u.x / (t + a2.x),
-                a2.y * u.y / (t + a2.y),
-                a2.z * u.z / (t + a2.z),
-            );
-            return Some(x);
+        // quadratic convergence: the error after this step is about the square of its
+        // relative size (to t + min aᵢ², the scale of the steps and of the closest
+        // point's change with t), below 1e-12 of it
+        if step.abs() <= 1e-6 * (t + a2min) {
+            let (w, p) = terms(t);
+            return Some(a2.component_mul(u).component_mul(&w) / p);
         }
     }
     None
