@@ -180,6 +180,7 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> (SimulationSetup, Vec<Gro
         scene_dir,
         reports: Vec::new(),
         clearance: contacts.as_ref().map_or(0.0, |c| c.radius),
+        contacts: contacts.as_ref(),
     };
     let strands = assembly::read_strands(&mut root, &defaults, &mut grooms);
     let reports = grooms.reports;

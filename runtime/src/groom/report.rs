@@ -59,6 +59,9 @@ pub struct GroomReport {
     /// With a sag-free start: the largest change of a natural curvature or twist, rad/m
     /// (`None` without it; 0 without gravity).
     pub sag_free_change: Option<f64>,
+    /// With a sag-free start and `[contacts]`: the share of the groom's weight that the
+    /// bodies carry at rest (0 to 1; `None` otherwise).
+    pub sag_free_carried: Option<f64>,
     /// Roots on a surface: how their strands were kept out of the body they grow from.
     pub clearance: Option<ClearanceReport>,
 }
@@ -160,10 +163,17 @@ impl fmt::Display for GroomReport {
                 )?;
             }
         }
-        match self.sag_free_change {
-            Some(change) => write!(
+        if let Some(change) = self.sag_free_change {
+            write!(
                 f,
                 "; sag-free: natural curvatures changed by up to {change:.3e} rad/m"
+            )?;
+        }
+        match self.sag_free_carried {
+            Some(carried) => write!(
+                f,
+                ", {:.1} % of the weight carried by the bodies",
+                100.0 * carried
             ),
             None => Ok(()),
         }

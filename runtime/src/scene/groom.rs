@@ -7,21 +7,26 @@ use super::reader::{Bound, Node, Range};
 use super::strands::{
     read_template, strand_rng, StrandDefaults, Template, MAX_CURVATURE, MAX_LENGTH,
 };
-use crate::bodies::{Attachment, Bodies, BodySetup, Shape};
+use crate::bodies::{Attachment, Bodies, Body, BodySetup, Placement, Shape};
 use crate::config::StrandSetup;
+use crate::forces::contacts::{ContactConfig, ContactParams, StrandContacts};
 use crate::groom::fit::{fit_curve, FitSettings, FittedCurve};
 use crate::groom::read_curves;
 use crate::groom::region::{PlaneCut, Region};
 use crate::groom::report::{ClearanceReport, CurveReport, GroomReport, GroomSource};
 use crate::groom::roots::{root_frame, sample_roots, Root, RootCount, RootSettings};
-use crate::groom::sag_free::sag_free_natural;
+use crate::groom::sag_free::{sag_free_natural, sag_free_supported};
 use crate::groom::surface::Surface;
+use crate::kernels::closed_form::kernel_factory;
+use crate::kernels::generic::{GenericKernel, QuadratureRule};
+use crate::kernels::kernel::StrandKernel;
 use crate::model::reconstruction::sample_centreline;
 use crate::model::strand::StrandGeometry;
 use nalgebra::{Rotation3, Vector3};
 use rand::RngExt;
 use rayon::prelude::*;
 use std::path::Path;
+use std::sync::Arc;
 use superhelix_kernels::pose::darboux;
 use toml::Value;
 
@@ -43,6 +48,8 @@ pub(super) struct GroomContext<'a> {
     /// How far from the surface of its body a groomed strand stays beyond its root zone,
     /// m: the contact radius with `[contacts]`, else 0.
     pub clearance: f64,
+    /// The scene's `[contacts]`: a sag-free start lets the bodies carry what they can.
+    pub contacts: Option<&'a ContactConfig>,
 }
 
 /// Fields of a strand a groom makes itself: refused in a `[[grooms]]` entry of either
@@ -303,19 +310,20 @@ pub(super) fn read_groom(
         }
     };
     let mut strands = strands;
-    let sag_free_change = if sag_free {
-        match apply_sag_free(n, &mut strands, ctx.gravity) {
-            Some(change) => Some(change),
+    let (sag_free_change, sag_free_carried) = if sag_free {
+        match apply_sag_free(n, &mut strands, ctx) {
+            Some((change, carried)) => (Some(change), carried),
             None => return,
         }
     } else {
-        None
+        (None, None)
     };
     ctx.reports.push(GroomReport {
         name,
         strands: strands.len(),
         source,
         sag_free_change,
+        sag_free_carried,
         clearance,
     });
     out.extend(strands);
@@ -478,18 +486,73 @@ enum Built {
     },
 }
 
-/// The natural curvatures of every strand made sag-free at its q0; the largest change.
+/// The natural curvatures of every strand made sag-free at its q0 (with `[contacts]`, the
+/// bodies carrying what they can: [`sag_free_supported`]); the largest change, and with
+/// contacts the share of the weight the bodies carry.
 fn apply_sag_free(
     n: &Node<'_>,
     strands: &mut [StrandSetup],
-    gravity: Option<Vector3<f64>>,
-) -> Option<f64> {
-    let Some(g) = gravity else {
-        return Some(0.0);
+    ctx: &GroomContext<'_>,
+) -> Option<(f64, Option<f64>)> {
+    let Some(g) = ctx.gravity else {
+        return Some((0.0, None));
     };
-    let naturals: Vec<Vec<f64>> = strands
+    // the bodies the strands touch, at rest (t = 0, the head at its rest pose)
+    let touched = ctx.contacts.and_then(|c| {
+        let bodies: Vec<BodySetup> = ctx
+            .bodies
+            .iter()
+            .filter(|b| {
+                c.bodies
+                    .as_ref()
+                    .is_none_or(|names| names.contains(&b.name))
+            })
+            .cloned()
+            .collect();
+        let built = Bodies::build(&bodies).ok()?;
+        let arc: Arc<[Body]> = built.as_slice().iter().cloned().collect();
+        (!arc.is_empty()).then_some((c, arc))
+    });
+    let solved: Vec<(Vec<f64>, f64, f64)> = strands
         .par_iter()
-        .map(|s| sag_free_natural(&s.strand, &s.q0, &g))
+        .map(|s| {
+            let weight = s.strand.material.mass_per_length
+                * g.norm()
+                * s.strand.geometry.lengths.iter().sum::<f64>();
+            match &touched {
+                None => (sag_free_natural(&s.strand, &s.q0, &g), 0.0, weight),
+                Some((c, bodies)) => {
+                    let geom = &s.strand.geometry;
+                    let rho_s = s.strand.material.mass_per_length;
+                    let mut contacts = StrandContacts::new(
+                        geom,
+                        bodies.clone(),
+                        ContactParams::new(c, rho_s),
+                        None,
+                        c.samples_per_element,
+                    );
+                    let at = Placement::at_rest(0.0);
+                    contacts.start(&at, geom, &s.q0);
+                    let mut kernel: Box<dyn StrandKernel> =
+                        kernel_factory().create(geom).unwrap_or_else(|| {
+                            Box::new(GenericKernel::new(geom.clone(), QuadratureRule::Adaptive))
+                        });
+                    let supports = contacts.support_directions(&at, kernel.as_mut(), &s.q0);
+                    let supported = sag_free_supported(&s.strand, &s.q0, &g, &supports);
+                    let carried: f64 = supported.forces.iter().sum();
+                    (supported.natural, carried, weight)
+                }
+            }
+        })
+        .collect();
+    let (mut carried, mut weight) = (0.0, 0.0);
+    let naturals: Vec<Vec<f64>> = solved
+        .into_iter()
+        .map(|(natural, c, w)| {
+            carried += c;
+            weight += w;
+            natural
+        })
         .collect();
     let mut change = 0.0f64;
     for (s, natural) in strands.iter_mut().zip(naturals) {
@@ -513,7 +576,8 @@ fn apply_sag_free(
         }
         s.strand.natural = natural;
     }
-    Some(change)
+    let share = touched.map(|_| if weight > 0.0 { carried / weight } else { 0.0 });
+    Some((change, share))
 }
 
 /// The roots of a groom on a body (fields `body`, `count`/`density`, the region, the

@@ -849,6 +849,32 @@ impl StrandContacts {
         })
     }
 
+    /// The samples that touch a body at q (bodies placed at `at`, root zone as
+    /// [`Self::start`] sets it; call that first): for each, the generalized force of a unit
+    /// normal force there, `Jᵀ n` (one entry per coordinate of q), in sample order. A
+    /// sag-free start with contacts chooses how much each carries.
+    pub fn support_directions(
+        &mut self,
+        at: &Placement,
+        kernel: &mut dyn StrandKernel,
+        q: &[f64],
+    ) -> Vec<Vec<f64>> {
+        self.place(at);
+        let head = at.head;
+        self.sample_poses(kernel.geometry(), q);
+        let mut jac = vec![Vector3::zeros(); q.len()];
+        let mut out = Vec::new();
+        for k in 0..self.samples.len() {
+            let y = self.poses[k].0;
+            let Some(hit) = self.body_hit(&head, k, &y) else {
+                continue;
+            };
+            kernel.point(q, self.samples[k].0, &mut jac, None);
+            out.push(jac.iter().map(|j| j.dot(&hit.normal)).collect());
+        }
+        out
+    }
+
     /// Before the first step (state q, bodies placed at `at`): a point that starts inside a body
     /// (within the contact radius, deeper than where its penalty is a hundred times the
     /// strand's weight) is allowed its depth, so that it is let out at
