@@ -1,5 +1,6 @@
-//! `superhelix render FRAMES --out DIR`: the preview pictures re-rendered from frames a
-//! run wrote, with other camera settings.
+//! `superhelix render FRAMES --out DIR [--scene SCENE]`: the preview pictures re-rendered
+//! from frames a run wrote, with other camera settings (and, with the scene, its bodies
+//! and render strands).
 
 use std::path::{Path, PathBuf};
 use superhelix_runtime::output::frames::FrameStore;
@@ -9,7 +10,7 @@ use superhelix_runtime::output::plan::Formats;
 use superhelix_runtime::output::preview::{PreviewOptions, View};
 use superhelix_runtime::output::products::write_products;
 use superhelix_runtime::output::scenery::Scenery;
-use superhelix_runtime::{Error, Result};
+use superhelix_runtime::{parse_scene_at, Error, Result};
 
 /// What `render` is asked to do.
 #[derive(Debug, Clone, PartialEq)]
@@ -28,6 +29,10 @@ pub struct RenderRequest {
     pub frame: Option<usize>,
     /// Also write `preview.gif`.
     pub gif: bool,
+    /// The scene the frames were simulated from: its bodies are drawn under the strands,
+    /// placed by its head motion at each frame's time, and its `[render]` strands with
+    /// them (`None`: the strands alone).
+    pub scene: Option<PathBuf>,
 }
 
 /// Name of the JSON frames file a run writes.
@@ -115,12 +120,28 @@ pub fn render(request: &RenderRequest) -> Result<Vec<PathBuf>> {
         gif: request.gif,
         obj: false,
     };
-    // frames alone carry no scene: no bodies, no render strands
-    write_products(
-        store.as_mut(),
-        &formats,
-        &request.out,
-        &options,
-        &Scenery::default(),
-    )
+    // frames alone carry no scene: the bodies and render strands come from --scene
+    let scenery = match &request.scene {
+        None => Scenery::default(),
+        Some(path) => {
+            let text = std::fs::read_to_string(path).map_err(|e| {
+                Error::invalid("--scene", format!("cannot read {}: {e}", path.display()))
+            })?;
+            let dir = path.parent().unwrap_or(Path::new("."));
+            let setup = parse_scene_at(&text, dir)?;
+            let strands = store.layout().strands.len();
+            if setup.strands.len() != strands {
+                return Err(Error::invalid(
+                    "--scene",
+                    format!(
+                        "{} has {} strands, the frames {strands}: not the scene they were simulated from",
+                        path.display(),
+                        setup.strands.len()
+                    ),
+                ));
+            }
+            Scenery::from_setup(&setup)?
+        }
+    };
+    write_products(store.as_mut(), &formats, &request.out, &options, &scenery)
 }

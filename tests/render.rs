@@ -156,3 +156,65 @@ fn the_default_scene_reads_well() {
         );
     }
 }
+
+#[test]
+fn render_with_the_scene_draws_its_bodies_and_refuses_another_scene() {
+    let dir = support::scratch("render-scene");
+    // the support scene with a sphere beside its strands, written where --scene reads it
+    let scene = format!(
+        "{}\n[[bodies]]\nname = \"ball\"\nshape = \"sphere\"\nattached = \"head\"\ncenter = [0.0, 0.12, -0.05]\nradius = 0.04\n",
+        support::SCENE
+    );
+    let scene_path = dir.join("scene.toml");
+    std::fs::write(&scene_path, &scene).expect("scene file");
+    support::simulate_to_npy(&scene, &dir);
+    let grey = |out: &std::path::Path| count(&decode(&out.join("preview.png")), [0xdd, 0xdd, 0xdd]);
+    let bare = dir.join("bare");
+    let o = superhelix(&[
+        "render",
+        &dir.to_string_lossy(),
+        "--out",
+        &bare.to_string_lossy(),
+        "--no-gif",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let with = dir.join("with");
+    let o = superhelix(&[
+        "render",
+        &dir.to_string_lossy(),
+        "--out",
+        &with.to_string_lossy(),
+        "--no-gif",
+        "--scene",
+        &scene_path.to_string_lossy(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    // a 4 cm ball is over a thousand px in the two 600 × 600 panels of this framing;
+    // without the scene only the odd antialiased pixel of the strands is that grey
+    let (without_px, with_px) = (grey(&bare), grey(&with));
+    eprintln!("body grey: {without_px} px without the scene, {with_px} px with it");
+    assert!(
+        with_px > without_px + 1000,
+        "the ball took only {with_px} px ({without_px} without the scene)"
+    );
+    // a scene with another number of strands is not the one the frames came from
+    let other = dir.join("other.toml");
+    std::fs::write(
+        &other,
+        "[simulation]\ndt = 0.03333333333333333\nduration = 0.2\n[[strands]]\nname = \"one\"\nlength = 0.1\n",
+    )
+    .expect("scene file");
+    let o = superhelix(&[
+        "render",
+        &dir.to_string_lossy(),
+        "--out",
+        &dir.join("x").to_string_lossy(),
+        "--scene",
+        &other.to_string_lossy(),
+    ]);
+    assert!(
+        !o.status.success(),
+        "a scene of another strand count was accepted"
+    );
+    assert!(text(&o).contains("--scene"), "{}", text(&o));
+}

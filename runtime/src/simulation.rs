@@ -411,11 +411,7 @@ impl Simulation {
                 bodies
                     .as_slice()
                     .iter()
-                    .filter(|b| {
-                        c.bodies
-                            .as_ref()
-                            .is_none_or(|names| names.contains(&b.name))
-                    })
+                    .filter(|b| c.touches(&b.name))
                     .cloned()
                     .collect()
             });

@@ -32,6 +32,10 @@ pub struct RenderArgs {
     /// Do not write preview.gif.
     #[arg(long, overrides_with = "gif")]
     no_gif: bool,
+    /// The scene the frames were simulated from: draw its bodies (placed by its head
+    /// motion at each frame's time) and its [render] strands.
+    #[arg(long, value_name = "SCENE")]
+    scene: Option<PathBuf>,
 }
 
 /// Run `render`.
@@ -44,6 +48,7 @@ pub fn run(args: RenderArgs) -> Result<ExitCode, Error> {
         views: args.views,
         frame: args.frame,
         gif: args.gif || !args.no_gif,
+        scene: args.scene,
     })?;
     for f in &files {
         println!("wrote {}", f.display());

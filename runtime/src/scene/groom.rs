@@ -502,11 +502,7 @@ fn apply_sag_free(
         let bodies: Vec<BodySetup> = ctx
             .bodies
             .iter()
-            .filter(|b| {
-                c.bodies
-                    .as_ref()
-                    .is_none_or(|names| names.contains(&b.name))
-            })
+            .filter(|b| c.touches(&b.name))
             .cloned()
             .collect();
         let built = Bodies::build(&bodies).ok()?;

@@ -327,6 +327,13 @@ impl ContactConfig {
         self.max_depth.unwrap_or(self.radius)
     }
 
+    /// Whether strands touch the body named `name` (every body when `bodies` is `None`).
+    pub fn touches(&self, name: &str) -> bool {
+        self.bodies
+            .as_ref()
+            .is_none_or(|names| names.iter().any(|n| n == name))
+    }
+
     /// The depth increase in one step beyond which the step is split, m.
     pub fn split_depth(&self) -> f64 {
         self.split_depth.unwrap_or(self.radius)
