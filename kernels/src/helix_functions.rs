@@ -37,18 +37,39 @@ pub const SERIES_LIMIT: f64 = 16.0;
 /// (fewer are summed for a smaller z: see `series`).
 const TERMS: usize = 24;
 
+/// The coefficients (−1)^n / (2n + k)! of the series of a (k = 1), b (2) and c (3),
+/// computed once at compile time by the recurrence c_{n+1} = −c_n / ((2n+k+1)(2n+k+2))
+/// (the same operations, so the same bits, as computing them term by term).
+const fn coefficients(k: usize) -> [f64; TERMS] {
+    let mut out = [0.0; TERMS];
+    let mut coef = 1.0;
+    let mut m = 1;
+    while m <= k {
+        coef /= m as f64;
+        m += 1;
+    }
+    let mut n = 0;
+    while n < TERMS {
+        out[n] = coef;
+        let m = (2 * n + k) as f64;
+        coef = -coef / ((m + 1.0) * (m + 2.0));
+        n += 1;
+    }
+    out
+}
+
+/// [`coefficients`] of a, b and c.
+const COEFFICIENTS: [[f64; TERMS]; 3] = [coefficients(1), coefficients(2), coefficients(3)];
+
 /// Sum f(z) = Σ (−z)^n / (2n + k)!, and two z-derivatives, for k = 1 (a), 2 (b), 3 (c).
 fn series(z: f64, k: usize) -> Series3 {
-    // coefficient of z^n: (−1)^n / (2n + k)!
-    let mut coef = 1.0;
-    for m in 1..=k {
-        coef /= m as f64;
-    }
+    // coefficient of z^n: (−1)^n / (2n + k)!, from the table (no division in the loop)
+    let coefs = &COEFFICIENTS[k - 1];
     let mut out = Series3::default();
     let mut zn = 1.0; // z^n
     let mut zn1 = 0.0; // z^(n−1) (0 for n = 0)
     let mut zn2 = 0.0; // z^(n−2)
-    for n in 0..TERMS {
+    for (n, &coef) in coefs.iter().enumerate() {
         let nf = n as f64;
         let (t0, t1, t2) = (coef * zn, coef * nf * zn1, coef * nf * (nf - 1.0) * zn2);
         out.f += t0;
@@ -67,8 +88,6 @@ fn series(z: f64, k: usize) -> Series3 {
         zn2 = zn1;
         zn1 = zn;
         zn *= z;
-        let m = (2 * n + k) as f64;
-        coef = -coef / ((m + 1.0) * (m + 2.0));
     }
     out
 }
