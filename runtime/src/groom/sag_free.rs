@@ -20,21 +20,25 @@ use crate::forces::head_motion::HeadState;
 use crate::kernels::closed_form::kernel_factory;
 use crate::kernels::generic::{GenericKernel, QuadratureRule};
 use crate::kernels::kernel::{EvalInput, StrandKernel, StrandTerms, Terms};
-use crate::model::strand::Strand;
+use crate::model::strand::{Strand, StrandGeometry};
 use nalgebra::Vector3;
+
+/// The kernel a groom's statics use for a strand of `geometry`: its generated kernel
+/// (the one `kernels = "auto"` steps it with), else the generic one.
+pub fn groom_kernel(geometry: &StrandGeometry) -> Box<dyn StrandKernel> {
+    kernel_factory().create(geometry).unwrap_or_else(|| {
+        Box::new(GenericKernel::new(
+            geometry.clone(),
+            QuadratureRule::Adaptive,
+        ))
+    })
+}
 
 /// The generalized gravity force `G(q) = ∫ Jᵀ ρS g ds` of `strand` at `q` with gravity
 /// `gravity` (m/s², head coordinates), computed by the strand's generated kernel (the
 /// one `kernels = "auto"` steps it with).
 pub fn gravity_force(strand: &Strand, q: &[f64], gravity: &Vector3<f64>) -> Vec<f64> {
-    let geometry = &strand.geometry;
-    let mut kernel: Box<dyn StrandKernel> =
-        kernel_factory().create(geometry).unwrap_or_else(|| {
-            Box::new(GenericKernel::new(
-                geometry.clone(),
-                QuadratureRule::Adaptive,
-            ))
-        });
+    let mut kernel = groom_kernel(&strand.geometry);
     let effects = GlobalEffects {
         gravity: Some(*gravity),
         head_moves: false,

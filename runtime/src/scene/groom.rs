@@ -15,11 +15,8 @@ use crate::groom::read_curves;
 use crate::groom::region::{PlaneCut, Region};
 use crate::groom::report::{ClearanceReport, CurveReport, GroomReport, GroomSource};
 use crate::groom::roots::{root_frame, sample_roots, Root, RootCount, RootSettings};
-use crate::groom::sag_free::{sag_free_natural, sag_free_supported};
+use crate::groom::sag_free::{groom_kernel, sag_free_natural, sag_free_supported};
 use crate::groom::surface::Surface;
-use crate::kernels::closed_form::kernel_factory;
-use crate::kernels::generic::{GenericKernel, QuadratureRule};
-use crate::kernels::kernel::StrandKernel;
 use crate::model::reconstruction::sample_centreline;
 use crate::model::strand::StrandGeometry;
 use nalgebra::{Rotation3, Vector3};
@@ -529,10 +526,7 @@ fn apply_sag_free(
                     );
                     let at = Placement::at_rest(0.0);
                     contacts.start(&at, geom, &s.q0);
-                    let mut kernel: Box<dyn StrandKernel> =
-                        kernel_factory().create(geom).unwrap_or_else(|| {
-                            Box::new(GenericKernel::new(geom.clone(), QuadratureRule::Adaptive))
-                        });
+                    let mut kernel = groom_kernel(geom);
                     let supports = contacts.support_directions(&at, kernel.as_mut(), &s.q0);
                     let supported = sag_free_supported(&s.strand, &s.q0, &g, &supports);
                     let carried: f64 = supported.forces.iter().sum();

@@ -61,8 +61,8 @@ pub struct HairHair {
     search_every: usize,
     tracked_last: usize,
     found_last: usize,
-    /// Overlap allowed to a pair of strands that overlapped at the first update (strand
-    /// indices, lower first), m; it shrinks at `depenetration_speed`.
+    /// Overlap allowed to a pair of strands found already overlapping (strand indices,
+    /// lower first), m; it shrinks at `depenetration_speed`.
     allowance: HashMap<(usize, usize), f64>,
     depenetration_speed: f64,
 }
@@ -122,19 +122,14 @@ impl HairHair {
         }
     }
 
-    /// Let two strands that overlap at the first update apart at `speed` (m/s) rather than
-    /// kick them apart: their overlap at the start is allowed (no force), and the
-    /// allowance shrinks by `speed` per second and to their present overlap (0, the
-    /// default: no allowance, any overlap is pushed out at once).
+    /// Let two strands that are found already overlapping (at the first update, or on
+    /// first meeting between two searches) apart at `speed` (m/s) rather than kick them
+    /// apart: their overlap when found is allowed (no force), and the allowance shrinks by
+    /// `speed` per second and to their present overlap (0, the default: no allowance, any
+    /// overlap is pushed out at once).
     pub fn with_depenetration_speed(mut self, speed: f64) -> Self {
         self.depenetration_speed = speed;
         self
-    }
-
-    /// The overlap still allowed to strands `i` and `j` (m).
-    pub fn allowance(&self, i: usize, j: usize) -> f64 {
-        let key = if i < j { (i, j) } else { (j, i) };
-        self.allowance.get(&key).copied().unwrap_or(0.0)
     }
 
     /// The current pairs.
@@ -199,8 +194,11 @@ impl HairHair {
         self.tracked_last = tracked.len();
         // the pairs of strands already in contact: a pair the search finds between them
         // again is no new meeting and takes no allowance
-        let known: std::collections::HashSet<(usize, usize)> =
-            tracked.iter().map(|p| (p.a.0, p.b.0)).collect();
+        let known: std::collections::HashSet<(usize, usize)> = if self.depenetration_speed > 0.0 {
+            tracked.iter().map(|p| (p.a.0, p.b.0)).collect()
+        } else {
+            Default::default()
+        };
         // 2. broad phase
         let mut found = 0;
         let mut new_pairs = Vec::new();
