@@ -41,6 +41,41 @@ pub fn pose_at(geom: &StrandGeometry, q: &[f64], s: f64) -> Pose {
     pose
 }
 
+/// Positions y(s) at the arc lengths `arcs` (in increasing order; each clamped to
+/// [0, L]), in head coordinates, into `out` (cleared first): one pass along the strand,
+/// an element's pose once and one local pose per point, where [`pose_at`] per point
+/// would chain the elements from the root for each.
+pub fn positions_at_sorted(
+    geom: &StrandGeometry,
+    q: &[f64],
+    arcs: impl IntoIterator<Item = f64>,
+    out: &mut Vec<Vector3<f64>>,
+) {
+    out.clear();
+    let n = geom.lengths.len();
+    let mut start = Pose {
+        position: geom.root_position,
+        frame: geom.root_frame,
+    };
+    let (mut element, mut s0) = (0, 0.0);
+    let mut d = darboux(q, 0);
+    for s in arcs {
+        while element + 1 < n && s > s0 + geom.lengths[element] {
+            let (e, p) = local_pose(&d, geom.lengths[element]);
+            start = Pose {
+                position: start.position + start.frame * p,
+                frame: start.frame * e,
+            };
+            s0 += geom.lengths[element];
+            element += 1;
+            d = darboux(q, element);
+        }
+        let u = (s - s0).clamp(0.0, geom.lengths[element]);
+        let (_, p) = local_pose(&d, u);
+        out.push(start.position + start.frame * p);
+    }
+}
+
 /// Centreline points: the root, then `per_element` equally spaced points in each
 /// element (the last one at the element's end), in head coordinates.
 pub fn sample_centreline(
@@ -67,5 +102,42 @@ pub fn sample_centreline(
             position: start.position + start.frame * p,
             frame: start.frame * e,
         };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::material::Material;
+    use nalgebra::Rotation3;
+
+    #[test]
+    fn positions_in_one_pass_are_the_poses_chained_from_the_root() {
+        let frame = *Rotation3::from_euler_angles(0.3, -0.2, 0.7).matrix();
+        let geom = StrandGeometry::new(
+            Vector3::new(0.01, -0.02, 0.1),
+            frame,
+            vec![0.03, 0.05, 0.02, 0.04],
+            &Material {
+                mass_per_length: 1e-7,
+                stiffness: [1e-10, 1e-10, 1e-10],
+                rotary_inertia: [1e-15, 1e-15, 1e-15],
+            },
+        );
+        let q: Vec<f64> = (0..12).map(|i| 20.0 * ((i as f64) * 1.7).sin()).collect();
+        // inside elements, at element ends (0.03, 0.08, 0.1) and beyond both ends
+        let arcs = [
+            -0.01, 0.0, 0.012, 0.03, 0.03, 0.05, 0.08, 0.0801, 0.1, 0.13, 0.14, 0.2,
+        ];
+        let mut out = Vec::new();
+        positions_at_sorted(&geom, &q, arcs, &mut out);
+        assert_eq!(out.len(), arcs.len());
+        for (s, y) in arcs.iter().zip(&out) {
+            let expected = pose_at(&geom, &q, *s).position;
+            assert!(
+                (y - expected).norm() < 1e-15,
+                "s = {s}: {y:?} against {expected:?}"
+            );
+        }
     }
 }

@@ -94,8 +94,10 @@ pub fn measure(
         // and so does the work of the drag of the bodies on their own motion
         let at = Placement::new(*head, t);
         let (potential, rate) = c.energy(&at, &strand.geometry, q);
+        let rate = rate + c.drag_power(&at, kernel, q, v, jac);
         load_moment -= potential;
-        load_rate += rate + c.drag_power(&at, kernel, q, v, jac);
+        load_rate += rate;
+        workspace.last_contact = (potential, rate);
     }
     let dissipation = (0..n).map(|i| friction[i] * v[i] * v[i]).sum::<f64>()
         + 2.0 * strand.air_drag / rho_s * kinetic;
@@ -115,4 +117,39 @@ pub fn measure(
         ceiling: kinetic + elastic + potential,
         scale: kinetic + elastic + full.uniform.norm() * length * length,
     }
+}
+
+/// `energy` (measured by [`measure`] at this (q, q̇), head state and time, perhaps with its
+/// velocities scaled since) with its contact part measured again: what changes between two
+/// steps without the strand moving when contacts have a history (partners moved, anchors
+/// slid, allowances shrank). The kernel's part (M, the field's power) is kept: equal to a
+/// fresh [`measure`] up to round-off, at the cost of the contact terms alone.
+pub fn remeasure_contacts(
+    system: &mut StrandSystem,
+    head: &HeadState,
+    q: &[f64],
+    v: &[f64],
+    energy: &StateEnergy,
+) -> StateEnergy {
+    let StrandSystem {
+        strand,
+        kernel,
+        workspace,
+        contacts,
+        ..
+    } = system;
+    let mut e = *energy;
+    let Some(c) = contacts else {
+        return e;
+    };
+    let at = Placement::new(*head, energy.time);
+    let (potential, rate) = c.energy(&at, &strand.geometry, q);
+    let rate = rate + c.drag_power(&at, kernel.as_mut(), q, v, &mut workspace.jac);
+    let (old_potential, old_rate) = workspace.last_contact;
+    e.load_moment += old_potential - potential;
+    e.potential += potential - old_potential;
+    e.load_rate += rate - old_rate;
+    e.ceiling = e.kinetic + e.elastic + e.potential;
+    workspace.last_contact = (potential, rate);
+    e
 }

@@ -39,6 +39,10 @@ pub struct StrandWorkspace {
     pub(super) prev_h: f64,
     /// The energy of the state the last implicit step ended in, and that state.
     pub(super) last_energy: Option<StateEnergy>,
+    /// The contact part of the last energy measured: the contact potential and its rate
+    /// (with the drag power of bodies on their own motion) as
+    /// [`crate::solver::energy_balance::measure`] counted them.
+    pub(super) last_contact: (f64, f64),
     pub(super) last_q: Vec<f64>,
     pub(super) last_v: Vec<f64>,
     /// How many times the next step is halved before it is first tried
@@ -72,6 +76,7 @@ impl StrandWorkspace {
             prev_v: vec![0.0; n],
             prev_h: 0.0,
             last_energy: None,
+            last_contact: (0.0, 0.0),
             last_q: vec![0.0; n],
             last_v: vec![0.0; n],
             split_hint: 0,

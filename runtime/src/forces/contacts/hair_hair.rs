@@ -254,12 +254,26 @@ impl HairHair {
                 descend(points, &mut p, 0);
                 descend(points, &mut p, 1);
                 if dist2(points, p.a, p.b) < r2 && tracked.binary_search(&p).is_err() {
-                    let at = tracked.partition_point(|q| q < &p);
-                    tracked.insert(at, p);
                     new_pairs.push(p);
-                    found += 1;
                 }
             }
+            new_pairs.sort_unstable();
+            new_pairs.dedup();
+            found = new_pairs.len();
+            // one merge of the two sorted lists (inserting each new pair in place would
+            // move the list once per pair)
+            let mut merged = Vec::with_capacity(tracked.len() + new_pairs.len());
+            let (mut i, mut j) = (0, 0);
+            while i < tracked.len() || j < new_pairs.len() {
+                if j == new_pairs.len() || (i < tracked.len() && tracked[i] < new_pairs[j]) {
+                    merged.push(tracked[i]);
+                    i += 1;
+                } else {
+                    merged.push(new_pairs[j]);
+                    j += 1;
+                }
+            }
+            tracked = merged;
         }
         self.found_last = found;
         self.steps += 1;
@@ -281,7 +295,6 @@ impl HairHair {
         // whole penalty at once; an allowance shrinks by that speed and to the pair's
         // present overlap
         if self.depenetration_speed > 0.0 {
-            new_pairs.sort_unstable();
             let mut overlap: HashMap<(usize, usize), f64> = HashMap::new();
             let mut fresh: HashMap<(usize, usize), f64> = HashMap::new();
             for (p, &(ta, tb)) in tracked.iter().zip(&closest) {

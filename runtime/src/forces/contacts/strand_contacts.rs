@@ -34,7 +34,7 @@ use crate::bodies::{Attachment, Body, Placement};
 use crate::forces::head_motion::HeadState;
 use crate::kernels::kernel::{StrandKernel, StrandTerms, Terms};
 use crate::model::element::local_pose;
-use crate::model::reconstruction::{darboux, pose_at, Pose};
+use crate::model::reconstruction::{darboux, positions_at_sorted, Pose};
 use crate::model::strand::StrandGeometry;
 use faer::Mat;
 use nalgebra::{Matrix3, Vector3};
@@ -178,6 +178,8 @@ pub struct StrandContacts {
     /// the body the strand grows from (see [`Self::start`]).
     root_zone: (usize, usize),
     partners: Vec<PartnerPoint>,
+    /// Scratch: positions of the partner points (see [`Self::partner_positions`]).
+    partner_y: Vec<Vector3<f64>>,
     /// Positions and unit tangents of the samples at the last [`Self::sample_poses`].
     poses: Vec<(Vector3<f64>, Vector3<f64>)>,
     aj: Vec<Vector3<f64>>,
@@ -228,6 +230,7 @@ impl StrandContacts {
             allowance: vec![0.0; n],
             root_zone: (0, 0),
             partners: Vec::new(),
+            partner_y: Vec::new(),
             poses: vec![(Vector3::zeros(), Vector3::zeros()); n],
             aj: vec![Vector3::zeros(); geom.dofs()],
             samples,
@@ -259,6 +262,15 @@ impl StrandContacts {
     pub fn set_partners(&mut self, partners: impl IntoIterator<Item = PartnerPoint>) {
         self.partners.clear();
         self.partners.extend(partners);
+        // in arc-length order: their positions are then one pass along the strand
+        self.partners.sort_by(|a, b| a.s.total_cmp(&b.s));
+    }
+
+    /// Positions y(s) of the partner points' arc lengths at q, into `self.partner_y`.
+    fn partner_positions(&mut self, geom: &StrandGeometry, q: &[f64]) {
+        let mut out = std::mem::take(&mut self.partner_y);
+        positions_at_sorted(geom, q, self.partners.iter().map(|p| p.s), &mut out);
+        self.partner_y = out;
     }
 
     /// Whether the contact energy may change between steps without the strand moving
@@ -691,8 +703,8 @@ impl StrandContacts {
             rate += (normal + spring).dot(&u);
         }
         if let Some(hh) = self.hair {
-            for partner in &self.partners {
-                let y = pose_at(geom, q, partner.s).position;
+            self.partner_positions(geom, q);
+            for (partner, &y) in self.partners.iter().zip(&self.partner_y) {
                 let w = partner.weight;
                 let pt = head.rotation.transpose() * (partner.point - head.position);
                 let d = (y - pt).norm();
@@ -836,17 +848,30 @@ impl StrandContacts {
         if deep {
             return false;
         }
+        if self.partners.is_empty() {
+            return true;
+        }
         let rt = head.rotation.transpose();
-        self.partners.iter().all(|p| {
-            let pt = rt * (p.point - head.position);
-            let d0 = pose_at(geom, q0, p.s).position - pt;
-            let norm = d0.norm();
-            if norm == 0.0 {
-                return true;
-            }
-            let along = (pose_at(geom, q1, p.s).position - pt).dot(&(d0 / norm));
-            norm < p.reach || p.reach - along <= split
-        })
+        self.partner_positions(geom, q0);
+        let y0 = std::mem::take(&mut self.partner_y);
+        self.partner_positions(geom, q1);
+        let ok = self
+            .partners
+            .iter()
+            .zip(&y0)
+            .zip(&self.partner_y)
+            .all(|((p, y0), y1)| {
+                let pt = rt * (p.point - head.position);
+                let d0 = y0 - pt;
+                let norm = d0.norm();
+                if norm == 0.0 {
+                    return true;
+                }
+                let along = (y1 - pt).dot(&(d0 / norm));
+                norm < p.reach || p.reach - along <= split
+            });
+        self.partner_y = y0;
+        ok
     }
 
     /// The samples that touch a body at q (bodies placed at `at`, root zone as

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
-"""Write scenes/data/long-hair.obj: 150 long strands combed back and down over the head,
-neck and shoulders of scenes/long-hair-shoulders.toml, as OBJ polylines (root first,
-metres, rounded to 0.01 mm).
+"""Write a combed groom for the head, neck and shoulders of the full-head scenes
+(scenes/long-hair-shoulders.toml, scenes/full-head-smooth.toml): strands combed back and
+down over the bodies, as OBJ polylines on standard output (root first, metres, rounded
+to 0.01 mm).
 
 Each strand is grown from its root in steps of STEP: its direction turns by TURN per
 step towards COMB (back) while the strand is on top of the head, towards FALL (down)
@@ -17,9 +18,12 @@ Roots: a Fibonacci lattice on the unit sphere, kept within MAX_ANGLE of AXIS (th
 cap as a `[[grooms]]` region), mapped to the ellipsoid. Standard library only; the same
 output on every run.
 
-    python3 scripts/long_hair_groom.py > scenes/data/long-hair.obj
+    python3 scripts/combed_groom.py > scenes/data/long-hair.obj
+    python3 scripts/combed_groom.py --count 200 --length 0.3 --length-variation 0.15 \
+        > scenes/data/smooth-head.obj
 """
 
+import argparse
 import math
 
 RADII = (0.075, 0.095, 0.11)  # the head ellipsoid, centred at the origin
@@ -28,7 +32,7 @@ CAPSULES = [
     ((0.0, -0.01, -0.22), (0.0, -0.01, -0.08), 0.05),
     ((-0.19, -0.02, -0.25), (0.19, -0.02, -0.25), 0.06),
 ]
-COUNT = 150
+COUNT = 150  # defaults: the long-hair groom (command-line options change them)
 AXIS = (0.0, -0.4, 1.0)
 MAX_ANGLE = math.radians(75.0)
 COMB = (0.0, -1.0, -0.3)  # back over the crown ...
@@ -155,10 +159,34 @@ def strand(u, k):
 
 
 def main():
+    global COUNT, LENGTH, LENGTH_VARIATION
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--count", type=int, default=COUNT, help="number of strands")
+    parser.add_argument("--length", type=float, default=LENGTH, help="mean length, m")
+    parser.add_argument(
+        "--length-variation",
+        type=float,
+        default=LENGTH_VARIATION,
+        help="relative spread of the lengths (uniform, +-)",
+    )
+    args = parser.parse_args()
+    if args.count < 1 or args.length <= 0.0 or not 0.0 <= args.length_variation < 1.0:
+        parser.error("--count >= 1, --length > 0 and 0 <= --length-variation < 1")
+    COUNT, LENGTH, LENGTH_VARIATION = args.count, args.length, args.length_variation
     curves = [strand(u, k) for k, u in enumerate(roots())]
-    print("# 150 long strands combed back and down over the head, neck and shoulders of")
-    print("# scenes/long-hair-shoulders.toml, root first, metres; written by")
-    print("# scripts/long_hair_groom.py (50 cm +- 10 %, 5 mm steps, 4 mm off the bodies).")
+    options = []
+    if COUNT != 150:
+        options.append(f"--count {COUNT}")
+    if LENGTH != 0.5:
+        options.append(f"--length {LENGTH:g}")
+    if LENGTH_VARIATION != 0.1:
+        options.append(f"--length-variation {LENGTH_VARIATION:g}")
+    command = " ".join(["scripts/combed_groom.py"] + options)
+    print(f"# {COUNT} strands combed back and down over the head, neck and shoulders of the")
+    print(f"# full-head scenes, root first, metres; written by {command}")
+    print(
+        f"# ({LENGTH * 100:g} cm +- {LENGTH_VARIATION * 100:g} %, 5 mm steps, 4 mm off the bodies)."
+    )
     index = 1
     lines = []
     for c in curves:
