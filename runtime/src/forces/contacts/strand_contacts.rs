@@ -273,6 +273,11 @@ impl StrandContacts {
         self.partner_y = out;
     }
 
+    /// Whether the strand has partner points for the coming step (hair–hair).
+    pub fn has_partners(&self) -> bool {
+        !self.partners.is_empty()
+    }
+
     /// Whether the contact energy may change between steps without the strand moving
     /// (anchors slide, partners change): then the energy of a step's start must be
     /// measured again rather than taken from the end of the previous step.
