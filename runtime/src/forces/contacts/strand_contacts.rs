@@ -180,6 +180,8 @@ pub struct StrandContacts {
     partners: Vec<PartnerPoint>,
     /// Scratch: positions of the partner points (see [`Self::partner_positions`]).
     partner_y: Vec<Vector3<f64>>,
+    /// Scratch of [`Self::step_acceptable`]: the partners' points at the step's start.
+    partner_y0: Vec<Vector3<f64>>,
     /// Positions and unit tangents of the samples at the last [`Self::sample_poses`].
     poses: Vec<(Vector3<f64>, Vector3<f64>)>,
     aj: Vec<Vector3<f64>>,
@@ -231,6 +233,7 @@ impl StrandContacts {
             root_zone: (0, 0),
             partners: Vec::new(),
             partner_y: Vec::new(),
+            partner_y0: Vec::new(),
             poses: vec![(Vector3::zeros(), Vector3::zeros()); n],
             aj: vec![Vector3::zeros(); geom.dofs()],
             samples,
@@ -857,13 +860,13 @@ impl StrandContacts {
             return true;
         }
         let rt = head.rotation.transpose();
+        // the partners' points at q0 into the second scratch, at q1 into the first
         self.partner_positions(geom, q0);
-        let y0 = std::mem::take(&mut self.partner_y);
+        std::mem::swap(&mut self.partner_y, &mut self.partner_y0);
         self.partner_positions(geom, q1);
-        let ok = self
-            .partners
+        self.partners
             .iter()
-            .zip(&y0)
+            .zip(&self.partner_y0)
             .zip(&self.partner_y)
             .all(|((p, y0), y1)| {
                 let pt = rt * (p.point - head.position);
@@ -874,9 +877,7 @@ impl StrandContacts {
                 }
                 let along = (y1 - pt).dot(&(d0 / norm));
                 norm < p.reach || p.reach - along <= split
-            });
-        self.partner_y = y0;
-        ok
+            })
     }
 
     /// The samples that touch a body at q (bodies placed at `at`, root zone as
