@@ -260,20 +260,10 @@ impl HairHair {
             new_pairs.sort_unstable();
             new_pairs.dedup();
             found = new_pairs.len();
-            // one merge of the two sorted lists (inserting each new pair in place would
-            // move the list once per pair)
-            let mut merged = Vec::with_capacity(tracked.len() + new_pairs.len());
-            let (mut i, mut j) = (0, 0);
-            while i < tracked.len() || j < new_pairs.len() {
-                if j == new_pairs.len() || (i < tracked.len() && tracked[i] < new_pairs[j]) {
-                    merged.push(tracked[i]);
-                    i += 1;
-                } else {
-                    merged.push(new_pairs[j]);
-                    j += 1;
-                }
-            }
-            tracked = merged;
+            // appended and sorted once (inserting each new pair in place would move the
+            // list once per pair)
+            tracked.extend_from_slice(&new_pairs);
+            tracked.sort_unstable();
         }
         self.found_last = found;
         self.steps += 1;
