@@ -165,6 +165,37 @@ fn fixed_and_moment_paths_give_the_same_points_and_ends() {
 }
 
 #[test]
+fn points_asked_in_any_order_and_at_changing_q_are_those_of_a_fresh_chain() {
+    // the fixed-N kernel keeps the chain of element ends between points at the same q;
+    // the moment path chains from the root at every point
+    let mut rng = Rng(0xc4a1);
+    let n = 5;
+    let (g, q, _) = strand(Preset::Wavy, n, &mut rng);
+    let other: Vec<f64> = q.iter().map(|x| x * 0.7 + 1.0).collect();
+    let mut fixed = kernel_factory().create(&g).expect("kernel");
+    let mut moment = MomentKernel::new(g.clone(), ClosedForm);
+    let l = g.length();
+    let asks = [
+        (&q, 0.1),
+        (&q, 0.5),
+        (&q, 0.95),
+        (&q, 0.3),
+        (&other, 0.3),
+        (&other, 0.9),
+        (&q, 0.9),
+        (&q, 0.0),
+        (&q, 1.0),
+        (&other, 0.6),
+    ];
+    for (at, f) in asks {
+        let (mut ja, mut jb) = (vec![Vector3::zeros(); 3 * n], vec![Vector3::zeros(); 3 * n]);
+        let ya = fixed.point(at, f * l, &mut ja, None);
+        let yb = moment.point(at, f * l, &mut jb, None);
+        assert_eq!((ya, &ja), (yb, &jb), "s = {f} L");
+    }
+}
+
+#[test]
 fn a_point_at_another_q_does_not_spoil_the_next_evaluation() {
     // point() rebuilds element ends at its q; the next evaluation at the earlier q must
     // not reuse them

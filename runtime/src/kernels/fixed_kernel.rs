@@ -8,7 +8,7 @@
 //! runtime-N moment path, buffers in `Vec`s), bit for bit.
 
 use crate::kernels::kernel::{EvalInput, StrandKernel, StrandTerms};
-use crate::kernels::moments::kernel::{point_from_source, store};
+use crate::kernels::moments::kernel::{point_from_source, store, PointChain};
 use crate::kernels::moments::EndDerivatives;
 use crate::model::reconstruction::Pose;
 use crate::model::strand::StrandGeometry;
@@ -27,6 +27,7 @@ struct Buffers<const N: usize, const D: usize, const E: usize> {
     assembly: Assembly<N, D, E>,
     point_ends: [Pose; E],
     point_derivs: [EndDerivatives; N],
+    point_chain: PointChain,
 }
 
 /// A strand kernel on the generated fixed-N code of N elements (D = 3N coordinates,
@@ -49,6 +50,7 @@ impl<const N: usize, const D: usize, const E: usize> FixedKernel<N, D, E> {
                 assembly: Assembly::new(),
                 point_ends: [Pose::default(); E],
                 point_derivs: [EndDerivatives::default(); N],
+                point_chain: PointChain::new(D),
             }),
         })
     }
@@ -127,6 +129,7 @@ impl<const N: usize, const D: usize, const E: usize> StrandKernel for FixedKerne
             &self.geom,
             &mut b.point_ends,
             &mut b.point_derivs,
+            Some(&mut b.point_chain),
             q,
             s,
             jac,

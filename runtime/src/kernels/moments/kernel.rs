@@ -235,6 +235,7 @@ impl<S: MomentSource + Send> StrandKernel for MomentKernel<S> {
             &self.geom,
             &mut self.ends,
             &mut self.end_derivs,
+            None,
             q,
             s,
             jac,
@@ -243,29 +244,67 @@ impl<S: MomentSource + Send> StrandKernel for MomentKernel<S> {
     }
 }
 
+/// What [`point_from_source`] may keep between calls: the q its scratch `ends` and
+/// `end_derivs` were computed for and how many elements of the chain they hold. Points
+/// asked in a row at the same q (a strand's contact samples and partners, in arc-length
+/// order, at every solve) then chain each element once, not once per point.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct PointChain {
+    q: Vec<f64>,
+    valid: usize,
+}
+
+impl PointChain {
+    /// An empty chain for `dofs` coordinates.
+    pub(crate) fn new(dofs: usize) -> Self {
+        PointChain {
+            q: vec![f64::NAN; dofs],
+            valid: 0,
+        }
+    }
+}
+
 /// y(s) and J(s) (into `jac`, 3N columns), and c · ∂²y/∂q² added to H when `hessian` is
 /// (c, H), for a strand of geometry `geom` at q, from the element points of `source`:
 /// the chain of rigid element ends up to the element holding s (`ends`, N + 1 long, and
 /// `end_derivs`, N long, are scratch and hold q's values up to that element afterwards).
+/// With `chain`, the elements it records for this q are not chained again (the scratch
+/// must then be left alone between calls).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn point_from_source<S: MomentSource + ?Sized>(
     source: &S,
     geom: &StrandGeometry,
     ends: &mut [Pose],
     end_derivs: &mut [EndDerivatives],
+    chain: Option<&mut PointChain>,
     q: &[f64],
     s: f64,
     jac: &mut [Vector3<f64>],
     hessian: Option<(Vector3<f64>, &mut Mat<f64>)>,
 ) -> Vector3<f64> {
     let (e, u) = geom.locate(s);
-    // ends and end derivatives of the elements up to e
+    // ends and end derivatives of the elements up to e (those the chain holds for this q
+    // are kept)
+    let first = match chain {
+        Some(c) => {
+            let first = if c.q == q {
+                c.valid.min(e)
+            } else {
+                c.q.copy_from_slice(q);
+                c.valid = 0;
+                0
+            };
+            c.valid = c.valid.max(e);
+            first
+        }
+        None => 0,
+    };
     ends[0] = Pose {
         position: geom.root_position,
         frame: geom.root_frame,
     };
     let mut pt = ElementPoint::default();
-    for p in 0..e {
+    for p in first..e {
         let d = darboux(q, p);
         source.point(&d, geom.lengths[p], &mut pt);
         let start = ends[p];
