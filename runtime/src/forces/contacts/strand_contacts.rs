@@ -182,6 +182,8 @@ pub struct StrandContacts {
     partner_y: Vec<Vector3<f64>>,
     /// Scratch of [`Self::step_acceptable`]: the partners' points at the step's start.
     partner_y0: Vec<Vector3<f64>>,
+    /// Scratch of [`Self::energy`]: the partners within reach of the samples.
+    partner_near: Vec<usize>,
     /// Positions and unit tangents of the samples at the last [`Self::sample_poses`].
     poses: Vec<(Vector3<f64>, Vector3<f64>)>,
     aj: Vec<Vector3<f64>>,
@@ -234,6 +236,7 @@ impl StrandContacts {
             partners: Vec::new(),
             partner_y: Vec::new(),
             partner_y0: Vec::new(),
+            partner_near: Vec::new(),
             poses: vec![(Vector3::zeros(), Vector3::zeros()); n],
             aj: vec![Vector3::zeros(); geom.dofs()],
             samples,
@@ -711,10 +714,21 @@ impl StrandContacts {
             rate += (normal + spring).dot(&u);
         }
         if let Some(hh) = self.hair {
-            self.partner_positions(geom, q);
-            for (partner, &y) in self.partners.iter().zip(&self.partner_y) {
+            // only the partners the samples do not rule out (most of those the search
+            // keeps are beyond reach, and contribute nothing) are placed on the strand
+            let rt = head.rotation.transpose();
+            let mut near = std::mem::take(&mut self.partner_near);
+            near.clear();
+            near.extend((0..self.partners.len()).filter(|&i| {
+                let p = &self.partners[i];
+                !self.far_from(p.s, &(rt * (p.point - head.position)), p.reach)
+            }));
+            let mut ys = std::mem::take(&mut self.partner_y);
+            positions_at_sorted(geom, q, near.iter().map(|&i| self.partners[i].s), &mut ys);
+            for (&i, &y) in near.iter().zip(&ys) {
+                let partner = &self.partners[i];
                 let w = partner.weight;
-                let pt = head.rotation.transpose() * (partner.point - head.position);
+                let pt = rt * (partner.point - head.position);
                 let d = (y - pt).norm();
                 if d >= partner.reach || d == 0.0 {
                     continue;
@@ -725,6 +739,8 @@ impl StrandContacts {
                     - head.omega.cross(&pt);
                 rate += hh.stiffness * w * overlap * ((y - pt) / d).dot(&vp);
             }
+            self.partner_near = near;
+            self.partner_y = ys;
         }
         (potential, rate)
     }
