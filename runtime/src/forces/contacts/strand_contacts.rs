@@ -178,12 +178,15 @@ pub struct StrandContacts {
     /// the body the strand grows from (see [`Self::start`]).
     root_zone: (usize, usize),
     partners: Vec<PartnerPoint>,
-    /// Scratch: positions of the partner points (see [`Self::partner_positions`]).
+    /// Scratch: positions of the partner points on the strand.
     partner_y: Vec<Vector3<f64>>,
     /// Scratch of [`Self::step_acceptable`]: the partners' points at the step's start.
     partner_y0: Vec<Vector3<f64>>,
-    /// Scratch of [`Self::energy`]: the partners within reach of the samples.
+    /// Scratch of [`Self::energy`] and [`Self::step_acceptable`]: the partners the samples
+    /// do not rule out.
     partner_near: Vec<usize>,
+    /// Scratch of [`Self::step_acceptable`]: the sample positions at the step's start.
+    sample_y0: Vec<Vector3<f64>>,
     /// Positions and unit tangents of the samples at the last [`Self::sample_poses`].
     poses: Vec<(Vector3<f64>, Vector3<f64>)>,
     aj: Vec<Vector3<f64>>,
@@ -237,6 +240,7 @@ impl StrandContacts {
             partner_y: Vec::new(),
             partner_y0: Vec::new(),
             partner_near: Vec::new(),
+            sample_y0: Vec::new(),
             poses: vec![(Vector3::zeros(), Vector3::zeros()); n],
             aj: vec![Vector3::zeros(); geom.dofs()],
             samples,
@@ -270,13 +274,6 @@ impl StrandContacts {
         self.partners.extend(partners);
         // in arc-length order: their positions are then one pass along the strand
         self.partners.sort_by(|a, b| a.s.total_cmp(&b.s));
-    }
-
-    /// Positions y(s) of the partner points' arc lengths at q, into `self.partner_y`.
-    fn partner_positions(&mut self, geom: &StrandGeometry, q: &[f64]) {
-        let mut out = std::mem::take(&mut self.partner_y);
-        positions_at_sorted(geom, q, self.partners.iter().map(|p| p.s), &mut out);
-        self.partner_y = out;
     }
 
     /// Whether the strand has partner points for the coming step (hair–hair).
@@ -862,6 +859,11 @@ impl StrandContacts {
                 self.touched[k] = self.touching(head, k, &self.poses[k].0).is_some();
             }
         }
+        let has_partners = !self.partners.is_empty();
+        if has_partners {
+            self.sample_y0.clear();
+            self.sample_y0.extend(self.poses.iter().map(|p| p.0));
+        }
         self.sample_poses(geom, q1);
         let deep = (0..self.samples.len()).any(|k| {
             !self.touched[k]
@@ -872,28 +874,57 @@ impl StrandContacts {
         if deep {
             return false;
         }
-        if self.partners.is_empty() {
+        if !has_partners {
             return true;
         }
         let rt = head.rotation.transpose();
-        // the partners' points at q0 into the second scratch, at q1 into the first
-        self.partner_positions(geom, q0);
-        std::mem::swap(&mut self.partner_y, &mut self.partner_y0);
-        self.partner_positions(geom, q1);
-        self.partners
-            .iter()
-            .zip(&self.partner_y0)
-            .zip(&self.partner_y)
-            .all(|((p, y0), y1)| {
-                let pt = rt * (p.point - head.position);
-                let d0 = y0 - pt;
-                let norm = d0.norm();
-                if norm == 0.0 {
-                    return true;
-                }
-                let along = (y1 - pt).dot(&(d0 / norm));
-                norm < p.reach || p.reach - along <= split
-            })
+        // a partner is checked on the strand only when the samples do not settle it: along
+        // the line of centres the point at s moved by at least
+        //   |y0(s_k) − p| − |y1(s_k) − y0(s_k)| − 3 |s − s_k|
+        // for any sample k (|y0(s) − y0(s_k)| ≤ |s − s_k| and the displacement changes by
+        // at most 2 |s − s_k| between them: unit tangents), and when that is at least
+        // reach − split the step passes it
+        let mut near = std::mem::take(&mut self.partner_near);
+        near.clear();
+        near.extend((0..self.partners.len()).filter(|&i| {
+            let p = &self.partners[i];
+            let pt = rt * (p.point - head.position);
+            let k = self
+                .samples
+                .partition_point(|(arc, _)| *arc < p.s)
+                .min(self.samples.len().saturating_sub(1));
+            let bound = |k: usize| {
+                (self.sample_y0[k] - pt).norm()
+                    - (self.poses[k].0 - self.sample_y0[k]).norm()
+                    - 3.0 * (self.samples[k].0 - p.s).abs()
+            };
+            let lower = if k > 0 {
+                bound(k).max(bound(k - 1))
+            } else {
+                bound(k)
+            };
+            lower < p.reach - split
+        }));
+        let (mut y0, mut y1) = (
+            std::mem::take(&mut self.partner_y0),
+            std::mem::take(&mut self.partner_y),
+        );
+        let arcs = || near.iter().map(|&i| self.partners[i].s);
+        positions_at_sorted(geom, q0, arcs(), &mut y0);
+        positions_at_sorted(geom, q1, arcs(), &mut y1);
+        let ok = near.iter().zip(&y0).zip(&y1).all(|((&i, y0), y1)| {
+            let p = &self.partners[i];
+            let pt = rt * (p.point - head.position);
+            let d0 = y0 - pt;
+            let norm = d0.norm();
+            if norm == 0.0 {
+                return true;
+            }
+            let along = (y1 - pt).dot(&(d0 / norm));
+            norm < p.reach || p.reach - along <= split
+        });
+        (self.partner_near, self.partner_y0, self.partner_y) = (near, y0, y1);
+        ok
     }
 
     /// The samples that touch a body at q (bodies placed at `at`, root zone as
