@@ -166,8 +166,8 @@ fn fixed_and_moment_paths_give_the_same_points_and_ends() {
 
 #[test]
 fn points_asked_in_any_order_and_at_changing_q_are_those_of_a_fresh_chain() {
-    // the fixed-N kernel keeps the chain of element ends between points at the same q;
-    // the moment path chains from the root at every point
+    // both kernels keep the chain of element ends between points at the same q; a kernel
+    // made for each point chains from the root
     let mut rng = Rng(0xc4a1);
     let n = 5;
     let (g, q, _) = strand(Preset::Wavy, n, &mut rng);
@@ -188,10 +188,14 @@ fn points_asked_in_any_order_and_at_changing_q_are_those_of_a_fresh_chain() {
         (&other, 0.6),
     ];
     for (at, f) in asks {
-        let (mut ja, mut jb) = (vec![Vector3::zeros(); 3 * n], vec![Vector3::zeros(); 3 * n]);
-        let ya = fixed.point(at, f * l, &mut ja, None);
-        let yb = moment.point(at, f * l, &mut jb, None);
-        assert_eq!((ya, &ja), (yb, &jb), "s = {f} L");
+        let mut fresh = MomentKernel::new(g.clone(), ClosedForm);
+        let mut jacs = [(); 3].map(|_| vec![Vector3::zeros(); 3 * n]);
+        let [ja, jb, jc] = &mut jacs;
+        let ya = fixed.point(at, f * l, ja, None);
+        let yb = moment.point(at, f * l, jb, None);
+        let yc = fresh.point(at, f * l, jc, None);
+        assert_eq!((ya, &ja), (yc, &jc), "fixed-N, s = {f} L");
+        assert_eq!((yb, &jb), (yc, &jc), "moment, s = {f} L");
     }
 }
 

@@ -639,11 +639,23 @@ impl StrandContacts {
             }
         }
         if let Some(hh) = self.hair {
-            for i in 0..self.partners.len() {
+            // the partners the samples do not rule out are placed on the strand first (one
+            // pass); J is computed only for those within reach
+            let rt = head.rotation.transpose();
+            let mut near = std::mem::take(&mut self.partner_near);
+            near.clear();
+            near.extend((0..self.partners.len()).filter(|&i| {
+                let p = &self.partners[i];
+                !self.far_from(p.s, &(rt * (p.point - head.position)), p.reach)
+            }));
+            let mut ys = std::mem::take(&mut self.partner_y);
+            let arcs = near.iter().map(|&i| self.partners[i].s);
+            positions_at_sorted(kernel.geometry(), q, arcs, &mut ys);
+            for (&i, y) in near.iter().zip(&ys) {
                 let partner = self.partners[i];
                 let (s, w) = (partner.s, partner.weight);
-                let p = head.rotation.transpose() * (partner.point - head.position);
-                if self.far_from(s, &p, partner.reach) {
+                let p = rt * (partner.point - head.position);
+                if (y - p).norm() >= partner.reach {
                     continue;
                 }
                 let y = kernel.point(q, s, jac, None);
@@ -672,6 +684,7 @@ impl StrandContacts {
                     add_projected(jac, &a, &mut self.aj, &mut out.damping);
                 }
             }
+            (self.partner_near, self.partner_y) = (near, ys);
         }
         self.summary = summary;
         stiffened

@@ -74,6 +74,11 @@ pub struct MomentKernel<S: MomentSource + Send> {
     /// The q the element ends, end derivatives and moments were prepared for (NaN before
     /// the first evaluation: equal to no q).
     prepared: Vec<f64>,
+    /// The scratch of [`StrandKernel::point`] (apart from the prepared element data, so
+    /// that a point at another q leaves them alone) and what it holds.
+    point_ends: Vec<Pose>,
+    point_derivs: Vec<EndDerivatives>,
+    point_chain: PointChain,
 }
 
 impl<S: MomentSource + Send> MomentKernel<S> {
@@ -98,6 +103,9 @@ impl<S: MomentSource + Send> MomentKernel<S> {
             mass_valid: false,
             vector: vec![0.0; 3 * n],
             prepared: vec![f64::NAN; 3 * n],
+            point_ends: vec![Pose::default(); n + 1],
+            point_derivs: vec![EndDerivatives::default(); n],
+            point_chain: PointChain::new(3 * n),
             geom,
         }
     }
@@ -160,6 +168,7 @@ impl<S: MomentSource + Send> StrandKernel for MomentKernel<S> {
             mass_valid,
             vector,
             prepared,
+            ..
         } = self;
         let mut buffers = MomentBuffers {
             ends,
@@ -225,17 +234,12 @@ impl<S: MomentSource + Send> StrandKernel for MomentKernel<S> {
         jac: &mut [Vector3<f64>],
         hessian: Option<(Vector3<f64>, &mut Mat<f64>)>,
     ) -> Vector3<f64> {
-        if *q != *self.prepared {
-            // the ends written below are q's: the prepared element data no longer hold
-            self.prepared[0] = f64::NAN;
-            self.mass_valid = false;
-        }
         point_from_source(
             &self.source,
             &self.geom,
-            &mut self.ends,
-            &mut self.end_derivs,
-            None,
+            &mut self.point_ends,
+            &mut self.point_derivs,
+            Some(&mut self.point_chain),
             q,
             s,
             jac,
