@@ -351,24 +351,35 @@ impl StrandContacts {
         self.params.radius - hit.distance - self.allowance[k]
     }
 
-    /// Whether the centreline at arc length `s` is certainly farther than `reach` from the
-    /// head-frame point `p`, judged from the nearest sample's pose (within half a sample
-    /// spacing of s, the centreline is within that arc length of the sample).
-    fn far_from(&self, s: f64, p: &Vector3<f64>, reach: f64) -> bool {
-        let k = self
-            .samples
-            .partition_point(|(arc, _)| *arc < s)
-            .min(self.samples.len().saturating_sub(1));
-        let near = |k: usize| {
-            let (arc, _) = self.samples[k];
-            (self.poses[k].0 - p).norm() - (arc - s).abs()
+    /// The partners the samples' poses (head in `head`) do not rule out, into `near`
+    /// (indices, in arc-length order): a partner is ruled out when the centreline at its
+    /// arc length s is certainly farther than its reach from its point, judged from the
+    /// two samples around s (within |s − s_k| of sample k, the centreline is within that
+    /// arc length of it).
+    fn near_partners(&self, head: &HeadState, near: &mut Vec<usize>) {
+        near.clear();
+        let Some(last) = self.samples.len().checked_sub(1) else {
+            near.extend(0..self.partners.len());
+            return;
         };
-        let lower = if k > 0 {
-            near(k).max(near(k - 1))
-        } else {
-            near(k)
-        };
-        lower > reach
+        let rt = head.rotation.transpose();
+        // the partners are in arc-length order: the first sample at or beyond s only moves on
+        let mut k = 0;
+        for (i, p) in self.partners.iter().enumerate() {
+            while k < last && self.samples[k].0 < p.s {
+                k += 1;
+            }
+            let pt = rt * (p.point - head.position);
+            let bound = |k: usize| (self.poses[k].0 - pt).norm() - (self.samples[k].0 - p.s).abs();
+            let lower = if k > 0 {
+                bound(k).max(bound(k - 1))
+            } else {
+                bound(k)
+            };
+            if lower <= p.reach {
+                near.push(i);
+            }
+        }
     }
 
     /// The sample positions of the last [`Self::sample_poses`], head coordinates.
@@ -643,11 +654,7 @@ impl StrandContacts {
             // pass); J is computed only for those within reach
             let rt = head.rotation.transpose();
             let mut near = std::mem::take(&mut self.partner_near);
-            near.clear();
-            near.extend((0..self.partners.len()).filter(|&i| {
-                let p = &self.partners[i];
-                !self.far_from(p.s, &(rt * (p.point - head.position)), p.reach)
-            }));
+            self.near_partners(head, &mut near);
             let mut ys = std::mem::take(&mut self.partner_y);
             let arcs = near.iter().map(|&i| self.partners[i].s);
             positions_at_sorted(kernel.geometry(), q, arcs, &mut ys);
@@ -728,11 +735,7 @@ impl StrandContacts {
             // keeps are beyond reach, and contribute nothing) are placed on the strand
             let rt = head.rotation.transpose();
             let mut near = std::mem::take(&mut self.partner_near);
-            near.clear();
-            near.extend((0..self.partners.len()).filter(|&i| {
-                let p = &self.partners[i];
-                !self.far_from(p.s, &(rt * (p.point - head.position)), p.reach)
-            }));
+            self.near_partners(head, &mut near);
             let mut ys = std::mem::take(&mut self.partner_y);
             positions_at_sorted(geom, q, near.iter().map(|&i| self.partners[i].s), &mut ys);
             for (&i, &y) in near.iter().zip(&ys) {
@@ -1103,19 +1106,29 @@ fn add_force(jac: &[Vector3<f64>], f: &Vector3<f64>, force: &mut [f64]) {
     }
 }
 
-/// `m += Jᵀ A J` (A symmetric), `aj` scratch of 3N columns.
+/// `m += Jᵀ A J` (A symmetric), `aj` scratch of 3N columns. J(s) has no columns beyond
+/// the element holding s (they are zero), and the product is symmetric: only the lower
+/// triangle of the nonzero block is computed, and mirrored.
 fn add_projected(
     jac: &[Vector3<f64>],
     a: &Matrix3<f64>,
     aj: &mut [Vector3<f64>],
     m: &mut Mat<f64>,
 ) {
-    for (o, c) in aj.iter_mut().zip(jac) {
+    let n = jac
+        .iter()
+        .rposition(|c| *c != Vector3::zeros())
+        .map_or(0, |i| i + 1);
+    for (o, c) in aj[..n].iter_mut().zip(&jac[..n]) {
         *o = a * c;
     }
-    for (j, col) in aj.iter().enumerate() {
-        for (i, c) in jac.iter().enumerate() {
-            m[(i, j)] += c.dot(col);
+    for j in 0..n {
+        for i in j..n {
+            let x = jac[i].dot(&aj[j]);
+            m[(i, j)] += x;
+            if i != j {
+                m[(j, i)] += x;
+            }
         }
     }
 }
