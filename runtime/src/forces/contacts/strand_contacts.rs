@@ -700,7 +700,7 @@ impl StrandContacts {
     /// The contact potential at q with the bodies placed at `at` (normal penalty, Coulomb
     /// springs, hair–hair penalty), J; and its rate at fixed q through the motion of what
     /// the strand touches (bodies fixed in the world while the head moves, bodies on their
-    /// own motion, partner points), W.
+    /// own motion, partner points moving at their velocities), W.
     pub fn energy(&mut self, at: &Placement, geom: &StrandGeometry, q: &[f64]) -> (f64, f64) {
         self.place(at);
         let head = &at.head;
@@ -762,8 +762,10 @@ impl StrandContacts {
     /// own motion put into the strand through the bodies' velocity u: both act on the
     /// velocity relative to the body, `f = −c (ẏ − u)` (normal damping along n, viscous
     /// friction in the tangent plane), and their part `c u` does the work `c u · ẏ` (the
-    /// part `−c ẏ` only dissipates). With [`Self::energy`]'s rate it is the work the energy
-    /// balance allows a step; 0 without such bodies (nothing is computed).
+    /// part `−c ẏ` only dissipates). The same for the hair–hair damping of the partners
+    /// within reach, `f = −c_h w (ẏ − v_p)`, through the partner's velocity v_p. With
+    /// [`Self::energy`]'s rate it is the work the energy balance allows a step; 0 without
+    /// such bodies or partners (nothing is computed).
     pub fn drag_power(
         &mut self,
         at: &Placement,
@@ -773,7 +775,7 @@ impl StrandContacts {
         jac: &mut [Vector3<f64>],
     ) -> f64 {
         if !self.moving {
-            return 0.0;
+            return self.partner_drag_power(&at.head, kernel, q, v, jac);
         }
         self.place(at);
         let head = &at.head;
@@ -816,6 +818,40 @@ impl StrandContacts {
             }
             power += f.dot(&ydot);
         }
+        power + self.partner_drag_power(head, kernel, q, v, jac)
+    }
+
+    /// The power `c_h w v_p · ẏ` of the hair–hair damping of the partners within reach
+    /// through their velocities v_p (head frame), at (q, q̇) (see [`Self::drag_power`]).
+    fn partner_drag_power(
+        &mut self,
+        head: &HeadState,
+        kernel: &mut dyn StrandKernel,
+        q: &[f64],
+        v: &[f64],
+        jac: &mut [Vector3<f64>],
+    ) -> f64 {
+        let Some(hh) = self.hair else { return 0.0 };
+        if self.partners.is_empty() {
+            return 0.0;
+        }
+        self.sample_poses(kernel.geometry(), q);
+        let rt = head.rotation.transpose();
+        let mut near = std::mem::take(&mut self.partner_near);
+        self.near_partners(head, &mut near);
+        let mut power = 0.0;
+        for &i in &near {
+            let partner = self.partners[i];
+            let p = rt * (partner.point - head.position);
+            let y = kernel.point(q, partner.s, jac, None);
+            let d = (y - p).norm();
+            if d >= partner.reach || d == 0.0 {
+                continue;
+            }
+            let vp = rt * (partner.velocity - head.velocity) - head.omega.cross(&p);
+            power += hh.damping * partner.weight * vp.dot(&velocity(jac, v));
+        }
+        self.partner_near = near;
         power
     }
 
