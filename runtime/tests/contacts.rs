@@ -517,3 +517,108 @@ fn strands_that_start_overlapping_are_let_apart_without_a_kick() {
         "control: without the allowance the kick ({kicked:.3e} m/s) should be far faster"
     );
 }
+
+/// The work the energy balance counts for the hair–hair damping is the power of the force
+/// the step applies: with partner points moving at v_p, `drag_power` must equal
+/// q̇ · (F(v_p) − F(0)), the generalized force's change when the partners stop (at q̇ = 0
+/// both forces hold the penalty and the damping's part c_h w v_p alone).
+#[test]
+fn the_balance_counts_the_power_of_the_partners_damping() {
+    use nalgebra::{Matrix3, Vector3};
+    use std::sync::Arc;
+    use superhelix_kernels::head::HeadState;
+    use superhelix_runtime::bodies::{Body, Placement};
+    use superhelix_runtime::forces::contacts::{
+        ContactConfig, ContactParams, HairHairConfig, HairHairParams, PartnerPoint, StrandContacts,
+    };
+    use superhelix_runtime::kernels::closed_form::ClosedForm;
+    use superhelix_runtime::kernels::kernel::{StrandKernel, StrandTerms, Terms};
+    use superhelix_runtime::kernels::moments::kernel::MomentKernel;
+    use superhelix_runtime::model::material::Material;
+    use superhelix_runtime::model::strand::StrandGeometry;
+
+    let n = 4;
+    let material = Material {
+        mass_per_length: 1e-5,
+        stiffness: [1e-9, 1.3e-9, 1.3e-9],
+        rotary_inertia: [1e-15, 5e-16, 5e-16],
+    };
+    let geom = StrandGeometry::new(
+        Vector3::zeros(),
+        Matrix3::identity(),
+        vec![0.025; n],
+        &material,
+    );
+    let q: Vec<f64> = (0..3 * n).map(|i| 3.0 * ((i as f64) * 0.9).sin()).collect();
+    let v: Vec<f64> = (0..3 * n).map(|i| 2.0 * ((i as f64) * 1.3).cos()).collect();
+    let mut kernel = MomentKernel::new(geom.clone(), ClosedForm);
+    let config = ContactConfig {
+        radius: 1e-3,
+        hair_hair: Some(HairHairConfig::default()),
+        ..ContactConfig::default()
+    };
+    let rho_s = material.mass_per_length;
+    let hair = HairHairParams::new(config.hair_hair.as_ref().expect("set"), rho_s);
+    let mut contacts = StrandContacts::new(
+        &geom,
+        Arc::<[Body]>::from(Vec::new()),
+        ContactParams::new(&config, rho_s),
+        Some(hair),
+        4,
+    );
+    // partner points 0.3 reach off the strand at three arc lengths, moving
+    let at = Placement::new(HeadState::rest(), 0.0);
+    let mut jac = vec![Vector3::zeros(); 3 * n];
+    let partners = |moving: bool, kernel: &mut MomentKernel<ClosedForm>| -> Vec<PartnerPoint> {
+        let mut jac = vec![Vector3::zeros(); 3 * n];
+        [0.02, 0.05, 0.09]
+            .iter()
+            .enumerate()
+            .map(|(k, &s)| {
+                let y = kernel.point(&q, s, &mut jac, None);
+                let off = Vector3::new(0.3, -0.5 + 0.2 * k as f64, 0.8).normalize();
+                PartnerPoint {
+                    s,
+                    weight: 0.01,
+                    point: y + off * (0.3 * hair.radius * 2.0),
+                    velocity: if moving {
+                        Vector3::new(0.4, -0.2 * k as f64, 0.3)
+                    } else {
+                        Vector3::zeros()
+                    },
+                    reach: 2.0 * hair.radius,
+                }
+            })
+            .collect()
+    };
+    let zero = vec![0.0; 3 * n];
+    let mut force =
+        |moving: bool, contacts: &mut StrandContacts, kernel: &mut MomentKernel<ClosedForm>| {
+            contacts.set_partners(partners(moving, kernel));
+            let mut out = StrandTerms::new(3 * n);
+            let terms = Terms {
+                force: true,
+                ..Default::default()
+            };
+            contacts.add_to_terms(&at, kernel, &q, &zero, terms, &mut jac, &mut out);
+            assert_eq!(
+                contacts.summary().hair_contacts,
+                3,
+                "every partner within reach"
+            );
+            out.force.clone()
+        };
+    let still = force(false, &mut contacts, &mut kernel);
+    let moving = force(true, &mut contacts, &mut kernel);
+    let expected: f64 = (0..3 * n).map(|i| v[i] * (moving[i] - still[i])).sum();
+    let mut jac = vec![Vector3::zeros(); 3 * n];
+    let power = contacts.drag_power(&at, &mut kernel, &q, &v, &mut jac);
+    assert!(
+        expected.abs() > 1e-9,
+        "the partners' damping does work: {expected:e}"
+    );
+    assert!(
+        (power - expected).abs() <= 1e-12 * expected.abs(),
+        "counted {power:e} W, the force's power is {expected:e} W"
+    );
+}
