@@ -124,9 +124,9 @@ fn max_element_rotation(lengths: &[f64], q: &[f64], q0: &[f64]) -> f64 {
 ///   would mostly be solved only to be rejected. A strand with contacts splits level by
 ///   level: a contact that starts or ends within the step makes its motion far from
 ///   uniform, and the pieces away from it pass at a coarser level (on the first 6 frames
-///   of the 200-guide head of `scenes/full-head-smooth.toml` the jump took as many solves,
-///   40,818 against 41,014, and 5 % more CPU time; starting each step as finely as the
-///   last as well, 13 % more solves and 23 % more time).
+///   of the 200-guide head of `scenes/full-head-smooth.toml` the jump took 3 % more
+///   solves, 30,390 against 29,398, and 11 % more CPU time; starting each step as finely
+///   as the last as well, 22 % more solves and 35 % more time).
 /// - The energy balance ([`energy_balance::balance`]): E(end) must not exceed its bound
 ///   plus an allowance. With the head moving uniformly the bound is the ceiling (the
 ///   energy at the start of that phase less the estimated dissipation since, or E(start)
