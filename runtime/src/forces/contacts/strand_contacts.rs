@@ -182,8 +182,7 @@ pub struct StrandContacts {
     partner_y: Vec<Vector3<f64>>,
     /// Scratch of [`Self::step_acceptable`]: the partners' points at the step's start.
     partner_y0: Vec<Vector3<f64>>,
-    /// Scratch of [`Self::energy`] and [`Self::step_acceptable`]: the partners the samples
-    /// do not rule out.
+    /// Scratch: the partners the samples do not rule out (see [`Self::near_partners`]).
     partner_near: Vec<usize>,
     /// Scratch of [`Self::step_acceptable`]: the sample positions at the step's start.
     sample_y0: Vec<Vector3<f64>>,
@@ -839,10 +838,16 @@ impl StrandContacts {
         let rt = head.rotation.transpose();
         let mut near = std::mem::take(&mut self.partner_near);
         self.near_partners(head, &mut near);
+        let mut ys = std::mem::take(&mut self.partner_y);
+        let arcs = near.iter().map(|&i| self.partners[i].s);
+        positions_at_sorted(kernel.geometry(), q, arcs, &mut ys);
         let mut power = 0.0;
-        for &i in &near {
+        for (&i, y) in near.iter().zip(&ys) {
             let partner = self.partners[i];
             let p = rt * (partner.point - head.position);
+            if (y - p).norm() >= partner.reach {
+                continue;
+            }
             let y = kernel.point(q, partner.s, jac, None);
             let d = (y - p).norm();
             if d >= partner.reach || d == 0.0 {
@@ -851,7 +856,7 @@ impl StrandContacts {
             let vp = rt * (partner.velocity - head.velocity) - head.omega.cross(&p);
             power += hh.damping * partner.weight * vp.dot(&velocity(jac, v));
         }
-        self.partner_near = near;
+        (self.partner_near, self.partner_y) = (near, ys);
         power
     }
 
