@@ -236,12 +236,12 @@ impl Problem {
             if stage.length {
                 put(3 * f + 2, state.rotation * unit_y);
             }
-            let rt = rows.transpose();
-            a += &rt * &rows;
-            g += &rt * DVector::from_column_slice(r.as_slice());
+            // A += RᵀR, g += Rᵀr in place (no temporaries per point)
+            a.gemm_tr(1.0, &rows, &rows, 1.0);
+            g.gemv_tr(1.0, &rows, &DVector::from_column_slice(r.as_slice()), 1.0);
             if stage.sigma && i != last {
                 let b = scale * self.unit.tangent(&state.c, state.sigma[i]);
-                let jb = &rt * DVector::from_column_slice(b.as_slice());
+                let jb = rows.tr_mul(&DVector::from_column_slice(b.as_slice()));
                 sigma.push((i, jb, b.norm_squared(), b.dot(&r)));
             }
         }
@@ -341,8 +341,9 @@ fn damped_step(normal: &Normal, lambda: f64) -> Option<Step> {
     let mut pivots = Vec::with_capacity(normal.sigma.len());
     for (_, jb, bb, br) in &normal.sigma {
         let d = bb * (1.0 + lambda) + floor;
-        s -= jb * jb.transpose() / d;
-        rhs += jb * (*br / d);
+        // s −= jb jbᵀ / d, rhs += jb br / d, in place
+        s.ger(-1.0 / d, jb, jb, 1.0);
+        rhs.axpy(*br / d, jb, 1.0);
         pivots.push(d);
     }
     let dx = s.cholesky()?.solve(&rhs);
