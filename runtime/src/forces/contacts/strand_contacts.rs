@@ -178,7 +178,8 @@ pub struct StrandContacts {
     /// the body the strand grows from (see [`Self::start`]).
     root_zone: (usize, usize),
     partners: Vec<PartnerPoint>,
-    /// Scratch: positions of the partner points on the strand.
+    /// Scratch: positions on the strand of the partners in `partner_near` (or, in
+    /// [`Self::step_acceptable`], of those it checks at the step's end).
     partner_y: Vec<Vector3<f64>>,
     /// Scratch of [`Self::step_acceptable`]: the partners' points at the step's start.
     partner_y0: Vec<Vector3<f64>>,
@@ -379,6 +380,16 @@ impl StrandContacts {
                 near.push(i);
             }
         }
+    }
+
+    /// [`Self::near_partners`] into `partner_near`, and their points on the strand at q
+    /// into `partner_y` (one pass; the samples must be posed at q).
+    fn place_near_partners(&mut self, head: &HeadState, geom: &StrandGeometry, q: &[f64]) {
+        let mut near = std::mem::take(&mut self.partner_near);
+        self.near_partners(head, &mut near);
+        let arcs = near.iter().map(|&i| self.partners[i].s);
+        positions_at_sorted(geom, q, arcs, &mut self.partner_y);
+        self.partner_near = near;
     }
 
     /// The sample positions of the last [`Self::sample_poses`], head coordinates.
@@ -652,13 +663,9 @@ impl StrandContacts {
             // the partners the samples do not rule out are placed on the strand first (one
             // pass); J is computed only for those within reach
             let rt = head.rotation.transpose();
-            let mut near = std::mem::take(&mut self.partner_near);
-            self.near_partners(head, &mut near);
-            let mut ys = std::mem::take(&mut self.partner_y);
-            let arcs = near.iter().map(|&i| self.partners[i].s);
-            positions_at_sorted(kernel.geometry(), q, arcs, &mut ys);
-            for (&i, y) in near.iter().zip(&ys) {
-                let partner = self.partners[i];
+            self.place_near_partners(head, kernel.geometry(), q);
+            for k in 0..self.partner_near.len() {
+                let (partner, y) = (self.partners[self.partner_near[k]], self.partner_y[k]);
                 let (s, w) = (partner.s, partner.weight);
                 let p = rt * (partner.point - head.position);
                 if (y - p).norm() >= partner.reach {
@@ -690,7 +697,6 @@ impl StrandContacts {
                     add_projected(jac, &a, &mut self.aj, &mut out.damping);
                 }
             }
-            (self.partner_near, self.partner_y) = (near, ys);
         }
         self.summary = summary;
         stiffened
@@ -733,11 +739,8 @@ impl StrandContacts {
             // only the partners the samples do not rule out (most of those the search
             // keeps are beyond reach, and contribute nothing) are placed on the strand
             let rt = head.rotation.transpose();
-            let mut near = std::mem::take(&mut self.partner_near);
-            self.near_partners(head, &mut near);
-            let mut ys = std::mem::take(&mut self.partner_y);
-            positions_at_sorted(geom, q, near.iter().map(|&i| self.partners[i].s), &mut ys);
-            for (&i, &y) in near.iter().zip(&ys) {
+            self.place_near_partners(head, geom, q);
+            for (&i, &y) in self.partner_near.iter().zip(&self.partner_y) {
                 let partner = &self.partners[i];
                 let w = partner.weight;
                 let pt = rt * (partner.point - head.position);
@@ -751,8 +754,6 @@ impl StrandContacts {
                     - head.omega.cross(&pt);
                 rate += hh.stiffness * w * overlap * ((y - pt) / d).dot(&vp);
             }
-            self.partner_near = near;
-            self.partner_y = ys;
         }
         (potential, rate)
     }
@@ -836,14 +837,10 @@ impl StrandContacts {
         }
         self.sample_poses(kernel.geometry(), q);
         let rt = head.rotation.transpose();
-        let mut near = std::mem::take(&mut self.partner_near);
-        self.near_partners(head, &mut near);
-        let mut ys = std::mem::take(&mut self.partner_y);
-        let arcs = near.iter().map(|&i| self.partners[i].s);
-        positions_at_sorted(kernel.geometry(), q, arcs, &mut ys);
+        self.place_near_partners(head, kernel.geometry(), q);
         let mut power = 0.0;
-        for (&i, y) in near.iter().zip(&ys) {
-            let partner = self.partners[i];
+        for k in 0..self.partner_near.len() {
+            let (partner, y) = (self.partners[self.partner_near[k]], self.partner_y[k]);
             let p = rt * (partner.point - head.position);
             if (y - p).norm() >= partner.reach {
                 continue;
@@ -856,7 +853,6 @@ impl StrandContacts {
             let vp = rt * (partner.velocity - head.velocity) - head.omega.cross(&p);
             power += hh.damping * partner.weight * vp.dot(&velocity(jac, v));
         }
-        (self.partner_near, self.partner_y) = (near, ys);
         power
     }
 
