@@ -9,12 +9,14 @@
 //!   local triangulation, with their guides and blend weights ([`RenderRoots`]).
 //! - [`semi_interpolation`]: the per-frame blend ([`SemiInterpolation`]): allocation-free,
 //!   in parallel over render strands, f32 output.
-//! - [`clearance`]: the render strands kept out of the scene's bodies ([`KeepOut`]).
+//! - [`clearance`]: the render strands kept out of the scene's bodies ([`KeepOut`]), and
+//!   [`clearance_bodies`]: how each body pushes a point out.
 //! - [`neighbours`]: nearest guide roots through a grid of cells.
 //!
 //! `docs/interpolation.md` describes the model and its parameters.
 
 pub mod clearance;
+pub mod clearance_bodies;
 pub mod neighbours;
 pub mod render_roots;
 pub mod semi_interpolation;

@@ -30,7 +30,7 @@
 //! moves every render point that comes nearer a body than the clearance out of it
 //! ([`super::clearance`]).
 
-use super::clearance::KeepOut;
+use super::clearance::{KeepOut, Row, LANES};
 use super::render_roots::RenderRoots;
 use super::settings::{clump_profile, smoothstep, RenderSettings};
 use crate::bodies::{Body, Placement};
@@ -68,8 +68,8 @@ pub struct SemiInterpolation {
     out: Vec<[f32; 3]>,
     /// The bodies the strands keep out of (`None`: none).
     keep_out: Option<KeepOut>,
-    /// Per chunk of strands, one strand's offsets (only with bodies).
-    scratch: Vec<[f32; 3]>,
+    /// Per chunk of strands, one group's offsets (only with bodies).
+    scratch: Vec<Row>,
 }
 
 impl SemiInterpolation {
@@ -172,7 +172,11 @@ impl SemiInterpolation {
             self.keep_out = None;
             self.scratch = Vec::new();
         } else {
-            self.scratch = vec![[0.0; 3]; self.blends.len().div_ceil(CHUNK) * self.points];
+            self.scratch = vec![
+                [[0.0; LANES]; 3];
+                self.blends.len().div_ceil(CHUNK)
+                    * KeepOut::scratch_len(self.points)
+            ];
             self.keep_out = Some(keep_out);
         }
         self
@@ -264,11 +268,13 @@ impl SemiInterpolation {
                 .out
                 .par_chunks_mut(CHUNK * m)
                 .zip(blends.par_chunks(CHUNK))
-                .zip(self.scratch.par_chunks_mut(m))
-                .for_each(|((out, blends), offsets)| {
-                    for (line, blend) in out.chunks_exact_mut(m).zip(blends) {
-                        blend_strand(line, blend, guide_points, profile, m, &r, tip);
-                        placed.apply(line, offsets);
+                .zip(self.scratch.par_chunks_mut(KeepOut::scratch_len(m)))
+                .for_each(|((out, blends), scratch)| {
+                    for (lines, blends) in out.chunks_mut(LANES * m).zip(blends.chunks(LANES)) {
+                        for (line, blend) in lines.chunks_exact_mut(m).zip(blends) {
+                            blend_strand(line, blend, guide_points, profile, m, &r, tip);
+                        }
+                        placed.apply(lines, blends.len(), m, scratch);
                     }
                 }),
         }
