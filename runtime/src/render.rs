@@ -17,6 +17,7 @@
 
 pub mod clearance;
 pub mod clearance_bodies;
+mod lanes;
 pub mod neighbours;
 pub mod render_roots;
 pub mod semi_interpolation;

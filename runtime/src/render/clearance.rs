@@ -24,16 +24,16 @@
 //! strands are then kept out [`LANES`] at a time: their points are copied into rows (one
 //! point of each of the eight strands, by coordinate) and walked together, forward and
 //! back. At each row every body answers for the eight points at once in closed form
-//! (SIMD, `wide::f32x8`: no branch and no iteration but an early end when no point is
+//! (SIMD, `render/lanes.rs`: no branch and no iteration but an early end when no point is
 //! near), and only a body without a closed form (a cylinder, a mesh) is asked point by
 //! point. A row with nothing near and nothing carried costs the bodies' first tests.
-//! The same code runs on any x86-64; built for AVX2 (`-C target-cpu=x86-64-v3` or
-//! `native`) the eight lanes fill one register instead of two.
+//! The code is generic over the lanes: `wide::f32x8` on the portable path, one AVX
+//! register each on a CPU with AVX2 ([`super::semi_interpolation`] chooses at run time).
 
-use super::clearance_bodies::{Placed, P8};
+use super::clearance_bodies::{Placed, P};
+use super::lanes::Lanes;
 use crate::bodies::{Body, Placement};
 use crate::error::{Error, Result};
-use wide::f32x8;
 
 /// One point (or offset) of each strand of a group, by coordinate.
 pub(super) type Row = [[f32; LANES]; 3];
@@ -79,8 +79,8 @@ impl KeepOut {
 
     /// The bodies placed at `at` (bodies on the head at its state, bodies on their own
     /// motion at their pose of `at.time`), for [`Frame::apply`].
-    pub(super) fn at<'a>(&'a self, at: &Placement) -> Frame<'a> {
-        let bodies: Vec<Placed<'a>> = self
+    pub(super) fn at<'a, L: Lanes>(&'a self, at: &Placement) -> Frame<'a, L> {
+        let bodies: Vec<Placed<'a, L>> = self
             .bodies
             .iter()
             .map(|b| Placed::new(b, b.frame(at).as_ref(), self.clearance))
@@ -97,34 +97,34 @@ impl KeepOut {
 
 /// [`KeepOut`] at one frame: each body placed.
 #[derive(Debug, Clone)]
-pub(super) struct Frame<'a> {
-    bodies: Vec<Placed<'a>>,
+pub(super) struct Frame<'a, L> {
+    bodies: Vec<Placed<'a, L>>,
 }
 
-impl Frame<'_> {
+impl<L: Lanes> Frame<'_, L> {
     /// `x` (eight points, one per lane) pushed out of every body to the clearance (a few
     /// pushes at most): each time out of the deepest body within the clearance; a body
     /// with a closed form is not asked again right after it pushed the point out.
     #[inline(always)]
-    fn push(&self, x: &mut P8) -> bool {
-        let none = f32x8::splat(-1.0);
+    fn push(&self, x: &mut P<L>) -> bool {
+        let none = L::splat(-1.0);
         let mut skip = none;
-        let mut active = f32x8::ZERO.simd_eq(f32x8::ZERO);
+        let mut active = L::splat(0.0).eq(L::splat(0.0));
         let mut pushed = false;
         for _ in 0..MAX_PUSHES {
-            let mut best = f32x8::splat(f32::INFINITY);
+            let mut best = L::splat(f32::INFINITY);
             let mut from = none;
             let mut q = *x;
             for (i, b) in self.bodies.iter().enumerate() {
-                let index = f32x8::splat(i as f32);
-                let asked = active & skip.simd_ne(index);
+                let index = L::splat(i as f32);
+                let asked = active & skip.ne(index);
                 if asked.none() {
                     continue;
                 }
                 let Some((d, p)) = b.push(*x, asked) else {
                     continue;
                 };
-                let take = d.simd_lt(best);
+                let take = d.lt(best);
                 best = take.select(d, best);
                 from = take.select(index, from);
                 q = [
@@ -133,7 +133,7 @@ impl Frame<'_> {
                     take.select(p[2], q[2]),
                 ];
             }
-            active = from.simd_ne(none);
+            active = from.ne(none);
             if active.none() {
                 return pushed;
             }
@@ -142,7 +142,7 @@ impl Frame<'_> {
             skip = from;
             for (i, b) in self.bodies.iter().enumerate() {
                 if b.asked_again() {
-                    skip = from.simd_eq(f32x8::splat(i as f32)).select(none, skip);
+                    skip = from.eq(L::splat(i as f32)).select(none, skip);
                 }
             }
         }
@@ -152,6 +152,7 @@ impl Frame<'_> {
     /// Keep `count` (1 to [`LANES`]) render strands of `m` points each (`lines`, strand
     /// after strand, root first, world) out of the bodies; `scratch` holds
     /// [`KeepOut::scratch_len`]`(m)` rows.
+    #[inline(always)]
     pub(super) fn apply(
         &self,
         lines: &mut [[f32; 3]],
@@ -174,9 +175,11 @@ impl Frame<'_> {
                 row[2][l] = s[2];
             }
         }
-        let zero = f32x8::ZERO;
+        let zero = L::splat(0.0);
         // forward: push out, carry the offset on and ramp it down
         let mut lifted = 0u32;
+        // the first and last rows where a strand moved
+        let (mut first, mut last) = (m, 0);
         let mut carry = [zero; 3];
         let mut carrying = false;
         let mut p = offsets(&rows[1]);
@@ -196,9 +199,10 @@ impl Frame<'_> {
                 delta[1].to_array(),
                 delta[2].to_array(),
             ];
-            let moved = nonzero(delta).to_bitmask() & ((1 << count) - 1);
+            let moved = nonzero(delta).bitmask() & ((1 << count) - 1);
             if moved != 0 {
                 lifted |= moved;
+                (first, last) = (first.min(k), k);
                 let q = [q[0].to_array(), q[1].to_array(), q[2].to_array()];
                 for l in (0..count).filter(|l| moved >> l & 1 == 1) {
                     lines[starts[l] + k] = [q[0][l], q[1][l], q[2][l]];
@@ -216,13 +220,17 @@ impl Frame<'_> {
         if lifted == 0 {
             return;
         }
-        // backward: lift the points before each push by the ramp too
-        let mut next = offsets(&scratch[m - 1]);
-        let mut next_point = offsets(&rows[m - 1]);
-        for k in (1..m - 1).rev() {
+        // backward from the last row that moved: lift the points before each push by the
+        // ramp too, down to where nothing is lifted before the first row that moved
+        let mut next: P<L> = offsets(&scratch[last]);
+        let mut next_point = offsets(&rows[last]);
+        for k in (1..last).rev() {
             let here = offsets(&scratch[k]);
             let point = offsets(&rows[k]);
             if nonzero(next).none() {
+                if k < first {
+                    break;
+                }
                 (next, next_point) = (here, point);
                 continue;
             }
@@ -239,14 +247,14 @@ impl Frame<'_> {
             ];
             let wanted = ramp8(next, dot8(step, step));
             let (have2, want2) = (dot8(here, here), dot8(wanted, wanted));
-            let raise = want2.simd_gt(have2);
-            let lanes = raise.to_bitmask() & ((1 << count) - 1);
+            let raise = want2.gt(have2);
+            let lanes = raise.bitmask() & ((1 << count) - 1);
             if lanes == 0 {
                 (next, next_point) = (here, point);
                 continue;
             }
             // raised by the part of the wanted offset the point lacks: want − have
-            let f = f32x8::ONE - (have2 / want2).sqrt();
+            let f = L::splat(1.0) - (have2 / want2).sqrt();
             let mut q = [
                 point[0] + wanted[0] * f,
                 point[1] + wanted[1] * f,
@@ -275,29 +283,33 @@ impl Frame<'_> {
 
 /// A row in lanes.
 #[inline(always)]
-fn offsets(row: &Row) -> P8 {
-    [f32x8::new(row[0]), f32x8::new(row[1]), f32x8::new(row[2])]
+fn offsets<L: Lanes>(row: &Row) -> P<L> {
+    [
+        L::from_array(row[0]),
+        L::from_array(row[1]),
+        L::from_array(row[2]),
+    ]
 }
 
 /// The lanes where `v` is not zero.
 #[inline(always)]
-fn nonzero(v: P8) -> f32x8 {
-    let zero = f32x8::ZERO;
-    v[0].simd_ne(zero) | v[1].simd_ne(zero) | v[2].simd_ne(zero)
+fn nonzero<L: Lanes>(v: P<L>) -> L {
+    let zero = L::splat(0.0);
+    v[0].ne(zero) | v[1].ne(zero) | v[2].ne(zero)
 }
 
 /// Eight offsets `delta` each shortened by [`RAMP_SLOPE`] × the length whose square is
 /// `length2` (zero once used up, and for a NaN): scaled by 1 − [`RAMP_SLOPE`] √(length2 /
 /// |delta|²), one division and one root.
 #[inline(always)]
-fn ramp8(delta: P8, length2: f32x8) -> P8 {
-    let f = f32x8::ONE - f32x8::splat(RAMP_SLOPE) * (length2 / dot8(delta, delta)).sqrt();
+fn ramp8<L: Lanes>(delta: P<L>, length2: L) -> P<L> {
+    let f = L::splat(1.0) - L::splat(RAMP_SLOPE) * (length2 / dot8(delta, delta)).sqrt();
     // f > 0 fails for a zero offset (√∞ or NaN) and a NaN
-    let f = f.simd_gt(f32x8::ZERO).select(f, f32x8::ZERO);
+    let f = f.gt(L::splat(0.0)).select(f, L::splat(0.0));
     [delta[0] * f, delta[1] * f, delta[2] * f]
 }
 
 #[inline(always)]
-fn dot8(a: P8, b: P8) -> f32x8 {
+fn dot8<L: Lanes>(a: P<L>, b: P<L>) -> L {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }

@@ -27,10 +27,10 @@
 //! the body's coordinates, so that f32 rounding never leaves a pushed point nearer than the
 //! clearance.
 
+use super::lanes::Lanes;
 use crate::bodies::{Body, Shape};
 use nalgebra::{Matrix3, Vector3};
 use superhelix_kernels::head::HeadState;
-use wide::f32x8;
 
 /// How far beyond the clearance a closed-form push aims, in units of f32's epsilon times
 /// the scale of the body's coordinates (the distance of its centre from the world origin
@@ -39,49 +39,49 @@ pub const MARGIN: f32 = 16.0;
 
 /// An ellipsoid (or sphere) at one frame, f32.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Ellipsoid {
-    origin: P8,
+pub(super) struct Ellipsoid<L> {
+    origin: P<L>,
     /// Rows of D⁻¹Rᵀ: world offsets to scaled axes coordinates.
-    to_scaled: [P8; 3],
+    to_scaled: [P<L>; 3],
     /// Rows of R: axes directions to world.
-    from_axes: [P8; 3],
-    inv_a: P8,
-    half_a_min: f32x8,
+    from_axes: [P<L>; 3],
+    inv_a: P<L>,
+    half_a_min: L,
     /// ρ_c²: a point below it is within the clearance.
-    level2: f32x8,
+    level2: L,
     /// The square of the level a point is pushed to (ρ_c plus the margin).
-    target2: f32x8,
+    target2: L,
     /// Unit vector of the shortest axis (axes coordinates): the way out from the centre.
-    shortest: P8,
+    shortest: P<L>,
 }
 
 /// A capsule at one frame, f32.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Capsule {
-    start: P8,
-    axis: P8,
+pub(super) struct Capsule<L> {
+    start: P<L>,
+    axis: P<L>,
     /// 1 / |axis|² (0 for a capsule of no length: a ball).
-    inv_len2: f32x8,
-    radius: f32x8,
+    inv_len2: L,
+    radius: L,
     /// (radius + clearance)²: a point nearer the segment is within the clearance.
-    reach2: f32x8,
+    reach2: L,
     /// Distance from the segment a point is pushed to.
-    target: f32x8,
+    target: L,
     /// A unit vector across the axis: the way out from a point on it.
-    across: P8,
+    across: P<L>,
     /// The middle of the segment, and the square of the radius of a ball about it that
     /// holds every point within the clearance.
-    middle: P8,
-    ball2: f32x8,
+    middle: P<L>,
+    ball2: L,
 }
 
 /// A plane at one frame, f32.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Plane {
-    point: P8,
-    normal: P8,
-    clearance: f32x8,
-    target: f32x8,
+pub(super) struct Plane<L> {
+    point: P<L>,
+    normal: P<L>,
+    clearance: L,
+    target: L,
 }
 
 /// A body without a closed form here (cylinder, mesh) at one frame: its exact query.
@@ -100,13 +100,13 @@ pub(super) struct Queried<'a> {
 // the closed forms hold their constants in every lane, read at every point: kept inline
 // (a frame places a handful of bodies once)
 #[allow(clippy::large_enum_variant)]
-pub(super) enum Placed<'a> {
+pub(super) enum Placed<'a, L> {
     /// A sphere or an ellipsoid.
-    Ellipsoid(Ellipsoid),
+    Ellipsoid(Ellipsoid<L>),
     /// A capsule.
-    Capsule(Capsule),
+    Capsule(Capsule<L>),
     /// A plane.
-    Plane(Plane),
+    Plane(Plane<L>),
     /// A cylinder or a mesh.
     Queried(Queried<'a>),
 }
@@ -116,28 +116,28 @@ fn f32x3(v: &Vector3<f64>) -> [f32; 3] {
 }
 
 /// `v` in every lane.
-fn lanes(v: &Vector3<f64>) -> P8 {
+fn lanes<L: Lanes>(v: &Vector3<f64>) -> P<L> {
     splat3(f32x3(v))
 }
 
 /// `v` in every lane.
-fn lane(v: f64) -> f32x8 {
-    f32x8::splat(v as f32)
+fn lane<L: Lanes>(v: f64) -> L {
+    L::splat(v as f32)
 }
 
 /// The rows of `m`, each in every lane.
-fn rows(m: &Matrix3<f64>) -> [P8; 3] {
+fn rows<L: Lanes>(m: &Matrix3<f64>) -> [P<L>; 3] {
     [0, 1, 2].map(|i| lanes(&m.row(i).transpose()))
 }
 
 /// The unit vector of the smallest entry of `a`, in every lane.
-fn unit_of_smallest(a: &Vector3<f64>) -> P8 {
+fn unit_of_smallest<L: Lanes>(a: &Vector3<f64>) -> P<L> {
     let mut e = Vector3::zeros();
     e[a.imin()] = 1.0;
     lanes(&e)
 }
 
-impl<'a> Placed<'a> {
+impl<'a, L: Lanes> Placed<'a, L> {
     /// `body` in the frame `frame` (`None`: fixed in the world), kept `clearance` away.
     pub(super) fn new(body: &'a Body, frame: Option<&HeadState>, clearance: f64) -> Self {
         let to_world = |y: &Vector3<f64>| match frame {
@@ -231,13 +231,13 @@ impl<'a> Placed<'a> {
     /// out to the clearance (meaningless where the measure is +∞). No branches for the
     /// closed forms but the one that ends early.
     #[inline(always)]
-    pub(super) fn push(&self, x: P8, asked: f32x8) -> Option<(f32x8, P8)> {
+    pub(super) fn push(&self, x: P<L>, asked: L) -> Option<(L, P<L>)> {
         match self {
             Placed::Ellipsoid(e) => e.push(x, asked),
             Placed::Capsule(c) => c.push(x, asked),
             Placed::Plane(p) => p.push(x, asked),
             Placed::Queried(q) => {
-                let lanes = asked.to_bitmask();
+                let lanes = asked.bitmask();
                 let xs = [x[0].to_array(), x[1].to_array(), x[2].to_array()];
                 let (mut depth, mut out) = ([f32::INFINITY; 8], xs);
                 for l in (0..8).filter(|&l| lanes >> l & 1 == 1) {
@@ -248,8 +248,12 @@ impl<'a> Placed<'a> {
                     }
                 }
                 Some((
-                    f32x8::new(depth),
-                    [f32x8::new(out[0]), f32x8::new(out[1]), f32x8::new(out[2])],
+                    L::from_array(depth),
+                    [
+                        L::from_array(out[0]),
+                        L::from_array(out[1]),
+                        L::from_array(out[2]),
+                    ],
                 ))
             }
         }
@@ -257,26 +261,26 @@ impl<'a> Placed<'a> {
 }
 
 /// Eight points, one per lane, by coordinate.
-pub(super) type P8 = [f32x8; 3];
+pub(super) type P<L> = [L; 3];
 
 #[inline(always)]
-fn dot(a: P8, b: P8) -> f32x8 {
+fn dot<L: Lanes>(a: P<L>, b: P<L>) -> L {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 #[inline(always)]
-fn splat3(v: [f32; 3]) -> P8 {
-    [f32x8::splat(v[0]), f32x8::splat(v[1]), f32x8::splat(v[2])]
+fn splat3<L: Lanes>(v: [f32; 3]) -> P<L> {
+    [L::splat(v[0]), L::splat(v[1]), L::splat(v[2])]
 }
 
 #[inline(always)]
-fn times(m: &[P8; 3], v: P8) -> P8 {
+fn times<L: Lanes>(m: &[P<L>; 3], v: P<L>) -> P<L> {
     [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
 }
 
 /// `a` where `mask`, `b` elsewhere.
 #[inline(always)]
-fn select3(mask: f32x8, a: P8, b: P8) -> P8 {
+fn select3<L: Lanes>(mask: L, a: P<L>, b: P<L>) -> P<L> {
     [
         mask.select(a[0], b[0]),
         mask.select(a[1], b[1]),
@@ -285,28 +289,28 @@ fn select3(mask: f32x8, a: P8, b: P8) -> P8 {
 }
 
 #[inline(always)]
-fn sub(a: P8, b: P8) -> P8 {
+fn sub<L: Lanes>(a: P<L>, b: P<L>) -> P<L> {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 #[inline(always)]
-fn along(x: P8, s: f32x8, n: P8) -> P8 {
+fn along<L: Lanes>(x: P<L>, s: L, n: P<L>) -> P<L> {
     [x[0] + s * n[0], x[1] + s * n[1], x[2] + s * n[2]]
 }
 
 /// The depth where `within`, +∞ elsewhere.
 #[inline(always)]
-fn depth_within(within: f32x8, depth: f32x8) -> f32x8 {
-    within.select(depth, f32x8::splat(f32::INFINITY))
+fn depth_within<L: Lanes>(within: L, depth: L) -> L {
+    within.select(depth, L::splat(f32::INFINITY))
 }
 
-impl Ellipsoid {
+impl<L: Lanes> Ellipsoid<L> {
     /// [`Placed::push`] for an ellipsoid.
     #[inline(always)]
-    fn push(&self, x: P8, asked: f32x8) -> Option<(f32x8, P8)> {
+    fn push(&self, x: P<L>, asked: L) -> Option<(L, P<L>)> {
         let v = times(&self.to_scaled, sub(x, self.origin));
         let rho2 = dot(v, v);
-        let within = asked & rho2.simd_lt(self.level2);
+        let within = asked & rho2.lt(self.level2);
         if within.none() {
             return None;
         }
@@ -314,7 +318,7 @@ impl Ellipsoid {
         // the gradient of ρ in the axes, ∝ g = D⁻¹v (not normalised: the step s along it
         // comes out in its units); from the centre, the shortest axis
         let g = [v[0] * inv_a[0], v[1] * inv_a[1], v[2] * inv_a[2]];
-        let centre = dot(g, g).simd_le(f32x8::splat(f32::MIN_POSITIVE));
+        let centre = dot(g, g).le(L::splat(f32::MIN_POSITIVE));
         let n = select3(centre, self.shortest, g);
         // the motion of v for a unit step along n
         let w = [n[0] * inv_a[0], n[1] * inv_a[1], n[2] * inv_a[2]];
@@ -323,44 +327,44 @@ impl Ellipsoid {
         let s = rise / (vw + (vw * vw + ww * rise).sqrt());
         let out = times(&self.from_axes, n);
         // a depth measure without a root: (ρ² − 1) min aᵢ / 2 ≈ (ρ − 1) min aᵢ
-        let depth = (rho2 - f32x8::ONE) * self.half_a_min;
+        let depth = (rho2 - L::splat(1.0)) * self.half_a_min;
         Some((depth_within(within, depth), along(x, s, out)))
     }
 }
 
-impl Capsule {
+impl<L: Lanes> Capsule<L> {
     /// [`Placed::push`] for a capsule: first the ball about it.
     #[inline(always)]
-    fn push(&self, x: P8, asked: f32x8) -> Option<(f32x8, P8)> {
+    fn push(&self, x: P<L>, asked: L) -> Option<(L, P<L>)> {
         let m = sub(x, self.middle);
-        if (asked & dot(m, m).simd_lt(self.ball2)).none() {
+        if (asked & dot(m, m).lt(self.ball2)).none() {
             return None;
         }
         let axis = self.axis;
         let d = sub(x, self.start);
         let t = (dot(d, axis) * self.inv_len2)
-            .max(f32x8::ZERO)
-            .min(f32x8::ONE);
+            .max(L::splat(0.0))
+            .min(L::splat(1.0));
         let e = [d[0] - t * axis[0], d[1] - t * axis[1], d[2] - t * axis[2]];
         let e2 = dot(e, e);
         let len = e2.sqrt();
         // out along e by (target − |e|) / |e| of it; from the axis, across it
-        let on_axis = e2.simd_le(f32x8::splat(f32::MIN_POSITIVE));
+        let on_axis = e2.le(L::splat(f32::MIN_POSITIVE));
         let n = select3(on_axis, self.across, e);
         let s = on_axis.select(self.target, (self.target - len) / len);
-        let within = asked & e2.simd_lt(self.reach2);
+        let within = asked & e2.lt(self.reach2);
         let depth = len - self.radius;
         Some((depth_within(within, depth), along(x, s, n)))
     }
 }
 
-impl Plane {
+impl<L: Lanes> Plane<L> {
     /// [`Placed::push`] for a plane.
     #[inline(always)]
-    fn push(&self, x: P8, asked: f32x8) -> Option<(f32x8, P8)> {
+    fn push(&self, x: P<L>, asked: L) -> Option<(L, P<L>)> {
         let normal = self.normal;
         let distance = dot(sub(x, self.point), normal);
-        let within = asked & distance.simd_lt(self.clearance);
+        let within = asked & distance.lt(self.clearance);
         if within.none() {
             return None;
         }

@@ -30,13 +30,17 @@
 //! moves every render point that comes nearer a body than the clearance out of it
 //! ([`super::clearance`]).
 
-use super::clearance::{KeepOut, Row, LANES};
+use super::clearance::{Frame, KeepOut, Row, LANES};
+#[cfg(target_arch = "x86_64")]
+use super::lanes::Avx;
+use super::lanes::Lanes;
 use super::render_roots::RenderRoots;
 use super::settings::{clump_profile, smoothstep, RenderSettings};
 use crate::bodies::{Body, Placement};
 use crate::error::{Error, Result};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
+use wide::f32x8;
 
 /// Render strands per parallel task.
 const CHUNK: usize = 256;
@@ -70,6 +74,8 @@ pub struct SemiInterpolation {
     keep_out: Option<KeepOut>,
     /// Per chunk of strands, one group's offsets (only with bodies).
     scratch: Vec<Row>,
+    /// Use the portable SIMD path even on a CPU with AVX2 (to compare the two).
+    portable: bool,
 }
 
 impl SemiInterpolation {
@@ -162,6 +168,7 @@ impl SemiInterpolation {
             out: vec![[0.0; 3]; strands * points],
             keep_out: None,
             scratch: Vec::new(),
+            portable: false,
         })
     }
 
@@ -179,6 +186,13 @@ impl SemiInterpolation {
             ];
             self.keep_out = Some(keep_out);
         }
+        self
+    }
+
+    /// The same strands computed on the portable SIMD path even on a CPU with AVX2.
+    #[cfg(test)]
+    pub(super) fn portable(mut self) -> Self {
+        self.portable = true;
         self
     }
 
@@ -246,37 +260,48 @@ impl SemiInterpolation {
         for (b, p) in self.guide_points.iter_mut().zip(guides) {
             *b = p.map(|v| v as f32);
         }
-        let r = rotation.map(|v| v as f32);
         let m = self.points;
-        let (guide_points, profile, blends) = (&self.guide_points, &self.profile, &self.blends);
-        let tip = self.tip_distance;
-        let placed = match (head, &self.keep_out) {
-            (Some(head), Some(keep)) => Some(keep.at(head)),
-            _ => None,
+        let inputs = Inputs {
+            guide_points: &self.guide_points,
+            profile: &self.profile,
+            m,
+            r: rotation.map(|v| v as f32),
+            tip: self.tip_distance,
         };
-        match placed {
-            None => self
-                .out
-                .par_chunks_mut(CHUNK * m)
-                .zip(blends.par_chunks(CHUNK))
-                .for_each(|(out, blends)| {
-                    for (line, blend) in out.chunks_exact_mut(m).zip(blends) {
-                        blend_strand(line, blend, guide_points, profile, m, &r, tip);
-                    }
-                }),
-            Some(ref placed) => self
-                .out
-                .par_chunks_mut(CHUNK * m)
-                .zip(blends.par_chunks(CHUNK))
-                .zip(self.scratch.par_chunks_mut(KeepOut::scratch_len(m)))
-                .for_each(|((out, blends), scratch)| {
-                    for (lines, blends) in out.chunks_mut(LANES * m).zip(blends.chunks(LANES)) {
-                        for (line, blend) in lines.chunks_exact_mut(m).zip(blends) {
-                            blend_strand(line, blend, guide_points, profile, m, &r, tip);
-                        }
-                        placed.apply(lines, blends.len(), m, scratch);
-                    }
-                }),
+        let blends = &self.blends;
+        let avx2 = !self.portable && has_avx2();
+        let strands = self
+            .out
+            .par_chunks_mut(CHUNK * m)
+            .zip(blends.par_chunks(CHUNK));
+        match (head, &self.keep_out) {
+            (Some(head), Some(keep)) => {
+                let scratch = self.scratch.par_chunks_mut(KeepOut::scratch_len(m));
+                #[cfg(target_arch = "x86_64")]
+                if avx2 {
+                    let placed = keep.at::<Avx>(head);
+                    strands.zip(scratch).for_each(|((out, blends), scratch)| {
+                        // SAFETY: the CPU has AVX2 (`has_avx2`)
+                        unsafe { blend_kept_avx2(&inputs, out, blends, &placed, scratch) }
+                    });
+                    return Ok(&self.out);
+                }
+                let placed = keep.at::<f32x8>(head);
+                strands.zip(scratch).for_each(|((out, blends), scratch)| {
+                    inputs.blend_kept(out, blends, &placed, scratch)
+                });
+            }
+            _ => {
+                #[cfg(target_arch = "x86_64")]
+                if avx2 {
+                    strands.for_each(|(out, blends)| {
+                        // SAFETY: the CPU has AVX2 (`has_avx2`)
+                        unsafe { blend_avx2(&inputs, out, blends) }
+                    });
+                    return Ok(&self.out);
+                }
+                strands.for_each(|(out, blends)| inputs.blend(out, blends));
+            }
         }
         Ok(&self.out)
     }
@@ -305,6 +330,81 @@ impl SemiInterpolation {
         let w = tip_weights(b, &tips, self.tip_distance);
         Some((b.guides, w.map(f64::from)))
     }
+}
+
+/// What every chunk of render strands reads at one frame.
+struct Inputs<'x> {
+    guide_points: &'x [[f32; 3]],
+    profile: &'x [f32],
+    m: usize,
+    r: Matrix3<f32>,
+    tip: Option<f32>,
+}
+
+impl Inputs<'_> {
+    /// Blend the strands `blends` into `out`.
+    #[inline(always)]
+    fn blend(&self, out: &mut [[f32; 3]], blends: &[Blend]) {
+        for (line, blend) in out.chunks_exact_mut(self.m).zip(blends) {
+            blend_strand(
+                line,
+                blend,
+                self.guide_points,
+                self.profile,
+                self.m,
+                &self.r,
+                self.tip,
+            );
+        }
+    }
+
+    /// Blend the strands `blends` into `out`, eight at a time, each eight then kept out of
+    /// the bodies `placed`.
+    #[inline(always)]
+    fn blend_kept<L: Lanes>(
+        &self,
+        out: &mut [[f32; 3]],
+        blends: &[Blend],
+        placed: &Frame<L>,
+        scratch: &mut [Row],
+    ) {
+        for (lines, blends) in out.chunks_mut(LANES * self.m).zip(blends.chunks(LANES)) {
+            self.blend(lines, blends);
+            placed.apply(lines, blends.len(), self.m, scratch);
+        }
+    }
+}
+
+/// Whether the CPU has AVX2 (the render strands then use the AVX2 copies below).
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// [`Inputs::blend`] compiled with AVX2: the same operations, eight lanes to a register.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn blend_avx2(inputs: &Inputs, out: &mut [[f32; 3]], blends: &[Blend]) {
+    inputs.blend(out, blends)
+}
+
+/// [`Inputs::blend_kept`] compiled with AVX2, on [`Avx`] lanes.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn blend_kept_avx2(
+    inputs: &Inputs,
+    out: &mut [[f32; 3]],
+    blends: &[Blend],
+    placed: &Frame<Avx>,
+    scratch: &mut [Row],
+) {
+    inputs.blend_kept(out, blends, placed, scratch)
 }
 
 /// The guides must be a whole number of polylines of `points` ≥ 2 finite points.
@@ -368,7 +468,7 @@ fn tip_weights(b: &Blend, tips: &[[f32; 3]; 3], tip_distance: Option<f32>) -> [f
 }
 
 /// One render strand's points into `line`.
-#[inline]
+#[inline(always)]
 fn blend_strand(
     line: &mut [[f32; 3]],
     b: &Blend,

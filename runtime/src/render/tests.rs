@@ -724,7 +724,7 @@ fn each_body_pushes_a_point_to_the_clearance_along_its_normal() {
             attached: Attachment::Head,
             shape,
         };
-        let placed = Placed::new(&body, body.frame(&at).as_ref(), clearance);
+        let placed: Placed<f32x8> = Placed::new(&body, body.frame(&at).as_ref(), clearance);
         // the farthest an ellipsoid's push may end: c max aᵢ / min aᵢ (c for the others)
         let farthest = match &body.shape {
             Shape::Ellipsoid(e) => clearance * e.radii.max() / e.radii.min(),
@@ -888,5 +888,47 @@ fn render_strands_keep_out_of_a_cylinder_and_a_floor() {
             body.name
         );
         assert!(gap > clearance - 1e-7, "{}: {gap:e} m", body.name);
+    }
+}
+
+#[test]
+fn render_strands_are_the_same_on_the_avx2_path_and_the_portable_one() {
+    // on a CPU with AVX2 the blend and the keep-out run as AVX2 copies; they do the same
+    // operations in the same order and give the same bits (on a CPU without AVX2 both runs
+    // take the portable path)
+    use super::clearance::KeepOut;
+    use crate::bodies::shape_capsule::Capsule;
+    use superhelix_kernels::head::HeadState;
+    let radii = [0.075, 0.09, 0.1];
+    let rest = wrapped_guides(radii);
+    let bodies = vec![
+        head_body(radii),
+        Body {
+            name: "shoulder".into(),
+            attached: Attachment::World,
+            shape: Shape::Capsule(Capsule {
+                start: Vector3::new(0.0, 0.0, -0.16),
+                end: Vector3::new(0.0, 0.2, -0.18),
+                radius: 0.05,
+            }),
+        },
+    ];
+    let head = HeadState {
+        rotation: Rotation3::from_axis_angle(&Vector3::z_axis(), 0.3).into_inner(),
+        ..HeadState::rest()
+    };
+    let guides = world(&rest.iter().map(|p| head.to_world(p)).collect::<Vec<_>>());
+    let s = RenderSettings {
+        max_spacing: Some(0.035),
+        ..settings(1003, 0.3)
+    };
+    let plain = ok(SemiInterpolation::new(&s, &rest, M, Some(&bodies[0])));
+    let kept = plain.clone().keep_out(ok(KeepOut::new(bodies, 5e-5)));
+    let at = Placement::new(head, 0.0);
+    for (mut detected, name) in [(plain, "blend"), (kept, "kept out")] {
+        let mut portable = detected.clone().portable();
+        let a = ok(detected.frame_at(&guides, &at)).to_vec();
+        let b = ok(portable.frame_at(&guides, &at)).to_vec();
+        assert!(a == b, "{name}: the two paths differ");
     }
 }
