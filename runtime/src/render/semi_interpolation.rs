@@ -72,7 +72,7 @@ pub struct SemiInterpolation {
     out: Vec<[f32; 3]>,
     /// The bodies the strands keep out of (`None`: none).
     keep_out: Option<KeepOut>,
-    /// Per chunk of strands, one group's offsets (only with bodies).
+    /// Per chunk of strands, one group's rows of points and offsets (only with bodies).
     scratch: Vec<Row>,
     /// Use the portable SIMD path even on a CPU with AVX2 (to compare the two).
     portable: bool,
@@ -269,6 +269,7 @@ impl SemiInterpolation {
             tip: self.tip_distance,
         };
         let blends = &self.blends;
+        #[cfg_attr(not(target_arch = "x86_64"), allow(unused_variables))]
         let avx2 = !self.portable && has_avx2();
         let strands = self
             .out
