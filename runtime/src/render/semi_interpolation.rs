@@ -376,16 +376,21 @@ impl Inputs<'_> {
     }
 }
 
-/// Whether the CPU has AVX2 (the render strands then use the AVX2 copies below).
+/// Set (to anything) in the environment, the render strands take the portable path even
+/// on a CPU with AVX2 (to measure it; the results are the same bits).
+pub const PORTABLE_SIMD_VARIABLE: &str = "SUPERHELIX_PORTABLE_SIMD";
+
+/// Whether the CPU has AVX2 and [`PORTABLE_SIMD_VARIABLE`] is not set (the render strands
+/// then use the AVX2 copies below); asked once.
 fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
+    static AVX2: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *AVX2.get_or_init(|| {
+        #[cfg(target_arch = "x86_64")]
+        let avx2 = std::arch::is_x86_feature_detected!("avx2");
+        #[cfg(not(target_arch = "x86_64"))]
+        let avx2 = false;
+        avx2 && std::env::var_os(PORTABLE_SIMD_VARIABLE).is_none()
+    })
 }
 
 /// [`Inputs::blend`] compiled with AVX2: the same operations, eight lanes to a register.
