@@ -115,6 +115,8 @@ pub struct BenchOptions {
     pub length: f64,
     /// The engine stepping the strands.
     pub engine: Engine,
+    /// The deepest split of a step (`[simulation] max_split_depth`).
+    pub max_split_depth: usize,
 }
 
 impl Default for BenchOptions {
@@ -131,6 +133,7 @@ impl Default for BenchOptions {
             dt: 1.0 / 30.0,
             length: 0.2,
             engine: Engine::Runtime,
+            max_split_depth: SimulationConfig::default().max_split_depth,
         }
     }
 }
@@ -154,6 +157,9 @@ pub struct BenchReport {
     pub energy_rejected: usize,
     /// Steps whose excess kinetic energy was removed from the velocities.
     pub energy_limited: usize,
+    /// Steps at the deepest split allowed whose rotation was limited
+    /// (`StepStats::rotation_limited`).
+    pub rotation_limited: usize,
     /// Implicit (sub)steps solved, accepted or not.
     pub attempts: usize,
     /// Description of the kernel of strand 0.
@@ -257,6 +263,7 @@ pub fn setup(o: &BenchOptions) -> Result<SimulationSetup> {
             kernels: o.kernels,
             quadrature: o.quadrature,
             engine: o.engine,
+            max_split_depth: o.max_split_depth,
             ..SimulationConfig::default()
         },
         environment: Environment {
@@ -366,6 +373,7 @@ pub fn bench_setup(setup: SimulationSetup, steps: usize) -> Result<BenchReport> 
         substeps: sim.stats().substeps,
         energy_rejected: sim.stats().energy_rejected,
         energy_limited: sim.stats().energy_limited,
+        rotation_limited: sim.stats().rotation_limited,
         attempts: sim.stats().attempts,
         kernel: sim.kernel_description(0),
         threads: rayon::current_num_threads(),

@@ -11,6 +11,7 @@ use crate::forces::environment::Environment;
 use crate::forces::head_motion::HeadMotion;
 use crate::kernels::generic::QuadratureRule;
 use crate::model::strand::Strand;
+use superhelix_kernels::energy::MAX_SUBSTEP_DEPTH;
 
 /// Dynamic time stepping or static equilibrium.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -144,6 +145,13 @@ pub struct SimulationConfig {
     pub quadrature: QuadratureRule,
     /// The engine that steps the strands.
     pub engine: Engine,
+    /// How many times an implicit step may be halved, 0 to [`MAX_SUBSTEP_DEPTH`]
+    /// (`[simulation] max_split_depth`): at most 2^depth solves per step and strand
+    /// (plus the rejected tries). Below the default the cost per step is bounded and a
+    /// step that would still rotate an element too far is limited instead of split (see
+    /// [`StepStats::rotation_limited`](crate::solver::StepStats)); accuracy is traded
+    /// for a fixed budget.
+    pub max_split_depth: usize,
 }
 
 impl Default for SimulationConfig {
@@ -157,6 +165,7 @@ impl Default for SimulationConfig {
             kernels: KernelChoice::Auto,
             quadrature: QuadratureRule::default(),
             engine: Engine::Runtime,
+            max_split_depth: MAX_SUBSTEP_DEPTH,
         }
     }
 }

@@ -36,6 +36,7 @@ use crate::simulation::Simulation;
 use reader::{Bound, Errors, Node, Range};
 use std::path::Path;
 use strands::StrandDefaults;
+use superhelix_kernels::energy::MAX_SUBSTEP_DEPTH;
 use toml::{Table, Value};
 
 pub use assembly::MAX_STRANDS;
@@ -252,6 +253,14 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
     let engine = n.optional("engine", d.engine, |n, k| {
         n.choice(k, &["runtime", "embedded"], Engine::from_name)
     });
+    let max_split_depth = n.optional("max_split_depth", d.max_split_depth, |n, k| {
+        n.count(
+            k,
+            0,
+            MAX_SUBSTEP_DEPTH as i64,
+            "the deepest split of a step (2^8 substeps)",
+        )
+    });
     let config = SimulationConfig {
         mode: mode.unwrap_or(d.mode),
         dt: dt.unwrap_or(d.dt),
@@ -261,6 +270,7 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
         kernels: kernels.unwrap_or(d.kernels),
         quadrature: quadrature.unwrap_or(d.quadrature),
         engine: engine.unwrap_or(d.engine),
+        max_split_depth: max_split_depth.unwrap_or(d.max_split_depth),
     };
     if dt.is_some() && duration.is_some() && fps.is_some() {
         check_run_size(&n, &config);

@@ -180,6 +180,16 @@ fn embedded_strands(
             ),
         ));
     }
+    if c.max_split_depth != superhelix_kernels::energy::MAX_SUBSTEP_DEPTH {
+        errors.push(FieldError::new(
+            "simulation.max_split_depth",
+            format!(
+                "the embedded engine splits its steps up to {} levels deep; max_split_depth = {} needs engine = \"runtime\"",
+                superhelix_kernels::energy::MAX_SUBSTEP_DEPTH,
+                c.max_split_depth
+            ),
+        ));
+    }
     if c.mode == Mode::Static {
         errors.push(FieldError::new(
             "simulation.engine",
@@ -401,6 +411,7 @@ impl Simulation {
                 head_moves,
             },
             integrator: setup.config.integrator,
+            max_split_depth: setup.config.max_split_depth,
         };
         let head0 = Placement::new(setup.head.state(0.0), 0.0);
         let rk4_dt = (setup.config.integrator == IntegratorKind::Rk4
@@ -1071,6 +1082,7 @@ impl Simulation {
                     head_moves,
                 },
                 integrator: IntegratorKind::LinearlyImplicitEuler,
+                max_split_depth: superhelix_kernels::energy::MAX_SUBSTEP_DEPTH,
             },
         )
     }

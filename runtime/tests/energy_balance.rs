@@ -51,6 +51,7 @@ fn balance_sums(sim: &mut Simulation, head: &HeadMotion, steps: usize) -> (f64, 
             head_moves: true,
         },
         integrator: IntegratorKind::default(),
+        max_split_depth: superhelix_kernels::energy::MAX_SUBSTEP_DEPTH,
     };
     let mut system = StrandSystem::new(strand, Box::new(kernel), context);
     let mut at = |sim: &Simulation| -> StateEnergy {

@@ -57,6 +57,11 @@ pub struct BenchArgs {
     /// and shared-core effects of parallel runs.
     #[arg(long)]
     threads: Option<usize>,
+    /// The deepest split of a step, 0 to 8 (default 8, or the scene's
+    /// `[simulation] max_split_depth`): at most 2^depth solves per strand-step; 0 is a
+    /// fixed cost of one solve per strand-step.
+    #[arg(long)]
+    max_split_depth: Option<usize>,
 }
 
 /// Run `bench`.
@@ -90,6 +95,10 @@ fn bench_generated(args: &BenchArgs) -> Result<ExitCode, Error> {
         },
         length: args.length,
         engine: engine(args.engine.as_deref().unwrap_or("runtime"))?,
+        max_split_depth: match args.max_split_depth {
+            Some(d) => split_depth(d)?,
+            None => BenchOptions::default().max_split_depth,
+        },
         ..BenchOptions::default()
     };
     let report = bench(&options)?;
@@ -123,6 +132,9 @@ fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
     if let Some(name) = &args.engine {
         setup.config.engine = engine(name)?;
     }
+    if let Some(d) = args.max_split_depth {
+        setup.config.max_split_depth = split_depth(d)?;
+    }
     let names = scene_effects(&setup).names().join(",");
     let integrator = setup.config.integrator.name();
     let steps = args.steps;
@@ -136,6 +148,18 @@ fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// `--max-split-depth`, checked.
+fn split_depth(d: usize) -> Result<usize, Error> {
+    let max = superhelix::runtime::config::SimulationConfig::default().max_split_depth;
+    if d > max {
+        return Err(Error::invalid(
+            "--max-split-depth",
+            format!("{d}: must be in 0..={max}"),
+        ));
+    }
+    Ok(d)
+}
+
 /// The engine named by `--engine`.
 fn engine(name: &str) -> Result<superhelix::runtime::config::Engine, Error> {
     superhelix::runtime::config::Engine::from_name(name)
@@ -145,13 +169,14 @@ fn engine(name: &str) -> Result<superhelix::runtime::config::Engine, Error> {
 fn print_report(report: &BenchReport) {
     let solves = report.attempts;
     println!(
-        "wall {:.3} s, {:.2} us per strand-step, {} substeps ({} for the energy balance, {} for a rotation, a contact or a failure), {} energy-limited, {} threads",
+        "wall {:.3} s, {:.2} us per strand-step, {} substeps ({} for the energy balance, {} for a rotation, a contact or a failure), {} energy-limited, {} rotation-limited, {} threads",
         report.seconds,
         1e6 / report.strand_steps_per_second,
         report.substeps,
         report.energy_rejected,
         report.substeps - report.energy_rejected.min(report.substeps),
         report.energy_limited,
+        report.rotation_limited,
         report.threads,
     );
     if let Some(cpu) = report.cpu_seconds {

@@ -41,7 +41,10 @@ pub fn step(
                 && kind == IntegratorKind::LinearlyImplicitEuler
                 && system.contacts.is_none()
             {
-                system.workspace.split_hint
+                system
+                    .workspace
+                    .split_hint
+                    .min(system.context.max_split_depth)
             } else {
                 0
             };
@@ -155,7 +158,8 @@ fn implicit_adaptive(
     ws.saved_q.copy_from_slice(&state.q);
     ws.saved_v.copy_from_slice(&state.v);
     let prev_h = ws.prev_h;
-    let deepest = interval.depth == MAX_SUBSTEP_DEPTH;
+    let max_depth = system.context.max_split_depth.min(MAX_SUBSTEP_DEPTH);
+    let deepest = interval.depth >= max_depth;
     let unconverged_before = stats.newton_unconverged;
     let mut outcome = match kind {
         IntegratorKind::NewtonImplicitEuler => {
@@ -182,7 +186,7 @@ fn implicit_adaptive(
     }
     stats.attempts += 1;
     let finite = state.q.iter().chain(state.v.iter()).all(|x| x.is_finite());
-    let rotation = if outcome.is_ok() && finite {
+    let mut rotation = if outcome.is_ok() && finite {
         max_element_rotation(
             &system.strand.geometry.lengths,
             &state.q,
@@ -191,25 +195,42 @@ fn implicit_adaptive(
     } else {
         f64::INFINITY
     };
+    // at the deepest split the contacts' approach check could not split the step: skipped
     let acceptable = outcome.is_ok()
         && finite
         && rotation <= MAX_ELEMENT_ROTATION
-        && match &mut system.contacts {
-            Some(c) => c.step_acceptable(
-                &interval.at_start(),
-                &interval.at_end(),
-                &system.strand.geometry,
-                &system.workspace.saved_q,
-                &state.q,
-            ),
-            None => true,
-        };
+        && (deepest
+            || match &mut system.contacts {
+                Some(c) => c.step_acceptable(
+                    &interval.at_start(),
+                    &interval.at_end(),
+                    &system.strand.geometry,
+                    &system.workspace.saved_q,
+                    &state.q,
+                ),
+                None => true,
+            });
     if acceptable || deepest {
         outcome?;
         if !finite {
             return Err(format!(
                 "non-finite state after a substep of {h:.3e} s (at the deepest split)"
             ));
+        }
+        if rotation > MAX_ELEMENT_ROTATION {
+            // the deepest split allowed still rotates an element too far: the change of q
+            // and the velocities are scaled to the rotation limit (beyond it the step's
+            // linearisation of M(q) and b no longer holds)
+            let lambda = MAX_ELEMENT_ROTATION / rotation;
+            let q0 = &system.workspace.saved_q;
+            for (x, x0) in state.q.iter_mut().zip(q0) {
+                *x = x0 + lambda * (*x - x0);
+            }
+            for x in state.v.iter_mut() {
+                *x *= lambda;
+            }
+            rotation = MAX_ELEMENT_ROTATION;
+            stats.rotation_limited += 1;
         }
         let ws = &mut system.workspace;
         ws.rotation_estimate = ws
@@ -271,7 +292,7 @@ fn implicit_adaptive(
         && rotation.is_finite()
         && rotation > MAX_ELEMENT_ROTATION
     {
-        rotation_split_levels(rotation, interval.depth)
+        rotation_split_levels(rotation, interval.depth).min(max_depth - interval.depth)
     } else {
         1
     };

@@ -25,6 +25,11 @@ pub struct StepStats {
     /// Steps accepted at the deepest substep although their energy exceeds the balance
     /// (the potential energy alone above the bound, so that no velocity scaling can help).
     pub energy_unbalanced: usize,
+    /// Steps taken at the deepest split allowed (`[simulation] max_split_depth`) that
+    /// would have rotated an element by more than
+    /// [`MAX_ELEMENT_ROTATION`](crate::solver::adaptive::MAX_ELEMENT_ROTATION): their
+    /// change of q and their velocities were scaled down to that rotation.
+    pub rotation_limited: usize,
 }
 
 impl StepStats {
@@ -38,5 +43,6 @@ impl StepStats {
         self.energy_rejected += o.energy_rejected;
         self.energy_limited += o.energy_limited;
         self.energy_unbalanced += o.energy_unbalanced;
+        self.rotation_limited += o.rotation_limited;
     }
 }

@@ -99,6 +99,9 @@ pub struct StepContext {
     pub effects: GlobalEffects,
     /// The time integrator.
     pub integrator: IntegratorKind,
+    /// The deepest split of an implicit step, 0 to
+    /// [`MAX_SUBSTEP_DEPTH`](superhelix_kernels::energy::MAX_SUBSTEP_DEPTH).
+    pub max_split_depth: usize,
 }
 
 /// The state of one strand: generalized coordinates q and velocities q̇ (3N each).

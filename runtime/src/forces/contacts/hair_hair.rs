@@ -13,12 +13,13 @@
 //!    motion is coherent), and a pair whose points drifted apart beyond the search
 //!    distance is dropped;
 //! 2. every `search_every` steps a broad phase finds new pairs: the samples of every
-//!    strand are hashed on a grid of cells of the search distance (the reach plus twice
-//!    the largest motion of a sample over the last step, or the distance a point at rest
-//!    falls in two steps when that is more; between 2 and 1 + [`SEARCH_MARGIN`] reaches),
-//!    and
-//!    the sample pairs of different strands within it that are local minima of the
-//!    distance along both chains become pairs;
+//!    strand are filed on a grid, and the sample pairs of different strands within their
+//!    search distance that are local minima of the distance along both chains become
+//!    pairs. Each sample searches as far as the reach plus twice its own motion over the
+//!    last step, or the distance a point at rest falls in two steps when that is more
+//!    (between 2 and 1 + [`SEARCH_MARGIN`] reaches); a pair within the larger of its two
+//!    samples' distances is found, so a few fast samples (a whipping tip) do not widen
+//!    the search of all the others;
 //! 3. each pair is refined to the closest points of the two polylines near its samples
 //!    (segment against segment), and gives each of its two strands a
 //!    [`super::PartnerPoint`]: its own arc length there, and the other side's point and
@@ -35,6 +36,7 @@
 
 use super::strand_contacts::PartnerPoint;
 use nalgebra::Vector3;
+use rayon::prelude::*;
 use std::collections::HashMap;
 
 /// Most margin the search adds to the reach, in reaches: two strands approaching each
@@ -56,7 +58,8 @@ pub struct Pair {
 pub struct HairHair {
     pairs: Vec<Pair>,
     previous: Vec<Vec<Vector3<f64>>>,
-    grid: HashMap<[i64; 3], Vec<(u32, u32)>>,
+    /// The broad phase's samples by cell (kept for its allocation).
+    grid: Vec<Filed>,
     steps: usize,
     search_every: usize,
     tracked_last: usize,
@@ -159,21 +162,35 @@ impl HairHair {
         h: f64,
         fall: f64,
     ) -> Vec<Vec<PartnerPoint>> {
-        // the search reaches as far as the samples moved over the last step, twice (a pair
-        // must exist before the two points meet: the step that brings them together is
-        // split by the strand's contact check until it resolves the approach)
-        let moved = self
-            .previous
+        // the search reaches as far as the two samples of a pair moved over the last
+        // step, twice the larger (a pair must exist before the two points meet: the step
+        // that brings them together is split by the strand's contact check until it
+        // resolves the approach); the grid's cells are as large as the smallest search
+        let motion: Vec<Vec<f64>> = points
+            .par_iter()
+            .enumerate()
+            .map(|(i, chain)| match self.previous.get(i) {
+                Some(prev) if prev.len() == chain.len() => chain
+                    .iter()
+                    .zip(prev)
+                    .map(|(x, y)| (x - y).norm())
+                    .collect(),
+                _ => vec![0.0; chain.len()],
+            })
+            .collect();
+        let margin = |m: f64| (2.0 * m).max(fall).clamp(reach, SEARCH_MARGIN * reach);
+        let radius: Vec<Vec<f64>> = motion
             .iter()
-            .zip(points)
-            .filter(|(a, b)| a.len() == b.len())
-            .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).norm()))
-            .fold(0.0, f64::max);
-        let reach_search = reach + (2.0 * moved).max(fall).clamp(reach, SEARCH_MARGIN * reach);
+            .map(|chain| chain.iter().map(|&m| reach + margin(m)).collect())
+            .collect();
+        let search2 = |a: (usize, usize), b: (usize, usize)| {
+            let r = radius[a.0][a.1].max(radius[b.0][b.1]);
+            r * r
+        };
         // 1. track
         let mut tracked: Vec<Pair> = self
             .pairs
-            .iter()
+            .par_iter()
             .filter(|p| p.a.0 < points.len() && p.b.0 < points.len())
             .map(|p| {
                 let mut p = *p;
@@ -187,7 +204,7 @@ impl HairHair {
                 }
                 p
             })
-            .filter(|p| dist2(points, p.a, p.b) < reach_search * reach_search)
+            .filter(|p| dist2(points, p.a, p.b) < search2(p.a, p.b))
             .collect();
         tracked.sort_unstable();
         tracked.dedup();
@@ -203,67 +220,11 @@ impl HairHair {
         let mut found = 0;
         let mut new_pairs = Vec::new();
         if self.steps % self.search_every == 0 {
-            self.grid.values_mut().for_each(Vec::clear);
-            let cell = reach_search;
-            let key = |x: &Vector3<f64>| {
-                [
-                    (x.x / cell).floor() as i64,
-                    (x.y / cell).floor() as i64,
-                    (x.z / cell).floor() as i64,
-                ]
-            };
-            for (i, chain) in points.iter().enumerate() {
-                for (k, x) in chain.iter().enumerate() {
-                    if x.iter().all(|c| c.is_finite()) {
-                        self.grid
-                            .entry(key(x))
-                            .or_default()
-                            .push((i as u32, k as u32));
-                    }
-                }
-            }
-            self.grid.retain(|_, v| !v.is_empty());
-            let r2 = reach_search * reach_search;
-            let mut candidates = Vec::new();
-            for (c, list) in &self.grid {
-                for dx in -1..=1 {
-                    for dy in -1..=1 {
-                        for dz in -1..=1 {
-                            let Some(other) = self.grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz])
-                            else {
-                                continue;
-                            };
-                            for &(i, k) in list {
-                                for &(j, l) in other {
-                                    if i >= j {
-                                        continue;
-                                    }
-                                    let a = (i as usize, k as usize);
-                                    let b = (j as usize, l as usize);
-                                    if dist2(points, a, b) < r2 {
-                                        candidates.push(Pair { a, b });
-                                    }
-                                }
-                            }
-                        }
-                    }
-                }
-            }
-            // keep the local minima of the distance along both chains
-            for mut p in candidates {
-                descend(points, &mut p, 0);
-                descend(points, &mut p, 1);
-                if dist2(points, p.a, p.b) < r2 && tracked.binary_search(&p).is_err() {
-                    new_pairs.push(p);
-                }
-            }
-            new_pairs.sort_unstable();
-            new_pairs.dedup();
+            new_pairs = broad_phase(points, &radius, reach + margin(0.0), &mut self.grid);
+            new_pairs.retain(|p| tracked.binary_search(p).is_err());
             found = new_pairs.len();
-            // appended and sorted once (inserting each new pair in place would move the
-            // list once per pair)
-            tracked.extend_from_slice(&new_pairs);
-            tracked.sort_unstable();
+            // both lists are sorted: merged
+            tracked = merge_sorted(&tracked, &new_pairs);
         }
         self.found_last = found;
         self.steps += 1;
@@ -276,7 +237,7 @@ impl HairHair {
         };
         let mut partners: Vec<Vec<PartnerPoint>> = vec![Vec::new(); points.len()];
         let closest: Vec<(f64, f64)> = tracked
-            .iter()
+            .par_iter()
             .map(|p| closest_on_chains(points, p.a, p.b))
             .collect();
         // the allowances: a pair that is found already overlapping (at the first update,
@@ -310,43 +271,54 @@ impl HairHair {
                 *a = a.max(f);
             }
         }
-        for (p, &(ta, tb)) in tracked.iter().zip(&closest) {
-            let reach = reach - self.allowance.get(&(p.a.0, p.b.0)).copied().unwrap_or(0.0);
-            let at = |side: (usize, usize), t: f64| -> (f64, f64, Vector3<f64>, Vector3<f64>) {
-                // the point at parameter t ∈ [−1, 1] around sample side.1: its arc
-                // length, weight, position and velocity (linear between samples)
-                let (s, k) = side;
-                let j = if t < 0.0 { k - 1 } else { k + 1 };
-                let f = t.abs();
-                let (arc, wt) = arcs[s][k];
-                let (arc2, _) = arcs[s].get(j).copied().unwrap_or((arc, wt));
-                let x = points[s][k]
-                    + (points[s].get(j).copied().unwrap_or(points[s][k]) - points[s][k]) * f;
-                let v0 = velocity(s, k);
-                let v = if j < points[s].len() {
-                    v0 + (velocity(s, j) - v0) * f
-                } else {
-                    v0
+        let allowance = &self.allowance;
+        let points_of = tracked
+            .par_iter()
+            .zip(&closest)
+            .map(|(p, &(ta, tb))| {
+                let reach = reach - allowance.get(&(p.a.0, p.b.0)).copied().unwrap_or(0.0);
+                let at = |side: (usize, usize), t: f64| {
+                    // the point at parameter t ∈ [−1, 1] around sample side.1: its arc
+                    // length, weight, position and velocity (linear between samples)
+                    let (s, k) = side;
+                    let j = if t < 0.0 { k - 1 } else { k + 1 };
+                    let f = t.abs();
+                    let (arc, wt) = arcs[s][k];
+                    let (arc2, _) = arcs[s].get(j).copied().unwrap_or((arc, wt));
+                    let x = points[s][k]
+                        + (points[s].get(j).copied().unwrap_or(points[s][k]) - points[s][k]) * f;
+                    let v0 = velocity(s, k);
+                    let v = if j < points[s].len() {
+                        v0 + (velocity(s, j) - v0) * f
+                    } else {
+                        v0
+                    };
+                    (arc + (arc2 - arc) * f, wt, x, v)
                 };
-                (arc + (arc2 - arc) * f, wt, x, v)
-            };
-            let (sa, wa, xa, va) = at(p.a, ta);
-            let (sb, wb, xb, vb) = at(p.b, tb);
-            let weight = wa.min(wb);
-            partners[p.a.0].push(PartnerPoint {
-                s: sa,
-                weight,
-                point: xb,
-                velocity: vb,
-                reach,
-            });
-            partners[p.b.0].push(PartnerPoint {
-                s: sb,
-                weight,
-                point: xa,
-                velocity: va,
-                reach,
-            });
+                let (sa, wa, xa, va) = at(p.a, ta);
+                let (sb, wb, xb, vb) = at(p.b, tb);
+                let weight = wa.min(wb);
+                (
+                    PartnerPoint {
+                        s: sa,
+                        weight,
+                        point: xb,
+                        velocity: vb,
+                        reach,
+                    },
+                    PartnerPoint {
+                        s: sb,
+                        weight,
+                        point: xa,
+                        velocity: va,
+                        reach,
+                    },
+                )
+            })
+            .collect::<Vec<_>>();
+        for (p, (on_a, on_b)) in tracked.iter().zip(points_of) {
+            partners[p.a.0].push(on_a);
+            partners[p.b.0].push(on_b);
         }
         self.pairs = tracked;
         self.previous.resize(points.len(), Vec::new());
@@ -356,6 +328,175 @@ impl HairHair {
         }
         partners
     }
+}
+
+/// The union of two sorted lists without common elements, sorted.
+fn merge_sorted(a: &[Pair], b: &[Pair]) -> Vec<Pair> {
+    let mut out = Vec::with_capacity(a.len() + b.len());
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        if a[i] <= b[j] {
+            out.push(a[i]);
+            i += 1;
+        } else {
+            out.push(b[j]);
+            j += 1;
+        }
+    }
+    out.extend_from_slice(&a[i..]);
+    out.extend_from_slice(&b[j..]);
+    out
+}
+
+/// A sample filed on the broad phase's grid: its cell, strand and sample, position and
+/// search distance (copied, so that comparing a cell's samples reads one array).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Filed {
+    cell: u64,
+    strand: u32,
+    sample: u32,
+    x: [f64; 3],
+    radius: f64,
+    /// The previous and the next sample of the chain (infinite where there is none).
+    around: [[f64; 3]; 2],
+}
+
+fn dist2_of(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+}
+
+impl Filed {
+    /// Whether the two samples are a local minimum of their distance along both chains
+    /// (no neighbour of either sample along its chain is closer to the other sample), their squared distance being `d`.
+    fn local_minimum(&self, other: &Filed, d: f64) -> bool {
+        self.around.iter().all(|y| dist2_of(y, &other.x) >= d)
+            && other.around.iter().all(|y| dist2_of(y, &self.x) >= d)
+    }
+}
+
+/// The sample pairs (a, b) of different strands closer than the larger of their two
+/// search distances (`radius`, per strand per sample) that are local minima of their
+/// distance along both chains ([`Filed::local_minimum`]; sorted, without repeats). Every sample is
+/// filed under its cell of a grid of cells of size `cell` (in `cells`, sorted by cell);
+/// the samples of a cell are compared with those of the cells within their largest
+/// search distance around it (the 27 nearest when it is at most `cell`), the cells in
+/// parallel. A pair is taken from the side of its larger search distance, so that a
+/// few fast samples (a whipping tip) do not widen the search of all the others.
+fn broad_phase(
+    points: &[Vec<Vector3<f64>>],
+    radius: &[Vec<f64>],
+    cell: f64,
+    cells: &mut Vec<Filed>,
+) -> Vec<Pair> {
+    // cell coordinates offset into 21 bits each (± 10⁶ cells: ± 8 km at an 8 mm cell);
+    // a point outside that range is not filed
+    const BIAS: i64 = 1 << 20;
+    const SPAN: i64 = 64;
+    let coord = |x: f64| -> Option<u64> {
+        let c = (x / cell).floor();
+        (c.is_finite() && c.abs() < (BIAS - SPAN) as f64).then(|| (c as i64 + BIAS) as u64)
+    };
+    let key = |x: &Vector3<f64>| -> Option<u64> {
+        Some((coord(x.x)? << 42) | (coord(x.y)? << 21) | coord(x.z)?)
+    };
+    cells.clear();
+    for (i, chain) in points.iter().enumerate() {
+        for (k, x) in chain.iter().enumerate() {
+            if let Some(c) = key(x) {
+                let at = |j: Option<usize>| {
+                    j.and_then(|j| chain.get(j))
+                        .map_or([f64::INFINITY; 3], |y| [y.x, y.y, y.z])
+                };
+                cells.push(Filed {
+                    cell: c,
+                    strand: i as u32,
+                    sample: k as u32,
+                    x: [x.x, x.y, x.z],
+                    radius: radius[i][k],
+                    around: [at(k.checked_sub(1)), at(Some(k + 1))],
+                });
+            }
+        }
+    }
+    cells.par_sort_unstable_by_key(|f| (f.cell, f.strand, f.sample));
+    let cells = &cells[..];
+    // the start of each cell's run
+    let starts: Vec<usize> = (0..cells.len())
+        .filter(|&i| i == 0 || cells[i].cell != cells[i - 1].cell)
+        .collect();
+    // the cells' keys in order, apart from the samples (a small array to search)
+    let keys: Vec<u64> = starts.iter().map(|&i| cells[i].cell).collect();
+    let run = |c: u64| -> &[Filed] {
+        match keys.binary_search(&c) {
+            Ok(n) => &cells[starts[n]..starts.get(n + 1).copied().unwrap_or(cells.len())],
+            Err(_) => &[],
+        }
+    };
+    let mut pairs: Vec<Pair> = starts
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(n, &lo)| {
+            let hi = starts.get(n + 1).copied().unwrap_or(cells.len());
+            let own = &cells[lo..hi];
+            let c = own[0].cell;
+            let widest = own.iter().map(|f| f.radius).fold(0.0, f64::max);
+            let span = ((widest / cell).ceil() as i64).clamp(1, SPAN - 1) as u64;
+            let corner = (span << 42) + (span << 21) + span;
+            // every pair is taken once, by one rule: a pair whose larger search distance
+            // is at most a cell, from the cell earlier in the order of the keys (within
+            // one cell, from its earlier sample); any other from the side of the larger
+            // search distance, which looks as far as it (at a tie, the earlier sample's)
+            let earlier =
+                |f: &Filed, g: &Filed| (f.cell, f.strand, f.sample) < (g.cell, g.strand, g.sample);
+            let takes = |fa: &Filed, fb: &Filed| {
+                if fa.radius.max(fb.radius) <= cell {
+                    earlier(fa, fb)
+                } else {
+                    fa.radius > fb.radius || (fa.radius == fb.radius && earlier(fa, fb))
+                }
+            };
+            let mut out = Vec::new();
+            for dx in 0..=2 * span {
+                for dy in 0..=2 * span {
+                    for dz in 0..=2 * span {
+                        let other = (c + (dx << 42) + (dy << 21) + dz).wrapping_sub(corner);
+                        // a cell of slow samples looks only at the cells after it (the
+                        // cells before it look at it)
+                        if widest <= cell && other < c {
+                            continue;
+                        }
+                        let others = run(other);
+                        if others.is_empty() {
+                            continue;
+                        }
+                        for fa in own {
+                            let ra = fa.radius;
+                            for fb in others {
+                                if fa.strand == fb.strand {
+                                    continue;
+                                }
+                                let r = ra.max(fb.radius);
+                                let d = dist2_of(&fa.x, &fb.x);
+                                // only the local minima of the distance along both chains
+                                if d >= r * r || !takes(fa, fb) || !fa.local_minimum(fb, d) {
+                                    continue;
+                                }
+                                let a = (fa.strand as usize, fa.sample as usize);
+                                let b = (fb.strand as usize, fb.sample as usize);
+                                let (a, b) = if a.0 < b.0 { (a, b) } else { (b, a) };
+                                out.push(Pair { a, b });
+                            }
+                        }
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    pairs.par_sort_unstable();
+    pairs.dedup();
+    pairs
 }
 
 /// Closest points of the two segments `p0 + t (p1 − p0)` and `q0 + u (q1 − q0)`,
@@ -437,5 +578,94 @@ fn point_at(p: &[Vec<Vector3<f64>>], (s, k): (usize, usize), t: f64) -> Vector3<
     match p[s].get(j) {
         Some(x) => p[s][k] + (x - p[s][k]) * t.abs(),
         None => p[s][k],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Whether no neighbour of sample `a` along its chain is closer to sample `b` than `a`
+    /// is, nor any neighbour of `b` closer to `a`.
+    fn local_minimum(p: &[Vec<Vector3<f64>>], a: (usize, usize), b: (usize, usize)) -> bool {
+        let d = dist2(p, a, b);
+        let closer = |own: (usize, usize), other: (usize, usize)| {
+            [own.1.wrapping_sub(1), own.1 + 1]
+                .into_iter()
+                .any(|k| k < p[own.0].len() && dist2(p, (own.0, k), other) < d)
+        };
+        !closer(a, b) && !closer(b, a)
+    }
+
+    /// The grid's pairs are those of comparing every two samples of different strands
+    /// (with the same descent and per-pair distance), on random chains on both sides of
+    /// the origin (cells of negative coordinates, neighbours across zero).
+    #[test]
+    fn the_broad_phase_finds_what_comparing_every_two_samples_finds() {
+        let mut seed = 12345u64;
+        let mut rand = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let points: Vec<Vec<Vector3<f64>>> = (0..40)
+            .map(|_| {
+                let mut x = Vector3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5) * 0.06;
+                let d = Vector3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5).normalize();
+                (0..25)
+                    .map(|_| {
+                        x += (d + Vector3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5)) * 0.003;
+                        x
+                    })
+                    .collect()
+            })
+            .collect();
+        // search distances between 4 and 8 mm, and 24 mm for one sample in 40 (a
+        // whipping tip, searched beyond the 27 nearest cells)
+        let cell = 0.004;
+        let radius: Vec<Vec<f64>> = points
+            .iter()
+            .map(|c| {
+                c.iter()
+                    .map(|_| {
+                        let u = rand();
+                        if u < 0.025 {
+                            6.0 * cell
+                        } else {
+                            cell * (1.0 + u)
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        let search2 = |a: (usize, usize), b: (usize, usize)| {
+            let r = radius[a.0][a.1].max(radius[b.0][b.1]);
+            r * r
+        };
+        let mut cells = Vec::new();
+        let found = broad_phase(&points, &radius, cell, &mut cells);
+        let mut all = Vec::new();
+        for i in 0..points.len() {
+            for j in i + 1..points.len() {
+                for k in 0..points[i].len() {
+                    for l in 0..points[j].len() {
+                        let p = Pair {
+                            a: (i, k),
+                            b: (j, l),
+                        };
+                        if dist2(&points, p.a, p.b) < search2(p.a, p.b)
+                            && local_minimum(&points, p.a, p.b)
+                        {
+                            all.push(p);
+                        }
+                    }
+                }
+            }
+        }
+        all.sort_unstable();
+        all.dedup();
+        assert!(all.len() > 50, "{} pairs: too few to test", all.len());
+        assert_eq!(found, all);
     }
 }
