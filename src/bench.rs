@@ -3,7 +3,8 @@
 
 use std::time::Instant;
 use superhelix_runtime::config::{
-    Engine, IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup, StrandSetup,
+    Engine, FieldStiffness, IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup,
+    StrandSetup,
 };
 use superhelix_runtime::model::material::{helix_curvature, HelixForm, Preset};
 use superhelix_runtime::model::strand::{PointLoad, Strand, StrandGeometry};
@@ -117,6 +118,8 @@ pub struct BenchOptions {
     pub engine: Engine,
     /// The deepest split of a step (`[simulation] max_split_depth`).
     pub max_split_depth: usize,
+    /// What of the external forces' stiffness the step's matrix holds.
+    pub field_stiffness: FieldStiffness,
 }
 
 impl Default for BenchOptions {
@@ -134,6 +137,7 @@ impl Default for BenchOptions {
             length: 0.2,
             engine: Engine::Runtime,
             max_split_depth: SimulationConfig::default().max_split_depth,
+            field_stiffness: FieldStiffness::Projected,
         }
     }
 }
@@ -264,6 +268,7 @@ pub fn setup(o: &BenchOptions) -> Result<SimulationSetup> {
             quadrature: o.quadrature,
             engine: o.engine,
             max_split_depth: o.max_split_depth,
+            field_stiffness: o.field_stiffness,
             ..SimulationConfig::default()
         },
         environment: Environment {

@@ -69,7 +69,7 @@
 //! The first violation stops the case and is reported with its strand, time and cause.
 
 use crate::runtime::config::{
-    IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup, StrandSetup,
+    FieldStiffness, IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup, StrandSetup,
 };
 use crate::runtime::model::element::local_pose;
 use crate::runtime::model::material::{helix_curvature, HelixForm, Preset};
@@ -829,6 +829,22 @@ pub fn with_integrator(cases: Vec<Case>, kind: IntegratorKind) -> Vec<Case> {
             c.setup.config.integrator = kind;
             c.name = format!("{base}@{}", kind.name());
             Some(c)
+        })
+        .collect()
+}
+
+/// `cases` with the implicit step's matrix holding only the contacts' stiffness
+/// (`field_stiffness = "explicit"`), named `<case>@explicit`; unchanged for the default.
+pub fn with_field_stiffness(cases: Vec<Case>, kind: FieldStiffness) -> Vec<Case> {
+    if kind == FieldStiffness::Projected {
+        return cases;
+    }
+    cases
+        .into_iter()
+        .map(|mut c| {
+            c.setup.config.field_stiffness = kind;
+            c.name = format!("{}@{}", c.name, kind.name());
+            c
         })
         .collect()
 }

@@ -23,6 +23,38 @@ pub enum Mode {
     Static,
 }
 
+/// What of the stiffness of the external forces the implicit step's matrix holds
+/// (`[simulation] field_stiffness`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FieldStiffness {
+    /// The stiffness of gravity, the head's fictitious forces, the point loads and the
+    /// contacts (with the curvature of the strand under the contact forces), projected on
+    /// its negative semidefinite part by an eigendecomposition at every solve; default.
+    #[default]
+    Projected,
+    /// Only the contacts' normal, friction and hair–hair stiffness along the strand's
+    /// Jacobian (symmetric negative semidefinite as they are: no eigendecomposition);
+    /// gravity, the fictitious forces, the point loads and the curvature terms act at the
+    /// start of the step, as the paper's scheme takes gravity (section 3.4).
+    Explicit,
+}
+
+impl FieldStiffness {
+    /// Name as written in scenes.
+    pub fn name(self) -> &'static str {
+        match self {
+            FieldStiffness::Projected => "projected",
+            FieldStiffness::Explicit => "explicit",
+        }
+    }
+    /// Parse a scene name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        [Self::Projected, Self::Explicit]
+            .into_iter()
+            .find(|k| k.name() == name)
+    }
+}
+
 /// Time integrator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum IntegratorKind {
@@ -152,6 +184,8 @@ pub struct SimulationConfig {
     /// [`StepStats::rotation_limited`](crate::solver::StepStats)); accuracy is traded
     /// for a fixed budget.
     pub max_split_depth: usize,
+    /// What of the external forces' stiffness the step's matrix holds.
+    pub field_stiffness: FieldStiffness,
 }
 
 impl Default for SimulationConfig {
@@ -166,6 +200,7 @@ impl Default for SimulationConfig {
             quadrature: QuadratureRule::default(),
             engine: Engine::Runtime,
             max_split_depth: MAX_SUBSTEP_DEPTH,
+            field_stiffness: FieldStiffness::Projected,
         }
     }
 }

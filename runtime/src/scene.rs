@@ -21,6 +21,7 @@ mod render;
 mod strands;
 
 use crate::config::total_steps;
+use crate::config::FieldStiffness;
 use crate::config::{
     Engine, IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup,
 };
@@ -261,6 +262,9 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
             "the deepest split of a step (2^8 substeps)",
         )
     });
+    let field_stiffness = n.optional("field_stiffness", d.field_stiffness, |n, k| {
+        n.choice(k, &["projected", "explicit"], FieldStiffness::from_name)
+    });
     let config = SimulationConfig {
         mode: mode.unwrap_or(d.mode),
         dt: dt.unwrap_or(d.dt),
@@ -271,6 +275,7 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
         quadrature: quadrature.unwrap_or(d.quadrature),
         engine: engine.unwrap_or(d.engine),
         max_split_depth: max_split_depth.unwrap_or(d.max_split_depth),
+        field_stiffness: field_stiffness.unwrap_or(d.field_stiffness),
     };
     if dt.is_some() && duration.is_some() && fps.is_some() {
         check_run_size(&n, &config);

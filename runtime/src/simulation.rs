@@ -180,6 +180,12 @@ fn embedded_strands(
             ),
         ));
     }
+    if c.field_stiffness != crate::config::FieldStiffness::Projected {
+        errors.push(FieldError::new(
+            "simulation.field_stiffness",
+            "the embedded engine projects the field stiffness; field_stiffness = \"explicit\" needs engine = \"runtime\"",
+        ));
+    }
     if c.max_split_depth != superhelix_kernels::energy::MAX_SUBSTEP_DEPTH {
         errors.push(FieldError::new(
             "simulation.max_split_depth",
@@ -412,6 +418,12 @@ impl Simulation {
             },
             integrator: setup.config.integrator,
             max_split_depth: setup.config.max_split_depth,
+            // (a static solve and RK4 take the whole stiffness whatever the setting: it
+            // is about the implicit step's matrix)
+            explicit_field_stiffness: setup.config.field_stiffness
+                == crate::config::FieldStiffness::Explicit
+                && setup.config.mode == Mode::Dynamic
+                && setup.config.integrator != IntegratorKind::Rk4,
         };
         let head0 = Placement::new(setup.head.state(0.0), 0.0);
         let rk4_dt = (setup.config.integrator == IntegratorKind::Rk4
@@ -693,11 +705,15 @@ impl Simulation {
             .collect();
         let partners = hh.update(&points, &arcs, reach, h, fall);
         drop(arcs);
-        for (s, p) in self.strands.iter_mut().zip(partners) {
-            if let Some(c) = &mut s.system.contacts {
-                c.set_partners(p);
-            }
-        }
+        // (each strand sorts its own: in parallel)
+        self.strands
+            .par_iter_mut()
+            .zip(partners)
+            .for_each(|(s, p)| {
+                if let Some(c) = &mut s.system.contacts {
+                    c.set_partners(p);
+                }
+            });
     }
 
     /// What the contacts of strand `i` found at its last evaluation (`None`: the scene has
@@ -1083,6 +1099,7 @@ impl Simulation {
                 },
                 integrator: IntegratorKind::LinearlyImplicitEuler,
                 max_split_depth: superhelix_kernels::energy::MAX_SUBSTEP_DEPTH,
+                explicit_field_stiffness: false,
             },
         )
     }

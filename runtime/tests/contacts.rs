@@ -600,7 +600,7 @@ fn the_balance_counts_the_power_of_the_partners_damping() {
                 force: true,
                 ..Default::default()
             };
-            contacts.add_to_terms(&at, kernel, &q, &zero, terms, &mut jac, &mut out);
+            contacts.add_to_terms(&at, kernel, &q, &zero, terms, true, &mut jac, &mut out);
             assert_eq!(
                 contacts.summary().hair_contacts,
                 3,

@@ -62,6 +62,10 @@ pub struct BenchArgs {
     /// fixed cost of one solve per strand-step.
     #[arg(long)]
     max_split_depth: Option<usize>,
+    /// What of the external forces' stiffness the implicit step's matrix holds:
+    /// projected (default, or the scene's `[simulation] field_stiffness`) or explicit.
+    #[arg(long)]
+    field_stiffness: Option<String>,
 }
 
 /// Run `bench`.
@@ -95,6 +99,10 @@ fn bench_generated(args: &BenchArgs) -> Result<ExitCode, Error> {
         },
         length: args.length,
         engine: engine(args.engine.as_deref().unwrap_or("runtime"))?,
+        field_stiffness: match &args.field_stiffness {
+            Some(name) => field_stiffness(name)?,
+            None => BenchOptions::default().field_stiffness,
+        },
         max_split_depth: match args.max_split_depth {
             Some(d) => split_depth(d)?,
             None => BenchOptions::default().max_split_depth,
@@ -135,8 +143,16 @@ fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
     if let Some(d) = args.max_split_depth {
         setup.config.max_split_depth = split_depth(d)?;
     }
+    if let Some(name) = &args.field_stiffness {
+        setup.config.field_stiffness = field_stiffness(name)?;
+    }
     let names = scene_effects(&setup).names().join(",");
     let integrator = setup.config.integrator.name();
+    let budget = format!(
+        "max_split_depth={} field_stiffness={}",
+        setup.config.max_split_depth,
+        setup.config.field_stiffness.name()
+    );
     let steps = args.steps;
     let report = bench_setup(setup, steps)?;
     println!(
@@ -144,8 +160,15 @@ fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
         path.display(),
         report.kernel
     );
+    println!("{budget}");
     print_report(&report);
     Ok(ExitCode::SUCCESS)
+}
+
+/// `--field-stiffness`, parsed.
+fn field_stiffness(name: &str) -> Result<superhelix::runtime::config::FieldStiffness, Error> {
+    superhelix::runtime::config::FieldStiffness::from_name(name)
+        .ok_or_else(|| Error::invalid("--field-stiffness", "must be projected or explicit"))
 }
 
 /// `--max-split-depth`, checked.

@@ -24,6 +24,10 @@ pub struct StressArgs {
     /// do not apply.
     #[arg(long)]
     integrator: Option<String>,
+    /// Run every case with this field stiffness in the implicit step's matrix
+    /// (projected, the default, or explicit): cases are then named `<case>@explicit`.
+    #[arg(long)]
+    field_stiffness: Option<String>,
 }
 
 /// Run `stress`.
@@ -35,6 +39,11 @@ pub fn run(args: StressArgs) -> Result<ExitCode, Error> {
     };
     if let Some(name) = &args.integrator {
         cases = stress::with_integrator(cases, integrator(name)?);
+    }
+    if let Some(name) = &args.field_stiffness {
+        let kind = superhelix::runtime::config::FieldStiffness::from_name(name)
+            .ok_or_else(|| Error::invalid("--field-stiffness", "must be projected or explicit"))?;
+        cases = stress::with_field_stiffness(cases, kind);
     }
     let filter = args.filter.as_deref();
     let cases: Vec<stress::Case> = cases

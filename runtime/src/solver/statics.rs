@@ -45,6 +45,14 @@ fn backtrack(energy_at: &mut impl FnMut(f64) -> f64, e0: f64, slope: f64) -> Res
 /// −∂F/∂q (shifted by λ·diag(K) when not positive definite, λ growing until it is),
 /// then backtracking until E decreases (Armijo).
 pub fn solve_static(system: &mut StrandSystem, q: &mut [f64]) -> Result<StaticReport, String> {
+    // Newton needs the whole stiffness, whatever the dynamic step's setting
+    let explicit = std::mem::replace(&mut system.context.explicit_field_stiffness, false);
+    let report = newton_static(system, q);
+    system.context.explicit_field_stiffness = explicit;
+    report
+}
+
+fn newton_static(system: &mut StrandSystem, q: &mut [f64]) -> Result<StaticReport, String> {
     let n = q.len();
     let zero = vec![0.0; n];
     // the head at rest, a body on its own motion at rest at its pose of t = 0

@@ -102,6 +102,9 @@ pub struct StepContext {
     /// The deepest split of an implicit step, 0 to
     /// [`MAX_SUBSTEP_DEPTH`](superhelix_kernels::energy::MAX_SUBSTEP_DEPTH).
     pub max_split_depth: usize,
+    /// Whether the step's matrix holds only the contacts' stiffness along the Jacobian
+    /// ([`crate::config::FieldStiffness::Explicit`]), unprojected.
+    pub explicit_field_stiffness: bool,
 }
 
 /// The state of one strand: generalized coordinates q and velocities q̇ (3N each).
@@ -135,6 +138,10 @@ pub struct Assembled {
     pub field_stiffness: bool,
     /// The damping holds a skew (gyroscopic, Coriolis) part.
     pub gyroscopic: bool,
+    /// The stiffness holds only the contacts' terms along the Jacobian, negative
+    /// semidefinite as they are: no projection
+    /// ([`crate::config::FieldStiffness::Explicit`]).
+    pub unprojected: bool,
 }
 
 impl StrandSystem {
@@ -173,8 +180,9 @@ impl StrandSystem {
         // the kernel computes only what the scene's effects make non-zero
         let position_field = field.uniform != Vector3::zeros() || field.has_linear();
         let velocity_field = field.velocity != nalgebra::Matrix3::zeros();
+        let explicit = ctx.explicit_field_stiffness;
         let kernel_terms = Terms {
-            stiffness: terms.stiffness && position_field,
+            stiffness: terms.stiffness && position_field && !explicit,
             damping: terms.damping && velocity_field,
             ..terms
         };
@@ -216,16 +224,24 @@ impl StrandSystem {
             kernel,
             q,
             &mut ws.jac,
-            terms,
+            Terms {
+                stiffness: terms.stiffness && !explicit,
+                ..terms
+            },
             t,
         );
         let touching = match contacts {
-            Some(c) => c.add_to_terms(at, kernel, q, v, terms, &mut ws.jac, t),
+            Some(c) => c.add_to_terms(at, kernel, q, v, terms, !explicit, &mut ws.jac, t),
             None => false,
         };
         Assembled {
-            field_stiffness: position_field || !strand.point_loads.is_empty() || touching,
+            field_stiffness: if explicit {
+                touching
+            } else {
+                position_field || !strand.point_loads.is_empty() || touching
+            },
             gyroscopic: ctx.effects.head_moves && head.omega != Vector3::zeros() && terms.damping,
+            unprojected: explicit,
         }
     }
 
@@ -388,7 +404,7 @@ impl StrandWorkspace {
         let ws = self;
         let n = ws.stiffness.len();
         let field_stiffness = assembled.field_stiffness && {
-            // H = sym(stiffness) + K, projected
+            // H = sym(stiffness) + K
             let st = &mut ws.terms.stiffness;
             for j in 0..n {
                 for i in 0..j {
@@ -398,13 +414,20 @@ impl StrandWorkspace {
                 }
                 st[(j, j)] += ws.stiffness[j];
             }
-            let ok = ws
-                .solver
-                .project_negative_semidefinite(&mut ws.terms.stiffness);
-            if !ok {
-                stats.stiffness_dropped += 1;
+            if assembled.unprojected {
+                // the contacts' stiffness along the Jacobian alone: negative semidefinite
+                // as it is
+                true
+            } else {
+                // projected
+                let ok = ws
+                    .solver
+                    .project_negative_semidefinite(&mut ws.terms.stiffness);
+                if !ok {
+                    stats.stiffness_dropped += 1;
+                }
+                ok
             }
-            ok
         };
         let t = &ws.terms;
         // column by column on slices (the same arithmetic as entry by entry)

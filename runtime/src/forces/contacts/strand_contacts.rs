@@ -269,9 +269,9 @@ impl StrandContacts {
     }
 
     /// Set the partner points of the coming step (hair–hair).
-    pub fn set_partners(&mut self, partners: impl IntoIterator<Item = PartnerPoint>) {
-        self.partners.clear();
-        self.partners.extend(partners);
+    pub fn set_partners(&mut self, partners: Vec<PartnerPoint>) {
+        // taken, not copied
+        self.partners = partners;
         // in arc-length order: their positions are then one pass along the strand
         self.partners.sort_by(|a, b| a.s.total_cmp(&b.s));
     }
@@ -589,8 +589,10 @@ impl StrandContacts {
     }
 
     /// Add the contact forces at (q, q̇) with the bodies placed at `at` to `out` (force, and the
-    /// stiffness and damping when `terms` asks): see the module page. Returns whether a
-    /// contact added stiffness. `jac` is 3N columns of scratch.
+    /// stiffness and damping when `terms` asks): see the module page. The stiffness holds
+    /// the curvature of the strand under the contact forces (the Hessian of y(s)
+    /// contracted with the force) only when `curvature`. Returns whether a contact added
+    /// stiffness. `jac` is 3N columns of scratch.
     #[allow(clippy::too_many_arguments)]
     pub fn add_to_terms(
         &mut self,
@@ -599,6 +601,7 @@ impl StrandContacts {
         q: &[f64],
         v: &[f64],
         terms: Terms,
+        curvature: bool,
         jac: &mut [Vector3<f64>],
         out: &mut StrandTerms,
     ) -> bool {
@@ -618,7 +621,7 @@ impl StrandContacts {
             let (normal, spring, kn, kt) = self.elastic(head, k, &hit, &y, &t);
             summary.normal_force += normal.norm();
             let elastic = normal + spring;
-            let hess = terms.stiffness.then_some((elastic, &mut out.stiffness));
+            let hess = (terms.stiffness && curvature).then_some((elastic, &mut out.stiffness));
             kernel.point(q, s, jac, hess);
             let n = hit.normal;
             let mut force = elastic;
