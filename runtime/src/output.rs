@@ -75,6 +75,11 @@ pub trait FrameSource {
     fn step(&mut self) -> Result<()>;
     /// Replace the state by the static equilibrium.
     fn solve_static(&mut self) -> Result<()>;
+    /// The deepest point of any centreline inside a body at the current state, m (0: none
+    /// inside; `None`: no contacts, the default).
+    fn deepest_inside(&mut self) -> Option<f64> {
+        None
+    }
 }
 
 /// Every frame of a run, strand-major (what [`run_to_frames`] returns).
@@ -114,6 +119,9 @@ pub struct RunSummary {
     pub wall_time: Duration,
     /// Largest Euclidean norm of a strand's q̇ over all strands and steps, rad/(m·s).
     pub max_speed: f64,
+    /// Deepest point of a centreline inside a body after any step, m (`None`: a scene
+    /// without contacts).
+    pub deepest_inside: Option<f64>,
 }
 
 impl RunSummary {
@@ -137,14 +145,20 @@ impl fmt::Display for RunSummary {
         };
         match self.mode {
             Mode::Static => write!(f, "static: {strands} solved in {wall:.3} s"),
-            Mode::Dynamic => write!(
-                f,
-                "{} steps x {strands} in {wall:.3} s: {:.0} strand-steps/s, max |q̇| = {:.4e} rad/(m s), {} frames",
-                self.steps,
-                self.strand_steps_per_second(),
-                self.max_speed,
-                self.frames
-            ),
+            Mode::Dynamic => {
+                write!(
+                    f,
+                    "{} steps x {strands} in {wall:.3} s: {:.0} strand-steps/s, max |q̇| = {:.4e} rad/(m s), {} frames",
+                    self.steps,
+                    self.strand_steps_per_second(),
+                    self.max_speed,
+                    self.frames
+                )?;
+                match self.deepest_inside {
+                    Some(d) => write!(f, ", deepest centreline point {d:.3e} m inside a body"),
+                    None => Ok(()),
+                }
+            }
         }
     }
 }

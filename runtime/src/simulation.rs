@@ -731,17 +731,17 @@ impl Simulation {
     /// m (0: none; `None`: no `[contacts]`), with the head and the bodies at the current time.
     pub fn max_penetration(&mut self) -> Option<f64> {
         let head = Placement::new(self.head.state(self.time), self.time);
-        let mut any = false;
-        let mut deepest: f64 = 0.0;
-        for s in &mut self.strands {
-            if let Some(c) = &mut s.system.contacts {
-                any = true;
+        // (the strands in parallel: their sample poses are then the next step's)
+        let depths: Vec<f64> = self
+            .strands
+            .par_iter_mut()
+            .filter_map(|s| {
+                let c = s.system.contacts.as_mut()?;
                 let r = c.params().radius;
-                let depth = c.max_depth(&head, &s.system.strand.geometry, &s.state.q);
-                deepest = deepest.max(depth - r);
-            }
-        }
-        any.then_some(deepest.max(0.0))
+                Some(c.max_depth(&head, &s.system.strand.geometry, &s.state.q) - r)
+            })
+            .collect();
+        (!depths.is_empty()).then(|| depths.into_iter().fold(0.0, f64::max))
     }
 
     /// The contact potential of strand `i` at its current state, the head and the bodies
@@ -1136,6 +1136,10 @@ impl FrameSource for Simulation {
     fn step(&mut self) -> Result<()> {
         Simulation::step(self)
     }
+    fn deepest_inside(&mut self) -> Option<f64> {
+        self.max_penetration()
+    }
+
     fn solve_static(&mut self) -> Result<()> {
         Simulation::solve_static(self).map(|_| ())
     }

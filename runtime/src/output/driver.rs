@@ -121,13 +121,14 @@ pub fn run_streaming<S: FrameSource + ?Sized>(
         sinks,
     };
     let mut max_speed = 0.0;
+    let mut deepest = source.deepest_inside();
     let result = run_loop(
         source,
         config,
         steps,
         &mut streamer,
         stop,
-        &mut max_speed,
+        (&mut max_speed, &mut deepest),
         &mut progress,
     );
     let mut stop_reason = match result {
@@ -149,6 +150,7 @@ pub fn run_streaming<S: FrameSource + ?Sized>(
         frames: streamer.written,
         wall_time: started.elapsed(),
         max_speed,
+        deepest_inside: deepest,
     };
     RunOutcome {
         summary,
@@ -165,7 +167,7 @@ fn run_loop<S: FrameSource + ?Sized>(
     steps: usize,
     streamer: &mut Streamer<'_, '_>,
     stop: &AtomicBool,
-    max_speed: &mut f64,
+    (max_speed, deepest): (&mut f64, &mut Option<f64>),
     progress: &mut impl FnMut(usize, usize),
 ) -> Result<bool> {
     *max_speed = check_state(source)?;
@@ -184,6 +186,9 @@ fn run_loop<S: FrameSource + ?Sized>(
             }
             source.step()?;
             *max_speed = max_speed.max(check_state(source)?);
+            if let (Some(d), Some(now)) = (deepest.as_mut(), source.deepest_inside()) {
+                *d = d.max(now);
+            }
             streamer.write_due(source, source.time() + 0.5 * config.dt)?;
             progress(step, steps);
         }
