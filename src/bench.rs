@@ -120,6 +120,8 @@ pub struct BenchOptions {
     pub max_split_depth: usize,
     /// What of the external forces' stiffness the step's matrix holds.
     pub field_stiffness: FieldStiffness,
+    /// Whether implicit steps are checked against the energy balance.
+    pub energy_balance: bool,
 }
 
 impl Default for BenchOptions {
@@ -138,6 +140,7 @@ impl Default for BenchOptions {
             engine: Engine::Runtime,
             max_split_depth: SimulationConfig::default().max_split_depth,
             field_stiffness: FieldStiffness::Projected,
+            energy_balance: true,
         }
     }
 }
@@ -269,6 +272,7 @@ pub fn setup(o: &BenchOptions) -> Result<SimulationSetup> {
             engine: o.engine,
             max_split_depth: o.max_split_depth,
             field_stiffness: o.field_stiffness,
+            energy_balance: o.energy_balance,
             ..SimulationConfig::default()
         },
         environment: Environment {

@@ -186,6 +186,12 @@ pub struct SimulationConfig {
     pub max_split_depth: usize,
     /// What of the external forces' stiffness the step's matrix holds.
     pub field_stiffness: FieldStiffness,
+    /// Whether every implicit step is checked against the energy balance
+    /// (`[simulation] energy_balance`, default true): split, or its velocities scaled,
+    /// when it creates energy (see [`crate::solver::energy_balance`]). Off, no energy is
+    /// measured and only the rotation check (and the contacts' approach check) splits or
+    /// limits a step.
+    pub energy_balance: bool,
 }
 
 impl Default for SimulationConfig {
@@ -201,6 +207,7 @@ impl Default for SimulationConfig {
             engine: Engine::Runtime,
             max_split_depth: MAX_SUBSTEP_DEPTH,
             field_stiffness: FieldStiffness::Projected,
+            energy_balance: true,
         }
     }
 }

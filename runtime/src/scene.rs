@@ -265,6 +265,7 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
     let field_stiffness = n.optional("field_stiffness", d.field_stiffness, |n, k| {
         n.choice(k, &["projected", "explicit"], FieldStiffness::from_name)
     });
+    let energy_balance = groom::boolean(&mut n, "energy_balance", d.energy_balance);
     let config = SimulationConfig {
         mode: mode.unwrap_or(d.mode),
         dt: dt.unwrap_or(d.dt),
@@ -276,6 +277,7 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
         engine: engine.unwrap_or(d.engine),
         max_split_depth: max_split_depth.unwrap_or(d.max_split_depth),
         field_stiffness: field_stiffness.unwrap_or(d.field_stiffness),
+        energy_balance: energy_balance.unwrap_or(d.energy_balance),
     };
     if dt.is_some() && duration.is_some() && fps.is_some() {
         check_run_size(&n, &config);

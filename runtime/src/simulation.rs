@@ -180,6 +180,12 @@ fn embedded_strands(
             ),
         ));
     }
+    if !c.energy_balance {
+        errors.push(FieldError::new(
+            "simulation.energy_balance",
+            "the embedded engine always checks the energy balance; energy_balance = false needs engine = \"runtime\"",
+        ));
+    }
     if c.field_stiffness != crate::config::FieldStiffness::Projected {
         errors.push(FieldError::new(
             "simulation.field_stiffness",
@@ -424,6 +430,7 @@ impl Simulation {
                 == crate::config::FieldStiffness::Explicit
                 && setup.config.mode == Mode::Dynamic
                 && setup.config.integrator != IntegratorKind::Rk4,
+            energy_balance: setup.config.energy_balance,
         };
         let head0 = Placement::new(setup.head.state(0.0), 0.0);
         let rk4_dt = (setup.config.integrator == IntegratorKind::Rk4
@@ -1100,6 +1107,7 @@ impl Simulation {
                 integrator: IntegratorKind::LinearlyImplicitEuler,
                 max_split_depth: superhelix_kernels::energy::MAX_SUBSTEP_DEPTH,
                 explicit_field_stiffness: false,
+                energy_balance: true,
             },
         )
     }

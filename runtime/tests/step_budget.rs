@@ -11,13 +11,26 @@ fn scenes() -> std::path::PathBuf {
 }
 
 fn simulation(text: &str, max_split_depth: usize) -> Simulation {
-    simulation_with(text, max_split_depth, FieldStiffness::Projected)
+    simulation_with(text, max_split_depth, (FieldStiffness::Projected, true))
 }
 
-fn simulation_with(text: &str, max_split_depth: usize, field: FieldStiffness) -> Simulation {
+/// The budgets the tests run: the field stiffness projected or explicit, with the energy
+/// balance; explicit without it (`scenes/full-head-200.toml`'s).
+const BUDGETS: [(FieldStiffness, bool); 3] = [
+    (FieldStiffness::Projected, true),
+    (FieldStiffness::Explicit, true),
+    (FieldStiffness::Explicit, false),
+];
+
+fn simulation_with(
+    text: &str,
+    max_split_depth: usize,
+    (field, balance): (FieldStiffness, bool),
+) -> Simulation {
     let mut setup = parse_scene_at(text, &scenes()).unwrap_or_else(|e| panic!("{e}"));
     setup.config.max_split_depth = max_split_depth;
     setup.config.field_stiffness = field;
+    setup.config.energy_balance = balance;
     Simulation::new(setup, None).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -54,8 +67,8 @@ fn largest_velocity(sim: &Simulation) -> f64 {
 fn one_solve_per_strand_step_keeps_the_shaken_head_bounded() {
     let text = std::fs::read_to_string(scenes().join("full-head-smooth.toml"))
         .unwrap_or_else(|e| panic!("{e}"));
-    for field in [FieldStiffness::Projected, FieldStiffness::Explicit] {
-        let mut sim = simulation_with(&text, 0, field);
+    for budget in BUDGETS {
+        let mut sim = simulation_with(&text, 0, budget);
         let (n, steps) = (sim.strand_count(), 30);
         for _ in 0..steps {
             sim.step().unwrap_or_else(|e| panic!("{e}"));
@@ -63,8 +76,9 @@ fn one_solve_per_strand_step_keeps_the_shaken_head_bounded() {
         let stats = sim.stats();
         let v = largest_velocity(&sim);
         eprintln!(
-            "shaken head, one solve per strand-step, {}: {} of {} strand-steps rotation-limited, largest |q̇| {v:.3e} rad/(m s)",
-            field.name(),
+            "shaken head, one solve per strand-step, {} field stiffness, energy balance {}: {} of {} strand-steps rotation-limited, largest |q̇| {v:.3e} rad/(m s)",
+            budget.0.name(),
+            budget.1,
             stats.rotation_limited,
             n * steps
         );
@@ -81,8 +95,8 @@ fn one_solve_per_strand_step_keeps_the_shaken_head_bounded() {
 /// projected, 0.60 mm explicit; with the default budget none goes inside at all).
 #[test]
 fn one_solve_per_strand_step_keeps_a_sag_free_head_out_of_its_bodies() {
-    for field in [FieldStiffness::Projected, FieldStiffness::Explicit] {
-        let mut sim = simulation_with(&sag_free_head(), 0, field);
+    for budget in BUDGETS {
+        let mut sim = simulation_with(&sag_free_head(), 0, budget);
         let (n, steps) = (sim.strand_count(), 30);
         let mut deepest: f64 = 0.0;
         for _ in 0..steps {
@@ -91,8 +105,9 @@ fn one_solve_per_strand_step_keeps_a_sag_free_head_out_of_its_bodies() {
         }
         let stats = sim.stats();
         eprintln!(
-            "sag-free head, one solve per strand-step, {}: deepest centreline point {deepest:.3e} m inside, {} of {} strand-steps rotation-limited",
-            field.name(),
+            "sag-free head, one solve per strand-step, {} field stiffness, energy balance {}: deepest centreline point {deepest:.3e} m inside, {} of {} strand-steps rotation-limited",
+            budget.0.name(),
+            budget.1,
             stats.rotation_limited,
             n * steps
         );
@@ -156,7 +171,7 @@ preset = "wavy"
     let equilibrium = tip(&mut still);
     let mut early = Vec::new();
     for field in [FieldStiffness::Projected, FieldStiffness::Explicit] {
-        let mut sim = simulation_with(scene, 8, field);
+        let mut sim = simulation_with(scene, 8, (field, true));
         for k in 0..150 {
             sim.step().unwrap_or_else(|e| panic!("{e}"));
             if k == 5 {

@@ -66,6 +66,10 @@ pub struct BenchArgs {
     /// projected (default, or the scene's `[simulation] field_stiffness`) or explicit.
     #[arg(long)]
     field_stiffness: Option<String>,
+    /// Check every implicit step against the energy balance: true (default, or the
+    /// scene's `[simulation] energy_balance`) or false.
+    #[arg(long)]
+    energy_balance: Option<bool>,
 }
 
 /// Run `bench`.
@@ -99,6 +103,7 @@ fn bench_generated(args: &BenchArgs) -> Result<ExitCode, Error> {
         },
         length: args.length,
         engine: engine(args.engine.as_deref().unwrap_or("runtime"))?,
+        energy_balance: args.energy_balance.unwrap_or(true),
         field_stiffness: match &args.field_stiffness {
             Some(name) => field_stiffness(name)?,
             None => BenchOptions::default().field_stiffness,
@@ -146,12 +151,16 @@ fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
     if let Some(name) = &args.field_stiffness {
         setup.config.field_stiffness = field_stiffness(name)?;
     }
+    if let Some(on) = args.energy_balance {
+        setup.config.energy_balance = on;
+    }
     let names = scene_effects(&setup).names().join(",");
     let integrator = setup.config.integrator.name();
     let budget = format!(
-        "max_split_depth={} field_stiffness={}",
+        "max_split_depth={} field_stiffness={} energy_balance={}",
         setup.config.max_split_depth,
-        setup.config.field_stiffness.name()
+        setup.config.field_stiffness.name(),
+        setup.config.energy_balance
     );
     let steps = args.steps;
     let report = bench_setup(setup, steps)?;

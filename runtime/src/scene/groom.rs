@@ -98,7 +98,7 @@ const CURVES_ONLY: [&str; 5] = [
 ];
 
 /// An optional boolean.
-fn boolean(n: &mut Node<'_>, key: &'static str, default: bool) -> Option<bool> {
+pub(super) fn boolean(n: &mut Node<'_>, key: &'static str, default: bool) -> Option<bool> {
     match n.raw(key) {
         None => Some(default),
         Some(Value::Boolean(b)) => Some(*b),

@@ -33,7 +33,16 @@ pub fn step(
     match system.context.integrator {
         IntegratorKind::Rk4 => rk4(system, interval, state),
         kind => {
-            let (start, continued) = start_energy(system, interval, state);
+            // without the energy balance no energy is measured: the start's stands empty
+            let (start, continued) = if system.context.energy_balance {
+                start_energy(system, interval, state)
+            } else {
+                let ws = &system.workspace;
+                (
+                    StateEnergy::default(),
+                    ws.last_q == state.q && ws.last_v == state.v,
+                )
+            };
             // the linearly implicit step starts as finely as its last step ended (the
             // other integrators take their own whole step first; a strand with contacts
             // tries its whole step, see `implicit_adaptive`)
@@ -236,6 +245,10 @@ fn implicit_adaptive(
         ws.rotation_estimate = ws
             .rotation_estimate
             .max(rotation * (1u64 << interval.depth) as f64);
+        if !system.context.energy_balance {
+            record_history(kind, &mut system.workspace, h);
+            return Ok(*start);
+        }
         let mut end =
             energy_balance::measure(system, &interval.end, interval.t + h, &state.q, &state.v);
         // contacts with what moves relative to the head (a world body while the head

@@ -105,6 +105,9 @@ pub struct StepContext {
     /// Whether the step's matrix holds only the contacts' stiffness along the Jacobian
     /// ([`crate::config::FieldStiffness::Explicit`]), unprojected.
     pub explicit_field_stiffness: bool,
+    /// Whether implicit steps are checked against the energy balance
+    /// ([`crate::config::SimulationConfig::energy_balance`]).
+    pub energy_balance: bool,
 }
 
 /// The state of one strand: generalized coordinates q and velocities q̇ (3N each).
