@@ -16,8 +16,8 @@
 //!    strand are filed on a grid, and the sample pairs of different strands within their
 //!    search distance that are local minima of the distance along both chains become
 //!    pairs. Each sample searches as far as the reach plus twice its own motion over the
-//!    last step, or the distance a point at rest falls in two steps when that is more
-//!    (between 2 and 1 + [`SEARCH_MARGIN`] reaches); a pair within the larger of its two
+//!    last step, or plus |g| h² (twice a free fall from rest over one step h) when that
+//!    is more (between 2 and 1 + [`SEARCH_MARGIN`] reaches); a pair within the larger of its two
 //!    samples' distances is found, so a few fast samples (a whipping tip) do not widen
 //!    the search of all the others;
 //! 3. each pair is refined to the closest points of the two polylines near its samples
