@@ -265,7 +265,7 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
     let field_stiffness = n.optional("field_stiffness", d.field_stiffness, |n, k| {
         n.choice(k, &["projected", "explicit"], FieldStiffness::from_name)
     });
-    let energy_balance = groom::boolean(&mut n, "energy_balance", d.energy_balance);
+    let energy_balance = reader::boolean(&mut n, "energy_balance", d.energy_balance);
     let config = SimulationConfig {
         mode: mode.unwrap_or(d.mode),
         dt: dt.unwrap_or(d.dt),

@@ -739,16 +739,15 @@ impl Simulation {
     pub fn max_penetration(&mut self) -> Option<f64> {
         let head = Placement::new(self.head.state(self.time), self.time);
         // (the strands in parallel: their sample poses are then the next step's)
-        let depths: Vec<f64> = self
-            .strands
+        self.strands
             .par_iter_mut()
             .filter_map(|s| {
                 let c = s.system.contacts.as_mut()?;
                 let r = c.params().radius;
                 Some(c.max_depth(&head, &s.system.strand.geometry, &s.state.q) - r)
             })
-            .collect();
-        (!depths.is_empty()).then(|| depths.into_iter().fold(0.0, f64::max))
+            .reduce_with(f64::max)
+            .map(|d| d.max(0.0))
     }
 
     /// The contact potential of strand `i` at its current state, the head and the bodies

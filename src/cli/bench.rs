@@ -103,7 +103,9 @@ fn bench_generated(args: &BenchArgs) -> Result<ExitCode, Error> {
         },
         length: args.length,
         engine: engine(args.engine.as_deref().unwrap_or("runtime"))?,
-        energy_balance: args.energy_balance.unwrap_or(true),
+        energy_balance: args
+            .energy_balance
+            .unwrap_or(BenchOptions::default().energy_balance),
         field_stiffness: match &args.field_stiffness {
             Some(name) => field_stiffness(name)?,
             None => BenchOptions::default().field_stiffness,

@@ -3,7 +3,7 @@
 //! `docs/grooms.md`).
 
 use super::assembly::{Names, MAX_STRANDS};
-use super::reader::{Bound, Node, Range};
+use super::reader::{boolean, Bound, Node, Range};
 use super::strands::{
     read_template, strand_rng, StrandDefaults, Template, MAX_CURVATURE, MAX_LENGTH,
 };
@@ -25,7 +25,6 @@ use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Arc;
 use superhelix_kernels::pose::darboux;
-use toml::Value;
 
 /// Largest root density, roots per m² (a scalp has about 2·10⁶).
 pub const MAX_DENSITY: f64 = 1e9;
@@ -96,21 +95,6 @@ const CURVES_ONLY: [&str; 5] = [
     "translation",
     "max_fit_error",
 ];
-
-/// An optional boolean.
-pub(super) fn boolean(n: &mut Node<'_>, key: &'static str, default: bool) -> Option<bool> {
-    match n.raw(key) {
-        None => Some(default),
-        Some(Value::Boolean(b)) => Some(*b),
-        Some(other) => {
-            n.error(
-                key,
-                format!("expected true or false, got {}", super::reader::kind(other)),
-            );
-            None
-        }
-    }
-}
 
 /// A `[[grooms]]` entry: its strands go to `out`, its report to `ctx.reports`.
 pub(super) fn read_groom(

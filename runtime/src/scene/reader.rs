@@ -470,6 +470,18 @@ fn edit_distance(a: &str, b: &str) -> usize {
     row[b.len()]
 }
 
+/// An optional boolean.
+pub(super) fn boolean(n: &mut Node<'_>, key: &'static str, default: bool) -> Option<bool> {
+    match n.raw(key) {
+        None => Some(default),
+        Some(Value::Boolean(b)) => Some(*b),
+        Some(other) => {
+            n.error(key, format!("expected true or false, got {}", kind(other)));
+            None
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
