@@ -137,7 +137,7 @@ impl Default for BenchOptions {
             quadrature: QuadratureRule::Adaptive,
             dt: 1.0 / 30.0,
             length: 0.2,
-            engine: Engine::Runtime,
+            engine: Engine::Auto,
             max_split_depth: SimulationConfig::default().max_split_depth,
             field_stiffness: FieldStiffness::Projected,
             energy_balance: true,
@@ -171,6 +171,9 @@ pub struct BenchReport {
     pub attempts: usize,
     /// Description of the kernel of strand 0.
     pub kernel: String,
+    /// The engine that stepped the strands (`embedded` or `runtime`: what `auto`
+    /// chose).
+    pub engine: &'static str,
     /// Worker threads the strands were spread over.
     pub threads: usize,
 }
@@ -385,6 +388,7 @@ pub fn bench_setup(setup: SimulationSetup, steps: usize) -> Result<BenchReport> 
         rotation_limited: sim.stats().rotation_limited,
         attempts: sim.stats().attempts,
         kernel: sim.kernel_description(0),
+        engine: sim.engine().name(),
         threads: rayon::current_num_threads(),
     })
 }

@@ -32,8 +32,13 @@ fn validate_says_strand_or_strands_and_prints_the_plan() {
     let text = stdout(&out);
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines[0], "ok: 1 strand, 60 steps");
+    // one strand of the default N = 10 with nothing the embedded engine lacks
+    assert_eq!(
+        lines[1],
+        "engine: embedded (the fixed-N step; 5168 B per strand at N = 10, and one workspace per thread)"
+    );
     assert!(
-        lines[1].starts_with("output: ") && lines[1].contains("frames.json"),
+        lines[2].starts_with("output: ") && lines[2].contains("frames.json"),
         "{text}"
     );
     let two = write(
@@ -106,7 +111,10 @@ fn an_oversized_plan_is_refused_by_validate_and_run_unless_lifted() {
     );
     let out = superhelix(&["validate", &default]);
     let text = stdout(&out);
-    let plan = text.lines().nth(1).unwrap_or_default();
+    let plan = text
+        .lines()
+        .find(|l| l.starts_with("output: "))
+        .unwrap_or_default();
     assert!(
         plan.contains("(frames.npy ") && !plan.contains("frames.json"),
         "{text}"

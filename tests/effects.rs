@@ -3,7 +3,7 @@
 
 use std::sync::{Arc, Mutex};
 use superhelix::bench::{setup, BenchOptions, EffectSet};
-use superhelix::runtime::config::KernelChoice;
+use superhelix::runtime::config::{Engine, KernelChoice};
 use superhelix::runtime::kernels::kernel::{EvalInput, StrandKernel, StrandTerms};
 use superhelix::runtime::model::reconstruction::Pose;
 use superhelix::runtime::{KernelFactory, Simulation, StrandGeometry};
@@ -86,6 +86,9 @@ fn run(effects: &str) -> Log {
         steps: 10,
         kernels: KernelChoice::Generated,
         effects: EffectSet::parse(effects).expect("valid effects"),
+        // the runtime engine asks the factory's kernels (the embedded engine steps
+        // generated fixed-N code of its own)
+        engine: Engine::Runtime,
         ..BenchOptions::default()
     };
     let factory = RecordingFactory { log: log.clone() };

@@ -132,9 +132,14 @@ impl KernelChoice {
 /// Which engine steps the strands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Engine {
+    /// The embedded engine wherever it can run the scene (every strand's N has fixed-N
+    /// code in this build, linearly implicit Euler, no contacts, point loads,
+    /// electrostatics, static solve or step budget, kernels `auto` or `generated`), the
+    /// runtime engine otherwise: the same steps (to 1e-12) for a fraction of the memory.
+    #[default]
+    Auto,
     /// The runtime's step: any integrator and kernel, checked after the fact (energy
     /// balance, a step split when it rotates an element too far), buffers per strand.
-    #[default]
     Runtime,
     /// The fixed-N step an engine embeds (`superhelix-kernels`): linearly implicit Euler
     /// on the generated fixed-N code with the runtime's checks after the fact, one
@@ -146,13 +151,14 @@ impl Engine {
     /// Name as written in scenes.
     pub fn name(self) -> &'static str {
         match self {
+            Engine::Auto => "auto",
             Engine::Runtime => "runtime",
             Engine::Embedded => "embedded",
         }
     }
     /// Parse a scene name.
     pub fn from_name(name: &str) -> Option<Self> {
-        [Self::Runtime, Self::Embedded]
+        [Self::Auto, Self::Runtime, Self::Embedded]
             .into_iter()
             .find(|k| k.name() == name)
     }
@@ -204,7 +210,7 @@ impl Default for SimulationConfig {
             integrator: IntegratorKind::LinearlyImplicitEuler,
             kernels: KernelChoice::Auto,
             quadrature: QuadratureRule::default(),
-            engine: Engine::Runtime,
+            engine: Engine::Auto,
             max_split_depth: MAX_SUBSTEP_DEPTH,
             field_stiffness: FieldStiffness::Projected,
             energy_balance: true,

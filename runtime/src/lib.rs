@@ -62,7 +62,7 @@ pub use kernels::generic::{GenericKernel, GenericKernelFactory, QuadratureRule};
 pub use kernels::kernel::{EvalInput, KernelFactory, StrandKernel, StrandTerms, Terms};
 pub use model::material::{CrossSection, HelixForm, Material, Preset};
 pub use model::strand::{PointLoad, Strand, StrandGeometry};
-pub use simulation::Simulation;
+pub use simulation::{engine_for, Simulation};
 
 pub use forces::head_motion::{Keyframe, KeyframeTrack};
 /// Re-exported so that users of the trait need not name nalgebra themselves.

@@ -252,7 +252,7 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
     });
     let quadrature = n.optional("quadrature", d.quadrature, read_quadrature);
     let engine = n.optional("engine", d.engine, |n, k| {
-        n.choice(k, &["runtime", "embedded"], Engine::from_name)
+        n.choice(k, &["auto", "runtime", "embedded"], Engine::from_name)
     });
     let max_split_depth = n.optional("max_split_depth", d.max_split_depth, |n, k| {
         n.count(

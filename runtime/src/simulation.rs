@@ -164,11 +164,11 @@ pub struct Simulation {
 
 /// The embedded engine's strands of `setup`, or every reason it cannot take them (after
 /// `errors`, the problems already found).
-fn embedded_strands(
-    setup: SimulationSetup,
-    bodies: Bodies,
-    mut errors: Vec<FieldError>,
-) -> Result<(Simulation, ())> {
+/// What keeps the embedded engine from running `setup`: every setting and strand it
+/// cannot step, each naming its field (empty: it can run the scene). `engine = "auto"`
+/// takes the embedded engine exactly when this is empty.
+fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
+    let mut errors = Vec::new();
     let c = &setup.config;
     if c.integrator != IntegratorKind::LinearlyImplicitEuler {
         errors.push(FieldError::new(
@@ -229,17 +229,56 @@ fn embedded_strands(
             "the embedded engine has no contacts; use engine = \"runtime\"",
         ));
     }
-    let mut groups: Vec<(usize, Box<dyn EmbeddedGroup>)> = Vec::new();
-    let mut strands = Vec::with_capacity(setup.strands.len());
-    for (index, s) in setup.strands.into_iter().enumerate() {
+    for (index, s) in setup.strands.iter().enumerate() {
         let n = s.strand.geometry.elements();
         if !s.strand.point_loads.is_empty() {
             errors.push(FieldError::new(
                 format!("strands[{index}].point_loads"),
                 "the embedded engine has no point loads; use engine = \"runtime\"",
             ));
-            continue;
+        } else if !superhelix_generated::fixed::SIZES.contains(&n) {
+            errors.push(FieldError::new(
+                "simulation.engine",
+                format!(
+                    "strand '{}' (strands[{index}]) has N = {n} elements and this build has no \
+                     fixed-N code for it (build with SUPERHELIX_N={n} to add it, or use engine = \"runtime\")",
+                    s.strand.name
+                ),
+            ));
         }
+    }
+    errors
+}
+
+/// The engine [`Simulation::new`] steps `setup` with ([`Engine::Embedded`] or
+/// [`Engine::Runtime`], what `engine = "auto"` resolves to), and when `auto` takes the
+/// runtime engine the first thing in the scene the embedded engine lacks.
+pub fn engine_for(setup: &SimulationSetup) -> (Engine, Option<FieldError>) {
+    match setup.config.engine {
+        Engine::Embedded => (Engine::Embedded, None),
+        Engine::Runtime => (Engine::Runtime, None),
+        Engine::Auto => match embedded_refusals(setup).into_iter().next() {
+            None => (Engine::Embedded, None),
+            Some(reason) => (Engine::Runtime, Some(reason)),
+        },
+    }
+}
+
+/// The simulation of `setup` on the embedded engine (its refusals, and `errors`, are
+/// [`Error::Invalid`]).
+fn embedded_strands(
+    setup: SimulationSetup,
+    bodies: Bodies,
+    mut errors: Vec<FieldError>,
+) -> Result<(Simulation, ())> {
+    errors.extend(embedded_refusals(&setup));
+    if !errors.is_empty() {
+        return Err(Error::Invalid(errors));
+    }
+    let mut groups: Vec<(usize, Box<dyn EmbeddedGroup>)> = Vec::new();
+    let mut strands = Vec::with_capacity(setup.strands.len());
+    for (index, s) in setup.strands.into_iter().enumerate() {
+        let n = s.strand.geometry.elements();
         let g = match groups.iter().position(|(m, _)| *m == n) {
             Some(g) => g,
             None => match group_for(n) {
@@ -250,11 +289,7 @@ fn embedded_strands(
                 None => {
                     errors.push(FieldError::new(
                         "simulation.engine",
-                        format!(
-                            "strand '{}' (strands[{index}]) has N = {n} elements and this build has no \
-                             fixed-N code for it (build with SUPERHELIX_N={n} to add it, or use engine = \"runtime\")",
-                            s.strand.name
-                        ),
+                        format!("no fixed-N code for N = {n} (strands[{index}])"),
                     ));
                     continue;
                 }
@@ -413,7 +448,7 @@ impl Simulation {
             Err(Error::Invalid(errors)) => (Bodies::default(), errors),
             Err(e) => return Err(e),
         };
-        if setup.config.engine == Engine::Embedded {
+        if engine_for(&setup).0 == Engine::Embedded {
             return embedded_strands(setup, bodies, errors).map(|(sim, ())| sim);
         }
         let head_moves = setup.head != HeadMotion::Still;
@@ -786,6 +821,13 @@ impl Simulation {
             force: true,
             ..Default::default()
         };
+        if self.embedded.is_some() {
+            let mut system = self.measuring_system(i);
+            let q = self.q(i).to_vec();
+            let zero = vec![0.0; q.len()];
+            system.assemble(&rest, &q, &zero, terms);
+            return system.workspace.terms.force.clone();
+        }
         let s = &mut self.strands[i];
         let zero = vec![0.0; s.state.q.len()];
         s.system.assemble(&rest, &s.state.q, &zero, terms);
@@ -902,10 +944,7 @@ impl Simulation {
     /// Every strand's equilibrium with its current loads.
     fn solve_static_strands(&mut self) -> Result<Vec<StaticReport>> {
         if self.embedded.is_some() {
-            return Err(Error::invalid(
-                "simulation.engine",
-                "the embedded engine has no static solve; use engine = \"runtime\"",
-            ));
+            return self.solve_static_embedded();
         }
         let reports: Vec<std::result::Result<StaticReport, (usize, String)>> = self
             .strands
@@ -933,6 +972,39 @@ impl Simulation {
                 })
             })
             .collect()
+    }
+
+    /// [`Self::solve_static_strands`] for the embedded engine: each strand's equilibrium
+    /// by the runtime's static solve on a system built for it alone (the moment kernel on
+    /// the same closed forms), q set to it as the runtime engine sets it. Nothing is kept.
+    fn solve_static_embedded(&mut self) -> Result<Vec<StaticReport>> {
+        let mut reports = Vec::with_capacity(self.strand_count());
+        for i in 0..self.strand_count() {
+            let mut system = self.measuring_system(i);
+            let mut q = self.q(i).to_vec();
+            let r = solve_static(&mut system, &mut q);
+            let outcome = match r {
+                Ok(rep) if q.iter().all(|x| x.is_finite()) => Ok(rep),
+                Ok(_) => Err("static solve produced non-finite q".to_string()),
+                Err(e) => Err(e),
+            };
+            match outcome {
+                Ok(rep) => {
+                    let v = self.v(i).to_vec();
+                    self.set_state(i, &q, &v);
+                    reports.push(rep);
+                }
+                Err(cause) => {
+                    return Err(Error::Diverged {
+                        strand: self.strand(i).name.clone(),
+                        index: i,
+                        time: self.time,
+                        cause,
+                    })
+                }
+            }
+        }
+        Ok(reports)
     }
 
     /// The scene's bodies placed at the current time (the head in its state then):
@@ -1012,6 +1084,15 @@ impl Simulation {
                 e.strands[i].0.geometry.elements()
             ),
             None => self.strands[i].system.kernel.description(),
+        }
+    }
+    /// The engine stepping the strands: [`Engine::Embedded`] or [`Engine::Runtime`]
+    /// (what `engine = "auto"` chose).
+    pub fn engine(&self) -> Engine {
+        if self.embedded.is_some() {
+            Engine::Embedded
+        } else {
+            Engine::Runtime
         }
     }
     /// Whether strand i runs on a generated kernel.

@@ -94,3 +94,82 @@ fn embedded_engine_refuses_what_it_does_not_do() {
     let odd_n = scene("embedded", "").replace("elements = 8", "elements = 7");
     refused(&odd_n, "SUPERHELIX_N=7");
 }
+
+#[test]
+fn auto_takes_the_embedded_engine_exactly_where_it_can_run_the_scene() {
+    use superhelix_runtime::config::Engine;
+    // the default (no `engine` in the scene) is auto
+    let plain = scene("auto", "").replace("engine = \"auto\"\n", "");
+    let sim = simulation(&plain).expect("valid scene");
+    assert_eq!(sim.engine(), Engine::Embedded);
+    let setup = parse_scene(&plain).expect("valid scene");
+    assert_eq!(
+        superhelix_runtime::engine_for(&setup),
+        (Engine::Embedded, None)
+    );
+    // each thing the embedded engine refuses sends the scene to the runtime engine, and
+    // engine_for names it
+    let with_load =
+        scene("auto", "") + "[[strands.point_loads]]\ns = 0.25\nforce = [0.0, 0.0, -1e-6]\n";
+    let odd_n = scene("auto", "").replace("elements = 8", "elements = 7");
+    for (text, field) in [
+        (scene("auto", "integrator = \"bdf2\""), "simulation.engine"),
+        (scene("auto", "kernels = \"generic\""), "simulation.kernels"),
+        (
+            scene("auto", "max_split_depth = 0"),
+            "simulation.max_split_depth",
+        ),
+        (
+            scene("auto", "energy_balance = false"),
+            "simulation.energy_balance",
+        ),
+        (with_load, "strands[1].point_loads"),
+        (odd_n, "SUPERHELIX_N=7"),
+    ] {
+        let sim = simulation(&text).expect("valid scene");
+        assert_eq!(sim.engine(), Engine::Runtime, "{field}");
+        let setup = parse_scene(&text).expect("valid scene");
+        let (engine, why) = superhelix_runtime::engine_for(&setup);
+        assert_eq!(engine, Engine::Runtime);
+        let why = why.map(|e| e.to_string()).unwrap_or_default();
+        assert!(why.contains(field), "{field} not named in {why}");
+    }
+    // named explicitly, the runtime engine is kept
+    let runtime = simulation(&scene("runtime", "")).expect("valid scene");
+    assert_eq!(runtime.engine(), Engine::Runtime);
+}
+
+#[test]
+fn a_static_solve_on_the_embedded_engine_is_the_runtime_engines() {
+    // a dynamic scene on either engine, solved for its equilibrium from the same state
+    let mut runtime = simulation(&scene("runtime", "")).expect("valid scene");
+    let mut embedded = simulation(&scene("embedded", "")).expect("valid scene");
+    let a = runtime.solve_static().expect("runtime statics");
+    let b = embedded.solve_static().expect("embedded statics");
+    assert_eq!(a.len(), 2);
+    assert!(a.iter().chain(&b).all(|r| r.converged), "{a:?} {b:?}");
+    for i in 0..2 {
+        let (x, y) = (runtime.q(i), embedded.q(i));
+        let scale = x.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+        let worst = x
+            .iter()
+            .zip(y)
+            .fold(0.0f64, |m, (p, r)| m.max((p - r).abs() / scale));
+        // the same Newton iteration on the generated fixed-N kernel and on the moment
+        // kernel of the same closed forms (they agree to ~1e-12)
+        assert!(
+            worst <= 1e-9,
+            "strand {i}: largest relative |Δq| {worst:.3e}"
+        );
+        let (fx, fy) = (runtime.static_force(i), embedded.static_force(i));
+        let largest = fx.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let diff = fx
+            .iter()
+            .zip(&fy)
+            .fold(0.0f64, |m, (p, r)| m.max((p - r).abs()));
+        assert!(
+            diff <= 1e-9 * largest.max(1e-12),
+            "strand {i}: F differs by {diff:e}"
+        );
+    }
+}

@@ -8,7 +8,7 @@ mod common;
 use common::*;
 use faer::Mat;
 use nalgebra::{Matrix3, Vector3};
-use superhelix_runtime::config::{KernelChoice, SimulationConfig};
+use superhelix_runtime::config::{Engine, KernelChoice, SimulationConfig};
 use superhelix_runtime::kernels::closed_form::{kernel_factory, sizes, ClosedForm};
 use superhelix_runtime::kernels::kernel::{BodyField, EvalInput, StrandKernel, StrandTerms, Terms};
 use superhelix_runtime::kernels::moments::kernel::MomentKernel;
@@ -228,7 +228,8 @@ fn a_point_at_another_q_does_not_spoil_the_next_evaluation() {
     }
 }
 
-/// A simulation of one hanging strand of `n` elements with `kernels`.
+/// A simulation of one hanging strand of `n` elements with `kernels`, on the runtime
+/// engine (the kernels it chooses are what these tests check).
 fn simulation(
     n: usize,
     kernels: KernelChoice,
@@ -237,6 +238,7 @@ fn simulation(
     let s = preset_strand(Preset::Wavy, n, 0.25, Vector3::new(0.0, 0.0, -1.0));
     let config = SimulationConfig {
         kernels,
+        engine: Engine::Runtime,
         ..SimulationConfig::default()
     };
     let setup = setup(

@@ -44,9 +44,10 @@ pub struct BenchArgs {
     /// Gauss-Legendre points per element of the generic kernels (default: adaptive).
     #[arg(long)]
     quadrature: Option<usize>,
-    /// Engine: runtime (the runtime's step, buffers per strand) or embedded (the
-    /// fixed-N step an engine embeds, one workspace per thread); default runtime, or
-    /// with --scene the scene's own.
+    /// Engine: auto (the embedded engine wherever it can run the strands, else the
+    /// runtime's), runtime (the runtime's step, buffers per strand) or embedded (the
+    /// fixed-N step an engine embeds, one workspace per thread); default auto, or with
+    /// --scene the scene's own.
     #[arg(long)]
     engine: Option<String>,
     /// Strand length, metres (ignored with --scene).
@@ -102,7 +103,7 @@ fn bench_generated(args: &BenchArgs) -> Result<ExitCode, Error> {
             None => QuadratureRule::Adaptive,
         },
         length: args.length,
-        engine: engine(args.engine.as_deref().unwrap_or("runtime"))?,
+        engine: engine(args.engine.as_deref().unwrap_or("auto"))?,
         energy_balance: args
             .energy_balance
             .unwrap_or(BenchOptions::default().energy_balance),
@@ -118,12 +119,13 @@ fn bench_generated(args: &BenchArgs) -> Result<ExitCode, Error> {
     };
     let report = bench(&options)?;
     println!(
-        "N={} strands={} steps={} length={} m engine={} kernels={kernel_name} ({}) effects={effects} integrator={integrator_name}",
+        "N={} strands={} steps={} length={} m engine={} ({}) kernels={kernel_name} ({}) effects={effects} integrator={integrator_name}",
         args.elements,
         args.strands,
         args.steps,
         args.length,
         options.engine.name(),
+        report.engine,
         report.kernel
     );
     print_report(&report);
@@ -167,8 +169,9 @@ fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
     let steps = args.steps;
     let report = bench_setup(setup, steps)?;
     println!(
-        "scene={} steps={steps} kernels ({}) effects={names} integrator={integrator}",
+        "scene={} steps={steps} engine={} kernels ({}) effects={names} integrator={integrator}",
         path.display(),
+        report.engine,
         report.kernel
     );
     println!("{budget}");
@@ -197,7 +200,7 @@ fn split_depth(d: usize) -> Result<usize, Error> {
 /// The engine named by `--engine`.
 fn engine(name: &str) -> Result<superhelix::runtime::config::Engine, Error> {
     superhelix::runtime::config::Engine::from_name(name)
-        .ok_or_else(|| Error::invalid("--engine", "must be runtime or embedded"))
+        .ok_or_else(|| Error::invalid("--engine", "must be auto, runtime or embedded"))
 }
 
 fn print_report(report: &BenchReport) {

@@ -43,6 +43,7 @@ fn report_valid(
     for groom in grooms {
         println!("{groom}");
     }
+    println!("{}", engine_line(setup));
     let plan = superhelix::plan_output(setup, Path::new("out"), &superhelix::RunOptions::default());
     println!("{plan}");
     if let Some(note) = &plan.note {
@@ -50,4 +51,42 @@ fn report_valid(
     }
     plan.check_limit()?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// The engine `run` will step the scene with, what it keeps per strand, and (under
+/// `engine = "auto"`) why the runtime engine when it is that.
+fn engine_line(setup: &superhelix::SimulationSetup) -> String {
+    use superhelix::runtime::config::Engine;
+    let (engine, reason) = superhelix::runtime::engine_for(setup);
+    match engine {
+        Engine::Embedded => {
+            let mut sizes: Vec<usize> = setup
+                .strands
+                .iter()
+                .map(|s| s.strand.geometry.elements())
+                .collect();
+            sizes.sort_unstable();
+            sizes.dedup();
+            let kept: Vec<String> = sizes
+                .iter()
+                .filter_map(|&n| {
+                    superhelix::runtime::solver::embedded::group_for(n)
+                        .map(|g| format!("{} B per strand at N = {n}", g.strand_bytes()))
+                })
+                .collect();
+            format!(
+                "engine: embedded (the fixed-N step; {}, and one workspace per thread)",
+                kept.join(", ")
+            )
+        }
+        _ => match reason {
+            Some(why) => format!(
+                "engine: runtime (dense 3N x 3N matrices and factorisations per strand), not \
+                 the embedded engine: {why}"
+            ),
+            None => {
+                "engine: runtime (dense 3N x 3N matrices and factorisations per strand)".to_string()
+            }
+        },
+    }
 }
