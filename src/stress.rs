@@ -69,7 +69,8 @@
 //! The first violation stops the case and is reported with its strand, time and cause.
 
 use crate::runtime::config::{
-    FieldStiffness, IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup, StrandSetup,
+    Engine, FieldStiffness, IntegratorKind, KernelChoice, SimulationConfig, SimulationSetup,
+    StrandSetup,
 };
 use crate::runtime::model::element::local_pose;
 use crate::runtime::model::material::{helix_curvature, HelixForm, Preset};
@@ -844,6 +845,18 @@ pub fn with_field_stiffness(cases: Vec<Case>, kind: FieldStiffness) -> Vec<Case>
         .map(|mut c| {
             c.setup.config.field_stiffness = kind;
             c.name = format!("{}@{}", c.name, kind.name());
+            c
+        })
+        .collect()
+}
+
+/// `cases` on `engine` (`auto`, the scenes' default: the embedded engine wherever it can
+/// run a case), names unchanged.
+pub fn with_engine(cases: Vec<Case>, engine: Engine) -> Vec<Case> {
+    cases
+        .into_iter()
+        .map(|mut c| {
+            c.setup.config.engine = engine;
             c
         })
         .collect()

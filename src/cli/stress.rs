@@ -28,6 +28,11 @@ pub struct StressArgs {
     /// (projected, the default, or explicit): cases are then named `<case>@explicit`.
     #[arg(long)]
     field_stiffness: Option<String>,
+    /// Run every case on this engine: auto (the default: the embedded fixed-N step
+    /// wherever it can run the case, else the runtime's), runtime or embedded (a case it
+    /// cannot run is then an error).
+    #[arg(long)]
+    engine: Option<String>,
 }
 
 /// Run `stress`.
@@ -44,6 +49,11 @@ pub fn run(args: StressArgs) -> Result<ExitCode, Error> {
         let kind = superhelix::runtime::config::FieldStiffness::from_name(name)
             .ok_or_else(|| Error::invalid("--field-stiffness", "must be projected or explicit"))?;
         cases = stress::with_field_stiffness(cases, kind);
+    }
+    if let Some(name) = &args.engine {
+        let engine = superhelix::runtime::config::Engine::from_name(name)
+            .ok_or_else(|| Error::invalid("--engine", "must be auto, runtime or embedded"))?;
+        cases = stress::with_engine(cases, engine);
     }
     let filter = args.filter.as_deref();
     let cases: Vec<stress::Case> = cases
