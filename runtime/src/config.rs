@@ -134,7 +134,7 @@ impl KernelChoice {
 pub enum Engine {
     /// The embedded engine wherever it can run the scene (every strand's N has fixed-N
     /// code in this build, linearly implicit Euler, no contacts, point loads,
-    /// electrostatics, static solve or step budget, kernels `auto` or `generated`), the
+    /// electrostatics, static mode or step budget, kernels `auto` or `generated`), the
     /// runtime engine otherwise: the same steps (to 1e-12) for a fraction of the memory.
     #[default]
     Auto,

@@ -162,8 +162,6 @@ pub struct Simulation {
     steps: usize,
 }
 
-/// The embedded engine's strands of `setup`, or every reason it cannot take them (after
-/// `errors`, the problems already found).
 /// What keeps the embedded engine from running `setup`: every setting and strand it
 /// cannot step, each naming its field (empty: it can run the scene). `engine = "auto"`
 /// takes the embedded engine exactly when this is empty.
@@ -205,7 +203,7 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
     if c.mode == Mode::Static {
         errors.push(FieldError::new(
             "simulation.engine",
-            "the embedded engine has no static solve; use engine = \"runtime\" with mode = \"static\"",
+            "the embedded engine steps dynamic scenes (Simulation::solve_static still works on it); use engine = \"runtime\" or \"auto\" with mode = \"static\"",
         ));
     }
     if matches!(c.kernels, KernelChoice::Generic | KernelChoice::Moment) {
@@ -264,8 +262,8 @@ pub fn engine_for(setup: &SimulationSetup) -> (Engine, Option<FieldError>) {
     }
 }
 
-/// The simulation of `setup` on the embedded engine (its refusals, and `errors`, are
-/// [`Error::Invalid`]).
+/// The simulation of `setup` on the embedded engine, or every reason it cannot take it
+/// (after `errors`, the problems already found) as [`Error::Invalid`].
 fn embedded_strands(
     setup: SimulationSetup,
     bodies: Bodies,
