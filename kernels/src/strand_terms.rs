@@ -97,6 +97,10 @@ pub struct Terms {
     pub damping: bool,
     /// `velocity_term_jacobian` = ∂b/∂q̇ = 2 ∫ ρS Jᵀ J̇ ds.
     pub velocity_term_jacobian: bool,
+    /// `force` = ∫ Jᵀ F ds alone, without b (what the power of a field needs: b, and the
+    /// rotary inertia's part of it, are not computed), and ∫ρS y ds; `velocity_term` is
+    /// unspecified afterwards. Ignored when `force` is asked.
+    pub field_force: bool,
 }
 
 impl Terms {
@@ -108,6 +112,7 @@ impl Terms {
             stiffness: true,
             damping: true,
             velocity_term_jacobian: true,
+            field_force: false,
         }
     }
 }
@@ -306,7 +311,9 @@ pub fn evaluate_terms<T: Float, S: MomentSource<T> + ?Sized>(
     let has_rotary = shape.rotary_inertia != [T::zero(); 3];
     let lengths = shape.lengths;
     let needs_velocity = t.force || t.velocity_term_jacobian;
-    if needs_velocity {
+    // the field's force reads the frame motions for its C2 ẏ part
+    let field_force = t.field_force && !t.force;
+    if needs_velocity || field_force {
         frame_motions(b.ends, b.end_derivs, v, b.motions);
     }
     suffix_bodies(
@@ -401,6 +408,21 @@ pub fn evaluate_terms<T: Float, S: MomentSource<T> + ?Sized>(
         for (f, x) in out.force.iter_mut().zip(out.velocity_term.iter()) {
             *f -= *x;
         }
+    }
+    if field_force {
+        *out.first_moment = first_moment(b, rho_s);
+        assemble_force(
+            b.wrenches,
+            T::zero(),
+            lengths,
+            b.ends,
+            b.end_derivs,
+            b.moments,
+            b.motions,
+            v,
+            field,
+            out.force,
+        );
     }
     if t.stiffness {
         b.matrix.fill(T::zero());

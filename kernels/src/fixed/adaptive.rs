@@ -209,9 +209,10 @@ fn measure<
         linear: full.linear,
         velocity: Matrix3::zeros(),
     };
+    // M and ∫ρS y ds; the field's force alone for the power of C1 (a rotating head)
     let terms = Terms {
         mass: true,
-        force: field.has_linear(),
+        field_force: field.has_linear(),
         ..Default::default()
     };
     if field.has_linear() {
@@ -244,9 +245,7 @@ fn measure<
         })
         .sum();
     let power = if field.has_linear() {
-        (0..D)
-            .map(|i| v[i] * (ws.force[i] + ws.velocity_term[i]))
-            .sum()
+        (0..D).map(|i| v[i] * ws.force[i]).sum()
     } else {
         T::zero()
     };

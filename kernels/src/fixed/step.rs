@@ -178,6 +178,7 @@ fn assemble<
         stiffness: position_field,
         damping: velocity_field,
         velocity_term_jacobian: true,
+        field_force: false,
     };
     evaluate_at(source, strand, q, v, &field, terms, ws);
     if !position_field {

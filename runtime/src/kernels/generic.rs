@@ -416,7 +416,10 @@ impl StrandKernel for GenericKernel {
     }
 
     fn evaluate(&mut self, input: &EvalInput<'_>, out: &mut StrandTerms) {
-        let t = input.terms;
+        let mut t = input.terms;
+        // the field's force alone: the force less b, with b added back at the end
+        let field_force = t.field_force && !t.force;
+        t.force |= field_force;
         let (q, v, field) = (input.q, input.v, input.field);
         let rho_s = self.geom.mass_per_length;
         let need_jdot = t.force || t.velocity_term_jacobian;
@@ -513,6 +516,11 @@ impl StrandKernel for GenericKernel {
         }
         if t.mass && has_rotary {
             out.mass += &self.rotary_mass;
+        }
+        if field_force {
+            for (f, b) in out.force.iter_mut().zip(out.velocity_term.iter()) {
+                *f += *b;
+            }
         }
     }
 

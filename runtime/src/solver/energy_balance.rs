@@ -45,10 +45,11 @@ pub fn measure(
             q,
             v,
             field,
-            // M and ∫ρS y ds; the force only for the power of C1 (a rotating head)
+            // M and ∫ρS y ds; the field's force alone (no b) only for the power of C1
+            // (a rotating head)
             terms: Terms {
                 mass: true,
-                force: field.has_linear(),
+                field_force: field.has_linear(),
                 ..Default::default()
             },
         },
@@ -68,9 +69,7 @@ pub fn measure(
         .map(|i| 0.5 * stiffness[i] * (q[i] - strand.natural[i]).powi(2))
         .sum();
     let power = if field.has_linear() {
-        (0..n)
-            .map(|i| v[i] * (terms.force[i] + terms.velocity_term[i]))
-            .sum()
+        (0..n).map(|i| v[i] * terms.force[i]).sum()
     } else {
         0.0
     };

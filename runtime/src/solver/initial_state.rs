@@ -54,6 +54,7 @@ pub fn linearised_spectral_radius(
         stiffness: true,
         damping: true,
         velocity_term_jacobian: false,
+        field_force: false,
     };
     system.assemble(at, q, &v, terms);
     let t = &system.workspace.terms;
