@@ -282,3 +282,72 @@ fn generated_is_refused_for_an_n_without_fixed_n_code() {
     let sim = simulation(20, KernelChoice::Generated, true).expect("N = 20 is checked in");
     assert_eq!(sim.kernel_description(0), "generated fixed-N (N = 20)");
 }
+
+/// `Terms::field_force` (what the energy balance's power of a rotating head reads) is the
+/// full force with b added back, ∫ Jᵀ F ds, on every path: the moment assembly skips b
+/// and the rotary quadrature for it, so the two must agree to round-off of the force's
+/// size. Fails if the skipped terms leak into it (b alone is ~1e-2 of the force here).
+#[test]
+fn the_field_force_alone_is_the_force_plus_b_on_every_path() {
+    let mut rng = Rng(0x5eed_f0f0);
+    for n in [1usize, 5, 20] {
+        for preset in [Preset::Curly, Preset::Fuzzy] {
+            let (g, q, v) = strand(preset, n, &mut rng);
+            let field = field(&mut rng, g.mass_per_length);
+            let full = |terms| EvalInput {
+                q: &q,
+                v: &v,
+                field,
+                terms,
+            };
+            let mut kernels: [Box<dyn StrandKernel>; 3] = [
+                kernel_factory().create(&g).expect("a kernel for every N"),
+                Box::new(MomentKernel::new(g.clone(), ClosedForm)),
+                Box::new(GenericKernel::new(g.clone(), QuadratureRule::Fixed(40))),
+            ];
+            for k in kernels.iter_mut() {
+                let mut a = StrandTerms::new(3 * n);
+                let mut b = StrandTerms::new(3 * n);
+                // the field's force first, on a fresh kernel: nothing of the full
+                // evaluation (frame motions, moments) is left over to lean on
+                k.evaluate(
+                    &full(Terms {
+                        field_force: true,
+                        ..Default::default()
+                    }),
+                    &mut b,
+                );
+                k.evaluate(
+                    &full(Terms {
+                        force: true,
+                        ..Default::default()
+                    }),
+                    &mut a,
+                );
+                let whole: Vec<f64> = a
+                    .force
+                    .iter()
+                    .zip(&a.velocity_term)
+                    .map(|(f, x)| f + x)
+                    .collect();
+                let scale = whole.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                let b_size = a.velocity_term.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                assert!(
+                    b_size > 1e-6 * scale,
+                    "b must be present to test its absence"
+                );
+                let dev = whole
+                    .iter()
+                    .zip(&b.force)
+                    .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+                    / scale;
+                assert!(
+                    dev <= 1e-12,
+                    "{}: field force vs force + b {dev:.2e} at N = {n}",
+                    k.description()
+                );
+                assert!((a.first_moment - b.first_moment).norm() <= 1e-14 * a.first_moment.norm());
+            }
+        }
+    }
+}
