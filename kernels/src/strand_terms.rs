@@ -363,8 +363,10 @@ pub fn evaluate_terms<T: Float, S: MomentSource<T> + ?Sized>(
             );
         }
     }
-    if t.force {
+    if t.force || field_force {
         *out.first_moment = first_moment(b, rho_s);
+    }
+    if t.force {
         // −b of the centreline, then the field with ρS = 0 (the assembly is linear in
         // the field and in ρS)
         assemble_force(
@@ -393,6 +395,8 @@ pub fn evaluate_terms<T: Float, S: MomentSource<T> + ?Sized>(
                 b.beyond,
             );
         }
+    }
+    if t.force || field_force {
         assemble_force(
             b.wrenches,
             T::zero(),
@@ -405,24 +409,11 @@ pub fn evaluate_terms<T: Float, S: MomentSource<T> + ?Sized>(
             field,
             out.force,
         );
+    }
+    if t.force {
         for (f, x) in out.force.iter_mut().zip(out.velocity_term.iter()) {
             *f -= *x;
         }
-    }
-    if field_force {
-        *out.first_moment = first_moment(b, rho_s);
-        assemble_force(
-            b.wrenches,
-            T::zero(),
-            lengths,
-            b.ends,
-            b.end_derivs,
-            b.moments,
-            b.motions,
-            v,
-            field,
-            out.force,
-        );
     }
     if t.stiffness {
         b.matrix.fill(T::zero());
