@@ -850,6 +850,22 @@ pub fn with_field_stiffness(cases: Vec<Case>, kind: FieldStiffness) -> Vec<Case>
         .collect()
 }
 
+/// `cases` with the deepest split of a step at `depth` (`max_split_depth`; 0: one
+/// solve per strand-step), named `<case>@depth<depth>`; unchanged at the default depth.
+pub fn with_max_split_depth(cases: Vec<Case>, depth: usize) -> Vec<Case> {
+    if depth == SimulationConfig::default().max_split_depth {
+        return cases;
+    }
+    cases
+        .into_iter()
+        .map(|mut c| {
+            c.setup.config.max_split_depth = depth;
+            c.name = format!("{}@depth{depth}", c.name);
+            c
+        })
+        .collect()
+}
+
 /// `cases` on `engine` (`auto`, the scenes' default: the embedded engine wherever it can
 /// run a case), names unchanged.
 pub fn with_engine(cases: Vec<Case>, engine: Engine) -> Vec<Case> {

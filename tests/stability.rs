@@ -443,6 +443,44 @@ fn stress_command_prints_the_summary_line() {
 }
 
 #[test]
+fn stress_runs_the_cases_at_a_step_budget() {
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_superhelix"))
+            .arg("stress")
+            .args(args)
+            .output()
+            .expect("superhelix runs")
+    };
+    // a whipping case (the 5 Hz shake) that splits its steps by default, at one solve
+    // per strand-step: renamed, and not split
+    let filter = "matrix/fuzzy/N5/fps30/shake";
+    let default = run(&["--filter", filter, "--verbose"]);
+    let default = String::from_utf8_lossy(&default.stdout).to_string();
+    assert!(!default.contains("substeps=0 "), "{default}");
+    let out = run(&["--filter", filter, "--verbose", "--max-split-depth", "0"]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(stdout.lines().last(), Some("cases=1 failed=0"), "{stdout}");
+    let line = stdout
+        .lines()
+        .find(|l| l.contains(&format!("{filter}@depth0 ")))
+        .unwrap_or_else(|| panic!("no budget case in {stdout}"));
+    assert!(line.contains(" substeps=0 "), "{line}");
+    // the default depth leaves the names alone; a depth beyond it is refused, named
+    let out = run(&["--filter", filter, "--max-split-depth", "8"]);
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout).lines().last(),
+        Some("cases=1 failed=0")
+    );
+    let out = run(&["--max-split-depth", "9"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_ne!(out.status.code(), Some(0));
+    assert!(
+        stderr.contains("--max-split-depth") && stderr.contains("0..=8"),
+        "{stderr}"
+    );
+}
+
+#[test]
 fn a_frictionless_curly_strand_falling_does_not_gain_energy() {
     // Regression: taking the field stiffness H whole whenever K − H is positive definite
     // (instead of only its negative semidefinite part) let these gain 8e-3 to 0.11 S of

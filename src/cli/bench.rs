@@ -112,7 +112,7 @@ fn bench_generated(args: &BenchArgs) -> Result<ExitCode, Error> {
             None => BenchOptions::default().field_stiffness,
         },
         max_split_depth: match args.max_split_depth {
-            Some(d) => split_depth(d)?,
+            Some(d) => super::common::split_depth(d)?,
             None => BenchOptions::default().max_split_depth,
         },
         ..BenchOptions::default()
@@ -150,7 +150,7 @@ fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
         setup.config.engine = engine(name)?;
     }
     if let Some(d) = args.max_split_depth {
-        setup.config.max_split_depth = split_depth(d)?;
+        setup.config.max_split_depth = super::common::split_depth(d)?;
     }
     if let Some(name) = &args.field_stiffness {
         setup.config.field_stiffness = field_stiffness(name)?;
@@ -183,18 +183,6 @@ fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
 fn field_stiffness(name: &str) -> Result<superhelix::runtime::config::FieldStiffness, Error> {
     superhelix::runtime::config::FieldStiffness::from_name(name)
         .ok_or_else(|| Error::invalid("--field-stiffness", "must be projected or explicit"))
-}
-
-/// `--max-split-depth`, checked.
-fn split_depth(d: usize) -> Result<usize, Error> {
-    let max = superhelix::runtime::config::SimulationConfig::default().max_split_depth;
-    if d > max {
-        return Err(Error::invalid(
-            "--max-split-depth",
-            format!("{d}: must be in 0..={max}"),
-        ));
-    }
-    Ok(d)
 }
 
 /// The engine named by `--engine`.

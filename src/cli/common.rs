@@ -93,3 +93,15 @@ pub fn report(e: &Error) {
         other => eprintln!("error: {other}"),
     }
 }
+
+/// The deepest split of a step named by `--max-split-depth`: 0 to the default (8).
+pub fn split_depth(d: usize) -> Result<usize, Error> {
+    let max = superhelix::runtime::config::SimulationConfig::default().max_split_depth;
+    if d > max {
+        return Err(Error::invalid(
+            "--max-split-depth",
+            format!("{d}: must be in 0..={max}"),
+        ));
+    }
+    Ok(d)
+}

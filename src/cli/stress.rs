@@ -33,6 +33,11 @@ pub struct StressArgs {
     /// cannot run is then an error).
     #[arg(long)]
     engine: Option<String>,
+    /// Run every case with this deepest split of a step, 0 to 8 (`[simulation]
+    /// max_split_depth`; 0: one solve per strand-step, the step budget): cases are then
+    /// named `<case>@depth<D>`.
+    #[arg(long, value_name = "D")]
+    max_split_depth: Option<usize>,
 }
 
 /// Run `stress`.
@@ -54,6 +59,9 @@ pub fn run(args: StressArgs) -> Result<ExitCode, Error> {
         let engine = superhelix::runtime::config::Engine::from_name(name)
             .ok_or_else(|| Error::invalid("--engine", "must be auto, runtime or embedded"))?;
         cases = stress::with_engine(cases, engine);
+    }
+    if let Some(d) = args.max_split_depth {
+        cases = stress::with_max_split_depth(cases, super::common::split_depth(d)?);
     }
     let filter = args.filter.as_deref();
     let cases: Vec<stress::Case> = cases
