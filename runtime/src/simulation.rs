@@ -776,11 +776,9 @@ impl Simulation {
             .par_iter_mut()
             .filter_map(|s| {
                 let c = s.system.contacts.as_mut()?;
-                let r = c.params().radius;
-                Some(c.max_depth(&head, &s.system.strand.geometry, &s.state.q) - r)
+                Some(c.deepest_inside(&head, &s.system.strand.geometry, &s.state.q))
             })
             .reduce_with(f64::max)
-            .map(|d| d.max(0.0))
     }
 
     /// The contact potential of strand `i` at its current state, the head and the bodies

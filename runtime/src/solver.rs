@@ -15,6 +15,7 @@ pub mod energy_balance;
 pub mod initial_state;
 pub mod linearly_implicit;
 pub mod newton;
+mod predicted_contacts;
 pub mod rk4;
 pub mod spectral_projection;
 pub mod statics;

@@ -622,3 +622,55 @@ fn the_balance_counts_the_power_of_the_partners_damping() {
         "counted {power:e} W, the force's power is {expected:e} W"
     );
 }
+
+/// A straight 3 cm strand along x whose centreline passes 0.5 mm deep through a small
+/// sphere (radius 2 mm, centred under x = 15.25 mm) between two contact samples (at 7.5
+/// and 22.5 mm): the run's deepest point comes from a dense sweep of the centreline,
+/// not from the samples. The depth along the line is `R − √((x − x_c)² + (R − δ)²)`; the
+/// sweep's points are every 0.5 mm, the nearest 0.25 mm from the deepest, where the depth
+/// is 0.4793 mm (second order in the spacing); the samples see nothing.
+#[test]
+fn the_deepest_point_is_found_between_contact_samples() {
+    let (sphere, depth, x_c): (f64, f64, f64) = (2e-3, 5e-4, 15.25e-3);
+    let text = format!(
+        r#"
+[simulation]
+dt = 0.001
+duration = 0.001
+[environment]
+gravity = [0.0, 0.0, 0.0]
+[[bodies]]
+name = "bead"
+shape = "sphere"
+attached = "world"
+center = [{x_c}, 0.0, {z}]
+radius = {sphere}
+[contacts]
+radius = 1e-4
+samples_per_element = 2
+[[strands]]
+root = [0.0, 0.0, 0.0]
+direction = [1.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+length = 0.03
+elements = 1
+natural = [0.0, 0.0, 0.0]
+initial = "straight"
+"#,
+        z = -(sphere - depth)
+    );
+    let mut s = sim(&text);
+    // one step: the contact samples are evaluated (no force acts: the strand stays)
+    s.step().expect("step");
+    assert_eq!(
+        s.contact_summary(0).map(|c| c.body_contacts),
+        Some(0),
+        "the samples are away from the bead"
+    );
+    let deepest = s.max_penetration().expect("contacts");
+    let nearest = sphere - (0.25e-3f64.powi(2) + (sphere - depth).powi(2)).sqrt();
+    assert!(
+        (deepest - nearest).abs() < 1e-9 && deepest < depth,
+        "deepest {deepest:.6e} m, expected {nearest:.6e} m"
+    );
+}

@@ -11,6 +11,7 @@
 
 pub mod config;
 pub mod hair_hair;
+pub mod predicted;
 pub mod strand_contacts;
 
 pub use config::{ContactConfig, Friction, HairHairConfig};

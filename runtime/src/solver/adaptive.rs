@@ -6,6 +6,7 @@ use super::bdf2::{bdf2, record_history, BDF2_MAX_RATIO};
 use super::energy_balance::{self, StateEnergy};
 use super::linearly_implicit::linearly_implicit_euler;
 use super::newton::newton_implicit_euler;
+use super::predicted_contacts::resolve_again;
 use super::rk4::rk4;
 use super::stats::StepStats;
 use super::system::{HeadInterval, StrandState, StrandSystem, StrandWorkspace};
@@ -121,6 +122,19 @@ fn max_element_rotation(lengths: &[f64], q: &[f64], q0: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// Scale the change of q since the step's start (`saved_q`) and the velocities by
+/// `MAX_ELEMENT_ROTATION / rotation`.
+fn limit_rotation(system: &mut StrandSystem, state: &mut StrandState, rotation: f64) {
+    let lambda = MAX_ELEMENT_ROTATION / rotation;
+    let q0 = &system.workspace.saved_q;
+    for (x, x0) in state.q.iter_mut().zip(q0) {
+        *x = x0 + lambda * (*x - x0);
+    }
+    for x in state.v.iter_mut() {
+        *x *= lambda;
+    }
+}
+
 /// One implicit step of `state` over `interval` (t to t + h; the state's energy at t is
 /// `start`), checked after the fact and split into the interval's two halves
 /// (recursively, at most [`MAX_SUBSTEP_DEPTH`] deep) when it is not acceptable. Returns
@@ -170,6 +184,10 @@ fn implicit_adaptive(
     let max_depth = system.context.max_split_depth.min(MAX_SUBSTEP_DEPTH);
     let deepest = interval.depth >= max_depth;
     let unconverged_before = stats.newton_unconverged;
+    if let Some(c) = system.contacts.as_mut() {
+        // no contacts predicted for this solve yet
+        c.predicted_mut().forget();
+    }
     let mut outcome = match kind {
         IntegratorKind::NewtonImplicitEuler => {
             newton_implicit_euler(system, interval, state, stats)
@@ -230,16 +248,31 @@ fn implicit_adaptive(
             // the deepest split allowed still rotates an element too far: the change of q
             // and the velocities are scaled to the rotation limit (beyond it the step's
             // linearisation of M(q) and b no longer holds)
-            let lambda = MAX_ELEMENT_ROTATION / rotation;
-            let q0 = &system.workspace.saved_q;
-            for (x, x0) in state.q.iter_mut().zip(q0) {
-                *x = x0 + lambda * (*x - x0);
-            }
-            for x in state.v.iter_mut() {
-                *x *= lambda;
+            limit_rotation(system, state, rotation);
+            stats.rotation_limited += 1;
+            // the scaled end is checked for contacts again (its shape is not on the line
+            // from the start to the solve's end: q → y(q) is not linear); what that adds
+            // is limited too: the limit keeps the next step's linearisation, and with it
+            // the run, stable (a strand that a body sweeps deep into within one step is
+            // let out over several)
+            if system.contacts.is_some() {
+                resolve_again(
+                    system,
+                    &interval.at_end(),
+                    &mut state.q,
+                    &mut state.v,
+                    stats,
+                )?;
+                let again = max_element_rotation(
+                    &system.strand.geometry.lengths,
+                    &state.q,
+                    &system.workspace.saved_q,
+                );
+                if again > MAX_ELEMENT_ROTATION {
+                    limit_rotation(system, state, again);
+                }
             }
             rotation = MAX_ELEMENT_ROTATION;
-            stats.rotation_limited += 1;
         }
         let ws = &mut system.workspace;
         ws.rotation_estimate = ws

@@ -1,6 +1,7 @@
 //! The variable-step two-step BDF (BDF2), linearised once per step on the linearly
 //! implicit Euler step's matrix.
 
+use super::predicted_contacts::resolve;
 use super::stats::StepStats;
 use super::system::{HeadInterval, StrandState, StrandSystem, StrandWorkspace};
 use crate::config::IntegratorKind;
@@ -124,7 +125,12 @@ pub fn bdf2(
             // q̂ = (q̂ − q̃) + q̃
             q[i] = qh[i] + qt[i] + bh * v[i];
         }
-        Ok(())
+        // the contacts that start within the step, predicted along the solution
+        let at = interval.at_end();
+        if let Some(c) = system.contacts.as_mut() {
+            c.predict(&at, &system.strand.geometry, qt, q);
+        }
+        resolve(system, &at, (bh, bh), q, v, stats)
     })();
     system.workspace.scratch = s;
     result

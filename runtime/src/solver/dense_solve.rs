@@ -238,6 +238,27 @@ impl DenseSolver {
     }
 }
 
+impl DenseSolver {
+    /// Solve `A x = b` in place in `x` (n entries) with the LU factors of the last
+    /// [`Self::solve_general`] (no factorisation). Returns false when the solution is not
+    /// finite.
+    pub fn solve_factored(&mut self, x: &mut [f64]) -> bool {
+        let n = self.matrix.nrows();
+        let perm = faer::perm::PermRef::new_checked(&self.perm, &self.perm_inv, n);
+        let stack = MemStack::new(&mut self.buffer);
+        let rhs = MatMut::from_column_major_slice_mut(x, n, 1);
+        lu::solve::solve_in_place(
+            self.matrix.as_ref(),
+            self.matrix.as_ref(),
+            perm,
+            rhs,
+            Par::Seq,
+            stack,
+        );
+        x.iter().all(|v| v.is_finite())
+    }
+}
+
 fn all_finite(m: MatMut<'_, f64>) -> bool {
     (0..m.nrows()).all(|i| m[(i, 0)].is_finite())
 }

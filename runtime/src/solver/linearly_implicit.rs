@@ -1,5 +1,6 @@
 //! The linearly implicit Euler step (paper section 3.4), the default integrator.
 
+use super::predicted_contacts::resolve;
 use super::stats::StepStats;
 use super::system::{HeadInterval, StrandState, StrandSystem};
 use crate::kernels::kernel::Terms;
@@ -60,9 +61,22 @@ pub fn linearly_implicit_euler(
     if !ws.solver.solve_general() {
         return Err("linearly implicit Euler: singular step matrix".into());
     }
-    v.copy_from_slice(ws.solver.solution());
+    v.copy_from_slice(system.workspace.solver.solution());
+    let has_contacts = system.contacts.is_some();
+    if has_contacts {
+        system.workspace.scratch[5].copy_from_slice(q);
+    }
     for i in 0..n {
         q[i] += h * v[i];
     }
-    Ok(())
+    if !has_contacts {
+        return Ok(());
+    }
+    // the contacts that start within the step, predicted along the solution
+    let at = interval.at_end();
+    let ws = &system.workspace;
+    if let Some(c) = system.contacts.as_mut() {
+        c.predict(&at, &system.strand.geometry, &ws.scratch[5], q);
+    }
+    resolve(system, &at, (h, h), q, v, stats)
 }

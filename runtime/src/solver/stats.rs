@@ -30,6 +30,10 @@ pub struct StepStats {
     /// [`MAX_ELEMENT_ROTATION`](crate::solver::adaptive::MAX_ELEMENT_ROTATION): their
     /// change of q and their velocities were scaled down to that rotation.
     pub rotation_limited: usize,
+    /// Contacts that started within a step and pushed in it (a sample that touched
+    /// nothing at the step's start, found by the predicted test or at the solve's end:
+    /// [`crate::forces::contacts::predicted`]).
+    pub contacts_predicted: usize,
 }
 
 impl StepStats {
@@ -44,5 +48,6 @@ impl StepStats {
         self.energy_limited += o.energy_limited;
         self.energy_unbalanced += o.energy_unbalanced;
         self.rotation_limited += o.rotation_limited;
+        self.contacts_predicted += o.contacts_predicted;
     }
 }

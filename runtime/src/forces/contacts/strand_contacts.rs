@@ -30,6 +30,7 @@
 //! strand that starts inside a body is pushed out over several steps, never kicked.
 
 use super::config::{ContactConfig, Friction, HairHairConfig, STANDARD_GRAVITY};
+use super::predicted::{Candidate, PredictedContacts};
 use crate::bodies::{Attachment, Body, Placement};
 use crate::forces::head_motion::HeadState;
 use crate::kernels::kernel::{StrandKernel, StrandTerms, Terms};
@@ -153,6 +154,9 @@ struct BodyHit {
     normal: Vector3<f64>,
 }
 
+/// Arc-length spacing of the dense sweep of [`StrandContacts::deepest_inside`], m.
+pub const SWEEP_SPACING: f64 = 5e-4;
+
 /// The contacts of one strand (see the module page).
 pub struct StrandContacts {
     bodies: Arc<[Body]>,
@@ -191,6 +195,10 @@ pub struct StrandContacts {
     poses: Vec<(Vector3<f64>, Vector3<f64>)>,
     aj: Vec<Vector3<f64>>,
     summary: ContactSummary,
+    /// The contacts predicted to start within the coming step ([`super::predicted`]).
+    predicted: PredictedContacts,
+    /// Scratch of [`Self::deepest_inside`].
+    sweep: Vec<Vector3<f64>>,
 }
 
 /// Sample arc lengths and weights: `per` points per element at the centres of equal
@@ -245,6 +253,8 @@ impl StrandContacts {
             aj: vec![Vector3::zeros(); geom.dofs()],
             samples,
             summary: ContactSummary::default(),
+            predicted: PredictedContacts::default(),
+            sweep: Vec::new(),
         }
     }
 
@@ -460,6 +470,18 @@ impl StrandContacts {
         skip: Option<usize>,
         only: Option<bool>,
     ) -> Option<BodyHit> {
+        self.nearest_within(head, y, skip, only, self.params.radius)
+    }
+
+    /// [`Self::nearest_body`] among the bodies nearer than `reach` (≥ 0) to `y`.
+    fn nearest_within(
+        &self,
+        head: &HeadState,
+        y: &Vector3<f64>,
+        skip: Option<usize>,
+        only: Option<bool>,
+        reach: f64,
+    ) -> Option<BodyHit> {
         let mut best: Option<BodyHit> = None;
         for (b, body) in self.bodies.iter().enumerate() {
             if skip == Some(b) || only.is_some_and(|m| m != body.attached.is_motion()) {
@@ -473,37 +495,47 @@ impl StrandContacts {
                     f.rotation.transpose() * (head.position + head.rotation * y - f.position)
                 }
             };
-            if body.shape.farther_than(&local, self.params.radius) {
+            if body.shape.farther_than(&local, reach) {
                 continue;
             }
-            let (distance, normal) = match body.attached {
-                Attachment::Head => {
-                    let p = body.shape.query(y);
-                    (p.distance, p.normal)
-                }
-                Attachment::World => {
-                    let x = head.position + head.rotation * y;
-                    let p = body.shape.query(&x);
-                    (p.distance, head.rotation.transpose() * p.normal)
-                }
-                Attachment::Motion(_) => {
-                    let p = body.shape.query(&local);
-                    let f = self.frame(b);
-                    (
-                        p.distance,
-                        head.rotation.transpose() * (f.rotation * p.normal),
-                    )
-                }
-            };
-            if distance < self.params.radius && best.is_none_or(|h| distance < h.distance) {
-                best = Some(BodyHit {
-                    body: b,
-                    distance,
-                    normal,
-                });
+            let hit = self.body_query(head, b, y);
+            if hit.distance < reach && best.is_none_or(|h| hit.distance < h.distance) {
+                best = Some(hit);
             }
         }
         best
+    }
+
+    /// Signed distance and outward normal (head coordinates) of body `b` at head-frame
+    /// `y`, with the head in `head` (bodies on their own motion as last placed).
+    fn body_query(&self, head: &HeadState, b: usize, y: &Vector3<f64>) -> BodyHit {
+        let body = &self.bodies[b];
+        let (distance, normal) = match body.attached {
+            Attachment::Head => {
+                let p = body.shape.query(y);
+                (p.distance, p.normal)
+            }
+            Attachment::World => {
+                let x = head.position + head.rotation * y;
+                let p = body.shape.query(&x);
+                (p.distance, head.rotation.transpose() * p.normal)
+            }
+            Attachment::Motion(_) => {
+                let f = self.frame(b);
+                let local =
+                    f.rotation.transpose() * (head.position + head.rotation * y - f.position);
+                let p = body.shape.query(&local);
+                (
+                    p.distance,
+                    head.rotation.transpose() * (f.rotation * p.normal),
+                )
+            }
+        };
+        BodyHit {
+            body: b,
+            distance,
+            normal,
+        }
     }
 
     /// The velocity, head coordinates, of body `b`'s material point at head-frame `y`.
@@ -857,6 +889,227 @@ impl StrandContacts {
             power += hh.damping * partner.weight * vp.dot(&velocity(jac, v));
         }
         power
+    }
+
+    /// Whether the strand may touch a body.
+    pub fn has_bodies(&self) -> bool {
+        !self.bodies.is_empty()
+    }
+
+    /// The contacts predicted for the coming step and their buffers.
+    pub fn predicted_mut(&mut self) -> &mut PredictedContacts {
+        &mut self.predicted
+    }
+
+    /// Find the samples that may reach a body within the coming step (the predicted test
+    /// of [`super::predicted`]), with the bodies placed at the step's end `at`: those that
+    /// do not touch a body at the linearisation point `q_lin` (their stiffness is not in
+    /// the step's matrix) and come within one and a half contact radii of a body at the
+    /// predicted end `q_pred`. Keeps `q_lin`. Returns whether there is any.
+    pub fn predict(
+        &mut self,
+        at: &Placement,
+        geom: &StrandGeometry,
+        q_lin: &[f64],
+        q_pred: &[f64],
+    ) -> bool {
+        let mut pc = std::mem::take(&mut self.predicted);
+        pc.candidates.clear();
+        pc.q_lin.clear();
+        pc.q_lin.extend_from_slice(q_lin);
+        let n = self.samples.len();
+        pc.touching.clear();
+        pc.listed.clear();
+        pc.lin_tip = None;
+        pc.tip_listed = false;
+        pc.listed.resize(n, false);
+        if !self.bodies.is_empty() {
+            self.place(at);
+            let head = at.head;
+            self.sample_poses(geom, q_lin);
+            pc.lin_y.clear();
+            pc.lin_y.extend(self.poses.iter().map(|p| p.0));
+            // the tip, beyond the last sample: guarded at the end check
+            let length = geom.length();
+            let mut tip = std::mem::take(&mut self.sweep);
+            positions_at_sorted(geom, q_lin, [length], &mut tip);
+            pc.lin_tip = tip.first().copied();
+            self.sweep = tip;
+            pc.touching
+                .extend((0..n).map(|k| self.touching(&head, k, &pc.lin_y[k]).is_some()));
+            self.sample_poses(geom, q_pred);
+            let r = self.params.radius;
+            let (root_body, zone) = self.root_zone;
+            for k in 0..n {
+                if pc.touching[k] {
+                    continue;
+                }
+                let onset = r - self.allowance[k];
+                let skip = (k < zone).then_some(root_body);
+                let end = self.poses[k].0;
+                let Some(hit) = self.nearest_within(&head, &end, skip, None, onset + 0.5 * r)
+                else {
+                    continue;
+                };
+                let start = self.body_query(&head, hit.body, &pc.lin_y[k]);
+                pc.listed[k] = true;
+                pc.candidates.push(Candidate {
+                    sample: k,
+                    s: self.samples[k].0,
+                    stiffness: self.params.stiffness * self.samples[k].1,
+                    body: hit.body,
+                    normal: start.normal,
+                    onset,
+                    gap: start.distance - onset,
+                    end_gap: None,
+                });
+            }
+        } else {
+            pc.touching.resize(n, false);
+        }
+        let any = !pc.candidates.is_empty();
+        self.predicted = pc;
+        any
+    }
+
+    /// The columns `g_c = J(s_c)ᵀ n_c` of the candidates from `from` on, at `q_lin`, into
+    /// the predicted contacts' buffers (sized here). `jac` is 3N columns of scratch.
+    pub fn linearize_predicted(
+        &mut self,
+        kernel: &mut dyn StrandKernel,
+        q_lin: &[f64],
+        jac: &mut [Vector3<f64>],
+        from: usize,
+    ) {
+        let dofs = q_lin.len();
+        let pc = &mut self.predicted;
+        pc.size_columns(dofs);
+        for c in from..pc.candidates.len() {
+            let cand = pc.candidates[c];
+            kernel.point(q_lin, cand.s, jac, None);
+            let g = &mut pc.g[c * dofs..(c + 1) * dofs];
+            for (gi, ji) in g.iter_mut().zip(jac.iter()) {
+                *gi = ji.dot(&cand.normal);
+            }
+        }
+    }
+
+    /// At the end `q_end` of a step's solve (bodies placed at `at`): the gap of each
+    /// candidate into its `end_gap`; and new candidates (linearised at the start's
+    /// position, their `end_gap` set): the samples that touched nothing at the start and
+    /// end within the contact radius of a body, and those that touched (their stiffness
+    /// in the matrix) and whose centreline ends inside a body. Returns the number of
+    /// candidates before the additions.
+    pub fn check_predicted(
+        &mut self,
+        at: &Placement,
+        geom: &StrandGeometry,
+        q_end: &[f64],
+    ) -> usize {
+        let mut pc = std::mem::take(&mut self.predicted);
+        self.place(at);
+        let head = at.head;
+        self.sample_poses(geom, q_end);
+        let length = geom.length();
+        let mut tip = std::mem::take(&mut self.sweep);
+        positions_at_sorted(geom, q_end, [length], &mut tip);
+        let tip_end = tip.first().copied();
+        self.sweep = tip;
+        for c in pc.candidates.iter_mut() {
+            let y = match self.poses.get(c.sample) {
+                Some(p) => p.0,
+                None => tip_end.unwrap_or_default(),
+            };
+            let hit = self.body_query(&head, c.body, &y);
+            c.end_gap = Some(hit.distance - c.onset);
+        }
+        let before = pc.candidates.len();
+        let r = self.params.radius;
+        for k in 0..self.samples.len().min(pc.listed.len()) {
+            if pc.listed[k] {
+                continue;
+            }
+            let Some(hit) = self.body_hit(&head, k, &self.poses[k].0) else {
+                continue;
+            };
+            let onset = if pc.touching[k] { 0.0 } else { r } - self.allowance[k];
+            if hit.distance >= onset {
+                continue;
+            }
+            let start = self.body_query(&head, hit.body, &pc.lin_y[k]);
+            pc.listed[k] = true;
+            pc.candidates.push(Candidate {
+                sample: k,
+                s: self.samples[k].0,
+                stiffness: self.params.stiffness * self.samples[k].1,
+                body: hit.body,
+                normal: start.normal,
+                onset,
+                gap: start.distance - onset,
+                end_gap: Some(hit.distance - onset),
+            });
+        }
+        // the tip (not a sample): its centreline kept from going deeper into a body than
+        // it started the step (not inside, for a tip that started outside)
+        if let (Some(end), Some(start), false) = (tip_end, pc.lin_tip, pc.tip_listed) {
+            let skip = (self.root_zone.1 >= self.samples.len()).then_some(self.root_zone.0);
+            if let Some(hit) = self.nearest_within(&head, &end, skip, None, 0.0) {
+                let from = self.body_query(&head, hit.body, &start);
+                let onset = from.distance.min(0.0);
+                if hit.distance < onset {
+                    let w = self.samples.last().map_or(0.0, |s| 0.5 * s.1);
+                    pc.tip_listed = true;
+                    pc.candidates.push(Candidate {
+                        sample: usize::MAX,
+                        s: length,
+                        stiffness: self.params.stiffness * w,
+                        body: hit.body,
+                        normal: from.normal,
+                        onset,
+                        gap: from.distance - onset,
+                        end_gap: Some(hit.distance - onset),
+                    });
+                }
+            }
+        }
+        self.predicted = pc;
+        before
+    }
+
+    /// The deepest point of the centreline inside a body at q (bodies placed at `at`),
+    /// m (0: none), checked on a dense sweep: points every [`SWEEP_SPACING`] of arc
+    /// length from the root to the tip, not only the contact samples. The root zone
+    /// (the first samples, which do not touch the body the strand grows from) is
+    /// excluded from that body up to its last sample's half weight beyond it.
+    ///
+    /// Between two points of the sweep the depth differs from theirs by at most half the
+    /// spacing (the distance to a body is 1-Lipschitz along a unit-speed curve); at the
+    /// deepest point of a centreline that crosses a smooth surface the depth is
+    /// stationary along the curve, so there the sweep's error is of second order in the
+    /// spacing.
+    pub fn deepest_inside(&mut self, at: &Placement, geom: &StrandGeometry, q: &[f64]) -> f64 {
+        self.place(at);
+        let head = at.head;
+        let length: f64 = geom.lengths.iter().sum();
+        let count = (length / SWEEP_SPACING).ceil().max(1.0) as usize;
+        let arcs = (0..=count).map(|i| length * i as f64 / count as f64);
+        let mut points = std::mem::take(&mut self.sweep);
+        positions_at_sorted(geom, q, arcs, &mut points);
+        let (root_body, zone) = self.root_zone;
+        let zone_end = match zone.checked_sub(1).and_then(|k| self.samples.get(k)) {
+            Some((s, w)) => s + 0.5 * w,
+            None => -1.0,
+        };
+        let mut deepest = 0.0f64;
+        for (i, y) in points.iter().enumerate() {
+            let s = length * i as f64 / count as f64;
+            let skip = (s <= zone_end).then_some(root_body);
+            if let Some(hit) = self.nearest_within(&head, y, skip, None, 0.0) {
+                deepest = deepest.max(-hit.distance);
+            }
+        }
+        self.sweep = points;
+        deepest
     }
 
     /// The deepest penetration of the contact radius by a sample at q, m (0: none).
