@@ -90,9 +90,9 @@ fn one_solve_per_strand_step_keeps_the_shaken_head_bounded() {
 }
 
 /// A sag-free groom of 200 guides on a still head (the first second of the demo
-/// scene's motion) at one solve per strand-step: no centreline point goes deeper than
-/// the contact radius (2 mm) into a body (this run: 0.61 mm with the field stiffness
-/// projected, 0.60 mm explicit; with the default budget none goes inside at all).
+/// scene's motion) at one solve per strand-step: no centreline point goes more than 1 mm
+/// into a body, on the dense sweep (this run: none inside, to round-off, with every
+/// budget; the contacts that start within a step are part of its solve).
 #[test]
 fn one_solve_per_strand_step_keeps_a_sag_free_head_out_of_its_bodies() {
     for budget in BUDGETS {
@@ -113,7 +113,7 @@ fn one_solve_per_strand_step_keeps_a_sag_free_head_out_of_its_bodies() {
         );
         assert_eq!(stats.attempts, n * steps);
         assert!(
-            deepest < 2e-3,
+            deepest <= 1e-3,
             "deepest centreline point {deepest:e} m inside a body"
         );
     }
