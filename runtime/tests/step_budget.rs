@@ -49,6 +49,16 @@ fn sag_free_head() -> String {
     text
 }
 
+/// The deepest centreline point inside a body (dense sweep) after each of `steps` steps.
+fn deepest_over(sim: &mut Simulation, steps: usize) -> f64 {
+    let mut deepest: f64 = 0.0;
+    for _ in 0..steps {
+        sim.step().unwrap_or_else(|e| panic!("{e}"));
+        deepest = deepest.max(sim.max_penetration().unwrap_or(f64::INFINITY));
+    }
+    deepest
+}
+
 fn largest_velocity(sim: &Simulation) -> f64 {
     (0..sim.strand_count())
         .flat_map(|i| sim.v(i).iter().copied())
@@ -98,11 +108,7 @@ fn one_solve_per_strand_step_keeps_a_sag_free_head_out_of_its_bodies() {
     for budget in BUDGETS {
         let mut sim = simulation_with(&sag_free_head(), 0, budget);
         let (n, steps) = (sim.strand_count(), 30);
-        let mut deepest: f64 = 0.0;
-        for _ in 0..steps {
-            sim.step().unwrap_or_else(|e| panic!("{e}"));
-            deepest = deepest.max(sim.max_penetration().unwrap_or(f64::INFINITY));
-        }
+        let deepest = deepest_over(&mut sim, steps);
         let stats = sim.stats();
         eprintln!(
             "sag-free head, one solve per strand-step, {} field stiffness, energy balance {}: deepest centreline point {deepest:.3e} m inside, {} of {} strand-steps rotation-limited",
@@ -134,11 +140,7 @@ fn the_200_guide_head_at_one_solve_keeps_centrelines_within_a_millimetre_of_the_
     let steps = (setup.config.duration / setup.config.dt).round() as usize;
     let mut sim = Simulation::new(setup, None).unwrap_or_else(|e| panic!("{e}"));
     let n = sim.strand_count();
-    let mut deepest: f64 = 0.0;
-    for _ in 0..steps {
-        sim.step().unwrap_or_else(|e| panic!("{e}"));
-        deepest = deepest.max(sim.max_penetration().unwrap_or(f64::INFINITY));
-    }
+    let deepest = deepest_over(&mut sim, steps);
     let stats = sim.stats();
     eprintln!(
         "full-head-200: deepest centreline point {deepest:.3e} m inside a body over {steps} steps; {} contacts started within a step; {} of {} strand-steps rotation-limited",

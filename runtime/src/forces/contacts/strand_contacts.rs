@@ -951,18 +951,9 @@ impl StrandContacts {
                 else {
                     continue;
                 };
-                let start = self.body_query(&head, hit.body, &pc.lin_y[k]);
                 pc.listed[k] = true;
-                pc.candidates.push(Candidate {
-                    sample: k,
-                    s: self.samples[k].0,
-                    stiffness: self.params.stiffness * self.samples[k].1,
-                    body: hit.body,
-                    normal: start.normal,
-                    onset,
-                    gap: start.distance - onset,
-                    end_gap: None,
-                });
+                let c = self.sample_candidate(&head, k, hit.body, onset, &pc.lin_y[k], None);
+                pc.candidates.push(c);
             }
         } else {
             pc.touching.resize(n, false);
@@ -970,6 +961,30 @@ impl StrandContacts {
         let any = !pc.candidates.is_empty();
         self.predicted = pc;
         any
+    }
+
+    /// Sample `k` as a candidate against body `b` (penalty from distance `onset`),
+    /// linearised where it is at the linearisation point, `lin_y`.
+    fn sample_candidate(
+        &self,
+        head: &HeadState,
+        k: usize,
+        b: usize,
+        onset: f64,
+        lin_y: &Vector3<f64>,
+        end_gap: Option<f64>,
+    ) -> Candidate {
+        let start = self.body_query(head, b, lin_y);
+        Candidate {
+            sample: k,
+            s: self.samples[k].0,
+            stiffness: self.params.stiffness * self.samples[k].1,
+            body: b,
+            normal: start.normal,
+            onset,
+            gap: start.distance - onset,
+            end_gap,
+        }
     }
 
     /// The columns `g_c = J(s_c)ᵀ n_c` of the candidates from `from` on, at `q_lin`, into
@@ -1036,18 +1051,10 @@ impl StrandContacts {
             if hit.distance >= onset {
                 continue;
             }
-            let start = self.body_query(&head, hit.body, &pc.lin_y[k]);
             pc.listed[k] = true;
-            pc.candidates.push(Candidate {
-                sample: k,
-                s: self.samples[k].0,
-                stiffness: self.params.stiffness * self.samples[k].1,
-                body: hit.body,
-                normal: start.normal,
-                onset,
-                gap: start.distance - onset,
-                end_gap: Some(hit.distance - onset),
-            });
+            let end = Some(hit.distance - onset);
+            let c = self.sample_candidate(&head, k, hit.body, onset, &pc.lin_y[k], end);
+            pc.candidates.push(c);
         }
         // the tip (not a sample): its centreline kept from going deeper into a body than
         // it started the step (not inside, for a tip that started outside)
