@@ -768,10 +768,12 @@ impl Simulation {
     }
 
     /// The deepest point of any strand's centreline inside a body at the current state,
-    /// m (0: none; `None`: no `[contacts]`), with the head and the bodies at the current time.
+    /// m (0: none; `None`: no `[contacts]`), with the head and the bodies at the current
+    /// time, on a dense sweep of each centreline
+    /// ([`StrandContacts::deepest_inside`](crate::forces::contacts::StrandContacts::deepest_inside)).
     pub fn max_penetration(&mut self) -> Option<f64> {
         let head = Placement::new(self.head.state(self.time), self.time);
-        // (the strands in parallel: their sample poses are then the next step's)
+        // (the strands in parallel)
         self.strands
             .par_iter_mut()
             .filter_map(|s| {

@@ -1,5 +1,5 @@
 //! The contacts that start within a step, in the step's solve: the candidates of
-//! [`crate::forces::contacts::predicted`] found before the solve, their one-sided penalty
+//! [`crate::forces::contacts::predicted`] found from the solve without them, their one-sided penalty
 //! resolved on the Schur complement of the step's LU factors, and the end of the solve
 //! checked on the strand's actual reconstruction (not the linear model) for samples the
 //! prediction missed and for the linearisation's error.
@@ -18,7 +18,7 @@ const END_CHECKS: usize = 2;
 const GAP_TOLERANCE: f64 = 0.05;
 
 /// At the end (q, q̇) of a step's solve (`system.workspace.solver` holding the LU factors
-/// of its matrix, [`predict`] called for it): add the candidates' forces, then check the
+/// of its matrix, `StrandContacts::predict` called for it): add the candidates' forces, then check the
 /// end on the actual reconstruction and correct (see the module page). A change `σ A⁻¹
 /// Jᵀ f` of the velocity (A the step matrix, the contact forces f entering the
 /// right-hand side as `σ Jᵀ f`) moves the end by `c` times it. Nothing without bodies.
@@ -101,10 +101,10 @@ fn correct(
             let pc = contacts.predicted_mut();
             let m = pc.candidates.len();
             if m > 0 {
-                for c in columns..m {
+                for j in columns..m {
                     let (g, w) = (
-                        &pc.g[c * dofs..(c + 1) * dofs],
-                        &mut pc.w[c * dofs..(c + 1) * dofs],
+                        &pc.g[j * dofs..(j + 1) * dofs],
+                        &mut pc.w[j * dofs..(j + 1) * dofs],
                     );
                     w.copy_from_slice(g);
                     if !ws.solver.solve_factored(w) {
@@ -155,6 +155,10 @@ fn correct(
     })();
     contacts.predicted_mut().q_lin = q_lin;
     result?;
+    if again {
+        // counted at the step's first resolution
+        return Ok(());
+    }
     stats.contacts_predicted += contacts
         .predicted_mut()
         .lambda

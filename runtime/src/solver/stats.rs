@@ -31,8 +31,9 @@ pub struct StepStats {
     /// change of q and their velocities were scaled down to that rotation.
     pub rotation_limited: usize,
     /// Contacts that started within a step and pushed in it (a sample that touched
-    /// nothing at the step's start, found by the predicted test or at the solve's end:
-    /// [`crate::forces::contacts::predicted`]).
+    /// nothing at the step's start, found by the predicted test or at the solve's end,
+    /// or one whose centreline ended inside a body: [`crate::forces::contacts::predicted`]),
+    /// counted at each solve's first resolution.
     pub contacts_predicted: usize,
 }
 

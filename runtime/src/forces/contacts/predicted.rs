@@ -5,11 +5,10 @@
 //! A sample touching a body at the start of a step has its penalty stiffness `k w n nᵀ`
 //! along its Jacobian in the step's matrix ([`super::strand_contacts`]). A sample that
 //! reaches a body only during the step would, with the start's samples alone, pass into
-//! it unopposed: at one solve per step (`max_split_depth = 0`) a strand on a turning head
-//! moved a sample from outside the contact radius to 5.3 mm inside the head in one step
-//! of 1/30 s. Such a sample is found before the step by a predicted (swept) test:
-//! from its position at the linearisation point to where the start's velocity carries it,
-//! it may come within the contact radius. Its penalty is the same law as a touching
+//! it unopposed (at one solve per step, `max_split_depth = 0`, within a whole frame).
+//! Such a sample is predicted from the step's own solution without it: a sample that
+//! ends that solution within one and a half contact radii of a body is a candidate
+//! ([`super::StrandContacts::predict`]). Its penalty is the same law as a touching
 //! sample's, one-sided: with the gap `φ = d − r` (d the distance of the centreline to the
 //! body, r the contact radius) linearised along the Jacobian J and the body's normal n,
 //!
