@@ -457,3 +457,50 @@ fn validate_reads_a_mesh_body_relative_to_the_scene_file() {
         text(&out)
     );
 }
+
+/// `run --tolerance` takes error-controlled steps and reports them in the summary; a
+/// tolerance out of range is refused naming the field, before anything is simulated.
+#[test]
+fn run_takes_a_tolerance_and_reports_its_steps() {
+    let dir = scratch("tolerance");
+    let scene = write(
+        &dir,
+        "swing.toml",
+        "[simulation]\ndt = 0.03333333333333333\nduration = 0.2\n[[strands]]\nlength = 0.2\nelements = 5\ndirection = [1.0, 0.0, 0.0]\nnatural = [0.0, 0.0, 0.0]\ninitial = \"straight\"\n",
+    );
+    let scene = scene.to_string_lossy().to_string();
+    let out_dir = dir.join("out").to_string_lossy().to_string();
+    let out = superhelix(&[
+        "run",
+        &scene,
+        "--out",
+        &out_dir,
+        "--format",
+        "json",
+        "--tolerance",
+        "1e-3",
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(out.status.success(), "{}", text(&out));
+    let last = stdout.lines().last().unwrap_or_default();
+    assert!(
+        last.contains("tolerance 1.0e-3: largest estimated error"),
+        "{stdout}"
+    );
+    let out = superhelix(&[
+        "run",
+        &scene,
+        "--out",
+        &out_dir,
+        "--format",
+        "json",
+        "--tolerance",
+        "5",
+    ]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out).contains("simulation.tolerance"),
+        "{}",
+        text(&out)
+    );
+}

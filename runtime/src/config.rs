@@ -198,7 +198,17 @@ pub struct SimulationConfig {
     /// measured and only the rotation check (and the contacts' approach check) splits or
     /// limits a step.
     pub energy_balance: bool,
+    /// The local error each strand's step may make, relative to the strand's length
+    /// (`[simulation] tolerance`, in [`MIN_TOLERANCE`, `MAX_TOLERANCE`]; `None`: fixed
+    /// steps): each strand then chooses its own steps within every `dt` to keep it
+    /// ([`crate::solver::error_control`]).
+    pub tolerance: Option<f64>,
 }
+
+/// Smallest `[simulation] tolerance`.
+pub const MIN_TOLERANCE: f64 = 1e-8;
+/// Largest `[simulation] tolerance`.
+pub const MAX_TOLERANCE: f64 = 0.5;
 
 impl Default for SimulationConfig {
     fn default() -> Self {
@@ -214,6 +224,7 @@ impl Default for SimulationConfig {
             max_split_depth: MAX_SUBSTEP_DEPTH,
             field_stiffness: FieldStiffness::Projected,
             energy_balance: true,
+            tolerance: None,
         }
     }
 }

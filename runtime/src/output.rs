@@ -80,6 +80,25 @@ pub trait FrameSource {
     fn deepest_inside(&mut self) -> Option<f64> {
         None
     }
+    /// What the error-controlled step did so far (`None`: fixed steps, the default).
+    fn error_control(&self) -> Option<ErrorControlSummary> {
+        None
+    }
+}
+
+/// What the error-controlled step (`[simulation] tolerance`) did over a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ErrorControlSummary {
+    /// The tolerance.
+    pub tolerance: f64,
+    /// The largest estimated error of an accepted step, relative to its strand's length.
+    pub largest_error: f64,
+    /// The smallest step any strand took, s.
+    pub smallest_step: f64,
+    /// Steps accepted, all strands.
+    pub steps: usize,
+    /// Steps rejected and retried shorter, all strands.
+    pub rejected: usize,
 }
 
 /// Every frame of a run, strand-major (what [`run_to_frames`] returns).
@@ -122,6 +141,8 @@ pub struct RunSummary {
     /// Deepest point of a centreline inside a body after any step, m (`None`: a scene
     /// without contacts).
     pub deepest_inside: Option<f64>,
+    /// What the error-controlled step did (`None`: fixed steps).
+    pub error_control: Option<ErrorControlSummary>,
 }
 
 impl RunSummary {
@@ -154,8 +175,15 @@ impl fmt::Display for RunSummary {
                     self.max_speed,
                     self.frames
                 )?;
-                match self.deepest_inside {
-                    Some(d) => write!(f, ", deepest centreline point {d:.3e} m inside a body"),
+                if let Some(d) = self.deepest_inside {
+                    write!(f, ", deepest centreline point {d:.3e} m inside a body")?;
+                }
+                match self.error_control {
+                    Some(e) => write!(
+                        f,
+                        "; tolerance {:.1e}: largest estimated error {:.2e} L, {} steps taken, {} rejected, smallest step {:.3e} s",
+                        e.tolerance, e.largest_error, e.steps, e.rejected, e.smallest_step
+                    ),
                     None => Ok(()),
                 }
             }

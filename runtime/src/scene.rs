@@ -266,6 +266,18 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
         n.choice(k, &["projected", "explicit"], FieldStiffness::from_name)
     });
     let energy_balance = reader::boolean(&mut n, "energy_balance", d.energy_balance);
+    let tolerance = if n.has("tolerance") {
+        n.optional_f64(
+            "tolerance",
+            0.0,
+            Range::new(
+                Bound::Incl(crate::config::MIN_TOLERANCE),
+                Bound::Incl(crate::config::MAX_TOLERANCE),
+            ),
+        )
+    } else {
+        None
+    };
     let config = SimulationConfig {
         mode: mode.unwrap_or(d.mode),
         dt: dt.unwrap_or(d.dt),
@@ -278,6 +290,7 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
         max_split_depth: max_split_depth.unwrap_or(d.max_split_depth),
         field_stiffness: field_stiffness.unwrap_or(d.field_stiffness),
         energy_balance: energy_balance.unwrap_or(d.energy_balance),
+        tolerance,
     };
     if dt.is_some() && duration.is_some() && fps.is_some() {
         check_run_size(&n, &config);

@@ -190,6 +190,12 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
             "the embedded engine projects the field stiffness; field_stiffness = \"explicit\" needs engine = \"runtime\"",
         ));
     }
+    if c.tolerance.is_some() {
+        errors.push(FieldError::new(
+            "simulation.tolerance",
+            "the embedded engine takes fixed steps; a tolerance needs engine = \"runtime\" (or \"auto\")",
+        ));
+    }
     if c.max_split_depth != superhelix_kernels::energy::MAX_SUBSTEP_DEPTH {
         errors.push(FieldError::new(
             "simulation.max_split_depth",
@@ -353,6 +359,39 @@ fn check_setup(setup: &SimulationSetup) -> Result<()> {
             "at least one strand is required",
         ));
     }
+    if let Some(t) = c.tolerance {
+        if !(crate::config::MIN_TOLERANCE..=crate::config::MAX_TOLERANCE).contains(&t) {
+            errors.push(FieldError::new(
+                "simulation.tolerance",
+                format!(
+                    "must be in [{:e}, {}], got {t}",
+                    crate::config::MIN_TOLERANCE,
+                    crate::config::MAX_TOLERANCE
+                ),
+            ));
+        }
+        if setup.contacts.is_some() {
+            errors.push(FieldError::new(
+                "simulation.tolerance",
+                "the error-controlled step does not handle [contacts] yet: remove the tolerance or the contacts",
+            ));
+        }
+        if setup.electrostatics.is_some() {
+            errors.push(FieldError::new(
+                "simulation.tolerance",
+                "the error-controlled step does not handle [electrostatics] yet: remove the tolerance or the electrostatics",
+            ));
+        }
+        if c.integrator != IntegratorKind::LinearlyImplicitEuler && c.mode == Mode::Dynamic {
+            errors.push(FieldError::new(
+                "simulation.tolerance",
+                format!(
+                    "the error-controlled step extrapolates linearly-implicit-euler; integrator = \"{}\" cannot estimate its error",
+                    c.integrator.name()
+                ),
+            ));
+        }
+    }
     if let Some(c) = &setup.contacts {
         errors.extend(c.check());
     }
@@ -464,6 +503,10 @@ impl Simulation {
                 && setup.config.mode == Mode::Dynamic
                 && setup.config.integrator != IntegratorKind::Rk4,
             energy_balance: setup.config.energy_balance,
+            tolerance: setup
+                .config
+                .tolerance
+                .filter(|_| setup.config.mode == Mode::Dynamic),
         };
         let head0 = Placement::new(setup.head.state(0.0), 0.0);
         let rk4_dt = (setup.config.integrator == IntegratorKind::Rk4
@@ -781,6 +824,35 @@ impl Simulation {
                 Some(c.deepest_inside(&head, &s.system.strand.geometry, &s.state.q))
             })
             .reduce_with(f64::max)
+    }
+
+    /// What the error-controlled step did so far (`None`: the scene has no tolerance).
+    pub fn error_control(&self) -> Option<crate::output::ErrorControlSummary> {
+        let tolerance = self.config.tolerance.filter(|_| self.embedded.is_none())?;
+        let (largest_error, smallest_step) =
+            self.strands
+                .iter()
+                .fold((0.0f64, f64::INFINITY), |(e, h), s| {
+                    let ec = s.system.workspace.error_control();
+                    let small = if ec.smallest_h > 0.0 {
+                        ec.smallest_h
+                    } else {
+                        h
+                    };
+                    (e.max(ec.largest_error), h.min(small))
+                });
+        let stats = self.stats();
+        Some(crate::output::ErrorControlSummary {
+            tolerance,
+            largest_error,
+            smallest_step: if smallest_step.is_finite() {
+                smallest_step
+            } else {
+                0.0
+            },
+            steps: stats.error_steps,
+            rejected: stats.error_rejected,
+        })
     }
 
     /// The contact potential of strand `i` at its current state, the head and the bodies
@@ -1186,6 +1258,7 @@ impl Simulation {
                 max_split_depth: superhelix_kernels::energy::MAX_SUBSTEP_DEPTH,
                 explicit_field_stiffness: false,
                 energy_balance: true,
+                tolerance: None,
             },
         )
     }
@@ -1224,6 +1297,9 @@ impl FrameSource for Simulation {
     }
     fn deepest_inside(&mut self) -> Option<f64> {
         self.max_penetration()
+    }
+    fn error_control(&self) -> Option<crate::output::ErrorControlSummary> {
+        Simulation::error_control(self)
     }
 
     fn solve_static(&mut self) -> Result<()> {

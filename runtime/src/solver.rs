@@ -12,6 +12,7 @@ pub mod bdf2;
 pub mod dense_solve;
 pub mod embedded;
 pub mod energy_balance;
+pub mod error_control;
 pub mod initial_state;
 pub mod linearly_implicit;
 pub mod newton;

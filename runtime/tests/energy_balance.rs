@@ -54,6 +54,7 @@ fn balance_sums(sim: &mut Simulation, head: &HeadMotion, steps: usize) -> (f64, 
         max_split_depth: superhelix_kernels::energy::MAX_SUBSTEP_DEPTH,
         explicit_field_stiffness: false,
         energy_balance: true,
+        tolerance: None,
     };
     let mut system = StrandSystem::new(strand, Box::new(kernel), context);
     let mut at = |sim: &Simulation| -> StateEnergy {

@@ -27,6 +27,10 @@ pub struct RunArgs {
     /// scene's [output] max_bytes).
     #[arg(long)]
     allow_large_output: bool,
+    /// The local error each strand's step may make, relative to its length, replacing the
+    /// scene's [simulation] tolerance: error-controlled steps (docs/time-stepping.md).
+    #[arg(long, value_name = "TOL")]
+    tolerance: Option<f64>,
 }
 
 /// Raised by Ctrl-C: the run stops between two steps and keeps its frames.
@@ -39,7 +43,10 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
         Some(path) => (read_scene(path)?, scene_dir(path)),
         None => (superhelix::DEFAULT_SCENE.to_string(), Path::new("")),
     };
-    let (setup, grooms) = superhelix::runtime::parse_scene_reporting(&text, dir)?;
+    let (mut setup, grooms) = superhelix::runtime::parse_scene_reporting(&text, dir)?;
+    if let Some(t) = args.tolerance {
+        setup.config.tolerance = Some(t);
+    }
     for groom in &grooms {
         println!("{groom}");
     }

@@ -151,6 +151,7 @@ pub fn run_streaming<S: FrameSource + ?Sized>(
         wall_time: started.elapsed(),
         max_speed,
         deepest_inside: deepest,
+        error_control: source.error_control(),
     };
     RunOutcome {
         summary,

@@ -31,9 +31,18 @@ pub fn step(
     state: &mut StrandState,
     stats: &mut StepStats,
 ) -> Result<(), String> {
-    match system.context.integrator {
-        IntegratorKind::Rk4 => rk4(system, interval, state),
-        kind => {
+    // a tolerance selects the error-controlled step (validation refuses it with the
+    // other integrators)
+    let tolerance = system
+        .context
+        .tolerance
+        .filter(|_| system.context.integrator == IntegratorKind::LinearlyImplicitEuler);
+    match (system.context.integrator, tolerance) {
+        (IntegratorKind::Rk4, _) => rk4(system, interval, state),
+        (_, Some(tolerance)) => {
+            super::error_control::step(system, interval, state, stats, tolerance)
+        }
+        (kind, None) => {
             // without the energy balance no energy is measured: the start's stands empty
             let (start, continued) = if system.context.energy_balance {
                 start_energy(system, interval, state)

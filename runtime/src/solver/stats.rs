@@ -35,6 +35,11 @@ pub struct StepStats {
     /// or one whose centreline ended inside a body: [`crate::forces::contacts::predicted`]),
     /// counted at each solve's first resolution.
     pub contacts_predicted: usize,
+    /// Steps accepted by the error-controlled step (`[simulation] tolerance`:
+    /// [`crate::solver::error_control`]).
+    pub error_steps: usize,
+    /// Steps the error-controlled step rejected and retried shorter.
+    pub error_rejected: usize,
 }
 
 impl StepStats {
@@ -50,5 +55,7 @@ impl StepStats {
         self.energy_unbalanced += o.energy_unbalanced;
         self.rotation_limited += o.rotation_limited;
         self.contacts_predicted += o.contacts_predicted;
+        self.error_steps += o.error_steps;
+        self.error_rejected += o.error_rejected;
     }
 }

@@ -51,6 +51,8 @@ pub struct StrandWorkspace {
     pub(super) split_hint: usize,
     /// The step's largest `2^depth r` over its accepted pieces so far.
     pub(super) rotation_estimate: f64,
+    /// The error-controlled step's state ([`super::error_control`]).
+    pub(super) error_control: super::error_control::ErrorControl,
 }
 
 impl StrandWorkspace {
@@ -81,7 +83,13 @@ impl StrandWorkspace {
             last_v: vec![0.0; n],
             split_hint: 0,
             rotation_estimate: 0.0,
+            error_control: super::error_control::ErrorControl::default(),
         }
+    }
+
+    /// The error-controlled step's state and statistics.
+    pub fn error_control(&self) -> &super::error_control::ErrorControl {
+        &self.error_control
     }
 
     /// Forget the state history of the two-step integrator (BDF2): its next step starts
@@ -108,6 +116,9 @@ pub struct StepContext {
     /// Whether implicit steps are checked against the energy balance
     /// ([`crate::config::SimulationConfig::energy_balance`]).
     pub energy_balance: bool,
+    /// The error-controlled step's tolerance
+    /// ([`crate::config::SimulationConfig::tolerance`]; `None`: fixed steps).
+    pub tolerance: Option<f64>,
 }
 
 /// The state of one strand: generalized coordinates q and velocities q̇ (3N each).
