@@ -470,16 +470,19 @@ fn run_takes_a_tolerance_and_reports_its_steps() {
     );
     let scene = scene.to_string_lossy().to_string();
     let out_dir = dir.join("out").to_string_lossy().to_string();
-    let out = superhelix(&[
-        "run",
-        &scene,
-        "--out",
-        &out_dir,
-        "--format",
-        "json",
-        "--tolerance",
-        "1e-3",
-    ]);
+    let run = |tolerance: &str| {
+        superhelix(&[
+            "run",
+            &scene,
+            "--out",
+            &out_dir,
+            "--format",
+            "json",
+            "--tolerance",
+            tolerance,
+        ])
+    };
+    let out = run("1e-3");
     let stdout = String::from_utf8_lossy(&out.stdout).to_string();
     assert!(out.status.success(), "{}", text(&out));
     let last = stdout.lines().last().unwrap_or_default();
@@ -487,16 +490,7 @@ fn run_takes_a_tolerance_and_reports_its_steps() {
         last.contains("tolerance 1.0e-3: largest estimated error"),
         "{stdout}"
     );
-    let out = superhelix(&[
-        "run",
-        &scene,
-        "--out",
-        &out_dir,
-        "--format",
-        "json",
-        "--tolerance",
-        "5",
-    ]);
+    let out = run("5");
     assert!(!out.status.success());
     assert!(
         text(&out).contains("simulation.tolerance"),
