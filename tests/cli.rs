@@ -478,6 +478,8 @@ fn run_takes_a_tolerance_and_reports_its_steps() {
             &out_dir,
             "--format",
             "json",
+            "--format",
+            "npy",
             "--tolerance",
             tolerance,
         ])
@@ -486,10 +488,79 @@ fn run_takes_a_tolerance_and_reports_its_steps() {
     let stdout = String::from_utf8_lossy(&out.stdout).to_string();
     assert!(out.status.success(), "{}", text(&out));
     let last = stdout.lines().last().unwrap_or_default();
+    // "...; tolerance 1.0e-3: largest estimated error E L, S steps taken, R rejected, ..."
+    let after = |key: &str, end: &str| -> f64 {
+        let from = last.find(key).map(|i| i + key.len()).unwrap_or(last.len());
+        let rest = &last[from..];
+        rest[..rest.find(end).unwrap_or(rest.len())]
+            .trim()
+            .parse()
+            .unwrap_or(f64::NAN)
+    };
+    let largest = after("largest estimated error", " L");
+    let taken = after(" L,", " steps taken");
+    let rejected = after("steps taken,", " rejected");
+    assert!(largest > 0.0 && largest <= 1e-3, "{stdout}");
+    assert!(taken >= 6.0, "{stdout}");
+    // every frame says what the steps since the previous frame did, and the frames add up
+    // to the run's summary
+    let json: serde_json::Value = std::fs::read(dir.join("out/frames.json"))
+        .ok()
+        .and_then(|b| serde_json::from_slice(&b).ok())
+        .unwrap_or_default();
+    let frames = json["frames"].as_array().cloned().unwrap_or_default();
+    assert_eq!(frames.len(), 7);
+    let column = |key: &str| -> Vec<f64> {
+        frames
+            .iter()
+            .map(|f| f["error_control"][key].as_f64().unwrap_or(f64::NAN))
+            .collect()
+    };
+    let steps = column("steps");
+    assert_eq!(steps[0], 0.0, "frame 0 has no steps behind it");
+    assert_eq!(steps.iter().sum::<f64>(), taken);
+    assert_eq!(column("rejected").iter().sum::<f64>(), rejected);
+    let errors = column("largest_error");
+    // (the summary prints three digits)
+    let frame_largest = errors.iter().copied().fold(0.0, f64::max);
     assert!(
-        last.contains("tolerance 1.0e-3: largest estimated error"),
-        "{stdout}"
+        (frame_largest / largest - 1.0).abs() < 6e-3,
+        "{frame_largest} vs {largest}"
     );
+    let (small, large) = (column("smallest_step"), column("largest_step"));
+    for k in 1..frames.len() {
+        assert!(
+            errors[k] > 0.0 && errors[k] <= 1e-3,
+            "frame {k}: {}",
+            errors[k]
+        );
+        // the steps of a frame fill its 1/30 s
+        let dt = 1.0 / 30.0;
+        assert!(small[k] > 0.0 && small[k] <= large[k] && large[k] <= dt * (1.0 + 1e-12));
+        assert!(steps[k] * large[k] >= dt * (1.0 - 1e-12), "frame {k}");
+        assert!(steps[k] * small[k] <= dt * (1.0 + 1e-12), "frame {k}");
+    }
+    // the same figures in frames.steps.npy, named by frames.index.json
+    let index: serde_json::Value = std::fs::read(dir.join("out/frames.index.json"))
+        .ok()
+        .and_then(|b| serde_json::from_slice(&b).ok())
+        .unwrap_or_default();
+    assert_eq!(index["error_control"]["file"], "frames.steps.npy");
+    assert_eq!(index["error_control"]["columns"][1], "steps");
+    let npy = std::fs::read(dir.join("out/frames.steps.npy")).unwrap_or_default();
+    assert!(npy.len() > 10 && npy.starts_with(b"\x93NUMPY"));
+    let header = u16::from_le_bytes([npy[8], npy[9]]) as usize + 10;
+    assert!(String::from_utf8_lossy(&npy[10..header]).contains("'shape': (7, 5)"));
+    let values: Vec<f64> = npy[header..]
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+        .collect();
+    assert_eq!(values.len(), 35);
+    for k in 0..7 {
+        assert_eq!(values[5 * k], errors[k]);
+        assert_eq!(values[5 * k + 1], steps[k]);
+        assert_eq!(values[5 * k + 3], small[k]);
+    }
     let out = run("5");
     assert!(!out.status.success());
     assert!(

@@ -125,6 +125,7 @@ fn numpy_loads_the_frames_of_an_unfinished_run() {
             state_time: 0.1 * k as f64,
             points: &points,
             q: &[0.0; 3],
+            steps: None,
         };
         sink.write_frame(&view).unwrap_or_else(|e| panic!("{e}"));
     }
@@ -205,6 +206,7 @@ fn pxr_reads_the_render_strands() {
             state_time: store.time(k),
             points: &points,
             q: &[],
+            steps: None,
         };
         sink.write_frame(&view).unwrap_or_else(|e| panic!("{e}"));
     }

@@ -84,6 +84,29 @@ pub trait FrameSource {
     fn error_control(&self) -> Option<ErrorControlSummary> {
         None
     }
+    /// What the error-controlled step did since the last call (`None`: fixed steps, the
+    /// default); called once per frame written.
+    fn frame_steps(&mut self) -> Option<FrameSteps> {
+        None
+    }
+}
+
+/// What the error-controlled step (`[simulation] tolerance`) did between two frames: the
+/// steps that ended after the previous frame's state and at or before this frame's (frame
+/// 0: none). Written per frame in `frames.json` and `frames.index.json`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct FrameSteps {
+    /// The largest estimated error of an accepted step, relative to its strand's length
+    /// (0: no step).
+    pub largest_error: f64,
+    /// Steps accepted, all strands.
+    pub steps: usize,
+    /// Steps rejected and retried shorter, all strands.
+    pub rejected: usize,
+    /// The smallest step any strand took, s (0: no step).
+    pub smallest_step: f64,
+    /// The largest step any strand took, s (0: no step).
+    pub largest_step: f64,
 }
 
 /// What the error-controlled step (`[simulation] tolerance`) did over a run.

@@ -160,6 +160,8 @@ pub struct Simulation {
     hair_hair: Option<HairHair>,
     time: f64,
     steps: usize,
+    /// Error-controlled steps accepted and rejected up to the last frame's report.
+    reported_steps: (usize, usize),
 }
 
 /// What keeps the embedded engine from running `setup`: every setting and strand it
@@ -332,6 +334,7 @@ fn embedded_strands(
             hair_hair: None,
             time: 0.0,
             steps: 0,
+            reported_steps: (0, 0),
         },
         (),
     ))
@@ -368,18 +371,6 @@ fn check_setup(setup: &SimulationSetup) -> Result<()> {
                     crate::config::MIN_TOLERANCE,
                     crate::config::MAX_TOLERANCE
                 ),
-            ));
-        }
-        if setup.contacts.is_some() {
-            errors.push(FieldError::new(
-                "simulation.tolerance",
-                "the error-controlled step does not handle [contacts] yet: remove the tolerance or the contacts",
-            ));
-        }
-        if setup.electrostatics.is_some() {
-            errors.push(FieldError::new(
-                "simulation.tolerance",
-                "the error-controlled step does not handle [electrostatics] yet: remove the tolerance or the electrostatics",
             ));
         }
         if c.integrator != IntegratorKind::LinearlyImplicitEuler && c.mode == Mode::Dynamic {
@@ -602,6 +593,7 @@ impl Simulation {
             }),
             time: 0.0,
             steps: 0,
+            reported_steps: (0, 0),
         };
         // contact points inside a body at the start are let out slowly; Coulomb anchors
         for st in &mut sim.strands {
@@ -852,6 +844,29 @@ impl Simulation {
             },
             steps: stats.error_steps,
             rejected: stats.error_rejected,
+        })
+    }
+
+    /// What the error-controlled step did since the last call (or the start), all strands
+    /// (`None`: the scene has no tolerance).
+    pub fn frame_steps(&mut self) -> Option<crate::output::FrameSteps> {
+        self.config.tolerance.filter(|_| self.embedded.is_none())?;
+        let window = self
+            .strands
+            .iter_mut()
+            .map(|s| s.system.workspace.error_control_mut().take_window())
+            .fold(Default::default(), |a: crate::solver::StepWindow, b| {
+                a.merge(&b)
+            });
+        let stats = self.stats();
+        let (steps, rejected) = self.reported_steps;
+        self.reported_steps = (stats.error_steps, stats.error_rejected);
+        Some(crate::output::FrameSteps {
+            largest_error: window.largest_error,
+            steps: stats.error_steps - steps,
+            rejected: stats.error_rejected - rejected,
+            smallest_step: window.smallest_h,
+            largest_step: window.largest_h,
         })
     }
 
@@ -1300,6 +1315,9 @@ impl FrameSource for Simulation {
     }
     fn error_control(&self) -> Option<crate::output::ErrorControlSummary> {
         Simulation::error_control(self)
+    }
+    fn frame_steps(&mut self) -> Option<crate::output::FrameSteps> {
+        Simulation::frame_steps(self)
     }
 
     fn solve_static(&mut self) -> Result<()> {

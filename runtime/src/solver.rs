@@ -24,6 +24,7 @@ pub mod stats;
 pub mod system;
 
 pub use adaptive::step;
+pub use error_control::StepWindow;
 pub use statics::{solve_static, StaticReport};
 pub use stats::StepStats;
 pub use system::{HeadInterval, StepContext, StrandState, StrandSystem, StrandWorkspace};

@@ -240,6 +240,7 @@ impl Streamer<'_, '_> {
             state_time: source.time(),
             points: &self.points,
             q: &self.q,
+            steps: source.frame_steps(),
         };
         for sink in self.sinks.iter_mut() {
             sink.write_frame(&frame)?;

@@ -87,6 +87,8 @@ pub struct FrameView<'a> {
     pub points: &'a [[f64; 3]],
     /// Every strand's generalized coordinates, concatenated in strand order, rad/m.
     pub q: &'a [f64],
+    /// What the error-controlled step did since the previous frame (`None`: fixed steps).
+    pub steps: Option<super::FrameSteps>,
 }
 
 /// A file format written while the run goes: every frame is written (and readable) as

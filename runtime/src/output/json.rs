@@ -23,6 +23,9 @@
 //! concatenated the same way. `planned_frames` is the number of frames of a complete
 //! run; a run that stops early (interrupted, diverged) writes fewer and still closes the
 //! file. Static mode writes one frame at time 0. No non-finite number is ever written.
+//! A run with a tolerance gives every frame an `"error_control"` object: what the
+//! error-controlled step did since the previous frame (`largest_error` over L, `steps`,
+//! `rejected`, `smallest_step` and `largest_step` in s; all 0 for frame 0).
 //!
 //! The file is written as `frames.json.partial`, one frame per line, flushed after each
 //! frame, and renamed to `frames.json` when the run finishes or stops: a previous
@@ -30,6 +33,7 @@
 //! both, and also a file cut off by a hard kill (it keeps the complete frames).
 
 use super::frames::{FrameLayout, FrameSink, FrameStore, FrameView};
+use super::FrameSteps;
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::fs::File;
@@ -51,6 +55,8 @@ struct FrameOut<'a> {
     state_time: f64,
     points: &'a [[f64; 3]],
     q: &'a [f64],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    error_control: Option<FrameSteps>,
 }
 
 /// One frame as read back.
@@ -120,6 +126,7 @@ impl FrameSink for JsonFrameSink {
             state_time: frame.state_time,
             points: frame.points,
             q: frame.q,
+            error_control: frame.steps,
         };
         let separator: &[u8] = if self.frames == 0 { b"\n" } else { b",\n" };
         let result = writer

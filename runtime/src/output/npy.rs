@@ -8,7 +8,13 @@
 //! - `frames.times.npy`: float64, shape `[frames, 2]`: nominal time `k / output_fps` and
 //!   simulated time of the state written, s.
 //! - `frames.index.json`: the [`FrameLayout`] (strand names, groups, display radii, points
-//!   and coordinates per strand, output fps, planned frames), written once at the start.
+//!   and coordinates per strand, output fps, planned frames), written at the start.
+//! - `frames.steps.npy` (scenes with a tolerance only): float64, shape `[frames, 5]`, what
+//!   the error-controlled step did since the previous frame ([`super::FrameSteps`]): the
+//!   largest estimated error over L, steps accepted, steps rejected, the smallest and the
+//!   largest step (s); all 0 for frame 0. The index then names the file and its columns
+//!   (`"error_control": {"file": "frames.steps.npy", "columns": [...]}`), rewritten once
+//!   at the first frame.
 //!
 //! ```python
 //! import json, numpy as np
@@ -44,6 +50,32 @@ pub const NPY_FILE: &str = "frames.npy";
 pub const TIMES_FILE: &str = "frames.times.npy";
 /// Name of the layout file.
 pub const INDEX_FILE: &str = "frames.index.json";
+/// Name of the per-frame report of the error-controlled step (scenes with a tolerance).
+pub const STEPS_FILE: &str = "frames.steps.npy";
+/// Columns of [`STEPS_FILE`], as named in the index.
+pub const STEPS_COLUMNS: [&str; 5] = [
+    "largest_error",
+    "steps",
+    "rejected",
+    "smallest_step",
+    "largest_step",
+];
+
+/// `frames.index.json` of a run with a tolerance: the layout and where its per-frame step
+/// report is.
+#[derive(serde::Serialize)]
+struct IndexWithSteps<'a> {
+    #[serde(flatten)]
+    layout: &'a FrameLayout,
+    error_control: StepsIndex,
+}
+
+/// Where the per-frame step report is and what its columns are.
+#[derive(serde::Serialize)]
+struct StepsIndex {
+    file: &'static str,
+    columns: [&'static str; 5],
+}
 
 /// The npy magic string.
 const MAGIC: &[u8; 6] = b"\x93NUMPY";
@@ -156,6 +188,10 @@ impl GrowingNpy {
 pub struct NpyFrameSink {
     points: GrowingNpy,
     times: GrowingNpy,
+    /// The per-frame step report, created at the first frame that has one.
+    steps: Option<GrowingNpy>,
+    dir: PathBuf,
+    layout: FrameLayout,
     total_points: usize,
     row: Vec<u8>,
 }
@@ -175,9 +211,29 @@ impl NpyFrameSink {
         Ok(Self {
             points,
             times,
+            steps: None,
+            dir: dir.to_path_buf(),
+            layout: layout.clone(),
             total_points,
             row: Vec::with_capacity(12 * total_points),
         })
+    }
+
+    /// Create [`STEPS_FILE`] and name it in the index.
+    fn start_steps(&mut self) -> Result<()> {
+        let index = self.dir.join(INDEX_FILE);
+        let with = IndexWithSteps {
+            layout: &self.layout,
+            error_control: StepsIndex {
+                file: STEPS_FILE,
+                columns: STEPS_COLUMNS,
+            },
+        };
+        let json = serde_json::to_vec_pretty(&with).map_err(|e| io_error(&index, e.into()))?;
+        let file = GrowingNpy::create(self.dir.join(STEPS_FILE), "<f8", 8, vec![5])?;
+        write_atomically(&index, &json)?;
+        self.steps = Some(file);
+        Ok(())
     }
 
     /// Frames written so far.
@@ -208,12 +264,31 @@ impl FrameSink for NpyFrameSink {
         let mut times = [0u8; 16];
         times[..8].copy_from_slice(&frame.time.to_le_bytes());
         times[8..].copy_from_slice(&frame.state_time.to_le_bytes());
+        if let Some(s) = frame.steps {
+            if self.steps.is_none() {
+                self.start_steps()?;
+            }
+            let row = [
+                s.largest_error,
+                s.steps as f64,
+                s.rejected as f64,
+                s.smallest_step,
+                s.largest_step,
+            ];
+            let bytes: Vec<u8> = row.iter().flat_map(|x| x.to_le_bytes()).collect();
+            if let Some(file) = self.steps.as_mut() {
+                file.append(&bytes)?;
+            }
+        }
         // the times first: a frame counts once its points header is written
         self.times.append(&times)?;
         self.points.append(&self.row)
     }
 
     fn finish(&mut self) -> Result<()> {
+        if let Some(s) = self.steps.as_mut() {
+            s.finish()?;
+        }
         self.times.finish()?;
         self.points.finish()
     }
@@ -508,6 +583,7 @@ mod tests {
                 state_time: k as f64 / 30.0 + 1e-3,
                 points: &points,
                 q: &[],
+                steps: None,
             };
             if let Err(e) = sink.write_frame(&view) {
                 panic!("{e}");
@@ -629,6 +705,7 @@ mod tests {
             state_time: 0.0,
             points: &points,
             q: &[],
+            steps: None,
         };
         assert!(matches!(sink.write_frame(&view), Err(Error::Invalid(_))));
         assert_eq!(sink.frames_written(), 1);

@@ -53,12 +53,54 @@ pub struct ErrorControl {
     pub smallest_h: f64,
     /// The largest estimated error of an accepted step so far, relative to the length.
     pub largest_error: f64,
+    /// What the accepted steps since the last [`ErrorControl::take_window`] did.
+    window: StepWindow,
     start_q: Vec<f64>,
     start_v: Vec<f64>,
     full_q: Vec<f64>,
     full_v: Vec<f64>,
     ends_full: Vec<Pose>,
     ends_half: Vec<Pose>,
+}
+
+/// What one strand's accepted error-controlled steps did over a stretch of time (a frame).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StepWindow {
+    /// The largest estimated error of a step, relative to the strand's length.
+    pub largest_error: f64,
+    /// The smallest step, s (0: no step).
+    pub smallest_h: f64,
+    /// The largest step, s.
+    pub largest_h: f64,
+}
+
+impl StepWindow {
+    fn add(&mut self, error: f64, h: f64) {
+        self.largest_error = self.largest_error.max(error);
+        self.smallest_h = if self.smallest_h > 0.0 {
+            self.smallest_h.min(h)
+        } else {
+            h
+        };
+        self.largest_h = self.largest_h.max(h);
+    }
+
+    /// Both windows as one.
+    pub fn merge(&self, other: &StepWindow) -> StepWindow {
+        let mut m = *self;
+        if other.smallest_h > 0.0 {
+            m.add(other.largest_error, other.smallest_h);
+            m.largest_h = m.largest_h.max(other.largest_h);
+        }
+        m
+    }
+}
+
+impl ErrorControl {
+    /// What the accepted steps did since the last call (or the start), and start anew.
+    pub fn take_window(&mut self) -> StepWindow {
+        std::mem::take(&mut self.window)
+    }
 }
 
 /// Advance `state` over `interval` in error-controlled steps of tolerance `tolerance`
@@ -119,14 +161,18 @@ fn advance(
         } else {
             HeadInterval::new(interval.motion, t, hh)
         };
+        let predicted = stats.contacts_predicted;
         linearly_implicit_euler(system, &whole, state, stats)?;
+        let mut touched = touches(system);
         ec.full_q.copy_from_slice(&state.q);
         ec.full_v.copy_from_slice(&state.v);
         state.q.copy_from_slice(&ec.start_q);
         state.v.copy_from_slice(&ec.start_v);
         let first = whole.first_half();
         linearly_implicit_euler(system, &first, state, stats)?;
+        touched |= touches(system);
         linearly_implicit_euler(system, &whole.second_half(&first), state, stats)?;
+        touched |= touches(system) || stats.contacts_predicted != predicted;
         stats.attempts += 3;
         system.kernel.element_ends(&ec.full_q, &mut ec.ends_full);
         system.kernel.element_ends(&state.q, &mut ec.ends_half);
@@ -148,12 +194,15 @@ fn advance(
             GROW
         };
         if error <= tolerance || hh <= MIN_STEP {
-            for i in 0..n {
-                state.q[i] = 2.0 * state.q[i] - ec.full_q[i];
-                state.v[i] = 2.0 * state.v[i] - ec.full_v[i];
+            if !touched {
+                for i in 0..n {
+                    state.q[i] = 2.0 * state.q[i] - ec.full_q[i];
+                    state.v[i] = 2.0 * state.v[i] - ec.full_v[i];
+                }
             }
             stats.error_steps += 1;
             ec.largest_error = ec.largest_error.max(error);
+            ec.window.add(error, hh);
             ec.smallest_h = if ec.smallest_h > 0.0 {
                 ec.smallest_h.min(hh)
             } else {
@@ -175,4 +224,12 @@ fn advance(
     }
     ec.next_h = h;
     Ok(())
+}
+
+/// Whether the last solve's contact forces acted (a sample touched a body or a partner).
+fn touches(system: &StrandSystem) -> bool {
+    system.contacts.as_ref().is_some_and(|c| {
+        let s = c.summary();
+        s.body_contacts + s.hair_contacts > 0
+    })
 }

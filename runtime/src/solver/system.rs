@@ -92,6 +92,11 @@ impl StrandWorkspace {
         &self.error_control
     }
 
+    /// The error-controlled step's state, to take its window of steps.
+    pub fn error_control_mut(&mut self) -> &mut super::error_control::ErrorControl {
+        &mut self.error_control
+    }
+
     /// Forget the state history of the two-step integrator (BDF2): its next step starts
     /// afresh, with a linearly implicit Euler step. Call it whenever the state is set
     /// from outside the integrator.
