@@ -19,6 +19,7 @@ pub mod stress;
 pub mod study;
 pub mod study_cost;
 pub mod study_plot;
+pub mod study_tolerance;
 
 pub use superhelix_generated as generated;
 pub use superhelix_runtime as runtime;

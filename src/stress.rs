@@ -874,6 +874,21 @@ pub fn with_max_split_depth(cases: Vec<Case>, depth: usize) -> Vec<Case> {
         .collect()
 }
 
+/// `cases` of linearly implicit Euler (the other integrators' variants of the conservative
+/// group are dropped) run by the error-controlled step at `tolerance` (`[simulation]
+/// tolerance`), named `<case>@tol<tolerance>`.
+pub fn with_tolerance(cases: Vec<Case>, tolerance: f64) -> Vec<Case> {
+    cases
+        .into_iter()
+        .filter(|c| c.setup.config.integrator == IntegratorKind::LinearlyImplicitEuler)
+        .map(|mut c| {
+            c.setup.config.tolerance = Some(tolerance);
+            c.name = format!("{}@tol{tolerance:e}", c.name);
+            c
+        })
+        .collect()
+}
+
 /// `cases` on `engine` (`auto`, the scenes' default: the embedded engine wherever it can
 /// run a case), names unchanged.
 pub fn with_engine(cases: Vec<Case>, engine: Engine) -> Vec<Case> {

@@ -48,7 +48,7 @@ use crate::runtime::model::material::{helix_curvature, CrossSection, HelixForm, 
 use crate::runtime::model::strand::{PointLoad, Strand, StrandGeometry};
 use crate::runtime::{
     Environment, Error, GenericKernel, HeadMotion, Matrix3, QuadratureRule, Result, Simulation,
-    Vector3,
+    StepStats, Vector3,
 };
 use rayon::prelude::*;
 use std::fmt::Write as _;
@@ -56,13 +56,14 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The problems, by key, in report order.
-pub const PROBLEMS: [&str; 6] = [
+pub const PROBLEMS: [&str; 7] = [
     "swing",
     "curly",
     "frequency",
     "cantilever",
     "floppy",
     "rotary",
+    "tolerance",
 ];
 
 /// Budgets of the dynamic problems, seconds of CPU per strand per simulated second.
@@ -203,6 +204,8 @@ pub struct ProblemResult {
     pub convergence: Vec<Convergence>,
     /// Rotary-inertia problem: the measured relative changes.
     pub rotary: Vec<RotaryChange>,
+    /// Tolerance problem: asked tolerance against measured error and cost, per case.
+    pub tolerance: Vec<crate::study_tolerance::ToleranceCase>,
 }
 
 /// Error against dt of one integrator on one strand (`floppy`).
@@ -310,6 +313,8 @@ pub struct Grid {
     pub floppy_reference_rate: u32,
     /// Steps per second of the two runs of `rotary` (BDF2).
     pub rotary_rate: u32,
+    /// Tolerances of `tolerance`.
+    pub tolerances: Vec<f64>,
 }
 
 impl Grid {
@@ -338,6 +343,7 @@ impl Grid {
             floppy_rates: vec![30, 100, 300, 1000, 3000],
             floppy_reference_rate: 60000,
             rotary_rate: 100000,
+            tolerances: crate::study_tolerance::TOLERANCES.to_vec(),
         }
     }
     /// The reduced grid of `--quick` (CI).
@@ -364,6 +370,7 @@ impl Grid {
             floppy_rates: vec![30, 100, 300, 1000],
             floppy_reference_rate: 30000,
             rotary_rate: 100000,
+            tolerances: crate::study_tolerance::TOLERANCES.to_vec(),
         }
     }
 
@@ -502,7 +509,7 @@ fn strand(
     }
 }
 
-fn setup_of(
+pub(crate) fn setup_of(
     strand: Strand,
     setting: &Setting,
     duration: f64,
@@ -544,12 +551,12 @@ fn setup_of(
     }
 }
 
-const SWING_LENGTH: f64 = 0.2;
-const CURLY_LENGTH: f64 = 0.2;
+pub(crate) const SWING_LENGTH: f64 = 0.2;
+pub(crate) const CURLY_LENGTH: f64 = 0.2;
 const FREQUENCY_LENGTH: f64 = 0.05;
 const CANTILEVER_LENGTH: f64 = 0.1;
 
-fn swing_setup(setting: &Setting, duration: f64) -> SimulationSetup {
+pub(crate) fn swing_setup(setting: &Setting, duration: f64) -> SimulationSetup {
     let s = strand(
         round_fibre(),
         setting.elements,
@@ -572,7 +579,7 @@ fn shaking_head() -> HeadMotion {
     }
 }
 
-fn curly_setup(setting: &Setting, duration: f64) -> SimulationSetup {
+pub(crate) fn curly_setup(setting: &Setting, duration: f64) -> SimulationSetup {
     let p = Preset::Curly.params();
     let s = strand(
         p.cross_section,
@@ -596,6 +603,15 @@ fn tip_trajectory(
     factory: Option<&dyn KernelFactory>,
     steps: usize,
 ) -> TipRun {
+    tip_run(setup, factory, steps).map(|(tips, cpu, _)| (tips, cpu))
+}
+
+/// [`tip_trajectory`] with the run's step statistics.
+pub(crate) fn tip_run(
+    setup: SimulationSetup,
+    factory: Option<&dyn KernelFactory>,
+    steps: usize,
+) -> std::result::Result<(Vec<Vector3<f64>>, f64, StepStats), String> {
     let mut sim = Simulation::new(setup, factory).map_err(|e| e.to_string())?;
     let per = 1;
     let tip = |sim: &mut Simulation| {
@@ -611,7 +627,7 @@ fn tip_trajectory(
         cpu += now() - t0;
         out.push(tip(&mut sim));
     }
-    Ok((out, cpu))
+    Ok((out, cpu, sim.stats()))
 }
 
 /// A tip trajectory and the CPU seconds of its steps, or why the run failed.
@@ -629,20 +645,22 @@ fn now() -> f64 {
 
 /// A converged tip trajectory on the reference grid (`reference_rate` steps per
 /// second) and how it was checked.
-struct Reference {
-    tips: Vec<Vector3<f64>>,
-    rate: u32,
+pub(crate) struct Reference {
+    /// The reference tip, world coordinates, at every step of the reference grid.
+    pub tips: Vec<Vector3<f64>>,
+    /// Steps per second of the reference grid.
+    pub rate: u32,
     notes: String,
 }
 
-fn max_distance(a: &[Vector3<f64>], b: &[Vector3<f64>], stride_b: usize) -> f64 {
+pub(crate) fn max_distance(a: &[Vector3<f64>], b: &[Vector3<f64>], stride_b: usize) -> f64 {
     a.iter()
         .enumerate()
         .map(|(k, x)| (x - b[k * stride_b]).norm())
         .fold(0.0, f64::max)
 }
 
-const REFERENCE_N: usize = 20;
+pub(crate) const REFERENCE_N: usize = 20;
 const CHECK_N: usize = 15;
 
 fn reference(
@@ -727,7 +745,7 @@ fn trajectory_problem(
     grid: &Grid,
     duration: f64,
     factory: Option<&dyn KernelFactory>,
-) -> Result<ProblemResult> {
+) -> Result<(ProblemResult, Reference)> {
     let reference = reference(make, grid, duration, length, factory)?;
     let settings = grid.dynamic_settings();
     let points: Vec<Point> = settings
@@ -752,18 +770,22 @@ fn trajectory_problem(
             }
         })
         .collect();
-    Ok(finish(ProblemResult {
-        key,
-        title: title.into(),
-        description,
-        is_static: false,
-        points,
-        notes: reference.notes,
-        spatial: Vec::new(),
-        error_title: "error: max over time of |tip − tip_ref| / L".into(),
-        convergence: Vec::new(),
-        rotary: Vec::new(),
-    }))
+    Ok((
+        finish(ProblemResult {
+            key,
+            title: title.into(),
+            description,
+            is_static: false,
+            points,
+            notes: reference.notes.clone(),
+            spatial: Vec::new(),
+            error_title: "error: max over time of |tip − tip_ref| / L".into(),
+            convergence: Vec::new(),
+            rotary: Vec::new(),
+            tolerance: Vec::new(),
+        }),
+        reference,
+    ))
 }
 
 // ---------------------------------------------------------------- frequency
@@ -914,6 +936,7 @@ fn frequency_problem(grid: &Grid, factory: Option<&dyn KernelFactory>) -> Proble
         error_title: "error: |ω_N/ω1 − 1| + |ω/ω_N − 1|".into(),
         convergence: Vec::new(),
         rotary: Vec::new(),
+        tolerance: Vec::new(),
     })
 }
 
@@ -992,14 +1015,15 @@ fn cantilever_problem(grid: &Grid, factory: Option<&dyn KernelFactory>) -> Probl
         error_title: "error: |δ_N / (F L³/(3EI)) − 1|".into(),
         convergence: Vec::new(),
         rotary: Vec::new(),
+        tolerance: Vec::new(),
     })
 }
 
 // ---------------------------------------------------------------- floppy
 
-const FLOPPY_LENGTH: f64 = 0.2;
-const FLOPPY_N: usize = 3;
-const FLOPPY_DURATION: f64 = 1.0;
+pub(crate) const FLOPPY_LENGTH: f64 = 0.2;
+pub(crate) const FLOPPY_N: usize = 3;
+pub(crate) const FLOPPY_DURATION: f64 = 1.0;
 /// Natural (τ, κ1, κ2) of the floppy strand, rad/m: each 6.7 cm element turns by
 /// 0.13 rad, nearly straight, so its twist has little inertia and is stiff.
 const FLOPPY_NATURAL: [f64; 3] = [0.2, 2.0, 0.0];
@@ -1010,7 +1034,7 @@ const ROTARY_NATURAL: [f64; 3] = [0.5, 1.0, 0.5];
 /// The floppy strand: curly preset, N = 3, 20 cm, natural helix, root horizontal,
 /// released from rest under gravity (off equilibrium), no drag; internal friction of
 /// the preset or none.
-fn floppy_strand(friction: bool) -> Strand {
+pub(crate) fn floppy_strand(friction: bool) -> Strand {
     let p = Preset::Curly.params();
     strand(
         p.cross_section,
@@ -1060,8 +1084,14 @@ fn log_slope(points: &[(f64, f64)]) -> f64 {
     sxy / sxx
 }
 
-fn floppy_problem(grid: &Grid, factory: Option<&dyn KernelFactory>) -> Result<ProblemResult> {
+/// The floppy problem, and its two references (frictionless, with friction: the tip at
+/// every step of `grid.floppy_reference_rate`).
+fn floppy_problem(
+    grid: &Grid,
+    factory: Option<&dyn KernelFactory>,
+) -> Result<(ProblemResult, Vec<Vec<Vector3<f64>>>)> {
     let r = grid.floppy_reference_rate;
+    let mut references = Vec::new();
     let mut notes = String::new();
     let mut convergence = Vec::new();
     for friction in [false, true] {
@@ -1090,6 +1120,7 @@ fn floppy_problem(grid: &Grid, factory: Option<&dyn KernelFactory>) -> Result<Pr
                 .collect()
         };
         let reference = richardson(&tips[0], &tips[1]);
+        references.push(reference.clone());
         let finer = richardson(&tips[1], &tips[2]);
         let d_fine = max_distance(&reference, &tips[1], 2) / FLOPPY_LENGTH;
         let d_next = max_distance(&reference, &finer, 2) / FLOPPY_LENGTH;
@@ -1137,11 +1168,12 @@ fn floppy_problem(grid: &Grid, factory: Option<&dyn KernelFactory>) -> Result<Pr
         }
     }
     let p = Preset::Curly.params();
-    Ok(ProblemResult {
-        key: "floppy",
-        title: "Convergence in dt of a floppy strand, frictionless and with friction".into(),
-        description: format!(
-            "A floppy {} cm strand of the curly preset's cross-section and friction, natural \
+    Ok((
+        ProblemResult {
+            key: "floppy",
+            title: "Convergence in dt of a floppy strand, frictionless and with friction".into(),
+            description: format!(
+                "A floppy {} cm strand of the curly preset's cross-section and friction, natural \
              (τ, κ1, κ2) = ({}, {}, {}) rad/m (nearly straight elements), N = {FLOPPY_N}, \
              generated kernels, root clamped horizontal, released from rest in its natural shape \
              under gravity, no drag, for {FLOPPY_DURATION} s: once frictionless, once with the \
@@ -1152,20 +1184,23 @@ fn floppy_problem(grid: &Grid, factory: Option<&dyn KernelFactory>) -> Result<Pr
              elements are not resolved by any of these steps: linearly implicit Euler damps \
              them, which changes the motion, and converges slowly; BDF2 converges at second \
              order. A user who needs accuracy picks BDF2.",
-            FLOPPY_LENGTH * 100.0,
-            FLOPPY_NATURAL[0],
-            FLOPPY_NATURAL[1],
-            FLOPPY_NATURAL[2],
-            p.internal_friction
-        ),
-        is_static: false,
-        points: Vec::new(),
-        notes,
-        spatial: Vec::new(),
-        error_title: "error: max over time of |tip − tip_ref| / L".into(),
-        convergence,
-        rotary: Vec::new(),
-    })
+                FLOPPY_LENGTH * 100.0,
+                FLOPPY_NATURAL[0],
+                FLOPPY_NATURAL[1],
+                FLOPPY_NATURAL[2],
+                p.internal_friction
+            ),
+            is_static: false,
+            points: Vec::new(),
+            notes,
+            spatial: Vec::new(),
+            error_title: "error: max over time of |tip − tip_ref| / L".into(),
+            convergence,
+            rotary: Vec::new(),
+            tolerance: Vec::new(),
+        },
+        references,
+    ))
 }
 
 // ---------------------------------------------------------------- rotary
@@ -1321,6 +1356,7 @@ fn rotary_problem(grid: &Grid, factory: Option<&dyn KernelFactory>) -> Result<Pr
         error_title: String::new(),
         convergence: Vec::new(),
         rotary,
+        tolerance: Vec::new(),
     })
 }
 
@@ -1363,7 +1399,7 @@ pub fn run_study(options: &StudyOptions, factory: Option<&dyn KernelFactory>) ->
         }
     }
     let wall = Instant::now();
-    let swing = trajectory_problem(
+    let (swing, swing_reference) = trajectory_problem(
         "swing",
         "Straight strand swinging under gravity",
         format!(
@@ -1380,7 +1416,7 @@ pub fn run_study(options: &StudyOptions, factory: Option<&dyn KernelFactory>) ->
         grid.swing_duration,
         factory,
     )?;
-    let curly = trajectory_problem(
+    let (curly, curly_reference) = trajectory_problem(
         "curly",
         "Curly strand on a shaking head",
         format!(
@@ -1399,8 +1435,17 @@ pub fn run_study(options: &StudyOptions, factory: Option<&dyn KernelFactory>) ->
     )?;
     let frequency = frequency_problem(&grid, factory);
     let cantilever = cantilever_problem(&grid, factory);
-    let floppy = floppy_problem(&grid, factory)?;
+    let (floppy, floppy_references) = floppy_problem(&grid, factory)?;
     let rotary = rotary_problem(&grid, factory)?;
+    let tolerance = crate::study_tolerance::tolerance_problem(
+        &grid,
+        factory,
+        &crate::study_tolerance::References {
+            swing: &swing_reference,
+            curly: &curly_reference,
+            floppy: &floppy_references,
+        },
+    );
     let cost = if options.quick {
         crate::study_cost::cost_by_elements(&[1, 5, 10], 10, 5)?
     } else {
@@ -1409,7 +1454,9 @@ pub fn run_study(options: &StudyOptions, factory: Option<&dyn KernelFactory>) ->
     Ok(Study {
         options: options.clone(),
         grid,
-        problems: vec![swing, curly, frequency, cantilever, floppy, rotary],
+        problems: vec![
+            swing, curly, frequency, cantilever, floppy, rotary, tolerance,
+        ],
         wall_seconds: wall.elapsed().as_secs_f64(),
         clock: Clock::current(),
         cost,
@@ -1508,6 +1555,10 @@ pub fn render_report(study: &Study, plots: &[Option<String>]) -> String {
         }
         if !problem.convergence.is_empty() {
             render_convergence(&mut s, &problem.convergence);
+            continue;
+        }
+        if !problem.tolerance.is_empty() {
+            crate::study_tolerance::render_table(&mut s, &problem.tolerance);
             continue;
         }
         if !problem.rotary.is_empty() {
@@ -1671,6 +1722,9 @@ fn problem_plot(problem: &ProblemResult) -> Result<Option<String>> {
         )
         .map(Some);
     }
+    if !problem.tolerance.is_empty() {
+        return crate::study_tolerance::plot(problem).map(Some);
+    }
     if problem.points.is_empty() {
         return Ok(None);
     }
@@ -1755,6 +1809,7 @@ pub fn to_json(study: &Study) -> serde_json::Value {
                 "points": points,
                 "spatial": p.spatial.iter().map(|(n, w, e)| json!({"elements": n, "omega": w, "signed_error": e})).collect::<Vec<_>>(),
                 "convergence": p.convergence.iter().map(|c| json!({"integrator": c.integrator.name(), "friction": c.friction, "order": c.order, "dt_error": c.points})).collect::<Vec<_>>(),
+                "tolerance": crate::study_tolerance::to_json(&p.tolerance),
                 "rotary": p.rotary.iter().map(|r| json!({"case": r.case, "twist": r.twist, "bending": r.bending, "centreline": r.centreline})).collect::<Vec<_>>(),
             })
         })

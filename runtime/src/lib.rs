@@ -63,6 +63,7 @@ pub use kernels::kernel::{EvalInput, KernelFactory, StrandKernel, StrandTerms, T
 pub use model::material::{CrossSection, HelixForm, Material, Preset};
 pub use model::strand::{PointLoad, Strand, StrandGeometry};
 pub use simulation::{engine_for, Simulation};
+pub use solver::StepStats;
 
 pub use forces::head_motion::{Keyframe, KeyframeTrack};
 /// Re-exported so that users of the trait need not name nalgebra themselves.

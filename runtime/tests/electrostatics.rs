@@ -112,6 +112,46 @@ fn charged_equilibrium_repels_and_converges() {
     }
 }
 
+/// Two charged 20 cm strands run dynamically by the error-controlled step (`[simulation]
+/// tolerance`, the Coulomb forces refreshed every 1/30 s and held within it) come to
+/// rest on the charged static equilibrium of `solve_charged_static`.
+#[test]
+fn with_a_tolerance_charged_strands_settle_on_the_charged_equilibrium() {
+    let text = |mode: &str| {
+        format!(
+            "[simulation]\nmode = \"{mode}\"\ndt = 0.03333333333333333\nduration = 12.0\ntolerance = 1e-3\n\
+             [electrostatics]\ncharge_per_length = -1e-9\ntolerance = 1e-8\n\
+             [[strands]]\nroot = [0.0, 0.0, 0.0]\nlength = 0.2\nelements = 5\npreset = \"smooth\"\nair_drag = 0.003\n\
+             [[strands]]\nroot = [0.003, 0.0, 0.0]\nlength = 0.2\nelements = 5\npreset = \"smooth\"\nair_drag = 0.003\n"
+        )
+    };
+    let tips = |s: &mut Simulation| (s.position_at(0, 0.2), s.position_at(1, 0.2));
+    let mut statics = sim(&text("static").replace("tolerance = 1e-3\n", ""));
+    let report = statics.solve_charged_static().expect("charged static");
+    assert!(report.stages.last().is_some_and(|s| s.converged));
+    let (a, b) = tips(&mut statics);
+    let mut dynamics = sim(&text("dynamic"));
+    for _ in 0..360 {
+        dynamics.step().expect("step");
+    }
+    let (c, d) = tips(&mut dynamics);
+    // the charge moves each tip by several millimetres; at rest the two runs agree to a
+    // small fraction of that
+    let moved = (a - b).norm() - 0.003;
+    assert!(
+        moved > 1e-3,
+        "the charge moved the tips apart by {moved:.3e} m only"
+    );
+    let off = (a - c).norm().max((b - d).norm());
+    assert!(
+        off < 0.01 * moved,
+        "tips {off:.3e} m from the charged equilibrium ({moved:.3e} m apart)"
+    );
+    assert!(dynamics
+        .error_control()
+        .is_some_and(|e| e.largest_error <= 1e-3));
+}
+
 /// A scene without [electrostatics] builds no particles and adds no loads; with it, the
 /// strands carry one load per particle after their own.
 #[test]

@@ -63,6 +63,10 @@ pub struct BenchArgs {
     /// fixed cost of one solve per strand-step.
     #[arg(long)]
     max_split_depth: Option<usize>,
+    /// With --scene: run the error-controlled step at this tolerance (`[simulation]
+    /// tolerance`, 1e-8 to 0.5), replacing the scene's.
+    #[arg(long, value_name = "TOL")]
+    tolerance: Option<f64>,
     /// What of the external forces' stiffness the implicit step's matrix holds:
     /// projected (default, or the scene's `[simulation] field_stiffness`) or explicit.
     #[arg(long)]
@@ -83,6 +87,12 @@ pub fn run(args: BenchArgs) -> Result<ExitCode, Error> {
 }
 
 fn bench_generated(args: &BenchArgs) -> Result<ExitCode, Error> {
+    if args.tolerance.is_some() {
+        return Err(Error::invalid(
+            "--tolerance",
+            "needs --scene (the generated strands take fixed steps)",
+        ));
+    }
     let kernel_name = args.kernels.as_deref().unwrap_or("auto");
     let effects = args.effects.as_deref().unwrap_or("gravity,drag,friction");
     let integrator_name = args
@@ -158,13 +168,20 @@ fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
     if let Some(on) = args.energy_balance {
         setup.config.energy_balance = on;
     }
+    if let Some(t) = args.tolerance {
+        setup.config.tolerance = Some(t);
+    }
     let names = scene_effects(&setup).names().join(",");
     let integrator = setup.config.integrator.name();
     let budget = format!(
-        "max_split_depth={} field_stiffness={} energy_balance={}",
+        "max_split_depth={} field_stiffness={} energy_balance={} tolerance={}",
         setup.config.max_split_depth,
         setup.config.field_stiffness.name(),
-        setup.config.energy_balance
+        setup.config.energy_balance,
+        setup
+            .config
+            .tolerance
+            .map_or("none".into(), |t| format!("{t:e}"))
     );
     let steps = args.steps;
     let report = bench_setup(setup, steps)?;

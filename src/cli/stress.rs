@@ -38,6 +38,11 @@ pub struct StressArgs {
     /// named `<case>@depth<D>`.
     #[arg(long, value_name = "D")]
     max_split_depth: Option<usize>,
+    /// Run every linearly implicit Euler case by the error-controlled step at this
+    /// tolerance (`[simulation] tolerance`, 1e-8 to 0.5): cases are then named
+    /// `<case>@tol<tolerance>`.
+    #[arg(long, value_name = "TOL")]
+    tolerance: Option<f64>,
 }
 
 /// Run `stress`.
@@ -62,6 +67,17 @@ pub fn run(args: StressArgs) -> Result<ExitCode, Error> {
     }
     if let Some(d) = args.max_split_depth {
         cases = stress::with_max_split_depth(cases, super::common::split_depth(d)?);
+    }
+    if let Some(t) = args.tolerance {
+        let range =
+            superhelix::runtime::config::MIN_TOLERANCE..=superhelix::runtime::config::MAX_TOLERANCE;
+        if !range.contains(&t) {
+            return Err(Error::invalid(
+                "--tolerance",
+                format!("must be in [{:e}, {}], got {t}", range.start(), range.end()),
+            ));
+        }
+        cases = stress::with_tolerance(cases, t);
     }
     let filter = args.filter.as_deref();
     let cases: Vec<stress::Case> = cases

@@ -7,27 +7,30 @@
 //! implicit Euler, LIMEX): a step of h gives `y₁`, two steps of h/2 give `y₂`, and the
 //! step keeps `2 y₂ − y₁` for q and q̇, second order, and as stable as the step it
 //! extrapolates (its stability function `2/(1 − z/2)² − 1/(1 − z)` vanishes as
-//! z → −∞: L-stable). The error estimate is the distance between the two solutions on
-//! the centreline,
+//! z → −∞: L-stable). A step in which a contact acts (a sample touches, or a contact
+//! starts within it) keeps `y₂` unextrapolated: extrapolating across a contact's onset
+//! overshoots. The error estimate is the difference of the two solutions,
 //!
 //! ```text
-//! err = max over the element ends |y(q₂) − y(q₁)| / L
+//! err = max( max over the element ends |y(q₂) − y(q₁)| / L,  max over Q l_Q ‖q₂,Q − q₁,Q‖ )
 //! ```
 //!
-//! (positions in the head's frame, L the strand's length): the error of the two half
-//! steps, which bounds that of the extrapolated state the step keeps. A step is accepted
+//! (positions in the head's frame, L the strand's length, l_Q an element's length: how
+//! far the centreline moves, and the angle by which an element's twist and curvature
+//! turn it): the error of the two half steps. A step is accepted
 //! when `err ≤ τ` and the next is `h · clamp(0.9 (τ/err)^½, 0.2, 2)` (rejected: retried
 //! at that size); a strand's steps end on the scene's time steps (so frames land on
 //! their output times) and its step size carries over to the next. Each step costs
-//! three solves. Only the linearly implicit Euler step can be extrapolated this way;
-//! the energy balance, the rotation limit and the step splitting of
-//! [`super::adaptive`] do not act on these steps (the error control takes their place).
+//! three solves. Only the linearly implicit Euler step can be extrapolated this way.
+//! The rotation limit and the step splitting of [`super::adaptive`] do not act on these
+//! steps (the error control takes their place); the energy balance does, on each
+//! accepted step (`limit_energy`).
 //!
-//! Measured on the study's `swing` (a straight 20 cm strand released horizontal, N = 5,
-//! 0.5 s, against the same scheme at τ = 1e-10): the largest error of the tip over L
-//! is 0.5 to 1.7 τ for τ from 1e-1 to 1e-5 with the preset's friction and drag, and up
-//! to 11 τ without any (`runtime/tests/error_control.rs`).
+//! Measured: `runtime/tests/error_control.rs` (the swing against the same scheme far
+//! tighter) and `superhelix study`'s `tolerance` problem (against the study's
+//! references; docs/time-stepping.md).
 
+use super::energy_balance::{self, StateEnergy};
 use super::linearly_implicit::linearly_implicit_euler;
 use super::stats::StepStats;
 use super::system::{HeadInterval, StrandState, StrandSystem};
@@ -143,6 +146,12 @@ fn advance(
 ) -> Result<(), String> {
     let end = interval.t + interval.h;
     let mut t = interval.t;
+    let balance = system.context.energy_balance;
+    let mut energy = if balance {
+        energy_balance::measure(system, &interval.start, t, &state.q, &state.v)
+    } else {
+        StateEnergy::default()
+    };
     let mut h = if ec.next_h > 0.0 {
         ec.next_h
     } else {
@@ -183,6 +192,32 @@ fn advance(
             .map(|(a, b)| (a.position - b.position).norm())
             .fold(0.0, f64::max)
             / length;
+        let lengths = &system.strand.geometry.lengths;
+        let angles = lengths
+            .iter()
+            .enumerate()
+            .map(|(k, l)| {
+                (0..3)
+                    .map(|i| (state.q[3 * k + i] - ec.full_q[3 * k + i]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+                    * l
+            })
+            .fold(0.0, f64::max);
+        // a velocity error becomes a position error: over the step, as much
+        let speeds = lengths
+            .iter()
+            .enumerate()
+            .map(|(k, l)| {
+                (0..3)
+                    .map(|i| (state.v[3 * k + i] - ec.full_v[3 * k + i]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+                    * l
+                    * hh
+            })
+            .fold(0.0, f64::max);
+        let error = error.max(angles).max(speeds);
         if !error.is_finite() {
             return Err(format!(
                 "error-controlled step: non-finite error estimate at t = {t:.6e} s"
@@ -199,6 +234,19 @@ fn advance(
                     state.q[i] = 2.0 * state.q[i] - ec.full_q[i];
                     state.v[i] = 2.0 * state.v[i] - ec.full_v[i];
                 }
+            }
+            if balance && !touched {
+                energy = limit_energy(system, &whole, &energy, state, stats);
+            } else if balance {
+                // a step with contacts is not extrapolated (it is implicit Euler's, which
+                // dissipates); its end starts the next balance
+                energy = energy_balance::measure(
+                    system,
+                    &whole.end,
+                    whole.t + whole.h,
+                    &state.q,
+                    &state.v,
+                );
             }
             stats.error_steps += 1;
             ec.largest_error = ec.largest_error.max(error);
@@ -224,6 +272,40 @@ fn advance(
     }
     ec.next_h = h;
     Ok(())
+}
+
+/// The energy balance of an accepted step from `start` over `whole` (see
+/// [`super::adaptive`]): energy above the bound (the ceiling with the head still or
+/// translating uniformly, E(start) plus the head's work otherwise) is taken from the
+/// velocities, as the fixed steps do at their deepest split; the extrapolation is not
+/// dissipative, and without this a frictionless strand gains energy of the order of the
+/// tolerance per step. Returns the energy of the end.
+fn limit_energy(
+    system: &mut StrandSystem,
+    whole: &HeadInterval,
+    start: &StateEnergy,
+    state: &mut StrandState,
+    stats: &mut StepStats,
+) -> StateEnergy {
+    let time = whole.t + whole.h;
+    let mut end = energy_balance::measure(system, &whole.end, time, &state.q, &state.v);
+    let inertial = whole.uniform
+        && !system
+            .contacts
+            .as_ref()
+            .is_some_and(|c| c.moves_relative(&whole.at_start(), &whole.at_end()));
+    let excess = energy_balance::balance(start, &end, inertial).excess;
+    if excess > 0.0 && end.kinetic > 0.0 {
+        let kinetic = (end.kinetic - excess).max(0.0);
+        let lambda = (kinetic / end.kinetic).sqrt();
+        for x in state.v.iter_mut() {
+            *x *= lambda;
+        }
+        end.scale_velocities(lambda);
+        stats.energy_limited += 1;
+    }
+    end.ceiling = energy_balance::end_ceiling(start, &end, inertial);
+    end
 }
 
 /// Whether the last solve's contact forces acted (a sample touched a body or a partner).
