@@ -254,6 +254,28 @@ fn quick_study_writes_report_plots_and_sound_figures() {
     assert!(num(planar, "bending") < 1e-4, "rotary: {planar}");
     assert!(num(planar, "centreline") < 1e-4, "rotary: {planar}");
 
+    // tolerance: the error-controlled step on the floppy strand (whose references are
+    // good to 3e-5 L frictionless, 3e-9 L with friction) is within 3 τ of its reference
+    // from τ = 1e-1 to 1e-4 with and without friction, and tighter tolerances cost more;
+    // the plot shows error against tolerance
+    let cases = problem(&study, "tolerance")["tolerance"]
+        .as_array()
+        .expect("tolerance cases")
+        .clone();
+    assert_eq!(cases.len(), 4);
+    for case in cases.iter().filter(|c| c["problem"] == "floppy") {
+        let points = case["points"].as_array().expect("points");
+        assert_eq!(points.len(), 5);
+        for p in points.iter().filter(|p| num(p, "tolerance") >= 1e-4) {
+            let (t, e) = (num(p, "tolerance"), num(p, "error"));
+            assert!(e <= 3.0 * t, "tolerance, {case}: error {e:e} at {t:e}");
+        }
+        let costs: Vec<f64> = points.iter().map(|p| num(p, "steps")).collect();
+        assert!(costs.windows(2).all(|w| w[1] > w[0]), "{costs:?}");
+    }
+    let svg = std::fs::read_to_string(dir.join("tolerance.svg")).expect("tolerance.svg");
+    assert!(svg.contains("tolerance asked for") && svg.contains("error = tolerance"));
+
     let _ = std::fs::remove_dir_all(&dir);
 }
 

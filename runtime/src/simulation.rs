@@ -373,11 +373,15 @@ fn check_setup(setup: &SimulationSetup) -> Result<()> {
                 ),
             ));
         }
-        if c.integrator != IntegratorKind::LinearlyImplicitEuler && c.mode == Mode::Dynamic {
+        let estimates = matches!(
+            c.integrator,
+            IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
+        );
+        if !estimates && c.mode == Mode::Dynamic {
             errors.push(FieldError::new(
                 "simulation.tolerance",
                 format!(
-                    "the error-controlled step extrapolates linearly-implicit-euler; integrator = \"{}\" cannot estimate its error",
+                    "the error-controlled step is BDF2 with its predictor's error estimate; integrator = \"{}\" cannot estimate its error (leave integrator unset or set \"bdf2\")",
                     c.integrator.name()
                 ),
             ));

@@ -33,10 +33,12 @@ pub fn step(
 ) -> Result<(), String> {
     // a tolerance selects the error-controlled step (validation refuses it with the
     // other integrators)
-    let tolerance = system
-        .context
-        .tolerance
-        .filter(|_| system.context.integrator == IntegratorKind::LinearlyImplicitEuler);
+    let tolerance = system.context.tolerance.filter(|_| {
+        matches!(
+            system.context.integrator,
+            IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
+        )
+    });
     match (system.context.integrator, tolerance) {
         (IntegratorKind::Rk4, _) => rk4(system, interval, state),
         (_, Some(tolerance)) => {

@@ -2,34 +2,49 @@
 //! steps within every time step of the scene so that the estimated local error stays
 //! below the tolerance.
 //!
-//! The scheme is the linearly implicit Euler step of [`super::linearly_implicit`]
-//! extrapolated once (Richardson; the first level of Deuflhard's extrapolated linearly
-//! implicit Euler, LIMEX): a step of h gives `y₁`, two steps of h/2 give `y₂`, and the
-//! step keeps `2 y₂ − y₁` for q and q̇, second order, and as stable as the step it
-//! extrapolates (its stability function `2/(1 − z/2)² − 1/(1 − z)` vanishes as
-//! z → −∞: L-stable). A step in which a contact acts (a sample touches, or a contact
-//! starts within it) keeps `y₂` unextrapolated: extrapolating across a contact's onset
-//! overshoots. The error estimate is the difference of the two solutions,
+//! **The scheme** is the variable-step BDF2 of [`super::bdf2`] (one linearised solve per
+//! step, L-stable, second order), with its error estimated from the distance between its
+//! solution and the linear extrapolation of its history,
 //!
 //! ```text
-//! err = max( max over the element ends |y(q₂) − y(q₁)| / L,  max over Q l_Q ‖q₂,Q − q₁,Q‖ )
+//! ỹ = y + ω (y − y₋)      (ω = h / h₋; q and q̇)
 //! ```
 //!
-//! (positions in the head's frame, L the strand's length, l_Q an element's length: how
-//! far the centreline moves, and the angle by which an element's twist and curvature
-//! turn it): the error of the two half steps. A step is accepted
-//! when `err ≤ τ` and the next is `h · clamp(0.9 (τ/err)^½, 0.2, 2)` (rejected: retried
-//! at that size); a strand's steps end on the scene's time steps (so frames land on
-//! their output times) and its step size carries over to the next. Each step costs
-//! three solves. Only the linearly implicit Euler step can be extrapolated this way.
-//! The rotation limit and the step splitting of [`super::adaptive`] do not act on these
-//! steps (the error control takes their place); the energy balance does, on each
-//! accepted step (`limit_energy`).
+//! which differs from the exact solution by ½ h (h + h₋) ÿ + O(h³): the estimate is that
+//! of a first-order predictor, and it bounds the BDF2 step's own O(h³) error. BDF2 has no
+//! internal stages, so its order holds on the stiff twist of nearly straight elements,
+//! where a one-step extrapolation loses it (measured: the linearly implicit Euler step
+//! extrapolated once, the scheme's start below, reached 17–335 τ on the floppy
+//! frictionless strand of `superhelix study` against 1.5–3.3 τ for this one). A strand
+//! without a history (its first step, after `Simulation::set_state`) starts with that
+//! one-step scheme: a step of h gives `y₁`, two steps of h/2 give `y₂`, it keeps
+//! `2 y₂ − y₁` (L-stable: `2/(1 − z/2)² − 1/(1 − z)` vanishes as z → −∞), and its
+//! estimate is `y₂ − y₁`; a step in which a contact acts keeps `y₂` (extrapolating
+//! across a contact's onset overshoots).
+//!
+//! **The error norm**, the largest of three measures of the difference d between the two
+//! solutions:
+//!
+//! ```text
+//! err = max( max over the element ends |y(q) − y(q̃)| / L,     (centreline, head frame)
+//!            max over Q  l_Q ‖d_q,Q‖,                           (each element's angles)
+//!            max over Q  l_Q ‖d_q̇,Q‖ h )                        (what a velocity error turns in a step)
+//! ```
+//!
+//! (L the strand's length, l_Q an element's length). A step is accepted when `err ≤ τ`;
+//! the next is `h · clamp(0.9 (τ/err)^½, 0.2, 2)` and at most 2 h₋ (variable-step BDF2
+//! is zero-stable below 1 + √2); a rejected step is retried at that size from the same
+//! history. A strand's steps end on the scene's time steps (so frames land on their
+//! output times; a remainder shorter than two steps is taken in two equal ones) and its
+//! step size and history carry over to the next. The rotation limit and the step
+//! splitting of [`super::adaptive`] do not act on these steps (the error control takes
+//! their place); the energy balance does, on each accepted step (`limit_energy`).
 //!
 //! Measured: `runtime/tests/error_control.rs` (the swing against the same scheme far
 //! tighter) and `superhelix study`'s `tolerance` problem (against the study's
 //! references; docs/time-stepping.md).
 
+use super::bdf2::{bdf2, BDF2_MAX_RATIO};
 use super::energy_balance::{self, StateEnergy};
 use super::linearly_implicit::linearly_implicit_euler;
 use super::stats::StepStats;
@@ -161,8 +176,19 @@ fn advance(
     let n = state.q.len();
     // the last step ends on the interval's end exactly
     while end - t > 1e-12 * end.abs().max(1.0) {
+        if system.workspace.prev_h > 0.0 {
+            // variable-step BDF2 is zero-stable for step ratios below 1 + √2
+            h = h.min(BDF2_MAX_RATIO * system.workspace.prev_h);
+        }
         let last = h >= end - t;
-        let hh = if last { end - t } else { h };
+        // two steps rather than a long one and a short one
+        let hh = if last {
+            end - t
+        } else if 2.0 * h > end - t {
+            0.5 * (end - t)
+        } else {
+            h
+        };
         ec.start_q.copy_from_slice(&state.q);
         ec.start_v.copy_from_slice(&state.v);
         let whole = if last && t == interval.t {
@@ -170,19 +196,34 @@ fn advance(
         } else {
             HeadInterval::new(interval.motion, t, hh)
         };
-        let predicted = stats.contacts_predicted;
-        linearly_implicit_euler(system, &whole, state, stats)?;
-        let mut touched = touches(system);
-        ec.full_q.copy_from_slice(&state.q);
-        ec.full_v.copy_from_slice(&state.v);
-        state.q.copy_from_slice(&ec.start_q);
-        state.v.copy_from_slice(&ec.start_v);
-        let first = whole.first_half();
-        linearly_implicit_euler(system, &first, state, stats)?;
-        touched |= touches(system);
-        linearly_implicit_euler(system, &whole.second_half(&first), state, stats)?;
-        touched |= touches(system) || stats.contacts_predicted != predicted;
-        stats.attempts += 3;
+        let multistep = system.workspace.prev_h > 0.0;
+        let mut touched = false;
+        if multistep {
+            // BDF2 from the history; the estimate is its distance from the linear
+            // extrapolation of the history, q + ω (q − q₋) (and q̇ likewise)
+            let ws = &mut system.workspace;
+            let w = hh / ws.prev_h;
+            for i in 0..n {
+                ec.full_q[i] = state.q[i] + w * (state.q[i] - ws.prev_q[i]);
+                ec.full_v[i] = state.v[i] + w * (state.v[i] - ws.prev_v[i]);
+            }
+            bdf2(system, &whole, state, stats)?;
+            stats.attempts += 1;
+        } else {
+            let predicted = stats.contacts_predicted;
+            linearly_implicit_euler(system, &whole, state, stats)?;
+            touched = touches(system);
+            ec.full_q.copy_from_slice(&state.q);
+            ec.full_v.copy_from_slice(&state.v);
+            state.q.copy_from_slice(&ec.start_q);
+            state.v.copy_from_slice(&ec.start_v);
+            let first = whole.first_half();
+            linearly_implicit_euler(system, &first, state, stats)?;
+            touched |= touches(system);
+            linearly_implicit_euler(system, &whole.second_half(&first), state, stats)?;
+            touched |= touches(system) || stats.contacts_predicted != predicted;
+            stats.attempts += 3;
+        }
         system.kernel.element_ends(&ec.full_q, &mut ec.ends_full);
         system.kernel.element_ends(&state.q, &mut ec.ends_half);
         let error = ec
@@ -193,30 +234,9 @@ fn advance(
             .fold(0.0, f64::max)
             / length;
         let lengths = &system.strand.geometry.lengths;
-        let angles = lengths
-            .iter()
-            .enumerate()
-            .map(|(k, l)| {
-                (0..3)
-                    .map(|i| (state.q[3 * k + i] - ec.full_q[3 * k + i]).powi(2))
-                    .sum::<f64>()
-                    .sqrt()
-                    * l
-            })
-            .fold(0.0, f64::max);
+        let angles = element_angles(lengths, &state.q, &ec.full_q, 1.0);
         // a velocity error becomes a position error: over the step, as much
-        let speeds = lengths
-            .iter()
-            .enumerate()
-            .map(|(k, l)| {
-                (0..3)
-                    .map(|i| (state.v[3 * k + i] - ec.full_v[3 * k + i]).powi(2))
-                    .sum::<f64>()
-                    .sqrt()
-                    * l
-                    * hh
-            })
-            .fold(0.0, f64::max);
+        let speeds = element_angles(lengths, &state.v, &ec.full_v, hh);
         let error = error.max(angles).max(speeds);
         if !error.is_finite() {
             return Err(format!(
@@ -229,7 +249,12 @@ fn advance(
             GROW
         };
         if error <= tolerance || hh <= MIN_STEP {
-            if !touched {
+            // the step's start is the next step's history
+            let ws = &mut system.workspace;
+            ws.prev_q.copy_from_slice(&ec.start_q);
+            ws.prev_v.copy_from_slice(&ec.start_v);
+            ws.prev_h = hh;
+            if !touched && !multistep {
                 for i in 0..n {
                     state.q[i] = 2.0 * state.q[i] - ec.full_q[i];
                     state.v[i] = 2.0 * state.v[i] - ec.full_v[i];
@@ -306,6 +331,18 @@ fn limit_energy(
     }
     end.ceiling = energy_balance::end_ceiling(start, &end, inertial);
     end
+}
+
+/// Largest `scale · l_Q ‖a_Q − b_Q‖` over the elements Q (three coordinates each).
+fn element_angles(lengths: &[f64], a: &[f64], b: &[f64], scale: f64) -> f64 {
+    lengths
+        .iter()
+        .zip(a.chunks_exact(3).zip(b.chunks_exact(3)))
+        .map(|(l, (x, y))| {
+            let d: f64 = x.iter().zip(y).map(|(p, q)| (p - q) * (p - q)).sum();
+            scale * l * d.sqrt()
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Whether the last solve's contact forces acted (a sample touched a body or a partner).
