@@ -3,7 +3,7 @@
 //! setting's error against a reference is set against its cost; the report names the
 //! Pareto-best setting for common budgets.
 //!
-//! The six problems ([`PROBLEMS`]):
+//! The problems ([`PROBLEMS`]):
 //!
 //! 1. `swing`: a straight 20 cm strand of the smooth preset released horizontal under
 //!    gravity, no drag, no internal friction. Error: largest distance, over the
@@ -27,6 +27,10 @@
 //! 6. `rotary`: what the cross-sections' rotary inertia changes, against the paper's
 //!    kinetic energy (5b) without it: the twist, bending and centreline of two curved
 //!    N = 3 strands (one twisted, one planar) over 0.2 s.
+//!
+//! 7. `tolerance`: the error-controlled step at tolerances 1e-1 … 1e-5 on the strands
+//!    of `swing`, `curly` and `floppy` against their references
+//!    ([`crate::study_tolerance`]).
 //!
 //! The reference of `swing` and `curly` is N = 20 with generated kernels and the
 //! linearly implicit Euler integrator at two small steps h and h/2, combined by
