@@ -15,7 +15,7 @@
 //! internal stages, so its order holds on the stiff twist of nearly straight elements,
 //! where a one-step extrapolation loses it (measured: the linearly implicit Euler step
 //! extrapolated once, the scheme's start below, reached 17–335 τ on the floppy
-//! frictionless strand of `superhelix study` against 1.5–3.3 τ for this one). A strand
+//! frictionless strand of `superhelix study` against 1.5–2.1 τ for this one). A strand
 //! without a history (its first step, after `Simulation::set_state`) starts with that
 //! one-step scheme: a step of h gives `y₁`, two steps of h/2 give `y₂`, it keeps
 //! `2 y₂ − y₁` (L-stable: `2/(1 − z/2)² − 1/(1 − z)` vanishes as z → −∞), and its
