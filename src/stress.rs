@@ -1267,7 +1267,21 @@ pub fn run_case_traced(case: &Case, trace: &mut dyn FnMut(&StepTrace)) -> CaseRe
 
 /// Run `cases` (in parallel; results in the order of `cases`).
 pub fn run_cases(cases: &[Case]) -> Vec<CaseResult> {
-    cases.par_iter().map(run_case).collect()
+    run_cases_with(cases, |_| {})
+}
+
+/// [`run_cases`], handing each result to `done` as soon as its case has run (on the
+/// worker thread that ran it, so in the order the cases finish): a long run shows its
+/// progress.
+pub fn run_cases_with(cases: &[Case], done: impl Fn(&CaseResult) + Sync) -> Vec<CaseResult> {
+    cases
+        .par_iter()
+        .map(|c| {
+            let r = run_case(c);
+            done(&r);
+            r
+        })
+        .collect()
 }
 
 /// One line per failed case: `FAIL <case>: strand '<s>' at t = <t> s: <cause>`, with

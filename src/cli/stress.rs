@@ -15,7 +15,8 @@ pub struct StressArgs {
     /// Only the cases whose name contains SUBSTR.
     #[arg(long, value_name = "SUBSTR")]
     filter: Option<String>,
-    /// Also print one line per case with what was measured.
+    /// Also print one line per case with what was measured, as soon as the case has run
+    /// (in the order the cases finish).
     #[arg(long)]
     verbose: bool,
     /// Run every case with this integrator (linearly-implicit-euler, newton-implicit-euler,
@@ -85,12 +86,11 @@ pub fn run(args: StressArgs) -> Result<ExitCode, Error> {
         .filter(|c| filter.is_none_or(|f| c.name.contains(f)))
         .collect();
     let start = std::time::Instant::now();
-    let results = stress::run_cases(&cases);
-    if args.verbose {
-        for r in &results {
-            println!("{}", stress::detail_line(r));
-        }
-    }
+    let results = if args.verbose {
+        stress::run_cases_with(&cases, |r| println!("{}", stress::detail_line(r)))
+    } else {
+        stress::run_cases(&cases)
+    };
     print!(
         "{}",
         stress::render(&results, start.elapsed().as_secs_f64())
