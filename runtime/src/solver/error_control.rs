@@ -75,10 +75,12 @@ pub struct ErrorControl {
     window: StepWindow,
     start_q: Vec<f64>,
     start_v: Vec<f64>,
-    full_q: Vec<f64>,
-    full_v: Vec<f64>,
-    ends_full: Vec<Pose>,
-    ends_half: Vec<Pose>,
+    /// The solution the kept one is compared with: BDF2's predictor, or the start's single
+    /// step of h.
+    other_q: Vec<f64>,
+    other_v: Vec<f64>,
+    ends_other: Vec<Pose>,
+    ends_kept: Vec<Pose>,
 }
 
 /// What one strand's accepted error-controlled steps did over a stretch of time (a frame).
@@ -141,10 +143,10 @@ pub fn step(
         };
         ec.start_q = vec![0.0; n];
         ec.start_v = vec![0.0; n];
-        ec.full_q = vec![0.0; n];
-        ec.full_v = vec![0.0; n];
-        ec.ends_full = vec![pose; ends];
-        ec.ends_half = vec![pose; ends];
+        ec.other_q = vec![0.0; n];
+        ec.other_v = vec![0.0; n];
+        ec.ends_other = vec![pose; ends];
+        ec.ends_kept = vec![pose; ends];
     }
     let result = advance(system, interval, state, stats, tolerance, &mut ec);
     system.workspace.error_control = ec;
@@ -204,8 +206,8 @@ fn advance(
             let ws = &mut system.workspace;
             let w = hh / ws.prev_h;
             for i in 0..n {
-                ec.full_q[i] = state.q[i] + w * (state.q[i] - ws.prev_q[i]);
-                ec.full_v[i] = state.v[i] + w * (state.v[i] - ws.prev_v[i]);
+                ec.other_q[i] = state.q[i] + w * (state.q[i] - ws.prev_q[i]);
+                ec.other_v[i] = state.v[i] + w * (state.v[i] - ws.prev_v[i]);
             }
             bdf2(system, &whole, state, stats)?;
             stats.attempts += 1;
@@ -213,8 +215,8 @@ fn advance(
             let predicted = stats.contacts_predicted;
             linearly_implicit_euler(system, &whole, state, stats)?;
             touched = touches(system);
-            ec.full_q.copy_from_slice(&state.q);
-            ec.full_v.copy_from_slice(&state.v);
+            ec.other_q.copy_from_slice(&state.q);
+            ec.other_v.copy_from_slice(&state.v);
             state.q.copy_from_slice(&ec.start_q);
             state.v.copy_from_slice(&ec.start_v);
             let first = whole.first_half();
@@ -224,19 +226,19 @@ fn advance(
             touched |= touches(system) || stats.contacts_predicted != predicted;
             stats.attempts += 3;
         }
-        system.kernel.element_ends(&ec.full_q, &mut ec.ends_full);
-        system.kernel.element_ends(&state.q, &mut ec.ends_half);
+        system.kernel.element_ends(&ec.other_q, &mut ec.ends_other);
+        system.kernel.element_ends(&state.q, &mut ec.ends_kept);
         let error = ec
-            .ends_full
+            .ends_other
             .iter()
-            .zip(&ec.ends_half)
+            .zip(&ec.ends_kept)
             .map(|(a, b)| (a.position - b.position).norm())
             .fold(0.0, f64::max)
             / length;
         let lengths = &system.strand.geometry.lengths;
-        let angles = element_angles(lengths, &state.q, &ec.full_q, 1.0);
+        let angles = element_angles(lengths, &state.q, &ec.other_q, 1.0);
         // a velocity error becomes a position error: over the step, as much
-        let speeds = element_angles(lengths, &state.v, &ec.full_v, hh);
+        let speeds = element_angles(lengths, &state.v, &ec.other_v, hh);
         let error = error.max(angles).max(speeds);
         if !error.is_finite() {
             return Err(format!(
@@ -256,8 +258,8 @@ fn advance(
             ws.prev_h = hh;
             if !touched && !multistep {
                 for i in 0..n {
-                    state.q[i] = 2.0 * state.q[i] - ec.full_q[i];
-                    state.v[i] = 2.0 * state.v[i] - ec.full_v[i];
+                    state.q[i] = 2.0 * state.q[i] - ec.other_q[i];
+                    state.v[i] = 2.0 * state.v[i] - ec.other_v[i];
                 }
             }
             if balance && !touched {
@@ -302,9 +304,9 @@ fn advance(
 /// The energy balance of an accepted step from `start` over `whole` (see
 /// [`super::adaptive`]): energy above the bound (the ceiling with the head still or
 /// translating uniformly, E(start) plus the head's work otherwise) is taken from the
-/// velocities, as the fixed steps do at their deepest split; the extrapolation is not
-/// dissipative, and without this a frictionless strand gains energy of the order of the
-/// tolerance per step. Returns the energy of the end.
+/// velocities, as the fixed steps do at their deepest split; neither BDF2 nor the
+/// extrapolated start is strictly dissipative, and without this a frictionless strand
+/// gains energy of the order of the tolerance per step. Returns the energy of the end.
 fn limit_energy(
     system: &mut StrandSystem,
     whole: &HeadInterval,
