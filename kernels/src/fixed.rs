@@ -9,7 +9,10 @@
 //!   (one per thread, not per strand);
 //! - [`step`]: the linearly implicit Euler step of paper section 3.4 with the runtime's
 //!   treatment of its terms ([`linearly_implicit`]), checked after the fact and split as
-//!   the runtime's step is (energy balance, element rotation).
+//!   the runtime's step is (energy balance, element rotation);
+//! - [`step_to_tolerance`]: the error-controlled step instead (variable-step BDF2,
+//!   [`bdf2`], with its own steps chosen to keep the estimated local error below a
+//!   tolerance), whose history a strand keeps in a [`StepHistory`] beside it.
 //!
 //! The const parameters are N (elements), D = 3N (coordinates), E = N + 1 (element
 //! ends) and B = ⌊D/2⌋ (columns of the kept eigenbasis); `superhelix-generated` writes,
@@ -24,7 +27,9 @@
 //! pose; they are rounded to `T` where the step uses them).
 
 mod adaptive;
+mod bdf2;
 mod dense;
+mod error_control;
 mod params;
 mod step;
 mod workspace;
@@ -32,7 +37,12 @@ mod workspace;
 pub use adaptive::{
     energy, step, Effects, ExtrapolatedHead, HeadTrajectory, StepCounts, StillHead,
 };
+pub use bdf2::{bdf2, Bdf2History};
 pub use dense::{lu_solve, negative_semidefinite_part, Projection};
+pub use error_control::{
+    min_tolerance, step_to_tolerance, StepHistory, ToleranceReport, MAX_TOLERANCE, MIN_STEP,
+    MIN_TOLERANCE,
+};
 pub use params::{FixedParams, ParamsError};
 pub use step::{centreline, evaluate, linearly_implicit, StepError, StepInput, StepReport};
 pub use workspace::{Assembly, FixedWorkspace};

@@ -47,6 +47,9 @@ struct EmbeddedStrands {
     gravity: Option<nalgebra::Vector3<f64>>,
     head_moves: bool,
     counts: superhelix_kernels::fixed::StepCounts,
+    /// What the error-controlled steps did so far, and since the last frame.
+    tolerance_total: superhelix_kernels::fixed::ToleranceReport,
+    tolerance_window: superhelix_kernels::fixed::ToleranceReport,
 }
 
 /// Depth of the Anderson acceleration of the charged static solve's outer iteration.
@@ -192,12 +195,6 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
             "the embedded engine projects the field stiffness; field_stiffness = \"explicit\" needs engine = \"runtime\"",
         ));
     }
-    if c.tolerance.is_some() {
-        errors.push(FieldError::new(
-            "simulation.tolerance",
-            "the embedded engine takes fixed steps; a tolerance needs engine = \"runtime\" (or \"auto\")",
-        ));
-    }
     if c.max_split_depth != superhelix_kernels::energy::MAX_SUBSTEP_DEPTH {
         errors.push(FieldError::new(
             "simulation.max_split_depth",
@@ -324,6 +321,8 @@ fn embedded_strands(
                 gravity: setup.environment.gravity,
                 head_moves,
                 counts: Default::default(),
+                tolerance_total: Default::default(),
+                tolerance_window: Default::default(),
             }),
             config: setup.config,
             head: setup.head,
@@ -675,10 +674,21 @@ impl Simulation {
                 gravity: e.gravity,
                 head_moves: e.head_moves,
             };
+            let tolerance = self.config.tolerance;
             for (g, (_, group)) in e.groups.iter_mut().enumerate() {
-                if let Some((position, cause)) =
-                    group.step(&self.head, &effects, t, h, &mut e.counts)
-                {
+                let mut report = Default::default();
+                let failure = group.step(
+                    &self.head,
+                    &effects,
+                    t,
+                    h,
+                    tolerance,
+                    &mut e.counts,
+                    &mut report,
+                );
+                e.tolerance_total.add(&report);
+                e.tolerance_window.add(&report);
+                if let Some((position, cause)) = failure {
                     let index = e
                         .strands
                         .iter()
@@ -824,7 +834,17 @@ impl Simulation {
 
     /// What the error-controlled step did so far (`None`: the scene has no tolerance).
     pub fn error_control(&self) -> Option<crate::output::ErrorControlSummary> {
-        let tolerance = self.config.tolerance.filter(|_| self.embedded.is_none())?;
+        let tolerance = self.config.tolerance?;
+        if let Some(e) = &self.embedded {
+            let r = &e.tolerance_total;
+            return Some(crate::output::ErrorControlSummary {
+                tolerance,
+                largest_error: r.largest_error,
+                smallest_step: r.smallest_step,
+                steps: r.steps,
+                rejected: r.rejected,
+            });
+        }
         let (largest_error, smallest_step) =
             self.strands
                 .iter()
@@ -854,7 +874,17 @@ impl Simulation {
     /// What the error-controlled step did since the last call (or the start), all strands
     /// (`None`: the scene has no tolerance).
     pub fn frame_steps(&mut self) -> Option<crate::output::FrameSteps> {
-        self.config.tolerance.filter(|_| self.embedded.is_none())?;
+        self.config.tolerance?;
+        if let Some(e) = &mut self.embedded {
+            let r = std::mem::take(&mut e.tolerance_window);
+            return Some(crate::output::FrameSteps {
+                largest_error: r.largest_error,
+                steps: r.steps,
+                rejected: r.rejected,
+                smallest_step: r.smallest_step,
+                largest_step: r.largest_step,
+            });
+        }
         let window = self
             .strands
             .iter_mut()
@@ -1200,6 +1230,11 @@ impl Simulation {
             total.energy_rejected = e.counts.energy_rejected;
             total.energy_limited = e.counts.energy_limited;
             total.energy_unbalanced = e.counts.energy_unbalanced;
+            let r = &e.tolerance_total;
+            total.attempts += r.solves;
+            total.energy_limited += r.energy_limited;
+            total.error_steps = r.steps;
+            total.error_rejected = r.rejected;
         }
         for s in &self.strands {
             total.add(&s.stats);

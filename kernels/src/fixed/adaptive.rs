@@ -184,7 +184,7 @@ impl Interval {
 /// The energy of the state (q, q̇) at time t with the head in `head` (the runtime's
 /// `energy_balance::measure` for a strand without point loads).
 #[allow(clippy::too_many_arguments)]
-fn measure<
+pub(super) fn measure<
     S: MomentSource<T>,
     const N: usize,
     const D: usize,

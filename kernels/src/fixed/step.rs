@@ -54,6 +54,9 @@ pub enum StepError {
     },
     /// The time step is not finite and > 0.
     TimeStep,
+    /// The tolerance of the error-controlled step is outside its range
+    /// ([`super::min_tolerance`] to [`super::MAX_TOLERANCE`]).
+    Tolerance,
 }
 
 impl core::fmt::Display for StepError {
@@ -66,6 +69,13 @@ impl core::fmt::Display for StepError {
                 if *velocity { "q̇" } else { "q" }
             ),
             StepError::TimeStep => write!(f, "dt: must be finite and > 0"),
+            StepError::Tolerance => write!(
+                f,
+                "tolerance: must lie in [{:e}, {}] ({:e} in f32)",
+                super::error_control::MIN_TOLERANCE,
+                super::error_control::MAX_TOLERANCE,
+                super::error_control::min_tolerance::<f32>()
+            ),
         }
     }
 }
@@ -144,11 +154,11 @@ pub fn evaluate<
     ws: &mut FixedWorkspace<N, D, E, T>,
 ) -> bool {
     ws.forget();
-    assemble(source, strand, input, ws)
+    assemble(source, strand, &strand.q, &strand.v, input, ws)
 }
 
-/// [`evaluate`] without forgetting what `ws` was prepared for.
-fn assemble<
+/// [`evaluate`] at (q, q̇) without forgetting what `ws` was prepared for.
+pub(super) fn assemble<
     S: MomentSource<T>,
     const N: usize,
     const D: usize,
@@ -158,11 +168,12 @@ fn assemble<
 >(
     source: &S,
     strand: &FixedStrand<N, D, B, T>,
+    q: &[T; D],
+    v: &[T; D],
     input: &StepInput,
     ws: &mut FixedWorkspace<N, D, E, T>,
 ) -> bool {
     let p = &strand.params;
-    let (q, v) = (&strand.q, &strand.v);
     let field = body_field(
         input.gravity,
         input.head_moves,
@@ -228,43 +239,11 @@ pub fn linearly_implicit<
         return Err(StepError::TimeStep);
     }
     let h = T::of(h);
-    let half = T::of(0.5);
-    let field_stiffness = assemble(source, strand, input, ws);
+    let (q0, v0) = (strand.q, strand.v);
+    let field_stiffness = assemble(source, strand, &q0, &v0, input, ws);
+    let (projection, _) = step_matrix(strand, field_stiffness, h, ws);
     let p = &strand.params;
-    let projection = if field_stiffness {
-        // H = sym(stiffness) + K, projected onto its negative semidefinite part
-        let st = &mut ws.stiffness;
-        for j in 0..D {
-            for i in 0..j {
-                let m = half * (st[i][j] + st[j][i]);
-                st[i][j] = m;
-                st[j][i] = m;
-            }
-            st[j][j] += p.stiffness[j];
-        }
-        Some(project(
-            &mut ws.stiffness,
-            &mut strand.basis,
-            &mut strand.basis_k,
-            &mut strand.basis_negative,
-            &mut ws.projection,
-        ))
-    } else {
-        None
-    };
-    let use_h = matches!(projection, Some(p) if p != Projection::Failed);
     let (q, v) = (&mut strand.q, &mut strand.v);
-    for j in 0..D {
-        for i in 0..D {
-            let mut dq = if use_h { ws.stiffness[j][i] } else { T::zero() };
-            if i == j {
-                dq -= p.stiffness[i];
-            }
-            ws.matrix_a[j][i] = ws.assembly.mass[j][i] - h * ws.damping[j][i]
-                + half * h * ws.velocity_jacobian[j][i]
-                - h * h * dq;
-        }
-    }
     for i in 0..D {
         ws.rhs[i] = h * (ws.force[i] + ws.velocity_term[i]);
     }
@@ -300,6 +279,61 @@ pub fn linearly_implicit<
         max_element_rotation: rotation.as_f64(),
         projection,
     })
+}
+
+/// The step matrix `M − h D_v + (h/2) B − h² D_q` of the terms `assemble` left in `ws`
+/// into `ws.matrix_a` (D_q = H⁻ − K, H⁻ the negative semidefinite part of the
+/// symmetrised field stiffness when `field_stiffness`; `ws.stiffness` then holds H⁻).
+/// Returns how H⁻ was found and whether it is in the matrix (not when the projection
+/// failed).
+pub(super) fn step_matrix<
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
+    strand: &mut FixedStrand<N, D, B, T>,
+    field_stiffness: bool,
+    h: T,
+    ws: &mut FixedWorkspace<N, D, E, T>,
+) -> (Option<Projection>, bool) {
+    let half = T::of(0.5);
+    let p = &strand.params;
+    let projection = if field_stiffness {
+        // H = sym(stiffness) + K, projected onto its negative semidefinite part
+        let st = &mut ws.stiffness;
+        for j in 0..D {
+            for i in 0..j {
+                let m = half * (st[i][j] + st[j][i]);
+                st[i][j] = m;
+                st[j][i] = m;
+            }
+            st[j][j] += p.stiffness[j];
+        }
+        Some(project(
+            &mut ws.stiffness,
+            &mut strand.basis,
+            &mut strand.basis_k,
+            &mut strand.basis_negative,
+            &mut ws.projection,
+        ))
+    } else {
+        None
+    };
+    let use_h = matches!(projection, Some(p) if p != Projection::Failed);
+    for j in 0..D {
+        for i in 0..D {
+            let mut dq = if use_h { ws.stiffness[j][i] } else { T::zero() };
+            if i == j {
+                dq -= p.stiffness[i];
+            }
+            ws.matrix_a[j][i] = ws.assembly.mass[j][i] - h * ws.damping[j][i]
+                + half * h * ws.velocity_jacobian[j][i]
+                - h * h * dq;
+        }
+    }
+    (projection, use_h)
 }
 
 /// The centreline at the N + 1 element ends, root first, in head coordinates (metres),

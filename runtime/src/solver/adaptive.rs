@@ -89,7 +89,7 @@ pub fn step(
 
 /// The energy of the state at the interval's start: the end of the previous step when it
 /// is that state (the usual case; then true), measured otherwise.
-fn start_energy(
+pub(super) fn start_energy(
     system: &mut StrandSystem,
     interval: &HeadInterval,
     state: &StrandState,

@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use superhelix_generated::ClosedForm;
 use superhelix_kernels::fixed::{
     self, Effects, FixedParams, FixedStrand, FixedWorkspace, HeadTrajectory, StepCounts,
+    StepHistory, ToleranceReport,
 };
 
 /// Strands of one N stepped by the fixed-N step.
@@ -26,17 +27,23 @@ pub trait EmbeddedGroup: Send + Sync {
     }
     /// Add a strand at state (q, q̇ = 0); false when its N is not this group's.
     fn push(&mut self, strand: &Strand, q0: &[f64]) -> bool;
-    /// Step every strand from `t` by `h` in parallel (the checked fixed-N step), one
-    /// workspace per chunk of strands, adding the checks' counters to `counts`; the first
-    /// failure as (position in the group, cause).
+    /// Step every strand from `t` by `h` in parallel, one workspace per chunk of strands:
+    /// the checked fixed-N step, adding the checks' counters to `counts`, or with a
+    /// `tolerance` the error-controlled one (`fixed::step_to_tolerance`), adding what it
+    /// did to `report`. The first failure as (position in the group, cause).
+    #[allow(clippy::too_many_arguments)]
     fn step(
         &mut self,
         head: &(dyn HeadTrajectory + Sync),
         effects: &Effects,
         t: f64,
         h: f64,
+        tolerance: Option<f64>,
         counts: &mut StepCounts,
+        report: &mut ToleranceReport,
     ) -> Option<(usize, String)>;
+    /// What the error-controlled steps of strand `i` did so far (`None`: none taken).
+    fn strand_report(&self, i: usize) -> Option<&ToleranceReport>;
     /// q of strand `i`.
     fn q(&self, i: usize) -> &[f64];
     /// q̇ of strand `i`.
@@ -53,12 +60,16 @@ pub trait EmbeddedGroup: Send + Sync {
 /// eigenbasis of B = D/2 columns).
 pub struct Group<const N: usize, const D: usize, const E: usize, const B: usize> {
     strands: Vec<FixedStrand<N, D, B>>,
+    /// Per strand, the error-controlled step's history and what it did (empty until the
+    /// first step with a tolerance).
+    histories: Vec<(StepHistory<D>, ToleranceReport)>,
 }
 
 impl<const N: usize, const D: usize, const E: usize, const B: usize> Default for Group<N, D, E, B> {
     fn default() -> Self {
         Group {
             strands: Vec::new(),
+            histories: Vec::new(),
         }
     }
 }
@@ -108,41 +119,88 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         effects: &Effects,
         t: f64,
         h: f64,
+        tolerance: Option<f64>,
         counts: &mut StepCounts,
+        report: &mut ToleranceReport,
     ) -> Option<(usize, String)> {
         // a quarter of a thread's share per chunk (load balance), at least 64 strands
         // (one workspace per chunk: making one costs about as much as a step)
         let threads = rayon::current_num_threads().max(1);
         let chunk = self.strands.len().div_ceil(4 * threads).max(64);
-        let (failure, total) = self
-            .strands
-            .par_chunks_mut(chunk)
-            .enumerate()
-            .map(|(c, strands)| {
-                let mut ws = Box::new(FixedWorkspace::<N, D, E>::new());
-                let mut first = None;
-                let mut counts = StepCounts::default();
-                for (k, s) in strands.iter_mut().enumerate() {
-                    let r = fixed::step(&ClosedForm, s, head, effects, t, h, &mut ws, &mut counts);
-                    if let Err(e) = r {
-                        first.get_or_insert((c * chunk + k, e.to_string()));
+        type Partial = (Option<(usize, String)>, StepCounts, ToleranceReport);
+        let merge = |(a, mut ca, mut ra): Partial, (b, cb, rb): Partial| {
+            ca.add(&cb);
+            ra.add(&rb);
+            let first = match (a, b) {
+                (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
+                (a, b) => a.or(b),
+            };
+            (first, ca, ra)
+        };
+        let empty = || (None, StepCounts::default(), ToleranceReport::default());
+        let (failure, total, steps) = match tolerance {
+            None => self
+                .strands
+                .par_chunks_mut(chunk)
+                .enumerate()
+                .map(|(c, strands)| {
+                    let mut ws = Box::new(FixedWorkspace::<N, D, E>::new());
+                    let mut first = None;
+                    let mut counts = StepCounts::default();
+                    for (k, s) in strands.iter_mut().enumerate() {
+                        let r =
+                            fixed::step(&ClosedForm, s, head, effects, t, h, &mut ws, &mut counts);
+                        if let Err(e) = r {
+                            first.get_or_insert((c * chunk + k, e.to_string()));
+                        }
                     }
-                }
-                (first, counts)
-            })
-            .reduce(
-                || (None, StepCounts::default()),
-                |(a, mut ca), (b, cb)| {
-                    ca.add(&cb);
-                    let first = match (a, b) {
-                        (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
-                        (a, b) => a.or(b),
-                    };
-                    (first, ca)
-                },
-            );
+                    (first, counts, ToleranceReport::default())
+                })
+                .reduce(empty, merge),
+            Some(tolerance) => {
+                self.histories
+                    .resize(self.strands.len(), Default::default());
+                self.strands
+                    .par_chunks_mut(chunk)
+                    .zip(self.histories.par_chunks_mut(chunk))
+                    .enumerate()
+                    .map(|(c, (strands, histories))| {
+                        let mut ws = Box::new(FixedWorkspace::<N, D, E>::new());
+                        let mut first = None;
+                        let mut total = ToleranceReport::default();
+                        for (k, (s, (history, done))) in
+                            strands.iter_mut().zip(histories.iter_mut()).enumerate()
+                        {
+                            let mut r = ToleranceReport::default();
+                            let outcome = fixed::step_to_tolerance(
+                                &ClosedForm,
+                                s,
+                                history,
+                                head,
+                                effects,
+                                t,
+                                h,
+                                tolerance,
+                                &mut ws,
+                                &mut r,
+                            );
+                            done.add(&r);
+                            total.add(&r);
+                            if let Err(e) = outcome {
+                                first.get_or_insert((c * chunk + k, e.to_string()));
+                            }
+                        }
+                        (first, StepCounts::default(), total)
+                    })
+                    .reduce(empty, merge)
+            }
+        };
         counts.add(&total);
+        report.add(&steps);
         failure
+    }
+    fn strand_report(&self, i: usize) -> Option<&ToleranceReport> {
+        self.histories.get(i).map(|(_, r)| r)
     }
     fn q(&self, i: usize) -> &[f64] {
         &self.strands[i].q
@@ -156,6 +214,9 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         s.v.copy_from_slice(v);
         s.basis_k = 0;
         s.last_energy = None;
+        if let Some((history, _)) = self.histories.get_mut(i) {
+            history.forget();
+        }
     }
     fn strand_bytes(&self) -> usize {
         FixedStrand::<N, D, B>::BYTES

@@ -164,8 +164,9 @@ fn advance(
     let end = interval.t + interval.h;
     let mut t = interval.t;
     let balance = system.context.energy_balance;
+    // the energy the last step ended with (its ceiling carried on), as the fixed steps
     let mut energy = if balance {
-        energy_balance::measure(system, &interval.start, t, &state.q, &state.v)
+        super::adaptive::start_energy(system, interval, state).0
     } else {
         StateEnergy::default()
     };
@@ -298,6 +299,12 @@ fn advance(
         }
     }
     ec.next_h = h;
+    if balance {
+        let ws = &mut system.workspace;
+        ws.last_energy = Some(energy);
+        ws.last_q.copy_from_slice(&state.q);
+        ws.last_v.copy_from_slice(&state.v);
+    }
     Ok(())
 }
 

@@ -1,0 +1,136 @@
+//! The variable-step two-step BDF (BDF2) at a fixed N: the runtime's `bdf2` step
+//! (`runtime/src/solver/bdf2.rs`) for a strand without contacts or point loads, on the
+//! linearly implicit Euler step's matrix.
+
+use super::dense::lu_solve;
+use super::step::{assemble, step_matrix, StepError, StepInput, StepReport};
+use super::workspace::FixedWorkspace;
+use super::FixedStrand;
+use crate::float::Float;
+use crate::strand_terms::MomentSource;
+
+/// The state a BDF2 step continues from besides the strand's: the state one step
+/// earlier and the length of the step between the two.
+#[derive(Debug, Clone, Copy)]
+pub struct Bdf2History<'a, const D: usize, T: Float = f64> {
+    /// q one step before the strand's present state.
+    pub q: &'a [T; D],
+    /// q̇ one step before the strand's present state.
+    pub v: &'a [T; D],
+    /// The length of that step, s (> 0).
+    pub h: f64,
+}
+
+/// Advance `strand` by `h` seconds by one step of the variable-step two-step BDF
+/// (Hairer, Nørsett & Wanner, *Solving ODEs I*, III.5) on the equations of motion
+/// (paper eq. 6), `q̇ = v`, `M(q) v̇ = F(q, v)`, from the strand's state y = (q, q̇) and
+/// the one before it, y₋ = (`previous.q`, `previous.v`), a step `previous.h` earlier.
+/// With ω = h / h₋,
+///
+/// ```text
+/// y⁺ − a₁ y + a₂ y₋ = β h f(t + h, y⁺),   a₁ = (1+ω)²/(1+2ω), a₂ = ω²/(1+2ω), β = (1+ω)/(1+2ω)
+/// ```
+///
+/// linearised once about the extrapolation ỹ = y + ω (y − y₋) with the linearly implicit
+/// Euler step's treatment of the terms ([`super::linearly_implicit`]) at the step βh:
+///
+/// ```text
+/// (M̃ − βh D_v + (βh/2) B̃ − β²h² D_q) q̇⁺ = M̃ q̇̂ + βh (F̃ + b̃ − D_v q̇̃ + D_q (q̂ − q̃))
+/// q⁺ = q̂ + βh q̇⁺,      ŷ = a₁ y − a₂ y₋
+/// ```
+///
+/// Second order whatever the Jacobian's error (what the linearisation leaves out is
+/// multiplied by y⁺ − ỹ = O(h²)), L-stable, one assembly and one LU solve. Variable-step
+/// BDF2 is zero-stable for ω below 1 + √2; the error-controlled step
+/// ([`super::step_to_tolerance`]) keeps ω ≤ 2. Allocates nothing; on failure the strand
+/// keeps its state.
+pub fn bdf2<
+    S: MomentSource<T>,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
+    source: &S,
+    strand: &mut FixedStrand<N, D, B, T>,
+    previous: &Bdf2History<'_, D, T>,
+    input: &StepInput,
+    h: f64,
+    ws: &mut FixedWorkspace<N, D, E, T>,
+) -> Result<StepReport, StepError> {
+    if !(h.is_finite() && h > 0.0 && previous.h.is_finite() && previous.h > 0.0) {
+        return Err(StepError::TimeStep);
+    }
+    let w = h / previous.h;
+    let beta = (1.0 + w) / (1.0 + 2.0 * w);
+    let a1 = T::of((1.0 + w) * (1.0 + w) / (1.0 + 2.0 * w));
+    let a2 = T::of(w * w / (1.0 + 2.0 * w));
+    let bh = T::of(beta * h);
+    let w = T::of(w);
+    let (q, v) = (strand.q, strand.v);
+    let mut qt = [T::zero(); D];
+    let mut vt = [T::zero(); D];
+    let mut qh = [T::zero(); D];
+    let mut vh = [T::zero(); D];
+    for i in 0..D {
+        qt[i] = q[i] + w * (q[i] - previous.q[i]);
+        vt[i] = v[i] + w * (v[i] - previous.v[i]);
+        qh[i] = a1 * q[i] - a2 * previous.q[i];
+        vh[i] = a1 * v[i] - a2 * previous.v[i];
+    }
+    let field_stiffness = assemble(source, strand, &qt, &vt, input, ws);
+    let (projection, use_h) = step_matrix(strand, field_stiffness, bh, ws);
+    let p = &strand.params;
+    // D_q (q̂ − q̃), D_q = H⁻ − K
+    let mut dq = [T::zero(); D];
+    for i in 0..D {
+        dq[i] = -p.stiffness[i] * (qh[i] - qt[i]);
+    }
+    if use_h {
+        for j in 0..D {
+            let xj = qh[j] - qt[j];
+            for i in 0..D {
+                dq[i] += ws.stiffness[j][i] * xj;
+            }
+        }
+    }
+    for i in 0..D {
+        ws.rhs[i] = bh * (ws.force[i] + ws.velocity_term[i] + dq[i]);
+    }
+    for j in 0..D {
+        for i in 0..D {
+            ws.rhs[i] += ws.assembly.mass[j][i] * vh[j] - bh * ws.damping[j][i] * vt[j];
+        }
+    }
+    if !lu_solve(&mut ws.matrix_a, &mut ws.rhs, &mut ws.pivots) {
+        return Err(StepError::SingularMatrix);
+    }
+    let mut q_new = qh;
+    for i in 0..D {
+        q_new[i] += bh * ws.rhs[i];
+    }
+    if let Some(i) = q_new
+        .iter()
+        .chain(ws.rhs.iter())
+        .position(|x| !x.is_finite())
+    {
+        return Err(StepError::NonFinite {
+            index: i % D,
+            velocity: i >= D,
+        });
+    }
+    let mut rotation = T::zero();
+    for (k, &l) in p.lengths.iter().enumerate() {
+        let d: T = (0..3)
+            .map(|i| (q_new[3 * k + i] - q[3 * k + i]) * (q_new[3 * k + i] - q[3 * k + i]))
+            .sum();
+        rotation = rotation.max(l * d.sqrt());
+    }
+    strand.q = q_new;
+    strand.v = ws.rhs;
+    Ok(StepReport {
+        max_element_rotation: rotation.as_f64(),
+        projection,
+    })
+}

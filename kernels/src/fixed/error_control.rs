@@ -1,0 +1,440 @@
+//! The error-controlled fixed-N step: the runtime's `[simulation] tolerance` step
+//! (`runtime/src/solver/error_control.rs`) for a strand without contacts or point
+//! loads, allocation-free, for an engine that asks for an accuracy rather than a step.
+//!
+//! Within the caller's step [t, t + h] the strand takes steps of its own so that the
+//! estimated local error of each stays below the tolerance τ:
+//!
+//! - **the scheme** is variable-step BDF2 ([`super::bdf2`]); its error is estimated by
+//!   the distance between its solution and the linear extrapolation of the history,
+//!   ỹ = y + ω (y − y₋), which differs from the exact solution by ½ h (h + h₋) ÿ + O(h³)
+//!   and so bounds the BDF2 step's own O(h³) error. A strand without a history (its first
+//!   step, after [`StepHistory::forget`]) starts with the linearly implicit Euler step
+//!   extrapolated once: y₁ from one step of h, y₂ from two of h/2, it keeps 2 y₂ − y₁
+//!   and its estimate is |y₂ − y₁|;
+//! - **the error norm** is the largest of the centreline's distance between the two
+//!   solutions at the element ends divided by the strand's length L, each element's
+//!   l_Q ‖Δq_Q‖, and each element's l_Q ‖Δq̇_Q‖ h (what a velocity error turns in a step);
+//! - **the controller**: a step is accepted when its error is at most τ; the next is
+//!   h · clamp(0.9 (τ/err)^½, 0.2, 2), at most 2 h₋ (variable-step BDF2 is zero-stable
+//!   for ratios below 1 + √2); a rejected step (or one whose solve fails) is retried at
+//!   that size from the same history. The steps end on t + h exactly (a remainder
+//!   shorter than two steps is taken in two equal ones); the next call starts with the
+//!   step size and the history this one left ([`StepHistory`]);
+//! - **the energy balance** of the checked step acts on each accepted step: energy above
+//!   the bound of [`crate::energy::balance`] is taken from the velocities (neither BDF2
+//!   nor the extrapolated start is strictly dissipative).
+//!
+//! `runtime/tests/fixed_step.rs` compares it with the runtime's error-controlled step.
+
+use super::adaptive::{measure, Effects, HeadTrajectory};
+use super::bdf2::{bdf2, Bdf2History};
+use super::step::{linearly_implicit, StepError, StepInput, StepReport};
+use super::workspace::FixedWorkspace;
+use super::FixedStrand;
+use crate::energy::{balance, end_ceiling};
+use crate::float::Float;
+use crate::pose::Pose;
+use crate::strand_terms::{element_ends, MomentSource};
+
+/// Smallest tolerance of the error-controlled step (in `f64`; `f32` strands take at
+/// least [`min_tolerance`]).
+pub const MIN_TOLERANCE: f64 = 1e-8;
+/// Largest tolerance of the error-controlled step.
+pub const MAX_TOLERANCE: f64 = 0.5;
+/// Smallest factor the step size may shrink by after a step.
+const SHRINK: f64 = 0.2;
+/// Largest factor the step size may grow by after a step.
+const GROW: f64 = 2.0;
+/// Safety factor of the controller.
+const SAFETY: f64 = 0.9;
+/// Largest ratio of a BDF2 step to the one before it.
+const MAX_RATIO: f64 = 2.0;
+/// A step shorter than this, s, is accepted whatever its error.
+pub const MIN_STEP: f64 = 1e-9;
+
+/// The smallest tolerance a strand of float type `T` takes: [`MIN_TOLERANCE`] in `f64`,
+/// 1000 ε (1.2e-4) in `f32`, whose round-off would otherwise be mistaken for the error.
+pub fn min_tolerance<T: Float>() -> f64 {
+    MIN_TOLERANCE.max(1e3 * T::EPSILON.as_f64())
+}
+
+/// What a strand keeps between error-controlled steps besides its state: its state one
+/// step back (the BDF2 history) and the step size to try next. Kept apart from
+/// [`FixedStrand`] so that strands stepped with fixed steps do not pay for it
+/// ([`StepHistory::BYTES`]: 256 B at N = 5 in `f64`).
+#[derive(Debug, Clone)]
+pub struct StepHistory<const D: usize, T: Float = f64> {
+    /// q one accepted step before the strand's state.
+    pub q: [T; D],
+    /// q̇ one accepted step before the strand's state.
+    pub v: [T; D],
+    /// The length of that step, s (0: no history; the next step starts the scheme).
+    pub h: f64,
+    /// The step size to try next, s (0: none yet; the first try is the caller's step).
+    pub next_h: f64,
+}
+
+impl<const D: usize, T: Float> Default for StepHistory<D, T> {
+    fn default() -> Self {
+        StepHistory {
+            q: [T::zero(); D],
+            v: [T::zero(); D],
+            h: 0.0,
+            next_h: 0.0,
+        }
+    }
+}
+
+impl<const D: usize, T: Float> StepHistory<D, T> {
+    /// Bytes a history keeps.
+    pub const BYTES: usize = core::mem::size_of::<Self>();
+
+    /// Forget the history and the step size (after the strand's state was set): the next
+    /// step starts the scheme afresh.
+    pub fn forget(&mut self) {
+        self.h = 0.0;
+        self.next_h = 0.0;
+    }
+}
+
+/// What error-controlled steps did: counts, the largest estimated error and the step
+/// sizes (accumulated over calls until reset).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ToleranceReport {
+    /// Steps accepted.
+    pub steps: usize,
+    /// Steps rejected (their error above the tolerance, or their solve failed) and retried.
+    pub rejected: usize,
+    /// Linear solves, accepted or not.
+    pub solves: usize,
+    /// Accepted steps whose excess energy was removed from the velocities.
+    pub energy_limited: usize,
+    /// The largest estimated error of an accepted step, relative to the strand's length.
+    pub largest_error: f64,
+    /// The smallest accepted step, s (0: none).
+    pub smallest_step: f64,
+    /// The largest accepted step, s.
+    pub largest_step: f64,
+}
+
+impl ToleranceReport {
+    fn accept(&mut self, error: f64, h: f64) {
+        self.steps += 1;
+        self.largest_error = self.largest_error.max(error);
+        self.smallest_step = if self.smallest_step > 0.0 {
+            self.smallest_step.min(h)
+        } else {
+            h
+        };
+        self.largest_step = self.largest_step.max(h);
+    }
+
+    /// Add another report (counts summed, extremes kept).
+    pub fn add(&mut self, other: &ToleranceReport) {
+        self.steps += other.steps;
+        self.rejected += other.rejected;
+        self.solves += other.solves;
+        self.energy_limited += other.energy_limited;
+        self.largest_error = self.largest_error.max(other.largest_error);
+        if other.smallest_step > 0.0 {
+            self.smallest_step = if self.smallest_step > 0.0 {
+                self.smallest_step.min(other.smallest_step)
+            } else {
+                other.smallest_step
+            };
+        }
+        self.largest_step = self.largest_step.max(other.largest_step);
+    }
+}
+
+/// Advance `strand` from time `t` to `t + h` with the head moving as `head`, in steps
+/// of its own chosen so that each one's estimated local error stays below `tolerance`
+/// (relative to the strand's length; see the module page), adding what it did to
+/// `report`. `tolerance` must lie in [[`min_tolerance`], [`MAX_TOLERANCE`]]. The strand
+/// keeps the energy of its end state and `history` the scheme's history and next step
+/// size for the next call. Allocates nothing; on failure the strand keeps the state of
+/// its last accepted step and the error says why. The report's `max_element_rotation`
+/// is that of the whole interval.
+#[allow(clippy::too_many_arguments)]
+pub fn step_to_tolerance<
+    S: MomentSource<T>,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
+    source: &S,
+    strand: &mut FixedStrand<N, D, B, T>,
+    history: &mut StepHistory<D, T>,
+    head: &dyn HeadTrajectory,
+    effects: &Effects,
+    t: f64,
+    h: f64,
+    tolerance: f64,
+    ws: &mut FixedWorkspace<N, D, E, T>,
+    report: &mut ToleranceReport,
+) -> Result<StepReport, StepError> {
+    if !(h.is_finite() && h > 0.0 && t.is_finite()) {
+        return Err(StepError::TimeStep);
+    }
+    if !(min_tolerance::<T>()..=MAX_TOLERANCE).contains(&tolerance) {
+        return Err(StepError::Tolerance);
+    }
+    ws.forget();
+    let end = t + h;
+    let q0 = strand.q;
+    let mut energy = match strand.last_energy {
+        Some(e) if (e.time - t).abs() <= 1e-12 * t.abs().max(1.0) => e,
+        _ => {
+            let (q, v) = (strand.q, strand.v);
+            measure(source, strand, effects, &head.state(t), t, &q, &v, ws)
+        }
+    };
+    let length = strand.params.length().as_f64();
+    let mut ends_other = [Pose::<T>::default(); E];
+    let mut ends_kept = [Pose::<T>::default(); E];
+    let mut next = if history.next_h > 0.0 {
+        history.next_h
+    } else {
+        h
+    };
+    let mut now = t;
+    while end - now > 1e-12 * end.abs().max(1.0) {
+        if history.h > 0.0 {
+            next = next.min(MAX_RATIO * history.h);
+        }
+        let last = next >= end - now;
+        // two steps rather than a long one and a short one
+        let hh = if last {
+            end - now
+        } else if 2.0 * next > end - now {
+            0.5 * (end - now)
+        } else {
+            next
+        };
+        let t1 = if last { end } else { now + hh };
+        let (start_q, start_v) = (strand.q, strand.v);
+        let input = StepInput {
+            head: head.state(t1),
+            gravity: effects.gravity,
+            head_moves: effects.head_moves,
+        };
+        let multistep = history.h > 0.0;
+        let (other_q, other_v, solved) = if multistep {
+            let w = T::of(hh / history.h);
+            let mut oq = [T::zero(); D];
+            let mut ov = [T::zero(); D];
+            for i in 0..D {
+                oq[i] = start_q[i] + w * (start_q[i] - history.q[i]);
+                ov[i] = start_v[i] + w * (start_v[i] - history.v[i]);
+            }
+            let previous = Bdf2History {
+                q: &history.q,
+                v: &history.v,
+                h: history.h,
+            };
+            report.solves += 1;
+            let r = bdf2(source, strand, &previous, &input, hh, ws).map(|_| ());
+            (oq, ov, r)
+        } else {
+            report.solves += 3;
+            let r = start_step(source, strand, head, effects, now, hh, &input, ws);
+            match r {
+                Ok((oq, ov)) => (oq, ov, Ok(())),
+                Err(e) => ([T::zero(); D], [T::zero(); D], Err(e)),
+            }
+        };
+        let error = match solved {
+            Ok(()) => estimate(
+                source,
+                strand,
+                &other_q,
+                &other_v,
+                hh,
+                length,
+                &mut ends_other,
+                &mut ends_kept,
+            ),
+            Err(_) => f64::INFINITY,
+        };
+        if error <= tolerance || (hh <= MIN_STEP && error.is_finite()) {
+            let factor = if error > 0.0 {
+                (SAFETY * crate::math::sqrt(tolerance / error)).clamp(SHRINK, GROW)
+            } else {
+                GROW
+            };
+            history.q = start_q;
+            history.v = start_v;
+            history.h = hh;
+            // the energy balance of the checked step
+            let (q, v) = (strand.q, strand.v);
+            let mut e = measure(source, strand, effects, &input.head, t1, &q, &v, ws);
+            let inertial = head.uniform_over(now, t1);
+            let excess = balance(&energy, &e, inertial).excess;
+            if excess > T::zero() && e.kinetic > T::zero() {
+                let kinetic = (e.kinetic - excess).max(T::zero());
+                let lambda = (kinetic / e.kinetic).sqrt();
+                for x in strand.v.iter_mut() {
+                    *x *= lambda;
+                }
+                e.scale_velocities(lambda);
+                report.energy_limited += 1;
+            }
+            e.ceiling = end_ceiling(&energy, &e, inertial);
+            energy = e;
+            report.accept(error, hh);
+            now = t1;
+            // a step cut short to end on the interval does not shrink the next
+            next = if last {
+                next.max(hh * factor)
+            } else {
+                hh * factor
+            };
+        } else {
+            let failure = match solved {
+                Err(e) => e,
+                Ok(()) => {
+                    let i = strand
+                        .q
+                        .iter()
+                        .chain(strand.v.iter())
+                        .position(|x| !x.is_finite())
+                        .unwrap_or(0);
+                    StepError::NonFinite {
+                        index: i % D,
+                        velocity: i >= D,
+                    }
+                }
+            };
+            strand.q = start_q;
+            strand.v = start_v;
+            report.rejected += 1;
+            if hh <= MIN_STEP {
+                strand.last_energy = None;
+                return Err(failure);
+            }
+            next = if error.is_finite() && error > 0.0 {
+                hh * (SAFETY * crate::math::sqrt(tolerance / error)).clamp(SHRINK, GROW)
+            } else {
+                hh * SHRINK
+            };
+            next = next.max(MIN_STEP);
+        }
+    }
+    history.next_h = next;
+    strand.last_energy = Some(energy);
+    let rotation = strand
+        .params
+        .lengths
+        .iter()
+        .enumerate()
+        .map(|(k, &l)| {
+            let d: T = (0..3)
+                .map(|i| {
+                    (strand.q[3 * k + i] - q0[3 * k + i]) * (strand.q[3 * k + i] - q0[3 * k + i])
+                })
+                .sum();
+            l * d.sqrt()
+        })
+        .fold(T::zero(), T::max);
+    Ok(StepReport {
+        max_element_rotation: rotation.as_f64(),
+        projection: None,
+    })
+}
+
+/// The start of the scheme over [t, t + h]: y₁ from one linearly implicit Euler step of
+/// h, y₂ from two of h/2. The strand ends in 2 y₂ − y₁; y₂, which differs from it by
+/// y₂ − y₁ (the estimate), is returned.
+#[allow(clippy::too_many_arguments)]
+fn start_step<
+    S: MomentSource<T>,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
+    source: &S,
+    strand: &mut FixedStrand<N, D, B, T>,
+    head: &dyn HeadTrajectory,
+    effects: &Effects,
+    t: f64,
+    h: f64,
+    input: &StepInput,
+    ws: &mut FixedWorkspace<N, D, E, T>,
+) -> Result<([T; D], [T; D]), StepError> {
+    let (q, v) = (strand.q, strand.v);
+    linearly_implicit(source, strand, input, h, ws)?;
+    let (q1, v1) = (strand.q, strand.v);
+    strand.q = q;
+    strand.v = v;
+    let middle = StepInput {
+        head: head.state(t + 0.5 * h),
+        gravity: effects.gravity,
+        head_moves: effects.head_moves,
+    };
+    linearly_implicit(source, strand, &middle, 0.5 * h, ws)?;
+    linearly_implicit(source, strand, input, 0.5 * h, ws)?;
+    // keep 2 y₂ − y₁; the estimate compares it with y₂, which it differs from by y₂ − y₁
+    let (q2, v2) = (strand.q, strand.v);
+    let two = T::of(2.0);
+    for i in 0..D {
+        strand.q[i] = two * q2[i] - q1[i];
+        strand.v[i] = two * v2[i] - v1[i];
+    }
+    Ok((q2, v2))
+}
+
+/// The error norm (module page) between the strand's state and (`q`, `v`).
+#[allow(clippy::too_many_arguments)]
+fn estimate<
+    S: MomentSource<T>,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
+    source: &S,
+    strand: &FixedStrand<N, D, B, T>,
+    q: &[T; D],
+    v: &[T; D],
+    h: f64,
+    length: f64,
+    ends_other: &mut [Pose<T>; E],
+    ends_kept: &mut [Pose<T>; E],
+) -> f64 {
+    let shape = strand.params.shape();
+    element_ends(source, &shape, q, ends_other);
+    element_ends(source, &shape, &strand.q, ends_kept);
+    let centreline = ends_other
+        .iter()
+        .zip(ends_kept.iter())
+        .map(|(a, b)| {
+            let d = a.position - b.position;
+            (d.x * d.x + d.y * d.y + d.z * d.z).sqrt().as_f64()
+        })
+        .fold(0.0, f64::max)
+        / length;
+    let mut worst = centreline;
+    for (k, &l) in strand.params.lengths.iter().enumerate() {
+        let mut dq = T::zero();
+        let mut dv = T::zero();
+        for i in 3 * k..3 * k + 3 {
+            dq += (strand.q[i] - q[i]) * (strand.q[i] - q[i]);
+            dv += (strand.v[i] - v[i]) * (strand.v[i] - v[i]);
+        }
+        let l = l.as_f64();
+        worst = worst
+            .max(l * dq.sqrt().as_f64())
+            .max(l * dv.sqrt().as_f64() * h);
+    }
+    if worst.is_finite() {
+        worst
+    } else {
+        f64::INFINITY
+    }
+}
