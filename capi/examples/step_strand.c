@@ -4,6 +4,9 @@
  *   step_strand             hangs from a still head under gravity (0, 0, -9.81)
  *   step_strand release     no gravity: released from 1.03 x its natural curvature
  *   step_strand unchecked   as the first, with the plain step (no checks after the fact)
+ *   step_strand tolerance T as the first (or with release), with error-controlled steps
+ *                           at tolerance T: each strand chooses its own steps within
+ *                           every 1/30 s
  *
  * Either way it takes 30 steps of 1/30 s and prints the parameters it made, q after the
  * last step and the centreline (world coordinates), one value per line:
@@ -12,6 +15,8 @@
  *   natural <i> <value>    natural (tau, kappa1, kappa2) of every element
  *   q <i> <value>          q after the last step
  *   point <i> <x> <y> <z>  element end i, root first
+ *   steps 0 <n>            with a tolerance: steps taken in all (and `rejected 0 <n>`,
+ *                          `largest_error 0 <e>`, the largest estimated error / length)
  *
  * Build (from the workspace root, after cargo build -p superhelix-capi --release):
  *
@@ -22,6 +27,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #define N 5
@@ -49,13 +55,16 @@
 int main(int argc, char **argv) {
     ShBatch *batch = NULL;
     int release = 0, checked = 1;
+    double tolerance = 0.0;
     for (int i = 1; i < argc; i++) {
         if (strcmp(argv[i], "release") == 0) {
             release = 1;
         } else if (strcmp(argv[i], "unchecked") == 0) {
             checked = 0;
+        } else if (strcmp(argv[i], "tolerance") == 0 && i + 1 < argc) {
+            tolerance = strtod(argv[++i], NULL);
         } else {
-            fprintf(stderr, "usage: step_strand [release] [unchecked]\n");
+            fprintf(stderr, "usage: step_strand [release] [unchecked] [tolerance T]\n");
             return 2;
         }
     }
@@ -107,6 +116,9 @@ int main(int argc, char **argv) {
     }
 
     CHECK(sh_batch_set_checked(batch, checked));
+    if (tolerance > 0.0) {
+        CHECK(sh_batch_set_tolerance(batch, tolerance));
+    }
     ShHeadState head;
     CHECK(sh_head_rest(&head)); /* a still head at the origin */
     CHECK(sh_batch_set_head(batch, &head));
@@ -122,8 +134,8 @@ int main(int argc, char **argv) {
         CHECK(sh_batch_set_gravity(batch, gravity));
     }
 
-    double largest_rotation = 0.0;
-    size_t substeps = 0;
+    double largest_rotation = 0.0, largest_error = 0.0;
+    size_t substeps = 0, steps = 0, rejected = 0;
     for (int k = 0; k < 30; k++) {
         CHECK(sh_batch_step(batch, 1.0 / 30.0));
         ShStepReport report;
@@ -132,6 +144,11 @@ int main(int argc, char **argv) {
             largest_rotation = report.max_element_rotation;
         }
         substeps += report.substeps;
+        steps += report.steps;
+        rejected += report.rejected;
+        if (report.largest_error > largest_error) {
+            largest_error = report.largest_error;
+        }
     }
 
     double q[D], qdot[D], points[3 * (N + 1)];
@@ -144,7 +161,8 @@ int main(int argc, char **argv) {
     printf("# %s, %s step, N = %d, 30 steps of 1/30 s; largest element rotation %.3g rad, "
            "%zu substeps\n",
            release ? "release without gravity" : "hanging under gravity",
-           checked ? "checked" : "plain", N, largest_rotation, substeps);
+           tolerance > 0.0 ? "error-controlled" : checked ? "checked" : "plain", N,
+           largest_rotation, substeps);
     printf("# %zu bytes per strand, %zu per workspace\n", strand_bytes, workspace_bytes);
     for (int i = 0; i < 9; i++) printf("frame %d %.17g\n", i, params.root_frame[i]);
     for (int i = 0; i < 3; i++) printf("natural %d %.17g\n", i, params.natural[i]);
@@ -152,6 +170,10 @@ int main(int argc, char **argv) {
     for (size_t i = 0; i < written_points; i++) {
         printf("point %zu %.17g %.17g %.17g\n", i, points[3 * i], points[3 * i + 1],
                points[3 * i + 2]);
+    }
+    if (tolerance > 0.0) {
+        printf("steps 0 %zu\nrejected 0 %zu\nlargest_error 0 %.17g\n", steps, rejected,
+               largest_error);
     }
     sh_batch_free(batch);
     return 0;

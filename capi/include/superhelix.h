@@ -69,6 +69,9 @@ enum ShStatus
     SH_STATUS_OUT_OF_MEMORY = 21,
     // An internal error (a panic, caught at the boundary).
     SH_STATUS_PANIC = 22,
+    // The tolerance of the error-controlled step is neither 0 (fixed steps) nor within
+    // [1e-8, 0.5].
+    SH_STATUS_INVALID_TOLERANCE = 23,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -181,6 +184,19 @@ typedef struct ShStepReport {
     size_t energy_limited;
     // Checked step: deepest substeps accepted although their energy exceeded the bound.
     size_t energy_unbalanced;
+    // Error-controlled step ([`sh_batch_set_tolerance`]): steps accepted, summed over the
+    // strands (0 with fixed steps).
+    size_t steps;
+    // Error-controlled step: steps rejected (their estimated error above the tolerance)
+    // and retried shorter, summed over the strands.
+    size_t rejected;
+    // Error-controlled step: the largest estimated local error of an accepted step,
+    // relative to its strand's length.
+    double largest_error;
+    // Error-controlled step: the smallest step any strand took, s (0: none).
+    double smallest_step;
+    // Error-controlled step: the largest step any strand took, s.
+    double largest_step;
 } ShStepReport;
 
 #ifdef __cplusplus
@@ -303,6 +319,27 @@ ShStatus sh_batch_set_gravity(struct ShBatch *batch, const double *gravity);
 // `batch` is NULL or a live pointer from [`sh_batch_new`] used by no other thread
 // during the call.
 ShStatus sh_batch_set_checked(struct ShBatch *batch, int checked);
+
+// Chooses error-controlled steps for the next [`sh_batch_step`] and
+// [`sh_batch_step_range`] calls: with `tolerance` in [1e-8, 0.5] each strand takes
+// steps of its own within every `dt` so that each one's estimated local error stays
+// below `tolerance`, relative to the strand's length (variable-step BDF2 with its
+// predictor's estimate; the error norm is the largest of the centreline's distance at
+// the element ends / L and each element's l‖Δq‖ and l‖Δq̇‖h; docs/time-stepping.md).
+// The strands keep their step size and history from one call to the next; each keeps
+// 2·3N + 2 more numbers for it (allocated here, once). [`ShStepReport`] counts the
+// steps taken and rejected and gives the largest estimated error and the step sizes.
+// `tolerance` = 0 returns to fixed steps (as [`sh_batch_set_checked`] chose); anything
+// else out of range is `SH_STATUS_INVALID_TOLERANCE` and changes nothing.
+//
+// The head given by [`sh_batch_set_head`] is its state at the end of each `dt`; the
+// strands' own steps follow the motion extrapolated back from it (its velocity,
+// acceleration, angular velocity and angular acceleration).
+//
+// # Safety
+// `batch` is NULL or a live pointer from [`sh_batch_new`] used by no other thread
+// during the call.
+ShStatus sh_batch_set_tolerance(struct ShBatch *batch, double tolerance);
 
 // Steps every strand of the batch by `dt` seconds with the batch's workspace, to the
 // head state and gravity last set: the checked step (split into substeps where needed)

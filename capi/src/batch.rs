@@ -8,7 +8,7 @@ use nalgebra::Vector3;
 use superhelix_generated::ClosedForm;
 use superhelix_kernels::fixed::{
     self, Effects, ExtrapolatedHead, FixedParams, FixedStrand, FixedWorkspace, ParamsError,
-    StepCounts, StepError, StepInput,
+    StepCounts, StepError, StepHistory, StepInput, ToleranceReport,
 };
 use superhelix_kernels::head::HeadState;
 use superhelix_kernels::material::SectionTerms;
@@ -39,6 +39,9 @@ pub(crate) struct StepSettings {
     /// The checked step (`fixed::step`: energy balance and splitting, as the runtime);
     /// else the plain linearly implicit step (`fixed::linearly_implicit`).
     pub checked: bool,
+    /// The error-controlled step at this tolerance (`fixed::step_to_tolerance`) instead
+    /// of either.
+    pub tolerance: Option<f64>,
 }
 
 /// What stepping a range of strands found.
@@ -52,19 +55,23 @@ pub(crate) struct RangeOutcome {
     pub max_element_rotation: f64,
     /// The checks' counters, summed over the strands.
     pub counts: StepCounts,
+    /// What the error-controlled steps did, over the strands.
+    pub tolerance: ToleranceReport,
 }
 
 /// One step of `strand` by `dt` as `settings` say; on failure the strand is back in
 /// the state it had.
 pub(crate) fn step_strand<const N: usize, const D: usize, const E: usize, const B: usize>(
     strand: &mut FixedStrand<N, D, B>,
+    history: Option<&mut StepHistory<D>>,
     settings: &StepSettings,
     dt: f64,
     ws: &mut FixedWorkspace<N, D, E>,
     counts: &mut StepCounts,
+    report: &mut ToleranceReport,
 ) -> Result<f64, StepError> {
     let input = &settings.input;
-    if !settings.checked {
+    if !settings.checked && settings.tolerance.is_none() {
         return fixed::linearly_implicit(&ClosedForm, strand, input, dt, ws)
             .map(|r| r.max_element_rotation);
     }
@@ -88,7 +95,26 @@ pub(crate) fn step_strand<const N: usize, const D: usize, const E: usize, const 
         head_moves: input.head_moves,
     };
     let (q, v) = (strand.q, strand.v);
-    fixed::step(&ClosedForm, strand, &head, &effects, 0.0, dt, ws, counts)
+    let outcome = match (settings.tolerance, history) {
+        (Some(tolerance), Some(history)) => {
+            let kept = history.clone();
+            fixed::step_to_tolerance(
+                &ClosedForm,
+                strand,
+                history,
+                &head,
+                &effects,
+                0.0,
+                dt,
+                tolerance,
+                ws,
+                report,
+            )
+            .inspect_err(|_| *history = kept)
+        }
+        _ => fixed::step(&ClosedForm, strand, &head, &effects, 0.0, dt, ws, counts),
+    };
+    outcome
         .map(|r| r.max_element_rotation)
         .inspect_err(|_| strand.set_state(&q, &v))
 }
@@ -120,6 +146,9 @@ pub(crate) trait Group: Send + Sync {
     /// Forget the energy each strand kept of its state (after a change of the world
     /// that changes it: gravity, whether the head moves).
     fn forget_energy(&mut self);
+    /// Give every strand a history of the error-controlled step (once; an error when
+    /// there is no memory for them).
+    fn keep_histories(&mut self) -> Result<(), BuildError>;
     /// The N + 1 element ends of strand `i` in world coordinates into `out` (3(N + 1)
     /// values).
     fn centreline(&self, i: usize, head: &HeadState, out: &mut [f64]);
@@ -141,6 +170,8 @@ pub(crate) struct Workspace {
 /// The strands of a batch at N elements.
 struct Strands<const N: usize, const D: usize, const E: usize, const B: usize> {
     strands: Box<[UnsafeCell<FixedStrand<N, D, B>>]>,
+    /// Per strand, the error-controlled step's history (empty until a tolerance is set).
+    histories: Box<[UnsafeCell<StepHistory<D>>]>,
 }
 
 // SAFETY: the strands are plain numbers (no pointers, no interior state besides the
@@ -188,18 +219,38 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for S
         ws: &mut Workspace,
     ) -> Option<RangeOutcome> {
         let ws = ws.inner.downcast_mut::<FixedWorkspace<N, D, E>>()?;
-        let cells = self.strands.get(first..first.checked_add(count)?)?;
+        let range = first..first.checked_add(count)?;
+        let cells = self.strands.get(range.clone())?;
+        let histories = self.histories.get(range);
         let mut outcome = RangeOutcome {
             failed: 0,
             first: None,
             max_element_rotation: 0.0,
             counts: StepCounts::default(),
+            tolerance: ToleranceReport::default(),
         };
         for (k, cell) in cells.iter().enumerate() {
             // SAFETY: the caller guarantees that nothing else uses the strands of this
-            // range during the call, so this is the only reference to the strand.
+            // range during the call, so this is the only reference to the strand and to
+            // its history.
             let strand = unsafe { &mut *cell.get() };
-            match step_strand(strand, settings, dt, ws, &mut outcome.counts) {
+            // SAFETY: as for the strand: the history of a strand of this range is used by
+            // this call alone.
+            let history = histories
+                .and_then(|h| h.get(k))
+                .map(|h| unsafe { &mut *h.get() });
+            let mut report = ToleranceReport::default();
+            let stepped = step_strand(
+                strand,
+                history,
+                settings,
+                dt,
+                ws,
+                &mut outcome.counts,
+                &mut report,
+            );
+            outcome.tolerance.add(&report);
+            match stepped {
                 Ok(rotation) => {
                     outcome.max_element_rotation = outcome.max_element_rotation.max(rotation);
                 }
@@ -216,6 +267,21 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for S
         for s in self.strands.iter_mut() {
             s.get_mut().last_energy = None;
         }
+    }
+
+    fn keep_histories(&mut self) -> Result<(), BuildError> {
+        if self.histories.len() == self.strands.len() {
+            return Ok(());
+        }
+        let mut histories = Vec::new();
+        histories
+            .try_reserve_exact(self.strands.len())
+            .map_err(|_| BuildError::OutOfMemory)?;
+        histories.resize_with(self.strands.len(), || {
+            UnsafeCell::new(StepHistory::default())
+        });
+        self.histories = histories.into_boxed_slice();
+        Ok(())
     }
 
     fn centreline(&self, i: usize, head: &HeadState, out: &mut [f64]) {
@@ -244,6 +310,9 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for S
             vv.copy_from_slice(&v[..D]);
         }
         s.set_state(&qq, &vv);
+        if let Some(h) = self.histories.get_mut(i) {
+            h.get_mut().forget();
+        }
     }
 }
 
@@ -288,6 +357,7 @@ impl SizeVisitor for Build<'_, '_> {
         }
         Ok(Box::new(Strands::<N, D, E, B> {
             strands: strands.into_boxed_slice(),
+            histories: Box::new([]),
         }))
     }
 }
@@ -344,5 +414,6 @@ pub(crate) fn initial_settings() -> StepSettings {
             head_moves: false,
         },
         checked: true,
+        tolerance: None,
     }
 }

@@ -98,10 +98,13 @@ pub enum ShStatus {
     OutOfMemory = 21,
     /// An internal error (a panic, caught at the boundary).
     Panic = 22,
+    /// The tolerance of the error-controlled step is neither 0 (fixed steps) nor within
+    /// [1e-8, 0.5].
+    InvalidTolerance = 23,
 }
 
 /// Every status, in the order of its value (`ALL_STATUSES[s as usize] == s`).
-const ALL_STATUSES: [ShStatus; 23] = [
+const ALL_STATUSES: [ShStatus; 24] = [
     ShStatus::Ok,
     ShStatus::NullPointer,
     ShStatus::InvalidCount,
@@ -125,6 +128,7 @@ const ALL_STATUSES: [ShStatus; 23] = [
     ShStatus::InvalidState,
     ShStatus::OutOfMemory,
     ShStatus::Panic,
+    ShStatus::InvalidTolerance,
 ];
 
 impl ShStatus {
@@ -181,6 +185,9 @@ impl ShStatus {
             ShStatus::InvalidState => c"a state value is not finite",
             ShStatus::OutOfMemory => c"out of memory",
             ShStatus::Panic => c"internal error (a panic was caught at the C boundary)",
+            ShStatus::InvalidTolerance => {
+                c"the tolerance must be 0 (fixed steps) or within [1e-8, 0.5]"
+            }
         }
     }
 }
@@ -191,6 +198,7 @@ impl From<StepError> for ShStatus {
             StepError::SingularMatrix => ShStatus::SingularMatrix,
             StepError::NonFinite { .. } => ShStatus::NonFinite,
             StepError::TimeStep => ShStatus::InvalidTimeStep,
+            StepError::Tolerance => ShStatus::InvalidTolerance,
         }
     }
 }
@@ -395,6 +403,19 @@ pub struct ShStepReport {
     pub energy_limited: usize,
     /// Checked step: deepest substeps accepted although their energy exceeded the bound.
     pub energy_unbalanced: usize,
+    /// Error-controlled step ([`sh_batch_set_tolerance`]): steps accepted, summed over the
+    /// strands (0 with fixed steps).
+    pub steps: usize,
+    /// Error-controlled step: steps rejected (their estimated error above the tolerance)
+    /// and retried shorter, summed over the strands.
+    pub rejected: usize,
+    /// Error-controlled step: the largest estimated local error of an accepted step,
+    /// relative to its strand's length.
+    pub largest_error: f64,
+    /// Error-controlled step: the smallest step any strand took, s (0: none).
+    pub smallest_step: f64,
+    /// Error-controlled step: the largest step any strand took, s.
+    pub largest_step: f64,
 }
 
 impl ShStepReport {
@@ -408,6 +429,11 @@ impl ShStepReport {
         energy_rejected: 0,
         energy_limited: 0,
         energy_unbalanced: 0,
+        steps: 0,
+        rejected: 0,
+        largest_error: 0.0,
+        smallest_step: 0.0,
+        largest_step: 0.0,
     };
 }
 
@@ -1010,6 +1036,51 @@ pub unsafe extern "C" fn sh_batch_set_checked(batch: *mut ShBatch, checked: c_in
     unsafe { with_batch(batch, f) }
 }
 
+/// Chooses error-controlled steps for the next [`sh_batch_step`] and
+/// [`sh_batch_step_range`] calls: with `tolerance` in [1e-8, 0.5] each strand takes
+/// steps of its own within every `dt` so that each one's estimated local error stays
+/// below `tolerance`, relative to the strand's length (variable-step BDF2 with its
+/// predictor's estimate; the error norm is the largest of the centreline's distance at
+/// the element ends / L and each element's l‖Δq‖ and l‖Δq̇‖h; docs/time-stepping.md).
+/// The strands keep their step size and history from one call to the next; each keeps
+/// 2·3N + 2 more numbers for it (allocated here, once). [`ShStepReport`] counts the
+/// steps taken and rejected and gives the largest estimated error and the step sizes.
+/// `tolerance` = 0 returns to fixed steps (as [`sh_batch_set_checked`] chose); anything
+/// else out of range is `SH_STATUS_INVALID_TOLERANCE` and changes nothing.
+///
+/// The head given by [`sh_batch_set_head`] is its state at the end of each `dt`; the
+/// strands' own steps follow the motion extrapolated back from it (its velocity,
+/// acceleration, angular velocity and angular acceleration).
+///
+/// # Safety
+/// `batch` is NULL or a live pointer from [`sh_batch_new`] used by no other thread
+/// during the call.
+#[no_mangle]
+pub unsafe extern "C" fn sh_batch_set_tolerance(batch: *mut ShBatch, tolerance: f64) -> ShStatus {
+    let f = |b: &mut ShBatch| {
+        if tolerance == 0.0 {
+            b.settings.tolerance = None;
+            return Ok(());
+        }
+        let range =
+            superhelix_kernels::fixed::MIN_TOLERANCE..=superhelix_kernels::fixed::MAX_TOLERANCE;
+        if !range.contains(&tolerance) {
+            return Err(Failure::new(
+                ShStatus::InvalidTolerance,
+                None,
+                &format!("tolerance: {tolerance:e} is neither 0 nor within [1e-8, 0.5]"),
+            ));
+        }
+        b.strands
+            .keep_histories()
+            .map_err(|_| Failure::plain(ShStatus::OutOfMemory))?;
+        b.settings.tolerance = Some(tolerance);
+        Ok(())
+    };
+    // SAFETY: `batch` is NULL or live and used by this thread alone (caller).
+    unsafe { with_batch(batch, f) }
+}
+
 /// The error of a range's outcome.
 fn step_error(outcome: &RangeOutcome) -> Option<Failure> {
     let (i, e) = outcome.first?;
@@ -1075,8 +1146,13 @@ fn step_report(stepped: usize, o: &RangeOutcome) -> ShStepReport {
         max_element_rotation: o.max_element_rotation,
         substeps: o.counts.substeps,
         energy_rejected: o.counts.energy_rejected,
-        energy_limited: o.counts.energy_limited,
+        energy_limited: o.counts.energy_limited + o.tolerance.energy_limited,
         energy_unbalanced: o.counts.energy_unbalanced,
+        steps: o.tolerance.steps,
+        rejected: o.tolerance.rejected,
+        largest_error: o.tolerance.largest_error,
+        smallest_step: o.tolerance.smallest_step,
+        largest_step: o.tolerance.largest_step,
     }
 }
 

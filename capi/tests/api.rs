@@ -119,7 +119,7 @@ fn every_status_has_its_value_and_a_message() {
         let m = unsafe { CStr::from_ptr(sh_status_message(code)) };
         assert!(!m.to_bytes().is_empty() && m.to_str().is_ok());
     }
-    for code in [-1, 23, 1000, i32::MIN, i32::MAX] {
+    for code in [-1, 24, 1000, i32::MIN, i32::MAX] {
         assert!(ShStatus::from_code(code).is_none());
         // SAFETY: as above.
         let m = unsafe { CStr::from_ptr(sh_status_message(code)) };
@@ -378,6 +378,11 @@ fn junk_report() -> ShStepReport {
         energy_rejected: 99,
         energy_limited: 99,
         energy_unbalanced: 99,
+        steps: 99,
+        rejected: 99,
+        largest_error: -1.0,
+        smallest_step: -1.0,
+        largest_step: -1.0,
     }
 }
 
@@ -411,6 +416,76 @@ fn the_checked_step_splits_what_the_plain_step_takes_whole() {
     assert_eq!((p.substeps, p.energy_rejected, p.energy_limited), (0, 0, 0));
     assert!(p.max_element_rotation > 0.2, "{p:?}");
     assert_ne!(state(&checked, 0), state(&plain, 0));
+}
+
+/// `sh_batch_set_tolerance`: out-of-range values are refused and change nothing; a
+/// tolerance gives error-controlled steps, reported, whose history `sh_batch_set_state`
+/// forgets; 0 returns to fixed steps.
+#[test]
+fn a_tolerance_chooses_error_controlled_steps() {
+    let straight = [0.0; 15];
+    let b = new_batch(&[params(5)]).unwrap();
+    let fresh = new_batch(&[params(5)]).unwrap();
+    // SAFETY: live batches, 15 values.
+    unsafe {
+        for bad in [-1e-3, 1e-9, 0.6, f64::NAN, f64::INFINITY] {
+            assert_eq!(sh_batch_set_tolerance(b.0, bad), ShStatus::InvalidTolerance);
+            assert!(last_error(&b).message_str().contains("tolerance"));
+        }
+        assert_eq!(
+            sh_batch_set_tolerance(null_mut(), 1e-3),
+            ShStatus::NullPointer
+        );
+        // still fixed steps: the report has no error-controlled steps
+        assert_eq!(step(&b, 1.0 / 30.0), ShStatus::Ok);
+        assert_eq!(last_step(&b).steps, 0);
+        for x in [&b, &fresh] {
+            assert_eq!(sh_batch_set_tolerance(x.0, 1e-3), ShStatus::Ok);
+            let s = sh_batch_set_state(x.0, 0, straight.as_ptr(), null(), 15);
+            assert_eq!(s, ShStatus::Ok);
+        }
+    }
+    // released from straight: many steps within the first 1/30 s, each within 1e-3
+    for _ in 0..2 {
+        assert_eq!(step(&b, 1.0 / 30.0), ShStatus::Ok);
+        assert_eq!(step(&fresh, 1.0 / 30.0), ShStatus::Ok);
+    }
+    let r = last_step(&b);
+    assert!(r.steps > 1, "{r:?}");
+    assert!(r.largest_error > 0.0 && r.largest_error <= 1e-3, "{r:?}");
+    assert!(
+        r.smallest_step > 0.0 && r.smallest_step <= r.largest_step,
+        "{r:?}"
+    );
+    assert!(r.largest_step <= 1.0 / 30.0 + 1e-15, "{r:?}");
+    assert_eq!((r.substeps, r.energy_rejected), (0, 0));
+    assert_eq!(state(&b, 0), state(&fresh, 0));
+    // setting the state forgets the history: the same steps as a fresh start
+    let (q, _) = state(&b, 0);
+    // SAFETY: live batches, 15 values.
+    unsafe {
+        for x in [&b, &fresh] {
+            assert_eq!(
+                sh_batch_set_state(x.0, 0, q.as_ptr(), null(), 15),
+                ShStatus::Ok
+            );
+        }
+    }
+    let restarted = new_batch(&[params(5)]).unwrap();
+    // SAFETY: live batch, 15 values.
+    unsafe {
+        assert_eq!(sh_batch_set_tolerance(restarted.0, 1e-3), ShStatus::Ok);
+        let s = sh_batch_set_state(restarted.0, 0, q.as_ptr(), null(), 15);
+        assert_eq!(s, ShStatus::Ok);
+    }
+    assert_eq!(step(&b, 1.0 / 30.0), ShStatus::Ok);
+    assert_eq!(step(&restarted, 1.0 / 30.0), ShStatus::Ok);
+    assert_eq!(state(&b, 0), state(&restarted, 0));
+    // 0: fixed steps again
+    // SAFETY: live batch.
+    assert_eq!(unsafe { sh_batch_set_tolerance(b.0, 0.0) }, ShStatus::Ok);
+    assert_eq!(step(&b, 1.0 / 30.0), ShStatus::Ok);
+    assert_eq!(last_step(&b).steps, 0);
 }
 
 fn null_batch() -> Batch {

@@ -103,6 +103,8 @@ struct Printed {
     natural: [f64; 3],
     q: [f64; D],
     points: [[f64; 3]; E],
+    /// With a tolerance: steps taken, rejected, the largest estimated error / L.
+    steps: Option<(usize, usize, f64)>,
 }
 
 fn run_example(args: &[&str]) -> Printed {
@@ -121,6 +123,7 @@ fn run_example(args: &[&str]) -> Printed {
         natural: [f64::NAN; 3],
         q: [f64::NAN; D],
         points: [[f64::NAN; 3]; E],
+        steps: None,
     };
     for line in stdout.lines().filter(|l| !l.starts_with('#')) {
         let words: Vec<&str> = line.split_whitespace().collect();
@@ -131,6 +134,9 @@ fn run_example(args: &[&str]) -> Printed {
             "natural" => p.natural[i] = x(2),
             "q" => p.q[i] = x(2),
             "point" => p.points[i] = [x(2), x(3), x(4)],
+            "steps" => p.steps.get_or_insert((0, 0, 0.0)).0 = words[2].parse().expect("count"),
+            "rejected" => p.steps.get_or_insert((0, 0, 0.0)).1 = words[2].parse().expect("count"),
+            "largest_error" => p.steps.get_or_insert((0, 0, 0.0)).2 = x(2),
             other => panic!("unexpected line `{other}` in:\n{stdout}"),
         }
     }
@@ -271,6 +277,7 @@ fn runtime_q(
     natural: &[f64; D],
     q0: &[f64; D],
     gravity: Option<Vector3<f64>>,
+    tolerance: Option<f64>,
 ) -> Vec<f64> {
     let material = SECTION.material();
     let runtime_strand = Strand {
@@ -293,6 +300,8 @@ fn runtime_q(
         config: SimulationConfig {
             dt: DT,
             duration: STEPS as f64 * DT,
+            tolerance,
+            engine: superhelix_runtime::config::Engine::Runtime,
             ..Default::default()
         },
         environment: Environment { gravity },
@@ -327,7 +336,7 @@ fn c_example_under_gravity_matches_the_fixed_step_and_the_runtime() {
     check_against_rust(&p, strand.clone(), Some(GRAVITY), true);
     // the strand hangs: its tip is below its root
     assert!(p.points[E - 1][2] < 0.0);
-    let q = runtime_q(&p, &strand.params.natural, &strand.q, Some(GRAVITY));
+    let q = runtime_q(&p, &strand.params.natural, &strand.q, Some(GRAVITY), None);
     let dq = relative(&q, &p.q);
     eprintln!("C vs Simulation under gravity: largest relative |Δq| {dq:.3e}");
     assert!(dq <= 1e-12, "C q {:?}\nruntime q {q:?}", p.q);
@@ -341,7 +350,7 @@ fn c_example_release_matches_the_fixed_step_and_the_runtime() {
     let q0: [f64; D] = core::array::from_fn(|i| strand.q[i] * 1.03);
     strand.set_state(&q0, &[0.0; D]);
     check_against_rust(&p, strand.clone(), None, true);
-    let q = runtime_q(&p, &strand.params.natural, &q0, None);
+    let q = runtime_q(&p, &strand.params.natural, &q0, None, None);
     let dq = relative(&q, &p.q);
     eprintln!("C vs Simulation: largest relative |Δq| {dq:.3e}");
     assert!(dq <= 1e-12, "C q {:?}\nruntime q {q:?}", p.q);
@@ -361,5 +370,45 @@ fn c_example_with_the_plain_step_matches_the_linearly_implicit_step() {
             Some(GRAVITY)
         };
         check_against_rust(&p, strand, gravity, false);
+    }
+}
+
+/// `sh_batch_set_tolerance`: the C strand takes the runtime engine's error-controlled
+/// steps (measured: q equal to round-off, 5e-16 relative), more of them than the 30 fixed
+/// steps, each within the tolerance.
+#[test]
+fn c_example_with_a_tolerance_matches_the_runtimes_error_controlled_step() {
+    for (args, tolerance) in [
+        (&["tolerance", "1e-3"][..], 1e-3),
+        (&["release", "tolerance", "1e-5"][..], 1e-5),
+    ] {
+        let p = run_example(args);
+        check_inputs(&p);
+        let mut strand = rust_strand(&p);
+        let gravity = if args.contains(&"release") {
+            let q0: [f64; D] = core::array::from_fn(|i| strand.q[i] * 1.03);
+            strand.set_state(&q0, &[0.0; D]);
+            None
+        } else {
+            Some(GRAVITY)
+        };
+        let q = runtime_q(
+            &p,
+            &strand.params.natural,
+            &strand.q,
+            gravity,
+            Some(tolerance),
+        );
+        let dq = relative(&q, &p.q);
+        let (steps, rejected, largest) = p.steps.expect("the example reports its steps");
+        eprintln!(
+            "{args:?}: C vs Simulation: largest relative |Δq| {dq:.3e}; {steps} steps, {rejected} rejected, largest error {largest:.2e}"
+        );
+        assert!(dq <= 1e-12, "C q {:?}\nruntime q {q:?}", p.q);
+        assert!(steps > STEPS, "{steps} steps");
+        assert!(
+            largest > 0.0 && largest <= tolerance,
+            "largest error {largest:e}"
+        );
     }
 }

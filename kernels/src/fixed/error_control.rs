@@ -52,6 +52,8 @@ const SAFETY: f64 = 0.9;
 const MAX_RATIO: f64 = 2.0;
 /// A step shorter than this, s, is accepted whatever its error.
 pub const MIN_STEP: f64 = 1e-9;
+/// Relative margin of the decisions on the time left in the caller's step.
+const SLACK: f64 = 1e-9;
 
 /// The smallest tolerance a strand of float type `T` takes: [`MIN_TOLERANCE`] in `f64`,
 /// 1000 ε (1.2e-4) in `f32`, whose round-off would otherwise be mistaken for the error.
@@ -205,11 +207,13 @@ pub fn step_to_tolerance<
         if history.h > 0.0 {
             next = next.min(MAX_RATIO * history.h);
         }
-        let last = next >= end - now;
+        // decided with a margin of round-off, so that the same steps are taken whatever
+        // the time's origin (an engine's clock from 0 or a scene's)
+        let last = next >= (end - now) * (1.0 - SLACK);
         // two steps rather than a long one and a short one
         let hh = if last {
             end - now
-        } else if 2.0 * next > end - now {
+        } else if 2.0 * next > (end - now) * (1.0 + SLACK) {
             0.5 * (end - now)
         } else {
             next

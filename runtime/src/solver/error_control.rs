@@ -60,6 +60,8 @@ const GROW: f64 = 2.0;
 const SAFETY: f64 = 0.9;
 /// A step shorter than this, s, is accepted whatever its error.
 const MIN_STEP: f64 = 1e-9;
+/// Relative margin of the decisions on the time left in an interval.
+const SLACK: f64 = 1e-9;
 
 /// One strand's state of the error-controlled step, and its buffers (sized at the first
 /// step).
@@ -183,11 +185,13 @@ fn advance(
             // variable-step BDF2 is zero-stable for step ratios below 1 + √2
             h = h.min(BDF2_MAX_RATIO * system.workspace.prev_h);
         }
-        let last = h >= end - t;
+        // decided with a margin of round-off, so that the same steps are taken whatever
+        // the time's origin (a caller's clock from 0 or the scene's)
+        let last = h >= (end - t) * (1.0 - SLACK);
         // two steps rather than a long one and a short one
         let hh = if last {
             end - t
-        } else if 2.0 * h > end - t {
+        } else if 2.0 * h > (end - t) * (1.0 + SLACK) {
             0.5 * (end - t)
         } else {
             h
