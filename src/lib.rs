@@ -156,6 +156,13 @@ pub fn run_planned<S: FrameSource + ?Sized>(
         }
     }
     let mut products_error = None;
+    // the error-controlled step's report per strand, whatever the formats
+    if let Some(rows) = source.strand_steps() {
+        match output::npy::write_strand_steps(&plan.dir, &rows) {
+            Ok(path) => files.push(path),
+            Err(e) => products_error = Some(e),
+        }
+    }
     if products != Formats::NONE && outcome.frames_written() > 0 {
         let view = PreviewOptions::default();
         let written = Scenery::from_setup(setup).and_then(|scenery| {

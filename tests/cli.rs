@@ -466,7 +466,7 @@ fn run_takes_a_tolerance_and_reports_its_steps() {
     let scene = write(
         &dir,
         "swing.toml",
-        "[simulation]\ndt = 0.03333333333333333\nduration = 0.2\n[[strands]]\nlength = 0.2\nelements = 5\ndirection = [1.0, 0.0, 0.0]\nnatural = [0.0, 0.0, 0.0]\ninitial = \"straight\"\n",
+        "[simulation]\ndt = 0.03333333333333333\nduration = 0.2\n[[strands]]\nlength = 0.2\nelements = 5\ndirection = [1.0, 0.0, 0.0]\nnatural = [0.0, 0.0, 0.0]\ninitial = \"straight\"\n[[strands]]\nlength = 0.1\nelements = 5\ndirection = [1.0, 0.0, 0.0]\nnatural = [0.0, 0.0, 0.0]\ninitial = \"straight\"\n",
     );
     let scene = scene.to_string_lossy().to_string();
     let out_dir = dir.join("out").to_string_lossy().to_string();
@@ -534,11 +534,11 @@ fn run_takes_a_tolerance_and_reports_its_steps() {
             "frame {k}: {}",
             errors[k]
         );
-        // the steps of a frame fill its 1/30 s
+        // each strand's steps of a frame fill its 1/30 s (two strands)
         let dt = 1.0 / 30.0;
         assert!(small[k] > 0.0 && small[k] <= large[k] && large[k] <= dt * (1.0 + 1e-12));
-        assert!(steps[k] * large[k] >= dt * (1.0 - 1e-12), "frame {k}");
-        assert!(steps[k] * small[k] <= dt * (1.0 + 1e-12), "frame {k}");
+        assert!(steps[k] * large[k] >= 2.0 * dt * (1.0 - 1e-12), "frame {k}");
+        assert!(steps[k] * small[k] <= 2.0 * dt * (1.0 + 1e-12), "frame {k}");
     }
     // the same figures in frames.steps.npy, named by frames.index.json
     let index: serde_json::Value = std::fs::read(dir.join("out/frames.index.json"))
@@ -561,6 +561,30 @@ fn run_takes_a_tolerance_and_reports_its_steps() {
         assert_eq!(values[5 * k + 1], steps[k]);
         assert_eq!(values[5 * k + 3], small[k]);
     }
+    // per strand, over the run: strand_steps.npy, named by the index, adds up to the summary
+    assert_eq!(index["error_control"]["strands_file"], "strand_steps.npy");
+    assert_eq!(
+        index["error_control"]["strands_columns"][3],
+        "smallest_step"
+    );
+    let npy = std::fs::read(dir.join("out/strand_steps.npy")).unwrap_or_default();
+    assert!(npy.len() > 10 && npy.starts_with(b"\x93NUMPY"));
+    let header = u16::from_le_bytes([npy[8], npy[9]]) as usize + 10;
+    assert!(String::from_utf8_lossy(&npy[10..header]).contains("'shape': (2, 5)"));
+    let rows: Vec<f64> = npy[header..]
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+        .collect();
+    assert_eq!(rows.len(), 10);
+    assert_eq!(rows[0] + rows[5], taken);
+    assert_eq!(rows[1] + rows[6], rejected);
+    assert_eq!(rows[2].max(rows[7]), frame_largest);
+    let smallest = small[1..].iter().copied().fold(f64::INFINITY, f64::min);
+    assert_eq!(rows[3].min(rows[8]), smallest);
+    // the shorter strand has its own steps
+    assert_ne!(rows[0], rows[5]);
+    let which = if rows[3] <= rows[8] { 0 } else { 1 };
+    assert!(last.contains(&format!("(strand {which};")), "{stdout}");
     let out = run("5");
     assert!(!out.status.success());
     assert!(

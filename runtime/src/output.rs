@@ -89,6 +89,27 @@ pub trait FrameSource {
     fn frame_steps(&mut self) -> Option<FrameSteps> {
         None
     }
+    /// What the error-controlled step did so far, per strand in scene order (`None`: fixed
+    /// steps, the default).
+    fn strand_steps(&self) -> Option<Vec<StrandSteps>> {
+        None
+    }
+}
+
+/// What the error-controlled step (`[simulation] tolerance`) did for one strand over a
+/// run: a row of `strand_steps.npy`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct StrandSteps {
+    /// Steps accepted.
+    pub steps: usize,
+    /// Steps rejected and retried shorter.
+    pub rejected: usize,
+    /// The largest estimated error of an accepted step, relative to the strand's length.
+    pub largest_error: f64,
+    /// The smallest step, s (0: none).
+    pub smallest_step: f64,
+    /// The largest step, s.
+    pub largest_step: f64,
 }
 
 /// What the error-controlled step (`[simulation] tolerance`) did between two frames: the
@@ -118,6 +139,8 @@ pub struct ErrorControlSummary {
     pub largest_error: f64,
     /// The smallest step any strand took, s.
     pub smallest_step: f64,
+    /// The strand that took it (its index in scene order; `None`: no step).
+    pub smallest_step_strand: Option<usize>,
     /// Steps accepted, all strands.
     pub steps: usize,
     /// Steps rejected and retried shorter, all strands.
@@ -202,11 +225,19 @@ impl fmt::Display for RunSummary {
                     write!(f, ", deepest centreline point {d:.3e} m inside a body")?;
                 }
                 match self.error_control {
-                    Some(e) => write!(
-                        f,
-                        "; tolerance {:.1e}: largest estimated error {:.2e} L, {} steps taken, {} rejected, smallest step {:.3e} s",
-                        e.tolerance, e.largest_error, e.steps, e.rejected, e.smallest_step
-                    ),
+                    Some(e) => {
+                        write!(
+                            f,
+                            "; tolerance {:.1e}: largest estimated error {:.2e} L, {} steps taken, {} rejected, smallest step {:.3e} s",
+                            e.tolerance, e.largest_error, e.steps, e.rejected, e.smallest_step
+                        )?;
+                        match e.smallest_step_strand {
+                            Some(i) => {
+                                write!(f, " (strand {i}; every strand's in strand_steps.npy)")
+                            }
+                            None => Ok(()),
+                        }
+                    }
                     None => Ok(()),
                 }
             }

@@ -835,40 +835,64 @@ impl Simulation {
     /// What the error-controlled step did so far (`None`: the scene has no tolerance).
     pub fn error_control(&self) -> Option<crate::output::ErrorControlSummary> {
         let tolerance = self.config.tolerance?;
-        if let Some(e) = &self.embedded {
-            let r = &e.tolerance_total;
-            return Some(crate::output::ErrorControlSummary {
-                tolerance,
-                largest_error: r.largest_error,
-                smallest_step: r.smallest_step,
-                steps: r.steps,
-                rejected: r.rejected,
-            });
-        }
-        let (largest_error, smallest_step) =
-            self.strands
-                .iter()
-                .fold((0.0f64, f64::INFINITY), |(e, h), s| {
-                    let ec = s.system.workspace.error_control();
-                    let small = if ec.smallest_h > 0.0 {
-                        ec.smallest_h
-                    } else {
-                        h
-                    };
-                    (e.max(ec.largest_error), h.min(small))
-                });
+        let per_strand = self.strand_steps()?;
+        let (largest_error, smallest) = per_strand.iter().enumerate().fold(
+            (0.0f64, None::<(usize, f64)>),
+            |(e, small), (i, s)| {
+                let small = match small {
+                    Some((_, h)) if s.smallest_step <= 0.0 || h <= s.smallest_step => small,
+                    _ if s.smallest_step > 0.0 => Some((i, s.smallest_step)),
+                    _ => small,
+                };
+                (e.max(s.largest_error), small)
+            },
+        );
         let stats = self.stats();
         Some(crate::output::ErrorControlSummary {
             tolerance,
             largest_error,
-            smallest_step: if smallest_step.is_finite() {
-                smallest_step
-            } else {
-                0.0
-            },
+            smallest_step: smallest.map_or(0.0, |(_, h)| h),
+            smallest_step_strand: smallest.map(|(i, _)| i),
             steps: stats.error_steps,
             rejected: stats.error_rejected,
         })
+    }
+
+    /// What the error-controlled step did so far, per strand in scene order (`None`: the
+    /// scene has no tolerance).
+    pub fn strand_steps(&self) -> Option<Vec<crate::output::StrandSteps>> {
+        self.config.tolerance?;
+        let steps = match &self.embedded {
+            Some(e) => e
+                .strands
+                .iter()
+                .map(|(_, _, g, position)| {
+                    let r = e.groups[*g].1.strand_report(*position);
+                    r.map_or_else(Default::default, |r| crate::output::StrandSteps {
+                        steps: r.steps,
+                        rejected: r.rejected,
+                        largest_error: r.largest_error,
+                        smallest_step: r.smallest_step,
+                        largest_step: r.largest_step,
+                    })
+                })
+                .collect(),
+            None => self
+                .strands
+                .iter()
+                .map(|s| {
+                    let ec = s.system.workspace.error_control();
+                    crate::output::StrandSteps {
+                        steps: s.stats.error_steps,
+                        rejected: s.stats.error_rejected,
+                        largest_error: ec.largest_error,
+                        smallest_step: ec.smallest_h,
+                        largest_step: ec.largest_h,
+                    }
+                })
+                .collect(),
+        };
+        Some(steps)
     }
 
     /// What the error-controlled step did since the last call (or the start), all strands
@@ -1321,6 +1345,9 @@ impl Simulation {
 impl FrameSource for Simulation {
     fn time(&self) -> f64 {
         self.time
+    }
+    fn strand_steps(&self) -> Option<Vec<crate::output::StrandSteps>> {
+        Simulation::strand_steps(self)
     }
     fn strand_count(&self) -> usize {
         Simulation::strand_count(self)

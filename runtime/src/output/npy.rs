@@ -13,8 +13,13 @@
 //!   the error-controlled step did since the previous frame ([`super::FrameSteps`]): the
 //!   largest estimated error over L, steps accepted, steps rejected, the smallest and the
 //!   largest step (s); all 0 for frame 0. The index then names the file and its columns
-//!   (`"error_control": {"file": "frames.steps.npy", "columns": [...]}`), rewritten once
-//!   at the first frame.
+//!   (`"error_control": {"file": "frames.steps.npy", "columns": [...], "strands_file":
+//!   "strand_steps.npy", "strands_columns": [...]}`), rewritten once at the first frame.
+//! - `strand_steps.npy` (scenes with a tolerance only, whatever the formats): float64,
+//!   shape `[strands, 5]`, what the error-controlled step did for each strand over the
+//!   run ([`super::StrandSteps`]): steps accepted, steps rejected, the largest estimated
+//!   error over L, the smallest and the largest step (s). Written when the run ends
+//!   (also when it stops early), by [`write_strand_steps`].
 //!
 //! ```python
 //! import json, numpy as np
@@ -61,6 +66,38 @@ pub const STEPS_COLUMNS: [&str; 5] = [
     "largest_step",
 ];
 
+/// Name of the per-strand report of the error-controlled step (scenes with a tolerance).
+pub const STRAND_STEPS_FILE: &str = "strand_steps.npy";
+/// Columns of [`STRAND_STEPS_FILE`], as named in the index.
+pub const STRAND_STEPS_COLUMNS: [&str; 5] = [
+    "steps",
+    "rejected",
+    "largest_error",
+    "smallest_step",
+    "largest_step",
+];
+
+/// Write [`STRAND_STEPS_FILE`] into `dir` (atomically): one row per strand, the columns of
+/// [`STRAND_STEPS_COLUMNS`]. Returns its path.
+pub fn write_strand_steps(dir: &Path, rows: &[super::StrandSteps]) -> Result<PathBuf> {
+    let path = dir.join(STRAND_STEPS_FILE);
+    let shape = [rows.len() as u64, 5];
+    let mut bytes = header_bytes("<f8", &shape, header_len_for("<f8", &[5]));
+    for r in rows {
+        for x in [
+            r.steps as f64,
+            r.rejected as f64,
+            r.largest_error,
+            r.smallest_step,
+            r.largest_step,
+        ] {
+            bytes.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    write_atomically(&path, &bytes)?;
+    Ok(path)
+}
+
 /// `frames.index.json` of a run with a tolerance: the layout and where its per-frame step
 /// report is.
 #[derive(serde::Serialize)]
@@ -75,6 +112,8 @@ struct IndexWithSteps<'a> {
 struct StepsIndex {
     file: &'static str,
     columns: [&'static str; 5],
+    strands_file: &'static str,
+    strands_columns: [&'static str; 5],
 }
 
 /// The npy magic string.
@@ -227,6 +266,8 @@ impl NpyFrameSink {
             error_control: StepsIndex {
                 file: STEPS_FILE,
                 columns: STEPS_COLUMNS,
+                strands_file: STRAND_STEPS_FILE,
+                strands_columns: STRAND_STEPS_COLUMNS,
             },
         };
         let json = serde_json::to_vec_pretty(&with).map_err(|e| io_error(&index, e.into()))?;

@@ -71,6 +71,8 @@ pub struct ErrorControl {
     pub next_h: f64,
     /// The smallest step accepted so far, s (0: none).
     pub smallest_h: f64,
+    /// The largest step accepted so far, s.
+    pub largest_h: f64,
     /// The largest estimated error of an accepted step so far, relative to the length.
     pub largest_error: f64,
     /// What the accepted steps since the last [`ErrorControl::take_window`] did.
@@ -283,6 +285,7 @@ fn advance(
             stats.error_steps += 1;
             ec.largest_error = ec.largest_error.max(error);
             ec.window.add(error, hh);
+            ec.largest_h = ec.largest_h.max(hh);
             ec.smallest_h = if ec.smallest_h > 0.0 {
                 ec.smallest_h.min(hh)
             } else {
