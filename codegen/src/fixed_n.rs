@@ -405,6 +405,9 @@ pub fn module_text_in(n: usize, ops: &ElementOps, float: Float) -> String {
          pub type Assembly = {FIXED}::Assembly<{n}, {d}, {e}{type_arg}>;\n\
          /// The poses at the {e} element ends, root first, in head coordinates{in_float}.\n\
          pub type Ends = [::superhelix_generated::kernels::pose::Pose{ends_type}; {e}];\n\
+         /// What a strand keeps for the error-controlled step besides its state (the BDF2\n\
+         /// history and the next step size){in_float}: `StepHistory<{d}{type_arg}>`.\n\
+         pub type History = {FIXED}::StepHistory<{d}{type_arg}>;\n\
          \n\
          /// Advance `strand` from time `t` by `h` seconds with the head moving as `head`:\n\
          /// the linearly implicit Euler step (paper section 3.4) checked after the fact and\n\
@@ -421,6 +424,26 @@ pub fn module_text_in(n: usize, ops: &ElementOps, float: Float) -> String {
              counts: &mut {FIXED}::StepCounts,\n\
          ) -> {result} {{\n\
          {step}\
+         }}\n\
+         \n\
+         /// Advance `strand` from time `t` to `t + h` in steps of its own that keep each\n\
+         /// one's estimated local error below `tolerance` (relative to the strand's length;\n\
+         /// variable-step BDF2 with the checked step's energy balance), adding what it did to\n\
+         /// `report`, as `superhelix_kernels::fixed::step_to_tolerance`. Allocates nothing;\n\
+         /// on failure the strand keeps the state of its last accepted step.\n\
+         #[allow(clippy::too_many_arguments)]\n\
+         pub fn step_to_tolerance(\n    \
+             strand: &mut Strand,\n    \
+             history: &mut History,\n    \
+             head: &dyn {FIXED}::HeadTrajectory,\n    \
+             effects: &{FIXED}::Effects,\n    \
+             t: f64,\n    \
+             h: f64,\n    \
+             tolerance: f64,\n    \
+             ws: &mut Workspace,\n    \
+             report: &mut {FIXED}::ToleranceReport,\n\
+         ) -> {result} {{\n\
+         {step_to_tolerance}\
          }}\n\
          \n\
          /// One linearly implicit Euler step of `h` seconds (paper section 3.4) with the head\n\
@@ -456,6 +479,10 @@ pub fn module_text_in(n: usize, ops: &ElementOps, float: Float) -> String {
         step = call(
             "step",
             &["strand", "head", "effects", "t", "h", "ws", "counts"]
+        ),
+        step_to_tolerance = call(
+            "step_to_tolerance",
+            &["strand", "history", "head", "effects", "t", "h", "tolerance", "ws", "report"]
         ),
         linearly_implicit = call("linearly_implicit", &["strand", "input", "h", "ws"]),
         evaluate = call("evaluate", &["strand", "input", "ws"]),

@@ -43,6 +43,9 @@ pub type Workspace = ::superhelix_generated::kernels::fixed::FixedWorkspace<10, 
 pub type Assembly = ::superhelix_generated::kernels::fixed::Assembly<10, 30, 11, f32>;
 /// The poses at the 11 element ends, root first, in head coordinates in f32.
 pub type Ends = [::superhelix_generated::kernels::pose::Pose<f32>; 11];
+/// What a strand keeps for the error-controlled step besides its state (the BDF2
+/// history and the next step size) in f32: `StepHistory<30, f32>`.
+pub type History = ::superhelix_generated::kernels::fixed::StepHistory<30, f32>;
 
 /// Advance `strand` from time `t` by `h` seconds with the head moving as `head`:
 /// the linearly implicit Euler step (paper section 3.4) checked after the fact and
@@ -70,6 +73,40 @@ pub fn step(
         h,
         ws,
         counts,
+    )
+}
+
+/// Advance `strand` from time `t` to `t + h` in steps of its own that keep each
+/// one's estimated local error below `tolerance` (relative to the strand's length;
+/// variable-step BDF2 with the checked step's energy balance), adding what it did to
+/// `report`, as `superhelix_kernels::fixed::step_to_tolerance`. Allocates nothing;
+/// on failure the strand keeps the state of its last accepted step.
+#[allow(clippy::too_many_arguments)]
+pub fn step_to_tolerance(
+    strand: &mut Strand,
+    history: &mut History,
+    head: &dyn ::superhelix_generated::kernels::fixed::HeadTrajectory,
+    effects: &::superhelix_generated::kernels::fixed::Effects,
+    t: f64,
+    h: f64,
+    tolerance: f64,
+    ws: &mut Workspace,
+    report: &mut ::superhelix_generated::kernels::fixed::ToleranceReport,
+) -> Result<
+    ::superhelix_generated::kernels::fixed::StepReport,
+    ::superhelix_generated::kernels::fixed::StepError,
+> {
+    ::superhelix_generated::kernels::fixed::step_to_tolerance(
+        &::superhelix_generated::ClosedForm,
+        strand,
+        history,
+        head,
+        effects,
+        t,
+        h,
+        tolerance,
+        ws,
+        report,
     )
 }
 
