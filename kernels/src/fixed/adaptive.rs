@@ -361,7 +361,7 @@ pub fn step<
 }
 
 /// Largest l_Q |Δd_Q| between two states.
-fn max_element_rotation<const N: usize, const D: usize, T: Float>(
+pub(super) fn max_element_rotation<const N: usize, const D: usize, T: Float>(
     lengths: &[T; N],
     q: &[T; D],
     q0: &[T; D],

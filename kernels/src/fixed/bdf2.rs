@@ -2,6 +2,7 @@
 //! (`runtime/src/solver/bdf2.rs`) for a strand without contacts or point loads, on the
 //! linearly implicit Euler step's matrix.
 
+use super::adaptive::max_element_rotation;
 use super::dense::lu_solve;
 use super::step::{assemble, step_matrix, StepError, StepInput, StepReport};
 use super::workspace::FixedWorkspace;
@@ -120,13 +121,7 @@ pub fn bdf2<
             velocity: i >= D,
         });
     }
-    let mut rotation = T::zero();
-    for (k, &l) in p.lengths.iter().enumerate() {
-        let d: T = (0..3)
-            .map(|i| (q_new[3 * k + i] - q[3 * k + i]) * (q_new[3 * k + i] - q[3 * k + i]))
-            .sum();
-        rotation = rotation.max(l * d.sqrt());
-    }
+    let rotation = max_element_rotation(&p.lengths, &q_new, &q);
     strand.q = q_new;
     strand.v = ws.rhs;
     Ok(StepReport {

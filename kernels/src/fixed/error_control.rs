@@ -27,7 +27,7 @@
 //!
 //! `runtime/tests/fixed_step.rs` compares it with the runtime's error-controlled step.
 
-use super::adaptive::{measure, Effects, HeadTrajectory};
+use super::adaptive::{max_element_rotation, measure, Effects, HeadTrajectory};
 use super::bdf2::{bdf2, Bdf2History};
 use super::step::{linearly_implicit, StepError, StepInput, StepReport};
 use super::workspace::FixedWorkspace;
@@ -329,20 +329,7 @@ pub fn step_to_tolerance<
     }
     history.next_h = next;
     strand.last_energy = Some(energy);
-    let rotation = strand
-        .params
-        .lengths
-        .iter()
-        .enumerate()
-        .map(|(k, &l)| {
-            let d: T = (0..3)
-                .map(|i| {
-                    (strand.q[3 * k + i] - q0[3 * k + i]) * (strand.q[3 * k + i] - q0[3 * k + i])
-                })
-                .sum();
-            l * d.sqrt()
-        })
-        .fold(T::zero(), T::max);
+    let rotation = max_element_rotation(&strand.params.lengths, &strand.q, &q0);
     Ok(StepReport {
         max_element_rotation: rotation.as_f64(),
         projection: None,
