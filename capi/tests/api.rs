@@ -494,10 +494,23 @@ fn null_batch() -> Batch {
 
 #[test]
 fn a_failing_strand_keeps_its_state_and_the_others_step() {
+    // with fixed steps, and with error-controlled ones (which shrink the failing step down
+    // to the shortest before they give up)
+    for tolerance in [0.0, 1e-3] {
+        failing_strand(tolerance);
+    }
+}
+
+fn failing_strand(tolerance: f64) {
     let b = new_batch(&[params(5), params(5), params(5)]).unwrap();
     let single = new_batch(&[params(5)]).unwrap();
     set_gravity(&b);
     set_gravity(&single);
+    // SAFETY: live batches.
+    unsafe {
+        assert_eq!(sh_batch_set_tolerance(b.0, tolerance), ShStatus::Ok);
+        assert_eq!(sh_batch_set_tolerance(single.0, tolerance), ShStatus::Ok);
+    }
     // strand 1 gets a state whose step cannot be finite
     let wild = [1e300; 15];
     // SAFETY: live batch, 15 values.
@@ -516,6 +529,7 @@ fn a_failing_strand_keeps_its_state_and_the_others_step() {
     assert_eq!(unsafe { sh_batch_last_step(b.0, &mut r) }, ShStatus::Ok);
     assert_eq!((r.stepped, r.failed, r.first_failed), (3, 1, 1));
     assert!(r.max_element_rotation > 0.0 && r.max_element_rotation < 0.2);
+    assert_eq!(r.steps > 0, tolerance > 0.0, "{r:?}");
     // strand 1 kept its state; 0 and 2 stepped as a strand alone does
     assert_eq!(state(&b, 1), (wild.to_vec(), vec![0.0; 15]));
     assert_eq!(step(&single, 1.0 / 30.0), ShStatus::Ok);

@@ -297,9 +297,9 @@ pub fn step_to_tolerance<
                 hh * factor
             };
         } else {
-            let failure = match solved {
-                Err(e) => e,
-                Ok(()) => {
+            if hh <= MIN_STEP {
+                // the shortest step fails: say why, the strand back at its last accepted step
+                let failure = solved.err().unwrap_or_else(|| {
                     let i = strand
                         .q
                         .iter()
@@ -310,15 +310,16 @@ pub fn step_to_tolerance<
                         index: i % D,
                         velocity: i >= D,
                     }
-                }
-            };
+                });
+                strand.q = start_q;
+                strand.v = start_v;
+                strand.last_energy = None;
+                report.rejected += 1;
+                return Err(failure);
+            }
             strand.q = start_q;
             strand.v = start_v;
             report.rejected += 1;
-            if hh <= MIN_STEP {
-                strand.last_energy = None;
-                return Err(failure);
-            }
             next = if error.is_finite() && error > 0.0 {
                 hh * (SAFETY * crate::math::sqrt(tolerance / error)).clamp(SHRINK, GROW)
             } else {
