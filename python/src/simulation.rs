@@ -1,0 +1,323 @@
+//! `superhelix.Simulation`: a scene's simulation stepped by hand.
+
+use crate::arrays::{f64_array, vector};
+use crate::errors::run_error;
+use crate::run::{error_control_dict, stats_dict};
+use crate::scene::{engine_name, kernels, Scene};
+use pyo3::exceptions::{PyIndexError, PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use std::sync::{Mutex, MutexGuard};
+use superhelix_runtime::config::Engine;
+use superhelix_runtime::{Simulation as Runtime, SimulationSetup};
+
+struct Inner {
+    sim: Runtime,
+    setup: SimulationSetup,
+    /// A second simulation of the same setup, set to the states whose energy is asked
+    /// (the runtime engine's energy evaluates the strand's kernel in its workspace: the
+    /// stepping simulation is never used for it). Built on first use.
+    measuring: Option<Runtime>,
+}
+
+/// A running simulation of a scene (`scene.simulation()`), advanced by `step()`.
+///
+/// Each step advances every strand by the simulation's dt (the scene's `[simulation] dt`,
+/// or the `dt` given to `scene.simulation`) with the scene's head motion, gravity,
+/// bodies and contacts: the steps `scene.run()` takes. q, qdot and nodes() read the
+/// state; set_state() replaces a strand's.
+#[pyclass(module = "superhelix", frozen)]
+pub struct Simulation {
+    inner: Mutex<Inner>,
+}
+
+impl Simulation {
+    pub fn new(py: Python<'_>, setup: SimulationSetup) -> PyResult<Simulation> {
+        let sim = Scene::build(py, setup.clone())?;
+        Ok(Simulation {
+            inner: Mutex::new(Inner {
+                sim,
+                setup,
+                measuring: None,
+            }),
+        })
+    }
+
+    fn lock(&self) -> PyResult<MutexGuard<'_, Inner>> {
+        self.inner.lock().map_err(|_| {
+            PyRuntimeError::new_err("this simulation was poisoned by an earlier internal error")
+        })
+    }
+}
+
+/// Per-strand rows as one (strands, width) array when every strand has the same width,
+/// else a list of 1-D arrays.
+fn rows(py: Python<'_>, rows: Vec<Vec<f64>>) -> PyResult<Py<PyAny>> {
+    let width = rows.first().map_or(0, Vec::len);
+    if rows.iter().all(|r| r.len() == width) {
+        let n = rows.len();
+        f64_array(py, &[n, width], rows.into_iter().flatten().collect())
+    } else {
+        let list = PyList::empty(py);
+        for r in rows {
+            let n = r.len();
+            list.append(f64_array(py, &[n], r)?)?;
+        }
+        Ok(list.into_any().unbind())
+    }
+}
+
+fn check_index(i: usize, count: usize) -> PyResult<()> {
+    if i < count {
+        Ok(())
+    } else {
+        Err(PyIndexError::new_err(format!(
+            "strand {i}: the simulation has {count} strand(s)"
+        )))
+    }
+}
+
+#[pymethods]
+impl Simulation {
+    /// sim.step(dt=None, steps=1) -> None
+    ///
+    /// Advance every strand by `steps` time steps of the simulation's dt, with the GIL
+    /// released. The runtime steps by the dt the simulation was built with: a `dt` given
+    /// here must equal it (build with `scene.simulation(dt=...)` for another). The head
+    /// follows the scene's motion (a head pose per step is the embedded Batch's). Raises
+    /// SimulationError when a strand fails (the others keep their last good state).
+    #[pyo3(signature = (dt = None, steps = 1))]
+    fn step(&self, py: Python<'_>, dt: Option<f64>, steps: usize) -> PyResult<()> {
+        let h = self.lock()?.sim.config().dt;
+        if let Some(dt) = dt {
+            if dt != h {
+                return Err(PyValueError::new_err(format!(
+                    "dt: this simulation steps by dt = {h} s (the runtime's step length is fixed when it is built); use scene.simulation(dt={dt}) to step by {dt} s"
+                )));
+            }
+        }
+        py.detach(|| {
+            let mut inner = self.inner.lock().map_err(|_| {
+                PyRuntimeError::new_err("this simulation was poisoned by an earlier internal error")
+            })?;
+            for _ in 0..steps {
+                inner.sim.step().map_err(run_error)?;
+            }
+            Ok(())
+        })
+    }
+
+    /// Simulated time, s.
+    #[getter]
+    fn time(&self) -> PyResult<f64> {
+        Ok(self.lock()?.sim.time())
+    }
+
+    /// The time step, s.
+    #[getter]
+    fn dt(&self) -> PyResult<f64> {
+        Ok(self.lock()?.sim.config().dt)
+    }
+
+    /// Steps taken.
+    #[getter]
+    fn steps_taken(&self) -> PyResult<usize> {
+        Ok(self.lock()?.sim.steps())
+    }
+
+    /// Number of strands.
+    #[getter]
+    fn strand_count(&self) -> PyResult<usize> {
+        Ok(self.lock()?.sim.strand_count())
+    }
+
+    /// Strand names, in scene order.
+    #[getter]
+    fn strand_names(&self) -> PyResult<Vec<String>> {
+        let inner = self.lock()?;
+        Ok((0..inner.sim.strand_count())
+            .map(|i| inner.sim.strand(i).name.clone())
+            .collect())
+    }
+
+    /// The engine stepping the strands: "embedded" or "runtime".
+    #[getter]
+    fn engine(&self) -> PyResult<&'static str> {
+        Ok(engine_name(self.lock()?.sim.engine()))
+    }
+
+    /// Generalized coordinates (τ, κ1, κ2 per element, rad/m): (strands, 3N) when every
+    /// strand has the same N, else a list of (3N_i,) arrays. A copy.
+    #[getter]
+    fn q(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let inner = self.lock()?;
+        let q = (0..inner.sim.strand_count())
+            .map(|i| inner.sim.q(i).to_vec())
+            .collect();
+        drop(inner);
+        rows(py, q)
+    }
+
+    /// Generalized velocities, rad/(m s), laid out as `q`. A copy.
+    #[getter]
+    fn qdot(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let inner = self.lock()?;
+        let v = (0..inner.sim.strand_count())
+            .map(|i| inner.sim.v(i).to_vec())
+            .collect();
+        drop(inner);
+        rows(py, v)
+    }
+
+    /// sim.nodes(samples_per_element=None) -> array
+    ///
+    /// Every strand's centreline in world coordinates at the current time, m: the root,
+    /// then `samples_per_element` points per element (default: the scene's
+    /// `[output] samples_per_element`, as in the frames). (strands, points, 3) when all
+    /// strands have as many points, else a list of (points_i, 3) arrays.
+    #[pyo3(signature = (samples_per_element = None))]
+    fn nodes(&self, py: Python<'_>, samples_per_element: Option<usize>) -> PyResult<Py<PyAny>> {
+        let mut inner = self.lock()?;
+        let per = samples_per_element.unwrap_or(inner.sim.samples_per_element());
+        if !(1..=64).contains(&per) {
+            return Err(PyValueError::new_err(format!(
+                "samples_per_element: must be in [1, 64], got {per}"
+            )));
+        }
+        let n = inner.sim.strand_count();
+        let lines: Vec<Vec<[f64; 3]>> = (0..n)
+            .map(|i| inner.sim.centreline_world(i, per))
+            .collect();
+        drop(inner);
+        let points = lines.first().map_or(0, Vec::len);
+        if lines.iter().all(|l| l.len() == points) {
+            let data = lines.into_iter().flatten().flatten().collect();
+            f64_array(py, &[n, points, 3], data)
+        } else {
+            let list = PyList::empty(py);
+            for l in lines {
+                let p = l.len();
+                list.append(f64_array(py, &[p, 3], l.into_iter().flatten().collect())?)?;
+            }
+            Ok(list.into_any().unbind())
+        }
+    }
+
+    /// sim.set_state(i, q, qdot=None) -> None
+    ///
+    /// Replace strand i's state: q and qdot (zero when None), 3N values each.
+    #[pyo3(signature = (i, q, qdot = None))]
+    fn set_state(
+        &self,
+        i: usize,
+        q: &Bound<'_, PyAny>,
+        qdot: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let mut inner = self.lock()?;
+        check_index(i, inner.sim.strand_count())?;
+        let n = inner.sim.q(i).len();
+        let q = vector(q, "q", n)?;
+        let v = match qdot {
+            Some(v) => vector(v, "qdot", n)?,
+            None => vec![0.0; n],
+        };
+        if !q.iter().chain(&v).all(|x| x.is_finite()) {
+            return Err(PyValueError::new_err("q, qdot: every value must be finite"));
+        }
+        inner.sim.set_state(i, &q, &v);
+        Ok(())
+    }
+
+    /// sim.energies() -> dict
+    ///
+    /// Each strand's energy in its current state, J, as arrays of shape (strands,):
+    /// kinetic (½ q̇ᵀ M q̇ relative to the head), potential (elastic plus gravity plus
+    /// point loads; contacts and electrostatics not counted) and total. Measured on a
+    /// second simulation of the same scene set to this state: the stepping one is not
+    /// touched.
+    fn energies<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let (kinetic, potential) = py.detach(|| -> PyResult<(Vec<f64>, Vec<f64>)> {
+            let mut guard = self.inner.lock().map_err(|_| {
+                PyRuntimeError::new_err("this simulation was poisoned by an earlier internal error")
+            })?;
+            let inner = &mut *guard;
+            let embedded = inner.sim.engine() == Engine::Embedded;
+            let n = inner.sim.strand_count();
+            let mut kinetic = Vec::with_capacity(n);
+            let mut potential = Vec::with_capacity(n);
+            if embedded {
+                // the embedded engine measures on a system made afresh for each strand
+                for i in 0..n {
+                    let t = inner.sim.kinetic_energy(i);
+                    kinetic.push(t);
+                    potential.push(inner.sim.energy(i) - t);
+                }
+                return Ok((kinetic, potential));
+            }
+            if inner.measuring.is_none() {
+                let built = Runtime::new(inner.setup.clone(), kernels())
+                    .map_err(|e| PyRuntimeError::new_err(format!("measuring simulation: {e}")))?;
+                inner.measuring = Some(built);
+            }
+            let (sim, measuring) = (&inner.sim, &mut inner.measuring);
+            if let Some(m) = measuring.as_mut() {
+                for i in 0..n {
+                    m.set_state(i, sim.q(i), sim.v(i));
+                    let t = m.kinetic_energy(i);
+                    kinetic.push(t);
+                    potential.push(m.energy(i) - t);
+                }
+            }
+            Ok((kinetic, potential))
+        })?;
+        let n = kinetic.len();
+        let total: Vec<f64> = kinetic.iter().zip(&potential).map(|(a, b)| a + b).collect();
+        let d = PyDict::new(py);
+        d.set_item("kinetic", f64_array(py, &[n], kinetic)?)?;
+        d.set_item("potential", f64_array(py, &[n], potential)?)?;
+        d.set_item("total", f64_array(py, &[n], total)?)?;
+        Ok(d)
+    }
+
+    /// sim.stats() -> dict
+    ///
+    /// The solver's counters summed over strands since the start (the runtime's
+    /// StepStats; keys as RunResult.stats).
+    fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let s = self.lock()?.sim.stats();
+        stats_dict(py, &s)
+    }
+
+    /// sim.error_control() -> dict | None
+    ///
+    /// With a tolerance, what the error-controlled steps did so far (tolerance,
+    /// largest_error, smallest_step, smallest_step_strand, steps, rejected); else None.
+    fn error_control<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let e = self.lock()?.sim.error_control();
+        e.map(|e| error_control_dict(py, &e)).transpose()
+    }
+
+    /// sim.head_pose() -> (position, rotation)
+    ///
+    /// The head's pose at the current time by the scene's motion: its world position X
+    /// (3,) and rotation R (3, 3), head to world (a head point y is at X + R y).
+    fn head_pose(&self, py: Python<'_>) -> PyResult<(Py<PyAny>, Py<PyAny>)> {
+        let inner = self.lock()?;
+        let state = inner.setup.head.state(inner.sim.time());
+        drop(inner);
+        crate::scene::pose(py, &state)
+    }
+
+    fn __repr__(&self) -> String {
+        match self.inner.lock() {
+            Ok(inner) => format!(
+                "<superhelix.Simulation: {} strands at t = {} s, dt = {} s, engine {}>",
+                inner.sim.strand_count(),
+                inner.sim.time(),
+                inner.sim.config().dt,
+                engine_name(inner.sim.engine())
+            ),
+            Err(_) => "<superhelix.Simulation (poisoned)>".to_string(),
+        }
+    }
+}

@@ -1,0 +1,161 @@
+"""scene.run(): shapes, the command line's frames bit for bit, stepping by hand, energies."""
+
+import json
+
+import numpy as np
+import pytest
+
+import superhelix
+from conftest import SHAKING, TOUCHING, hanging_strand
+
+
+@pytest.fixture(scope="module")
+def shaking():
+    scene = superhelix.Scene.from_toml(SHAKING)
+    return scene, scene.run()
+
+
+def test_a_run_returns_arrays_of_the_layout(shaking):
+    scene, r = shaking
+    frames = scene.frame_count
+    assert frames == 10  # 0.6 s at 15 fps: frames 0 .. 9
+    points = [1 + 4 * n for n in scene.elements]  # samples_per_element = 4
+    assert r.points.shape == (frames, sum(points), 3)
+    assert r.offsets.tolist() == [0, 21, 42, 75]
+    # the strands differ in N: per-strand lists
+    assert isinstance(r.nodes, list) and isinstance(r.q, list)
+    assert [a.shape for a in r.nodes] == [(frames, p, 3) for p in points]
+    assert [a.shape for a in r.q] == [(frames, 3 * n) for n in scene.elements]
+    assert [a.shape for a in r.qdot] == [(frames, 3 * n) for n in scene.elements]
+    for i, a in enumerate(r.nodes):
+        np.testing.assert_array_equal(a, r.points[:, r.offsets[i]:r.offsets[i + 1]])
+    np.testing.assert_allclose(r.times, np.arange(frames) / 15.0, rtol=0, atol=1e-15)
+    assert r.kinetic_energy.shape == r.potential_energy.shape == (frames, 3)
+    for a in [r.points, r.times, r.state_times, r.kinetic_energy, r.potential_energy,
+              *r.q, *r.qdot]:
+        assert np.all(np.isfinite(a))
+    assert r.strand_names == ["wavy", "curly", "smooth"]
+    assert r.engine == "embedded" and r.completed
+    s = r.summary
+    assert (s["steps"], s["strands"], s["frames"], s["planned_frames"]) == (18, 3, 10, 10)
+    assert s["error_control"] is None and r.frame_steps is None
+    assert r.stats["attempts"] >= 3 * 18  # at least one solve per strand and step
+    assert r.summary_line.startswith("18 steps x 3 strands in ")
+    # roots stay on the head: the root of each strand moves on its circle (|x_root| const)
+    for i in range(3):
+        radius = np.linalg.norm(r.points[:, r.offsets[i], :2], axis=1)
+        np.testing.assert_allclose(radius, radius[0], rtol=1e-12)
+
+
+def test_shared_sizes_give_4d_nodes():
+    scene = superhelix.Scene.from_dict(hanging_strand())
+    r = scene.run(frames=5)
+    assert r.nodes.shape == (5, 1, 21, 3)
+    assert r.q.shape == r.qdot.shape == (5, 1, 15)
+    np.testing.assert_array_equal(r.nodes[:, 0], r.points)
+
+
+def run_cli(cli, tmp_path, text, *extra):
+    path = tmp_path / "scene.toml"
+    path.write_text(text)
+    out_dir = tmp_path / "out"
+    done = cli("run", path, "--out", out_dir, "--format", "npy", *extra)
+    assert done.returncode == 0, done.stderr
+    return out_dir, done.stdout
+
+
+@pytest.mark.parametrize("text", [SHAKING, TOUCHING], ids=["embedded", "runtime-contacts"])
+def test_frames_match_the_command_lines_frames_npy_bit_for_bit(cli, tmp_path, text):
+    out_dir, stdout = run_cli(cli, tmp_path, text)
+    r = superhelix.Scene.from_toml(text).run(energies=False)
+    frames = np.load(out_dir / "frames.npy")
+    times = np.load(out_dir / "frames.times.npy")
+    index = json.load(open(out_dir / "frames.index.json"))
+    assert frames.dtype == np.float32
+    # frames.npy is the float32 rounding of the f64 centrelines: equal to the bit
+    np.testing.assert_array_equal(frames, r.points.astype(np.float32))
+    np.testing.assert_array_equal(times[:, 0], r.times)
+    np.testing.assert_array_equal(times[:, 1], r.state_times)
+    assert [s["name"] for s in index["strands"]] == r.strand_names
+    assert [s["radius"] for s in index["strands"]] == r.radii.tolist()
+    # the summary line names the same steps and frames
+    line = [l for l in stdout.splitlines() if " steps x " in l][0]
+    assert line.split(" in ")[0] == r.summary_line.split(" in ")[0]
+
+
+def test_error_controlled_frames_and_reports_match_the_command_line(cli, tmp_path):
+    text = SHAKING
+    out_dir, _ = run_cli(cli, tmp_path, text, "--tolerance", "1e-3")
+    r = superhelix.Scene.from_toml(text).run(tolerance=1e-3, energies=False)
+    np.testing.assert_array_equal(np.load(out_dir / "frames.npy"), r.points.astype(np.float32))
+    np.testing.assert_array_equal(np.load(out_dir / "frames.steps.npy"), r.frame_steps)
+    np.testing.assert_array_equal(np.load(out_dir / "strand_steps.npy"), r.strand_steps)
+    e = r.summary["error_control"]
+    assert e["tolerance"] == 1e-3 and 0 < e["largest_error"] <= 1e-3
+    assert e["steps"] == r.frame_steps[:, 1].sum() == r.strand_steps[:, 0].sum()
+
+
+def test_stepping_by_hand_gives_the_runs_states(shaking):
+    scene, r = shaking
+    sim = scene.simulation()
+    assert sim.dt == scene.dt and sim.time == 0.0
+    # output_fps = 15 at dt = 1/30: frame k is the state after 2k steps
+    for k in range(scene.frame_count):
+        if k:
+            sim.step(steps=2)
+        q, qdot = sim.q, sim.qdot
+        for i in range(3):
+            np.testing.assert_array_equal(q[i], r.q[i][k])
+            np.testing.assert_array_equal(qdot[i], r.qdot[i][k])
+        nodes = sim.nodes()
+        for i in range(3):
+            np.testing.assert_array_equal(nodes[i], r.nodes[i][k])
+        assert sim.time == r.state_times[k]
+    assert sim.steps_taken == 18
+    assert sim.stats() == r.stats
+    with pytest.raises(ValueError, match="^dt: this simulation steps by dt"):
+        sim.step(0.01)
+    sim.step(scene.dt)  # the simulation's own dt is accepted
+
+
+def test_the_runtime_engine_by_hand_matches_its_run():
+    scene = superhelix.Scene.from_toml(TOUCHING)
+    r = scene.run(frames=6)
+    sim = scene.simulation()
+    assert sim.engine == r.engine == "runtime"
+    sim.step(steps=5)
+    np.testing.assert_array_equal(sim.q, r.q[5])
+    np.testing.assert_array_equal(sim.qdot, r.qdot[5])
+    # energies measured on the side leave the stepping simulation alone
+    e = sim.energies()
+    np.testing.assert_array_equal(e["kinetic"], r.kinetic_energy[5])
+    np.testing.assert_array_equal(e["potential"], r.potential_energy[5])
+    sim.step()
+    again = scene.simulation()
+    again.step(steps=6)
+    np.testing.assert_array_equal(sim.q, again.q)
+
+
+def test_energy_never_grows_on_a_still_head():
+    """A strand released from 1.5 x its natural curvature under gravity on a still head:
+    friction and drag dissipate, the checked step's energy balance forbids any gain, so the
+    total energy (kinetic + elastic + gravity) falls monotonically from its start."""
+    d = hanging_strand()
+    d["strands"][0]["q0"] = [1.5 * x for x in [21.72, 163.8, 0.0] * 5]
+    r = superhelix.Scene.from_dict(d).run()
+    e = r.energy[:, 0]
+    assert r.kinetic_energy[0, 0] == 0.0  # released at rest
+    assert np.all(r.kinetic_energy >= 0.0)
+    assert np.all(np.diff(e) <= 1e-12 * abs(e[0])), np.diff(e).max()
+    assert e[-1] < e[0] - 0.1 * (e[0] - e.min())  # it did fall
+
+
+def test_simulation_error_names_the_strand_and_the_state_stays():
+    sim = superhelix.Scene.from_toml(SHAKING).simulation()
+    sim.set_state(1, np.full(15, 1e300))
+    with pytest.raises(superhelix.SimulationError, match=r"^strand 'curly' \(index 1\) failed at t = "):
+        sim.step()
+    with pytest.raises(IndexError):
+        sim.set_state(3, np.zeros(15))
+    with pytest.raises(ValueError, match=r"^q: expected 15 values"):
+        sim.set_state(0, np.zeros(14))
