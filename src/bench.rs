@@ -248,6 +248,7 @@ fn strands(o: &BenchOptions) -> Vec<StrandSetup> {
                 } else {
                     Vec::new()
                 },
+                ends: Default::default(),
             };
             StrandSetup {
                 charge_per_length: None,

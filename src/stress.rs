@@ -408,6 +408,7 @@ impl StrandSpec {
                 internal_friction: self.friction.unwrap_or(p.internal_friction),
                 air_drag: self.drag.unwrap_or(p.air_drag),
                 point_loads: Vec::new(),
+                ends: Default::default(),
             },
             q0,
             group: self.preset.name().to_string(),

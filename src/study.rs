@@ -510,6 +510,7 @@ fn strand(
         internal_friction: gamma,
         air_drag: nu,
         point_loads: Vec::new(),
+        ends: Default::default(),
     }
 }
 

@@ -29,6 +29,7 @@ fn setup(n: usize, kernels: KernelChoice, integrator: IntegratorKind) -> Simulat
                 internal_friction: p.internal_friction,
                 air_drag: p.air_drag,
                 point_loads: Vec::new(),
+                ends: Default::default(),
             }
         })
         .map(|s| StrandSetup {

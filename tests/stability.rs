@@ -35,6 +35,7 @@ fn preset_strand(preset: Preset, n: usize, length: f64) -> Strand {
         internal_friction: p.internal_friction,
         air_drag: p.air_drag,
         point_loads: Vec::new(),
+        ends: Default::default(),
     }
 }
 

@@ -293,6 +293,7 @@ fn runtime_q(
         internal_friction: GAMMA,
         air_drag: NU,
         point_loads: Vec::new(),
+        ends: Default::default(),
     };
     let setup = SimulationSetup {
         electrostatics: None,

@@ -6,6 +6,7 @@
 //! module of the crate.
 
 pub use superhelix_kernels::{element, helix_functions, jet, lanes, quadrature};
+pub mod ends;
 pub mod humidity;
 pub mod material;
 pub mod reconstruction;

@@ -14,6 +14,7 @@ mod assembly;
 mod bodies;
 mod contacts;
 mod electrostatics;
+mod ends;
 mod groom;
 mod head;
 mod reader;

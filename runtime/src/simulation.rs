@@ -234,7 +234,12 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
     }
     for (index, s) in setup.strands.iter().enumerate() {
         let n = s.strand.geometry.elements();
-        if !s.strand.point_loads.is_empty() {
+        if !s.strand.ends.is_hair() {
+            errors.push(FieldError::new(
+                format!("strands[{index}].ends"),
+                "the embedded engine holds roots clamped and tips free; use engine = \"runtime\"",
+            ));
+        } else if !s.strand.point_loads.is_empty() {
             errors.push(FieldError::new(
                 format!("strands[{index}].point_loads"),
                 "the embedded engine has no point loads; use engine = \"runtime\"",
@@ -411,6 +416,7 @@ fn check_setup(setup: &SimulationSetup) -> Result<()> {
         if s.q0.iter().chain(&s.strand.natural).any(|x| !x.is_finite()) {
             errors.push(FieldError::new(at("q0"), "values must be finite"));
         }
+        errors.extend(check_ends(setup, i));
         let m = &s.strand.material;
         if !(m.mass_per_length > 0.0 && m.stiffness.iter().all(|k| *k > 0.0 && k.is_finite())) {
             errors.push(FieldError::new(
@@ -424,6 +430,69 @@ fn check_setup(setup: &SimulationSetup) -> Result<()> {
     } else {
         Err(Error::Invalid(errors))
     }
+}
+
+/// What the ends of strand `i` need of the scene: a pinned root its joint and a
+/// scale-aware integrator, a held tip the linearly implicit step (or the static solve)
+/// and a still head.
+fn check_ends(setup: &SimulationSetup, i: usize) -> Vec<FieldError> {
+    use crate::model::ends::{RootEnd, ROOT_JOINT_FRACTION};
+    let mut errors = Vec::new();
+    let s = &setup.strands[i].strand;
+    let c = &setup.config;
+    let dynamic = c.mode == Mode::Dynamic;
+    if s.ends.root == RootEnd::Pinned {
+        let l = s.geometry.length();
+        let joint = s.geometry.lengths.first().copied().unwrap_or(0.0);
+        if s.geometry.lengths.len() < 2 || (joint - ROOT_JOINT_FRACTION * l).abs() > 1e-3 * joint {
+            errors.push(FieldError::new(
+                format!("strands[{i}].ends.root"),
+                "a pinned root needs its joint element first (Strand::pin_root)",
+            ));
+        }
+        if dynamic && c.integrator == IntegratorKind::NewtonImplicitEuler {
+            errors.push(FieldError::new(
+                format!("strands[{i}].ends.root"),
+                "a pinned root is stepped by linearly-implicit-euler, bdf2 or rk4; integrator = \"newton-implicit-euler\" does not take it",
+            ));
+        }
+    }
+    if let Some(tip) = &s.ends.tip {
+        let at = format!("strands[{i}].ends.tip");
+        if setup.head != HeadMotion::Still {
+            errors.push(FieldError::new(
+                at.clone(),
+                "a held tip needs a still head (move the holder with [strands.ends.tip.motion])",
+            ));
+        }
+        if dynamic && c.integrator != IntegratorKind::LinearlyImplicitEuler {
+            errors.push(FieldError::new(
+                at.clone(),
+                format!(
+                    "a held tip is stepped by linearly-implicit-euler only (integrator = \"{}\")",
+                    c.integrator.name()
+                ),
+            ));
+        }
+        if dynamic && c.tolerance.is_some() {
+            errors.push(FieldError::new(
+                at.clone(),
+                "a held tip is stepped with fixed steps: remove [simulation] tolerance",
+            ));
+        }
+        let finite = tip
+            .position
+            .iter()
+            .chain(tip.frame.iter())
+            .chain(tip.axis.iter());
+        if !finite.into_iter().all(|x| x.is_finite()) {
+            errors.push(FieldError::new(
+                at,
+                "position, frame and axis must be finite",
+            ));
+        }
+    }
+    errors
 }
 
 fn make_kernel(
@@ -543,19 +612,29 @@ impl Simulation {
                     c.samples_per_element,
                 ));
             }
-            errors.extend(check_initial_state(
-                index,
-                &mut system,
-                &head0,
-                &s.q0,
-                rk4_dt,
-            ));
-            let n = s.q0.len();
+            let mut q0 = s.q0;
+            if let Some(held) = system.held.as_mut() {
+                // start on the constraint
+                let g = &system.strand.geometry;
+                let before = pose_at(g, &q0, g.length()).position;
+                if let Err(e) = held.project(system.kernel.as_mut(), g, &mut q0, 0.0) {
+                    let (p, _, _) = held.target(0.0);
+                    errors.push(FieldError::new(
+                        format!("strands[{index}].ends.tip"),
+                        format!(
+                            "the initial shape's tip is {:.4e} m from the held place and could not be brought there ({e}); start from a shape that reaches it (q0, or natural curvatures)",
+                            (before - p).norm()
+                        ),
+                    ));
+                }
+            }
+            errors.extend(check_initial_state(index, &mut system, &head0, &q0, rk4_dt));
+            let n = q0.len();
             strands.push(StrandSim {
                 scene_loads: system.strand.point_loads.len(),
                 system,
                 state: StrandState {
-                    q: s.q0,
+                    q: q0,
                     v: vec![0.0; n],
                 },
                 stats: StepStats::default(),
@@ -615,6 +694,22 @@ impl Simulation {
                 })?;
         }
         Ok(sim)
+    }
+
+    /// The reaction of the holder on strand `i`'s held tip at the last step or static
+    /// solve: force (N) then torque (N·m, clamped tips), world coordinates; `None` for a
+    /// free tip.
+    pub fn held_reaction(&self, i: usize) -> Option<nalgebra::Vector6<f64>> {
+        let s = self.strands.get(i)?;
+        s.system.held.as_ref().map(|h| h.reaction)
+    }
+
+    /// The largest drift of strand `i`'s held tip from its holder since the last call
+    /// (position off relative to the strand's length, frame off in radians), reset;
+    /// `None` for a free tip.
+    pub fn take_held_drift(&mut self, i: usize) -> Option<f64> {
+        let s = self.strands.get_mut(i)?;
+        s.system.held.as_mut().map(|h| h.take_drift())
     }
 
     /// The electrostatic state, when the scene has `[electrostatics]`.

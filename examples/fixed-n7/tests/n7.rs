@@ -96,6 +96,7 @@ fn runtime_strand() -> Strand {
         internal_friction: FRICTION,
         air_drag: DRAG,
         point_loads: Vec::new(),
+        ends: Default::default(),
     }
 }
 

@@ -6,7 +6,7 @@
 //! motion need: `Ẋ`, `Ẍ` in world coordinates, and the angular velocity ω and angular
 //! acceleration α = dω/dt in head coordinates (`Ṙ = R [ω]×`).
 
-mod so3;
+pub(crate) mod so3;
 mod spline;
 
 use crate::error::FieldError;

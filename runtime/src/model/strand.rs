@@ -1,5 +1,6 @@
 //! A strand's static description: geometry, material, natural shape, loads.
 
+use crate::model::ends::{RootEnd, StrandEnds, ROOT_JOINT_FRACTION};
 use crate::model::material::Material;
 use nalgebra::{Matrix3, Vector3};
 
@@ -93,17 +94,72 @@ pub struct Strand {
     pub air_drag: f64,
     /// Point loads.
     pub point_loads: Vec<PointLoad>,
+    /// How its ends are held (default: the hair's, clamped root and free tip). A pinned
+    /// root's joint is the first element of `geometry` ([`Strand::pin_root`]).
+    pub ends: StrandEnds,
 }
 
 impl Strand {
     /// Diagonal of the stiffness matrix K = diag(l_Q · (GJ, EI1, EI2)) (eq. 5c).
+    /// A pinned root's joint has none.
     pub fn stiffness_diagonal(&self) -> Vec<f64> {
+        let joint = self.ends.joint_elements();
         let mut k = Vec::with_capacity(self.geometry.dofs());
-        for &l in &self.geometry.lengths {
+        for (e, &l) in self.geometry.lengths.iter().enumerate() {
             for i in 0..3 {
-                k.push(l * self.material.stiffness[i]);
+                k.push(if e < joint {
+                    0.0
+                } else {
+                    l * self.material.stiffness[i]
+                });
             }
         }
         k
+    }
+
+    /// Diagonal of the internal friction matrix γ l_Q (none on a pinned root's joint).
+    pub fn friction_diagonal(&self) -> Vec<f64> {
+        let joint = self.ends.joint_elements();
+        (0..self.geometry.dofs())
+            .map(|i| {
+                if i / 3 < joint {
+                    0.0
+                } else {
+                    self.geometry.lengths[i / 3] * self.internal_friction
+                }
+            })
+            .collect()
+    }
+
+    /// Pin the root (a clamped root before): insert the root joint, an element of length
+    /// [`ROOT_JOINT_FRACTION`]·L with zero natural curvature, in front of the strand's
+    /// own, and the joint's three coordinates (zero: the root frame as given) in front of
+    /// `q0`. See [`crate::model::ends`].
+    pub fn pin_root(&mut self, q0: &mut Vec<f64>) {
+        if self.ends.root == RootEnd::Pinned {
+            return;
+        }
+        let joint = ROOT_JOINT_FRACTION * self.geometry.length();
+        self.geometry.lengths.insert(0, joint);
+        self.natural.splice(0..0, [0.0; 3]);
+        q0.splice(0..0, [0.0; 3]);
+        self.ends.root = RootEnd::Pinned;
+    }
+
+    /// Scale of the step's linear algebra per coordinate: 1/l₀ on a pinned root's joint
+    /// (its coordinates are then the root frame's rotation θ = l₀ d₀), `None` without one.
+    pub fn solver_scale(&self) -> Option<Vec<f64>> {
+        let joint = self.ends.joint_elements();
+        (joint > 0).then(|| {
+            (0..self.geometry.dofs())
+                .map(|i| {
+                    if i / 3 < joint {
+                        1.0 / self.geometry.lengths[i / 3]
+                    } else {
+                        1.0
+                    }
+                })
+                .collect()
+        })
     }
 }

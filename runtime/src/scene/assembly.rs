@@ -33,11 +33,16 @@ pub(super) fn read_strands(
         let group = read_group(&mut n);
         let root_position = n.optional("root", Vector3::zeros(), Node::vec3);
         let template = read_template(&mut n, defaults);
+        let ends = super::ends::read_ends(&mut n);
         if let (Some(name), Some(group)) = (name, group) {
             names.claim(&n, &name);
             let group = group.unwrap_or_else(|| name.clone());
             let mut rng = strand_rng(template.seed.unwrap_or(i as u64), 0);
-            out.extend(root_position.and_then(|r| template.build(name, group, r, &mut rng)));
+            let built = root_position.and_then(|r| template.build(name, group, r, &mut rng));
+            if let (Some(mut setup), Some(ends)) = (built, ends) {
+                ends.apply(&n, &mut setup);
+                out.push(setup);
+            }
         }
         n.finish();
     }

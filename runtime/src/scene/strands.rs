@@ -189,6 +189,7 @@ impl Template {
             internal_friction: self.internal_friction,
             air_drag: self.air_drag,
             point_loads: self.point_loads.clone()?,
+            ends: Default::default(),
         };
         Some(StrandSetup {
             strand,

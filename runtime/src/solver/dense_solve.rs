@@ -35,6 +35,10 @@ pub struct DenseSolver {
     last_valid: bool,
     /// Projections that repeated the last one's input exactly.
     pub projections_repeated: u64,
+    /// Scale S of the coordinates (`None`: 1): the systems solved are `(S A S) y = S b`,
+    /// `x = S y`, and projections are taken of `S H S`, so that coordinates of very
+    /// different units (a pinned root's joint, [`crate::model::ends`]) keep their digits.
+    scale: Option<Vec<f64>>,
 }
 
 impl DenseSolver {
@@ -75,6 +79,33 @@ impl DenseSolver {
             last_output: vec![0.0; n * n],
             last_valid: false,
             projections_repeated: 0,
+            scale: None,
+        }
+    }
+
+    /// This workspace with coordinates scaled by `scale` (see the field `scale`).
+    pub fn with_scale(mut self, scale: Option<Vec<f64>>) -> Self {
+        self.scale = scale;
+        self
+    }
+
+    /// `m_ij *= (s_i s_j)^power`, `b_i *= s_i^power` with power ±1.
+    fn rescale(&mut self, inverse: bool, matrix: bool, rhs: bool) {
+        let Some(s) = &self.scale else { return };
+        let f = |x: f64| if inverse { 1.0 / x } else { x };
+        if matrix {
+            for j in 0..s.len() {
+                let col = self.matrix.col_as_slice_mut(j);
+                for (i, m) in col.iter_mut().enumerate() {
+                    *m *= f(s[i] * s[j]);
+                }
+            }
+        }
+        if rhs {
+            let b = self.rhs.col_as_slice_mut(0);
+            for (i, x) in b.iter_mut().enumerate() {
+                *x *= f(s[i]);
+            }
         }
     }
 
@@ -89,6 +120,26 @@ impl DenseSolver {
     /// the spectrum, reusing the last basis while it still splits `h` (see there); faer's
     /// full decomposition is the fallback when that fails its checks.
     pub fn project_negative_semidefinite(&mut self, h: &mut Mat<f64>) -> bool {
+        let Some(s) = self.scale.take() else {
+            return self.project_cached(h);
+        };
+        let scale = |h: &mut Mat<f64>, inverse: bool| {
+            for j in 0..s.len() {
+                for (i, x) in h.col_as_slice_mut(j).iter_mut().enumerate() {
+                    let f = s[i] * s[j];
+                    *x = if inverse { *x / f } else { *x * f };
+                }
+            }
+        };
+        scale(h, false);
+        let ok = self.project_cached(h);
+        scale(h, true);
+        self.scale = Some(s);
+        ok
+    }
+
+    /// [`Self::project_negative_semidefinite`] on `h` as it is (scaled).
+    fn project_cached(&mut self, h: &mut Mat<f64>) -> bool {
         let n = h.nrows();
         let repeated = self.last_valid
             && (0..n).all(|j| {
@@ -196,6 +247,7 @@ impl DenseSolver {
     /// Cholesky-factor `matrix` (lower triangle read) and solve in place. Returns false,
     /// leaving `rhs` untouched, when the matrix is not numerically positive definite.
     pub fn solve_spd(&mut self) -> bool {
+        self.rescale(false, true, true);
         let stack = MemStack::new(&mut self.buffer);
         let ok = llt::factor::cholesky_in_place(
             self.matrix.as_mut(),
@@ -206,16 +258,19 @@ impl DenseSolver {
         )
         .is_ok();
         if !ok {
+            self.rescale(true, false, true);
             return false;
         }
         let stack = MemStack::new(&mut self.buffer);
         llt::solve::solve_in_place(self.matrix.as_ref(), self.rhs.as_mut(), Par::Seq, stack);
+        self.rescale(false, false, true);
         all_finite(self.rhs.as_mut())
     }
 
     /// LU-factor `matrix` with partial pivoting and solve in place. Returns false when
     /// the solution is not finite (singular matrix).
     pub fn solve_general(&mut self) -> bool {
+        self.rescale(false, true, true);
         let stack = MemStack::new(&mut self.buffer);
         let (_, perm) = lu::factor::lu_in_place(
             self.matrix.as_mut(),
@@ -234,6 +289,7 @@ impl DenseSolver {
             Par::Seq,
             stack,
         );
+        self.rescale(false, false, true);
         all_finite(self.rhs.as_mut())
     }
 }
@@ -244,6 +300,9 @@ impl DenseSolver {
     /// finite.
     pub fn solve_factored(&mut self, x: &mut [f64]) -> bool {
         let n = self.matrix.nrows();
+        if let Some(s) = &self.scale {
+            x.iter_mut().zip(s).for_each(|(x, s)| *x *= s);
+        }
         let perm = faer::perm::PermRef::new_checked(&self.perm, &self.perm_inv, n);
         let stack = MemStack::new(&mut self.buffer);
         let rhs = MatMut::from_column_major_slice_mut(x, n, 1);
@@ -255,7 +314,34 @@ impl DenseSolver {
             Par::Seq,
             stack,
         );
+        if let Some(s) = &self.scale {
+            x.iter_mut().zip(s).for_each(|(x, s)| *x *= s);
+        }
         x.iter().all(|v| v.is_finite())
+    }
+}
+
+impl DenseSolver {
+    /// Solve `A x = b` in place in `x` with the Cholesky factor of the last successful
+    /// [`Self::solve_spd`] (no factorisation). Returns false when the solution is not
+    /// finite.
+    pub fn solve_factored_spd(&mut self, x: &mut [f64]) -> bool {
+        let n = self.matrix.nrows();
+        if let Some(s) = &self.scale {
+            x.iter_mut().zip(s).for_each(|(x, s)| *x *= s);
+        }
+        let stack = MemStack::new(&mut self.buffer);
+        let rhs = MatMut::from_column_major_slice_mut(x, n, 1);
+        llt::solve::solve_in_place(self.matrix.as_ref(), rhs, Par::Seq, stack);
+        if let Some(s) = &self.scale {
+            x.iter_mut().zip(s).for_each(|(x, s)| *x *= s);
+        }
+        x.iter().all(|v| v.is_finite())
+    }
+
+    /// The coordinates' scale (see [`Self::with_scale`]).
+    pub fn scale(&self) -> Option<&[f64]> {
+        self.scale.as_deref()
     }
 }
 

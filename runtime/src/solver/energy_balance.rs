@@ -28,6 +28,7 @@ pub fn measure(
         workspace,
         context,
         contacts,
+        ..
     } = system;
     let kernel = kernel.as_mut();
     let (terms, jac) = (&mut workspace.terms, &mut workspace.jac);

@@ -62,6 +62,20 @@ pub fn linearly_implicit_euler(
         return Err("linearly implicit Euler: singular step matrix".into());
     }
     v.copy_from_slice(system.workspace.solver.solution());
+    let t_end = interval.t + h;
+    if let Some(held) = system.held.as_mut() {
+        // the held tip's multipliers on the same factors
+        let solver = &mut system.workspace.solver;
+        held.constrain_velocities(
+            system.kernel.as_mut(),
+            &system.strand.geometry,
+            &mut |x| solver.solve_factored(x),
+            q,
+            v,
+            t_end,
+            h,
+        )?;
+    }
     let has_contacts = system.contacts.is_some();
     if has_contacts {
         system.workspace.scratch[5].copy_from_slice(q);
@@ -69,14 +83,18 @@ pub fn linearly_implicit_euler(
     for i in 0..n {
         q[i] += h * v[i];
     }
-    if !has_contacts {
-        return Ok(());
+    if has_contacts {
+        // the contacts that start within the step, predicted along the solution
+        let at = interval.at_end();
+        let ws = &system.workspace;
+        if let Some(c) = system.contacts.as_mut() {
+            c.predict(&at, &system.strand.geometry, &ws.scratch[5], q);
+        }
+        resolve(system, &at, (h, h), q, v, stats)?;
     }
-    // the contacts that start within the step, predicted along the solution
-    let at = interval.at_end();
-    let ws = &system.workspace;
-    if let Some(c) = system.contacts.as_mut() {
-        c.predict(&at, &system.strand.geometry, &ws.scratch[5], q);
+    if let Some(held) = system.held.as_mut() {
+        // the drift the linearised constraint leaves, projected out
+        held.project(system.kernel.as_mut(), &system.strand.geometry, q, t_end)?;
     }
-    resolve(system, &at, (h, h), q, v, stats)
+    Ok(())
 }

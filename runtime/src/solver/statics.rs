@@ -23,10 +23,6 @@ pub const STATIC_TOLERANCE: f64 = 1e-11;
 /// Newton iteration cap.
 pub const STATIC_MAX_ITERATIONS: usize = 200;
 
-fn max_abs(x: &[f64]) -> f64 {
-    x.iter().fold(0.0, |m, v| m.max(v.abs()))
-}
-
 /// Armijo backtracking: the largest α = 2^-k with E(α) ≤ E(0) + 1e-4 α slope.
 fn backtrack(energy_at: &mut impl FnMut(f64) -> f64, e0: f64, slope: f64) -> Result<f64, String> {
     let mut alpha = 1.0;
@@ -65,21 +61,66 @@ fn newton_static(system: &mut StrandSystem, q: &mut [f64]) -> Result<StaticRepor
     let mut report = StaticReport::default();
     let mut trial = vec![0.0; n];
     let mut force = vec![0.0; n];
+    let mut balanced = vec![0.0; n];
+    // generalized forces compared in the solver's units (a pinned root's joint: torques)
+    let scale: Vec<f64> = match system.workspace.solver.scale() {
+        Some(s) => s.to_vec(),
+        None => vec![1.0; n],
+    };
+    let scaled_max = |f: &[f64]| {
+        f.iter()
+            .zip(&scale)
+            .fold(0.0f64, |m, (f, s)| m.max((f * s).abs()))
+    };
+    if let Some(held) = system.held.as_mut() {
+        // start on the constraint
+        held.project(system.kernel.as_mut(), &system.strand.geometry, q, 0.0)?;
+    }
     for iteration in 0..=STATIC_MAX_ITERATIONS {
         system.assemble(&at, q, &zero, terms);
         let ws = &mut system.workspace;
         force.copy_from_slice(&ws.terms.force);
-        let residual = max_abs(&force);
+        balanced.copy_from_slice(&force);
+        let mut feasible = true;
+        if let Some(held) = system.held.as_mut() {
+            // the force the holder leaves unbalanced
+            let worst = held
+                .balance_static(
+                    system.kernel.as_mut(),
+                    &system.strand.geometry,
+                    q,
+                    &mut balanced,
+                    0.0,
+                )
+                .ok_or("static solve: the held tip's constraints are dependent")?;
+            feasible = worst <= 1e3 * super::held_end::PROJECTION_TOLERANCE;
+        }
+        let residual = scaled_max(&balanced);
         if iteration == 0 {
             // scale: the largest elastic or external generalized force in play
             let elastic: f64 = (0..n)
-                .map(|i| (ws.stiffness[i] * (q[i] - system.strand.natural[i])).abs())
+                .map(|i| (ws.stiffness[i] * (q[i] - system.strand.natural[i]) * scale[i]).abs())
                 .fold(0.0, f64::max);
-            report.force_scale = residual.max(elastic).max(1e-300);
+            // and what the loads could exert: a force f at arm L on an element of
+            // length l is a generalized force of f L l (a nearly straight start under a
+            // compressive load has almost none yet)
+            let g = &system.strand.geometry;
+            let longest = g.lengths.iter().fold(0.0f64, |m, &l| m.max(l));
+            let weight = system.context.effects.gravity.map_or(0.0, |g| g.norm())
+                * system.strand.material.mass_per_length
+                * g.length();
+            let loads: f64 = system
+                .strand
+                .point_loads
+                .iter()
+                .map(|p| p.force.norm())
+                .sum();
+            let loads = (weight + loads) * g.length() * longest;
+            report.force_scale = scaled_max(&force).max(elastic).max(loads).max(1e-300);
         }
         report.iterations = iteration;
         report.residual = residual;
-        if residual <= STATIC_TOLERANCE * report.force_scale {
+        if residual <= STATIC_TOLERANCE * report.force_scale && feasible {
             report.converged = true;
             return Ok(report);
         }
@@ -88,20 +129,61 @@ fn newton_static(system: &mut StrandSystem, q: &mut [f64]) -> Result<StaticRepor
         }
         // Newton direction: (−∂F/∂q + λ diag K) Δ = F
         let mut lambda = 0.0;
+        // the shift of a coordinate without stiffness (a pinned root's joint): the mean
+        // stiffness in the solver's units
+        let stiff: Vec<f64> = (0..n)
+            .filter(|&i| ws.stiffness[i] > 0.0)
+            .map(|i| ws.stiffness[i])
+            .collect();
+        let mean = stiff.iter().sum::<f64>() / stiff.len().max(1) as f64;
+        // With a held tip the Hessian need only be positive definite across the
+        // constraint's tangent (a column held at its top is stable under loads that
+        // buckle it free): H + ρ GᵀG (the augmented Lagrangian, with F − ρ Gᵀg) has the
+        // same constrained Newton step and is positive definite for ρ large enough; ρ
+        // grows from the stiffness's scale before the shift λ is tried.
+        let largest = stiff.iter().fold(0.0f64, |m, &k| m.max(k));
+        let mut rho = 0.0;
+        let augmentable = system.held.is_some();
         loop {
             for j in 0..n {
                 for i in 0..n {
                     let h = -0.5 * (ws.terms.stiffness[(i, j)] + ws.terms.stiffness[(j, i)]);
                     ws.solver.matrix[(i, j)] = h + if i == j {
-                        lambda * ws.stiffness[i]
+                        let k = ws.stiffness[i];
+                        lambda
+                            * if k > 0.0 {
+                                k
+                            } else {
+                                mean / (scale[i] * scale[i])
+                            }
                     } else {
                         0.0
                     };
                 }
             }
             ws.solver.rhs_mut().copy_from_slice(&force);
+            if let (Some(held), true) = (system.held.as_ref(), rho > 0.0) {
+                held.augment(
+                    &mut ws.solver.matrix,
+                    ws.solver.rhs.col_as_slice_mut(0),
+                    rho,
+                );
+            }
             if ws.solver.solve_spd() {
                 break;
+            }
+            if augmentable && lambda == 0.0 && rho < 1e12 * largest {
+                rho = if rho == 0.0 {
+                    system
+                        .held
+                        .as_ref()
+                        .map_or(0.0, |h| h.augmentation_scale(largest))
+                } else {
+                    rho * 10.0
+                };
+                if rho > 0.0 {
+                    continue;
+                }
             }
             lambda = if lambda == 0.0 { 1e-3 } else { lambda * 10.0 };
             if lambda > 1e12 {
@@ -110,7 +192,12 @@ fn newton_static(system: &mut StrandSystem, q: &mut [f64]) -> Result<StaticRepor
                 );
             }
         }
-        let step: Vec<f64> = ws.solver.solution().to_vec();
+        let mut step: Vec<f64> = ws.solver.solution().to_vec();
+        if let Some(held) = system.held.as_mut() {
+            // on the constraint's tangent: Δ = H⁻¹F − H⁻¹Gᵀμ with G Δ = −g
+            let solver = &mut ws.solver;
+            held.static_direction(&mut |x| solver.solve_factored_spd(x), &mut step)?;
+        }
         let slope: f64 = -force.iter().zip(&step).map(|(f, d)| f * d).sum::<f64>();
         let e0 = system.energy(q, &zero);
         // Near the solution the energy decrease falls below the rounding of E: take the
@@ -120,6 +207,16 @@ fn newton_static(system: &mut StrandSystem, q: &mut [f64]) -> Result<StaticRepor
                 for i in 0..n {
                     trial[i] = q[i] + alpha * step[i];
                 }
+                if let Some(held) = system.held.as_mut() {
+                    // the trial point back on the constraint (a failure: no decrease)
+                    let kernel = system.kernel.as_mut();
+                    if held
+                        .project(kernel, &system.strand.geometry, &mut trial, 0.0)
+                        .is_err()
+                    {
+                        return f64::INFINITY;
+                    }
+                }
                 system.energy(&trial, &zero)
             };
             backtrack(&mut energy_at, e0, slope)?
@@ -128,6 +225,9 @@ fn newton_static(system: &mut StrandSystem, q: &mut [f64]) -> Result<StaticRepor
         };
         for i in 0..n {
             q[i] += alpha * step[i];
+        }
+        if let Some(held) = system.held.as_mut() {
+            held.project(system.kernel.as_mut(), &system.strand.geometry, q, 0.0)?;
         }
     }
     Ok(report)

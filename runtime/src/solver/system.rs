@@ -59,15 +59,10 @@ impl StrandWorkspace {
     /// Buffers for this strand.
     pub fn new(strand: &Strand) -> Self {
         let n = strand.geometry.dofs();
-        let friction = strand
-            .geometry
-            .lengths
-            .iter()
-            .flat_map(|l| [l * strand.internal_friction; 3])
-            .collect();
+        let friction = strand.friction_diagonal();
         StrandWorkspace {
             terms: StrandTerms::new(n),
-            solver: DenseSolver::new(n),
+            solver: DenseSolver::new(n).with_scale(strand.solver_scale()),
             jac: vec![Vector3::zeros(); n],
             stiffness: strand.stiffness_diagonal(),
             friction,
@@ -148,6 +143,8 @@ pub struct StrandSystem {
     pub context: StepContext,
     /// Its contacts with bodies and other strands (`None`: the scene has no `[contacts]`).
     pub contacts: Option<StrandContacts>,
+    /// Its held tip (`None`: a free tip).
+    pub held: Option<super::held_end::HeldTip>,
 }
 
 /// What an assembly contained beyond elasticity and friction.
@@ -166,12 +163,17 @@ pub struct Assembled {
 impl StrandSystem {
     /// The system of `strand` on `kernel`, its buffers sized once.
     pub fn new(strand: Strand, kernel: Box<dyn StrandKernel>, context: StepContext) -> Self {
+        let held =
+            strand.ends.tip.clone().map(|end| {
+                super::held_end::HeldTip::new(end, &strand.geometry, strand.solver_scale())
+            });
         StrandSystem {
             workspace: StrandWorkspace::new(&strand),
             strand,
             kernel,
             context,
             contacts: None,
+            held,
         }
     }
 
@@ -188,6 +190,7 @@ impl StrandSystem {
             workspace: ws,
             context: ctx,
             contacts,
+            held,
         } = self;
         let kernel = kernel.as_mut();
         let field = body_field(
@@ -237,6 +240,7 @@ impl StrandSystem {
                 t.damping[(i, i)] -= ws.friction[i];
             }
         }
+        let mut held_stiffness = false;
         add_point_loads(
             &strand.point_loads,
             &head.rotation,
@@ -249,6 +253,21 @@ impl StrandSystem {
             },
             t,
         );
+        if let (Some(held), true) = (held.as_ref(), terms.stiffness && !explicit) {
+            // the holder's reaction (of the last step or static iteration) pulls on the
+            // tip as a point load would: its stiffness f · ∂²y(L)/∂q² (the tension's
+            // geometric stiffness) goes into the matrix; its force is the multipliers'
+            let f = head.rotation.transpose() * held.reaction_force();
+            if f != Vector3::zeros() {
+                kernel.point(
+                    q,
+                    strand.geometry.length(),
+                    &mut ws.jac,
+                    Some((f, &mut t.stiffness)),
+                );
+                held_stiffness = true;
+            }
+        }
         let touching = match contacts {
             Some(c) => c.add_to_terms(at, kernel, q, v, terms, !explicit, &mut ws.jac, t),
             None => false,
@@ -257,7 +276,7 @@ impl StrandSystem {
             field_stiffness: if explicit {
                 touching
             } else {
-                position_field || !strand.point_loads.is_empty() || touching
+                position_field || !strand.point_loads.is_empty() || touching || held_stiffness
             },
             gyroscopic: ctx.effects.head_moves && head.omega != Vector3::zeros() && terms.damping,
             unprojected: explicit,
@@ -284,6 +303,7 @@ impl StrandSystem {
             workspace: ws,
             context: ctx,
             contacts,
+            ..
         } = self;
         let kernel = kernel.as_mut();
         let terms = Terms {

@@ -31,19 +31,19 @@ impl Coefficients {
 }
 
 /// The cross-product matrix `[v]×`.
-pub(super) fn hat(v: &Vector3<f64>) -> Matrix3<f64> {
+pub(crate) fn hat(v: &Vector3<f64>) -> Matrix3<f64> {
     v.cross_matrix()
 }
 
 /// `exp([φ]×) = I + a K + b K²`, `K = [φ]×`: the rotation by |φ| about φ/|φ|.
-pub(super) fn exp(phi: &Vector3<f64>) -> Matrix3<f64> {
+pub(crate) fn exp(phi: &Vector3<f64>) -> Matrix3<f64> {
     let k = hat(phi);
     let co = Coefficients::at(phi.norm_squared());
     Matrix3::identity() + k * co.a + k * k * co.b
 }
 
 /// The right Jacobian `J_r(φ) = I − b K + c K²`: `Rᵀ Ṙ = [J_r(φ) φ̇]×` for `R = exp([φ]×)`.
-pub(super) fn right_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
+pub(crate) fn right_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
     let k = hat(phi);
     let co = Coefficients::at(phi.norm_squared());
     Matrix3::identity() - k * co.b + k * k * co.c

@@ -1,0 +1,123 @@
+//! The two ends of a rod: how the root is held (clamped, the hair's case, or pinned) and
+//! whether the second end (the tip) is free or held (pinned, clamped or sliding, at a
+//! fixed place or driven by a motion).
+//!
+//! - A **clamped root** is the paper's: the root frame F₀ is given (section 3.1).
+//! - A **pinned root** holds the root's position and lets its frame turn: the strand gets
+//!   a *root joint*, a first element of length [`ROOT_JOINT_FRACTION`]·L with no
+//!   stiffness and no internal friction, whose Darboux vector d₀ is the rotation of the
+//!   frame: the rest of the strand starts from `F₀ exp(l₀ [d₀]×)`, so `θ = l₀ d₀` is the
+//!   rotation vector of the root frame from its initial orientation (eq. 2 of the paper
+//!   with the element's length taken to a sliver). The root point then moves by at most
+//!   2 l₀ = 2·10⁻¹⁰ L. The solver works on θ (its linear algebra is scaled by 1/l₀), so
+//!   the tiny length costs no accuracy.
+//! - A **held tip** is a holonomic constraint on the chain's last pose, `y(L, q) = p(t)`
+//!   (pinned), plus the frame `F_N(q) = F*(t)` (clamped), or only the two directions
+//!   across an axis (sliding): its multipliers are solved with each implicit step and the
+//!   static solve ([`crate::solver::held_end`]), and the drift left is projected out.
+
+use crate::forces::head_motion::HeadMotion;
+use nalgebra::{Matrix3, Vector3};
+
+/// Length of a pinned root's joint element, as a fraction of the strand's length.
+pub const ROOT_JOINT_FRACTION: f64 = 1e-10;
+
+/// How the root is held.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RootEnd {
+    /// Position and frame given (the hair's root); default.
+    #[default]
+    Clamped,
+    /// Position given, frame free: the root joint's three rotations are coordinates
+    /// with no stiffness.
+    Pinned,
+}
+
+impl RootEnd {
+    /// Name as written in scenes.
+    pub fn name(self) -> &'static str {
+        match self {
+            RootEnd::Clamped => "clamped",
+            RootEnd::Pinned => "pinned",
+        }
+    }
+}
+
+/// What a held tip holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HeldKind {
+    /// The tip's position (3 constraints); its frame turns freely.
+    Pinned,
+    /// The tip's position and frame (6 constraints).
+    Clamped,
+    /// The tip's position across an axis (2 constraints): the tip slides along the axis
+    /// under the loads, and is driven across it by the motion.
+    Sliding,
+}
+
+impl HeldKind {
+    /// Name as written in scenes.
+    pub fn name(self) -> &'static str {
+        match self {
+            HeldKind::Pinned => "pinned",
+            HeldKind::Clamped => "clamped",
+            HeldKind::Sliding => "sliding",
+        }
+    }
+
+    /// Number of scalar constraints.
+    pub fn rows(self) -> usize {
+        match self {
+            HeldKind::Pinned => 3,
+            HeldKind::Clamped => 6,
+            HeldKind::Sliding => 2,
+        }
+    }
+}
+
+/// A held tip: where it is held, in world coordinates, and how that place moves.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeldEnd {
+    /// What is held.
+    pub kind: HeldKind,
+    /// The held point p (for `Sliding`, a point of the axis) in the motion's frame,
+    /// metres: at time t it is at `X_m(t) + R_m(t) p` in the world.
+    pub position: Vector3<f64>,
+    /// The held frame F* (columns n0, n1, n2) in the motion's frame (`Clamped`).
+    pub frame: Matrix3<f64>,
+    /// The unit axis a tip slides along, in the motion's frame (`Sliding`).
+    pub axis: Vector3<f64>,
+    /// The motion of the holder (`Still`: fixed in the world; keyframes: driven).
+    pub motion: HeadMotion,
+}
+
+/// Both ends of a strand.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct StrandEnds {
+    /// The root.
+    pub root: RootEnd,
+    /// The tip: `None` is free (the hair's tip).
+    pub tip: Option<HeldEnd>,
+}
+
+impl StrandEnds {
+    /// Elements of the root joint in front of the strand's own (1 for a pinned root).
+    pub fn joint_elements(&self) -> usize {
+        match self.root {
+            RootEnd::Clamped => 0,
+            RootEnd::Pinned => 1,
+        }
+    }
+
+    /// Whether both ends are the hair's (clamped root, free tip).
+    pub fn is_hair(&self) -> bool {
+        self.root == RootEnd::Clamped && self.tip.is_none()
+    }
+}
+
+/// A unit vector perpendicular to the unit vector `v` (from the world axis least aligned
+/// with it).
+pub fn perpendicular(v: &Vector3<f64>) -> Vector3<f64> {
+    let e = Vector3::ith(v.iamin(), 1.0);
+    (e - v * v.dot(&e)).normalize()
+}

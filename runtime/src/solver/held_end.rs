@@ -1,0 +1,389 @@
+//! A held tip as a holonomic constraint `g(q, t) = 0` on the chain's last pose
+//! ([`crate::model::ends`]): its Jacobian, the multipliers of an implicit step, the
+//! projection that removes the drift a linearised step leaves, and the reaction at the
+//! holder.
+//!
+//! Rows of g, all in world (= head) coordinates:
+//! - pinned: `y(L, q) − p(t)` (3 rows, metres);
+//! - sliding: `b_k · (y(L, q) − p(t))` for the two unit vectors b₁, b₂ across the axis
+//!   (2 rows);
+//! - clamped: the three of pinned, then `φ = log(F_N(q) F*(t)ᵀ)`, the rotation vector
+//!   from the held frame to the tip's (3 rows, radians).
+//!
+//! The position rows' Jacobian is J(L), the kernel's; the rotation rows' is the tip
+//! frame's angular Jacobian: varying d_Q turns every frame after element Q by
+//! `ω = l_Q F_{Q+1} J_r(l_Q d_Q) δd_Q` in the world (`F_{Q+1} = F_Q exp(l_Q [d_Q]×)`, and
+//! `δ exp([φ]×) = exp([φ]×) [J_r(φ) δφ]×` with J_r the right Jacobian of SO(3)). For φ
+//! away from 0 the exact Jacobian of the log is `J_l(φ)⁻¹` times it; the projection
+//! converges on the residual whatever, and φ stays at round-off between steps.
+
+use crate::bodies::motion::so3;
+use crate::kernels::kernel::StrandKernel;
+use crate::model::ends::{HeldEnd, HeldKind};
+use crate::model::reconstruction::Pose;
+use crate::model::strand::StrandGeometry;
+use nalgebra::{Matrix3, Matrix6, Rotation3, Vector3, Vector6};
+
+/// The drift a projection leaves, relative to the strand length (positions) or in
+/// radians (frames).
+pub const PROJECTION_TOLERANCE: f64 = 1e-13;
+/// The drift past which a step fails: the constraint could not be met.
+pub const DRIFT_LIMIT: f64 = 1e-9;
+/// Projection iterations at most.
+const PROJECTION_ITERATIONS: usize = 12;
+
+/// A held tip's constraint on one strand, with its buffers.
+#[derive(Debug, Clone)]
+pub struct HeldTip {
+    /// What holds the tip, and where.
+    pub end: HeldEnd,
+    rows: usize,
+    /// The Jacobian G, `rows` rows of n.
+    g_jac: Vec<Vec<f64>>,
+    /// g at the last evaluation.
+    residual: Vector6<f64>,
+    /// A scale S of the coordinates (1/l₀ on a pinned root's joint).
+    scale: Vec<f64>,
+    ends: Vec<Pose>,
+    jac: Vec<Vector3<f64>>,
+    w: Vec<Vec<f64>>,
+    /// The reaction of the holder on the tip at the last step or static solve: force
+    /// (N) then torque (N·m, clamped tips), world coordinates.
+    pub reaction: Vector6<f64>,
+    /// The largest drift left after a projection since the last
+    /// [`HeldTip::take_drift`]: |position rows| / L and |rotation rows|.
+    drift: f64,
+}
+
+impl HeldTip {
+    /// The constraint of `end` on a strand of `geometry`; `scale` as the step's
+    /// ([`crate::model::strand::Strand::solver_scale`]).
+    pub fn new(end: HeldEnd, geometry: &StrandGeometry, scale: Option<Vec<f64>>) -> Self {
+        let n = geometry.dofs();
+        let rows = end.kind.rows();
+        HeldTip {
+            end,
+            rows,
+            g_jac: vec![vec![0.0; n]; rows],
+            residual: Vector6::zeros(),
+            scale: scale.unwrap_or_else(|| vec![1.0; n]),
+            ends: vec![Pose::default(); geometry.elements() + 1],
+            jac: vec![Vector3::zeros(); n],
+            w: vec![vec![0.0; n]; rows],
+            reaction: Vector6::zeros(),
+            drift: 0.0,
+        }
+    }
+
+    /// The force of the holder on the tip at the last step or static iteration, world
+    /// coordinates, N.
+    pub fn reaction_force(&self) -> Vector3<f64> {
+        self.reaction.fixed_rows::<3>(0).into_owned()
+    }
+
+    /// Number of scalar constraints.
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// The largest drift since the last call (see the field), reset.
+    pub fn take_drift(&mut self) -> f64 {
+        std::mem::take(&mut self.drift)
+    }
+
+    /// The held place at time t: the point, the frame and the axis, world coordinates.
+    pub fn target(&self, t: f64) -> (Vector3<f64>, Matrix3<f64>, Vector3<f64>) {
+        let m = self.end.motion.state(t);
+        (
+            m.position + m.rotation * self.end.position,
+            m.rotation * self.end.frame,
+            m.rotation * self.end.axis,
+        )
+    }
+
+    /// g(q, t) and its Jacobian G into the buffers; returns the largest |g| relative to
+    /// `length` (positions) or in radians.
+    fn evaluate(
+        &mut self,
+        kernel: &mut dyn StrandKernel,
+        geometry: &StrandGeometry,
+        q: &[f64],
+        t: f64,
+    ) -> f64 {
+        let n = q.len();
+        let length = geometry.length();
+        let (p, frame, axis) = self.target(t);
+        let y = kernel.point(q, length, &mut self.jac, None);
+        let d = y - p;
+        let across = |a: &Vector3<f64>| {
+            let b1 = crate::model::ends::perpendicular(a);
+            (b1, a.cross(&b1))
+        };
+        match self.end.kind {
+            HeldKind::Sliding => {
+                let (b1, b2) = across(&axis);
+                for (row, b) in [b1, b2].iter().enumerate() {
+                    self.residual[row] = b.dot(&d);
+                    for k in 0..n {
+                        self.g_jac[row][k] = b.dot(&self.jac[k]);
+                    }
+                }
+            }
+            HeldKind::Pinned | HeldKind::Clamped => {
+                for row in 0..3 {
+                    self.residual[row] = d[row];
+                    for k in 0..n {
+                        self.g_jac[row][k] = self.jac[k][row];
+                    }
+                }
+            }
+        }
+        let mut worst = (0..self.rows.min(3))
+            .map(|r| self.residual[r].abs())
+            .fold(0.0, f64::max)
+            / length;
+        if self.end.kind == HeldKind::Clamped {
+            kernel.element_ends(q, &mut self.ends);
+            let tip = self.ends[geometry.elements()].frame;
+            let phi = Rotation3::from_matrix_unchecked(tip * frame.transpose()).scaled_axis();
+            for r in 0..3 {
+                self.residual[3 + r] = phi[r];
+            }
+            for (e, &l) in geometry.lengths.iter().enumerate() {
+                let dq = Vector3::new(q[3 * e], q[3 * e + 1], q[3 * e + 2]);
+                let cols = self.ends[e + 1].frame * so3::right_jacobian(&(dq * l)) * l;
+                for i in 0..3 {
+                    for r in 0..3 {
+                        self.g_jac[3 + r][3 * e + i] = cols[(r, i)];
+                    }
+                }
+            }
+            worst = worst.max(phi.norm());
+        }
+        worst
+    }
+
+    /// `(G W)⁻¹ x` for the rows in use, W = S² Gᵀ (or the columns in `self.w`), with the
+    /// unused rows of a 6 × 6 system set to the identity.
+    fn solve_rows(&self, x: &Vector6<f64>) -> Option<Vector6<f64>> {
+        let mut s = Matrix6::identity();
+        for a in 0..self.rows {
+            for b in 0..self.rows {
+                s[(a, b)] = self.g_jac[a]
+                    .iter()
+                    .zip(&self.w[b])
+                    .map(|(g, w)| g * w)
+                    .sum();
+            }
+        }
+        let mut rhs = Vector6::zeros();
+        for r in 0..self.rows {
+            rhs[r] = x[r];
+        }
+        let out = s.lu().solve(&rhs)?;
+        out.iter().all(|v| v.is_finite()).then_some(out)
+    }
+
+    /// W = S² Gᵀ: the scaled identity metric of the projections.
+    fn metric_columns(&mut self) {
+        for r in 0..self.rows {
+            for (k, w) in self.w[r].iter_mut().enumerate() {
+                *w = self.scale[k] * self.scale[k] * self.g_jac[r][k];
+            }
+        }
+    }
+
+    /// Project q onto g(q, t) = 0 along `S² Gᵀ` (Gauss–Newton), to
+    /// [`PROJECTION_TOLERANCE`]; records the drift left. Errors when it stays above
+    /// [`DRIFT_LIMIT`].
+    pub fn project(
+        &mut self,
+        kernel: &mut dyn StrandKernel,
+        geometry: &StrandGeometry,
+        q: &mut [f64],
+        t: f64,
+    ) -> Result<f64, String> {
+        let mut worst = self.evaluate(kernel, geometry, q, t);
+        for _ in 0..PROJECTION_ITERATIONS {
+            if worst <= PROJECTION_TOLERANCE {
+                break;
+            }
+            self.metric_columns();
+            let Some(mu) = self.solve_rows(&self.residual) else {
+                break;
+            };
+            for r in 0..self.rows {
+                for (qk, w) in q.iter_mut().zip(&self.w[r]) {
+                    *qk -= w * mu[r];
+                }
+            }
+            worst = self.evaluate(kernel, geometry, q, t);
+        }
+        if worst.is_nan() || worst > DRIFT_LIMIT {
+            return Err(format!(
+                "the held tip ({}) could not be kept: {worst:.3e} off after projection",
+                self.end.kind.name()
+            ));
+        }
+        self.drift = self.drift.max(worst);
+        Ok(worst)
+    }
+
+    /// The multipliers of a linearly implicit step whose unconstrained velocities
+    /// `v` (`A v = r`) were just solved with the factors of A in `solve`: replaces `v`
+    /// by `v − A⁻¹Gᵀλ` with `G v = −g(q, t + h)/h`, so that the linearised tip lands on
+    /// the holder at the step's end, and records the reaction `−λ/h`.
+    pub fn constrain_velocities(
+        &mut self,
+        kernel: &mut dyn StrandKernel,
+        geometry: &StrandGeometry,
+        solve: &mut impl FnMut(&mut [f64]) -> bool,
+        q: &[f64],
+        v: &mut [f64],
+        t_end: f64,
+        h: f64,
+    ) -> Result<(), String> {
+        self.evaluate(kernel, geometry, q, t_end);
+        for r in 0..self.rows {
+            self.w[r].copy_from_slice(&self.g_jac[r]);
+            if !solve(&mut self.w[r]) {
+                return Err("held tip: singular step matrix".into());
+            }
+        }
+        let mut x = Vector6::zeros();
+        for r in 0..self.rows {
+            let gv: f64 = self.g_jac[r].iter().zip(v.iter()).map(|(g, v)| g * v).sum();
+            x[r] = gv + self.residual[r] / h;
+        }
+        let lambda = self
+            .solve_rows(&x)
+            .ok_or("held tip: the constraints are dependent (singular G A⁻¹ Gᵀ)")?;
+        for r in 0..self.rows {
+            for (vk, w) in v.iter_mut().zip(&self.w[r]) {
+                *vk -= w * lambda[r];
+            }
+        }
+        self.record_reaction(&(-lambda / h), t_end);
+        Ok(())
+    }
+
+    /// The reaction from multipliers μ of the rows (generalized force Gᵀμ on the strand).
+    fn record_reaction(&mut self, mu: &Vector6<f64>, t: f64) {
+        let mut r = Vector6::zeros();
+        match self.end.kind {
+            HeldKind::Sliding => {
+                let (_, _, axis) = self.target(t);
+                let b1 = crate::model::ends::perpendicular(&axis);
+                let f = b1 * mu[0] + axis.cross(&b1) * mu[1];
+                r.fixed_rows_mut::<3>(0).copy_from(&f);
+            }
+            HeldKind::Pinned => r.fixed_rows_mut::<3>(0).copy_from(&mu.fixed_rows::<3>(0)),
+            HeldKind::Clamped => r = *mu,
+        }
+        self.reaction = r;
+    }
+
+    /// For the static solve at (q, t): the multipliers μ that best balance the
+    /// generalized force `force` (least squares in the scaled metric,
+    /// `min |S (F + Gᵀμ)|`), the balanced force `F + Gᵀμ` written over `force`, and the
+    /// reaction recorded. Returns the largest |g|.
+    pub fn balance_static(
+        &mut self,
+        kernel: &mut dyn StrandKernel,
+        geometry: &StrandGeometry,
+        q: &[f64],
+        force: &mut [f64],
+        t: f64,
+    ) -> Option<f64> {
+        let worst = self.evaluate(kernel, geometry, q, t);
+        self.metric_columns();
+        let mut x = Vector6::zeros();
+        for r in 0..self.rows {
+            x[r] = -self.w[r]
+                .iter()
+                .zip(force.iter())
+                .map(|(w, f)| w * f)
+                .sum::<f64>();
+        }
+        let mu = self.solve_rows(&x)?;
+        for r in 0..self.rows {
+            for (f, g) in force.iter_mut().zip(&self.g_jac[r]) {
+                *f += g * mu[r];
+            }
+        }
+        self.record_reaction(&mu, t);
+        Some(worst)
+    }
+
+    /// ρ for [`HeldTip::augment`] of the order of the stiffness `k` over the largest
+    /// diagonal of GᵀG (G of the last evaluation).
+    pub fn augmentation_scale(&self, k: f64) -> f64 {
+        let n = self.scale.len();
+        let largest = (0..n)
+            .map(|i| {
+                (0..self.rows)
+                    .map(|r| self.g_jac[r][i].powi(2))
+                    .sum::<f64>()
+            })
+            .fold(0.0f64, f64::max);
+        if largest > 0.0 {
+            k / largest
+        } else {
+            0.0
+        }
+    }
+
+    /// `H += ρ GᵀG` and `F −= ρ Gᵀg` (the augmented Lagrangian's Newton system; G and g
+    /// of the last evaluation).
+    pub fn augment(&self, h: &mut faer::Mat<f64>, rhs: &mut [f64], rho: f64) {
+        let n = self.scale.len();
+        for r in 0..self.rows {
+            let g = &self.g_jac[r];
+            for j in 0..n {
+                let gj = rho * g[j];
+                if gj == 0.0 {
+                    continue;
+                }
+                for i in 0..n {
+                    h[(i, j)] += g[i] * gj;
+                }
+                rhs[j] -= gj * self.residual[r];
+            }
+        }
+    }
+
+    /// The Newton direction of the static solve under the constraint: given `hinv_f`
+    /// = H⁻¹F and a solver of H (its factors), `Δ = H⁻¹F − H⁻¹Gᵀμ` with
+    /// `G Δ = −g`, written over `hinv_f`. Uses g and G of the last
+    /// [`HeldTip::balance_static`].
+    pub fn static_direction(
+        &mut self,
+        solve: &mut impl FnMut(&mut [f64]) -> bool,
+        hinv_f: &mut [f64],
+    ) -> Result<(), String> {
+        for r in 0..self.rows {
+            self.w[r].copy_from_slice(&self.g_jac[r]);
+            if !solve(&mut self.w[r]) {
+                return Err("static solve: singular Hessian with the held tip".into());
+            }
+        }
+        let mut x = Vector6::zeros();
+        for r in 0..self.rows {
+            let gd: f64 = self.g_jac[r]
+                .iter()
+                .zip(hinv_f.iter())
+                .map(|(g, d)| g * d)
+                .sum();
+            x[r] = gd + self.residual[r];
+        }
+        let mu = self
+            .solve_rows(&x)
+            .ok_or("static solve: the held tip's constraints are dependent")?;
+        for r in 0..self.rows {
+            for (d, w) in hinv_f.iter_mut().zip(&self.w[r]) {
+                *d -= w * mu[r];
+            }
+        }
+        Ok(())
+    }
+}

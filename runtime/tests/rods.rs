@@ -1,0 +1,278 @@
+//! Rods held at their ends (pinned, clamped, sliding, driven): checks against closed
+//! forms nobody here wrote (the catenary, the compound pendulum, Euler's buckling load).
+
+use superhelix_runtime::{parse_scene, Simulation};
+
+/// The catenary through (0, 0) and (span, 0) with arc length `length`:
+/// `z(x) = a cosh((x − span/2)/a) − a cosh(span/(2a))`, `2a sinh(span/(2a)) = length`.
+fn catenary(span: f64, length: f64) -> impl Fn(f64) -> f64 {
+    let (mut lo, mut hi) = (1e-3 * span, 1e3 * span);
+    for _ in 0..200 {
+        let a = 0.5 * (lo + hi);
+        if 2.0 * a * (span / (2.0 * a)).sinh() > length {
+            lo = a;
+        } else {
+            hi = a;
+        }
+    }
+    let a = 0.5 * (lo + hi);
+    move |x: f64| a * ((x - 0.5 * span) / a).cosh() - a * (span / (2.0 * a)).cosh()
+}
+
+/// A rope of `length` pinned at both ends `span` apart, starting as a circular arc
+/// sagging below the chord.
+fn rope_scene(length: f64, span: f64, elements: usize, youngs_modulus: f64) -> String {
+    // sin x / x = span / length, x = half the arc's angle
+    let (mut lo, mut hi) = (1e-9, std::f64::consts::PI);
+    for _ in 0..200 {
+        let x = 0.5 * (lo + hi);
+        if x.sin() / x > span / length {
+            lo = x;
+        } else {
+            hi = x;
+        }
+    }
+    let x = 0.5 * (lo + hi);
+    let kappa = 2.0 * x / length;
+    // direction tilted down by x; n1 = y, so κ1 < 0 turns the tangent up (towards +n2)
+    let q0: Vec<String> = (0..elements)
+        .map(|_| format!("0.0, {}, 0.0", -kappa))
+        .collect();
+    format!(
+        r#"
+[simulation]
+mode = "static"
+[[strands]]
+name = "rope"
+length = {length}
+elements = {elements}
+youngs_modulus = {youngs_modulus}
+direction = [{}, 0.0, {}]
+normal = [0.0, 1.0, 0.0]
+q0 = [{}]
+[strands.ends]
+root = "pinned"
+[strands.ends.tip]
+kind = "pinned"
+position = [{span}, 0.0, 0.0]
+"#,
+        x.cos(),
+        -x.sin(),
+        q0.join(", ")
+    )
+}
+
+/// Distance to the catenary (max |z − z_cat| / span) and the tip's force over the
+/// rope's weight, for one bending length.
+fn catenary_run(length: f64, span: f64, elements: usize, e: f64) -> (f64, f64, [f64; 3]) {
+    let z = catenary(span, length);
+    let setup = parse_scene(&rope_scene(length, span, elements, e)).expect("scene");
+    let rho_s = setup.strands[0].strand.material.mass_per_length;
+    let ei = setup.strands[0].strand.material.stiffness[1];
+    let mut sim = Simulation::new(setup, None).expect("simulation");
+    let reports = sim.solve_static().expect("static");
+    assert!(reports[0].converged, "{:?}", reports[0]);
+    let points = sim.centreline_world(0, 4);
+    let worst = points
+        .iter()
+        .map(|p| (p[2] - z(p[0])).abs())
+        .fold(0.0, f64::max);
+    let f = sim.held_reaction(0).expect("held");
+    let w = rho_s * 9.81 * length;
+    let bending_length = (ei / (rho_s * 9.81)).cbrt();
+    (
+        bending_length / span,
+        worst / span,
+        [f[0] / w, f[1] / w, f[2] / w],
+    )
+}
+
+#[test]
+fn a_heavy_rod_held_at_both_ends_settles_on_the_catenary() {
+    // a rope of 1 m pinned at both ends 0.8 m apart, N = 100, bending lengths
+    // (EI/ρSg)^(1/3) from 4.6 % to 0.21 % of the span (E = 1e9, 1e7, 1e5 Pa)
+    let (length, span): (f64, f64) = (1.0, 0.8);
+    // the catenary's horizontal tension over the weight: a / L with 2a sinh(span/2a) = L
+    let (mut lo, mut hi) = (0.01, 100.0);
+    for _ in 0..200 {
+        let a = 0.5 * (lo + hi);
+        if 2.0 * a * (span / (2.0 * a)).sinh() > length {
+            lo = a;
+        } else {
+            hi = a;
+        }
+    }
+    let tension = 0.5 * (lo + hi) / length;
+    let mut last = f64::INFINITY;
+    // measured: 1.28e-4, 2.16e-6, 6.9e-8 of the span; the bound is twice each
+    for (e, bound) in [(1e9, 2.6e-4), (1e7, 4.4e-6), (1e5, 1.4e-7)] {
+        let (lb, distance, f) = catenary_run(length, span, 100, e);
+        eprintln!(
+            "bending length {lb:.3e} span: distance to the catenary {distance:.3e} span, \
+             tip force / weight ({:.6}, {:.1e}, {:.9}) (catenary: ({tension:.6}, 0, 0.5))",
+            f[0], f[1], f[2]
+        );
+        assert!(
+            distance < bound && distance < 0.1 * last,
+            "{distance:e} (bound {bound:e}, last {last:e})"
+        );
+        last = distance;
+        // the vertical force holds half the weight by symmetry
+        assert!((f[2] - 0.5).abs() < 1e-9, "{f:?}");
+        assert!(f[1].abs() < 1e-12, "{f:?}");
+        // the horizontal tension tends to the catenary's as the bending length vanishes
+        assert!(
+            (f[0] - tension).abs() < 2.0 * lb * lb * tension,
+            "{f:?} {tension}"
+        );
+    }
+    assert!(last <= 1e-4 * 1e-2);
+}
+
+/// A stiff rod (r = 1 mm, E = 10 GPa, L = 10 cm: EI/(ρSgL³) ≈ 200) pinned at its root and
+/// released at `angle` from hanging: the period of its tip's swing.
+fn pendulum_period(angle: f64, dt: f64, integrator: &str) -> f64 {
+    let length = 0.1;
+    let text = format!(
+        r#"
+[simulation]
+dt = {dt}
+duration = 2.0
+integrator = "{integrator}"
+[environment]
+air_drag = 0.0
+[[strands]]
+length = {length}
+elements = 5
+radius = 1e-3
+youngs_modulus = 1e10
+internal_friction = 0.0
+direction = [{}, 0.0, {}]
+[strands.ends]
+root = "pinned"
+"#,
+        angle.sin(),
+        -angle.cos()
+    );
+    let setup = parse_scene(&text).expect("scene");
+    let mut sim = Simulation::new(setup, None).expect("simulation");
+    // the times the tip crosses x = 0, linearly interpolated
+    let mut crossings = Vec::new();
+    let mut last = (0.0, sim.position_at(0, length)[0]);
+    while sim.time() < 2.0 - 1e-12 {
+        sim.step().expect("step");
+        let x = sim.position_at(0, length)[0];
+        if x.signum() != last.1.signum() {
+            crossings.push(last.0 + (sim.time() - last.0) * last.1 / (last.1 - x));
+        }
+        last = (sim.time(), x);
+    }
+    assert!(crossings.len() >= 3, "{crossings:?}");
+    // half periods between crossings, averaged
+    let k = crossings.len() - 1;
+    2.0 * (crossings[k] - crossings[0]) / k as f64
+}
+
+/// K(k), the complete elliptic integral of the first kind, by the arithmetic–geometric
+/// mean: K = π / (2 AGM(1, √(1 − k²))).
+fn elliptic_k(k: f64) -> f64 {
+    let (mut a, mut b) = (1.0f64, (1.0 - k * k).sqrt());
+    for _ in 0..40 {
+        (a, b) = (0.5 * (a + b), (a * b).sqrt());
+    }
+    std::f64::consts::PI / (2.0 * a)
+}
+
+#[test]
+fn a_stiff_rod_pinned_at_its_root_swings_as_a_compound_pendulum() {
+    // rigid rod about its end: T0 = 2π √(I / (m g L/2)) = 2π √(2L / 3g); at amplitude θ0,
+    // T = T0 (2/π) K(sin(θ0/2))
+    let t0 = 2.0 * std::f64::consts::PI * (2.0 * 0.1f64 / (3.0 * 9.81)).sqrt();
+    for (angle, dt, integrator, bound) in [
+        (0.05f64, 1e-3, "linearly-implicit-euler", 5e-4),
+        (2.0, 1e-3, "bdf2", 2e-3),
+    ] {
+        let exact = t0 * 2.0 / std::f64::consts::PI * elliptic_k((0.5 * angle).sin());
+        let period = pendulum_period(angle, dt, integrator);
+        let error = (period - exact) / exact;
+        eprintln!("amplitude {angle} rad ({integrator}, dt {dt} s): period {period:.6} s, rigid pendulum {exact:.6} s, relative error {error:.2e}");
+        assert!(error.abs() < bound, "{error:e}");
+    }
+}
+
+/// Clamped at the root along x, the tip sliding along x (held across it, free to turn),
+/// pushed by a dead load P along −x, from a slightly bent start: the largest |z|
+/// (relative to L) of its static equilibrium, and whether the solve converged (near the
+/// critical load the straight shape is a degenerate minimum and Newton slows down).
+fn compressed_deflection(p_over_ei: f64) -> (f64, bool) {
+    let length = 0.1;
+    let elements = 40;
+    let q0: Vec<String> = (0..elements)
+        .map(|i| {
+            format!(
+                "0.0, {}, 0.0",
+                0.3 * (std::f64::consts::PI * (i as f64 + 0.5) / elements as f64).sin()
+            )
+        })
+        .collect();
+    let probe = parse_scene("[[strands]]\nlength = 0.1\nradius = 1e-4\n").expect("scene");
+    let ei = probe.strands[0].strand.material.stiffness[1];
+    let force = p_over_ei * ei / (length * length);
+    let text = format!(
+        r#"
+[simulation]
+mode = "static"
+[environment]
+gravity = [0.0, 0.0, 0.0]
+[[strands]]
+length = {length}
+elements = {elements}
+radius = 1e-4
+direction = [1.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+q0 = [{}]
+[[strands.point_loads]]
+s = {length}
+force = [{}, 0.0, 0.0]
+[strands.ends.tip]
+kind = "sliding"
+position = [{length}, 0.0, 0.0]
+axis = [1.0, 0.0, 0.0]
+"#,
+        q0.join(", "),
+        -force
+    );
+    let setup = parse_scene(&text).expect("scene");
+    let mut sim = Simulation::new(setup, None).expect("simulation");
+    let reports = sim.solve_static().expect("static");
+    let points = sim.centreline_world(0, 4);
+    let deflection = points.iter().map(|p| p[2].abs()).fold(0.0, f64::max) / length;
+    (deflection, reports[0].converged)
+}
+
+#[test]
+fn a_rod_compressed_by_a_sliding_end_buckles_at_eulers_load() {
+    // clamped–pinned column: P_c = β² EI / L², tan β = β, β = 4.493409457909064
+    let beta: f64 = 4.493409457909064;
+    let critical = beta * beta;
+    let (mut lo, mut hi) = (0.9 * critical, 1.1 * critical);
+    // 10 % below: straight again (from a start bent by 3e-4 L); 10 % above: buckled
+    let (below, converged) = compressed_deflection(lo);
+    assert!(converged && below < 1e-12, "{below:e}");
+    let (above, converged) = compressed_deflection(hi);
+    assert!(converged && above > 0.1, "{above:e}");
+    for _ in 0..12 {
+        let mid = 0.5 * (lo + hi);
+        // buckled: beyond the start's bend (the post-buckling deflection grows as
+        // √(P/P_c − 1), 3e-3 L within 1e-5 of P_c)
+        if compressed_deflection(mid).0 > 3e-3 {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let found = 0.5 * (lo + hi);
+    let error = (found - critical) / critical;
+    eprintln!("buckling load {found:.5} EI/L², Euler (clamped–pinned) {critical:.5} EI/L², relative error {error:.2e}");
+    assert!(error.abs() < 2e-3, "{error:e}");
+}
