@@ -1,5 +1,6 @@
 """Type stubs of the `superhelix` extension module (docs/python.md)."""
 
+import pathlib
 from os import PathLike
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
@@ -41,7 +42,7 @@ class Scene:
     @property
     def toml(self) -> str: ...
     @property
-    def base_dir(self) -> str: ...
+    def base_dir(self) -> pathlib.Path: ...
     @property
     def strand_count(self) -> int: ...
     @property

@@ -19,8 +19,7 @@ use std::sync::{Mutex, MutexGuard};
 use superhelix_generated::{visit_size, ClosedForm, SizeVisitor};
 use superhelix_kernels::fixed::{
     self, Effects, ExtrapolatedHead, FixedParams, FixedStrand, FixedWorkspace, ParamsError,
-    StepCounts, StepError, StepHistory, StepInput, ToleranceReport, MAX_TOLERANCE,
-    MIN_TOLERANCE,
+    StepCounts, StepError, StepHistory, StepInput, ToleranceReport, MAX_TOLERANCE, MIN_TOLERANCE,
 };
 use superhelix_kernels::head::HeadState;
 use superhelix_kernels::material::{section_terms, SectionTerms};
@@ -375,7 +374,28 @@ impl StepReport {
     }
 
     fn __repr__(&self) -> String {
-        format!("StepReport({self:?})").replacen("StepReport { ", "", 1).replace(" })", ")")
+        let first = self
+            .first_failed
+            .map_or("None".to_string(), |i| i.to_string());
+        format!(
+            "StepReport(stepped={}, failed={}, first_failed={first}, max_element_rotation={:e}, \
+             attempts={}, substeps={}, energy_rejected={}, energy_limited={}, \
+             energy_unbalanced={}, steps={}, rejected={}, largest_error={:e}, \
+             smallest_step={:e}, largest_step={:e})",
+            self.stepped,
+            self.failed,
+            self.max_element_rotation,
+            self.attempts,
+            self.substeps,
+            self.energy_rejected,
+            self.energy_limited,
+            self.energy_unbalanced,
+            self.steps,
+            self.rejected,
+            self.largest_error,
+            self.smallest_step,
+            self.largest_step
+        )
     }
 }
 
@@ -449,7 +469,12 @@ fn head_state(
             shape_text(&shape)
         )));
     }
-    let names = ["velocity", "acceleration", "angular_velocity", "angular_acceleration"];
+    let names = [
+        "velocity",
+        "acceleration",
+        "angular_velocity",
+        "angular_acceleration",
+    ];
     let moves = derivatives.iter().any(Option::is_some);
     let mut d = [Vector3::zeros(); 4];
     for ((slot, value), name) in d.iter_mut().zip(derivatives).zip(names) {
@@ -689,7 +714,9 @@ impl Batch {
             .collect();
         let group = visit_size(n, FromScene { strands: &strands })
             .flatten()
-            .ok_or_else(|| PyValueError::new_err("the scene's strands do not fit the fixed-N step"))?;
+            .ok_or_else(|| {
+                PyValueError::new_err("the scene's strands do not fit the fixed-N step")
+            })?;
         let head = setup.head.state(0.0);
         let head = HeadState {
             velocity: Vector3::zeros(),
@@ -734,7 +761,12 @@ impl Batch {
                 "dt: must be finite and > 0, got {dt}"
             )));
         }
-        let derivatives = [velocity, acceleration, angular_velocity, angular_acceleration];
+        let derivatives = [
+            velocity,
+            acceleration,
+            angular_velocity,
+            angular_acceleration,
+        ];
         let head = match (head_position, head_rotation) {
             (None, None) if derivatives.iter().all(Option::is_none) => None,
             (Some(p), Some(r)) => Some(head_state(p, r, derivatives)?),
@@ -792,7 +824,12 @@ impl Batch {
         let (state, moves) = head_state(
             position,
             rotation,
-            [velocity, acceleration, angular_velocity, angular_acceleration],
+            [
+                velocity,
+                acceleration,
+                angular_velocity,
+                angular_acceleration,
+            ],
         )?;
         set_head(&mut *self.lock()?, state, moves);
         Ok(())
@@ -947,7 +984,9 @@ impl Batch {
         let (c, n) = (inner.group.len(), inner.group.elements());
         let mut data = Vec::with_capacity(c * (n + 1) * 3);
         for i in 0..c {
-            inner.group.centreline(i, &inner.settings.input.head, &mut data);
+            inner
+                .group
+                .centreline(i, &inner.settings.input.head, &mut data);
         }
         drop(inner);
         f64_array(py, &[c, n + 1, 3], data)

@@ -11,8 +11,8 @@
 //! - An unreadable file is an `OSError` (`FileNotFoundError`, `PermissionError`, ...)
 //!   naming the path.
 
-use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyPermissionError, PyRuntimeError};
 use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyPermissionError, PyRuntimeError};
 use pyo3::prelude::*;
 use pyo3::types::PyList;
 use superhelix_runtime::{Error, FieldError};

@@ -17,6 +17,7 @@
 mod arrays;
 mod batch;
 mod convert;
+mod energy;
 mod errors;
 mod run;
 mod scene;

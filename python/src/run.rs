@@ -2,9 +2,10 @@
 //! frame times and centrelines) with every frame kept in memory, as numpy arrays.
 
 use crate::arrays::{f64_array, i64_array};
+use crate::energy::EnergyMeter;
 use crate::errors::run_error;
 use crate::scene::{engine_name, Scene};
-use pyo3::exceptions::PyKeyboardInterrupt;
+use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -107,6 +108,9 @@ impl FrameSink for Collect {
     }
 }
 
+/// Each frame's (kinetic, potential) energies per strand, or why they could not be had.
+type Measured = std::result::Result<(Vec<f64>, Vec<f64>), String>;
+
 /// What a run produced, before it becomes Python objects.
 struct Produced {
     layout: FrameLayout,
@@ -118,7 +122,7 @@ struct Produced {
     stop: StopReason,
     stats: StepStats,
     strand_steps: Option<Vec<StrandSteps>>,
-    energies: Option<(Vec<f64>, Vec<f64>)>,
+    energies: Option<Measured>,
     engine: &'static str,
 }
 
@@ -216,18 +220,30 @@ impl RunResult {
         format!(
             "<superhelix.RunResult: {} strand{}, {frames} frames{}>",
             self.strand_names.len(),
-            if self.strand_names.len() == 1 { "" } else { "s" },
-            if self.completed { "" } else { " (stopped early)" }
+            if self.strand_names.len() == 1 {
+                ""
+            } else {
+                "s"
+            },
+            if self.completed {
+                ""
+            } else {
+                " (stopped early)"
+            }
         )
     }
 }
 
 /// Steps `setup` as `superhelix run` does, every frame kept; raises as documented on
 /// `Scene.run`.
-pub fn run_scene(py: Python<'_>, setup: SimulationSetup, options: &RunOptions) -> PyResult<RunResult> {
+pub fn run_scene(
+    py: Python<'_>,
+    setup: SimulationSetup,
+    options: &RunOptions,
+) -> PyResult<RunResult> {
     let config = setup.config.clone();
     let samples = setup.samples_per_element;
-    let mut sim = Scene::build(py, setup)?;
+    let mut sim = Scene::build(py, setup.clone())?;
     let stop = AtomicBool::new(false);
     let interrupt: Mutex<Option<PyErr>> = Mutex::new(None);
     let produced = py.detach(|| {
@@ -263,9 +279,10 @@ pub fn run_scene(py: Python<'_>, setup: SimulationSetup, options: &RunOptions) -
         let qdot = std::mem::take(&mut source.qdot);
         let stats = sim.stats();
         let strand_steps = FrameSource::strand_steps(&sim);
-        let energies = options
-            .energies
-            .then(|| measure_energies(&mut sim, &layout, &frames.q, &qdot));
+        let energies = options.energies.then(|| {
+            let mut meter = EnergyMeter::new(&setup);
+            measure_energies(&mut sim, &mut meter, &layout, &frames.q, &qdot)
+        });
         Produced {
             layout,
             frames,
@@ -289,8 +306,9 @@ pub fn run_scene(py: Python<'_>, setup: SimulationSetup, options: &RunOptions) -
         StopReason::Completed => return Ok(result),
         // the frames are in memory: the only failures are the steps'
         StopReason::Failed(e) => run_error(e),
-        StopReason::Interrupted => interrupted
-            .unwrap_or_else(|| PyKeyboardInterrupt::new_err("the run was stopped")),
+        StopReason::Interrupted => {
+            interrupted.unwrap_or_else(|| PyKeyboardInterrupt::new_err("the run was stopped"))
+        }
     };
     let result = Py::new(py, result)?;
     let _ = err.value(py).setattr("result", result);
@@ -298,34 +316,32 @@ pub fn run_scene(py: Python<'_>, setup: SimulationSetup, options: &RunOptions) -
 }
 
 /// Each frame's (kinetic, potential) energy per strand, frame-major, from the recorded
-/// states (the simulation is set to each in turn: it is not stepped again).
+/// states (see [`EnergyMeter`]; the run is over: `sim` may be set to each state).
 fn measure_energies(
     sim: &mut Simulation,
+    meter: &mut EnergyMeter,
     layout: &FrameLayout,
     q: &[f64],
     qdot: &[f64],
-) -> (Vec<f64>, Vec<f64>) {
+) -> Measured {
     let offsets = layout.coordinate_offsets();
     let total = layout.total_coordinates();
     let strands = layout.strands.len();
-    let frames = if total == 0 {
-        0
-    } else {
-        (q.len() / total).min(qdot.len() / total)
+    let frames = match (q.len().checked_div(total), qdot.len().checked_div(total)) {
+        (Some(a), Some(b)) => a.min(b),
+        _ => 0,
     };
     let mut kinetic = Vec::with_capacity(frames * strands);
     let mut potential = Vec::with_capacity(frames * strands);
     for k in 0..frames {
         for i in 0..strands {
             let range = k * total + offsets[i]..k * total + offsets[i + 1];
-            sim.set_state(i, &q[range.clone()], &qdot[range]);
-            let t = sim.kinetic_energy(i);
-            let e = sim.energy(i);
+            let (t, v) = meter.measure(sim, i, Some((&q[range.clone()], &qdot[range])))?;
             kinetic.push(t);
-            potential.push(e - t);
+            potential.push(v);
         }
     }
-    (kinetic, potential)
+    Ok((kinetic, potential))
 }
 
 fn to_python(py: Python<'_>, p: Produced, completed: bool) -> PyResult<RunResult> {
@@ -342,7 +358,14 @@ fn to_python(py: Python<'_>, p: Produced, completed: bool) -> PyResult<RunResult
 
     let nodes = match shared(&points_per) {
         Some(n) => f64_array(py, &[frames, strands, n, 3], p.frames.points.clone())?,
-        None => per_strand(py, &p.frames.points, frames, total_points * 3, &point_offsets, 3)?,
+        None => per_strand(
+            py,
+            &p.frames.points,
+            frames,
+            total_points * 3,
+            &point_offsets,
+            3,
+        )?,
     };
     let by_strand = |values: &[f64]| -> PyResult<Py<PyAny>> {
         match shared(&q_per) {
@@ -358,8 +381,9 @@ fn to_python(py: Python<'_>, p: Produced, completed: bool) -> PyResult<RunResult
         &[strands + 1],
         point_offsets.iter().map(|&o| o as i64).collect(),
     )?;
-    let (kinetic_energy, potential_energy, energy) = match p.energies {
-        Some((kinetic, potential)) => {
+    let (kinetic_energy, potential_energy, energy) = match p.energies.transpose() {
+        Err(e) => return Err(PyRuntimeError::new_err(e)),
+        Ok(Some((kinetic, potential))) => {
             let sum: Vec<f64> = kinetic.iter().zip(&potential).map(|(a, b)| a + b).collect();
             let rows = kinetic.len() / strands.max(1);
             (
@@ -368,7 +392,7 @@ fn to_python(py: Python<'_>, p: Produced, completed: bool) -> PyResult<RunResult
                 f64_array(py, &[rows, strands], sum)?,
             )
         }
-        None => (py.None(), py.None(), py.None()),
+        Ok(None) => (py.None(), py.None(), py.None()),
     };
     let frame_steps = if p.frames.steps.iter().any(Option::is_some) {
         let rows: Vec<f64> = p
@@ -408,7 +432,14 @@ fn to_python(py: Python<'_>, p: Produced, completed: bool) -> PyResult<RunResult
         )?,
         None => py.None(),
     };
-    let summary = summary_dict(py, &p.summary, p.planned_frames, p.time, p.engine, completed)?;
+    let summary = summary_dict(
+        py,
+        &p.summary,
+        p.planned_frames,
+        p.time,
+        p.engine,
+        completed,
+    )?;
     Ok(RunResult {
         times: f64_array(py, &[frames], p.frames.times)?,
         state_times: f64_array(py, &[frames], p.frames.state_times)?,

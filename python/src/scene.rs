@@ -390,7 +390,11 @@ impl Scene {
         format!(
             "<superhelix.Scene: {} strand{}, {} steps of {} s, {} frames, engine {}>",
             self.setup.strands.len(),
-            if self.setup.strands.len() == 1 { "" } else { "s" },
+            if self.setup.strands.len() == 1 {
+                ""
+            } else {
+                "s"
+            },
             total_steps(&self.setup.config),
             self.setup.config.dt,
             frame_times(&self.setup.config).len(),
@@ -414,7 +418,9 @@ pub fn pose(
 ) -> PyResult<(Py<PyAny>, Py<PyAny>)> {
     let x = state.position;
     let r = state.rotation;
-    let rows: Vec<f64> = (0..3).flat_map(|i| (0..3).map(move |j| r[(i, j)])).collect();
+    let rows: Vec<f64> = (0..3)
+        .flat_map(|i| (0..3).map(move |j| r[(i, j)]))
+        .collect();
     Ok((
         crate::arrays::f64_array(py, &[3], vec![x[0], x[1], x[2]])?,
         crate::arrays::f64_array(py, &[3, 3], rows)?,

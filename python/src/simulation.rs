@@ -1,23 +1,21 @@
 //! `superhelix.Simulation`: a scene's simulation stepped by hand.
 
 use crate::arrays::{f64_array, vector};
+use crate::energy::EnergyMeter;
 use crate::errors::run_error;
 use crate::run::{error_control_dict, stats_dict};
-use crate::scene::{engine_name, kernels, Scene};
+use crate::scene::{engine_name, Scene};
 use pyo3::exceptions::{PyIndexError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::sync::{Mutex, MutexGuard};
-use superhelix_runtime::config::Engine;
 use superhelix_runtime::{Simulation as Runtime, SimulationSetup};
 
 struct Inner {
     sim: Runtime,
     setup: SimulationSetup,
-    /// A second simulation of the same setup, set to the states whose energy is asked
-    /// (the runtime engine's energy evaluates the strand's kernel in its workspace: the
-    /// stepping simulation is never used for it). Built on first use.
-    measuring: Option<Runtime>,
+    /// Measures energies without touching `sim` ([`EnergyMeter`]).
+    meter: EnergyMeter,
 }
 
 /// A running simulation of a scene (`scene.simulation()`), advanced by `step()`.
@@ -37,8 +35,8 @@ impl Simulation {
         Ok(Simulation {
             inner: Mutex::new(Inner {
                 sim,
+                meter: EnergyMeter::new(&setup),
                 setup,
-                measuring: None,
             }),
         })
     }
@@ -185,9 +183,8 @@ impl Simulation {
             )));
         }
         let n = inner.sim.strand_count();
-        let lines: Vec<Vec<[f64; 3]>> = (0..n)
-            .map(|i| inner.sim.centreline_world(i, per))
-            .collect();
+        let lines: Vec<Vec<[f64; 3]>> =
+            (0..n).map(|i| inner.sim.centreline_world(i, per)).collect();
         drop(inner);
         let points = lines.first().map_or(0, Vec::len);
         if lines.iter().all(|l| l.len() == points) {
@@ -232,41 +229,24 @@ impl Simulation {
     ///
     /// Each strand's energy in its current state, J, as arrays of shape (strands,):
     /// kinetic (½ q̇ᵀ M q̇ relative to the head), potential (elastic plus gravity plus
-    /// point loads; contacts and electrostatics not counted) and total. Measured on a
-    /// second simulation of the same scene set to this state: the stepping one is not
-    /// touched.
+    /// point loads; contacts and electrostatics not counted) and total. The stepping
+    /// simulation is not changed: the runtime engine's strands are measured on a second
+    /// simulation of the scene without contacts, set to this state (built on first use).
     fn energies<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let (kinetic, potential) = py.detach(|| -> PyResult<(Vec<f64>, Vec<f64>)> {
             let mut guard = self.inner.lock().map_err(|_| {
                 PyRuntimeError::new_err("this simulation was poisoned by an earlier internal error")
             })?;
             let inner = &mut *guard;
-            let embedded = inner.sim.engine() == Engine::Embedded;
             let n = inner.sim.strand_count();
-            let mut kinetic = Vec::with_capacity(n);
-            let mut potential = Vec::with_capacity(n);
-            if embedded {
-                // the embedded engine measures on a system made afresh for each strand
-                for i in 0..n {
-                    let t = inner.sim.kinetic_energy(i);
-                    kinetic.push(t);
-                    potential.push(inner.sim.energy(i) - t);
-                }
-                return Ok((kinetic, potential));
-            }
-            if inner.measuring.is_none() {
-                let built = Runtime::new(inner.setup.clone(), kernels())
-                    .map_err(|e| PyRuntimeError::new_err(format!("measuring simulation: {e}")))?;
-                inner.measuring = Some(built);
-            }
-            let (sim, measuring) = (&inner.sim, &mut inner.measuring);
-            if let Some(m) = measuring.as_mut() {
-                for i in 0..n {
-                    m.set_state(i, sim.q(i), sim.v(i));
-                    let t = m.kinetic_energy(i);
-                    kinetic.push(t);
-                    potential.push(m.energy(i) - t);
-                }
+            let (mut kinetic, mut potential) = (Vec::with_capacity(n), Vec::with_capacity(n));
+            for i in 0..n {
+                let (t, v) = inner
+                    .meter
+                    .measure(&mut inner.sim, i, None)
+                    .map_err(PyRuntimeError::new_err)?;
+                kinetic.push(t);
+                potential.push(v);
             }
             Ok((kinetic, potential))
         })?;

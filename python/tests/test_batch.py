@@ -175,8 +175,8 @@ def test_from_scene_refuses_mixed_sizes():
 def test_energies_of_the_batch_are_the_runtimes():
     """The fixed-N step's energy measure (superhelix-kernels) and the runtime's (its strand
     system) on the same state: kinetic, and elastic + gravity as the runtime's potential.
-    Different assembly code: agreement to 1e-9 of the energy scale, far above round-off
-    (1e-15) and far below any difference of state (the states agree to 1e-12)."""
+    Different code on states that agree to 1e-12 (measured: to the bit here, the energies
+    to 6e-18 of the energy scale): held to 1e-12 of the scale."""
     d = hanging_strand(simulation={"engine": "runtime"})
     d["strands"][0]["q0"] = [1.2 * x for x in NATURAL * 5]
     scene = superhelix.Scene.from_dict(d)
@@ -186,6 +186,6 @@ def test_energies_of_the_batch_are_the_runtimes():
         batch.step(DT)
     e = batch.energies()
     scale = abs(r.energy[0, 0]) + abs(r.kinetic_energy).max()
-    assert abs(e["kinetic"][0] - r.kinetic_energy[-1, 0]) <= 1e-9 * scale
-    assert abs(e["elastic"][0] + e["potential"][0] - r.potential_energy[-1, 0]) <= 1e-9 * scale
+    assert abs(e["kinetic"][0] - r.kinetic_energy[-1, 0]) <= 1e-12 * scale
+    assert abs(e["elastic"][0] + e["potential"][0] - r.potential_energy[-1, 0]) <= 1e-12 * scale
     assert r.kinetic_energy[-1, 0] > 1e-6 * scale  # it is moving: the check is not vacuous

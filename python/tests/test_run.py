@@ -1,6 +1,12 @@
 """scene.run(): shapes, the command line's frames bit for bit, stepping by hand, energies."""
 
 import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -147,7 +153,9 @@ def test_energy_never_grows_on_a_still_head():
     assert r.kinetic_energy[0, 0] == 0.0  # released at rest
     assert np.all(r.kinetic_energy >= 0.0)
     assert np.all(np.diff(e) <= 1e-12 * abs(e[0])), np.diff(e).max()
-    assert e[-1] < e[0] - 0.1 * (e[0] - e.min())  # it did fall
+    # and it does fall: most of the energy released is dissipated within the second
+    # (measured: all of it, the strand near rest)
+    assert e[0] - e[-1] > 0.5 * abs(e[0])
 
 
 def test_simulation_error_names_the_strand_and_the_state_stays():
@@ -159,3 +167,52 @@ def test_simulation_error_names_the_strand_and_the_state_stays():
         sim.set_state(3, np.zeros(15))
     with pytest.raises(ValueError, match=r"^q: expected 15 values"):
         sim.set_state(0, np.zeros(14))
+
+
+def test_a_run_releases_the_gil():
+    """Another Python thread runs while scene.run() computes: the main thread's 10 ms
+    sleeps go on (with the GIL held they could not return until the run ended)."""
+    scene = superhelix.Scene.from_toml(SHAKING)
+    done = threading.Event()
+    results = []
+
+    def run():
+        results.append(scene.run(duration=10.0, energies=False))
+        done.set()
+
+    worker = threading.Thread(target=run)
+    started = time.perf_counter()
+    worker.start()
+    ticks = 0
+    while not done.is_set():
+        time.sleep(0.01)
+        ticks += 1
+    worker.join()
+    elapsed = time.perf_counter() - started
+    assert results and results[0].completed
+    # a run of 150 steps of 3 strands takes about a second; ticks go on all along
+    assert ticks >= min(10, elapsed / 0.02), (ticks, elapsed)
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGINT") or os.name != "posix", reason="POSIX signals")
+def test_ctrl_c_stops_a_run_and_keeps_its_frames():
+    script = f"""
+import sys, superhelix
+scene = superhelix.Scene.from_toml({SHAKING!r})
+print("started", flush=True)
+try:
+    scene.run(duration=1000.0, energies=False)
+    print("not interrupted")
+except KeyboardInterrupt as e:
+    r = e.result
+    print("interrupted", r.completed, r.frame_count, r.points.shape[0], flush=True)
+"""
+    child = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    assert child.stdout.readline().strip() == "started"
+    time.sleep(1.0)
+    child.send_signal(signal.SIGINT)
+    out, _ = child.communicate(timeout=60)
+    words = out.split()
+    assert words[:2] == ["interrupted", "False"], out
+    frames = int(words[2])
+    assert 1 <= frames < 15001 and int(words[3]) == frames
