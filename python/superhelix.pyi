@@ -75,6 +75,7 @@ class Scene:
         frames: Optional[int] = None,
         tolerance: Optional[float] = None,
         energies: bool = True,
+        max_bytes: float = 4e9,
     ) -> "RunResult": ...
     def simulation(
         self, *, dt: Optional[float] = None, tolerance: Optional[float] = None

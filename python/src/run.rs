@@ -18,7 +18,7 @@ use superhelix_runtime::output::{
 use superhelix_runtime::{FrameSource, Result, Simulation, SimulationSetup, StepStats};
 
 /// How often a run looks for Ctrl-C (it takes the GIL for it).
-const SIGNAL_CHECK: Duration = Duration::from_millis(100);
+pub const SIGNAL_CHECK: Duration = Duration::from_millis(100);
 
 /// What `scene.run` was asked besides the scene.
 pub struct RunOptions {

@@ -107,6 +107,12 @@ impl Scene {
                 c.duration / c.dt
             )));
         }
+        if c.mode == Mode::Dynamic && c.duration * c.output_fps > MAX_FRAMES {
+            return Err(PyValueError::new_err(format!(
+                "duration * output_fps = {:.0} frames, more than the cap of {MAX_FRAMES:.0}",
+                c.duration * c.output_fps
+            )));
+        }
         Ok(setup)
     }
 
@@ -320,7 +326,8 @@ impl Scene {
         Ok(d)
     }
 
-    /// scene.run(*, duration=None, frames=None, tolerance=None, energies=True) -> RunResult
+    /// scene.run(*, duration=None, frames=None, tolerance=None, energies=True,
+    ///           max_bytes=4e9) -> RunResult
     ///
     /// Simulate the scene as `superhelix run` does (the same steps, frame times and
     /// centrelines: `frames.npy` holds `result.points` rounded to float32) and return every
@@ -329,9 +336,14 @@ impl Scene {
     /// tolerance` as `run --tolerance` does (0: fixed steps). With `energies` each frame's
     /// kinetic and potential energy per strand is measured after the run. The GIL is
     /// released while it runs; Ctrl-C stops it between two steps (KeyboardInterrupt).
-    /// Raises SceneError when the scene cannot be built and SimulationError when a step
-    /// fails (its `result` attribute holds the frames computed before).
-    #[pyo3(signature = (*, duration = None, frames = None, tolerance = None, energies = true))]
+    /// The frames are kept in memory: a run whose arrays would take more than `max_bytes`
+    /// (bytes, estimated before it starts) is refused with ValueError; raise it, or ask
+    /// for fewer frames, or write files with `superhelix run`. Raises SceneError when the
+    /// scene cannot be built and SimulationError when a step fails (its `result`
+    /// attribute holds the frames computed before).
+    #[pyo3(signature = (
+        *, duration = None, frames = None, tolerance = None, energies = true, max_bytes = 4e9
+    ))]
     fn run(
         &self,
         py: Python<'_>,
@@ -339,6 +351,7 @@ impl Scene {
         frames: Option<usize>,
         tolerance: Option<f64>,
         energies: bool,
+        max_bytes: f64,
     ) -> PyResult<RunResult> {
         if duration.is_some() && frames.is_some() {
             return Err(PyValueError::new_err(
@@ -351,6 +364,13 @@ impl Scene {
             tolerance,
             ..Default::default()
         })?;
+        let bytes = memory_estimate(&setup, energies);
+        if max_bytes.is_nan() || bytes > max_bytes {
+            return Err(PyValueError::new_err(format!(
+                "max_bytes: the run's arrays would take about {:.3e} bytes in memory, more than max_bytes = {max_bytes:.3e}; pass a larger max_bytes, fewer frames (frames=, duration=, [simulation] output_fps, [output] samples_per_element) or write files with `superhelix run`",
+                bytes
+            )));
+        }
         run_scene(py, setup, &RunOptions { energies })
     }
 
@@ -401,6 +421,21 @@ impl Scene {
             self.engine()
         )
     }
+}
+
+/// Bytes the arrays of a run of `setup` take in memory (f64): every frame's points, q
+/// and q̇ (held twice while they become numpy arrays), and the energies.
+fn memory_estimate(setup: &SimulationSetup, energies: bool) -> f64 {
+    let frames = frame_times(&setup.config).len() as f64;
+    let strands = setup.strands.len() as f64;
+    let (mut points, mut coordinates) = (0.0, 0.0);
+    for s in &setup.strands {
+        let n = s.strand.geometry.elements() as f64;
+        points += 1.0 + setup.samples_per_element as f64 * n;
+        coordinates += 3.0 * n;
+    }
+    let per_frame = 3.0 * points + 2.0 * coordinates + if energies { 3.0 * strands } else { 0.0 };
+    2.0 * 8.0 * frames * per_frame
 }
 
 /// The name of a resolved engine.

@@ -3,12 +3,13 @@
 use crate::arrays::{f64_array, vector};
 use crate::energy::EnergyMeter;
 use crate::errors::run_error;
-use crate::run::{error_control_dict, stats_dict};
+use crate::run::{error_control_dict, stats_dict, SIGNAL_CHECK};
 use crate::scene::{engine_name, Scene};
 use pyo3::exceptions::{PyIndexError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::sync::{Mutex, MutexGuard};
+use std::time::Instant;
 use superhelix_runtime::{Simulation as Runtime, SimulationSetup};
 
 struct Inner {
@@ -83,7 +84,8 @@ impl Simulation {
     /// released. The runtime steps by the dt the simulation was built with: a `dt` given
     /// here must equal it (build with `scene.simulation(dt=...)` for another). The head
     /// follows the scene's motion (a head pose per step is the embedded Batch's). Raises
-    /// SimulationError when a strand fails (the others keep their last good state).
+    /// SimulationError when a strand fails (the others keep their last good state), and
+    /// KeyboardInterrupt on Ctrl-C (after the step under way).
     #[pyo3(signature = (dt = None, steps = 1))]
     fn step(&self, py: Python<'_>, dt: Option<f64>, steps: usize) -> PyResult<()> {
         let h = self.lock()?.sim.config().dt;
@@ -98,8 +100,14 @@ impl Simulation {
             let mut inner = self.inner.lock().map_err(|_| {
                 PyRuntimeError::new_err("this simulation was poisoned by an earlier internal error")
             })?;
+            let mut checked = Instant::now();
             for _ in 0..steps {
                 inner.sim.step().map_err(run_error)?;
+                // Ctrl-C between two steps (the GIL taken for it at most every 0.1 s)
+                if checked.elapsed() >= SIGNAL_CHECK {
+                    checked = Instant::now();
+                    Python::attach(|py| py.check_signals())?;
+                }
             }
             Ok(())
         })

@@ -103,8 +103,8 @@ elements = 8
 preset = "smooth"
 """
 
-# Two strands resting on a sphere on a nodding head, with contacts and BDF2: the runtime
-# engine.
+# Two strands resting on a sphere on a nodding head, with body and hair-hair contacts and
+# BDF2: the runtime engine.
 TOUCHING = """
 [simulation]
 dt = 0.03333333333333333
@@ -124,6 +124,9 @@ shape = "sphere"
 radius = 0.09
 
 [contacts]
+radius = 0.002
+
+[contacts.hair_hair]
 radius = 0.002
 
 [[strands]]

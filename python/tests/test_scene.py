@@ -163,3 +163,12 @@ def test_run_overrides_are_checked():
     with pytest.raises(superhelix.SceneError, match="^simulation.tolerance: must be in"):
         scene.run(tolerance=2.0)
     assert scene.run(frames=4, energies=False).points.shape[0] == 4
+    with pytest.raises(ValueError, match=r"^duration / dt = 30000000 steps, more than the cap"):
+        scene.run(duration=1e6)
+    coarse = superhelix.Scene.from_dict(hanging_strand(simulation={"dt": 1.0}))
+    with pytest.raises(ValueError, match=r"^duration \* output_fps = 3000000 frames, more than"):
+        coarse.run(duration=1e5)
+    # 31 frames of 21 points: 31 * (3 * 21 + 2 * 15 + 3) * 8 * 2 bytes = 47616
+    with pytest.raises(ValueError, match=r"^max_bytes: the run's arrays would take about 4\.762e4 bytes"):
+        scene.run(max_bytes=4e4)
+    assert scene.run(max_bytes=4.8e4).completed
