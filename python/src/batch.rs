@@ -1021,8 +1021,9 @@ impl Batch {
     fn __repr__(&self) -> String {
         match self.inner.lock() {
             Ok(inner) => format!(
-                "<superhelix.Batch: {} strands of N = {}, {}>",
+                "<superhelix.Batch: {} strand{} of N = {}, {}>",
                 inner.group.len(),
+                if inner.group.len() == 1 { "" } else { "s" },
                 inner.group.elements(),
                 match (inner.settings.tolerance, inner.settings.checked) {
                     (Some(t), _) => format!("error-controlled steps at {t:e}"),
