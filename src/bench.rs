@@ -252,6 +252,7 @@ fn strands(o: &BenchOptions) -> Vec<StrandSetup> {
             };
             StrandSetup {
                 charge_per_length: None,
+                tip: None,
                 q0: strand.natural.clone(),
                 group: strand.name.clone(),
                 strand,

@@ -400,6 +400,7 @@ impl StrandSpec {
         };
         StrandSetup {
             charge_per_length: None,
+            tip: None,
             strand: Strand {
                 name: self.preset.name().to_string(),
                 geometry: StrandGeometry::new(root, frame, vec![l; n], &material),

@@ -546,6 +546,7 @@ pub(crate) fn setup_of(
         head,
         strands: vec![StrandSetup {
             charge_per_length: None,
+            tip: None,
             q0: strand.natural.clone(),
             group: strand.name.clone(),
             strand,

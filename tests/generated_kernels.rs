@@ -34,6 +34,7 @@ fn setup(n: usize, kernels: KernelChoice, integrator: IntegratorKind) -> Simulat
         })
         .map(|s| StrandSetup {
             charge_per_length: None,
+            tip: None,
             q0: s.natural.clone(),
             group: s.name.clone(),
             strand: s,

@@ -92,6 +92,7 @@ fn run(
             .into_iter()
             .map(|s| StrandSetup {
                 charge_per_length: None,
+                tip: None,
                 q0: s.natural.clone(),
                 group: s.name.clone(),
                 strand: s,

@@ -309,6 +309,7 @@ fn runtime_q(
         head: HeadMotion::Still,
         strands: vec![StrandSetup {
             charge_per_length: None,
+            tip: None,
             strand: runtime_strand,
             q0: q0.to_vec(),
             group: "example".into(),

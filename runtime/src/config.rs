@@ -229,6 +229,22 @@ impl Default for SimulationConfig {
     }
 }
 
+/// A held tip: where it is held, in world coordinates, and how that place moves.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeldEnd {
+    /// What is held.
+    pub kind: crate::model::ends::HeldKind,
+    /// The held point p (for `Sliding`, a point of the axis) in the motion's frame,
+    /// metres: at time t it is at `X_m(t) + R_m(t) p` in the world.
+    pub position: nalgebra::Vector3<f64>,
+    /// The held frame F* (columns n0, n1, n2) in the motion's frame (`Clamped`).
+    pub frame: nalgebra::Matrix3<f64>,
+    /// The unit axis a tip slides along, in the motion's frame (`Sliding`).
+    pub axis: nalgebra::Vector3<f64>,
+    /// The motion of the holder (`Still`: fixed in the world; keyframes: driven).
+    pub motion: crate::forces::head_motion::HeadMotion,
+}
+
 /// One strand and its initial state.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StrandSetup {
@@ -242,6 +258,9 @@ pub struct StrandSetup {
     /// The strand's own charge per length, C/m (`strands[i].charge_per_length`); `None`:
     /// the scene's `electrostatics.charge_per_length`.
     pub charge_per_length: Option<f64>,
+    /// Its held tip (`[strands.ends.tip]`; `None`: free). A pinned root is in the
+    /// strand ([`crate::model::ends`]).
+    pub tip: Option<HeldEnd>,
 }
 
 /// Everything needed to build a [`Simulation`](crate::Simulation); what a scene file becomes.

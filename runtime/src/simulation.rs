@@ -234,7 +234,7 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
     }
     for (index, s) in setup.strands.iter().enumerate() {
         let n = s.strand.geometry.elements();
-        if !s.strand.ends.is_hair() {
+        if s.tip.is_some() || s.strand.ends.root != crate::model::ends::RootEnd::Clamped {
             errors.push(FieldError::new(
                 format!("strands[{index}].ends"),
                 "the embedded engine holds roots clamped and tips free; use engine = \"runtime\"",
@@ -457,7 +457,7 @@ fn check_ends(setup: &SimulationSetup, i: usize) -> Vec<FieldError> {
             ));
         }
     }
-    if let Some(tip) = &s.ends.tip {
+    if let Some(tip) = &setup.strands[i].tip {
         let at = format!("strands[{i}].ends.tip");
         if setup.head != HeadMotion::Still {
             errors.push(FieldError::new(
@@ -601,6 +601,10 @@ impl Simulation {
                 }
             };
             let mut system = StrandSystem::new(s.strand, kernel, context);
+            system.held = s.tip.map(|end| {
+                let scale = system.strand.solver_scale();
+                crate::solver::held_end::HeldTip::new(end, &system.strand.geometry, scale)
+            });
             if let (Some(c), Some(b)) = (&setup.contacts, &contact_bodies) {
                 let g = &system.strand.geometry;
                 let rho_s = system.strand.material.mass_per_length;

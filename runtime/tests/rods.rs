@@ -284,7 +284,10 @@ fn a_rope_held_at_both_ends_swings_on_its_holders() {
     // frictionless swing does not gain energy
     let text = rope_scene(1.0, 0.8, 20, 1e7)
         .replace("mode = \"static\"", "dt = 0.01\nduration = 0.5")
-        .replace("[strands.ends]", "internal_friction = 0.0\nair_drag = 0.0\n[strands.ends]");
+        .replace(
+            "[strands.ends]",
+            "internal_friction = 0.0\nair_drag = 0.0\n[strands.ends]",
+        );
     let setup = parse_scene(&text).expect("scene");
     let mut sim = Simulation::new(setup, None).expect("simulation");
     let e0 = sim.energy(0);
@@ -296,7 +299,10 @@ fn a_rope_held_at_both_ends_swings_on_its_holders() {
         worst = worst.max(drift);
         let tip = sim.position_at(0, 1.0);
         let root = sim.position_at(0, 0.0);
-        assert!((tip - nalgebra::Vector3::new(0.8, 0.0, 0.0)).norm() < 1e-9, "{tip:?}");
+        assert!(
+            (tip - nalgebra::Vector3::new(0.8, 0.0, 0.0)).norm() < 1e-9,
+            "{tip:?}"
+        );
         assert!(root.norm() < 1e-9, "{root:?}");
         max_energy = max_energy.max(sim.energy(0));
     }
@@ -307,8 +313,58 @@ fn a_rope_held_at_both_ends_swings_on_its_holders() {
     );
     assert!(worst <= 1e-9, "{worst:e}");
     // the linearly implicit step only dissipates; round-off allowed
-    assert!(max_energy <= e0 + 1e-9 * e0.abs(), "{max_energy:e} > {e0:e}");
+    assert!(
+        max_energy <= e0 + 1e-9 * e0.abs(),
+        "{max_energy:e} > {e0:e}"
+    );
     // it fell: the sag grows from the arc's start towards the catenary's
     let mid = sim.position_at(0, 0.5);
     assert!(mid[2] < -0.2, "{mid:?}");
+}
+
+#[test]
+fn a_beam_clamped_at_both_ends_sags_as_beam_theory_says() {
+    // r = 1 mm, E = 10 GPa, L = 10 cm along x, both ends clamped horizontal, under its
+    // weight q = ρSg: the mid-span deflection of Euler–Bernoulli theory is q L⁴ / (384 EI)
+    // (1.3e-5 L here: the linear regime)
+    let length = 0.1;
+    let text = format!(
+        r#"
+[simulation]
+mode = "static"
+[[strands]]
+length = {length}
+elements = 40
+radius = 1e-3
+youngs_modulus = 1e10
+direction = [1.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+[strands.ends.tip]
+kind = "clamped"
+position = [{length}, 0.0, 0.0]
+direction = [1.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+"#
+    );
+    let setup = parse_scene(&text).expect("scene");
+    let rho_s = setup.strands[0].strand.material.mass_per_length;
+    let ei = setup.strands[0].strand.material.stiffness[1];
+    let mut sim = Simulation::new(setup, None).expect("simulation");
+    let reports = sim.solve_static().expect("static");
+    assert!(reports[0].converged, "{:?}", reports[0]);
+    let sag = -sim.position_at(0, 0.5 * length)[2];
+    let theory = rho_s * 9.81 * length.powi(4) / (384.0 * ei);
+    let r = sim.held_reaction(0).expect("held");
+    // the clamp's moment: q L² / 12 about y (the beam pulls the clamp's tangent down)
+    let moment = rho_s * 9.81 * length * length / 12.0;
+    eprintln!(
+        "mid-span sag {sag:.6e} m, beam theory {theory:.6e} m (relative {:.2e}); clamp force z {:.6e} N (qL/2 {:.6e}), moment y {:.6e} N m (qL²/12 {moment:.6e})",
+        (sag - theory) / theory,
+        r[2],
+        0.5 * rho_s * 9.81 * length,
+        r[4]
+    );
+    assert!(((sag - theory) / theory).abs() < 2e-3);
+    assert!((r[2] / (0.5 * rho_s * 9.81 * length) - 1.0).abs() < 1e-6);
+    assert!((r[4].abs() / moment - 1.0).abs() < 2e-3);
 }

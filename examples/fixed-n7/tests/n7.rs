@@ -297,6 +297,7 @@ fn steps_match_the_runtime_step_of_the_same_strand() {
         head: HeadMotion::Still,
         strands: vec![StrandSetup {
             charge_per_length: None,
+            tip: None,
             q0: strand.natural.clone(),
             group: strand.name.clone(),
             strand,

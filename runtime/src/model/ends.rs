@@ -16,8 +16,7 @@
 //!   across an axis (sliding): its multipliers are solved with each implicit step and the
 //!   static solve ([`crate::solver::held_end`]), and the drift left is projected out.
 
-use crate::forces::head_motion::HeadMotion;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 
 /// Length of a pinned root's joint element, as a fraction of the strand's length.
 pub const ROOT_JOINT_FRACTION: f64 = 1e-10;
@@ -75,29 +74,11 @@ impl HeldKind {
     }
 }
 
-/// A held tip: where it is held, in world coordinates, and how that place moves.
-#[derive(Debug, Clone, PartialEq)]
-pub struct HeldEnd {
-    /// What is held.
-    pub kind: HeldKind,
-    /// The held point p (for `Sliding`, a point of the axis) in the motion's frame,
-    /// metres: at time t it is at `X_m(t) + R_m(t) p` in the world.
-    pub position: Vector3<f64>,
-    /// The held frame F* (columns n0, n1, n2) in the motion's frame (`Clamped`).
-    pub frame: Matrix3<f64>,
-    /// The unit axis a tip slides along, in the motion's frame (`Sliding`).
-    pub axis: Vector3<f64>,
-    /// The motion of the holder (`Still`: fixed in the world; keyframes: driven).
-    pub motion: HeadMotion,
-}
-
-/// Both ends of a strand.
+/// How a strand's root is held (its tip: [`crate::config::HeldEnd`] in its setup).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct StrandEnds {
     /// The root.
     pub root: RootEnd,
-    /// The tip: `None` is free (the hair's tip).
-    pub tip: Option<HeldEnd>,
 }
 
 impl StrandEnds {
@@ -107,11 +88,6 @@ impl StrandEnds {
             RootEnd::Clamped => 0,
             RootEnd::Pinned => 1,
         }
-    }
-
-    /// Whether both ends are the hair's (clamped root, free tip).
-    pub fn is_hair(&self) -> bool {
-        self.root == RootEnd::Clamped && self.tip.is_none()
     }
 }
 

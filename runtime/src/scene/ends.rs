@@ -3,9 +3,9 @@
 
 use super::head::read_motion;
 use super::reader::Node;
-use crate::config::StrandSetup;
+use crate::config::{HeldEnd, StrandSetup};
 use crate::forces::head_motion::HeadMotion;
-use crate::model::ends::{HeldEnd, HeldKind, RootEnd};
+use crate::model::ends::{HeldKind, RootEnd};
 use crate::model::reconstruction::pose_at;
 use nalgebra::{Matrix3, Vector3};
 
@@ -137,7 +137,7 @@ impl EndsSpec {
         let axis = tip
             .axis
             .unwrap_or_else(|| to_holder * pose.frame.column(0).into_owned());
-        setup.strand.ends.tip = Some(HeldEnd {
+        setup.tip = Some(HeldEnd {
             kind: tip.kind,
             position,
             frame,

@@ -196,6 +196,7 @@ impl Template {
             q0,
             group,
             charge_per_length: self.charge_per_length,
+            tip: None,
         })
     }
 }

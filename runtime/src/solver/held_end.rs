@@ -18,8 +18,9 @@
 //! converges on the residual whatever, and φ stays at round-off between steps.
 
 use crate::bodies::motion::so3;
+use crate::config::HeldEnd;
 use crate::kernels::kernel::StrandKernel;
-use crate::model::ends::{HeldEnd, HeldKind};
+use crate::model::ends::HeldKind;
 use crate::model::reconstruction::Pose;
 use crate::model::strand::StrandGeometry;
 use nalgebra::{Matrix3, Matrix6, Rotation3, Vector3, Vector6};

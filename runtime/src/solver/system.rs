@@ -163,17 +163,13 @@ pub struct Assembled {
 impl StrandSystem {
     /// The system of `strand` on `kernel`, its buffers sized once.
     pub fn new(strand: Strand, kernel: Box<dyn StrandKernel>, context: StepContext) -> Self {
-        let held =
-            strand.ends.tip.clone().map(|end| {
-                super::held_end::HeldTip::new(end, &strand.geometry, strand.solver_scale())
-            });
         StrandSystem {
             workspace: StrandWorkspace::new(&strand),
             strand,
             kernel,
             context,
             contacts: None,
-            held,
+            held: None,
         }
     }
 

@@ -113,6 +113,7 @@ pub fn cross_section_strand(
         internal_friction: gamma,
         air_drag: nu,
         point_loads: Vec::new(),
+        ends: Default::default(),
     }
 }
 
@@ -133,6 +134,7 @@ pub fn setup(
             .into_iter()
             .map(|s| StrandSetup {
                 charge_per_length: None,
+                tip: None,
                 q0: s.natural.clone(),
                 group: s.name.clone(),
                 strand: s,
