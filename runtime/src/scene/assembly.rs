@@ -296,7 +296,7 @@ fn read_scalp_hair(
         return;
     }
     let (u, v) = {
-        let u = super::strands::perpendicular(&axis);
+        let u = crate::model::ends::perpendicular(&axis);
         (u, axis.cross(&u))
     };
     let cos_max = angle.to_radians().cos();
@@ -316,7 +316,7 @@ fn read_scalp_hair(
         let n1 = if along.norm() > 1e-6 {
             along.normalize()
         } else {
-            super::strands::perpendicular(&normal)
+            crate::model::ends::perpendicular(&normal)
         };
         let mut t: Template = template.clone();
         t.frame = Some(nalgebra::Matrix3::from_columns(&[

@@ -283,12 +283,6 @@ fn read_frame(n: &mut Node<'_>) -> Option<Matrix3<f64>> {
     Some(Matrix3::from_columns(&[n0, n1, n0.cross(&n1)]))
 }
 
-/// A unit vector perpendicular to the unit vector `v`.
-pub(super) fn perpendicular(v: &Vector3<f64>) -> Vector3<f64> {
-    let e = least_aligned_axis(v);
-    (e - v * v.dot(&e)).normalize()
-}
-
 /// The world axis least aligned with the unit vector `v`.
 fn least_aligned_axis(v: &Vector3<f64>) -> Vector3<f64> {
     let k = v.iamin();
