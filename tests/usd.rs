@@ -115,6 +115,7 @@ fn numpy_loads_the_frames_of_an_unfinished_run() {
         }],
         output_fps: 10.0,
         planned_frames: 10,
+        held_tips: Vec::new(),
     };
     let mut sink = NpyFrameSink::create(&dir, &layout).unwrap_or_else(|e| panic!("{e}"));
     for k in 0..3 {
@@ -126,6 +127,7 @@ fn numpy_loads_the_frames_of_an_unfinished_run() {
             points: &points,
             q: &[0.0; 3],
             steps: None,
+            held: &[],
         };
         sink.write_frame(&view).unwrap_or_else(|e| panic!("{e}"));
     }
@@ -190,6 +192,7 @@ fn pxr_reads_the_render_strands() {
         }],
         output_fps: 30.0,
         planned_frames: store.frame_count(),
+        held_tips: Vec::new(),
     };
     let mut sink =
         NpyFrameSink::create(&dir.join("render"), &layout).unwrap_or_else(|e| panic!("{e}"));
@@ -207,6 +210,7 @@ fn pxr_reads_the_render_strands() {
             points: &points,
             q: &[],
             steps: None,
+            held: &[],
         };
         sink.write_frame(&view).unwrap_or_else(|e| panic!("{e}"));
     }

@@ -94,6 +94,31 @@ pub trait FrameSource {
     fn strand_steps(&self) -> Option<Vec<StrandSteps>> {
         None
     }
+    /// Whether strand `i`'s tip is held (`[strands.ends.tip]`); by default no strand's.
+    fn has_held_tip(&self, _i: usize) -> bool {
+        false
+    }
+    /// Every held tip's drift since the last call and its reaction at the current state,
+    /// in strand order, appended to `out` (which is cleared first); called once per frame
+    /// written. By default no strand has a held tip.
+    fn held_ends(&mut self, out: &mut Vec<HeldEndFrame>) {
+        out.clear();
+    }
+}
+
+/// One held tip (`[strands.ends.tip]`) at one frame: written per frame in `frames.json`
+/// (`"held"`) and `frames.held.npy`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct HeldEndFrame {
+    /// The strand's index in scene order.
+    pub strand: usize,
+    /// The largest distance of the tip from its holder after any step since the previous
+    /// frame: position off relative to the strand's length, frame off in radians (the
+    /// larger of the two; a step fails beyond 1e-9).
+    pub drift: f64,
+    /// The holder's reaction on the tip at the frame's state, world coordinates: force
+    /// (N), then torque (N·m; zero unless the tip is clamped).
+    pub reaction: [f64; 6],
 }
 
 /// What the error-controlled step (`[simulation] tolerance`) did for one strand over a
@@ -189,6 +214,9 @@ pub struct RunSummary {
     pub deepest_inside: Option<f64>,
     /// What the error-controlled step did (`None`: fixed steps).
     pub error_control: Option<ErrorControlSummary>,
+    /// The largest drift of a held tip from its holder over the frames written (see
+    /// [`HeldEndFrame::drift`]; `None`: no strand has a held tip).
+    pub held_drift: Option<f64>,
 }
 
 impl RunSummary {
@@ -211,7 +239,13 @@ impl fmt::Display for RunSummary {
             n => format!("{n} strands"),
         };
         match self.mode {
-            Mode::Static => write!(f, "static: {strands} solved in {wall:.3} s"),
+            Mode::Static => {
+                write!(f, "static: {strands} solved in {wall:.3} s")?;
+                match self.held_drift {
+                    Some(d) => write!(f, ", held tips at most {d:.1e} L off their holders"),
+                    None => Ok(()),
+                }
+            }
             Mode::Dynamic => {
                 write!(
                     f,
@@ -223,6 +257,9 @@ impl fmt::Display for RunSummary {
                 )?;
                 if let Some(d) = self.deepest_inside {
                     write!(f, ", deepest centreline point {d:.3e} m inside a body")?;
+                }
+                if let Some(d) = self.held_drift {
+                    write!(f, ", held tips at most {d:.1e} L off their holders")?;
                 }
                 match self.error_control {
                     Some(e) => {

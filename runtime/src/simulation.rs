@@ -1484,6 +1484,22 @@ impl FrameSource for Simulation {
     fn frame_steps(&mut self) -> Option<crate::output::FrameSteps> {
         Simulation::frame_steps(self)
     }
+    fn has_held_tip(&self, i: usize) -> bool {
+        self.strands.get(i).is_some_and(|s| s.system.held.is_some())
+    }
+    fn held_ends(&mut self, out: &mut Vec<crate::output::HeldEndFrame>) {
+        out.clear();
+        for i in 0..self.strands.len() {
+            let reaction = self.held_reaction(i);
+            if let (Some(drift), Some(r)) = (self.take_held_drift(i), reaction) {
+                out.push(crate::output::HeldEndFrame {
+                    strand: i,
+                    drift,
+                    reaction: [r[0], r[1], r[2], r[3], r[4], r[5]],
+                });
+            }
+        }
+    }
 
     fn solve_static(&mut self) -> Result<()> {
         Simulation::solve_static(self).map(|_| ())

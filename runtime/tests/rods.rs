@@ -321,3 +321,102 @@ fn a_rope_held_at_both_ends_swings_on_its_holders() {
     let mid = sim.position_at(0, 0.5);
     assert!(mid[2] < -0.2, "{mid:?}");
 }
+
+/// Run `text` into `frames.json` and `frames.npy` in a fresh directory; the frames of
+/// `frames.json` and the values of `frames.held.npy` (with its shape).
+fn held_report(name: &str, text: &str) -> (Vec<serde_json::Value>, Vec<u64>, Vec<f64>) {
+    use superhelix_runtime::output::npy::NpyFrameSink;
+    use superhelix_runtime::output::{frame_layout, run_streaming, FrameSink, JsonFrameSink};
+    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("folder");
+    let setup = parse_scene(text).expect("scene");
+    let config = setup.config.clone();
+    let mut sim = Simulation::new(setup, None).expect("simulation");
+    let layout = frame_layout(&sim, &config, 2);
+    assert_eq!(layout.held_tips, vec![0]);
+    let mut json = JsonFrameSink::create(&dir.join("frames.json"), &layout).expect("json");
+    let mut npy = NpyFrameSink::create(&dir, &layout).expect("npy");
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let mut sinks: [&mut dyn FrameSink; 2] = [&mut json, &mut npy];
+    let outcome = run_streaming(&mut sim, &config, 2, &mut sinks, &stop, |_, _| {});
+    assert!(
+        matches!(
+            outcome.stop,
+            superhelix_runtime::output::StopReason::Completed
+        ),
+        "{:?}",
+        outcome.stop
+    );
+    let summary = outcome.summary.to_string();
+    assert!(summary.contains("held tips at most"), "{summary}");
+    let read = |file: &str| std::fs::read(dir.join(file)).expect(file);
+    let doc: serde_json::Value = serde_json::from_slice(&read("frames.json")).expect("json");
+    let index: serde_json::Value =
+        serde_json::from_slice(&read("frames.index.json")).expect("index");
+    assert_eq!(index["held_tips"][0], 0);
+    assert_eq!(index["held_ends"]["file"], "frames.held.npy");
+    assert_eq!(index["held_ends"]["columns"][3], "fz");
+    let npy = read("frames.held.npy");
+    let header = u16::from_le_bytes([npy[8], npy[9]]) as usize + 10;
+    let text = String::from_utf8_lossy(&npy[10..header]).to_string();
+    let from = text.find("'shape': (").expect("shape") + 10;
+    let shape: Vec<u64> = text[from..from + text[from..].find(')').expect(")")]
+        .split(',')
+        .filter_map(|x| x.trim().parse().ok())
+        .collect();
+    let values = npy[header..]
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+        .collect();
+    let frames = doc["frames"].as_array().cloned().expect("frames");
+    (frames, shape, values)
+}
+
+#[test]
+fn held_ends_are_reported_per_frame_in_frames_json_and_frames_held_npy() {
+    // the static catenary of E = 1e7 Pa: one frame, the tip holding half the weight
+    let text = rope_scene(1.0, 0.8, 20, 1e7);
+    let setup = parse_scene(&text).expect("scene");
+    let weight = setup.strands[0].strand.material.mass_per_length * 9.81;
+    let (frames, shape, values) = held_report("held-static", &text);
+    assert_eq!(shape, vec![1, 1, 7]);
+    let held = &frames[0]["held"][0];
+    assert_eq!(held["strand"], 0);
+    for (k, v) in values.iter().enumerate() {
+        let json = if k == 0 {
+            held["drift"].as_f64()
+        } else {
+            held["reaction"][k - 1].as_f64()
+        };
+        assert_eq!(json, Some(*v), "column {k}");
+    }
+    eprintln!(
+        "static: drift {:.2e} L, tip force / weight ({:.6}, {:.1e}, {:.9})",
+        values[0],
+        values[1] / weight,
+        values[2] / weight,
+        values[3] / weight
+    );
+    assert!(values[0] <= 1e-9, "{values:?}");
+    assert!((values[3] / weight - 0.5).abs() < 1e-9, "{values:?}");
+    // the rope swinging for 0.2 s, 11 frames: every frame's drift within the bound, the
+    // holder pulling outwards once the rope has stepped
+    let text = text.replace(
+        "mode = \"static\"",
+        "dt = 0.005\nduration = 0.2\noutput_fps = 50",
+    );
+    let (frames, shape, values) = held_report("held-dynamic", &text);
+    assert_eq!(shape, vec![11, 1, 7]);
+    assert_eq!(frames.len(), 11);
+    for (k, frame) in frames.iter().enumerate() {
+        let row = &values[7 * k..7 * k + 7];
+        assert_eq!(frame["held"][0]["drift"].as_f64(), Some(row[0]));
+        assert_eq!(frame["held"][0]["reaction"][0].as_f64(), Some(row[1]));
+        assert!(row[0] <= 1e-9, "frame {k}: {row:?}");
+        if k > 0 {
+            // the rope pulls its tip towards the root: the holder pulls it back (+x)
+            assert!(row[1] > 0.0, "frame {k}: {row:?}");
+        }
+    }
+}

@@ -93,6 +93,9 @@ pub fn frame_layout<S: FrameSource + ?Sized>(
         strands,
         output_fps: config.output_fps,
         planned_frames: frame_times(config).len(),
+        held_tips: (0..source.strand_count())
+            .filter(|&i| source.has_held_tip(i))
+            .collect(),
     }
 }
 
@@ -118,6 +121,8 @@ pub fn run_streaming<S: FrameSource + ?Sized>(
         written: 0,
         points: Vec::new(),
         q: Vec::new(),
+        held: Vec::new(),
+        held_drift: None,
         sinks,
     };
     let mut max_speed = 0.0;
@@ -152,6 +157,7 @@ pub fn run_streaming<S: FrameSource + ?Sized>(
         max_speed,
         deepest_inside: deepest,
         error_control: source.error_control(),
+        held_drift: streamer.held_drift,
     };
     RunOutcome {
         summary,
@@ -205,6 +211,9 @@ struct Streamer<'s, 'k> {
     written: usize,
     points: Vec<[f64; 3]>,
     q: Vec<f64>,
+    held: Vec<super::HeldEndFrame>,
+    /// The largest held-tip drift of the frames written.
+    held_drift: Option<f64>,
     sinks: &'s mut [&'k mut dyn FrameSink],
 }
 
@@ -234,6 +243,10 @@ impl Streamer<'_, '_> {
             self.points.extend_from_slice(&points);
             self.q.extend_from_slice(source.q(i));
         }
+        source.held_ends(&mut self.held);
+        for h in &self.held {
+            self.held_drift = Some(self.held_drift.unwrap_or(0.0).max(h.drift));
+        }
         let frame = FrameView {
             index: self.written,
             time: nominal,
@@ -241,6 +254,7 @@ impl Streamer<'_, '_> {
             points: &self.points,
             q: &self.q,
             steps: source.frame_steps(),
+            held: &self.held,
         };
         for sink in self.sinks.iter_mut() {
             sink.write_frame(&frame)?;

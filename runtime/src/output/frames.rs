@@ -29,6 +29,10 @@ pub struct FrameLayout {
     pub output_fps: f64,
     /// Frames the run plans to write (the written count can be smaller when it stops early).
     pub planned_frames: usize,
+    /// The strands whose tip is held (`[strands.ends.tip]`), by index in scene order: the
+    /// rows of every frame's held-end report (absent when empty).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub held_tips: Vec<usize>,
 }
 
 impl FrameLayout {
@@ -89,6 +93,9 @@ pub struct FrameView<'a> {
     pub q: &'a [f64],
     /// What the error-controlled step did since the previous frame (`None`: fixed steps).
     pub steps: Option<super::FrameSteps>,
+    /// Every held tip's drift and reaction, one per strand of
+    /// [`FrameLayout::held_tips`] (empty: no held tips).
+    pub held: &'a [super::HeldEndFrame],
 }
 
 /// A file format written while the run goes: every frame is written (and readable) as

@@ -26,6 +26,11 @@
 //! A run with a tolerance gives every frame an `"error_control"` object: what the
 //! error-controlled step did since the previous frame (`largest_error` over L, `steps`,
 //! `rejected`, `smallest_step` and `largest_step` in s; all 0 for frame 0).
+//! A scene with held tips (`[strands.ends.tip]`) lists them in `layout.held_tips` and
+//! gives every frame a `"held"` list, one entry per held tip: `strand` (its index),
+//! `drift` (the largest distance of the tip from its holder after any step since the
+//! previous frame, over L for positions and in radians for frames) and `reaction` (the
+//! holder's force on the tip, N, then its torque, N·m, world coordinates).
 //!
 //! The file is written as `frames.json.partial`, one frame per line, flushed after each
 //! frame, and renamed to `frames.json` when the run finishes or stops: a previous
@@ -33,7 +38,7 @@
 //! both, and also a file cut off by a hard kill (it keeps the complete frames).
 
 use super::frames::{FrameLayout, FrameSink, FrameStore, FrameView};
-use super::FrameSteps;
+use super::{FrameSteps, HeldEndFrame};
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::fs::File;
@@ -57,6 +62,8 @@ struct FrameOut<'a> {
     q: &'a [f64],
     #[serde(skip_serializing_if = "Option::is_none")]
     error_control: Option<FrameSteps>,
+    #[serde(skip_serializing_if = "<[_]>::is_empty")]
+    held: &'a [HeldEndFrame],
 }
 
 /// One frame as read back.
@@ -127,6 +134,7 @@ impl FrameSink for JsonFrameSink {
             points: frame.points,
             q: frame.q,
             error_control: frame.steps,
+            held: frame.held,
         };
         let separator: &[u8] = if self.frames == 0 { b"\n" } else { b",\n" };
         let result = writer

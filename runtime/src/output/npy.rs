@@ -15,6 +15,13 @@
 //!   largest step (s); all 0 for frame 0. The index then names the file and its columns
 //!   (`"error_control": {"file": "frames.steps.npy", "columns": [...], "strands_file":
 //!   "strand_steps.npy", "strands_columns": [...]}`), rewritten once at the first frame.
+//! - `frames.held.npy` (scenes with held tips, `[strands.ends.tip]`, only): float64, shape
+//!   `[frames, held tips, 7]`, one row per strand of the layout's `held_tips`
+//!   ([`super::HeldEndFrame`]): the largest drift of the tip from its holder after any
+//!   step since the previous frame (over L for positions, radians for frames), then the
+//!   holder's reaction on the tip at the frame's state: force (N) and torque (N·m), world
+//!   coordinates. The index names the file and its columns (`"held_ends": {"file":
+//!   "frames.held.npy", "columns": [...]}`).
 //! - `strand_steps.npy` (scenes with a tolerance only, whatever the formats): float64,
 //!   shape `[strands, 5]`, what the error-controlled step did for each strand over the
 //!   run ([`super::StrandSteps`]): steps accepted, steps rejected, the largest estimated
@@ -66,6 +73,11 @@ pub const STEPS_COLUMNS: [&str; 5] = [
     "largest_step",
 ];
 
+/// Name of the per-frame report of the held tips (scenes with `[strands.ends.tip]`).
+pub const HELD_FILE: &str = "frames.held.npy";
+/// Columns of [`HELD_FILE`], as named in the index.
+pub const HELD_COLUMNS: [&str; 7] = ["drift", "fx", "fy", "fz", "tx", "ty", "tz"];
+
 /// Name of the per-strand report of the error-controlled step (scenes with a tolerance).
 pub const STRAND_STEPS_FILE: &str = "strand_steps.npy";
 /// Columns of [`STRAND_STEPS_FILE`], as named in the index.
@@ -98,13 +110,17 @@ pub fn write_strand_steps(dir: &Path, rows: &[super::StrandSteps]) -> Result<Pat
     Ok(path)
 }
 
-/// `frames.index.json` of a run with a tolerance: the layout and where its per-frame step
-/// report is.
+/// `frames.index.json`: the layout, where the per-frame step report is (runs with a
+/// tolerance, from the first frame on) and where the held-end report is (scenes with held
+/// tips).
 #[derive(serde::Serialize)]
-struct IndexWithSteps<'a> {
+struct Index<'a> {
     #[serde(flatten)]
     layout: &'a FrameLayout,
-    error_control: StepsIndex,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    error_control: Option<StepsIndex>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    held_ends: Option<HeldIndex>,
 }
 
 /// Where the per-frame step report is and what its columns are.
@@ -114,6 +130,13 @@ struct StepsIndex {
     columns: [&'static str; 5],
     strands_file: &'static str,
     strands_columns: [&'static str; 5],
+}
+
+/// Where the held-end report is and what its columns are.
+#[derive(serde::Serialize)]
+struct HeldIndex {
+    file: &'static str,
+    columns: [&'static str; 7],
 }
 
 /// The npy magic string.
@@ -229,6 +252,8 @@ pub struct NpyFrameSink {
     times: GrowingNpy,
     /// The per-frame step report, created at the first frame that has one.
     steps: Option<GrowingNpy>,
+    /// The per-frame held-end report (scenes with held tips).
+    held: Option<GrowingNpy>,
     dir: PathBuf,
     layout: FrameLayout,
     total_points: usize,
@@ -240,9 +265,13 @@ impl NpyFrameSink {
     /// both arrays with zero frames.
     pub fn create(dir: &Path, layout: &FrameLayout) -> Result<Self> {
         std::fs::create_dir_all(dir).map_err(|e| io_error(dir, e))?;
-        let index = dir.join(INDEX_FILE);
-        let json = serde_json::to_vec_pretty(layout).map_err(|e| io_error(&index, e.into()))?;
-        write_atomically(&index, &json)?;
+        write_index(dir, layout, false)?;
+        let held = if layout.held_tips.is_empty() {
+            None
+        } else {
+            let shape = vec![layout.held_tips.len() as u64, HELD_COLUMNS.len() as u64];
+            Some(GrowingNpy::create(dir.join(HELD_FILE), "<f8", 8, shape)?)
+        };
         let total_points = layout.total_points();
         let points =
             GrowingNpy::create(dir.join(NPY_FILE), "<f4", 4, vec![total_points as u64, 3])?;
@@ -251,6 +280,7 @@ impl NpyFrameSink {
             points,
             times,
             steps: None,
+            held,
             dir: dir.to_path_buf(),
             layout: layout.clone(),
             total_points,
@@ -260,19 +290,8 @@ impl NpyFrameSink {
 
     /// Create [`STEPS_FILE`] and name it in the index.
     fn start_steps(&mut self) -> Result<()> {
-        let index = self.dir.join(INDEX_FILE);
-        let with = IndexWithSteps {
-            layout: &self.layout,
-            error_control: StepsIndex {
-                file: STEPS_FILE,
-                columns: STEPS_COLUMNS,
-                strands_file: STRAND_STEPS_FILE,
-                strands_columns: STRAND_STEPS_COLUMNS,
-            },
-        };
-        let json = serde_json::to_vec_pretty(&with).map_err(|e| io_error(&index, e.into()))?;
         let file = GrowingNpy::create(self.dir.join(STEPS_FILE), "<f8", 8, vec![5])?;
-        write_atomically(&index, &json)?;
+        write_index(&self.dir, &self.layout, true)?;
         self.steps = Some(file);
         Ok(())
     }
@@ -321,6 +340,26 @@ impl FrameSink for NpyFrameSink {
                 file.append(&bytes)?;
             }
         }
+        if let Some(file) = self.held.as_mut() {
+            if frame.held.len() != self.layout.held_tips.len() {
+                return Err(Error::invalid(
+                    "frame.held",
+                    format!(
+                        "frame {} reports {} held tips, the layout has {}",
+                        frame.index,
+                        frame.held.len(),
+                        self.layout.held_tips.len()
+                    ),
+                ));
+            }
+            let bytes: Vec<u8> = frame
+                .held
+                .iter()
+                .flat_map(|h| std::iter::once(h.drift).chain(h.reaction))
+                .flat_map(f64::to_le_bytes)
+                .collect();
+            file.append(&bytes)?;
+        }
         // the times first: a frame counts once its points header is written
         self.times.append(&times)?;
         self.points.append(&self.row)
@@ -330,9 +369,33 @@ impl FrameSink for NpyFrameSink {
         if let Some(s) = self.steps.as_mut() {
             s.finish()?;
         }
+        if let Some(s) = self.held.as_mut() {
+            s.finish()?;
+        }
         self.times.finish()?;
         self.points.finish()
     }
+}
+
+/// Write `frames.index.json` into `dir` (atomically): the layout, the held-end report's
+/// file when the layout has held tips, the step report's when `steps`.
+fn write_index(dir: &Path, layout: &FrameLayout, steps: bool) -> Result<()> {
+    let index = dir.join(INDEX_FILE);
+    let with = Index {
+        layout,
+        error_control: steps.then_some(StepsIndex {
+            file: STEPS_FILE,
+            columns: STEPS_COLUMNS,
+            strands_file: STRAND_STEPS_FILE,
+            strands_columns: STRAND_STEPS_COLUMNS,
+        }),
+        held_ends: (!layout.held_tips.is_empty()).then_some(HeldIndex {
+            file: HELD_FILE,
+            columns: HELD_COLUMNS,
+        }),
+    };
+    let json = serde_json::to_vec_pretty(&with).map_err(|e| io_error(&index, e.into()))?;
+    write_atomically(&index, &json)
 }
 
 /// A parsed `.npy` header.
@@ -597,6 +660,7 @@ mod tests {
             strands: vec![strand("a", 5), strand("b", 9)],
             output_fps: 30.0,
             planned_frames: 10,
+            held_tips: Vec::new(),
         }
     }
 
@@ -625,6 +689,7 @@ mod tests {
                 points: &points,
                 q: &[],
                 steps: None,
+                held: &[],
             };
             if let Err(e) = sink.write_frame(&view) {
                 panic!("{e}");
@@ -747,6 +812,7 @@ mod tests {
             points: &points,
             q: &[],
             steps: None,
+            held: &[],
         };
         assert!(matches!(sink.write_frame(&view), Err(Error::Invalid(_))));
         assert_eq!(sink.frames_written(), 1);

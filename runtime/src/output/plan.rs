@@ -210,6 +210,9 @@ pub fn setup_layout(setup: &SimulationSetup) -> FrameLayout {
         strands,
         output_fps: setup.config.output_fps,
         planned_frames: frame_times(&setup.config).len(),
+        held_tips: (0..setup.strands.len())
+            .filter(|&i| setup.strands[i].tip.is_some())
+            .collect(),
     }
 }
 
@@ -342,6 +345,7 @@ mod tests {
             strands: vec![strand(41), strand(21)],
             output_fps: 30.0,
             planned_frames: 10,
+            held_tips: Vec::new(),
         };
         let bytes = |render: Option<usize>| planned_files(&layout, Formats::DEFAULT, render);
         let (plain, rendered) = (bytes(None), bytes(Some(1000)));

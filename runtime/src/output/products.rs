@@ -135,6 +135,7 @@ mod tests {
             ],
             output_fps: 25.0,
             planned_frames: frames,
+            held_tips: Vec::new(),
         };
         let roots = [-0.1, 0.1, -0.05];
         let frames = (0..frames)
@@ -470,6 +471,7 @@ mod body_pictures {
             strands: Vec::new(),
             output_fps: 25.0,
             planned_frames: 1,
+            held_tips: Vec::new(),
         }
     }
 

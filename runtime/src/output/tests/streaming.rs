@@ -289,6 +289,7 @@ fn layout(strands: usize, points: usize, frames: usize) -> FrameLayout {
             .collect(),
         output_fps: 30.0,
         planned_frames: frames,
+        held_tips: Vec::new(),
     }
 }
 
