@@ -29,7 +29,10 @@ pub use superhelix_runtime::{
 };
 
 use runtime::groom::GroomReport;
-use runtime::output::npy::{NpyFrameSink, NpyFrameStore, INDEX_FILE, NPY_FILE, TIMES_FILE};
+use runtime::output::nodes::{NodesSink, D1_FILE, NODES_FILE};
+use runtime::output::npy::{
+    NpyFrameSink, NpyFrameStore, HELD_FILE, INDEX_FILE, NPY_FILE, STEPS_FILE, TIMES_FILE,
+};
 use runtime::output::preview::PreviewOptions;
 use runtime::output::products::write_products;
 use runtime::output::scenery::Scenery;
@@ -124,6 +127,14 @@ pub fn run_planned<S: FrameSource + ?Sized>(
     // without either are the frames kept in memory
     let mut memory = (products != Formats::NONE && !formats.json && !formats.npy)
         .then(|| MemoryFrames::new(layout.clone()));
+    // each strand at evenly spaced arc length, whatever the formats
+    let mut nodes = match setup.output.nodes {
+        Some(count) => {
+            let strands: Vec<_> = setup.strands.iter().map(|s| &s.strand).collect();
+            Some(NodesSink::create(&plan.dir, &strands, &setup.head, count)?)
+        }
+        None => None,
+    };
     let mut sinks: Vec<&mut dyn FrameSink> = Vec::new();
     if let Some(sink) = json.as_mut() {
         sinks.push(sink);
@@ -132,6 +143,9 @@ pub fn run_planned<S: FrameSource + ?Sized>(
         sinks.push(sink);
     }
     if let Some(sink) = memory.as_mut() {
+        sinks.push(sink);
+    }
+    if let Some(sink) = nodes.as_mut() {
         sinks.push(sink);
     }
     let outcome = output::run_streaming(
@@ -148,12 +162,15 @@ pub fn run_planned<S: FrameSource + ?Sized>(
         files.push(json_path.clone());
     }
     if formats.npy {
-        for name in [NPY_FILE, TIMES_FILE, INDEX_FILE] {
+        for name in [NPY_FILE, TIMES_FILE, INDEX_FILE, STEPS_FILE, HELD_FILE] {
             let path = plan.dir.join(name);
             if path.exists() {
                 files.push(path);
             }
         }
+    }
+    if nodes.is_some() {
+        files.extend([NODES_FILE, D1_FILE].map(|name| plan.dir.join(name)));
     }
     let mut products_error = None;
     // the error-controlled step's report per strand, whatever the formats

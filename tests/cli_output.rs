@@ -441,3 +441,98 @@ fn run_writes_the_render_strands_of_a_render_table() {
         "{with}\n{without}"
     );
 }
+
+/// `[output] nodes = K` writes every strand at K evenly spaced arc lengths and its d1
+/// director between them, in float64: on a natural helix the nodes keep the helix's
+/// chord lengths, on a straight rod with natural twist τ the director turns by τ per unit
+/// length, and a pinned root's joint is not counted.
+#[test]
+fn nodes_sample_each_strand_at_even_arc_length_with_its_director() {
+    use superhelix::runtime::output::npy::read_f64;
+    let dir = scratch("nodes");
+    let (radius, step, tau) = (0.01_f64, 0.02_f64, 20.0_f64);
+    let scene = write(
+        &dir,
+        "nodes.toml",
+        &format!(
+            "[simulation]\nduration = 0.1\n[environment]\ngravity = \"none\"\n\
+             [output]\nnodes = 9\nformats = [\"npy\"]\n\
+             [[strands]]\nname = \"helix\"\nlength = 0.2\nelements = 5\n\
+             helix_radius = {radius}\nhelix_step = {step}\n\
+             [[strands]]\nname = \"twist\"\nlength = 0.1\nelements = 5\n\
+             direction = [1.0, 0.0, 0.0]\nnatural = [{tau}, 0.0, 0.0]\n\
+             [[strands]]\nname = \"pinned\"\nlength = 0.1\nelements = 5\n\
+             direction = [0.0, 1.0, 0.0]\nnatural = [0.0, 0.0, 0.0]\n\
+             [strands.ends]\nroot = \"pinned\"\n"
+        ),
+    );
+    let plan = superhelix(&["validate", &scene]);
+    assert!(plan.status.success(), "{}", stderr(&plan));
+    assert!(
+        stdout(&plan).contains("frames.nodes.npy"),
+        "{}",
+        stdout(&plan)
+    );
+    let out_dir = s(&dir.join("out"));
+    let out = superhelix(&["run", &scene, "--out", &out_dir]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let (shape, nodes) = read_f64(&dir.join("out/frames.nodes.npy")).expect("nodes");
+    assert_eq!(shape, vec![4, 3, 9, 3]);
+    let (shape, d1) = read_f64(&dir.join("out/frames.d1.npy")).expect("d1");
+    assert_eq!(shape, vec![4, 3, 8, 3]);
+    let v = |a: &[f64], frame: usize, strand: usize, j: usize, per: usize| {
+        let at = ((frame * 3 + strand) * per + j) * 3;
+        [a[at], a[at + 1], a[at + 2]]
+    };
+    let dist = |a: [f64; 3], b: [f64; 3]| {
+        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+    };
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let frame = 3;
+    // the helix: |p(s) − p(0)|² = 2R²(1 − cos φ) + c²φ², φ = s / √(R² + c²), c = step/2π
+    let c = step / std::f64::consts::TAU;
+    let mut worst: f64 = 0.0;
+    for j in 0..9 {
+        let s = 0.2 * j as f64 / 8.0;
+        let phi = s / (radius * radius + c * c).sqrt();
+        let chord = (2.0 * radius * radius * (1.0 - phi.cos()) + c * c * phi * phi).sqrt();
+        let measured = dist(v(&nodes, frame, 0, j, 9), v(&nodes, frame, 0, 0, 9));
+        worst = worst.max((measured - chord).abs() / 0.2);
+    }
+    assert!(worst < 1e-9, "helix chords off by {worst:e} L");
+    // the twisted rod: straight along x, d1 across it, turned by τ Δs between segments
+    let root = v(&nodes, frame, 1, 0, 9);
+    let first = v(&d1, frame, 1, 0, 8);
+    for j in 0..9 {
+        let p = v(&nodes, frame, 1, j, 9);
+        let expected = [root[0] + 0.1 * j as f64 / 8.0, root[1], root[2]];
+        assert!(dist(p, expected) < 1e-9 * 0.1, "node {j}: {p:?}");
+    }
+    for j in 0..8 {
+        let d = v(&d1, frame, 1, j, 8);
+        assert!((dot(d, d) - 1.0).abs() < 1e-12, "segment {j}: {d:?}");
+        assert!(d[0].abs() < 1e-9, "segment {j}: {d:?}");
+        let turned = dot(d, first).clamp(-1.0, 1.0).acos();
+        let expected = tau * 0.1 * j as f64 / 8.0;
+        assert!(
+            (turned - expected).abs() < 1e-7,
+            "segment {j}: {turned} vs {expected}"
+        );
+    }
+    // the pinned root: the nodes start at the joint's end, even along y
+    let root = v(&nodes, frame, 2, 0, 9);
+    for j in 0..9 {
+        let p = v(&nodes, frame, 2, j, 9);
+        let expected = [root[0], root[1] + 0.1 * j as f64 / 8.0, root[2]];
+        assert!(dist(p, expected) < 1e-9 * 0.1, "node {j}: {p:?}");
+    }
+    // a single node is refused, naming the field
+    let bad = write(
+        &dir,
+        "bad.toml",
+        "[output]\nnodes = 1\n[[strands]]\nlength = 0.1\n",
+    );
+    let out = superhelix(&["validate", &bad]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("output.nodes"), "{}", stderr(&out));
+}

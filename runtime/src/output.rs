@@ -7,6 +7,8 @@
 //! - [`driver`]: the run loop ([`run_streaming`]), its stop flag and early stops.
 //! - [`json`]: `frames.json`, streamed frame-major.
 //! - [`memory`]: frames in memory.
+//! - [`nodes`]: `frames.nodes.npy` and `frames.d1.npy`, each strand at evenly spaced arc
+//!   length (`[output] nodes`).
 //! - [`npy`]: `frames.npy`, `frames.times.npy`, `frames.index.json`, streamed.
 //! - [`plan`]: which files a run writes ([`Formats`]), their estimated sizes, the size
 //!   limit and the checks of the output directory.
@@ -23,6 +25,7 @@ pub mod driver;
 pub mod frames;
 pub mod json;
 pub mod memory;
+pub mod nodes;
 pub mod npy;
 pub mod obj;
 pub mod plan;

@@ -391,6 +391,16 @@ fn read_output(mut n: Node<'_>) -> (usize, OutputSettings) {
         |n, k| n.count(k, 1, MAX_SAMPLES_PER_ELEMENT, cap),
     );
     let formats = read_formats(&mut n);
+    let nodes = if n.has("nodes") {
+        n.count(
+            "nodes",
+            crate::output::nodes::MIN_NODES as i64,
+            crate::output::nodes::MAX_NODES as i64,
+            "the cap on nodes per strand",
+        )
+    } else {
+        None
+    };
     let max_bytes = if n.has("max_bytes") {
         n.f64(
             "max_bytes",
@@ -405,6 +415,7 @@ fn read_output(mut n: Node<'_>) -> (usize, OutputSettings) {
         formats,
         max_bytes,
         render: None,
+        nodes,
     };
     (samples.unwrap_or(DEFAULT_SAMPLES_PER_ELEMENT), settings)
 }

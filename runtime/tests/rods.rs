@@ -357,18 +357,8 @@ fn held_report(name: &str, text: &str) -> (Vec<serde_json::Value>, Vec<u64>, Vec
     assert_eq!(index["held_tips"][0], 0);
     assert_eq!(index["held_ends"]["file"], "frames.held.npy");
     assert_eq!(index["held_ends"]["columns"][3], "fz");
-    let npy = read("frames.held.npy");
-    let header = u16::from_le_bytes([npy[8], npy[9]]) as usize + 10;
-    let text = String::from_utf8_lossy(&npy[10..header]).to_string();
-    let from = text.find("'shape': (").expect("shape") + 10;
-    let shape: Vec<u64> = text[from..from + text[from..].find(')').expect(")")]
-        .split(',')
-        .filter_map(|x| x.trim().parse().ok())
-        .collect();
-    let values = npy[header..]
-        .chunks_exact(8)
-        .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
-        .collect();
+    let (shape, values) =
+        superhelix_runtime::output::npy::read_f64(&dir.join("frames.held.npy")).expect("npy");
     let frames = doc["frames"].as_array().cloned().expect("frames");
     (frames, shape, values)
 }

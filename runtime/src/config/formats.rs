@@ -144,4 +144,7 @@ pub struct OutputSettings {
     /// `[render]`: render strands generated from the strands at every frame for
     /// `hair.usda` and the pictures; `None`: none, nothing built for them.
     pub render: Option<crate::render::RenderSettings>,
+    /// `nodes`: write every strand at this many evenly spaced arc lengths, with its d1
+    /// director between them (`frames.nodes.npy`, `frames.d1.npy`); `None`: not written.
+    pub nodes: Option<usize>,
 }

@@ -52,6 +52,37 @@ pub fn positions_at_sorted(
     out: &mut Vec<Vector3<f64>>,
 ) {
     out.clear();
+    walk_sorted(geom, q, arcs, |start, _, p| {
+        out.push(start.position + start.frame * p)
+    });
+}
+
+/// Poses (position and material frame) at the arc lengths `arcs` (in increasing order;
+/// each clamped to [0, L]), in head coordinates, into `out` (cleared first), in one pass
+/// along the strand as [`positions_at_sorted`].
+pub fn poses_at_sorted(
+    geom: &StrandGeometry,
+    q: &[f64],
+    arcs: impl IntoIterator<Item = f64>,
+    out: &mut Vec<Pose>,
+) {
+    out.clear();
+    walk_sorted(geom, q, arcs, |start, e, p| {
+        out.push(Pose {
+            position: start.position + start.frame * p,
+            frame: start.frame * e,
+        })
+    });
+}
+
+/// One pass along the strand: for each arc length of `arcs` (increasing), the pose of
+/// its element's start and the local pose (E(u), P(u)) at it.
+fn walk_sorted(
+    geom: &StrandGeometry,
+    q: &[f64],
+    arcs: impl IntoIterator<Item = f64>,
+    mut visit: impl FnMut(&Pose, &nalgebra::Matrix3<f64>, &Vector3<f64>),
+) {
     let n = geom.lengths.len();
     let mut start = Pose {
         position: geom.root_position,
@@ -71,8 +102,8 @@ pub fn positions_at_sorted(
             d = darboux(q, element);
         }
         let u = (s - s0).clamp(0.0, geom.lengths[element]);
-        let (_, p) = local_pose(&d, u);
-        out.push(start.position + start.frame * p);
+        let (e, p) = local_pose(&d, u);
+        visit(&start, &e, &p);
     }
 }
 

@@ -189,7 +189,7 @@ fn header_bytes(descr: &str, shape: &[u64], total: usize) -> Vec<u8> {
 }
 
 /// One growing `.npy` file: the header is rewritten after every row.
-struct GrowingNpy {
+pub(crate) struct GrowingNpy {
     file: File,
     path: PathBuf,
     descr: &'static str,
@@ -200,7 +200,12 @@ struct GrowingNpy {
 }
 
 impl GrowingNpy {
-    fn create(path: PathBuf, descr: &'static str, item_bytes: u64, tail: Vec<u64>) -> Result<Self> {
+    pub(crate) fn create(
+        path: PathBuf,
+        descr: &'static str,
+        item_bytes: u64,
+        tail: Vec<u64>,
+    ) -> Result<Self> {
         let file = File::create(&path).map_err(|e| io_error(&path, e))?;
         let header_len = header_len_for(descr, &tail);
         let row_bytes = item_bytes * tail.iter().product::<u64>();
@@ -228,7 +233,7 @@ impl GrowingNpy {
     }
 
     /// Append one row (exactly `row_bytes` long), then publish it in the header.
-    fn append(&mut self, row: &[u8]) -> Result<()> {
+    pub(crate) fn append(&mut self, row: &[u8]) -> Result<()> {
         let at = self.header_len as u64 + self.rows * self.row_bytes;
         self.file
             .seek(SeekFrom::Start(at))
@@ -238,7 +243,7 @@ impl GrowingNpy {
         self.write_header()
     }
 
-    fn finish(&mut self) -> Result<()> {
+    pub(crate) fn finish(&mut self) -> Result<()> {
         self.file
             .flush()
             .and_then(|_| self.file.sync_all())
@@ -396,6 +401,44 @@ fn write_index(dir: &Path, layout: &FrameLayout, steps: bool) -> Result<()> {
     };
     let json = serde_json::to_vec_pretty(&with).map_err(|e| io_error(&index, e.into()))?;
     write_atomically(&index, &json)
+}
+
+/// Read a little-endian float64 `.npy` file this module (or [`super::nodes`]) writes:
+/// its shape and its values in C order. Only the whole rows its header counts are read
+/// (a run stopped mid-frame leaves the next row partly written).
+pub fn read_f64(path: &Path) -> Result<(Vec<u64>, Vec<f64>)> {
+    let mut file = File::open(path).map_err(|e| io_error(path, e))?;
+    let header = read_header(&mut file, path)?;
+    if header.descr != "<f8" || header.fortran_order {
+        return Err(bad_file(
+            path,
+            format!(
+                "expected little-endian float64 in C order, the header says '{}'{}",
+                header.descr,
+                if header.fortran_order {
+                    " in Fortran order"
+                } else {
+                    ""
+                }
+            ),
+        ));
+    }
+    let len = file.metadata().map_err(|e| io_error(path, e))?.len();
+    let row: u64 = header.shape.iter().skip(1).product();
+    let rows = rows_present(&header, len, 8 * row);
+    let mut bytes = vec![0u8; rows * 8 * row as usize];
+    file.seek(SeekFrom::Start(header.data_start))
+        .and_then(|_| file.read_exact(&mut bytes))
+        .map_err(|e| io_error(path, e))?;
+    let mut shape = header.shape;
+    if let Some(first) = shape.first_mut() {
+        *first = rows as u64;
+    }
+    let values = bytes
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]))
+        .collect();
+    Ok((shape, values))
 }
 
 /// A parsed `.npy` header.

@@ -119,7 +119,12 @@ impl OutputPlan {
         Self {
             dir: dir.to_path_buf(),
             formats,
-            files: planned_files(layout, formats, settings.render.map(|r| r.strands)),
+            files: planned_files(
+                layout,
+                formats,
+                settings.render.map(|r| r.strands),
+                settings.nodes,
+            ),
             frames: layout.planned_frames,
             note,
             limit,
@@ -234,10 +239,22 @@ fn planned_files(
     layout: &FrameLayout,
     formats: Formats,
     render: Option<usize>,
+    nodes: Option<usize>,
 ) -> Vec<PlannedFile> {
     let frames = layout.planned_frames as u64;
     let points = layout.total_points() as u64;
     let mut files = Vec::new();
+    if let Some(k) = nodes {
+        let per_frame = 3 * 8 * layout.strands.len() as u64;
+        files.push(PlannedFile {
+            name: super::nodes::NODES_FILE,
+            bytes: NPY_HEADER_BYTES + frames * per_frame * k as u64,
+        });
+        files.push(PlannedFile {
+            name: super::nodes::D1_FILE,
+            bytes: NPY_HEADER_BYTES + frames * per_frame * (k as u64).saturating_sub(1),
+        });
+    }
     if formats.json {
         files.push(PlannedFile {
             name: "frames.json",
@@ -347,7 +364,7 @@ mod tests {
             planned_frames: 10,
             held_tips: Vec::new(),
         };
-        let bytes = |render: Option<usize>| planned_files(&layout, Formats::DEFAULT, render);
+        let bytes = |render: Option<usize>| planned_files(&layout, Formats::DEFAULT, render, None);
         let (plain, rendered) = (bytes(None), bytes(Some(1000)));
         let usda = |files: &[PlannedFile]| {
             files

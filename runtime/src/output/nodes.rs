@@ -1,0 +1,157 @@
+//! `frames.nodes.npy` and `frames.d1.npy` (`[output] nodes = K`): every strand sampled at
+//! K evenly spaced arc lengths, with its material director d1 between them, for
+//! comparisons with discrete rod codes and measurements.
+//!
+//! - `frames.nodes.npy`: float64, C order, shape `[frames, strands, K, 3]`: node j of
+//!   strand i at arc length `s_j = j L_i / (K − 1)` from the root (j = 0 … K − 1, so the
+//!   first node is the root and the last the tip), world coordinates, m.
+//! - `frames.d1.npy`: float64, shape `[frames, strands, K − 1, 3]`: the director d1 (the
+//!   material frame's first normal n1, the axis of the κ1 bending; section 3.1 of the
+//!   Super-Helix paper) at the middle of each of the K − 1 segments between consecutive
+//!   nodes, `s = (j + 1/2) L_i / (K − 1)`, world coordinates, a unit vector. With the
+//!   tangent t = n0 (the segment's direction to second order) and n2 = t × n1 it gives
+//!   the whole frame.
+//!
+//! The positions and frames are the closed-form reconstruction at those arc lengths
+//! (equation 6 of the paper, [`poses_at_sorted`]) moved by the head's pose at the frame's
+//! simulated time, not an interpolation of the written centreline. A pinned root's joint
+//! element (10⁻¹⁰ L long) is not counted: arc length starts at its end.
+//!
+//! Both files grow as the run goes, as `frames.npy` does (the header is rewritten with the
+//! frame count after every frame), and are written whatever the `formats`.
+
+use super::frames::{FrameSink, FrameView};
+use super::npy::GrowingNpy;
+use crate::error::{Error, Result};
+use crate::forces::head_motion::HeadMotion;
+use crate::model::reconstruction::{poses_at_sorted, Pose};
+use crate::model::strand::{Strand, StrandGeometry};
+use std::path::Path;
+
+/// Name of the nodes file.
+pub const NODES_FILE: &str = "frames.nodes.npy";
+/// Name of the directors file.
+pub const D1_FILE: &str = "frames.d1.npy";
+/// The fewest nodes per strand (the root and the tip).
+pub const MIN_NODES: usize = 2;
+/// The most nodes per strand.
+pub const MAX_NODES: usize = 100_000;
+
+/// What the sink keeps of one strand.
+struct Sampled {
+    geometry: StrandGeometry,
+    /// Arc length of the first node (the pinned root's joint length, else 0), m.
+    first: f64,
+    /// Length sampled, m.
+    length: f64,
+}
+
+/// Writes [`NODES_FILE`] and [`D1_FILE`] as the run goes.
+pub struct NodesSink {
+    strands: Vec<Sampled>,
+    head: HeadMotion,
+    count: usize,
+    nodes: GrowingNpy,
+    d1: GrowingNpy,
+    arcs: Vec<f64>,
+    poses: Vec<Pose>,
+    nodes_row: Vec<u8>,
+    d1_row: Vec<u8>,
+}
+
+impl NodesSink {
+    /// Create both files in `dir` (which must exist) with zero frames, for `strands` (as
+    /// the simulation has them, in scene order) on a head moving as `head`, `count` nodes
+    /// per strand ([`MIN_NODES`] to [`MAX_NODES`]).
+    pub fn create(
+        dir: &Path,
+        strands: &[&Strand],
+        head: &HeadMotion,
+        count: usize,
+    ) -> Result<Self> {
+        if !(MIN_NODES..=MAX_NODES).contains(&count) {
+            return Err(Error::invalid(
+                "output.nodes",
+                format!("{count} nodes per strand; allowed {MIN_NODES} to {MAX_NODES}"),
+            ));
+        }
+        let strands: Vec<Sampled> = strands
+            .iter()
+            .map(|s| {
+                let joint = s.ends.joint_elements();
+                let first: f64 = s.geometry.lengths[..joint].iter().sum();
+                Sampled {
+                    geometry: s.geometry.clone(),
+                    first,
+                    length: s.geometry.length() - first,
+                }
+            })
+            .collect();
+        let n = strands.len() as u64;
+        let k = count as u64;
+        let nodes = GrowingNpy::create(dir.join(NODES_FILE), "<f8", 8, vec![n, k, 3])?;
+        let d1 = GrowingNpy::create(dir.join(D1_FILE), "<f8", 8, vec![n, k - 1, 3])?;
+        Ok(Self {
+            strands,
+            head: head.clone(),
+            count,
+            nodes,
+            d1,
+            arcs: Vec::with_capacity(2 * count),
+            poses: Vec::with_capacity(2 * count),
+            nodes_row: Vec::new(),
+            d1_row: Vec::new(),
+        })
+    }
+}
+
+impl FrameSink for NodesSink {
+    fn write_frame(&mut self, frame: &FrameView<'_>) -> Result<()> {
+        let head = self.head.state(frame.state_time);
+        let spans = (self.count - 1) as f64;
+        self.nodes_row.clear();
+        self.d1_row.clear();
+        let mut at = 0;
+        for s in &self.strands {
+            let dofs = s.geometry.dofs();
+            let Some(q) = frame.q.get(at..at + dofs) else {
+                return Err(Error::invalid(
+                    "frame.q",
+                    format!(
+                        "frame {} has {} coordinates, fewer than its strands",
+                        frame.index,
+                        frame.q.len()
+                    ),
+                ));
+            };
+            at += dofs;
+            // nodes and midpoints interleaved: one pass along the strand
+            self.arcs.clear();
+            for j in 0..2 * self.count - 1 {
+                self.arcs
+                    .push(s.first + s.length * (0.5 * j as f64 / spans).min(1.0));
+            }
+            poses_at_sorted(&s.geometry, q, self.arcs.iter().copied(), &mut self.poses);
+            for (j, pose) in self.poses.iter().enumerate() {
+                let (row, v) = if j % 2 == 0 {
+                    (
+                        &mut self.nodes_row,
+                        head.position + head.rotation * pose.position,
+                    )
+                } else {
+                    (&mut self.d1_row, head.rotation * pose.frame.column(1))
+                };
+                for c in v.iter() {
+                    row.extend_from_slice(&c.to_le_bytes());
+                }
+            }
+        }
+        self.d1.append(&self.d1_row)?;
+        self.nodes.append(&self.nodes_row)
+    }
+
+    fn finish(&mut self) -> Result<()> {
+        self.d1.finish()?;
+        self.nodes.finish()
+    }
+}
