@@ -536,3 +536,84 @@ fn nodes_sample_each_strand_at_even_arc_length_with_its_director() {
     assert!(!out.status.success());
     assert!(stderr(&out).contains("output.nodes"), "{}", stderr(&out));
 }
+
+/// `[output] times` puts the frames at exactly those times, off the step grid: the root of
+/// a strand on a head oscillating as X = A sin(2πft) is where the motion puts it at each
+/// time to round-off (a frame at the nearest step would be up to 2πfA·dt/2 ≈ 6e-4 m off).
+/// Times out of order, past the duration or in a static run are refused, naming the field.
+#[test]
+fn frames_land_on_the_requested_times() {
+    let dir = scratch("times");
+    let (amplitude, frequency) = (0.01_f64, 2.0_f64);
+    let times = [0.0, 0.0123, 0.05, 0.0777, 0.1];
+    let list = times.map(|t| t.to_string()).join(", ");
+    let scene = write(
+        &dir,
+        "times.toml",
+        &format!(
+            "[simulation]\ndt = 0.01\nduration = 0.1\n\
+             [head]\nmotion = {{ kind = \"translate-oscillate\", direction = [1.0, 0.0, 0.0], \
+             amplitude = {amplitude}, frequency_hz = {frequency} }}\n\
+             [output]\ntimes = [{list}]\nformats = [\"json\", \"usda\"]\n\
+             [[strands]]\nlength = 0.1\nelements = 5\n"
+        ),
+    );
+    let out_dir = s(&dir.join("out"));
+    let out = superhelix(&["run", &scene, "--out", &out_dir]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    // two steps of 0.01 s are split (at 0.0123 and 0.0777): 12 steps
+    assert!(
+        stdout(&out).contains("12 steps x 1 strand"),
+        "{}",
+        stdout(&out)
+    );
+    let mut store = JsonFrameStore::open(&dir.join("out/frames.json")).expect("frames.json");
+    assert_eq!(store.frame_count(), times.len());
+    let mut points = Vec::new();
+    for (k, &t) in times.iter().enumerate() {
+        assert_eq!(store.time(k), t);
+        assert!(
+            (store.state_time(k) - t).abs() < 1e-15,
+            "frame {k}: {}",
+            store.state_time(k)
+        );
+        store.points(k, &mut points).expect("points");
+        let x = amplitude * (std::f64::consts::TAU * frequency * t).sin();
+        assert!(
+            (points[0][0] - x).abs() < 1e-15,
+            "frame {k}: root at {:?}, head at {x}",
+            points[0]
+        );
+    }
+    // the stage's time codes are t · output_fps (30)
+    let stage = std::fs::read_to_string(dir.join("out/hair.usda")).unwrap_or_default();
+    assert!(
+        stage.contains("endTimeCode = 3\n"),
+        "{}",
+        &stage[..stage.len().min(400)]
+    );
+    for code in ["0: [", "0.369: [", "1.5: [", "2.331: [", "3: ["] {
+        assert!(stage.contains(code), "{code} not in the stage");
+    }
+    for (times, field) in [
+        ("[0.05, 0.02]", "output.times[1]"),
+        ("[0.05, 0.2]", "output.times[1]"),
+        ("[]", "output.times"),
+    ] {
+        let bad = write(
+            &dir,
+            "bad.toml",
+            &format!("[simulation]\nduration = 0.1\n[output]\ntimes = {times}\n[[strands]]\nlength = 0.1\n"),
+        );
+        let out = superhelix(&["validate", &bad]);
+        assert!(!out.status.success(), "{times}");
+        assert!(stderr(&out).contains(field), "{times}: {}", stderr(&out));
+    }
+    let bad = write(
+        &dir,
+        "static.toml",
+        "[simulation]\nmode = \"static\"\n[output]\ntimes = [0.0]\n[[strands]]\nlength = 0.1\n",
+    );
+    let out = superhelix(&["validate", &bad]);
+    assert!(stderr(&out).contains("output.times"), "{}", stderr(&out));
+}

@@ -64,6 +64,15 @@ impl FrameSource for Recording<'_> {
     fn step(&mut self) -> Result<()> {
         FrameSource::step(self.sim)
     }
+    fn step_by(&mut self, h: f64) -> Result<()> {
+        FrameSource::step_by(self.sim, h)
+    }
+    fn has_held_tip(&self, i: usize) -> bool {
+        FrameSource::has_held_tip(&*self.sim, i)
+    }
+    fn held_ends(&mut self, out: &mut Vec<superhelix_runtime::output::HeldEndFrame>) {
+        FrameSource::held_ends(self.sim, out)
+    }
     fn solve_static(&mut self) -> Result<()> {
         FrameSource::solve_static(self.sim)
     }

@@ -203,6 +203,10 @@ pub struct SimulationConfig {
     /// steps): each strand then chooses its own steps within every `dt` to keep it
     /// ([`crate::solver::error_control`]).
     pub tolerance: Option<f64>,
+    /// The times of the frames (`[output] times`, strictly increasing, in [0, duration];
+    /// `None`: every 1/output_fps): a step that would pass one is split there, so that each
+    /// frame records the state at exactly its time (to round-off).
+    pub output_times: Option<Vec<f64>>,
 }
 
 /// Smallest `[simulation] tolerance`.
@@ -225,6 +229,7 @@ impl Default for SimulationConfig {
             field_stiffness: FieldStiffness::Projected,
             energy_balance: true,
             tolerance: None,
+            output_times: None,
         }
     }
 }
@@ -297,11 +302,17 @@ pub fn total_steps(config: &SimulationConfig) -> usize {
     (ratio - 1e-9 * ratio.max(1.0)).ceil().max(0.0) as usize
 }
 
-/// Nominal frame times `k / output_fps` for `k = 0..=floor(duration · output_fps)`;
-/// `[0]` in static mode.
+/// Nominal frame times: `[output] times` when the scene gives them, else `k / output_fps`
+/// for `k = 0..=floor(duration · output_fps)`; `[0]` in static mode.
 pub fn frame_times(config: &SimulationConfig) -> Vec<f64> {
     let product = config.duration * config.output_fps;
-    if config.mode == Mode::Static || !product.is_finite() || product <= 0.0 {
+    if config.mode == Mode::Static {
+        return vec![0.0];
+    }
+    if let Some(times) = &config.output_times {
+        return times.clone();
+    }
+    if !product.is_finite() || product <= 0.0 {
         return vec![0.0];
     }
     let last = (product + 1e-9 * product.max(1.0)).floor().max(0.0) as usize;

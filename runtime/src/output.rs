@@ -76,6 +76,14 @@ pub trait FrameSource {
     fn centreline_world(&mut self, i: usize, samples_per_element: usize) -> Vec<[f64; 3]>;
     /// Advance by one time step.
     fn step(&mut self) -> Result<()>;
+    /// Advance by a step of `h` seconds (what `[output] times` uses to end a step on a
+    /// frame's time); by default refused: the source takes its own steps only.
+    fn step_by(&mut self, h: f64) -> Result<()> {
+        Err(crate::error::Error::invalid(
+            "output.times",
+            format!("a step of {h} s was asked of a source that takes fixed steps only"),
+        ))
+    }
     /// Replace the state by the static equilibrium.
     fn solve_static(&mut self) -> Result<()>;
     /// The deepest point of any centreline inside a body at the current state, m (0: none

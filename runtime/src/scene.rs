@@ -155,7 +155,7 @@ fn describe_syntax_error(text: &str, e: &toml::de::Error) -> String {
 }
 
 fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> (SimulationSetup, Vec<GroomReport>) {
-    let config = root
+    let mut config = root
         .table("simulation")
         .map(read_simulation)
         .unwrap_or_default();
@@ -166,7 +166,7 @@ fn read_scene(mut root: Node<'_>, scene_dir: &Path) -> (SimulationSetup, Vec<Gro
     let head = head::read_head(root.table("head"));
     let (samples_per_element, mut output) = root.table("output").map_or(
         (DEFAULT_SAMPLES_PER_ELEMENT, OutputSettings::default()),
-        read_output,
+        |n| read_output(n, &mut config),
     );
     let bodies = bodies::read_bodies(&mut root, scene_dir);
     output.render = root
@@ -292,6 +292,7 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
         field_stiffness: field_stiffness.unwrap_or(d.field_stiffness),
         energy_balance: energy_balance.unwrap_or(d.energy_balance),
         tolerance,
+        output_times: None,
     };
     if dt.is_some() && duration.is_some() && fps.is_some() {
         check_run_size(&n, &config);
@@ -382,8 +383,9 @@ fn read_environment(mut n: Node<'_>) -> (Environment, StrandDefaults) {
     (Environment { gravity }, defaults)
 }
 
-/// `[output]`: the sampling, the formats and the size limit.
-fn read_output(mut n: Node<'_>) -> (usize, OutputSettings) {
+/// `[output]`: the sampling, the formats, the size limit, the nodes and the frame times
+/// (set in `config`).
+fn read_output(mut n: Node<'_>, config: &mut SimulationConfig) -> (usize, OutputSettings) {
     let cap = "the cap on points per element";
     let samples = n.optional(
         "samples_per_element",
@@ -401,6 +403,9 @@ fn read_output(mut n: Node<'_>) -> (usize, OutputSettings) {
     } else {
         None
     };
+    if n.has("times") {
+        config.output_times = read_output_times(&mut n, config);
+    }
     let max_bytes = if n.has("max_bytes") {
         n.f64(
             "max_bytes",
@@ -418,6 +423,47 @@ fn read_output(mut n: Node<'_>) -> (usize, OutputSettings) {
         nodes,
     };
     (samples.unwrap_or(DEFAULT_SAMPLES_PER_ELEMENT), settings)
+}
+
+/// `times = [t0, t1, ...]`: strictly increasing, in [0, duration], at most
+/// [`MAX_FRAMES`]; not in static mode (one frame at t = 0).
+fn read_output_times(n: &mut Node<'_>, config: &SimulationConfig) -> Option<Vec<f64>> {
+    if config.mode == Mode::Static {
+        n.error(
+            "times",
+            "a static run writes one frame, at t = 0: remove times (or set [simulation] mode = \"dynamic\")",
+        );
+        return None;
+    }
+    let duration = config.duration;
+    let times = n.f64_list("times", Range::new(Bound::Incl(0.0), Bound::Incl(duration)))?;
+    if times.is_empty() {
+        n.error("times", "an empty list: give at least one time, s");
+        return None;
+    }
+    if times.len() as f64 > MAX_FRAMES {
+        n.error(
+            "times",
+            format!(
+                "{} times, more than the cap of {MAX_FRAMES:.0} frames",
+                times.len()
+            ),
+        );
+        return None;
+    }
+    for (i, pair) in times.windows(2).enumerate() {
+        if pair[1] <= pair[0] {
+            n.error(
+                &format!("times[{}]", i + 1),
+                format!(
+                    "{} s is not after times[{i}] = {} s: the times must be strictly increasing",
+                    pair[1], pair[0]
+                ),
+            );
+            return None;
+        }
+    }
+    Some(times)
 }
 
 /// `formats = ["json", ...]`: problems name `output.formats[i]` and the allowed names.

@@ -766,7 +766,20 @@ impl Simulation {
     /// the error names the strand, the time and the cause, and the state is left at the
     /// last good step for the other strands.
     pub fn step(&mut self) -> Result<()> {
-        let h = self.config.dt;
+        self.step_by(self.config.dt)
+    }
+
+    /// Advance every strand by a step of `h` seconds (> 0, finite) instead of `dt`: what
+    /// `[output] times` uses to end a step on a frame's time. The integrators take variable
+    /// steps (BDF2 restarts from a linearly implicit Euler step after a step ratio above
+    /// [`crate::solver::bdf2::BDF2_MAX_RATIO`]); errors as [`Self::step`].
+    pub fn step_by(&mut self, h: f64) -> Result<()> {
+        if !(h.is_finite() && h > 0.0) {
+            return Err(Error::invalid(
+                "h",
+                format!("a step of {h} s: the step must be a positive, finite time"),
+            ));
+        }
         let t = self.time;
         if let Some(e) = &mut self.embedded {
             let effects = superhelix_kernels::fixed::Effects {
@@ -1474,6 +1487,9 @@ impl FrameSource for Simulation {
     }
     fn step(&mut self) -> Result<()> {
         Simulation::step(self)
+    }
+    fn step_by(&mut self, h: f64) -> Result<()> {
+        Simulation::step_by(self, h)
     }
     fn deepest_inside(&mut self) -> Option<f64> {
         self.max_penetration()

@@ -5,7 +5,11 @@
 //! `t_k = k / output_fps`) records the state at the first step time `t ≥ t_k − dt/2`,
 //! i.e. the state nearest to `t_k` (when `output_fps > 1/dt` consecutive frames may
 //! repeat a state). Any frame still unrecorded after the last step gets the final state.
-//! Static mode solves for the equilibrium and records one frame at time 0.
+//! With `[output] times` the frames are at those times exactly: a step of `dt` inside
+//! which a frame's time falls is split there ([`FrameSource::step_by`]), the state written,
+//! and the step finished, so the steps keep their grid `k dt` (times within
+//! [`EXACT_FRACTION`] of a step's end count as that end); the summary then counts the
+//! steps taken. Static mode solves for the equilibrium and records one frame at time 0.
 //!
 //! The run stops early when the stop flag is raised (checked between steps), when a
 //! coordinate, velocity or centreline point is not finite ([`Error::Diverged`], naming
@@ -127,13 +131,14 @@ pub fn run_streaming<S: FrameSource + ?Sized>(
     };
     let mut max_speed = 0.0;
     let mut deepest = source.deepest_inside();
+    let mut taken = 0;
     let result = run_loop(
         source,
         config,
         steps,
         &mut streamer,
         stop,
-        (&mut max_speed, &mut deepest),
+        (&mut max_speed, &mut deepest, &mut taken),
         &mut progress,
     );
     let mut stop_reason = match result {
@@ -150,7 +155,12 @@ pub fn run_streaming<S: FrameSource + ?Sized>(
     }
     let summary = RunSummary {
         mode: config.mode,
-        steps,
+        // the steps planned, and those that ended on a frame's time under [output] times
+        steps: if config.output_times.is_some() {
+            taken
+        } else {
+            steps
+        },
         strands: source.strand_count(),
         frames: streamer.written,
         wall_time: started.elapsed(),
@@ -174,7 +184,7 @@ fn run_loop<S: FrameSource + ?Sized>(
     steps: usize,
     streamer: &mut Streamer<'_, '_>,
     stop: &AtomicBool,
-    (max_speed, deepest): (&mut f64, &mut Option<f64>),
+    (max_speed, deepest, taken): (&mut f64, &mut Option<f64>, &mut usize),
     progress: &mut impl FnMut(usize, usize),
 ) -> Result<bool> {
     *max_speed = check_state(source)?;
@@ -186,23 +196,61 @@ fn run_loop<S: FrameSource + ?Sized>(
         check_state(source)?;
         progress(1, 1);
     } else {
-        streamer.write_due(source, source.time() + 0.5 * config.dt)?;
+        // frames at given times land exactly on them: a step that would pass one is split
+        // there; otherwise a frame takes the state nearest its time
+        let exact = config.output_times.is_some();
+        let reach = if exact {
+            EXACT_FRACTION * config.dt
+        } else {
+            0.5 * config.dt
+        };
+        streamer.write_due(source, source.time() + reach)?;
         for step in 1..=steps {
             if stop.load(Ordering::Relaxed) {
                 return Ok(false);
             }
-            source.step()?;
-            *max_speed = max_speed.max(check_state(source)?);
-            if let (Some(d), Some(now)) = (deepest.as_mut(), source.deepest_inside()) {
-                *d = d.max(now);
+            let end = source.time() + config.dt;
+            let mut split = false;
+            while let Some(t) = streamer
+                .next_time()
+                .filter(|&t| exact && t > source.time() + reach && t < end - reach)
+            {
+                source.step_by(t - source.time())?;
+                after_step(source, streamer, reach, (&mut *max_speed, &mut *deepest))?;
+                *taken += 1;
+                split = true;
             }
-            streamer.write_due(source, source.time() + 0.5 * config.dt)?;
+            if split {
+                source.step_by(end - source.time())?;
+            } else {
+                source.step()?;
+            }
+            after_step(source, streamer, reach, (&mut *max_speed, &mut *deepest))?;
+            *taken += 1;
             progress(step, steps);
         }
     }
     streamer.write_due(source, f64::INFINITY)?;
     Ok(true)
 }
+
+/// After a step: the state checked, the deepest point inside a body, the frames due.
+fn after_step<S: FrameSource + ?Sized>(
+    source: &mut S,
+    streamer: &mut Streamer<'_, '_>,
+    reach: f64,
+    (max_speed, deepest): (&mut f64, &mut Option<f64>),
+) -> Result<()> {
+    *max_speed = max_speed.max(check_state(source)?);
+    if let (Some(d), Some(now)) = (deepest.as_mut(), source.deepest_inside()) {
+        *d = d.max(now);
+    }
+    streamer.write_due(source, source.time() + reach)
+}
+
+/// How close to a step's end (in steps) a frame's time counts as that step's end under
+/// `[output] times`: round-off, not a shorter step.
+pub const EXACT_FRACTION: f64 = 1e-9;
 
 /// Builds each frame once and hands it to every sink.
 struct Streamer<'s, 'k> {
@@ -218,6 +266,11 @@ struct Streamer<'s, 'k> {
 }
 
 impl Streamer<'_, '_> {
+    /// The time of the next frame to write.
+    fn next_time(&self) -> Option<f64> {
+        self.nominal.get(self.written).copied()
+    }
+
     /// Write the current state for every pending frame whose nominal time is `<= until`.
     fn write_due<S: FrameSource + ?Sized>(&mut self, source: &mut S, until: f64) -> Result<()> {
         while let Some(&t) = self.nominal.get(self.written) {

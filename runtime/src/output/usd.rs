@@ -6,7 +6,8 @@
 //! def Xform "hair"
 //!     def BasisCurves "<group>"     one per strand group, linear, one curve per strand
 //!         int[] curveVertexCounts   points per strand
-//!         point3f[] points          time-sampled: time code k = frame k
+//!         point3f[] points          time-sampled: time code t · output_fps (k for frame k
+//!                                   unless the scene gives `[output] times`)
 //!         float3[] extent           time-sampled bounding box of the group
 //!         float[] widths            2 x the strand's display radius, per vertex
 //!         color3f[] primvars:displayColor   the group's preview colour
@@ -26,6 +27,22 @@
 //! frame of one group at a time, into a temporary file that is renamed when complete.
 
 use super::atomic::AtomicFile;
+
+/// Each frame's time code, `t · fps`, written as the frame index when the frame is at its
+/// nominal `k / fps` (every run without `[output] times`), else as `t · fps` to 10⁻⁹
+/// (round-off removed).
+fn time_codes(store: &dyn FrameStore, fps: f64) -> Vec<String> {
+    (0..store.frame_count())
+        .map(|k| {
+            let code = store.time(k) * fps;
+            if (code - k as f64).abs() <= 1e-9 * (k as f64).max(1.0) {
+                k.to_string()
+            } else {
+                format!("{}", (code * 1e9).round() / 1e9)
+            }
+        })
+        .collect()
+}
 use super::frames::FrameStore;
 use super::preview::group_colour;
 use super::render_strands::RenderFrames;
@@ -106,6 +123,7 @@ pub fn write_usda(
     let io = |e: std::io::Error| file.error(e);
     let layout = store.layout().clone();
     let fps = layout.output_fps;
+    let codes = time_codes(&*store, fps);
     let offsets = layout.point_offsets();
     let groups = layout.groups();
     let mut all_names = groups.clone();
@@ -119,7 +137,7 @@ pub fn write_usda(
         "#usda 1.0\n(\n    defaultPrim = \"hair\"\n    doc = \"Super-Helix hair: {} strands, {} frames\"\n    endTimeCode = {}\n    framesPerSecond = {fps}\n    metersPerUnit = 1\n    startTimeCode = 0\n    timeCodesPerSecond = {fps}\n    upAxis = \"Z\"\n)\n\ndef Xform \"hair\"\n{{\n",
         layout.strands.len(),
         frames,
-        frames - 1,
+        codes[frames - 1],
     );
     w.write_all(text.as_bytes()).map_err(io)?;
 
@@ -143,7 +161,7 @@ pub fn write_usda(
         for k in 0..frames {
             store.points(k, &mut points)?;
             text.clear();
-            let _ = write!(text, "            {k}: [");
+            let _ = write!(text, "            {}: [", codes[k]);
             let mut lo = [f64::INFINITY; 3];
             let mut hi = [f64::NEG_INFINITY; 3];
             let mut first = true;
@@ -168,7 +186,7 @@ pub fn write_usda(
         text.clear();
         text.push_str("        }\n        float3[] extent.timeSamples = {\n");
         for (k, (lo, hi)) in extents.iter().enumerate() {
-            let _ = write!(text, "            {k}: [");
+            let _ = write!(text, "            {}: [", codes[k]);
             vec3(&mut text, *lo);
             text.push_str(", ");
             vec3(&mut text, *hi);
@@ -200,7 +218,7 @@ pub fn write_usda(
         w.write_all(text.as_bytes()).map_err(io)?;
     }
     if let Some((render, scenery)) = render {
-        write_render_prim(&mut w, &io, &render_name, store, render, scenery)?;
+        write_render_prim(&mut w, &io, &render_name, store, render, scenery, &codes)?;
     }
     w.write_all(b"}\n").map_err(io)?;
     file.commit(w)
@@ -214,6 +232,7 @@ fn write_render_prim<W: Write>(
     store: &mut dyn FrameStore,
     render: &mut RenderFrames,
     scenery: &Scenery,
+    codes: &[String],
 ) -> Result<()> {
     let frames = store.frame_count();
     let (count, m) = (render.strand_count(), render.points_per_strand());
@@ -234,7 +253,7 @@ fn write_render_prim<W: Write>(
     for k in 0..frames {
         let points = render.frame(store, k, scenery)?;
         text.clear();
-        let _ = write!(text, "            {k}: [");
+        let _ = write!(text, "            {}: [", codes[k]);
         let mut lo = [f32::INFINITY; 3];
         let mut hi = [f32::NEG_INFINITY; 3];
         for (n, p) in points.iter().enumerate() {
@@ -264,7 +283,7 @@ fn write_render_prim<W: Write>(
     text.clear();
     text.push_str("        }\n        float3[] extent.timeSamples = {\n");
     for (k, (lo, hi)) in extents.iter().enumerate() {
-        let _ = write!(text, "            {k}: [");
+        let _ = write!(text, "            {}: [", codes[k]);
         vec3(&mut text, *lo);
         text.push_str(", ");
         vec3(&mut text, *hi);
