@@ -244,6 +244,7 @@ fn strands(o: &BenchOptions) -> Vec<StrandSetup> {
                     vec![PointLoad {
                         s: length,
                         force: Vector3::new(0.0, 0.0, -1e-6),
+                        follows: false,
                     }]
                 } else {
                     Vec::new()

@@ -970,6 +970,7 @@ fn cantilever_point(
     s.point_loads.push(PointLoad {
         s: CANTILEVER_LENGTH,
         force: Vector3::new(0.0, 0.0, -force),
+        follows: false,
     });
     let setup = setup_of(s, setting, 0.0, false, HeadMotion::Still);
     let mut best = f64::INFINITY;

@@ -434,7 +434,7 @@ fn check_setup(setup: &SimulationSetup) -> Result<()> {
 
 /// What the ends of strand `i` need of the scene: a pinned root its joint and a
 /// scale-aware integrator, a held tip the linearly implicit step (or the static solve)
-/// and a still head.
+/// and a still head; a follower load a dynamic run.
 fn check_ends(setup: &SimulationSetup, i: usize) -> Vec<FieldError> {
     use crate::model::ends::{RootEnd, ROOT_JOINT_FRACTION};
     let mut errors = Vec::new();
@@ -454,6 +454,14 @@ fn check_ends(setup: &SimulationSetup, i: usize) -> Vec<FieldError> {
             errors.push(FieldError::new(
                 format!("strands[{i}].ends.root"),
                 "a pinned root is stepped by linearly-implicit-euler, bdf2 or rk4; integrator = \"newton-implicit-euler\" does not take it",
+            ));
+        }
+    }
+    if !dynamic {
+        if let Some(j) = s.point_loads.iter().position(|l| l.follows) {
+            errors.push(FieldError::new(
+                format!("strands[{i}].point_loads[{j}].follows"),
+                "a follower load has no potential, and the static solve minimises the energy: run mode = \"dynamic\" with internal friction until the strand is at rest",
             ));
         }
     }

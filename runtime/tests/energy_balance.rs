@@ -36,6 +36,7 @@ fn strand(drag: bool) -> Strand {
     s.point_loads = vec![PointLoad {
         s: 0.1,
         force: Vector3::new(0.0, 2e-6, 1e-6),
+        follows: false,
     }];
     s
 }

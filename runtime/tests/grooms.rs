@@ -363,6 +363,7 @@ fn usda_curves_written_by_the_project_and_by_pxr_are_read() {
             .collect(),
         output_fps: 30.0,
         planned_frames: 2,
+        held_tips: Vec::new(),
     };
     let mut frames = MemoryFrames::new(layout);
     for shift in [0.0, 0.05] {

@@ -201,6 +201,7 @@ fn static_tip_load_deflects_as_f_l3_over_3ei() {
         strand.point_loads.push(PointLoad {
             s: length,
             force: Vector3::new(0.0, 0.0, -force),
+            follows: false,
         });
         let cfg = SimulationConfig {
             mode: Mode::Static,

@@ -73,8 +73,14 @@ impl StrandGeometry {
 pub struct PointLoad {
     /// Arc length of the point, metres, in [0, L].
     pub s: f64,
-    /// Force in world coordinates, newtons (rotated into head coordinates each step).
+    /// Force, newtons: in world coordinates (rotated into head coordinates each step), or,
+    /// for a follower load, its components along the material frame at s (n0 the tangent,
+    /// n1, n2).
     pub force: Vector3<f64>,
+    /// A follower load: the force turns with the material frame at s (the terminal
+    /// follower load of figure 3 of Sobottka & Weber 2006). It has no potential: its work
+    /// enters the energy balance as a power, and the static solve refuses it.
+    pub follows: bool,
 }
 
 /// Everything that defines one strand's mechanics.
@@ -100,6 +106,11 @@ pub struct Strand {
 }
 
 impl Strand {
+    /// Whether a point load follows the material frame ([`PointLoad::follows`]).
+    pub fn has_follower_loads(&self) -> bool {
+        self.point_loads.iter().any(|l| l.follows)
+    }
+
     /// Diagonal of the stiffness matrix K = diag(l_Q · (GJ, EI1, EI2)) (eq. 5c).
     /// A pinned root's joint has none.
     pub fn stiffness_diagonal(&self) -> Vec<f64> {

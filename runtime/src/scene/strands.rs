@@ -521,9 +521,10 @@ fn read_point_loads(n: &mut Node<'_>, length: Option<f64>) -> Option<Vec<PointLo
             let s = p.required_f64("s", "arc length in metres", s_range);
             let force = p.required(
                 "force",
-                "[fx, fy, fz] in newtons, world coordinates",
+                "[fx, fy, fz] in newtons, world coordinates (material frame with follows = true)",
                 Node::vec3,
             );
+            let follows = super::reader::boolean(&mut p, "follows", false);
             if force.is_some_and(|f| f.norm() > MAX_POINT_LOAD) {
                 p.error(
                     "force",
@@ -534,6 +535,7 @@ fn read_point_loads(n: &mut Node<'_>, length: Option<f64>) -> Option<Vec<PointLo
             Some(PointLoad {
                 s: s?,
                 force: force?,
+                follows: follows?,
             })
         })
         .collect();

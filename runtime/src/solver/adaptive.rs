@@ -302,7 +302,9 @@ fn implicit_adaptive(
             && !system
                 .contacts
                 .as_ref()
-                .is_some_and(|c| c.moves_relative(&interval.at_start(), &interval.at_end()));
+                .is_some_and(|c| c.moves_relative(&interval.at_start(), &interval.at_end()))
+        // follower loads work without a potential
+        && !system.strand.has_follower_loads();
         let balance = energy_balance::balance(start, &end, inertial);
         let excess = balance.excess;
         // an accepted step: its end bounds the next, and it is BDF2's history

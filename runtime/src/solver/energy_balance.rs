@@ -7,6 +7,7 @@ use super::system::StrandSystem;
 use crate::bodies::Placement;
 use crate::forces::effects::body_field;
 use crate::forces::head_motion::HeadState;
+use crate::forces::point_loads::follower_power;
 use crate::kernels::kernel::{BodyField, EvalInput, Terms};
 use nalgebra::Vector3;
 pub use superhelix_kernels::energy::*;
@@ -69,11 +70,13 @@ pub fn measure(
     let elastic: f64 = (0..n)
         .map(|i| 0.5 * stiffness[i] * (q[i] - strand.natural[i]).powi(2))
         .sum();
-    let power = if field.has_linear() {
+    let mut power = if field.has_linear() {
         (0..n).map(|i| v[i] * terms.force[i]).sum()
     } else {
         0.0
     };
+    // follower loads have no potential: their power joins the work
+    power += follower_power(&strand.point_loads, &strand.geometry, kernel, q, v, jac);
     let moment = terms.first_moment / rho_s;
     let mut load_moment = 0.0;
     let mut load_rate = 0.0;
@@ -81,7 +84,7 @@ pub fn measure(
         let rt = head.rotation.transpose();
         // d(Rᵀ f)/dt = −ω × Rᵀ f (Ṙ = R[ω]×)
         let w = head.omega;
-        for load in &strand.point_loads {
+        for load in strand.point_loads.iter().filter(|l| !l.follows) {
             let f = rt * load.force;
             let y = kernel.point(q, load.s, jac, None);
             load_moment += f.dot(&y);

@@ -334,7 +334,9 @@ fn limit_energy(
         && !system
             .contacts
             .as_ref()
-            .is_some_and(|c| c.moves_relative(&whole.at_start(), &whole.at_end()));
+            .is_some_and(|c| c.moves_relative(&whole.at_start(), &whole.at_end()))
+        // follower loads work without a potential
+        && !system.strand.has_follower_loads();
     let excess = energy_balance::balance(start, &end, inertial).excess;
     if excess > 0.0 && end.kinetic > 0.0 {
         let kinetic = (end.kinetic - excess).max(0.0);

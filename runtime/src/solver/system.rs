@@ -240,6 +240,7 @@ impl StrandSystem {
         add_point_loads(
             &strand.point_loads,
             &head.rotation,
+            &strand.geometry,
             kernel,
             q,
             &mut ws.jac,

@@ -262,7 +262,11 @@ impl Electrostatics {
         self.tracers.s[r.clone()]
             .iter()
             .zip(&self.forces[r])
-            .map(|(&s, &force)| PointLoad { s, force })
+            .map(|(&s, &force)| PointLoad {
+                s,
+                force,
+                follows: false,
+            })
     }
 
     /// The electrostatic energy of the particles at the last update,
