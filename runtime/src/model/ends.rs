@@ -13,7 +13,7 @@
 //!   the tiny length costs no accuracy.
 //! - A **held tip** is a holonomic constraint on the chain's last pose, `y(L, q) = p(t)`
 //!   (pinned), plus the frame `F_N(q) = F*(t)` (clamped), or only the two directions
-//!   across an axis (sliding): its multipliers are solved with each implicit step and the
+//!   across an axis (sliding), or the frame and those two (clamped-sliding): its multipliers are solved with each implicit step and the
 //!   static solve ([`crate::solver::held_end`]), and the drift left is projected out.
 
 use nalgebra::Vector3;
@@ -52,6 +52,10 @@ pub enum HeldKind {
     /// The tip's position across an axis (2 constraints): the tip slides along the axis
     /// under the loads, and is driven across it by the motion.
     Sliding,
+    /// The tip's frame and its position across an axis (5 constraints): a clamp on a
+    /// slider, free only along the axis (Greenhill's twisted shaft, a beam whose end may
+    /// draw in).
+    ClampedSliding,
 }
 
 impl HeldKind {
@@ -61,16 +65,33 @@ impl HeldKind {
             HeldKind::Pinned => "pinned",
             HeldKind::Clamped => "clamped",
             HeldKind::Sliding => "sliding",
+            HeldKind::ClampedSliding => "clamped-sliding",
         }
     }
 
-    /// Number of scalar constraints.
-    pub fn rows(self) -> usize {
-        match self {
-            HeldKind::Pinned => 3,
-            HeldKind::Clamped => 6,
-            HeldKind::Sliding => 2,
+    /// Whether the tip slides along an axis (its position is held across it only).
+    pub fn slides(self) -> bool {
+        matches!(self, HeldKind::Sliding | HeldKind::ClampedSliding)
+    }
+
+    /// Whether the tip's frame is held.
+    pub fn holds_frame(self) -> bool {
+        matches!(self, HeldKind::Clamped | HeldKind::ClampedSliding)
+    }
+
+    /// Number of position constraints (the first rows): 2 across the axis of a sliding
+    /// tip, else 3.
+    pub fn position_rows(self) -> usize {
+        if self.slides() {
+            2
+        } else {
+            3
         }
+    }
+
+    /// Number of scalar constraints: the position rows, then 3 for a held frame.
+    pub fn rows(self) -> usize {
+        self.position_rows() + if self.holds_frame() { 3 } else { 0 }
     }
 }
 

@@ -10,7 +10,7 @@ use crate::model::reconstruction::pose_at;
 use nalgebra::{Matrix3, Vector3};
 
 const ROOTS: [&str; 2] = ["clamped", "pinned"];
-const TIPS: [&str; 4] = ["free", "pinned", "clamped", "sliding"];
+const TIPS: [&str; 5] = ["free", "pinned", "clamped", "sliding", "clamped-sliding"];
 
 /// What a `[strands.ends]` table asks for, before the strand exists.
 #[derive(Debug, Clone)]
@@ -64,7 +64,8 @@ fn read_tip(mut t: Node<'_>) -> Option<Option<TipSpec>> {
         }
         1 => HeldKind::Pinned,
         2 => HeldKind::Clamped,
-        _ => HeldKind::Sliding,
+        3 => HeldKind::Sliding,
+        _ => HeldKind::ClampedSliding,
     };
     let optional_vec = |t: &mut Node<'_>, key: &'static str, unit: bool| {
         if !t.has(key) {
@@ -74,7 +75,7 @@ fn read_tip(mut t: Node<'_>) -> Option<Option<TipSpec>> {
         v.map(Some)
     };
     let position = optional_vec(&mut t, "position", false);
-    let (direction, normal) = if kind == HeldKind::Clamped {
+    let (direction, normal) = if kind.holds_frame() {
         (
             optional_vec(&mut t, "direction", true),
             optional_vec(&mut t, "normal", true),
@@ -82,7 +83,7 @@ fn read_tip(mut t: Node<'_>) -> Option<Option<TipSpec>> {
     } else {
         (Some(None), Some(None))
     };
-    let axis = if kind == HeldKind::Sliding {
+    let axis = if kind.slides() {
         optional_vec(&mut t, "axis", true)
     } else {
         Some(None)

@@ -8,7 +8,8 @@
 //! - sliding: `b_k · (y(L, q) − p(t))` for the two unit vectors b₁, b₂ across the axis
 //!   (2 rows);
 //! - clamped: the three of pinned, then `φ = log(F_N(q) F*(t)ᵀ)`, the rotation vector
-//!   from the held frame to the tip's (3 rows, radians).
+//!   from the held frame to the tip's (3 rows, radians);
+//! - clamped-sliding: the two of sliding, then φ (5 rows).
 //!
 //! The position rows' Jacobian is J(L), the kernel's; the rotation rows' is the tip
 //! frame's angular Jacobian: varying d_Q turns every frame after element Q by
@@ -20,10 +21,9 @@
 use crate::bodies::motion::so3;
 use crate::config::HeldEnd;
 use crate::kernels::kernel::StrandKernel;
-use crate::model::ends::HeldKind;
 use crate::model::reconstruction::Pose;
 use crate::model::strand::StrandGeometry;
-use nalgebra::{Matrix3, Matrix6, Rotation3, Vector3, Vector6};
+use nalgebra::{Matrix3, Matrix6, Rotation3, UnitQuaternion, Vector3, Vector6};
 
 /// The drift a projection leaves, relative to the strand length (positions) or in
 /// radians (frames).
@@ -32,6 +32,24 @@ pub const PROJECTION_TOLERANCE: f64 = 1e-13;
 pub const DRIFT_LIMIT: f64 = 1e-9;
 /// Projection iterations at most.
 const PROJECTION_ITERATIONS: usize = 12;
+
+/// The rotation vector φ of a rotation matrix (`exp([φ]×) = m`, |φ| ≤ π), through its
+/// unit quaternion (Shepperd's method, robust for any angle) and `2 atan2(|v|, w)`: the
+/// `acos` of the trace loses φ to round-off (a NaN when the trace exceeds 3 by an ulp)
+/// near the identity, where a held frame spends its time.
+fn rotation_log(m: &Matrix3<f64>) -> Vector3<f64> {
+    let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*m));
+    let (mut w, mut v) = (q.w, q.imag());
+    if w < 0.0 {
+        w = -w;
+        v = -v;
+    }
+    let n = v.norm();
+    if n < 1e-300 {
+        return 2.0 * v;
+    }
+    v * (2.0 * n.atan2(w) / n)
+}
 
 /// A held tip's constraint on one strand, with its buffers.
 #[derive(Debug, Clone)]
@@ -120,48 +138,102 @@ impl HeldTip {
             let b1 = crate::model::ends::perpendicular(a);
             (b1, a.cross(&b1))
         };
-        match self.end.kind {
-            HeldKind::Sliding => {
-                let (b1, b2) = across(&axis);
-                for (row, b) in [b1, b2].iter().enumerate() {
-                    self.residual[row] = b.dot(&d);
-                    for k in 0..n {
-                        self.g_jac[row][k] = b.dot(&self.jac[k]);
-                    }
+        if self.end.kind.slides() {
+            let (b1, b2) = across(&axis);
+            for (row, b) in [b1, b2].iter().enumerate() {
+                self.residual[row] = b.dot(&d);
+                for k in 0..n {
+                    self.g_jac[row][k] = b.dot(&self.jac[k]);
                 }
             }
-            HeldKind::Pinned | HeldKind::Clamped => {
-                for row in 0..3 {
-                    self.residual[row] = d[row];
-                    for k in 0..n {
-                        self.g_jac[row][k] = self.jac[k][row];
-                    }
+        } else {
+            for row in 0..3 {
+                self.residual[row] = d[row];
+                for k in 0..n {
+                    self.g_jac[row][k] = self.jac[k][row];
                 }
             }
         }
-        let mut worst = (0..self.rows.min(3))
-            .map(|r| self.residual[r].abs())
-            .fold(0.0, f64::max)
-            / length;
-        if self.end.kind == HeldKind::Clamped {
+        let p = self.end.kind.position_rows();
+        let mut worst = (0..p).map(|r| self.residual[r].abs()).fold(0.0, f64::max) / length;
+        if self.end.kind.holds_frame() {
             kernel.element_ends(q, &mut self.ends);
             let tip = self.ends[geometry.elements()].frame;
-            let phi = Rotation3::from_matrix_unchecked(tip * frame.transpose()).scaled_axis();
+            let phi = rotation_log(&(tip * frame.transpose()));
             for r in 0..3 {
-                self.residual[3 + r] = phi[r];
+                self.residual[p + r] = phi[r];
             }
             for (e, &l) in geometry.lengths.iter().enumerate() {
                 let dq = Vector3::new(q[3 * e], q[3 * e + 1], q[3 * e + 2]);
                 let cols = self.ends[e + 1].frame * so3::right_jacobian(&(dq * l)) * l;
                 for i in 0..3 {
                     for r in 0..3 {
-                        self.g_jac[3 + r][3 * e + i] = cols[(r, i)];
+                        self.g_jac[p + r][3 * e + i] = cols[(r, i)];
                     }
                 }
             }
             worst = worst.max(phi.norm());
         }
         worst
+    }
+
+    /// The generalized force `G_rotᵀ T` of a torque T (world coordinates) on the tip's
+    /// frame: `l_Q J_r(l_Q d_Q)ᵀ F_{Q+1}ᵀ T` on element Q's coordinates, into `out`.
+    fn torque_force(
+        &mut self,
+        kernel: &mut dyn StrandKernel,
+        geometry: &StrandGeometry,
+        q: &[f64],
+        torque: &Vector3<f64>,
+        out: &mut [f64],
+    ) {
+        kernel.element_ends(q, &mut self.ends);
+        for (e, &l) in geometry.lengths.iter().enumerate() {
+            let dq = Vector3::new(q[3 * e], q[3 * e + 1], q[3 * e + 2]);
+            let cols = self.ends[e + 1].frame * so3::right_jacobian(&(dq * l)) * l;
+            let g = cols.transpose() * torque;
+            out[3 * e..3 * e + 3].copy_from_slice(g.as_slice());
+        }
+    }
+
+    /// Add the geometric stiffness of the holder's torque (of the last step or static
+    /// iteration) to `stiffness` (∂F/∂q): `∂(G_rotᵀ T)/∂q`, the torque held fixed in the
+    /// world, by central differences of the tip frame's angular Jacobian (a rotation of
+    /// 10⁻⁶ rad per element), symmetrised. It is what makes a clamped tip's twisting
+    /// moment destabilise a straight rod (Greenhill): the elastic energy alone has no
+    /// coupling of twist and bending. Nothing for a tip whose frame is free or without
+    /// torque.
+    pub fn add_torque_stiffness(
+        &mut self,
+        kernel: &mut dyn StrandKernel,
+        geometry: &StrandGeometry,
+        q: &[f64],
+        stiffness: &mut faer::Mat<f64>,
+    ) {
+        let torque = Vector3::new(self.reaction[3], self.reaction[4], self.reaction[5]);
+        if !self.end.kind.holds_frame() || torque == Vector3::zeros() {
+            return;
+        }
+        let n = q.len();
+        let mut x = q.to_vec();
+        let (mut plus, mut minus) = (vec![0.0; n], vec![0.0; n]);
+        let mut d = faer::Mat::<f64>::zeros(n, n);
+        for j in 0..n {
+            let h = 1e-6 / geometry.lengths[j / 3];
+            x[j] = q[j] + h;
+            self.torque_force(kernel, geometry, &x, &torque, &mut plus);
+            x[j] = q[j] - h;
+            self.torque_force(kernel, geometry, &x, &torque, &mut minus);
+            x[j] = q[j];
+            for i in 0..n {
+                d[(i, j)] = (plus[i] - minus[i]) / (2.0 * h);
+            }
+        }
+        for j in 0..n {
+            for i in 0..n {
+                stiffness[(i, j)] += 0.5 * (d[(i, j)] + d[(j, i)]);
+            }
+        }
     }
 
     /// `(G W)⁻¹ x` for the rows in use, W = S² Gᵀ (or the columns in `self.w`), with the
@@ -271,15 +343,20 @@ impl HeldTip {
     /// The reaction from multipliers μ of the rows (generalized force Gᵀμ on the strand).
     fn record_reaction(&mut self, mu: &Vector6<f64>, t: f64) {
         let mut r = Vector6::zeros();
-        match self.end.kind {
-            HeldKind::Sliding => {
-                let (_, _, axis) = self.target(t);
-                let b1 = crate::model::ends::perpendicular(&axis);
-                let f = b1 * mu[0] + axis.cross(&b1) * mu[1];
-                r.fixed_rows_mut::<3>(0).copy_from(&f);
+        let kind = self.end.kind;
+        if kind.slides() {
+            let (_, _, axis) = self.target(t);
+            let b1 = crate::model::ends::perpendicular(&axis);
+            let f = b1 * mu[0] + axis.cross(&b1) * mu[1];
+            r.fixed_rows_mut::<3>(0).copy_from(&f);
+        } else {
+            r.fixed_rows_mut::<3>(0).copy_from(&mu.fixed_rows::<3>(0));
+        }
+        if kind.holds_frame() {
+            let p = kind.position_rows();
+            for k in 0..3 {
+                r[3 + k] = mu[p + k];
             }
-            HeldKind::Pinned => r.fixed_rows_mut::<3>(0).copy_from(&mu.fixed_rows::<3>(0)),
-            HeldKind::Clamped => r = *mu,
         }
         self.reaction = r;
     }

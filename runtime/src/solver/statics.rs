@@ -72,9 +72,29 @@ fn newton_static(system: &mut StrandSystem, q: &mut [f64]) -> Result<StaticRepor
             .zip(&scale)
             .fold(0.0f64, |m, (f, s)| m.max((f * s).abs()))
     };
-    if let Some(held) = system.held.as_mut() {
-        // start on the constraint
-        held.project(system.kernel.as_mut(), &system.strand.geometry, q, 0.0)?;
+    if system.held.is_some() {
+        // start on the constraint, with the holder's reaction there: its geometric
+        // stiffness (a clamped tip's torque, which alone destabilises a twisted rod) is
+        // then in the first Hessian
+        let force_only = Terms {
+            force: true,
+            ..Default::default()
+        };
+        if let Some(held) = system.held.as_mut() {
+            held.project(system.kernel.as_mut(), &system.strand.geometry, q, 0.0)?;
+        }
+        system.assemble(&at, q, &zero, force_only);
+        force.copy_from_slice(&system.workspace.terms.force);
+        if let Some(held) = system.held.as_mut() {
+            held.balance_static(
+                system.kernel.as_mut(),
+                &system.strand.geometry,
+                q,
+                &mut force,
+                0.0,
+            )
+            .ok_or("static solve: the held tip's constraints are dependent")?;
+        }
     }
     for iteration in 0..=STATIC_MAX_ITERATIONS {
         system.assemble(&at, q, &zero, terms);

@@ -250,7 +250,7 @@ impl StrandSystem {
             },
             t,
         );
-        if let (Some(held), true) = (held.as_ref(), terms.stiffness && !explicit) {
+        if let (Some(held), true) = (held.as_mut(), terms.stiffness && !explicit) {
             // the holder's reaction (of the last step or static iteration) pulls on the
             // tip as a point load would: its stiffness f · ∂²y(L)/∂q² (the tension's
             // geometric stiffness) goes into the matrix; its force is the multipliers'
@@ -262,6 +262,12 @@ impl StrandSystem {
                     &mut ws.jac,
                     Some((f, &mut t.stiffness)),
                 );
+                held_stiffness = true;
+            }
+            // and a clamped tip's torque, through the turning of the tip's frame (the head
+            // is still under a held tip: head and world coordinates agree)
+            if held.end.kind.holds_frame() && held.reaction.fixed_rows::<3>(3).norm() > 0.0 {
+                held.add_torque_stiffness(kernel, &strand.geometry, q, &mut t.stiffness);
                 held_stiffness = true;
             }
         }
