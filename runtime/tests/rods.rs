@@ -1,6 +1,7 @@
 //! Rods held at their ends (pinned, clamped, sliding, driven): checks against closed
 //! forms nobody here wrote (the catenary, the compound pendulum, Euler's buckling load).
 
+use superhelix_runtime::groom::GroomSource;
 use superhelix_runtime::{parse_scene, Simulation};
 
 /// The catenary through (0, 0) and (span, 0) with arc length `length`:
@@ -654,4 +655,83 @@ fn a_beam_clamped_at_both_ends_sags_as_beam_theory_says() {
         last = error;
     }
     assert!(last.abs() < 1e-3, "{last:e}");
+}
+
+/// A `[[strands]]` entry with `polyline` sampled from a circular arc of radius R and
+/// length L (41 points, N = 10): its reports and setup.
+fn arc_polyline(
+    extra: &str,
+    noise: f64,
+) -> superhelix_runtime::Result<(
+    superhelix_runtime::SimulationSetup,
+    Vec<superhelix_runtime::groom::GroomReport>,
+)> {
+    let (radius, length, count) = (0.05_f64, 0.1_f64, 41);
+    let points: Vec<String> = (0..count)
+        .map(|k| {
+            let a = length * k as f64 / (count - 1) as f64 / radius;
+            // a deterministic wobble across the arc (y) for the noisy case
+            let wobble = if k % 2 == 1 { noise } else { 0.0 };
+            format!(
+                "[{}, {wobble}, {}]",
+                radius * a.sin(),
+                -radius * (1.0 - a.cos())
+            )
+        })
+        .collect();
+    superhelix_runtime::scene::parse_scene_reporting(
+        &format!(
+            "[environment]\ngravity = \"none\"\n[[strands]]\nname = \"arc\"\nelements = 10\n{extra}polyline = [{}]\n",
+            points.join(", ")
+        ),
+        std::path::Path::new(""),
+    )
+}
+
+#[test]
+fn a_rod_given_by_a_polyline_is_fitted_and_its_error_reported() {
+    // points on a circle of radius 5 cm over 10 cm: a Super-Helix reproduces a circle
+    // exactly, so the fit finds the arc's length (the polyline's falls short by
+    // (h/R)²/24 = 1.0e-4 of it) and its curvature 1/R, to round-off
+    let (setup, reports) = arc_polyline("", 0.0).expect("scene");
+    let s = &setup.strands[0];
+    let length = s.strand.geometry.length();
+    let GroomSource::Polyline { curve, elements } = &reports[0].source else {
+        panic!("{:?}", reports[0].source);
+    };
+    eprintln!("{}", reports[0]);
+    assert_eq!(*elements, 10);
+    assert!((length - 0.1).abs() < 1e-12, "{length}");
+    assert!(curve.error.max < 1e-12, "{:?}", curve.error);
+    for e in 0..10 {
+        let kappa = s.q0[3 * e + 1].hypot(s.q0[3 * e + 2]);
+        assert!((kappa - 20.0).abs() < 1e-9, "element {e}: {kappa}");
+        assert!(
+            s.q0[3 * e].abs() < 1e-9,
+            "element {e}: twist {}",
+            s.q0[3 * e]
+        );
+    }
+    // the rest shape stays the preset's (straight)
+    assert!(s.strand.natural.iter().all(|&x| x == 0.0));
+    // points off the arc by ±0.1 mm: the error says how far
+    let (_, reports) = arc_polyline("", 1e-4).expect("scene");
+    let GroomSource::Polyline { curve, .. } = &reports[0].source else {
+        panic!();
+    };
+    eprintln!("{}", reports[0]);
+    assert!(
+        curve.error.max > 2e-4 && curve.error.max < 2e-3,
+        "{:?}",
+        curve.error
+    );
+    // what the polyline gives cannot be given twice
+    let error = arc_polyline("root = [0.0, 0.0, 0.0]\n", 0.0)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(
+        error.contains("strands[0].root: not with polyline"),
+        "{error}"
+    );
 }

@@ -36,6 +36,13 @@ pub enum GroomSource {
         /// Spacing of the hexagonal packing of as many roots on the area, m.
         packing_spacing: f64,
     },
+    /// A `[[strands]]` entry's `polyline`, fitted.
+    Polyline {
+        /// Elements of the strand.
+        elements: usize,
+        /// The fit.
+        curve: CurveReport,
+    },
     /// Curves read from a file and fitted.
     Curves {
         /// The file, as the scene names it.
@@ -91,8 +98,10 @@ impl GroomReport {
     /// each curve's length), and the index of the curve with the largest maximum;
     /// `None` for roots on a surface.
     pub fn worst_fit(&self) -> Option<(f64, f64, usize)> {
-        let GroomSource::Curves { curves, .. } = &self.source else {
-            return None;
+        let curves = match &self.source {
+            GroomSource::Curves { curves, .. } => &curves[..],
+            GroomSource::Polyline { curve, .. } => std::slice::from_ref(curve),
+            GroomSource::Surface { .. } => return None,
         };
         let mut worst = (0.0f64, 0.0f64, 0usize);
         for (k, c) in curves.iter().enumerate() {
@@ -108,8 +117,24 @@ impl GroomReport {
 
 impl fmt::Display for GroomReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let GroomSource::Polyline { elements, curve } = &self.source {
+            return write!(
+                f,
+                "strand '{}': fitted to its polyline of {} points with N = {elements}: length \
+                 {:.6e} m (the polyline's {:.6e} m), fit error (relative to the length) RMS \
+                 {:.2e}, max {:.2e} (point {})",
+                curve.strand,
+                curve.points,
+                curve.length,
+                curve.polyline_length,
+                curve.error.rms,
+                curve.error.max,
+                curve.error.worst_point
+            );
+        }
         write!(f, "groom '{}': {} strands", self.name, self.strands)?;
         match &self.source {
+            GroomSource::Polyline { .. } => {}
             GroomSource::Surface {
                 body,
                 area,

@@ -5,9 +5,12 @@
 
 use super::groom::{read_groom, GroomContext};
 use super::reader::{Bound, Node, Range};
-use super::strands::{read_template, strand_rng, StrandDefaults, Template};
+use super::strands::{read_template, strand_rng, StrandDefaults, Template, MAX_CURVATURE};
 use crate::bodies::{BodySetup, ShapeSetup};
 use crate::config::StrandSetup;
+use crate::groom::fit::{fit_curve, FitSettings};
+use crate::groom::report::{CurveReport, GroomReport, GroomSource};
+use crate::model::strand::StrandGeometry;
 use nalgebra::Vector3;
 use std::collections::HashMap;
 
@@ -31,14 +34,33 @@ pub(super) fn read_strands(
             n.string(k).map(str::to_string)
         });
         let group = read_group(&mut n);
+        let polyline = read_polyline(&mut n);
         let root_position = n.optional("root", Vector3::zeros(), Node::vec3);
-        let template = read_template(&mut n, defaults);
+        // a polyline gives the length (its fit's), the root and the root frame
+        let from_polyline = StrandDefaults {
+            length_from_data: true,
+            ..*defaults
+        };
+        let has_polyline = matches!(polyline, Some(Some(_)));
+        let template = read_template(
+            &mut n,
+            if has_polyline {
+                &from_polyline
+            } else {
+                defaults
+            },
+        );
         let ends = super::ends::read_ends(&mut n);
-        if let (Some(name), Some(group)) = (name, group) {
+        if let (Some(name), Some(group), Some(polyline)) = (name, group, polyline) {
             names.claim(&n, &name);
             let group = group.unwrap_or_else(|| name.clone());
             let mut rng = strand_rng(template.seed.unwrap_or(i as u64), 0);
-            let built = root_position.and_then(|r| template.build(name, group, r, &mut rng));
+            let built = match polyline {
+                Some(points) => {
+                    fit_polyline(&mut n, &template, name, group, points, &mut rng, grooms)
+                }
+                None => root_position.and_then(|r| template.build(name, group, r, &mut rng)),
+            };
             if let (Some(mut setup), Some(ends)) = (built, ends) {
                 ends.apply(&n, &mut setup);
                 out.push(setup);
@@ -75,6 +97,141 @@ pub(super) fn read_strands(
         root.error("strands", msg);
     }
     out
+}
+
+/// Fields a `polyline` replaces.
+const NOT_WITH_POLYLINE: [&str; 8] = [
+    "root",
+    "direction",
+    "length",
+    "element_lengths",
+    "q0",
+    "initial",
+    "natural_profile",
+    "curvature_variation",
+];
+
+/// The optional `polyline = [[x, y, z], ...]` of a `[[strands]]` entry (head coordinates,
+/// m, root first): `Some(None)` when absent, `None` when invalid (reported).
+fn read_polyline(n: &mut Node<'_>) -> Option<Option<Vec<Vector3<f64>>>> {
+    let value = n.raw("polyline")?;
+    let toml::Value::Array(items) = value else {
+        n.error(
+            "polyline",
+            "expected a list of points [x, y, z] in metres, root first",
+        );
+        return None;
+    };
+    for key in NOT_WITH_POLYLINE {
+        if n.has(key) {
+            n.error(
+                key,
+                "not with polyline: the polyline gives the root, the root frame, the length and the starting shape",
+            );
+        }
+    }
+    let mut points = Vec::with_capacity(items.len());
+    for (k, item) in items.iter().enumerate() {
+        let p = match item {
+            toml::Value::Array(c) if c.len() == 3 => c
+                .iter()
+                .map(|x| match x {
+                    toml::Value::Float(f) => Some(*f),
+                    toml::Value::Integer(i) => Some(*i as f64),
+                    _ => None,
+                })
+                .collect::<Option<Vec<f64>>>(),
+            _ => None,
+        };
+        match p {
+            Some(c) if c.iter().all(|x| x.is_finite() && x.abs() <= MAX_COORDINATE) => {
+                points.push(Vector3::new(c[0], c[1], c[2]))
+            }
+            _ => {
+                n.error(
+                    &format!("polyline[{k}]"),
+                    format!("expected [x, y, z], three finite numbers within ±{MAX_COORDINATE} m"),
+                );
+                return None;
+            }
+        }
+    }
+    if points.len() < 2 || points.len() > MAX_POLYLINE_POINTS {
+        n.error(
+            "polyline",
+            format!(
+                "{} points; allowed 2 to {MAX_POLYLINE_POINTS}",
+                points.len()
+            ),
+        );
+        return None;
+    }
+    Some(Some(points))
+}
+
+/// Most points of a `polyline`.
+pub const MAX_POLYLINE_POINTS: usize = 100_000;
+/// Largest |coordinate| of a polyline's point, m.
+const MAX_COORDINATE: f64 = 1e3;
+
+/// The strand of a `[[strands]]` entry with a `polyline`: the Super-Helix of the entry's
+/// N elements closest to it ([`fit_curve`]: root at the first point, length and root
+/// frame fitted, `normal` the root's n1 when given), starting in that shape, with the
+/// entry's rest shape (its `natural`, helix or preset: straight by default). The fit
+/// error is reported with the grooms'.
+fn fit_polyline(
+    n: &mut Node<'_>,
+    template: &Template,
+    name: String,
+    group: String,
+    points: Vec<Vector3<f64>>,
+    rng: &mut rand_chacha::ChaCha8Rng,
+    grooms: &mut GroomContext<'_>,
+) -> Option<StrandSetup> {
+    let elements = template.elements()?;
+    let count = points.len();
+    let curve = crate::groom::curves::Curve {
+        points,
+        origin: n.path("polyline"),
+    };
+    let hint = template.frame.map(|f| f.column(1).into_owned());
+    let fit = match fit_curve(&curve, &FitSettings::new(elements), hint.as_ref()) {
+        Ok(f) => f,
+        Err(e) => {
+            n.error("polyline", e);
+            return None;
+        }
+    };
+    if let Some(x) = fit.q.iter().find(|x| x.abs() > MAX_CURVATURE) {
+        n.error(
+            "polyline",
+            format!("the fit needs a curvature of {x:e} rad/m, beyond the allowed {MAX_CURVATURE:e}: check the units (metres) or raise elements"),
+        );
+        return None;
+    }
+    let mut s = template.build(name.clone(), group, fit.root, rng)?;
+    s.strand.geometry =
+        StrandGeometry::new(fit.root, fit.frame, fit.lengths.clone(), &s.strand.material);
+    s.q0 = fit.q.clone();
+    grooms.reports.push(GroomReport {
+        name: name.clone(),
+        strands: 1,
+        source: GroomSource::Polyline {
+            elements,
+            curve: CurveReport {
+                strand: name,
+                origin: curve.origin,
+                points: count,
+                length: fit.length,
+                polyline_length: fit.polyline_length,
+                error: fit.error,
+            },
+        },
+        sag_free_change: None,
+        sag_free_carried: None,
+        clearance: None,
+    });
+    Some(s)
 }
 
 /// The optional `group` of a `[[strands]]` entry: `Some(None)` when absent (the strand
