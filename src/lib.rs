@@ -16,6 +16,7 @@ pub mod electrostatics_study;
 pub mod quadrature_table;
 pub mod render;
 pub mod stress;
+pub mod stress_ends;
 pub mod study;
 pub mod study_cost;
 pub mod study_plot;

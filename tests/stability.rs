@@ -272,6 +272,18 @@ fn full_matrix_compression_buckling() {
 }
 
 #[test]
+#[ignore = "full matrix: cargo test --release --test stability -- --ignored"]
+fn full_matrix_contacts() {
+    full_group("contacts");
+}
+
+#[test]
+fn every_held_end_and_load_of_a_rod_stays_sound() {
+    // the ends group is short (36 cases, seconds): the whole of it runs by default
+    full_group("ends");
+}
+
+#[test]
 fn the_matrix_covers_every_preset_n_dt_and_motion_and_the_extremes() {
     let cases = stress::all_cases();
     let mut names: Vec<&str> = cases.iter().map(|c| c.name.as_str()).collect();
@@ -290,6 +302,8 @@ fn the_matrix_covers_every_preset_n_dt_and_motion_and_the_extremes() {
         "friction",
         "conservative",
         "buckling",
+        "contacts",
+        "ends",
     ] {
         assert!(cases.iter().any(|c| c.group == group), "{group}");
     }

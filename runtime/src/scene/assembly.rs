@@ -114,7 +114,9 @@ const NOT_WITH_POLYLINE: [&str; 8] = [
 /// The optional `polyline = [[x, y, z], ...]` of a `[[strands]]` entry (head coordinates,
 /// m, root first): `Some(None)` when absent, `None` when invalid (reported).
 fn read_polyline(n: &mut Node<'_>) -> Option<Option<Vec<Vector3<f64>>>> {
-    let value = n.raw("polyline")?;
+    let Some(value) = n.raw("polyline") else {
+        return Some(None);
+    };
     let toml::Value::Array(items) = value else {
         n.error(
             "polyline",

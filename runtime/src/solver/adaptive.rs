@@ -303,8 +303,9 @@ fn implicit_adaptive(
                 .contacts
                 .as_ref()
                 .is_some_and(|c| c.moves_relative(&interval.at_start(), &interval.at_end()))
-        // follower loads work without a potential
-        && !system.strand.has_follower_loads();
+        // follower loads work without a potential, and a driven holder works
+        && !system.strand.has_follower_loads()
+        && !system.held.as_ref().is_some_and(|h| h.is_driven());
         let balance = energy_balance::balance(start, &end, inertial);
         let excess = balance.excess;
         // an accepted step: its end bounds the next, and it is BDF2's history

@@ -29,7 +29,7 @@ pub fn measure(
         workspace,
         context,
         contacts,
-        ..
+        held,
     } = system;
     let kernel = kernel.as_mut();
     let (terms, jac) = (&mut workspace.terms, &mut workspace.jac);
@@ -75,8 +75,12 @@ pub fn measure(
     } else {
         0.0
     };
-    // follower loads have no potential: their power joins the work
+    // follower loads have no potential: their power joins the work, and so does a
+    // driven holder's
     power += follower_power(&strand.point_loads, &strand.geometry, kernel, q, v, jac);
+    if let Some(h) = held {
+        power += h.holder_power(t);
+    }
     let moment = terms.first_moment / rho_s;
     let mut load_moment = 0.0;
     let mut load_rate = 0.0;

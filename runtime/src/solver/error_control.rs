@@ -335,8 +335,9 @@ fn limit_energy(
             .contacts
             .as_ref()
             .is_some_and(|c| c.moves_relative(&whole.at_start(), &whole.at_end()))
-        // follower loads work without a potential
-        && !system.strand.has_follower_loads();
+        // follower loads work without a potential, and a driven holder works
+        && !system.strand.has_follower_loads()
+        && !system.held.as_ref().is_some_and(|h| h.is_driven());
     let excess = energy_balance::balance(start, &end, inertial).excess;
     if excess > 0.0 && end.kinetic > 0.0 {
         let kinetic = (end.kinetic - excess).max(0.0);

@@ -100,6 +100,25 @@ impl HeldTip {
         self.reaction.fixed_rows::<3>(0).into_owned()
     }
 
+    /// Whether the holder moves (`[strands.ends.tip.motion]`).
+    pub fn is_driven(&self) -> bool {
+        self.end.motion != crate::forces::head_motion::HeadMotion::Still
+    }
+
+    /// The power the holder puts into the strand at time t through its reaction (of the
+    /// last step): `f · v_p + τ · ω`, v_p the held point's velocity and ω the holder's
+    /// angular velocity (world), W; 0 for a holder at rest.
+    pub fn holder_power(&self, t: f64) -> f64 {
+        if !self.is_driven() {
+            return 0.0;
+        }
+        let m = self.end.motion.state(t);
+        let velocity = m.velocity + m.rotation * m.omega.cross(&self.end.position);
+        let omega = m.rotation * m.omega;
+        let torque = Vector3::new(self.reaction[3], self.reaction[4], self.reaction[5]);
+        self.reaction_force().dot(&velocity) + torque.dot(&omega)
+    }
+
     /// Number of scalar constraints.
     pub fn rows(&self) -> usize {
         self.rows
