@@ -101,6 +101,10 @@ class RunResult:
     summary_line: str
     frame_steps: Optional[FloatArray]
     strand_steps: Optional[FloatArray]
+    held: Optional[FloatArray]
+    held_tips: List[int]
+    arc_nodes: Optional[FloatArray]
+    d1: Optional[FloatArray]
     engine: str
     completed: bool
     @property

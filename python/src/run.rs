@@ -11,6 +11,7 @@ use pyo3::types::{PyDict, PyList};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
+use superhelix_runtime::output::nodes::NodeSampler;
 use superhelix_runtime::output::{
     frame_layout, run_streaming, ErrorControlSummary, FrameLayout, FrameSink, FrameSteps,
     FrameView, RunSummary, StopReason, StrandSteps,
@@ -101,6 +102,12 @@ struct Collect {
     points: Vec<f64>,
     q: Vec<f64>,
     steps: Vec<Option<FrameSteps>>,
+    /// Per held tip: drift, force, torque (7 numbers), frame-major.
+    held: Vec<f64>,
+    /// With `[output] nodes`: the sampler, and its nodes and directors, frame-major.
+    sampler: Option<NodeSampler>,
+    arc_nodes: Vec<f64>,
+    d1: Vec<f64>,
 }
 
 impl FrameSink for Collect {
@@ -110,6 +117,13 @@ impl FrameSink for Collect {
         self.points.extend(frame.points.iter().flatten());
         self.q.extend_from_slice(frame.q);
         self.steps.push(frame.steps);
+        for h in frame.held {
+            self.held.push(h.drift);
+            self.held.extend_from_slice(&h.reaction);
+        }
+        if let Some(sampler) = self.sampler.as_mut() {
+            sampler.sample(frame, &mut self.arc_nodes, &mut self.d1)?;
+        }
         Ok(())
     }
     fn finish(&mut self) -> Result<()> {
@@ -209,6 +223,21 @@ pub struct RunResult {
     /// largest error / L, smallest step (s), largest step (s), as strand_steps.npy. None
     /// with fixed steps.
     strand_steps: Py<PyAny>,
+    /// With held tips (`[strands.ends.tip]`): per frame and held tip, shape (frames, held
+    /// tips, 7): the largest drift of the tip from its holder since the previous frame (over
+    /// L, or radians for frames), then the holder's force (N) and torque (N m) on the tip,
+    /// world coordinates, as frames.held.npy. None without held tips.
+    held: Py<PyAny>,
+    /// The strands whose tip is held (indices in scene order): the rows of `held`.
+    held_tips: Vec<usize>,
+    /// With `[output] nodes = K`: every strand at K evenly spaced arc lengths, root to tip,
+    /// world coordinates, m: shape (frames, strands, K, 3), as frames.nodes.npy. None
+    /// otherwise.
+    arc_nodes: Py<PyAny>,
+    /// With `[output] nodes = K`: each strand's d1 director at the middle of each of the
+    /// K − 1 segments between its nodes, world coordinates: shape (frames, strands, K − 1,
+    /// 3), as frames.d1.npy. None otherwise.
+    d1: Py<PyAny>,
     /// The engine that stepped the strands: "embedded" or "runtime".
     engine: String,
     /// Whether every planned frame was computed (False on the `result` of a
@@ -259,6 +288,11 @@ pub fn run_scene(
         let engine = engine_name(sim.engine());
         let layout = frame_layout(&sim, &config, samples);
         let mut frames = Collect::default();
+        if let Some(count) = setup.output.nodes {
+            let strands: Vec<_> = setup.strands.iter().map(|s| &s.strand).collect();
+            // (the scene's check allows the count)
+            frames.sampler = NodeSampler::new(&strands, &setup.head, count).ok();
+        }
         let mut source = Recording {
             sim: &mut sim,
             qdot: Vec::new(),
@@ -441,6 +475,23 @@ fn to_python(py: Python<'_>, p: Produced, completed: bool) -> PyResult<RunResult
         )?,
         None => py.None(),
     };
+    let held_count = layout.held_tips.len();
+    let held = if held_count > 0 {
+        let rows = p.frames.held.len() / (7 * held_count);
+        f64_array(py, &[rows, held_count, 7], p.frames.held)?
+    } else {
+        py.None()
+    };
+    let (arc_nodes, d1) = match &p.frames.sampler {
+        Some(sampler) => {
+            let k = sampler.count();
+            (
+                f64_array(py, &[frames, strands, k, 3], p.frames.arc_nodes)?,
+                f64_array(py, &[frames, strands, k - 1, 3], p.frames.d1)?,
+            )
+        }
+        None => (py.None(), py.None()),
+    };
     let summary = summary_dict(
         py,
         &p.summary,
@@ -472,6 +523,10 @@ fn to_python(py: Python<'_>, p: Produced, completed: bool) -> PyResult<RunResult
         summary_line: p.summary.to_string(),
         frame_steps,
         strand_steps,
+        held,
+        held_tips: layout.held_tips.clone(),
+        arc_nodes,
+        d1,
         engine: p.engine.to_string(),
         completed,
     })

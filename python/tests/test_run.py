@@ -216,3 +216,49 @@ except KeyboardInterrupt as e:
     assert words[:2] == ["interrupted", "False"], out
     frames = int(words[2])
     assert 1 <= frames < 15001 and int(words[3]) == frames
+
+
+ROPE = """
+[simulation]
+dt = 0.01
+duration = 0.2
+output_fps = 50
+[output]
+nodes = 11
+[[strands]]
+name = "rope"
+elements = 10
+youngs_modulus = 1e7
+polyline = [[0.0, 0.0, 0.0], [0.1, 0.0, -0.05], [0.2, 0.0, -0.07], [0.3, 0.0, -0.05], [0.4, 0.0, 0.0]]
+[strands.ends]
+root = "pinned"
+[strands.ends.tip]
+kind = "pinned"
+position = [0.4, 0.0, 0.0]
+"""
+
+
+def test_a_held_rope_reports_its_holder_and_its_nodes():
+    # a rope pinned at both ends, fitted to a polyline, written at 11 even nodes: the
+    # holder's report and the nodes as the command line writes them
+    r = superhelix.Scene.from_toml(ROPE).run(energies=False)
+    frames = len(r.times)
+    assert frames == 11
+    assert r.held_tips == [0]
+    assert r.held.shape == (frames, 1, 7)
+    assert np.all(r.held[:, 0, 0] <= 1e-9)          # drift, over L
+    assert np.all(r.held[1:, 0, 1] > 0.0)            # the rope pulls its tip inwards
+    assert r.arc_nodes.shape == (frames, 1, 11, 3)
+    assert r.d1.shape == (frames, 1, 10, 3)
+    np.testing.assert_allclose(np.linalg.norm(r.d1, axis=-1), 1.0, atol=1e-12)
+    # the nodes are evenly spaced along the rope: each chord at most the arc between
+    chords = np.linalg.norm(np.diff(r.arc_nodes[-1, 0], axis=0), axis=-1)
+    length = 0.4 * 1.0  # at least the span; the fitted length is in the scene report
+    assert np.all(chords <= chords.sum() / 10 * 1.01)
+    np.testing.assert_allclose(r.arc_nodes[:, 0, 0], 0.0, atol=1e-9)
+    np.testing.assert_allclose(r.arc_nodes[:, 0, -1], [[0.4, 0.0, 0.0]] * frames, atol=1e-9)
+    assert chords.sum() > length
+    # a scene without them has none
+    plain = superhelix.Scene.from_toml("[simulation]\nduration = 0.1\n[[strands]]\nlength = 0.1\n")
+    r = plain.run(energies=False)
+    assert r.held is None and r.arc_nodes is None and r.d1 is None and r.held_tips == []

@@ -37,7 +37,7 @@ pub const MIN_NODES: usize = 2;
 /// The most nodes per strand.
 pub const MAX_NODES: usize = 100_000;
 
-/// What the sink keeps of one strand.
+/// What the sampler keeps of one strand.
 struct Sampled {
     geometry: StrandGeometry,
     /// Arc length of the first node (the pinned root's joint length, else 0), m.
@@ -46,36 +46,27 @@ struct Sampled {
     length: f64,
 }
 
-/// Writes [`NODES_FILE`] and [`D1_FILE`] as the run goes.
-pub struct NodesSink {
+/// Samples every strand of a frame at `count` evenly spaced arc lengths and its d1
+/// director between them (the arrays of [`NODES_FILE`] and [`D1_FILE`], one frame).
+pub struct NodeSampler {
     strands: Vec<Sampled>,
     head: HeadMotion,
     count: usize,
-    nodes: GrowingNpy,
-    d1: GrowingNpy,
     arcs: Vec<f64>,
     poses: Vec<Pose>,
-    nodes_row: Vec<u8>,
-    d1_row: Vec<u8>,
 }
 
-impl NodesSink {
-    /// Create both files in `dir` (which must exist) with zero frames, for `strands` (as
-    /// the simulation has them, in scene order) on a head moving as `head`, `count` nodes
-    /// per strand ([`MIN_NODES`] to [`MAX_NODES`]).
-    pub fn create(
-        dir: &Path,
-        strands: &[&Strand],
-        head: &HeadMotion,
-        count: usize,
-    ) -> Result<Self> {
+impl NodeSampler {
+    /// A sampler of `strands` (as the simulation has them, in scene order) on a head
+    /// moving as `head`, `count` nodes per strand ([`MIN_NODES`] to [`MAX_NODES`]).
+    pub fn new(strands: &[&Strand], head: &HeadMotion, count: usize) -> Result<Self> {
         if !(MIN_NODES..=MAX_NODES).contains(&count) {
             return Err(Error::invalid(
                 "output.nodes",
                 format!("{count} nodes per strand; allowed {MIN_NODES} to {MAX_NODES}"),
             ));
         }
-        let strands: Vec<Sampled> = strands
+        let strands = strands
             .iter()
             .map(|s| {
                 let joint = s.ends.joint_elements();
@@ -87,30 +78,35 @@ impl NodesSink {
                 }
             })
             .collect();
-        let n = strands.len() as u64;
-        let k = count as u64;
-        let nodes = GrowingNpy::create(dir.join(NODES_FILE), "<f8", 8, vec![n, k, 3])?;
-        let d1 = GrowingNpy::create(dir.join(D1_FILE), "<f8", 8, vec![n, k - 1, 3])?;
         Ok(Self {
             strands,
             head: head.clone(),
             count,
-            nodes,
-            d1,
             arcs: Vec::with_capacity(2 * count),
             poses: Vec::with_capacity(2 * count),
-            nodes_row: Vec::new(),
-            d1_row: Vec::new(),
         })
     }
-}
 
-impl FrameSink for NodesSink {
-    fn write_frame(&mut self, frame: &FrameView<'_>) -> Result<()> {
+    /// Nodes per strand.
+    pub fn count(&self) -> usize {
+        self.count
+    }
+
+    /// Number of strands.
+    pub fn strand_count(&self) -> usize {
+        self.strands.len()
+    }
+
+    /// Append the frame's nodes (strands × count × 3, world coordinates, m) to `nodes`
+    /// and its directors (strands × (count − 1) × 3) to `d1`.
+    pub fn sample(
+        &mut self,
+        frame: &FrameView<'_>,
+        nodes: &mut Vec<f64>,
+        d1: &mut Vec<f64>,
+    ) -> Result<()> {
         let head = self.head.state(frame.state_time);
         let spans = (self.count - 1) as f64;
-        self.nodes_row.clear();
-        self.d1_row.clear();
         let mut at = 0;
         for s in &self.strands {
             let dofs = s.geometry.dofs();
@@ -133,21 +129,67 @@ impl FrameSink for NodesSink {
             }
             poses_at_sorted(&s.geometry, q, self.arcs.iter().copied(), &mut self.poses);
             for (j, pose) in self.poses.iter().enumerate() {
-                let (row, v) = if j % 2 == 0 {
-                    (
-                        &mut self.nodes_row,
-                        head.position + head.rotation * pose.position,
-                    )
+                if j % 2 == 0 {
+                    nodes.extend((head.position + head.rotation * pose.position).iter());
                 } else {
-                    (&mut self.d1_row, head.rotation * pose.frame.column(1))
-                };
-                for c in v.iter() {
-                    row.extend_from_slice(&c.to_le_bytes());
+                    d1.extend((head.rotation * pose.frame.column(1)).iter());
                 }
             }
         }
-        self.d1.append(&self.d1_row)?;
-        self.nodes.append(&self.nodes_row)
+        Ok(())
+    }
+}
+
+/// Writes [`NODES_FILE`] and [`D1_FILE`] as the run goes.
+pub struct NodesSink {
+    sampler: NodeSampler,
+    nodes: GrowingNpy,
+    d1: GrowingNpy,
+    node_values: Vec<f64>,
+    d1_values: Vec<f64>,
+    row: Vec<u8>,
+}
+
+impl NodesSink {
+    /// Create both files in `dir` (which must exist) with zero frames, for `strands` (as
+    /// the simulation has them, in scene order) on a head moving as `head`, `count` nodes
+    /// per strand ([`MIN_NODES`] to [`MAX_NODES`]).
+    pub fn create(
+        dir: &Path,
+        strands: &[&Strand],
+        head: &HeadMotion,
+        count: usize,
+    ) -> Result<Self> {
+        let sampler = NodeSampler::new(strands, head, count)?;
+        let n = sampler.strand_count() as u64;
+        let k = count as u64;
+        let nodes = GrowingNpy::create(dir.join(NODES_FILE), "<f8", 8, vec![n, k, 3])?;
+        let d1 = GrowingNpy::create(dir.join(D1_FILE), "<f8", 8, vec![n, k - 1, 3])?;
+        Ok(Self {
+            sampler,
+            nodes,
+            d1,
+            node_values: Vec::new(),
+            d1_values: Vec::new(),
+            row: Vec::new(),
+        })
+    }
+}
+
+impl FrameSink for NodesSink {
+    fn write_frame(&mut self, frame: &FrameView<'_>) -> Result<()> {
+        self.node_values.clear();
+        self.d1_values.clear();
+        self.sampler
+            .sample(frame, &mut self.node_values, &mut self.d1_values)?;
+        self.row.clear();
+        self.row
+            .extend(self.d1_values.iter().flat_map(|x| x.to_le_bytes()));
+        self.d1.append(&self.row)?;
+        self.row.clear();
+        self.row
+            .extend(self.node_values.iter().flat_map(|x| x.to_le_bytes()));
+        self.nodes.append(&self.row)
     }
 
     fn finish(&mut self) -> Result<()> {
