@@ -68,6 +68,9 @@ impl FrameSource for Recording<'_> {
     fn step_by(&mut self, h: f64) -> Result<()> {
         FrameSource::step_by(self.sim, h)
     }
+    fn speed(&self, i: usize) -> f64 {
+        FrameSource::speed(&*self.sim, i)
+    }
     fn has_held_tip(&self, i: usize) -> bool {
         FrameSource::has_held_tip(&*self.sim, i)
     }

@@ -71,6 +71,12 @@ pub trait FrameSource {
     fn q(&self, i: usize) -> &[f64];
     /// Generalized velocities q̇ of strand `i` (3N).
     fn v(&self, i: usize) -> &[f64];
+    /// The size of strand `i`'s velocity reported as the run's largest speed: |q̇| by
+    /// default (a source whose coordinates have other scales, as a pinned root's joint,
+    /// says how it measures).
+    fn speed(&self, i: usize) -> f64 {
+        self.v(i).iter().map(|x| x * x).sum::<f64>().sqrt()
+    }
     /// Centreline of strand `i` in world coordinates at the current time: the root, then
     /// `samples_per_element` points per element (the last one at the element's end).
     fn centreline_world(&mut self, i: usize, samples_per_element: usize) -> Vec<[f64; 3]>;
@@ -218,7 +224,8 @@ pub struct RunSummary {
     pub frames: usize,
     /// Wall-clock time of the run (without writing the file).
     pub wall_time: Duration,
-    /// Largest Euclidean norm of a strand's q̇ over all strands and steps, rad/(m·s).
+    /// Largest Euclidean norm of a strand's q̇ over all strands and steps, rad/(m·s) (a
+    /// pinned root's joint counted as the root frame's angular velocity θ̇ = l₀ ḋ₀, rad/s).
     pub max_speed: f64,
     /// Deepest point of a centreline inside a body after any step, m (`None`: a scene
     /// without contacts).

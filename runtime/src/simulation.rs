@@ -1508,6 +1508,24 @@ impl FrameSource for Simulation {
     fn frame_steps(&mut self) -> Option<crate::output::FrameSteps> {
         Simulation::frame_steps(self)
     }
+    fn speed(&self, i: usize) -> f64 {
+        // a pinned root's joint coordinates d₀ = θ / l₀: their rate counts as θ̇ = l₀ ḋ₀
+        let strand = self.strand(i);
+        let joint = 3 * strand.ends.joint_elements();
+        self.v(i)
+            .iter()
+            .enumerate()
+            .map(|(k, x)| {
+                let x = if k < joint {
+                    x * strand.geometry.lengths[k / 3]
+                } else {
+                    *x
+                };
+                x * x
+            })
+            .sum::<f64>()
+            .sqrt()
+    }
     fn has_held_tip(&self, i: usize) -> bool {
         self.strands.get(i).is_some_and(|s| s.system.held.is_some())
     }
