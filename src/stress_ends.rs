@@ -21,17 +21,7 @@ const DURATION: f64 = 1.5;
 /// The points of a circular arc from the origin to (span, 0, 0) of arc length `length`,
 /// sagging below the chord (in −z): the start of the ropes.
 fn sagging_arc(length: f64, span: f64) -> String {
-    // sin x / x = span / length, x = half the arc's angle
-    let (mut lo, mut hi) = (1e-9, std::f64::consts::PI);
-    for _ in 0..100 {
-        let x = 0.5 * (lo + hi);
-        if x.sin() / x > span / length {
-            lo = x;
-        } else {
-            hi = x;
-        }
-    }
-    let x = 0.5 * (lo + hi);
+    let x = crate::runtime::model::ends::arc_half_angle(length, span);
     let radius = 0.5 * length / x;
     let points: Vec<String> = (0..=40)
         .map(|k| {

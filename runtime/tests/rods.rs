@@ -24,16 +24,7 @@ fn catenary(span: f64, length: f64) -> impl Fn(f64) -> f64 {
 /// sagging below the chord.
 fn rope_scene(length: f64, span: f64, elements: usize, youngs_modulus: f64) -> String {
     // sin x / x = span / length, x = half the arc's angle
-    let (mut lo, mut hi) = (1e-9, std::f64::consts::PI);
-    for _ in 0..200 {
-        let x = 0.5 * (lo + hi);
-        if x.sin() / x > span / length {
-            lo = x;
-        } else {
-            hi = x;
-        }
-    }
-    let x = 0.5 * (lo + hi);
+    let x = superhelix_runtime::model::ends::arc_half_angle(length, span);
     let kappa = 2.0 * x / length;
     // direction tilted down by x; n1 = y, so κ1 < 0 turns the tangent up (towards +n2)
     let q0: Vec<String> = (0..elements)
@@ -251,28 +242,41 @@ axis = [1.0, 0.0, 0.0]
     (deflection, reports[0].converged)
 }
 
-#[test]
-fn a_rod_compressed_by_a_sliding_end_buckles_at_eulers_load() {
-    // clamped–pinned column: P_c = β² EI / L², tan β = β, β = 4.493409457909064
-    let beta: f64 = 4.493409457909064;
-    let critical = beta * beta;
+/// The critical value of a buckling problem near `critical`, by bisection between 0.9 and
+/// 1.1 times it: `deflection(value)` is the equilibrium's deflection (over L) and whether
+/// its solve converged; straight (below `straight`) 10 % below, buckled (above
+/// `buckled`) 10 % above, and buckled in between once the deflection passes 3e-3 (beyond
+/// the start's bend; the post-buckling deflection grows as √(value/critical − 1)).
+/// Returns the value found and the deflection 10 % above.
+fn bisect_buckling(
+    critical: f64,
+    straight: f64,
+    buckled: f64,
+    deflection: impl Fn(f64) -> (f64, bool),
+) -> (f64, f64) {
     let (mut lo, mut hi) = (0.9 * critical, 1.1 * critical);
-    // 10 % below: straight again (from a start bent by 3e-4 L); 10 % above: buckled
-    let (below, converged) = compressed_deflection(lo);
-    assert!(converged && below < 1e-12, "{below:e}");
-    let (above, converged) = compressed_deflection(hi);
-    assert!(converged && above > 0.1, "{above:e}");
+    let (below, converged) = deflection(lo);
+    assert!(converged && below < straight, "{below:e}");
+    let (above, converged) = deflection(hi);
+    assert!(converged && above > buckled, "{above:e}");
     for _ in 0..12 {
         let mid = 0.5 * (lo + hi);
-        // buckled: beyond the start's bend (the post-buckling deflection grows as
-        // √(P/P_c − 1), 3e-3 L within 1e-5 of P_c)
-        if compressed_deflection(mid).0 > 3e-3 {
+        if deflection(mid).0 > 3e-3 {
             hi = mid;
         } else {
             lo = mid;
         }
     }
-    let found = 0.5 * (lo + hi);
+    (0.5 * (lo + hi), above)
+}
+
+#[test]
+fn a_rod_compressed_by_a_sliding_end_buckles_at_eulers_load() {
+    // clamped–pinned column: P_c = β² EI / L², tan β = β, β = 4.493409457909064
+    let beta: f64 = 4.493409457909064;
+    let critical = beta * beta;
+    // 10 % below: straight again (from a start bent by 3e-4 L); 10 % above: buckled
+    let (found, _) = bisect_buckling(critical, 1e-12, 0.1, compressed_deflection);
     let error = (found - critical) / critical;
     eprintln!("buckling load {found:.5} EI/L², Euler (clamped–pinned) {critical:.5} EI/L², relative error {error:.2e}");
     assert!(error.abs() < 2e-3, "{error:e}");
@@ -582,21 +586,8 @@ fn a_rod_clamped_at_both_ends_and_twisted_buckles_at_greenhills_twist() {
     let probe = parse_scene("[[strands]]\nlength = 0.1\nradius = 1e-4\n").expect("scene");
     let k = probe.strands[0].strand.material.stiffness;
     let critical = theta * k[1] / k[0];
-    let (mut lo, mut hi) = (0.9 * critical, 1.1 * critical);
     // 10 % below: straight again (to the solve's tolerance) from a start bent by 5e-4 L
-    let (below, converged) = twisted_deflection(lo);
-    assert!(converged && below < 1e-9, "{below:e}");
-    let (above, converged) = twisted_deflection(hi);
-    assert!(converged && above > 0.05, "{above:e}");
-    for _ in 0..12 {
-        let mid = 0.5 * (lo + hi);
-        if twisted_deflection(mid).0 > 3e-3 {
-            hi = mid;
-        } else {
-            lo = mid;
-        }
-    }
-    let found = 0.5 * (lo + hi);
+    let (found, above) = bisect_buckling(critical, 1e-9, 0.05, twisted_deflection);
     let error = (found - critical) / critical;
     eprintln!(
         "critical twist {found:.5} rad ({:.5} EI/L as a moment), Greenhill {critical:.5} rad ({theta:.5} EI/L), relative error {error:.2e}; 10 % above, the rod stands {above:.3} L off its axis",

@@ -118,3 +118,20 @@ pub fn perpendicular(v: &Vector3<f64>) -> Vector3<f64> {
     let e = Vector3::ith(v.iamin(), 1.0);
     (e - v * v.dot(&e)).normalize()
 }
+
+/// The half angle x of a circular arc of length `length` whose chord is `span` (`0 < span
+/// < length`): `sin x / x = span / length`, by bisection on (0, π). The start of a rope
+/// between two holders closer than its length (`x` its tilt at the ends, `length / 2x`
+/// its radius).
+pub fn arc_half_angle(length: f64, span: f64) -> f64 {
+    let (mut lo, mut hi) = (1e-9, std::f64::consts::PI);
+    for _ in 0..200 {
+        let x = 0.5 * (lo + hi);
+        if x.sin() / x > span / length {
+            lo = x;
+        } else {
+            hi = x;
+        }
+    }
+    0.5 * (lo + hi)
+}
