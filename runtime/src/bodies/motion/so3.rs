@@ -50,7 +50,7 @@ pub(crate) fn right_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 /// The time derivative of `J_r(φ(t))` given φ and φ̇.
-pub(super) fn right_jacobian_rate(phi: &Vector3<f64>, phi_dot: &Vector3<f64>) -> Matrix3<f64> {
+pub(crate) fn right_jacobian_rate(phi: &Vector3<f64>, phi_dot: &Vector3<f64>) -> Matrix3<f64> {
     let k = hat(phi);
     let k_dot = hat(phi_dot);
     let co = Coefficients::at(phi.norm_squared());
