@@ -705,7 +705,52 @@ impl Simulation {
                     cause,
                 })?;
         }
+        if sim.config.mode == Mode::Dynamic {
+            // (with the Coulomb loads of t = 0)
+            sim.start_held_reactions();
+        }
         Ok(sim)
+    }
+
+    /// Every held tip's reaction with the strands at rest in their current state (what
+    /// frame 0 of a dynamic run reports; [`Simulation::new`] calls it, call it again after
+    /// [`Simulation::set_state`]): [`crate::solver::held_end::HeldTip::start_reaction`]
+    /// with M and F at the current time. A strand whose M does not factor keeps its
+    /// reaction.
+    pub fn start_held_reactions(&mut self) {
+        let at = Placement::new(self.head.state(self.time), self.time);
+        let terms = crate::kernels::kernel::Terms {
+            mass: true,
+            force: true,
+            ..Default::default()
+        };
+        for s in self.strands.iter_mut().filter(|s| s.system.held.is_some()) {
+            let n = s.state.q.len();
+            s.system.assemble(&at, &s.state.q, &s.state.v, terms);
+            let system = &mut s.system;
+            let ws = &mut system.workspace;
+            let force = ws.terms.force[..n].to_vec();
+            for j in 0..n {
+                for i in 0..n {
+                    ws.solver.matrix[(i, j)] = ws.terms.mass[(i, j)];
+                }
+            }
+            ws.solver.rhs_mut().fill(0.0);
+            if !ws.solver.solve_spd() {
+                continue;
+            }
+            if let Some(held) = system.held.as_mut() {
+                let solver = &mut system.workspace.solver;
+                let _ = held.start_reaction(
+                    system.kernel.as_mut(),
+                    &system.strand.geometry,
+                    &mut |x| solver.solve_factored_spd(x),
+                    &s.state.q,
+                    &force,
+                    at.time,
+                );
+            }
+        }
     }
 
     /// The reaction of the holder on strand `i`'s held tip at the last step or static

@@ -382,6 +382,45 @@ impl HeldTip {
         Ok(())
     }
 
+    /// The reaction at the start of a dynamic run, the strand at rest: the multipliers μ
+    /// that keep the tip's acceleration on the holder, `M a = F + Gᵀμ`, `G a = 0`, i.e.
+    /// `μ = −(G M⁻¹ Gᵀ)⁻¹ G M⁻¹ F` (a driven holder's own acceleration at t left out).
+    /// `solve` solves with M (its factors), `force` is F at (q, 0).
+    pub fn start_reaction(
+        &mut self,
+        kernel: &mut dyn StrandKernel,
+        geometry: &StrandGeometry,
+        solve: &mut impl FnMut(&mut [f64]) -> bool,
+        q: &[f64],
+        force: &[f64],
+        t: f64,
+    ) -> Result<(), String> {
+        self.evaluate(kernel, geometry, q, t);
+        for r in 0..self.rows {
+            self.w[r].copy_from_slice(&self.g_jac[r]);
+            if !solve(&mut self.w[r]) {
+                return Err("held tip: singular mass matrix".into());
+            }
+        }
+        let mut accel = force.to_vec();
+        if !solve(&mut accel) {
+            return Err("held tip: singular mass matrix".into());
+        }
+        let mut x = Vector6::zeros();
+        for r in 0..self.rows {
+            x[r] = -self.g_jac[r]
+                .iter()
+                .zip(&accel)
+                .map(|(g, a)| g * a)
+                .sum::<f64>();
+        }
+        let mu = self
+            .solve_rows(&x)
+            .ok_or("held tip: the constraints are dependent (singular G M⁻¹ Gᵀ)")?;
+        self.record_reaction(&mu, t);
+        Ok(())
+    }
+
     /// The reaction from multipliers μ of the rows (generalized force Gᵀμ on the strand).
     fn record_reaction(&mut self, mu: &Vector6<f64>, t: f64) {
         let mut r = Vector6::zeros();
