@@ -69,6 +69,9 @@ pub struct HeldTip {
     /// The reaction of the holder on the tip at the last step or static solve: force
     /// (N) then torque (N·m, clamped tips), world coordinates.
     pub reaction: Vector6<f64>,
+    /// Each element's columns C_e of the tip frame's angular Jacobian (scratch of
+    /// [`HeldTip::add_torque_stiffness`]).
+    columns: Vec<Matrix3<f64>>,
     /// The largest drift left after a projection since the last
     /// [`HeldTip::take_drift`]: |position rows| / L and |rotation rows|.
     drift: f64,
@@ -90,6 +93,7 @@ impl HeldTip {
             jac: vec![Vector3::zeros(); n],
             w: vec![vec![0.0; n]; rows],
             reaction: Vector6::zeros(),
+            columns: vec![Matrix3::zeros(); geometry.elements()],
             drift: 0.0,
         }
     }
@@ -242,13 +246,12 @@ impl HeldTip {
         kernel.element_ends(q, &mut self.ends);
         let elements = geometry.elements();
         let tx = so3::hat(&torque);
-        let columns: Vec<Matrix3<f64>> = (0..elements)
-            .map(|e| {
-                let l = geometry.lengths[e];
-                let phi = Vector3::new(q[3 * e], q[3 * e + 1], q[3 * e + 2]) * l;
-                self.ends[e + 1].frame * so3::right_jacobian(&phi) * l
-            })
-            .collect();
+        for e in 0..elements {
+            let l = geometry.lengths[e];
+            let phi = Vector3::new(q[3 * e], q[3 * e + 1], q[3 * e + 2]) * l;
+            self.columns[e] = self.ends[e + 1].frame * so3::right_jacobian(&phi) * l;
+        }
+        let columns = &self.columns;
         let mut add = |row: usize, col: usize, block: &Matrix3<f64>| {
             for a in 0..3 {
                 for b in 0..3 {
