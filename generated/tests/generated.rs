@@ -244,6 +244,7 @@ fn full_generalized_force_from_closed_form_moments_matches_quadrature_moments() 
                 lengths: lengths.clone(),
                 mass_per_length: 1e-5,
                 rotary_inertia: [2e-9, 0.8e-9, 1.2e-9],
+                floating: false,
             };
             let q: Vec<f64> = (0..n)
                 .flat_map(|k| {
@@ -449,6 +450,7 @@ fn mass_matrix_and_gravity_from_closed_form_moments_match_the_generic_kernel() {
                 lengths: lengths.clone(),
                 mass_per_length: 1e-5,
                 rotary_inertia: [2e-9, 0.8e-9, 1.2e-9],
+                floating: false,
             };
             let q: Vec<f64> = (0..n)
                 .flat_map(|k| {

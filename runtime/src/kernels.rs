@@ -3,10 +3,12 @@
 //! kernel (Gauss–Legendre quadrature); [`moments`] assembles a strand from element
 //! moments, the path the generated closed forms of `superhelix-generated` feed (any N);
 //! [`fixed_kernel`] runs the same assembly on the generated fixed-N code, for the N with a
-//! per-N module; [`closed_form`] chooses between the two.
+//! per-N module; [`closed_form`] chooses between the two; [`floating`] wraps any of them
+//! for a rod with a free root.
 
 pub mod closed_form;
 pub mod fixed_kernel;
+pub mod floating;
 pub mod generic;
 pub mod kernel;
 pub mod moments;

@@ -441,7 +441,7 @@ fn check_ends(setup: &SimulationSetup, i: usize) -> Vec<FieldError> {
     let s = &setup.strands[i].strand;
     let c = &setup.config;
     let dynamic = c.mode == Mode::Dynamic;
-    if s.ends.root == RootEnd::Pinned {
+    if s.ends.root != RootEnd::Clamped {
         let l = s.geometry.length();
         let joint = s.geometry.lengths.first().copied().unwrap_or(0.0);
         if s.geometry.lengths.len() < 2 || (joint - ROOT_JOINT_FRACTION * l).abs() > 1e-3 * joint {
@@ -453,9 +453,35 @@ fn check_ends(setup: &SimulationSetup, i: usize) -> Vec<FieldError> {
         if dynamic && c.integrator == IntegratorKind::NewtonImplicitEuler {
             errors.push(FieldError::new(
                 format!("strands[{i}].ends.root"),
-                "a pinned root is stepped by linearly-implicit-euler, bdf2 or rk4; integrator = \"newton-implicit-euler\" does not take it",
+                format!("a {} root is stepped by linearly-implicit-euler, bdf2 or rk4; integrator = \"newton-implicit-euler\" does not take it", s.ends.root.name()),
             ));
         }
+    }
+    if s.ends.root == RootEnd::Free {
+        let at = format!("strands[{i}].ends.root");
+        if !s.geometry.floating || s.natural.len() != s.geometry.dofs() {
+            errors.push(FieldError::new(
+                at.clone(),
+                "a free root needs its translation coordinates (Strand::free_root)",
+            ));
+        }
+        if !dynamic {
+            errors.push(FieldError::new(
+                at.clone(),
+                "a free rod has no static equilibrium to solve for (nothing holds it): run mode = \"dynamic\"",
+            ));
+        }
+        if setup.strands[i].tip.is_some() {
+            errors.push(FieldError::new(
+                at,
+                "a free root with a held tip is a rod held by its tip only: hold that end as the root instead (root = \"pinned\" or \"clamped\", the rod's nodes reversed)",
+            ));
+        }
+    } else if s.geometry.floating {
+        errors.push(FieldError::new(
+            format!("strands[{i}].ends.root"),
+            "translation coordinates without a free root (use Strand::free_root)",
+        ));
     }
     if !dynamic {
         if let Some(j) = s.point_loads.iter().position(|l| l.follows) {
@@ -511,6 +537,16 @@ fn make_kernel(
     index: usize,
     name: &str,
 ) -> std::result::Result<Box<dyn StrandKernel>, FieldError> {
+    if geometry.floating {
+        // a free root: the chain's kernel, wrapped for the root's translation
+        let chain = crate::kernels::floating::FloatingKernel::chain_geometry(geometry);
+        return make_kernel(choice, rule, &chain, generated, index, name).map(|k| {
+            Box::new(crate::kernels::floating::FloatingKernel::new(
+                geometry.clone(),
+                k,
+            )) as Box<dyn StrandKernel>
+        });
+    }
     let n = geometry.elements();
     let from_generated = || generated.and_then(|f| f.create(geometry));
     match choice {

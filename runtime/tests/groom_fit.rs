@@ -28,6 +28,7 @@ fn model_curve(n: usize, per: usize, seed: u64) -> (Curve, Vec<f64>, f64) {
         lengths: vec![length / n as f64; n],
         mass_per_length: 1e-5,
         rotary_inertia: [0.0; 3],
+        floating: false,
     };
     // curly: helix radius 6 mm, step 5 mm (kappa ~ 160, tau ~ 22 rad/m), +-30 %
     let mut q = Vec::new();

@@ -220,6 +220,7 @@ fn velocity_term_matches_second_differences_along_the_velocity() {
         // centreline part (rotary inertia off): b = ∫ρS Jᵀ (d²y/dε² along v)
         let g0 = StrandGeometry {
             rotary_inertia: [0.0; 3],
+            floating: false,
             ..g.clone()
         };
         let out = evaluate(&g0, &q, &v, BodyField::zero());
@@ -514,6 +515,7 @@ fn moment_assembly_reproduces_the_full_generalized_force() {
     for (g, q, v) in cases() {
         let g = StrandGeometry {
             rotary_inertia: [0.0; 3],
+            floating: false,
             ..g
         };
         let zero_v = vec![0.0; q.len()];

@@ -119,6 +119,7 @@ impl UnitStrand {
             lengths: vec![1.0 / elements as f64; elements],
             mass_per_length: 1.0,
             rotary_inertia: [0.0; 3],
+            floating: false,
         };
         let kernel = moment_kernel(&geometry);
         UnitStrand {

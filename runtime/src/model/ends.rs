@@ -11,6 +11,12 @@
 //!   with the element's length taken to a sliver). The root point then moves by at most
 //!   2 l₀ = 2·10⁻¹⁰ L. The solver works on θ (its linear algebra is scaled by 1/l₀), so
 //!   the tiny length costs no accuracy.
+//! - A **free root** is a pinned root whose position is free too: the root's
+//!   translation X from its initial place is three more coordinates, after the chain's
+//!   3N, so that `y(s) = X + y_chain(s)` and `J = [J_chain | I₃]`. Its rows of the
+//!   equation of motion are the rod's total momentum balance, `m Ẍ + Σ q̈ + b_X = ∫F ds`,
+//!   with `Σ = ∫ρS J_chain ds` and `b_X = ∫ρS J̇ q̇ ds` (eq. 7 of the paper written for
+//!   the coordinates (q, X); [`crate::kernels::floating`]).
 //! - A **held tip** is a holonomic constraint on the chain's last pose, `y(L, q) = p(t)`
 //!   (pinned), plus the frame `F_N(q) = F*(t)` (clamped), or only the two directions
 //!   across an axis (sliding), or the frame and those two (clamped-sliding): its multipliers are solved with each implicit step and the
@@ -30,6 +36,9 @@ pub enum RootEnd {
     /// Position given, frame free: the root joint's three rotations are coordinates
     /// with no stiffness.
     Pinned,
+    /// Nothing held (a floating rod): the root joint's three rotations, as for a pinned
+    /// root, and the root's translation X are coordinates.
+    Free,
 }
 
 impl RootEnd {
@@ -38,6 +47,7 @@ impl RootEnd {
         match self {
             RootEnd::Clamped => "clamped",
             RootEnd::Pinned => "pinned",
+            RootEnd::Free => "free",
         }
     }
 }
@@ -107,7 +117,7 @@ impl StrandEnds {
     pub fn joint_elements(&self) -> usize {
         match self.root {
             RootEnd::Clamped => 0,
-            RootEnd::Pinned => 1,
+            RootEnd::Pinned | RootEnd::Free => 1,
         }
     }
 }

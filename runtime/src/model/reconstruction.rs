@@ -10,10 +10,7 @@ pub use superhelix_kernels::pose::{darboux, Pose};
 /// Poses at the N + 1 element ends (root first), in head coordinates.
 /// `ends.len()` must be N + 1.
 pub fn element_ends(geom: &StrandGeometry, q: &[f64], ends: &mut [Pose]) {
-    ends[0] = Pose {
-        position: geom.root_position,
-        frame: geom.root_frame,
-    };
+    ends[0] = geom.root_pose(q);
     for (k, &l) in geom.lengths.iter().enumerate() {
         let (e, p) = local_pose(&darboux(q, k), l);
         let start = ends[k];
@@ -27,10 +24,7 @@ pub fn element_ends(geom: &StrandGeometry, q: &[f64], ends: &mut [Pose]) {
 /// Pose at arc length `s` (clamped to [0, L]).
 pub fn pose_at(geom: &StrandGeometry, q: &[f64], s: f64) -> Pose {
     let (element, u) = geom.locate(s);
-    let mut pose = Pose {
-        position: geom.root_position,
-        frame: geom.root_frame,
-    };
+    let mut pose = geom.root_pose(q);
     for (k, &l) in geom.lengths.iter().enumerate().take(element + 1) {
         let (e, p) = local_pose(&darboux(q, k), if k == element { u } else { l });
         pose = Pose {
@@ -84,10 +78,7 @@ fn walk_sorted(
     mut visit: impl FnMut(&Pose, &nalgebra::Matrix3<f64>, &Vector3<f64>),
 ) {
     let n = geom.lengths.len();
-    let mut start = Pose {
-        position: geom.root_position,
-        frame: geom.root_frame,
-    };
+    let mut start = geom.root_pose(q);
     let (mut element, mut s0) = (0, 0.0);
     let mut d = darboux(q, 0);
     for s in arcs {
@@ -116,11 +107,8 @@ pub fn sample_centreline(
     out: &mut Vec<Vector3<f64>>,
 ) {
     out.clear();
-    out.push(geom.root_position);
-    let mut start = Pose {
-        position: geom.root_position,
-        frame: geom.root_frame,
-    };
+    out.push(geom.root_pose(q).position);
+    let mut start = geom.root_pose(q);
     let per = per_element.max(1);
     for (k, &l) in geom.lengths.iter().enumerate() {
         let d = darboux(q, k);

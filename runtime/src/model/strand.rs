@@ -24,6 +24,9 @@ pub struct StrandGeometry {
     /// q; its size relative to the centreline term is about r²/l², below 1e-6 for hair.
     /// Zeros give the paper's model exactly.
     pub rotary_inertia: [f64; 3],
+    /// A floating (free) root: three more coordinates after the chain's 3N, the
+    /// translation X of the root from `root_position` ([`crate::model::ends`]).
+    pub floating: bool,
 }
 
 impl StrandGeometry {
@@ -40,15 +43,36 @@ impl StrandGeometry {
             lengths,
             mass_per_length: material.mass_per_length,
             rotary_inertia: material.rotary_inertia,
+            floating: false,
         }
     }
     /// Number of elements N.
     pub fn elements(&self) -> usize {
         self.lengths.len()
     }
-    /// Number of generalized coordinates 3N.
+    /// Number of generalized coordinates: 3N, and 3 more for a floating root's
+    /// translation.
     pub fn dofs(&self) -> usize {
+        3 * self.lengths.len() + if self.floating { 3 } else { 0 }
+    }
+    /// Number of the chain's coordinates 3N (the curvatures and twists of the elements,
+    /// first in q).
+    pub fn chain_dofs(&self) -> usize {
         3 * self.lengths.len()
+    }
+    /// The root's pose at q: `root_position` moved by a floating root's translation
+    /// (the last three coordinates), and the root frame.
+    pub fn root_pose(&self, q: &[f64]) -> crate::model::reconstruction::Pose {
+        let n = self.chain_dofs();
+        let translation = if self.floating && q.len() >= n + 3 {
+            Vector3::new(q[n], q[n + 1], q[n + 2])
+        } else {
+            Vector3::zeros()
+        };
+        crate::model::reconstruction::Pose {
+            position: self.root_position + translation,
+            frame: self.root_frame,
+        }
     }
     /// Total length L.
     pub fn length(&self) -> f64 {
@@ -125,15 +149,18 @@ impl Strand {
                 });
             }
         }
+        k.resize(self.geometry.dofs(), 0.0);
         k
     }
 
-    /// Diagonal of the internal friction matrix γ l_Q (none on a pinned root's joint).
+    /// Diagonal of the internal friction matrix γ l_Q (none on a pinned or free root's
+    /// joint, nor on a free root's translation).
     pub fn friction_diagonal(&self) -> Vec<f64> {
         let joint = self.ends.joint_elements();
+        let chain = self.geometry.chain_dofs();
         (0..self.geometry.dofs())
             .map(|i| {
-                if i / 3 < joint {
+                if i / 3 < joint || i >= chain {
                     0.0
                 } else {
                     self.geometry.lengths[i / 3] * self.internal_friction
@@ -147,7 +174,7 @@ impl Strand {
     /// own, and the joint's three coordinates (zero: the root frame as given) in front of
     /// `q0`. See [`crate::model::ends`].
     pub fn pin_root(&mut self, q0: &mut Vec<f64>) {
-        if self.ends.root == RootEnd::Pinned {
+        if self.ends.root != RootEnd::Clamped {
             return;
         }
         let joint = ROOT_JOINT_FRACTION * self.geometry.length();
@@ -157,14 +184,30 @@ impl Strand {
         self.ends.root = RootEnd::Pinned;
     }
 
+    /// Free the root (a clamped or pinned root before): pin it ([`Strand::pin_root`]),
+    /// then add the root's translation X as three coordinates after the chain's, zero in
+    /// `q0` (the root where `geometry.root_position` puts it). See
+    /// [`crate::model::ends`].
+    pub fn free_root(&mut self, q0: &mut Vec<f64>) {
+        if self.ends.root == RootEnd::Free {
+            return;
+        }
+        self.pin_root(q0);
+        self.geometry.floating = true;
+        self.natural.extend([0.0; 3]);
+        q0.extend([0.0; 3]);
+        self.ends.root = RootEnd::Free;
+    }
+
     /// Scale of the step's linear algebra per coordinate: 1/l₀ on a pinned root's joint
     /// (its coordinates are then the root frame's rotation θ = l₀ d₀), `None` without one.
     pub fn solver_scale(&self) -> Option<Vec<f64>> {
         let joint = self.ends.joint_elements();
+        let chain = self.geometry.chain_dofs();
         (joint > 0).then(|| {
             (0..self.geometry.dofs())
                 .map(|i| {
-                    if i / 3 < joint {
+                    if i / 3 < joint && i < chain {
                         1.0 / self.geometry.lengths[i / 3]
                     } else {
                         1.0

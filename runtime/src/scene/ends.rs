@@ -1,4 +1,5 @@
-//! `[strands.ends]`: how a strand's root and tip are held (`root = "clamped" | "pinned"`,
+//! `[strands.ends]`: how a strand's root and tip are held (`root = "clamped" | "pinned" |
+//! "free"`,
 //! a `[strands.ends.tip]` table for a held tip), see [`crate::model::ends`].
 
 use super::head::read_motion;
@@ -9,7 +10,7 @@ use crate::model::ends::{HeldKind, RootEnd};
 use crate::model::reconstruction::pose_at;
 use nalgebra::{Matrix3, Vector3};
 
-const ROOTS: [&str; 2] = ["clamped", "pinned"];
+const ROOTS: [&str; 3] = ["clamped", "pinned", "free"];
 const TIPS: [&str; 5] = ["free", "pinned", "clamped", "sliding", "clamped-sliding"];
 
 /// What a `[strands.ends]` table asks for, before the strand exists.
@@ -47,7 +48,7 @@ pub(super) fn read_ends(n: &mut Node<'_>) -> Option<EndsSpec> {
     };
     e.finish();
     Some(EndsSpec {
-        root: [RootEnd::Clamped, RootEnd::Pinned][root?],
+        root: [RootEnd::Clamped, RootEnd::Pinned, RootEnd::Free][root?],
         tip: tip?.flatten(),
     })
 }
@@ -109,8 +110,10 @@ impl EndsSpec {
     /// (defaults from the tip's pose at q0, in the holder's frame at t = 0). Errors
     /// are reported on `n`.
     pub(super) fn apply(&self, n: &Node<'_>, setup: &mut StrandSetup) {
-        if self.root == RootEnd::Pinned {
-            setup.strand.pin_root(&mut setup.q0);
+        match self.root {
+            RootEnd::Clamped => {}
+            RootEnd::Pinned => setup.strand.pin_root(&mut setup.q0),
+            RootEnd::Free => setup.strand.free_root(&mut setup.q0),
         }
         let Some(tip) = &self.tip else { return };
         let g = &setup.strand.geometry;

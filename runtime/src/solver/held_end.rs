@@ -569,6 +569,7 @@ mod tests {
             lengths,
             mass_per_length: 1e-5,
             rotary_inertia: [0.0; 3],
+            floating: false,
         };
         let n = geometry.dofs();
         let q: Vec<f64> = (0..n)

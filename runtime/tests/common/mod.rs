@@ -45,6 +45,7 @@ pub fn geometry(n: usize, length: f64, rng: &mut Rng) -> StrandGeometry {
         mass_per_length: 1.0e-5,
         // exaggerated (r ~ 1 cm) so that its terms are visible at test tolerances
         rotary_inertia: [2.0e-9, 0.8e-9, 1.2e-9],
+        floating: false,
     }
 }
 

@@ -414,10 +414,7 @@ impl StrandContacts {
         }
         self.posed.clear();
         self.posed.extend_from_slice(q);
-        let mut start = Pose {
-            position: geom.root_position,
-            frame: geom.root_frame,
-        };
+        let mut start = geom.root_pose(q);
         let mut k = 0;
         let mut s0 = 0.0;
         for (e, &l) in geom.lengths.iter().enumerate() {
@@ -1286,7 +1283,11 @@ impl StrandContacts {
         let head = &at.head;
         self.sample_poses(geom, q);
         self.root_zone = (0, 0);
-        if let Some(root) = self.nearest_body(head, &geom.root_position, None, None) {
+        // a free root is not held by the body it starts on: no root zone
+        let root_body = (!geom.floating)
+            .then(|| self.nearest_body(head, &geom.root_position, None, None))
+            .flatten();
+        if let Some(root) = root_body {
             let quarter = 0.25 * geom.lengths.iter().sum::<f64>();
             let zone = (0..self.samples.len())
                 .take_while(|&k| {
