@@ -1,5 +1,5 @@
 //! The `ends` group of `superhelix stress`: rods held otherwise than a hair (a pinned
-//! root, a tip pinned, clamped, sliding, clamped on a slider or driven, a follower load),
+//! or free root, a tip pinned, clamped, sliding, clamped on a slider or driven, a follower load),
 //! each at N = 5 and 20 and at 30 and 100 frames per second, under gravity.
 //!
 //! Each case is a scene (the TOML a user would write), so what is stressed is what a
@@ -76,6 +76,28 @@ pub fn end_cases() -> Vec<Case> {
             "pinned-root/fall/frictionless",
             "direction = [1.0, 0.0, 0.0]\ninternal_friction = 0.0\nair_drag = 0.0\n\
              [strands.ends]\nroot = \"pinned\"\n"
+                .into(),
+            still,
+        ),
+        (
+            // a free rod in no gravity, released straight from its natural curvature
+            // (2 rad over its length): it flails and drifts, its energy constant
+            "free-root/flail",
+            "direction = [1.0, 0.0, 0.0]\nnormal = [0.0, 1.0, 0.0]\nnatural = [0.0, 8.0, 0.0]\n\
+             initial = \"straight\"\ninternal_friction = 0.0\nair_drag = 0.0\n\
+             [strands.ends]\nroot = \"free\"\n\
+             [environment]\ngravity = \"none\"\n"
+                .into(),
+            still,
+        ),
+        (
+            // a free rod at its natural shape (an arc of 2 rad) dropped onto a floor with
+            // Coulomb friction, 2.3 cm below its lowest point
+            "free-root/floor",
+            "direction = [1.0, 0.0, 0.0]\nnormal = [0.0, 1.0, 0.0]\nnatural = [0.0, 8.0, 0.0]\n\
+             initial = \"natural\"\n[strands.ends]\nroot = \"free\"\n\
+             [[bodies]]\nname = \"floor\"\nshape = \"plane\"\npoint = [0.0, 0.0, -0.2]\n\
+             normal = [0.0, 0.0, 1.0]\n[contacts]\nfriction = \"coulomb\"\n"
                 .into(),
             still,
         ),

@@ -67,6 +67,12 @@ pub trait FrameSource {
     fn strand_radius(&self, _i: usize) -> f64 {
         driver::DEFAULT_DISPLAY_RADIUS
     }
+    /// Number of elements of strand `i` (its centreline has `samples_per_element` points
+    /// per element after the root): by default a third of its coordinates (a source with
+    /// coordinates beyond the elements', as a free root's translation, says how many).
+    fn strand_elements(&self, i: usize) -> usize {
+        self.q(i).len() / 3
+    }
     /// Generalized coordinates of strand `i` (3N).
     fn q(&self, i: usize) -> &[f64];
     /// Generalized velocities q̇ of strand `i` (3N).

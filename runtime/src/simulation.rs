@@ -1565,6 +1565,9 @@ impl FrameSource for Simulation {
     fn strand_radius(&self, i: usize) -> f64 {
         crate::output::driver::display_radius(&self.strand(i).material)
     }
+    fn strand_elements(&self, i: usize) -> usize {
+        self.strand(i).geometry.elements()
+    }
     fn q(&self, i: usize) -> &[f64] {
         Simulation::q(self, i)
     }

@@ -88,7 +88,7 @@ pub fn frame_layout<S: FrameSource + ?Sized>(
                 name: source.strand_name(i).to_string(),
                 group: source.strand_group(i).to_string(),
                 radius: source.strand_radius(i),
-                points: 1 + samples_per_element * coordinates / 3,
+                points: 1 + samples_per_element * source.strand_elements(i),
                 coordinates,
             }
         })

@@ -207,7 +207,7 @@ pub fn setup_layout(setup: &SimulationSetup) -> FrameLayout {
             name: s.strand.name.clone(),
             group: s.group.clone(),
             radius: display_radius(&s.strand.material),
-            points: 1 + setup.samples_per_element * s.q0.len() / 3,
+            points: 1 + setup.samples_per_element * s.strand.geometry.elements(),
             coordinates: s.q0.len(),
         })
         .collect();
