@@ -1097,3 +1097,119 @@ fn a_free_rod_keeps_its_momentum_and_angular_momentum() {
         "LIE drift at dt 5e-5: {e2:e}, {f2:e}"
     );
 }
+
+/// A rope over a horizontal drum of radius 2 cm (a `cylinder` body, Coulomb friction μ,
+/// no anisotropy, no gravity), wrapped over its top half (θ = π) with a vertical leg on
+/// each side, free at both ends: a dead load T1 = 0.1 N down on its root, ratio · T1 on
+/// its tip. How far its root rises between 0.15 s and 0.3 s (m): nothing once friction
+/// holds it, centimetres when it slides.
+fn capstan_slip(mu: f64, ratio: f64) -> f64 {
+    let (drum, r) = (0.02, 5e-4);
+    let rho = drum + r;
+    let arc = std::f64::consts::PI * rho;
+    let n = 10;
+    let length = 3.0 * arc;
+    let q0: Vec<String> = (0..3 * n)
+        .map(|e| {
+            let k = if (n..2 * n).contains(&e) {
+                1.0 / rho
+            } else {
+                0.0
+            };
+            format!("0.0, {k}, 0.0")
+        })
+        .collect();
+    let text = format!(
+        r#"
+[simulation]
+dt = 0.001
+duration = 0.3
+[environment]
+gravity = "none"
+[[bodies]]
+name = "drum"
+shape = "cylinder"
+start = [0.0, -0.05, 0.0]
+end = [0.0, 0.05, 0.0]
+radius = {drum}
+[contacts]
+radius = {r}
+friction = "coulomb"
+friction_coefficient = {mu}
+anisotropy = 0.0
+[[strands]]
+name = "rope"
+length = {length}
+elements = {elements}
+radius = 5e-4
+youngs_modulus = 1e6
+root = [{x}, 0.0, {z}]
+direction = [0.0, 0.0, 1.0]
+normal = [0.0, 1.0, 0.0]
+q0 = [{q0}]
+internal_friction = 1e-9
+air_drag = 0.0
+[[strands.point_loads]]
+s = 0.0
+force = [0.0, 0.0, -0.1]
+[[strands.point_loads]]
+s = {length}
+force = [0.0, 0.0, {t2}]
+[strands.ends]
+root = "free"
+"#,
+        elements = 3 * n,
+        x = -rho,
+        z = -arc,
+        q0 = q0.join(", "),
+        t2 = -0.1 * ratio,
+    );
+    let setup = parse_scene(&text).expect("scene");
+    let mut sim = Simulation::new(setup, None).expect("simulation");
+    let mut z = 0.0;
+    for k in 1..=300 {
+        sim.step().expect("step");
+        if k == 150 {
+            z = sim.position_at(0, 0.0)[2];
+        }
+    }
+    sim.position_at(0, 0.0)[2] - z
+}
+
+#[test]
+fn a_rope_over_a_drum_holds_up_to_the_capstan_ratio_and_slides_beyond() {
+    // Euler–Eytelwein: a flexible rope wrapped by θ on a drum with Coulomb friction μ
+    // holds while T2/T1 ≤ exp(μθ); the rope here has a bending length far below the
+    // drum's radius (EI/(T R²) ≈ 1 %)
+    let mu = 0.3;
+    let limit = (mu * std::f64::consts::PI).exp();
+    let holds = |ratio: f64| capstan_slip(mu, ratio).abs() < 1e-4;
+    let (mut lo, mut hi) = (0.8 * limit, 1.2 * limit);
+    assert!(holds(lo), "the rope slides at {lo}");
+    assert!(!holds(hi), "the rope holds at {hi}");
+    for _ in 0..6 {
+        let mid = 0.5 * (lo + hi);
+        if holds(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let found = 0.5 * (lo + hi);
+    // the same loads (T2/T1 = 2) held with μ = 0.3 (limit 2.57), sliding with μ = 0.2
+    // (limit 1.87)
+    let held = capstan_slip(0.3, 2.0);
+    let slid = capstan_slip(0.2, 2.0);
+    println!(
+        "capstan, μ = {mu}, θ = π: the rope holds up to T2/T1 = {found:.4} (bracket [{lo:.4}, {hi:.4}]) against exp(μθ) = {limit:.4}, {:+.2} %; T2/T1 = 2: the root moves {:.2e} m in 0.15 s with μ = 0.3, {:.2e} m with μ = 0.2",
+        100.0 * (found / limit - 1.0),
+        held,
+        slid
+    );
+    assert!(
+        (found / limit - 1.0).abs() < 0.02,
+        "holding ratio {found} against {limit}"
+    );
+    assert!(held.abs() < 1e-4, "held rope moved {held}");
+    assert!(slid > 1e-2, "the rope did not slide with μ = 0.2 ({slid})");
+}
