@@ -718,7 +718,13 @@ impl Simulation {
             // inside a body
             hair_hair: setup.contacts.as_ref().and_then(|c| {
                 c.hair_hair.as_ref().map(|h| {
-                    HairHair::new(h.search_every).with_depenetration_speed(c.depenetration_speed)
+                    let hh = HairHair::new(h.search_every)
+                        .with_depenetration_speed(c.depenetration_speed);
+                    if h.self_contact {
+                        hh.with_self_contact(h.self_exclusion())
+                    } else {
+                        hh
+                    }
                 })
             }),
             time: 0.0,

@@ -1213,3 +1213,124 @@ fn a_rope_over_a_drum_holds_up_to_the_capstan_ratio_and_slides_beyond() {
     assert!(held.abs() < 1e-4, "held rope moved {held}");
     assert!(slid > 1e-2, "the rope did not slide with μ = 0.2 ({slid})");
 }
+
+/// A rope of 30 cm (radius 1 mm, E = 1 MPa, N = 30) hanging from a pinned root, lowered
+/// 26 cm in 1.8 s into a square well 2.4 cm wide (four walls and a floor, Coulomb
+/// friction; self-contact with a hair–hair split depth of 10 µm): it buckles and piles
+/// up on itself. After every step, the closest distance
+/// between two points of the rope more than 6 mm apart along it (the sampled
+/// centreline, 20 points per element) and how many steps it came within 2.2 mm of
+/// itself: (closest distance over the run, steps in contact).
+fn piled_rope(self_contact: bool) -> (f64, usize) {
+    let w = 0.012;
+    let mut walls = String::new();
+    for (point, normal) in [
+        ([-w, 0.0], [1.0, 0.0]),
+        ([w, 0.0], [-1.0, 0.0]),
+        ([0.0, -w], [0.0, 1.0]),
+        ([0.0, w], [0.0, -1.0]),
+    ] {
+        walls += &format!(
+            "[[bodies]]\nshape = \"plane\"\nattached = \"world\"\npoint = [{}, {}, 0.0]\nnormal = [{}, {}, 0.0]\n",
+            point[0], point[1], normal[0], normal[1]
+        );
+    }
+    let text = format!(
+        r#"
+[simulation]
+dt = 0.001
+duration = 2.0
+[head]
+motion = {{ kind = "keyframes", keys = [{{ t = 0.0, position = [0.0, 0.0, 0.0] }}, {{ t = 1.8, position = [0.0, 0.0, -0.26] }}] }}
+[[bodies]]
+shape = "plane"
+attached = "world"
+point = [0.0, 0.0, -0.005]
+normal = [0.0, 0.0, 1.0]
+{walls}
+[contacts]
+radius = 0.001
+friction = "coulomb"
+friction_coefficient = 0.3
+anisotropy = 0.0
+samples_per_element = 16
+[contacts.hair_hair]
+radius = 0.001
+split_depth = 1e-5
+stiffness = 3e7
+self_contact = {self_contact}
+[[strands]]
+name = "rope"
+length = 0.3
+elements = 30
+radius = 1e-3
+youngs_modulus = 1e6
+root = [0.0, 0.0, 0.3]
+direction = [0.0, 0.0, -1.0]
+normal = [0.0, 1.0, 0.0]
+natural = [0.3, 0.1, 0.0]
+initial = "natural"
+internal_friction = 1e-8
+air_drag = 0.0
+[strands.ends]
+root = "pinned"
+"#
+    );
+    let setup = parse_scene(&text).expect("scene");
+    let mut sim = Simulation::new(setup, None).expect("simulation");
+    let g = sim.strand(0).geometry.clone();
+    let joint = g.lengths[0];
+    let own = g.length() - joint;
+    let samples = 600;
+    let arcs: Vec<f64> = (0..=samples)
+        .map(|k| joint + own * k as f64 / samples as f64)
+        .collect();
+    let apart = (6e-3 / (own / samples as f64)).ceil() as usize;
+    let (mut closest, mut touching) = (f64::INFINITY, 0);
+    let mut points = Vec::new();
+    for _ in 0..2000 {
+        sim.step().expect("step");
+        superhelix_runtime::model::reconstruction::positions_at_sorted(
+            &g,
+            sim.q(0),
+            arcs.iter().copied(),
+            &mut points,
+        );
+        let mut here = f64::INFINITY;
+        for i in 0..points.len() {
+            for j in i + apart..points.len() {
+                here = here.min((points[i] - points[j]).norm());
+            }
+        }
+        closest = closest.min(here);
+        if here < 2.2e-3 {
+            touching += 1;
+        }
+    }
+    (closest, touching)
+}
+
+#[test]
+fn a_rope_lowered_into_a_well_piles_up_without_passing_through_itself() {
+    // with self-contact the rope's volume (radius 1 mm) keeps its parts about 2 mm
+    // apart; the same rope without it passes through itself. The contact acts between
+    // the sample polylines (16 samples an element here) and each part sees the other
+    // where it was at the step's start: measured 1.9812 mm here, 0.94 % short of 2 R
+    // (and up to 3.3 % short in deeper piles); bound 3 %
+    let (closest, touching) = piled_rope(true);
+    let (closest_without, _) = piled_rope(false);
+    println!(
+        "piled rope: closest distance between parts more than 6 mm apart along it {:.4} mm (2 radii: 2 mm), within 2.2 mm of itself for {touching} of 2000 steps; without self-contact {:.4} mm",
+        closest * 1e3,
+        closest_without * 1e3
+    );
+    assert!(
+        touching > 100,
+        "the rope did not pile up on itself ({touching} steps)"
+    );
+    assert!(closest >= 0.97 * 2e-3, "closest {closest}");
+    assert!(
+        closest_without < 1e-3,
+        "without self-contact: {closest_without}"
+    );
+}

@@ -145,16 +145,52 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
             let every = h.optional("search_every", hd.search_every, |n, k| {
                 n.count(k, 1, 1000, "the cap on steps between searches")
             });
+            let self_contact = super::reader::boolean(&mut h, "self_contact", false);
+            let split_depth = if h.has("split_depth") {
+                h.f64(
+                    "split_depth",
+                    Range::new(Bound::Excl(0.0), Bound::Incl(1.0)),
+                )
+                .map(Some)
+            } else {
+                Some(None)
+            };
+            let self_exclusion = if h.has("self_exclusion") {
+                h.f64(
+                    "self_exclusion",
+                    Range::new(Bound::Excl(0.0), Bound::Incl(10.0)),
+                )
+                .map(Some)
+            } else {
+                Some(None)
+            };
             h.finish();
-            match (radius, stiffness, damping_ratio, every) {
-                (Some(radius), Some(stiffness), Some(damping_ratio), Some(search_every)) => {
-                    Some(Some(HairHairConfig {
-                        radius,
-                        stiffness,
-                        damping_ratio,
-                        search_every,
-                    }))
-                }
+            match (
+                radius,
+                stiffness,
+                damping_ratio,
+                every,
+                self_contact,
+                self_exclusion,
+                split_depth,
+            ) {
+                (
+                    Some(radius),
+                    Some(stiffness),
+                    Some(damping_ratio),
+                    Some(search_every),
+                    Some(self_contact),
+                    Some(self_exclusion),
+                    Some(split_depth),
+                ) => Some(Some(HairHairConfig {
+                    radius,
+                    stiffness,
+                    damping_ratio,
+                    search_every,
+                    self_contact,
+                    self_exclusion,
+                    split_depth,
+                })),
                 _ => None,
             }
         }

@@ -67,6 +67,30 @@ pub struct HairHairConfig {
     /// Steps between two searches of the broad phase (a spatial grid over every sample);
     /// between them the pairs found are tracked by their closest points.
     pub search_every: usize,
+    /// Self-contact: distant parts of one strand touch too (a rope piling up, a coil),
+    /// excluding the parts within `self_exclusion` of each other along the strand.
+    pub self_contact: bool,
+    /// Arc length within which two points of one strand do not touch, m; `None`:
+    /// [`SELF_EXCLUSION_RADII`] radii.
+    pub self_exclusion: Option<f64>,
+    /// Depth of a new hair–hair contact beyond which a step is split, m; `None`: the
+    /// contacts' `split_depth` (a strand's step sees its partners where they were at its
+    /// start, so a pair that meets within the step overlaps by up to one step's approach
+    /// before its penalty acts: a smaller depth resolves the meeting by substeps).
+    pub split_depth: Option<f64>,
+}
+
+/// The default arc length excluded from self-contact, in radii of the hair volume: more
+/// than the π R of the tightest U-turn a strand of radius R can make, so that two points
+/// of one strand that touch are not neighbours bent round.
+pub const SELF_EXCLUSION_RADII: f64 = 4.0;
+
+impl HairHairConfig {
+    /// The arc length within which two points of one strand do not touch, m.
+    pub fn self_exclusion(&self) -> f64 {
+        self.self_exclusion
+            .unwrap_or(SELF_EXCLUSION_RADII * self.radius)
+    }
 }
 
 impl Default for HairHairConfig {
@@ -76,6 +100,9 @@ impl Default for HairHairConfig {
             stiffness: None,
             damping_ratio: 1.0,
             search_every: 1,
+            self_contact: false,
+            self_exclusion: None,
+            split_depth: None,
         }
     }
 }
@@ -317,6 +344,28 @@ impl ContactConfig {
                     "contacts.hair_hair.search_every",
                     format!("{}: must be in 1..=1000", h.search_every),
                 ));
+            }
+            if let Some(x) = h.split_depth {
+                range(
+                    &mut e,
+                    "contacts.hair_hair.split_depth",
+                    x,
+                    0.0,
+                    1.0,
+                    true,
+                    "(0, 1]",
+                );
+            }
+            if let Some(x) = h.self_exclusion {
+                if !(x.is_finite() && x >= 2.0 * h.radius && x <= 10.0) {
+                    e.push(FieldError::new(
+                        "contacts.hair_hair.self_exclusion",
+                        format!(
+                            "{x}: must be in [2 radius, 10] m = [{}, 10] (within 2 radii of arc length, neighbouring points of a straight strand touch)",
+                            2.0 * h.radius
+                        ),
+                    ));
+                }
             }
         }
         e

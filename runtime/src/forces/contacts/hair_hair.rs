@@ -6,7 +6,8 @@
 //!
 //! Each strand is a chain of contact samples ([`super::StrandContacts::samples`]). A
 //! *pair* joins a sample of one strand to a sample of another where the two centrelines
-//! are locally closest. Before every step:
+//! are locally closest (with self-contact, [`HairHair::with_self_contact`], also two
+//! samples of one strand far apart along it). Before every step:
 //!
 //! 1. the pairs of the last step are tracked: each side walks along its chain to the
 //!    sample closest to the other side (a local descent, a few samples at most when the
@@ -44,7 +45,8 @@ use std::collections::HashMap;
 /// grows with the cube of its radius).
 pub const SEARCH_MARGIN: f64 = 4.0;
 
-/// A pair of samples of two strands: (strand, sample) each, the first strand lower.
+/// A pair of samples of two strands, or of one strand far apart along it (self-contact):
+/// (strand, sample) each, the first lower.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct Pair {
     /// (strand, sample) of the first side.
@@ -68,6 +70,9 @@ pub struct HairHair {
     /// lower first), m; it shrinks at `depenetration_speed`.
     allowance: HashMap<(usize, usize), f64>,
     depenetration_speed: f64,
+    /// Self-contact: the arc length within which two samples of one strand do not
+    /// interact (`None`: a strand does not touch itself).
+    self_exclusion: Option<f64>,
 }
 
 /// What the last update did.
@@ -87,7 +92,13 @@ fn dist2(p: &[Vec<Vector3<f64>>], a: (usize, usize), b: (usize, usize)) -> f64 {
 
 /// Walk the side `which` (0: a, 1: b) of `pair` to the sample of its chain closest to the
 /// other side's point.
-fn descend(p: &[Vec<Vector3<f64>>], pair: &mut Pair, which: usize) {
+fn descend(
+    p: &[Vec<Vector3<f64>>],
+    arcs: &[&[(f64, f64)]],
+    exclusion: Option<f64>,
+    pair: &mut Pair,
+    which: usize,
+) {
     loop {
         let (own, other) = if which == 0 {
             (pair.a, pair.b)
@@ -98,7 +109,8 @@ fn descend(p: &[Vec<Vector3<f64>>], pair: &mut Pair, which: usize) {
         let len = p[own.0].len();
         let mut best = (here, own.1);
         for k in [own.1.wrapping_sub(1), own.1 + 1] {
-            if k < len {
+            // a side of a pair of one strand does not walk into the exclusion
+            if k < len && distinct(arcs, exclusion, (own.0, k), other) {
                 let d = dist2(p, (own.0, k), other);
                 if d < best.0 {
                     best = (d, k);
@@ -132,6 +144,14 @@ impl HairHair {
     /// overlap is pushed out at once).
     pub fn with_depenetration_speed(mut self, speed: f64) -> Self {
         self.depenetration_speed = speed;
+        self
+    }
+
+    /// Let distant parts of one strand touch (a rope piling up, a coil, a plectoneme):
+    /// pairs of samples of one strand more than `exclusion` apart in arc length are
+    /// found and tracked as pairs of two strands are (default: none).
+    pub fn with_self_contact(mut self, exclusion: f64) -> Self {
+        self.self_exclusion = Some(exclusion);
         self
     }
 
@@ -196,8 +216,8 @@ impl HairHair {
                 let mut p = *p;
                 for _ in 0..4 {
                     let before = p;
-                    descend(points, &mut p, 0);
-                    descend(points, &mut p, 1);
+                    descend(points, arcs, self.self_exclusion, &mut p, 0);
+                    descend(points, arcs, self.self_exclusion, &mut p, 1);
                     if p == before {
                         break;
                     }
@@ -205,6 +225,9 @@ impl HairHair {
                 p
             })
             .filter(|p| dist2(points, p.a, p.b) < search2(p.a, p.b))
+            // a pair of one strand whose sides slid together within the exclusion is no
+            // contact
+            .filter(|p| distinct(arcs, self.self_exclusion, p.a, p.b))
             .collect();
         tracked.sort_unstable();
         tracked.dedup();
@@ -220,7 +243,14 @@ impl HairHair {
         let mut found = 0;
         let mut new_pairs = Vec::new();
         if self.steps % self.search_every == 0 {
-            new_pairs = broad_phase(points, &radius, reach + margin(0.0), &mut self.grid);
+            new_pairs = broad_phase(
+                points,
+                arcs,
+                self.self_exclusion,
+                &radius,
+                reach + margin(0.0),
+                &mut self.grid,
+            );
             new_pairs.retain(|p| tracked.binary_search(p).is_err());
             found = new_pairs.len();
             // both lists are sorted: merged
@@ -330,6 +360,24 @@ impl HairHair {
     }
 }
 
+/// Whether samples `a` and `b` may form a pair: of two strands, or of one strand more than
+/// `exclusion` apart in arc length (`arcs`: per strand, per sample, its arc length first).
+fn distinct(
+    arcs: &[&[(f64, f64)]],
+    exclusion: Option<f64>,
+    a: (usize, usize),
+    b: (usize, usize),
+) -> bool {
+    if a.0 != b.0 {
+        return true;
+    }
+    let arc = |(s, k): (usize, usize)| arcs.get(s).and_then(|c| c.get(k)).map(|x| x.0);
+    match (exclusion, arc(a), arc(b)) {
+        (Some(e), Some(x), Some(y)) => (x - y).abs() > e,
+        _ => false,
+    }
+}
+
 /// The union of two sorted lists without common elements, sorted.
 fn merge_sorted(a: &[Pair], b: &[Pair]) -> Vec<Pair> {
     let mut out = Vec::with_capacity(a.len() + b.len());
@@ -356,9 +404,13 @@ pub struct Filed {
     strand: u32,
     sample: u32,
     x: [f64; 3],
+    /// Arc length along its strand, m.
+    arc: f64,
     radius: f64,
     /// The previous and the next sample of the chain (infinite where there is none).
     around: [[f64; 3]; 2],
+    /// Their arc lengths.
+    around_arc: [f64; 2],
 }
 
 fn dist2_of(a: &[f64; 3], b: &[f64; 3]) -> f64 {
@@ -368,14 +420,24 @@ fn dist2_of(a: &[f64; 3], b: &[f64; 3]) -> f64 {
 
 impl Filed {
     /// Whether the two samples are a local minimum of their distance along both chains
-    /// (no neighbour of either sample along its chain is closer to the other sample), their squared distance being `d`.
-    fn local_minimum(&self, other: &Filed, d: f64) -> bool {
-        self.around.iter().all(|y| dist2_of(y, &other.x) >= d)
-            && other.around.iter().all(|y| dist2_of(y, &self.x) >= d)
+    /// (no neighbour of either sample along its chain is closer to the other sample), their
+    /// squared distance being `d`. For two samples of one strand, a neighbour within the
+    /// self-contact `exclusion` of the other sample does not count: the two legs of a
+    /// hairpin are paired where they come within reach, not only at its bend.
+    fn local_minimum(&self, other: &Filed, d: f64, exclusion: Option<f64>) -> bool {
+        let counts = |arc: f64, of: &Filed, to: &Filed| {
+            of.strand != to.strand || exclusion.is_none_or(|e| (arc - to.arc).abs() > e)
+        };
+        (0..2).all(|i| {
+            !counts(self.around_arc[i], self, other) || dist2_of(&self.around[i], &other.x) >= d
+        }) && (0..2).all(|i| {
+            !counts(other.around_arc[i], other, self) || dist2_of(&other.around[i], &self.x) >= d
+        })
     }
 }
 
-/// The sample pairs (a, b) of different strands closer than the larger of their two
+/// The sample pairs (a, b) of different strands (or of one strand more than
+/// `self_exclusion` apart in arc length, when given) closer than the larger of their two
 /// search distances (`radius`, per strand per sample) that are local minima of their
 /// distance along both chains ([`Filed::local_minimum`]; sorted, without repeats). Every sample is
 /// filed under its cell of a grid of cells of size `cell` (in `cells`, sorted by cell);
@@ -385,6 +447,8 @@ impl Filed {
 /// few fast samples (a whipping tip) do not widen the search of all the others.
 fn broad_phase(
     points: &[Vec<Vector3<f64>>],
+    arcs: &[&[(f64, f64)]],
+    self_exclusion: Option<f64>,
     radius: &[Vec<f64>],
     cell: f64,
     cells: &mut Vec<Filed>,
@@ -402,6 +466,7 @@ fn broad_phase(
     };
     cells.clear();
     for (i, chain) in points.iter().enumerate() {
+        let arc = |k: usize| arcs.get(i).and_then(|c| c.get(k)).map_or(0.0, |a| a.0);
         for (k, x) in chain.iter().enumerate() {
             if let Some(c) = key(x) {
                 let at = |j: Option<usize>| {
@@ -413,8 +478,17 @@ fn broad_phase(
                     strand: i as u32,
                     sample: k as u32,
                     x: [x.x, x.y, x.z],
+                    arc: arc(k),
                     radius: radius[i][k],
                     around: [at(k.checked_sub(1)), at(Some(k + 1))],
+                    around_arc: [
+                        k.checked_sub(1).map_or(f64::INFINITY, arc),
+                        if k + 1 < chain.len() {
+                            arc(k + 1)
+                        } else {
+                            f64::INFINITY
+                        },
+                    ],
                 });
             }
         }
@@ -473,18 +547,23 @@ fn broad_phase(
                         for fa in own {
                             let ra = fa.radius;
                             for fb in others {
-                                if fa.strand == fb.strand {
+                                if fa.strand == fb.strand
+                                    && self_exclusion.is_none_or(|e| (fa.arc - fb.arc).abs() <= e)
+                                {
                                     continue;
                                 }
                                 let r = ra.max(fb.radius);
                                 let d = dist2_of(&fa.x, &fb.x);
                                 // only the local minima of the distance along both chains
-                                if d >= r * r || !takes(fa, fb) || !fa.local_minimum(fb, d) {
+                                if d >= r * r
+                                    || !takes(fa, fb)
+                                    || !fa.local_minimum(fb, d, self_exclusion)
+                                {
                                     continue;
                                 }
                                 let a = (fa.strand as usize, fa.sample as usize);
                                 let b = (fb.strand as usize, fb.sample as usize);
-                                let (a, b) = if a.0 < b.0 { (a, b) } else { (b, a) };
+                                let (a, b) = if a < b { (a, b) } else { (b, a) };
                                 out.push(Pair { a, b });
                             }
                         }
@@ -587,21 +666,37 @@ mod tests {
 
     /// Whether no neighbour of sample `a` along its chain is closer to sample `b` than `a`
     /// is, nor any neighbour of `b` closer to `a`.
-    fn local_minimum(p: &[Vec<Vector3<f64>>], a: (usize, usize), b: (usize, usize)) -> bool {
+    fn local_minimum(
+        p: &[Vec<Vector3<f64>>],
+        arcs: &[&[(f64, f64)]],
+        exclusion: Option<f64>,
+        a: (usize, usize),
+        b: (usize, usize),
+    ) -> bool {
         let d = dist2(p, a, b);
         let closer = |own: (usize, usize), other: (usize, usize)| {
-            [own.1.wrapping_sub(1), own.1 + 1]
-                .into_iter()
-                .any(|k| k < p[own.0].len() && dist2(p, (own.0, k), other) < d)
+            [own.1.wrapping_sub(1), own.1 + 1].into_iter().any(|k| {
+                k < p[own.0].len()
+                    && distinct(arcs, exclusion, (own.0, k), other)
+                    && dist2(p, (own.0, k), other) < d
+            })
         };
         !closer(a, b) && !closer(b, a)
     }
 
     /// The grid's pairs are those of comparing every two samples of different strands
     /// (with the same descent and per-pair distance), on random chains on both sides of
-    /// the origin (cells of negative coordinates, neighbours across zero).
+    /// the origin (cells of negative coordinates, neighbours across zero); with
+    /// self-contact, also those of one strand farther apart along it than the exclusion
+    /// (a tight coil among the chains has some).
     #[test]
     fn the_broad_phase_finds_what_comparing_every_two_samples_finds() {
+        for exclusion in [None, Some(0.01)] {
+            broad_phase_against_every_pair(exclusion);
+        }
+    }
+
+    fn broad_phase_against_every_pair(exclusion: Option<f64>) {
         let mut seed = 12345u64;
         let mut rand = move || {
             seed = seed
@@ -609,7 +704,7 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
-        let points: Vec<Vec<Vector3<f64>>> = (0..40)
+        let mut points: Vec<Vec<Vector3<f64>>> = (0..40)
             .map(|_| {
                 let mut x = Vector3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5) * 0.06;
                 let d = Vector3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5).normalize();
@@ -621,6 +716,25 @@ mod tests {
                     .collect()
             })
             .collect();
+        // a coil of radius 3 mm and pitch 2 mm, 6 samples a turn
+        points.push(
+            (0..25)
+                .map(|k| {
+                    let a = k as f64 * std::f64::consts::PI / 3.0;
+                    Vector3::new(0.003 * a.cos(), 0.003 * a.sin(), 0.002 * a / 6.283)
+                })
+                .collect(),
+        );
+        // arc lengths: the chains' samples about 3.5 mm apart, the coil's 3.1 mm
+        let arcs: Vec<Vec<(f64, f64)>> = points
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                let step = if i == 40 { 0.0031 } else { 0.0035 };
+                (0..c.len()).map(|k| (step * k as f64, step)).collect()
+            })
+            .collect();
+        let arcs: Vec<&[(f64, f64)]> = arcs.iter().map(|a| &a[..]).collect();
         // search distances between 4 and 8 mm, and 24 mm for one sample in 40 (a
         // whipping tip, searched beyond the 27 nearest cells)
         let cell = 0.004;
@@ -644,18 +758,21 @@ mod tests {
             r * r
         };
         let mut cells = Vec::new();
-        let found = broad_phase(&points, &radius, cell, &mut cells);
+        let found = broad_phase(&points, &arcs, exclusion, &radius, cell, &mut cells);
         let mut all = Vec::new();
         for i in 0..points.len() {
-            for j in i + 1..points.len() {
+            for j in i..points.len() {
                 for k in 0..points[i].len() {
                     for l in 0..points[j].len() {
                         let p = Pair {
                             a: (i, k),
                             b: (j, l),
                         };
+                        if (i == j && k >= l) || !distinct(&arcs, exclusion, p.a, p.b) {
+                            continue;
+                        }
                         if dist2(&points, p.a, p.b) < search2(p.a, p.b)
-                            && local_minimum(&points, p.a, p.b)
+                            && local_minimum(&points, &arcs, exclusion, p.a, p.b)
                         {
                             all.push(p);
                         }
@@ -663,6 +780,8 @@ mod tests {
                 }
             }
         }
+        let own = all.iter().filter(|p| p.a.0 == p.b.0).count();
+        assert_eq!(own > 0, exclusion.is_some(), "{own} pairs of one strand");
         all.sort_unstable();
         all.dedup();
         assert!(all.len() > 50, "{} pairs: too few to test", all.len());

@@ -88,6 +88,8 @@ pub struct HairHairParams {
     pub stiffness: f64,
     /// Damping per metre, N·s/m².
     pub damping: f64,
+    /// Depth of a new contact beyond which a step is split, m (`None`: the contacts').
+    pub split_depth: Option<f64>,
 }
 
 impl HairHairParams {
@@ -100,6 +102,7 @@ impl HairHairParams {
             radius: config.radius,
             stiffness: k,
             damping: 2.0 * config.damping_ratio * (k * rho_s).sqrt(),
+            split_depth: config.split_depth,
         }
     }
 }
@@ -1191,6 +1194,7 @@ impl StrandContacts {
             return true;
         }
         let rt = head.rotation.transpose();
+        let split = self.hair.and_then(|h| h.split_depth).unwrap_or(split);
         // a partner is checked on the strand only when the samples do not settle it: along
         // the line of centres the point at s moved by at least
         //   |y0(s_k) − p| − |y1(s_k) − y0(s_k)| − 3 |s − s_k|
