@@ -114,6 +114,7 @@ fn uniform_natural_q_is_the_measured_helix() {
                 lengths: vec![2.5 * turn / n as f64; n],
                 mass_per_length: 1e-5,
                 rotary_inertia: [0.0; 3],
+                floating: false,
             };
             let d = helix_curvature(radius, step, HelixForm::Exact);
             let q: Vec<f64> = (0..n).flat_map(|_| d).collect();
