@@ -721,7 +721,11 @@ mod tests {
             (0..25)
                 .map(|k| {
                     let a = k as f64 * std::f64::consts::PI / 3.0;
-                    Vector3::new(0.003 * a.cos(), 0.003 * a.sin(), 0.002 * a / 6.283)
+                    Vector3::new(
+                        0.003 * a.cos(),
+                        0.003 * a.sin(),
+                        0.002 * a / std::f64::consts::TAU,
+                    )
                 })
                 .collect(),
         );
