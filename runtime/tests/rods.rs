@@ -1334,3 +1334,50 @@ fn a_rope_lowered_into_a_well_piles_up_without_passing_through_itself() {
         "without self-contact: {closest_without}"
     );
 }
+
+#[test]
+fn a_free_root_is_refused_where_nothing_would_hold_it_and_named() {
+    // a static solve (nothing holds a free rod), a held tip (hold that end as the root),
+    // newton-implicit-euler and the embedded engine: each refused, naming the field
+    let base = free_rod_scene(
+        10.0,
+        "natural",
+        "[0.0, 0.0, -9.81]",
+        "linearly-implicit-euler",
+        1e-3,
+        1e9,
+    );
+    let cases = [
+        (
+            base.replace("[simulation]\n", "[simulation]\nmode = \"static\"\n"),
+            "strands[0].ends.root",
+            "no static equilibrium",
+        ),
+        (
+            base.clone() + "[strands.ends.tip]\nkind = \"pinned\"\n",
+            "strands[0].ends.root",
+            "held tip",
+        ),
+        (
+            base.replace("linearly-implicit-euler", "newton-implicit-euler"),
+            "strands[0].ends.root",
+            "newton-implicit-euler",
+        ),
+        (
+            base.replace("[simulation]\n", "[simulation]\nengine = \"embedded\"\n"),
+            "strands[0].ends",
+            "embedded engine",
+        ),
+    ];
+    for (text, field, words) in cases {
+        let setup = parse_scene(&text).expect("scene");
+        let message = match Simulation::new(setup, None) {
+            Ok(_) => panic!("accepted: {words}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            message.contains(field) && message.contains(words),
+            "{words}: {message}"
+        );
+    }
+}
