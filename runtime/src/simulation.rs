@@ -718,8 +718,11 @@ impl Simulation {
             // inside a body
             hair_hair: setup.contacts.as_ref().and_then(|c| {
                 c.hair_hair.as_ref().map(|h| {
-                    let hh = HairHair::new(h.search_every)
+                    let mut hh = HairHair::new(h.search_every)
                         .with_depenetration_speed(c.depenetration_speed);
+                    if let Some(f) = h.friction {
+                        hh = hh.with_friction(f);
+                    }
                     if h.self_contact {
                         hh.with_self_contact(h.self_exclusion())
                     } else {
@@ -999,7 +1002,7 @@ impl Simulation {
             .iter()
             .map(|s| s.system.contacts.as_ref().map_or(&[][..], |c| c.samples()))
             .collect();
-        let partners = hh.update(&points, &arcs, reach, h, fall);
+        let partners = hh.update(&points, &arcs, reach, h, fall, &head.rotation);
         drop(arcs);
         // (each strand sorts its own: in parallel)
         self.strands
@@ -1010,6 +1013,12 @@ impl Simulation {
                     c.set_partners(p);
                 }
             });
+    }
+
+    /// How many hair–hair pairs hold a friction anchor, and how many of those slid over
+    /// the last step (`None`: no hair–hair interaction).
+    pub fn rod_friction_anchors(&self) -> Option<(usize, usize)> {
+        self.hair_hair.as_ref().map(|h| h.anchor_counts())
     }
 
     /// What the contacts of strand `i` found at its last evaluation (`None`: the scene has

@@ -1381,3 +1381,183 @@ fn a_free_root_is_refused_where_nothing_would_hold_it_and_named() {
         );
     }
 }
+
+/// A rod of 10 cm lying across two parallel rails 6 cm apart, without gravity (hair
+/// volumes of radius 1 mm, penalty 100 N/m², Coulomb friction μ between the rods): each
+/// rail a stiff rod along x (radius 1 mm), clamped at its root and clamped on a slider
+/// along x at its tip; the rod along y, radius 0.1 mm, with a free root (a floating rod,
+/// no air drag), pressed down at its middle by P = 1 µN (P/2 on each rail) and pulled
+/// along the rails by `pull` · μ P there. The rod's centre of mass along x (m) at every
+/// step from 1 s to 2 s (dt = 2 ms), and its mass (kg).
+fn rails_pull(mu: f64, pull: f64) -> (Vec<f64>, f64) {
+    let load = 1e-6;
+    let (radius, density) = (1e-4, 1300.0);
+    let rail = |name: &str, y: f64| {
+        format!(
+            r#"
+[[strands]]
+name = "{name}"
+root = [-0.05, {y}, 0.0]
+length = 0.1
+elements = 10
+radius = 1e-3
+density = {density}
+direction = [1.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+natural = [0.0, 0.0, 0.0]
+initial = "straight"
+air_drag = 0.0
+[strands.ends.tip]
+kind = "clamped-sliding"
+axis = [1.0, 0.0, 0.0]
+"#
+        )
+    };
+    let text = format!(
+        r#"
+[simulation]
+dt = 0.002
+duration = 2.0
+engine = "runtime"
+[environment]
+gravity = "none"
+[contacts]
+bodies = []
+samples_per_element = 16
+[contacts.hair_hair]
+radius = 0.001
+stiffness = 1e2
+friction = "coulomb"
+friction_coefficient = {mu}
+{}{}
+[[strands]]
+name = "rod"
+root = [0.0, -0.05, 0.002]
+length = 0.1
+elements = 20
+radius = {radius}
+density = {density}
+direction = [0.0, 1.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+natural = [0.0, 0.0, 0.0]
+initial = "straight"
+air_drag = 0.0
+[[strands.point_loads]]
+s = 0.05
+force = [{t}, 0.0, {p}]
+[strands.ends]
+root = "free"
+"#,
+        rail("rail-1", -0.03),
+        rail("rail-2", 0.03),
+        t = pull * mu * load,
+        p = -load,
+    );
+    let mut sim = Simulation::new(parse_scene(&text).expect("scene"), None).expect("simulation");
+    let mut x = Vec::new();
+    for k in 1..=1000 {
+        sim.step().expect("step");
+        if k >= 500 {
+            // a straight rod's centre of mass: the mean of its points (it bends only by
+            // micrometres under the load)
+            let mean = (0..=20)
+                .map(|i| sim.position_at(2, 0.005 * i as f64)[0])
+                .sum::<f64>()
+                / 21.0;
+            x.push(mean);
+        }
+    }
+    let mass = density * std::f64::consts::PI * radius * radius * 0.1;
+    (x, mass)
+}
+
+/// The least-squares parabola through `x` sampled every `dt`: its second derivative.
+fn fitted_acceleration(x: &[f64], dt: f64) -> f64 {
+    // normal equations of x ≈ c0 + c1 t + c2 t², t centred
+    let n = x.len() as f64;
+    let t0 = 0.5 * (x.len() - 1) as f64 * dt;
+    let ts: Vec<f64> = (0..x.len()).map(|i| i as f64 * dt - t0).collect();
+    let s = |p: i32| ts.iter().map(|t| t.powi(p)).sum::<f64>();
+    let sx = |p: i32| ts.iter().zip(x).map(|(t, x)| t.powi(p) * x).sum::<f64>();
+    // with t centred, odd sums vanish: c0 n + c2 S2 = X0, c0 S2 + c2 S4 = X2
+    let (s2, s4) = (s(2), s(4));
+    let c2 = (n * sx(2) - s2 * sx(0)) / (n * s4 - s2 * s2);
+    2.0 * c2
+}
+
+#[test]
+fn a_rod_pressed_across_rails_holds_below_coulombs_limit_and_slides_beyond() {
+    // Coulomb: the rod, pressed by P and pulled along the rails by T, sticks while
+    // T ≤ μ P (it moves only by the tangential springs' stretch, at most μ δ / ratio, δ
+    // the volumes' overlap) and slides beyond, its centre of mass accelerating at
+    // (T − μ P) / m
+    let mu = 0.3;
+    let (held, _) = rails_pull(mu, 0.9);
+    let (slid, mass) = rails_pull(mu, 1.2);
+    let expected = 0.2 * mu * 1e-6 / mass;
+    let accel = fitted_acceleration(&slid, 0.002);
+    let moved = |x: &[f64]| x[x.len() - 1] - x[0];
+    println!(
+        "rod on rails, μ = {mu}: pulled by 0.9 μP the rod moves {:.2e} m between 1 s and 2 s; by 1.2 μP it slides {:.2e} m, its centre of mass accelerating at {accel:.4e} m/s² against (T − μP)/m = {expected:.4e} ({:+.2} %)",
+        moved(&held),
+        moved(&slid),
+        100.0 * (accel / expected - 1.0)
+    );
+    // stuck: no motion beyond round-off (the springs stretch by up to μ δ / ratio ≈ 5 µm
+    // while the load is taken up, before 1 s)
+    assert!(moved(&held).abs() < 1e-9, "{}", moved(&held));
+    assert!(moved(&slid) > 1e-3, "{}", moved(&slid));
+    assert!(
+        (accel / expected - 1.0).abs() < 1e-2,
+        "{accel} vs {expected}"
+    );
+}
+
+#[test]
+fn rod_friction_fields_out_of_range_are_refused_and_named() {
+    let scene = |fields: &str| {
+        format!(
+            "[contacts]\nbodies = []\n[contacts.hair_hair]\nradius = 0.001\n{fields}\n[[strands]]\nlength = 0.1\n"
+        )
+    };
+    let cases = [
+        (
+            "friction = \"viscous\"",
+            "contacts.hair_hair.friction",
+            "none, coulomb",
+        ),
+        (
+            "friction = \"coulomb\"\nfriction_coefficient = 0.2\nkinetic_friction_coefficient = 0.3",
+            "contacts.hair_hair.kinetic_friction_coefficient",
+            "[0, friction_coefficient = 0.2]",
+        ),
+        (
+            "friction = \"coulomb\"\nfriction_coefficient = -0.1",
+            "contacts.hair_hair.friction_coefficient",
+            "[0, 10]",
+        ),
+        (
+            "friction = \"coulomb\"\ntangential_stiffness_ratio = 0.0",
+            "contacts.hair_hair.tangential_stiffness_ratio",
+            "(0, 100]",
+        ),
+    ];
+    for (fields, field, words) in cases {
+        let message = match parse_scene(&scene(fields)) {
+            Ok(_) => panic!("accepted: {fields}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            message.contains(field) && message.contains(words),
+            "{fields}: {message}"
+        );
+    }
+    // and the default: no friction between rods
+    let setup = parse_scene(&scene("")).expect("scene");
+    let hh = setup
+        .contacts
+        .expect("contacts")
+        .hair_hair
+        .expect("hair_hair");
+    assert_eq!(hh.friction, None);
+}

@@ -3,7 +3,7 @@
 
 use super::reader::{kind, Bound, Node, Range};
 use crate::bodies::BodySetup;
-use crate::forces::contacts::{ContactConfig, Friction, HairHairConfig};
+use crate::forces::contacts::{ContactConfig, Friction, HairHairConfig, RodFriction};
 use toml::Value;
 
 /// Read `[contacts]`, checking body names against `bodies`.
@@ -164,6 +164,51 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
             } else {
                 Some(None)
             };
+            let hh_models = ["none", "coulomb"];
+            let hh_model = h.optional("friction", "none", |n, k| {
+                n.choice(k, &hh_models, |s| {
+                    hh_models.iter().copied().find(|m| *m == s)
+                })
+            });
+            let hh_mu = h.optional_f64(
+                "friction_coefficient",
+                0.3,
+                Range::new(Bound::Incl(0.0), Bound::Incl(10.0)),
+            );
+            let hh_kinetic = if h.has("kinetic_friction_coefficient") {
+                h.f64(
+                    "kinetic_friction_coefficient",
+                    Range::new(Bound::Incl(0.0), Bound::Incl(10.0)),
+                )
+                .map(Some)
+            } else {
+                Some(None)
+            };
+            let hh_ratio = h.optional_f64(
+                "tangential_stiffness_ratio",
+                1.0,
+                Range::new(Bound::Excl(0.0), Bound::Incl(100.0)),
+            );
+            let hh_friction = match (hh_model, hh_mu, hh_kinetic, hh_ratio) {
+                (Some("coulomb"), Some(mu), Some(kinetic), Some(ratio)) => {
+                    let kinetic = kinetic.unwrap_or(mu);
+                    if kinetic > mu {
+                        h.error(
+                            "kinetic_friction_coefficient",
+                            format!("{kinetic}: must be in [0, friction_coefficient = {mu}]"),
+                        );
+                        None
+                    } else {
+                        Some(Some(RodFriction {
+                            static_coefficient: mu,
+                            kinetic_coefficient: kinetic,
+                            stiffness_ratio: ratio,
+                        }))
+                    }
+                }
+                (Some(_), Some(_), Some(_), Some(_)) => Some(None),
+                _ => None,
+            };
             h.finish();
             match (
                 radius,
@@ -173,6 +218,7 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
                 self_contact,
                 self_exclusion,
                 split_depth,
+                hh_friction,
             ) {
                 (
                     Some(radius),
@@ -182,6 +228,7 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
                     Some(self_contact),
                     Some(self_exclusion),
                     Some(split_depth),
+                    Some(friction),
                 ) => Some(Some(HairHairConfig {
                     radius,
                     stiffness,
@@ -190,6 +237,7 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
                     self_contact,
                     self_exclusion,
                     split_depth,
+                    friction,
                 })),
                 _ => None,
             }

@@ -50,6 +50,18 @@ pub enum Friction {
     },
 }
 
+/// Coulomb friction between rods: coefficients and the tangential spring's stiffness
+/// over the normal penalty's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RodFriction {
+    /// μ_s, ≥ 0.
+    pub static_coefficient: f64,
+    /// μ_k, in [0, μ_s].
+    pub kinetic_coefficient: f64,
+    /// k_t / k, > 0.
+    pub stiffness_ratio: f64,
+}
+
 /// Hair–hair interaction between the simulated strands (Choe et al. 2005: dissipative
 /// penalty forces between hair volumes; pairs tracked over time after Raghupathi et al.
 /// 2003).
@@ -78,6 +90,9 @@ pub struct HairHairConfig {
     /// start, so a pair that meets within the step overlaps by up to one step's approach
     /// before its penalty acts: a smaller depth resolves the meeting by substeps).
     pub split_depth: Option<f64>,
+    /// Coulomb friction between the strands in contact (and the parts of a strand, with
+    /// self-contact); `None`: none, the damping acts on the whole relative velocity.
+    pub friction: Option<RodFriction>,
 }
 
 /// The default arc length excluded from self-contact, in radii of the hair volume: more
@@ -103,6 +118,7 @@ impl Default for HairHairConfig {
             self_contact: false,
             self_exclusion: None,
             split_depth: None,
+            friction: None,
         }
     }
 }
@@ -366,6 +382,38 @@ impl ContactConfig {
                         ),
                     ));
                 }
+            }
+            if let Some(f) = h.friction {
+                range(
+                    &mut e,
+                    "contacts.hair_hair.friction_coefficient",
+                    f.static_coefficient,
+                    0.0,
+                    10.0,
+                    false,
+                    "[0, 10]",
+                );
+                if !(f.kinetic_coefficient.is_finite()
+                    && f.kinetic_coefficient >= 0.0
+                    && f.kinetic_coefficient <= f.static_coefficient)
+                {
+                    e.push(FieldError::new(
+                        "contacts.hair_hair.kinetic_friction_coefficient",
+                        format!(
+                            "{}: must be in [0, friction_coefficient]",
+                            f.kinetic_coefficient
+                        ),
+                    ));
+                }
+                range(
+                    &mut e,
+                    "contacts.hair_hair.tangential_stiffness_ratio",
+                    f.stiffness_ratio,
+                    0.0,
+                    100.0,
+                    true,
+                    "(0, 100]",
+                );
             }
         }
         e

@@ -28,6 +28,21 @@
 //!    ball of radius reach (a penalty along the line of centres and a damping of the
 //!    relative velocity, both implicit on the strand's own side).
 //!
+//! With Coulomb friction between rods ([`HairHair::with_friction`]), a pair in contact
+//! holds an anchor: the relative position of its two samples when it started to stick,
+//! Δ* (kept in head coordinates, so that two strands carried round by the head do not
+//! slip). The tangential slip of side a is `P (x_a − x_b − Δ*)`, P the projection across
+//! the line of centres n, and of side b its opposite; each side's step holds its sample
+//! to the other's by a tangential spring of stiffness `k_t = ratio · k` per metre (the
+//! partner's sample plus or minus Δ* is the point it is pulled to), up to
+//! `μ_s f_n`. After every step the anchor is updated from where the two samples went:
+//! a slip beyond the static limit `μ_s f_n / k_t = μ_s δ / ratio` (δ the overlap: the
+//! limit does not depend on k or on the weight) starts sliding, and a sliding anchor is
+//! dragged behind to the kinetic limit `μ_k δ / ratio`; the spring then holds the kinetic
+//! force `μ_k f_n` along the slip. A pair that leaves contact loses its anchor. When a
+//! side walks to another sample (tracking), Δ* is carried over so that the anchor point
+//! stays where it was.
+//!
 //! A pair found already overlapping (at the first update, or after the two strands met
 //! between two searches) is allowed its overlap ([`HairHair::with_depenetration_speed`]):
 //! its reach is reduced by the allowance, which shrinks at the depenetration speed, so the
@@ -35,8 +50,9 @@
 //!
 //! The cost per step is linear in the number of samples (the grid) plus the pairs.
 
-use super::strand_contacts::PartnerPoint;
-use nalgebra::Vector3;
+use super::config::RodFriction;
+use super::strand_contacts::{PartnerAnchor, PartnerPoint};
+use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 use std::collections::HashMap;
 
@@ -55,10 +71,22 @@ pub struct Pair {
     pub b: (usize, usize),
 }
 
+/// The friction anchor of a pair in contact (see the module page).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PairAnchor {
+    /// Δ*: where side a's sample is held relative to side b's, head coordinates, m.
+    offset: Vector3<f64>,
+    /// Whether the pair slid over the last step.
+    sliding: bool,
+}
+
 /// The tracked pairs and the broad phase.
 #[derive(Debug, Clone, Default)]
 pub struct HairHair {
     pairs: Vec<Pair>,
+    /// The friction anchors of the pairs (same order; all `None` without friction).
+    anchors: Vec<Option<PairAnchor>>,
+    friction: Option<RodFriction>,
     previous: Vec<Vec<Vector3<f64>>>,
     /// The broad phase's samples by cell (kept for its allocation).
     grid: Vec<Filed>,
@@ -155,6 +183,21 @@ impl HairHair {
         self
     }
 
+    /// Coulomb friction between the strands (and the parts of a strand) in contact
+    /// (default: none; the penalty's damping then acts along the line of centres only).
+    pub fn with_friction(mut self, friction: RodFriction) -> Self {
+        self.friction = Some(friction);
+        self
+    }
+
+    /// How many pairs hold a friction anchor, and how many of those slid over the last
+    /// step.
+    pub fn anchor_counts(&self) -> (usize, usize) {
+        let held = self.anchors.iter().flatten().count();
+        let sliding = self.anchors.iter().flatten().filter(|a| a.sliding).count();
+        (held, sliding)
+    }
+
     /// The current pairs.
     pub fn pairs(&self) -> &[Pair] {
         &self.pairs
@@ -173,7 +216,8 @@ impl HairHair {
     /// `arcs` their arc lengths and weights) with interaction distance `reach`, and give each strand its partner points (the
     /// velocities from the positions of the last update, `h` seconds ago; zero at the
     /// first). `fall` is how far a point starting at rest may move in the coming step
-    /// (|g| h²: twice the free fall), the least margin of the search.
+    /// (|g| h²: twice the free fall), the least margin of the search. `rotation` is the
+    /// head's orientation (friction anchors are kept in head coordinates).
     pub fn update(
         &mut self,
         points: &[Vec<Vector3<f64>>],
@@ -181,6 +225,7 @@ impl HairHair {
         reach: f64,
         h: f64,
         fall: f64,
+        rotation: &Matrix3<f64>,
     ) -> Vec<Vec<PartnerPoint>> {
         // the search reaches as far as the two samples of a pair moved over the last
         // step, twice the larger (a pair must exist before the two points meet: the step
@@ -207,12 +252,22 @@ impl HairHair {
             let r = radius[a.0][a.1].max(radius[b.0][b.1]);
             r * r
         };
-        // 1. track
-        let mut tracked: Vec<Pair> = self
+        // 1. track (a pair's anchor goes with it: Δ* is carried to the samples it walks to)
+        let rt = rotation.transpose();
+        let mut anchors = std::mem::take(&mut self.anchors);
+        anchors.resize(self.pairs.len(), None);
+        let mut carried: Vec<(Pair, Option<PairAnchor>)> = self
             .pairs
             .par_iter()
-            .filter(|p| p.a.0 < points.len() && p.b.0 < points.len())
-            .map(|p| {
+            .zip(&anchors)
+            .filter(|(p, _)| {
+                p.a.0 < points.len()
+                    && p.b.0 < points.len()
+                    && p.a.1 < points[p.a.0].len()
+                    && p.b.1 < points[p.b.0].len()
+            })
+            .map(|(p, anchor)| {
+                let start = *p;
                 let mut p = *p;
                 for _ in 0..4 {
                     let before = p;
@@ -222,15 +277,25 @@ impl HairHair {
                         break;
                     }
                 }
-                p
+                let anchor = anchor.map(|mut a| {
+                    if p != start {
+                        let moved = (points[p.a.0][p.a.1] - points[start.a.0][start.a.1])
+                            - (points[p.b.0][p.b.1] - points[start.b.0][start.b.1]);
+                        a.offset += rt * moved;
+                    }
+                    a
+                });
+                (p, anchor)
             })
-            .filter(|p| dist2(points, p.a, p.b) < search2(p.a, p.b))
+            .filter(|(p, _)| dist2(points, p.a, p.b) < search2(p.a, p.b))
             // a pair of one strand whose sides slid together within the exclusion is no
             // contact
-            .filter(|p| distinct(arcs, self.self_exclusion, p.a, p.b))
+            .filter(|(p, _)| distinct(arcs, self.self_exclusion, p.a, p.b))
             .collect();
-        tracked.sort_unstable();
-        tracked.dedup();
+        carried.sort_unstable_by(|x, y| x.0.cmp(&y.0));
+        carried.dedup_by_key(|x| x.0);
+        let (mut tracked, mut anchors): (Vec<Pair>, Vec<Option<PairAnchor>>) =
+            carried.into_iter().unzip();
         self.tracked_last = tracked.len();
         // the pairs of strands already in contact: a pair the search finds between them
         // again is no new meeting and takes no allowance
@@ -253,8 +318,23 @@ impl HairHair {
             );
             new_pairs.retain(|p| tracked.binary_search(p).is_err());
             found = new_pairs.len();
-            // both lists are sorted: merged
-            tracked = merge_sorted(&tracked, &new_pairs);
+            // both lists are sorted: merged (the new pairs hold no anchor)
+            if found > 0 {
+                let merged = merge_sorted(&tracked, &new_pairs);
+                let mut old = tracked.iter().zip(&anchors).peekable();
+                anchors = merged
+                    .iter()
+                    .map(|p| match old.peek() {
+                        Some((q, a)) if *q == p => {
+                            let a = **a;
+                            old.next();
+                            a
+                        }
+                        _ => None,
+                    })
+                    .collect();
+                tracked = merged;
+            }
         }
         self.found_last = found;
         self.steps += 1;
@@ -302,10 +382,58 @@ impl HairHair {
             }
         }
         let allowance = &self.allowance;
+        // the friction anchors, from where the samples went over the last step
+        let friction = self.friction;
+        anchors
+            .par_iter_mut()
+            .zip(&tracked)
+            .zip(&closest)
+            .for_each(|((anchor, p), &(ta, tb))| {
+                let Some(f) = friction else {
+                    *anchor = None;
+                    return;
+                };
+                let reach = reach - allowance.get(&(p.a.0, p.b.0)).copied().unwrap_or(0.0);
+                let line = point_at(points, p.a, ta) - point_at(points, p.b, tb);
+                let d = line.norm();
+                if d >= reach || d == 0.0 {
+                    *anchor = None;
+                    return;
+                }
+                let overlap = reach - d;
+                let delta = rt * (points[p.a.0][p.a.1] - points[p.b.0][p.b.1]);
+                let n = rt * line / d;
+                *anchor = Some(match *anchor {
+                    None => PairAnchor {
+                        offset: delta,
+                        sliding: false,
+                    },
+                    Some(a) => {
+                        let gap = delta - a.offset;
+                        let slip = gap - n * n.dot(&gap);
+                        let norm = slip.norm();
+                        let keep = f.kinetic_coefficient * overlap / f.stiffness_ratio;
+                        let limit = f.static_coefficient * overlap / f.stiffness_ratio;
+                        let slides = if a.sliding { norm > keep } else { norm > limit };
+                        if slides && norm > 0.0 {
+                            PairAnchor {
+                                offset: a.offset + slip * (1.0 - keep / norm),
+                                sliding: true,
+                            }
+                        } else {
+                            PairAnchor {
+                                offset: a.offset,
+                                sliding: false,
+                            }
+                        }
+                    }
+                });
+            });
         let points_of = tracked
             .par_iter()
             .zip(&closest)
-            .map(|(p, &(ta, tb))| {
+            .zip(&anchors)
+            .map(|((p, &(ta, tb)), anchor)| {
                 let reach = reach - allowance.get(&(p.a.0, p.b.0)).copied().unwrap_or(0.0);
                 let at = |side: (usize, usize), t: f64| {
                     // the point at parameter t ∈ [−1, 1] around sample side.1: its arc
@@ -328,6 +456,16 @@ impl HairHair {
                 let (sa, wa, xa, va) = at(p.a, ta);
                 let (sb, wb, xb, vb) = at(p.b, tb);
                 let weight = wa.min(wb);
+                // each side's sample is pulled to the other's, offset by ±Δ*
+                let held = |own: (usize, usize), other: (usize, usize), sign: f64| {
+                    anchor.map(|a| PartnerAnchor {
+                        sample: own.1,
+                        point: points[other.0][other.1] + rotation * a.offset * sign,
+                        velocity: velocity(other.0, other.1),
+                        sliding: a.sliding,
+                        step: h,
+                    })
+                };
                 (
                     PartnerPoint {
                         s: sa,
@@ -335,6 +473,7 @@ impl HairHair {
                         point: xb,
                         velocity: vb,
                         reach,
+                        anchor: held(p.a, p.b, 1.0),
                     },
                     PartnerPoint {
                         s: sb,
@@ -342,6 +481,7 @@ impl HairHair {
                         point: xa,
                         velocity: va,
                         reach,
+                        anchor: held(p.b, p.a, -1.0),
                     },
                 )
             })
@@ -351,6 +491,7 @@ impl HairHair {
             partners[p.b.0].push(on_b);
         }
         self.pairs = tracked;
+        self.anchors = anchors;
         self.previous.resize(points.len(), Vec::new());
         for (prev, now) in self.previous.iter_mut().zip(points) {
             prev.clear();

@@ -29,7 +29,7 @@
 //! at any penalty stiffness. Beyond δ_max the normal force is constant (no stiffness): a
 //! strand that starts inside a body is pushed out over several steps, never kicked.
 
-use super::config::{ContactConfig, Friction, HairHairConfig, STANDARD_GRAVITY};
+use super::config::{ContactConfig, Friction, HairHairConfig, RodFriction, STANDARD_GRAVITY};
 use super::predicted::{Candidate, PredictedContacts};
 use crate::bodies::{Attachment, Body, Placement};
 use crate::forces::head_motion::HeadState;
@@ -90,6 +90,8 @@ pub struct HairHairParams {
     pub damping: f64,
     /// Depth of a new contact beyond which a step is split, m (`None`: the contacts').
     pub split_depth: Option<f64>,
+    /// Coulomb friction between rods (`None`: none).
+    pub friction: Option<RodFriction>,
 }
 
 impl HairHairParams {
@@ -103,6 +105,7 @@ impl HairHairParams {
             stiffness: k,
             damping: 2.0 * config.damping_ratio * (k * rho_s).sqrt(),
             split_depth: config.split_depth,
+            friction: config.friction,
         }
     }
 }
@@ -121,6 +124,52 @@ pub struct PartnerPoint {
     pub velocity: Vector3<f64>,
     /// Distance below which the two interact (the sum of the two volumes' radii), m.
     pub reach: f64,
+    /// The pair's friction anchor, when it sticks or slides (Coulomb friction between
+    /// rods, see [`super::hair_hair`]).
+    pub anchor: Option<PartnerAnchor>,
+}
+
+/// Where one of this strand's samples is held by friction against another strand: the
+/// other strand's sample, offset by the pair's anchor.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PartnerAnchor {
+    /// This strand's sample (index among [`StrandContacts::samples`]).
+    pub sample: usize,
+    /// The point it is held to, world coordinates, m.
+    pub point: Vector3<f64>,
+    /// Its velocity, world coordinates, m/s.
+    pub velocity: Vector3<f64>,
+    /// Whether the pair slid over the last step (the spring then holds the kinetic
+    /// force).
+    pub sliding: bool,
+    /// The coming step's length, s: a sliding pair's force points against its slip
+    /// predicted at the step's end (the slip now plus the relative velocity times the
+    /// step), not against the slip now, which is shorter than one step's motion.
+    pub step: f64,
+}
+
+/// The tangential spring of a Coulomb contact (bodies or rods): its force and stiffness
+/// matrix for the slip `slip` (in the plane of `tangent_plane`), stiffness `stiff`; while
+/// sticking `−stiff · slip`; beyond the static limit `limit`, or while `sliding`, the
+/// kinetic force `kinetic` along the slip, whose only stiffness is that of its turning.
+fn coulomb_spring(
+    tangent_plane: &Matrix3<f64>,
+    slip: &Vector3<f64>,
+    stiff: f64,
+    limit: f64,
+    kinetic: f64,
+    sliding: bool,
+) -> (Vector3<f64>, Matrix3<f64>) {
+    let norm = slip.norm();
+    if (sliding || stiff * norm > limit) && norm > 0.0 {
+        let dir = slip / norm;
+        (
+            -kinetic * dir,
+            (kinetic / norm) * (tangent_plane - dir * dir.transpose()),
+        )
+    } else {
+        (-stiff * slip, stiff * tangent_plane)
+    }
 }
 
 /// Where a sticking contact point is held (Coulomb friction): a point of a body, in that
@@ -606,15 +655,9 @@ impl StrandContacts {
                 let cos = if norm > 0.0 { t.dot(&slip) / norm } else { 0.0 };
                 let scale = 1.0 + p.anisotropy * cos;
                 let limit = static_coefficient * scale * normal.norm();
-                if (sliding || stiff * norm > limit) && norm > 0.0 {
-                    let kinetic = kinetic_coefficient * scale * normal.norm();
-                    let dir = slip / norm;
-                    spring = -kinetic * dir;
-                    kt = (kinetic / norm) * (tangent_plane - dir * dir.transpose());
-                } else {
-                    spring = -stiff * slip;
-                    kt = stiff * tangent_plane;
-                }
+                let kinetic = kinetic_coefficient * scale * normal.norm();
+                (spring, kt) =
+                    coulomb_spring(&tangent_plane, &slip, stiff, limit, kinetic, sliding);
             }
         }
         (normal, spring, kn, kt)
@@ -713,12 +756,20 @@ impl StrandContacts {
                 }
                 summary.hair_contacts += 1;
                 let n = (y - p) / d;
-                let mut force = hh.stiffness * w * (partner.reach - d) * n;
+                let normal = hh.stiffness * w * (partner.reach - d);
+                let mut force = normal * n;
                 // the partner's velocity as seen in the head frame
                 let vp = head.rotation.transpose() * (partner.velocity - head.velocity)
                     - head.omega.cross(&p);
                 let vel = velocity(jac, v) - vp;
-                force -= hh.damping * w * vel;
+                // with friction the damping acts along the line of centres only (the
+                // tangential force is Coulomb's); without, on the whole relative velocity
+                let damping = if hh.friction.is_some() {
+                    hh.damping * w * n * n.transpose()
+                } else {
+                    hh.damping * w * Matrix3::identity()
+                };
+                force -= damping * vel;
                 if terms.force {
                     add_force(jac, &force, &mut out.force);
                 }
@@ -728,8 +779,52 @@ impl StrandContacts {
                     stiffened = true;
                 }
                 if terms.damping {
-                    let a = -hh.damping * w * Matrix3::identity();
-                    add_projected(jac, &a, &mut self.aj, &mut out.damping);
+                    add_projected(jac, &-damping, &mut self.aj, &mut out.damping);
+                }
+                // Coulomb friction: the anchored sample held to the partner's anchor point
+                let (Some(f), Some(anchor)) = (hh.friction, partner.anchor) else {
+                    continue;
+                };
+                let Some(&(s_anchor, _)) = self.samples.get(anchor.sample) else {
+                    continue;
+                };
+                let ya = kernel.point(q, s_anchor, jac, None);
+                let target = rt * (anchor.point - head.position);
+                let plane = Matrix3::identity() - n * n.transpose();
+                let slip = plane * (ya - target);
+                let stiff = f.stiffness_ratio * hh.stiffness * w;
+                let kinetic = f.kinetic_coefficient * normal;
+                let slides = anchor.sliding || stiff * slip.norm() > f.static_coefficient * normal;
+                // a sliding pair: the kinetic force against the slip predicted at the
+                // step's end, u = slip + h v_t (the slip now, within μ δ / ratio, is far
+                // shorter than a step's motion: its direction would lag a step behind);
+                // its turning with the velocity goes in the damping, h (μ_k f_n / |u|)
+                // (P − ûûᵀ)
+                let va = rt * (anchor.velocity - head.velocity) - head.omega.cross(&target);
+                let predicted = slip + plane * (velocity(jac, v) - va) * anchor.step;
+                let (spring, kt, turning) = if slides && predicted.norm() > 0.0 {
+                    let (spring, kt) =
+                        coulomb_spring(&plane, &predicted, stiff, 0.0, kinetic, true);
+                    (spring, Matrix3::zeros(), kt * anchor.step)
+                } else {
+                    let (spring, kt) = coulomb_spring(
+                        &plane,
+                        &slip,
+                        stiff,
+                        f.static_coefficient * normal,
+                        kinetic,
+                        false,
+                    );
+                    (spring, kt, Matrix3::zeros())
+                };
+                if terms.force {
+                    add_force(jac, &spring, &mut out.force);
+                }
+                if terms.stiffness {
+                    add_projected(jac, &-kt, &mut self.aj, &mut out.stiffness);
+                }
+                if terms.damping && turning != Matrix3::zeros() {
+                    add_projected(jac, &-turning, &mut self.aj, &mut out.damping);
                 }
             }
         }
@@ -787,7 +882,32 @@ impl StrandContacts {
                 potential += 0.5 * hh.stiffness * w * overlap * overlap;
                 let vp = head.rotation.transpose() * (partner.velocity - head.velocity)
                     - head.omega.cross(&pt);
-                rate += hh.stiffness * w * overlap * ((y - pt) / d).dot(&vp);
+                let n = (y - pt) / d;
+                rate += hh.stiffness * w * overlap * n.dot(&vp);
+                // the friction spring: its energy, and its rate through the anchor point's
+                // motion
+                let (Some(f), Some(anchor)) = (hh.friction, partner.anchor) else {
+                    continue;
+                };
+                let Some(&(ya, _)) = self.poses.get(anchor.sample) else {
+                    continue;
+                };
+                let target = rt * (anchor.point - head.position);
+                let plane = Matrix3::identity() - n * n.transpose();
+                let slip = plane * (ya - target);
+                let stiff = f.stiffness_ratio * hh.stiffness * w;
+                let normal = hh.stiffness * w * overlap;
+                let (spring, _) = coulomb_spring(
+                    &plane,
+                    &slip,
+                    stiff,
+                    f.static_coefficient * normal,
+                    f.kinetic_coefficient * normal,
+                    anchor.sliding,
+                );
+                potential += 0.5 * spring.norm_squared() / stiff;
+                let va = rt * (anchor.velocity - head.velocity) - head.omega.cross(&target);
+                rate += spring.dot(&(plane * va));
             }
         }
         (potential, rate)
@@ -886,7 +1006,15 @@ impl StrandContacts {
                 continue;
             }
             let vp = rt * (partner.velocity - head.velocity) - head.omega.cross(&p);
-            power += hh.damping * partner.weight * vp.dot(&velocity(jac, v));
+            let ydot = velocity(jac, v);
+            power += hh.damping
+                * partner.weight
+                * if hh.friction.is_some() {
+                    let n = (y - p) / d;
+                    n.dot(&vp) * n.dot(&ydot)
+                } else {
+                    vp.dot(&ydot)
+                };
         }
         power
     }
