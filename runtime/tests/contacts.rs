@@ -609,6 +609,8 @@ fn the_balance_counts_the_power_of_the_partners_damping() {
                         Vector3::zeros()
                     },
                     reach: 2.0 * hair.radius,
+                    anchor: None,
+                    partner_s: None,
                 }
             })
             .collect()

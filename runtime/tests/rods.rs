@@ -1215,13 +1215,18 @@ fn a_rope_over_a_drum_holds_up_to_the_capstan_ratio_and_slides_beyond() {
 }
 
 /// A rope of 30 cm (radius 1 mm, E = 1 MPa, N = 30) hanging from a pinned root, lowered
-/// 26 cm in 1.8 s into a square well 2.4 cm wide (four walls and a floor, Coulomb
+/// 26 cm in 1.8 s ([`piled_rope_to`] lowers it `lowering`, with `per` samples an element
+/// and the hair–hair penalty `stiffness`) into a square well 2.4 cm wide (four walls and a floor, Coulomb
 /// friction; self-contact with a hair–hair split depth of 10 µm): it buckles and piles
 /// up on itself. After every step, the closest distance
 /// between two points of the rope more than 6 mm apart along it (the sampled
 /// centreline, 20 points per element) and how many steps it came within 2.2 mm of
 /// itself: (closest distance over the run, steps in contact).
 fn piled_rope(self_contact: bool) -> (f64, usize) {
+    piled_rope_to(self_contact, 0.26, 16, 3e7)
+}
+
+fn piled_rope_to(self_contact: bool, lowering: f64, per: usize, stiffness: f64) -> (f64, usize) {
     let w = 0.012;
     let mut walls = String::new();
     for (point, normal) in [
@@ -1241,7 +1246,7 @@ fn piled_rope(self_contact: bool) -> (f64, usize) {
 dt = 0.001
 duration = 2.0
 [head]
-motion = {{ kind = "keyframes", keys = [{{ t = 0.0, position = [0.0, 0.0, 0.0] }}, {{ t = 1.8, position = [0.0, 0.0, -0.26] }}] }}
+motion = {{ kind = "keyframes", keys = [{{ t = 0.0, position = [0.0, 0.0, 0.0] }}, {{ t = 1.8, position = [0.0, 0.0, {lowering_neg}] }}] }}
 [[bodies]]
 shape = "plane"
 attached = "world"
@@ -1253,11 +1258,11 @@ radius = 0.001
 friction = "coulomb"
 friction_coefficient = 0.3
 anisotropy = 0.0
-samples_per_element = 16
+samples_per_element = {per}
 [contacts.hair_hair]
 radius = 0.001
 split_depth = 1e-5
-stiffness = 3e7
+stiffness = {stiffness}
 self_contact = {self_contact}
 [[strands]]
 name = "rope"
@@ -1274,7 +1279,8 @@ internal_friction = 1e-8
 air_drag = 0.0
 [strands.ends]
 root = "pinned"
-"#
+"#,
+        lowering_neg = -lowering
     );
     let setup = parse_scene(&text).expect("scene");
     let mut sim = Simulation::new(setup, None).expect("simulation");
@@ -1312,11 +1318,11 @@ root = "pinned"
 
 #[test]
 fn a_rope_lowered_into_a_well_piles_up_without_passing_through_itself() {
-    // with self-contact the rope's volume (radius 1 mm) keeps its parts about 2 mm
-    // apart; the same rope without it passes through itself. The contact acts between
-    // the sample polylines (16 samples an element here) and each part sees the other
-    // where it was at the step's start: measured 1.9812 mm here, 0.94 % short of 2 R
-    // (and up to 3.3 % short in deeper piles); bound 3 %
+    // with self-contact the rope's volume (radius 1 mm) keeps its parts 2 mm apart, less
+    // the penalty's give where two coils cross (a point contact carries the rope's
+    // push over one sample's weight: about 10 µm at the penalty 3·10⁷ N/m²); the same
+    // rope without it passes through itself. Measured 1.9907 mm, 0.47 % short of 2 R
+    // (0.30 % in the deeper pile of the ignored test below); bound 1 %, the issue's
     let (closest, touching) = piled_rope(true);
     let (closest_without, _) = piled_rope(false);
     println!(
@@ -1328,7 +1334,7 @@ fn a_rope_lowered_into_a_well_piles_up_without_passing_through_itself() {
         touching > 100,
         "the rope did not pile up on itself ({touching} steps)"
     );
-    assert!(closest >= 0.97 * 2e-3, "closest {closest}");
+    assert!(closest >= 0.99 * 2e-3, "closest {closest}");
     assert!(
         closest_without < 1e-3,
         "without self-contact: {closest_without}"
@@ -1560,4 +1566,20 @@ fn rod_friction_fields_out_of_range_are_refused_and_named() {
         .hair_hair
         .expect("hair_hair");
     assert_eq!(hh.friction, None);
+}
+
+/// The deeper pile (lowered 29 cm, the root 1 cm over the floor's level): more coils
+/// crossing. Measured 1.9941 mm (0.30 % short of 2R); with 24 samples an element and the
+/// penalty 3·10⁸ N/m², 1.9895 mm. About 3 minutes: `cargo test --release -p
+/// superhelix-runtime --test rods -- --ignored deeper_pile`.
+#[test]
+#[ignore]
+fn a_rope_lowered_deeper_piles_up_without_passing_through_itself() {
+    let (closest, touching) = piled_rope_to(true, 0.29, 16, 3e7);
+    println!(
+        "deeper pile: closest distance {:.4} mm (2 radii: 2 mm), within 2.2 mm of itself for {touching} of 2000 steps",
+        closest * 1e3
+    );
+    assert!(touching > 100, "{touching}");
+    assert!(closest >= 0.99 * 2e-3, "closest {closest}");
 }

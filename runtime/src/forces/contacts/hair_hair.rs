@@ -27,6 +27,10 @@
 //!    velocity (from the last two positions), which the strand's step treats as a moving
 //!    ball of radius reach (a penalty along the line of centres and a damping of the
 //!    relative velocity, both implicit on the strand's own side).
+//!    A pair of two parts of one strand (self-contact) gives that strand one partner
+//!    point naming both arc lengths: both parts move in the strand's own step, and the
+//!    pair is stepped implicitly on both
+//!    ([`super::PartnerPoint::partner_s`]).
 //!
 //! With Coulomb friction between rods ([`HairHair::with_friction`]), a pair in contact
 //! holds an anchor: the relative position of its two samples when it started to stick,
@@ -457,12 +461,15 @@ impl HairHair {
                 let (sb, wb, xb, vb) = at(p.b, tb);
                 let weight = wa.min(wb);
                 // each side's sample is pulled to the other's, offset by ±Δ*
+                let own_pair = p.a.0 == p.b.0;
                 let held = |own: (usize, usize), other: (usize, usize), sign: f64| {
                     anchor.map(|a| PartnerAnchor {
                         sample: own.1,
                         point: points[other.0][other.1] + rotation * a.offset * sign,
                         velocity: velocity(other.0, other.1),
                         sliding: a.sliding,
+                        partner_sample: own_pair.then_some(other.1),
+                        offset: a.offset * sign,
                         step: h,
                     })
                 };
@@ -474,6 +481,7 @@ impl HairHair {
                         velocity: vb,
                         reach,
                         anchor: held(p.a, p.b, 1.0),
+                        partner_s: own_pair.then_some(sb),
                     },
                     PartnerPoint {
                         s: sb,
@@ -482,13 +490,17 @@ impl HairHair {
                         velocity: va,
                         reach,
                         anchor: held(p.b, p.a, -1.0),
+                        partner_s: own_pair.then_some(sa),
                     },
                 )
             })
             .collect::<Vec<_>>();
         for (p, (on_a, on_b)) in tracked.iter().zip(points_of) {
             partners[p.a.0].push(on_a);
-            partners[p.b.0].push(on_b);
+            // a pair of two parts of one strand acts on both through its first side
+            if p.a.0 != p.b.0 {
+                partners[p.b.0].push(on_b);
+            }
         }
         self.pairs = tracked;
         self.anchors = anchors;

@@ -127,6 +127,11 @@ pub struct PartnerPoint {
     /// The pair's friction anchor, when it sticks or slides (Coulomb friction between
     /// rods, see [`super::hair_hair`]).
     pub anchor: Option<PartnerAnchor>,
+    /// For a pair of two parts of this strand (self-contact): the other part's arc
+    /// length, m. The pair is then stepped implicitly on both parts (its force, stiffness
+    /// and damping act through `J(s) − J(partner_s)`), not against a ball where the
+    /// other part was at the step's start; `point` and `velocity` are only where it was.
+    pub partner_s: Option<f64>,
 }
 
 /// Where one of this strand's samples is held by friction against another strand: the
@@ -142,6 +147,12 @@ pub struct PartnerAnchor {
     /// Whether the pair slid over the last step (the spring then holds the kinetic
     /// force).
     pub sliding: bool,
+    /// For a pair of two parts of this strand: the other part's sample (the spring then
+    /// joins the two samples, held `offset` apart across the line of centres).
+    pub partner_sample: Option<usize>,
+    /// Δ*, head coordinates, m: where this sample is held relative to the partner's
+    /// sample (for a pair of two parts of this strand; `point` holds it otherwise).
+    pub offset: Vector3<f64>,
     /// The coming step's length, s: a sliding pair's force points against its slip
     /// predicted at the step's end (the slip now plus the relative velocity times the
     /// step), not against the slip now, which is shorter than one step's motion.
@@ -243,6 +254,11 @@ pub struct StrandContacts {
     partner_near: Vec<usize>,
     /// Scratch of [`Self::step_acceptable`]: the sample positions at the step's start.
     sample_y0: Vec<Vector3<f64>>,
+    /// Scratch: the Jacobian at a self pair's other point, and `J(s) − J(s')`.
+    jac_other: Vec<Vector3<f64>>,
+    jac_diff: Vec<Vector3<f64>>,
+    /// The self pairs within reach at the last [`Self::add_self_pairs`].
+    self_touching: usize,
     /// Positions and unit tangents of the samples at the last [`Self::sample_poses`].
     poses: Vec<(Vector3<f64>, Vector3<f64>)>,
     aj: Vec<Vector3<f64>>,
@@ -301,6 +317,9 @@ impl StrandContacts {
             partner_y0: Vec::new(),
             partner_near: Vec::new(),
             sample_y0: Vec::new(),
+            jac_other: Vec::new(),
+            jac_diff: Vec::new(),
+            self_touching: 0,
             poses: vec![(Vector3::zeros(), Vector3::zeros()); n],
             aj: vec![Vector3::zeros(); geom.dofs()],
             samples,
@@ -421,13 +440,18 @@ impl StrandContacts {
     fn near_partners(&self, head: &HeadState, near: &mut Vec<usize>) {
         near.clear();
         let Some(last) = self.samples.len().checked_sub(1) else {
-            near.extend(0..self.partners.len());
+            near.extend((0..self.partners.len()).filter(|&i| self.partners[i].partner_s.is_none()));
             return;
         };
         let rt = head.rotation.transpose();
         // the partners are in arc-length order: the first sample at or beyond s only moves on
         let mut k = 0;
         for (i, p) in self.partners.iter().enumerate() {
+            // a pair of two parts of this strand is handled on its own
+            // ([`Self::add_self_pairs`])
+            if p.partner_s.is_some() {
+                continue;
+            }
             while k < last && self.samples[k].0 < p.s {
                 k += 1;
             }
@@ -827,9 +851,177 @@ impl StrandContacts {
                     add_projected(jac, &-turning, &mut self.aj, &mut out.damping);
                 }
             }
+            if self.add_self_pairs(hh, kernel, q, v, terms, jac, out) {
+                stiffened = true;
+            }
+            summary.hair_contacts += self.self_touching;
         }
         self.summary = summary;
         stiffened
+    }
+
+    /// The pairs of two parts of this strand within reach (self-contact), stepped
+    /// implicitly on both parts: with `D = J(s) − J(s')`, the penalty `Dᵀ k w δ n`, its
+    /// stiffness `−Dᵀ k w n nᵀ D`, the damping of the relative velocity `−Dᵀ c w D` (along
+    /// n only with friction), and the friction spring between the two anchored samples.
+    /// Returns whether one added stiffness; counts them into `self_touching`.
+    #[allow(clippy::too_many_arguments)]
+    fn add_self_pairs(
+        &mut self,
+        hh: HairHairParams,
+        kernel: &mut dyn StrandKernel,
+        q: &[f64],
+        v: &[f64],
+        terms: Terms,
+        jac: &mut [Vector3<f64>],
+        out: &mut StrandTerms,
+    ) -> bool {
+        self.self_touching = 0;
+        if !self.partners.iter().any(|p| p.partner_s.is_some()) {
+            return false;
+        }
+        let mut other = std::mem::take(&mut self.jac_other);
+        let mut diff = std::mem::take(&mut self.jac_diff);
+        other.resize(jac.len(), Vector3::zeros());
+        diff.resize(jac.len(), Vector3::zeros());
+        let mut stiffened = false;
+        for i in 0..self.partners.len() {
+            let partner = self.partners[i];
+            let Some(s_other) = partner.partner_s else {
+                continue;
+            };
+            let w = partner.weight;
+            let y = kernel.point(q, partner.s, jac, None);
+            let yo = kernel.point(q, s_other, &mut other, None);
+            let d = (y - yo).norm();
+            if d >= partner.reach || d == 0.0 {
+                continue;
+            }
+            self.self_touching += 1;
+            for ((c, a), b) in diff.iter_mut().zip(jac.iter()).zip(&other) {
+                *c = a - b;
+            }
+            let n = (y - yo) / d;
+            let normal = hh.stiffness * w * (partner.reach - d);
+            let damping = if hh.friction.is_some() {
+                hh.damping * w * n * n.transpose()
+            } else {
+                hh.damping * w * Matrix3::identity()
+            };
+            let force = normal * n - damping * velocity(&diff, v);
+            if terms.force {
+                add_force(&diff, &force, &mut out.force);
+            }
+            if terms.stiffness {
+                let a = -hh.stiffness * w * n * n.transpose();
+                add_projected(&diff, &a, &mut self.aj, &mut out.stiffness);
+                stiffened = true;
+            }
+            if terms.damping {
+                add_projected(&diff, &-damping, &mut self.aj, &mut out.damping);
+            }
+            let (Some(f), Some(anchor)) = (hh.friction, partner.anchor) else {
+                continue;
+            };
+            let (Some(&(sa, _)), Some(&(sb, _))) = (
+                self.samples.get(anchor.sample),
+                anchor.partner_sample.and_then(|k| self.samples.get(k)),
+            ) else {
+                continue;
+            };
+            let ya = kernel.point(q, sa, jac, None);
+            let yb = kernel.point(q, sb, &mut other, None);
+            for ((c, a), b) in diff.iter_mut().zip(jac.iter()).zip(&other) {
+                *c = a - b;
+            }
+            let plane = Matrix3::identity() - n * n.transpose();
+            let slip = plane * (ya - yb - anchor.offset);
+            let stiff = f.stiffness_ratio * hh.stiffness * w;
+            let kinetic = f.kinetic_coefficient * normal;
+            let slides = anchor.sliding || stiff * slip.norm() > f.static_coefficient * normal;
+            let predicted = slip + plane * velocity(&diff, v) * anchor.step;
+            let (spring, kt, turning) = if slides && predicted.norm() > 0.0 {
+                let (spring, kt) = coulomb_spring(&plane, &predicted, stiff, 0.0, kinetic, true);
+                (spring, Matrix3::zeros(), kt * anchor.step)
+            } else {
+                let (spring, kt) = coulomb_spring(
+                    &plane,
+                    &slip,
+                    stiff,
+                    f.static_coefficient * normal,
+                    kinetic,
+                    false,
+                );
+                (spring, kt, Matrix3::zeros())
+            };
+            if terms.force {
+                add_force(&diff, &spring, &mut out.force);
+            }
+            if terms.stiffness {
+                add_projected(&diff, &-kt, &mut self.aj, &mut out.stiffness);
+            }
+            if terms.damping && turning != Matrix3::zeros() {
+                add_projected(&diff, &-turning, &mut self.aj, &mut out.damping);
+            }
+        }
+        self.jac_other = other;
+        self.jac_diff = diff;
+        stiffened
+    }
+
+    /// The energy of the pairs of two parts of this strand at q (penalty and friction
+    /// springs; the samples must be posed at q). Internal: no work through motion.
+    fn self_pairs_energy(&mut self, hh: &HairHairParams, geom: &StrandGeometry, q: &[f64]) -> f64 {
+        let mut potential = 0.0;
+        let mut buf = std::mem::take(&mut self.sweep);
+        for partner in &self.partners {
+            let Some(s_other) = partner.partner_s else {
+                continue;
+            };
+            let (lo, hi) = if partner.s <= s_other {
+                (partner.s, s_other)
+            } else {
+                (s_other, partner.s)
+            };
+            positions_at_sorted(geom, q, [lo, hi], &mut buf);
+            let (Some(&a), Some(&b)) = (buf.first(), buf.get(1)) else {
+                continue;
+            };
+            let d = (a - b).norm();
+            if d >= partner.reach || d == 0.0 {
+                continue;
+            }
+            let w = partner.weight;
+            let overlap = partner.reach - d;
+            potential += 0.5 * hh.stiffness * w * overlap * overlap;
+            let (Some(f), Some(anchor)) = (hh.friction, partner.anchor) else {
+                continue;
+            };
+            let (Some(&(ya, _)), Some(&(yb, _))) = (
+                self.poses.get(anchor.sample),
+                anchor.partner_sample.and_then(|k| self.poses.get(k)),
+            ) else {
+                continue;
+            };
+            // n from this point to the other, oriented as in the step
+            let (y, yo) = if partner.s <= s_other { (a, b) } else { (b, a) };
+            let n = (y - yo) / d;
+            let plane = Matrix3::identity() - n * n.transpose();
+            let slip = plane * (ya - yb - anchor.offset);
+            let stiff = f.stiffness_ratio * hh.stiffness * w;
+            let normal = hh.stiffness * w * overlap;
+            let (spring, _) = coulomb_spring(
+                &plane,
+                &slip,
+                stiff,
+                f.static_coefficient * normal,
+                f.kinetic_coefficient * normal,
+                anchor.sliding,
+            );
+            potential += 0.5 * spring.norm_squared() / stiff;
+        }
+        self.sweep = buf;
+        potential
     }
 
     /// The contact potential at q with the bodies placed at `at` (normal penalty, Coulomb
@@ -909,6 +1101,7 @@ impl StrandContacts {
                 let va = rt * (anchor.velocity - head.velocity) - head.omega.cross(&target);
                 rate += spring.dot(&(plane * va));
             }
+            potential += self.self_pairs_energy(&hh, geom, q);
         }
         (potential, rate)
     }
@@ -1333,6 +1526,9 @@ impl StrandContacts {
         near.clear();
         near.extend((0..self.partners.len()).filter(|&i| {
             let p = &self.partners[i];
+            if p.partner_s.is_some() {
+                return false;
+            }
             let pt = rt * (p.point - head.position);
             let k = self
                 .samples
@@ -1369,6 +1565,40 @@ impl StrandContacts {
             norm < p.reach || p.reach - along <= split
         });
         (self.partner_near, self.partner_y0, self.partner_y) = (near, y0, y1);
+        ok && self.self_pairs_acceptable(geom, q0, q1, split)
+    }
+
+    /// [`Self::step_acceptable`] for the pairs of two parts of this strand: a pair apart
+    /// at the start may not end closer than its reach less `split` along the line
+    /// of centres at the start (both parts move within the step).
+    fn self_pairs_acceptable(
+        &mut self,
+        geom: &StrandGeometry,
+        q0: &[f64],
+        q1: &[f64],
+        split: f64,
+    ) -> bool {
+        let mut buf = std::mem::take(&mut self.sweep);
+        let mut ok = true;
+        for partner in &self.partners {
+            let Some(s_other) = partner.partner_s else {
+                continue;
+            };
+            let arcs = [partner.s.min(s_other), partner.s.max(s_other)];
+            positions_at_sorted(geom, q0, arcs, &mut buf);
+            let d0 = buf[0] - buf[1];
+            positions_at_sorted(geom, q1, arcs, &mut buf);
+            let d1 = buf[0] - buf[1];
+            let norm = d0.norm();
+            if norm == 0.0 || norm < partner.reach {
+                continue;
+            }
+            if partner.reach - d1.dot(&(d0 / norm)) > split {
+                ok = false;
+                break;
+            }
+        }
+        self.sweep = buf;
         ok
     }
 
