@@ -296,7 +296,7 @@ impl HairHair {
             // contact
             .filter(|(p, _)| distinct(arcs, self.self_exclusion, p.a, p.b))
             .collect();
-        carried.sort_unstable_by(|x, y| x.0.cmp(&y.0));
+        carried.sort_unstable_by_key(|x| x.0);
         carried.dedup_by_key(|x| x.0);
         let (mut tracked, mut anchors): (Vec<Pair>, Vec<Option<PairAnchor>>) =
             carried.into_iter().unzip();
