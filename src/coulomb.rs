@@ -48,7 +48,8 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> Error + '_ {
 
 /// Read an `.npy` array of float64 or float32 with its shape.
 pub fn read_array(path: &Path, field: &str) -> Result<(Vec<f64>, Vec<u64>)> {
-    let bytes = std::fs::read(path).map_err(io(path))?;
+    let bytes = std::fs::read(path)
+        .map_err(|e| Error::invalid(field, format!("{}: {e}", path.display())))?;
     let file = npyz::NpyFile::new(&bytes[..])
         .map_err(|e| Error::invalid(field, format!("{}: not an .npy file: {e}", path.display())))?;
     let shape = file.shape().to_vec();
@@ -99,6 +100,21 @@ pub fn write_array(path: &Path, data: &[f64], shape: &[u64]) -> Result<()> {
     write_atomically(path, &bytes)
 }
 
+/// The largest magnitude of an input coordinate or charge: squares and products of two
+/// stay finite in float64 (1e100² = 1e200).
+pub const MAX_INPUT: f64 = 1e100;
+
+/// The command-line option of an FMM option's name.
+fn flag(name: &str) -> &'static str {
+    match name {
+        "order" => "--order",
+        "theta" => "--theta",
+        "leaf_size" => "--leaf-size",
+        "softening" => "--softening",
+        _ => "--eps",
+    }
+}
+
 /// The points `[n, 3]` and charges `[n]` of two `.npy` files, checked.
 pub fn read_input(points: &Path, charges: &Path) -> Result<(Vec<[f64; 3]>, Vec<f64>)> {
     let (p, pshape) = read_array(points, "--points")?;
@@ -122,10 +138,25 @@ pub fn read_input(points: &Path, charges: &Path) -> Result<(Vec<[f64; 3]>, Vec<f
     if let Some(i) = pts.iter().position(|x| !x.iter().all(|v| v.is_finite())) {
         return Err(Error::invalid("--points", format!("row {i} is not finite")));
     }
+    if let Some(i) = pts
+        .iter()
+        .position(|x| x.iter().any(|v| v.abs() > MAX_INPUT))
+    {
+        return Err(Error::invalid(
+            "--points",
+            format!("row {i}: coordinates must be within ±{MAX_INPUT:e} (squared distances must stay finite)"),
+        ));
+    }
     if let Some(i) = q.iter().position(|v| !v.is_finite()) {
         return Err(Error::invalid(
             "--charges",
             format!("entry {i} is not finite"),
+        ));
+    }
+    if let Some(i) = q.iter().position(|v| v.abs() > MAX_INPUT) {
+        return Err(Error::invalid(
+            "--charges",
+            format!("entry {i}: charges must be within ±{MAX_INPUT:e}"),
         ));
     }
     Ok((pts, q))
@@ -141,7 +172,13 @@ pub fn evaluate(
     let start = Instant::now();
     let (mut out, stats) = match method {
         Method::Fmm(options) => {
-            let mut fmm = Fmm::new(options).map_err(|e| Error::invalid("--eps", e.to_string()))?;
+            let mut fmm = Fmm::new(options).map_err(|e| {
+                let name = match &e {
+                    superhelix_fmm::FmmError::Option { name, .. } => *name,
+                    _ => "eps",
+                };
+                Error::invalid(flag(name), e.to_string())
+            })?;
             let (out, stats) = fmm
                 .evaluate(points, charges)
                 .map_err(|e| Error::invalid("--points", e.to_string()))?;
@@ -156,6 +193,24 @@ pub fn evaluate(
     if constant != 1.0 {
         out.potential.iter_mut().for_each(|v| *v *= constant);
         out.field.iter_mut().flatten().for_each(|v| *v *= constant);
+    }
+    // nothing non-finite is written: two coincident points, or values beyond float64
+    if let Some(i) = out
+        .potential
+        .iter()
+        .position(|v| !v.is_finite())
+        .or_else(|| {
+            out.field
+                .iter()
+                .position(|f| !f.iter().all(|v| v.is_finite()))
+        })
+    {
+        return Err(Error::invalid(
+            "--points",
+            format!(
+                "the potential or field at point {i} is not finite (charges and distances whose ratio overflows): nothing was written"
+            ),
+        ));
     }
     Ok((
         out,

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 use superhelix_runtime::output::frames::FrameStore;
-use superhelix_runtime::output::json::JsonFrameStore;
+use superhelix_runtime::output::json::{JsonFrameStore, PARTIAL_SUFFIX};
 use superhelix_runtime::output::npy::{NpyFrameStore, NPY_FILE};
 use superhelix_runtime::output::plan::Formats;
 use superhelix_runtime::output::preview::{PreviewOptions, View};
@@ -38,14 +38,18 @@ pub struct RenderRequest {
 /// Name of the JSON frames file a run writes.
 const JSON_FILE: &str = "frames.json";
 
-/// Open the frames at `path`: a `.npy` file, a `.json` file, or a directory holding
-/// `frames.npy` (preferred) or `frames.json`.
+/// Open the frames at `path`: a `.npy` file, a `.json` file (or the
+/// `frames.json.partial` a killed run leaves: its complete frames), or a directory
+/// holding `frames.npy` (preferred), `frames.json` or `frames.json.partial`.
 pub fn open_frames(path: &Path) -> Result<Box<dyn FrameStore>> {
+    let partial = format!("{JSON_FILE}{PARTIAL_SUFFIX}");
     let file = if path.is_dir() {
         if path.join(NPY_FILE).is_file() {
             path.join(NPY_FILE)
         } else if path.join(JSON_FILE).is_file() {
             path.join(JSON_FILE)
+        } else if path.join(&partial).is_file() {
+            path.join(&partial)
         } else {
             return Err(Error::invalid(
                 "FRAMES",
@@ -66,7 +70,13 @@ pub fn open_frames(path: &Path) -> Result<Box<dyn FrameStore>> {
             ),
         ));
     };
-    match file.extension().and_then(|e| e.to_str()) {
+    let name = file.file_name().and_then(|n| n.to_str()).unwrap_or("");
+    let extension = if name.ends_with(&format!(".json{PARTIAL_SUFFIX}")) {
+        Some("json")
+    } else {
+        file.extension().and_then(|e| e.to_str())
+    };
+    match extension {
         Some("npy") => Ok(Box::new(NpyFrameStore::open(&file)?)),
         Some("json") => Ok(Box::new(JsonFrameStore::open(&file)?)),
         _ => Err(Error::invalid(

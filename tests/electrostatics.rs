@@ -115,6 +115,65 @@ fn coulomb_command_reads_and_writes_npy() {
     );
 }
 
+/// Each bad input of `coulomb` is refused naming its own option, and nothing is written:
+/// an FMM option out of range, a missing input file, points so far apart (finite, near
+/// 1e300) that the squared distances overflow.
+#[test]
+fn coulomb_refuses_bad_input_naming_the_option_and_writes_nothing() {
+    let dir = scratch("coulomb_refusals");
+    let p = dir.join("p.npy");
+    let q = dir.join("q.npy");
+    write_npy_f64(&p, &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0, 0.0], &[3, 3]);
+    write_npy_f64(&q, &[1.0, -1.0, 0.5], &[3]);
+    let run = |points: &std::path::Path, charges: &std::path::Path, extra: &[&str], out: &str| {
+        let out = dir.join(out);
+        let mut args = vec![
+            "coulomb",
+            "--points",
+            points.to_str().unwrap_or_default(),
+            "--charges",
+            charges.to_str().unwrap_or_default(),
+            "--out",
+            out.to_str().unwrap_or_default(),
+        ];
+        args.extend_from_slice(extra);
+        let r = superhelix(&args);
+        (r.status.success(), stderr(&r), out.exists())
+    };
+    for (extra, option) in [
+        (&["--order", "0"][..], "--order"),
+        (&["--theta", "0"][..], "--theta"),
+        (&["--leaf-size", "0"][..], "--leaf-size"),
+        (&["--eps", "2"][..], "--eps"),
+    ] {
+        let (ok, err, written) = run(&p, &q, extra, option);
+        assert!(!ok && !written, "{extra:?}: {err}");
+        assert!(err.contains(&format!("{option}:")), "{extra:?}: {err}");
+    }
+    let missing = dir.join("absent.npy");
+    let (ok, err, _) = run(&missing, &q, &[], "m1");
+    assert!(
+        !ok && err.contains("--points") && err.contains("absent.npy"),
+        "{err}"
+    );
+    let (ok, err, _) = run(&p, &missing, &[], "m2");
+    assert!(
+        !ok && err.contains("--charges") && err.contains("absent.npy"),
+        "{err}"
+    );
+    let far = dir.join("far.npy");
+    write_npy_f64(
+        &far,
+        &[1e300, 0.0, 0.0, -1e300, 0.0, 0.0, 0.0, 1e300, 0.0],
+        &[3, 3],
+    );
+    for direct in [false, true] {
+        let extra: &[&str] = if direct { &["--direct"] } else { &[] };
+        let (ok, err, written) = run(&far, &q, extra, "far");
+        assert!(!ok && !written && err.contains("--points"), "{err}");
+    }
+}
+
 /// The experiments on a small tress: RH 100 % sags more and takes more room than RH 65 %;
 /// logarithmic charging converges; the report has the mean field and the pictures.
 #[test]

@@ -218,3 +218,49 @@ fn render_with_the_scene_draws_its_bodies_and_refuses_another_scene() {
     );
     assert!(text(&o).contains("--scene"), "{}", text(&o));
 }
+
+/// A run killed outright with JSON output leaves only `frames.json.partial`, perhaps cut
+/// in the middle of a frame: `render` reads its complete frames.
+#[test]
+fn render_reads_the_complete_frames_of_a_killed_json_run() {
+    let dir = support::scratch("render_partial");
+    let scene = support::write(&dir, "scene.toml", support::SCENE);
+    let run = dir.join("run");
+    let o = superhelix(&[
+        "run",
+        &scene.to_string_lossy(),
+        "--out",
+        &run.to_string_lossy(),
+        "--format",
+        "json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    // what SIGKILL leaves: the streamed file, never renamed, its last frame cut short
+    let full = std::fs::read_to_string(run.join("frames.json")).expect("frames.json");
+    let cut = full.len() - full.len() / 10;
+    std::fs::remove_file(run.join("frames.json")).expect("remove");
+    std::fs::write(run.join("frames.json.partial"), &full[..cut]).expect("write");
+    let frames = full.matches("\"index\":").count();
+    let pictures = dir.join("pictures");
+    let o = superhelix(&[
+        "render",
+        &run.to_string_lossy(),
+        "--out",
+        &pictures.to_string_lossy(),
+        "--no-gif",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(pictures.join("preview.png").is_file());
+    // the frame cut short is not drawn: asking for it is refused
+    let o = superhelix(&[
+        "render",
+        &run.to_string_lossy(),
+        "--out",
+        &pictures.to_string_lossy(),
+        "--no-gif",
+        "--frame",
+        &(frames - 1).to_string(),
+    ]);
+    assert!(!o.status.success(), "the cut frame was read");
+    assert!(text(&o).contains("--frame"), "{}", text(&o));
+}

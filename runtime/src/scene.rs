@@ -21,6 +21,9 @@ mod reader;
 mod render;
 mod strands;
 
+/// Gravity, m/s² per component: up to 100 g.
+const MAX_GRAVITY: f64 = 1e3;
+
 use crate::config::total_steps;
 use crate::config::FieldStiffness;
 use crate::config::{
@@ -350,7 +353,12 @@ fn read_environment(mut n: Node<'_>) -> (Environment, StrandDefaults) {
     let gravity = match n.raw("gravity") {
         None => default.gravity,
         Some(Value::String(s)) if s == "none" => None,
-        Some(Value::Array(_)) => n.vec3("gravity").or(default.gravity),
+        Some(Value::Array(_)) => n
+            .vec3_in(
+                "gravity",
+                Range::new(Bound::Incl(-MAX_GRAVITY), Bound::Incl(MAX_GRAVITY)),
+            )
+            .or(default.gravity),
         Some(other) => {
             n.error(
                 "gravity",
@@ -363,7 +371,7 @@ fn read_environment(mut n: Node<'_>) -> (Environment, StrandDefaults) {
         }
     };
     let air_drag = if n.has("air_drag") {
-        n.f64("air_drag", Range::NON_NEGATIVE)
+        n.f64("air_drag", Range::AIR_DRAG)
     } else {
         None
     };

@@ -12,8 +12,9 @@
 //! steps taken. Static mode solves for the equilibrium and records one frame at time 0.
 //!
 //! The run stops early when the stop flag is raised (checked between steps), when a
-//! coordinate, velocity or centreline point is not finite ([`Error::Diverged`], naming
-//! the strand, the time and the cause: no non-finite number is ever written), when a step
+//! coordinate, velocity or centreline point is not finite, or a point is beyond the
+//! float32 range the centrelines are written in ([`Error::Diverged`], naming the strand,
+//! the time and the cause: no non-finite number is ever written), when a step
 //! fails, or when a sink cannot write. In every case every sink is finished, so every
 //! frame written stays readable, and the [`RunOutcome`] says how many frames were
 //! written and why the run stopped.
@@ -292,6 +293,14 @@ impl Streamer<'_, '_> {
                 i,
                 points.iter().flatten().copied(),
                 "non-finite centreline point",
+            )?;
+            // the centrelines are written as float32 (frames.npy, USD, OBJ): a point
+            // beyond its range would be written as infinite
+            ensure_finite(
+                source,
+                i,
+                points.iter().flatten().map(|&c| c as f32 as f64),
+                "centreline point beyond the float32 range of the outputs (|x| > 3.4e38 m)",
             )?;
             self.points.extend_from_slice(&points);
             self.q.extend_from_slice(source.q(i));

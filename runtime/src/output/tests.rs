@@ -12,6 +12,8 @@ struct Fake {
     q: Vec<Vec<f64>>,
     v: Vec<Vec<f64>>,
     nan_at_step: Option<usize>,
+    /// At this step q becomes 1e39: finite in f64, beyond float32's range.
+    huge_at_step: Option<usize>,
     solved: bool,
 }
 
@@ -24,6 +26,7 @@ impl Fake {
             q: vec![vec![0.0; 6]; strands],
             v: vec![vec![0.0; 6]; strands],
             nan_at_step: None,
+            huge_at_step: None,
             solved: false,
         }
     }
@@ -57,8 +60,15 @@ impl FrameSource for Fake {
         self.steps += 1;
         self.time = self.steps as f64 * self.dt;
         let bad = self.nan_at_step == Some(self.steps);
+        let huge = self.huge_at_step == Some(self.steps);
         for (q, v) in self.q.iter_mut().zip(&mut self.v) {
-            q[0] = if bad { f64::NAN } else { self.time.sin() };
+            q[0] = if bad {
+                f64::NAN
+            } else if huge {
+                1e39
+            } else {
+                self.time.sin()
+            };
             v[0] = self.time.cos();
         }
         Ok(())
@@ -134,6 +144,28 @@ fn a_nan_stops_the_run_with_the_strand_and_time() {
         }) => {
             assert_eq!((strand.as_str(), index), ("a", 0));
             assert!((time - 0.4).abs() < 1e-12);
+        }
+        other => panic!("expected Diverged, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_point_beyond_float32_stops_the_run_before_it_is_written() {
+    // the centreline is written as float32: 1e39 (finite in f64) would be written as
+    // infinite; the run stops at the frame that would hold it, keeping those before
+    let cfg = config(0.1, 1.0, 10.0);
+    let mut fake = Fake::new(2, 0.1);
+    fake.huge_at_step = Some(3);
+    match run_to_frames(&mut fake, &cfg, 2, |_, _| {}) {
+        Err(Error::Diverged {
+            strand,
+            time,
+            cause,
+            ..
+        }) => {
+            assert_eq!(strand, "a");
+            assert!((time - 0.3).abs() < 1e-12);
+            assert!(cause.contains("float32"), "{cause}");
         }
         other => panic!("expected Diverged, got {other:?}"),
     }

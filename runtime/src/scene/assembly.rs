@@ -35,7 +35,7 @@ pub(super) fn read_strands(
         });
         let group = read_group(&mut n);
         let polyline = read_polyline(&mut n);
-        let root_position = n.optional("root", Vector3::zeros(), Node::vec3);
+        let root_position = n.optional("root", Vector3::zeros(), Node::position);
         // a polyline gives the length (its fit's), the root and the root frame
         let from_polyline = StrandDefaults {
             length_from_data: true,
@@ -286,7 +286,7 @@ fn read_patch(
     let name = n.optional("name", format!("patch{index}"), |n, k| {
         n.string(k).map(str::to_string)
     });
-    let center = n.optional("center", Vector3::zeros(), Node::vec3);
+    let center = n.optional("center", Vector3::zeros(), Node::position);
     let count = n.optional("count", vec![1, 1], |n, k| {
         n.count_list(
             k,
@@ -338,7 +338,7 @@ fn read_tress(
     let name = n.optional("name", format!("tress{index}"), |n, k| {
         n.string(k).map(str::to_string)
     });
-    let center = n.optional("center", Vector3::zeros(), Node::vec3);
+    let center = n.optional("center", Vector3::zeros(), Node::position);
     let count = n.required("count", "the number of fibres", |n, k| {
         n.count(k, 1, MAX_STRANDS as i64, "the cap on strands")
     });

@@ -111,7 +111,7 @@ fn attachment(n: &mut Node<'_>) -> Option<Attachment> {
 }
 
 fn center(n: &mut Node<'_>, key: &'static str) -> Option<Vector3<f64>> {
-    n.optional(key, Vector3::zeros(), Node::vec3)
+    n.optional(key, Vector3::zeros(), Node::position)
 }
 
 fn radius(n: &mut Node<'_>) -> Option<f64> {
@@ -147,11 +147,15 @@ fn ellipsoid(n: &mut Node<'_>) -> Option<ShapeSetup> {
 }
 
 fn capsule(n: &mut Node<'_>) -> Option<ShapeSetup> {
-    let start = n.required("start", "[x, y, z] in m, one end of the axis", Node::vec3);
+    let start = n.required(
+        "start",
+        "[x, y, z] in m, one end of the axis",
+        Node::position,
+    );
     let end = n.required(
         "end",
         "[x, y, z] in m, the other end of the axis",
-        Node::vec3,
+        Node::position,
     );
     let radius = radius(n);
     Some(ShapeSetup::Capsule {
@@ -162,11 +166,15 @@ fn capsule(n: &mut Node<'_>) -> Option<ShapeSetup> {
 }
 
 fn cylinder(n: &mut Node<'_>) -> Option<ShapeSetup> {
-    let start = n.required("start", "[x, y, z] in m, the centre of one cap", Node::vec3);
+    let start = n.required(
+        "start",
+        "[x, y, z] in m, the centre of one cap",
+        Node::position,
+    );
     let end = n.required(
         "end",
         "[x, y, z] in m, the centre of the other cap",
-        Node::vec3,
+        Node::position,
     );
     let radius = radius(n);
     Some(ShapeSetup::Cylinder {

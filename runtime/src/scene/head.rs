@@ -19,6 +19,12 @@ const KINDS: [&str; 6] = [
 const ANGLE_DEG: Range = Range::new(Bound::Incl(0.0), Bound::Incl(180.0));
 /// Head frequencies, Hz: beyond 50 Hz a head motion is meaningless for hair.
 const FREQUENCY_HZ: Range = Range::new(Bound::Incl(0.0), Bound::Incl(50.0));
+/// Peak accelerations, m/s²: up to 1000 g.
+const ACCELERATION: Range = Range::new(Bound::Incl(0.0), Bound::Incl(1e4));
+/// Angular speeds, degrees per second: up to 100 turns a second.
+const ANGULAR_SPEED_DEG: Range = Range::new(Bound::Incl(0.0), Bound::Incl(36000.0));
+/// Keyframe rotations (axis times angle), degrees per component: a hundred turns.
+const ROTATION_DEG: Range = Range::new(Bound::Incl(-36000.0), Bound::Incl(36000.0));
 
 /// The head motion of a `[head]` table (`Still` when absent or invalid; problems are
 /// recorded).
@@ -58,7 +64,7 @@ pub(super) fn read_motion(mut m: Node<'_>) -> Option<HeadMotion> {
 }
 
 fn center(m: &mut Node<'_>) -> Option<Vector3<f64>> {
-    m.optional("center", Vector3::zeros(), Node::vec3)
+    m.optional("center", Vector3::zeros(), Node::position)
 }
 
 fn frequency(m: &mut Node<'_>) -> Option<f64> {
@@ -84,7 +90,7 @@ fn oscillate(m: &mut Node<'_>) -> Option<HeadMotion> {
 
 fn translate_oscillate(m: &mut Node<'_>) -> Option<HeadMotion> {
     let direction = unit_vector(m, "direction");
-    let amplitude = m.required_f64("amplitude", "amplitude in metres", Range::NON_NEGATIVE);
+    let amplitude = m.required_f64("amplitude", "amplitude in metres", Range::LENGTH);
     let frequency_hz = frequency(m);
     Some(HeadMotion::TranslateOscillate {
         direction: direction?,
@@ -98,10 +104,10 @@ fn sudden_stop(m: &mut Node<'_>) -> Option<HeadMotion> {
     let speed = m.required_f64(
         "angular_speed_deg",
         "angular speed in degrees per second",
-        Range::NON_NEGATIVE,
+        ANGULAR_SPEED_DEG,
     );
-    let stop_time = m.required_f64("stop_time", "time in s", Range::NON_NEGATIVE);
-    let stop_duration = m.required_f64("stop_duration", "duration in s", Range::POSITIVE);
+    let stop_time = m.required_f64("stop_time", "time in s", Range::TIME_FROM_START);
+    let stop_duration = m.required_f64("stop_duration", "duration in s", Range::DURATION);
     let center = center(m);
     Some(HeadMotion::SuddenStop {
         axis: axis?,
@@ -114,13 +120,9 @@ fn sudden_stop(m: &mut Node<'_>) -> Option<HeadMotion> {
 
 fn jolt(m: &mut Node<'_>) -> Option<HeadMotion> {
     let direction = unit_vector(m, "direction");
-    let acceleration = m.required_f64(
-        "acceleration",
-        "peak acceleration in m/s^2",
-        Range::NON_NEGATIVE,
-    );
-    let start = m.required_f64("start", "time in s", Range::NON_NEGATIVE);
-    let duration = m.required_f64("duration", "duration in s", Range::POSITIVE);
+    let acceleration = m.required_f64("acceleration", "peak acceleration in m/s^2", ACCELERATION);
+    let start = m.required_f64("start", "time in s", Range::TIME_FROM_START);
+    let duration = m.required_f64("duration", "duration in s", Range::DURATION);
     Some(HeadMotion::Jolt {
         direction: direction?,
         acceleration: acceleration?,
@@ -146,9 +148,11 @@ fn keyframes(m: &mut Node<'_>) -> Option<HeadMotion> {
 }
 
 fn read_key(mut k: Node<'_>) -> Option<Keyframe> {
-    let t = k.required_f64("t", "time in s", Range::ANY);
-    let position = k.optional("position", Vector3::zeros(), Node::vec3);
-    let rotation = k.optional("rotation_axis_angle_deg", Vector3::zeros(), Node::vec3);
+    let t = k.required_f64("t", "time in s", Range::TIME);
+    let position = k.optional("position", Vector3::zeros(), Node::position);
+    let rotation = k.optional("rotation_axis_angle_deg", Vector3::zeros(), |k, key| {
+        k.vec3_in(key, ROTATION_DEG)
+    });
     k.finish();
     Some(Keyframe {
         t: t?,

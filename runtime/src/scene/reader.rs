@@ -23,6 +23,17 @@ pub(super) enum Bound {
     Excl(f64),
 }
 
+/// The largest distance from the origin of any position a scene gives (roots, body
+/// placements, keyframes, motion centres and amplitudes), m: far beyond any hair or rod
+/// scene, and small enough that what a run computes from it stays finite in the
+/// float32 outputs.
+pub const MAX_EXTENT: f64 = 1e4;
+/// The largest time a scene gives (keyframes, motion starts and durations), s.
+pub const MAX_TIME: f64 = 1e6;
+/// The largest magnitude of any entry of a 3-vector of a scene (directions, curvatures),
+/// unless its field says less.
+pub const MAX_VECTOR_ENTRY: f64 = 1e6;
+
 /// The allowed values of a number (always finite).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Range {
@@ -37,6 +48,7 @@ impl Range {
         hi: Bound::Open,
     };
     /// `> 0`.
+    #[cfg(test)]
     pub const POSITIVE: Range = Range {
         lo: Bound::Excl(0.0),
         hi: Bound::Open,
@@ -45,6 +57,37 @@ impl Range {
     pub const NON_NEGATIVE: Range = Range {
         lo: Bound::Incl(0.0),
         hi: Bound::Open,
+    };
+
+    /// A coordinate of a position, m: within [`MAX_EXTENT`] of the origin.
+    pub const POSITION: Range = Range {
+        lo: Bound::Incl(-MAX_EXTENT),
+        hi: Bound::Incl(MAX_EXTENT),
+    };
+    /// A time, s: within [`MAX_TIME`] of 0.
+    pub const TIME: Range = Range {
+        lo: Bound::Incl(-MAX_TIME),
+        hi: Bound::Incl(MAX_TIME),
+    };
+    /// A time from the start, s.
+    pub const TIME_FROM_START: Range = Range {
+        lo: Bound::Incl(0.0),
+        hi: Bound::Incl(MAX_TIME),
+    };
+    /// A duration, s.
+    pub const DURATION: Range = Range {
+        lo: Bound::Excl(0.0),
+        hi: Bound::Incl(MAX_TIME),
+    };
+    /// An air drag coefficient, N·s/m² (a hair's is about 10⁻⁵).
+    pub const AIR_DRAG: Range = Range {
+        lo: Bound::Incl(0.0),
+        hi: Bound::Incl(100.0),
+    };
+    /// A length, m.
+    pub const LENGTH: Range = Range {
+        lo: Bound::Incl(0.0),
+        hi: Bound::Incl(MAX_EXTENT),
     };
 
     /// Between `lo` and `hi` with the given bounds.
@@ -251,7 +294,11 @@ impl<'a> Node<'a> {
             } else {
                 format!("{x}")
             };
-            self.error(key, format!("{range}, got {got}"));
+            if x.is_finite() {
+                self.error(key, format!("{range}, got {got}"));
+            } else {
+                self.error(key, format!("must be finite; {range}, got {got}"));
+            }
             None
         }
     }
@@ -376,9 +423,25 @@ impl<'a> Node<'a> {
         }
     }
 
-    /// A 3-vector of finite numbers.
+    /// A 3-vector of numbers within ±[`MAX_VECTOR_ENTRY`].
     pub fn vec3(&mut self, key: &'static str) -> Option<Vector3<f64>> {
-        self.fixed_list(key, 3, Range::ANY)
+        self.vec3_in(
+            key,
+            Range::new(
+                Bound::Incl(-MAX_VECTOR_ENTRY),
+                Bound::Incl(MAX_VECTOR_ENTRY),
+            ),
+        )
+    }
+
+    /// A position, m: 3 numbers within ±[`MAX_EXTENT`].
+    pub fn position(&mut self, key: &'static str) -> Option<Vector3<f64>> {
+        self.vec3_in(key, Range::POSITION)
+    }
+
+    /// A 3-vector of numbers in `range`.
+    pub fn vec3_in(&mut self, key: &'static str, range: Range) -> Option<Vector3<f64>> {
+        self.fixed_list(key, 3, range)
             .map(|v| Vector3::new(v[0], v[1], v[2]))
     }
 

@@ -107,12 +107,12 @@ pub(super) fn read_template(n: &mut Node<'_>, defaults: &StrandDefaults) -> Temp
     let internal_friction = n.optional_f64(
         "internal_friction",
         params.internal_friction,
-        Range::NON_NEGATIVE,
+        Range::new(Bound::Incl(0.0), Bound::Incl(100.0)),
     );
     let air_drag = n.optional_f64(
         "air_drag",
         defaults.air_drag.unwrap_or(params.air_drag),
-        Range::NON_NEGATIVE,
+        Range::AIR_DRAG,
     );
     let initial = read_initial(n, lengths.as_ref().map(|l| 3 * l.len()));
     let point_loads = read_point_loads(n, length);
@@ -250,13 +250,23 @@ fn read_cross_section(n: &mut Node<'_>, preset: &CrossSection) -> CrossSection {
             preset.ellipticity,
             Range::new(Bound::Incl(1.0), Bound::Open),
         ),
-        youngs_modulus: field("youngs_modulus", preset.youngs_modulus, Range::POSITIVE),
+        youngs_modulus: field(
+            "youngs_modulus",
+            preset.youngs_modulus,
+            // up to ten times diamond's
+            Range::new(Bound::Excl(0.0), Bound::Incl(1e13)),
+        ),
         poisson: field(
             "poisson",
             preset.poisson,
             Range::new(Bound::Excl(-1.0), Bound::Incl(0.5)),
         ),
-        density: field("density", preset.density, Range::POSITIVE),
+        density: field(
+            "density",
+            preset.density,
+            // up to several times the densest metal's
+            Range::new(Bound::Excl(0.0), Bound::Incl(1e5)),
+        ),
         shear_factor,
     }
 }
@@ -362,7 +372,8 @@ fn read_natural(
         n.choice(k, &forms, parse_helix_form)
     });
     let natural_given = n.has("natural");
-    let natural = n.vec3("natural");
+    // its range is checked below, with its unit
+    let natural = n.vec3_in("natural", Range::ANY);
     let profile_given = n.has("natural_profile");
     let profile = read_profile(n, length);
     if natural_given && profile_given {
