@@ -201,7 +201,6 @@ fn out_pointing_at_a_file_is_refused_before_simulating() {
         "long.toml",
         "[simulation]\nduration = 1000.0\n[[strands]]\nlength = 0.3\n",
     );
-    let started = std::time::Instant::now();
     let out = superhelix(&["run", &scene, "--out", &s(&file)]);
     assert_eq!(out.status.code(), Some(1));
     assert_eq!(
@@ -211,8 +210,12 @@ fn out_pointing_at_a_file_is_refused_before_simulating() {
             file.display()
         )
     );
+    // refused before the first step: no step count printed, the file left as it was
     assert!(!stdout(&out).contains("steps x"), "{}", stdout(&out));
-    assert!(started.elapsed().as_secs() < 60);
+    assert_eq!(
+        std::fs::read_to_string(&file).unwrap_or_default(),
+        "not a directory"
+    );
 }
 
 /// A run that diverges after it started keeps every frame written before, names the
@@ -281,7 +284,7 @@ fn sigint_stops_the_run_and_keeps_every_frame_written() {
         .spawn()
         .unwrap_or_else(|e| panic!("cannot start superhelix: {e}"));
     let partial = out_dir.join("frames.json.partial");
-    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
+    // no deadline: if no frame ever came, the run would end on its own and fail below
     loop {
         let frames = std::fs::read(&partial)
             .ok()
@@ -293,10 +296,6 @@ fn sigint_stops_the_run_and_keeps_every_frame_written() {
         if let Ok(Some(status)) = child.try_wait() {
             panic!("the run ended before it could be interrupted: {status}");
         }
-        assert!(
-            std::time::Instant::now() < deadline,
-            "no frames after 120 s"
-        );
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
     let pid = child.id() as libc::pid_t;
@@ -616,4 +615,92 @@ fn frames_land_on_the_requested_times() {
     );
     let out = superhelix(&["validate", &bad]);
     assert!(stderr(&out).contains("output.times"), "{}", stderr(&out));
+}
+
+/// A full disk (here: a process file-size limit, whose writes then fail with "File too
+/// large" as on a full disk) stops the run with an error naming the file; the frames
+/// written stay readable, and no temporary file is left behind.
+#[cfg(unix)]
+#[test]
+fn a_full_disk_stops_the_run_naming_the_file_and_keeps_what_was_written() {
+    let dir = scratch("disk-full");
+    // 100 strands of 41 points: about 49 kB a frame, 31 frames
+    let scene = write(
+        &dir,
+        "scene.toml",
+        "[simulation]\nduration = 1.0\noutput_fps = 30\n[output]\nformats = [\"npy\"]\n\
+         samples_per_element = 4\n[[patches]]\nname = \"p\"\ncount = [10, 10]\nsize = [0.05, 0.05]\n\
+         length = 0.1\nelements = 10\n",
+    );
+    let (out, out_dir) = run_with_file_limit(&scene, &dir.join("out"), 400_000);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}\n{}", stdout(&out));
+    assert!(
+        err.contains("frames.npy") && err.contains("File too large"),
+        "{err}"
+    );
+    let store = NpyFrameStore::open(&out_dir.join("frames.npy")).expect("frames.npy readable");
+    let kept = store.frame_count();
+    assert!((1..31).contains(&kept), "{kept} frames kept");
+    assert_eq!(stray_temporaries(&out_dir), Vec::<String>::new());
+    // one strand: its frames fit, its picture does not
+    let one = write(
+        &dir,
+        "one.toml",
+        "[simulation]\nduration = 1.0\noutput_fps = 30\n[output]\nformats = [\"npy\", \"png\"]\n\
+         [[strands]]\nlength = 0.1\nelements = 10\n",
+    );
+    let (out, out_dir) = run_with_file_limit(&one, &dir.join("one"), 40_000);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}\n{}", stdout(&out));
+    assert!(
+        err.contains("preview") && err.contains("File too large"),
+        "{err}"
+    );
+    let store = NpyFrameStore::open(&out_dir.join("frames.npy")).expect("frames.npy readable");
+    assert_eq!(store.frame_count(), 31);
+    assert_eq!(stray_temporaries(&out_dir), Vec::<String>::new());
+}
+
+/// `superhelix run SCENE --out OUT` with every file it writes limited to `limit` bytes
+/// (writes beyond fail with EFBIG, not a signal).
+#[cfg(unix)]
+fn run_with_file_limit(
+    scene: &str,
+    out: &Path,
+    limit: u64,
+) -> (std::process::Output, std::path::PathBuf) {
+    use std::os::unix::process::CommandExt;
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_superhelix"));
+    cmd.args(["run", scene, "--out", &s(out)]);
+    // SAFETY: between fork and exec only async-signal-safe calls (signal, setrlimit)
+    unsafe {
+        cmd.pre_exec(move || {
+            libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+            let r = libc::rlimit {
+                rlim_cur: limit,
+                rlim_max: limit,
+            };
+            if libc::setrlimit(libc::RLIMIT_FSIZE, &r) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let output = cmd
+        .output()
+        .unwrap_or_else(|e| panic!("cannot start superhelix: {e}"));
+    (output, out.to_path_buf())
+}
+
+/// The `*.tmp` files in `dir`.
+fn stray_temporaries(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .map(|d| {
+            d.flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| n.ends_with(".tmp"))
+                .collect()
+        })
+        .unwrap_or_default()
 }

@@ -22,19 +22,35 @@ pub fn temporary_path(path: &Path) -> PathBuf {
     path.with_file_name(name)
 }
 
-/// Write `bytes` to `path` through its temporary file and a rename.
+/// Write `bytes` to `path` through its temporary file and a rename. On failure (a full
+/// disk) the temporary file is removed: nothing is left but what was there before.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
     let tmp = temporary_path(path);
-    std::fs::write(&tmp, bytes).map_err(|e| io_error(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| io_error(path, e))
+    let result = std::fs::write(&tmp, bytes)
+        .map_err(|e| io_error(&tmp, e))
+        .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| io_error(path, e)));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
 }
 
 /// A file being streamed to the temporary file of `path`; [`AtomicFile::commit`] renames
-/// it over `path`.
+/// it over `path`. Dropped uncommitted (an error while writing), it removes the
+/// temporary file.
 #[derive(Debug)]
 pub struct AtomicFile {
     tmp: PathBuf,
     path: PathBuf,
+    committed: bool,
+}
+
+impl Drop for AtomicFile {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
 }
 
 impl AtomicFile {
@@ -45,6 +61,7 @@ impl AtomicFile {
         let file_ref = AtomicFile {
             tmp,
             path: path.to_path_buf(),
+            committed: false,
         };
         Ok((file_ref, BufWriter::new(file)))
     }
@@ -55,9 +72,36 @@ impl AtomicFile {
     }
 
     /// Flush `writer` and rename the temporary file over the target.
-    pub fn commit(self, mut writer: BufWriter<File>) -> Result<()> {
+    pub fn commit(mut self, mut writer: BufWriter<File>) -> Result<()> {
         writer.flush().map_err(|e| self.error(e))?;
         drop(writer);
-        std::fs::rename(&self.tmp, &self.path).map_err(|e| io_error(&self.path, e))
+        std::fs::rename(&self.tmp, &self.path).map_err(|e| io_error(&self.path, e))?;
+        self.committed = true;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_failed_write_leaves_no_temporary_file() {
+        let dir = std::env::temp_dir().join(format!("superhelix-atomic-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        // a directory in the way of the rename: the write succeeds, the rename fails
+        let target = dir.join("preview.png");
+        std::fs::create_dir_all(target.join("inside")).expect("dir");
+        assert!(write_atomically(&target, b"png").is_err());
+        assert!(!temporary_path(&target).exists());
+        // streamed, dropped before its commit
+        let other = dir.join("usd");
+        let (file, mut writer) = AtomicFile::create(&other).expect("create");
+        writer.write_all(b"abc").expect("write");
+        drop(writer);
+        drop(file);
+        assert!(!temporary_path(&other).exists());
+        assert!(!other.exists());
+        std::fs::remove_dir_all(&dir).ok();
     }
 }
