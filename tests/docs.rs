@@ -216,3 +216,14 @@ fn the_checker_finds_an_unclosed_fence_a_missing_file_and_a_missing_heading() {
     assert!(found[1].contains("#nowhere: no such heading"), "{found:?}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The scene of the README's "Your first scene" is valid and builds.
+#[test]
+fn the_readme_first_scene_is_valid() {
+    let readme = std::fs::read_to_string(root().join("README.md")).expect("README.md");
+    let at = readme.find("## Your first scene").expect("section");
+    let start = readme[at..].find("```toml").expect("a toml block") + at + "```toml".len();
+    let end = readme[start..].find("```").expect("closed") + start;
+    let setup = superhelix::runtime::parse_scene(&readme[start..end]).expect("valid");
+    superhelix::runtime::Simulation::new(setup, None).expect("builds");
+}
