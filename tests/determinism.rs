@@ -1,0 +1,160 @@
+//! The same bits on any thread count: every scene kind (contacts with Coulomb friction,
+//! hair–hair contact with friction, static electricity through the multipole method,
+//! render strands; the embedded and the runtime engine) run by `superhelix run` with
+//! `RAYON_NUM_THREADS=1` and `=2` writes byte-identical files (docs/output.md,
+//! "Determinism").
+
+mod support;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use support::{scratch, write};
+
+/// A patch of 4 × 4 strands on a head rocking about y, next to a ball.
+const HAIR: &str = r#"
+[simulation]
+duration = 0.5
+engine = "ENGINE"
+[head]
+motion = { kind = "oscillate", axis = [0.0, 1.0, 0.0], angle_deg = 30.0, frequency_hz = 1.5 }
+[[bodies]]
+name = "ball"
+shape = "sphere"
+center = [0.06, 0.0, -0.1]
+radius = 0.04
+CONTACTS
+[[patches]]
+name = "p"
+count = [4, 4]
+size = [0.03, 0.03]
+length = 0.2
+elements = 6
+preset = "wavy"
+"#;
+
+const CONTACTS: &str = r#"
+[contacts]
+friction = "coulomb"
+friction_coefficient = 0.3
+[contacts.hair_hair]
+radius = 0.002
+friction = "coulomb"
+friction_coefficient = 0.2
+"#;
+
+/// 20 charged strands: enough particles (8000) for the multipole method.
+const CHARGED: &str = r#"
+[simulation]
+duration = 0.2
+[electrostatics]
+method = "fmm"
+particle_density = 2000
+charge_per_length = -1e-9
+[[patches]]
+name = "tress"
+count = [5, 4]
+size = [0.01, 0.008]
+length = 0.2
+elements = 5
+preset = "curly"
+"#;
+
+/// `superhelix run scene --out dir --format formats` on `threads` worker threads.
+fn run(scene: &str, out: &Path, formats: &str, threads: usize) {
+    let o = Command::new(env!("CARGO_BIN_EXE_superhelix"))
+        .args(["run", scene, "--out"])
+        .arg(out)
+        .args(["--format", formats])
+        .env("RAYON_NUM_THREADS", threads.to_string())
+        .output()
+        .unwrap_or_else(|e| panic!("cannot start superhelix: {e}"));
+    assert!(
+        o.status.success(),
+        "{scene} on {threads} threads:\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// The files of `dir` that a run writes its results to (not the pictures: their
+/// encoder's bytes are not the simulation's).
+fn results(dir: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map(|d| d.flatten().map(|e| e.path()).collect())
+        .unwrap_or_default();
+    files.retain(|p| {
+        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        name.starts_with("frames") || name.ends_with(".usda") || name.ends_with(".obj")
+    });
+    files.sort();
+    files
+}
+
+/// Run `scene` on 1 and on 2 threads and compare every result file byte for byte;
+/// returns the folder of the run on one thread.
+fn same_bits(name: &str, scene: &str, formats: &str) -> PathBuf {
+    let dir = scratch(&format!("determinism-{name}"));
+    let path = write(&dir, "scene.toml", scene);
+    let path = path.to_string_lossy();
+    let (one, two) = (dir.join("one"), dir.join("two"));
+    run(&path, &one, formats, 1);
+    run(&path, &two, formats, 2);
+    let files = results(&one);
+    assert!(files.len() >= 2, "{name}: {files:?}");
+    for f in files {
+        let file = f.file_name().unwrap_or_default();
+        let a = std::fs::read(&f).unwrap_or_default();
+        let b = std::fs::read(two.join(file)).unwrap_or_default();
+        assert!(!a.is_empty(), "{name}: {} is empty", f.display());
+        assert!(
+            a == b,
+            "{name}: {} differs between 1 and 2 threads",
+            file.to_string_lossy()
+        );
+    }
+    one
+}
+
+#[test]
+fn contacts_and_hair_hair_give_the_same_bits_on_one_and_two_threads() {
+    let scene = HAIR
+        .replace("ENGINE", "runtime")
+        .replace("CONTACTS", CONTACTS);
+    same_bits("contacts", &scene, "json,npy,usda,obj");
+}
+
+#[test]
+fn both_engines_give_the_same_bits_on_one_and_two_threads_and_as_each_other() {
+    let runs: Vec<PathBuf> = ["embedded", "runtime"]
+        .iter()
+        .map(|engine| {
+            let scene = HAIR.replace("ENGINE", engine).replace("CONTACTS", "");
+            same_bits(engine, &scene, "json,npy")
+        })
+        .collect();
+    // the embedded step is the runtime's, with the same elementary functions
+    let frames = |dir: &Path| std::fs::read(dir.join("frames.npy")).unwrap_or_default();
+    assert!(
+        frames(&runs[0]) == frames(&runs[1]),
+        "the embedded and the runtime engine differ"
+    );
+}
+
+#[test]
+fn static_electricity_gives_the_same_bits_on_one_and_two_threads() {
+    same_bits("charged", CHARGED, "json,npy");
+}
+
+#[test]
+fn render_strands_give_the_same_bits_on_one_and_two_threads() {
+    let scene = std::fs::read_to_string(format!(
+        "{}/scenes/render-nape.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .expect("scenes/render-nape.toml");
+    // the scene names its mesh relative to scenes/: run it from there
+    let scene = scene.replace(
+        "\"data/",
+        &format!("\"{}/scenes/data/", env!("CARGO_MANIFEST_DIR")),
+    );
+    same_bits("render", &scene, "npy,usda");
+}
