@@ -72,6 +72,9 @@ pub struct TressCase {
     pub box_volume: f64,
     /// Mean |E| over the particles, V/m (0 uncharged).
     pub mean_field: f64,
+    /// The same mean by the direct sum over every pair, V/m (a reference; `None` without
+    /// charges, with a charged scalp, or beyond 20,000 particles).
+    pub mean_field_direct: Option<f64>,
     /// Largest force on a particle, N.
     pub max_force: f64,
     /// Outer iterations of the charged solve, per charging step.
@@ -206,6 +209,10 @@ fn run_case(
     let (mean_field, max_force) = sim
         .electrostatics()
         .map_or((0.0, 0.0), |e| (e.last().mean_field, e.last().max_force));
+    let mean_field_direct = sim
+        .electrostatics()
+        .filter(|e| e.last().particles <= 20_000)
+        .and_then(|e| e.direct_mean_field());
     let mut tips = Vec::new();
     let (mut tip_r, mut depth, mut rms, mut count) = (0.0, 0.0, 0.0, 0usize);
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
@@ -234,6 +241,7 @@ fn run_case(
         tip_depth: depth / n,
         box_volume: (0..3).map(|a| (hi[a] - lo[a]).max(0.0)).product(),
         mean_field,
+        mean_field_direct,
         max_force,
         iterations,
         residual,

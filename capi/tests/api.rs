@@ -700,31 +700,50 @@ fn ranges_stepped_from_threads_equal_the_whole_batch_step() {
     let mut workspaces = [workspace(5), workspace(5)];
     for _ in 0..10 {
         assert_eq!(step(&whole, 1.0 / 30.0), ShStatus::Ok);
+        let mut whole_report = junk_report();
+        // SAFETY: live batch, valid report.
+        assert_eq!(
+            unsafe { sh_batch_last_step(whole.0, &mut whole_report) },
+            ShStatus::Ok
+        );
         let shared = Shared(split.0);
-        std::thread::scope(|scope| {
-            for (k, ws) in workspaces.iter_mut().enumerate() {
-                scope.spawn(move || {
-                    let (shared, ws) = (shared, ws);
-                    let mut report = junk_report();
-                    // SAFETY: disjoint ranges (0..3, 3..6), one workspace each.
-                    let s = unsafe {
-                        sh_batch_step_range(
-                            shared.0,
-                            3 * k,
-                            3,
-                            ws.0,
-                            1.0 / 30.0,
-                            &mut report,
-                            null_mut(),
-                        )
-                    };
-                    assert_eq!(s, ShStatus::Ok);
-                    assert_eq!((report.stepped, report.failed), (3, 0));
-                    assert_eq!(report.first_failed, usize::MAX);
-                    assert!(report.max_element_rotation >= 0.0);
-                });
-            }
+        let rotations: Vec<f64> = std::thread::scope(|scope| {
+            let handles: Vec<_> = workspaces
+                .iter_mut()
+                .enumerate()
+                .map(|(k, ws)| {
+                    scope.spawn(move || {
+                        let (shared, ws) = (shared, ws);
+                        let mut report = junk_report();
+                        // SAFETY: disjoint ranges (0..3, 3..6), one workspace each.
+                        let s = unsafe {
+                            sh_batch_step_range(
+                                shared.0,
+                                3 * k,
+                                3,
+                                ws.0,
+                                1.0 / 30.0,
+                                &mut report,
+                                null_mut(),
+                            )
+                        };
+                        assert_eq!(s, ShStatus::Ok);
+                        assert_eq!((report.stepped, report.failed), (3, 0));
+                        assert_eq!(report.first_failed, usize::MAX);
+                        report.max_element_rotation
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().expect("range step"))
+                .collect()
         });
+        // the two ranges report the whole batch's largest rotation between them (the
+        // strands fall under gravity: it is not zero)
+        let largest = rotations.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        assert!(whole_report.max_element_rotation > 0.0);
+        assert_eq!(largest, whole_report.max_element_rotation, "{rotations:?}");
     }
     for i in 0..6 {
         assert_eq!(state(&whole, i), state(&split, i), "strand {i}");

@@ -424,7 +424,15 @@ stage.GetRootLayer().Save()
             assert!((curves[1].points[1] - Vector3::new(0.1, 0.0, -0.05)).norm() < 1e-9);
             println!("read the curves of a stage written by pxr");
         }
-        _ => println!("python3 with pxr (usd-core) is not available: pxr's file not tested"),
+        _ => {
+            let why = "python3 with pxr (usd-core) is not available: pxr's file not tested";
+            // CI has the tool (.ci/run installs usd-core): a skip there is a failure
+            assert!(
+                std::env::var_os("SUPERHELIX_REQUIRE_TOOLS").is_none(),
+                "{why}"
+            );
+            println!("skipped: {why}");
+        }
     }
 }
 
@@ -499,10 +507,12 @@ sag_free = {sag_free}
         "largest motion of a centreline point in the first second: sag-free {:.3e} m, without {:.3e} m; with contacts {:.3e} m, without sag-free {:.3e} m",
         held, sagging, held_contacts, sagging_contacts
     );
-    assert!(held < 1e-3, "sag-free groom moved {held} m");
+    // measured 5.4e-17 m and 4.2e-17 m: round-off on coordinates of a few decimetres
+    // (ε · 0.3 m ≈ 7e-17); the bound is a hundred times that
+    assert!(held < 1e-14, "sag-free groom moved {held} m");
     assert!(sagging > 1e-2, "the control sagged only {sagging} m");
     assert!(
-        held_contacts < 1e-3,
+        held_contacts < 1e-14,
         "sag-free groom with contacts moved {held_contacts} m"
     );
     assert!(
@@ -632,7 +642,8 @@ fn the_example_groom_scenes_are_valid() {
             .collect();
         let moved = max_motion(setup_in(&still, &dir), 30);
         println!("{name}, head still: the largest motion in 1 s is {moved:.2e} m");
-        assert!(moved < 1e-3);
+        // measured 8.5e-17 and 5.0e-17 m: round-off (see above)
+        assert!(moved < 1e-14, "{name}: {moved} m");
     }
 }
 

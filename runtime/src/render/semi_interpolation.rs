@@ -382,7 +382,7 @@ pub const PORTABLE_SIMD_VARIABLE: &str = "SUPERHELIX_PORTABLE_SIMD";
 
 /// Whether the CPU has AVX2 and [`PORTABLE_SIMD_VARIABLE`] is not set (the render strands
 /// then use the AVX2 copies below); asked once.
-fn has_avx2() -> bool {
+pub(crate) fn has_avx2() -> bool {
     static AVX2: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     *AVX2.get_or_init(|| {
         #[cfg(target_arch = "x86_64")]

@@ -282,6 +282,30 @@ impl Electrostatics {
                 .sum::<f64>()
     }
 
+    /// The charges of every particle from the last update, C (in the order of
+    /// [`Self::particles`]).
+    pub fn charges(&self) -> &[f64] {
+        &self.charges
+    }
+
+    /// The mean |E| over the particles of the last update by the direct sum over every
+    /// pair (with the same softening), V/m: a reference for [`FieldSummary::mean_field`]
+    /// of the multipole method. `None` with a charged scalp (its field is not summed).
+    pub fn direct_mean_field(&self) -> Option<f64> {
+        if self.config.scalp.is_some() || self.points.is_empty() {
+            return None;
+        }
+        let softening = Softening {
+            radius: self.config.softening,
+        };
+        let (_, field) = direct_sum(&self.points, &self.charges, softening);
+        let sum: f64 = field
+            .iter()
+            .map(|e| (Vector3::from(*e) * COULOMB_CONSTANT).norm())
+            .sum();
+        Some(sum / field.len() as f64)
+    }
+
     /// Positions (world, m) and forces (N) of every particle from the last update.
     pub fn particles(&self) -> (&[[f64; 3]], &[Vector3<f64>]) {
         (&self.points, &self.forces)
