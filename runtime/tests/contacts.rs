@@ -698,3 +698,175 @@ initial = "straight"
         "deepest {deepest:.6e} m, expected {nearest:.6e} m"
     );
 }
+
+/// The contact forces a step applies are minus the gradient of the contact energy the
+/// balance counts: the body's normal penalty and its sticking Coulomb springs (on a plane:
+/// a constant normal), the hair–hair penalty of partner points of other strands, and a
+/// pair of two parts of the strand itself (self-contact, stepped on both parts). Central
+/// differences of `energy` along three directions against `Fᵀ d`.
+#[test]
+fn contact_forces_are_minus_the_gradient_of_the_contact_energy() {
+    use nalgebra::{Matrix3, Vector3};
+    use std::sync::Arc;
+    use superhelix_kernels::head::HeadState;
+    use superhelix_runtime::bodies::shape_plane::Plane;
+    use superhelix_runtime::bodies::{Attachment, Body, Placement, Shape};
+    use superhelix_runtime::forces::contacts::{
+        ContactConfig, ContactParams, Friction, HairHairConfig, HairHairParams, PartnerPoint,
+        StrandContacts,
+    };
+    use superhelix_runtime::kernels::closed_form::ClosedForm;
+    use superhelix_runtime::kernels::kernel::{StrandKernel, StrandTerms, Terms};
+    use superhelix_runtime::kernels::moments::kernel::MomentKernel;
+    use superhelix_runtime::model::material::Material;
+    use superhelix_runtime::model::strand::StrandGeometry;
+
+    let n = 4;
+    let material = Material {
+        mass_per_length: 1e-5,
+        stiffness: [1e-9, 1.3e-9, 1.3e-9],
+        rotary_inertia: [1e-15, 5e-16, 5e-16],
+    };
+    let geom = StrandGeometry::new(
+        Vector3::zeros(),
+        Matrix3::identity(),
+        vec![0.025; n],
+        &material,
+    );
+    let q: Vec<f64> = (0..3 * n).map(|i| 8.0 * ((i as f64) * 0.9).sin()).collect();
+    let mut kernel = MomentKernel::new(geom.clone(), ClosedForm);
+    let mut jac = vec![Vector3::zeros(); 3 * n];
+    // a plane under the lowest contact sample, 0.4 mm into the contact radius of 1 mm
+    let probe = |contacts: &mut StrandContacts| {
+        contacts.sample_poses(&geom, &q);
+        contacts
+            .sample_positions()
+            .map(|y| y.z)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let config = ContactConfig {
+        radius: 1e-3,
+        stiffness: Some(1e3),
+        friction: Friction::Coulomb {
+            static_coefficient: 10.0,
+            kinetic_coefficient: 10.0,
+            stiffness_ratio: 1.0,
+        },
+        hair_hair: Some(HairHairConfig::default()),
+        ..ContactConfig::default()
+    };
+    let rho_s = material.mass_per_length;
+    let hair = HairHairParams::new(config.hair_hair.as_ref().expect("set"), rho_s);
+    let make = |bodies: Vec<Body>| {
+        StrandContacts::new(
+            &geom,
+            Arc::<[Body]>::from(bodies),
+            ContactParams::new(&config, rho_s),
+            Some(hair),
+            8,
+        )
+    };
+    let lowest = probe(&mut make(Vec::new()));
+    let plane = Body {
+        name: "floor".into(),
+        attached: Attachment::Head,
+        shape: Shape::Plane(Plane {
+            point: Vector3::new(0.0, 0.0, lowest + 6e-4),
+            normal: Vector3::z(),
+        }),
+    };
+    let at = Placement::new(HeadState::rest(), 0.0);
+    // Coulomb anchors set where the samples were at a nearby state: the springs are
+    // stretched (and stick: μ = 10) at q
+    let q_anchor: Vec<f64> = q
+        .iter()
+        .enumerate()
+        .map(|(i, x)| x + 2e-3 * ((i as f64) * 2.1).cos())
+        .collect();
+    // partner points: three of other strands 0.3 reach off the strand, and one pair of
+    // two parts of the strand itself, 0.8 of its reach apart
+    let reach = 2.0 * hair.radius;
+    let mut partners: Vec<PartnerPoint> = [0.02, 0.05, 0.09]
+        .iter()
+        .enumerate()
+        .map(|(k, &s)| {
+            let y = kernel.point(&q, s, &mut jac, None);
+            let off = Vector3::new(0.3, -0.5 + 0.2 * k as f64, 0.8).normalize();
+            PartnerPoint {
+                s,
+                weight: 0.01,
+                point: y + off * (0.3 * reach),
+                velocity: Vector3::zeros(),
+                reach,
+                anchor: None,
+                partner_s: None,
+            }
+        })
+        .collect();
+    let (s_a, s_b) = (0.03, 0.075);
+    let gap =
+        (kernel.point(&q, s_a, &mut jac, None) - kernel.point(&q, s_b, &mut jac, None)).norm();
+    partners.push(PartnerPoint {
+        s: s_a,
+        weight: 0.01,
+        point: Vector3::zeros(),
+        velocity: Vector3::zeros(),
+        reach: gap / 0.8,
+        anchor: None,
+        partner_s: Some(s_b),
+    });
+    let self_pair = partners.pop().expect("the self pair");
+    // each kind alone, so that none hides behind another
+    let cases: [(&str, Vec<Body>, Vec<PartnerPoint>, (usize, usize)); 3] = [
+        ("plane", vec![plane], Vec::new(), (2, 0)),
+        ("other strands", Vec::new(), partners, (0, 3)),
+        ("self-contact", Vec::new(), vec![self_pair], (0, 1)),
+    ];
+    let zero = vec![0.0; 3 * n];
+    for (name, bodies, partners, (least_bodies, hairs)) in cases {
+        let mut contacts = make(bodies);
+        contacts.start(&at, &geom, &q_anchor);
+        contacts.set_partners(partners);
+        let mut out = StrandTerms::new(3 * n);
+        let terms = Terms {
+            force: true,
+            ..Default::default()
+        };
+        contacts.add_to_terms(
+            &at,
+            &mut kernel,
+            &q,
+            &zero,
+            terms,
+            false,
+            &mut jac,
+            &mut out,
+        );
+        let summary = contacts.summary();
+        assert!(summary.body_contacts >= least_bodies, "{name}: {summary:?}");
+        assert_eq!(summary.hair_contacts, hairs, "{name}: {summary:?}");
+        let force = out.force.clone();
+        // central differences: truncation ~eps² (1e-8 relative here), round-off ~1e-16 E /
+        // eps; measured within 1e-8 of Fᵀd in every case
+        let eps = 1e-4;
+        for k in 0..3 {
+            let d: Vec<f64> = (0..3 * n)
+                .map(|i| ((i * 7 + k * 3) as f64 * 0.77).sin())
+                .collect();
+            let at_q = |t: f64| -> Vec<f64> { q.iter().zip(&d).map(|(x, y)| x + t * y).collect() };
+            let e = |contacts: &mut StrandContacts, t: f64| contacts.energy(&at, &geom, &at_q(t)).0;
+            let slope = (e(&mut contacts, eps) - e(&mut contacts, -eps)) / (2.0 * eps);
+            let work: f64 = force.iter().zip(&d).map(|(f, x)| f * x).sum();
+            println!(
+                "{name}, direction {k}: −dE/dt {:.10e}, Fᵀd {work:.10e}",
+                -slope
+            );
+            assert!(work.abs() > 1e-12, "{name}: the contacts do work along d");
+            assert!(
+                (work + slope).abs() <= 1e-6 * work.abs(),
+                "{name}, direction {k}: Fᵀd {work:e} against −dE {:e}",
+                -slope
+            );
+        }
+    }
+}
