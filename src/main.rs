@@ -50,6 +50,13 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // a closed standard output (`superhelix validate scene.toml | head -1`) ends the
+    // command quietly, as it ends any Unix tool, instead of a panic of `println!`
+    #[cfg(unix)]
+    // SAFETY: restoring the default action of one signal before any thread starts
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let result = match Cli::parse().command {
         Command::Run(args) => cli::run::run(args),
         Command::Validate(args) => cli::validate::run(args),

@@ -607,3 +607,27 @@ fn run_takes_a_tolerance_and_reports_its_steps() {
         text(&out)
     );
 }
+
+/// Output piped into a reader that stops reading (`| head -1`): the command ends by
+/// SIGPIPE as any Unix tool does, without a panic.
+#[cfg(unix)]
+#[test]
+fn a_closed_standard_output_ends_the_command_without_a_panic() {
+    use std::os::unix::process::ExitStatusExt;
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_superhelix"))
+        .args(["stress", "--quick"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot start superhelix: {e}"));
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("wait");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(
+        out.status.signal(),
+        Some(libc::SIGPIPE),
+        "{:?}: {err}",
+        out.status
+    );
+}

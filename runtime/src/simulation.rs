@@ -1281,7 +1281,25 @@ impl Simulation {
                     .iter()
                     .flat_map(|s| s.state.q.iter().copied())
                     .collect();
-                report.strands = self.solve_static_strands()?;
+                // a strand whose static solve fails under the charge: name what to change
+                report.strands = self.solve_static_strands().map_err(|e| match e {
+                    Error::Diverged {
+                        strand,
+                        index,
+                        time,
+                        cause,
+                    } => Error::Diverged {
+                        strand,
+                        index,
+                        time,
+                        cause: format!(
+                            "{cause}, at {:.0} % of the charge: the Coulomb forces of electrostatics.charge_per_length ({:e} C/m on it) overcome the strand's stiffness; lower the charge, raise charging_steps, or run mode = \"dynamic\"",
+                            100.0 * fraction,
+                            c.charge_per_length.get(index).copied().unwrap_or(0.0)
+                        ),
+                    },
+                    other => other,
+                })?;
                 let g: Vec<f64> = self
                     .strands
                     .iter()

@@ -299,3 +299,26 @@ fn charged_scalp_repels_and_stays_bounded() {
         "tips {charged} m from the centre charged, {plain} m uncharged"
     );
 }
+
+/// A tress of 30 fibres (radius 50 µm) at the largest charge `validate` allows (just
+/// under air's breakdown at their surface, 2π r ε₀ E_b = 8.3e-9 C/m) has a charged static
+/// equilibrium: what `validate` accepts, `run` solves.
+#[test]
+fn the_largest_allowed_charge_has_a_static_equilibrium() {
+    let text = "[simulation]\nmode = \"static\"\n[electrostatics]\ncharge_per_length = 8.3e-9\nmax_iterations = 200\n\
+                [[tresses]]\nname = \"t\"\ncount = 30\nsemi_axes = [0.005, 0.003]\nlength = 0.2\nelements = 5\n";
+    let mut s = sim(text);
+    let report = s.solve_charged_static().expect("charged static");
+    let last = report.stages.last().expect("stage");
+    assert!(last.converged, "{last:?}");
+    // just beyond, refused before any solve
+    let over = text.replace("8.3e-9", "8.4e-9");
+    let errors = superhelix_runtime::validate_scene(&over);
+    assert!(
+        errors
+            .iter()
+            .any(|e| e.field == "electrostatics.charge_per_length"
+                && e.message.contains("breakdown")),
+        "{errors:?}"
+    );
+}

@@ -13,6 +13,11 @@ use crate::scene::strands::MAX_CHARGE_RANGE;
 /// Most tracer particles of a scene.
 pub const MAX_PARTICLES: usize = 50_000_000;
 
+/// ε₀, F/m.
+const VACUUM_PERMITTIVITY: f64 = 8.8541878128e-12;
+/// The field at which air breaks down (dry air at sea level), V/m.
+pub const AIR_BREAKDOWN_FIELD: f64 = 3e6;
+
 /// Read `[electrostatics]` for `strands`; strands with their own `charge_per_length`
 /// keep it.
 pub(super) fn read_electrostatics(
@@ -112,6 +117,30 @@ pub(super) fn read_electrostatics(
             "particle_density",
             format!("{particles:.0} particles in all, more than the cap of {MAX_PARTICLES}"),
         );
+    }
+    // a fibre holds no more charge than air lets it: beyond 2π r ε₀ E_b the field at its
+    // surface passes air's breakdown field and the air conducts (corona)
+    {
+        let l = lambda;
+        let over = strands.iter().find_map(|s| {
+            let q = s.charge_per_length.unwrap_or(l);
+            let r = crate::output::driver::display_radius(&s.strand.material);
+            let max = 2.0 * std::f64::consts::PI * r * VACUUM_PERMITTIVITY * AIR_BREAKDOWN_FIELD;
+            (q.abs() > max).then(|| (s, q, r, max))
+        });
+        if let Some((s, q, r, max)) = over {
+            let own = if s.charge_per_length.is_some() {
+                format!(" (strand '{}''s own)", s.strand.name)
+            } else {
+                String::new()
+            };
+            n.error(
+                "charge_per_length",
+                format!(
+                    "{q:e} C/m{own}: a fibre of radius {r:.3e} m holds at most {max:.3e} C/m (2π r ε₀ E_b: beyond, the field at its surface passes air's breakdown field of 3 MV/m)"
+                ),
+            );
+        }
     }
     let config = ElectrostaticsConfig {
         particle_density: density,

@@ -184,6 +184,8 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("[environment]\nrelative_humidity = nan\n[[strands]]\nlength = 0.3", "environment.relative_humidity", "must be in [0, 100], got NaN"),
     ("[electrostatics]\nparticle_density = 0\n[[strands]]\nlength = 0.3", "electrostatics.particle_density", "must be in (0, 100000]"),
     ("[electrostatics]\ncharge_per_length = 1.0\n[[strands]]\nlength = 0.3", "electrostatics.charge_per_length", "must be in [-0.001, 0.001]"),
+    ("[electrostatics]\ncharge_per_length = 1e-6\n[[strands]]\nlength = 0.3", "electrostatics.charge_per_length", "air's breakdown field"),
+    ("[electrostatics]\n[[strands]]\nlength = 0.3\ncharge_per_length = -2e-8", "electrostatics.charge_per_length", "strand 'strand0''s own"),
     ("[electrostatics]\naccuracy = 0.5\n[[strands]]\nlength = 0.3", "electrostatics.accuracy", "must be in"),
     ("[electrostatics]\nmethod = \"tree\"\n[[strands]]\nlength = 0.3", "electrostatics.method", "auto, fmm, direct"),
     ("[electrostatics]\ncharging_steps = 0\n[[strands]]\nlength = 0.3", "electrostatics.charging_steps", ">= 1"),
