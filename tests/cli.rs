@@ -631,3 +631,36 @@ fn a_closed_standard_output_ends_the_command_without_a_panic() {
         out.status
     );
 }
+
+/// A scene that would not fit in memory (150,000 strands of N = 200 on the runtime
+/// engine: terabytes) is refused by `validate` and by `run` on the estimate, naming it
+/// and the machine's available memory, before anything is allocated for its strands.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_scene_beyond_the_machines_memory_is_refused_on_its_estimate() {
+    let dir = scratch("memory");
+    let scene = write(
+        &dir,
+        "big.toml",
+        "[[tresses]]\nname = \"t\"\ncount = 150000\nsemi_axes = [0.05, 0.03]\nlength = 0.2\nelements = 200\n",
+    );
+    for command in ["validate", "run"] {
+        let (scene, out_dir) = (scene.to_string_lossy(), dir.join("out"));
+        let out_dir = out_dir.to_string_lossy();
+        // run: past the output plan's limit, so that the memory is what refuses it
+        let args: Vec<&str> = if command == "run" {
+            vec![command, &scene, "--out", &out_dir, "--allow-large-output"]
+        } else {
+            vec![command, &scene]
+        };
+        let out = superhelix(&args);
+        let all = text(&out);
+        assert_eq!(out.status.code(), Some(1), "{command}: {all}");
+        assert!(
+            all.contains("strands: the simulation needs about")
+                && all.contains("GB")
+                && all.contains("available"),
+            "{command}: {all}"
+        );
+    }
+}

@@ -44,6 +44,7 @@ pub mod error;
 pub mod forces;
 pub mod groom;
 pub mod kernels;
+pub mod memory_plan;
 pub mod model;
 pub mod output;
 pub mod render;

@@ -587,6 +587,8 @@ impl Simulation {
     /// sampled); their problems are listed with the others.
     pub fn new(setup: SimulationSetup, generated: Option<&dyn KernelFactory>) -> Result<Self> {
         check_setup(&setup)?;
+        // what will not fit in the machine's memory is refused before it is allocated
+        crate::memory_plan::estimate(&setup, engine_for(&setup).0).check()?;
         let (bodies, mut errors) = match Bodies::build(&setup.bodies) {
             Ok(bodies) => (bodies, Vec::new()),
             Err(Error::Invalid(errors)) => (Bodies::default(), errors),

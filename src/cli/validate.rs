@@ -44,6 +44,11 @@ fn report_valid(
         println!("{groom}");
     }
     println!("{}", engine_line(setup));
+    let (engine, _) = superhelix::runtime::engine_for(setup);
+    println!(
+        "{}",
+        superhelix::runtime::memory_plan::estimate(setup, engine)
+    );
     let plan = superhelix::plan_output(setup, Path::new("out"), &superhelix::RunOptions::default());
     println!("{plan}");
     if let Some(note) = &plan.note {
