@@ -1795,3 +1795,159 @@ fn add_projected(
         }
     }
 }
+
+#[cfg(test)]
+mod pruning_tests {
+    //! The shortcuts of the partner loops against doing without them: the partners
+    //! [`StrandContacts::near_partners`] rules out are beyond reach (so the sums over the
+    //! others are the sums over all), and the bound that lets
+    //! [`StrandContacts::step_acceptable`] skip a partner never changes its verdict.
+    use super::*;
+    use crate::kernels::closed_form::ClosedForm;
+    use crate::kernels::moments::kernel::MomentKernel;
+    use crate::model::material::Material;
+
+    /// A small deterministic generator (xorshift), uniform in [−1, 1).
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        }
+    }
+
+    fn setup(n: usize) -> (StrandGeometry, StrandContacts, HairHairParams) {
+        let material = Material {
+            mass_per_length: 1e-5,
+            stiffness: [1e-9, 1.3e-9, 1.3e-9],
+            rotary_inertia: [1e-15, 5e-16, 5e-16],
+        };
+        let geom = StrandGeometry::new(
+            Vector3::zeros(),
+            Matrix3::identity(),
+            vec![0.02; n],
+            &material,
+        );
+        let config = ContactConfig {
+            hair_hair: Some(HairHairConfig::default()),
+            ..ContactConfig::default()
+        };
+        let hair = HairHairParams::new(config.hair_hair.as_ref().expect("set"), 1e-5);
+        let contacts = StrandContacts::new(
+            &geom,
+            Arc::<[Body]>::from(Vec::new()),
+            ContactParams::new(&config, 1e-5),
+            Some(hair),
+            3,
+        );
+        (geom, contacts, hair)
+    }
+
+    /// Partner points scattered around the strand at `q`, some within reach.
+    fn partners(
+        rng: &mut Rng,
+        geom: &StrandGeometry,
+        q: &[f64],
+        reach: f64,
+        count: usize,
+    ) -> Vec<PartnerPoint> {
+        let length = geom.length();
+        let mut out = Vec::new();
+        let mut y = Vec::new();
+        for _ in 0..count {
+            let s = 0.5 * (rng.next() + 1.0) * length;
+            positions_at_sorted(geom, q, [s], &mut y);
+            let off = Vector3::new(rng.next(), rng.next(), rng.next()) * (3.0 * reach);
+            out.push(PartnerPoint {
+                s,
+                weight: 1e-3,
+                point: y[0] + off,
+                velocity: Vector3::zeros(),
+                reach,
+                anchor: None,
+                partner_s: None,
+            });
+        }
+        out
+    }
+
+    #[test]
+    fn the_partners_ruled_out_are_beyond_reach() {
+        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let n = 6;
+        let (geom, mut contacts, hair) = setup(n);
+        let head = HeadState::rest();
+        let reach = 2.0 * hair.radius;
+        let (mut kept, mut ruled_out) = (0, 0);
+        let mut y = Vec::new();
+        for _ in 0..200 {
+            let q: Vec<f64> = (0..3 * n).map(|_| 20.0 * rng.next()).collect();
+            contacts.set_partners(partners(&mut rng, &geom, &q, reach, 30));
+            contacts.sample_poses(&geom, &q);
+            let mut near = Vec::new();
+            contacts.near_partners(&head, &mut near);
+            for (i, p) in contacts.partners.iter().enumerate() {
+                if near.contains(&i) {
+                    kept += 1;
+                    continue;
+                }
+                ruled_out += 1;
+                positions_at_sorted(&geom, &q, [p.s], &mut y);
+                let d = (y[0] - p.point).norm();
+                assert!(d >= p.reach, "ruled out at {d} < reach {}", p.reach);
+            }
+        }
+        // the test means something: both kinds occur
+        assert!(
+            kept > 100 && ruled_out > 100,
+            "{kept} kept, {ruled_out} ruled out"
+        );
+    }
+
+    #[test]
+    fn the_approach_checks_shortcut_never_changes_its_verdict() {
+        let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+        let n = 5;
+        let (geom, mut contacts, hair) = setup(n);
+        let at = Placement::at_rest(0.0);
+        let reach = 2.0 * hair.radius;
+        let split = contacts.params().split_depth;
+        let (mut passed, mut failed, mut skipped) = (0, 0, 0);
+        let (mut y0, mut y1) = (Vec::new(), Vec::new());
+        for _ in 0..400 {
+            let q0: Vec<f64> = (0..3 * n).map(|_| 15.0 * rng.next()).collect();
+            let q1: Vec<f64> = q0.iter().map(|x| x + 3.0 * rng.next()).collect();
+            // partners around where the strand starts and around where it ends (those
+            // it reaches within the step)
+            let mut list = partners(&mut rng, &geom, &q0, reach, 6);
+            list.extend(partners(&mut rng, &geom, &q1, reach, 6));
+            contacts.set_partners(list);
+            let verdict = contacts.step_acceptable(&at, &at, &geom, &q0, &q1);
+            // the partners the shortcut settled without the exact check
+            skipped += contacts.partners.len() - contacts.partner_near.len();
+            // every partner checked exactly, as the shortcut's bound stands in for
+            let exact = contacts.partners.iter().all(|p| {
+                positions_at_sorted(&geom, &q0, [p.s], &mut y0);
+                positions_at_sorted(&geom, &q1, [p.s], &mut y1);
+                let d0 = y0[0] - p.point;
+                let norm = d0.norm();
+                norm == 0.0
+                    || norm < p.reach
+                    || p.reach - (y1[0] - p.point).dot(&(d0 / norm)) <= split
+            });
+            assert_eq!(verdict, exact);
+            if verdict {
+                passed += 1;
+            } else {
+                failed += 1;
+            }
+        }
+        // the test means something: both verdicts occur, and the shortcut settles many
+        assert!(
+            passed > 50 && failed > 20 && skipped > 500,
+            "{passed} passed, {failed} failed, {skipped} settled by the bound"
+        );
+    }
+}
