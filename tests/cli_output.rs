@@ -38,7 +38,11 @@ fn validate_says_strand_or_strands_and_prints_the_plan() {
         "engine: embedded (the fixed-N step; 5168 B per strand at N = 10, and one workspace per thread)"
     );
     assert!(
-        lines[2].starts_with("output: ") && lines[2].contains("frames.json"),
+        lines[2].starts_with("memory: about ") && lines[2].contains("estimated"),
+        "{text}"
+    );
+    assert!(
+        lines[3].starts_with("output: ") && lines[3].contains("frames.json"),
         "{text}"
     );
     let two = write(
