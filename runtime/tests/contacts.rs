@@ -817,7 +817,9 @@ fn contact_forces_are_minus_the_gradient_of_the_contact_energy() {
     });
     let self_pair = partners.pop().expect("the self pair");
     // each kind alone, so that none hides behind another
-    let cases: [(&str, Vec<Body>, Vec<PartnerPoint>, (usize, usize)); 3] = [
+    // (name, bodies, partners, (least body contacts, hair contacts))
+    type Case = (&'static str, Vec<Body>, Vec<PartnerPoint>, (usize, usize));
+    let cases: [Case; 3] = [
         ("plane", vec![plane], Vec::new(), (2, 0)),
         ("other strands", Vec::new(), partners, (0, 3)),
         ("self-contact", Vec::new(), vec![self_pair], (0, 1)),

@@ -126,7 +126,7 @@ pub(super) fn read_electrostatics(
             let q = s.charge_per_length.unwrap_or(l);
             let r = crate::output::driver::display_radius(&s.strand.material);
             let max = 2.0 * std::f64::consts::PI * r * VACUUM_PERMITTIVITY * AIR_BREAKDOWN_FIELD;
-            (q.abs() > max).then(|| (s, q, r, max))
+            (q.abs() > max).then_some((s, q, r, max))
         });
         if let Some((s, q, r, max)) = over {
             let own = if s.charge_per_length.is_some() {

@@ -1803,8 +1803,6 @@ mod pruning_tests {
     //! others are the sums over all), and the bound that lets
     //! [`StrandContacts::step_acceptable`] skip a partner never changes its verdict.
     use super::*;
-    use crate::kernels::closed_form::ClosedForm;
-    use crate::kernels::moments::kernel::MomentKernel;
     use crate::model::material::Material;
 
     /// A small deterministic generator (xorshift), uniform in [−1, 1).
