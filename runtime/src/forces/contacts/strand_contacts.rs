@@ -183,6 +183,58 @@ fn coulomb_spring(
     }
 }
 
+/// The friction between two rods at an anchored pair (Coulomb, `f`): the force on this
+/// strand, its stiffness matrix and its damping matrix, for the slip `slip` of the
+/// anchored point across the line of centres (`plane`), its velocity `rel` relative to
+/// what it is held to, the spring's stiffness `stiff` and the normal force `normal`.
+/// Sticking, the spring `−stiff · slip` (up to μ_s f_n). Sliding (over the last step, or
+/// beyond the static limit now), the kinetic force μ_k f_n against the slip predicted at
+/// the step's end, u = slip + h v_t: the slip now, within μ δ / ratio, is far shorter
+/// than a step's motion, and its direction would lag a step behind; its turning with the
+/// velocity goes in the damping, h (μ_k f_n / |u|) (P − ûûᵀ).
+fn rod_friction(
+    f: &RodFriction,
+    anchor: &PartnerAnchor,
+    plane: &Matrix3<f64>,
+    slip: &Vector3<f64>,
+    rel: &Vector3<f64>,
+    stiff: f64,
+    normal: f64,
+) -> (Vector3<f64>, Matrix3<f64>, Matrix3<f64>) {
+    let kinetic = f.kinetic_coefficient * normal;
+    let limit = f.static_coefficient * normal;
+    let slides = anchor.sliding || stiff * slip.norm() > limit;
+    let predicted = slip + plane * rel * anchor.step;
+    if slides && predicted.norm() > 0.0 {
+        let (spring, kt) = coulomb_spring(plane, &predicted, stiff, 0.0, kinetic, true);
+        (spring, Matrix3::zeros(), kt * anchor.step)
+    } else {
+        let (spring, kt) = coulomb_spring(plane, slip, stiff, limit, kinetic, false);
+        (spring, kt, Matrix3::zeros())
+    }
+}
+
+/// The energy of a rod friction spring (see [`rod_friction`]): `|f_t|² / (2 k_t)` of the
+/// force it holds at `slip`.
+fn rod_spring_energy(
+    f: &RodFriction,
+    anchor: &PartnerAnchor,
+    plane: &Matrix3<f64>,
+    slip: &Vector3<f64>,
+    stiff: f64,
+    normal: f64,
+) -> (f64, Vector3<f64>) {
+    let (spring, _) = coulomb_spring(
+        plane,
+        slip,
+        stiff,
+        f.static_coefficient * normal,
+        f.kinetic_coefficient * normal,
+        anchor.sliding,
+    );
+    (0.5 * spring.norm_squared() / stiff, spring)
+}
+
 /// Where a sticking contact point is held (Coulomb friction): a point of a body, in that
 /// body's coordinates (head coordinates for a body on the head, its own for a body on its
 /// own motion, world otherwise).
@@ -817,30 +869,10 @@ impl StrandContacts {
                 let plane = Matrix3::identity() - n * n.transpose();
                 let slip = plane * (ya - target);
                 let stiff = f.stiffness_ratio * hh.stiffness * w;
-                let kinetic = f.kinetic_coefficient * normal;
-                let slides = anchor.sliding || stiff * slip.norm() > f.static_coefficient * normal;
-                // a sliding pair: the kinetic force against the slip predicted at the
-                // step's end, u = slip + h v_t (the slip now, within μ δ / ratio, is far
-                // shorter than a step's motion: its direction would lag a step behind);
-                // its turning with the velocity goes in the damping, h (μ_k f_n / |u|)
-                // (P − ûûᵀ)
                 let va = rt * (anchor.velocity - head.velocity) - head.omega.cross(&target);
-                let predicted = slip + plane * (velocity(jac, v) - va) * anchor.step;
-                let (spring, kt, turning) = if slides && predicted.norm() > 0.0 {
-                    let (spring, kt) =
-                        coulomb_spring(&plane, &predicted, stiff, 0.0, kinetic, true);
-                    (spring, Matrix3::zeros(), kt * anchor.step)
-                } else {
-                    let (spring, kt) = coulomb_spring(
-                        &plane,
-                        &slip,
-                        stiff,
-                        f.static_coefficient * normal,
-                        kinetic,
-                        false,
-                    );
-                    (spring, kt, Matrix3::zeros())
-                };
+                let rel = velocity(jac, v) - va;
+                let (spring, kt, turning) =
+                    rod_friction(&f, &anchor, &plane, &slip, &rel, stiff, normal);
                 if terms.force {
                     add_force(jac, &spring, &mut out.force);
                 }
@@ -937,23 +969,9 @@ impl StrandContacts {
             let plane = Matrix3::identity() - n * n.transpose();
             let slip = plane * (ya - yb - anchor.offset);
             let stiff = f.stiffness_ratio * hh.stiffness * w;
-            let kinetic = f.kinetic_coefficient * normal;
-            let slides = anchor.sliding || stiff * slip.norm() > f.static_coefficient * normal;
-            let predicted = slip + plane * velocity(&diff, v) * anchor.step;
-            let (spring, kt, turning) = if slides && predicted.norm() > 0.0 {
-                let (spring, kt) = coulomb_spring(&plane, &predicted, stiff, 0.0, kinetic, true);
-                (spring, Matrix3::zeros(), kt * anchor.step)
-            } else {
-                let (spring, kt) = coulomb_spring(
-                    &plane,
-                    &slip,
-                    stiff,
-                    f.static_coefficient * normal,
-                    kinetic,
-                    false,
-                );
-                (spring, kt, Matrix3::zeros())
-            };
+            let rel = velocity(&diff, v);
+            let (spring, kt, turning) =
+                rod_friction(&f, &anchor, &plane, &slip, &rel, stiff, normal);
             if terms.force {
                 add_force(&diff, &spring, &mut out.force);
             }
@@ -1010,15 +1028,7 @@ impl StrandContacts {
             let slip = plane * (ya - yb - anchor.offset);
             let stiff = f.stiffness_ratio * hh.stiffness * w;
             let normal = hh.stiffness * w * overlap;
-            let (spring, _) = coulomb_spring(
-                &plane,
-                &slip,
-                stiff,
-                f.static_coefficient * normal,
-                f.kinetic_coefficient * normal,
-                anchor.sliding,
-            );
-            potential += 0.5 * spring.norm_squared() / stiff;
+            potential += rod_spring_energy(&f, &anchor, &plane, &slip, stiff, normal).0;
         }
         self.sweep = buf;
         potential
@@ -1089,15 +1099,8 @@ impl StrandContacts {
                 let slip = plane * (ya - target);
                 let stiff = f.stiffness_ratio * hh.stiffness * w;
                 let normal = hh.stiffness * w * overlap;
-                let (spring, _) = coulomb_spring(
-                    &plane,
-                    &slip,
-                    stiff,
-                    f.static_coefficient * normal,
-                    f.kinetic_coefficient * normal,
-                    anchor.sliding,
-                );
-                potential += 0.5 * spring.norm_squared() / stiff;
+                let (held, spring) = rod_spring_energy(&f, &anchor, &plane, &slip, stiff, normal);
+                potential += held;
                 let va = rt * (anchor.velocity - head.velocity) - head.omega.cross(&target);
                 rate += spring.dot(&(plane * va));
             }
