@@ -254,27 +254,19 @@ pub fn check_scene_reporting(
     scene_text: &str,
     scene_dir: &Path,
 ) -> std::result::Result<(SimulationSetup, Vec<GroomReport>), Vec<FieldError>> {
-    let built = runtime::parse_scene_reporting(scene_text, scene_dir).and_then(|parsed| {
-        // a scene beyond the machine's memory is refused on the estimate, before the
-        // simulation is built (validate does not allocate what run would not get)
-        let (engine, _) = runtime::engine_for(&parsed.0);
-        if let Err(Error::Invalid(errors)) =
-            runtime::memory_plan::estimate(&parsed.0, engine).check()
-        {
-            return Err(Error::Invalid(errors));
+    let parsed = runtime::parse_scene_reporting(scene_text, scene_dir);
+    // a scene beyond the machine's memory is refused on its estimate alone, before any
+    // simulation is built (listing its other problems would build one)
+    if let Ok((setup, _)) = &parsed {
+        let (engine, _) = runtime::engine_for(setup);
+        if let Err(Error::Invalid(errors)) = runtime::memory_plan::estimate(setup, engine).check() {
+            return Err(errors);
         }
+    }
+    let built = parsed.and_then(|parsed| {
         Simulation::new(parsed.0.clone(), kernel_factory())?;
         Ok(parsed)
     });
-    // refused for its memory: that problem alone (listing the others would build it)
-    if let Err(Error::Invalid(errors)) = &built {
-        if errors
-            .iter()
-            .any(|e| e.message.contains("this machine has available"))
-        {
-            return Err(errors.clone());
-        }
-    }
     // the failure path lists every problem, not only the first stage's
     built.map_err(|_| runtime::validate_scene_at(scene_text, scene_dir, kernel_factory()))
 }

@@ -546,7 +546,7 @@ fn strands_that_start_overlapping_are_let_apart_without_a_kick() {
 /// both forces hold the penalty and the damping's part c_h w v_p alone).
 #[test]
 fn the_balance_counts_the_power_of_the_partners_damping() {
-    use nalgebra::{Matrix3, Vector3};
+    use nalgebra::Vector3;
     use std::sync::Arc;
     use superhelix_kernels::head::HeadState;
     use superhelix_runtime::bodies::{Body, Placement};
@@ -556,21 +556,9 @@ fn the_balance_counts_the_power_of_the_partners_damping() {
     use superhelix_runtime::kernels::closed_form::ClosedForm;
     use superhelix_runtime::kernels::kernel::{StrandKernel, StrandTerms, Terms};
     use superhelix_runtime::kernels::moments::kernel::MomentKernel;
-    use superhelix_runtime::model::material::Material;
-    use superhelix_runtime::model::strand::StrandGeometry;
 
     let n = 4;
-    let material = Material {
-        mass_per_length: 1e-5,
-        stiffness: [1e-9, 1.3e-9, 1.3e-9],
-        rotary_inertia: [1e-15, 5e-16, 5e-16],
-    };
-    let geom = StrandGeometry::new(
-        Vector3::zeros(),
-        Matrix3::identity(),
-        vec![0.025; n],
-        &material,
-    );
+    let (material, geom) = small_strand(n);
     let q: Vec<f64> = (0..3 * n).map(|i| 3.0 * ((i as f64) * 0.9).sin()).collect();
     let v: Vec<f64> = (0..3 * n).map(|i| 2.0 * ((i as f64) * 1.3).cos()).collect();
     let mut kernel = MomentKernel::new(geom.clone(), ClosedForm);
@@ -706,7 +694,7 @@ initial = "straight"
 /// differences of `energy` along three directions against `Fᵀ d`.
 #[test]
 fn contact_forces_are_minus_the_gradient_of_the_contact_energy() {
-    use nalgebra::{Matrix3, Vector3};
+    use nalgebra::Vector3;
     use std::sync::Arc;
     use superhelix_kernels::head::HeadState;
     use superhelix_runtime::bodies::shape_plane::Plane;
@@ -718,21 +706,9 @@ fn contact_forces_are_minus_the_gradient_of_the_contact_energy() {
     use superhelix_runtime::kernels::closed_form::ClosedForm;
     use superhelix_runtime::kernels::kernel::{StrandKernel, StrandTerms, Terms};
     use superhelix_runtime::kernels::moments::kernel::MomentKernel;
-    use superhelix_runtime::model::material::Material;
-    use superhelix_runtime::model::strand::StrandGeometry;
 
     let n = 4;
-    let material = Material {
-        mass_per_length: 1e-5,
-        stiffness: [1e-9, 1.3e-9, 1.3e-9],
-        rotary_inertia: [1e-15, 5e-16, 5e-16],
-    };
-    let geom = StrandGeometry::new(
-        Vector3::zeros(),
-        Matrix3::identity(),
-        vec![0.025; n],
-        &material,
-    );
+    let (material, geom) = small_strand(n);
     let q: Vec<f64> = (0..3 * n).map(|i| 8.0 * ((i as f64) * 0.9).sin()).collect();
     let mut kernel = MomentKernel::new(geom.clone(), ClosedForm);
     let mut jac = vec![Vector3::zeros(); 3 * n];
@@ -871,4 +847,27 @@ fn contact_forces_are_minus_the_gradient_of_the_contact_energy() {
             );
         }
     }
+}
+
+/// The strand of the contact-force tests: `n` elements of 2.5 cm along x from the origin,
+/// a light hair-like material.
+fn small_strand(
+    n: usize,
+) -> (
+    superhelix_runtime::model::material::Material,
+    superhelix_runtime::model::strand::StrandGeometry,
+) {
+    use nalgebra::{Matrix3, Vector3};
+    let material = superhelix_runtime::model::material::Material {
+        mass_per_length: 1e-5,
+        stiffness: [1e-9, 1.3e-9, 1.3e-9],
+        rotary_inertia: [1e-15, 5e-16, 5e-16],
+    };
+    let geom = superhelix_runtime::model::strand::StrandGeometry::new(
+        Vector3::zeros(),
+        Matrix3::identity(),
+        vec![0.025; n],
+        &material,
+    );
+    (material, geom)
 }
