@@ -554,7 +554,7 @@ fn the_balance_counts_the_power_of_the_partners_damping() {
         ContactConfig, ContactParams, HairHairConfig, HairHairParams, PartnerPoint, StrandContacts,
     };
     use superhelix_runtime::kernels::closed_form::ClosedForm;
-    use superhelix_runtime::kernels::kernel::{StrandKernel, StrandTerms, Terms};
+    use superhelix_runtime::kernels::kernel::{StrandTerms, Terms};
     use superhelix_runtime::kernels::moments::kernel::MomentKernel;
 
     let n = 4;
@@ -580,28 +580,14 @@ fn the_balance_counts_the_power_of_the_partners_damping() {
     let at = Placement::new(HeadState::rest(), 0.0);
     let mut jac = vec![Vector3::zeros(); 3 * n];
     let partners = |moving: bool, kernel: &mut MomentKernel<ClosedForm>| -> Vec<PartnerPoint> {
-        let mut jac = vec![Vector3::zeros(); 3 * n];
-        [0.02, 0.05, 0.09]
-            .iter()
-            .enumerate()
-            .map(|(k, &s)| {
-                let y = kernel.point(&q, s, &mut jac, None);
-                let off = Vector3::new(0.3, -0.5 + 0.2 * k as f64, 0.8).normalize();
-                PartnerPoint {
-                    s,
-                    weight: 0.01,
-                    point: y + off * (0.3 * hair.radius * 2.0),
-                    velocity: if moving {
-                        Vector3::new(0.4, -0.2 * k as f64, 0.3)
-                    } else {
-                        Vector3::zeros()
-                    },
-                    reach: 2.0 * hair.radius,
-                    anchor: None,
-                    partner_s: None,
-                }
-            })
-            .collect()
+        let velocity = |k: usize| {
+            if moving {
+                Vector3::new(0.4, -0.2 * k as f64, 0.3)
+            } else {
+                Vector3::zeros()
+            }
+        };
+        three_partners(kernel, &q, 2.0 * hair.radius, velocity)
     };
     let zero = vec![0.0; 3 * n];
     let mut force =
@@ -762,23 +748,7 @@ fn contact_forces_are_minus_the_gradient_of_the_contact_energy() {
     // partner points: three of other strands 0.3 reach off the strand, and one pair of
     // two parts of the strand itself, 0.8 of its reach apart
     let reach = 2.0 * hair.radius;
-    let mut partners: Vec<PartnerPoint> = [0.02, 0.05, 0.09]
-        .iter()
-        .enumerate()
-        .map(|(k, &s)| {
-            let y = kernel.point(&q, s, &mut jac, None);
-            let off = Vector3::new(0.3, -0.5 + 0.2 * k as f64, 0.8).normalize();
-            PartnerPoint {
-                s,
-                weight: 0.01,
-                point: y + off * (0.3 * reach),
-                velocity: Vector3::zeros(),
-                reach,
-                anchor: None,
-                partner_s: None,
-            }
-        })
-        .collect();
+    let mut partners = three_partners(&mut kernel, &q, reach, |_| Vector3::zeros());
     let (s_a, s_b) = (0.03, 0.075);
     let gap =
         (kernel.point(&q, s_a, &mut jac, None) - kernel.point(&q, s_b, &mut jac, None)).norm();
@@ -870,4 +840,33 @@ fn small_strand(
         &material,
     );
     (material, geom)
+}
+
+/// Three partner points of other strands 0.3 `reach` off the strand at q (at arc lengths
+/// 2, 5 and 9 cm, in three directions), the k-th moving at `velocity(k)`.
+fn three_partners(
+    kernel: &mut dyn superhelix_runtime::kernels::kernel::StrandKernel,
+    q: &[f64],
+    reach: f64,
+    velocity: impl Fn(usize) -> nalgebra::Vector3<f64>,
+) -> Vec<superhelix_runtime::forces::contacts::PartnerPoint> {
+    use nalgebra::Vector3;
+    let mut jac = vec![Vector3::zeros(); q.len()];
+    [0.02, 0.05, 0.09]
+        .iter()
+        .enumerate()
+        .map(|(k, &s)| {
+            let y = kernel.point(q, s, &mut jac, None);
+            let off = Vector3::new(0.3, -0.5 + 0.2 * k as f64, 0.8).normalize();
+            superhelix_runtime::forces::contacts::PartnerPoint {
+                s,
+                weight: 0.01,
+                point: y + off * (0.3 * reach),
+                velocity: velocity(k),
+                reach,
+                anchor: None,
+                partner_s: None,
+            }
+        })
+        .collect()
 }
