@@ -30,6 +30,7 @@ pub use superhelix_runtime::{
 };
 
 use runtime::groom::GroomReport;
+pub use runtime::output::checkpoint::{Checkpoint, SceneIdentity};
 use runtime::output::nodes::{NodesSink, D1_FILE, NODES_FILE};
 use runtime::output::npy::{
     NpyFrameSink, NpyFrameStore, HELD_FILE, INDEX_FILE, NPY_FILE, STEPS_FILE, TIMES_FILE,
@@ -108,15 +109,119 @@ pub fn run_planned<S: FrameSource + ?Sized>(
     stop: &AtomicBool,
     progress: impl FnMut(usize, usize),
 ) -> Result<RunReport> {
+    run_planned_with(setup, source, plan, stop, progress, None)
+}
+
+/// The checkpoints of a run ([`run_planned_with`]): what they are of, and the checkpoint
+/// a resumed run goes on from.
+#[derive(Debug, Clone)]
+pub struct RunCheckpoints {
+    /// The scene and options of the run.
+    pub identity: SceneIdentity,
+    /// The checkpoint to go on from (`None`: the run starts at t = 0).
+    pub resume: Option<Checkpoint>,
+}
+
+impl RunCheckpoints {
+    /// The checkpoints of a run of `scene_text` as `setup` (its parse, with the
+    /// command-line options applied) under `plan`, going on from the checkpoint in
+    /// `plan.dir` when `resume` (refused when it is of another scene, naming what
+    /// differs, or damaged, naming the file; without one the run starts at t = 0).
+    pub fn new(
+        scene_text: &str,
+        setup: &SimulationSetup,
+        plan: &OutputPlan,
+        tolerance: Option<f64>,
+        part: Option<(usize, usize)>,
+        resume: bool,
+    ) -> Result<Self> {
+        let identity = SceneIdentity {
+            scene: scene_text.to_string(),
+            tolerance,
+            formats: plan.formats.names().iter().map(|s| s.to_string()).collect(),
+            part,
+            digest: output::checkpoint::setup_digest(setup),
+        };
+        let resume = match resume {
+            true => output::checkpoint::read(&plan.dir)?,
+            false => None,
+        };
+        if let Some(c) = &resume {
+            if let Some(differs) = c.identity.difference(&identity) {
+                return Err(Error::invalid(
+                    "--resume",
+                    format!(
+                        "the checkpoint in {} is of another run: {differs}",
+                        plan.dir.display()
+                    ),
+                ));
+            }
+        }
+        Ok(Self { identity, resume })
+    }
+}
+
+/// [`run_planned`] with checkpoints every `plan.checkpoint_every` frames (none when it
+/// is 0 or `checkpoints` is `None`), going on from `checkpoints.resume` when it is set:
+/// `source` is restored to its state, the frame files are cut back to where it says they
+/// ended and the run writes the frames after them.
+pub fn run_planned_with<S: FrameSource + ?Sized>(
+    setup: &SimulationSetup,
+    source: &mut S,
+    plan: &OutputPlan,
+    stop: &AtomicBool,
+    progress: impl FnMut(usize, usize),
+    checkpoints: Option<RunCheckpoints>,
+) -> Result<RunReport> {
     let layout = output::frame_layout(source, &setup.config, setup.samples_per_element);
     let formats = plan.formats;
     let json_path = plan.dir.join(FRAMES_FILE);
+    let checkpoints = checkpoints.filter(|_| plan.checkpoint_every > 0);
+    let (mut checkpoints, resume) = match checkpoints {
+        Some(c) => {
+            let (point, marks) = match c.resume {
+                Some(ck) => {
+                    source.restore(ck.state)?;
+                    (Some(ck.point), Some(ck.sinks))
+                }
+                None => (None, None),
+            };
+            let run = output::driver::Checkpoints {
+                every: plan.checkpoint_every,
+                dir: plan.dir.clone(),
+                identity: c.identity,
+                resume: point,
+                written: 0,
+            };
+            (Some(run), marks)
+        }
+        None => (None, None),
+    };
+    // the sinks' marks in the order the sinks are made (json, npy, memory, nodes)
+    let mut marks = resume.map(|m| m.into_iter());
+    let mut next_mark = || -> Result<Option<Vec<u64>>> {
+        match marks.as_mut() {
+            Some(m) => m.next().map(Some).ok_or_else(|| {
+                Error::invalid(
+                    "--resume",
+                    "the checkpoint names fewer frame files than the run writes",
+                )
+            }),
+            None => Ok(None),
+        }
+    };
     let mut json = match formats.json {
-        true => Some(JsonFrameSink::create(&json_path, &layout)?),
+        true => Some(match next_mark()? {
+            Some(mark) => JsonFrameSink::resume(&json_path, &mark)?,
+            None => JsonFrameSink::create(&json_path, &layout)?,
+        }),
         false => None,
     };
     let mut npy = match formats.npy {
-        true => Some(NpyFrameSink::create(&plan.dir, &layout)?),
+        true => Some(match next_mark()? {
+            Some(mark) => NpyFrameSink::resume(&plan.dir, &layout, &mark)?,
+            None => NpyFrameSink::create(&plan.dir, &layout)?,
+        }),
         false => None,
     };
     let products = Formats {
@@ -129,10 +234,16 @@ pub fn run_planned<S: FrameSource + ?Sized>(
     let mut memory = (products != Formats::NONE && !formats.json && !formats.npy)
         .then(|| MemoryFrames::new(layout.clone()));
     // each strand at evenly spaced arc length, whatever the formats
+    if memory.is_some() {
+        next_mark()?;
+    }
     let mut nodes = match setup.output.nodes {
         Some(count) => {
             let strands: Vec<_> = setup.strands.iter().map(|s| &s.strand).collect();
-            Some(NodesSink::create(&plan.dir, &strands, &setup.head, count)?)
+            Some(match next_mark()? {
+                Some(mark) => NodesSink::resume(&plan.dir, &strands, &setup.head, count, &mark)?,
+                None => NodesSink::create(&plan.dir, &strands, &setup.head, count)?,
+            })
         }
         None => None,
     };
@@ -149,13 +260,14 @@ pub fn run_planned<S: FrameSource + ?Sized>(
     if let Some(sink) = nodes.as_mut() {
         sinks.push(sink);
     }
-    let outcome = output::run_streaming(
+    let outcome = output::driver::run_checkpointed(
         source,
         &setup.config,
         setup.samples_per_element,
         &mut sinks,
         stop,
         progress,
+        checkpoints.as_mut(),
     );
     drop(sinks);
     let mut files = Vec::new();
@@ -172,6 +284,10 @@ pub fn run_planned<S: FrameSource + ?Sized>(
     }
     if nodes.is_some() {
         files.extend([NODES_FILE, D1_FILE].map(|name| plan.dir.join(name)));
+    }
+    let checkpoint = plan.dir.join(output::checkpoint::CHECKPOINT_FILE);
+    if checkpoints.as_ref().is_some_and(|c| c.written > 0) && checkpoint.exists() {
+        files.push(checkpoint);
     }
     let mut products_error = None;
     // the error-controlled step's report per strand, whatever the formats

@@ -21,6 +21,7 @@
 //! The driver reaches the simulation only through [`FrameSource`].
 
 pub mod atomic;
+pub mod checkpoint;
 pub mod driver;
 pub mod frames;
 pub mod json;
@@ -126,6 +127,18 @@ pub trait FrameSource {
     /// written. By default no strand has a held tip.
     fn held_ends(&mut self, out: &mut Vec<HeldEndFrame>) {
         out.clear();
+    }
+    /// Everything the source needs to go on from where it is (what a checkpoint writes);
+    /// `None` (the default): the source cannot be checkpointed.
+    fn state(&self) -> Option<crate::simulation::SimulationState> {
+        None
+    }
+    /// Continue from `state` as [`Self::state`] gave it; by default refused.
+    fn restore(&mut self, _state: crate::simulation::SimulationState) -> Result<()> {
+        Err(crate::error::Error::invalid(
+            "--resume",
+            "this source cannot continue from a checkpoint",
+        ))
     }
 }
 

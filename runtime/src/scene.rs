@@ -423,12 +423,23 @@ fn read_output(mut n: Node<'_>, config: &mut SimulationConfig) -> (usize, Output
     } else {
         None
     };
+    let checkpoint_every = if n.has("checkpoint_every") {
+        n.count(
+            "checkpoint_every",
+            0,
+            MAX_FRAMES as i64,
+            "the cap on frames",
+        )
+    } else {
+        None
+    };
     n.finish();
     let settings = OutputSettings {
         formats,
         max_bytes,
         render: None,
         nodes,
+        checkpoint_every,
     };
     (samples.unwrap_or(DEFAULT_SAMPLES_PER_ELEMENT), settings)
 }

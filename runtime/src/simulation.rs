@@ -2,6 +2,7 @@
 //! [`Simulation::new`] builds one [`StrandSystem`] per strand from a
 //! [`SimulationSetup`]; [`Simulation::step`] advances them all over one time step.
 
+pub mod state;
 use crate::bodies::{Bodies, PlacedBodies, Placement};
 use crate::config::{
     Engine, IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup,
@@ -27,6 +28,7 @@ use crate::solver::{
     StrandSystem,
 };
 use rayon::prelude::*;
+pub use state::SimulationState;
 
 /// One strand of a running simulation: its system (model, kernel, buffers), state and
 /// counters.
@@ -1581,6 +1583,12 @@ impl Simulation {
 impl FrameSource for Simulation {
     fn time(&self) -> f64 {
         self.time
+    }
+    fn state(&self) -> Option<SimulationState> {
+        Some(Simulation::state(self))
+    }
+    fn restore(&mut self, state: SimulationState) -> Result<()> {
+        Simulation::restore(self, state)
     }
     fn strand_steps(&self) -> Option<Vec<crate::output::StrandSteps>> {
         Simulation::strand_steps(self)

@@ -31,6 +31,11 @@ pub struct RunArgs {
     /// scene's [simulation] tolerance: error-controlled steps (docs/time-stepping.md).
     #[arg(long, value_name = "TOL")]
     tolerance: Option<f64>,
+    /// Go on from the checkpoint in the output directory (--out) of an earlier run of the
+    /// same scene, appending to its frames (docs/output.md#checkpoints-and-resume); without
+    /// a checkpoint there, the run starts at t = 0.
+    #[arg(long, value_name = "DIR")]
+    resume: Option<PathBuf>,
 }
 
 /// Raised by Ctrl-C: the run stops between two steps and keeps its frames.
@@ -38,7 +43,17 @@ static STOP: AtomicBool = AtomicBool::new(false);
 
 /// Run `run`.
 pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
-    let out: &Path = &args.out;
+    let out: &Path = args.resume.as_deref().unwrap_or(&args.out);
+    if args.resume.is_some() && args.out != Path::new("out") && args.out != out {
+        return Err(Error::invalid(
+            "--out",
+            format!(
+                "--resume {} writes into the run's own directory; leave out --out {}",
+                out.display(),
+                args.out.display()
+            ),
+        ));
+    }
     let (text, dir) = match &args.scene {
         Some(path) => (read_scene(path)?, scene_dir(path)),
         None => (superhelix::DEFAULT_SCENE.to_string(), Path::new("")),
@@ -63,6 +78,32 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
         println!("{note}");
     }
     plan.check_limit()?;
+    let checkpoints = superhelix::RunCheckpoints::new(
+        &text,
+        &setup,
+        &plan,
+        args.tolerance,
+        None,
+        args.resume.is_some(),
+    )?;
+    match (&checkpoints.resume, args.resume.is_some()) {
+        (Some(c), _) => println!(
+            "resuming from the checkpoint at frame {} of {} (t = {:.4} s)",
+            c.point.frames,
+            plan.frames,
+            c.state.time()
+        ),
+        (None, true) => println!("no checkpoint in {}: starting at t = 0", out.display()),
+        (None, false) => {}
+    }
+    if plan.checkpoint_every > 0 {
+        println!(
+            "checkpoints: every {} frames ({})",
+            plan.checkpoint_every,
+            out.join(superhelix::runtime::output::checkpoint::CHECKPOINT_FILE)
+                .display()
+        );
+    }
     prepare_out_dir(out)?;
     // A second Ctrl-C ends the process at once (the frames written stay readable).
     let handler = ctrlc::set_handler(|| {
@@ -75,12 +116,19 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
     }
     let mut source = superhelix::open_simulation(setup.clone())?;
     let bar = progress_bar();
-    let report = superhelix::run_planned(&setup, source.as_mut(), &plan, &STOP, |step, total| {
-        if let Some(bar) = &bar {
-            bar.set_length(total as u64);
-            bar.set_position(step as u64);
-        }
-    })?;
+    let report = superhelix::run_planned_with(
+        &setup,
+        source.as_mut(),
+        &plan,
+        &STOP,
+        |step, total| {
+            if let Some(bar) = &bar {
+                bar.set_length(total as u64);
+                bar.set_position(step as u64);
+            }
+        },
+        Some(checkpoints),
+    )?;
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }

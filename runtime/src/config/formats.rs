@@ -147,4 +147,8 @@ pub struct OutputSettings {
     /// `nodes`: write every strand at this many evenly spaced arc lengths, with its d1
     /// director between them (`frames.nodes.npy`, `frames.d1.npy`); `None`: not written.
     pub nodes: Option<usize>,
+    /// `checkpoint_every`: frames between two checkpoints (0: none); `None` for the
+    /// default ([`crate::output::checkpoint::DEFAULT_CHECKPOINT_EVERY`] for a dynamic run
+    /// that writes `frames.npy` or `frames.json`, else none).
+    pub checkpoint_every: Option<usize>,
 }

@@ -114,25 +114,73 @@ pub fn run_streaming<S: FrameSource + ?Sized>(
     samples_per_element: usize,
     sinks: &mut [&mut dyn FrameSink],
     stop: &AtomicBool,
+    progress: impl FnMut(usize, usize),
+) -> RunOutcome {
+    run_checkpointed(
+        source,
+        config,
+        samples_per_element,
+        sinks,
+        stop,
+        progress,
+        None,
+    )
+}
+
+/// Checkpoints of a run: how often, where, of what, and where a resumed run starts.
+#[derive(Debug, Clone)]
+pub struct Checkpoints {
+    /// Frames between two checkpoints (0: none; a Ctrl-C still writes one).
+    pub every: usize,
+    /// The output directory (the checkpoint goes next to the frames).
+    pub dir: std::path::PathBuf,
+    /// The scene and options the checkpoint is of.
+    pub identity: super::checkpoint::SceneIdentity,
+    /// Where a resumed run starts (its source already restored to the checkpoint's
+    /// state and its sinks cut back to the checkpoint's marks); `None`: from t = 0.
+    pub resume: Option<super::checkpoint::RunPoint>,
+    /// Checkpoints written by this run.
+    pub written: usize,
+}
+
+/// [`run_streaming`] with checkpoints: every `checkpoints.every` frames (after the step
+/// that wrote them), and when the stop flag ends the run, the sinks are marked and the
+/// source's state written ([`super::checkpoint`]); a run with `checkpoints.resume` goes
+/// on from there, its frames numbered after those written.
+pub fn run_checkpointed<S: FrameSource + ?Sized>(
+    source: &mut S,
+    config: &SimulationConfig,
+    samples_per_element: usize,
+    sinks: &mut [&mut dyn FrameSink],
+    stop: &AtomicBool,
     mut progress: impl FnMut(usize, usize),
+    mut checkpoints: Option<&mut Checkpoints>,
 ) -> RunOutcome {
     let started = Instant::now();
     let nominal = frame_times(config);
     let planned_frames = nominal.len();
     let steps = total_steps(config);
+    let from = checkpoints
+        .as_ref()
+        .and_then(|c| c.resume)
+        .unwrap_or_default();
     let mut streamer = Streamer {
         nominal,
         samples_per_element,
-        written: 0,
+        written: from.frames,
         points: Vec::new(),
         q: Vec::new(),
         held: Vec::new(),
-        held_drift: None,
+        held_drift: from.held_drift,
         sinks,
     };
-    let mut max_speed = 0.0;
-    let mut deepest = source.deepest_inside();
-    let mut taken = 0;
+    let resumed = checkpoints.as_ref().is_some_and(|c| c.resume.is_some());
+    let mut max_speed = from.max_speed;
+    let mut deepest = match resumed {
+        true => from.deepest,
+        false => source.deepest_inside(),
+    };
+    let mut taken = from.taken;
     let result = run_loop(
         source,
         config,
@@ -141,6 +189,7 @@ pub fn run_streaming<S: FrameSource + ?Sized>(
         stop,
         (&mut max_speed, &mut deepest, &mut taken),
         &mut progress,
+        (checkpoints.as_deref_mut(), from.step, resumed),
     );
     let mut stop_reason = match result {
         Ok(true) => StopReason::Completed,
@@ -179,6 +228,7 @@ pub fn run_streaming<S: FrameSource + ?Sized>(
 }
 
 /// The steps and frames of a run; `Ok(false)` when the stop flag ended it.
+#[allow(clippy::too_many_arguments)]
 fn run_loop<S: FrameSource + ?Sized>(
     source: &mut S,
     config: &SimulationConfig,
@@ -187,8 +237,49 @@ fn run_loop<S: FrameSource + ?Sized>(
     stop: &AtomicBool,
     (max_speed, deepest, taken): (&mut f64, &mut Option<f64>, &mut usize),
     progress: &mut impl FnMut(usize, usize),
+    (mut checkpoints, first, resumed): (Option<&mut Checkpoints>, usize, bool),
 ) -> Result<bool> {
-    *max_speed = check_state(source)?;
+    *max_speed = max_speed.max(check_state(source)?);
+    // the frames written when the last checkpoint was taken
+    let mut checkpointed = streamer.written;
+    let save = |source: &S,
+                streamer: &mut Streamer<'_, '_>,
+                step: usize,
+                point: (f64, Option<f64>, usize),
+                checkpoints: Option<&mut Checkpoints>|
+     -> Result<()> {
+        let Some(c) = checkpoints else {
+            return Ok(());
+        };
+        let marks = streamer
+            .sinks
+            .iter_mut()
+            .map(|sink| sink.mark())
+            .collect::<Result<Vec<_>>>()?;
+        let Some(state) = source.state() else {
+            return Err(Error::invalid(
+                "output.checkpoint_every",
+                "this simulation cannot be checkpointed: set checkpoint_every = 0",
+            ));
+        };
+        let checkpoint = super::checkpoint::Checkpoint {
+            version: super::checkpoint::VERSION,
+            identity: c.identity.clone(),
+            point: super::checkpoint::RunPoint {
+                step,
+                frames: streamer.written,
+                taken: point.2,
+                max_speed: point.0,
+                deepest: point.1,
+                held_drift: streamer.held_drift,
+            },
+            sinks: marks,
+            state,
+        };
+        super::checkpoint::write(&c.dir, &checkpoint)?;
+        c.written += 1;
+        Ok(())
+    };
     if config.mode == Mode::Static {
         if stop.load(Ordering::Relaxed) {
             return Ok(false);
@@ -205,9 +296,21 @@ fn run_loop<S: FrameSource + ?Sized>(
         } else {
             0.5 * config.dt
         };
-        streamer.write_due(source, source.time() + reach)?;
-        for step in 1..=steps {
+        if !resumed {
+            streamer.write_due(source, source.time() + reach)?;
+        }
+        for step in first + 1..=steps {
             if stop.load(Ordering::Relaxed) {
+                // (a Ctrl-C keeps where the run was, to go on from there)
+                if step > first + 1 || !resumed {
+                    save(
+                        source,
+                        streamer,
+                        step - 1,
+                        (*max_speed, *deepest, *taken),
+                        checkpoints.as_deref_mut(),
+                    )?;
+                }
                 return Ok(false);
             }
             let end = source.time() + config.dt;
@@ -228,6 +331,17 @@ fn run_loop<S: FrameSource + ?Sized>(
             }
             after_step(source, streamer, reach, (&mut *max_speed, &mut *deepest))?;
             *taken += 1;
+            let every = checkpoints.as_ref().map_or(0, |c| c.every);
+            if every > 0 && streamer.written >= checkpointed + every && step < steps {
+                save(
+                    source,
+                    streamer,
+                    step,
+                    (*max_speed, *deepest, *taken),
+                    checkpoints.as_deref_mut(),
+                )?;
+                checkpointed = streamer.written;
+            }
             progress(step, steps);
         }
     }

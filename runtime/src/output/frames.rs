@@ -103,6 +103,12 @@ pub struct FrameView<'a> {
 pub trait FrameSink {
     /// Write one frame.
     fn write_frame(&mut self, frame: &FrameView<'_>) -> Result<()>;
+    /// Make every frame written durable (synced to disk) and say where the files end, as
+    /// a checkpoint records it (the sink's `resume` constructor takes it back); by default
+    /// nothing to record (a sink that keeps nothing across a resume).
+    fn mark(&mut self) -> Result<Vec<u64>> {
+        Ok(Vec::new())
+    }
     /// Close the file so that every frame written is readable (also called when the run
     /// stops early).
     fn finish(&mut self) -> Result<()>;

@@ -42,7 +42,7 @@ use super::{FrameSteps, HeldEndFrame};
 use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 /// Value of the `format` field.
@@ -108,6 +108,46 @@ impl JsonFrameSink {
         })
     }
 
+    /// Go on writing `path` after a checkpoint: the file (`path.partial`, or `path` when the
+    /// run that wrote it finished) is cut back to where `mark` ([`FrameSink::mark`]) says
+    /// it ended, and the next frame follows.
+    pub fn resume(path: &Path, mark: &[u64]) -> Result<Self> {
+        let mut partial = path.as_os_str().to_owned();
+        partial.push(PARTIAL_SUFFIX);
+        let partial = PathBuf::from(partial);
+        let &[bytes, frames] = mark else {
+            return Err(resume_error(
+                &partial,
+                "the checkpoint does not say where it ended",
+            ));
+        };
+        if !partial.exists() {
+            // (a finished file: its closing bracket goes with the cut)
+            std::fs::rename(path, &partial).map_err(|e| io_error(path, e))?;
+        }
+        let mut file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(&partial)
+            .map_err(|e| io_error(&partial, e))?;
+        let len = file.metadata().map_err(|e| io_error(&partial, e))?.len();
+        if len < bytes {
+            return Err(resume_error(
+                &partial,
+                &format!("{len} bytes, the checkpoint's frames end at byte {bytes}"),
+            ));
+        }
+        file.set_len(bytes)
+            .and_then(|()| file.seek(SeekFrom::Start(bytes)).map(|_| ()))
+            .map_err(|e| io_error(&partial, e))?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            partial,
+            writer: Some(BufWriter::new(file)),
+            frames: frames as usize,
+        })
+    }
+
     /// The final path (`frames.json`).
     pub fn path(&self) -> &Path {
         &self.path
@@ -146,6 +186,22 @@ impl FrameSink for JsonFrameSink {
         Ok(())
     }
 
+    fn mark(&mut self) -> Result<Vec<u64>> {
+        let Some(writer) = self.writer.as_mut() else {
+            return Err(Error::invalid(
+                "frames.json",
+                "a checkpoint was asked after the file was finished",
+            ));
+        };
+        writer.flush().map_err(|e| io_error(&self.partial, e))?;
+        let file = writer.get_mut();
+        let at = file
+            .sync_data()
+            .and_then(|()| file.stream_position())
+            .map_err(|e| io_error(&self.partial, e))?;
+        Ok(vec![at, self.frames as u64])
+    }
+
     fn finish(&mut self) -> Result<()> {
         let Some(mut writer) = self.writer.take() else {
             return Ok(());
@@ -161,6 +217,17 @@ impl FrameSink for JsonFrameSink {
         drop(file);
         std::fs::rename(&self.partial, &self.path).map_err(|e| io_error(&self.path, e))
     }
+}
+
+/// A frame file that cannot be resumed, naming it and why.
+pub(crate) fn resume_error(path: &Path, why: &str) -> Error {
+    Error::invalid(
+        "--resume",
+        format!(
+            "{} does not hold the frames its checkpoint names ({why}): remove checkpoint.bin to start again from t = 0",
+            path.display()
+        ),
+    )
 }
 
 /// Frames read back from a `frames.json` (or a `frames.json.partial`, or a file cut off

@@ -176,7 +176,45 @@ impl NodesSink {
     }
 }
 
+impl NodesSink {
+    /// Go on writing both files in `dir` after a checkpoint (arguments as
+    /// [`Self::create`]): each is cut back to the rows `mark` gives.
+    pub fn resume(
+        dir: &Path,
+        strands: &[&Strand],
+        head: &HeadMotion,
+        count: usize,
+        mark: &[u64],
+    ) -> Result<Self> {
+        let &[rows] = mark else {
+            return Err(super::json::resume_error(
+                &dir.join(NODES_FILE),
+                "the checkpoint does not say where it ended",
+            ));
+        };
+        let sampler = NodeSampler::new(strands, head, count)?;
+        let n = sampler.strand_count() as u64;
+        let k = count as u64;
+        let nodes = GrowingNpy::reopen(dir.join(NODES_FILE), "<f8", 8, vec![n, k, 3], rows)?;
+        let d1 = GrowingNpy::reopen(dir.join(D1_FILE), "<f8", 8, vec![n, k - 1, 3], rows)?;
+        Ok(Self {
+            sampler,
+            nodes,
+            d1,
+            node_values: Vec::new(),
+            d1_values: Vec::new(),
+            row: Vec::new(),
+        })
+    }
+}
+
 impl FrameSink for NodesSink {
+    fn mark(&mut self) -> Result<Vec<u64>> {
+        self.d1.sync()?;
+        self.nodes.sync()?;
+        Ok(vec![self.nodes.rows()])
+    }
+
     fn write_frame(&mut self, frame: &FrameView<'_>) -> Result<()> {
         self.node_values.clear();
         self.d1_values.clear();

@@ -222,6 +222,56 @@ impl GrowingNpy {
         Ok(npy)
     }
 
+    /// Go on writing the file at `path` (as [`Self::create`] made it) after its first
+    /// `rows` rows: what follows them is cut away.
+    pub(crate) fn reopen(
+        path: PathBuf,
+        descr: &'static str,
+        item_bytes: u64,
+        tail: Vec<u64>,
+        rows: u64,
+    ) -> Result<Self> {
+        let file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(&path)
+            .map_err(|e| io_error(&path, e))?;
+        let header_len = header_len_for(descr, &tail);
+        let row_bytes = item_bytes * tail.iter().product::<u64>();
+        let end = header_len as u64 + rows * row_bytes;
+        let len = file.metadata().map_err(|e| io_error(&path, e))?.len();
+        if len < end {
+            return Err(super::json::resume_error(
+                &path,
+                &format!("{len} bytes, the checkpoint's {rows} rows end at byte {end}"),
+            ));
+        }
+        let mut npy = Self {
+            file,
+            path,
+            descr,
+            tail,
+            header_len,
+            row_bytes,
+            rows,
+        };
+        // the header first: a kill between the two leaves a file longer than its header
+        // says, which every reader reads
+        npy.write_header()?;
+        npy.file.set_len(end).map_err(|e| io_error(&npy.path, e))?;
+        Ok(npy)
+    }
+
+    /// Rows written.
+    pub(crate) fn rows(&self) -> u64 {
+        self.rows
+    }
+
+    /// Sync every row written to disk.
+    pub(crate) fn sync(&mut self) -> Result<()> {
+        self.file.sync_data().map_err(|e| io_error(&self.path, e))
+    }
+
     fn write_header(&mut self) -> Result<()> {
         let mut shape = vec![self.rows];
         shape.extend_from_slice(&self.tail);
@@ -285,6 +335,59 @@ impl NpyFrameSink {
             points,
             times,
             steps: None,
+            held,
+            dir: dir.to_path_buf(),
+            layout: layout.clone(),
+            total_points,
+            row: Vec::with_capacity(12 * total_points),
+        })
+    }
+
+    /// Go on writing the files in `dir` after a checkpoint: each is cut back to the rows
+    /// `mark` ([`FrameSink::mark`]) gives, and the next frame follows.
+    pub fn resume(dir: &Path, layout: &FrameLayout, mark: &[u64]) -> Result<Self> {
+        let &[frames, steps, held] = mark else {
+            return Err(super::json::resume_error(
+                &dir.join(NPY_FILE),
+                "the checkpoint does not say where it ended",
+            ));
+        };
+        let total_points = layout.total_points();
+        let points = GrowingNpy::reopen(
+            dir.join(NPY_FILE),
+            "<f4",
+            4,
+            vec![total_points as u64, 3],
+            frames,
+        )?;
+        let times = GrowingNpy::reopen(dir.join(TIMES_FILE), "<f8", 8, vec![2], frames)?;
+        let steps = match steps {
+            0 => None,
+            rows => Some(GrowingNpy::reopen(
+                dir.join(STEPS_FILE),
+                "<f8",
+                8,
+                vec![5],
+                rows,
+            )?),
+        };
+        let held = if layout.held_tips.is_empty() {
+            None
+        } else {
+            let shape = vec![layout.held_tips.len() as u64, HELD_COLUMNS.len() as u64];
+            Some(GrowingNpy::reopen(
+                dir.join(HELD_FILE),
+                "<f8",
+                8,
+                shape,
+                held,
+            )?)
+        };
+        write_index(dir, layout, steps.is_some())?;
+        Ok(Self {
+            points,
+            times,
+            steps,
             held,
             dir: dir.to_path_buf(),
             layout: layout.clone(),
@@ -368,6 +471,22 @@ impl FrameSink for NpyFrameSink {
         // the times first: a frame counts once its points header is written
         self.times.append(&times)?;
         self.points.append(&self.row)
+    }
+
+    fn mark(&mut self) -> Result<Vec<u64>> {
+        let mut rows = [self.points.rows(), 0, 0];
+        for (k, file) in [self.steps.as_mut(), self.held.as_mut()]
+            .into_iter()
+            .enumerate()
+        {
+            if let Some(f) = file {
+                f.sync()?;
+                rows[k + 1] = f.rows();
+            }
+        }
+        self.times.sync()?;
+        self.points.sync()?;
+        Ok(rows.to_vec())
     }
 
     fn finish(&mut self) -> Result<()> {

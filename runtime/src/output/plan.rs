@@ -74,6 +74,13 @@ pub struct OutputPlan {
     pub limit: Option<u64>,
     /// Where the limit comes from and how to lift it, for the refusal.
     limit_source: &'static str,
+    /// Frames between two checkpoints (0: none): the scene's `checkpoint_every`, or
+    /// [`super::checkpoint::DEFAULT_CHECKPOINT_EVERY`] for a run of more than one frame
+    /// that writes `frames.npy` or `frames.json`.
+    pub checkpoint_every: usize,
+    /// The scene asks for checkpoints of a run that keeps its frames in neither
+    /// `frames.npy` nor `frames.json` (a resumed run would lose the frames before it).
+    checkpoint_without_frames: bool,
 }
 
 impl OutputPlan {
@@ -116,7 +123,17 @@ impl OutputPlan {
         } else {
             (Some(DEFAULT_MAX_BYTES), "the default limit")
         };
+        let keeps_frames = formats.npy || formats.json;
+        let checkpoint_every = match settings.checkpoint_every {
+            Some(k) => k,
+            None if keeps_frames && layout.planned_frames > 1 => {
+                super::checkpoint::DEFAULT_CHECKPOINT_EVERY
+            }
+            None => 0,
+        };
         Self {
+            checkpoint_every: if keeps_frames { checkpoint_every } else { 0 },
+            checkpoint_without_frames: checkpoint_every > 0 && !keeps_frames,
             dir: dir.to_path_buf(),
             formats,
             files: planned_files(
@@ -140,6 +157,15 @@ impl OutputPlan {
     /// An error naming the estimate, the limit and how to lift it when the total is
     /// over the limit.
     pub fn check_limit(&self) -> Result<()> {
+        if self.checkpoint_without_frames {
+            return Err(Error::invalid(
+                "output.checkpoint_every",
+                format!(
+                    "checkpoints go on from the frames in frames.npy or frames.json, and the formats ({}) have neither: add \"npy\" to the formats, or set checkpoint_every = 0",
+                    self.formats.names().join(", ")
+                ),
+            ));
+        }
         match self.limit {
             Some(limit) if self.total_bytes() > limit => Err(Error::invalid(
                 "output",

@@ -31,6 +31,7 @@ pub fn step(
     state: &mut StrandState,
     stats: &mut StepStats,
 ) -> Result<(), String> {
+    system.workspace.solver.forget_repeat();
     // a tolerance selects the error-controlled step (validation refuses it with the
     // other integrators)
     let tolerance = system.context.tolerance.filter(|_| {

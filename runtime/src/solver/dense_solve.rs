@@ -138,6 +138,25 @@ impl DenseSolver {
         ok
     }
 
+    /// Forget the last projection's input and result: a projection repeats the last one
+    /// only within a step (a split step's first half), so that a step's result depends on
+    /// the state it starts from and the kept basis, not on what the step before projected.
+    pub fn forget_repeat(&mut self) {
+        self.last_valid = false;
+    }
+
+    /// The kept basis of the spectral projection (see
+    /// [`SpectralProjection::basis`](super::spectral_projection::SpectralProjection::basis)).
+    pub fn projection_basis(&self) -> (Vec<f64>, bool) {
+        self.spectral.basis()
+    }
+
+    /// Keep `vectors` as the spectral projection's basis (see
+    /// [`SpectralProjection::set_basis`](super::spectral_projection::SpectralProjection::set_basis)).
+    pub fn set_projection_basis(&mut self, vectors: &[f64], negative: bool) -> bool {
+        self.spectral.set_basis(vectors, negative)
+    }
+
     /// [`Self::project_negative_semidefinite`] on `h` as it is (scaled).
     fn project_cached(&mut self, h: &mut Mat<f64>) -> bool {
         let n = h.nrows();

@@ -50,6 +50,12 @@ pub trait EmbeddedGroup: Send + Sync {
     fn v(&self, i: usize) -> &[f64];
     /// Set the state of strand `i` (lengths must be 3N).
     fn set_state(&mut self, i: usize, q: &[f64], v: &[f64]);
+    /// What every strand carries from one step to the next (a checkpoint's part), in
+    /// order.
+    fn state(&self) -> Vec<FixedStrandState>;
+    /// Continue from `states` (one per strand, as [`Self::state`] gave them); an error
+    /// when they do not fit this group's strands.
+    fn restore(&mut self, states: Vec<FixedStrandState>) -> Result<(), String>;
     /// Bytes one strand keeps.
     fn strand_bytes(&self) -> usize;
     /// Bytes of one workspace.
@@ -218,11 +224,146 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
             history.forget();
         }
     }
+    fn state(&self) -> Vec<FixedStrandState> {
+        self.strands
+            .iter()
+            .enumerate()
+            .map(|(i, s)| FixedStrandState {
+                q: s.q.to_vec(),
+                v: s.v.to_vec(),
+                basis: s.basis[..s.basis_k].iter().flatten().copied().collect(),
+                basis_negative: s.basis_negative,
+                split_hint: s.split_hint,
+                last_energy: s.last_energy.as_ref().map(super::system::energy_words),
+                history: self.histories.get(i).map(|(h, r)| HistoryState {
+                    q: h.q.to_vec(),
+                    v: h.v.to_vec(),
+                    h: h.h,
+                    next_h: h.next_h,
+                    report: ReportState::of(r),
+                }),
+            })
+            .collect()
+    }
+    fn restore(&mut self, states: Vec<FixedStrandState>) -> Result<(), String> {
+        if states.len() != self.strands.len() {
+            return Err(format!(
+                "{} strands of {N} elements in the checkpoint, {} in the scene",
+                states.len(),
+                self.strands.len()
+            ));
+        }
+        let histories = states.iter().filter(|s| s.history.is_some()).count();
+        if histories != 0 && histories != states.len() {
+            return Err("some strands have an error-control history and some not".into());
+        }
+        let mut restored = Vec::with_capacity(histories);
+        for (s, state) in self.strands.iter_mut().zip(states) {
+            let size = |len: usize| len == D;
+            if !size(state.q.len())
+                || !size(state.v.len())
+                || state.basis.len() % D.max(1) != 0
+                || state.basis.len() / D.max(1) > B
+            {
+                return Err(format!("a strand state that is not of {N} elements"));
+            }
+            s.q.copy_from_slice(&state.q);
+            s.v.copy_from_slice(&state.v);
+            s.basis_k = state.basis.len() / D.max(1);
+            for (column, values) in s.basis.iter_mut().zip(state.basis.chunks(D.max(1))) {
+                column.copy_from_slice(values);
+            }
+            s.basis_negative = state.basis_negative;
+            s.split_hint = state.split_hint;
+            s.last_energy = state
+                .last_energy
+                .as_ref()
+                .map(super::system::energy_from_words);
+            if let Some(h) = state.history {
+                if !size(h.q.len()) || !size(h.v.len()) {
+                    return Err(format!("a step history that is not of {N} elements"));
+                }
+                let mut history = StepHistory::<D>::default();
+                history.q.copy_from_slice(&h.q);
+                history.v.copy_from_slice(&h.v);
+                history.h = h.h;
+                history.next_h = h.next_h;
+                restored.push((history, h.report.report()));
+            }
+        }
+        self.histories = restored;
+        Ok(())
+    }
     fn strand_bytes(&self) -> usize {
         FixedStrand::<N, D, B>::BYTES
     }
     fn workspace_bytes(&self) -> usize {
         FixedWorkspace::<N, D, E>::BYTES
+    }
+}
+
+/// What one strand of the embedded engine carries from one step to the next (a
+/// checkpoint's part): q, q̇, the kept eigenbasis, the split hint, the last step's end
+/// energy, and with a tolerance the error-controlled step's history.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FixedStrandState {
+    q: Vec<f64>,
+    v: Vec<f64>,
+    /// The kept basis's columns in use, each of length 3N.
+    basis: Vec<f64>,
+    basis_negative: bool,
+    split_hint: u8,
+    last_energy: Option<[f64; super::system::ENERGY_WORDS]>,
+    history: Option<HistoryState>,
+}
+
+/// A strand's error-controlled step history and report (see [`FixedStrandState`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+struct HistoryState {
+    q: Vec<f64>,
+    v: Vec<f64>,
+    h: f64,
+    next_h: f64,
+    report: ReportState,
+}
+
+/// A [`ToleranceReport`] as a checkpoint writes it.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ReportState {
+    steps: usize,
+    rejected: usize,
+    solves: usize,
+    energy_limited: usize,
+    largest_error: f64,
+    smallest_step: f64,
+    largest_step: f64,
+}
+
+impl ReportState {
+    /// `r` as written.
+    pub fn of(r: &ToleranceReport) -> Self {
+        ReportState {
+            steps: r.steps,
+            rejected: r.rejected,
+            solves: r.solves,
+            energy_limited: r.energy_limited,
+            largest_error: r.largest_error,
+            smallest_step: r.smallest_step,
+            largest_step: r.largest_step,
+        }
+    }
+
+    /// The report written.
+    pub fn report(&self) -> ToleranceReport {
+        ToleranceReport {
+            steps: self.steps,
+            rejected: self.rejected,
+            solves: self.solves,
+            energy_limited: self.energy_limited,
+            largest_error: self.largest_error,
+            smallest_step: self.smallest_step,
+            largest_step: self.largest_step,
+        }
     }
 }
 

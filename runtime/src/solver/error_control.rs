@@ -87,8 +87,42 @@ pub struct ErrorControl {
     ends_kept: Vec<Pose>,
 }
 
+/// What the error-controlled step carries from one step to the next (a checkpoint's
+/// part): the step size to try, what the accepted steps did so far and since the last
+/// frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ErrorControlState {
+    next_h: f64,
+    smallest_h: f64,
+    largest_h: f64,
+    largest_error: f64,
+    window: StepWindow,
+}
+
+impl ErrorControl {
+    /// What the next step needs (see [`ErrorControlState`]).
+    pub fn state(&self) -> ErrorControlState {
+        ErrorControlState {
+            next_h: self.next_h,
+            smallest_h: self.smallest_h,
+            largest_h: self.largest_h,
+            largest_error: self.largest_error,
+            window: self.window,
+        }
+    }
+
+    /// Continue from `state`.
+    pub fn restore(&mut self, state: ErrorControlState) {
+        self.next_h = state.next_h;
+        self.smallest_h = state.smallest_h;
+        self.largest_h = state.largest_h;
+        self.largest_error = state.largest_error;
+        self.window = state.window;
+    }
+}
+
 /// What one strand's accepted error-controlled steps did over a stretch of time (a frame).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StepWindow {
     /// The largest estimated error of a step, relative to the strand's length.
     pub largest_error: f64,

@@ -77,7 +77,32 @@ pub struct HeldTip {
     drift: f64,
 }
 
+/// What a held tip carries from one step to the next (a checkpoint's part): the
+/// holder's reaction, the drift not yet reported and the last residual.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct HeldTipState {
+    reaction: Vector6<f64>,
+    residual: Vector6<f64>,
+    drift: f64,
+}
+
 impl HeldTip {
+    /// What the next step needs (see [`HeldTipState`]).
+    pub fn state(&self) -> HeldTipState {
+        HeldTipState {
+            reaction: self.reaction,
+            residual: self.residual,
+            drift: self.drift,
+        }
+    }
+
+    /// Continue from `state`.
+    pub fn restore(&mut self, state: HeldTipState) {
+        self.reaction = state.reaction;
+        self.residual = state.residual;
+        self.drift = state.drift;
+    }
+
     /// The constraint of `end` on a strand of `geometry`; `scale` as the step's
     /// ([`crate::model::strand::Strand::solver_scale`]).
     pub fn new(end: HeldEnd, geometry: &StrandGeometry, scale: Option<Vec<f64>>) -> Self {

@@ -46,6 +46,27 @@ impl SpectralProjection {
         }
     }
 
+    /// The kept basis (a checkpoint's part): its columns in use, column-major, and whether
+    /// it spans the negative eigenvalues.
+    pub fn basis(&self) -> (Vec<f64>, bool) {
+        (
+            self.vectors[..self.basis_k * self.n].to_vec(),
+            self.basis_negative,
+        )
+    }
+
+    /// Keep `vectors` (whole columns of length n, at most n of them) as the basis, as
+    /// [`Self::basis`] gave it; false (nothing changed) when they do not fit.
+    pub fn set_basis(&mut self, vectors: &[f64], negative: bool) -> bool {
+        if self.n == 0 || vectors.len() % self.n != 0 || vectors.len() > self.vectors.len() {
+            return vectors.is_empty();
+        }
+        self.vectors[..vectors.len()].copy_from_slice(vectors);
+        self.basis_k = vectors.len() / self.n;
+        self.basis_negative = negative;
+        true
+    }
+
     /// Forget the basis of the last decomposition: the next call decomposes.
     pub fn forget_basis(&mut self) {
         self.basis_k = 0;

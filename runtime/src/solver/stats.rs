@@ -1,7 +1,7 @@
 //! Counters of what the solvers had to do, per strand and summed over a simulation.
 
 /// Counters of what the solvers had to do.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct StepStats {
     /// Steps where the eigendecomposition of the field stiffness failed and it was
     /// left explicit.

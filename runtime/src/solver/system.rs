@@ -98,6 +98,127 @@ impl StrandWorkspace {
     pub fn forget_history(&mut self) {
         self.prev_h = 0.0;
     }
+
+    /// What the next step needs of these buffers (see [`WorkspaceState`]).
+    pub fn state(&self) -> WorkspaceState {
+        let (basis, basis_negative) = self.solver.projection_basis();
+        WorkspaceState {
+            prev_q: self.prev_q.clone(),
+            prev_v: self.prev_v.clone(),
+            prev_h: self.prev_h,
+            last_energy: self.last_energy.as_ref().map(energy_words),
+            last_contact: self.last_contact,
+            last_q: self.last_q.clone(),
+            last_v: self.last_v.clone(),
+            split_hint: self.split_hint,
+            rotation_estimate: self.rotation_estimate,
+            error_control: self.error_control.state(),
+            basis,
+            basis_negative,
+        }
+    }
+
+    /// Continue from `state`; an error when its sizes are not this strand's.
+    pub fn restore(&mut self, state: WorkspaceState) -> Result<(), String> {
+        let n = self.prev_q.len();
+        let sizes = [
+            state.prev_q.len(),
+            state.prev_v.len(),
+            state.last_q.len(),
+            state.last_v.len(),
+        ];
+        if sizes.iter().any(|&len| len != n) {
+            return Err(format!(
+                "step buffers of {} coordinates in the checkpoint, {n} in the scene",
+                state.prev_q.len()
+            ));
+        }
+        if !self
+            .solver
+            .set_projection_basis(&state.basis, state.basis_negative)
+        {
+            return Err(format!(
+                "a projection basis of {} values for {n} coordinates",
+                state.basis.len()
+            ));
+        }
+        self.prev_q = state.prev_q;
+        self.prev_v = state.prev_v;
+        self.prev_h = state.prev_h;
+        self.last_energy = state.last_energy.as_ref().map(energy_from_words);
+        self.last_contact = state.last_contact;
+        self.last_q = state.last_q;
+        self.last_v = state.last_v;
+        self.split_hint = state.split_hint;
+        self.rotation_estimate = state.rotation_estimate;
+        self.error_control.restore(state.error_control);
+        self.solver.forget_repeat();
+        Ok(())
+    }
+}
+
+/// What a strand's step buffers carry from one step to the next (a checkpoint's part):
+/// the two-step integrator's previous state and step, the last step's end (its energy,
+/// contact energy, state), the split hint and rotation estimate, the error-controlled
+/// step's sizes and the stiffness projection's kept basis. The other buffers are
+/// overwritten before they are read within each step.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct WorkspaceState {
+    prev_q: Vec<f64>,
+    prev_v: Vec<f64>,
+    prev_h: f64,
+    last_energy: Option<[f64; ENERGY_WORDS]>,
+    last_contact: (f64, f64),
+    last_q: Vec<f64>,
+    last_v: Vec<f64>,
+    split_hint: usize,
+    rotation_estimate: f64,
+    error_control: super::error_control::ErrorControlState,
+    basis: Vec<f64>,
+    basis_negative: bool,
+}
+
+/// Number of values of a [`StateEnergy`] as [`energy_words`] writes it.
+pub const ENERGY_WORDS: usize = 16;
+
+/// A [`StateEnergy`] as plain values (what a checkpoint writes), in the order of its fields.
+pub fn energy_words(e: &StateEnergy) -> [f64; ENERGY_WORDS] {
+    [
+        e.time,
+        e.kinetic,
+        e.elastic,
+        e.potential,
+        e.moment.x,
+        e.moment.y,
+        e.moment.z,
+        e.uniform.x,
+        e.uniform.y,
+        e.uniform.z,
+        e.power,
+        e.load_moment,
+        e.load_rate,
+        e.dissipation,
+        e.ceiling,
+        e.scale,
+    ]
+}
+
+/// The [`StateEnergy`] of [`energy_words`]'s values.
+pub fn energy_from_words(w: &[f64; ENERGY_WORDS]) -> StateEnergy {
+    StateEnergy {
+        time: w[0],
+        kinetic: w[1],
+        elastic: w[2],
+        potential: w[3],
+        moment: Vector3::new(w[4], w[5], w[6]),
+        uniform: Vector3::new(w[7], w[8], w[9]),
+        power: w[10],
+        load_moment: w[11],
+        load_rate: w[12],
+        dissipation: w[13],
+        ceiling: w[14],
+        scale: w[15],
+    }
 }
 
 /// What every strand's step shares: the world's effects and the integrator.
@@ -122,7 +243,7 @@ pub struct StepContext {
 }
 
 /// The state of one strand: generalized coordinates q and velocities q̇ (3N each).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct StrandState {
     /// q, rad/m.
     pub q: Vec<f64>,

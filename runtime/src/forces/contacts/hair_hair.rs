@@ -67,7 +67,9 @@ pub const SEARCH_MARGIN: f64 = 4.0;
 
 /// A pair of samples of two strands, or of one strand far apart along it (self-contact):
 /// (strand, sample) each, the first lower.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
 pub struct Pair {
     /// (strand, sample) of the first side.
     pub a: (usize, usize),
@@ -76,7 +78,7 @@ pub struct Pair {
 }
 
 /// The friction anchor of a pair in contact (see the module page).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 struct PairAnchor {
     /// Δ*: where side a's sample is held relative to side b's, head coordinates, m.
     offset: Vector3<f64>,
@@ -160,7 +162,47 @@ fn descend(
     }
 }
 
+/// What [`HairHair`] carries from one step to the next (a checkpoint's part): the pairs,
+/// their anchors, the samples' last positions, the step count and the allowances.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct HairHairState {
+    pairs: Vec<Pair>,
+    anchors: Vec<Option<PairAnchor>>,
+    previous: Vec<Vec<Vector3<f64>>>,
+    steps: usize,
+    tracked_last: usize,
+    found_last: usize,
+    /// The allowances sorted by pair of strands (a map has no order to write).
+    allowance: Vec<((usize, usize), f64)>,
+}
+
 impl HairHair {
+    /// What the next step needs of the pairs (see [`HairHairState`]).
+    pub fn state(&self) -> HairHairState {
+        let mut allowance: Vec<_> = self.allowance.iter().map(|(&k, &v)| (k, v)).collect();
+        allowance.sort_by_key(|&(k, _)| k);
+        HairHairState {
+            pairs: self.pairs.clone(),
+            anchors: self.anchors.clone(),
+            previous: self.previous.clone(),
+            steps: self.steps,
+            tracked_last: self.tracked_last,
+            found_last: self.found_last,
+            allowance,
+        }
+    }
+
+    /// Continue from `state` (taken of a set of pairs of the same scene).
+    pub fn restore(&mut self, state: HairHairState) {
+        self.pairs = state.pairs;
+        self.anchors = state.anchors;
+        self.previous = state.previous;
+        self.steps = state.steps;
+        self.tracked_last = state.tracked_last;
+        self.found_last = state.found_last;
+        self.allowance = state.allowance.into_iter().collect();
+    }
+
     /// An empty set of pairs; the broad phase runs every `search_every` steps.
     pub fn new(search_every: usize) -> Self {
         HairHair {

@@ -238,7 +238,7 @@ fn rod_spring_energy(
 /// Where a sticking contact point is held (Coulomb friction): a point of a body, in that
 /// body's coordinates (head coordinates for a body on the head, its own for a body on its
 /// own motion, world otherwise).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 struct Anchor {
     body: usize,
     point: Vector3<f64>,
@@ -248,7 +248,7 @@ struct Anchor {
 }
 
 /// What the last evaluation found, for diagnostics and tests.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ContactSummary {
     /// Samples touching a body.
     pub body_contacts: usize,
@@ -319,6 +319,49 @@ pub struct StrandContacts {
     predicted: PredictedContacts,
     /// Scratch of [`Self::deepest_inside`].
     sweep: Vec<Vector3<f64>>,
+}
+
+/// What a strand's contacts carry from one step to the next (a checkpoint's part): the
+/// friction anchors, the allowances, the root zone and the last evaluation's summary.
+/// The rest is recomputed at each step (the partners, the predicted contacts) or is a
+/// cache of a pure function of the time or of q (the bodies' frames, the sample poses).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct StrandContactsState {
+    anchors: Vec<Option<Anchor>>,
+    allowance: Vec<f64>,
+    root_zone: (usize, usize),
+    summary: ContactSummary,
+    self_touching: usize,
+}
+
+impl StrandContacts {
+    /// What the next step needs (see [`StrandContactsState`]).
+    pub fn state(&self) -> StrandContactsState {
+        StrandContactsState {
+            anchors: self.anchors.clone(),
+            allowance: self.allowance.clone(),
+            root_zone: self.root_zone,
+            summary: self.summary,
+            self_touching: self.self_touching,
+        }
+    }
+
+    /// Continue from `state`; an error when its samples are not this strand's.
+    pub fn restore(&mut self, state: StrandContactsState) -> Result<(), String> {
+        let n = self.samples.len();
+        if state.anchors.len() != n || state.allowance.len() != n {
+            return Err(format!(
+                "contacts of {} samples in the checkpoint, {n} in the scene",
+                state.anchors.len()
+            ));
+        }
+        self.anchors = state.anchors;
+        self.allowance = state.allowance;
+        self.root_zone = state.root_zone;
+        self.summary = state.summary;
+        self.self_touching = state.self_touching;
+        Ok(())
+    }
 }
 
 /// Sample arc lengths and weights: `per` points per element at the centres of equal

@@ -74,7 +74,7 @@ impl CoulombMethod {
 }
 
 /// What one evaluation found.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FieldSummary {
     /// Particles.
     pub particles: usize,
@@ -86,6 +86,20 @@ pub struct FieldSummary {
     pub seconds: f64,
     /// Whether the multipole method was used.
     pub multipole: bool,
+}
+
+/// What the electrostatics carry from one update to the next (a checkpoint's part): the
+/// particles' positions, charges, potentials, fields and forces of the last update, the
+/// charge scale and the last summary.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ElectrostaticsState {
+    points: Vec<[f64; 3]>,
+    charges: Vec<f64>,
+    potential: Vec<f64>,
+    field: Vec<[f64; 3]>,
+    forces: Vec<Vector3<f64>>,
+    scale: f64,
+    last: FieldSummary,
 }
 
 /// The electrostatic state of a simulation: the particles, the evaluator and the last
@@ -133,6 +147,38 @@ impl Electrostatics {
             scale: 1.0,
             last: FieldSummary::default(),
         })
+    }
+
+    /// What the steps until the next update need (see [`ElectrostaticsState`]).
+    pub fn state(&self) -> ElectrostaticsState {
+        ElectrostaticsState {
+            points: self.points.clone(),
+            charges: self.charges.clone(),
+            potential: self.field.potential.clone(),
+            field: self.field.field.clone(),
+            forces: self.forces.clone(),
+            scale: self.scale,
+            last: self.last,
+        }
+    }
+
+    /// Continue from `state`; an error when its particles are not these.
+    pub fn restore(&mut self, state: ElectrostaticsState) -> Result<(), String> {
+        if state.points.len() != self.points.len() || state.forces.len() != self.forces.len() {
+            return Err(format!(
+                "{} charged particles in the checkpoint, {} in the scene",
+                state.points.len(),
+                self.points.len()
+            ));
+        }
+        self.points = state.points;
+        self.charges = state.charges;
+        self.field.potential = state.potential;
+        self.field.field = state.field;
+        self.forces = state.forces;
+        self.scale = state.scale;
+        self.last = state.last;
+        Ok(())
     }
 
     /// The configuration.

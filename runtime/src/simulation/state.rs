@@ -1,0 +1,208 @@
+//! The state a [`Simulation`] carries from one step to the next, as a checkpoint writes
+//! it: [`Simulation::state`] takes it, [`Simulation::restore`] continues from it, and the
+//! steps after a restore are those the simulation would have taken, bit for bit
+//! (`tests/checkpoint.rs`).
+//!
+//! What it holds, per strand: q and q̇, the step counters, the step buffers' history
+//! (the two-step integrator's previous state, the last step's end and energy, the split
+//! hint, the error-controlled step's sizes, the stiffness projection's kept basis), the
+//! contacts' friction anchors and allowances, a held tip's reaction and drift; for the
+//! embedded engine the same per strand in its own form and the engine's counters; the
+//! electrostatics' last update (particles, forces, charge scale); the hair–hair pairs
+//! with their anchors and allowances; the time and the step count. The rest of a
+//! simulation is built again from the scene.
+
+use super::Simulation;
+use crate::error::{Error, Result};
+use crate::forces::contacts::hair_hair::HairHairState;
+use crate::forces::contacts::strand_contacts::StrandContactsState;
+use crate::forces::electrostatics::force_coulomb::ElectrostaticsState;
+use crate::solver::embedded::{FixedStrandState, ReportState};
+use crate::solver::held_end::HeldTipState;
+use crate::solver::system::WorkspaceState;
+use crate::solver::{StepStats, StrandState};
+use serde::{Deserialize, Serialize};
+use superhelix_kernels::fixed::StepCounts;
+
+/// Everything a [`Simulation`] needs to go on from where it is (see the module page).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SimulationState {
+    time: f64,
+    steps: usize,
+    reported_steps: (usize, usize),
+    strands: Vec<StrandSimState>,
+    embedded: Option<EmbeddedState>,
+    electrostatics: Option<ElectrostaticsState>,
+    hair_hair: Option<HairHairState>,
+}
+
+impl SimulationState {
+    /// The simulated time of the state, s.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// The steps taken to reach it.
+    pub fn steps(&self) -> usize {
+        self.steps
+    }
+}
+
+/// One strand of the runtime engine.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct StrandSimState {
+    state: StrandState,
+    stats: StepStats,
+    workspace: WorkspaceState,
+    contacts: Option<StrandContactsState>,
+    held: Option<HeldTipState>,
+}
+
+/// The embedded engine's strands, by group, and its counters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct EmbeddedState {
+    groups: Vec<Vec<FixedStrandState>>,
+    counts: [usize; 5],
+    total: ReportState,
+    window: ReportState,
+}
+
+fn counts_of(c: &StepCounts) -> [usize; 5] {
+    [
+        c.substeps,
+        c.attempts,
+        c.energy_rejected,
+        c.energy_limited,
+        c.energy_unbalanced,
+    ]
+}
+
+fn counts_from(c: [usize; 5]) -> StepCounts {
+    StepCounts {
+        substeps: c[0],
+        attempts: c[1],
+        energy_rejected: c[2],
+        energy_limited: c[3],
+        energy_unbalanced: c[4],
+    }
+}
+
+/// A checkpoint that does not fit the simulation built from the scene.
+fn mismatch(what: impl std::fmt::Display) -> Error {
+    Error::invalid(
+        "checkpoint",
+        format!("the checkpoint does not fit the scene: {what}"),
+    )
+}
+
+impl Simulation {
+    /// Everything the simulation needs to go on from where it is (see the module page).
+    pub fn state(&self) -> SimulationState {
+        SimulationState {
+            time: self.time,
+            steps: self.steps,
+            reported_steps: self.reported_steps,
+            strands: self
+                .strands
+                .iter()
+                .map(|s| StrandSimState {
+                    state: s.state.clone(),
+                    stats: s.stats,
+                    workspace: s.system.workspace.state(),
+                    contacts: s.system.contacts.as_ref().map(|c| c.state()),
+                    held: s.system.held.as_ref().map(|h| h.state()),
+                })
+                .collect(),
+            embedded: self.embedded.as_ref().map(|e| EmbeddedState {
+                groups: e.groups.iter().map(|(_, g)| g.state()).collect(),
+                counts: counts_of(&e.counts),
+                total: ReportState::of(&e.tolerance_total),
+                window: ReportState::of(&e.tolerance_window),
+            }),
+            electrostatics: self.electrostatics.as_ref().map(|e| e.state()),
+            hair_hair: self.hair_hair.as_ref().map(|h| h.state()),
+        }
+    }
+
+    /// Continue from `state`, taken of a simulation of the same scene: the steps that
+    /// follow are those that simulation would have taken. An error (naming what does not
+    /// fit) leaves this simulation unusable for a continued run; build it again.
+    pub fn restore(&mut self, state: SimulationState) -> Result<()> {
+        if state.strands.len() != self.strands.len() {
+            return Err(mismatch(format!(
+                "{} strands on the runtime engine in the checkpoint, {} in the scene",
+                state.strands.len(),
+                self.strands.len()
+            )));
+        }
+        for (i, (s, saved)) in self.strands.iter_mut().zip(state.strands).enumerate() {
+            let name = &s.system.strand.name;
+            if saved.state.q.len() != s.state.q.len() || saved.state.v.len() != s.state.v.len() {
+                return Err(mismatch(format!(
+                    "strand {i} ({name}) has {} coordinates in the checkpoint, {} in the scene",
+                    saved.state.q.len(),
+                    s.state.q.len()
+                )));
+            }
+            s.state = saved.state;
+            s.stats = saved.stats;
+            s.system
+                .workspace
+                .restore(saved.workspace)
+                .map_err(|e| mismatch(format!("strand {i} ({name}): {e}")))?;
+            match (&mut s.system.contacts, saved.contacts) {
+                (Some(c), Some(saved)) => c
+                    .restore(saved)
+                    .map_err(|e| mismatch(format!("strand {i} ({name}): {e}")))?,
+                (None, None) => {}
+                _ => return Err(mismatch("contacts in one and not in the other")),
+            }
+            match (&mut s.system.held, saved.held) {
+                (Some(h), Some(saved)) => h.restore(saved),
+                (None, None) => {}
+                _ => {
+                    return Err(mismatch(format!(
+                        "strand {i} ({name}) has a held tip in one and not in the other"
+                    )))
+                }
+            }
+        }
+        match (&mut self.embedded, state.embedded) {
+            (Some(e), Some(saved)) => {
+                if saved.groups.len() != e.groups.len() {
+                    return Err(mismatch("the embedded engine's groups differ"));
+                }
+                for ((_, group), states) in e.groups.iter_mut().zip(saved.groups) {
+                    group.restore(states).map_err(mismatch)?;
+                }
+                e.counts = counts_from(saved.counts);
+                e.tolerance_total = saved.total.report();
+                e.tolerance_window = saved.window.report();
+            }
+            (None, None) => {}
+            _ => return Err(mismatch("the engine differs (embedded or runtime)")),
+        }
+        match (&mut self.electrostatics, state.electrostatics) {
+            (Some(e), Some(saved)) => e.restore(saved).map_err(mismatch)?,
+            (None, None) => {}
+            _ => return Err(mismatch("electrostatics in one and not in the other")),
+        }
+        // the Coulomb loads of the last update, after each strand's own
+        if let Some(e) = &self.electrostatics {
+            for (i, sim) in self.strands.iter_mut().enumerate() {
+                let loads = &mut sim.system.strand.point_loads;
+                loads.truncate(sim.scene_loads);
+                loads.extend(e.loads(i));
+            }
+        }
+        match (&mut self.hair_hair, state.hair_hair) {
+            (Some(h), Some(saved)) => h.restore(saved),
+            (None, None) => {}
+            _ => return Err(mismatch("hair–hair contacts in one and not in the other")),
+        }
+        self.time = state.time;
+        self.steps = state.steps;
+        self.reported_steps = state.reported_steps;
+        Ok(())
+    }
+}

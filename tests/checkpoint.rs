@@ -1,0 +1,336 @@
+//! Checkpoints and `run --resume` (docs/output.md, "Checkpoints and resume"): for every
+//! scene kind (contacts and hair–hair contact with friction, both engines, error-controlled
+//! steps, a two-step integrator, static electricity between two updates, render strands, a driven
+//! held tip with nodes), a run that goes on from a checkpoint writes the same bytes as
+//! one that never stopped, on another thread count too; a checkpoint does not change what
+//! a run writes; a checkpoint of another scene, a damaged one and frame files shorter than
+//! it says are refused, naming what is wrong.
+
+mod support;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use support::{scratch, write};
+
+/// A patch of 4 × 4 strands on a head rocking about y, next to a ball; 16 frames.
+const HAIR: &str = r#"
+[simulation]
+duration = 0.5
+engine = "ENGINE"
+EXTRA
+[head]
+motion = { kind = "oscillate", axis = [0.0, 1.0, 0.0], angle_deg = 30.0, frequency_hz = 1.5 }
+[[bodies]]
+name = "ball"
+shape = "sphere"
+center = [0.06, 0.0, -0.1]
+radius = 0.04
+CONTACTS
+[output]
+checkpoint_every = 10
+[[patches]]
+name = "p"
+count = [4, 4]
+size = [0.03, 0.03]
+length = 0.2
+elements = 6
+preset = "wavy"
+"#;
+
+const CONTACTS: &str = r#"
+[contacts]
+friction = "coulomb"
+friction_coefficient = 0.3
+[contacts.hair_hair]
+radius = 0.002
+friction = "coulomb"
+friction_coefficient = 0.2
+"#;
+
+/// 20 charged strands (8000 particles, the multipole method), the forces refreshed every
+/// 4 steps: the checkpoint (after step 6) falls between two refreshes.
+const CHARGED: &str = r#"
+[simulation]
+duration = 0.4
+[electrostatics]
+method = "fmm"
+particle_density = 2000
+charge_per_length = -1e-9
+update_every = 4
+[output]
+checkpoint_every = 7
+[[patches]]
+name = "tress"
+count = [5, 4]
+size = [0.01, 0.008]
+length = 0.2
+elements = 5
+preset = "curly"
+"#;
+
+fn command(args: &[&str], threads: usize) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_superhelix"))
+        .args(args)
+        .env("RAYON_NUM_THREADS", threads.to_string())
+        .output()
+        .unwrap_or_else(|e| panic!("cannot start superhelix: {e}"))
+}
+
+fn succeed(args: &[&str], threads: usize) -> String {
+    let o = command(args, threads);
+    let text = support::text(&o);
+    assert!(o.status.success(), "superhelix {args:?}:\n{text}");
+    text
+}
+
+/// The files of `dir` a run writes its results to (not the pictures).
+fn results(dir: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map(|d| d.flatten().map(|e| e.path()).collect())
+        .unwrap_or_default();
+    files.retain(|p| {
+        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        name.starts_with("frames") || name.ends_with(".usda") || name.ends_with(".obj")
+    });
+    files.sort();
+    files
+}
+
+fn same_files(name: &str, a: &Path, b: &Path) {
+    let files = results(a);
+    assert!(files.len() >= 2, "{name}: {files:?}");
+    let names = |d: &Path| -> Vec<_> {
+        results(d)
+            .iter()
+            .map(|p| p.file_name().map(|n| n.to_owned()))
+            .collect()
+    };
+    assert_eq!(names(a), names(b), "{name}: the files differ");
+    for f in files {
+        let file = f.file_name().unwrap_or_default();
+        let x = std::fs::read(&f).unwrap_or_default();
+        let y = std::fs::read(b.join(file)).unwrap_or_default();
+        assert!(!x.is_empty(), "{name}: {} is empty", f.display());
+        assert!(
+            x == y,
+            "{name}: {} differs between {} and {}",
+            file.to_string_lossy(),
+            a.display(),
+            b.display()
+        );
+    }
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap_or_else(|e| panic!("{}: {e}", to.display()));
+    for entry in std::fs::read_dir(from).into_iter().flatten().flatten() {
+        let target = to.join(entry.file_name());
+        std::fs::copy(entry.path(), &target)
+            .unwrap_or_else(|e| panic!("{}: {e}", target.display()));
+    }
+}
+
+/// Run `scene` to the end on 2 threads (its checkpoints on), then go on from its last
+/// checkpoint in a copy of its folder on 1 thread: both write the same bytes; and a run
+/// without checkpoints writes the same frames. Returns the scene's folder.
+fn resumed_equals_uninterrupted(name: &str, scene: &str, formats: &str) -> PathBuf {
+    let dir = scratch(&format!("checkpoint-{name}"));
+    let path = write(&dir, "scene.toml", scene);
+    let path = path.to_string_lossy();
+    let (whole, resumed, plain) = (dir.join("whole"), dir.join("resumed"), dir.join("plain"));
+    let out = |d: &Path| d.to_string_lossy().into_owned();
+    succeed(
+        &["run", &path, "--out", &out(&whole), "--format", formats],
+        2,
+    );
+    assert!(
+        whole.join("checkpoint.bin").exists(),
+        "{name}: no checkpoint written"
+    );
+    copy_dir(&whole, &resumed);
+    let said = succeed(
+        &[
+            "run",
+            &path,
+            "--resume",
+            &out(&resumed),
+            "--format",
+            formats,
+        ],
+        1,
+    );
+    assert!(
+        said.contains("resuming from the checkpoint at frame"),
+        "{name}: {said}"
+    );
+    same_files(name, &whole, &resumed);
+    // a checkpoint changes nothing a run writes
+    let without = scene.replace("checkpoint_every = ", "checkpoint_every = 0 # ");
+    let plain_scene = write(&dir, "plain.toml", &without);
+    succeed(
+        &[
+            "run",
+            &plain_scene.to_string_lossy(),
+            "--out",
+            &out(&plain),
+            "--format",
+            formats,
+        ],
+        2,
+    );
+    assert!(
+        !plain.join("checkpoint.bin").exists(),
+        "{name}: checkpoint_every = 0 wrote one"
+    );
+    same_files(name, &whole, &plain);
+    dir
+}
+
+#[test]
+fn contacts_and_hair_hair_with_friction_resume_bit_for_bit() {
+    let scene = HAIR
+        .replace("ENGINE", "runtime")
+        .replace("EXTRA", "")
+        .replace("CONTACTS", CONTACTS);
+    resumed_equals_uninterrupted("contacts", &scene, "json,npy,usda,obj");
+}
+
+/// A rope held against a drum by Coulomb friction (scenes/rod-capstan.toml, its first
+/// 0.1 s): the friction anchors on the drum are held across the checkpoint.
+#[test]
+fn body_friction_anchors_resume_bit_for_bit() {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let scene = std::fs::read_to_string(format!("{root}/scenes/rod-capstan.toml"))
+        .expect("scenes/rod-capstan.toml")
+        .replace("duration = 0.5", "duration = 0.1")
+        .replace("[output]\n", "[output]\ncheckpoint_every = 4\n");
+    resumed_equals_uninterrupted("capstan", &scene, "json,npy");
+}
+
+#[test]
+fn both_engines_resume_bit_for_bit_with_fixed_and_error_controlled_steps() {
+    for engine in ["embedded", "runtime"] {
+        let fixed = HAIR
+            .replace("ENGINE", engine)
+            .replace("EXTRA", "")
+            .replace("CONTACTS", "");
+        resumed_equals_uninterrupted(&format!("{engine}-fixed"), &fixed, "json,npy");
+        let tolerance = HAIR
+            .replace("ENGINE", engine)
+            .replace("EXTRA", "tolerance = 1e-4")
+            .replace("CONTACTS", "");
+        resumed_equals_uninterrupted(&format!("{engine}-tolerance"), &tolerance, "npy");
+    }
+}
+
+#[test]
+fn the_two_step_integrator_resumes_with_its_history() {
+    let scene = HAIR
+        .replace("ENGINE", "runtime")
+        .replace("EXTRA", "integrator = \"bdf2\"")
+        .replace("CONTACTS", "");
+    resumed_equals_uninterrupted("bdf2", &scene, "npy");
+}
+
+#[test]
+fn static_electricity_resumes_between_two_updates() {
+    resumed_equals_uninterrupted("charged", CHARGED, "json,npy");
+}
+
+#[test]
+fn render_strands_and_a_driven_held_tip_with_nodes_resume_bit_for_bit() {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let nape = std::fs::read_to_string(format!("{root}/scenes/render-nape.toml"))
+        .expect("scenes/render-nape.toml")
+        .replace("\"data/", &format!("\"{root}/scenes/data/"))
+        .replace("duration = 2.0", "duration = 0.6");
+    let nape = format!("{nape}\n[output]\ncheckpoint_every = 11\n");
+    resumed_equals_uninterrupted("render", &nape, "npy,usda");
+    let rod = std::fs::read_to_string(format!("{root}/scenes/rod-driven.toml"))
+        .expect("scenes/rod-driven.toml")
+        .replace("duration = 2.0", "duration = 0.5")
+        .replace("[output]\n", "[output]\ncheckpoint_every = 9\nnodes = 12\n");
+    let dir = resumed_equals_uninterrupted("held", &rod, "json,npy");
+    for file in ["frames.held.npy", "frames.nodes.npy", "frames.d1.npy"] {
+        assert!(dir.join("resumed").join(file).exists(), "{file}");
+    }
+}
+
+#[test]
+fn a_checkpoint_of_another_scene_a_damaged_one_or_short_frames_are_refused_by_name() {
+    let scene = HAIR
+        .replace("ENGINE", "embedded")
+        .replace("EXTRA", "")
+        .replace("CONTACTS", "");
+    let dir = scratch("checkpoint-refusals");
+    let path = write(&dir, "scene.toml", &scene);
+    let out = dir.join("out");
+    let (path, outs) = (path.to_string_lossy(), out.to_string_lossy());
+    succeed(&["run", &path, "--out", &outs, "--format", "npy"], 2);
+    let refused = |scene: &str, expect: &[&str]| {
+        let o = command(&["run", scene, "--resume", &outs, "--format", "npy"], 2);
+        let text = support::text(&o);
+        assert!(!o.status.success(), "{text}");
+        for e in expect {
+            assert!(text.contains(e), "expected {e:?} in:\n{text}");
+        }
+    };
+    // another scene: the first key that differs is named
+    let other = write(
+        &dir,
+        "other.toml",
+        &scene.replace("duration = 0.5", "duration = 0.6"),
+    );
+    refused(
+        &other.to_string_lossy(),
+        &[
+            "--resume",
+            "simulation.duration: 0.5 in the checkpoint, 0.6 in the scene",
+        ],
+    );
+    // other formats
+    let o = command(&["run", &path, "--resume", &outs, "--format", "json"], 2);
+    assert!(
+        support::text(&o).contains("the formats: npy in the checkpoint, json now"),
+        "{}",
+        support::text(&o)
+    );
+    // frames cut shorter than the checkpoint says
+    let npy = out.join("frames.npy");
+    let bytes = std::fs::read(&npy).unwrap_or_default();
+    let kept = bytes.clone();
+    std::fs::write(&npy, &bytes[..bytes.len() / 4]).unwrap_or_else(|e| panic!("{e}"));
+    refused(
+        &path,
+        &[
+            "frames.npy",
+            "does not hold the frames its checkpoint names",
+        ],
+    );
+    std::fs::write(&npy, &kept).unwrap_or_else(|e| panic!("{e}"));
+    // a damaged checkpoint: one byte changed, then cut short, then not one at all
+    let ck = out.join("checkpoint.bin");
+    let good = std::fs::read(&ck).unwrap_or_default();
+    let mut flipped = good.clone();
+    let middle = flipped.len() / 2;
+    flipped[middle] ^= 0x40;
+    std::fs::write(&ck, &flipped).unwrap_or_else(|e| panic!("{e}"));
+    refused(&path, &["checkpoint.bin is damaged", "checksum"]);
+    std::fs::write(&ck, &good[..good.len() - 10]).unwrap_or_else(|e| panic!("{e}"));
+    refused(&path, &["checkpoint.bin is damaged"]);
+    std::fs::write(&ck, b"{\"not\": \"a checkpoint\"}").unwrap_or_else(|e| panic!("{e}"));
+    refused(
+        &path,
+        &["checkpoint.bin is damaged", "not a superhelix checkpoint"],
+    );
+    // restored, it resumes
+    std::fs::write(&ck, &good).unwrap_or_else(|e| panic!("{e}"));
+    succeed(&["run", &path, "--resume", &outs, "--format", "npy"], 2);
+    // checkpoints without a frame file are refused before the run
+    let o = command(&["run", &path, "--out", &outs, "--format", "usda"], 2);
+    let text = support::text(&o);
+    assert!(
+        !o.status.success() && text.contains("output.checkpoint_every"),
+        "{text}"
+    );
+}
