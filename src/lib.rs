@@ -181,7 +181,7 @@ pub fn run_planned_with<S: FrameSource + ?Sized>(
         Some(c) => {
             let (point, marks) = match c.resume {
                 Some(ck) => {
-                    source.restore(ck.state)?;
+                    source.restore(&ck.state)?;
                     (Some(ck.point), Some(ck.sinks))
                 }
                 None => (None, None),

@@ -128,13 +128,13 @@ pub trait FrameSource {
     fn held_ends(&mut self, out: &mut Vec<HeldEndFrame>) {
         out.clear();
     }
-    /// Everything the source needs to go on from where it is (what a checkpoint writes);
-    /// `None` (the default): the source cannot be checkpointed.
-    fn state(&self) -> Option<crate::simulation::SimulationState> {
+    /// Everything the source needs to go on from where it is, encoded (what a checkpoint
+    /// writes); `None` (the default): the source cannot be checkpointed.
+    fn state(&self) -> Option<Result<Vec<u8>>> {
         None
     }
-    /// Continue from `state` as [`Self::state`] gave it; by default refused.
-    fn restore(&mut self, _state: crate::simulation::SimulationState) -> Result<()> {
+    /// Continue from `state` as [`Self::state`] encoded it; by default refused.
+    fn restore(&mut self, _state: &[u8]) -> Result<()> {
         Err(crate::error::Error::invalid(
             "--resume",
             "this source cannot continue from a checkpoint",

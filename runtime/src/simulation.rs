@@ -1584,11 +1584,11 @@ impl FrameSource for Simulation {
     fn time(&self) -> f64 {
         self.time
     }
-    fn state(&self) -> Option<SimulationState> {
-        Some(Simulation::state(self))
+    fn state(&self) -> Option<Result<Vec<u8>>> {
+        Some(Simulation::state(self).encode())
     }
-    fn restore(&mut self, state: SimulationState) -> Result<()> {
-        Simulation::restore(self, state)
+    fn restore(&mut self, state: &[u8]) -> Result<()> {
+        Simulation::restore(self, SimulationState::decode(state)?)
     }
     fn strand_steps(&self) -> Option<Vec<crate::output::StrandSteps>> {
         Simulation::strand_steps(self)

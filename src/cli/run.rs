@@ -89,9 +89,7 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
     match (&checkpoints.resume, args.resume.is_some()) {
         (Some(c), _) => println!(
             "resuming from the checkpoint at frame {} of {} (t = {:.4} s)",
-            c.point.frames,
-            plan.frames,
-            c.state.time()
+            c.point.frames, plan.frames, c.point.time
         ),
         (None, true) => println!("no checkpoint in {}: starting at t = 0", out.display()),
         (None, false) => {}

@@ -11,7 +11,7 @@
 //! - where the run was: the steps taken, the frames written, the largest speed and depth
 //!   reported so far;
 //! - where every frame file ended (`frames.json` in bytes, the `.npy` files in rows);
-//! - the simulation's state ([`crate::simulation::SimulationState`]).
+//! - the simulation's state, as the simulation encodes it (`SimulationState`).
 //!
 //! It is written atomically (a temporary file, synced, then renamed) after the frame
 //! files are synced, so a checkpoint never names a frame that is not on disk. On resume
@@ -21,7 +21,6 @@
 
 use super::atomic::{io_error, write_atomically};
 use crate::error::{Error, Result};
-use crate::simulation::SimulationState;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -172,6 +171,8 @@ pub fn setup_digest(setup: &impl std::fmt::Debug) -> u64 {
 pub struct RunPoint {
     /// Steps of `dt` completed.
     pub step: usize,
+    /// The simulated time reached, s.
+    pub time: f64,
     /// Frames written.
     pub frames: usize,
     /// Steps taken (split steps counted), as the summary reports them.
@@ -195,8 +196,10 @@ pub struct Checkpoint {
     pub point: RunPoint,
     /// Where each frame sink's files ended ([`super::FrameSink::mark`]), in sink order.
     pub sinks: Vec<Vec<u64>>,
-    /// The simulation's state.
-    pub state: SimulationState,
+    /// The simulation's state, as its source encoded it
+    /// ([`super::FrameSource::state`]; `crate::simulation::SimulationState` for a
+    /// simulation).
+    pub state: Vec<u8>,
 }
 
 /// Write `checkpoint` as `dir/checkpoint.bin`, atomically.

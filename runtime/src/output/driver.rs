@@ -256,7 +256,7 @@ fn run_loop<S: FrameSource + ?Sized>(
             .iter_mut()
             .map(|sink| sink.mark())
             .collect::<Result<Vec<_>>>()?;
-        let Some(state) = source.state() else {
+        let Some(state) = source.state().transpose()? else {
             return Err(Error::invalid(
                 "output.checkpoint_every",
                 "this simulation cannot be checkpointed: set checkpoint_every = 0",
@@ -267,6 +267,7 @@ fn run_loop<S: FrameSource + ?Sized>(
             identity: c.identity.clone(),
             point: super::checkpoint::RunPoint {
                 step,
+                time: source.time(),
                 frames: streamer.written,
                 taken: point.2,
                 max_speed: point.0,

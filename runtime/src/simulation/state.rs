@@ -46,6 +46,22 @@ impl SimulationState {
     pub fn steps(&self) -> usize {
         self.steps
     }
+
+    /// The state as a checkpoint writes it ([postcard](https://docs.rs/postcard)).
+    pub fn encode(&self) -> Result<Vec<u8>> {
+        postcard::to_stdvec(self)
+            .map_err(|e| Error::invalid("checkpoint", format!("the state cannot be encoded: {e}")))
+    }
+
+    /// The state [`Self::encode`] wrote.
+    pub fn decode(bytes: &[u8]) -> Result<Self> {
+        postcard::from_bytes(bytes).map_err(|e| {
+            Error::invalid(
+                "--resume",
+                format!("the checkpoint's simulation state does not decode: {e}"),
+            )
+        })
+    }
 }
 
 /// One strand of the runtime engine.
