@@ -8,6 +8,7 @@ pub mod compare_kernels;
 pub mod coulomb;
 pub mod coulomb_scaling;
 pub mod electrostatics;
+pub mod merge;
 pub mod quadrature_table;
 pub mod render;
 pub mod run;

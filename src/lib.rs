@@ -13,6 +13,8 @@ pub mod coulomb;
 pub mod coulomb_scaling;
 pub mod cpu_time;
 pub mod electrostatics_study;
+pub mod merge;
+pub mod part;
 pub mod quadrature_table;
 pub mod render;
 pub mod stress;

@@ -1,6 +1,7 @@
-//! The `superhelix` command. Each command is one file in `src/cli/`: `run` a scene,
-//! `validate` a scene, `render` written frames, and the measurements `bench`,
-//! `compare-kernels`, `quadrature-table`, `study` and `stress`.
+//! The `superhelix` command. Each command is one file in `src/cli/`: `run` a scene (or a
+//! part of it), `validate` a scene, `merge` the parts of a split run, `render` written
+//! frames, and the measurements `bench`, `compare-kernels`, `quadrature-table`, `study`
+//! and `stress`.
 
 mod cli;
 
@@ -22,6 +23,9 @@ enum Command {
     Run(cli::run::RunArgs),
     /// Check a scene file and list every problem.
     Validate(cli::validate::ValidateArgs),
+    /// Join the outputs of the parts of a split run (run --part K/P) into those of the
+    /// whole scene: frames.npy, frames.json, hair.usda and the pictures.
+    Merge(cli::merge::MergeArgs),
     /// Re-render the preview pictures (preview.png, preview_first.png, preview.gif) from
     /// frames a run wrote, with other camera settings.
     Render(cli::render::RenderArgs),
@@ -60,6 +64,7 @@ fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Run(args) => cli::run::run(args),
         Command::Validate(args) => cli::validate::run(args),
+        Command::Merge(args) => cli::merge::run(args),
         Command::Render(args) => cli::render::run(args),
         Command::Bench(args) => cli::bench::run(args),
         Command::CompareKernels(args) => cli::compare_kernels::run(args),

@@ -36,6 +36,10 @@ pub struct RunArgs {
     /// a checkpoint there, the run starts at t = 0.
     #[arg(long, value_name = "DIR")]
     resume: Option<PathBuf>,
+    /// Simulate part K of P of the strands (balanced by their expected cost), for
+    /// `superhelix merge` to join (docs/output.md#a-head-split-across-machines).
+    #[arg(long, value_name = "K/P")]
+    part: Option<superhelix::part::Part>,
 }
 
 /// Raised by Ctrl-C: the run stops between two steps and keeps its frames.
@@ -62,6 +66,24 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
     if let Some(t) = args.tolerance {
         setup.config.tolerance = Some(t);
     }
+    // the digest of the whole scene, which every part names
+    let whole = superhelix::runtime::output::checkpoint::setup_digest(&setup);
+    let mut part_strands = None;
+    if let Some(part) = args.part {
+        let total = setup.strands.len();
+        let (reduced, strands) = superhelix::part::part_setup(&setup, part)?;
+        println!(
+            "part {}/{}: {} of {total} strands",
+            part.index,
+            part.count,
+            strands.len()
+        );
+        if let Some(note) = superhelix::part::hair_hair_note(&setup) {
+            println!("{note}");
+        }
+        setup = reduced;
+        part_strands = Some((part, strands, total));
+    }
     for groom in &grooms {
         println!("{groom}");
     }
@@ -83,7 +105,7 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
         &setup,
         &plan,
         args.tolerance,
-        None,
+        args.part.map(|p| (p.index, p.count)),
         args.resume.is_some(),
     )?;
     match (&checkpoints.resume, args.resume.is_some()) {
@@ -103,6 +125,22 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
         );
     }
     prepare_out_dir(out)?;
+    if let Some((part, strands, total)) = part_strands {
+        let info = superhelix::part::PartInfo {
+            format: superhelix::part::PART_FORMAT.to_string(),
+            part,
+            strands,
+            total_strands: total,
+            scene: text.clone(),
+            scene_dir: std::path::absolute(dir)
+                .unwrap_or_else(|_| dir.to_path_buf())
+                .to_string_lossy()
+                .into_owned(),
+            digest: format!("{whole:016x}"),
+            formats: plan.formats.names().iter().map(|s| s.to_string()).collect(),
+        };
+        superhelix::part::write_info(out, &info)?;
+    }
     // A second Ctrl-C ends the process at once (the frames written stay readable).
     let handler = ctrlc::set_handler(|| {
         if STOP.swap(true, Ordering::SeqCst) {

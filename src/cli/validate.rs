@@ -44,6 +44,9 @@ fn report_valid(
         println!("{groom}");
     }
     println!("{}", engine_line(setup));
+    if let Some(note) = superhelix::part::hair_hair_note(setup) {
+        println!("{note}");
+    }
     let (engine, _) = superhelix::runtime::engine_for(setup);
     println!(
         "{}",

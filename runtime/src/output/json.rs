@@ -74,6 +74,10 @@ struct FrameIn {
     state_time: f64,
     points: Vec<[f64; 3]>,
     q: Vec<f64>,
+    #[serde(default)]
+    error_control: Option<FrameSteps>,
+    #[serde(default)]
+    held: Vec<HeldEndFrame>,
 }
 
 /// The streamed `frames.json` writer (see the module documentation).
@@ -321,6 +325,17 @@ impl JsonFrameStore {
     /// Generalized coordinates of frame k (all strands), or `None` past the last frame.
     pub fn q(&self, k: usize) -> Option<&[f64]> {
         self.frames.get(k).map(|f| f.q.as_slice())
+    }
+
+    /// What the error-controlled step did before frame k (`None`: fixed steps, or no
+    /// such frame).
+    pub fn steps(&self, k: usize) -> Option<FrameSteps> {
+        self.frames.get(k).and_then(|f| f.error_control)
+    }
+
+    /// The held-tip report of frame k (empty: none, or no such frame).
+    pub fn held(&self, k: usize) -> &[HeldEndFrame] {
+        self.frames.get(k).map_or(&[], |f| &f.held)
     }
 
     /// Points of frame k (all strands), or `None` past the last frame.

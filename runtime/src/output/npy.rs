@@ -110,6 +110,20 @@ pub fn write_strand_steps(dir: &Path, rows: &[super::StrandSteps]) -> Result<Pat
     Ok(path)
 }
 
+/// Write a whole little-endian float64 array of `rows` rows of shape `tail` to `path`
+/// (atomically), with the header a growing file of the same rows has: what
+/// `superhelix merge` writes the per-strand files ([`super::nodes`], [`STRAND_STEPS_FILE`])
+/// with.
+pub fn write_f64_rows(path: &Path, tail: &[u64], rows: u64, values: &[f64]) -> Result<()> {
+    let mut shape = vec![rows];
+    shape.extend_from_slice(tail);
+    let mut bytes = header_bytes("<f8", &shape, header_len_for("<f8", tail));
+    for x in values {
+        bytes.extend_from_slice(&x.to_le_bytes());
+    }
+    write_atomically(path, &bytes)
+}
+
 /// `frames.index.json`: the layout, where the per-frame step report is (runs with a
 /// tolerance, from the first frame on) and where the held-end report is (scenes with held
 /// tips).

@@ -1,0 +1,280 @@
+//! A head split across machines (docs/output.md, "A head split across machines"):
+//! `superhelix run SCENE --part K/P` as P = 3 processes at once, then `superhelix merge`,
+//! writes byte for byte what one run of the whole scene writes (frames.npy and its
+//! companions, frames.json, the node files, the step reports, hair.usda), for a scene of
+//! strands of two sizes with body contacts and error-controlled steps; the scenes and
+//! part sets that cannot be split or merged are refused, naming why.
+
+mod support;
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+use support::{scratch, superhelix, text, write};
+
+/// 16 wavy strands of 6 elements and 6 curly ones of 3 (unequal costs to balance) on a
+/// rocking head, touching a ball, with error-controlled steps and nodes.
+const SCENE: &str = r#"
+[simulation]
+duration = 0.5
+tolerance = 1e-4
+[head]
+motion = { kind = "oscillate", axis = [0.0, 1.0, 0.0], angle_deg = 30.0, frequency_hz = 1.5 }
+[[bodies]]
+name = "ball"
+shape = "sphere"
+center = [0.06, 0.0, -0.1]
+radius = 0.04
+[contacts]
+friction = "coulomb"
+friction_coefficient = 0.3
+[output]
+nodes = 5
+[[patches]]
+name = "p"
+count = [4, 4]
+size = [0.03, 0.03]
+length = 0.2
+elements = 6
+preset = "wavy"
+[[patches]]
+name = "q"
+count = [2, 3]
+size = [0.03, 0.03]
+length = 0.1
+elements = 3
+preset = "curly"
+"#;
+
+const FORMATS: &str = "json,npy,usda";
+
+fn files(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .map(|d| {
+            d.flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
+#[test]
+fn three_parts_run_as_three_processes_merge_to_the_whole_run_bit_for_bit() {
+    let dir = scratch("part-merge");
+    let scene = write(&dir, "scene.toml", SCENE);
+    let scene = scene.to_string_lossy().into_owned();
+    let whole = dir.join("whole");
+    let o = superhelix(&[
+        "run",
+        &scene,
+        "--out",
+        &whole.to_string_lossy(),
+        "--format",
+        FORMATS,
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    // the three parts at once, as a farm would run them
+    let parts: Vec<_> = (1..=3).map(|k| dir.join(format!("part{k}"))).collect();
+    let children: Vec<_> = parts
+        .iter()
+        .enumerate()
+        .map(|(k, out)| {
+            Command::new(env!("CARGO_BIN_EXE_superhelix"))
+                .args(["run", &scene, "--part", &format!("{}/3", k + 1), "--out"])
+                .arg(out)
+                .args(["--format", FORMATS])
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap_or_else(|e| panic!("cannot start superhelix: {e}"))
+        })
+        .collect();
+    let mut held = Vec::new();
+    for child in children {
+        let o = child.wait_with_output().unwrap_or_else(|e| panic!("{e}"));
+        let said = text(&o);
+        assert!(o.status.success(), "{said}");
+        let strands: usize = said
+            .lines()
+            .find_map(|l| {
+                l.strip_prefix("part ")?
+                    .split(": ")
+                    .nth(1)?
+                    .split(' ')
+                    .next()?
+                    .parse()
+                    .ok()
+            })
+            .unwrap_or_else(|| panic!("no part line in:\n{said}"));
+        held.push(strands);
+    }
+    // every strand in one part; the costs (18² and 9²) balanced to within one strand
+    assert_eq!(held.iter().sum::<usize>(), 22, "{held:?}");
+    assert!(held.iter().all(|&n| (6..=9).contains(&n)), "{held:?}");
+    let merged = dir.join("merged");
+    let mut args = vec!["merge".to_string()];
+    // in any order
+    for p in [&parts[2], &parts[0], &parts[1]] {
+        args.push(p.to_string_lossy().into_owned());
+    }
+    args.extend(["--out".to_string(), merged.to_string_lossy().into_owned()]);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let o = superhelix(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    let names = files(&whole);
+    for expected in [
+        "frames.npy",
+        "frames.json",
+        "frames.steps.npy",
+        "frames.nodes.npy",
+        "hair.usda",
+        "strand_steps.npy",
+    ] {
+        assert!(
+            names.iter().any(|n| n == expected),
+            "{expected} not in {names:?}"
+        );
+    }
+    assert_eq!(names, files(&merged));
+    for name in names {
+        let a = std::fs::read(whole.join(&name)).unwrap_or_default();
+        let b = std::fs::read(merged.join(&name)).unwrap_or_default();
+        assert!(!a.is_empty(), "{name} is empty");
+        assert!(
+            a == b,
+            "{name} differs between the whole run and the merged parts"
+        );
+    }
+}
+
+#[test]
+fn what_cannot_be_split_or_merged_is_refused_by_name() {
+    let dir = scratch("part-refusals");
+    let refused = |args: &[&str], expect: &[&str]| {
+        let o = superhelix(args);
+        let said = text(&o);
+        assert!(!o.status.success(), "{args:?} succeeded:\n{said}");
+        for e in expect {
+            assert!(said.contains(e), "{e:?} not in:\n{said}");
+        }
+    };
+    let charged = write(
+        &dir,
+        "charged.toml",
+        "[electrostatics]\ncharge_per_length = -1e-10\n[[patches]]\nname = \"t\"\ncount = [2, 2]\nsize = [0.01, 0.01]\nlength = 0.1\nelements = 3\n",
+    );
+    let out = dir.join("out").to_string_lossy().into_owned();
+    refused(
+        &[
+            "run",
+            &charged.to_string_lossy(),
+            "--part",
+            "1/2",
+            "--out",
+            &out,
+        ],
+        &["--part", "[electrostatics]"],
+    );
+    let root = env!("CARGO_MANIFEST_DIR");
+    let nape = format!("{root}/scenes/render-nape.toml");
+    refused(
+        &["run", &nape, "--part", "1/2", "--out", &out],
+        &["--part", "[render]"],
+    );
+    let small = write(
+        &dir,
+        "small.toml",
+        &SCENE
+            .replace("count = [4, 4]", "count = [1, 1]")
+            .replace("count = [2, 3]", "count = [1, 1]"),
+    );
+    let small = small.to_string_lossy().into_owned();
+    refused(
+        &["run", &small, "--part", "3/3", "--out", &out],
+        &["--part", "holds no strand"],
+    );
+    for bad in ["0/2", "3/2", "1-2", "a/b"] {
+        refused(&["run", &small, "--part", bad, "--out", &out], &["K/P"]);
+    }
+    // hair–hair: said by validate and by run --part
+    let hair = write(
+        &dir,
+        "hair.toml",
+        &SCENE.replace("[output]", "[contacts.hair_hair]\nradius = 0.002\n[output]"),
+    );
+    let o = superhelix(&["validate", &hair.to_string_lossy()]);
+    assert!(
+        o.status.success()
+            && text(&o)
+                .contains("hair–hair contacts between strands of different parts are not computed"),
+        "{}",
+        text(&o)
+    );
+    // merge: a missing part, a part twice, a folder that is not a part
+    let p1 = dir.join("p1").to_string_lossy().into_owned();
+    let p2 = dir.join("p2").to_string_lossy().into_owned();
+    for (k, p) in [(1, &p1), (2, &p2)] {
+        let o = superhelix(&[
+            "run",
+            &small,
+            "--part",
+            &format!("{k}/2"),
+            "--out",
+            p,
+            "--format",
+            "npy",
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+    }
+    let m = dir.join("m").to_string_lossy().into_owned();
+    refused(&["merge", &p1, "--out", &m], &["part 2/2 is given 0 times"]);
+    refused(
+        &["merge", &p1, &p1, &p2, "--out", &m],
+        &["part 1/2 is given 2 times"],
+    );
+    refused(&["merge", &p1, &out, "--out", &m], &["part.json"]);
+    // a part that did not finish
+    let npy = dir.join("p2").join("frames.npy");
+    let o = superhelix(&[
+        "run", &small, "--part", "2/2", "--out", &p2, "--format", "npy",
+    ]);
+    assert!(o.status.success());
+    let times = dir.join("p2").join("frames.times.npy");
+    assert!(npy.exists() && times.exists());
+    let short = dir.join("p2short");
+    std::fs::create_dir_all(&short).unwrap_or_else(|e| panic!("{e}"));
+    for f in [
+        "part.json",
+        "frames.index.json",
+        "frames.npy",
+        "frames.times.npy",
+    ] {
+        std::fs::copy(dir.join("p2").join(f), short.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+    }
+    // cut to its first 3 frames: the same header (version 1: 10 bytes, then the dict
+    // padded with spaces to its length) with 3 rows
+    let bytes = std::fs::read(short.join("frames.npy")).unwrap_or_default();
+    let header = 10 + u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    let dict = String::from_utf8_lossy(&bytes[10..header]).into_owned();
+    let frames: usize = dict
+        .split("'shape': (")
+        .nth(1)
+        .and_then(|s| s.split(',').next())
+        .and_then(|s| s.trim().parse().ok())
+        .unwrap_or(0);
+    assert!(frames > 3, "{dict}");
+    let row = (bytes.len() - header) / frames;
+    let mut cut = bytes[..10].to_vec();
+    let mut patched = dict.replacen(&format!("({frames},"), "(3,", 1).into_bytes();
+    patched.truncate(header - 11);
+    patched.resize(header - 11, b' ');
+    cut.extend_from_slice(&patched);
+    cut.push(b'\n');
+    cut.extend_from_slice(&bytes[header..header + 3 * row]);
+    std::fs::write(short.join("frames.npy"), &cut).unwrap_or_else(|e| panic!("{e}"));
+    refused(
+        &["merge", &p1, &short.to_string_lossy(), "--out", &m],
+        &["holds 3 frames", "finish every part first"],
+    );
+}
