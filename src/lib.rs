@@ -382,11 +382,41 @@ pub fn check_scene_reporting(
         }
     }
     let built = parsed.and_then(|parsed| {
-        Simulation::new(parsed.0.clone(), kernel_factory())?;
+        build_in_chunks(&parsed.0)?;
         Ok(parsed)
     });
     // the failure path lists every problem, not only the first stage's
     built.map_err(|_| runtime::validate_scene_at(scene_text, scene_dir, kernel_factory()))
+}
+
+/// Strands built at once by [`check_scene_reporting`] when they do not act on each
+/// other: what bounds a validation's memory (a run holds every strand at once).
+pub const VALIDATE_CHUNK: usize = 256;
+
+/// Build the simulation of `setup` as `run` would, to meet every problem it meets before
+/// its first step, holding at most [`VALIDATE_CHUNK`] strands at once when they do not
+/// act on each other (no electrostatics, no hair–hair contacts): each strand's checks
+/// are its own, on the engine the whole scene gets.
+fn build_in_chunks(setup: &SimulationSetup) -> Result<()> {
+    let interacting = setup.electrostatics.is_some()
+        || setup
+            .contacts
+            .as_ref()
+            .is_some_and(|c| c.hair_hair.is_some());
+    if interacting || setup.strands.len() <= VALIDATE_CHUNK {
+        return Simulation::new(setup.clone(), kernel_factory()).map(|_| ());
+    }
+    let (engine, _) = runtime::engine_for(setup);
+    let mut part = SimulationSetup {
+        strands: Vec::new(),
+        ..setup.clone()
+    };
+    part.config.engine = engine;
+    for chunk in setup.strands.chunks(VALIDATE_CHUNK) {
+        part.strands = chunk.to_vec();
+        Simulation::new(part.clone(), kernel_factory())?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -206,10 +206,11 @@ pub fn run_checkpointed<S: FrameSource + ?Sized>(
     let summary = RunSummary {
         mode: config.mode,
         // the steps planned, and those that ended on a frame's time under [output] times
+        // (a resumed run: those of this run)
         steps: if config.output_times.is_some() {
-            taken
+            taken - from.taken
         } else {
-            steps
+            steps - from.step
         },
         strands: source.strand_count(),
         frames: streamer.written,
