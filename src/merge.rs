@@ -132,10 +132,13 @@ fn join_steps(steps: impl Iterator<Item = Option<FrameSteps>>) -> Option<FrameSt
         o.largest_error = o.largest_error.max(s.largest_error);
         o.steps += s.steps;
         o.rejected += s.rejected;
-        o.smallest_step = match (o.smallest_step, s.smallest_step) {
-            (a, b) if a == 0.0 => b,
-            (a, b) if b == 0.0 => a,
-            (a, b) => a.min(b),
+        // (0: no step)
+        o.smallest_step = if o.smallest_step == 0.0 {
+            s.smallest_step
+        } else if s.smallest_step == 0.0 {
+            o.smallest_step
+        } else {
+            o.smallest_step.min(s.smallest_step)
         };
         o.largest_step = o.largest_step.max(s.largest_step);
     }

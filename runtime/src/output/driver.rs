@@ -154,7 +154,7 @@ pub fn run_checkpointed<S: FrameSource + ?Sized>(
     sinks: &mut [&mut dyn FrameSink],
     stop: &AtomicBool,
     mut progress: impl FnMut(usize, usize),
-    mut checkpoints: Option<&mut Checkpoints>,
+    checkpoints: Option<&mut Checkpoints>,
 ) -> RunOutcome {
     let started = Instant::now();
     let nominal = frame_times(config);
@@ -189,7 +189,7 @@ pub fn run_checkpointed<S: FrameSource + ?Sized>(
         stop,
         (&mut max_speed, &mut deepest, &mut taken),
         &mut progress,
-        (checkpoints.as_deref_mut(), from.step, resumed),
+        (checkpoints, from.step, resumed),
     );
     let mut stop_reason = match result {
         Ok(true) => StopReason::Completed,
