@@ -10,42 +10,16 @@ mod support;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use support::{scratch, write};
+use support::{rocking_patch, scratch, write, FRICTION_CONTACTS};
 
-/// A patch of 4 × 4 strands on a head rocking about y, next to a ball; 16 frames.
-const HAIR: &str = r#"
-[simulation]
-duration = 0.5
-engine = "ENGINE"
-EXTRA
-[head]
-motion = { kind = "oscillate", axis = [0.0, 1.0, 0.0], angle_deg = 30.0, frequency_hz = 1.5 }
-[[bodies]]
-name = "ball"
-shape = "sphere"
-center = [0.06, 0.0, -0.1]
-radius = 0.04
-CONTACTS
-[output]
-checkpoint_every = 10
-[[patches]]
-name = "p"
-count = [4, 4]
-size = [0.03, 0.03]
-length = 0.2
-elements = 6
-preset = "wavy"
-"#;
-
-const CONTACTS: &str = r#"
-[contacts]
-friction = "coulomb"
-friction_coefficient = 0.3
-[contacts.hair_hair]
-radius = 0.002
-friction = "coulomb"
-friction_coefficient = 0.2
-"#;
+/// The rocking patch of 16 frames on `engine`, with `extra` in `[simulation]` and
+/// `contacts`, a checkpoint every 10 frames.
+fn hair(engine: &str, extra: &str, contacts: &str) -> String {
+    rocking_patch(
+        &format!("duration = 0.5\nengine = \"{engine}\"\n{extra}"),
+        &format!("{contacts}\n[output]\ncheckpoint_every = 10\n"),
+    )
+}
 
 /// 20 charged strands (8000 particles, the multipole method), the forces refreshed every
 /// 4 steps: the checkpoint (after step 6) falls between two refreshes.
@@ -188,10 +162,7 @@ fn resumed_equals_uninterrupted(name: &str, scene: &str, formats: &str) -> PathB
 
 #[test]
 fn contacts_and_hair_hair_with_friction_resume_bit_for_bit() {
-    let scene = HAIR
-        .replace("ENGINE", "runtime")
-        .replace("EXTRA", "")
-        .replace("CONTACTS", CONTACTS);
+    let scene = hair("runtime", "", FRICTION_CONTACTS);
     resumed_equals_uninterrupted("contacts", &scene, "json,npy,usda,obj");
 }
 
@@ -210,25 +181,16 @@ fn body_friction_anchors_resume_bit_for_bit() {
 #[test]
 fn both_engines_resume_bit_for_bit_with_fixed_and_error_controlled_steps() {
     for engine in ["embedded", "runtime"] {
-        let fixed = HAIR
-            .replace("ENGINE", engine)
-            .replace("EXTRA", "")
-            .replace("CONTACTS", "");
+        let fixed = hair(engine, "", "");
         resumed_equals_uninterrupted(&format!("{engine}-fixed"), &fixed, "json,npy");
-        let tolerance = HAIR
-            .replace("ENGINE", engine)
-            .replace("EXTRA", "tolerance = 1e-4")
-            .replace("CONTACTS", "");
+        let tolerance = hair(engine, "tolerance = 1e-4", "");
         resumed_equals_uninterrupted(&format!("{engine}-tolerance"), &tolerance, "npy");
     }
 }
 
 #[test]
 fn the_two_step_integrator_resumes_with_its_history() {
-    let scene = HAIR
-        .replace("ENGINE", "runtime")
-        .replace("EXTRA", "integrator = \"bdf2\"")
-        .replace("CONTACTS", "");
+    let scene = hair("runtime", "integrator = \"bdf2\"", "");
     resumed_equals_uninterrupted("bdf2", &scene, "npy");
 }
 
@@ -258,10 +220,7 @@ fn render_strands_and_a_driven_held_tip_with_nodes_resume_bit_for_bit() {
 
 #[test]
 fn a_checkpoint_of_another_scene_a_damaged_one_or_short_frames_are_refused_by_name() {
-    let scene = HAIR
-        .replace("ENGINE", "embedded")
-        .replace("EXTRA", "")
-        .replace("CONTACTS", "");
+    let scene = hair("embedded", "", "");
     let dir = scratch("checkpoint-refusals");
     let path = write(&dir, "scene.toml", &scene);
     let out = dir.join("out");

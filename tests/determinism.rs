@@ -8,39 +8,7 @@ mod support;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use support::{scratch, write};
-
-/// A patch of 4 × 4 strands on a head rocking about y, next to a ball.
-const HAIR: &str = r#"
-[simulation]
-duration = 0.5
-engine = "ENGINE"
-[head]
-motion = { kind = "oscillate", axis = [0.0, 1.0, 0.0], angle_deg = 30.0, frequency_hz = 1.5 }
-[[bodies]]
-name = "ball"
-shape = "sphere"
-center = [0.06, 0.0, -0.1]
-radius = 0.04
-CONTACTS
-[[patches]]
-name = "p"
-count = [4, 4]
-size = [0.03, 0.03]
-length = 0.2
-elements = 6
-preset = "wavy"
-"#;
-
-const CONTACTS: &str = r#"
-[contacts]
-friction = "coulomb"
-friction_coefficient = 0.3
-[contacts.hair_hair]
-radius = 0.002
-friction = "coulomb"
-friction_coefficient = 0.2
-"#;
+use support::{rocking_patch, scratch, write, FRICTION_CONTACTS};
 
 /// 20 charged strands: enough particles (8000) for the multipole method.
 const CHARGED: &str = r#"
@@ -116,9 +84,7 @@ fn same_bits(name: &str, scene: &str, formats: &str) -> PathBuf {
 
 #[test]
 fn contacts_and_hair_hair_give_the_same_bits_on_one_and_two_threads() {
-    let scene = HAIR
-        .replace("ENGINE", "runtime")
-        .replace("CONTACTS", CONTACTS);
+    let scene = rocking_patch("duration = 0.5\nengine = \"runtime\"", FRICTION_CONTACTS);
     same_bits("contacts", &scene, "json,npy,usda,obj");
 }
 
@@ -127,7 +93,7 @@ fn both_engines_give_the_same_bits_on_one_and_two_threads_and_as_each_other() {
     let runs: Vec<PathBuf> = ["embedded", "runtime"]
         .iter()
         .map(|engine| {
-            let scene = HAIR.replace("ENGINE", engine).replace("CONTACTS", "");
+            let scene = rocking_patch(&format!("duration = 0.5\nengine = \"{engine}\""), "");
             same_bits(engine, &scene, "json,npy")
         })
         .collect();

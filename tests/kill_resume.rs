@@ -10,37 +10,16 @@ mod support;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-use support::{scratch, write};
+use support::{rocking_patch, scratch, write, FRICTION_CONTACTS};
 
 /// 16 strands on a head rocking about y with contacts and hair–hair friction, 3 s of 91
 /// frames, a checkpoint every 3 frames; about a second and a half on 2 threads.
-const SCENE: &str = r#"
-[simulation]
-duration = 3.0
-[head]
-motion = { kind = "oscillate", axis = [0.0, 1.0, 0.0], angle_deg = 30.0, frequency_hz = 1.5 }
-[[bodies]]
-name = "ball"
-shape = "sphere"
-center = [0.06, 0.0, -0.1]
-radius = 0.04
-[contacts]
-friction = "coulomb"
-friction_coefficient = 0.3
-[contacts.hair_hair]
-radius = 0.002
-friction = "coulomb"
-friction_coefficient = 0.2
-[output]
-checkpoint_every = 3
-[[patches]]
-name = "p"
-count = [4, 4]
-size = [0.03, 0.03]
-length = 0.2
-elements = 6
-preset = "wavy"
-"#;
+fn scene() -> String {
+    rocking_patch(
+        "duration = 3.0",
+        &format!("{FRICTION_CONTACTS}\n[output]\ncheckpoint_every = 3\n"),
+    )
+}
 
 const FORMATS: &str = "json,npy,usda";
 
@@ -101,7 +80,7 @@ fn same_results(a: &Path, b: &Path, kills: usize) {
 fn a_run_killed_twenty_times_leaves_readable_outputs_and_resumes_to_the_same_bytes() {
     let started = Instant::now();
     let dir = scratch("kill-resume");
-    let scene = write(&dir, "scene.toml", SCENE);
+    let scene = write(&dir, "scene.toml", &scene());
     let scene = scene.to_string_lossy();
     let whole = dir.join("whole");
     let status = run(&scene, &whole, false)

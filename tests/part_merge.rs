@@ -9,41 +9,19 @@ mod support;
 
 use std::path::Path;
 use std::process::{Command, Stdio};
-use support::{scratch, superhelix, text, write};
+use support::{rocking_patch, scratch, superhelix, text, write};
 
 /// 16 wavy strands of 6 elements and 6 curly ones of 3 (unequal costs to balance) on a
 /// rocking head, touching a ball, with error-controlled steps and nodes.
-const SCENE: &str = r#"
-[simulation]
-duration = 0.5
-tolerance = 1e-4
-[head]
-motion = { kind = "oscillate", axis = [0.0, 1.0, 0.0], angle_deg = 30.0, frequency_hz = 1.5 }
-[[bodies]]
-name = "ball"
-shape = "sphere"
-center = [0.06, 0.0, -0.1]
-radius = 0.04
-[contacts]
-friction = "coulomb"
-friction_coefficient = 0.3
-[output]
-nodes = 5
-[[patches]]
-name = "p"
-count = [4, 4]
-size = [0.03, 0.03]
-length = 0.2
-elements = 6
-preset = "wavy"
-[[patches]]
-name = "q"
-count = [2, 3]
-size = [0.03, 0.03]
-length = 0.1
-elements = 3
-preset = "curly"
-"#;
+fn scene() -> String {
+    let patch = rocking_patch(
+        "duration = 0.5\ntolerance = 1e-4",
+        "[contacts]\nfriction = \"coulomb\"\nfriction_coefficient = 0.3\n[output]\nnodes = 5\n",
+    );
+    format!(
+        "{patch}[[patches]]\nname = \"q\"\ncount = [2, 3]\nsize = [0.03, 0.03]\nlength = 0.1\nelements = 3\npreset = \"curly\"\n"
+    )
+}
 
 const FORMATS: &str = "json,npy,usda";
 
@@ -62,7 +40,7 @@ fn files(dir: &Path) -> Vec<String> {
 #[test]
 fn three_parts_run_as_three_processes_merge_to_the_whole_run_bit_for_bit() {
     let dir = scratch("part-merge");
-    let scene = write(&dir, "scene.toml", SCENE);
+    let scene = write(&dir, "scene.toml", &scene());
     let scene = scene.to_string_lossy().into_owned();
     let whole = dir.join("whole");
     let o = superhelix(&[
@@ -185,7 +163,7 @@ fn what_cannot_be_split_or_merged_is_refused_by_name() {
     let small = write(
         &dir,
         "small.toml",
-        &SCENE
+        &scene()
             .replace("count = [4, 4]", "count = [1, 1]")
             .replace("count = [2, 3]", "count = [1, 1]"),
     );
@@ -201,7 +179,7 @@ fn what_cannot_be_split_or_merged_is_refused_by_name() {
     let hair = write(
         &dir,
         "hair.toml",
-        &SCENE.replace("[output]", "[contacts.hair_hair]\nradius = 0.002\n[output]"),
+        &scene().replace("[output]", "[contacts.hair_hair]\nradius = 0.002\n[output]"),
     );
     let o = superhelix(&["validate", &hair.to_string_lossy()]);
     assert!(

@@ -10,6 +10,44 @@ use superhelix::runtime::output::frames::FrameLayout;
 use superhelix::runtime::output::npy::NpyFrameSink;
 use superhelix::runtime::output::{frame_layout, run_streaming, StopReason};
 
+/// A scene of a patch "p" of 4 × 4 wavy strands (N = 6, 20 cm) on a head rocking about
+/// y by ±30° at 1.5 Hz, next to a ball: `simulation` goes into `[simulation]`, `sections`
+/// (contacts, output) between the ball and the patch.
+pub fn rocking_patch(simulation: &str, sections: &str) -> String {
+    format!(
+        r#"
+[simulation]
+{simulation}
+[head]
+motion = {{ kind = "oscillate", axis = [0.0, 1.0, 0.0], angle_deg = 30.0, frequency_hz = 1.5 }}
+[[bodies]]
+name = "ball"
+shape = "sphere"
+center = [0.06, 0.0, -0.1]
+radius = 0.04
+{sections}
+[[patches]]
+name = "p"
+count = [4, 4]
+size = [0.03, 0.03]
+length = 0.2
+elements = 6
+preset = "wavy"
+"#
+    )
+}
+
+/// Contacts with the bodies and between the strands, both with Coulomb friction.
+pub const FRICTION_CONTACTS: &str = r#"
+[contacts]
+friction = "coulomb"
+friction_coefficient = 0.3
+[contacts.hair_hair]
+radius = 0.002
+friction = "coulomb"
+friction_coefficient = 0.2
+"#;
+
 /// Two patches ("front": 2 strands, "back": 1) and a single strand ("solo"), 0.2 s at 30 fps.
 pub const SCENE: &str = r#"
 [simulation]
