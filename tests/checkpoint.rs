@@ -10,7 +10,7 @@ mod support;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use support::{rocking_patch, scratch, write, FRICTION_CONTACTS};
+use support::{charged_tress, results, rocking_patch, scratch, write, FRICTION_CONTACTS};
 
 /// The rocking patch of 16 frames on `engine`, with `extra` in `[simulation]` and
 /// `contacts`, a checkpoint every 10 frames.
@@ -23,24 +23,9 @@ fn hair(engine: &str, extra: &str, contacts: &str) -> String {
 
 /// 20 charged strands (8000 particles, the multipole method), the forces refreshed every
 /// 4 steps: the checkpoint (after step 6) falls between two refreshes.
-const CHARGED: &str = r#"
-[simulation]
-duration = 0.4
-[electrostatics]
-method = "fmm"
-particle_density = 2000
-charge_per_length = -1e-9
-update_every = 4
-[output]
-checkpoint_every = 7
-[[patches]]
-name = "tress"
-count = [5, 4]
-size = [0.01, 0.008]
-length = 0.2
-elements = 5
-preset = "curly"
-"#;
+fn charged() -> String {
+    charged_tress(0.4, "update_every = 4", "[output]\ncheckpoint_every = 7")
+}
 
 fn command(args: &[&str], threads: usize) -> Output {
     Command::new(env!("CARGO_BIN_EXE_superhelix"))
@@ -55,19 +40,6 @@ fn succeed(args: &[&str], threads: usize) -> String {
     let text = support::text(&o);
     assert!(o.status.success(), "superhelix {args:?}:\n{text}");
     text
-}
-
-/// The files of `dir` a run writes its results to (not the pictures).
-fn results(dir: &Path) -> Vec<PathBuf> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map(|d| d.flatten().map(|e| e.path()).collect())
-        .unwrap_or_default();
-    files.retain(|p| {
-        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
-        name.starts_with("frames") || name.ends_with(".usda") || name.ends_with(".obj")
-    });
-    files.sort();
-    files
 }
 
 fn same_files(name: &str, a: &Path, b: &Path) {
@@ -196,7 +168,7 @@ fn the_two_step_integrator_resumes_with_its_history() {
 
 #[test]
 fn static_electricity_resumes_between_two_updates() {
-    resumed_equals_uninterrupted("charged", CHARGED, "json,npy");
+    resumed_equals_uninterrupted("charged", &charged(), "json,npy");
 }
 
 #[test]

@@ -8,24 +8,12 @@ mod support;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use support::{rocking_patch, scratch, write, FRICTION_CONTACTS};
+use support::{charged_tress, results, rocking_patch, scratch, write, FRICTION_CONTACTS};
 
 /// 20 charged strands: enough particles (8000) for the multipole method.
-const CHARGED: &str = r#"
-[simulation]
-duration = 0.2
-[electrostatics]
-method = "fmm"
-particle_density = 2000
-charge_per_length = -1e-9
-[[patches]]
-name = "tress"
-count = [5, 4]
-size = [0.01, 0.008]
-length = 0.2
-elements = 5
-preset = "curly"
-"#;
+fn charged() -> String {
+    charged_tress(0.2, "", "")
+}
 
 /// `superhelix run scene --out dir --format formats` on `threads` worker threads.
 fn run(scene: &str, out: &Path, formats: &str, threads: usize) {
@@ -41,20 +29,6 @@ fn run(scene: &str, out: &Path, formats: &str, threads: usize) {
         "{scene} on {threads} threads:\n{}",
         String::from_utf8_lossy(&o.stderr)
     );
-}
-
-/// The files of `dir` that a run writes its results to (not the pictures: their
-/// encoder's bytes are not the simulation's).
-fn results(dir: &Path) -> Vec<PathBuf> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map(|d| d.flatten().map(|e| e.path()).collect())
-        .unwrap_or_default();
-    files.retain(|p| {
-        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
-        name.starts_with("frames") || name.ends_with(".usda") || name.ends_with(".obj")
-    });
-    files.sort();
-    files
 }
 
 /// Run `scene` on 1 and on 2 threads and compare every result file byte for byte;
@@ -107,7 +81,7 @@ fn both_engines_give_the_same_bits_on_one_and_two_threads_and_as_each_other() {
 
 #[test]
 fn static_electricity_gives_the_same_bits_on_one_and_two_threads() {
-    same_bits("charged", CHARGED, "json,npy");
+    same_bits("charged", &charged(), "json,npy");
 }
 
 #[test]

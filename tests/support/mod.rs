@@ -37,6 +37,45 @@ preset = "wavy"
     )
 }
 
+/// The files of `dir` a run writes its results to (not the pictures: their encoder's
+/// bytes are not the simulation's), sorted.
+pub fn results(dir: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map(|d| d.flatten().map(|e| e.path()).collect())
+        .unwrap_or_default();
+    files.retain(|p| {
+        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        name.starts_with("frames") || name.ends_with(".usda") || name.ends_with(".obj")
+    });
+    files.sort();
+    files
+}
+
+/// 20 charged curly strands (N = 5, 20 cm; 8000 particles at 2000 per metre, enough for
+/// the multipole method) for `duration` seconds: `electrostatics` goes into
+/// `[electrostatics]`, `sections` before the patch.
+pub fn charged_tress(duration: f64, electrostatics: &str, sections: &str) -> String {
+    format!(
+        r#"
+[simulation]
+duration = {duration}
+[electrostatics]
+method = "fmm"
+particle_density = 2000
+charge_per_length = -1e-9
+{electrostatics}
+{sections}
+[[patches]]
+name = "tress"
+count = [5, 4]
+size = [0.01, 0.008]
+length = 0.2
+elements = 5
+preset = "curly"
+"#
+    )
+}
+
 /// Contacts with the bodies and between the strands, both with Coulomb friction.
 pub const FRICTION_CONTACTS: &str = r#"
 [contacts]

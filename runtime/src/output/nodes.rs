@@ -160,19 +160,7 @@ impl NodesSink {
         head: &HeadMotion,
         count: usize,
     ) -> Result<Self> {
-        let sampler = NodeSampler::new(strands, head, count)?;
-        let n = sampler.strand_count() as u64;
-        let k = count as u64;
-        let nodes = GrowingNpy::create(dir.join(NODES_FILE), "<f8", 8, vec![n, k, 3])?;
-        let d1 = GrowingNpy::create(dir.join(D1_FILE), "<f8", 8, vec![n, k - 1, 3])?;
-        Ok(Self {
-            sampler,
-            nodes,
-            d1,
-            node_values: Vec::new(),
-            d1_values: Vec::new(),
-            row: Vec::new(),
-        })
+        Self::open(dir, strands, head, count, None)
     }
 }
 
@@ -192,15 +180,30 @@ impl NodesSink {
                 "the checkpoint does not say where it ended",
             ));
         };
+        Self::open(dir, strands, head, count, Some(rows))
+    }
+}
+
+impl NodesSink {
+    /// Both files, created (`rows` `None`) or cut back to `rows` rows.
+    fn open(
+        dir: &Path,
+        strands: &[&Strand],
+        head: &HeadMotion,
+        count: usize,
+        rows: Option<u64>,
+    ) -> Result<Self> {
         let sampler = NodeSampler::new(strands, head, count)?;
         let n = sampler.strand_count() as u64;
         let k = count as u64;
-        let nodes = GrowingNpy::reopen(dir.join(NODES_FILE), "<f8", 8, vec![n, k, 3], rows)?;
-        let d1 = GrowingNpy::reopen(dir.join(D1_FILE), "<f8", 8, vec![n, k - 1, 3], rows)?;
+        let file = |name: &str, tail: Vec<u64>| match rows {
+            Some(rows) => GrowingNpy::reopen(dir.join(name), "<f8", 8, tail, rows),
+            None => GrowingNpy::create(dir.join(name), "<f8", 8, tail),
+        };
         Ok(Self {
+            nodes: file(NODES_FILE, vec![n, k, 3])?,
+            d1: file(D1_FILE, vec![n, k - 1, 3])?,
             sampler,
-            nodes,
-            d1,
             node_values: Vec::new(),
             d1_values: Vec::new(),
             row: Vec::new(),
