@@ -243,45 +243,6 @@ fn run_loop<S: FrameSource + ?Sized>(
     *max_speed = max_speed.max(check_state(source)?);
     // the frames written when the last checkpoint was taken
     let mut checkpointed = streamer.written;
-    let save = |source: &S,
-                streamer: &mut Streamer<'_, '_>,
-                step: usize,
-                point: (f64, Option<f64>, usize),
-                checkpoints: Option<&mut Checkpoints>|
-     -> Result<()> {
-        let Some(c) = checkpoints else {
-            return Ok(());
-        };
-        let marks = streamer
-            .sinks
-            .iter_mut()
-            .map(|sink| sink.mark())
-            .collect::<Result<Vec<_>>>()?;
-        let Some(state) = source.state().transpose()? else {
-            return Err(Error::invalid(
-                "output.checkpoint_every",
-                "this simulation cannot be checkpointed: set checkpoint_every = 0",
-            ));
-        };
-        let checkpoint = super::checkpoint::Checkpoint {
-            version: super::checkpoint::VERSION,
-            identity: c.identity.clone(),
-            point: super::checkpoint::RunPoint {
-                step,
-                time: source.time(),
-                frames: streamer.written,
-                taken: point.2,
-                max_speed: point.0,
-                deepest: point.1,
-                held_drift: streamer.held_drift,
-            },
-            sinks: marks,
-            state,
-        };
-        super::checkpoint::write(&c.dir, &checkpoint)?;
-        c.written += 1;
-        Ok(())
-    };
     if config.mode == Mode::Static {
         if stop.load(Ordering::Relaxed) {
             return Ok(false);
@@ -305,7 +266,7 @@ fn run_loop<S: FrameSource + ?Sized>(
             if stop.load(Ordering::Relaxed) {
                 // (a Ctrl-C keeps where the run was, to go on from there)
                 if step > first + 1 || !resumed {
-                    save(
+                    write_checkpoint(
                         source,
                         streamer,
                         step - 1,
@@ -335,7 +296,7 @@ fn run_loop<S: FrameSource + ?Sized>(
             *taken += 1;
             let every = checkpoints.as_ref().map_or(0, |c| c.every);
             if every > 0 && streamer.written >= checkpointed + every && step < steps {
-                save(
+                write_checkpoint(
                     source,
                     streamer,
                     step,
@@ -349,6 +310,49 @@ fn run_loop<S: FrameSource + ?Sized>(
     }
     streamer.write_due(source, f64::INFINITY)?;
     Ok(true)
+}
+
+/// Mark every sink and write the source's state as a checkpoint of the run at `step`
+/// (nothing without `checkpoints`).
+fn write_checkpoint<S: FrameSource + ?Sized>(
+    source: &S,
+    streamer: &mut Streamer<'_, '_>,
+    step: usize,
+    (max_speed, deepest, taken): (f64, Option<f64>, usize),
+    checkpoints: Option<&mut Checkpoints>,
+) -> Result<()> {
+    let Some(c) = checkpoints else {
+        return Ok(());
+    };
+    let marks = streamer
+        .sinks
+        .iter_mut()
+        .map(|sink| sink.mark())
+        .collect::<Result<Vec<_>>>()?;
+    let Some(state) = source.state().transpose()? else {
+        return Err(Error::invalid(
+            "output.checkpoint_every",
+            "this simulation cannot be checkpointed: set checkpoint_every = 0",
+        ));
+    };
+    let checkpoint = super::checkpoint::Checkpoint {
+        version: super::checkpoint::VERSION,
+        identity: c.identity.clone(),
+        point: super::checkpoint::RunPoint {
+            step,
+            time: source.time(),
+            frames: streamer.written,
+            taken,
+            max_speed,
+            deepest,
+            held_drift: streamer.held_drift,
+        },
+        sinks: marks,
+        state,
+    };
+    super::checkpoint::write(&c.dir, &checkpoint)?;
+    c.written += 1;
+    Ok(())
 }
 
 /// After a step: the state checked, the deepest point inside a body, the frames due.

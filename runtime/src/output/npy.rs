@@ -334,27 +334,7 @@ impl NpyFrameSink {
     /// both arrays with zero frames.
     pub fn create(dir: &Path, layout: &FrameLayout) -> Result<Self> {
         std::fs::create_dir_all(dir).map_err(|e| io_error(dir, e))?;
-        write_index(dir, layout, false)?;
-        let held = if layout.held_tips.is_empty() {
-            None
-        } else {
-            let shape = vec![layout.held_tips.len() as u64, HELD_COLUMNS.len() as u64];
-            Some(GrowingNpy::create(dir.join(HELD_FILE), "<f8", 8, shape)?)
-        };
-        let total_points = layout.total_points();
-        let points =
-            GrowingNpy::create(dir.join(NPY_FILE), "<f4", 4, vec![total_points as u64, 3])?;
-        let times = GrowingNpy::create(dir.join(TIMES_FILE), "<f8", 8, vec![2])?;
-        Ok(Self {
-            points,
-            times,
-            steps: None,
-            held,
-            dir: dir.to_path_buf(),
-            layout: layout.clone(),
-            total_points,
-            row: Vec::with_capacity(12 * total_points),
-        })
+        Self::open(dir, layout, None)
     }
 
     /// Go on writing the files in `dir` after a checkpoint: each is cut back to the rows
@@ -366,36 +346,28 @@ impl NpyFrameSink {
                 "the checkpoint does not say where it ended",
             ));
         };
+        Self::open(dir, layout, Some([frames, steps, held]))
+    }
+
+    /// The files, created (`rows` `None`) or cut back to `rows` (frames, step-report
+    /// rows, held-report rows; a step report of no rows is created at its first frame).
+    fn open(dir: &Path, layout: &FrameLayout, rows: Option<[u64; 3]>) -> Result<Self> {
+        let file = |name: &str, descr, item, tail: Vec<u64>, k: usize| match rows {
+            Some(rows) => GrowingNpy::reopen(dir.join(name), descr, item, tail, rows[k]),
+            None => GrowingNpy::create(dir.join(name), descr, item, tail),
+        };
         let total_points = layout.total_points();
-        let points = GrowingNpy::reopen(
-            dir.join(NPY_FILE),
-            "<f4",
-            4,
-            vec![total_points as u64, 3],
-            frames,
-        )?;
-        let times = GrowingNpy::reopen(dir.join(TIMES_FILE), "<f8", 8, vec![2], frames)?;
-        let steps = match steps {
-            0 => None,
-            rows => Some(GrowingNpy::reopen(
-                dir.join(STEPS_FILE),
-                "<f8",
-                8,
-                vec![5],
-                rows,
-            )?),
+        let points = file(NPY_FILE, "<f4", 4, vec![total_points as u64, 3], 0)?;
+        let times = file(TIMES_FILE, "<f8", 8, vec![2], 0)?;
+        let steps = match rows {
+            Some([_, steps, _]) if steps > 0 => Some(file(STEPS_FILE, "<f8", 8, vec![5], 1)?),
+            _ => None,
         };
         let held = if layout.held_tips.is_empty() {
             None
         } else {
             let shape = vec![layout.held_tips.len() as u64, HELD_COLUMNS.len() as u64];
-            Some(GrowingNpy::reopen(
-                dir.join(HELD_FILE),
-                "<f8",
-                8,
-                shape,
-                held,
-            )?)
+            Some(file(HELD_FILE, "<f8", 8, shape, 2)?)
         };
         write_index(dir, layout, steps.is_some())?;
         Ok(Self {
