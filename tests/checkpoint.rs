@@ -257,6 +257,24 @@ fn a_checkpoint_of_another_scene_a_damaged_one_or_short_frames_are_refused_by_na
     // restored, it resumes
     std::fs::write(&ck, &good).unwrap_or_else(|e| panic!("{e}"));
     succeed(&["run", &path, "--resume", &outs, "--format", "npy"], 2);
+    // a run from t = 0 into the folder leaves no earlier checkpoint behind
+    let plain = write(
+        &dir,
+        "plain.toml",
+        &scene.replace("checkpoint_every = 10", "checkpoint_every = 0"),
+    );
+    succeed(
+        &[
+            "run",
+            &plain.to_string_lossy(),
+            "--out",
+            &outs,
+            "--format",
+            "npy",
+        ],
+        2,
+    );
+    assert!(!ck.exists(), "a stale checkpoint.bin was left");
     // checkpoints without a frame file are refused before the run
     let o = command(&["run", &path, "--out", &outs, "--format", "usda"], 2);
     let text = support::text(&o);

@@ -125,6 +125,21 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
         );
     }
     prepare_out_dir(out)?;
+    // a run from t = 0 leaves no earlier run's checkpoint or part file behind
+    let stale = [
+        (
+            checkpoints.resume.is_none(),
+            superhelix::runtime::output::checkpoint::CHECKPOINT_FILE,
+        ),
+        (part_strands.is_none(), superhelix::part::PART_FILE),
+    ];
+    for (_, name) in stale.iter().filter(|(stale, _)| *stale) {
+        let path = out.join(name);
+        if path.exists() {
+            std::fs::remove_file(&path)
+                .map_err(|e| superhelix::runtime::output::atomic::io_error(&path, e))?;
+        }
+    }
     if let Some((part, strands, total)) = part_strands {
         let info = superhelix::part::PartInfo {
             format: superhelix::part::PART_FORMAT.to_string(),
