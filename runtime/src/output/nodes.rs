@@ -196,10 +196,8 @@ impl NodesSink {
         let sampler = NodeSampler::new(strands, head, count)?;
         let n = sampler.strand_count() as u64;
         let k = count as u64;
-        let file = |name: &str, tail: Vec<u64>| match rows {
-            Some(rows) => GrowingNpy::reopen(dir.join(name), "<f8", 8, tail, rows),
-            None => GrowingNpy::create(dir.join(name), "<f8", 8, tail),
-        };
+        let file =
+            |name: &str, tail: Vec<u64>| GrowingNpy::open(dir.join(name), "<f8", 8, tail, rows);
         Ok(Self {
             nodes: file(NODES_FILE, vec![n, k, 3])?,
             d1: file(D1_FILE, vec![n, k - 1, 3])?,

@@ -220,45 +220,38 @@ impl GrowingNpy {
         item_bytes: u64,
         tail: Vec<u64>,
     ) -> Result<Self> {
-        let file = File::create(&path).map_err(|e| io_error(&path, e))?;
-        let header_len = header_len_for(descr, &tail);
-        let row_bytes = item_bytes * tail.iter().product::<u64>();
-        let mut npy = Self {
-            file,
-            path,
-            descr,
-            tail,
-            header_len,
-            row_bytes,
-            rows: 0,
-        };
-        npy.write_header()?;
-        Ok(npy)
+        Self::open(path, descr, item_bytes, tail, None)
     }
 
-    /// Go on writing the file at `path` (as [`Self::create`] made it) after its first
-    /// `rows` rows: what follows them is cut away.
-    pub(crate) fn reopen(
+    /// The file at `path`: created with no rows (`resume` `None`), or, as [`Self::create`]
+    /// made it, gone on with after its first `resume` rows, what follows them cut away.
+    pub(crate) fn open(
         path: PathBuf,
         descr: &'static str,
         item_bytes: u64,
         tail: Vec<u64>,
-        rows: u64,
+        resume: Option<u64>,
     ) -> Result<Self> {
-        let file = std::fs::OpenOptions::new()
-            .read(true)
-            .write(true)
-            .open(&path)
-            .map_err(|e| io_error(&path, e))?;
+        let file = match resume {
+            None => File::create(&path),
+            Some(_) => std::fs::OpenOptions::new()
+                .read(true)
+                .write(true)
+                .open(&path),
+        }
+        .map_err(|e| io_error(&path, e))?;
         let header_len = header_len_for(descr, &tail);
         let row_bytes = item_bytes * tail.iter().product::<u64>();
+        let rows = resume.unwrap_or(0);
         let end = header_len as u64 + rows * row_bytes;
-        let len = file.metadata().map_err(|e| io_error(&path, e))?.len();
-        if len < end {
-            return Err(super::json::resume_error(
-                &path,
-                &format!("{len} bytes, the checkpoint's {rows} rows end at byte {end}"),
-            ));
+        if resume.is_some() {
+            let len = file.metadata().map_err(|e| io_error(&path, e))?.len();
+            if len < end {
+                return Err(super::json::resume_error(
+                    &path,
+                    &format!("{len} bytes, the checkpoint's {rows} rows end at byte {end}"),
+                ));
+            }
         }
         let mut npy = Self {
             file,
@@ -272,7 +265,9 @@ impl GrowingNpy {
         // the header first: a kill between the two leaves a file longer than its header
         // says, which every reader reads
         npy.write_header()?;
-        npy.file.set_len(end).map_err(|e| io_error(&npy.path, e))?;
+        if resume.is_some() {
+            npy.file.set_len(end).map_err(|e| io_error(&npy.path, e))?;
+        }
         Ok(npy)
     }
 
@@ -352,9 +347,8 @@ impl NpyFrameSink {
     /// The files, created (`rows` `None`) or cut back to `rows` (frames, step-report
     /// rows, held-report rows; a step report of no rows is created at its first frame).
     fn open(dir: &Path, layout: &FrameLayout, rows: Option<[u64; 3]>) -> Result<Self> {
-        let file = |name: &str, descr, item, tail: Vec<u64>, k: usize| match rows {
-            Some(rows) => GrowingNpy::reopen(dir.join(name), descr, item, tail, rows[k]),
-            None => GrowingNpy::create(dir.join(name), descr, item, tail),
+        let file = |name: &str, descr, item, tail: Vec<u64>, k: usize| {
+            GrowingNpy::open(dir.join(name), descr, item, tail, rows.map(|r| r[k]))
         };
         let total_points = layout.total_points();
         let points = file(NPY_FILE, "<f4", 4, vec![total_points as u64, 3], 0)?;
