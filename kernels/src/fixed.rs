@@ -35,7 +35,8 @@ mod step;
 mod workspace;
 
 pub use adaptive::{
-    energy, step, Effects, ExtrapolatedHead, HeadTrajectory, StepCounts, StillHead,
+    energy, phase_cut, step, Effects, ExtrapolatedHead, HeadTrajectory, StepCounts, StillHead,
+    PHASE_CUT_MARGIN,
 };
 pub use bdf2::{bdf2, Bdf2History};
 pub use dense::{lu_solve, negative_semidefinite_part, Projection};

@@ -34,6 +34,32 @@ pub trait HeadTrajectory {
     /// Whether the head moves uniformly over [t0, t1] (no rotation, constant velocity):
     /// then the head does no work and the energy can only decrease.
     fn uniform_over(&self, t0: f64, t1: f64) -> bool;
+    /// The earliest time in the open interval (t0, t1) at which the head starts or stops
+    /// moving uniformly (where [`HeadTrajectory::uniform_over`] changes), if the motion
+    /// has one there: the checked steps land on it (see [`phase_cut`]), so that an
+    /// inertial phase's energy ceiling is the energy at the phase's exact start. The
+    /// default, `None`, is right for a motion that is uniform everywhere or nowhere.
+    fn phase_change(&self, t0: f64, t1: f64) -> Option<f64> {
+        let _ = (t0, t1);
+        None
+    }
+}
+
+/// Fraction of a step within which a phase change ([`HeadTrajectory::phase_change`]) is
+/// taken to fall on the step's end rather than cut it: round-off of accumulated times
+/// (a stop at 0.6 s reached by 18 steps of 1/30 s) must not leave a piece of 1e-16 s.
+pub const PHASE_CUT_MARGIN: f64 = 1e-9;
+
+/// Where a step from t0 to t1 is cut so that its pieces land on the head's phase
+/// changes: the first phase change inside the step, more than [`PHASE_CUT_MARGIN`] of the
+/// step from either end, or `None`. Both engines step [t0, cut] and [cut, t1] as two
+/// steps (each checked and split as any step), so an inertial phase starts exactly at its
+/// time: its ceiling is E there (`crate::energy`), the invariant `superhelix stress`
+/// checks.
+pub fn phase_cut(head: &dyn HeadTrajectory, t0: f64, t1: f64) -> Option<f64> {
+    let margin = PHASE_CUT_MARGIN * (t1 - t0);
+    head.phase_change(t0 + margin, t1 - margin)
+        .filter(|&b| b > t0 + margin && b < t1 - margin)
 }
 
 /// A head that does not move.
@@ -299,9 +325,11 @@ pub fn energy<
 /// Advance `strand` from time `t` by `h` seconds with the head moving as `head`: the
 /// linearly implicit Euler step ([`linearly_implicit`]) checked after the fact and split
 /// when it is not acceptable (see the module page), exactly the runtime's
-/// `linearly-implicit-euler` step for a strand without point loads. The strand keeps
-/// the energy of its end state for its next step. Allocates nothing; on failure the
-/// strand keeps the state of its last accepted substep and the error says why.
+/// `linearly-implicit-euler` step for a strand without point loads. A step that holds a
+/// change of the head's motion phase is taken as two, cut there ([`phase_cut`]). The
+/// strand keeps the energy of its end state for its next step. Allocates nothing; on
+/// failure the strand keeps the state of its last accepted substep and the error says
+/// why.
 #[allow(clippy::too_many_arguments)]
 pub fn step<
     S: MomentSource<T>,
@@ -323,6 +351,63 @@ pub fn step<
     if !(h.is_finite() && h > 0.0 && t.is_finite()) {
         return Err(StepError::TimeStep);
     }
+    let q0 = strand.q;
+    let end = t + h;
+    let mut now = t;
+    loop {
+        let cut = phase_cut(head, now, end);
+        step_piece(
+            source,
+            strand,
+            head,
+            effects,
+            now,
+            cut.unwrap_or(end) - now,
+            ws,
+            counts,
+        )?;
+        if let Some(i) = strand
+            .q
+            .iter()
+            .chain(strand.v.iter())
+            .position(|x| !x.is_finite())
+        {
+            return Err(StepError::NonFinite {
+                index: i % D,
+                velocity: i >= D,
+            });
+        }
+        match cut {
+            Some(b) => now = b,
+            None => break,
+        }
+    }
+    let rotation = max_element_rotation(&strand.params.lengths, &strand.q, &q0);
+    Ok(StepReport {
+        max_element_rotation: rotation.as_f64(),
+        projection: None,
+    })
+}
+
+/// One checked step from `t` by `h` within which the head keeps its motion phase.
+#[allow(clippy::too_many_arguments)]
+fn step_piece<
+    S: MomentSource<T>,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
+    source: &S,
+    strand: &mut FixedStrand<N, D, B, T>,
+    head: &dyn HeadTrajectory,
+    effects: &Effects,
+    t: f64,
+    h: f64,
+    ws: &mut FixedWorkspace<N, D, E, T>,
+    counts: &mut StepCounts,
+) -> Result<(), StepError> {
     ws.forget();
     let interval = Interval::new(head, t, h);
     let (start, levels) = match strand.last_energy {
@@ -335,29 +420,13 @@ pub fn step<
             (e, 0)
         }
     };
-    let q0 = strand.q;
     ws.rotation_estimate = 0.0;
     let end = split(
         source, strand, head, effects, &interval, &start, ws, counts, levels,
     )?;
     strand.last_energy = Some(end);
     strand.split_hint = predicted_split_levels(ws.rotation_estimate) as u8;
-    let rotation = max_element_rotation(&strand.params.lengths, &strand.q, &q0);
-    if let Some(i) = strand
-        .q
-        .iter()
-        .chain(strand.v.iter())
-        .position(|x| !x.is_finite())
-    {
-        return Err(StepError::NonFinite {
-            index: i % D,
-            velocity: i >= D,
-        });
-    }
-    Ok(StepReport {
-        max_element_rotation: rotation.as_f64(),
-        projection: None,
-    })
+    Ok(())
 }
 
 /// Largest l_Q |Δd_Q| between two states.

@@ -27,7 +27,7 @@
 //!
 //! `runtime/tests/fixed_step.rs` compares it with the runtime's error-controlled step.
 
-use super::adaptive::{max_element_rotation, measure, Effects, HeadTrajectory};
+use super::adaptive::{max_element_rotation, measure, phase_cut, Effects, HeadTrajectory};
 use super::bdf2::{bdf2, Bdf2History};
 use super::step::{linearly_implicit, StepError, StepInput, StepReport};
 use super::workspace::FixedWorkspace;
@@ -207,18 +207,20 @@ pub fn step_to_tolerance<
         if history.h > 0.0 {
             next = next.min(MAX_RATIO * history.h);
         }
+        // the steps land on the head's phase changes as on the interval's end
+        let target = phase_cut(head, now, end).unwrap_or(end);
         // decided with a margin of round-off, so that the same steps are taken whatever
         // the time's origin (an engine's clock from 0 or a scene's)
-        let last = next >= (end - now) * (1.0 - SLACK);
+        let last = next >= (target - now) * (1.0 - SLACK);
         // two steps rather than a long one and a short one
         let hh = if last {
-            end - now
-        } else if 2.0 * next > (end - now) * (1.0 + SLACK) {
-            0.5 * (end - now)
+            target - now
+        } else if 2.0 * next > (target - now) * (1.0 + SLACK) {
+            0.5 * (target - now)
         } else {
             next
         };
-        let t1 = if last { end } else { now + hh };
+        let t1 = if last { target } else { now + hh };
         let (start_q, start_v) = (strand.q, strand.v);
         let input = StepInput {
             head: head.state(t1),

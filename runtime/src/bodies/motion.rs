@@ -262,6 +262,48 @@ impl HeadMotion {
             } => *acceleration == 0.0 || *duration <= 0.0 || t1 <= *start || t0 >= start + duration,
         }
     }
+
+    /// The earliest time in the open interval (t0, t1) at which the head starts or stops
+    /// moving uniformly ([`HeadMotion::uniform_over`] changes there): a jolt's start and
+    /// end, the end of a sudden stop's deceleration, the first and the last key of a
+    /// keyframed track. The steps land on it, so that the energy ceiling of an inertial
+    /// phase is the energy at its exact start (`superhelix_kernels::fixed::phase_cut`).
+    pub fn phase_change(&self, t0: f64, t1: f64) -> Option<f64> {
+        let changes: [Option<f64>; 2] = match self {
+            HeadMotion::Still
+            | HeadMotion::Oscillate { .. }
+            | HeadMotion::TranslateOscillate { .. } => [None, None],
+            HeadMotion::Keyframes(track) => {
+                let keys = track.keys();
+                [keys.first().map(|k| k.t), keys.last().map(|k| k.t)]
+            }
+            HeadMotion::SuddenStop {
+                angular_speed,
+                stop_time,
+                stop_duration,
+                ..
+            } => [
+                (*angular_speed != 0.0).then(|| stop_time + stop_duration.max(0.0)),
+                None,
+            ],
+            HeadMotion::Jolt {
+                acceleration,
+                start,
+                duration,
+                ..
+            } => {
+                let jolts = *acceleration != 0.0 && *duration > 0.0;
+                [jolts.then_some(*start), jolts.then(|| start + duration)]
+            }
+        };
+        changes
+            .into_iter()
+            .flatten()
+            .filter(|&b| b > t0 && b < t1)
+            .fold(None, |first: Option<f64>, b| {
+                Some(first.map_or(b, |f| f.min(b)))
+            })
+    }
 }
 
 /// `A sin(2πft)` and its derivatives.
@@ -362,5 +404,8 @@ impl superhelix_kernels::fixed::HeadTrajectory for HeadMotion {
     }
     fn uniform_over(&self, t0: f64, t1: f64) -> bool {
         HeadMotion::uniform_over(self, t0, t1)
+    }
+    fn phase_change(&self, t0: f64, t1: f64) -> Option<f64> {
+        HeadMotion::phase_change(self, t0, t1)
     }
 }

@@ -11,6 +11,7 @@ use super::rk4::rk4;
 use super::stats::StepStats;
 use super::system::{HeadInterval, StrandState, StrandSystem, StrandWorkspace};
 use crate::config::IntegratorKind;
+use superhelix_kernels::fixed::phase_cut;
 
 pub use superhelix_kernels::energy::{
     predicted_split_levels, rotation_split_levels, ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION,
@@ -40,51 +41,77 @@ pub fn step(
             IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
         )
     });
-    match (system.context.integrator, tolerance) {
-        (IntegratorKind::Rk4, _) => rk4(system, interval, state),
-        (_, Some(tolerance)) => {
-            super::error_control::step(system, interval, state, stats, tolerance)
+    if system.context.integrator == IntegratorKind::Rk4 {
+        rk4(system, interval, state)?;
+    } else {
+        // a step that holds a change of the head's motion phase is taken as two, cut
+        // there, so that an inertial phase's ceiling is its start's energy (`phase_cut`)
+        let end = interval.t + interval.h;
+        let mut piece = *interval;
+        loop {
+            let cut = phase_cut(interval.motion, piece.t, end);
+            if let Some(b) = cut {
+                piece = HeadInterval::new(interval.motion, piece.t, b - piece.t);
+            }
+            implicit_step(system, &piece, state, stats, tolerance)?;
+            match cut {
+                Some(b) => piece = HeadInterval::new(interval.motion, b, end - b),
+                None => break,
+            }
         }
-        (kind, None) => {
-            // without the energy balance no energy is measured: the start's stands empty
-            let (start, continued) = if system.context.energy_balance {
-                start_energy(system, interval, state)
-            } else {
-                let ws = &system.workspace;
-                (
-                    StateEnergy::default(),
-                    ws.last_q == state.q && ws.last_v == state.v,
-                )
-            };
-            // the linearly implicit step starts as finely as its last step ended (the
-            // other integrators take their own whole step first; a strand with contacts
-            // tries its whole step, see `implicit_adaptive`)
-            let levels = if continued
-                && kind == IntegratorKind::LinearlyImplicitEuler
-                && system.contacts.is_none()
-            {
-                system
-                    .workspace
-                    .split_hint
-                    .min(system.context.max_split_depth)
-            } else {
-                0
-            };
-            system.workspace.rotation_estimate = 0.0;
-            let end = split(system, interval, state, &start, stats, levels)?;
-            let ws = &mut system.workspace;
-            ws.split_hint = predicted_split_levels(ws.rotation_estimate);
-            ws.last_energy = Some(end);
-            ws.last_q.copy_from_slice(&state.q);
-            ws.last_v.copy_from_slice(&state.v);
-            Ok(())
-        }
-    }?;
+    }
     let (q, v) = (&state.q, &state.v);
     if let Some(i) = q.iter().chain(v.iter()).position(|x| !x.is_finite()) {
         let what = if i < q.len() { "q" } else { "q̇" };
         return Err(format!("non-finite {what}[{}] after the step", i % q.len()));
     }
+    Ok(())
+}
+
+/// One implicit step over `interval` (within which the head keeps its motion phase):
+/// error-controlled at `tolerance`, or checked and split ([`split`]).
+fn implicit_step(
+    system: &mut StrandSystem,
+    interval: &HeadInterval,
+    state: &mut StrandState,
+    stats: &mut StepStats,
+    tolerance: Option<f64>,
+) -> Result<(), String> {
+    if let Some(tolerance) = tolerance {
+        return super::error_control::step(system, interval, state, stats, tolerance);
+    }
+    let kind = system.context.integrator;
+    // without the energy balance no energy is measured: the start's stands empty
+    let (start, continued) = if system.context.energy_balance {
+        start_energy(system, interval, state)
+    } else {
+        let ws = &system.workspace;
+        (
+            StateEnergy::default(),
+            ws.last_q == state.q && ws.last_v == state.v,
+        )
+    };
+    // the linearly implicit step starts as finely as its last step ended (the
+    // other integrators take their own whole step first; a strand with contacts
+    // tries its whole step, see `implicit_adaptive`)
+    let levels = if continued
+        && kind == IntegratorKind::LinearlyImplicitEuler
+        && system.contacts.is_none()
+    {
+        system
+            .workspace
+            .split_hint
+            .min(system.context.max_split_depth)
+    } else {
+        0
+    };
+    system.workspace.rotation_estimate = 0.0;
+    let end = split(system, interval, state, &start, stats, levels)?;
+    let ws = &mut system.workspace;
+    ws.split_hint = predicted_split_levels(ws.rotation_estimate);
+    ws.last_energy = Some(end);
+    ws.last_q.copy_from_slice(&state.q);
+    ws.last_v.copy_from_slice(&state.v);
     Ok(())
 }
 

@@ -271,3 +271,70 @@ fn uniform_over_is_true_exactly_where_the_head_frame_is_inertial() {
     };
     assert!(resting.uniform_over(0.0, 1.0));
 }
+
+#[test]
+fn phase_changes_are_where_uniform_over_changes() {
+    // every motion: on a fine grid, `uniform_over` of the cells on either side of a time
+    // differs exactly where `phase_change` puts a change, and a change is reported for
+    // an interval exactly when one lies strictly inside it
+    let mut all = motions();
+    all.push(("still", HeadMotion::Still, vec![], 1.0));
+    let jolt = HeadMotion::Jolt {
+        direction: Vector3::x(),
+        acceleration: 5.0,
+        start: 0.1,
+        duration: 0.01,
+    };
+    all.push(("short jolt", jolt.clone(), vec![], 1.0));
+    let cell = 1e-3;
+    for (name, motion, _, _) in all {
+        let mut changes = Vec::new();
+        let mut t = 0.0;
+        while t < 2.0 {
+            if let Some(b) = motion.phase_change(t, t + 0.25) {
+                assert!(
+                    b > t && b < t + 0.25,
+                    "{name}: {b} outside ({t}, {})",
+                    t + 0.25
+                );
+                // nothing earlier inside
+                assert_eq!(motion.phase_change(t, b), None, "{name}");
+                changes.push(b);
+                t = b;
+            } else {
+                t += 0.25;
+            }
+        }
+        for &b in &changes {
+            let before = motion.uniform_over(b - cell, b);
+            let after = motion.uniform_over(b, b + cell);
+            assert_ne!(before, after, "{name}: no change of phase at {b}");
+        }
+        // between the changes the phase holds
+        let mut edges = vec![0.0];
+        edges.extend(&changes);
+        edges.push(2.0);
+        for w in edges.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            let phase = motion.uniform_over(a, a + cell);
+            let mut t = a;
+            while t + cell < b {
+                assert_eq!(motion.uniform_over(t, t + cell), phase, "{name} at {t}");
+                t += cell;
+            }
+        }
+        let expected = match &motion {
+            HeadMotion::Jolt { .. } => 2,
+            HeadMotion::SuddenStop { .. } => 1,
+            HeadMotion::Keyframes(track) => {
+                let keys = track.keys();
+                usize::from(keys.first().is_some_and(|k| k.t > 0.0)) + usize::from(!keys.is_empty())
+            }
+            _ => 0,
+        };
+        assert_eq!(changes.len(), expected, "{name}: {changes:?}");
+    }
+    assert_eq!(jolt.phase_change(0.0, 1.0), Some(0.1));
+    assert_eq!(jolt.phase_change(0.1, 1.0), Some(0.11));
+    assert_eq!(jolt.phase_change(0.11, 1.0), None);
+}
