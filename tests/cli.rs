@@ -268,6 +268,40 @@ fn superhelix_runtime_integrator_of(path: &str) -> &'static str {
         .name()
 }
 
+/// The bench's last lines: `strand_steps_per_second=`, then `solves_per_strand_step=`,
+/// the solves it counted over the strand-steps it ran (`strands=S steps=K`).
+fn check_bench_figures(stdout: &str) {
+    let lines: Vec<&str> = stdout.lines().collect();
+    let n = lines.len();
+    assert!(n >= 2, "{stdout}");
+    assert!(
+        lines[n - 2].starts_with("strand_steps_per_second="),
+        "{stdout}"
+    );
+    let per_step: f64 = lines[n - 1]
+        .strip_prefix("solves_per_strand_step=")
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("{stdout}"));
+    let field = |key: &str| -> f64 {
+        stdout
+            .split_whitespace()
+            .find_map(|w| w.strip_prefix(key))
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("no {key} in {stdout}"))
+    };
+    let solves: f64 = stdout
+        .split(" solves)")
+        .next()
+        .and_then(|head| head.rsplit('(').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no solve count in {stdout}"));
+    let strand_steps = field("strands=") * field("steps=");
+    assert!(
+        (per_step - solves / strand_steps).abs() <= 5e-4 && per_step >= 1.0,
+        "{per_step} vs {solves} / {strand_steps}: {stdout}"
+    );
+}
+
 #[test]
 fn bench_runs_a_scene_with_its_effects_or_a_subset() {
     let scene = repo("scenes/curly-nod.toml");
@@ -278,8 +312,7 @@ fn bench_runs_a_scene_with_its_effects_or_a_subset() {
         stdout.contains("effects=gravity,drag,friction,head"),
         "{stdout}"
     );
-    let last = stdout.lines().last().unwrap_or_default();
-    assert!(last.starts_with("strand_steps_per_second="), "{stdout}");
+    check_bench_figures(&stdout);
     let out = superhelix(&[
         "bench",
         "--scene",
@@ -364,8 +397,7 @@ fn bench_runs_on_the_threads_it_is_given_and_refuses_zero() {
             stdout.contains(&format!(" {threads} threads\n")),
             "{threads}: {stdout}"
         );
-        let last = stdout.lines().last().unwrap_or_default();
-        assert!(last.starts_with("strand_steps_per_second="), "{stdout}");
+        check_bench_figures(&stdout);
     }
     let out = superhelix(&["bench", "--steps", "1", "--threads", "0"]);
     assert_eq!(out.status.code(), Some(1), "{}", text(&out));

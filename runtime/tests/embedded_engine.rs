@@ -238,3 +238,40 @@ fn a_step_across_a_change_of_the_heads_motion_is_two_steps_cut_there() {
         }
     }
 }
+
+#[test]
+fn strands_at_rest_or_on_a_smoothly_moving_head_take_one_solve_per_step() {
+    // the scene's two strands (N = 5 and 8, curly and wavy, with their drag and friction)
+    // settled on a still head, then the head nodding smoothly (0.5 Hz by ±15°) and
+    // turning at 30°/s: every step is one solve on both engines, nothing split or limited
+    let nod = "motion = { kind = \"oscillate\", axis = [0.0, 1.0, 0.0], angle_deg = 15.0, frequency_hz = 0.5 }";
+    let turn = "motion = { kind = \"sudden-stop\", axis = [0.0, 0.0, 1.0], angular_speed_deg = 30.0, stop_time = 100.0, stop_duration = 1.0 }";
+    for engine in ["runtime", "embedded"] {
+        let still = scene(engine, "").replace(
+            "motion = { kind = \"oscillate\", axis = [0.0, 0.0, 1.0], angle_deg = 30.0, frequency_hz = 2.0 }",
+            "motion = { kind = \"still\" }",
+        );
+        let mut rest = simulation(&still).expect("valid scene");
+        rest.solve_static().expect("static equilibrium");
+        for motion in ["motion = { kind = \"still\" }", nod, turn] {
+            let text = still.replace("motion = { kind = \"still\" }", motion);
+            let mut sim = simulation(&text).expect("valid scene");
+            for i in 0..2 {
+                let v = vec![0.0; rest.q(i).len()];
+                sim.set_state(i, rest.q(i), &v);
+            }
+            for _ in 0..15 {
+                sim.step().expect("step");
+            }
+            let stats = sim.stats();
+            let case = format!("{engine}, {motion}");
+            assert_eq!(stats.attempts, 2 * 15, "{case}: {stats:?}");
+            assert_eq!(stats.substeps, 0, "{case}: {stats:?}");
+            assert_eq!(stats.energy_limited, 0, "{case}: {stats:?}");
+            if motion != "motion = { kind = \"still\" }" {
+                // the strands did move with the head
+                assert!(sim.max_speed() > 1e-3, "{case}: {}", sim.max_speed());
+            }
+        }
+    }
+}

@@ -186,8 +186,9 @@ fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
     let steps = args.steps;
     let report = bench_setup(setup, steps)?;
     println!(
-        "scene={} steps={steps} engine={} kernels ({}) effects={names} integrator={integrator}",
+        "scene={} strands={} steps={steps} engine={} kernels ({}) effects={names} integrator={integrator}",
         path.display(),
+        report.strand_steps / steps.max(1),
         report.engine,
         report.kernel
     );
@@ -233,5 +234,9 @@ fn print_report(report: &BenchReport) {
     println!(
         "strand_steps_per_second={:.1}",
         report.strand_steps_per_second
+    );
+    println!(
+        "solves_per_strand_step={:.3}",
+        solves as f64 / report.strand_steps.max(1) as f64
     );
 }

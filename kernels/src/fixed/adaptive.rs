@@ -503,7 +503,8 @@ fn adaptive<
             ws,
         );
         let inertial = interval.uniform;
-        let excess = balance(start, &end, inertial).excess;
+        let balance = balance(start, &end, inertial);
+        let excess = balance.excess;
         if excess <= T::zero() {
             end.ceiling = end_ceiling(start, &end, inertial);
             return Ok(end);
@@ -515,8 +516,8 @@ fn adaptive<
         };
         let split = !deepest && excess > T::of(fraction) * start.scale;
         if !split {
-            let kinetic = end.kinetic - excess;
-            if kinetic >= T::zero() && end.kinetic > T::zero() {
+            // the kinetic energy that brings E down to the bound
+            if let Some(kinetic) = balance.limited_kinetic(&end, true) {
                 let lambda = (kinetic / end.kinetic).sqrt();
                 for x in strand.v.iter_mut() {
                     *x *= lambda;

@@ -278,9 +278,9 @@ pub fn step_to_tolerance<
             let (q, v) = (strand.q, strand.v);
             let mut e = measure(source, strand, effects, &input.head, t1, &q, &v, ws);
             let inertial = head.uniform_over(now, t1);
-            let excess = balance(&energy, &e, inertial).excess;
-            if excess > T::zero() && e.kinetic > T::zero() {
-                let kinetic = (e.kinetic - excess).max(T::zero());
+            let balance = balance(&energy, &e, inertial);
+            if balance.excess > T::zero() && e.kinetic > T::zero() {
+                let kinetic = balance.limited_kinetic(&e, true).unwrap_or(T::zero());
                 let lambda = (kinetic / e.kinetic).sqrt();
                 for x in strand.v.iter_mut() {
                     *x *= lambda;

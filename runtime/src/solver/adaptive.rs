@@ -200,7 +200,7 @@ fn limit_rotation(system: &mut StrandSystem, state: &mut StrandState, rotation: 
 ///   excess is above [`ENERGY_SPLIT_FRACTION`] S (uniform head) or
 ///   [`WORK_SPLIT_FRACTION`] S (moving head) is split. A smaller excess, or any at the
 ///   deepest substep, is removed by scaling the velocities by the λ < 1 that brings E
-///   down to bound plus allowance ([`StepStats::energy_limited`]): the exact dynamics
+///   down to the bound itself (`Balance::limited_kinetic`, [`StepStats::energy_limited`]): the exact dynamics
 ///   cannot gain more (friction and drag only dissipate), the excess of a first-order step
 ///   is its local error, so the correction is of the order of the error the step makes
 ///   anyway (it moves q̇ by excess / (2T) relative), and it is what keeps a step that
@@ -326,11 +326,12 @@ fn implicit_adaptive(
         // contacts with what moves relative to the head (a world body while the head
         // moves, a body on its own motion, other strands) do work: the step is then
         // balanced against work
+        let bodies_work = system
+            .contacts
+            .as_ref()
+            .is_some_and(|c| c.moves_relative(&interval.at_start(), &interval.at_end()));
         let inertial = interval.uniform
-            && !system
-                .contacts
-                .as_ref()
-                .is_some_and(|c| c.moves_relative(&interval.at_start(), &interval.at_end()))
+            && !bodies_work
         // follower loads work without a potential, and a driven holder works
         && !system.strand.has_follower_loads()
         && !system.held.as_ref().is_some_and(|h| h.is_driven());
@@ -352,9 +353,9 @@ fn implicit_adaptive(
         };
         let split = !deepest && excess > fraction * start.scale;
         if !split {
-            // the kinetic energy that brings E down to the bound plus the allowance
-            let kinetic = end.kinetic - excess;
-            if kinetic >= 0.0 && end.kinetic > 0.0 {
+            // the kinetic energy that brings E down to the bound (to its allowance's edge
+            // when moving bodies work, see `limited_kinetic`)
+            if let Some(kinetic) = balance.limited_kinetic(&end, !bodies_work) {
                 let lambda = (kinetic / end.kinetic).sqrt();
                 for x in state.v.iter_mut() {
                     *x *= lambda;

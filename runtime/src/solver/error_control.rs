@@ -364,17 +364,18 @@ fn limit_energy(
 ) -> StateEnergy {
     let time = whole.t + whole.h;
     let mut end = energy_balance::measure(system, &whole.end, time, &state.q, &state.v);
+    let bodies_work = system
+        .contacts
+        .as_ref()
+        .is_some_and(|c| c.moves_relative(&whole.at_start(), &whole.at_end()));
     let inertial = whole.uniform
-        && !system
-            .contacts
-            .as_ref()
-            .is_some_and(|c| c.moves_relative(&whole.at_start(), &whole.at_end()))
+        && !bodies_work
         // follower loads work without a potential, and a driven holder works
         && !system.strand.has_follower_loads()
         && !system.held.as_ref().is_some_and(|h| h.is_driven());
-    let excess = energy_balance::balance(start, &end, inertial).excess;
-    if excess > 0.0 && end.kinetic > 0.0 {
-        let kinetic = (end.kinetic - excess).max(0.0);
+    let balance = energy_balance::balance(start, &end, inertial);
+    if balance.excess > 0.0 && end.kinetic > 0.0 {
+        let kinetic = balance.limited_kinetic(&end, !bodies_work).unwrap_or(0.0);
         let lambda = (kinetic / end.kinetic).sqrt();
         for x in state.v.iter_mut() {
             *x *= lambda;
