@@ -147,7 +147,7 @@ impl<T: Float> Balance<T> {
     /// rate at the step's two ends) misses a body that meets the strand within the step;
     /// the allowance is then the only room for that work, and taking it would hold the
     /// strand in the body's way (a wavy N = 5 strand under a bar on a head shaking at
-    /// 5 Hz went 1.8 mm into the bar, against 0.9 mm keeping the allowance).
+    /// 5 Hz went 1.8 mm into the bar, against 0.03 mm keeping the allowance).
     ///
     /// When the potential energy alone is above the bound plus round-off, the velocities
     /// can only bring E down to the bound plus the allowance; `None` when not even that
