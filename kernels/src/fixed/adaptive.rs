@@ -14,7 +14,7 @@
 //! Without these checks a strand on a head shaking at 2 Hz by ±30° overflows within a
 //! second at dt = 1/30 and 1/60 s (the demo scene); with them it does not.
 
-use super::step::{evaluate_at, linearly_implicit, StepError, StepInput, StepReport};
+use super::step::{evaluate_at, linearly_implicit, non_finite, StepError, StepInput, StepReport};
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::energy::{
@@ -366,16 +366,8 @@ pub fn step<
             ws,
             counts,
         )?;
-        if let Some(i) = strand
-            .q
-            .iter()
-            .chain(strand.v.iter())
-            .position(|x| !x.is_finite())
-        {
-            return Err(StepError::NonFinite {
-                index: i % D,
-                velocity: i >= D,
-            });
+        if let Some(e) = non_finite(&strand.q, &strand.v) {
+            return Err(e);
         }
         match cut {
             Some(b) => now = b,

@@ -4,7 +4,7 @@
 
 use super::adaptive::max_element_rotation;
 use super::dense::lu_solve;
-use super::step::{assemble, step_matrix, StepError, StepInput, StepReport};
+use super::step::{assemble, non_finite, step_matrix, StepError, StepInput, StepReport};
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::float::Float;
@@ -111,15 +111,8 @@ pub fn bdf2<
     for i in 0..D {
         q_new[i] += bh * ws.rhs[i];
     }
-    if let Some(i) = q_new
-        .iter()
-        .chain(ws.rhs.iter())
-        .position(|x| !x.is_finite())
-    {
-        return Err(StepError::NonFinite {
-            index: i % D,
-            velocity: i >= D,
-        });
+    if let Some(e) = non_finite(&q_new, &ws.rhs) {
+        return Err(e);
     }
     let rotation = max_element_rotation(&p.lengths, &q_new, &q);
     strand.q = q_new;

@@ -29,7 +29,7 @@
 
 use super::adaptive::{max_element_rotation, measure, phase_cut, Effects, HeadTrajectory};
 use super::bdf2::{bdf2, Bdf2History};
-use super::step::{linearly_implicit, StepError, StepInput, StepReport};
+use super::step::{linearly_implicit, non_finite, StepError, StepInput, StepReport};
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::energy::{balance, end_ceiling};
@@ -302,16 +302,10 @@ pub fn step_to_tolerance<
             if hh <= MIN_STEP {
                 // the shortest step fails: say why, the strand back at its last accepted step
                 let failure = solved.err().unwrap_or_else(|| {
-                    let i = strand
-                        .q
-                        .iter()
-                        .chain(strand.v.iter())
-                        .position(|x| !x.is_finite())
-                        .unwrap_or(0);
-                    StepError::NonFinite {
-                        index: i % D,
-                        velocity: i >= D,
-                    }
+                    non_finite(&strand.q, &strand.v).unwrap_or(StepError::NonFinite {
+                        index: 0,
+                        velocity: false,
+                    })
                 });
                 strand.q = start_q;
                 strand.v = start_v;

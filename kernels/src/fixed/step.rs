@@ -40,6 +40,17 @@ pub struct StepReport {
     pub projection: Option<Projection>,
 }
 
+/// The first non-finite entry of (q, q̇) as a [`StepError::NonFinite`], if any.
+pub(super) fn non_finite<T: Float, const D: usize>(q: &[T; D], v: &[T; D]) -> Option<StepError> {
+    q.iter()
+        .chain(v.iter())
+        .position(|x| !x.is_finite())
+        .map(|i| StepError::NonFinite {
+            index: i % D,
+            velocity: i >= D,
+        })
+}
+
 /// Why a step failed; the strand keeps the state it had before the step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum StepError {
