@@ -222,25 +222,42 @@ pub fn end_ceiling<T: Float>(start: &StateEnergy<T>, end: &StateEnergy<T>, inert
 
 /// Largest rotation an implicit step may put into one element, radians: the change of
 /// `l_Q |d_Q|` over the step. Beyond it the step's linearisation of M(q), b and the
-/// forces no longer holds and energy can be created, so the step is split in two.
-pub const MAX_ELEMENT_ROTATION: f64 = 0.2;
+/// forces no longer holds and energy can be created, so the step is split.
+///
+/// Chosen by measurement (docs/time-stepping.md, "Step splitting"): at 0.8 rad a
+/// 2000-strand head shaking at 5 Hz takes 1.33 solves per strand-step where 0.2 rad took
+/// 5.30, and `superhelix stress` finds no energy created. The accuracy a tighter limit
+/// bought on fast inertial motion (a swinging strand) is kept by the numerical-loss split
+/// ([`LOSS_SPLIT_FRACTION`]), which splits only the steps that lose it.
+pub const MAX_ELEMENT_ROTATION: f64 = 0.8;
+
+/// Largest rotation of a step whose numerical loss is not checked, radians: a BDF2 step
+/// (second order, not split by its loss: at [`MAX_ELEMENT_ROTATION`] the twist seeded at
+/// 1e-6 rad/m in a round fibre released horizontal at 1/30 s grew to 3.5e-2 rad/m, where
+/// within this limit it stays at 1e-6); a step of a strand with contacts (the runtime's:
+/// their friction dissipates beyond the bound, so its loss is not measured; at
+/// [`MAX_ELEMENT_ROTATION`] strands on a shaking head went up to 2.8 mm into the bodies
+/// of `superhelix stress`); and a piece at the deepest split allowed, which is limited to
+/// it instead of split (the runtime's step budget: at one solve per strand-step the limit
+/// is what holds a head's 200 guides within 1 mm of its bodies).
+pub const TRUSTED_ELEMENT_ROTATION: f64 = 0.2;
 /// How many times a step may be halved (down to h / 2^depth).
 pub const MAX_SUBSTEP_DEPTH: usize = 8;
 
-/// How many halvings a step that rotated an element by `rotation` (> the limit
-/// [`MAX_ELEMENT_ROTATION`]) takes at once, at `depth`: the smallest j with
-/// `rotation / 2^j ≤ MAX_ELEMENT_ROTATION` (the rotation of a step is about
-/// proportional to its length), at least 1, at most down to [`MAX_SUBSTEP_DEPTH`]. The
-/// 2^j pieces are the intervals that halving j times gives, each checked as any step:
+/// How many halvings a step that rotated an element by `rotation` (> `limit`, the
+/// integrator's: [`MAX_ELEMENT_ROTATION`] or [`TRUSTED_ELEMENT_ROTATION`]) takes at once,
+/// at `depth`: the smallest j with `rotation / 2^j ≤ limit` (the rotation of a step is
+/// about proportional to its length), at least 1, at most down to [`MAX_SUBSTEP_DEPTH`].
+/// The 2^j pieces are the intervals that halving j times gives, each checked as any step:
 /// halving level by level would solve every level in between, only to reject it.
-pub fn rotation_split_levels(rotation: f64, depth: usize) -> usize {
+pub fn rotation_split_levels(rotation: f64, limit: f64, depth: usize) -> usize {
     if rotation.is_nan() {
         return 1;
     }
     let room = MAX_SUBSTEP_DEPTH.saturating_sub(depth).max(1);
     let mut levels = 1;
     let mut r = 0.5 * rotation;
-    while r > MAX_ELEMENT_ROTATION && levels < room {
+    while r > limit && levels < room {
         r *= 0.5;
         levels += 1;
     }
@@ -262,19 +279,76 @@ pub const ENERGY_SPLIT_FRACTION: f64 = 1e-3;
 /// more than S per step.
 pub const WORK_SPLIT_FRACTION: f64 = 1e-2;
 
-/// How many times the next step of a strand is halved before it is first tried, from
-/// `estimate`, the largest `2^depth r` over the (sub)steps of its last step that were
-/// accepted (r their element rotation, at their depth): the smallest j with
-/// `estimate / 2^j ≤ MAX_ELEMENT_ROTATION`, 0 when the whole step would pass, at most
-/// [`MAX_SUBSTEP_DEPTH`]. A strand whipping on a shaking head needs about as many pieces
-/// from one step to the next; trying the whole step first would only be rejected. The
-/// prediction follows the motion both ways: slower pieces give a smaller estimate, and the
-/// next step starts coarser.
-pub fn predicted_split_levels(estimate: f64) -> usize {
-    if estimate.is_nan() || estimate <= MAX_ELEMENT_ROTATION {
+/// How many times the next step of a strand is halved before it is first tried, from the
+/// last step's pieces: the larger of what the rotation asks for ([`rotation_split_levels`]
+/// of `rotation`, the largest `2^depth r` over the (sub)steps that were accepted, r their
+/// element rotation at their depth; 0 when it is within [`MAX_ELEMENT_ROTATION`]) and what
+/// the numerical loss asks for ([`loss_split_levels`] of `loss`, the largest `4^depth ℓ`
+/// over the pieces, ℓ their [`loss_ratio`]). At most [`MAX_SUBSTEP_DEPTH`]. A strand
+/// whipping on a shaking head needs about as many pieces from one step to the next; trying
+/// the whole step first would only be rejected. The prediction follows the motion both
+/// ways: slower pieces give smaller estimates, and the next step starts coarser.
+pub fn predicted_split_levels(rotation: f64, loss: f64) -> usize {
+    let by_rotation = if rotation.is_nan() || rotation <= MAX_ELEMENT_ROTATION {
+        0
+    } else {
+        rotation_split_levels(rotation, MAX_ELEMENT_ROTATION, 0)
+    };
+    by_rotation.max(loss_split_levels(loss, 0))
+}
+
+/// With the head moving uniformly, a step of a first-order implicit scheme (linearly
+/// implicit or Newton implicit Euler) that loses more than this fraction of the energy
+/// scale S beyond the physical dissipation is split ([`loss_ratio`]).
+///
+/// Implicit Euler damps what it does not resolve: in the inertial phase the balance
+/// measures that numerical loss exactly (E(start) − E(end) − ∫D, the dissipation D a
+/// bound on the physical one), and it is O(h²) per step, the error of a swinging
+/// strand's trajectory. A tight rotation limit kept it small by splitting every fast
+/// step; with the limit at [`MAX_ELEMENT_ROTATION`] this splits only the steps that lose
+/// more than 0.4 % of S at once, down to [`LOSS_SPLIT_DEPTH`]. Measured on the study's
+/// `swing` at 1/30 s (1 to 20 elements) against the 0.2 rad limit: 4e-3 keeps every error
+/// within +3.1 %, 6e-3 lets N = 2 lose 11 %. A shaking head's steps are not inertial and
+/// are never split by it; BDF2, second order, loses far less and is not split by it.
+pub const LOSS_SPLIT_FRACTION: f64 = 4e-3;
+
+/// How deep the numerical-loss split goes: a step is split by its loss into at most
+/// 2^LOSS_SPLIT_DEPTH pieces (the loss of a piece falls as h², by 16 at this depth).
+/// Deeper pieces are accepted whatever they lose: loss is never a danger to the run.
+pub const LOSS_SPLIT_DEPTH: usize = 2;
+
+/// The numerical loss of an inertial step from `start` to `end` over
+/// [`LOSS_SPLIT_FRACTION`] S: `(E(start) − ½h (D(start) + D(end)) − E(end) − round-off) /
+/// (ε S)`, at least 0 (a step that gains energy is the balance's concern). Above 1 the
+/// step is split ([`loss_split_levels`]).
+pub fn loss_ratio<T: Float>(start: &StateEnergy<T>, end: &StateEnergy<T>) -> f64 {
+    let h = T::of(end.time - start.time);
+    let dissipated = T::of(0.5) * h * (start.dissipation + end.dissipation);
+    let loss = start.total() - dissipated - end.total() - start.roundoff() - end.roundoff();
+    let scale = T::of(LOSS_SPLIT_FRACTION) * start.scale;
+    if scale > T::zero() {
+        (loss / scale).as_f64().max(0.0)
+    } else {
+        0.0
+    }
+}
+
+/// How many halvings a step at `depth` whose [`loss_ratio`] is `ratio` takes at once: 0
+/// when `ratio ≤ 1` or at [`LOSS_SPLIT_DEPTH`]; otherwise the smallest j ≥ 1 with
+/// `ratio / 4^j ≤ 1` (the loss of a step goes as h²: a quarter per halving), at most down
+/// to [`LOSS_SPLIT_DEPTH`].
+pub fn loss_split_levels(ratio: f64, depth: usize) -> usize {
+    if ratio.is_nan() || ratio <= 1.0 || depth >= LOSS_SPLIT_DEPTH {
         return 0;
     }
-    rotation_split_levels(estimate, 0)
+    let room = LOSS_SPLIT_DEPTH - depth;
+    let mut levels = 1;
+    let mut r = 0.25 * ratio;
+    while r > 1.0 && levels < room {
+        r *= 0.25;
+        levels += 1;
+    }
+    levels
 }
 
 #[cfg(test)]
@@ -284,19 +358,20 @@ mod tests {
     #[test]
     fn a_rotation_splits_into_the_pieces_that_bring_it_within_the_limit() {
         let limit = MAX_ELEMENT_ROTATION;
+        let rotation_split_levels_at = |r, depth| rotation_split_levels(r, limit, depth);
         // r / 2^j ≤ limit with the smallest j ≥ 1
-        assert_eq!(rotation_split_levels(1.0001 * limit, 0), 1);
-        assert_eq!(rotation_split_levels(2.0 * limit, 0), 1);
-        assert_eq!(rotation_split_levels(2.0001 * limit, 0), 2);
-        assert_eq!(rotation_split_levels(4.0 * limit, 0), 2);
-        assert_eq!(rotation_split_levels(4.0001 * limit, 0), 3);
+        assert_eq!(rotation_split_levels_at(1.0001 * limit, 0), 1);
+        assert_eq!(rotation_split_levels_at(2.0 * limit, 0), 1);
+        assert_eq!(rotation_split_levels_at(2.0001 * limit, 0), 2);
+        assert_eq!(rotation_split_levels_at(4.0 * limit, 0), 2);
+        assert_eq!(rotation_split_levels_at(4.0001 * limit, 0), 3);
         // never below the deepest substep, always at least one halving
-        assert_eq!(rotation_split_levels(1e9, 0), MAX_SUBSTEP_DEPTH);
-        assert_eq!(rotation_split_levels(1e9, MAX_SUBSTEP_DEPTH - 2), 2);
-        assert_eq!(rotation_split_levels(1e9, MAX_SUBSTEP_DEPTH), 1);
-        assert_eq!(rotation_split_levels(f64::NAN, 0), 1);
+        assert_eq!(rotation_split_levels_at(1e9, 0), MAX_SUBSTEP_DEPTH);
+        assert_eq!(rotation_split_levels_at(1e9, MAX_SUBSTEP_DEPTH - 2), 2);
+        assert_eq!(rotation_split_levels_at(1e9, MAX_SUBSTEP_DEPTH), 1);
+        assert_eq!(rotation_split_levels_at(f64::NAN, 0), 1);
         assert_eq!(
-            rotation_split_levels(f64::INFINITY, 3),
+            rotation_split_levels_at(f64::INFINITY, 3),
             MAX_SUBSTEP_DEPTH - 3
         );
     }
@@ -304,12 +379,50 @@ mod tests {
     #[test]
     fn the_next_step_starts_whole_unless_the_last_one_needed_pieces() {
         let limit = MAX_ELEMENT_ROTATION;
-        assert_eq!(predicted_split_levels(0.0), 0);
-        assert_eq!(predicted_split_levels(limit), 0);
-        assert_eq!(predicted_split_levels(f64::NAN), 0);
-        assert_eq!(predicted_split_levels(1.5 * limit), 1);
-        assert_eq!(predicted_split_levels(3.0 * limit), 2);
-        assert_eq!(predicted_split_levels(f64::INFINITY), MAX_SUBSTEP_DEPTH);
+        assert_eq!(predicted_split_levels(0.0, 0.0), 0);
+        assert_eq!(predicted_split_levels(limit, 1.0), 0);
+        assert_eq!(predicted_split_levels(f64::NAN, f64::NAN), 0);
+        assert_eq!(predicted_split_levels(1.5 * limit, 0.0), 1);
+        assert_eq!(predicted_split_levels(3.0 * limit, 0.0), 2);
+        assert_eq!(
+            predicted_split_levels(f64::INFINITY, 0.0),
+            MAX_SUBSTEP_DEPTH
+        );
+        // the loss asks for pieces too, the larger of the two wins
+        assert_eq!(predicted_split_levels(0.0, 3.0), 1);
+        assert_eq!(predicted_split_levels(3.0 * limit, 3.0), 2);
+        assert_eq!(predicted_split_levels(0.0, 1e9), LOSS_SPLIT_DEPTH);
+    }
+
+    #[test]
+    fn a_loss_splits_into_the_pieces_that_bring_it_within_the_fraction() {
+        // r / 4^j ≤ 1 with the smallest j ≥ 1, never below the loss split's depth
+        assert_eq!(loss_split_levels(1.0, 0), 0);
+        assert_eq!(loss_split_levels(f64::NAN, 0), 0);
+        assert_eq!(loss_split_levels(1.0001, 0), 1);
+        assert_eq!(loss_split_levels(4.0, 0), 1);
+        assert_eq!(loss_split_levels(4.0001, 0), 2.min(LOSS_SPLIT_DEPTH));
+        assert_eq!(loss_split_levels(1e9, 0), LOSS_SPLIT_DEPTH);
+        assert_eq!(loss_split_levels(1e9, LOSS_SPLIT_DEPTH - 1), 1);
+        assert_eq!(loss_split_levels(1e9, LOSS_SPLIT_DEPTH), 0);
+    }
+
+    #[test]
+    fn the_loss_is_what_a_step_loses_beyond_the_dissipation_bound() {
+        let mut start = state(0.0, 1e-6, 0.0);
+        start.dissipation = 2e-5;
+        let mut end = start;
+        end.time = 0.01;
+        // the bound dissipated 2e-7 J over the step: losing that much is no loss
+        end.kinetic = start.kinetic - 2e-7;
+        assert_eq!(loss_ratio(&start, &end), 0.0);
+        // gaining energy is no loss either
+        end.kinetic = start.kinetic + 1e-7;
+        assert_eq!(loss_ratio(&start, &end), 0.0);
+        // 3e-7 J lost beyond the bound, of ε S
+        end.kinetic = start.kinetic - 5e-7;
+        let expected = 3e-7 / (LOSS_SPLIT_FRACTION * start.scale);
+        assert!((loss_ratio(&start, &end) - expected).abs() < 1e-6 * expected);
     }
 
     /// A state of a strand on a moving head: E = T + U + V with the head's power.

@@ -68,7 +68,7 @@ fn largest_velocity(sim: &Simulation) -> f64 {
 /// `scenes/full-head-smooth.toml` (combed guides far from rest, falling onto the bodies
 /// and each other on a head shaking at 2.5 Hz by ±40°) at one solve per strand-step:
 /// every step whose rotation the budget cannot resolve is limited to
-/// `MAX_ELEMENT_ROTATION`, and |q̇| stays bounded: the bound, 2·10³ rad/(m s), is nine
+/// `TRUSTED_ELEMENT_ROTATION`, and |q̇| stays bounded: the bound, 2·10³ rad/(m s), is nine
 /// times what this run reaches (225). Without the limit the same scene reached
 /// |q̇| ≈ 10²² rad/(m s) within 3 s (a sample that meets the head near the root is
 /// pushed out within one step, which whips the rest of the strand, and the next step's

@@ -9,7 +9,11 @@
 //! - E(end) must not exceed its bound (see [`crate::energy::balance`]); a step whose
 //!   excess is above [`ENERGY_SPLIT_FRACTION`] (head moving uniformly) or
 //!   [`WORK_SPLIT_FRACTION`] (otherwise) of the energy scale is split, a smaller excess
-//!   removed by scaling the velocities.
+//!   removed by scaling the velocities;
+//! - with the head moving uniformly, a step that loses more than
+//!   [`crate::energy::LOSS_SPLIT_FRACTION`] of the energy scale beyond the dissipation
+//!   bound is split into the pieces of [`loss_split_levels`] (at most
+//!   [`crate::energy::LOSS_SPLIT_DEPTH`] deep).
 //!
 //! Without these checks a strand on a head shaking at 2 Hz by ±30° overflows within a
 //! second at dt = 1/30 and 1/60 s (the demo scene); with them it does not.
@@ -18,8 +22,9 @@ use super::step::{evaluate_at, linearly_implicit, non_finite, StepError, StepInp
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::energy::{
-    balance, end_ceiling, predicted_split_levels, rotation_split_levels, StateEnergy,
-    ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION, MAX_SUBSTEP_DEPTH, WORK_SPLIT_FRACTION,
+    balance, end_ceiling, loss_ratio, loss_split_levels, predicted_split_levels,
+    rotation_split_levels, StateEnergy, ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION,
+    MAX_SUBSTEP_DEPTH, TRUSTED_ELEMENT_ROTATION, WORK_SPLIT_FRACTION,
 };
 use crate::float::Float;
 use crate::head::{body_field, HeadState};
@@ -136,7 +141,8 @@ pub struct StepCounts {
     pub substeps: usize,
     /// Linearly implicit (sub)steps solved, accepted or not.
     pub attempts: usize,
-    /// Steps split because they created energy.
+    /// Steps split for the energy balance: they created energy or, with the head moving
+    /// uniformly, lost too much of it numerically ([`crate::energy::loss_ratio`]).
     pub energy_rejected: usize,
     /// Steps whose excess energy was removed from the velocities.
     pub energy_limited: usize,
@@ -413,11 +419,12 @@ fn step_piece<
         }
     };
     ws.rotation_estimate = 0.0;
+    ws.loss_estimate = 0.0;
     let end = split(
         source, strand, head, effects, &interval, &start, ws, counts, levels,
     )?;
     strand.last_energy = Some(end);
-    strand.split_hint = predicted_split_levels(ws.rotation_estimate) as u8;
+    strand.split_hint = predicted_split_levels(ws.rotation_estimate, ws.loss_estimate) as u8;
     Ok(())
 }
 
@@ -475,6 +482,7 @@ fn adaptive<
         f64::INFINITY
     };
     let acceptable = finite && rotation <= MAX_ELEMENT_ROTATION;
+    let mut loss_levels = 0;
     if acceptable || deepest {
         outcome?;
         if !finite {
@@ -497,7 +505,19 @@ fn adaptive<
         let inertial = interval.uniform;
         let balance = balance(start, &end, inertial);
         let excess = balance.excess;
-        if excess <= T::zero() {
+        // an inertial step that rotates an element beyond what is trusted unchecked and
+        // loses too much beyond the dissipation is split (its pieces resolve the motion
+        // better); the loss of its pieces predicts the next step
+        let loss = if inertial && rotation > TRUSTED_ELEMENT_ROTATION {
+            loss_ratio(start, &end)
+        } else {
+            0.0
+        };
+        ws.loss_estimate = ws
+            .loss_estimate
+            .max(loss * (1u64 << (2 * interval.depth)) as f64);
+        loss_levels = loss_split_levels(loss, interval.depth);
+        if loss_levels == 0 && excess <= T::zero() {
             end.ceiling = end_ceiling(start, &end, inertial);
             return Ok(end);
         }
@@ -506,7 +526,7 @@ fn adaptive<
         } else {
             WORK_SPLIT_FRACTION
         };
-        let split = !deepest && excess > T::of(fraction) * start.scale;
+        let split = loss_levels > 0 || (!deepest && excess > T::of(fraction) * start.scale);
         if !split {
             // the kinetic energy that brings E down to the bound
             if let Some(kinetic) = balance.limited_kinetic(&end, true) {
@@ -530,9 +550,9 @@ fn adaptive<
     strand.q = saved_q;
     strand.v = saved_v;
     let levels = if !acceptable && rotation.is_finite() && rotation > MAX_ELEMENT_ROTATION {
-        rotation_split_levels(rotation, interval.depth)
+        rotation_split_levels(rotation, MAX_ELEMENT_ROTATION, interval.depth)
     } else {
-        1
+        loss_levels.max(1)
     };
     split(
         source, strand, head, effects, interval, start, ws, counts, levels,

@@ -34,6 +34,9 @@ pub struct FixedWorkspace<const N: usize, const D: usize, const E: usize, T: Flo
     /// The checked step's largest `2^depth r` over its accepted pieces so far (see
     /// [`crate::energy::predicted_split_levels`]).
     pub(super) rotation_estimate: f64,
+    /// The checked step's largest `4^depth ℓ` over its pieces so far, ℓ their
+    /// [`crate::energy::loss_ratio`] (see [`crate::energy::predicted_split_levels`]).
+    pub(super) loss_estimate: f64,
 }
 
 /// The projection's scratch and the step's cache of its last input and output.
@@ -117,6 +120,7 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
                 eigenvalues: [T::zero(); D],
             },
             rotation_estimate: 0.0,
+            loss_estimate: 0.0,
         }
     }
 

@@ -66,7 +66,9 @@ pub const BDF2_MAX_RATIO: f64 = 2.0;
 /// beyond [`BDF2_MAX_RATIO`], [`super::step`] takes a linearly implicit Euler step
 /// instead (as at a restart of any multistep method), whose local error O(h²) does not
 /// change the global order. A step that rotates an element by more than
-/// [`MAX_ELEMENT_ROTATION`](super::adaptive::MAX_ELEMENT_ROTATION) is redone as linearly implicit Euler substeps: there the
+/// [`TRUSTED_ELEMENT_ROTATION`](super::adaptive::TRUSTED_ELEMENT_ROTATION) (BDF2 steps are
+/// not split by their numerical loss, and may not rotate further) is redone as linearly
+/// implicit Euler substeps: there the
 /// linearisation no longer holds, and extrapolating what it leaves out is what fails
 /// first. With BDF2 substeps the stress matrix (`superhelix stress --integrator bdf2`) had
 /// 81 failures, 8 of them blow-ups or runaway kinetic energy of frictionless strands on a

@@ -17,7 +17,9 @@ pub struct StepStats {
     /// Implicit (sub)steps attempted, accepted or not: the linear solves of the step
     /// (a Newton step's iterations count once).
     pub attempts: usize,
-    /// Of the splits, those for the energy balance ([`crate::solver::energy_balance`]).
+    /// Of the splits, those for the energy balance ([`crate::solver::energy_balance`]):
+    /// energy created, or, with the head moving uniformly, too much lost numerically
+    /// ([`crate::solver::adaptive::loss_ratio`]).
     pub energy_rejected: usize,
     /// Steps whose velocities were scaled down so that the energy does not exceed the
     /// start's plus the head's work (see [`crate::solver::adaptive`]).
@@ -27,7 +29,7 @@ pub struct StepStats {
     pub energy_unbalanced: usize,
     /// Steps taken at the deepest split allowed (`[simulation] max_split_depth`) that
     /// would have rotated an element by more than
-    /// [`MAX_ELEMENT_ROTATION`](crate::solver::adaptive::MAX_ELEMENT_ROTATION): their
+    /// [`TRUSTED_ELEMENT_ROTATION`](crate::solver::adaptive::TRUSTED_ELEMENT_ROTATION): their
     /// change of q and their velocities were scaled down to that rotation.
     pub rotation_limited: usize,
     /// Contacts that started within a step and pushed in it (a sample that touched

@@ -51,6 +51,9 @@ pub struct StrandWorkspace {
     pub(super) split_hint: usize,
     /// The step's largest `2^depth r` over its accepted pieces so far.
     pub(super) rotation_estimate: f64,
+    /// The step's largest `4^depth ℓ` over its pieces so far, ℓ their
+    /// [`superhelix_kernels::energy::loss_ratio`].
+    pub(super) loss_estimate: f64,
     /// The error-controlled step's state ([`super::error_control`]).
     pub(super) error_control: super::error_control::ErrorControl,
 }
@@ -78,6 +81,7 @@ impl StrandWorkspace {
             last_v: vec![0.0; n],
             split_hint: 0,
             rotation_estimate: 0.0,
+            loss_estimate: 0.0,
             error_control: super::error_control::ErrorControl::default(),
         }
     }
