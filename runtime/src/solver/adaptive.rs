@@ -421,6 +421,16 @@ fn implicit_adaptive(
     } else {
         loss_levels.max(1)
     };
+    if system.context.explicit_field_stiffness {
+        // with the field stiffness explicit, a step that must be split is one the explicit
+        // stiffness may not resolve at any substep (energy created by the contact forces'
+        // curvature on the twist, whose inertia is small; a strand thrown into a body):
+        // its pieces take the projected stiffness
+        system.context.explicit_field_stiffness = false;
+        let end = split(system, interval, state, start, stats, levels);
+        system.context.explicit_field_stiffness = true;
+        return end;
+    }
     split(system, interval, state, start, stats, levels)
 }
 
