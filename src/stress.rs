@@ -283,6 +283,10 @@ pub struct CaseResult {
     pub steps: usize,
     /// Implicit steps split (see `StepStats::substeps`).
     pub substeps: usize,
+    /// Implicit solves, every piece tried, accepted or not (`StepStats::attempts`).
+    pub solves: usize,
+    /// Strand-steps taken: steps times strands.
+    pub strand_steps: usize,
     /// Steps whose velocities the integrator scaled down so that their energy does not
     /// exceed the balance (`StepStats::energy_limited`).
     pub limited: usize,
@@ -1064,6 +1068,8 @@ pub fn run_case_traced(case: &Case, trace: &mut dyn FnMut(&StepTrace)) -> CaseRe
         seconds: 0.0,
         steps: 0,
         substeps: 0,
+        solves: 0,
+        strand_steps: 0,
         limited: 0,
         unbalanced: 0,
         newton_fallbacks: 0,
@@ -1308,6 +1314,8 @@ pub fn run_case_traced(case: &Case, trace: &mut dyn FnMut(&StepTrace)) -> CaseRe
     }
     let stats = sim.stats();
     result.substeps = stats.substeps;
+    result.solves = stats.attempts;
+    result.strand_steps = result.steps * sim.strand_count();
     result.limited = stats.energy_limited;
     result.unbalanced = stats.energy_unbalanced;
     result.newton_fallbacks = stats.newton_unconverged;
@@ -1357,11 +1365,12 @@ pub fn failure_line(r: &CaseResult) -> Option<String> {
 pub fn detail_line(r: &CaseResult) -> String {
     let opt = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.3e}"));
     format!(
-        "{} {} steps={} substeps={} limited={} unbalanced={} newton_fallbacks={} T/B={:.3} meanT/B={} dE/S={} rise/S={} stretch={:.2e} frame={:.2e} penetration={:.2e} wall={:.2}s",
+        "{} {} steps={} substeps={} solves={} limited={} unbalanced={} newton_fallbacks={} T/B={:.3} meanT/B={} dE/S={} rise/S={} stretch={:.2e} frame={:.2e} penetration={:.2e} wall={:.2}s",
         if r.passed() { "ok  " } else { "FAIL" },
         r.name,
         r.steps,
         r.substeps,
+        r.solves,
         r.limited,
         r.unbalanced,
         r.newton_fallbacks,
@@ -1380,7 +1389,8 @@ pub fn detail_line(r: &CaseResult) -> String {
 /// The report: one line per failed case, one line `PASS (known failure) <case>` per case
 /// of [`KNOWN_FAILURES`] that passes (to be removed from the list), a table per group,
 /// and the last line `cases=<n> failed=<m>`. Table columns: cases, failed, of those known
-/// ([`KNOWN_FAILURES`]), the sum of the cases' wall times (s), substeps, steps whose
+/// ([`KNOWN_FAILURES`]), the sum of the cases' wall times (s), substeps, implicit solves
+/// and solves per strand-step, steps whose
 /// velocities the integrator limited (`StepStats::energy_limited`), and the worst
 /// values *among the cases that passed*: peak kinetic energy / B, growth of the mean
 /// kinetic energy (second half / first, periodic cases), energy growth after `t_free` / S
@@ -1410,13 +1420,15 @@ pub fn render(results: &[CaseResult], wall_seconds: f64) -> String {
     }
     let _ = writeln!(
         out,
-        "{:<13} {:>5} {:>6} {:>5} {:>7} {:>8} {:>7} {:>6} {:>7} {:>9} {:>9} {:>9} {:>9} {:>9}",
+        "{:<13} {:>5} {:>6} {:>5} {:>7} {:>8} {:>8} {:>7} {:>7} {:>6} {:>7} {:>9} {:>9} {:>9} {:>9} {:>9}",
         "group",
         "cases",
         "failed",
         "known",
         "case_s",
         "substeps",
+        "solves",
+        "solves/s",
         "limited",
         "T/B",
         "mT2/mT1",
@@ -1440,7 +1452,7 @@ pub fn render(results: &[CaseResult], wall_seconds: f64) -> String {
         };
         let _ = writeln!(
             out,
-            "{:<13} {:>5} {:>6} {:>5} {:>7.1} {:>8} {:>7} {:>6} {:>7} {} {} {} {} {}",
+            "{:<13} {:>5} {:>6} {:>5} {:>7.1} {:>8} {:>8} {:>7.2} {:>7} {:>6} {:>7} {} {} {} {} {}",
             name,
             rs.len(),
             rs.iter().filter(|r| !r.passed()).count(),
@@ -1449,6 +1461,9 @@ pub fn render(results: &[CaseResult], wall_seconds: f64) -> String {
                 .count(),
             rs.iter().map(|r| r.seconds).sum::<f64>(),
             rs.iter().map(|r| r.substeps).sum::<usize>(),
+            rs.iter().map(|r| r.solves).sum::<usize>(),
+            rs.iter().map(|r| r.solves).sum::<usize>() as f64
+                / rs.iter().map(|r| r.strand_steps).sum::<usize>().max(1) as f64,
             rs.iter().map(|r| r.limited).sum::<usize>(),
             max(&|r| Some(r.kinetic_peak)).map_or_else(|| "-".to_string(), |v| format!("{v:.2}")),
             max(&|r| r.mean_kinetic.map(|m| m[1] / m[0]))
