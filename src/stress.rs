@@ -1428,7 +1428,7 @@ pub fn render(results: &[CaseResult], wall_seconds: f64) -> String {
         "case_s",
         "substeps",
         "solves",
-        "solves/s",
+        "per_step",
         "limited",
         "T/B",
         "mT2/mT1",
