@@ -12,7 +12,7 @@
 //!   removed by scaling the velocities;
 //! - with the head moving uniformly, a step that loses more than
 //!   [`crate::energy::LOSS_SPLIT_FRACTION`] of the energy scale beyond the dissipation
-//!   bound is split into the pieces of [`loss_split_levels`] (at most
+//!   bound is split into the pieces of [`crate::energy::loss_split_levels`] (at most
 //!   [`crate::energy::LOSS_SPLIT_DEPTH`] deep).
 //!
 //! Without these checks a strand on a head shaking at 2 Hz by ±30° overflows within a
@@ -22,9 +22,9 @@ use super::step::{evaluate_at, linearly_implicit, non_finite, StepError, StepInp
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::energy::{
-    balance, end_ceiling, loss_ratio, loss_split_levels, predicted_split_levels,
-    rotation_split_levels, StateEnergy, ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION,
-    MAX_SUBSTEP_DEPTH, TRUSTED_ELEMENT_ROTATION, WORK_SPLIT_FRACTION,
+    balance, end_ceiling, energy_splits, predicted_split_levels, rotation_split_levels,
+    StateEnergy, ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION, MAX_SUBSTEP_DEPTH,
+    WORK_SPLIT_FRACTION,
 };
 use crate::float::Float;
 use crate::head::{body_field, HeadState};
@@ -482,8 +482,7 @@ fn adaptive<
         f64::INFINITY
     };
     let acceptable = finite && rotation <= MAX_ELEMENT_ROTATION;
-    let mut loss_levels = 0;
-    let mut trust_levels = 0;
+    let mut energy_levels = 0;
     if acceptable || deepest {
         outcome?;
         if !finite {
@@ -506,29 +505,14 @@ fn adaptive<
         let inertial = interval.uniform;
         let balance = balance(start, &end, inertial);
         let excess = balance.excess;
-        // an inertial step that rotates an element beyond what is trusted unchecked and
-        // loses too much beyond the dissipation is split (its pieces resolve the motion
-        // better); the loss of its pieces predicts the next step
-        let loss = if inertial && rotation > TRUSTED_ELEMENT_ROTATION {
-            loss_ratio(start, &end)
-        } else {
-            0.0
-        };
+        // beyond the trusted rotation the energy asks for pieces too; the loss of the
+        // pieces predicts the next step
+        let splits = energy_splits(&balance, start, &end, rotation, interval.depth, deepest);
         ws.loss_estimate = ws
             .loss_estimate
-            .max(loss * (1u64 << (2 * interval.depth)) as f64);
-        loss_levels = loss_split_levels(loss, interval.depth);
-        // a step that rotated beyond what is trusted unchecked and ends above its bound
-        // (even within the work estimate's allowance) is split into pieces within that
-        // rotation rather than accepted or limited: its linearisation is what errs, and
-        // limiting such steps to the estimate pumps a strand whipping on a moving head
-        // (a 1 m wavy strand, N = 20, on a head shaking at 5 Hz at 100 fps: mean kinetic
-        // energy 0.32 of its budget limited, 0.16 split, 0.05 with BDF2 at 0.2 rad)
-        if !deepest && balance.overshoot > T::zero() && rotation > TRUSTED_ELEMENT_ROTATION {
-            trust_levels =
-                rotation_split_levels(rotation, TRUSTED_ELEMENT_ROTATION, interval.depth);
-        }
-        if loss_levels == 0 && trust_levels == 0 && excess <= T::zero() {
+            .max(splits.loss * (1u64 << (2 * interval.depth)) as f64);
+        energy_levels = splits.levels();
+        if energy_levels == 0 && excess <= T::zero() {
             end.ceiling = end_ceiling(start, &end, inertial);
             return Ok(end);
         }
@@ -537,9 +521,7 @@ fn adaptive<
         } else {
             WORK_SPLIT_FRACTION
         };
-        let split = loss_levels > 0
-            || trust_levels > 0
-            || (!deepest && excess > T::of(fraction) * start.scale);
+        let split = energy_levels > 0 || (!deepest && excess > T::of(fraction) * start.scale);
         if !split {
             // the kinetic energy that brings E down to the bound
             if let Some(kinetic) = balance.limited_kinetic(&end, true) {
@@ -565,7 +547,7 @@ fn adaptive<
     let levels = if !acceptable && rotation.is_finite() && rotation > MAX_ELEMENT_ROTATION {
         rotation_split_levels(rotation, MAX_ELEMENT_ROTATION, interval.depth)
     } else {
-        loss_levels.max(trust_levels).max(1)
+        energy_levels.max(1)
     };
     split(
         source, strand, head, effects, interval, start, ws, counts, levels,

@@ -14,7 +14,7 @@ use crate::config::IntegratorKind;
 use superhelix_kernels::fixed::phase_cut;
 
 pub use superhelix_kernels::energy::{
-    loss_ratio, loss_split_levels, predicted_split_levels, rotation_split_levels,
+    energy_splits, loss_ratio, loss_split_levels, predicted_split_levels, rotation_split_levels,
     ENERGY_SPLIT_FRACTION, LOSS_SPLIT_FRACTION, MAX_ELEMENT_ROTATION, MAX_SUBSTEP_DEPTH,
     TRUSTED_ELEMENT_ROTATION, WORK_SPLIT_FRACTION,
 };
@@ -294,8 +294,7 @@ fn implicit_adaptive(
                 ),
                 None => true,
             });
-    let mut loss_levels = 0;
-    let mut trust_levels = 0;
+    let mut energy_levels = 0;
     if acceptable || deepest {
         outcome?;
         if !finite {
@@ -358,39 +357,24 @@ fn implicit_adaptive(
         && !system.held.as_ref().is_some_and(|h| h.is_driven());
         let balance = energy_balance::balance(start, &end, inertial);
         let excess = balance.excess;
-        // an inertial step that rotates an element beyond what is trusted unchecked and
-        // loses too much beyond the dissipation is split (its pieces resolve the motion
-        // better); the loss of its pieces predicts the next step. Only first-order steps
-        // without contacts rotate that far (`rotation_limit`)
-        let loss = if inertial && rotation > TRUSTED_ELEMENT_ROTATION {
-            loss_ratio(start, &end)
-        } else {
-            0.0
-        };
+        // beyond the trusted rotation the energy asks for pieces too (only first-order
+        // steps without contacts rotate that far: `rotation_limit`); the loss of the
+        // pieces predicts the next step
+        let splits = energy_splits(&balance, start, &end, rotation, interval.depth, deepest);
         let ws = &mut system.workspace;
         ws.loss_estimate = ws
             .loss_estimate
-            .max(loss * (1u64 << (2 * interval.depth)) as f64);
-        loss_levels =
-            loss_split_levels(loss, interval.depth).min(max_depth.saturating_sub(interval.depth));
+            .max(splits.loss * (1u64 << (2 * interval.depth)) as f64);
+        energy_levels = splits
+            .levels()
+            .min(max_depth.saturating_sub(interval.depth));
         // an accepted step: its end bounds the next, and it is BDF2's history
         let accept = |ws: &mut StrandWorkspace, mut end: StateEnergy| {
             end.ceiling = energy_balance::end_ceiling(start, &end, inertial);
             record_history(kind, ws, h);
             Ok(end)
         };
-        // a step that rotated beyond what is trusted unchecked and ends above its bound
-        // (even within the work estimate's allowance) is split into pieces within that
-        // rotation rather than accepted or limited: its linearisation is what errs, and
-        // limiting such steps to the estimate pumps a strand whipping on a moving head
-        // (a 1 m wavy strand, N = 20, on a head shaking at 5 Hz at 100 fps: mean kinetic
-        // energy 0.32 of its budget limited, 0.16 split, 0.05 with BDF2 at 0.2 rad)
-        if !deepest && balance.overshoot > 0.0 && rotation > TRUSTED_ELEMENT_ROTATION {
-            trust_levels =
-                rotation_split_levels(rotation, TRUSTED_ELEMENT_ROTATION, interval.depth)
-                    .min(max_depth - interval.depth);
-        }
-        if loss_levels == 0 && trust_levels == 0 && excess <= 0.0 {
+        if energy_levels == 0 && excess <= 0.0 {
             return accept(&mut system.workspace, end);
         }
         let fraction = if inertial {
@@ -398,8 +382,7 @@ fn implicit_adaptive(
         } else {
             WORK_SPLIT_FRACTION
         };
-        let split =
-            loss_levels > 0 || trust_levels > 0 || (!deepest && excess > fraction * start.scale);
+        let split = energy_levels > 0 || (!deepest && excess > fraction * start.scale);
         if !split {
             // the kinetic energy that brings E down to the bound (to its allowance's edge
             // when moving bodies work, see `limited_kinetic`)
@@ -432,7 +415,7 @@ fn implicit_adaptive(
         rotation_split_levels(rotation, rotation_limit, interval.depth)
             .min(max_depth - interval.depth)
     } else {
-        loss_levels.max(trust_levels).max(1)
+        energy_levels.max(1)
     };
     if system.context.explicit_field_stiffness {
         // with the field stiffness explicit, a step that must be split is one the explicit
