@@ -313,6 +313,119 @@ fn full_generalized_force_from_closed_form_moments_matches_quadrature_moments() 
     println!("worst relative deviation of the generalized force: {worst:e}");
 }
 
+/// The force assemblies the step and its energy measurement call against the plain
+/// `assemble_force`: the inertial and field parts in one pass give the bits of two calls
+/// (ρS without the field, the field without ρS), and the force of a position-only
+/// linear field C1 y from the moments of M alone gives the bits of the full assembly
+/// at a nonzero q̇ (whose weights on the force-only moments are zero).
+#[test]
+fn the_split_and_the_linear_field_force_assemblies_match_assemble_force() {
+    use superhelix_runtime::kernels::kernel::BodyField;
+    use superhelix_runtime::kernels::moments::{
+        assemble_force, assemble_inertial_and_field_force, assemble_linear_field_force,
+        end_derivatives, frame_motions, FrameMotion, Wrench,
+    };
+    use superhelix_runtime::model::reconstruction::{darboux, element_ends, Pose};
+    use superhelix_runtime::model::strand::StrandGeometry;
+    let mut rng = Rng(0x5151_7e57_0000_0002);
+    for n in [1usize, 3, 8] {
+        for &wl in &[0.0, 0.3, 3.6, 40.0] {
+            let lengths: Vec<f64> = (0..n).map(|k| 0.02 + 0.005 * (k % 3) as f64).collect();
+            let g = StrandGeometry {
+                root_position: Vector3::new(0.01, 0.0, -0.02),
+                root_frame: *nalgebra::Rotation3::new(Vector3::new(0.3, -0.2, 0.9)).matrix(),
+                lengths: lengths.clone(),
+                mass_per_length: 1e-5,
+                rotary_inertia: [2e-9, 0.8e-9, 1.2e-9],
+                floating: false,
+            };
+            let q: Vec<f64> = (0..n)
+                .flat_map(|k| {
+                    let d = direction(k % 5, &mut rng) * (wl / lengths[k]);
+                    [d[0], d[1], d[2]]
+                })
+                .collect();
+            let v: Vec<f64> = (0..3 * n).map(|_| 30.0 * rng.next()).collect();
+            let c1 = Matrix3::from_fn(|r, c| 1e-4 * (r as f64 - 0.5 * c as f64));
+            let field = BodyField {
+                uniform: Vector3::new(0.2, -0.4, -9.81) * 1e-5,
+                linear: c1,
+                velocity: -Matrix3::identity() * 1e-5,
+            };
+            let mut ends = vec![Pose::default(); n + 1];
+            element_ends(&g, &q, &mut ends);
+            let derivs: Vec<_> = (0..n)
+                .map(|k| end_derivatives(&ends[k].frame, &darboux(&q, k), lengths[k]))
+                .collect();
+            let mut motions = vec![FrameMotion::default(); n + 1];
+            frame_motions(&ends, &derivs, &v, &mut motions);
+            let moments: Vec<_> = (0..n)
+                .map(|k| {
+                    superhelix_generated::element_moments(
+                        &darboux(&q, k),
+                        lengths[k],
+                        &g.rotary_inertia,
+                    )
+                })
+                .collect();
+            let plain = |rho_s: f64, field: &BodyField| {
+                let mut wrenches = vec![Wrench::default(); n];
+                let mut f = vec![0.0; 3 * n];
+                assemble_force(
+                    &mut wrenches,
+                    rho_s,
+                    &lengths,
+                    &ends,
+                    &derivs,
+                    &moments,
+                    &motions,
+                    &v,
+                    field,
+                    &mut f,
+                );
+                f
+            };
+            let (mut inertial, mut field_force) = (vec![0.0; 3 * n], vec![0.0; 3 * n]);
+            assemble_inertial_and_field_force(
+                1e-5,
+                &lengths,
+                &ends,
+                &derivs,
+                &moments,
+                &motions,
+                &v,
+                &field,
+                &mut inertial,
+                &mut field_force,
+            );
+            assert_eq!(inertial, plain(1e-5, &BodyField::zero()), "N={n} W l={wl}");
+            assert_eq!(field_force, plain(0.0, &field), "N={n} W l={wl}");
+            // C1 y alone, from the moments of M
+            let linear_only = BodyField {
+                uniform: Vector3::zeros(),
+                linear: c1,
+                velocity: Matrix3::zeros(),
+            };
+            let mass_only: Vec<_> = (0..n)
+                .map(|k| {
+                    superhelix_generated::mass_moments(
+                        &darboux(&q, k),
+                        lengths[k],
+                        &g.rotary_inertia,
+                    )
+                })
+                .collect();
+            let mut linear = vec![0.0; 3 * n];
+            assemble_linear_field_force(&c1, &lengths, &ends, &derivs, &mass_only, &mut linear);
+            let expect = plain(0.0, &linear_only);
+            assert!(expect.iter().any(|x| *x != 0.0));
+            for (i, (a, b)) in linear.iter().zip(&expect).enumerate() {
+                assert!(a == b, "N={n} W l={wl} f[{i}]: {a:e} vs {b:e}");
+            }
+        }
+    }
+}
+
 #[test]
 fn generated_files_are_fresh() {
     // SUPERHELIX_UPDATE_GENERATED=1 rewrites them (same as `cargo run -p superhelix-codegen --release`).

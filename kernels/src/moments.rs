@@ -484,8 +484,9 @@ pub fn frame_motions<T: Float>(
 /// (at q̈ = 0), velocity ṙ and acceleration r̈ of each element's start frame; on element P the force
 /// per length, inertial term −ρS ÿ included, is affine in p, π = Σ ∂_i p q̇_i and
 /// π̇ = Σ ∂²_ij p q̇_i q̇_j, so its own columns and its wrench are moment contractions.
-/// A backward pass adds the wrenches summed from the tip to the upstream columns.
-/// `wrenches` is scratch of length N.
+/// The elements are taken from the tip: each adds the wrenches summed beyond it to its
+/// columns. `wrenches` is scratch of length N (kept for the callers' signature; the
+/// pass from the tip needs none).
 #[allow(clippy::too_many_arguments)]
 pub fn assemble_force<T: Float>(
     wrenches: &mut [Wrench<T>],
@@ -499,36 +500,150 @@ pub fn assemble_force<T: Float>(
     field: &BodyField<T>,
     force: &mut [T],
 ) {
-    let n = lengths.len();
-    let (c0, c1, c2) = (&field.uniform, &field.linear, &field.velocity);
-    for p in 0..n {
-        let f = ends[p].frame;
-        let r = ends[p].position;
-        let m = &moments[p];
-        let FrameMotion {
-            omega,
-            alpha,
-            velocity: vel,
-            acceleration: acc,
-        } = motions[p];
+    let _ = wrenches;
+    let mut beyond = Wrench::default();
+    for p in (0..lengths.len()).rev() {
+        let c = ForceContractions::of(&moments[p], velocities, p);
+        let setup = ForceSetup::of(field, rho_s, &ends[p], &motions[p]);
+        element_force(
+            setup,
+            &c,
+            p,
+            lengths,
+            ends,
+            end_derivs,
+            moments,
+            &mut beyond,
+            force,
+        );
+    }
+}
+
+/// [`assemble_force`] twice at once, for the two parts the step keeps apart:
+/// `inertial` = the force of (ρS, no field), which is −b(q, q̇), and `field_force` = that
+/// of (ρS = 0, `field`), ∫ Jᵀ(c0 + C1 y + C2 ẏ) ds; the same bits as the two calls, for
+/// one set of the moment contractions with q̇.
+#[allow(clippy::too_many_arguments)]
+pub fn assemble_inertial_and_field_force<T: Float>(
+    rho_s: T,
+    lengths: &[T],
+    ends: &[Pose<T>],
+    end_derivs: &[EndDerivatives<T>],
+    moments: &[ElementMoments<T>],
+    motions: &[FrameMotion<T>],
+    velocities: &[T],
+    field: &BodyField<T>,
+    inertial: &mut [T],
+    field_force: &mut [T],
+) {
+    let no_field = BodyField::zero();
+    let (mut beyond_i, mut beyond_f) = (Wrench::default(), Wrench::default());
+    for p in (0..lengths.len()).rev() {
+        let c = ForceContractions::of(&moments[p], velocities, p);
+        let setup = ForceSetup::of(&no_field, rho_s, &ends[p], &motions[p]);
+        element_force(
+            setup,
+            &c,
+            p,
+            lengths,
+            ends,
+            end_derivs,
+            moments,
+            &mut beyond_i,
+            inertial,
+        );
+        let setup = ForceSetup::of(field, T::zero(), &ends[p], &motions[p]);
+        element_force(
+            setup,
+            &c,
+            p,
+            lengths,
+            ends,
+            end_derivs,
+            moments,
+            &mut beyond_f,
+            field_force,
+        );
+    }
+}
+
+/// [`assemble_force`] of a position-only linear field `C1 y` (no ρS, no C2, no c0):
+/// ∫ Jᵀ C1 y ds, from the moments of M alone (`first`, `second`, `dfirst`, `pdp`: the
+/// force-only moments multiply q̇-contractions whose weights are zero here). The same
+/// bits as [`assemble_force`] with that field and ρS = 0 for finite moments.
+pub fn assemble_linear_field_force<T: Float>(
+    c1: &Matrix3<T>,
+    lengths: &[T],
+    ends: &[Pose<T>],
+    end_derivs: &[EndDerivatives<T>],
+    moments: &[ElementMoments<T>],
+    force: &mut [T],
+) {
+    let field = BodyField {
+        uniform: Vector3::zeros(),
+        linear: *c1,
+        velocity: Matrix3::zeros(),
+    };
+    let still = FrameMotion::default();
+    let none = ForceContractions::zero();
+    let mut beyond = Wrench::default();
+    for p in (0..lengths.len()).rev() {
+        let setup = ForceSetup::of(&field, T::zero(), &ends[p], &still);
+        element_force(
+            setup,
+            &none,
+            p,
+            lengths,
+            ends,
+            end_derivs,
+            moments,
+            &mut beyond,
+            force,
+        );
+    }
+}
+
+/// The element moments of [`assemble_force`] contracted with the element's q̇ (they do
+/// not depend on the field or on ρS).
+struct ForceContractions<T: Float> {
+    /// ∫ π.
+    pi1: Vector3<T>,
+    /// ∫ p πᵀ.
+    n_pi: Matrix3<T>,
+    /// ∫ π̇.
+    pi2: Vector3<T>,
+    /// ∫ p × π̇.
+    c_pi2: Vector3<T>,
+    /// ∫ ∂_i p πᵀ.
+    g_pi: [Matrix3<T>; 3],
+    /// ∫ ∂_i p · π̇.
+    t: [T; 3],
+}
+
+impl<T: Float> ForceContractions<T> {
+    /// All zero (q̇ = 0).
+    fn zero() -> Self {
+        ForceContractions {
+            pi1: Vector3::zeros(),
+            n_pi: Matrix3::zeros(),
+            pi2: Vector3::zeros(),
+            c_pi2: Vector3::zeros(),
+            g_pi: [Matrix3::zeros(); 3],
+            t: [T::zero(); 3],
+        }
+    }
+
+    #[inline(always)]
+    fn of(m: &ElementMoments<T>, velocities: &[T], p: usize) -> Self {
         let qd = [
             velocities[3 * p],
             velocities[3 * p + 1],
             velocities[3 * p + 2],
         ];
-        // f(u) = g0 + G1 F p + H2 F π − ρS F π̇, in the element frame: a0 + A p + B π − ρS π̇
-        let wx = omega.cross_matrix();
-        let g0 = c0 + c1 * r + c2 * vel - acc * rho_s;
-        let g1 = c1 + c2 * wx - (alpha.cross_matrix() + wx * wx) * rho_s;
-        let h2 = c2 - wx * (T::of(2.0) * rho_s);
-        let a0 = f.transpose() * g0;
-        let a = f.transpose() * g1 * f;
-        let b = f.transpose() * h2 * f;
-        // moments contracted with q̇ of this element
-        let mut pi1 = Vector3::zeros(); // ∫ π
-        let mut n_pi = Matrix3::zeros(); // ∫ p πᵀ
-        let mut pi2 = Vector3::zeros(); // ∫ π̇
-        let mut c_pi2 = Vector3::zeros(); // ∫ p × π̇
+        let mut pi1 = Vector3::zeros();
+        let mut n_pi = Matrix3::zeros();
+        let mut pi2 = Vector3::zeros();
+        let mut c_pi2 = Vector3::zeros();
         for j in 0..3 {
             pi1 += m.dfirst[j] * qd[j];
             n_pi += m.pdp[j] * qd[j];
@@ -538,39 +653,94 @@ pub fn assemble_force<T: Float>(
                 c_pi2 += m.cross2[j][k] * qq;
             }
         }
-        // own columns: ∫ ∂_i p · Fᵀf
+        let mut g_pi = [Matrix3::zeros(); 3];
+        let mut t = [T::zero(); 3];
         for i in 0..3 {
-            let mut g_pi = Matrix3::zeros(); // ∫ ∂_i p πᵀ
-            let mut t = T::zero(); // ∫ ∂_i p · π̇
             for j in 0..3 {
-                g_pi += m.dpdp[i][j] * qd[j];
+                g_pi[i] += m.dpdp[i][j] * qd[j];
                 for k in 0..3 {
-                    t += m.dpd2p[i][j][k] * qd[j] * qd[k];
+                    t[i] += m.dpd2p[i][j][k] * qd[j] * qd[k];
                 }
             }
-            force[3 * p + i] =
-                m.dfirst[i].dot(&a0) + (a * m.pdp[i]).trace() + b.dot(&g_pi) - rho_s * t;
         }
-        // wrench of element P about the origin
-        let res = a0 * lengths[p] + a * m.first + b * pi1 - pi2 * rho_s;
-        let mom = m.first.cross(&a0) + cross_moment(&a, &m.second) + cross_moment(&b, &n_pi)
-            - c_pi2 * rho_s;
-        // torque about the element's start r_P
-        wrenches[p] = Wrench {
-            force: f * res,
-            torque: f * mom,
-        };
+        ForceContractions {
+            pi1,
+            n_pi,
+            pi2,
+            c_pi2,
+            g_pi,
+            t,
+        }
+    }
+}
+
+/// The force per length on one element in its frame, `a0 + A p + B π − ρS π̇`.
+#[derive(Clone, Copy)]
+struct ForceSetup<T: Float> {
+    rho_s: T,
+    a0: Vector3<T>,
+    a: Matrix3<T>,
+    b: Matrix3<T>,
+}
+
+impl<T: Float> ForceSetup<T> {
+    #[inline(always)]
+    fn of(field: &BodyField<T>, rho_s: T, start: &Pose<T>, motion: &FrameMotion<T>) -> Self {
+        let (c0, c1, c2) = (&field.uniform, &field.linear, &field.velocity);
+        let f = start.frame;
+        let FrameMotion {
+            omega,
+            alpha,
+            velocity: vel,
+            acceleration: acc,
+        } = *motion;
+        // f(u) = g0 + G1 F p + H2 F π − ρS F π̇, in the element frame: a0 + A p + B π − ρS π̇
+        let wx = omega.cross_matrix();
+        let g0 = c0 + c1 * start.position + c2 * vel - acc * rho_s;
+        let g1 = c1 + c2 * wx - (alpha.cross_matrix() + wx * wx) * rho_s;
+        let h2 = c2 - wx * (T::of(2.0) * rho_s);
+        ForceSetup {
+            rho_s,
+            a0: f.transpose() * g0,
+            a: f.transpose() * g1 * f,
+            b: f.transpose() * h2 * f,
+        }
+    }
+}
+
+/// Element p's own columns of the force (plus the wrench `beyond` of the elements past
+/// it, about r_{p+1}), then its own wrench added to `beyond`, moved to r_p.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn element_force<T: Float>(
+    s: ForceSetup<T>,
+    c: &ForceContractions<T>,
+    p: usize,
+    lengths: &[T],
+    ends: &[Pose<T>],
+    end_derivs: &[EndDerivatives<T>],
+    moments: &[ElementMoments<T>],
+    beyond: &mut Wrench<T>,
+    force: &mut [T],
+) {
+    let m = &moments[p];
+    let f = ends[p].frame;
+    // own columns: ∫ ∂_i p · Fᵀf
+    for i in 0..3 {
+        force[3 * p + i] = m.dfirst[i].dot(&s.a0) + (s.a * m.pdp[i]).trace() + s.b.dot(&c.g_pi[i])
+            - s.rho_s * c.t[i];
     }
     // upstream columns: dp_k · ΣR + ω_k · Στ over the elements beyond, torques about
-    // r_{Q+1} (moved along the chain element by element, never through the origin)
-    let mut beyond = Wrench::default();
-    for q in (0..n).rev() {
-        let e = &end_derivs[q];
-        for i in 0..3 {
-            force[3 * q + i] += e.dp[i].dot(&beyond.force) + e.dtheta[i].dot(&beyond.torque);
-        }
-        let delta = ends[q + 1].position - ends[q].position;
-        beyond.torque += delta.cross(&beyond.force) + wrenches[q].torque;
-        beyond.force += wrenches[q].force;
+    // r_{p+1} (moved along the chain element by element, never through the origin)
+    let e = &end_derivs[p];
+    for i in 0..3 {
+        force[3 * p + i] += e.dp[i].dot(&beyond.force) + e.dtheta[i].dot(&beyond.torque);
     }
+    // wrench of element p about the origin of its frame, then about its start r_p
+    let res = s.a0 * lengths[p] + s.a * m.first + s.b * c.pi1 - c.pi2 * s.rho_s;
+    let mom = m.first.cross(&s.a0) + cross_moment(&s.a, &m.second) + cross_moment(&s.b, &c.n_pi)
+        - c.c_pi2 * s.rho_s;
+    let delta = ends[p + 1].position - ends[p].position;
+    beyond.torque += delta.cross(&beyond.force) + f * mom;
+    beyond.force += f * res;
 }

@@ -123,7 +123,7 @@ pub enum ProjectionOutcome {
 }
 
 /// The negative semidefinite part of an n × n symmetric matrix, on the caller's storage.
-pub struct SpectralProjection<'a, T: Float = f64> {
+pub struct SpectralProjection<'a, T: Float = f64, const NC: usize = 0> {
     n: usize,
     a: &'a mut [T],
     tau: &'a mut [T],
@@ -146,7 +146,7 @@ pub struct SpectralProjection<'a, T: Float = f64> {
     basis_negative: &'a mut bool,
 }
 
-impl<'a, T: Float> SpectralProjection<'a, T> {
+impl<'a, T: Float, const NC: usize> SpectralProjection<'a, T, NC> {
     /// The projection of n × n matrices on this storage (lengths as documented on
     /// [`ProjectionBasis`] and [`ProjectionScratch`]; `None` when one is too short).
     pub fn new(
@@ -176,7 +176,7 @@ impl<'a, T: Float> SpectralProjection<'a, T> {
             ]
             .iter()
             .all(|&l| l >= n);
-        if !long_enough || n == 0 {
+        if !long_enough || n == 0 || (NC != 0 && n != NC) {
             return None;
         }
         Some(SpectralProjection {
@@ -203,6 +203,17 @@ impl<'a, T: Float> SpectralProjection<'a, T> {
         })
     }
 
+    /// The matrices' size: `NC` when it is not 0 (a size the compiler knows), else the
+    /// size given to [`Self::new`].
+    #[inline(always)]
+    fn n(&self) -> usize {
+        if NC != 0 {
+            NC
+        } else {
+            self.n
+        }
+    }
+
     /// Forget the basis of the last decomposition: the next call decomposes.
     pub fn forget_basis(&mut self) {
         *self.basis_k = 0;
@@ -221,7 +232,7 @@ impl<'a, T: Float> SpectralProjection<'a, T> {
 
     fn negative_part_inner(&mut self, h: &mut [T]) -> ProjectionOutcome {
         use ProjectionOutcome::*;
-        let n = self.n;
+        let n = self.n();
         if h.len() != n * n {
             return Failed;
         }
@@ -326,35 +337,40 @@ impl<'a, T: Float> SpectralProjection<'a, T> {
     /// The reuse branch of [`Self::negative_part`] (see the module page): false, with
     /// `h` unchanged, when the basis of the last decomposition does not qualify.
     fn project_in_basis(&mut self, h: &mut [T]) -> bool {
-        let (n, k) = (self.n, *self.basis_k);
+        let (n, k) = (self.n(), *self.basis_k);
         let u = &self.vectors[..k * n];
         let total: T = h.iter().map(|&x| x * x).sum();
         let bound = T::of(BASIS_REUSE_TOLERANCE * BASIS_REUSE_TOLERANCE) * total;
-        // W = H U, B = Uᵀ W (k × k), C = W − U B
-        gemm(
-            &mut self.hu[..n * k],
-            n,
-            k,
-            n,
-            h,
-            false,
-            u,
-            false,
-            T::one(),
-            false,
-        );
-        gemm(
-            &mut self.rotated[..k * k],
-            k,
-            k,
-            n,
-            u,
-            true,
-            &self.hu[..n * k],
-            false,
-            T::one(),
-            false,
-        );
+        // W = H U, B = Uᵀ W (k × k), column by column; with U orthonormal the coupling
+        // ‖C‖² = ‖W − U B‖² = Σ_j ‖w_j‖² − ‖b_j‖², so a basis that does not qualify is
+        // refused as soon as its columns so far exceed the bound (with a margin of 1 %
+        // over it for the rounding; the exact ‖C‖ below decides)
+        let screen = T::of(1.01) * bound;
+        let mut partial = T::zero();
+        for j in 0..k {
+            let w = &mut self.hu[j * n..(j + 1) * n];
+            gemm(
+                w,
+                n,
+                1,
+                n,
+                h,
+                false,
+                &u[j * n..(j + 1) * n],
+                false,
+                T::one(),
+                false,
+            );
+            let b = &mut self.rotated[j * k..(j + 1) * k];
+            gemm(b, k, 1, n, u, true, w, false, T::one(), false);
+            let ww: T = w.iter().map(|&x| x * x).sum();
+            let bb: T = b.iter().map(|&x| x * x).sum();
+            partial += ww - bb;
+            if partial.not_a_number() || partial > screen {
+                return false;
+            }
+        }
+        // C = W − U B
         self.coupling[..n * k].copy_from_slice(&self.hu[..n * k]);
         gemm(
             &mut self.coupling[..n * k],
@@ -485,7 +501,7 @@ impl<'a, T: Float> SpectralProjection<'a, T> {
     /// `off` (coupling i and i + 1), the reflector `I − τ_k v_k v_kᵀ` (acting on rows
     /// k + 1 ..) stored as v_k in column k from row k + 1 and τ_k in `tau`.
     fn tridiagonalise(&mut self) {
-        let n = self.n;
+        let n = self.n();
         let p = &mut self.x;
         for k in 0..n.saturating_sub(2) {
             let m = n - k - 1;
@@ -548,7 +564,7 @@ impl<'a, T: Float> SpectralProjection<'a, T> {
     /// `max_i |e_{i−1}| + |d_i| + |e_i|`: the 1-norm of T (= ‖H‖₁ up to rounding's
     /// change of basis; a bound of ‖T‖₂).
     fn tridiagonal_norm(&self) -> T {
-        let n = self.n;
+        let n = self.n();
         let mut m = T::zero();
         for i in 0..n {
             let mut s = self.diag[i].abs();
@@ -573,7 +589,7 @@ impl<'a, T: Float> SpectralProjection<'a, T> {
         perturbation: T,
         tolerance: T,
     ) -> bool {
-        let n = self.n;
+        let n = self.n();
         let lambda = self.selected[j];
         self.factor_shifted(lambda, perturbation);
         // a deterministic start vector with components in every direction
@@ -619,7 +635,7 @@ impl<'a, T: Float> SpectralProjection<'a, T> {
 
     /// `‖T x − λ x‖₂` for the unit vector `x`.
     fn residual(&self, lambda: T) -> T {
-        let n = self.n;
+        let n = self.n();
         let (d, e, x) = (&self.diag, &self.off, &self.x);
         let mut s = T::zero();
         for i in 0..n {
@@ -639,7 +655,7 @@ impl<'a, T: Float> SpectralProjection<'a, T> {
     /// as reciprocals), u1, u2, the multipliers and row swaps of L. Zero pivots become
     /// `perturbation` (inverse iteration wants the near-singular solve).
     fn factor_shifted(&mut self, lambda: T, perturbation: T) {
-        let n = self.n;
+        let n = self.n();
         let (d, e) = (&self.diag, &self.off);
         let mut cur_d = d[0] - lambda;
         let mut cur_u1 = if n > 1 { e[0] } else { T::zero() };
@@ -685,7 +701,7 @@ impl<'a, T: Float> SpectralProjection<'a, T> {
 
     /// Solve `(T − λI) x_new = x` in place with the factors of [`Self::factor_shifted`].
     fn solve_shifted(&mut self) {
-        let n = self.n;
+        let n = self.n();
         let x = &mut self.x;
         for i in 0..n - 1 {
             if self.pivot[i] {
@@ -708,7 +724,7 @@ impl<'a, T: Float> SpectralProjection<'a, T> {
     /// The first k columns of `vectors` from T's coordinates to the matrix's:
     /// `u = H₀ H₁ ⋯ y`.
     fn apply_q(&mut self, k: usize) {
-        let n = self.n;
+        let n = self.n();
         for r in (0..n.saturating_sub(2)).rev() {
             let tau = self.tau[r];
             if tau == T::zero() {

@@ -16,8 +16,9 @@ use crate::moments::jacobians::{
 };
 use crate::moments::rotary::{add_rotary_terms, rotary_element, rotary_points, RotaryElement};
 use crate::moments::{
-    assemble_force, assemble_mass_gram_and_gravity, end_derivatives_from, frame_motions,
-    suffix_bodies, ElementMoments, EndDerivatives, FrameMotion, SuffixBody, Wrench,
+    assemble_force, assemble_inertial_and_field_force, assemble_linear_field_force,
+    assemble_mass_gram_and_gravity, end_derivatives_from, frame_motions, suffix_bodies,
+    ElementMoments, EndDerivatives, FrameMotion, SuffixBody, Wrench,
 };
 use crate::pose::{darboux, Pose};
 use nalgebra::{Matrix3, Vector3};
@@ -101,6 +102,11 @@ pub struct Terms {
     /// rotary inertia's part of it, are not computed), and ∫ρS y ds; `velocity_term` is
     /// unspecified afterwards. Ignored when `force` is asked.
     pub field_force: bool,
+    /// Only the symmetric part of `stiffness` is needed (a step that keeps its
+    /// symmetrised field stiffness): the antisymmetric part of C1 (a head's angular
+    /// acceleration and the drag of its rotation) is left out of ∫JᵀC1J, whose weighted
+    /// Gram matrix then takes one pass instead of two.
+    pub symmetric_stiffness: bool,
 }
 
 impl Terms {
@@ -113,6 +119,7 @@ impl Terms {
             damping: true,
             velocity_term_jacobian: true,
             field_force: false,
+            symmetric_stiffness: false,
         }
     }
 }
@@ -241,15 +248,18 @@ fn ends_and_derivatives<T: Float, S: MomentSource<T> + ?Sized>(
 }
 
 /// M, the centreline Gram matrix (into the buffers, `mass_valid` set) and ∫ρS y ds at q,
-/// from the element moments of M only ([`MomentSource::mass_moments_batch`]): what an
-/// energy measurement needs, for the cost of the moments M needs. The buffers are left
-/// prepared for no q (a later evaluation at q computes every moment).
+/// and with `linear = Some((C1, out))` the force ∫ Jᵀ C1 y ds of a linear field into
+/// `out` (a rotating head's, for its power), from the element moments of M only
+/// ([`MomentSource::mass_moments_batch`]): what an energy measurement needs, for the
+/// cost of the moments M needs. The buffers are left prepared for no q (a later
+/// evaluation at q computes every moment).
 pub fn evaluate_mass<T: Float, S: MomentSource<T> + ?Sized>(
     source: &S,
     shape: &StrandShape<'_, T>,
     b: &mut MomentBuffers<'_, T>,
     q: &[T],
     first_moment: &mut Vector3<T>,
+    linear: Option<(&Matrix3<T>, &mut [T])>,
 ) {
     b.prepared[0] = T::nan();
     ends_and_derivatives(source, shape, b, q);
@@ -278,11 +288,23 @@ pub fn evaluate_mass<T: Float, S: MomentSource<T> + ?Sized>(
         first_moment,
     );
     *b.mass_valid = true;
+    if let Some((c1, out)) = linear {
+        assemble_linear_field_force(c1, shape.lengths, b.ends, b.end_derivs, b.moments, out);
+    }
 }
 
-/// `m` is a multiple of the identity.
-fn is_scalar<T: Float>(m: &Matrix3<T>) -> bool {
-    *m == Matrix3::identity() * m[(0, 0)]
+/// `m = c I + A` with A antisymmetric (exactly, as the body field builds its velocity
+/// part): `(c, A)`.
+fn isotropic_plus_antisymmetric<T: Float>(m: &Matrix3<T>) -> Option<(T, Matrix3<T>)> {
+    let c = m[(0, 0)];
+    if m[(1, 1)] != c || m[(2, 2)] != c {
+        return None;
+    }
+    let mut rest = *m;
+    for i in 0..3 {
+        rest[(i, i)] = T::zero();
+    }
+    (rest == -rest.transpose()).then_some((c, rest))
 }
 
 /// ∫ρS y ds from the suffix bodies.
@@ -367,10 +389,9 @@ pub fn evaluate_terms<T: Float, S: MomentSource<T> + ?Sized>(
         *out.first_moment = first_moment(b, rho_s);
     }
     if t.force {
-        // −b of the centreline, then the field with ρS = 0 (the assembly is linear in
-        // the field and in ρS)
-        assemble_force(
-            b.wrenches,
+        // −b of the centreline (ρS, no field) and the field with ρS = 0 (the assembly
+        // is linear in the field and in ρS), in one pass
+        assemble_inertial_and_field_force(
             rho_s,
             lengths,
             b.ends,
@@ -378,8 +399,9 @@ pub fn evaluate_terms<T: Float, S: MomentSource<T> + ?Sized>(
             b.moments,
             b.motions,
             v,
-            &BodyField::zero(),
+            field,
             out.velocity_term,
+            out.force,
         );
         for x in out.velocity_term.iter_mut() {
             *x = -*x;
@@ -395,8 +417,10 @@ pub fn evaluate_terms<T: Float, S: MomentSource<T> + ?Sized>(
                 b.beyond,
             );
         }
-    }
-    if t.force || field_force {
+        for (f, x) in out.force.iter_mut().zip(out.velocity_term.iter()) {
+            *f -= *x;
+        }
+    } else if field_force {
         assemble_force(
             b.wrenches,
             T::zero(),
@@ -410,11 +434,6 @@ pub fn evaluate_terms<T: Float, S: MomentSource<T> + ?Sized>(
             out.force,
         );
     }
-    if t.force {
-        for (f, x) in out.force.iter_mut().zip(out.velocity_term.iter()) {
-            *f -= *x;
-        }
-    }
     if t.stiffness {
         b.matrix.fill(T::zero());
         add_field_hessian(
@@ -427,8 +446,13 @@ pub fn evaluate_terms<T: Float, S: MomentSource<T> + ?Sized>(
             b.matrix,
         );
         if field.has_linear() {
+            let c1 = if t.symmetric_stiffness {
+                (field.linear + field.linear.transpose()) * T::of(0.5)
+            } else {
+                field.linear
+            };
             add_weighted_gram(
-                &field.linear,
+                &c1,
                 T::one(),
                 b.ends,
                 b.end_derivs,
@@ -439,11 +463,27 @@ pub fn evaluate_terms<T: Float, S: MomentSource<T> + ?Sized>(
         }
         sink(TermMatrix::Stiffness, b.matrix);
     }
-    if t.damping && *b.mass_valid && is_scalar(&field.velocity) {
-        // C2 = −ν I: −ν ∫ JᵀJ ds, kept with M
-        let c = field.velocity[(0, 0)];
+    let isotropic_part = if *b.mass_valid {
+        isotropic_plus_antisymmetric(&field.velocity)
+    } else {
+        None
+    };
+    if let (true, Some((c, rest))) = (t.damping, isotropic_part) {
+        // C2 = c I + A, A antisymmetric (drag −ν I and the Coriolis −2ρS[ω]×):
+        // c ∫ JᵀJ ds, kept with M, plus the antisymmetric ∫ JᵀAJ ds in one pass
         for (m, g) in b.matrix.iter_mut().zip(b.gram.iter()) {
             *m = c * *g;
+        }
+        if rest != Matrix3::zeros() {
+            add_weighted_gram(
+                &rest,
+                T::one(),
+                b.ends,
+                b.end_derivs,
+                b.moments,
+                b.bodies,
+                b.matrix,
+            );
         }
         sink(TermMatrix::Damping, b.matrix);
     } else if t.damping {

@@ -169,3 +169,47 @@ fn moment_kernel_points_match_the_generic_kernel() {
         worst[0], worst[1], worst[2]
     );
 }
+
+/// `Terms::symmetric_stiffness` (what the fixed-N step asks: it keeps sym(stiffness)
+/// only) leaves the antisymmetric part of C1 out: the symmetric part of what it returns
+/// is the generic kernel's symmetrised stiffness, on a head that turns and accelerates
+/// (C1 with an antisymmetric part −ρS[α]× − ν[ω]×), and every other term is unchanged.
+#[test]
+fn a_symmetric_stiffness_request_gives_the_symmetrised_stiffness() {
+    let mut rng = Rng(0x5eed_5a5a);
+    for n in [1usize, 3, 5] {
+        let g = geometry(n, 0.12, &mut rng);
+        let q = q_with_wl(&g, &[1.0, 0.3], &mut rng);
+        let v: Vec<f64> = (0..3 * n).map(|_| rng.sym() * 30.0).collect();
+        let field = random_field(&mut rng, g.mass_per_length, true);
+        assert_ne!(field.linear, field.linear.transpose());
+        let order = 44;
+        let mut reference = GenericKernel::new(g.clone(), QuadratureRule::Fixed(order));
+        let mut ours = MomentKernel::new(g.clone(), QuadratureMoments::default());
+        let input = |terms| EvalInput {
+            q: &q,
+            v: &v,
+            field,
+            terms,
+        };
+        let symmetric = Terms {
+            symmetric_stiffness: true,
+            ..Terms::all()
+        };
+        let (mut a, mut b) = (StrandTerms::new(3 * n), StrandTerms::new(3 * n));
+        ours.evaluate(&input(symmetric), &mut a);
+        reference.evaluate(&input(Terms::all()), &mut b);
+        let sym =
+            |m: &Mat<f64>| Mat::<f64>::from_fn(3 * n, 3 * n, |i, j| 0.5 * (m[(i, j)] + m[(j, i)]));
+        let d = rel_mat(&sym(&a.stiffness), &sym(&b.stiffness));
+        assert!(d <= 1e-10, "N={n}: sym(stiffness) deviates {d:.2e}");
+        // the antisymmetric part is not the generic kernel's (it was left out)
+        let full_anti = rel_mat(&b.stiffness, &sym(&b.stiffness));
+        assert!(
+            full_anti > 1e-6,
+            "N={n}: the test field has no antisymmetric stiffness"
+        );
+        assert!(rel_mat(&a.damping, &b.damping) <= 1e-10, "N={n}: damping");
+        assert!(rel_vec(&a.force, &b.force) <= 1e-10, "N={n}: force");
+    }
+}

@@ -18,7 +18,7 @@
 //! Without these checks a strand on a head shaking at 2 Hz by ±30° overflows within a
 //! second at dt = 1/30 and 1/60 s (the demo scene); with them it does not.
 
-use super::step::{evaluate_at, linearly_implicit, non_finite, StepError, StepInput, StepReport};
+use super::step::{linearly_implicit, non_finite, StepError, StepInput, StepReport};
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::energy::{
@@ -28,7 +28,7 @@ use crate::energy::{
 };
 use crate::float::Float;
 use crate::head::{body_field, HeadState};
-use crate::strand_terms::{MomentSource, Terms};
+use crate::strand_terms::MomentSource;
 use nalgebra::{Matrix3, Vector3};
 
 /// The head's motion as the checked step sees it: its state at any time of the step
@@ -241,25 +241,20 @@ pub(super) fn measure<
         linear: full.linear,
         velocity: Matrix3::zeros(),
     };
-    // M and ∫ρS y ds; the field's force alone for the power of C1 (a rotating head)
-    let terms = Terms {
-        mass: true,
-        field_force: field.has_linear(),
-        ..Default::default()
-    };
-    if field.has_linear() {
-        evaluate_at(source, strand, q, v, &field, terms, ws);
-    } else {
-        // M and ∫ρS y only: the moments of M, not the force's
-        let shape = p.shape();
-        crate::strand_terms::evaluate_mass(
-            source,
-            &shape,
-            &mut ws.assembly.buffers(),
-            q,
-            &mut ws.first_moment,
-        );
-    }
+    // M and ∫ρS y ds, and ∫ Jᵀ C1 y ds for the power of C1 (a rotating head): the
+    // moments of M alone
+    let shape = p.shape();
+    let linear = field
+        .has_linear()
+        .then_some((&field.linear, &mut ws.force[..]));
+    crate::strand_terms::evaluate_mass(
+        source,
+        &shape,
+        &mut ws.assembly.buffers(),
+        q,
+        &mut ws.first_moment,
+        linear,
+    );
     let m = &ws.assembly.mass;
     let half = T::of(0.5);
     let mut kinetic = T::zero();

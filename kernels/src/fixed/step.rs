@@ -201,6 +201,8 @@ pub(super) fn assemble<
         damping: velocity_field,
         velocity_term_jacobian: true,
         field_force: false,
+        // the step keeps sym(stiffness) only (`step_matrix`)
+        symmetric_stiffness: true,
     };
     evaluate_at(source, strand, q, v, &field, terms, ws);
     if !position_field {
@@ -421,7 +423,7 @@ fn project_uncached<const D: usize, const B: usize, T: Float>(
         }
     }
     let [tau, diag, off, eigenvalues, selected, scratch, u0, u1, u2, mult, x] = &mut p.vectors;
-    let spectral = SpectralProjection::new(
+    let spectral = SpectralProjection::<T, D>::new(
         D,
         ProjectionBasis {
             vectors: basis.as_flattened_mut(),

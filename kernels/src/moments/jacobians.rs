@@ -56,13 +56,15 @@ pub fn add_weighted_gram<T: Float>(
 ) {
     let n = end_derivs.len();
     let dofs = 3 * n;
-    let symmetric = w == &w.transpose();
     let wt = w.transpose();
+    let symmetric = w == &wt;
+    // an antisymmetric W gives an antisymmetric result: (l, k) = −(k, l), one pass
+    let antisymmetric = !symmetric && *w == -wt;
     let zero = V3::<T>::zeros();
     // pass 0: W, entries (k, l) with k in elements ≤ that of l;
     // pass 1: Wᵀ, entries (l, k) with k in elements < that of l
     for (pass, weight) in [w, &wt].into_iter().enumerate() {
-        if pass == 1 && symmetric {
+        if pass == 1 && (symmetric || antisymmetric) {
             break;
         }
         for q2 in 0..n {
@@ -101,6 +103,8 @@ pub fn add_weighted_gram<T: Float>(
                             out[l * dofs + k] += val;
                             if symmetric {
                                 out[k * dofs + l] += val;
+                            } else if antisymmetric {
+                                out[k * dofs + l] -= val;
                             }
                         } else {
                             out[k * dofs + l] += val;

@@ -127,6 +127,7 @@ impl StrandKernel for FloatingKernel {
                             damping: false,
                             velocity_term_jacobian: false,
                             field_force: true,
+                            symmetric_stiffness: false,
                         },
                     },
                     unit,

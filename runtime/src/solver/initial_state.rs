@@ -55,6 +55,7 @@ pub fn linearised_spectral_radius(
         damping: true,
         velocity_term_jacobian: false,
         field_force: false,
+        symmetric_stiffness: false,
     };
     system.assemble(at, q, &v, terms);
     let t = &system.workspace.terms;

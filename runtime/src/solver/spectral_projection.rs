@@ -78,7 +78,7 @@ impl SpectralProjection {
     pub fn negative_part(&mut self, h: &mut [f64]) -> bool {
         let [tau, diag, off, eigenvalues, selected, scratch, u0, u1, u2, mult, x] =
             &mut self.vectors_n;
-        let projection = shared::SpectralProjection::new(
+        let projection = shared::SpectralProjection::<f64>::new(
             self.n,
             ProjectionBasis {
                 vectors: &mut self.vectors,
