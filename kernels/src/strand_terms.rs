@@ -107,6 +107,11 @@ pub struct Terms {
     /// acceleration and the drag of its rotation) is left out of ∫JᵀC1J, whose weighted
     /// Gram matrix then takes one pass instead of two.
     pub symmetric_stiffness: bool,
+    /// Assemble a damping C2 = c I + A (drag and a rotating head's Coriolis term, A
+    /// antisymmetric) as c ∫ JᵀJ ds (kept with M) plus one antisymmetric pass for A:
+    /// the same matrix to rounding, for half the passes (the fixed-N step asks it; the
+    /// runtime engine keeps the general two-pass form).
+    pub split_damping: bool,
 }
 
 impl Terms {
@@ -120,6 +125,7 @@ impl Terms {
             velocity_term_jacobian: true,
             field_force: false,
             symmetric_stiffness: false,
+            split_damping: false,
         }
     }
 }
@@ -293,6 +299,11 @@ pub fn evaluate_mass<T: Float, S: MomentSource<T> + ?Sized>(
     }
 }
 
+/// `m` is a multiple of the identity.
+fn is_scalar<T: Float>(m: &Matrix3<T>) -> bool {
+    *m == Matrix3::identity() * m[(0, 0)]
+}
+
 /// `m = c I + A` with A antisymmetric (exactly, as the body field builds its velocity
 /// part): `(c, A)`.
 fn isotropic_plus_antisymmetric<T: Float>(m: &Matrix3<T>) -> Option<(T, Matrix3<T>)> {
@@ -463,7 +474,12 @@ pub fn evaluate_terms<T: Float, S: MomentSource<T> + ?Sized>(
         }
         sink(TermMatrix::Stiffness, b.matrix);
     }
-    let isotropic_part = if *b.mass_valid {
+    // an exactly scalar C2 always takes the Gram matrix; c I + A when asked
+    let isotropic_part = if !*b.mass_valid {
+        None
+    } else if is_scalar(&field.velocity) {
+        Some((field.velocity[(0, 0)], Matrix3::zeros()))
+    } else if t.split_damping {
         isotropic_plus_antisymmetric(&field.velocity)
     } else {
         None

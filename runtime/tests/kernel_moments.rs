@@ -170,10 +170,12 @@ fn moment_kernel_points_match_the_generic_kernel() {
     );
 }
 
-/// `Terms::symmetric_stiffness` (what the fixed-N step asks: it keeps sym(stiffness)
-/// only) leaves the antisymmetric part of C1 out: the symmetric part of what it returns
-/// is the generic kernel's symmetrised stiffness, on a head that turns and accelerates
-/// (C1 with an antisymmetric part −ρS[α]× − ν[ω]×), and every other term is unchanged.
+/// What the fixed-N step asks: `Terms::symmetric_stiffness` (it keeps sym(stiffness)
+/// only) leaves the antisymmetric part of C1 out, so the symmetric part of what it
+/// returns is the generic kernel's symmetrised stiffness, on a head that turns and
+/// accelerates (C1 with an antisymmetric part −ρS[α]× − ν[ω]×); `Terms::split_damping`
+/// (C2 = −ν I − 2ρS[ω]× as −ν ∫JᵀJ plus one antisymmetric pass) gives the generic
+/// kernel's damping; every other term is unchanged.
 #[test]
 fn a_symmetric_stiffness_request_gives_the_symmetrised_stiffness() {
     let mut rng = Rng(0x5eed_5a5a);
@@ -194,6 +196,7 @@ fn a_symmetric_stiffness_request_gives_the_symmetrised_stiffness() {
         };
         let symmetric = Terms {
             symmetric_stiffness: true,
+            split_damping: true,
             ..Terms::all()
         };
         let (mut a, mut b) = (StrandTerms::new(3 * n), StrandTerms::new(3 * n));

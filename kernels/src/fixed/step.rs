@@ -203,6 +203,7 @@ pub(super) fn assemble<
         field_force: false,
         // the step keeps sym(stiffness) only (`step_matrix`)
         symmetric_stiffness: true,
+        split_damping: true,
     };
     evaluate_at(source, strand, q, v, &field, terms, ws);
     if !position_field {

@@ -128,6 +128,7 @@ impl StrandKernel for FloatingKernel {
                             velocity_term_jacobian: false,
                             field_force: true,
                             symmetric_stiffness: false,
+                            split_damping: false,
                         },
                     },
                     unit,

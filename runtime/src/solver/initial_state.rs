@@ -56,6 +56,7 @@ pub fn linearised_spectral_radius(
         velocity_term_jacobian: false,
         field_force: false,
         symmetric_stiffness: false,
+        split_damping: false,
     };
     system.assemble(at, q, &v, terms);
     let t = &system.workspace.terms;
