@@ -225,46 +225,79 @@ fn mass_moments_are_the_mass_fields_of_element_moments() {
     }
 }
 
+/// A strand of n elements at W·l = `wl` per element with random directions and q̇, its
+/// element ends, end derivatives and frame motions: the set-up of the force tests.
+struct ForceCase {
+    lengths: Vec<f64>,
+    g: superhelix_runtime::model::strand::StrandGeometry,
+    q: Vec<f64>,
+    v: Vec<f64>,
+    ends: Vec<superhelix_runtime::model::reconstruction::Pose>,
+    derivs: Vec<superhelix_runtime::kernels::moments::EndDerivatives>,
+    motions: Vec<superhelix_runtime::kernels::moments::FrameMotion>,
+}
+
+fn force_case(n: usize, wl: f64, rng: &mut Rng) -> ForceCase {
+    use superhelix_runtime::kernels::moments::{end_derivatives, frame_motions, FrameMotion};
+    use superhelix_runtime::model::reconstruction::{darboux, element_ends, Pose};
+    use superhelix_runtime::model::strand::StrandGeometry;
+    let lengths: Vec<f64> = (0..n).map(|k| 0.02 + 0.005 * (k % 3) as f64).collect();
+    let g = StrandGeometry {
+        root_position: Vector3::new(0.01, 0.0, -0.02),
+        root_frame: *nalgebra::Rotation3::new(Vector3::new(0.3, -0.2, 0.9)).matrix(),
+        lengths: lengths.clone(),
+        mass_per_length: 1e-5,
+        rotary_inertia: [2e-9, 0.8e-9, 1.2e-9],
+        floating: false,
+    };
+    let q: Vec<f64> = (0..n)
+        .flat_map(|k| {
+            let d = direction(k % 5, rng) * (wl / lengths[k]);
+            [d[0], d[1], d[2]]
+        })
+        .collect();
+    let v: Vec<f64> = (0..3 * n).map(|_| 30.0 * rng.next()).collect();
+    let mut ends = vec![Pose::default(); n + 1];
+    element_ends(&g, &q, &mut ends);
+    let derivs: Vec<_> = (0..n)
+        .map(|k| end_derivatives(&ends[k].frame, &darboux(&q, k), lengths[k]))
+        .collect();
+    let mut motions = vec![FrameMotion::default(); n + 1];
+    frame_motions(&ends, &derivs, &v, &mut motions);
+    ForceCase {
+        lengths,
+        g,
+        q,
+        v,
+        ends,
+        derivs,
+        motions,
+    }
+}
+
 #[test]
 fn full_generalized_force_from_closed_form_moments_matches_quadrature_moments() {
     use superhelix_runtime::kernels::kernel::BodyField;
-    use superhelix_runtime::kernels::moments::{
-        assemble_force, end_derivatives, frame_motions, FrameMotion, Wrench,
-    };
-    use superhelix_runtime::model::reconstruction::{darboux, element_ends, Pose};
-    use superhelix_runtime::model::strand::StrandGeometry;
+    use superhelix_runtime::kernels::moments::{assemble_force, Wrench};
+    use superhelix_runtime::model::reconstruction::darboux;
     let mut worst: f64 = 0.0;
     let mut rng = Rng(0x5151_7e57_0000_0001);
     for n in [1usize, 3, 8] {
         for &wl in &[0.0, 1e-6, 0.3, 2.0, 3.4, 3.6, 9.0, 40.0] {
-            let lengths: Vec<f64> = (0..n).map(|k| 0.02 + 0.005 * (k % 3) as f64).collect();
-            let g = StrandGeometry {
-                root_position: Vector3::new(0.01, 0.0, -0.02),
-                root_frame: *nalgebra::Rotation3::new(Vector3::new(0.3, -0.2, 0.9)).matrix(),
-                lengths: lengths.clone(),
-                mass_per_length: 1e-5,
-                rotary_inertia: [2e-9, 0.8e-9, 1.2e-9],
-                floating: false,
-            };
-            let q: Vec<f64> = (0..n)
-                .flat_map(|k| {
-                    let d = direction(k % 5, &mut rng) * (wl / lengths[k]);
-                    [d[0], d[1], d[2]]
-                })
-                .collect();
-            let v: Vec<f64> = (0..3 * n).map(|_| 30.0 * rng.next()).collect();
+            let ForceCase {
+                lengths,
+                g,
+                q,
+                v,
+                ends,
+                derivs,
+                motions,
+            } = force_case(n, wl, &mut rng);
             let field = BodyField {
                 uniform: Vector3::new(0.2, -0.4, -9.81) * 1e-5,
                 linear: Matrix3::from_fn(|r, c| 1e-4 * (r as f64 - 0.5 * c as f64)),
                 velocity: -Matrix3::identity() * 1e-5,
             };
-            let mut ends = vec![Pose::default(); n + 1];
-            element_ends(&g, &q, &mut ends);
-            let derivs: Vec<_> = (0..n)
-                .map(|k| end_derivatives(&ends[k].frame, &darboux(&q, k), lengths[k]))
-                .collect();
-            let mut motions = vec![FrameMotion::default(); n + 1];
-            frame_motions(&ends, &derivs, &v, &mut motions);
             let force_of = |moments: &[ElementMoments]| {
                 let mut wrenches = vec![Wrench::default(); n];
                 let mut f = vec![0.0; 3 * n];
@@ -322,43 +355,27 @@ fn full_generalized_force_from_closed_form_moments_matches_quadrature_moments() 
 fn the_split_and_the_linear_field_force_assemblies_match_assemble_force() {
     use superhelix_runtime::kernels::kernel::BodyField;
     use superhelix_runtime::kernels::moments::{
-        assemble_force, assemble_inertial_and_field_force, assemble_linear_field_force,
-        end_derivatives, frame_motions, FrameMotion, Wrench,
+        assemble_force, assemble_inertial_and_field_force, assemble_linear_field_force, Wrench,
     };
-    use superhelix_runtime::model::reconstruction::{darboux, element_ends, Pose};
-    use superhelix_runtime::model::strand::StrandGeometry;
+    use superhelix_runtime::model::reconstruction::darboux;
     let mut rng = Rng(0x5151_7e57_0000_0002);
     for n in [1usize, 3, 8] {
         for &wl in &[0.0, 0.3, 3.6, 40.0] {
-            let lengths: Vec<f64> = (0..n).map(|k| 0.02 + 0.005 * (k % 3) as f64).collect();
-            let g = StrandGeometry {
-                root_position: Vector3::new(0.01, 0.0, -0.02),
-                root_frame: *nalgebra::Rotation3::new(Vector3::new(0.3, -0.2, 0.9)).matrix(),
-                lengths: lengths.clone(),
-                mass_per_length: 1e-5,
-                rotary_inertia: [2e-9, 0.8e-9, 1.2e-9],
-                floating: false,
-            };
-            let q: Vec<f64> = (0..n)
-                .flat_map(|k| {
-                    let d = direction(k % 5, &mut rng) * (wl / lengths[k]);
-                    [d[0], d[1], d[2]]
-                })
-                .collect();
-            let v: Vec<f64> = (0..3 * n).map(|_| 30.0 * rng.next()).collect();
+            let ForceCase {
+                lengths,
+                g,
+                q,
+                v,
+                ends,
+                derivs,
+                motions,
+            } = force_case(n, wl, &mut rng);
             let c1 = Matrix3::from_fn(|r, c| 1e-4 * (r as f64 - 0.5 * c as f64));
             let field = BodyField {
                 uniform: Vector3::new(0.2, -0.4, -9.81) * 1e-5,
                 linear: c1,
                 velocity: -Matrix3::identity() * 1e-5,
             };
-            let mut ends = vec![Pose::default(); n + 1];
-            element_ends(&g, &q, &mut ends);
-            let derivs: Vec<_> = (0..n)
-                .map(|k| end_derivatives(&ends[k].frame, &darboux(&q, k), lengths[k]))
-                .collect();
-            let mut motions = vec![FrameMotion::default(); n + 1];
-            frame_motions(&ends, &derivs, &v, &mut motions);
             let moments: Vec<_> = (0..n)
                 .map(|k| {
                     superhelix_generated::element_moments(
