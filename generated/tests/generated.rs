@@ -278,7 +278,7 @@ fn force_case(n: usize, wl: f64, rng: &mut Rng) -> ForceCase {
 #[test]
 fn full_generalized_force_from_closed_form_moments_matches_quadrature_moments() {
     use superhelix_runtime::kernels::kernel::BodyField;
-    use superhelix_runtime::kernels::moments::{assemble_force, Wrench};
+    use superhelix_runtime::kernels::moments::assemble_force;
     use superhelix_runtime::model::reconstruction::darboux;
     let mut worst: f64 = 0.0;
     let mut rng = Rng(0x5151_7e57_0000_0001);
@@ -299,19 +299,9 @@ fn full_generalized_force_from_closed_form_moments_matches_quadrature_moments() 
                 velocity: -Matrix3::identity() * 1e-5,
             };
             let force_of = |moments: &[ElementMoments]| {
-                let mut wrenches = vec![Wrench::default(); n];
                 let mut f = vec![0.0; 3 * n];
                 assemble_force(
-                    &mut wrenches,
-                    1e-5,
-                    &lengths,
-                    &ends,
-                    &derivs,
-                    moments,
-                    &motions,
-                    &v,
-                    &field,
-                    &mut f,
+                    1e-5, &lengths, &ends, &derivs, moments, &motions, &v, &field, &mut f,
                 );
                 f
             };
@@ -355,7 +345,7 @@ fn full_generalized_force_from_closed_form_moments_matches_quadrature_moments() 
 fn the_split_and_the_linear_field_force_assemblies_match_assemble_force() {
     use superhelix_runtime::kernels::kernel::BodyField;
     use superhelix_runtime::kernels::moments::{
-        assemble_force, assemble_inertial_and_field_force, assemble_linear_field_force, Wrench,
+        assemble_force, assemble_inertial_and_field_force, assemble_linear_field_force,
     };
     use superhelix_runtime::model::reconstruction::darboux;
     let mut rng = Rng(0x5151_7e57_0000_0002);
@@ -386,19 +376,9 @@ fn the_split_and_the_linear_field_force_assemblies_match_assemble_force() {
                 })
                 .collect();
             let plain = |rho_s: f64, field: &BodyField| {
-                let mut wrenches = vec![Wrench::default(); n];
                 let mut f = vec![0.0; 3 * n];
                 assemble_force(
-                    &mut wrenches,
-                    rho_s,
-                    &lengths,
-                    &ends,
-                    &derivs,
-                    &moments,
-                    &motions,
-                    &v,
-                    field,
-                    &mut f,
+                    rho_s, &lengths, &ends, &derivs, &moments, &motions, &v, field, &mut f,
                 );
                 f
             };

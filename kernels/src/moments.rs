@@ -485,11 +485,9 @@ pub fn frame_motions<T: Float>(
 /// per length, inertial term −ρS ÿ included, is affine in p, π = Σ ∂_i p q̇_i and
 /// π̇ = Σ ∂²_ij p q̇_i q̇_j, so its own columns and its wrench are moment contractions.
 /// The elements are taken from the tip: each adds the wrenches summed beyond it to its
-/// columns. `wrenches` is scratch of length N (kept for the callers' signature; the
-/// pass from the tip needs none).
+/// columns.
 #[allow(clippy::too_many_arguments)]
 pub fn assemble_force<T: Float>(
-    wrenches: &mut [Wrench<T>],
     rho_s: T,
     lengths: &[T],
     ends: &[Pose<T>],
@@ -500,7 +498,6 @@ pub fn assemble_force<T: Float>(
     field: &BodyField<T>,
     force: &mut [T],
 ) {
-    let _ = wrenches;
     let mut beyond = Wrench::default();
     for p in (0..lengths.len()).rev() {
         let c = ForceContractions::of(&moments[p], velocities, p);

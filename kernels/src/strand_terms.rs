@@ -18,7 +18,7 @@ use crate::moments::rotary::{add_rotary_terms, rotary_element, rotary_points, Ro
 use crate::moments::{
     assemble_force, assemble_inertial_and_field_force, assemble_linear_field_force,
     assemble_mass_gram_and_gravity, end_derivatives_from, frame_motions, suffix_bodies,
-    ElementMoments, EndDerivatives, FrameMotion, SuffixBody, Wrench,
+    ElementMoments, EndDerivatives, FrameMotion, SuffixBody,
 };
 use crate::pose::{darboux, Pose};
 use nalgebra::{Matrix3, Vector3};
@@ -164,8 +164,6 @@ pub struct MomentBuffers<'a, T: Float = f64> {
     pub motions: &'a mut [FrameMotion<T>],
     /// Suffix bodies.
     pub bodies: &'a mut [SuffixBody<T>],
-    /// Suffix wrenches of the force assembly.
-    pub wrenches: &'a mut [Wrench<T>],
     /// Rotary-inertia integrals of each element.
     pub rotary: &'a mut [RotaryElement<T>],
     /// Scratch of the rotary terms.
@@ -433,7 +431,6 @@ pub fn evaluate_terms<T: Float, S: MomentSource<T> + ?Sized>(
         }
     } else if field_force {
         assemble_force(
-            b.wrenches,
             T::zero(),
             lengths,
             b.ends,

@@ -471,7 +471,7 @@ fn moment_assembly_reproduces_the_mass_matrix_and_gravity_force() {
 /// `assemble_force` with quadrature moments for (q, v, field), rotary inertia off.
 fn force_from_moments(g: &StrandGeometry, q: &[f64], v: &[f64], f: &BodyField) -> Vec<f64> {
     use superhelix_runtime::kernels::moments::{
-        assemble_force, end_derivatives, frame_motions, ElementMoments, FrameMotion, Wrench,
+        assemble_force, end_derivatives, frame_motions, ElementMoments, FrameMotion,
     };
     use superhelix_runtime::model::reconstruction::{darboux, element_ends, Pose};
     let n = g.elements();
@@ -483,12 +483,10 @@ fn force_from_moments(g: &StrandGeometry, q: &[f64], v: &[f64], f: &BodyField) -
     let moments: Vec<_> = (0..n)
         .map(|k| ElementMoments::by_quadrature(&darboux(q, k), g.lengths[k], &[0.0; 3], 60))
         .collect();
-    let mut wrenches = vec![Wrench::default(); n];
     let mut motions = vec![FrameMotion::default(); n + 1];
     frame_motions(&ends, &derivs, v, &mut motions);
     let mut force = vec![0.0; 3 * n];
     assemble_force(
-        &mut wrenches,
         g.mass_per_length,
         &g.lengths,
         &ends,

@@ -3,7 +3,7 @@
 use crate::float::Float;
 use crate::moments::jacobians::VelocityRow;
 use crate::moments::rotary::RotaryElement;
-use crate::moments::{ElementMoments, EndDerivatives, FrameMotion, SuffixBody, Wrench};
+use crate::moments::{ElementMoments, EndDerivatives, FrameMotion, SuffixBody};
 use crate::pose::Pose;
 use crate::strand_terms::MomentBuffers;
 use nalgebra::{Matrix3, Vector3};
@@ -67,7 +67,6 @@ pub struct Assembly<const N: usize, const D: usize, const E: usize, T: Float = f
     pub(super) moments: [ElementMoments<T>; N],
     pub(super) motions: [FrameMotion<T>; E],
     pub(super) bodies: [SuffixBody<T>; E],
-    pub(super) wrenches: [Wrench<T>; N],
     pub(super) rotary: [RotaryElement<T>; N],
     pub(super) beyond: [(Matrix3<T>, Matrix3<T>); N],
     pub(super) velocity_rows: [VelocityRow<T>; D],
@@ -149,7 +148,6 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> Assembly<N, D, E,
             moments: [ElementMoments::default(); N],
             motions: [FrameMotion::default(); E],
             bodies: [SuffixBody::default(); E],
-            wrenches: [Wrench::default(); N],
             rotary: [RotaryElement::default(); N],
             beyond: [(Matrix3::zeros(), Matrix3::zeros()); N],
             velocity_rows: [VelocityRow::default(); D],
@@ -171,7 +169,6 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> Assembly<N, D, E,
             moments: &mut self.moments,
             motions: &mut self.motions,
             bodies: &mut self.bodies,
-            wrenches: &mut self.wrenches,
             rotary: &mut self.rotary,
             beyond: &mut self.beyond,
             velocity_rows: &mut self.velocity_rows,

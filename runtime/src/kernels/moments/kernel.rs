@@ -12,7 +12,7 @@ use crate::kernels::kernel::{EvalInput, StrandKernel, StrandTerms};
 use crate::kernels::moments::jacobians::VelocityRow;
 use crate::kernels::moments::rotary::RotaryElement;
 use crate::kernels::moments::{
-    end_derivatives_from, ElementMoments, EndDerivatives, FrameMotion, SuffixBody, Wrench,
+    end_derivatives_from, ElementMoments, EndDerivatives, FrameMotion, SuffixBody,
 };
 use crate::model::element::ElementPoint;
 use crate::model::reconstruction::{darboux, Pose};
@@ -57,7 +57,6 @@ pub struct MomentKernel<S: MomentSource + Send> {
     moments: Vec<ElementMoments>,
     motions: Vec<FrameMotion>,
     bodies: Vec<SuffixBody>,
-    wrenches: Vec<Wrench>,
     rotary: Vec<RotaryElement>,
     beyond: Vec<(Matrix3<f64>, Matrix3<f64>)>,
     velocity_rows: Vec<VelocityRow>,
@@ -93,7 +92,6 @@ impl<S: MomentSource + Send> MomentKernel<S> {
             moments: vec![ElementMoments::default(); n],
             motions: vec![FrameMotion::default(); n + 1],
             bodies: vec![SuffixBody::default(); n + 1],
-            wrenches: vec![Wrench::default(); n],
             rotary: vec![RotaryElement::default(); n],
             beyond: vec![(Matrix3::zeros(), Matrix3::zeros()); n],
             velocity_rows: vec![VelocityRow::default(); 3 * n],
@@ -158,7 +156,6 @@ impl<S: MomentSource + Send> StrandKernel for MomentKernel<S> {
             moments,
             motions,
             bodies,
-            wrenches,
             rotary,
             beyond,
             velocity_rows,
@@ -177,7 +174,6 @@ impl<S: MomentSource + Send> StrandKernel for MomentKernel<S> {
             moments,
             motions,
             bodies,
-            wrenches,
             rotary,
             beyond,
             velocity_rows,
