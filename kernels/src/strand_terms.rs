@@ -471,22 +471,32 @@ pub fn evaluate_terms<T: Float, S: MomentSource<T> + ?Sized>(
         }
         sink(TermMatrix::Stiffness, b.matrix);
     }
-    // an exactly scalar C2 always takes the Gram matrix; c I + A when asked
-    let isotropic_part = if !*b.mass_valid {
-        None
-    } else if is_scalar(&field.velocity) {
-        Some((field.velocity[(0, 0)], Matrix3::zeros()))
-    } else if t.split_damping {
-        isotropic_plus_antisymmetric(&field.velocity)
-    } else {
-        None
-    };
-    if let (true, Some((c, rest))) = (t.damping, isotropic_part) {
-        // C2 = c I + A, A antisymmetric (drag −ν I and the Coriolis −2ρS[ω]×):
-        // c ∫ JᵀJ ds, kept with M, plus the antisymmetric ∫ JᵀAJ ds in one pass
-        for (m, g) in b.matrix.iter_mut().zip(b.gram.iter()) {
-            *m = c * *g;
-        }
+    if t.damping {
+        // C2 = c I + A (drag −ν I, A the Coriolis −2ρS[ω]×, antisymmetric): c ∫ JᵀJ ds
+        // from the Gram matrix kept with M, the rest ∫ JᵀAJ ds by its weighted Gram
+        // matrix (one pass for an antisymmetric A); an exactly scalar C2 always takes
+        // the Gram matrix, c I + A when asked, any other C2 the two-pass form
+        let split = if !*b.mass_valid {
+            None
+        } else if is_scalar(&field.velocity) {
+            Some((field.velocity[(0, 0)], Matrix3::zeros()))
+        } else if t.split_damping {
+            isotropic_plus_antisymmetric(&field.velocity)
+        } else {
+            None
+        };
+        let rest = match split {
+            Some((c, rest)) => {
+                for (m, g) in b.matrix.iter_mut().zip(b.gram.iter()) {
+                    *m = c * *g;
+                }
+                rest
+            }
+            None => {
+                b.matrix.fill(T::zero());
+                field.velocity
+            }
+        };
         if rest != Matrix3::zeros() {
             add_weighted_gram(
                 &rest,
@@ -498,18 +508,6 @@ pub fn evaluate_terms<T: Float, S: MomentSource<T> + ?Sized>(
                 b.matrix,
             );
         }
-        sink(TermMatrix::Damping, b.matrix);
-    } else if t.damping {
-        b.matrix.fill(T::zero());
-        add_weighted_gram(
-            &field.velocity,
-            T::one(),
-            b.ends,
-            b.end_derivs,
-            b.moments,
-            b.bodies,
-            b.matrix,
-        );
         sink(TermMatrix::Damping, b.matrix);
     }
     if t.velocity_term_jacobian {
