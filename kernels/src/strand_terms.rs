@@ -297,6 +297,92 @@ pub fn evaluate_mass<T: Float, S: MomentSource<T> + ?Sized>(
     }
 }
 
+/// What an energy measurement reads at (q, q̇), from [`evaluate_energy`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StrandEnergy<T: Float = f64> {
+    /// The kinetic energy ½ q̇ᵀ M q̇ (centreline and rotary inertia).
+    pub kinetic: T,
+    /// ∫ ρS y ds.
+    pub first_moment: Vector3<T>,
+    /// The power ∫ ẏ · C1 y ds = q̇ · ∫ Jᵀ C1 y ds of the linear field C1 given (0 without).
+    pub power: T,
+}
+
+/// The kinetic energy ½ q̇ᵀ M q̇, ∫ρS y ds and, with `linear = Some(C1)`, the power
+/// ∫ ẏ · C1 y ds of a linear field (a rotating head's), in O(N) from the element moments
+/// of M only ([`MomentSource::mass_moments_batch`]) and the frame motions, with no
+/// matrix: what an energy measurement needs.
+///
+/// On element P, with ω = Fᵀ Ω_P and c = Fᵀ ṙ_P its start frame's angular velocity and
+/// start point's velocity in its own frame and π(u) = Σ_j q̇_j ∂p/∂d_j, the centreline
+/// moves as ẏ = F (c + ω × p + π) (docs/moment-assembly.md) and the cross-sections turn at
+/// Ωs = ω + Σ_j q̇_j w_j, so
+///
+/// - ∫ |ẏ|² = |c|² l + 2 c · (ω × ∫p) + 2 c · Σ q̇_j ∫p_j + |ω|² tr ∫ppᵀ − ωᵀ(∫ppᵀ)ω
+///   + 2 ω · Σ q̇_j ∫p × p_j + Σ q̇_i q̇_j ∫p_i · p_j,
+/// - ∫ Ωsᵀ I Ωs = ωᵀ(∫I)ω + 2 ω · Σ q̇_j ∫I w_j + Σ q̇_i q̇_j ∫w_iᵀ I w_j,
+/// - ∫ ẏ · C1 y = (∫ẏ) · C1 r_P + tr(FᵀC1F L), L = ∫p cᵀ − (∫ppᵀ)[ω]× + Σ q̇_j ∫p p_jᵀ,
+///
+/// T = ½ Σ_P (ρS ∫|ẏ|² + ∫ Ωsᵀ I Ωs), the paper's kinetic energy (eq. 4's M) with the
+/// rotary inertia of docs/model.md. The buffers are left prepared for no q (a later
+/// [`evaluate_terms`] computes its moments anew).
+pub fn evaluate_energy<T: Float, S: MomentSource<T> + ?Sized>(
+    source: &S,
+    shape: &StrandShape<'_, T>,
+    b: &mut MomentBuffers<'_, T>,
+    q: &[T],
+    v: &[T],
+    linear: Option<&Matrix3<T>>,
+) -> StrandEnergy<T> {
+    b.prepared[0] = T::nan();
+    *b.mass_valid = false;
+    ends_and_derivatives(source, shape, b, q);
+    source.mass_moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
+    frame_motions(b.ends, b.end_derivs, v, b.motions);
+    let two = T::of(2.0);
+    let (mut centreline, mut rotary, mut power) = (T::zero(), T::zero(), T::zero());
+    let mut first = Vector3::zeros();
+    for (p, &l) in shape.lengths.iter().enumerate() {
+        let m = &b.moments[p];
+        let pose = &b.ends[p];
+        let f = pose.frame;
+        let motion = &b.motions[p];
+        let om = f.transpose() * motion.omega;
+        let c = f.transpose() * motion.velocity;
+        let qd = Vector3::new(v[3 * p], v[3 * p + 1], v[3 * p + 2]);
+        let mut pi = Vector3::zeros();
+        let mut turn = Vector3::zeros();
+        let mut rot_w = Vector3::zeros();
+        for j in 0..3 {
+            pi += m.dfirst[j] * qd[j];
+            turn += m.cross[j] * qd[j];
+            rot_w += m.rot_w[j] * qd[j];
+        }
+        let swept = om.cross(&m.first);
+        centreline += c.dot(&c) * l + two * c.dot(&(swept + pi)) + om.dot(&om) * m.second.trace()
+            - om.dot(&(m.second * om))
+            + two * om.dot(&turn)
+            + qd.dot(&(m.gram * qd));
+        rotary += om.dot(&(m.rot * om)) + two * om.dot(&rot_w) + qd.dot(&(m.rot_ww * qd));
+        first += pose.position * l + f * m.first;
+        if let Some(c1) = linear {
+            let velocity = f * (c * l + swept + pi);
+            let mut local = m.first * c.transpose() - m.second * om.cross_matrix();
+            for j in 0..3 {
+                local += m.pdp[j] * qd[j];
+            }
+            let a = f.transpose() * c1 * f;
+            power += velocity.dot(&(c1 * pose.position)) + (a * local).trace();
+        }
+    }
+    let rho_s = shape.mass_per_length;
+    StrandEnergy {
+        kinetic: T::of(0.5) * (rho_s * centreline + rotary),
+        first_moment: first * rho_s,
+        power,
+    }
+}
+
 /// `m` is a multiple of the identity.
 fn is_scalar<T: Float>(m: &Matrix3<T>) -> bool {
     *m == Matrix3::identity() * m[(0, 0)]

@@ -236,47 +236,27 @@ pub(super) fn measure<
     let p = &strand.params;
     let rho_s = p.mass_per_length;
     let full = body_field(effects.gravity, effects.head_moves, head, rho_s, p.air_drag);
-    let field = crate::body_field::BodyField {
-        uniform: Vector3::zeros(),
-        linear: full.linear,
-        velocity: Matrix3::zeros(),
-    };
-    // M and ∫ρS y ds, and ∫ Jᵀ C1 y ds for the power of C1 (a rotating head): the
+    // ½ q̇ᵀ M q̇, ∫ρS y ds and the power of C1 (a rotating head) in O(N), from the
     // moments of M alone
     let shape = p.shape();
-    let linear = field
-        .has_linear()
-        .then_some((&field.linear, &mut ws.force[..]));
-    crate::strand_terms::evaluate_mass(
+    let measured = crate::strand_terms::evaluate_energy(
         source,
         &shape,
         &mut ws.assembly.buffers(),
         q,
-        &mut ws.first_moment,
-        linear,
+        v,
+        full.has_linear().then_some(&full.linear),
     );
-    let m = &ws.assembly.mass;
     let half = T::of(0.5);
-    let mut kinetic = T::zero();
-    for j in 0..D {
-        let mut mv = T::zero();
-        for i in 0..D {
-            mv += m[j][i] * v[i];
-        }
-        kinetic += half * mv * v[j];
-    }
+    let kinetic = measured.kinetic;
     let elastic: T = (0..D)
         .map(|i| {
             let x = q[i] - p.natural[i];
             half * p.stiffness[i] * (x * x)
         })
         .sum();
-    let power = if field.has_linear() {
-        (0..D).map(|i| v[i] * ws.force[i]).sum()
-    } else {
-        T::zero()
-    };
-    let moment = ws.first_moment / rho_s;
+    let power = measured.power;
+    let moment = measured.first_moment / rho_s;
     let dissipation = (0..D).map(|i| p.friction[i] * v[i] * v[i]).sum::<T>()
         + T::of(2.0) * p.air_drag / rho_s * kinetic;
     let length = p.length();
