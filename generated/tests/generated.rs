@@ -336,17 +336,13 @@ fn full_generalized_force_from_closed_form_moments_matches_quadrature_moments() 
     println!("worst relative deviation of the generalized force: {worst:e}");
 }
 
-/// The force assemblies the step and its energy measurement call against the plain
-/// `assemble_force`: the inertial and field parts in one pass give the bits of two calls
-/// (ρS without the field, the field without ρS), and the force of a position-only
-/// linear field C1 y from the moments of M alone gives the bits of the full assembly
-/// at a nonzero q̇ (whose weights on the force-only moments are zero).
+/// The force assembly the step calls against the plain `assemble_force`: the inertial
+/// and field parts in one pass give the bits of two calls (ρS without the field, the
+/// field without ρS).
 #[test]
-fn the_split_and_the_linear_field_force_assemblies_match_assemble_force() {
+fn the_split_force_assembly_matches_assemble_force() {
     use superhelix_runtime::kernels::kernel::BodyField;
-    use superhelix_runtime::kernels::moments::{
-        assemble_force, assemble_inertial_and_field_force, assemble_linear_field_force,
-    };
+    use superhelix_runtime::kernels::moments::{assemble_force, assemble_inertial_and_field_force};
     use superhelix_runtime::model::reconstruction::darboux;
     let mut rng = Rng(0x5151_7e57_0000_0002);
     for n in [1usize, 3, 8] {
@@ -397,28 +393,6 @@ fn the_split_and_the_linear_field_force_assemblies_match_assemble_force() {
             );
             assert_eq!(inertial, plain(1e-5, &BodyField::zero()), "N={n} W l={wl}");
             assert_eq!(field_force, plain(0.0, &field), "N={n} W l={wl}");
-            // C1 y alone, from the moments of M
-            let linear_only = BodyField {
-                uniform: Vector3::zeros(),
-                linear: c1,
-                velocity: Matrix3::zeros(),
-            };
-            let mass_only: Vec<_> = (0..n)
-                .map(|k| {
-                    superhelix_generated::mass_moments(
-                        &darboux(&q, k),
-                        lengths[k],
-                        &g.rotary_inertia,
-                    )
-                })
-                .collect();
-            let mut linear = vec![0.0; 3 * n];
-            assemble_linear_field_force(&c1, &lengths, &ends, &derivs, &mass_only, &mut linear);
-            let expect = plain(0.0, &linear_only);
-            assert!(expect.iter().any(|x| *x != 0.0));
-            for (i, (a, b)) in linear.iter().zip(&expect).enumerate() {
-                assert!(a == b, "N={n} W l={wl} f[{i}]: {a:e} vs {b:e}");
-            }
         }
     }
 }

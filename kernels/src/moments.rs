@@ -564,42 +564,6 @@ pub fn assemble_inertial_and_field_force<T: Float>(
     }
 }
 
-/// [`assemble_force`] of a position-only linear field `C1 y` (no ρS, no C2, no c0):
-/// ∫ Jᵀ C1 y ds, from the moments of M alone (`first`, `second`, `dfirst`, `pdp`: the
-/// force-only moments multiply q̇-contractions whose weights are zero here). The same
-/// bits as [`assemble_force`] with that field and ρS = 0 for finite moments.
-pub fn assemble_linear_field_force<T: Float>(
-    c1: &Matrix3<T>,
-    lengths: &[T],
-    ends: &[Pose<T>],
-    end_derivs: &[EndDerivatives<T>],
-    moments: &[ElementMoments<T>],
-    force: &mut [T],
-) {
-    let field = BodyField {
-        uniform: Vector3::zeros(),
-        linear: *c1,
-        velocity: Matrix3::zeros(),
-    };
-    let still = FrameMotion::default();
-    let none = ForceContractions::zero();
-    let mut beyond = Wrench::default();
-    for p in (0..lengths.len()).rev() {
-        let setup = ForceSetup::of(&field, T::zero(), &ends[p], &still);
-        element_force(
-            setup,
-            &none,
-            p,
-            lengths,
-            ends,
-            end_derivs,
-            moments,
-            &mut beyond,
-            force,
-        );
-    }
-}
-
 /// The element moments of [`assemble_force`] contracted with the element's q̇ (they do
 /// not depend on the field or on ρS).
 struct ForceContractions<T: Float> {
@@ -618,18 +582,6 @@ struct ForceContractions<T: Float> {
 }
 
 impl<T: Float> ForceContractions<T> {
-    /// All zero (q̇ = 0).
-    fn zero() -> Self {
-        ForceContractions {
-            pi1: Vector3::zeros(),
-            n_pi: Matrix3::zeros(),
-            pi2: Vector3::zeros(),
-            c_pi2: Vector3::zeros(),
-            g_pi: [Matrix3::zeros(); 3],
-            t: [T::zero(); 3],
-        }
-    }
-
     #[inline(always)]
     fn of(m: &ElementMoments<T>, velocities: &[T], p: usize) -> Self {
         let qd = [

@@ -497,7 +497,7 @@ impl<'a, T: Float, const NC: usize> SpectralProjection<'a, T, NC> {
         true
     }
 
-    /// Householder reduction of `a` (lower triangle read) to tridiagonal form: `diag`,
+    /// Householder reduction of `a` (both triangles read and updated) to tridiagonal form: `diag`,
     /// `off` (coupling i and i + 1), the reflector `I − τ_k v_k v_kᵀ` (acting on rows
     /// k + 1 ..) stored as v_k in column k from row k + 1 and τ_k in `tau`.
     fn tridiagonalise(&mut self) {
@@ -521,33 +521,29 @@ impl<'a, T: Float, const NC: usize> SpectralProjection<'a, T, NC> {
             self.tau[k] = tau;
             self.off[k] = alpha;
             let v = &*v;
-            // p = τ A₂₂ v over rows/columns k + 1 .. (symmetric, lower triangle)
+            // p = τ A₂₂ v over rows/columns k + 1 .. (both triangles held): column by
+            // column, so that no sum is a chain of dependent additions
             let p = &mut p[..m];
             p.fill(T::zero());
-            for jj in 0..m {
-                let col = &tail[jj * n + k + 1 + jj..(jj + 1) * n];
-                let vj = v[jj];
-                let mut dot = col[0] * vj;
-                for ((pi, &aij), &vi) in p[jj + 1..].iter_mut().zip(&col[1..]).zip(&v[jj + 1..]) {
+            for (jj, &vj) in v.iter().enumerate() {
+                let col = &tail[jj * n + k + 1..(jj + 1) * n];
+                for (pi, &aij) in p.iter_mut().zip(col) {
                     *pi += aij * vj;
-                    dot += aij * vi;
                 }
-                p[jj] += dot;
             }
             let mut vp = T::zero();
             for (pi, &vi) in p.iter_mut().zip(v) {
                 *pi *= tau;
                 vp += vi * *pi;
             }
-            // w = p − (τ/2)(vᵀp) v; A₂₂ −= v wᵀ + w vᵀ
+            // w = p − (τ/2)(vᵀp) v; A₂₂ −= v wᵀ + w vᵀ (both triangles)
             let half = T::of(0.5) * tau * vp;
             for (pi, &vi) in p.iter_mut().zip(v) {
                 *pi -= half * vi;
             }
-            for jj in 0..m {
-                let col = &mut tail[jj * n + k + 1 + jj..(jj + 1) * n];
-                let (vj, wj) = (v[jj], p[jj]);
-                for ((aij, &vi), &wi) in col.iter_mut().zip(&v[jj..]).zip(&p[jj..]) {
+            for (jj, (&vj, &wj)) in v.iter().zip(p.iter()).enumerate() {
+                let col = &mut tail[jj * n + k + 1..(jj + 1) * n];
+                for ((aij, &vi), &wi) in col.iter_mut().zip(v).zip(p.iter()) {
                     *aij -= vi * wj + wi * vj;
                 }
             }

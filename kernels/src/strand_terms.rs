@@ -16,9 +16,9 @@ use crate::moments::jacobians::{
 };
 use crate::moments::rotary::{add_rotary_terms, rotary_element, rotary_points, RotaryElement};
 use crate::moments::{
-    assemble_force, assemble_inertial_and_field_force, assemble_linear_field_force,
-    assemble_mass_gram_and_gravity, end_derivatives_from, frame_motions, suffix_bodies,
-    ElementMoments, EndDerivatives, FrameMotion, SuffixBody,
+    assemble_force, assemble_inertial_and_field_force, assemble_mass_gram_and_gravity,
+    end_derivatives_from, frame_motions, suffix_bodies, ElementMoments, EndDerivatives,
+    FrameMotion, SuffixBody,
 };
 use crate::pose::{darboux, Pose};
 use nalgebra::{Matrix3, Vector3};
@@ -251,52 +251,6 @@ fn ends_and_derivatives<T: Float, S: MomentSource<T> + ?Sized>(
     }
 }
 
-/// M, the centreline Gram matrix (into the buffers, `mass_valid` set) and ∫ρS y ds at q,
-/// and with `linear = Some((C1, out))` the force ∫ Jᵀ C1 y ds of a linear field into
-/// `out` (a rotating head's, for its power), from the element moments of M only
-/// ([`MomentSource::mass_moments_batch`]): what an energy measurement needs, for the
-/// cost of the moments M needs. The buffers are left prepared for no q (a later
-/// evaluation at q computes every moment).
-pub fn evaluate_mass<T: Float, S: MomentSource<T> + ?Sized>(
-    source: &S,
-    shape: &StrandShape<'_, T>,
-    b: &mut MomentBuffers<'_, T>,
-    q: &[T],
-    first_moment: &mut Vector3<T>,
-    linear: Option<(&Matrix3<T>, &mut [T])>,
-) {
-    b.prepared[0] = T::nan();
-    ends_and_derivatives(source, shape, b, q);
-    source.mass_moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
-    let n = shape.lengths.len();
-    suffix_bodies(
-        b.ends,
-        shape.lengths,
-        b.moments,
-        b.motions,
-        &b.vector[..3 * n],
-        false,
-        b.bodies,
-    );
-    assemble_mass_gram_and_gravity(
-        b.bodies,
-        shape.mass_per_length,
-        shape.lengths,
-        b.ends,
-        b.end_derivs,
-        b.moments,
-        &Vector3::zeros(),
-        b.mass,
-        Some(&mut *b.gram),
-        b.vector,
-        first_moment,
-    );
-    *b.mass_valid = true;
-    if let Some((c1, out)) = linear {
-        assemble_linear_field_force(c1, shape.lengths, b.ends, b.end_derivs, b.moments, out);
-    }
-}
-
 /// What an energy measurement reads at (q, q̇), from [`evaluate_energy`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StrandEnergy<T: Float = f64> {
@@ -324,8 +278,13 @@ pub struct StrandEnergy<T: Float = f64> {
 /// - ∫ ẏ · C1 y = (∫ẏ) · C1 r_P + tr(FᵀC1F L), L = ∫p cᵀ − (∫ppᵀ)[ω]× + Σ q̇_j ∫p p_jᵀ,
 ///
 /// T = ½ Σ_P (ρS ∫|ẏ|² + ∫ Ωsᵀ I Ωs), the paper's kinetic energy (eq. 4's M) with the
-/// rotary inertia of docs/model.md. The buffers are left prepared for no q (a later
-/// [`evaluate_terms`] computes its moments anew).
+/// rotary inertia of docs/model.md.
+///
+/// With `prepare_terms` the buffers are [`prepare`]d for q (every element moment, for
+/// the cost of the force-only ones too), so that an [`evaluate_terms`] at the same q that
+/// follows (the next piece of a split step starts where this one was measured) reuses
+/// them; without, only the moments of M are computed and the buffers are left prepared
+/// for no q. The energy is the same, bit for bit.
 pub fn evaluate_energy<T: Float, S: MomentSource<T> + ?Sized>(
     source: &S,
     shape: &StrandShape<'_, T>,
@@ -333,11 +292,16 @@ pub fn evaluate_energy<T: Float, S: MomentSource<T> + ?Sized>(
     q: &[T],
     v: &[T],
     linear: Option<&Matrix3<T>>,
+    prepare_terms: bool,
 ) -> StrandEnergy<T> {
-    b.prepared[0] = T::nan();
-    *b.mass_valid = false;
-    ends_and_derivatives(source, shape, b, q);
-    source.mass_moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
+    if prepare_terms {
+        prepare(source, shape, b, q);
+    } else {
+        b.prepared[0] = T::nan();
+        *b.mass_valid = false;
+        ends_and_derivatives(source, shape, b, q);
+        source.mass_moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
+    }
     frame_motions(b.ends, b.end_derivs, v, b.motions);
     let two = T::of(2.0);
     let (mut centreline, mut rotary, mut power) = (T::zero(), T::zero(), T::zero());

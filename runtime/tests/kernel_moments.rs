@@ -347,6 +347,7 @@ fn the_energy_measurement_matches_the_generic_kernel() {
                     &q,
                     &v,
                     Some(&field.linear),
+                    false,
                 );
                 // the power's scale: |q̇| |∫ Jᵀ C1 y| (its terms cancel)
                 let force_scale = (0..3 * n)
@@ -368,7 +369,19 @@ fn the_energy_measurement_matches_the_generic_kernel() {
                         "{name}: relative deviation {d:.2e} at N={n}, W·l {wl:?}, rotary {rotary}"
                     );
                 }
-                let without = evaluate_energy(&ClosedForm, &shape, &mut buffers, &q, &v, None);
+                // prepared for the terms (every moment): the same bits
+                let prepared = evaluate_energy(
+                    &ClosedForm,
+                    &shape,
+                    &mut buffers,
+                    &q,
+                    &v,
+                    Some(&field.linear),
+                    true,
+                );
+                assert_eq!(prepared, e);
+                let without =
+                    evaluate_energy(&ClosedForm, &shape, &mut buffers, &q, &v, None, false);
                 assert_eq!(without.power, 0.0);
                 assert_eq!(without.kinetic, e.kinetic);
             }

@@ -171,6 +171,8 @@ struct Interval {
     end: HeadState,
     uniform: bool,
     depth: usize,
+    /// Whether the interval ends where the step does (no piece follows it).
+    last: bool,
 }
 
 impl Interval {
@@ -182,6 +184,7 @@ impl Interval {
             end: head.state(t + h),
             uniform: head.uniform_over(t, t + h),
             depth: 0,
+            last: true,
         }
     }
     fn first_half(&self, head: &dyn HeadTrajectory) -> Self {
@@ -191,6 +194,7 @@ impl Interval {
             end: head.state(self.t + h),
             uniform: head.uniform_over(self.t, self.t + h),
             depth: self.depth + 1,
+            last: false,
             ..*self
         }
     }
@@ -209,12 +213,15 @@ impl Interval {
             },
             uniform: head.uniform_over(t, end_time),
             depth: first.depth,
+            last: self.last,
         }
     }
 }
 
 /// The energy of the state (q, q̇) at time t with the head in `head` (the runtime's
-/// `energy_balance::measure` for a strand without point loads).
+/// `energy_balance::measure` for a strand without point loads). With `prepare_terms`,
+/// `ws` is left prepared for q (a solve from this state follows: it reuses the element
+/// moments, see [`crate::strand_terms::evaluate_energy`]).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn measure<
     S: MomentSource<T>,
@@ -232,6 +239,7 @@ pub(super) fn measure<
     q: &[T; D],
     v: &[T; D],
     ws: &mut FixedWorkspace<N, D, E, T>,
+    prepare_terms: bool,
 ) -> StateEnergy<T> {
     let p = &strand.params;
     let rho_s = p.mass_per_length;
@@ -246,6 +254,7 @@ pub(super) fn measure<
         q,
         v,
         full.has_linear().then_some(&full.linear),
+        prepare_terms,
     );
     let half = T::of(0.5);
     let kinetic = measured.kinetic;
@@ -298,7 +307,7 @@ pub fn energy<
 ) -> StateEnergy<T> {
     ws.forget();
     let (q, v) = (strand.q, strand.v);
-    let e = measure(source, strand, effects, head, t, &q, &v, ws);
+    let e = measure(source, strand, effects, head, t, &q, &v, ws, false);
     ws.forget();
     e
 }
@@ -389,7 +398,18 @@ fn step_piece<
         }
         _ => {
             let (q, v) = (strand.q, strand.v);
-            let e = measure(source, strand, effects, &interval.start, t, &q, &v, ws);
+            // the step's first solve starts from this state
+            let e = measure(
+                source,
+                strand,
+                effects,
+                &interval.start,
+                t,
+                &q,
+                &v,
+                ws,
+                true,
+            );
             (e, 0)
         }
     };
@@ -476,6 +496,8 @@ fn adaptive<
             &q,
             &v,
             ws,
+            // a later piece of the step starts from this state
+            !interval.last,
         );
         let inertial = interval.uniform;
         let balance = balance(start, &end, inertial);

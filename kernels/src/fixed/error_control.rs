@@ -191,7 +191,17 @@ pub fn step_to_tolerance<
         Some(e) if (e.time - t).abs() <= 1e-12 * t.abs().max(1.0) => e,
         _ => {
             let (q, v) = (strand.q, strand.v);
-            measure(source, strand, effects, &head.state(t), t, &q, &v, ws)
+            measure(
+                source,
+                strand,
+                effects,
+                &head.state(t),
+                t,
+                &q,
+                &v,
+                ws,
+                false,
+            )
         }
     };
     let length = strand.params.length().as_f64();
@@ -276,7 +286,7 @@ pub fn step_to_tolerance<
             history.h = hh;
             // the energy balance of the checked step
             let (q, v) = (strand.q, strand.v);
-            let mut e = measure(source, strand, effects, &input.head, t1, &q, &v, ws);
+            let mut e = measure(source, strand, effects, &input.head, t1, &q, &v, ws, false);
             let inertial = head.uniform_over(now, t1);
             let balance = balance(&energy, &e, inertial);
             if balance.excess > T::zero() && e.kinetic > T::zero() {
