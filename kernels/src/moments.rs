@@ -431,6 +431,43 @@ pub struct FrameMotion<T: Float = f64> {
     pub acceleration: Vector3<T>,
 }
 
+/// The velocity parts of [`frame_motions`] alone (Ω and ṙ, the same values; `alpha` and
+/// `acceleration` zero), from `dp` and `dtheta` of the end derivatives: what a kinetic
+/// energy needs.
+pub fn frame_velocities<T: Float>(
+    ends: &[Pose<T>],
+    end_derivs: &[EndDerivatives<T>],
+    velocities: &[T],
+    motions: &mut [FrameMotion<T>],
+) {
+    let n = end_derivs.len();
+    motions[0] = FrameMotion::default();
+    for p in 0..n {
+        let m = motions[p];
+        let e = &end_derivs[p];
+        let span = ends[p + 1].position - ends[p].position;
+        let (w_hat, pi_l) = first_order(e, &velocities[3 * p..3 * p + 3]);
+        motions[p + 1] = FrameMotion {
+            omega: m.omega + w_hat,
+            alpha: Vector3::zeros(),
+            velocity: m.velocity + m.omega.cross(&span) + pi_l,
+            acceleration: Vector3::zeros(),
+        };
+    }
+}
+
+/// `(Σ dθ_i q̇_i, Σ dp_i q̇_i)` of one element's end derivatives.
+#[inline(always)]
+fn first_order<T: Float>(e: &EndDerivatives<T>, qd: &[T]) -> (Vector3<T>, Vector3<T>) {
+    let mut w_hat = Vector3::zeros();
+    let mut pi_l = Vector3::zeros();
+    for i in 0..3 {
+        w_hat += e.dtheta[i] * qd[i];
+        pi_l += e.dp[i] * qd[i];
+    }
+    (w_hat, pi_l)
+}
+
 /// The recursion of docs/moment-assembly.md ("Velocity and acceleration of the base
 /// frame"): `motions[P]` for P = 0..=N (the root is fixed in head coordinates).
 pub fn frame_motions<T: Float>(
@@ -445,18 +482,11 @@ pub fn frame_motions<T: Float>(
         let m = motions[p];
         let e = &end_derivs[p];
         let span = ends[p + 1].position - ends[p].position;
-        let qd = [
-            velocities[3 * p],
-            velocities[3 * p + 1],
-            velocities[3 * p + 2],
-        ];
-        let mut w_hat = Vector3::zeros();
+        let qd = &velocities[3 * p..3 * p + 3];
+        let (w_hat, pi_l) = first_order(e, qd);
         let mut w_dot = Vector3::zeros();
-        let mut pi_l = Vector3::zeros();
         let mut pidot_l = Vector3::zeros();
         for i in 0..3 {
-            w_hat += e.dtheta[i] * qd[i];
-            pi_l += e.dp[i] * qd[i];
             for j in 0..3 {
                 let qq = qd[i] * qd[j];
                 w_dot += e.dw[i][j] * qq;

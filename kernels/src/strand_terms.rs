@@ -17,8 +17,8 @@ use crate::moments::jacobians::{
 use crate::moments::rotary::{add_rotary_terms, rotary_element, rotary_points, RotaryElement};
 use crate::moments::{
     assemble_force, assemble_inertial_and_field_force, assemble_mass_gram_and_gravity,
-    end_derivatives_from, frame_motions, suffix_bodies, ElementMoments, EndDerivatives,
-    FrameMotion, SuffixBody,
+    end_derivatives_from, frame_motions, frame_velocities, suffix_bodies, ElementMoments,
+    EndDerivatives, FrameMotion, SuffixBody,
 };
 use crate::pose::{darboux, Pose};
 use nalgebra::{Matrix3, Vector3};
@@ -221,17 +221,19 @@ pub fn prepare<T: Float, S: MomentSource<T> + ?Sized>(
     }
     b.prepared.copy_from_slice(q);
     *b.mass_valid = false;
-    ends_and_derivatives(source, shape, b, q);
+    ends_and_derivatives(source, shape, b, q, true);
     source.moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
 }
 
 /// The Darboux vectors, element ends and end derivatives of q, from the source's element
-/// points.
+/// points; the second derivatives (`d2p`, `dw`) only when `second` (else left as they
+/// were: what the velocities of the frames need is `dp` and `dtheta`).
 fn ends_and_derivatives<T: Float, S: MomentSource<T> + ?Sized>(
     source: &S,
     shape: &StrandShape<'_, T>,
     b: &mut MomentBuffers<'_, T>,
     q: &[T],
+    second: bool,
 ) {
     b.ends[0] = Pose {
         position: shape.root_position,
@@ -247,7 +249,13 @@ fn ends_and_derivatives<T: Float, S: MomentSource<T> + ?Sized>(
             position: start.position + start.frame * point.p,
             frame: start.frame * point.frame,
         };
-        b.end_derivs[p] = end_derivatives_from(&start.frame, &point);
+        if second {
+            b.end_derivs[p] = end_derivatives_from(&start.frame, &point);
+        } else {
+            let e = &mut b.end_derivs[p];
+            e.dp = point.dp.map(|v| start.frame * v);
+            e.dtheta = point.w.map(|v| start.frame * v);
+        }
     }
 }
 
@@ -299,10 +307,10 @@ pub fn evaluate_energy<T: Float, S: MomentSource<T> + ?Sized>(
     } else {
         b.prepared[0] = T::nan();
         *b.mass_valid = false;
-        ends_and_derivatives(source, shape, b, q);
+        ends_and_derivatives(source, shape, b, q, false);
         source.mass_moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
     }
-    frame_motions(b.ends, b.end_derivs, v, b.motions);
+    frame_velocities(b.ends, b.end_derivs, v, b.motions);
     let two = T::of(2.0);
     let (mut centreline, mut rotary, mut power) = (T::zero(), T::zero(), T::zero());
     let mut first = Vector3::zeros();
