@@ -433,7 +433,7 @@ pub struct FrameMotion<T: Float = f64> {
 
 /// The velocity parts of [`frame_motions`] alone (Ω and ṙ, the same values; `alpha` and
 /// `acceleration` zero), from `dp` and `dtheta` of the end derivatives: what a kinetic
-/// energy needs.
+/// energy needs, and the first pass of [`frame_motions`].
 pub fn frame_velocities<T: Float>(
     ends: &[Pose<T>],
     end_derivs: &[EndDerivatives<T>],
@@ -476,9 +476,8 @@ pub fn frame_motions<T: Float>(
     velocities: &[T],
     motions: &mut [FrameMotion<T>],
 ) {
-    let n = end_derivs.len();
-    motions[0] = FrameMotion::default();
-    for p in 0..n {
+    frame_velocities(ends, end_derivs, velocities, motions);
+    for p in 0..end_derivs.len() {
         let m = motions[p];
         let e = &end_derivs[p];
         let span = ends[p + 1].position - ends[p].position;
@@ -493,16 +492,13 @@ pub fn frame_motions<T: Float>(
                 pidot_l += e.d2p[i][j] * qq;
             }
         }
-        motions[p + 1] = FrameMotion {
-            omega: m.omega + w_hat,
-            alpha: m.alpha + m.omega.cross(&w_hat) + w_dot,
-            velocity: m.velocity + m.omega.cross(&span) + pi_l,
-            acceleration: m.acceleration
-                + m.alpha.cross(&span)
-                + m.omega.cross(&m.omega.cross(&span))
-                + m.omega.cross(&pi_l) * T::of(2.0)
-                + pidot_l,
-        };
+        let next = &mut motions[p + 1];
+        next.alpha = m.alpha + m.omega.cross(&w_hat) + w_dot;
+        next.acceleration = m.acceleration
+            + m.alpha.cross(&span)
+            + m.omega.cross(&m.omega.cross(&span))
+            + m.omega.cross(&pi_l) * T::of(2.0)
+            + pidot_l;
     }
 }
 

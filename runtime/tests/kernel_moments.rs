@@ -50,6 +50,37 @@ fn random_field(rng: &mut Rng, rho_s: f64, linear: bool) -> BodyField {
     }
 }
 
+/// A random strand for the kernel comparisons: N elements with the given W·l (cycled),
+/// rotary inertia on or off, a root on the scalp 17 cm from the head origin (moments
+/// about the origin would lose (0.17 / curl radius)² of their digits), fast q̇, a field
+/// with a linear part when `linear`; and the generic kernel's quadrature order for it.
+struct Case {
+    g: superhelix_runtime::model::strand::StrandGeometry,
+    q: Vec<f64>,
+    v: Vec<f64>,
+    field: BodyField,
+    order: usize,
+}
+
+fn case(rng: &mut Rng, n: usize, wl: &[f64], rotary: bool, linear: bool) -> Case {
+    let mut g = geometry(n, 0.12, rng);
+    g.root_position = Vector3::new(0.12, -0.1, 0.06);
+    if !rotary {
+        g.rotary_inertia = [0.0; 3];
+    }
+    let q = q_with_wl(&g, wl, rng);
+    let v: Vec<f64> = (0..3 * n).map(|_| rng.sym() * 30.0).collect();
+    let field = random_field(rng, g.mass_per_length, linear);
+    let maxwl = wl.iter().cloned().fold(0.0, f64::max);
+    Case {
+        g,
+        q,
+        v,
+        field,
+        order: 40 + (2.0 * maxwl) as usize,
+    }
+}
+
 #[test]
 fn moment_kernel_matches_the_generic_kernel_on_every_term() {
     let mut rng = Rng(0x5eed_1234);
@@ -74,18 +105,13 @@ fn moment_kernel_matches_the_generic_kernel_on_every_term() {
     for n in [1usize, 2, 3, 5, 10] {
         for (c, wl) in wl_sets.iter().enumerate() {
             for rotary in [false, true] {
-                let mut g = geometry(n, 0.12, &mut rng);
-                // a root on the scalp, 17 cm from the head origin: moments about the
-                // origin would lose (0.17 / curl radius)² of their digits
-                g.root_position = Vector3::new(0.12, -0.1, 0.06);
-                if !rotary {
-                    g.rotary_inertia = [0.0; 3];
-                }
-                let q = q_with_wl(&g, wl, &mut rng);
-                let v: Vec<f64> = (0..3 * n).map(|_| rng.sym() * 30.0).collect();
-                let field = random_field(&mut rng, g.mass_per_length, c % 2 == 0);
-                let maxwl = wl.iter().cloned().fold(0.0, f64::max);
-                let order = 40 + (2.0 * maxwl) as usize;
+                let Case {
+                    g,
+                    q,
+                    v,
+                    field,
+                    order,
+                } = case(&mut rng, n, wl, rotary, c % 2 == 0);
                 let mut reference = GenericKernel::new(g.clone(), QuadratureRule::Fixed(order));
                 let mut ours = MomentKernel::new(g.clone(), QuadratureMoments::default());
                 let input = EvalInput {
@@ -242,19 +268,14 @@ fn the_energy_measurement_matches_the_generic_kernel() {
             &[100.0, 0.5],
         ] {
             for rotary in [false, true] {
-                let mut g = geometry(n, 0.12, &mut rng);
-                g.root_position = Vector3::new(0.12, -0.1, 0.06);
-                if !rotary {
-                    g.rotary_inertia = [0.0; 3];
-                }
-                let q = q_with_wl(&g, wl, &mut rng);
-                let v: Vec<f64> = (0..3 * n).map(|_| rng.sym() * 30.0).collect();
-                let field = random_field(&mut rng, g.mass_per_length, true);
-                let maxwl = wl.iter().cloned().fold(0.0, f64::max);
-                let mut reference = GenericKernel::new(
-                    g.clone(),
-                    QuadratureRule::Fixed(40 + (2.0 * maxwl) as usize),
-                );
+                let Case {
+                    g,
+                    q,
+                    v,
+                    field,
+                    order,
+                } = case(&mut rng, n, wl, rotary, true);
+                let mut reference = GenericKernel::new(g.clone(), QuadratureRule::Fixed(order));
                 let with = |field: BodyField, terms: Terms| EvalInput {
                     q: &q,
                     v: &v,
