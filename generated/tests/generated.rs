@@ -237,19 +237,24 @@ struct ForceCase {
     motions: Vec<superhelix_runtime::kernels::moments::FrameMotion>,
 }
 
-fn force_case(n: usize, wl: f64, rng: &mut Rng) -> ForceCase {
-    use superhelix_runtime::kernels::moments::{end_derivatives, frame_motions, FrameMotion};
-    use superhelix_runtime::model::reconstruction::{darboux, element_ends, Pose};
-    use superhelix_runtime::model::strand::StrandGeometry;
-    let lengths: Vec<f64> = (0..n).map(|k| 0.02 + 0.005 * (k % 3) as f64).collect();
-    let g = StrandGeometry {
+/// The strand of the force tests: a tilted root off the origin, ρS = 1e-5 kg/m and a
+/// rotary inertia large enough to show at their tolerances.
+fn test_geometry(lengths: &[f64]) -> superhelix_runtime::model::strand::StrandGeometry {
+    superhelix_runtime::model::strand::StrandGeometry {
         root_position: Vector3::new(0.01, 0.0, -0.02),
         root_frame: *nalgebra::Rotation3::new(Vector3::new(0.3, -0.2, 0.9)).matrix(),
-        lengths: lengths.clone(),
+        lengths: lengths.to_vec(),
         mass_per_length: 1e-5,
         rotary_inertia: [2e-9, 0.8e-9, 1.2e-9],
         floating: false,
-    };
+    }
+}
+
+fn force_case(n: usize, wl: f64, rng: &mut Rng) -> ForceCase {
+    use superhelix_runtime::kernels::moments::{end_derivatives, frame_motions, FrameMotion};
+    use superhelix_runtime::model::reconstruction::{darboux, element_ends, Pose};
+    let lengths: Vec<f64> = (0..n).map(|k| 0.02 + 0.005 * (k % 3) as f64).collect();
+    let g = test_geometry(&lengths);
     let q: Vec<f64> = (0..n)
         .flat_map(|k| {
             let d = direction(k % 5, rng) * (wl / lengths[k]);
@@ -520,7 +525,6 @@ fn mass_matrix_and_gravity_from_closed_form_moments_match_the_generic_kernel() {
         assemble_mass_and_gravity, bodies_at_rest, end_derivatives,
     };
     use superhelix_runtime::model::reconstruction::{darboux, element_ends, Pose};
-    use superhelix_runtime::model::strand::StrandGeometry;
     use superhelix_runtime::{GenericKernel, QuadratureRule};
     let mut worst: f64 = 0.0;
     for n in [1usize, 2, 5, 10] {
@@ -528,14 +532,7 @@ fn mass_matrix_and_gravity_from_closed_form_moments_match_the_generic_kernel() {
             let lengths: Vec<f64> = (0..n)
                 .map(|k| 0.02 + 0.01 * ((k * 7 + case) % 5) as f64)
                 .collect();
-            let g = StrandGeometry {
-                root_position: Vector3::new(0.01, 0.0, -0.02),
-                root_frame: *nalgebra::Rotation3::new(Vector3::new(0.3, -0.2, 0.9)).matrix(),
-                lengths: lengths.clone(),
-                mass_per_length: 1e-5,
-                rotary_inertia: [2e-9, 0.8e-9, 1.2e-9],
-                floating: false,
-            };
+            let g = test_geometry(&lengths);
             let q: Vec<f64> = (0..n)
                 .flat_map(|k| {
                     let dir =

@@ -361,15 +361,18 @@ fn the_energy_measurement_matches_the_generic_kernel() {
                     mass_per_length: g.mass_per_length,
                     rotary_inertia: g.rotary_inertia,
                 };
-                let e = evaluate_energy(
-                    &ClosedForm,
-                    &shape,
-                    &mut buffers,
-                    &q,
-                    &v,
-                    Some(&field.linear),
-                    false,
-                );
+                let mut energy = |linear: Option<&Matrix3<f64>>, prepare_terms: bool| {
+                    evaluate_energy(
+                        &ClosedForm,
+                        &shape,
+                        &mut buffers,
+                        &q,
+                        &v,
+                        linear,
+                        prepare_terms,
+                    )
+                };
+                let e = energy(Some(&field.linear), false);
                 // the power's scale: |q̇| |∫ Jᵀ C1 y| (its terms cancel)
                 let force_scale = (0..3 * n)
                     .map(|j| (r.force[j] - r0.force[j]).powi(2))
@@ -391,18 +394,8 @@ fn the_energy_measurement_matches_the_generic_kernel() {
                     );
                 }
                 // prepared for the terms (every moment): the same bits
-                let prepared = evaluate_energy(
-                    &ClosedForm,
-                    &shape,
-                    &mut buffers,
-                    &q,
-                    &v,
-                    Some(&field.linear),
-                    true,
-                );
-                assert_eq!(prepared, e);
-                let without =
-                    evaluate_energy(&ClosedForm, &shape, &mut buffers, &q, &v, None, false);
+                assert_eq!(energy(Some(&field.linear), true), e);
+                let without = energy(None, false);
                 assert_eq!(without.power, 0.0);
                 assert_eq!(without.kinetic, e.kinetic);
             }
