@@ -8,6 +8,7 @@
 use crate::part::{read_info, PartInfo};
 use crate::{Error, Result};
 use std::path::{Path, PathBuf};
+use superhelix_runtime::output::atomic::io_error;
 use superhelix_runtime::output::frames::{FrameLayout, FrameSink, FrameStore, FrameView};
 use superhelix_runtime::output::nodes::{D1_FILE, NODES_FILE};
 use superhelix_runtime::output::npy::{
@@ -179,26 +180,128 @@ fn join_points(
     }
 }
 
+/// Refuse an output folder that is one of the parts' folders: merge reads the parts while
+/// it writes, and never writes into its inputs.
+fn refuse_input_as_output(parts: &[PartDir], out: &Path) -> Result<()> {
+    let Ok(out_real) = out.canonicalize() else {
+        // not there yet: no part can be it
+        return Ok(());
+    };
+    for p in parts {
+        if p.dir.canonicalize().ok().as_deref() == Some(out_real.as_path()) {
+            return Err(Error::invalid(
+                "--out",
+                format!(
+                    "{} is the folder of part {}/{} ({}): merge never writes into the folders it reads; give another --out",
+                    out.display(),
+                    p.info.part.index,
+                    p.info.part.count,
+                    p.dir.display()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Refuse a part whose strand list is not the one the split of `setup` gives it (a
+/// changed `part.json` would put its strands' frames in other strands' places).
+fn check_strands(parts: &[PartDir], setup: &crate::SimulationSetup) -> Result<()> {
+    let count = parts[0].info.part.count;
+    let expected = crate::part::split(setup, count);
+    for p in parts {
+        let k = p.info.part.index;
+        if expected.get(k - 1) != Some(&p.info.strands) {
+            return Err(refuse(format!(
+                "{} lists strands that are not those of part {k}/{count} of its scene: the file was changed; run the part again",
+                p.dir.join(crate::part::PART_FILE).display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// A hidden folder inside the output folder that the merged files are written to, then
+/// moved from into the output folder once every one of them is whole: a merge that
+/// fails (a full disk, a damaged part) leaves the output folder as it was. Removed when
+/// dropped.
+struct Stage {
+    dir: PathBuf,
+}
+
+impl Stage {
+    fn new(out: &Path) -> Result<Stage> {
+        let dir = out.join(format!(".superhelix-merge-{}", std::process::id()));
+        if dir.exists() {
+            std::fs::remove_dir_all(&dir).map_err(|e| io_error(&dir, e))?;
+        }
+        std::fs::create_dir(&dir).map_err(|e| io_error(&dir, e))?;
+        Ok(Stage { dir })
+    }
+
+    /// Move the staged `files` into `out` (each a rename: a reader sees the old file or
+    /// the new one); returns their new paths.
+    fn commit(&self, out: &Path, files: Vec<PathBuf>) -> Result<Vec<PathBuf>> {
+        files
+            .into_iter()
+            .map(|staged| {
+                let target = out.join(staged.file_name().unwrap_or_default());
+                std::fs::rename(&staged, &target).map_err(|e| io_error(&target, e))?;
+                Ok(target)
+            })
+            .collect()
+    }
+}
+
+impl Drop for Stage {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
 /// Merge the parts in `dirs` into `out`; returns the files written.
+///
+/// Every part is checked first: its `part.json` (one split of one scene, each part
+/// once, the strand list the split gives it) and the digests of its frame files
+/// ([`crate::part::check_files`]). The output folder may not be one of the parts'; the
+/// merged files are written whole to a hidden folder inside it and moved into it only
+/// when all are written.
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>> {
     let parts = read_parts(dirs)?;
+    refuse_input_as_output(&parts, out)?;
     let info = &parts[0].info;
     let (setup, _) =
         superhelix_runtime::parse_scene_reporting(&info.scene, Path::new(&info.scene_dir))?;
-    let layout = setup_layout(&setup);
-    let formats = Formats::from_cli(&info.formats)?;
-    let at = placement(&parts, info.total_strands);
+    check_strands(&parts, &setup)?;
+    for p in &parts {
+        crate::part::check_files(&p.dir, &p.info)?;
+    }
     prepare_out_dir(out)?;
+    let stage = Stage::new(out)?;
+    let files = write_merged(&parts, &setup, &stage.dir)?;
+    stage.commit(out, files)
+}
+
+/// The merged files of `parts`, written into `out`.
+fn write_merged(
+    parts: &[PartDir],
+    setup: &crate::SimulationSetup,
+    out: &Path,
+) -> Result<Vec<PathBuf>> {
+    let info = &parts[0].info;
+    let layout = setup_layout(setup);
+    let formats = Formats::from_cli(&info.formats)?;
+    let at = placement(parts, info.total_strands);
     let mut files = Vec::new();
     if formats.npy {
-        files.extend(merge_npy(&parts, &layout, &at, out)?);
+        files.extend(merge_npy(parts, &layout, &at, out)?);
     }
     if formats.json {
-        files.push(merge_json(&parts, &layout, &at, out)?);
+        files.push(merge_json(parts, &layout, &at, out)?);
     }
     for (name, axis) in [(NODES_FILE, 1), (D1_FILE, 1), (STRAND_STEPS_FILE, 0)] {
         if parts[0].dir.join(name).exists() {
-            files.push(merge_per_strand(&parts, &at, name, axis, out)?);
+            files.push(merge_per_strand(parts, &at, name, axis, out)?);
         }
     }
     let products = Formats {
@@ -207,7 +310,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>> {
         ..formats
     };
     if products != Formats::NONE {
-        let scenery = Scenery::from_setup(&setup)?;
+        let scenery = Scenery::from_setup(setup)?;
         let view = PreviewOptions::default();
         let written = if formats.npy {
             let mut store = NpyFrameStore::open(&out.join(NPY_FILE))?;

@@ -149,6 +149,125 @@ pub struct PartInfo {
     pub digest: String,
     /// The formats the part writes.
     pub formats: Vec<String>,
+    /// The frame files (those of [`FRAME_FILES`] the part wrote) as they were when its run
+    /// finished, which `merge` checks before it reads them; empty while the run is going
+    /// on, and in a part whose run stopped before its last frame.
+    #[serde(default)]
+    pub files: Vec<FileDigest>,
+}
+
+/// The files of a part that `merge` reads: the frames and their companions, the node
+/// files and the per-strand step report.
+pub const FRAME_FILES: [&str; 9] = [
+    crate::runtime::output::npy::NPY_FILE,
+    crate::runtime::output::npy::TIMES_FILE,
+    crate::runtime::output::npy::INDEX_FILE,
+    crate::runtime::output::npy::STEPS_FILE,
+    crate::runtime::output::npy::HELD_FILE,
+    crate::FRAMES_FILE,
+    crate::runtime::output::nodes::NODES_FILE,
+    crate::runtime::output::nodes::D1_FILE,
+    crate::runtime::output::npy::STRAND_STEPS_FILE,
+];
+
+/// One file of a part as its run left it: its length and CRC-32 (which changes with any
+/// byte of it, and with any burst of up to 32 bits).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FileDigest {
+    /// File name, in the part's folder.
+    pub name: String,
+    /// Length in bytes.
+    pub bytes: u64,
+    /// CRC-32 (IEEE) of its bytes, as 8 hex digits.
+    pub crc32: String,
+}
+
+/// The [`FileDigest`] of `path`, read in blocks.
+pub fn file_digest(path: &Path) -> Result<FileDigest> {
+    use std::io::Read;
+    let io = |e| crate::runtime::output::atomic::io_error(path, e);
+    let mut file = std::fs::File::open(path).map_err(io)?;
+    let mut hasher = crc32fast::Hasher::new();
+    let mut buffer = vec![0u8; 1 << 20];
+    let mut bytes = 0u64;
+    loop {
+        let n = file.read(&mut buffer).map_err(io)?;
+        if n == 0 {
+            break;
+        }
+        hasher.update(&buffer[..n]);
+        bytes += n as u64;
+    }
+    Ok(FileDigest {
+        name: path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        bytes,
+        crc32: format!("{:08x}", hasher.finalize()),
+    })
+}
+
+/// Record in `info` the digests of the frame files in `dir` and write it as
+/// `dir/part.json`: what a part's run does when it has written its last frame.
+pub fn record_files(dir: &Path, info: &mut PartInfo) -> Result<()> {
+    info.files = FRAME_FILES
+        .iter()
+        .map(|name| dir.join(name))
+        .filter(|path| path.is_file())
+        .map(|path| file_digest(&path))
+        .collect::<Result<Vec<_>>>()?;
+    write_info(dir, info)
+}
+
+/// Check the frame files of the part in `dir` against the digests its `part.json`
+/// records: every recorded file present with its length and CRC-32, and no frame file
+/// that was not recorded. The error names the part, the file and what to do.
+pub fn check_files(dir: &Path, info: &PartInfo) -> Result<()> {
+    let part = format!("part {}/{}", info.part.index, info.part.count);
+    let refuse = |why: String| Error::invalid("PART_DIRS", why);
+    if info.files.is_empty() {
+        return Err(refuse(format!(
+            "{} ({part}) records no digest of its frame files: its run did not finish; finish it with run SCENE --part {}/{} --resume {}",
+            dir.join(PART_FILE).display(),
+            info.part.index,
+            info.part.count,
+            dir.display()
+        )));
+    }
+    for name in FRAME_FILES {
+        let path = dir.join(name);
+        let recorded = info.files.iter().find(|f| f.name == name);
+        match (recorded, path.exists()) {
+            (None, false) => {}
+            (None, true) => {
+                return Err(refuse(format!(
+                    "{} ({part}) is not among the files its run recorded in {PART_FILE}: it was added after the run; remove it or run the part again",
+                    path.display()
+                )))
+            }
+            (Some(_), false) => {
+                return Err(refuse(format!(
+                    "{} ({part}) is missing: its run wrote it; copy the whole part folder, or run the part again",
+                    path.display()
+                )))
+            }
+            (Some(expected), true) => {
+                let found = file_digest(&path)?;
+                if found != *expected {
+                    return Err(refuse(format!(
+                        "{} ({part}) is not the file its run wrote ({} bytes, CRC-32 {}; found {} bytes, CRC-32 {}): it was changed or damaged; copy it again or run the part again",
+                        path.display(),
+                        expected.bytes,
+                        expected.crc32,
+                        found.bytes,
+                        found.crc32
+                    )));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Write `info` as `dir/part.json`.

@@ -251,8 +251,185 @@ fn what_cannot_be_split_or_merged_is_refused_by_name() {
     cut.push(b'\n');
     cut.extend_from_slice(&bytes[header..header + 3 * row]);
     std::fs::write(short.join("frames.npy"), &cut).unwrap_or_else(|e| panic!("{e}"));
+    // its frames.npy is not the one its run recorded
     refused(
         &["merge", &p1, &short.to_string_lossy(), "--out", &m],
-        &["holds 3 frames", "finish every part first"],
+        &["frames.npy", "part 2/2", "is not the file its run wrote"],
     );
+}
+
+/// `part.json` with its recorded frame files replaced by `files` (a JSON value).
+fn set_recorded_files(part: &Path, files: serde_json::Value) {
+    let path = part.join("part.json");
+    let mut info: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&path).unwrap_or_default())
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    info["files"] = files;
+    std::fs::write(&path, serde_json::to_vec_pretty(&info).unwrap_or_default())
+        .unwrap_or_else(|e| panic!("{e}"));
+}
+
+/// Copy the files of folder `from` into `to` (created).
+fn copy_folder(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap_or_else(|e| panic!("{e}"));
+    for name in files(from) {
+        std::fs::copy(from.join(&name), to.join(&name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+    }
+}
+
+/// merge never writes into a part, writes its output whole or not at all, and reads only
+/// parts whose frame files and strand lists are what their runs left: each defect a
+/// user met (a part's frames destroyed by `--out` = a part; a reordered strand list or
+/// one flipped byte merged silently) is refused, naming the part and the file.
+#[test]
+fn merge_never_writes_into_a_part_and_refuses_a_changed_one() {
+    let dir = scratch("part-merge-trust");
+    let refused = |args: &[&str], expect: &[&str]| {
+        let o = superhelix(args);
+        let said = text(&o);
+        assert!(!o.status.success(), "{args:?} succeeded:\n{said}");
+        for e in expect {
+            assert!(said.contains(e), "{e:?} not in:\n{said}");
+        }
+        assert!(!said.contains("invalid scene"), "{said}");
+    };
+    let small = write(
+        &dir,
+        "small.toml",
+        &scene()
+            .replace("count = [4, 4]", "count = [2, 2]")
+            .replace("count = [2, 3]", "count = [1, 2]"),
+    );
+    let small = small.to_string_lossy().into_owned();
+    let parts: Vec<_> = (1..=3).map(|k| dir.join(format!("p{k}"))).collect();
+    for (k, p) in parts.iter().enumerate() {
+        let o = superhelix(&[
+            "run",
+            &small,
+            "--part",
+            &format!("{}/3", k + 1),
+            "--out",
+            &p.to_string_lossy(),
+            "--format",
+            "npy,json",
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+    }
+    let p: Vec<String> = parts
+        .iter()
+        .map(|p| p.to_string_lossy().into_owned())
+        .collect();
+    let before: Vec<Vec<u8>> = files(&parts[0])
+        .iter()
+        .map(|n| std::fs::read(parts[0].join(n)).unwrap_or_default())
+        .collect();
+    // 1. --out = a part (as given, and by another spelling of its path)
+    let same = format!("{}/../p1", p[1]);
+    for out in [&p[0], &same] {
+        refused(
+            &["merge", &p[0], &p[1], &p[2], "--out", out],
+            &["--out", "is the folder of part 1/3", "never writes into"],
+        );
+    }
+    let after: Vec<Vec<u8>> = files(&parts[0])
+        .iter()
+        .map(|n| std::fs::read(parts[0].join(n)).unwrap_or_default())
+        .collect();
+    assert!(before == after, "part 1's files changed");
+    // a merge that works, the reference for the refusals below
+    let m = dir.join("m");
+    let ms = m.to_string_lossy().into_owned();
+    let o = superhelix(&["merge", &p[0], &p[1], &p[2], "--out", &ms]);
+    assert!(o.status.success(), "{}", text(&o));
+    let merged = std::fs::read(m.join("frames.npy")).unwrap_or_default();
+    assert!(!merged.is_empty());
+    // 2. one byte flipped in a part's frames.npy: refused, the earlier output untouched
+    let flipped = dir.join("p2flip");
+    copy_folder(&parts[1], &flipped);
+    let mut bytes = std::fs::read(flipped.join("frames.npy")).unwrap_or_default();
+    let at = bytes.len() - 100;
+    bytes[at] ^= 0x40;
+    std::fs::write(flipped.join("frames.npy"), &bytes).unwrap_or_else(|e| panic!("{e}"));
+    refused(
+        &[
+            "merge",
+            &p[0],
+            &flipped.to_string_lossy(),
+            &p[2],
+            "--out",
+            &ms,
+        ],
+        &[
+            "p2flip/frames.npy",
+            "part 2/3",
+            "CRC-32",
+            "changed or damaged",
+        ],
+    );
+    assert!(std::fs::read(m.join("frames.npy")).unwrap_or_default() == merged);
+    assert_eq!(
+        files(&m)
+            .iter()
+            .filter(|n| n.starts_with(".superhelix-merge"))
+            .count(),
+        0,
+        "{:?}",
+        files(&m)
+    );
+    // 3. its strand list reordered
+    let reordered = dir.join("p2order");
+    copy_folder(&parts[1], &reordered);
+    let path = reordered.join("part.json");
+    let mut info: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&path).unwrap_or_default())
+            .unwrap_or_else(|e| panic!("{e}"));
+    let strands = info["strands"]
+        .as_array_mut()
+        .unwrap_or_else(|| panic!("part.json without strands"));
+    assert!(strands.len() >= 2, "{strands:?}");
+    strands.swap(0, 1);
+    std::fs::write(&path, serde_json::to_vec(&info).unwrap_or_default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    refused(
+        &[
+            "merge",
+            &p[0],
+            &reordered.to_string_lossy(),
+            &p[2],
+            "--out",
+            &ms,
+        ],
+        &["p2order/part.json", "not those of part 2/3"],
+    );
+    // 4. a part whose run did not finish (no digests recorded), and a frame file its
+    // run did not write
+    let unfinished = dir.join("p2run");
+    copy_folder(&parts[1], &unfinished);
+    set_recorded_files(&unfinished, serde_json::json!([]));
+    refused(
+        &[
+            "merge",
+            &p[0],
+            &unfinished.to_string_lossy(),
+            &p[2],
+            "--out",
+            &ms,
+        ],
+        &["part 2/3", "did not finish", "--resume"],
+    );
+    let extra = dir.join("p2extra");
+    copy_folder(&parts[1], &extra);
+    std::fs::write(extra.join("frames.held.npy"), b"not a run's").unwrap_or_else(|e| panic!("{e}"));
+    refused(
+        &[
+            "merge",
+            &p[0],
+            &extra.to_string_lossy(),
+            &p[2],
+            "--out",
+            &ms,
+        ],
+        &["frames.held.npy", "not among the files its run recorded"],
+    );
+    assert!(std::fs::read(m.join("frames.npy")).unwrap_or_default() == merged);
 }

@@ -74,15 +74,23 @@ pub fn with_threads<T: Send>(
     }
 }
 
+/// Whether an error's field names a scene field (`simulation.dt`, `strands[2].length`)
+/// rather than an option (`--out`), a command-line argument (`PART_DIRS`, in capitals)
+/// or the output plan (`output`).
+fn is_scene_field(field: &str) -> bool {
+    !(field.starts_with("--")
+        || field == "output"
+        || !field.bytes().any(|b| b.is_ascii_lowercase()))
+}
+
 /// Print an error on stderr.
 pub fn report(e: &Error) {
     match e {
-        // options and the output plan are not scene fields
-        Error::Invalid(problems)
-            if problems.len() == 1
-                && (problems[0].field.starts_with("--") || problems[0].field == "output") =>
-        {
-            eprintln!("error: {}", problems[0]);
+        // options, arguments and the output plan are not scene fields
+        Error::Invalid(problems) if problems.iter().all(|p| !is_scene_field(&p.field)) => {
+            for p in problems {
+                eprintln!("error: {p}");
+            }
         }
         Error::Invalid(problems) => {
             eprintln!("error: invalid scene:");

@@ -140,6 +140,9 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
                 .map_err(|e| superhelix::runtime::output::atomic::io_error(&path, e))?;
         }
     }
+    // part.json without digests while the run goes on: merge refuses a part until its
+    // run has written its last frame and recorded its frame files
+    let mut part_info = None;
     if let Some((part, strands, total)) = part_strands {
         let info = superhelix::part::PartInfo {
             format: superhelix::part::PART_FORMAT.to_string(),
@@ -153,8 +156,10 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
                 .into_owned(),
             digest: format!("{whole:016x}"),
             formats: plan.formats.names().iter().map(|s| s.to_string()).collect(),
+            files: Vec::new(),
         };
         superhelix::part::write_info(out, &info)?;
+        part_info = Some(info);
     }
     // A second Ctrl-C ends the process at once (the frames written stay readable).
     let handler = ctrlc::set_handler(|| {
@@ -198,6 +203,9 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
     );
     match &outcome.stop {
         StopReason::Completed => {
+            if let Some(info) = &mut part_info {
+                superhelix::part::record_files(out, info)?;
+            }
             println!("{}", outcome.summary);
             Ok(match report.products_error {
                 Some(_) => ExitCode::FAILURE,
