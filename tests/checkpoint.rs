@@ -28,11 +28,84 @@ fn charged() -> String {
 }
 
 fn command(args: &[&str], threads: usize) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_superhelix"))
-        .args(args)
-        .env("RAYON_NUM_THREADS", threads.to_string())
-        .output()
+    command_with(args, threads, None)
+}
+
+/// `command` with one environment variable set (a test hook of
+/// `superhelix_runtime::output::test_hooks`).
+fn command_with(args: &[&str], threads: usize, env: Option<(&str, &str)>) -> Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_superhelix"));
+    c.args(args).env("RAYON_NUM_THREADS", threads.to_string());
+    if let Some((k, v)) = env {
+        c.env(k, v);
+    }
+    c.output()
         .unwrap_or_else(|e| panic!("cannot start superhelix: {e}"))
+}
+
+/// The frame `said` says a resumed run goes on from.
+fn resumed_at(said: &str) -> Option<usize> {
+    said.split("resuming from the checkpoint at frame ")
+        .nth(1)?
+        .split(' ')
+        .next()?
+        .parse()
+        .ok()
+}
+
+/// Run `scene` into `out` on 2 threads with the test hook `hook` set, which must stop
+/// it (as a kill would) with a checkpoint on disk; then resume it to the end on 1
+/// thread. Returns the frame the resumed run said it went on from.
+fn stop_and_resume(
+    name: &str,
+    scene: &str,
+    formats: &str,
+    out: &Path,
+    hook: (&str, &str),
+) -> usize {
+    let o = command_with(
+        &[
+            "run",
+            scene,
+            "--out",
+            &out.to_string_lossy(),
+            "--format",
+            formats,
+        ],
+        2,
+        Some(hook),
+    );
+    assert!(
+        !o.status.success(),
+        "{name}: the run was not stopped by {hook:?} (the scene is too short for it):\n{}",
+        support::text(&o)
+    );
+    assert!(
+        out.join("checkpoint.bin").exists(),
+        "{name}: stopped by {hook:?} without a checkpoint"
+    );
+    let said = succeed(
+        &[
+            "run",
+            scene,
+            "--resume",
+            &out.to_string_lossy(),
+            "--format",
+            formats,
+        ],
+        1,
+    );
+    resumed_at(&said).unwrap_or_else(|| panic!("{name}: the run did not resume:\n{said}"))
+}
+
+/// `checkpoint_every` of `scene`.
+fn checkpoint_every(scene: &str) -> usize {
+    scene
+        .split("checkpoint_every = ")
+        .nth(1)
+        .and_then(|s| s.split(|c: char| !c.is_ascii_digit()).next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no checkpoint_every in the scene"))
 }
 
 fn succeed(args: &[&str], threads: usize) -> String {
@@ -67,18 +140,11 @@ fn same_files(name: &str, a: &Path, b: &Path) {
     }
 }
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap_or_else(|e| panic!("{}: {e}", to.display()));
-    for entry in std::fs::read_dir(from).into_iter().flatten().flatten() {
-        let target = to.join(entry.file_name());
-        std::fs::copy(entry.path(), &target)
-            .unwrap_or_else(|e| panic!("{}: {e}", target.display()));
-    }
-}
-
-/// Run `scene` to the end on 2 threads (its checkpoints on), then go on from its last
-/// checkpoint in a copy of its folder on 1 thread: both write the same bytes; and a run
-/// without checkpoints writes the same frames. Returns the scene's folder.
+/// Run `scene` to the end on 2 threads (its checkpoints on); run it again, stopped by an
+/// abort two frames after its first checkpoint (the frames after the checkpoint partly
+/// on disk, as a kill leaves them), and go on from the checkpoint on 1 thread: both
+/// write the same bytes; and a run without checkpoints writes the same frames. Returns
+/// the scene's folder.
 fn resumed_equals_uninterrupted(name: &str, scene: &str, formats: &str) -> PathBuf {
     let dir = scratch(&format!("checkpoint-{name}"));
     let path = write(&dir, "scene.toml", scene);
@@ -93,21 +159,17 @@ fn resumed_equals_uninterrupted(name: &str, scene: &str, formats: &str) -> PathB
         whole.join("checkpoint.bin").exists(),
         "{name}: no checkpoint written"
     );
-    copy_dir(&whole, &resumed);
-    let said = succeed(
-        &[
-            "run",
-            &path,
-            "--resume",
-            &out(&resumed),
-            "--format",
-            formats,
-        ],
-        1,
+    let stop = (checkpoint_every(scene) + 3).to_string();
+    let from = stop_and_resume(
+        name,
+        &path,
+        formats,
+        &resumed,
+        ("SUPERHELIX_TEST_ABORT_AFTER_FRAMES", &stop),
     );
     assert!(
-        said.contains("resuming from the checkpoint at frame"),
-        "{name}: {said}"
+        from > 0 && from < checkpoint_every(scene) + 3,
+        "{name}: resumed at frame {from}"
     );
     same_files(name, &whole, &resumed);
     // a checkpoint changes nothing a run writes
@@ -158,6 +220,40 @@ fn both_engines_resume_bit_for_bit_with_fixed_and_error_controlled_steps() {
         let tolerance = hair(engine, "tolerance = 1e-4", "");
         resumed_equals_uninterrupted(&format!("{engine}-tolerance"), &tolerance, "npy");
     }
+}
+
+/// A stop between the writing of a checkpoint's temporary file and its rename (the
+/// second checkpoint: the first is on disk, the second's `checkpoint.bin.tmp` beside it)
+/// leaves a run that resumes from the first and ends with the bytes of one never
+/// stopped.
+#[test]
+fn a_stop_before_the_checkpoint_rename_resumes_from_the_one_before() {
+    let scene = hair("embedded", "", "").replace("checkpoint_every = 10", "checkpoint_every = 5");
+    let dir = scratch("checkpoint-rename");
+    let path = write(&dir, "scene.toml", &scene);
+    let path = path.to_string_lossy();
+    let (whole, stopped) = (dir.join("whole"), dir.join("stopped"));
+    succeed(
+        &[
+            "run",
+            &path,
+            "--out",
+            &whole.to_string_lossy(),
+            "--format",
+            "json,npy",
+        ],
+        2,
+    );
+    let from = stop_and_resume(
+        "rename",
+        &path,
+        "json,npy",
+        &stopped,
+        ("SUPERHELIX_TEST_ABORT_BEFORE_RENAME", "checkpoint.bin:2"),
+    );
+    // the first checkpoint's frame, not the second's (10)
+    assert_eq!(from, 5);
+    same_files("rename", &whole, &stopped);
 }
 
 #[test]

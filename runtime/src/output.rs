@@ -12,7 +12,8 @@
 //! - [`npy`]: `frames.npy`, `frames.times.npy`, `frames.index.json`, streamed.
 //! - [`plan`]: which files a run writes ([`Formats`]), their estimated sizes, the size
 //!   limit and the checks of the output directory.
-//! - [`atomic`]: files written whole or not at all (a temporary file and a rename).
+//! - [`atomic`]: files written whole or not at all (a temporary file, synced, and a
+//!   rename); [`test_hooks`]: where tests make a run abort.
 //! - [`products`]: the files written after the run from the frames written
 //!   (`hair.usda` by [`usd`], the previews by [`preview`], `last_frame.obj` by [`obj`]),
 //!   with the head motion, bodies and render strands of the run's [`scenery`]; the
@@ -34,6 +35,7 @@ pub mod preview;
 pub mod products;
 pub mod render_strands;
 pub mod scenery;
+pub mod test_hooks;
 pub mod usd;
 
 pub use driver::{frame_layout, run_streaming, RunOutcome, StopReason};

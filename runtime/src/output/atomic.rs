@@ -1,6 +1,7 @@
-//! Files that appear whole or not at all: written to `<name>.tmp` beside the target and
-//! renamed over it when complete, so a reader (or a run stopped mid-write) sees either the
-//! previous file or the whole new one.
+//! Files that appear whole or not at all: written to `<name>.tmp` beside the target,
+//! synced to disk, renamed over it when complete, and the folder synced (so that the
+//! rename itself survives a power loss): a reader, a run stopped mid-write or a machine
+//! that goes down sees either the previous file or the whole new one.
 
 use crate::error::{Error, Result};
 use std::fs::File;
@@ -22,17 +23,48 @@ pub fn temporary_path(path: &Path) -> PathBuf {
     path.with_file_name(name)
 }
 
-/// Write `bytes` to `path` through its temporary file and a rename. On failure (a full
-/// disk) the temporary file is removed: nothing is left but what was there before.
+/// Write `bytes` to `path` through its temporary file, synced, a rename and a sync of
+/// the folder. On failure (a full disk) the temporary file is removed: nothing is left
+/// but what was there before.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
     let tmp = temporary_path(path);
-    let result = std::fs::write(&tmp, bytes)
-        .map_err(|e| io_error(&tmp, e))
-        .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| io_error(path, e)));
+    let written = (|| {
+        let mut file = File::create(&tmp)?;
+        file.write_all(bytes)?;
+        file.sync_all()
+    })()
+    .map_err(|e| io_error(&tmp, e));
+    let result = written.and_then(|()| rename_synced(&tmp, path));
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+/// Rename the synced temporary file `tmp` over `path`, then sync the folder that holds
+/// them (on Unix: the rename is durable only once the folder's entry is).
+fn rename_synced(tmp: &Path, path: &Path) -> Result<()> {
+    crate::output::test_hooks::before_rename(path);
+    std::fs::rename(tmp, path).map_err(|e| io_error(path, e))?;
+    sync_folder(path)
+}
+
+/// Sync the folder holding `path` (nothing to do where a folder cannot be opened as a
+/// file, as on Windows).
+pub fn sync_folder(path: &Path) -> Result<()> {
+    #[cfg(unix)]
+    {
+        let folder = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+        File::open(folder)
+            .and_then(|f| f.sync_all())
+            .map_err(|e| io_error(folder, e))?;
+    }
+    #[cfg(not(unix))]
+    let _ = path;
+    Ok(())
 }
 
 /// A file being streamed to the temporary file of `path`; [`AtomicFile::commit`] renames
@@ -71,11 +103,15 @@ impl AtomicFile {
         io_error(&self.tmp, source)
     }
 
-    /// Flush `writer` and rename the temporary file over the target.
-    pub fn commit(mut self, mut writer: BufWriter<File>) -> Result<()> {
-        writer.flush().map_err(|e| self.error(e))?;
-        drop(writer);
-        std::fs::rename(&self.tmp, &self.path).map_err(|e| io_error(&self.path, e))?;
+    /// Flush `writer`, sync the temporary file, rename it over the target and sync the
+    /// folder.
+    pub fn commit(mut self, writer: BufWriter<File>) -> Result<()> {
+        let file = writer
+            .into_inner()
+            .map_err(|e| self.error(e.into_error()))?;
+        file.sync_all().map_err(|e| self.error(e))?;
+        drop(file);
+        rename_synced(&self.tmp, &self.path)?;
         self.committed = true;
         Ok(())
     }

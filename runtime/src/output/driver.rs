@@ -305,6 +305,7 @@ fn run_loop<S: FrameSource + ?Sized>(
                 )?;
                 checkpointed = streamer.written;
             }
+            super::test_hooks::after_frames(streamer.written);
             progress(step, steps);
         }
     }
