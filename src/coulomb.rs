@@ -48,8 +48,8 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> Error + '_ {
 
 /// Read an `.npy` array of float64 or float32 with its shape.
 pub fn read_array(path: &Path, field: &str) -> Result<(Vec<f64>, Vec<u64>)> {
-    let bytes = std::fs::read(path)
-        .map_err(|e| Error::invalid(field, format!("{}: {e}", path.display())))?;
+    let bytes = crate::runtime::input::read_bounded(path, u64::MAX, ".npy file")
+        .map_err(|e| Error::invalid(field, e))?;
     let file = npyz::NpyFile::new(&bytes[..])
         .map_err(|e| Error::invalid(field, format!("{}: not an .npy file: {e}", path.display())))?;
     let shape = file.shape().to_vec();

@@ -69,31 +69,27 @@ fn read_parts(dirs: &[PathBuf]) -> Result<Vec<PartDir>> {
         }
     }
     parts.sort_by_key(|p| p.info.part.index);
+    // the first K (from 1) not given exactly once, without a loop over P (a number read
+    // from a file)
     let count = first.part.count;
-    for k in 1..=count {
-        let n = parts.iter().filter(|p| p.info.part.index == k).count();
-        if n != 1 {
+    let given = |k: usize| parts.iter().filter(|p| p.info.part.index == k).count();
+    let mut next = 1;
+    for p in &parts {
+        let k = p.info.part.index;
+        if k != next {
+            // k < next: k given again; k > next: next not given
+            let wrong = k.min(next);
             return Err(refuse(format!(
-                "part {k}/{count} is given {n} times: give each of the {count} parts once"
+                "part {wrong}/{count} is given {} times: give each of the {count} parts once",
+                given(wrong)
             )));
         }
+        next += 1;
     }
-    let mut owner = vec![0usize; first.total_strands];
-    for p in &parts {
-        for &s in &p.info.strands {
-            match owner.get_mut(s) {
-                Some(o) if *o == 0 => *o = p.info.part.index,
-                _ => {
-                    return Err(refuse(format!(
-                        "strand {s} of part {} is out of range or in two parts",
-                        p.info.part.index
-                    )))
-                }
-            }
-        }
-    }
-    if let Some(s) = owner.iter().position(|&o| o == 0) {
-        return Err(refuse(format!("strand {s} is in no part")));
+    if next <= count {
+        return Err(refuse(format!(
+            "part {next}/{count} is given 0 times: give each of the {count} parts once"
+        )));
     }
     Ok(parts)
 }
@@ -208,6 +204,15 @@ fn refuse_input_as_output(parts: &[PartDir], out: &Path) -> Result<()> {
 /// changed `part.json` would put its strands' frames in other strands' places).
 fn check_strands(parts: &[PartDir], setup: &crate::SimulationSetup) -> Result<()> {
     let count = parts[0].info.part.count;
+    let strands = setup.strands.len();
+    let total = parts[0].info.total_strands;
+    if total != strands || count > strands {
+        return Err(refuse(format!(
+            "{} says part {}/{count} of {total} strands, its scene has {strands}: the file was changed; run the part again",
+            parts[0].dir.join(crate::part::PART_FILE).display(),
+            parts[0].info.part.index,
+        )));
+    }
     let expected = crate::part::split(setup, count);
     for p in parts {
         let k = p.info.part.index;

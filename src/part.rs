@@ -109,6 +109,18 @@ pub fn part_setup(setup: &SimulationSetup, part: Part) -> Result<(SimulationSetu
     if let Some(e) = refusal(setup) {
         return Err(e);
     }
+    // (before the split, which allocates for each of the P parts)
+    if part.count > setup.strands.len() {
+        return Err(Error::invalid(
+            "--part",
+            format!(
+                "{}/{}: P is at most the scene's number of strands ({}), so that every part holds one",
+                part.index,
+                part.count,
+                setup.strands.len()
+            ),
+        ));
+    }
     let strands = split(setup, part.count)
         .into_iter()
         .nth(part.index - 1)
@@ -281,15 +293,32 @@ pub fn write_info(dir: &Path, info: &PartInfo) -> Result<()> {
 /// Read `dir/part.json`, naming the file when it is missing or not a part's.
 pub fn read_info(dir: &Path) -> Result<PartInfo> {
     let path = dir.join(PART_FILE);
-    let bytes = std::fs::read(&path).map_err(|e| {
-        Error::invalid(
-            "PART_DIRS",
-            format!(
-                "{}: {e} (a folder written by run --part K/P holds part.json)",
-                path.display()
-            ),
-        )
-    })?;
+    let refuse = |why: String| Error::invalid("PART_DIRS", why);
+    if !dir.exists() {
+        return Err(refuse(format!(
+            "{} does not exist: give the output folders of run SCENE --part K/P",
+            dir.display()
+        )));
+    }
+    if !dir.is_dir() {
+        return Err(refuse(format!(
+            "{} is a file, not a folder: give the output folders of run SCENE --part K/P",
+            dir.display()
+        )));
+    }
+    if !path.exists() {
+        return Err(refuse(format!(
+            "{} holds no part.json: it is not the output folder of a run --part K/P (give those, one per part)",
+            dir.display()
+        )));
+    }
+    // the scene's text and the strand list: bounded as a scene file is, twice over
+    let bytes = crate::runtime::input::read_bounded(
+        &path,
+        2 * crate::runtime::input::TEXT_FILE_LIMIT,
+        "part.json written by run --part",
+    )
+    .map_err(refuse)?;
     let info: PartInfo = serde_json::from_slice(&bytes).map_err(|e| {
         Error::invalid(
             "PART_DIRS",

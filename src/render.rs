@@ -134,9 +134,12 @@ pub fn render(request: &RenderRequest) -> Result<Vec<PathBuf>> {
     let scenery = match &request.scene {
         None => Scenery::default(),
         Some(path) => {
-            let text = std::fs::read_to_string(path).map_err(|e| {
-                Error::invalid("--scene", format!("cannot read {}: {e}", path.display()))
-            })?;
+            let text = crate::runtime::input::read_text_bounded(
+                path,
+                crate::runtime::input::TEXT_FILE_LIMIT,
+                "scene file",
+            )
+            .map_err(|e| Error::invalid("--scene", e))?;
             let dir = path.parent().unwrap_or(Path::new("."));
             let setup = parse_scene_at(&text, dir)?;
             let strands = store.layout().strands.len();

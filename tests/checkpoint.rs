@@ -350,6 +350,18 @@ fn a_checkpoint_of_another_scene_a_damaged_one_or_short_frames_are_refused_by_na
         &path,
         &["checkpoint.bin is damaged", "not a superhelix checkpoint"],
     );
+    // a device in its place (read whole, /dev/zero would fill the memory) or a folder:
+    // refused before it is read
+    std::fs::remove_file(&ck).unwrap_or_else(|e| panic!("{e}"));
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink("/dev/zero", &ck).unwrap_or_else(|e| panic!("{e}"));
+        refused(&path, &["checkpoint.bin is not a regular file"]);
+        std::fs::remove_file(&ck).unwrap_or_else(|e| panic!("{e}"));
+    }
+    std::fs::create_dir(&ck).unwrap_or_else(|e| panic!("{e}"));
+    refused(&path, &["checkpoint.bin is not a regular file"]);
+    std::fs::remove_dir(&ck).unwrap_or_else(|e| panic!("{e}"));
     // restored, it resumes
     std::fs::write(&ck, &good).unwrap_or_else(|e| panic!("{e}"));
     succeed(&["run", &path, "--resume", &outs, "--format", "npy"], 2);

@@ -170,7 +170,16 @@ fn what_cannot_be_split_or_merged_is_refused_by_name() {
     let small = small.to_string_lossy().into_owned();
     refused(
         &["run", &small, "--part", "3/3", "--out", &out],
-        &["--part", "holds no strand"],
+        &["--part", "P is at most the scene's number of strands (2)"],
+    );
+    // a P that would allocate for a billion parts: refused before the split
+    refused(
+        &["run", &small, "--part", "1/1000000000", "--out", &out],
+        &[
+            "--part",
+            "1/1000000000",
+            "at most the scene's number of strands",
+        ],
     );
     for bad in ["0/2", "3/2", "1-2", "a/b"] {
         refused(&["run", &small, "--part", bad, "--out", &out], &["K/P"]);
@@ -211,7 +220,16 @@ fn what_cannot_be_split_or_merged_is_refused_by_name() {
         &["merge", &p1, &p1, &p2, "--out", &m],
         &["part 1/2 is given 2 times"],
     );
-    refused(&["merge", &p1, &out, "--out", &m], &["part.json"]);
+    refused(&["merge", &p1, &out, "--out", &m], &["out does not exist"]);
+    std::fs::create_dir_all(dir.join("out")).unwrap_or_else(|e| panic!("{e}"));
+    refused(
+        &["merge", &p1, &out, "--out", &m],
+        &["holds no part.json", "not the output folder of a run --part"],
+    );
+    refused(
+        &["merge", &p1, &small, "--out", &m],
+        &["small.toml is a file, not a folder"],
+    );
     // a part that did not finish
     let npy = dir.join("p2").join("frames.npy");
     let o = superhelix(&[

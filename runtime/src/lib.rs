@@ -43,6 +43,7 @@ pub mod config;
 pub mod error;
 pub mod forces;
 pub mod groom;
+pub mod input;
 pub mod kernels;
 pub mod memory_plan;
 pub mod model;

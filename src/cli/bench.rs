@@ -144,8 +144,12 @@ fn bench_generated(args: &BenchArgs) -> Result<ExitCode, Error> {
 
 /// `bench --scene`: time the scene's own strands, optionally restricted to some effects.
 fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Error::invalid("--scene", format!("cannot read {}: {e}", path.display())))?;
+    let text = superhelix::runtime::input::read_text_bounded(
+        path,
+        superhelix::runtime::input::TEXT_FILE_LIMIT,
+        "scene file",
+    )
+    .map_err(|e| Error::invalid("--scene", e))?;
     let mut setup = superhelix::runtime::parse_scene_at(&text, super::common::scene_dir(path))?;
     if let Some(list) = &args.effects {
         restrict_effects(&mut setup, EffectSet::parse(list)?)?;

@@ -14,12 +14,15 @@ pub fn scene_dir(path: &Path) -> &Path {
     path.parent().unwrap_or(Path::new(""))
 }
 
-/// The text of the scene file at `path`.
+/// The text of the scene file at `path` (a regular file of at most
+/// [`superhelix::runtime::input::TEXT_FILE_LIMIT`] bytes of UTF-8).
 pub fn read_scene(path: &Path) -> Result<String, Error> {
-    std::fs::read_to_string(path).map_err(|source| Error::Io {
-        path: path.display().to_string(),
-        source,
-    })
+    superhelix::runtime::input::read_text_bounded(
+        path,
+        superhelix::runtime::input::TEXT_FILE_LIMIT,
+        "scene file (TOML)",
+    )
+    .map_err(|e| Error::invalid("SCENE", e))
 }
 
 /// A progress bar on stderr, only when stderr is a terminal.

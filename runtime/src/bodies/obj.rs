@@ -13,8 +13,7 @@ pub type Triangles = (Vec<Vector3<f64>>, Vec<[usize; 3]>);
 /// `path`. The error says what went wrong (the file cannot be read, or where parsing
 /// stopped).
 pub fn read_obj(path: &Path) -> Result<Triangles, String> {
-    let bytes =
-        std::fs::read(path).map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
+    let bytes = crate::input::read_bounded(path, crate::input::MESH_FILE_LIMIT, "OBJ mesh")?;
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: false,

@@ -113,7 +113,6 @@ pub fn parse_obj_curves(text: &str, name: &str) -> Result<Vec<Curve>, String> {
 
 /// The curves of the OBJ file at `path` ([`parse_obj_curves`]).
 pub fn read_obj_curves(path: &Path) -> Result<Vec<Curve>, String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
+    let text = crate::input::read_text_bounded(path, crate::input::TEXT_FILE_LIMIT, "OBJ file")?;
     parse_obj_curves(&text, &path.display().to_string())
 }

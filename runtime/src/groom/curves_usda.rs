@@ -492,7 +492,6 @@ pub fn parse_usda_curves(text: &str, name: &str) -> Result<Vec<Curve>, String> {
 
 /// The curves of the USDA file at `path` ([`parse_usda_curves`]).
 pub fn read_usda_curves(path: &Path) -> Result<Vec<Curve>, String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
+    let text = crate::input::read_text_bounded(path, crate::input::TEXT_FILE_LIMIT, "USDA file")?;
     parse_usda_curves(&text, &path.display().to_string())
 }

@@ -223,11 +223,14 @@ pub fn write(dir: &Path, checkpoint: &Checkpoint) -> Result<()> {
 /// file and what is wrong with it.
 pub fn read(dir: &Path) -> Result<Option<Checkpoint>> {
     let path = dir.join(CHECKPOINT_FILE);
-    let bytes = match std::fs::read(&path) {
-        Ok(b) => b,
+    match std::fs::metadata(&path) {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(e) => return Err(io_error(&path, e)),
-    };
+        Ok(_) => {}
+    }
+    // not a device or a pipe, not longer than memory allows, before it is read
+    let bytes = crate::input::read_bounded(&path, u64::MAX, "checkpoint written by a run")
+        .map_err(|why| Error::invalid("--resume", why))?;
     let damaged = |why: &str| {
         Error::invalid(
             "--resume",

@@ -1,0 +1,99 @@
+//! Reading a user's files with bounded resources: a path that is not a regular file (a
+//! device such as `/dev/zero`, a pipe, a folder) is refused before it is read, and so is
+//! a file longer than its kind can be or than the memory the machine has free, before
+//! anything is allocated for it.
+
+use std::io::Read;
+use std::path::Path;
+
+/// Largest scene file (TOML), groom or polyline file read whole: 256 MiB.
+pub const TEXT_FILE_LIMIT: u64 = 256 << 20;
+
+/// Largest mesh (OBJ) read whole: 1 GiB.
+pub const MESH_FILE_LIMIT: u64 = 1 << 30;
+
+/// Read the file at `path` whole, refusing (with a message that names the file and says
+/// what is wrong) a path that is not a regular file or a file longer than `limit` bytes
+/// or than the machine's available memory. `what` names the kind of file the user was
+/// to give (`"scene file"`, `"checkpoint"`).
+pub fn read_bounded(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>, String> {
+    let file =
+        std::fs::File::open(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let meta = file
+        .metadata()
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    if !meta.is_file() {
+        return Err(format!(
+            "{} is not a regular file (a folder, a device or a pipe): give a {what}",
+            path.display()
+        ));
+    }
+    let len = meta.len();
+    if len > limit {
+        return Err(format!(
+            "{} is {len} bytes, more than a {what} can be ({limit} bytes)",
+            path.display()
+        ));
+    }
+    if let Some(free) = crate::memory_plan::available_memory() {
+        if len > free / 2 {
+            return Err(format!(
+                "{} is {len} bytes, more than half the memory this machine has free ({free} bytes)",
+                path.display()
+            ));
+        }
+    }
+    // (a file that grows while it is read is cut at its length when opened, plus one
+    // byte to see that it grew)
+    let mut bytes = Vec::with_capacity(len as usize);
+    file.take(len.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    if bytes.len() as u64 > len {
+        return Err(format!(
+            "{} grew while it was read: give a {what} that no program is writing",
+            path.display()
+        ));
+    }
+    Ok(bytes)
+}
+
+/// [`read_bounded`] as text (UTF-8, named in the error when it is not).
+pub fn read_text_bounded(path: &Path, limit: u64, what: &str) -> Result<String, String> {
+    let bytes = read_bounded(path, limit, what)?;
+    String::from_utf8(bytes)
+        .map_err(|e| format!("{} is not UTF-8 text ({e}): give a {what}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn devices_folders_and_long_files_are_refused_before_they_are_read() {
+        #[cfg(unix)]
+        {
+            let e = read_bounded(Path::new("/dev/zero"), 1 << 20, "checkpoint").unwrap_err();
+            assert!(e.contains("not a regular file"), "{e}");
+        }
+        let dir = std::env::temp_dir().join(format!("superhelix-input-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let e = read_bounded(&dir, 1 << 20, "scene file").unwrap_err();
+        assert!(e.contains("not a regular file"), "{e}");
+        let file = dir.join("a.toml");
+        std::fs::write(&file, b"0123456789").expect("write");
+        let e = read_bounded(&file, 9, "scene file").unwrap_err();
+        assert!(
+            e.contains("10 bytes, more than a scene file can be (9 bytes)"),
+            "{e}"
+        );
+        assert_eq!(
+            read_bounded(&file, 10, "scene file").expect("read"),
+            b"0123456789"
+        );
+        std::fs::write(&file, [0xff, 0xfe]).expect("write");
+        let e = read_text_bounded(&file, 10, "scene file").unwrap_err();
+        assert!(e.contains("not UTF-8"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
