@@ -76,6 +76,34 @@ pub struct RunOptions {
     pub allow_large_output: bool,
 }
 
+/// `--tolerance` of `run` and `validate` applied to `setup`: in
+/// [[`MIN_TOLERANCE`](runtime::config::MIN_TOLERANCE),
+/// [`MAX_TOLERANCE`](runtime::config::MAX_TOLERANCE)], on a dynamic scene (a static one
+/// takes no time steps). Refused naming `--tolerance`, before anything is written.
+pub fn apply_tolerance(setup: &mut SimulationSetup, tolerance: Option<f64>) -> Result<()> {
+    let Some(t) = tolerance else {
+        return Ok(());
+    };
+    let (lo, hi) = (
+        runtime::config::MIN_TOLERANCE,
+        runtime::config::MAX_TOLERANCE,
+    );
+    if !(lo..=hi).contains(&t) {
+        return Err(Error::invalid(
+            "--tolerance",
+            format!("{t}: must be in [{lo:e}, {hi}] (the local error of a step, relative to the strand's length)"),
+        ));
+    }
+    if setup.config.mode == runtime::config::Mode::Static {
+        return Err(Error::invalid(
+            "--tolerance",
+            "the scene is static (mode = \"static\"): it takes no time steps, so no step tolerance; leave out --tolerance",
+        ));
+    }
+    setup.config.tolerance = Some(t);
+    Ok(())
+}
+
 /// The output plan of a parsed scene written to `out_dir` (the limit is not checked:
 /// see [`OutputPlan::check_limit`]).
 pub fn plan_output(setup: &SimulationSetup, out_dir: &Path, options: &RunOptions) -> OutputPlan {
@@ -387,6 +415,15 @@ pub fn check_scene_reporting(
     });
     // the failure path lists every problem, not only the first stage's
     built.map_err(|_| runtime::validate_scene_at(scene_text, scene_dir, kernel_factory()))
+}
+
+/// Build the simulation of `setup` as `run` would (after command-line options changed
+/// it: `--tolerance`, `--part`), to meet every problem `run` meets before its first
+/// step, within the memory [`check_scene_reporting`] allows itself.
+pub fn check_setup(setup: &SimulationSetup) -> Result<()> {
+    let (engine, _) = runtime::engine_for(setup);
+    runtime::memory_plan::estimate(setup, engine).check()?;
+    build_in_chunks(setup)
 }
 
 /// Strands built at once by [`check_scene_reporting`] when they do not act on each

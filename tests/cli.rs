@@ -27,6 +27,14 @@ fn broken() -> Vec<(String, &'static str)> {
         (format!("[simulation]\nintegrator = \"leapfrog\"\n{STRAND}"), "simulation.integrator"),
         (format!("[simulation]\nkernels = \"gpu\"\n{STRAND}"), "simulation.kernels"),
         (format!("[simulation]\nmode = \"fast\"\n{STRAND}"), "simulation.mode"),
+        (
+            format!("[simulation]\nmode = \"static\"\ntolerance = 1e-4\n{STRAND}"),
+            "simulation.tolerance",
+        ),
+        (
+            format!("[simulation]\nmode = \"static\"\n[output]\ncheckpoint_every = 5\n{STRAND}"),
+            "output.checkpoint_every",
+        ),
         (format!("[head]\nmotion = {{ kind = \"wobble\" }}\n{STRAND}"), "head.motion.kind"),
         (format!("[[bodies]]\nshape = \"sphere\"\nradius = 0.02\n[bodies.motion]\nkind = \"keyframes\"\nkeys = [{{ t = 1.0 }}, {{ t = 0.5 }}]\n{STRAND}"), "bodies[0].motion.keys[1].t"),
         (format!("[[bodies]]\nshape = \"sphere\"\nradius = 0.02\nattached = \"world\"\nmotion = {{ kind = \"still\" }}\n{STRAND}"), "bodies[0].motion"),
@@ -129,6 +137,93 @@ fn missing_files_and_bad_usage_fail_cleanly() {
     assert_eq!(superhelix(&["validate"]).status.code(), Some(2));
     let out = superhelix(&["run", "/nonexistent/scene.toml"]);
     assert_eq!(out.status.code(), Some(1));
+}
+
+/// `validate` takes `run`'s options and refuses what `run` would refuse with them, each
+/// named; `run` refuses a bad option before it makes its output folder.
+#[test]
+fn validate_takes_runs_options_and_refuses_what_run_refuses() {
+    let dir = scratch("validate-options");
+    let scene = write(
+        &dir,
+        "s.toml",
+        &format!("[simulation]\nduration = 0.1\n{STRAND}"),
+    );
+    let scene = scene.to_string_lossy().into_owned();
+    let fixed = write(
+        &dir,
+        "static.toml",
+        &format!("[simulation]\nmode = \"static\"\n{STRAND}"),
+    );
+    let fixed = fixed.to_string_lossy().into_owned();
+    let out = dir.join("out");
+    let outs = out.to_string_lossy().into_owned();
+    let refused = |args: &[&str], expect: &[&str]| {
+        let o = superhelix(args);
+        let said = text(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}:\n{said}");
+        for e in expect {
+            assert!(said.contains(e), "{args:?}: {e:?} not in:\n{said}");
+        }
+        assert!(!said.contains("invalid scene"), "{said}");
+    };
+    for command in ["validate", "run"] {
+        let with_out = |extra: &[&'static str]| {
+            let mut a = vec![command, scene.as_str()];
+            a.extend_from_slice(extra);
+            if command == "run" {
+                a.extend(["--out", outs.as_str()]);
+            }
+            a
+        };
+        refused(
+            &with_out(&["--tolerance", "0.6"]),
+            &["--tolerance", "0.6", "must be in"],
+        );
+        refused(
+            &with_out(&["--tolerance", "0"]),
+            &["--tolerance", "must be in"],
+        );
+        refused(
+            &with_out(&["--part", "1/1000000000"]),
+            &["--part", "at most the scene's number of strands (1)"],
+        );
+        refused(&with_out(&["--format", "mp4"]), &["mp4"]);
+        assert!(!out.exists(), "{command} made {outs} before refusing");
+        let mut a = vec![command, fixed.as_str(), "--tolerance", "1e-4"];
+        if command == "run" {
+            a.extend(["--out", outs.as_str()]);
+        }
+        refused(&a, &["--tolerance", "static"]);
+        assert!(!out.exists(), "{command} made {outs} before refusing");
+    }
+    // what validate accepts with the options, run runs
+    let o = superhelix(&[
+        "validate",
+        &scene,
+        "--tolerance",
+        "1e-4",
+        "--part",
+        "1/1",
+        "--format",
+        "npy",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("part 1/1: 1 of 1 strands"),
+        "{}",
+        text(&o)
+    );
+    // the output limit: refused as run refuses it, lifted as run lifts it
+    let small = write(
+        &dir,
+        "small-limit.toml",
+        &format!("[simulation]\nduration = 0.1\n[output]\nmax_bytes = 100\n{STRAND}"),
+    );
+    let small = small.to_string_lossy().into_owned();
+    refused(&["validate", &small], &["output"]);
+    let o = superhelix(&["validate", &small, "--allow-large-output"]);
+    assert!(o.status.success(), "{}", text(&o));
 }
 
 #[test]

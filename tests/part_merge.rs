@@ -224,7 +224,10 @@ fn what_cannot_be_split_or_merged_is_refused_by_name() {
     std::fs::create_dir_all(dir.join("out")).unwrap_or_else(|e| panic!("{e}"));
     refused(
         &["merge", &p1, &out, "--out", &m],
-        &["holds no part.json", "not the output folder of a run --part"],
+        &[
+            "holds no part.json",
+            "not the output folder of a run --part",
+        ],
     );
     refused(
         &["merge", &p1, &small, "--out", &m],

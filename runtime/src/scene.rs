@@ -270,7 +270,13 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
         n.choice(k, &["projected", "explicit"], FieldStiffness::from_name)
     });
     let energy_balance = reader::boolean(&mut n, "energy_balance", d.energy_balance);
-    let tolerance = if n.has("tolerance") {
+    if n.has("tolerance") && mode == Some(Mode::Static) {
+        n.error(
+            "tolerance",
+            "a static scene (mode = \"static\") takes no time steps, so no step tolerance: remove tolerance (or set mode = \"dynamic\")",
+        );
+    }
+    let tolerance = if n.has("tolerance") && mode != Some(Mode::Static) {
         n.optional_f64(
             "tolerance",
             0.0,
@@ -423,7 +429,13 @@ fn read_output(mut n: Node<'_>, config: &mut SimulationConfig) -> (usize, Output
     } else {
         None
     };
-    let checkpoint_every = if n.has("checkpoint_every") {
+    if n.has("checkpoint_every") && config.mode == Mode::Static {
+        n.error(
+            "checkpoint_every",
+            "a static run writes one frame and keeps no checkpoint: remove checkpoint_every (or set [simulation] mode = \"dynamic\")",
+        );
+    }
+    let checkpoint_every = if n.has("checkpoint_every") && config.mode != Mode::Static {
         n.count(
             "checkpoint_every",
             0,

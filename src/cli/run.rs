@@ -63,9 +63,7 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
         None => (superhelix::DEFAULT_SCENE.to_string(), Path::new("")),
     };
     let (mut setup, grooms) = superhelix::runtime::parse_scene_reporting(&text, dir)?;
-    if let Some(t) = args.tolerance {
-        setup.config.tolerance = Some(t);
-    }
+    superhelix::apply_tolerance(&mut setup, args.tolerance)?;
     // the digest of the whole scene, which every part names
     let whole = superhelix::runtime::output::checkpoint::setup_digest(&setup);
     let mut part_strands = None;

@@ -7,19 +7,57 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use superhelix::Error;
 
-/// Arguments of `validate`.
+/// Arguments of `validate`: the scene and the options of `run` that change what it runs
+/// or writes, checked as `run` checks them.
 #[derive(Args)]
 pub struct ValidateArgs {
     /// Scene file (TOML).
     scene: PathBuf,
+    /// Files `run` would write, replacing the scene's [output] formats (as `run --format`).
+    #[arg(long, value_name = "FORMATS")]
+    format: Vec<String>,
+    /// As `run --allow-large-output`: the output may exceed its size limit.
+    #[arg(long)]
+    allow_large_output: bool,
+    /// As `run --tolerance`: error-controlled steps with this local error.
+    #[arg(long, value_name = "TOL")]
+    tolerance: Option<f64>,
+    /// As `run --part K/P`: check part K of P of the strands.
+    #[arg(long, value_name = "K/P")]
+    part: Option<superhelix::part::Part>,
 }
 
 /// Run `validate`.
 pub fn run(args: ValidateArgs) -> Result<ExitCode, Error> {
     let path = &args.scene;
     let text = read_scene(path)?;
+    let options = superhelix::RunOptions {
+        formats: match args.format.is_empty() {
+            true => None,
+            false => Some(superhelix::Formats::from_cli(&args.format)?),
+        },
+        allow_large_output: args.allow_large_output,
+    };
     match superhelix::check_scene_reporting(&text, scene_dir(path)) {
-        Ok((setup, grooms)) => report_valid(&setup, &grooms),
+        Ok((mut setup, grooms)) => {
+            // run's options, refused as run refuses them
+            superhelix::apply_tolerance(&mut setup, args.tolerance)?;
+            if let Some(part) = args.part {
+                let total = setup.strands.len();
+                let (reduced, strands) = superhelix::part::part_setup(&setup, part)?;
+                println!(
+                    "part {}/{}: {} of {total} strands",
+                    part.index,
+                    part.count,
+                    strands.len()
+                );
+                setup = reduced;
+            }
+            if args.tolerance.is_some() || args.part.is_some() {
+                superhelix::check_setup(&setup)?;
+            }
+            report_valid(&setup, &grooms, &options)
+        }
         Err(problems) => {
             for p in &problems {
                 eprintln!("{p}");
@@ -35,6 +73,7 @@ pub fn run(args: ValidateArgs) -> Result<ExitCode, Error> {
 fn report_valid(
     setup: &superhelix::SimulationSetup,
     grooms: &[superhelix::runtime::groom::GroomReport],
+    options: &superhelix::RunOptions,
 ) -> Result<ExitCode, Error> {
     let strands = setup.strands.len();
     let steps = superhelix::runtime::scene::step_count(setup);
@@ -52,7 +91,7 @@ fn report_valid(
         "{}",
         superhelix::runtime::memory_plan::estimate(setup, engine)
     );
-    let plan = superhelix::plan_output(setup, Path::new("out"), &superhelix::RunOptions::default());
+    let plan = superhelix::plan_output(setup, Path::new("out"), options);
     println!("{plan}");
     if let Some(note) = &plan.note {
         println!("{note}");
