@@ -186,9 +186,61 @@ impl RunCheckpoints {
                     ),
                 ));
             }
+            check_resumed_files(plan, c.point.frames)?;
         }
         Ok(Self { identity, resume })
     }
+}
+
+/// The frame files a resumed run appends to, each there and a file: a folder copied
+/// without them, or one of them deleted or replaced by a folder, is refused naming the
+/// file and what the user can do.
+fn check_resumed_files(plan: &OutputPlan, frames: usize) -> Result<()> {
+    let dir = &plan.dir;
+    let missing = |what: String| {
+        Error::invalid(
+            "--resume",
+            format!(
+                "{what}, though the checkpoint in {} counts {frames} frames written: copy the run's folder whole, or remove {} to start again from t = 0",
+                dir.display(),
+                dir.join(output::checkpoint::CHECKPOINT_FILE).display()
+            ),
+        )
+    };
+    let state = |name: &str| {
+        let path = dir.join(name);
+        match std::fs::metadata(&path) {
+            Ok(m) if m.is_file() => None,
+            Ok(_) => Some(format!("{} is not a file", path.display())),
+            Err(_) => Some(format!("{} is missing", path.display())),
+        }
+    };
+    for file in &plan.files {
+        let name = file.name;
+        if name == FRAMES_FILE {
+            // streamed to frames.json.partial, renamed frames.json at the end
+            let partial = format!("{FRAMES_FILE}.partial");
+            if state(FRAMES_FILE).is_some() && state(&partial).is_some() {
+                return Err(missing(format!(
+                    "neither {} nor {} is there as a file",
+                    dir.join(FRAMES_FILE).display(),
+                    dir.join(&partial).display()
+                )));
+            }
+        } else if [
+            output::npy::NPY_FILE,
+            output::npy::TIMES_FILE,
+            NODES_FILE,
+            D1_FILE,
+        ]
+        .contains(&name)
+        {
+            if let Some(why) = state(name) {
+                return Err(missing(why));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// [`run_planned`] with checkpoints every `plan.checkpoint_every` frames (none when it

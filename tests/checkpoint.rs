@@ -362,8 +362,31 @@ fn a_checkpoint_of_another_scene_a_damaged_one_or_short_frames_are_refused_by_na
     std::fs::create_dir(&ck).unwrap_or_else(|e| panic!("{e}"));
     refused(&path, &["checkpoint.bin is not a regular file"]);
     std::fs::remove_dir(&ck).unwrap_or_else(|e| panic!("{e}"));
-    // restored, it resumes
+    // restored, with a frame file missing or a folder in its place: named, with what to do
     std::fs::write(&ck, &good).unwrap_or_else(|e| panic!("{e}"));
+    let npy = out.join("frames.npy");
+    let saved = std::fs::read(&npy).unwrap_or_default();
+    std::fs::remove_file(&npy).unwrap_or_else(|e| panic!("{e}"));
+    refused(
+        &path,
+        &[
+            "frames.npy is missing",
+            "copy the run's folder whole",
+            "checkpoint.bin to start again",
+        ],
+    );
+    std::fs::create_dir(&npy).unwrap_or_else(|e| panic!("{e}"));
+    refused(&path, &["frames.npy is not a file"]);
+    std::fs::remove_dir(&npy).unwrap_or_else(|e| panic!("{e}"));
+    std::fs::write(&npy, &saved).unwrap_or_else(|e| panic!("{e}"));
+    // a file given as the folder
+    let o = command(&["run", &path, "--resume", &path, "--format", "npy"], 2);
+    assert!(
+        !o.status.success() && support::text(&o).contains("is a file, not a folder"),
+        "{}",
+        support::text(&o)
+    );
+    // restored, it resumes
     succeed(&["run", &path, "--resume", &outs, "--format", "npy"], 2);
     // a run from t = 0 into the folder leaves no earlier checkpoint behind
     let plain = write(

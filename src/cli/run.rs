@@ -48,6 +48,17 @@ static STOP: AtomicBool = AtomicBool::new(false);
 /// Run `run`.
 pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
     let out: &Path = args.resume.as_deref().unwrap_or(&args.out);
+    if let Some(dir) = &args.resume {
+        if dir.exists() && !dir.is_dir() {
+            return Err(Error::invalid(
+                "--resume",
+                format!(
+                    "{} is a file, not a folder: give the output folder of an earlier run of this scene",
+                    dir.display()
+                ),
+            ));
+        }
+    }
     if args.resume.is_some() && args.out != Path::new("out") && args.out != out {
         return Err(Error::invalid(
             "--out",
