@@ -32,7 +32,9 @@ pub mod sag_free;
 pub mod surface;
 
 pub use curves::Curve;
-pub use fit::{fit_curve, FitError, FitSettings, FittedCurve};
+pub use fit::{
+    fit_curve, FitError, FitSettings, FittedCurve, DEFAULT_MAX_FIT_ERROR, MAX_LENGTH_MISMATCH,
+};
 pub use report::{ClearanceReport, CurveReport, GroomReport, GroomSource};
 pub use roots::{sample_roots, Root, RootCount, RootSettings, Roots};
 pub use sag_free::sag_free_natural;

@@ -18,10 +18,10 @@ pub const MESH_FILE_LIMIT: u64 = 1 << 30;
 /// to give (`"scene file"`, `"checkpoint"`).
 pub fn read_bounded(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>, String> {
     let file =
-        std::fs::File::open(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        std::fs::File::open(path).map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
     let meta = file
         .metadata()
-        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        .map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
     if !meta.is_file() {
         return Err(format!(
             "{} is not a regular file (a folder, a device or a pipe): give a {what}",
@@ -48,7 +48,7 @@ pub fn read_bounded(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>, Stri
     let mut bytes = Vec::with_capacity(len as usize);
     file.take(len.saturating_add(1))
         .read_to_end(&mut bytes)
-        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        .map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
     if bytes.len() as u64 > len {
         return Err(format!(
             "{} grew while it was read: give a {what} that no program is writing",

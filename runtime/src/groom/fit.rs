@@ -103,6 +103,46 @@ pub struct FittedCurve {
     pub iterations: usize,
 }
 
+/// Largest relative difference between a fitted strand's length and the length of its
+/// curve's polyline for the fit to stand for the curve. The chords of a smooth curve
+/// sampled at three or more points per radian of turning fall short of its arc by under
+/// 2 %; a strand much longer than its polyline runs past it (a zig-zag "fitted" by a rod
+/// 4.6 times as long came within 3.4e-4 of its points), one much shorter cuts it (a
+/// curve that doubles back).
+pub const MAX_LENGTH_MISMATCH: f64 = 0.1;
+
+/// Largest distance of a curve's point from its fitted strand, relative to the fitted
+/// length, with which a fit is accepted when the scene sets no `max_fit_error`: 1 % (the
+/// fits of `runtime/tests/groom_fit.rs` stay under 9.4e-3, the widening helix with two
+/// elements; a zig-zag of 3 cm teeth on a 42 cm polyline fitted by 3 elements misses by
+/// 4.2 %).
+pub const DEFAULT_MAX_FIT_ERROR: f64 = 0.01;
+
+impl FittedCurve {
+    /// Why this fit does not stand for its curve, beyond `max_error` (its largest
+    /// distance relative to the length) or [`MAX_LENGTH_MISMATCH`]: `None` when it does.
+    pub fn refusal(&self, max_error: f64) -> Option<String> {
+        let mismatch = (self.length - self.polyline_length).abs() / self.polyline_length;
+        // (a NaN is refused too)
+        if mismatch.is_nan() || mismatch > MAX_LENGTH_MISMATCH {
+            return Some(format!(
+                "the fitted strand is {:.4} m long, the curve's polyline {:.4} m ({:.0} % apart, at most {:.0} % allowed): the curve zig-zags or doubles back faster than the strand's elements can follow; smooth it or raise elements",
+                self.length,
+                self.polyline_length,
+                100.0 * mismatch,
+                100.0 * MAX_LENGTH_MISMATCH
+            ));
+        }
+        if self.error.max.is_nan() || self.error.max > max_error {
+            return Some(format!(
+                "the fitted strand is {:.3e} of its length from the curve at its point {}, more than {max_error:e} (max_fit_error): raise elements, or max_fit_error if that is close enough",
+                self.error.max, self.error.worst_point
+            ));
+        }
+        None
+    }
+}
+
 /// The unit strand the fit works on: N equal elements of total length 1, root at the
 /// origin, root frame the identity.
 struct UnitStrand {

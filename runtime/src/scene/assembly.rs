@@ -191,12 +191,49 @@ fn fit_polyline(
     grooms: &mut GroomContext<'_>,
 ) -> Option<StrandSetup> {
     let elements = template.elements()?;
+    let max_error = if n.has("max_fit_error") {
+        n.f64(
+            "max_fit_error",
+            Range::new(Bound::Excl(0.0), Bound::Incl(1.0)),
+        )?
+    } else {
+        crate::groom::DEFAULT_MAX_FIT_ERROR
+    };
     let count = points.len();
+    let polyline_length: f64 = points.windows(2).map(|w| (w[1] - w[0]).norm()).sum();
+    if polyline_length > super::strands::MAX_LENGTH {
+        n.error(
+            "polyline",
+            format!(
+                "{polyline_length:.4e} m long, more than a strand may be ({} m): check the units (metres)",
+                super::strands::MAX_LENGTH
+            ),
+        );
+        return None;
+    }
     let curve = crate::groom::curves::Curve {
         points,
         origin: n.path("polyline"),
     };
     let hint = template.frame.map(|f| f.column(1).into_owned());
+    if let (true, Some(h)) = (n.has("normal"), hint.as_ref()) {
+        // the first segment of nonzero length
+        let first = curve
+            .points
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .find(|d| d.norm() > 0.0);
+        if let Some(t) = first {
+            let t = t.normalize();
+            if (h - t * t.dot(h)).norm() < 1e-6 {
+                n.error(
+                    "normal",
+                    "along the polyline's first segment: the root's n1 must be across the strand",
+                );
+                return None;
+            }
+        }
+    }
     let fit = match fit_curve(&curve, &FitSettings::new(elements), hint.as_ref()) {
         Ok(f) => f,
         Err(e) => {
@@ -204,6 +241,36 @@ fn fit_polyline(
             return None;
         }
     };
+    if let Some(why) = fit.refusal(max_error) {
+        let field = if (fit.length - fit.polyline_length).abs()
+            <= crate::groom::MAX_LENGTH_MISMATCH * fit.polyline_length
+            && n.has("max_fit_error")
+        {
+            "max_fit_error"
+        } else {
+            "polyline"
+        };
+        n.error(field, why);
+        return None;
+    }
+    if let Some(loads) = &template.point_loads {
+        let mut beyond = false;
+        for (k, load) in loads.iter().enumerate() {
+            if load.s > fit.length {
+                n.error(
+                    &format!("point_loads[{k}].s"),
+                    format!(
+                        "{}: must be in [0, {:.4}] m, the length of the strand fitted to the polyline",
+                        load.s, fit.length
+                    ),
+                );
+                beyond = true;
+            }
+        }
+        if beyond {
+            return None;
+        }
+    }
     if let Some(x) = fit.q.iter().find(|x| x.abs() > MAX_CURVATURE) {
         n.error(
             "polyline",

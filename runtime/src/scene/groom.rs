@@ -760,18 +760,15 @@ fn read_curves_groom(
     for fit in fits {
         match fit {
             Ok((origin, points, f)) => {
-                if let Some(bound) = max_error {
-                    if f.error.max > bound {
-                        n.error(
-                            "max_fit_error",
-                            format!(
-                                "{origin}: the fitted strand is {:.3e} of its length from the \
-                                 curve at a point, more than {bound:e}: raise elements",
-                                f.error.max
-                            ),
-                        );
-                        return None;
-                    }
+                let bound = max_error.unwrap_or(crate::groom::DEFAULT_MAX_FIT_ERROR);
+                if let Some(why) = f.refusal(bound) {
+                    let field = if max_error.is_some() && f.error.max > bound {
+                        "max_fit_error"
+                    } else {
+                        "curves"
+                    };
+                    n.error(field, format!("{origin}: {why}"));
+                    return None;
                 }
                 if let Some(x) = f.q.iter().find(|x| x.abs() > MAX_CURVATURE) {
                     n.error(

@@ -76,7 +76,7 @@ pub(super) struct Template {
     internal_friction: f64,
     air_drag: f64,
     initial: Option<Initial>,
-    point_loads: Option<Vec<PointLoad>>,
+    pub(super) point_loads: Option<Vec<PointLoad>>,
     charge_per_length: Option<f64>,
 }
 
@@ -95,7 +95,7 @@ pub(super) fn read_template(n: &mut Node<'_>, defaults: &StrandDefaults) -> Temp
         None => params.cross_section,
     };
     let cross_section = read_cross_section(n, &preset_section);
-    let frame = read_frame(n);
+    let frame = read_frame(n, defaults.length_from_data);
     let (lengths, length) = read_lengths(n, defaults.length_from_data).unzip();
     let natural = read_natural(n, &params, lengths.as_deref(), length);
     let variation = n.optional_f64(
@@ -115,7 +115,8 @@ pub(super) fn read_template(n: &mut Node<'_>, defaults: &StrandDefaults) -> Temp
         Range::AIR_DRAG,
     );
     let initial = read_initial(n, lengths.as_ref().map(|l| 3 * l.len()));
-    let point_loads = read_point_loads(n, length);
+    // (a strand from data has its length only once fitted: its loads are checked then)
+    let point_loads = read_point_loads(n, length.filter(|_| !defaults.length_from_data));
     let charge_per_length = if n.has("charge_per_length") {
         n.f64("charge_per_length", MAX_CHARGE_RANGE)
     } else {
@@ -271,14 +272,25 @@ fn read_cross_section(n: &mut Node<'_>, preset: &CrossSection) -> CrossSection {
     }
 }
 
-/// Root frame (n0, n1, n2) from `direction` and `normal`.
-fn read_frame(n: &mut Node<'_>) -> Option<Matrix3<f64>> {
+/// Root frame (n0, n1, n2) from `direction` and `normal`. For a strand whose shape
+/// comes from data (a `polyline`, which has no `direction`), `normal` is n1 and n0 is
+/// any direction across it: the fit takes the root frame from the polyline and `normal`
+/// only as its n1 (checked against the polyline's first segment there).
+fn read_frame(n: &mut Node<'_>, from_data: bool) -> Option<Matrix3<f64>> {
     let direction = n.optional("direction", Vector3::from(DEFAULT_DIRECTION), Node::unit);
     let normal = if n.has("normal") {
         Some(n.unit("normal"))
     } else {
         None
     };
+    if from_data {
+        if let Some(n1) = normal {
+            let n1 = n1?;
+            let e = least_aligned_axis(&n1);
+            let n0 = (e - n1 * n1.dot(&e)).normalize();
+            return Some(Matrix3::from_columns(&[n0, n1, n0.cross(&n1)]));
+        }
+    }
     let n0 = direction?;
     let raw_n1 = match normal {
         Some(given) => given?,

@@ -253,6 +253,13 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("[[strands]]\nelement_lengths = [0.1, -0.2]", "strands[0].element_lengths[1]", "must be in (0, 100]"),
     ("[[strands]]\nlength = 0.3\n[[strands.point_loads]]\ns = 0.5\nforce = [0.0, 0.0, 1.0]", "strands[0].point_loads[0].s", "must be in [0, 0.3]"),
     ("[[strands]]\nlength = 0.3\n[[strands.point_loads]]\ns = 0.1", "strands[0].point_loads[0].force", "required"),
+    // a polyline: its fit stands for it or is refused; its length and loads are checked
+    // against what it is, not a stand-in
+    ("[[strands]]\nelements = 3\npolyline = [[0.0, 0.0, 0.0], [0.03, 0.0, -0.03], [0.0, 0.0, -0.06], [0.03, 0.0, -0.09], [0.0, 0.0, -0.12], [0.03, 0.0, -0.15], [0.0, 0.0, -0.18], [0.03, 0.0, -0.21], [0.0, 0.0, -0.24], [0.03, 0.0, -0.27], [0.0, 0.0, -0.3]]", "strands[0].polyline", "of its length from the curve at its point 9, more than 1e-2 (max_fit_error)"),
+    ("[[strands]]\nelements = 4\npolyline = [[0.0, 0.0, 0.0], [0.0, 0.0, -0.1], [0.0, 0.0, -0.2], [0.001, 0.0, -0.1], [0.002, 0.0, 0.0]]", "strands[0].polyline", "zig-zags or doubles back"),
+    ("[[strands]]\npolyline = [[0.0, 0.0, 0.0], [0.0, 0.0, -200.0]]", "strands[0].polyline", "more than a strand may be (100 m)"),
+    ("[[strands]]\npolyline = [[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]]\nnormal = [1.0, 0.0, 0.0]", "strands[0].normal", "along the polyline's first segment"),
+    ("[[strands]]\npolyline = [[0.0, 0.0, 0.0], [0.0, 0.0, -2.0]]\n[[strands.point_loads]]\ns = 2.5\nforce = [0.0, 0.0, 1.0]", "strands[0].point_loads[0].s", "the length of the strand fitted to the polyline"),
     ("[[strands]]\nname = \"a\"\nlength = 0.3\n[[strands]]\nname = \"a\"\nlength = 0.3", "strands[1].name", "duplicate"),
     ("[[patches]]\nlength = 0.3\ncount = [0, 2]\nsize = [0.01, 0.01]", "patches[0].count[0]", ">= 1"),
     ("[[patches]]\nlength = 0.3\ncount = [2, 2]", "patches[0].size", "coincide"),
@@ -350,6 +357,21 @@ fn every_broken_scene_reports_its_field_and_range() {
             hit.message
         );
     }
+}
+
+/// A polyline's `normal` along z (the default direction of other strands, which a
+/// polyline has not) and a load beyond 1 m on a 2 m polyline: accepted, as the
+/// polyline's own frame and length allow.
+#[test]
+fn a_polyline_takes_a_normal_across_it_and_loads_along_its_length() {
+    let s = setup(
+        "[[strands]]\npolyline = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]\nnormal = [0.0, 0.0, 1.0]\n[[strands.point_loads]]\ns = 1.5\nforce = [0.0, 0.0, 1.0]",
+    );
+    let strand = &s.strands[0].strand;
+    let n1 = strand.geometry.root_frame.column(1);
+    assert!((n1 - Vector3::z()).norm() < 1e-12, "{n1}");
+    assert!((strand.geometry.length() - 2.0).abs() < 1e-9);
+    assert_eq!(strand.point_loads[0].s, 1.5);
 }
 
 #[test]
