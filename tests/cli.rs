@@ -226,6 +226,45 @@ fn validate_takes_runs_options_and_refuses_what_run_refuses() {
     assert!(o.status.success(), "{}", text(&o));
 }
 
+/// Progress (frames, time per frame, time left; spinners for reading and writing) is
+/// drawn only on a terminal: piped, `run` and `validate` print their report lines alone,
+/// with no carriage return or escape sequence.
+#[test]
+fn progress_stays_off_a_pipe() {
+    let dir = scratch("progress-pipe");
+    let scene = write(
+        &dir,
+        "s.toml",
+        &format!("[simulation]\nduration = 0.2\n{STRAND}"),
+    );
+    let scene = scene.to_string_lossy().into_owned();
+    let out = dir.join("out").to_string_lossy().into_owned();
+    for args in [
+        vec![
+            "run",
+            scene.as_str(),
+            "--out",
+            out.as_str(),
+            "--format",
+            "npy",
+        ],
+        vec!["validate", scene.as_str()],
+    ] {
+        let o = superhelix(&args);
+        assert!(o.status.success(), "{}", text(&o));
+        let said = text(&o);
+        for mark in [
+            "per frame",
+            "reading the scene",
+            "building the simulation",
+            "\r",
+            "\u{1b}[",
+        ] {
+            assert!(!said.contains(mark), "{args:?} printed {mark:?}:\n{said}");
+        }
+    }
+}
+
 #[test]
 fn run_rejects_an_invalid_scene_before_simulating() {
     let dir = scratch("run-invalid");

@@ -25,18 +25,111 @@ pub fn read_scene(path: &Path) -> Result<String, Error> {
     .map_err(|e| Error::invalid("SCENE", e))
 }
 
-/// A progress bar on stderr, only when stderr is a terminal.
+/// A run's progress bar on stderr, only when stderr is a terminal: the frames done,
+/// the time per frame and the time left ([`frames_message`]).
 pub fn progress_bar() -> Option<ProgressBar> {
     if !std::io::stderr().is_terminal() {
         return None;
     }
     let bar = ProgressBar::new(0);
-    if let Ok(style) =
-        ProgressStyle::with_template("{bar:40} {pos}/{len} steps {elapsed} (eta {eta})")
-    {
+    if let Ok(style) = ProgressStyle::with_template("{bar:30} {msg}") {
         bar.set_style(style);
     }
     Some(bar)
+}
+
+/// What the run's bar says after `step` of `steps` steps, `elapsed` seconds in, for a run
+/// of `frames` frames: the frame reached, the time per frame so far and the time left at
+/// that rate.
+pub fn frames_message(step: usize, steps: usize, frames: usize, elapsed: f64) -> String {
+    let steps = steps.max(1);
+    let step = step.min(steps);
+    // frames are spread evenly over the steps (the first at t = 0)
+    let frame = (step * frames.saturating_sub(1)).div_ceil(steps) + 1;
+    let frame = frame.min(frames);
+    let done = step as f64 / steps as f64;
+    let per_frame = if frame > 1 {
+        elapsed / (frame - 1) as f64
+    } else {
+        0.0
+    };
+    let left = if done > 0.0 {
+        elapsed * (1.0 - done) / done
+    } else {
+        0.0
+    };
+    format!(
+        "frame {frame}/{frames} · {} per frame · {} left",
+        seconds(per_frame),
+        seconds(left)
+    )
+}
+
+/// A duration for people: `0.42 s`, `12 s`, `3 min 5 s`, `2 h 4 min`.
+fn seconds(s: f64) -> String {
+    if s < 10.0 {
+        format!("{s:.2} s")
+    } else if s < 60.0 {
+        format!("{s:.0} s")
+    } else if s < 3600.0 {
+        format!("{} min {} s", (s / 60.0) as u64, (s % 60.0) as u64)
+    } else {
+        format!(
+            "{} h {} min",
+            (s / 3600.0) as u64,
+            ((s % 3600.0) / 60.0) as u64
+        )
+    }
+}
+
+/// A spinner on stderr saying what a long phase without steps is doing (reading and
+/// fitting a scene, building the simulation, writing the pictures), with the time it has
+/// taken; only when stderr is a terminal. Cleared by `finish_and_clear`.
+pub fn phase(what: &str) -> Option<ProgressBar> {
+    if !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let spinner = ProgressBar::new_spinner();
+    if let Ok(style) = ProgressStyle::with_template("{spinner} {msg} {elapsed}") {
+        spinner.set_style(style);
+    }
+    spinner.set_message(what.to_string());
+    spinner.enable_steady_tick(std::time::Duration::from_millis(200));
+    Some(spinner)
+}
+
+/// End a [`phase`].
+pub fn end_phase(spinner: Option<ProgressBar>) {
+    if let Some(s) = spinner {
+        s.finish_and_clear();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_bar_says_the_frame_the_time_per_frame_and_the_time_left() {
+        // 90 steps, 31 frames (frame 0 and one every 3 steps): 30 steps in 12 s
+        assert_eq!(
+            frames_message(30, 90, 31, 12.0),
+            "frame 11/31 · 1.20 s per frame · 24 s left"
+        );
+        assert_eq!(
+            frames_message(0, 90, 31, 0.0),
+            "frame 1/31 · 0.00 s per frame · 0.00 s left"
+        );
+        assert_eq!(
+            frames_message(90, 90, 31, 200.0),
+            "frame 31/31 · 6.67 s per frame · 0.00 s left"
+        );
+        assert_eq!(
+            frames_message(1, 2, 1, 4000.0),
+            "frame 1/1 · 0.00 s per frame · 1 h 6 min left"
+        );
+        assert_eq!(seconds(185.0), "3 min 5 s");
+    }
 }
 
 /// `--integrator NAME`.

@@ -2,7 +2,7 @@
 //! then write the pictures and the USD stage. Ctrl-C stops the run between two steps and
 //! keeps every frame written.
 
-use super::common::{progress_bar, read_scene, scene_dir};
+use super::common::{end_phase, frames_message, phase, progress_bar, read_scene, scene_dir};
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -73,7 +73,10 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
         Some(path) => (read_scene(path)?, scene_dir(path)),
         None => (superhelix::DEFAULT_SCENE.to_string(), Path::new("")),
     };
-    let (mut setup, grooms) = superhelix::runtime::parse_scene_reporting(&text, dir)?;
+    let reading = phase("reading the scene (fitting its grooms, their rest shapes)");
+    let parsed = superhelix::runtime::parse_scene_reporting(&text, dir);
+    end_phase(reading);
+    let (mut setup, grooms) = parsed?;
     superhelix::apply_tolerance(&mut setup, args.tolerance)?;
     // the digest of the whole scene, which every part names
     let whole = superhelix::runtime::output::checkpoint::setup_digest(&setup);
@@ -179,8 +182,13 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
     if let Err(e) = handler {
         eprintln!("warning: Ctrl-C will not stop the run cleanly: {e}");
     }
-    let mut source = superhelix::open_simulation(setup.clone())?;
+    let building = phase("building the simulation");
+    let source = superhelix::open_simulation(setup.clone());
+    end_phase(building);
+    let mut source = source?;
     let bar = progress_bar();
+    let started = std::time::Instant::now();
+    let frames = plan.frames;
     let report = superhelix::run_planned_with(
         &setup,
         source.as_mut(),
@@ -190,13 +198,20 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
             if let Some(bar) = &bar {
                 bar.set_length(total as u64);
                 bar.set_position(step as u64);
+                if step >= total {
+                    bar.set_message("writing the files made from the frames (USD, pictures)");
+                } else {
+                    let elapsed = started.elapsed().as_secs_f64();
+                    bar.set_message(frames_message(step, total, frames, elapsed));
+                }
             }
         },
         Some(checkpoints),
-    )?;
+    );
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
+    let report = report?;
     for file in &report.files {
         println!("wrote {}", file.display());
     }

@@ -1,7 +1,7 @@
 //! `superhelix validate SCENE`: every problem of a scene, on stderr, or its size and the
 //! output it would write.
 
-use super::common::{read_scene, scene_dir};
+use super::common::{end_phase, phase, read_scene, scene_dir};
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -38,7 +38,10 @@ pub fn run(args: ValidateArgs) -> Result<ExitCode, Error> {
         },
         allow_large_output: args.allow_large_output,
     };
-    match superhelix::check_scene_reporting(&text, scene_dir(path)) {
+    let checking = phase("reading the scene and building its simulation");
+    let checked = superhelix::check_scene_reporting(&text, scene_dir(path));
+    end_phase(checking);
+    match checked {
         Ok((mut setup, grooms)) => {
             // run's options, refused as run refuses them
             superhelix::apply_tolerance(&mut setup, args.tolerance)?;
