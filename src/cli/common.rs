@@ -105,32 +105,6 @@ pub fn end_phase(spinner: Option<ProgressBar>) {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_bar_says_the_frame_the_time_per_frame_and_the_time_left() {
-        // 90 steps, 31 frames (frame 0 and one every 3 steps): 30 steps in 12 s
-        assert_eq!(
-            frames_message(30, 90, 31, 12.0),
-            "frame 11/31 · 1.20 s per frame · 24 s left"
-        );
-        assert_eq!(
-            frames_message(0, 90, 31, 0.0),
-            "frame 1/31 · 0.00 s per frame · 0.00 s left"
-        );
-        assert_eq!(
-            frames_message(90, 90, 31, 200.0),
-            "frame 31/31 · 6.67 s per frame · 0.00 s left"
-        );
-        assert_eq!(
-            frames_message(1, 2, 1, 4000.0),
-            "frame 1/1 · 0.00 s per frame · 1 h 6 min left"
-        );
-        assert_eq!(seconds(185.0), "3 min 5 s");
-    }
-}
 
 /// `--integrator NAME`.
 pub fn integrator(name: &str) -> Result<IntegratorKind, Error> {
@@ -208,4 +182,31 @@ pub fn split_depth(d: usize) -> Result<usize, Error> {
         ));
     }
     Ok(d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_bar_says_the_frame_the_time_per_frame_and_the_time_left() {
+        // 90 steps, 31 frames (frame 0 and one every 3 steps): 30 steps in 12 s
+        assert_eq!(
+            frames_message(30, 90, 31, 12.0),
+            "frame 11/31 · 1.20 s per frame · 24 s left"
+        );
+        assert_eq!(
+            frames_message(0, 90, 31, 0.0),
+            "frame 1/31 · 0.00 s per frame · 0.00 s left"
+        );
+        assert_eq!(
+            frames_message(90, 90, 31, 200.0),
+            "frame 31/31 · 6.67 s per frame · 0.00 s left"
+        );
+        assert_eq!(
+            frames_message(1, 2, 1, 4000.0),
+            "frame 1/1 · 0.00 s per frame · 1 h 6 min left"
+        );
+        assert_eq!(seconds(185.0), "3 min 5 s");
+    }
 }
