@@ -265,6 +265,28 @@ fn progress_stays_off_a_pipe() {
     }
 }
 
+/// A clamped tip held in a frame its strand does not start in: validate names the frame
+/// (its angle, the fields that set it) as the problem, not a distance of 0 m.
+#[test]
+fn a_tip_held_in_another_frame_than_its_start_names_the_frame() {
+    let dir = scratch("held-frame");
+    let scene = write(
+        &dir,
+        "s.toml",
+        "[simulation]\nduration = 0.1\n[[strands]]\nlength = 0.2\n[strands.ends.tip]\nkind = \"clamped\"\ndirection = [1.0, 0.0, 0.0]\n",
+    );
+    let o = superhelix(&["validate", &scene.to_string_lossy()]);
+    let said = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{said}");
+    for e in [
+        "strands[0].ends.tip",
+        "its frame is turned 120.0° from the held frame",
+        "leave out direction and normal",
+    ] {
+        assert!(said.contains(e), "{e:?} not in:\n{said}");
+    }
+}
+
 #[test]
 fn run_rejects_an_invalid_scene_before_simulating() {
     let dir = scratch("run-invalid");
@@ -768,7 +790,7 @@ fn run_takes_a_tolerance_and_reports_its_steps() {
     let out = run("5");
     assert!(!out.status.success());
     assert!(
-        text(&out).contains("simulation.tolerance"),
+        text(&out).contains("--tolerance: 5: must be in"),
         "{}",
         text(&out)
     );

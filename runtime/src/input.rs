@@ -35,7 +35,7 @@ pub fn read_bounded(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>, Stri
             path.display()
         ));
     }
-    if let Some(free) = crate::memory_plan::available_memory() {
+    if let Some(free) = available_memory() {
         if len > free / 2 {
             return Err(format!(
                 "{} is {len} bytes, more than half the memory this machine has free ({free} bytes)",
@@ -56,6 +56,14 @@ pub fn read_bounded(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>, Stri
         ));
     }
     Ok(bytes)
+}
+
+/// The machine's available memory, bytes (Linux; `None` elsewhere or when unreadable).
+pub fn available_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }
 
 /// [`read_bounded`] as text (UTF-8, named in the error when it is not).

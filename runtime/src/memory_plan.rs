@@ -65,13 +65,7 @@ fn human(bytes: u64) -> String {
     }
 }
 
-/// The machine's available memory, bytes (Linux; `None` elsewhere or when unreadable).
-pub fn available_memory() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
-}
+pub use crate::input::available_memory;
 
 /// What `setup` will hold when simulated by `engine`.
 pub fn estimate(setup: &SimulationSetup, engine: Engine) -> MemoryEstimate {

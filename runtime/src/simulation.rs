@@ -668,15 +668,26 @@ impl Simulation {
             if let Some(held) = system.held.as_mut() {
                 // start on the constraint
                 let g = &system.strand.geometry;
-                let before = pose_at(g, &q0, g.length()).position;
+                let before = pose_at(g, &q0, g.length());
                 if let Err(e) = held.project(system.kernel.as_mut(), g, &mut q0, 0.0) {
-                    let (p, _, _) = held.target(0.0);
+                    let (p, frame, _) = held.target(0.0);
+                    let off = (before.position - p).norm();
+                    // the angle between the starting tip frame and the held one
+                    let turn = frame.transpose() * before.frame;
+                    let cos = (0.5 * (turn.trace() - 1.0)).clamp(-1.0, 1.0);
+                    let angle = cos.acos().to_degrees();
+                    let message = if held.end.kind.holds_frame() && angle > 1e-3 {
+                        format!(
+                            "the initial shape's tip is {off:.4e} m from the held position and its frame is turned {angle:.1}° from the held frame (ends.tip.direction, ends.tip.normal), and could not be brought there ({e}): leave out direction and normal to hold the tip in the frame it starts in, or start from a shape whose tip has that frame (q0, or natural curvatures)"
+                        )
+                    } else {
+                        format!(
+                            "the initial shape's tip is {off:.4e} m from the held position and could not be brought there ({e}); start from a shape that reaches it (q0, or natural curvatures)"
+                        )
+                    };
                     errors.push(FieldError::new(
                         format!("strands[{index}].ends.tip"),
-                        format!(
-                            "the initial shape's tip is {:.4e} m from the held place and could not be brought there ({e}); start from a shape that reaches it (q0, or natural curvatures)",
-                            (before - p).norm()
-                        ),
+                        message,
                     ));
                 }
             }

@@ -159,7 +159,9 @@ fn the_embedded_error_controlled_step_is_the_runtimes() {
             eprintln!(
                 "   solves {solves_a} and {solves_b}, rejected {rejected_a} and {rejected_b}"
             );
-            assert!(apart < 1e-10, "{apart:e} L apart");
+            // the docs say within 2e-13 L; 9.6e-14 measured (rounding of the two
+            // assemblies), so 2e-13 fails on any difference beyond it
+            assert!(apart < 2e-13, "{apart:e} L apart");
             assert_eq!((solves_a, rejected_a), (solves_b, rejected_b));
         }
     }

@@ -119,7 +119,7 @@ fn one_solve_per_strand_step_keeps_a_sag_free_head_out_of_its_bodies() {
         );
         assert_eq!(stats.attempts, n * steps);
         assert!(
-            deepest <= 1e-3,
+            deepest <= 0.5e-3,
             "deepest centreline point {deepest:e} m inside a body"
         );
     }
@@ -127,12 +127,13 @@ fn one_solve_per_strand_step_keeps_a_sag_free_head_out_of_its_bodies() {
 
 /// `scenes/full-head-200.toml` as it is (one solve per strand-step, the contacts' stiffness
 /// alone in the matrix, hair–hair every second step, the head turning by ±45°): over the
-/// whole run no point of any centreline is more than 1 mm inside a body, measured on the
+/// whole run no point of any centreline is more than half a millimetre inside a body
+/// (0.42 mm measured; docs/time-stepping.md promises half a millimetre), measured on the
 /// dense sweep of `Simulation::max_penetration` (a point every 0.5 mm of arc length).
 /// The contacts that start within a step are what holds it: resolved with the start's
 /// samples alone, this run put a centreline 5.3 mm inside the head in one step.
 #[test]
-fn the_200_guide_head_at_one_solve_keeps_centrelines_within_a_millimetre_of_the_surface() {
+fn the_200_guide_head_at_one_solve_keeps_centrelines_within_half_a_millimetre_of_the_surface() {
     let text = std::fs::read_to_string(scenes().join("full-head-200.toml"))
         .unwrap_or_else(|e| panic!("{e}"));
     let setup = parse_scene_at(&text, &scenes()).unwrap_or_else(|e| panic!("{e}"));

@@ -105,7 +105,6 @@ pub fn end_phase(spinner: Option<ProgressBar>) {
     }
 }
 
-
 /// `--integrator NAME`.
 pub fn integrator(name: &str) -> Result<IntegratorKind, Error> {
     IntegratorKind::from_name(name).ok_or_else(|| {
