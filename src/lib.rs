@@ -372,14 +372,17 @@ pub fn run_planned_with<S: FrameSource + ?Sized>(
         files.push(checkpoint);
     }
     let mut products_error = None;
+    // a full disk stopped the run: nothing more can be written there (trying would only
+    // bury the cause under the products' own "no space left")
+    let disk_full = matches!(&outcome.stop, StopReason::Failed(e) if e.is_disk_full());
     // the error-controlled step's report per strand, whatever the formats
-    if let Some(rows) = source.strand_steps() {
+    if let Some(rows) = source.strand_steps().filter(|_| !disk_full) {
         match output::npy::write_strand_steps(&plan.dir, &rows) {
             Ok(path) => files.push(path),
             Err(e) => products_error = Some(e),
         }
     }
-    if products != Formats::NONE && outcome.frames_written() > 0 {
+    if products != Formats::NONE && outcome.frames_written() > 0 && !disk_full {
         let view = PreviewOptions::default();
         let written = Scenery::from_setup(setup).and_then(|scenery| {
             let write = |store: &mut dyn output::FrameStore| {

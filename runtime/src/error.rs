@@ -54,8 +54,8 @@ pub enum Error {
     /// with no generated kernel).
     #[error("kernels: {0}")]
     Kernel(String),
-    /// Reading or writing a file failed.
-    #[error("{path}: {source}")]
+    /// Reading or writing a file failed (a full disk says so first: "no space left").
+    #[error("{}", io_message(path, source))]
     Io {
         /// The file concerned.
         path: String,
@@ -64,7 +64,25 @@ pub enum Error {
     },
 }
 
+/// The text of [`Error::Io`]: the file and the OS error, or, for a full disk, that first
+/// with what to do.
+fn io_message(path: &str, source: &std::io::Error) -> String {
+    if source.kind() == std::io::ErrorKind::StorageFull {
+        format!(
+            "no space left on the disk that holds {path} ({source}): free some space there or write elsewhere"
+        )
+    } else {
+        format!("{path}: {source}")
+    }
+}
+
 impl Error {
+    /// Whether this is a full disk ([`Error::Io`] with no space left): nothing more can be
+    /// written there.
+    pub fn is_disk_full(&self) -> bool {
+        matches!(self, Error::Io { source, .. } if source.kind() == std::io::ErrorKind::StorageFull)
+    }
+
     /// A single-field input error.
     pub fn invalid(field: impl Into<String>, message: impl Into<String>) -> Self {
         Error::Invalid(vec![FieldError::new(field, message)])
@@ -73,3 +91,28 @@ impl Error {
 
 /// The runtime's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_full_disk_says_so_first() {
+        let full = Error::Io {
+            path: "out/frames.npy".into(),
+            source: std::io::Error::from(std::io::ErrorKind::StorageFull),
+        };
+        assert!(full.is_disk_full());
+        let text = full.to_string();
+        assert!(
+            text.starts_with("no space left on the disk that holds out/frames.npy"),
+            "{text}"
+        );
+        let other = Error::Io {
+            path: "out/frames.npy".into(),
+            source: std::io::Error::from(std::io::ErrorKind::PermissionDenied),
+        };
+        assert!(!other.is_disk_full());
+        assert!(other.to_string().starts_with("out/frames.npy: "), "{other}");
+    }
+}
