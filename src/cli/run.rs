@@ -225,6 +225,17 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
         outcome.planned_frames,
         out.display()
     );
+    // what the run held at its peak against what validate estimated for it
+    if let Some(peak) = superhelix::runtime::memory_plan::peak_memory() {
+        let (engine, _) = superhelix::runtime::engine_for(&setup);
+        let estimate =
+            superhelix::runtime::memory_plan::estimate_with(&setup, engine, plan.formats.usda);
+        println!(
+            "memory: {:.1} MB at peak (estimated {:.1} MB)",
+            peak as f64 / 1e6,
+            estimate.bytes as f64 / 1e6
+        );
+    }
     match &outcome.stop {
         StopReason::Completed => {
             if let Some(info) = &mut part_info {

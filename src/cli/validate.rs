@@ -90,9 +90,14 @@ fn report_valid(
         println!("{note}");
     }
     let (engine, _) = superhelix::runtime::engine_for(setup);
+    let usd = options
+        .formats
+        .or(setup.output.formats)
+        .unwrap_or(superhelix::Formats::DEFAULT)
+        .usda;
     println!(
         "{}",
-        superhelix::runtime::memory_plan::estimate(setup, engine)
+        superhelix::runtime::memory_plan::estimate_with(setup, engine, usd)
     );
     let plan = superhelix::plan_output(setup, Path::new("out"), options);
     println!("{plan}");
