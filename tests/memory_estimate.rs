@@ -93,7 +93,10 @@ fn the_estimate_is_within_a_quarter_of_the_measured_peak() {
             peak_and_estimate(&said).unwrap_or_else(|| panic!("{name}: no memory line in\n{said}"));
         eprintln!("{name}: peak {peak} MB, estimated {estimate} MB");
         // the strands, particles or points, not the 10 MB of the process, make the peak
-        assert!(peak > 30.0, "{name}: a peak of {peak} MB tests the process alone");
+        assert!(
+            peak > 30.0,
+            "{name}: a peak of {peak} MB tests the process alone"
+        );
         assert!(
             (estimate / peak - 1.0).abs() <= 0.25,
             "{name}: estimated {estimate} MB against a peak of {peak} MB"

@@ -271,8 +271,9 @@ fn full_matrix_compression_buckling() {
     full_group("buckling");
 }
 
+/// The contacts group (80 cases, about 20 s), whose figures docs/hard-cases.md cites:
+/// run by default.
 #[test]
-#[ignore = "full matrix: cargo test --release --test stability -- --ignored"]
 fn full_matrix_contacts() {
     full_group("contacts");
 }
