@@ -669,6 +669,22 @@ impl Simulation {
                 // start on the constraint
                 let g = &system.strand.geometry;
                 let before = pose_at(g, &q0, g.length());
+                // a tip held at the strand's whole length from a held root: the rod is
+                // taut, its held ends' constraints are dependent (the step's G A⁻¹ Gᵀ is
+                // singular) and the run would stop at its first step
+                let (p, _, _) = held.target(0.0);
+                let span = (p - pose_at(g, &q0, 0.0).position).norm();
+                let length = g.length();
+                let root_held = system.strand.ends.root != crate::model::ends::RootEnd::Free;
+                if root_held && !held.end.kind.slides() && span >= (1.0 - 1e-6) * length {
+                    errors.push(FieldError::new(
+                        format!("strands[{index}].ends.tip"),
+                        format!(
+                            "the tip is held {span:.6} m from the root, the strand's whole length ({length:.6} m): a taut rod's held ends are dependent constraints and the run would stop at its first step; hold the tip closer to the root (ends.tip.position), start from a bent shape (q0 or natural curvatures), or let it slide along the strand (kind = \"sliding\")"
+                        ),
+                    ));
+                    continue;
+                }
                 if let Err(e) = held.project(system.kernel.as_mut(), g, &mut q0, 0.0) {
                     let (p, frame, _) = held.target(0.0);
                     let off = (before.position - p).norm();

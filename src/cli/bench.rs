@@ -65,7 +65,7 @@ pub struct BenchArgs {
     max_split_depth: Option<usize>,
     /// With --scene: run the error-controlled step at this tolerance (`[simulation]
     /// tolerance`, 1e-8 to 0.5), replacing the scene's.
-    #[arg(long, value_name = "TOL")]
+    #[arg(long, value_name = "TOL", allow_negative_numbers = true)]
     tolerance: Option<f64>,
     /// What of the external forces' stiffness the implicit step's matrix holds:
     /// projected (default, or the scene's `[simulation] field_stiffness`) or explicit.
@@ -172,9 +172,7 @@ fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
     if let Some(on) = args.energy_balance {
         setup.config.energy_balance = on;
     }
-    if let Some(t) = args.tolerance {
-        setup.config.tolerance = Some(t);
-    }
+    superhelix::apply_tolerance(&mut setup, args.tolerance)?;
     let names = scene_effects(&setup).names().join(",");
     let integrator = setup.config.integrator.name();
     let budget = format!(

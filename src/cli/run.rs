@@ -29,7 +29,7 @@ pub struct RunArgs {
     allow_large_output: bool,
     /// The local error each strand's step may make, relative to its length, replacing the
     /// scene's [simulation] tolerance: error-controlled steps (docs/time-stepping.md).
-    #[arg(long, value_name = "TOL")]
+    #[arg(long, value_name = "TOL", allow_negative_numbers = true)]
     tolerance: Option<f64>,
     /// Go on from the checkpoint in the output directory (--out) of an earlier run of the
     /// same scene, appending to its frames (docs/output.md#checkpoints-and-resume); without

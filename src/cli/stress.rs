@@ -42,7 +42,7 @@ pub struct StressArgs {
     /// Run every linearly implicit Euler case by the error-controlled step at this
     /// tolerance (`[simulation] tolerance`, 1e-8 to 0.5): cases are then named
     /// `<case>@tol<tolerance>`.
-    #[arg(long, value_name = "TOL")]
+    #[arg(long, value_name = "TOL", allow_negative_numbers = true)]
     tolerance: Option<f64>,
 }
 

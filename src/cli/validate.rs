@@ -20,7 +20,7 @@ pub struct ValidateArgs {
     #[arg(long)]
     allow_large_output: bool,
     /// As `run --tolerance`: error-controlled steps with this local error.
-    #[arg(long, value_name = "TOL")]
+    #[arg(long, value_name = "TOL", allow_negative_numbers = true)]
     tolerance: Option<f64>,
     /// As `run --part K/P`: check part K of P of the strands.
     #[arg(long, value_name = "K/P")]
