@@ -309,13 +309,16 @@ fn cases() -> Vec<Case> {
         );
     }
     // static scenes: what they ignore is refused
-    for (v, field) in [("tolerance = 1e-4", "simulation.tolerance")] {
-        let s = Sections {
-            simulation: format!("mode = \"static\"\n{v}"),
-            ..Default::default()
-        };
-        add(format!("static with {v}"), s, &[], Some(field));
-    }
+    let s = Sections {
+        simulation: "mode = \"static\"\ntolerance = 1e-4".into(),
+        ..Default::default()
+    };
+    add(
+        "static with tolerance".into(),
+        s,
+        &[],
+        Some("simulation.tolerance"),
+    );
     let s = Sections {
         simulation: "mode = \"static\"".into(),
         output: "checkpoint_every = 5".into(),
