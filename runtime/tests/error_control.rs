@@ -1,5 +1,7 @@
-//! The error-controlled step (`[simulation] tolerance`) against a reference nobody here
-//! wrote down but the scheme itself run far tighter: the study's `swing` (a straight
+//! The error-controlled step (`[simulation] tolerance`) against independent references
+//! (other schemes with fixed steps and no error estimate: explicit RK4 at 1/60000 s, or
+//! Richardson-extrapolated BDF2 where internal friction makes RK4 too stiff, see
+//! [`reference_tips`]): the study's `swing` (a straight
 //! 20 cm strand of the smooth preset released horizontal under gravity, N = 5), 0.5 s,
 //! the tip compared at every 1/30 s, on the embedded engine (the fixed-N
 //! `step_to_tolerance`, which `engine = "auto"` takes) and the runtime engine.
@@ -80,14 +82,110 @@ fn tips_with(
     (out, stats.attempts, stats.error_rejected)
 }
 
-/// The largest error of the tip over the run, relative to the length, against the same
-/// scheme at τ = 1e-8, for each tolerance; and the solves taken.
+/// The tip every 1/30 s of the swing on the runtime engine with `integrator` and fixed
+/// steps of 1/30/`substeps` s (no tolerance), `frictionless` as in [`tips`], with `head`
+/// (a `[head]` section, or nothing).
+fn fixed_tips(
+    integrator: &str,
+    substeps: usize,
+    frictionless: bool,
+    head: &str,
+) -> Vec<nalgebra::Vector3<f64>> {
+    let dt = 1.0 / (30.0 * substeps as f64);
+    let text = swing(
+        1e-3,
+        &format!("engine = \"runtime\"\nintegrator = \"{integrator}\"\n{head}"),
+    )
+    .replace("tolerance = 1e-3\n", "")
+    .replace("dt = 0.03333333333333333", &format!("dt = {dt:e}"))
+    .replace(
+        "initial = \"straight\"\n",
+        if frictionless {
+            "initial = \"straight\"\ninternal_friction = 0.0\nair_drag = 0.0\n"
+        } else {
+            "initial = \"straight\"\n"
+        },
+    );
+    let setup = parse_scene(&text).unwrap_or_else(|e| panic!("{e}"));
+    let mut sim = Simulation::new(setup, None).unwrap_or_else(|e| panic!("{e}"));
+    let mut out = Vec::new();
+    for _ in 1..=15 {
+        for _ in 0..substeps {
+            sim.step().unwrap_or_else(|e| panic!("{e}"));
+        }
+        out.push(sim.position_at(0, LENGTH));
+    }
+    out
+}
+
+/// The tip every 1/30 s by schemes other than the one tested, with no error control:
+/// frictionless, explicit RK4 (fourth order, no linearisation) with steps of 1/60000 s;
+/// with the preset's internal friction (whose damping mode, |λ| ≈ 2.7e7 1/s, puts RK4's
+/// stability limit at 8e-8 s), BDF2 with fixed steps of 1/15360 and 1/30720 s combined by
+/// Richardson extrapolation (x + (x − x₂)/3 of the two).
+///
+/// Each reference's own error, estimated from the same scheme at twice the step, is
+/// asserted below 1e-7 L, 50 times below the error of the tightest tolerance tested.
+fn reference_tips(frictionless: bool, head: &str) -> Vec<nalgebra::Vector3<f64>> {
+    let apart = |a: &[nalgebra::Vector3<f64>], b: &[nalgebra::Vector3<f64>]| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).norm())
+            .fold(0.0, f64::max)
+            / LENGTH
+    };
+    if frictionless {
+        let (half, full) = (
+            fixed_tips("rk4", 1000, true, head),
+            fixed_tips("rk4", 2000, true, head),
+        );
+        // RK4's error falls 16-fold from one to the other: the finer one's is about
+        // their difference / 15
+        let own = apart(&half, &full) / 15.0;
+        eprintln!("reference (RK4): estimated error {own:.2e} L");
+        assert!(own < 1e-7, "{own:e}");
+        return full;
+    }
+    let richardson = |c: &[nalgebra::Vector3<f64>], f: &[nalgebra::Vector3<f64>]| {
+        c.iter()
+            .zip(f)
+            .map(|(c, f)| f + (f - c) / 3.0)
+            .collect::<Vec<_>>()
+    };
+    let levels: Vec<_> = [256, 512, 1024]
+        .iter()
+        .map(|&k| fixed_tips("bdf2", k, false, head))
+        .collect();
+    let (first, second) = (
+        richardson(&levels[0], &levels[1]),
+        richardson(&levels[1], &levels[2]),
+    );
+    // the two extrapolations' difference bounds the first's error, more than the second's
+    let own = apart(&first, &second);
+    eprintln!("reference (BDF2, Richardson): estimated error {own:.2e} L");
+    assert!(own < 1e-7, "{own:e}");
+    second
+}
+
+/// The largest error of the tip over the run, relative to the length, against the
+/// independent RK4 reference ([`reference_tips`]), for each tolerance; and the solves
+/// taken.
 fn errors(frictionless: bool, tolerances: &[f64], engine: Engine) -> Vec<(f64, usize)> {
-    let (reference, _, _) = tips(1e-8, frictionless, engine);
+    errors_with(frictionless, tolerances, engine, "")
+}
+
+/// [`errors`] with `head` (a `[head]` section, or nothing).
+fn errors_with(
+    frictionless: bool,
+    tolerances: &[f64],
+    engine: Engine,
+    head: &str,
+) -> Vec<(f64, usize)> {
+    let reference = reference_tips(frictionless, head);
     tolerances
         .iter()
         .map(|&tolerance| {
-            let (run, solves, rejected) = tips(tolerance, frictionless, engine);
+            let (run, solves, rejected) = tips_with(tolerance, frictionless, engine, head);
             let error = run
                 .iter()
                 .zip(&reference)
@@ -109,7 +207,12 @@ const TOLERANCES: [f64; 5] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5];
 /// not below τ/10 (the tolerance is not spent on needless steps); a tighter tolerance
 /// costs more solves.
 fn as_accurate_as_asked(frictionless: bool, engine: Engine) {
-    let measured = errors(frictionless, &TOLERANCES, engine);
+    as_accurate_as_asked_with(frictionless, engine, "");
+}
+
+/// [`as_accurate_as_asked`] with `head` (a `[head]` section, or nothing).
+fn as_accurate_as_asked_with(frictionless: bool, engine: Engine, head: &str) {
+    let measured = errors_with(frictionless, &TOLERANCES, engine, head);
     for (&tolerance, &(error, _)) in TOLERANCES.iter().zip(&measured) {
         assert!(
             error <= 3.0 * tolerance && error >= tolerance / 10.0,
@@ -138,6 +241,18 @@ fn a_frictionless_swing_is_as_accurate_as_asked() {
 /// step_to_tolerance`) is the runtime's: the same steps, accepted and rejected, and the
 /// same tip to round-off (measured: at most 9.6e-14 L apart), with the head still and
 /// nodding (±20° at 1 Hz about a point 10 cm below the root).
+/// The head nodding (±20° at 1 Hz about a point 10 cm below the root), the strand
+/// frictionless: the tolerance holds against RK4 with the same head, on both engines.
+#[test]
+fn a_swing_on_a_nodding_head_is_as_accurate_as_asked() {
+    for engine in [Engine::Auto, Engine::Runtime] {
+        as_accurate_as_asked_with(true, engine, NODDING);
+    }
+}
+
+/// A head nodding ±20° at 1 Hz about a point 10 cm below the root.
+const NODDING: &str = "[head]\nmotion = { kind = \"oscillate\", axis = [0.0, 1.0, 0.0], angle_deg = 20.0, frequency_hz = 1.0, center = [0.0, 0.0, -0.1] }";
+
 #[test]
 fn the_embedded_error_controlled_step_is_the_runtimes() {
     let nodding = "[head]\nmotion = { kind = \"oscillate\", axis = [0.0, 1.0, 0.0], angle_deg = 20.0, frequency_hz = 1.0, center = [0.0, 0.0, -0.1] }";
