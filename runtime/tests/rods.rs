@@ -1208,8 +1208,10 @@ fn a_rope_over_a_drum_holds_up_to_the_capstan_ratio_and_slides_beyond() {
         held,
         slid
     );
+    // the bisection brackets the ratio to 0.4/64 of the limit (±0.3 %); measured +0.31 %:
+    // 1 % fails on a holding ratio off by more than the bracket and the rope's bending
     assert!(
-        (found / limit - 1.0).abs() < 0.02,
+        (found / limit - 1.0).abs() < 0.01,
         "holding ratio {found} against {limit}"
     );
     assert!(held.abs() < 1e-4, "held rope moved {held}");
