@@ -265,22 +265,23 @@ fn progress_stays_off_a_pipe() {
     }
 }
 
-/// A clamped tip held in a frame its strand does not start in: validate names the frame
-/// (its angle, the fields that set it) as the problem, not a distance of 0 m.
+/// A clamped tip held in a frame its strand does not start in (and 1 cm short, so that
+/// the straight strand cannot reach it): validate names the frame (its angle, the fields
+/// that set it) beside the distance.
 #[test]
 fn a_tip_held_in_another_frame_than_its_start_names_the_frame() {
     let dir = scratch("held-frame");
     let scene = write(
         &dir,
         "s.toml",
-        "[simulation]\nduration = 0.1\n[[strands]]\nlength = 0.2\n[strands.ends.tip]\nkind = \"clamped\"\ndirection = [1.0, 0.0, 0.0]\n",
+        "[simulation]\nduration = 0.1\n[[strands]]\nlength = 0.2\n[strands.ends.tip]\nkind = \"clamped\"\nposition = [0.0, 0.0, -0.19]\ndirection = [1.0, 0.0, 0.0]\n",
     );
     let o = superhelix(&["validate", &scene.to_string_lossy()]);
     let said = text(&o);
     assert_eq!(o.status.code(), Some(1), "{said}");
     for e in [
         "strands[0].ends.tip",
-        "its frame is turned 120.0° from the held frame",
+        "its frame is turned 120.0° from the held frame (ends.tip.direction, ends.tip.normal)",
         "leave out direction and normal",
     ] {
         assert!(said.contains(e), "{e:?} not in:\n{said}");

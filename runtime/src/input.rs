@@ -1,7 +1,8 @@
-//! Reading a user's files with bounded resources: a path that is not a regular file (a
-//! device such as `/dev/zero`, a pipe, a folder) is refused before it is read, and so is
-//! a file longer than its kind can be or than the memory the machine has free, before
-//! anything is allocated for it.
+//! Reading a user's files with bounded resources: a folder is refused; a file longer than
+//! its kind can be or than the memory the machine has free is refused before anything is
+//! allocated for it; a pipe or a device (`run <(generate-scene)`) is read up to its kind's
+//! limit only, and refused outright where the kind has none (a checkpoint: `/dev/zero`
+//! in its place would be read until the machine ran out of memory).
 
 use std::io::Read;
 use std::path::Path;
@@ -22,11 +23,25 @@ pub fn read_bounded(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>, Stri
     let meta = file
         .metadata()
         .map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
-    if !meta.is_file() {
+    if meta.is_dir() || (!meta.is_file() && limit == u64::MAX) {
         return Err(format!(
             "{} is not a regular file (a folder, a device or a pipe): give a {what}",
             path.display()
         ));
+    }
+    if !meta.is_file() {
+        // a pipe or a device (`run <(generate-scene)`): read up to the kind's limit
+        let mut bytes = Vec::new();
+        file.take(limit.saturating_add(1))
+            .read_to_end(&mut bytes)
+            .map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
+        if bytes.len() as u64 > limit {
+            return Err(format!(
+                "{} gave more than a {what} can be ({limit} bytes) and is not a regular file",
+                path.display()
+            ));
+        }
+        return Ok(bytes);
     }
     let len = meta.len();
     if len > limit {
@@ -81,8 +96,14 @@ mod tests {
     fn devices_folders_and_long_files_are_refused_before_they_are_read() {
         #[cfg(unix)]
         {
-            let e = read_bounded(Path::new("/dev/zero"), 1 << 20, "checkpoint").unwrap_err();
+            let e = read_bounded(Path::new("/dev/zero"), u64::MAX, "checkpoint").unwrap_err();
             assert!(e.contains("not a regular file"), "{e}");
+            // a stream is read up to the kind's limit, no further
+            let e = read_bounded(Path::new("/dev/zero"), 1 << 20, "scene file").unwrap_err();
+            assert!(
+                e.contains("gave more than a scene file can be (1048576 bytes)"),
+                "{e}"
+            );
         }
         let dir = std::env::temp_dir().join(format!("superhelix-input-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("dir");
