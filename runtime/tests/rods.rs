@@ -1404,6 +1404,11 @@ fn a_free_root_is_refused_where_nothing_would_hold_it_and_named() {
 /// along the rails by `pull` · μ P there. The rod's centre of mass along x (m) at every
 /// step from 1 s to 2 s (dt = 2 ms), and its mass (kg).
 fn rails_pull(mu: f64, pull: f64) -> (Vec<f64>, f64) {
+    rails_pull_kinetic(mu, mu, pull)
+}
+
+/// [`rails_pull`] with a kinetic coefficient `kinetic` (≤ `mu`, the static one).
+fn rails_pull_kinetic(mu: f64, kinetic: f64, pull: f64) -> (Vec<f64>, f64) {
     let load = 1e-6;
     let (radius, density) = (1e-4, 1300.0);
     let rail = |name: &str, y: f64| {
@@ -1443,6 +1448,7 @@ radius = 0.001
 stiffness = 1e2
 friction = "coulomb"
 friction_coefficient = {mu}
+kinetic_friction_coefficient = {kinetic}
 {}{}
 [[strands]]
 name = "rod"
@@ -1521,6 +1527,55 @@ fn a_rod_pressed_across_rails_holds_below_coulombs_limit_and_slides_beyond() {
     // while the load is taken up, before 1 s)
     assert!(moved(&held).abs() < 1e-9, "{}", moved(&held));
     assert!(moved(&slid) > 1e-3, "{}", moved(&slid));
+    assert!(
+        (accel / expected - 1.0).abs() < 1e-2,
+        "{accel} vs {expected}"
+    );
+}
+
+/// The threshold of the rails, bisected: the rod sticks up to a pull of μ P and slides
+/// beyond (μ_k = μ_s; found within the bisection's bracket of ±0.3 %: measured 0.9969,
+/// bracket [0.9938, 1.0000]).
+#[test]
+fn the_rails_hold_up_to_mu_p_bisected() {
+    let mu = 0.3;
+    let moved = |x: &[f64]| x[x.len() - 1] - x[0];
+    let holds = |pull: f64| moved(&rails_pull(mu, pull).0).abs() < 1e-9;
+    let (mut lo, mut hi) = (0.95, 1.05);
+    assert!(holds(lo) && !holds(hi), "the bracket [{lo}, {hi}] μP");
+    for _ in 0..4 {
+        let mid = 0.5 * (lo + hi);
+        if holds(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let found = 0.5 * (lo + hi);
+    println!("rails: threshold {found:.4} μ P (bracket [{lo:.4}, {hi:.4}])");
+    // (the bracket, 0.1/16 wide, gives ±0.3 %: 1 % fails on a threshold off by more)
+    assert!((found - 1.0).abs() < 0.01, "threshold {found} μP");
+}
+
+/// With μ_k = 0.2 < μ_s = 0.3 a pull of 0.9 μ_s P (above μ_k P) must still stick, and a
+/// sliding rod accelerate at (T − μ_k P)/m. It does not: the rod slides 2.5 cm at 0.9 μ_s P
+/// and accelerates 41 % faster than (T − μ_k P)/m, as if the kinetic force were 0.13 P
+/// (the sliding-friction defect of the next issue, #47).
+#[test]
+#[ignore = "fails: rod–rod friction with μ_k < μ_s (issue #47); cargo test --release -p superhelix-runtime --test rods -- --ignored the_rails_stick"]
+fn the_rails_stick_below_mu_s_p_and_slide_on_mu_k() {
+    let (mu, kinetic) = (0.3, 0.2);
+    let moved = |x: &[f64]| x[x.len() - 1] - x[0];
+    let (held, _) = rails_pull_kinetic(mu, kinetic, 0.9);
+    let (slid, mass) = rails_pull_kinetic(mu, kinetic, 1.2);
+    let expected = (1.2 * mu - kinetic) * 1e-6 / mass;
+    let accel = fitted_acceleration(&slid, 0.002);
+    println!(
+        "rails, μ_k = {kinetic}: 0.9 μ_s P moves {:.2e} m, 1.2 μ_s P accelerates at {accel:.4e} m/s² against (T − μ_k P)/m = {expected:.4e} ({:+.2} %)",
+        moved(&held),
+        100.0 * (accel / expected - 1.0)
+    );
+    assert!(moved(&held).abs() < 1e-9, "{}", moved(&held));
     assert!(
         (accel / expected - 1.0).abs() < 1e-2,
         "{accel} vs {expected}"
