@@ -205,13 +205,15 @@ fn refuse_input_as_output(parts: &[PartDir], out: &Path) -> Result<()> {
 fn check_strands(parts: &[PartDir], setup: &crate::SimulationSetup) -> Result<()> {
     let count = parts[0].info.part.count;
     let strands = setup.strands.len();
-    let total = parts[0].info.total_strands;
-    if total != strands || count > strands {
-        return Err(refuse(format!(
-            "{} says part {}/{count} of {total} strands, its scene has {strands}: the file was changed; run the part again",
-            parts[0].dir.join(crate::part::PART_FILE).display(),
-            parts[0].info.part.index,
-        )));
+    for p in parts {
+        let total = p.info.total_strands;
+        if total != strands || count > strands {
+            return Err(refuse(format!(
+                "{} says part {}/{count} of {total} strands, its scene has {strands}: the file was changed; run the part again",
+                p.dir.join(crate::part::PART_FILE).display(),
+                p.info.part.index,
+            )));
+        }
     }
     let expected = crate::part::split(setup, count);
     for p in parts {

@@ -501,3 +501,233 @@ fn a_hostile_pass_loses_nothing_hangs_nowhere_and_refuses_by_name() {
         bad.join("\n\n")
     );
 }
+
+/// The files of folder `dir` and their bytes, sorted by name.
+fn snapshot(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut out: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter(|e| e.path().is_file())
+        .map(|e| {
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap_or_default(),
+            )
+        })
+        .collect();
+    out.sort();
+    out
+}
+
+/// Copy the files of `from` into `to` (created).
+fn copy_folder(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap_or_else(|e| panic!("{e}"));
+    for (name, bytes) in snapshot(from) {
+        std::fs::write(to.join(name), bytes).unwrap_or_else(|e| panic!("{e}"));
+    }
+}
+
+/// The hostile pass of the commands that read a user's earlier output: `merge` and
+/// `run --resume` given missing, repeated, changed and damaged folders and files. Each
+/// is refused with exit code 1 or 2 naming what is wrong, none hangs, and the parts and
+/// the run it read are byte for byte as they were.
+#[test]
+fn merge_and_resume_refuse_by_name_and_lose_nothing() {
+    let dir = scratch("hostile-outputs");
+    let scene = write(
+        &dir,
+        "s.toml",
+        "[simulation]\nduration = 0.2\n[output]\ncheckpoint_every = 2\n[[patches]]\ncount = [2, 2]\nsize = [0.02, 0.02]\nlength = 0.1\nelements = 3\n",
+    )
+    .to_string_lossy()
+    .into_owned();
+    let path = |p: &Path| p.to_string_lossy().into_owned();
+    let (p1, p2, whole) = (dir.join("p1"), dir.join("p2"), dir.join("whole"));
+    for (k, out) in [(1, &p1), (2, &p2)] {
+        let args: Vec<String> = [
+            "run",
+            &scene,
+            "--part",
+            &format!("{k}/2"),
+            "--out",
+            &path(out),
+            "--format",
+            "npy",
+        ]
+        .map(String::from)
+        .to_vec();
+        let (code, said) = run_limited(&args, Duration::from_secs(60)).expect("the part ran");
+        assert_eq!(code, Some(0), "{said}");
+    }
+    let args: Vec<String> = ["run", &scene, "--out", &path(&whole), "--format", "npy"]
+        .map(String::from)
+        .to_vec();
+    let (code, said) = run_limited(&args, Duration::from_secs(60)).expect("the run ran");
+    assert_eq!(code, Some(0), "{said}");
+    let kept = [snapshot(&p1), snapshot(&p2), snapshot(&whole)];
+    // damaged copies of p2 and of the whole run
+    let copy = |name: &str, from: &Path, change: &dyn Fn(&Path)| {
+        let to = dir.join(name);
+        copy_folder(from, &to);
+        change(&to);
+        path(&to)
+    };
+    let set_json = |key: &'static str, value: serde_json::Value| {
+        move |d: &Path| {
+            let file = d.join("part.json");
+            let mut v: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(&file).unwrap_or_default())
+                    .unwrap_or_default();
+            v[key] = value.clone();
+            std::fs::write(&file, serde_json::to_vec(&v).unwrap_or_default())
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
+    };
+    let garbage = copy("garbage", &p2, &|d| {
+        std::fs::write(d.join("part.json"), b"{ not json").unwrap_or_else(|e| panic!("{e}"))
+    });
+    let format = copy(
+        "format",
+        &p2,
+        &set_json("format", serde_json::json!("superhelix-frames")),
+    );
+    let huge_p = copy(
+        "huge_p",
+        &p2,
+        &set_json(
+            "part",
+            serde_json::json!({"index": 2, "count": 1_000_000_000u64}),
+        ),
+    );
+    let huge_total = copy(
+        "huge_total",
+        &p2,
+        &set_json("total_strands", serde_json::json!(1_000_000_000_000u64)),
+    );
+    let far = copy(
+        "far",
+        &p2,
+        &set_json("strands", serde_json::json!([0, 99_999_999u64])),
+    );
+    let folder = copy("folder", &p2, &|d| {
+        std::fs::remove_file(d.join("part.json")).unwrap_or_else(|e| panic!("{e}"));
+        std::fs::create_dir(d.join("part.json")).unwrap_or_else(|e| panic!("{e}"));
+    });
+    let no_npy = copy("no_npy", &p2, &|d| {
+        std::fs::remove_file(d.join("frames.npy")).unwrap_or_else(|e| panic!("{e}"))
+    });
+    let short = copy("short", &p2, &|d| {
+        let b = std::fs::read(d.join("frames.npy")).unwrap_or_default();
+        std::fs::write(d.join("frames.npy"), &b[..b.len() / 2]).unwrap_or_else(|e| panic!("{e}"));
+    });
+    let bad_ck = copy("bad_ck", &whole, &|d| {
+        std::fs::write(d.join("checkpoint.bin"), b"SHXCKPT1 garbage")
+            .unwrap_or_else(|e| panic!("{e}"))
+    });
+    let dir_ck = copy("dir_ck", &whole, &|d| {
+        std::fs::remove_file(d.join("checkpoint.bin")).unwrap_or_else(|e| panic!("{e}"));
+        std::fs::create_dir(d.join("checkpoint.bin")).unwrap_or_else(|e| panic!("{e}"));
+    });
+    let resume_no_npy = copy("resume_no_npy", &whole, &|d| {
+        std::fs::remove_file(d.join("frames.npy")).unwrap_or_else(|e| panic!("{e}"))
+    });
+    let other = write(&dir, "other.toml", "[simulation]\nduration = 0.3\n[[patches]]\ncount = [2, 2]\nsize = [0.02, 0.02]\nlength = 0.1\nelements = 3\n");
+    let other = path(&other);
+    let (a, b, w) = (path(&p1), path(&p2), path(&whole));
+    let m = path(&dir.join("m"));
+    let missing = path(&dir.join("missing"));
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["merge", &missing, &b, "--out", &m], "does not exist"),
+        (
+            vec!["merge", &scene, &b, "--out", &m],
+            "is a file, not a folder",
+        ),
+        (vec!["merge", &a, "--out", &m], "part 2/2 is given 0 times"),
+        (
+            vec!["merge", &a, &a, &b, "--out", &m],
+            "part 1/2 is given 2 times",
+        ),
+        (vec!["merge", &a, &b, "--out", &a], "--out"),
+        (vec!["merge", &a, &b, "--out", &scene], "--out"),
+        (vec!["merge", &a, &garbage, "--out", &m], "is not a part's"),
+        (vec!["merge", &a, &format, "--out", &m], "is not a part's"),
+        (vec!["merge", &a, &huge_p, "--out", &m], "part 2/1000000000"),
+        (
+            vec!["merge", &a, &huge_total, "--out", &m],
+            "strands, its scene has",
+        ),
+        (
+            vec!["merge", &a, &far, "--out", &m],
+            "not those of part 2/2",
+        ),
+        (
+            vec!["merge", &a, &folder, "--out", &m],
+            "not a regular file",
+        ),
+        (
+            vec!["merge", &a, &no_npy, "--out", &m],
+            "frames.npy (part 2/2) is missing",
+        ),
+        (
+            vec!["merge", &a, &short, "--out", &m],
+            "is not the file its run wrote",
+        ),
+        (
+            vec!["run", &scene, "--resume", &scene, "--format", "npy"],
+            "is a file, not a folder",
+        ),
+        (
+            vec!["run", &scene, "--resume", &bad_ck, "--format", "npy"],
+            "is damaged",
+        ),
+        (
+            vec!["run", &scene, "--resume", &dir_ck, "--format", "npy"],
+            "not a regular file",
+        ),
+        (
+            vec!["run", &scene, "--resume", &resume_no_npy, "--format", "npy"],
+            "frames.npy is missing",
+        ),
+        (
+            vec!["run", &other, "--resume", &w, "--format", "npy"],
+            "is of another run",
+        ),
+        (
+            vec![
+                "run", &scene, "--resume", &w, "--out", &m, "--format", "npy",
+            ],
+            "--out",
+        ),
+    ];
+    let mut bad = Vec::new();
+    for (args, expect) in &cases {
+        let owned: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+        match run_limited(&owned, Duration::from_secs(60)) {
+            None => bad.push(format!("hung: {args:?}")),
+            Some((code, said)) => {
+                let clear = matches!(code, Some(1) | Some(2))
+                    && said.contains(expect)
+                    && !said.contains("panicked")
+                    && !said.contains("os error");
+                if !clear {
+                    bad.push(format!(
+                        "{args:?}: exit {code:?}, expected {expect:?}:\n{}",
+                        said.trim()
+                    ));
+                }
+            }
+        }
+    }
+    eprintln!(
+        "{} merge and resume cases, {} went wrong",
+        cases.len(),
+        bad.len()
+    );
+    assert!(bad.is_empty(), "{}", bad.join("\n\n"));
+    // nothing read was changed
+    assert!(
+        kept == [snapshot(&p1), snapshot(&p2), snapshot(&whole)],
+        "a part or the run changed"
+    );
+}
