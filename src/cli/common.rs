@@ -143,6 +143,41 @@ pub fn with_threads<T: Send>(
     }
 }
 
+/// The options of `run` that change what a run simulates or writes, which `validate`
+/// takes too and checks as `run` does.
+#[derive(clap::Args)]
+pub struct RunChoices {
+    /// Files to write, replacing the scene's [output] formats: json, npy, usda, png,
+    /// gif, obj, preview (= png + gif); repeatable or comma-separated.
+    #[arg(long, value_name = "FORMATS")]
+    pub format: Vec<String>,
+    /// Write the output even when its planned size exceeds the limit (2 GB, or the
+    /// scene's [output] max_bytes).
+    #[arg(long)]
+    pub allow_large_output: bool,
+    /// The local error each strand's step may make, relative to its length, replacing the
+    /// scene's [simulation] tolerance: error-controlled steps (docs/time-stepping.md).
+    #[arg(long, value_name = "TOL", allow_negative_numbers = true)]
+    pub tolerance: Option<f64>,
+    /// Simulate part K of P of the strands (balanced by their expected cost), for
+    /// `superhelix merge` to join (docs/output.md#a-head-split-across-machines).
+    #[arg(long, value_name = "K/P")]
+    pub part: Option<superhelix::part::Part>,
+}
+
+impl RunChoices {
+    /// `--format` and `--allow-large-output` as the library takes them.
+    pub fn run_options(&self) -> Result<superhelix::RunOptions, Error> {
+        Ok(superhelix::RunOptions {
+            formats: match self.format.is_empty() {
+                true => None,
+                false => Some(superhelix::Formats::from_cli(&self.format)?),
+            },
+            allow_large_output: self.allow_large_output,
+        })
+    }
+}
+
 /// Whether an error's field names a scene field (`simulation.dt`, `strands[2].length`)
 /// rather than an option (`--out`), a command-line argument (`PART_DIRS`, in capitals)
 /// or the output plan (`output`).

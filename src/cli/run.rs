@@ -2,7 +2,9 @@
 //! then write the pictures and the USD stage. Ctrl-C stops the run between two steps and
 //! keeps every frame written.
 
-use super::common::{end_phase, frames_message, phase, progress_bar, read_scene, scene_dir};
+use super::common::{
+    end_phase, frames_message, phase, progress_bar, read_scene, scene_dir, RunChoices,
+};
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -19,27 +21,14 @@ pub struct RunArgs {
     /// Output directory.
     #[arg(long, value_name = "DIR", default_value = "out")]
     out: PathBuf,
-    /// Files to write, replacing the scene's [output] formats: json, npy, usda, png,
-    /// gif, obj, preview (= png + gif); repeatable or comma-separated.
-    #[arg(long, value_name = "FORMATS")]
-    format: Vec<String>,
-    /// Write the output even when its planned size exceeds the limit (2 GB, or the
-    /// scene's [output] max_bytes).
-    #[arg(long)]
-    allow_large_output: bool,
-    /// The local error each strand's step may make, relative to its length, replacing the
-    /// scene's [simulation] tolerance: error-controlled steps (docs/time-stepping.md).
-    #[arg(long, value_name = "TOL", allow_negative_numbers = true)]
-    tolerance: Option<f64>,
+    /// What to simulate and write: --format, --allow-large-output, --tolerance, --part.
+    #[command(flatten)]
+    choices: RunChoices,
     /// Go on from the checkpoint in the output directory (--out) of an earlier run of the
     /// same scene, appending to its frames (docs/output.md#checkpoints-and-resume); without
     /// a checkpoint there, the run starts at t = 0.
     #[arg(long, value_name = "DIR")]
     resume: Option<PathBuf>,
-    /// Simulate part K of P of the strands (balanced by their expected cost), for
-    /// `superhelix merge` to join (docs/output.md#a-head-split-across-machines).
-    #[arg(long, value_name = "K/P")]
-    part: Option<superhelix::part::Part>,
 }
 
 /// Raised by Ctrl-C: the run stops between two steps and keeps its frames.
@@ -77,11 +66,11 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
     let parsed = superhelix::runtime::parse_scene_reporting(&text, dir);
     end_phase(reading);
     let (mut setup, grooms) = parsed?;
-    superhelix::apply_tolerance(&mut setup, args.tolerance)?;
+    superhelix::apply_tolerance(&mut setup, args.choices.tolerance)?;
     // the digest of the whole scene, which every part names
     let whole = superhelix::runtime::output::checkpoint::setup_digest(&setup);
     let mut part_strands = None;
-    if let Some(part) = args.part {
+    if let Some(part) = args.choices.part {
         let total = setup.strands.len();
         let (reduced, strands) = superhelix::part::part_setup(&setup, part)?;
         println!(
@@ -99,13 +88,7 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
     for groom in &grooms {
         println!("{groom}");
     }
-    let options = superhelix::RunOptions {
-        formats: match args.format.is_empty() {
-            true => None,
-            false => Some(superhelix::Formats::from_cli(&args.format)?),
-        },
-        allow_large_output: args.allow_large_output,
-    };
+    let options = args.choices.run_options()?;
     let plan = superhelix::plan_output(&setup, out, &options);
     println!("{plan}");
     if let Some(note) = &plan.note {
@@ -116,8 +99,8 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
         &text,
         &setup,
         &plan,
-        args.tolerance,
-        args.part.map(|p| (p.index, p.count)),
+        args.choices.tolerance,
+        args.choices.part.map(|p| (p.index, p.count)),
         args.resume.is_some(),
     )?;
     match (&checkpoints.resume, args.resume.is_some()) {

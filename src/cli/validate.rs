@@ -1,7 +1,7 @@
 //! `superhelix validate SCENE`: every problem of a scene, on stderr, or its size and the
 //! output it would write.
 
-use super::common::{end_phase, phase, read_scene, scene_dir};
+use super::common::{end_phase, phase, read_scene, scene_dir, RunChoices};
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -13,39 +13,24 @@ use superhelix::Error;
 pub struct ValidateArgs {
     /// Scene file (TOML).
     scene: PathBuf,
-    /// Files `run` would write, replacing the scene's [output] formats (as `run --format`).
-    #[arg(long, value_name = "FORMATS")]
-    format: Vec<String>,
-    /// As `run --allow-large-output`: the output may exceed its size limit.
-    #[arg(long)]
-    allow_large_output: bool,
-    /// As `run --tolerance`: error-controlled steps with this local error.
-    #[arg(long, value_name = "TOL", allow_negative_numbers = true)]
-    tolerance: Option<f64>,
-    /// As `run --part K/P`: check part K of P of the strands.
-    #[arg(long, value_name = "K/P")]
-    part: Option<superhelix::part::Part>,
+    /// As `run`'s: --format, --allow-large-output, --tolerance, --part.
+    #[command(flatten)]
+    choices: RunChoices,
 }
 
 /// Run `validate`.
 pub fn run(args: ValidateArgs) -> Result<ExitCode, Error> {
     let path = &args.scene;
     let text = read_scene(path)?;
-    let options = superhelix::RunOptions {
-        formats: match args.format.is_empty() {
-            true => None,
-            false => Some(superhelix::Formats::from_cli(&args.format)?),
-        },
-        allow_large_output: args.allow_large_output,
-    };
+    let options = args.choices.run_options()?;
     let checking = phase("reading the scene and building its simulation");
     let checked = superhelix::check_scene_reporting(&text, scene_dir(path));
     end_phase(checking);
     match checked {
         Ok((mut setup, grooms)) => {
             // run's options, refused as run refuses them
-            superhelix::apply_tolerance(&mut setup, args.tolerance)?;
-            if let Some(part) = args.part {
+            superhelix::apply_tolerance(&mut setup, args.choices.tolerance)?;
+            if let Some(part) = args.choices.part {
                 let total = setup.strands.len();
                 let (reduced, strands) = superhelix::part::part_setup(&setup, part)?;
                 println!(
@@ -56,7 +41,7 @@ pub fn run(args: ValidateArgs) -> Result<ExitCode, Error> {
                 );
                 setup = reduced;
             }
-            if args.tolerance.is_some() || args.part.is_some() {
+            if args.choices.tolerance.is_some() || args.choices.part.is_some() {
                 superhelix::check_setup(&setup)?;
             }
             report_valid(&setup, &grooms, &options)
