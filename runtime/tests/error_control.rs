@@ -31,6 +31,17 @@ initial = "straight"
     )
 }
 
+/// `scene` with no internal friction and no air drag on its strand when `frictionless`.
+fn without_friction(scene: String, frictionless: bool) -> String {
+    if !frictionless {
+        return scene;
+    }
+    scene.replace(
+        "initial = \"straight\"\n",
+        "initial = \"straight\"\ninternal_friction = 0.0\nair_drag = 0.0\n",
+    )
+}
+
 /// The tip at every step, and the solves taken and steps rejected on `engine`;
 /// `frictionless`: no internal friction and no air drag.
 fn tips(
@@ -52,13 +63,9 @@ fn tips_with(
         Engine::Runtime => "runtime",
         _ => "auto",
     };
-    let text = swing(tolerance, &format!("engine = \"{name}\"\n{head}")).replace(
-        "initial = \"straight\"\n",
-        if frictionless {
-            "initial = \"straight\"\ninternal_friction = 0.0\nair_drag = 0.0\n"
-        } else {
-            "initial = \"straight\"\n"
-        },
+    let text = without_friction(
+        swing(tolerance, &format!("engine = \"{name}\"\n{head}")),
+        frictionless,
     );
     let setup = parse_scene(&text).unwrap_or_else(|e| panic!("{e}"));
     let mut sim = Simulation::new(setup, None).unwrap_or_else(|e| panic!("{e}"));
@@ -97,15 +104,8 @@ fn fixed_tips(
         &format!("engine = \"runtime\"\nintegrator = \"{integrator}\"\n{head}"),
     )
     .replace("tolerance = 1e-3\n", "")
-    .replace("dt = 0.03333333333333333", &format!("dt = {dt:e}"))
-    .replace(
-        "initial = \"straight\"\n",
-        if frictionless {
-            "initial = \"straight\"\ninternal_friction = 0.0\nair_drag = 0.0\n"
-        } else {
-            "initial = \"straight\"\n"
-        },
-    );
+    .replace("dt = 0.03333333333333333", &format!("dt = {dt:e}"));
+    let text = without_friction(text, frictionless);
     let setup = parse_scene(&text).unwrap_or_else(|e| panic!("{e}"));
     let mut sim = Simulation::new(setup, None).unwrap_or_else(|e| panic!("{e}"));
     let mut out = Vec::new();
