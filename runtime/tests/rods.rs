@@ -1100,6 +1100,20 @@ fn a_free_rod_keeps_its_momentum_and_angular_momentum() {
     );
 }
 
+/// `[lo, hi]` halved `halvings` times towards where `holds` changes from true (at `lo`)
+/// to false (at `hi`): the last bracket.
+fn bisect(mut lo: f64, mut hi: f64, halvings: usize, holds: impl Fn(f64) -> bool) -> (f64, f64) {
+    for _ in 0..halvings {
+        let mid = 0.5 * (lo + hi);
+        if holds(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    (lo, hi)
+}
+
 /// A rope over a horizontal drum of radius 2 cm (a `cylinder` body, Coulomb friction μ,
 /// no anisotropy, no gravity), wrapped over its top half (θ = π) with a vertical leg on
 /// each side, free at both ends: a dead load T1 = 0.1 N down on its root, ratio · T1 on
@@ -1186,17 +1200,10 @@ fn a_rope_over_a_drum_holds_up_to_the_capstan_ratio_and_slides_beyond() {
     let mu = 0.3;
     let limit = (mu * std::f64::consts::PI).exp();
     let holds = |ratio: f64| capstan_slip(mu, ratio).abs() < 1e-4;
-    let (mut lo, mut hi) = (0.8 * limit, 1.2 * limit);
+    let (lo, hi) = (0.8 * limit, 1.2 * limit);
     assert!(holds(lo), "the rope slides at {lo}");
     assert!(!holds(hi), "the rope holds at {hi}");
-    for _ in 0..6 {
-        let mid = 0.5 * (lo + hi);
-        if holds(mid) {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
+    let (lo, hi) = bisect(lo, hi, 6, holds);
     let found = 0.5 * (lo + hi);
     // the same loads (T2/T1 = 2) held with μ = 0.3 (limit 2.57), sliding with μ = 0.2
     // (limit 1.87)
@@ -1541,16 +1548,9 @@ fn the_rails_hold_up_to_mu_p_bisected() {
     let mu = 0.3;
     let moved = |x: &[f64]| x[x.len() - 1] - x[0];
     let holds = |pull: f64| moved(&rails_pull(mu, pull).0).abs() < 1e-9;
-    let (mut lo, mut hi) = (0.95, 1.05);
+    let (lo, hi) = (0.95, 1.05);
     assert!(holds(lo) && !holds(hi), "the bracket [{lo}, {hi}] μP");
-    for _ in 0..4 {
-        let mid = 0.5 * (lo + hi);
-        if holds(mid) {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
+    let (lo, hi) = bisect(lo, hi, 4, holds);
     let found = 0.5 * (lo + hi);
     println!("rails: threshold {found:.4} μ P (bracket [{lo:.4}, {hi:.4}])");
     // (the bracket, 0.1/16 wide, gives ±0.3 %: 1 % fails on a threshold off by more)
