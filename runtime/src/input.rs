@@ -29,46 +29,47 @@ pub fn read_bounded(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>, Stri
             path.display()
         ));
     }
-    if !meta.is_file() {
-        // a pipe or a device (`run <(generate-scene)`): read up to the kind's limit
-        let mut bytes = Vec::new();
-        file.take(limit.saturating_add(1))
-            .read_to_end(&mut bytes)
-            .map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
-        if bytes.len() as u64 > limit {
+    // how much may be read: a regular file's length (checked first), a stream's limit
+    let regular = meta.is_file();
+    let bound = if regular {
+        let len = meta.len();
+        if len > limit {
             return Err(format!(
-                "{} gave more than a {what} can be ({limit} bytes) and is not a regular file",
+                "{} is {len} bytes, more than a {what} can be ({limit} bytes)",
                 path.display()
             ));
         }
-        return Ok(bytes);
-    }
-    let len = meta.len();
-    if len > limit {
-        return Err(format!(
-            "{} is {len} bytes, more than a {what} can be ({limit} bytes)",
-            path.display()
-        ));
-    }
-    if let Some(free) = available_memory() {
-        if len > free / 2 {
-            return Err(format!(
-                "{} is {len} bytes, more than half the memory this machine has free ({free} bytes)",
-                path.display()
-            ));
+        if let Some(free) = available_memory() {
+            if len > free / 2 {
+                return Err(format!(
+                    "{} is {len} bytes, more than half the memory this machine has free ({free} bytes)",
+                    path.display()
+                ));
+            }
         }
-    }
-    // (a file that grows while it is read is cut at its length when opened, plus one
-    // byte to see that it grew)
-    let mut bytes = Vec::with_capacity(len as usize);
-    file.take(len.saturating_add(1))
+        len
+    } else {
+        // a pipe or a device (`run <(generate-scene)`): up to the kind's limit
+        limit
+    };
+    // one byte more than the bound shows a file that grew while it was read, or a stream
+    // beyond the limit
+    let mut bytes = Vec::with_capacity(if regular { bound as usize } else { 0 });
+    file.take(bound.saturating_add(1))
         .read_to_end(&mut bytes)
         .map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
-    if bytes.len() as u64 > len {
-        return Err(format!(
-            "{} grew while it was read: give a {what} that no program is writing",
-            path.display()
-        ));
+    if bytes.len() as u64 > bound {
+        return Err(if regular {
+            format!(
+                "{} grew while it was read: give a {what} that no program is writing",
+                path.display()
+            )
+        } else {
+            format!(
+                "{} gave more than a {what} can be ({limit} bytes) and is not a regular file",
+                path.display()
+            )
+        });
     }
     Ok(bytes)
 }

@@ -166,6 +166,28 @@ pub struct RunChoices {
 }
 
 impl RunChoices {
+    /// `--part K/P` applied to `setup` (refused as [`superhelix::part::part_setup`]
+    /// refuses), with the line that says so: the part, the whole scene's strand indices it
+    /// holds and the whole scene's strand count; `None` without `--part`.
+    pub fn take_part(
+        &self,
+        setup: &mut superhelix::SimulationSetup,
+    ) -> Result<Option<(superhelix::part::Part, Vec<usize>, usize)>, Error> {
+        let Some(part) = self.part else {
+            return Ok(None);
+        };
+        let total = setup.strands.len();
+        let (reduced, strands) = superhelix::part::part_setup(setup, part)?;
+        println!(
+            "part {}/{}: {} of {total} strands",
+            part.index,
+            part.count,
+            strands.len()
+        );
+        *setup = reduced;
+        Ok(Some((part, strands, total)))
+    }
+
     /// `--format` and `--allow-large-output` as the library takes them.
     pub fn run_options(&self) -> Result<superhelix::RunOptions, Error> {
         Ok(superhelix::RunOptions {

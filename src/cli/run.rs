@@ -69,22 +69,13 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
     superhelix::apply_tolerance(&mut setup, args.choices.tolerance)?;
     // the digest of the whole scene, which every part names
     let whole = superhelix::runtime::output::checkpoint::setup_digest(&setup);
-    let mut part_strands = None;
-    if let Some(part) = args.choices.part {
-        let total = setup.strands.len();
-        let (reduced, strands) = superhelix::part::part_setup(&setup, part)?;
-        println!(
-            "part {}/{}: {} of {total} strands",
-            part.index,
-            part.count,
-            strands.len()
-        );
+    if args.choices.part.is_some() {
+        // (validate says it of every scene with hair–hair contacts)
         if let Some(note) = superhelix::part::hair_hair_note(&setup) {
             println!("{note}");
         }
-        setup = reduced;
-        part_strands = Some((part, strands, total));
     }
+    let part_strands = args.choices.take_part(&mut setup)?;
     for groom in &grooms {
         println!("{groom}");
     }

@@ -30,17 +30,7 @@ pub fn run(args: ValidateArgs) -> Result<ExitCode, Error> {
         Ok((mut setup, grooms)) => {
             // run's options, refused as run refuses them
             superhelix::apply_tolerance(&mut setup, args.choices.tolerance)?;
-            if let Some(part) = args.choices.part {
-                let total = setup.strands.len();
-                let (reduced, strands) = superhelix::part::part_setup(&setup, part)?;
-                println!(
-                    "part {}/{}: {} of {total} strands",
-                    part.index,
-                    part.count,
-                    strands.len()
-                );
-                setup = reduced;
-            }
+            args.choices.take_part(&mut setup)?;
             if args.choices.tolerance.is_some() || args.choices.part.is_some() {
                 superhelix::check_setup(&setup)?;
             }
