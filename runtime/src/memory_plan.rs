@@ -17,13 +17,15 @@
 //!                    + 2,000 N with body contacts         (contact samples, anchors)
 //!       + 400 per tracer particle of [electrostatics]     (particles, multipole tree)
 //!       + 20 per render-strand point when hair.usda is written
+//!       + 1,500 per hair–hair pair of the scene's start     (the pair, its anchor, a
+//!                                                          partner point per side)
 //! ```
 //!
 //! (Runtime engine, bytes per strand measured: 27 k at N = 2, 77 k at 5, 213 k at 10,
 //! 662 k at 20, 1.40 M at 30, 2.91 M at 50; embedded: 2.7 k, 5.0 k, 9.5 k, 24.6 k at N = 2,
-//! 5, 10, 20.) Hair–hair contact is not in it: its pairs grow with the strands' crowding
-//! (a dense patch of 1,000 strands held 1.9 GB of them), which `[contacts.hair_hair]`'s
-//! own bounded pair lists are to replace.
+//! 5, 10, 20.) The hair–hair pairs are counted at the scene's start
+//! ([`hair_pairs_at_start`]); a sample keeps at most `max_pairs_per_sample` of them, so
+//! they stay linear in the samples however the strands crowd later.
 
 use crate::config::{Engine, SimulationSetup};
 use crate::error::{Error, Result};
@@ -46,6 +48,9 @@ pub const BYTES_PER_PARTICLE: f64 = 400.0;
 /// Bytes per render-strand point when `hair.usda` is written (its rest, blended and
 /// kept-out positions, in f32).
 pub const BYTES_PER_RENDER_POINT: f64 = 20.0;
+/// Bytes per hair–hair pair (its pair and anchor, and the partner point it gives each of
+/// its two strands, with the allocator's slack).
+pub const BYTES_PER_HAIR_PAIR: f64 = 1_500.0;
 /// The process itself (code, tables, thread stacks, buffers).
 pub const BASE_BYTES: f64 = 10e6;
 
@@ -141,13 +146,73 @@ pub fn estimate_with(setup: &SimulationSetup, engine: Engine, usd: bool) -> Memo
         (Some(r), true) => (r.strands * guide_points) as f64,
         _ => 0.0,
     };
-    let bytes =
-        BASE_BYTES + strands + particles * BYTES_PER_PARTICLE + render * BYTES_PER_RENDER_POINT;
+    let pairs = hair_pairs_at_start(setup) as f64;
+    let bytes = BASE_BYTES
+        + strands
+        + particles * BYTES_PER_PARTICLE
+        + render * BYTES_PER_RENDER_POINT
+        + pairs * BYTES_PER_HAIR_PAIR;
     MemoryEstimate {
         bytes: bytes as u64,
         engine,
         available: available_memory(),
     }
+}
+
+/// The hair–hair pairs of `setup`'s start (0 without `[contacts.hair_hair]`): the
+/// strands' contact samples at their initial state, placed by the head at time 0, searched
+/// as the first step searches them ([`crate::forces::contacts::hair_hair::pairs_at_start`],
+/// at most `max_pairs_per_sample` per sample).
+pub fn hair_pairs_at_start(setup: &SimulationSetup) -> usize {
+    use crate::forces::contacts::{ContactParams, HairHairParams, StrandContacts};
+    use rayon::prelude::*;
+    let Some(c) = setup.contacts.as_ref() else {
+        return 0;
+    };
+    let Some(h) = c.hair_hair.as_ref() else {
+        return 0;
+    };
+    let head = setup.head.state(0.0);
+    let bodies: std::sync::Arc<[crate::bodies::Body]> = Vec::new().into();
+    let sampled: Vec<(Vec<(f64, f64)>, Vec<nalgebra::Vector3<f64>>)> = setup
+        .strands
+        .par_iter()
+        .map(|s| {
+            let g = &s.strand.geometry;
+            let rho_s = s.strand.material.mass_per_length;
+            let mut contacts = StrandContacts::new(
+                g,
+                bodies.clone(),
+                ContactParams::new(c, rho_s),
+                Some(HairHairParams::new(h, rho_s)),
+                c.samples_per_element,
+            );
+            if s.q0.len() != g.dofs() || s.q0.iter().any(|x| !x.is_finite()) {
+                return (Vec::new(), Vec::new());
+            }
+            contacts.sample_poses(g, &s.q0);
+            let points = contacts
+                .sample_positions()
+                .map(|y| head.position + head.rotation * y)
+                .collect();
+            (contacts.samples().to_vec(), points)
+        })
+        .collect();
+    let arcs: Vec<&[(f64, f64)]> = sampled.iter().map(|x| &x.0[..]).collect();
+    let points: Vec<Vec<nalgebra::Vector3<f64>>> = sampled.iter().map(|x| x.1.clone()).collect();
+    let h_step = setup.config.dt;
+    let fall = setup
+        .environment
+        .gravity
+        .map_or(0.0, |g| g.norm() * h_step * h_step);
+    crate::forces::contacts::hair_hair::pairs_at_start(
+        &points,
+        &arcs,
+        h.self_contact.then(|| h.self_exclusion()),
+        2.0 * h.radius,
+        fall,
+        h.max_pairs_per_sample,
+    )
 }
 
 /// The peak resident memory of this process so far (Linux's `VmHWM`), bytes; `None`

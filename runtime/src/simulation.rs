@@ -750,7 +750,8 @@ impl Simulation {
             hair_hair: setup.contacts.as_ref().and_then(|c| {
                 c.hair_hair.as_ref().map(|h| {
                     let mut hh = HairHair::new(h.search_every)
-                        .with_depenetration_speed(c.depenetration_speed);
+                        .with_depenetration_speed(c.depenetration_speed)
+                        .with_pair_cap(h.max_pairs_per_sample);
                     if let Some(f) = h.friction {
                         hh = hh.with_friction(f);
                     }
@@ -1001,6 +1002,8 @@ impl Simulation {
             .par_iter_mut()
             .map(|s| match &mut s.system.contacts {
                 Some(c) => {
+                    // the last step's partners go before the new ones are built
+                    c.clear_partners();
                     c.sample_poses(&s.system.strand.geometry, &s.state.q);
                     c.sample_positions()
                         .map(|y| head.position + head.rotation * y)

@@ -145,6 +145,9 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
             let every = h.optional("search_every", hd.search_every, |n, k| {
                 n.count(k, 1, 1000, "the cap on steps between searches")
             });
+            let max_pairs = h.optional("max_pairs_per_sample", hd.max_pairs_per_sample, |n, k| {
+                n.count(k, 1, 64, "the cap on the pairs a contact sample keeps")
+            });
             let self_contact = super::reader::boolean(&mut h, "self_contact", false);
             let split_depth = if h.has("split_depth") {
                 h.f64(
@@ -219,6 +222,7 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
                 self_exclusion,
                 split_depth,
                 hh_friction,
+                max_pairs,
             ) {
                 (
                     Some(radius),
@@ -229,6 +233,7 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
                     Some(self_exclusion),
                     Some(split_depth),
                     Some(friction),
+                    Some(max_pairs_per_sample),
                 ) => Some(Some(HairHairConfig {
                     radius,
                     stiffness,
@@ -238,6 +243,7 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
                     self_exclusion,
                     split_depth,
                     friction,
+                    max_pairs_per_sample,
                 })),
                 _ => None,
             }

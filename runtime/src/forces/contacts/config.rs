@@ -93,7 +93,18 @@ pub struct HairHairConfig {
     /// Coulomb friction between the strands in contact (and the parts of a strand, with
     /// self-contact); `None`: none, the damping acts on the whole relative velocity.
     pub friction: Option<RodFriction>,
+    /// The most pairs a sample keeps: a pair is kept while it is among the
+    /// `max_pairs_per_sample` nearest of either of its samples, so that the pairs (and
+    /// the memory and time of a step) grow linearly with the samples however dense the
+    /// hair ([`DEFAULT_MAX_PAIRS_PER_SAMPLE`]).
+    pub max_pairs_per_sample: usize,
 }
+
+/// The default cap on the pairs of a sample: more than the strands a sample of a dense
+/// bundle touches at once (hair volumes of radius R packed 1 R apart: a disc of radius
+/// 2 R holds about 4π ≈ 12.6 strands), so that in contact it drops only pairs beyond
+/// the nearest 16, which have not met yet.
+pub const DEFAULT_MAX_PAIRS_PER_SAMPLE: usize = 16;
 
 /// The default arc length excluded from self-contact, in radii of the hair volume: more
 /// than the π R of the tightest U-turn a strand of radius R can make, so that two points
@@ -119,6 +130,7 @@ impl Default for HairHairConfig {
             self_exclusion: None,
             split_depth: None,
             friction: None,
+            max_pairs_per_sample: DEFAULT_MAX_PAIRS_PER_SAMPLE,
         }
     }
 }

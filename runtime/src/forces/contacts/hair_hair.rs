@@ -54,7 +54,7 @@
 //!
 //! The cost per step is linear in the number of samples (the grid) plus the pairs.
 
-use super::config::RodFriction;
+use super::config::{RodFriction, DEFAULT_MAX_PAIRS_PER_SAMPLE};
 use super::strand_contacts::{PartnerAnchor, PartnerPoint};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
@@ -107,6 +107,8 @@ pub struct HairHair {
     /// Self-contact: the arc length within which two samples of one strand do not
     /// interact (`None`: a strand does not touch itself).
     self_exclusion: Option<f64>,
+    /// The most pairs a sample keeps (its nearest; `None`: no cap).
+    pair_cap: Option<usize>,
 }
 
 /// What the last update did.
@@ -207,8 +209,18 @@ impl HairHair {
     pub fn new(search_every: usize) -> Self {
         HairHair {
             search_every: search_every.max(1),
+            pair_cap: Some(DEFAULT_MAX_PAIRS_PER_SAMPLE),
             ..Default::default()
         }
+    }
+
+    /// Keep at most `cap` pairs per sample: a pair is kept while it is among the `cap`
+    /// nearest pairs of either of its two samples (default
+    /// [`DEFAULT_MAX_PAIRS_PER_SAMPLE`]). The pairs are then at most `cap` times the
+    /// samples, whatever the density of the hair.
+    pub fn with_pair_cap(mut self, cap: usize) -> Self {
+        self.pair_cap = Some(cap.max(1));
+        self
     }
 
     /// Let two strands that are found already overlapping (at the first update, or on
@@ -360,6 +372,7 @@ impl HairHair {
                 self.self_exclusion,
                 &radius,
                 reach + margin(0.0),
+                self.pair_cap.unwrap_or(usize::MAX),
                 &mut self.grid,
             );
             new_pairs.retain(|p| tracked.binary_search(p).is_err());
@@ -381,6 +394,10 @@ impl HairHair {
                     .collect();
                 tracked = merged;
             }
+        }
+        // the cap: the pairs tracked to new samples and those found may crowd a sample
+        if let Some(cap) = self.pair_cap {
+            (tracked, anchors) = keep_nearest(tracked, anchors, points, cap);
         }
         self.found_last = found;
         self.steps += 1;
@@ -537,6 +554,18 @@ impl HairHair {
                 )
             })
             .collect::<Vec<_>>();
+        // each strand's list sized once (a dense groom holds millions of partner points)
+        let mut counts = vec![0usize; points.len()];
+        for p in &tracked {
+            counts[p.a.0] += 1;
+            if p.a.0 != p.b.0 {
+                counts[p.b.0] += 1;
+            }
+        }
+        for (list, &n) in partners.iter_mut().zip(&counts) {
+            list.reserve_exact(n);
+        }
+        drop(counts);
         for (p, (on_a, on_b)) in tracked.iter().zip(points_of) {
             partners[p.a.0].push(on_a);
             // a pair of two parts of one strand acts on both through its first side
@@ -571,6 +600,79 @@ fn distinct(
         (Some(e), Some(x), Some(y)) => (x - y).abs() > e,
         _ => false,
     }
+}
+
+/// How many pairs the first update of a [`HairHair`] with pair cap `cap` (and
+/// self-contact `self_exclusion`) finds at `points` (world, per strand per sample; `arcs`
+/// their arc lengths and weights) with reach `reach` and a free fall `fall` over the first
+/// step: the broad phase of [`HairHair::update`] with no motion yet, capped. The memory
+/// estimate counts the pairs of a scene's start with it.
+pub fn pairs_at_start(
+    points: &[Vec<Vector3<f64>>],
+    arcs: &[&[(f64, f64)]],
+    self_exclusion: Option<f64>,
+    reach: f64,
+    fall: f64,
+    cap: usize,
+) -> usize {
+    let search = reach + fall.clamp(reach, SEARCH_MARGIN * reach);
+    let radius: Vec<Vec<f64>> = points.iter().map(|c| vec![search; c.len()]).collect();
+    let found = broad_phase(
+        points,
+        arcs,
+        self_exclusion,
+        &radius,
+        search,
+        cap,
+        &mut Vec::new(),
+    );
+    let anchors = vec![None; found.len()];
+    keep_nearest(found, anchors, points, cap).0.len()
+}
+
+/// The pairs (sorted, with their anchors) that are among the `cap` nearest of either of
+/// their two samples (distance between the samples at `points`; ties by pair), in the same
+/// order.
+fn keep_nearest(
+    pairs: Vec<Pair>,
+    anchors: Vec<Option<PairAnchor>>,
+    points: &[Vec<Vector3<f64>>],
+    cap: usize,
+) -> (Vec<Pair>, Vec<Option<PairAnchor>>) {
+    if pairs.len() <= cap {
+        return (pairs, anchors);
+    }
+    // every pair twice, under each of its samples, nearest first
+    let mut ends: Vec<((usize, usize), f64, usize)> = pairs
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(i, p)| {
+            let d = dist2(points, p.a, p.b);
+            [(p.a, d, i), (p.b, d, i)]
+        })
+        .collect();
+    ends.par_sort_unstable_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)).then(x.2.cmp(&y.2)));
+    let mut keep = vec![false; pairs.len()];
+    let mut rank = 0;
+    for j in 0..ends.len() {
+        rank = if j > 0 && ends[j].0 == ends[j - 1].0 {
+            rank + 1
+        } else {
+            0
+        };
+        if rank < cap {
+            keep[ends[j].2] = true;
+        }
+    }
+    if keep.iter().all(|&k| k) {
+        return (pairs, anchors);
+    }
+    pairs
+        .into_iter()
+        .zip(anchors)
+        .zip(keep)
+        .filter_map(|(x, k)| k.then_some(x))
+        .unzip()
 }
 
 /// The union of two sorted lists without common elements, sorted.
@@ -646,6 +748,7 @@ fn broad_phase(
     self_exclusion: Option<f64>,
     radius: &[Vec<f64>],
     cell: f64,
+    cap: usize,
     cells: &mut Vec<Filed>,
 ) -> Vec<Pair> {
     // cell coordinates offset into 21 bits each (± 10⁶ cells: ± 8 km at an 8 mm cell);
@@ -712,36 +815,18 @@ fn broad_phase(
             let widest = own.iter().map(|f| f.radius).fold(0.0, f64::max);
             let span = ((widest / cell).ceil() as i64).clamp(1, SPAN - 1) as u64;
             let corner = (span << 42) + (span << 21) + span;
-            // every pair is taken once, by one rule: a pair whose larger search distance
-            // is at most a cell, from the cell earlier in the order of the keys (within
-            // one cell, from its earlier sample); any other from the side of the larger
-            // search distance, which looks as far as it (at a tie, the earlier sample's)
-            let earlier =
-                |f: &Filed, g: &Filed| (f.cell, f.strand, f.sample) < (g.cell, g.strand, g.sample);
-            let takes = |fa: &Filed, fb: &Filed| {
-                if fa.radius.max(fb.radius) <= cell {
-                    earlier(fa, fb)
-                } else {
-                    fa.radius > fb.radius || (fa.radius == fb.radius && earlier(fa, fb))
-                }
-            };
             let mut out = Vec::new();
-            for dx in 0..=2 * span {
-                for dy in 0..=2 * span {
-                    for dz in 0..=2 * span {
-                        let other = (c + (dx << 42) + (dy << 21) + dz).wrapping_sub(corner);
-                        // a cell of slow samples looks only at the cells after it (the
-                        // cells before it look at it)
-                        if widest <= cell && other < c {
-                            continue;
-                        }
-                        let others = run(other);
-                        if others.is_empty() {
-                            continue;
-                        }
-                        for fa in own {
-                            let ra = fa.radius;
-                            for fb in others {
+            // each sample keeps its `cap` nearest candidates (both samples of a pair look
+            // for it: it is kept when it is among the nearest of either)
+            let mut nearest: Vec<(f64, Pair)> = Vec::new();
+            for fa in own {
+                let ra = fa.radius;
+                nearest.clear();
+                for dx in 0..=2 * span {
+                    for dy in 0..=2 * span {
+                        for dz in 0..=2 * span {
+                            let other = (c + (dx << 42) + (dy << 21) + dz).wrapping_sub(corner);
+                            for fb in run(other) {
                                 if fa.strand == fb.strand
                                     && self_exclusion.is_none_or(|e| (fa.arc - fb.arc).abs() <= e)
                                 {
@@ -750,20 +835,24 @@ fn broad_phase(
                                 let r = ra.max(fb.radius);
                                 let d = dist2_of(&fa.x, &fb.x);
                                 // only the local minima of the distance along both chains
-                                if d >= r * r
-                                    || !takes(fa, fb)
-                                    || !fa.local_minimum(fb, d, self_exclusion)
-                                {
+                                if d >= r * r || !fa.local_minimum(fb, d, self_exclusion) {
                                     continue;
                                 }
                                 let a = (fa.strand as usize, fa.sample as usize);
                                 let b = (fb.strand as usize, fb.sample as usize);
                                 let (a, b) = if a < b { (a, b) } else { (b, a) };
-                                out.push(Pair { a, b });
+                                nearest.push((d, Pair { a, b }));
                             }
                         }
                     }
                 }
+                if nearest.len() > cap {
+                    nearest.select_nth_unstable_by(cap, |x, y| {
+                        x.0.total_cmp(&y.0).then(x.1.cmp(&y.1))
+                    });
+                    nearest.truncate(cap);
+                }
+                out.extend(nearest.iter().map(|x| x.1));
             }
             out
         })
@@ -957,7 +1046,15 @@ mod tests {
             r * r
         };
         let mut cells = Vec::new();
-        let found = broad_phase(&points, &arcs, exclusion, &radius, cell, &mut cells);
+        let found = broad_phase(
+            &points,
+            &arcs,
+            exclusion,
+            &radius,
+            cell,
+            usize::MAX,
+            &mut cells,
+        );
         let mut all = Vec::new();
         for i in 0..points.len() {
             for j in i..points.len() {
@@ -985,5 +1082,40 @@ mod tests {
         all.dedup();
         assert!(all.len() > 50, "{} pairs: too few to test", all.len());
         assert_eq!(found, all);
+        // capped: a subset, at most `cap` per sample, holding every pair that is among
+        // the `cap` nearest of both its samples (each sample ranks what it sees, at least
+        // the pairs within its own search distance, so a pair nearest for both is seen
+        // and kept by one of them)
+        let samples: usize = points.iter().map(|c| c.len()).sum();
+        let by_sample = |x: (usize, usize)| {
+            let mut own: Vec<(f64, Pair)> = all
+                .iter()
+                .filter(|p| p.a == x || p.b == x)
+                .map(|p| (dist2(&points, p.a, p.b), *p))
+                .collect();
+            own.sort_by(|u, v| u.0.total_cmp(&v.0).then(u.1.cmp(&v.1)));
+            own.into_iter().map(|u| u.1).collect::<Vec<_>>()
+        };
+        for cap in [1, 2, 4] {
+            let capped = broad_phase(&points, &arcs, exclusion, &radius, cell, cap, &mut cells);
+            assert!(capped.iter().all(|p| all.binary_search(p).is_ok()));
+            assert!(capped.len() <= cap * samples);
+            let must: Vec<Pair> = all
+                .iter()
+                .filter(|p| by_sample(p.a)[..].iter().take(cap).any(|q| q == *p))
+                .filter(|p| by_sample(p.b)[..].iter().take(cap).any(|q| q == *p))
+                .copied()
+                .collect();
+            assert!(!must.is_empty() && capped.len() < all.len(), "cap {cap}");
+            for p in &must {
+                assert!(capped.binary_search(p).is_ok(), "cap {cap}: {p:?} dropped");
+            }
+            // and the cap after tracking keeps what the search kept
+            let anchors = vec![None; capped.len()];
+            let (kept, _) = keep_nearest(capped.clone(), anchors, &points, cap);
+            for p in &must {
+                assert!(kept.binary_search(p).is_ok(), "cap {cap}: {p:?} not kept");
+            }
+        }
     }
 }

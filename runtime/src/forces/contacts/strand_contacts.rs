@@ -452,7 +452,13 @@ impl StrandContacts {
         self.partners.sort_by(|a, b| a.s.total_cmp(&b.s));
     }
 
-    /// Whether the strand has partner points for the coming step (hair–hair).
+    /// Drop the partner points (their memory is freed before the next update builds
+    /// the new ones).
+    pub fn clear_partners(&mut self) {
+        self.partners = Vec::new();
+    }
+
+    /// Whether the strand has partner points for the coming step.
     pub fn has_partners(&self) -> bool {
         !self.partners.is_empty()
     }
