@@ -4,10 +4,25 @@
 //! [`reference_tips`]): the study's `swing` (a straight
 //! 20 cm strand of the smooth preset released horizontal under gravity, N = 5), 0.5 s,
 //! the tip compared at every 1/30 s, on the embedded engine (the fixed-N
-//! `step_to_tolerance`, which `engine = "auto"` takes) and the runtime engine.
+//! `step_to_tolerance`, which `engine = "auto"` takes) and the runtime engine; the same
+//! on a nodding head. With a body contact: the swing down a frictionless plane inclined
+//! at 45° that the strand lies on from the start ([`incline`]), on the runtime engine
+//! (which `auto` takes with contacts: the embedded engine has none). There the promise
+//! (at most 3 τ) fails, with and without the strand's friction (issue #51): those tests
+//! are ignored, with the measured figures.
+//!
+//! With contacts the references hold only where no contact starts with a speed: the swing
+//! falling onto a floor 10 cm below its root (its tip landing at about 1.4 m/s, the
+//! penalty's damping switched on at once) has no reference within 10⁻⁷ L at any
+//! affordable step. Measured, the tip's largest difference over the frames after the
+//! landing: RK4 at 1/30000 and 1/60000 s, 1.5·10⁻² L; at 1/60000 and 1/120000 s,
+//! 1.5·10⁻² L; at 1/120000 and 1/240000 s, 4.6·10⁻³ L (frictionless strand); BDF2 with the
+//! preset's friction, Richardson-extrapolated from 256/512 and from 512/1024 steps a frame,
+//! 1.1·10⁻² L apart (from 512/1024 and 1024/2048, 1.1·10⁻³ L). The incline's references
+//! converge as they do without contacts.
 
 use superhelix_runtime::config::Engine;
-use superhelix_runtime::{parse_scene, validate_scene, Simulation};
+use superhelix_runtime::{engine_for, parse_scene, validate_scene, Simulation};
 
 const LENGTH: f64 = 0.2;
 
@@ -42,23 +57,21 @@ fn without_friction(scene: String, frictionless: bool) -> String {
     )
 }
 
-/// The tip at every step, and the solves taken and steps rejected on `engine`;
-/// `frictionless`: no internal friction and no air drag.
-fn tips(
-    tolerance: f64,
-    frictionless: bool,
-    engine: Engine,
-) -> (Vec<nalgebra::Vector3<f64>>, usize, usize) {
-    tips_with(tolerance, frictionless, engine, "")
+/// The samples of strand 0 touching a body at the last evaluation (0 without contacts).
+fn touching(sim: &Simulation) -> usize {
+    sim.contact_summary(0).map_or(0, |c| c.body_contacts)
 }
 
-/// [`tips`] with `head` (a `[head]` section, or nothing).
+/// The tip at every frame, the solves taken and steps rejected on `engine`, and the
+/// fewest contact samples touching a body at a frame (0 without contacts);
+/// `frictionless`: no internal friction and no air drag; `head`: a `[head]` section, or
+/// bodies and `[contacts]`, or nothing.
 fn tips_with(
     tolerance: f64,
     frictionless: bool,
     engine: Engine,
     head: &str,
-) -> (Vec<nalgebra::Vector3<f64>>, usize, usize) {
+) -> (Vec<nalgebra::Vector3<f64>>, usize, usize, usize) {
     let name = match engine {
         Engine::Runtime => "runtime",
         _ => "auto",
@@ -75,6 +88,7 @@ fn tips_with(
     };
     assert_eq!(sim.engine(), expected, "auto takes the embedded engine");
     let mut out = Vec::new();
+    let mut fewest = usize::MAX;
     for k in 1..=15 {
         sim.step().unwrap_or_else(|e| panic!("{e}"));
         // the steps end on the scene's time steps
@@ -84,14 +98,16 @@ fn tips_with(
             sim.time()
         );
         out.push(sim.position_at(0, LENGTH));
+        fewest = fewest.min(touching(&sim));
     }
     let stats = sim.stats();
-    (out, stats.attempts, stats.error_rejected)
+    (out, stats.attempts, stats.error_rejected, fewest)
 }
 
 /// The tip every 1/30 s of the swing on the runtime engine with `integrator` and fixed
-/// steps of 1/30/`substeps` s (no tolerance), `frictionless` as in [`tips`], with `head`
-/// (a `[head]` section, or nothing).
+/// steps of 1/30/`substeps` s (no tolerance), `frictionless` and `head` as in
+/// [`tips_with`]. With `[contacts]` (the [`incline`]), asserts that every contact sample
+/// touches the body at every frame: the reference stays on it.
 fn fixed_tips(
     integrator: &str,
     substeps: usize,
@@ -108,12 +124,21 @@ fn fixed_tips(
     let text = without_friction(text, frictionless);
     let setup = parse_scene(&text).unwrap_or_else(|e| panic!("{e}"));
     let mut sim = Simulation::new(setup, None).unwrap_or_else(|e| panic!("{e}"));
+    let samples = sim.samples_per_element() * sim.strand(0).geometry.elements();
     let mut out = Vec::new();
     for _ in 1..=15 {
         for _ in 0..substeps {
             sim.step().unwrap_or_else(|e| panic!("{e}"));
         }
         out.push(sim.position_at(0, LENGTH));
+        if text.contains("[contacts]") {
+            assert_eq!(
+                touching(&sim),
+                samples,
+                "{integrator}, {substeps} steps a frame: the strand left the body at t = {}",
+                sim.time()
+            );
+        }
     }
     out
 }
@@ -168,35 +193,37 @@ fn reference_tips(frictionless: bool, head: &str) -> Vec<nalgebra::Vector3<f64>>
 }
 
 /// The largest error of the tip over the run, relative to the length, against the
-/// independent RK4 reference ([`reference_tips`]), for each tolerance; and the solves
-/// taken.
-fn errors(frictionless: bool, tolerances: &[f64], engine: Engine) -> Vec<(f64, usize)> {
-    errors_with(frictionless, tolerances, engine, "")
-}
-
-/// [`errors`] with `head` (a `[head]` section, or nothing).
+/// independent reference ([`reference_tips`]), for each tolerance; the solves taken; and
+/// the fewest contact samples touching a body at a frame (0 without contacts). `head` as
+/// in [`tips_with`].
 fn errors_with(
     frictionless: bool,
     tolerances: &[f64],
     engine: Engine,
     head: &str,
-) -> Vec<(f64, usize)> {
+) -> Vec<(f64, usize, usize)> {
     let reference = reference_tips(frictionless, head);
     tolerances
         .iter()
         .map(|&tolerance| {
-            let (run, solves, rejected) = tips_with(tolerance, frictionless, engine, head);
+            let (run, solves, rejected, fewest) =
+                tips_with(tolerance, frictionless, engine, head);
             let error = run
                 .iter()
                 .zip(&reference)
                 .map(|(a, b)| (a - b).norm())
                 .fold(0.0, f64::max)
                 / LENGTH;
+            let contacts = if head.contains("[contacts]") {
+                format!(", at least {fewest} contact samples touching at each frame")
+            } else {
+                String::new()
+            };
             eprintln!(
-                "{engine:?}: frictionless {frictionless}, tolerance {tolerance:.0e}: largest tip error {error:.3e} L ({:.2} τ), {solves} solves, {rejected} steps rejected",
+                "{engine:?}: frictionless {frictionless}, tolerance {tolerance:.0e}: largest tip error {error:.3e} L ({:.2} τ), {solves} solves, {rejected} steps rejected{contacts}",
                 error / tolerance
             );
-            (error, solves)
+            (error, solves, fewest)
         })
         .collect()
 }
@@ -210,16 +237,22 @@ fn as_accurate_as_asked(frictionless: bool, engine: Engine) {
     as_accurate_as_asked_with(frictionless, engine, "");
 }
 
-/// [`as_accurate_as_asked`] with `head` (a `[head]` section, or nothing).
-fn as_accurate_as_asked_with(frictionless: bool, engine: Engine, head: &str) {
+/// [`as_accurate_as_asked`] with `head` (as in [`tips_with`]); returns what
+/// [`errors_with`] measured.
+fn as_accurate_as_asked_with(
+    frictionless: bool,
+    engine: Engine,
+    head: &str,
+) -> Vec<(f64, usize, usize)> {
     let measured = errors_with(frictionless, &TOLERANCES, engine, head);
-    for (&tolerance, &(error, _)) in TOLERANCES.iter().zip(&measured) {
+    for (&tolerance, &(error, _, _)) in TOLERANCES.iter().zip(&measured) {
         assert!(
             error <= 3.0 * tolerance && error >= tolerance / 10.0,
             "tolerance {tolerance:e}: error {error:e}"
         );
     }
     assert!(measured.windows(2).all(|w| w[1].1 > w[0].1));
+    measured
 }
 
 /// With the preset's friction and drag: measured 0.28 to 0.50 τ (both engines).
@@ -235,6 +268,94 @@ fn the_swing_is_as_accurate_as_asked() {
 fn a_frictionless_swing_is_as_accurate_as_asked() {
     as_accurate_as_asked(true, Engine::Auto);
     as_accurate_as_asked(true, Engine::Runtime);
+}
+
+/// A plane inclined at 45° (its outward normal (0, 1, 1)/√2) one contact radius (1 mm)
+/// plus `offset` (m) from the strand's line, which it holds, frictionless contact: the
+/// swing starts lying on it (at zero depth along its whole length with no offset) and,
+/// pressed on it by gravity's normal component (sinking about 0.07 µm at the default
+/// penalty), swings down it under g sin 45°, the tip reaching 13 cm below the root.
+/// Every one of its 20 contact samples (4 an element) touches the plane at every frame of
+/// the references ([`fixed_tips`] asserts it) for offsets up to 1 nm, so no contact
+/// starts with a speed and the references converge as without contacts (RK4, the
+/// frictionless strand: estimated error 2.1·10⁻¹⁴ L; BDF2 with Richardson, the preset's
+/// friction: 3.4·10⁻⁸ L, 8.0·10⁻⁸ L at 1 nm). (At an offset of 0.1 µm two of the 20
+/// samples stay off the plane at every frame, the root being clamped off it, and the
+/// references no longer converge: 1.2·10⁻⁶ L; the strand starting inside, at −10⁻¹⁵ m,
+/// takes the allowance of a start inside a body: 1.1·10⁻⁵ L.)
+fn incline(offset: f64) -> String {
+    let d = -(1e-3 + offset) * std::f64::consts::FRAC_1_SQRT_2;
+    format!(
+        "[[bodies]]\nname = \"incline\"\nshape = \"plane\"\nattached = \"world\"\npoint = [0.0, {d:e}, {d:e}]\nnormal = [0.0, 0.7071067811865476, 0.7071067811865476]\n[contacts]\nradius = 0.001\nfriction = \"none\""
+    )
+}
+
+/// The offsets of the [`incline`] its tests take (m): whether the tolerance holds must not
+/// hang on a nanometre.
+const OFFSETS: [f64; 4] = [0.0, 1e-15, 1e-12, 1e-9];
+
+/// With contacts `engine = "auto"` takes the runtime engine, naming `contacts`: the
+/// embedded engine has none. The tests below run the runtime engine.
+#[test]
+fn auto_takes_the_runtime_engine_with_contacts() {
+    let text = swing(1e-3, &format!("engine = \"auto\"\n{}", incline(0.0)));
+    let setup = parse_scene(&text).unwrap_or_else(|e| panic!("{e}"));
+    let (engine, reason) = engine_for(&setup);
+    assert_eq!(engine, Engine::Runtime);
+    assert_eq!(reason.map(|r| r.field), Some("contacts".to_string()));
+    let sim = Simulation::new(setup, None).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(sim.engine(), Engine::Runtime);
+}
+
+/// The swing down the [`incline`] at each of the [`OFFSETS`], the strand with the
+/// preset's friction and drag, against BDF2 with Richardson, on the runtime engine: the
+/// tolerance is not honoured at τ = 1e-1 and 1e-2, and which offset fails is a matter of
+/// a femtometre. Measured from τ = 1e-1 to 1e-5, in τ:
+///
+/// ```text
+/// offset 0       2.62  1.04  0.84  1.25  1.57
+/// offset 1e-15   6.00  1.04  0.84  1.25  1.58
+/// offset 1e-12   2.65  1.03  0.84  1.25  1.22
+/// offset 1e-9    1.08  6.49  0.74  1.11  2.01
+/// ```
+///
+/// Over 10 offsets from 0 to 1 nm: 1.08 to 6.00 τ at 1e-1, 0.93 to 6.49 τ at 1e-2, 0.74 to
+/// 0.84 τ at 1e-3, 1.11 to 1.25 τ at 1e-4, 0.81 to 2.01 τ at 1e-5; the plane's point
+/// written to 17 digits rather than 16 (the offset 0 a rounding away): 4.05 τ at 1e-1
+/// and 4.69 τ at 1e-5. At τ = 1e-1 and 1e-2 the strand leaves the plane at some frames
+/// (as few as 0 of 20 samples touching); at τ ≤ 1e-4 it keeps all 20 on it, as the
+/// reference does. Issue #51 (the tolerance does not buy accuracy with contacts).
+#[test]
+#[ignore = "fails: up to 6.0 τ at τ = 1e-1 and 6.5 τ at 1e-2 (promised ≤ 3 τ), depending on femtometres of the incline's position (issue #51)"]
+fn a_swing_down_an_incline_is_as_accurate_as_asked() {
+    for offset in OFFSETS {
+        eprintln!("incline offset {offset:e} m:");
+        as_accurate_as_asked_with(false, Engine::Runtime, &incline(offset));
+    }
+}
+
+/// The swing down the [`incline`] at each of the [`OFFSETS`] without friction or drag,
+/// against RK4, on the runtime engine: the tolerance is not honoured from τ = 1e-1 to
+/// 1e-4. Measured from τ = 1e-1 to 1e-5, in τ (solves):
+///
+/// ```text
+/// offset 0      11.42 (841)   87.75 (4441)   5.42 (6135)    5.53 (2607)  0.91 (3610)
+/// offset 1e-15  10.29 (486)    6.06 (1652)   4.07 (7067)    3.50 (2263)  0.91 (3610)
+/// offset 1e-12   4.90 (672)   33.95 (2402)   4.08 (5308)    3.47 (2522)  0.91 (3610)
+/// offset 1e-9    4.38 (608)   10.08 (1909)  21.11 (13168)   3.12 (2567)  0.91 (3606)
+/// ```
+///
+/// (a looser tolerance often costing more). At τ = 1e-1 and 1e-2 the strand bounces off
+/// the plane (frames with no sample touching it), at 1e-3 it keeps as few as 1 to 5 of
+/// 20 on it, where the reference keeps all 20 at every frame. With `energy_balance =
+/// false` (offset 0) it fails as well: 8.25, 29.5, 5.42, 3.61 and 0.91 τ. Issue #51.
+#[test]
+#[ignore = "fails: 3.1 to 88 τ at τ = 1e-1 to 1e-4 (promised ≤ 3 τ): the frictionless strand bounces off the incline (issue #51)"]
+fn a_frictionless_swing_down_an_incline_is_as_accurate_as_asked() {
+    for offset in OFFSETS {
+        eprintln!("incline offset {offset:e} m:");
+        as_accurate_as_asked_with(true, Engine::Runtime, &incline(offset));
+    }
 }
 
 /// The embedded engine's error-controlled step (`superhelix_kernels::fixed::
@@ -258,8 +379,9 @@ fn the_embedded_error_controlled_step_is_the_runtimes() {
     let nodding = "[head]\nmotion = { kind = \"oscillate\", axis = [0.0, 1.0, 0.0], angle_deg = 20.0, frequency_hz = 1.0, center = [0.0, 0.0, -0.1] }";
     for (head, frictionless) in [("", false), ("", true), (nodding, false), (nodding, true)] {
         for tolerance in [1e-2, 1e-3, 1e-5] {
-            let (a, solves_a, rejected_a) = tips_with(tolerance, frictionless, Engine::Auto, head);
-            let (b, solves_b, rejected_b) =
+            let (a, solves_a, rejected_a, _) =
+                tips_with(tolerance, frictionless, Engine::Auto, head);
+            let (b, solves_b, rejected_b, _) =
                 tips_with(tolerance, frictionless, Engine::Runtime, head);
             let apart = a
                 .iter()
