@@ -87,7 +87,7 @@ fn cases() -> Vec<Case> {
         });
     };
     // numeric fields: (section, key, integer)
-    let numeric: [(&str, &str, bool); 26] = [
+    let numeric: [(&str, &str, bool); 27] = [
         ("contacts", "radius", false),
         ("contacts", "stiffness", false),
         ("contacts", "damping_ratio", false),
@@ -109,6 +109,7 @@ fn cases() -> Vec<Case> {
         ("contacts.hair_hair", "friction_coefficient", false),
         ("contacts.hair_hair", "kinetic_friction_coefficient", false),
         ("contacts.hair_hair", "tangential_stiffness_ratio", false),
+        ("contacts.hair_hair", "max_pairs_per_sample", true),
         ("output", "nodes", true),
         ("output", "checkpoint_every", true),
         ("output", "max_bytes", false),
