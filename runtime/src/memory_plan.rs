@@ -174,7 +174,8 @@ pub fn hair_pairs_at_start(setup: &SimulationSetup) -> usize {
     };
     let head = setup.head.state(0.0);
     let bodies: std::sync::Arc<[crate::bodies::Body]> = Vec::new().into();
-    let sampled: Vec<(Vec<(f64, f64)>, Vec<nalgebra::Vector3<f64>>)> = setup
+    type Sampled = (Vec<(f64, f64)>, Vec<nalgebra::Vector3<f64>>);
+    let (samples, points): (Vec<_>, Vec<_>) = setup
         .strands
         .par_iter()
         .map(|s| {
@@ -197,9 +198,10 @@ pub fn hair_pairs_at_start(setup: &SimulationSetup) -> usize {
                 .collect();
             (contacts.samples().to_vec(), points)
         })
-        .collect();
-    let arcs: Vec<&[(f64, f64)]> = sampled.iter().map(|x| &x.0[..]).collect();
-    let points: Vec<Vec<nalgebra::Vector3<f64>>> = sampled.iter().map(|x| x.1.clone()).collect();
+        .collect::<Vec<Sampled>>()
+        .into_iter()
+        .unzip();
+    let arcs: Vec<&[(f64, f64)]> = samples.iter().map(|x| &x[..]).collect();
     let h_step = setup.config.dt;
     let fall = setup
         .environment
