@@ -516,6 +516,9 @@ fn check_ends(setup: &SimulationSetup, i: usize) -> Vec<FieldError> {
                 "a held tip is stepped with fixed steps: remove [simulation] tolerance",
             ));
         }
+        if dynamic {
+            errors.extend(holder_resolved(&tip.motion, c.dt, &at));
+        }
         let finite = tip
             .position
             .iter()
@@ -529,6 +532,49 @@ fn check_ends(setup: &SimulationSetup, i: usize) -> Vec<FieldError> {
         }
     }
     errors
+}
+
+/// Steps per period a holder's oscillation needs: the held tip is placed where the holder
+/// is at each step's end, so a holder that turns back within a few steps is seen at a
+/// few phases of its period only (at one step per period, always at the same place).
+pub const HOLDER_STEPS_PER_PERIOD: f64 = 8.0;
+
+/// Whether steps of `dt` resolve a holder's `motion` (`at`: its field): an oscillation of
+/// frequency f needs `dt ≤ 1 / (8 f)` ([`HOLDER_STEPS_PER_PERIOD`]), keyframes a step no
+/// longer than the closest two keys.
+fn holder_resolved(motion: &HeadMotion, dt: f64, at: &str) -> Option<FieldError> {
+    match motion {
+        HeadMotion::Oscillate { frequency_hz, .. }
+        | HeadMotion::TranslateOscillate { frequency_hz, .. } => {
+            let needed = 1.0 / (HOLDER_STEPS_PER_PERIOD * frequency_hz);
+            (dt > needed * (1.0 + 1e-9)).then(|| {
+                FieldError::new(
+                    format!("{at}.motion.frequency_hz"),
+                    format!(
+                        "a holder oscillating at {frequency_hz} Hz needs steps of at most 1/({HOLDER_STEPS_PER_PERIOD} f) = {needed:.3e} s to be followed between its turns; the scene's steps are {dt:.3e} s (set [simulation] dt to {needed:.3e} or less)"
+                    ),
+                )
+            })
+        }
+        HeadMotion::Keyframes(track) => {
+            let keys = track.keys();
+            let (k, gap) = keys
+                .windows(2)
+                .enumerate()
+                .map(|(k, w)| (k, w[1].t - w[0].t))
+                .min_by(|a, b| a.1.total_cmp(&b.1))?;
+            (dt > gap * (1.0 + 1e-9)).then(|| {
+                FieldError::new(
+                    format!("{at}.motion.keys[{}].t", k + 1),
+                    format!(
+                        "keys {k} and {} of the holder are {gap:.3e} s apart, less than the scene's steps of {dt:.3e} s: the holder would move between two steps unseen (set [simulation] dt to {gap:.3e} or less)",
+                        k + 1
+                    ),
+                )
+            })
+        }
+        _ => None,
+    }
 }
 
 fn make_kernel(

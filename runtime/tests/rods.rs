@@ -2,7 +2,7 @@
 //! forms nobody here wrote (the catenary, the compound pendulum, Euler's buckling load).
 
 use superhelix_runtime::groom::GroomSource;
-use superhelix_runtime::{parse_scene, Simulation};
+use superhelix_runtime::{parse_scene, validate_scene, Simulation};
 
 /// The catenary through (0, 0) and (span, 0) with arc length `length`:
 /// `z(x) = a cosh((x − span/2)/a) − a cosh(span/(2a))`, `2a sinh(span/(2a)) = length`.
@@ -754,6 +754,36 @@ fn a_rod_given_by_a_polyline_is_fitted_and_its_error_reported() {
         error.contains("strands[0].root: not with polyline"),
         "{error}"
     );
+}
+
+/// A holder that moves faster than the steps follow is refused by `validate`, naming the
+/// field and the step it needs: oscillating at 50 Hz, steps of 0.01 s would place the tip
+/// at the holder's rest position every step (1/(8 f) = 2.5 ms needed); keyframes 5 ms
+/// apart with steps of 10 ms. The same holders with steps that resolve them pass.
+#[test]
+fn a_holder_faster_than_the_steps_is_refused_and_named() {
+    let scene = |dt: f64, motion: &str| {
+        rope_scene(1.0, 0.8, 20, 1e7)
+            .replace("mode = \"static\"", &format!("dt = {dt}\nduration = 0.1"))
+            + "[strands.ends.tip.motion]\n"
+            + motion
+    };
+    let shake = "kind = \"translate-oscillate\"\ndirection = [0.0, 0.0, 1.0]\namplitude = 0.01\nfrequency_hz = 50.0\n";
+    let keys = "kind = \"keyframes\"\nkeys = [{ t = 0.0, position = [0.0, 0.0, 0.0] }, { t = 0.1, position = [0.0, 0.0, 0.01] }, { t = 0.105, position = [0.0, 0.0, 0.0] }]\n";
+    for (motion, field, fine) in [
+        (shake, "strands[0].ends.tip.motion.frequency_hz", 0.0025),
+        (keys, "strands[0].ends.tip.motion.keys[2].t", 0.005),
+    ] {
+        let problems = validate_scene(&scene(0.01, motion));
+        assert!(
+            problems
+                .iter()
+                .any(|p| p.field == field && p.message.contains("dt")),
+            "{field} not refused: {problems:?}"
+        );
+        let problems = validate_scene(&scene(fine, motion));
+        assert!(problems.is_empty(), "{field} at dt = {fine}: {problems:?}");
+    }
 }
 
 #[test]
