@@ -346,6 +346,9 @@ fn embedded_strands(
     ))
 }
 
+/// Why a static solve refuses `[contacts.hair_hair]`.
+const STATIC_HAIR_HAIR: &str = "the static solve does not take contacts between rods or a rod's parts (each strand's equilibrium is solved alone): run mode = \"dynamic\" with internal friction until the strands are at rest, or remove [contacts.hair_hair]";
+
 /// Check the parts of a setup the scene reader may not have (for users of the API).
 fn check_setup(setup: &SimulationSetup) -> Result<()> {
     let mut errors = Vec::new();
@@ -393,8 +396,11 @@ fn check_setup(setup: &SimulationSetup) -> Result<()> {
             ));
         }
     }
-    if let Some(c) = &setup.contacts {
-        errors.extend(c.check());
+    if let Some(cc) = &setup.contacts {
+        errors.extend(cc.check());
+        if cc.hair_hair.is_some() && c.mode == Mode::Static {
+            errors.push(FieldError::new("contacts.hair_hair", STATIC_HAIR_HAIR));
+        }
     }
     for (i, s) in setup.strands.iter().enumerate() {
         let g = &s.strand.geometry;
@@ -1246,6 +1252,9 @@ impl Simulation {
     /// rest); with `[electrostatics]`, the charged equilibrium of
     /// [`Simulation::solve_charged_static`].
     pub fn solve_static(&mut self) -> Result<Vec<StaticReport>> {
+        if self.hair_hair.is_some() {
+            return Err(Error::invalid("contacts.hair_hair", STATIC_HAIR_HAIR));
+        }
         if self.electrostatics.is_some() {
             return self.solve_charged_static().map(|r| r.strands);
         }

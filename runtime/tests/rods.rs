@@ -786,6 +786,37 @@ fn a_holder_faster_than_the_steps_is_refused_and_named() {
     }
 }
 
+/// The static solve does not take contact between rods: a static scene with
+/// `[contacts.hair_hair]` is refused by `validate`, naming it (it ended a rope pressed on
+/// a bar 12.5 mm beyond the bar, silently), and so is `solve_static` on a dynamic
+/// scene with it; the same static scene without it passes.
+#[test]
+fn a_static_solve_with_rod_contact_is_refused_and_named() {
+    let rope = rope_scene(1.0, 0.8, 20, 1e7);
+    let with = format!("{rope}[contacts]\nbodies = []\n[contacts.hair_hair]\nradius = 0.001\n");
+    let problems = validate_scene(&with);
+    assert!(
+        problems
+            .iter()
+            .any(|p| p.field == "contacts.hair_hair" && p.message.contains("dynamic")),
+        "{problems:?}"
+    );
+    assert!(
+        validate_scene(&rope).is_empty(),
+        "{:?}",
+        validate_scene(&rope)
+    );
+    let dynamic = with.replace("mode = \"static\"", "dt = 0.001\nduration = 0.01");
+    let mut sim = Simulation::new(parse_scene(&dynamic).expect("scene"), None).expect("simulation");
+    let refused = sim
+        .solve_static()
+        .expect_err("a static solve with hair–hair");
+    assert!(
+        refused.to_string().contains("contacts.hair_hair"),
+        "{refused}"
+    );
+}
+
 #[test]
 fn a_driven_holder_works_on_the_rope_and_the_balance_counts_it() {
     // the frictionless rope of the catenary test (E = 1e7 Pa, N = 20) at rest on its
