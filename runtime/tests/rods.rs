@@ -786,6 +786,35 @@ fn a_holder_faster_than_the_steps_is_refused_and_named() {
     }
 }
 
+/// A holder driven beyond the rod's reach stops the run with that cause and its time: the
+/// catenary's rope (1 m, tip pinned 0.8 m from its pinned root), its holder carried 0.4 m
+/// further away in 0.5 s; the rope is taut when the holder is 1 m from the root.
+#[test]
+fn a_holder_driven_beyond_reach_is_named_with_its_time() {
+    let text = rope_scene(1.0, 0.8, 20, 1e7).replace("mode = \"static\"", "dt = 0.001\nduration = 0.5")
+        + "[strands.ends.tip.motion]\nkind = \"keyframes\"\nkeys = [{ t = 0.0, position = [0.0, 0.0, 0.0] }, { t = 0.5, position = [0.4, 0.0, 0.0] }]\n";
+    let mut sim = Simulation::new(parse_scene(&text).expect("scene"), None).expect("simulation");
+    let stopped = loop {
+        match sim.step() {
+            Ok(()) if sim.time() < 0.5 - 1e-9 => continue,
+            Ok(()) => panic!("the rope followed a holder 1.2 m from its root"),
+            Err(e) => break e.to_string(),
+        }
+    };
+    println!("{stopped}");
+    assert!(stopped.contains("beyond the rod's reach"), "{stopped}");
+    // the time it names: where the holder is at least the rope's length from the root
+    let t: f64 = stopped
+        .split("at t = ")
+        .nth(1)
+        .and_then(|x| x.split(' ').next())
+        .and_then(|x| x.parse().ok())
+        .unwrap_or_else(|| panic!("no time in: {stopped}"));
+    // the holder (a clamped spline from 0.8 to 1.2 m from the root) comes within 0.1 %
+    // of the rope's length from about 0.248 s and reaches it at 0.25 s: the run stops there
+    assert!((0.24..=0.2505).contains(&t), "{t}");
+}
+
 /// The static solve does not take contact between rods: a static scene with
 /// `[contacts.hair_hair]` is refused by `validate`, naming it (it ended a rope pressed on
 /// a bar 12.5 mm beyond the bar, silently), and so is `solve_static` on a dynamic

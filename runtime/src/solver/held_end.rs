@@ -51,6 +51,11 @@ fn rotation_log(m: &Matrix3<f64>) -> Vector3<f64> {
     v * (2.0 * n.atan2(w) / n)
 }
 
+/// The fraction of a rod's length within which a holder at that distance from the root
+/// counts as out of reach when the tip cannot be kept: the rod is then all but straight
+/// and its constraints all but dependent.
+pub const REACH_MARGIN: f64 = 1e-3;
+
 /// A held tip's constraint on one strand, with its buffers.
 #[derive(Debug, Clone)]
 pub struct HeldTip {
@@ -166,6 +171,31 @@ impl HeldTip {
             m.rotation * self.end.frame,
             m.rotation * self.end.axis,
         )
+    }
+
+    /// Why the tip cannot be held at `t` when the holder is out of the rod's reach: within
+    /// [`REACH_MARGIN`] of its length from the root or beyond it (from the root to the axis for a sliding
+    /// holder), where the rod would be taut or torn (its constraints dependent); `None`
+    /// when the holder is within reach.
+    pub fn beyond_reach(&self, geometry: &StrandGeometry, q: &[f64], t: f64) -> Option<String> {
+        if geometry.floating {
+            return None;
+        }
+        let root = geometry.root_pose(q).position;
+        let (p, _, axis) = self.target(t);
+        let d = p - root;
+        let distance = if self.end.kind.slides() {
+            (d - axis * axis.dot(&d)).norm()
+        } else {
+            d.norm()
+        };
+        let length = geometry.length();
+        (distance >= (1.0 - REACH_MARGIN) * length).then(|| {
+            format!(
+                "the holder of the tip ({}) is {distance:.6} m from the root at t = {t:.4} s, at or beyond the rod's reach (its length, {length:.6} m, less {REACH_MARGIN:e} of it): a rod held taut or pulled beyond its length cannot be stepped; keep the holder within the length",
+                self.end.kind.name()
+            )
+        })
     }
 
     /// g(q, t) and its Jacobian G into the buffers; returns the largest |g| relative to
@@ -363,6 +393,9 @@ impl HeldTip {
             worst = self.evaluate(kernel, geometry, q, t);
         }
         if worst.is_nan() || worst > DRIFT_LIMIT {
+            if let Some(cause) = self.beyond_reach(geometry, q, t) {
+                return Err(cause);
+            }
             return Err(format!(
                 "the held tip ({}) could not be kept: {worst:.3e} off after projection",
                 self.end.kind.name()
@@ -398,9 +431,11 @@ impl HeldTip {
             let gv: f64 = self.g_jac[r].iter().zip(v.iter()).map(|(g, v)| g * v).sum();
             x[r] = gv + self.residual[r] / h;
         }
-        let lambda = self
-            .solve_rows(&x)
-            .ok_or("held tip: the constraints are dependent (singular G A⁻¹ Gᵀ)")?;
+        let lambda = self.solve_rows(&x).ok_or_else(|| {
+            self.beyond_reach(geometry, q, t_end).unwrap_or_else(|| {
+                "held tip: the constraints are dependent (singular G A⁻¹ Gᵀ)".into()
+            })
+        })?;
         for r in 0..self.rows {
             for (vk, w) in v.iter_mut().zip(&self.w[r]) {
                 *vk -= w * lambda[r];
