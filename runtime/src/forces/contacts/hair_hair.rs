@@ -642,6 +642,21 @@ fn keep_nearest(
     if pairs.len() <= cap {
         return (pairs, anchors);
     }
+    // most steps no sample holds more than `cap` pairs: counted without sorting
+    let mut offsets = Vec::with_capacity(points.len());
+    let mut total = 0;
+    for chain in points {
+        offsets.push(total);
+        total += chain.len();
+    }
+    let mut held = vec![0usize; total];
+    for p in &pairs {
+        held[offsets[p.a.0] + p.a.1] += 1;
+        held[offsets[p.b.0] + p.b.1] += 1;
+    }
+    if held.iter().all(|&n| n <= cap) {
+        return (pairs, anchors);
+    }
     // every pair twice, under each of its samples, nearest first
     let mut ends: Vec<((usize, usize), f64, usize)> = pairs
         .par_iter()
@@ -740,8 +755,11 @@ impl Filed {
 /// filed under its cell of a grid of cells of size `cell` (in `cells`, sorted by cell);
 /// the samples of a cell are compared with those of the cells within their largest
 /// search distance around it (the 27 nearest when it is at most `cell`), the cells in
-/// parallel. A pair is taken from the side of its larger search distance, so that a
-/// few fast samples (a whipping tip) do not widen the search of all the others.
+/// parallel: a pair beyond what one of its samples looks at is found by the other, whose
+/// search distance is the larger, so a few fast samples (a whipping tip) do not widen
+/// the search of all the others. Each sample keeps the `cap` nearest of the pairs it
+/// finds (by distance, then by pair): a pair is returned when it is among them for
+/// either of its samples.
 fn broad_phase(
     points: &[Vec<Vector3<f64>>],
     arcs: &[&[(f64, f64)]],
