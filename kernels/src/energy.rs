@@ -237,9 +237,11 @@ pub const MAX_ELEMENT_ROTATION: f64 = 0.8;
 /// within this limit it stays at 1e-6); a step of a strand with contacts (the runtime's:
 /// their friction dissipates beyond the bound, so its loss is not measured; at
 /// [`MAX_ELEMENT_ROTATION`] strands on a shaking head went up to 2.8 mm into the bodies
-/// of `superhelix stress`); and a piece at the deepest split allowed, which is limited to
-/// it instead of split (the runtime's step budget: at one solve per strand-step the limit
-/// is what holds a head's 200 guides within 1 mm of its bodies).
+/// of `superhelix stress`); and a piece of such a step at the deepest split allowed, which
+/// is limited to it instead of split (the runtime's step budget: at one solve per
+/// strand-step the limit is what holds a head's 200 guides within 1 mm of its bodies; a
+/// runtime strand without contacts whose deepest piece still turns beyond
+/// [`MAX_ELEMENT_ROTATION`] stops the run instead).
 pub const TRUSTED_ELEMENT_ROTATION: f64 = 0.2;
 /// How many times a step may be halved (down to h / 2^depth).
 pub const MAX_SUBSTEP_DEPTH: usize = 8;

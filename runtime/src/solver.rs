@@ -13,6 +13,7 @@ pub mod dense_solve;
 pub mod embedded;
 pub mod energy_balance;
 pub mod error_control;
+mod free_root_momentum;
 pub mod held_end;
 pub mod initial_state;
 pub mod linearly_implicit;

@@ -1024,11 +1024,16 @@ root = "free"
 /// differences): references computed from the reconstruction alone, not from the
 /// kernel's terms.
 fn momenta(sim: &Simulation) -> ([f64; 3], [f64; 3], f64, f64) {
+    momenta_of(sim, 0)
+}
+
+/// [`momenta`] of strand `index`.
+fn momenta_of(sim: &Simulation, index: usize) -> ([f64; 3], [f64; 3], f64, f64) {
     use nalgebra::{Matrix3, Vector3};
     use superhelix_runtime::model::reconstruction::{poses_at_sorted, Pose};
-    let strand = sim.strand(0);
+    let strand = sim.strand(index);
     let g = &strand.geometry;
-    let (q, v) = (sim.q(0), sim.v(0));
+    let (q, v) = (sim.q(index), sim.v(index));
     let samples = 4000;
     let length = g.length();
     let ds = length / samples as f64;
@@ -1158,9 +1163,11 @@ fn a_free_rod_keeps_its_momentum_and_angular_momentum() {
     // no gravity, no friction: a rod released straight with a natural curvature flails
     // while it spins and drifts; its momentum and angular momentum are constants of the
     // motion. RK4 keeps them to the accuracy of the reference itself (its quadrature and
-    // differences, ~4e-7); the linearly implicit step, first order and dissipative, lets
-    // them drift at first order (its numerical damping acts on q̇, and neither momentum
-    // is linear in q̇): a free rod whose momenta matter is stepped by rk4 or small steps.
+    // differences, ~4e-7); so does the linearly implicit step for the momentum, whose
+    // change it sets to the step's impulse (`solver::free_root_momentum`); it lets the
+    // angular momentum drift at first order (its numerical damping acts on q̇, and the
+    // angular momentum is not linear in q̇): a free rod whose spin matters is stepped by
+    // rk4 or small steps.
     let duration = 0.1;
     let (p1, a1, bend) = free_rod_drift("rk4", 4e-5, duration);
     let (p2, a2, _) = free_rod_drift("rk4", 2e-5, duration);
@@ -1178,16 +1185,12 @@ fn a_free_rod_keeps_its_momentum_and_angular_momentum() {
     ] {
         assert!(x < 2e-6, "rk4: {what} drifted by {x:e}");
     }
-    // 4 times smaller steps: the drift at least 2.5 (momentum) and 1.5 (angular) times
-    // smaller (measured: 3.7 and 1.9)
-    assert!(
-        e1 / e2 > 2.5 && f1 / f2 > 1.5,
-        "LIE drift: {e1:e}/{e2:e}, {f1:e}/{f2:e}"
-    );
-    assert!(
-        e2 < 0.05 && f2 < 0.05,
-        "LIE drift at dt 5e-5: {e2:e}, {f2:e}"
-    );
+    // the linearly implicit step's momentum to the reference's accuracy (measured 3.3e-7
+    // and 3.7e-7); 4 times smaller steps make its angular momentum's drift at least 1.5
+    // times smaller (measured 2.3)
+    assert!(e1 < 2e-6 && e2 < 2e-6, "LIE momentum drift: {e1:e}, {e2:e}");
+    assert!(f1 / f2 > 1.5, "LIE angular drift: {f1:e}/{f2:e}");
+    assert!(f2 < 0.05, "LIE angular drift at dt 5e-5: {f2:e}");
 }
 
 /// `[lo, hi]` halved `halvings` times towards where `holds` changes from true (at `lo`)
@@ -2043,4 +2046,346 @@ fn a_rope_lowered_deeper_piles_up_without_passing_through_itself() {
     );
     assert!(touching > 100, "{touching}");
     assert!(closest >= 0.99 * 2e-3, "closest {closest}");
+}
+
+/// A soft free rope (0.2 m, 30 elements, E = 1 MPa, no gravity, no drag) lying along x,
+/// pulled along y at its tip by `force` (N) for up to `duration` s at dt = 0.5 ms: the
+/// largest |P_y / (F t) − 1| over its steps (P from the reconstruction, [`momenta`]), the
+/// time reached, and the error that stopped it, if any.
+fn pulled_free_rope(force: f64, duration: f64) -> (f64, f64, Option<String>) {
+    let text = format!(
+        r#"
+[simulation]
+dt = 5e-4
+duration = {duration}
+[environment]
+gravity = "none"
+[[strands]]
+name = "rope"
+length = 0.2
+elements = 30
+radius = 5e-4
+youngs_modulus = 1e6
+direction = [1.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+internal_friction = 1e-9
+air_drag = 0.0
+initial = "straight"
+natural = [0.0, 0.0, 0.0]
+[[strands.point_loads]]
+s = 0.2
+force = [0.0, {force}, 0.0]
+[strands.ends]
+root = "free"
+"#
+    );
+    let mut sim = Simulation::new(parse_scene(&text).expect("scene"), None).expect("simulation");
+    let mut worst = 0.0f64;
+    for _ in 0..(duration / 5e-4).round() as usize {
+        if let Err(e) = sim.step() {
+            return (worst, sim.time(), Some(e.to_string()));
+        }
+        let (p, _, _, _) = momenta(&sim);
+        worst = worst.max((p[1] / (force * sim.time()) - 1.0).abs());
+        assert!(p[0].abs() + p[2].abs() < 1e-4 * force * sim.time(), "{p:?}");
+    }
+    (worst, sim.time(), None)
+}
+
+#[test]
+fn a_free_rod_pulled_at_its_tip_follows_newtons_second_law_or_stops_naming_why() {
+    // Newton's second law for the whole rod: its momentum grows by F t whatever it does
+    // about its centre of mass. Pulled sideways at its tip, the rope whips round; the
+    // step's momentum is corrected for the turn of its elements within a step (measured
+    // 4.7e-6 at 1 mN and 6.3e-7 at 1 N over 0.3 s; 0.10 and 0.69 without the
+    // correction)
+    for force in [1e-3, 1.0] {
+        let (worst, t, error) = pulled_free_rope(force, 0.3);
+        println!("F = {force} N: |P/(F t) − 1| ≤ {worst:.2e} over {t:.3} s");
+        assert!(error.is_none(), "{error:?}");
+        assert!(worst < 1e-4, "F = {force}: momentum off F t by {worst:e}");
+    }
+    // at 1 MN the rope would turn by 1,700 rad within the shortest piece a step splits
+    // into (dt / 256): no step follows that; the run stops at once, naming the cause,
+    // instead of limiting the step (which took 78 % of F t away)
+    let (_, t, error) = pulled_free_rope(1e6, 0.3);
+    let error = error.expect("a 1 MN pull must stop the run");
+    println!("F = 1 MN: stopped at t = {t}: {error}");
+    assert!(t <= 5e-4, "{t}");
+    for part in ["turns by", "faster than the steps resolve", "F = ma", "dt"] {
+        assert!(error.contains(part), "{error}");
+    }
+}
+
+/// A free, soft rod (10 cm, 10 elements, E = 10 MPa, tilted 20° from the floor, its low
+/// end 3 mm above it) thrown at (0.3, 0.2, −0.5) m/s onto a frictionless plane z = 0,
+/// no gravity, stepped at `dt` for 0.1 s: the largest change of its horizontal momentum
+/// over the run relative to |P(0)|, the vertical momentum at the end relative to the
+/// start's, and the deepest centreline point below the plane (m, over the steps).
+fn rod_thrown_on_a_frictionless_floor(dt: f64) -> (f64, f64, f64) {
+    let tilt = 20f64.to_radians();
+    let text = format!(
+        r#"
+[simulation]
+dt = {dt}
+duration = 0.1
+[environment]
+gravity = "none"
+[[bodies]]
+name = "floor"
+shape = "plane"
+attached = "world"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+[contacts]
+radius = 1e-3
+friction = "none"
+[[strands]]
+name = "rod"
+root = [0.0, 0.0, 0.004]
+direction = [{c}, 0.0, {s}]
+normal = [{ms}, 0.0, {c}]
+length = 0.1
+elements = 10
+radius = 1e-4
+youngs_modulus = 1e7
+natural = [0.0, 0.0, 0.0]
+initial = "straight"
+air_drag = 0.0
+internal_friction = 0.0
+[strands.ends]
+root = "free"
+"#,
+        c = tilt.cos(),
+        s = tilt.sin(),
+        ms = -tilt.sin(),
+    );
+    let mut sim = Simulation::new(parse_scene(&text).expect("scene"), None).expect("simulation");
+    let n = sim.q(0).len();
+    let (q, mut v) = (sim.q(0).to_vec(), sim.v(0).to_vec());
+    v[n - 3..].copy_from_slice(&[0.3, 0.2, -0.5]);
+    sim.set_state(0, &q, &v);
+    let (p0, _, _, _) = momenta(&sim);
+    let size = distance(p0, [0.0; 3]);
+    let (mut drift, mut deepest) = (0.0f64, 0.0f64);
+    for _ in 0..(0.1 / dt).round() as usize {
+        sim.step().expect("step");
+        let (p, _, _, _) = momenta(&sim);
+        drift = drift.max(distance([p[0], p[1], 0.0], [p0[0], p0[1], 0.0]) / size);
+        for k in 0..=100 {
+            deepest = deepest.max(-sim.position_at(0, 0.001 * k as f64)[2]);
+        }
+    }
+    let (p, _, _, _) = momenta(&sim);
+    println!("{:?}", sim.stats());
+    (drift, p[2] / p0[2], deepest)
+}
+
+#[test]
+fn a_free_rod_thrown_onto_a_frictionless_floor_keeps_its_horizontal_momentum() {
+    // a frictionless plane pushes along its normal only: through the bounce the rod's
+    // momentum along the floor is a constant of the motion, and the bounce reverses the
+    // vertical momentum without adding to it (the contact's damping only takes energy)
+    for dt in [1e-3, 1e-4] {
+        let (drift, vertical, deepest) = rod_thrown_on_a_frictionless_floor(dt);
+        println!(
+            "dt {dt}: horizontal momentum drift {drift:.2e} of |P|, vertical momentum at the end {vertical:.3} of the start's, deepest point {deepest:.2e} m below the floor"
+        );
+        assert!(
+            drift < 1e-5,
+            "dt {dt}: the horizontal momentum changed by {drift:e}"
+        );
+        assert!(
+            vertical < 0.0 && vertical > -1.0,
+            "dt {dt}: P_z(end)/P_z(0) = {vertical}"
+        );
+    }
+}
+
+/// Two free rods crossing at right angles, 4 mm apart along z, the upper one thrown down
+/// onto the other at `speed` m/s (no gravity, frictionless hair–hair contact of radius
+/// 1 mm): the total momentum's largest departure from its start over `steps` steps of
+/// `dt`, relative to the start's, and the lower rod's momentum at the end (how much
+/// the collision passed on).
+fn colliding_free_rods(speed: f64, dt: f64, steps: usize, friction: &str) -> (f64, f64, f64) {
+    let rod = |name: &str, root: [f64; 3], direction: [f64; 3]| {
+        format!(
+            r#"
+[[strands]]
+name = "{name}"
+root = {root:?}
+length = 0.1
+elements = 10
+radius = 1e-4
+youngs_modulus = 1e8
+direction = {direction:?}
+normal = [0.0, 0.0, 1.0]
+natural = [0.0, 0.0, 0.0]
+initial = "straight"
+air_drag = 0.0
+internal_friction = 0.0
+[strands.ends]
+root = "free"
+"#
+        )
+    };
+    let text = format!(
+        r#"
+[simulation]
+dt = {dt}
+duration = 1.0
+engine = "runtime"
+[environment]
+gravity = "none"
+[contacts]
+bodies = []
+samples_per_element = 16
+[contacts.hair_hair]
+radius = 0.001
+stiffness = 1e3
+{friction}
+{}{}"#,
+        rod("lower", [-0.05, 0.01, 0.0], [1.0, 0.0, 0.0]),
+        rod("upper", [0.0, -0.04, 0.004], [0.0, 1.0, 0.0]),
+    );
+    let mut sim = Simulation::new(parse_scene(&text).expect("scene"), None).expect("simulation");
+    let n = sim.q(1).len();
+    let (q, mut v) = (sim.q(1).to_vec(), sim.v(1).to_vec());
+    v[n - 1] = -speed;
+    sim.set_state(1, &q, &v);
+    let total = |sim: &Simulation| {
+        let mut p = [0.0; 3];
+        for i in 0..2 {
+            let (pi, _, _, _) = momenta_of(sim, i);
+            for k in 0..3 {
+                p[k] += pi[k];
+            }
+        }
+        p
+    };
+    let p0 = total(&sim);
+    let scale = distance(p0, [0.0; 3]);
+    let mut worst = 0.0f64;
+    for _ in 0..steps {
+        sim.step().expect("step");
+        worst = worst.max(distance(total(&sim), p0) / scale);
+    }
+    let (lower, _, _, _) = momenta_of(&sim, 0);
+    (worst, distance(lower, [0.0; 3]) / scale, sim.time())
+}
+
+#[test]
+#[ignore = "fails: rod–rod contact does not keep the momentum (issue #47); cargo test --release -p superhelix-runtime --test rods -- --ignored two_free_rods"]
+fn two_free_rods_colliding_keep_their_total_momentum() {
+    // no external force: whatever the contact does, the two rods' total momentum is a
+    // constant. Each strand's step sees the other as a ball where it was at the step's
+    // start (each side implicit on its own motion only), so the two forces of a pair are
+    // not equal and opposite: measured, the total momentum drifts by 0.89 of |P(0)| at
+    // dt = 1 ms and 0.45 at 0.2 ms (the upper rod loses 0.6 of its momentum, the lower
+    // gains 0.03 to 0.1), and the upper passes through the lower. Carrying the ball
+    // along the partner's velocity over the step did not help (0.89: the velocity
+    // from the last two positions overshoots a decelerating contact, and the lower rod
+    // kept being pushed after the upper had stopped feeling it)
+    for dt in [1e-3, 2e-4] {
+        let (drift, lower, t) = colliding_free_rods(0.1, dt, (0.1 / dt) as usize, "");
+        println!("dt {dt}: total momentum drift {drift:.3e} of |P(0)|, the lower rod's {lower:.3} at t = {t:.2}");
+        assert!(drift < 1e-3, "dt {dt}: {drift:e}");
+    }
+}
+
+/// A rope of 0.2 m (N = 40, r = 0.05 mm, E = 4 GPa, no gravity) pinned at both ends
+/// `span` apart, pulled sideways at its middle by `load` N, solved for its equilibrium:
+/// the holder's force along the span (the tension's horizontal part), and the sag.
+fn taut_rope(span: f64, load: f64, elements: usize) -> (f64, f64) {
+    let length = 0.2;
+    let x = superhelix_runtime::model::ends::arc_half_angle(length, span);
+    let kappa = 2.0 * x / length;
+    let q0: Vec<String> = (0..elements)
+        .map(|_| format!("0.0, {}, 0.0", -kappa))
+        .collect();
+    let text = format!(
+        r#"
+[simulation]
+mode = "static"
+[environment]
+gravity = "none"
+[[strands]]
+name = "rope"
+length = {length}
+elements = {elements}
+radius = 5e-5
+youngs_modulus = 4e9
+direction = [{}, 0.0, {}]
+normal = [0.0, 1.0, 0.0]
+q0 = [{}]
+[[strands.point_loads]]
+s = {}
+force = [0.0, 0.0, {}]
+[strands.ends]
+root = "pinned"
+[strands.ends.tip]
+kind = "pinned"
+position = [{span}, 0.0, 0.0]
+"#,
+        x.cos(),
+        -x.sin(),
+        q0.join(", "),
+        0.5 * length,
+        -load,
+    );
+    let mut sim = Simulation::new(parse_scene(&text).expect("scene"), None).expect("simulation");
+    let reports = sim.solve_static().expect("static");
+    assert!(reports[0].converged, "{:?}", reports[0]);
+    let f = sim.held_reaction(0).expect("held");
+    let middle = sim.position_at(0, 0.5 * length);
+    (f[0], -middle[2])
+}
+
+#[test]
+fn a_taut_rope_pulled_sideways_holds_the_tension_of_the_string_formula() {
+    // an inextensible string of length L pinned at both ends D apart and pulled sideways
+    // at its middle by P hangs as a V of sag h = √((L/2)² − (D/2)²); each half pulls its
+    // holder with T = P L / (4 h), whose part along the span is H = P D / (4 h). The rope
+    // rounds the V's corner over its middle element (its curvature is constant per
+    // element), which shortens the sag and H by about 0.29 / N (first order); its bending
+    // rounds it over √(EI/T), 0.07 to 0.02 mm of the 0.2 m here, a correction below 4e-4.
+    // Measured (H, sag): −7.3e-3 at N = 40, −3.6e-3 at 80, −1.8e-3 at 160 for D = 0.99,
+    // 0.999 and 0.9999 L (T from 3.5 to 35 N); extrapolated from 80 and 160 elements, H
+    // is the string's to 1.1e-4, 3e-5 and 1e-5. A rope held exactly at full reach is
+    // refused by `validate` (its tension is undetermined at rest and infinite under any
+    // sideways load: tests/hostile.rs)
+    let (length, load) = (0.2f64, 1.0);
+    for fraction in [0.99, 0.999, 0.9999] {
+        let span = fraction * length;
+        let sag = (0.25 * length * length - 0.25 * span * span).sqrt();
+        let string = load * span / (4.0 * sag);
+        let runs: Vec<(f64, f64)> = [40, 80, 160]
+            .iter()
+            .map(|&n| {
+                let (h, measured_sag) = taut_rope(span, load, n);
+                (h / string - 1.0, measured_sag / sag - 1.0)
+            })
+            .collect();
+        let extrapolated = 2.0 * runs[2].0 - runs[1].0;
+        println!(
+            "D = {fraction} L, T = {:.2} N: H − string (relative) at N = 40, 80, 160: {:+.2e} {:+.2e} {:+.2e}, extrapolated {extrapolated:+.1e}; sag {:+.2e} {:+.2e} {:+.2e}",
+            load * length / (4.0 * sag),
+            runs[0].0, runs[1].0, runs[2].0, runs[0].1, runs[1].1, runs[2].1
+        );
+        for (k, &(h, y)) in runs.iter().enumerate() {
+            // within the corner's first-order bound, and below the string's (rounding
+            // shortens the sag)
+            let bound = 0.4 / (40 << k) as f64;
+            assert!(h < 0.0 && h > -bound, "N = {}: H off by {h:e}", 40 << k);
+            assert!(y < 0.0 && y > -bound, "N = {}: sag off by {y:e}", 40 << k);
+        }
+        for k in 0..2 {
+            let ratio = runs[k].0 / runs[k + 1].0;
+            assert!((1.8..2.2).contains(&ratio), "not first order: {ratio}");
+        }
+        assert!(
+            extrapolated.abs() < 4e-4,
+            "extrapolated H off by {extrapolated:e}"
+        );
+    }
 }

@@ -4,6 +4,7 @@
 
 use super::bdf2::{bdf2, record_history, BDF2_MAX_RATIO};
 use super::energy_balance::{self, StateEnergy};
+use super::free_root_momentum;
 use super::linearly_implicit::linearly_implicit_euler;
 use super::newton::newton_implicit_euler;
 use super::predicted_contacts::resolve_again;
@@ -11,6 +12,7 @@ use super::rk4::rk4;
 use super::stats::StepStats;
 use super::system::{HeadInterval, StrandState, StrandSystem, StrandWorkspace};
 use crate::config::IntegratorKind;
+use crate::model::ends::RootEnd;
 use superhelix_kernels::fixed::phase_cut;
 
 pub use superhelix_kernels::energy::{
@@ -163,6 +165,14 @@ fn max_element_rotation(lengths: &[f64], q: &[f64], q0: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The cause a run stops with when the deepest split of a step still rotates an element
+/// by `rotation` (> [`MAX_ELEMENT_ROTATION`]) within its piece of `h` s from `t`.
+fn unresolved_motion(rotation: f64, h: f64, t: f64) -> String {
+    format!(
+        "an element turns by {rotation:.2} rad within {h:.3e} s (from t = {t:.6} s), the shortest piece a step splits into ([simulation] dt / 2^{MAX_SUBSTEP_DEPTH}), beyond the {MAX_ELEMENT_ROTATION} rad a step can follow: the loads or the head accelerate the strand faster than the steps resolve, and limiting the step would take momentum away (the strand would no longer follow F = ma); lower [simulation] dt, or the loads"
+    )
+}
+
 /// Scale the change of q since the step's start (`saved_q`) and the velocities by
 /// `TRUSTED_ELEMENT_ROTATION / rotation`.
 fn limit_rotation(system: &mut StrandSystem, state: &mut StrandState, rotation: f64) {
@@ -302,7 +312,25 @@ fn implicit_adaptive(
                 "non-finite state after a substep of {h:.3e} s (at the deepest split)"
             ));
         }
-        if deepest && rotation > TRUSTED_ELEMENT_ROTATION {
+        if deepest
+            && rotation > MAX_ELEMENT_ROTATION
+            && system.contacts.is_none()
+            && system.context.max_split_depth >= MAX_SUBSTEP_DEPTH
+        {
+            // the shortest piece the step splits into still turns an element beyond any
+            // limit a step may take, with nothing pushing the strand out of a body: a load
+            // (or the head) accelerates it faster than the steps resolve. Limiting the
+            // rotation would take momentum away silently (a free rod under a large load
+            // no longer follows F = ma): the run stops, naming the cause
+            // a holder pulled out of the rod's reach whips it first: that is the cause
+            if let Some(reach) = system.held.as_ref().and_then(|held| {
+                held.beyond_reach(&system.strand.geometry, &state.q, interval.t + h)
+            }) {
+                return Err(reach);
+            }
+            return Err(unresolved_motion(rotation, h, interval.t));
+        }
+        if deepest && rotation > rotation_limit {
             // the deepest split allowed still rotates an element beyond what an unchecked
             // step may: the change of q and the velocities are scaled to that limit (beyond
             // it the step's linearisation of M(q) and b no longer holds, and nothing splits
@@ -387,10 +415,23 @@ fn implicit_adaptive(
             // the kinetic energy that brings E down to the bound (to its allowance's edge
             // when moving bodies work, see `limited_kinetic`)
             if let Some(kinetic) = balance.limited_kinetic(&end, !bodies_work) {
-                let lambda = (kinetic / end.kinetic).sqrt();
-                for x in state.v.iter_mut() {
-                    *x *= lambda;
-                }
+                let lambda = if system.strand.ends.root == RootEnd::Free && system.held.is_none() {
+                    // a free strand keeps its momentum: its motion about the centre of
+                    // mass is scaled
+                    free_root_momentum::scale_to_kinetic(
+                        system,
+                        &state.q,
+                        &mut state.v,
+                        end.kinetic,
+                        kinetic,
+                    )
+                } else {
+                    let lambda = (kinetic / end.kinetic).sqrt();
+                    for x in state.v.iter_mut() {
+                        *x *= lambda;
+                    }
+                    lambda
+                };
                 end.scale_velocities(lambda);
                 stats.energy_limited += 1;
                 return accept(&mut system.workspace, end);

@@ -1,9 +1,11 @@
 //! The linearly implicit Euler step (paper section 3.4), the default integrator.
 
+use super::free_root_momentum;
 use super::predicted_contacts::resolve;
 use super::stats::StepStats;
 use super::system::{HeadInterval, StrandState, StrandSystem};
 use crate::kernels::kernel::Terms;
+use crate::model::ends::RootEnd;
 
 /// One Newton step of backward Euler (design page "Time stepping"), with the velocity
 /// term taken semi-implicitly:
@@ -91,6 +93,13 @@ pub fn linearly_implicit_euler(
             c.predict(&at, &system.strand.geometry, &ws.scratch[5], q);
         }
         resolve(system, &at, (h, h), q, v, stats)?;
+    }
+    if system.strand.ends.root == RootEnd::Free && system.held.is_none() {
+        // a free root's momentum changes by the step's impulse, the contacts that start
+        // within the step included (`free_root_momentum`); with a held tip the holder's
+        // multipliers carry the momentum's change
+        let target = free_root_momentum::target(system, v, h);
+        free_root_momentum::correct(system, q, v, target);
     }
     if let Some(held) = system.held.as_mut() {
         // the drift the linearised constraint leaves, projected out
