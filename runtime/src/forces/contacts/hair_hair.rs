@@ -757,9 +757,11 @@ impl Filed {
 /// search distance around it (the 27 nearest when it is at most `cell`), the cells in
 /// parallel: a pair beyond what one of its samples looks at is found by the other, whose
 /// search distance is the larger, so a few fast samples (a whipping tip) do not widen
-/// the search of all the others. Each sample keeps the `cap` nearest of the pairs it
-/// finds (by distance, then by pair): a pair is returned when it is among them for
-/// either of its samples.
+/// the search of all the others. Each pair is taken once: by the sample in the earlier
+/// cell (or the earlier sample of one cell) when neither searches beyond a cell, else by
+/// the one that searches the farther. Each sample keeps the `cap` nearest of the pairs
+/// it took (by distance, then by pair): at most `cap` pairs a sample, and every pair
+/// among the `cap` nearest of both its samples.
 fn broad_phase(
     points: &[Vec<Vector3<f64>>],
     arcs: &[&[(f64, f64)]],
@@ -833,18 +835,38 @@ fn broad_phase(
             let widest = own.iter().map(|f| f.radius).fold(0.0, f64::max);
             let span = ((widest / cell).ceil() as i64).clamp(1, SPAN - 1) as u64;
             let corner = (span << 42) + (span << 21) + span;
-            let mut out = Vec::new();
-            // each sample keeps its `cap` nearest candidates (both samples of a pair look
-            // for it: it is kept when it is among the nearest of either)
-            let mut nearest: Vec<(f64, Pair)> = Vec::new();
-            for fa in own {
-                let ra = fa.radius;
-                nearest.clear();
-                for dx in 0..=2 * span {
-                    for dy in 0..=2 * span {
-                        for dz in 0..=2 * span {
-                            let other = (c + (dx << 42) + (dy << 21) + dz).wrapping_sub(corner);
-                            for fb in run(other) {
+            // every pair is taken once, by one rule: a pair whose larger search distance
+            // is at most a cell, from the cell earlier in the order of the keys (within
+            // one cell, from its earlier sample); any other from the side of the larger
+            // search distance, which looks as far as it (at a tie, the earlier sample's)
+            let earlier =
+                |f: &Filed, g: &Filed| (f.cell, f.strand, f.sample) < (g.cell, g.strand, g.sample);
+            let takes = |fa: &Filed, fb: &Filed| {
+                if fa.radius.max(fb.radius) <= cell {
+                    earlier(fa, fb)
+                } else {
+                    fa.radius > fb.radius || (fa.radius == fb.radius && earlier(fa, fb))
+                }
+            };
+            // what the cell's samples take: (sample within the cell, squared distance,
+            // pair)
+            let mut taken: Vec<(u32, f64, Pair)> = Vec::new();
+            for dx in 0..=2 * span {
+                for dy in 0..=2 * span {
+                    for dz in 0..=2 * span {
+                        let other = (c + (dx << 42) + (dy << 21) + dz).wrapping_sub(corner);
+                        // a cell of slow samples looks only at the cells after it (the
+                        // cells before it look at it)
+                        if widest <= cell && other < c {
+                            continue;
+                        }
+                        let others = run(other);
+                        if others.is_empty() {
+                            continue;
+                        }
+                        for (ia, fa) in own.iter().enumerate() {
+                            let ra = fa.radius;
+                            for fb in others {
                                 if fa.strand == fb.strand
                                     && self_exclusion.is_none_or(|e| (fa.arc - fb.arc).abs() <= e)
                                 {
@@ -853,26 +875,37 @@ fn broad_phase(
                                 let r = ra.max(fb.radius);
                                 let d = dist2_of(&fa.x, &fb.x);
                                 // only the local minima of the distance along both chains
-                                if d >= r * r || !fa.local_minimum(fb, d, self_exclusion) {
+                                if d >= r * r
+                                    || !takes(fa, fb)
+                                    || !fa.local_minimum(fb, d, self_exclusion)
+                                {
                                     continue;
                                 }
                                 let a = (fa.strand as usize, fa.sample as usize);
                                 let b = (fb.strand as usize, fb.sample as usize);
                                 let (a, b) = if a < b { (a, b) } else { (b, a) };
-                                nearest.push((d, Pair { a, b }));
+                                taken.push((ia as u32, d, Pair { a, b }));
                             }
                         }
                     }
                 }
-                if nearest.len() > cap {
-                    nearest.select_nth_unstable_by(cap, |x, y| {
-                        x.0.total_cmp(&y.0).then(x.1.cmp(&y.1))
-                    });
-                    nearest.truncate(cap);
-                }
-                out.extend(nearest.iter().map(|x| x.1));
             }
-            out
+            // each sample keeps the `cap` nearest of the pairs it took (a pair among the
+            // `cap` nearest of both its samples is among them; `keep_nearest` caps each
+            // sample's pairs again after the merge with the tracked ones)
+            if taken.len() > cap {
+                taken.sort_unstable_by(|x, y| {
+                    x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)).then(x.2.cmp(&y.2))
+                });
+                let mut rank = 0;
+                let mut last = u32::MAX;
+                taken.retain(|x| {
+                    rank = if x.0 == last { rank + 1 } else { 0 };
+                    last = x.0;
+                    rank < cap
+                });
+            }
+            taken.into_iter().map(|x| x.2)
         })
         .collect();
     pairs.par_sort_unstable();
