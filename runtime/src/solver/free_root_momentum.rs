@@ -36,8 +36,8 @@ pub(super) fn target(system: &StrandSystem, v: &[f64], h: f64) -> [f64; 3] {
     p
 }
 
-/// Move Ẋ so that the momentum at (`q`, `v`) is `target`.
-pub(super) fn correct(system: &mut StrandSystem, q: &[f64], v: &mut [f64], target: [f64; 3]) {
+/// The mass matrix at `q` into the workspace's terms.
+fn evaluate_mass(system: &mut StrandSystem, q: &[f64], v: &[f64]) {
     let terms = Terms {
         mass: true,
         ..Default::default()
@@ -47,7 +47,12 @@ pub(super) fn correct(system: &mut StrandSystem, q: &[f64], v: &mut [f64], targe
     system
         .kernel
         .evaluate(&EvalInput { q, v, field, terms }, &mut ws.terms);
-    let m = &ws.terms.mass;
+}
+
+/// `M_X v` from the mass matrix held in the workspace's terms: the momentum at the
+/// configuration they were evaluated at.
+fn momentum(system: &StrandSystem, v: &[f64]) -> [f64; 3] {
+    let m = &system.workspace.terms.mass;
     let x = v.len() - 3;
     let mut p = [0.0; 3];
     for (k, pk) in p.iter_mut().enumerate() {
@@ -55,8 +60,17 @@ pub(super) fn correct(system: &mut StrandSystem, q: &[f64], v: &mut [f64], targe
             *pk += m[(x + k, j)] * vj;
         }
     }
+    p
+}
+
+/// Move Ẋ so that the momentum at (`q`, `v`) is `target`.
+pub(super) fn correct(system: &mut StrandSystem, q: &[f64], v: &mut [f64], target: [f64; 3]) {
+    evaluate_mass(system, q, v);
+    let p = momentum(system, v);
+    let x = v.len() - 3;
+    let mass = system.workspace.terms.mass[(x, x)];
     for k in 0..3 {
-        v[x + k] += (target[k] - p[k]) / m[(x + k, x + k)];
+        v[x + k] += (target[k] - p[k]) / mass;
     }
 }
 
@@ -76,24 +90,10 @@ pub(super) fn scale_to_kinetic(
     kinetic: f64,
 ) -> f64 {
     let plain = (kinetic / present).sqrt();
-    let terms = Terms {
-        mass: true,
-        ..Default::default()
-    };
-    let field = BodyField::zero();
-    let ws = &mut system.workspace;
-    system
-        .kernel
-        .evaluate(&EvalInput { q, v, field, terms }, &mut ws.terms);
-    let m = &ws.terms.mass;
+    evaluate_mass(system, q, v);
+    let p = momentum(system, v);
     let x = v.len() - 3;
-    let mass = m[(x, x)];
-    let mut p = [0.0; 3];
-    for (k, pk) in p.iter_mut().enumerate() {
-        for (j, vj) in v.iter().enumerate() {
-            *pk += m[(x + k, j)] * vj;
-        }
-    }
+    let mass = system.workspace.terms.mass[(x, x)];
     let translation = p.iter().map(|c| c * c).sum::<f64>() / (2.0 * mass);
     if kinetic <= translation || present <= translation {
         v.iter_mut().for_each(|x| *x *= plain);
