@@ -12,7 +12,6 @@ use super::rk4::rk4;
 use super::stats::StepStats;
 use super::system::{HeadInterval, StrandState, StrandSystem, StrandWorkspace};
 use crate::config::IntegratorKind;
-use crate::model::ends::RootEnd;
 use superhelix_kernels::fixed::phase_cut;
 
 pub use superhelix_kernels::energy::{
@@ -319,10 +318,10 @@ fn implicit_adaptive(
         {
             // the shortest piece the step splits into still turns an element beyond any
             // limit a step may take, with nothing pushing the strand out of a body: a load
-            // (or the head) accelerates it faster than the steps resolve. Limiting the
-            // rotation would take momentum away silently (a free rod under a large load
-            // no longer follows F = ma): the run stops, naming the cause
-            // a holder pulled out of the rod's reach whips it first: that is the cause
+            // (or the head, or a holder pulled out of reach) accelerates it faster than
+            // the steps resolve. Limiting the rotation would take momentum away silently
+            // (a free rod under a large load no longer follows F = ma): the run stops,
+            // naming the cause
             if let Some(reach) = system.held.as_ref().and_then(|held| {
                 held.beyond_reach(&system.strand.geometry, &state.q, interval.t + h)
             }) {
@@ -415,7 +414,7 @@ fn implicit_adaptive(
             // the kinetic energy that brings E down to the bound (to its allowance's edge
             // when moving bodies work, see `limited_kinetic`)
             if let Some(kinetic) = balance.limited_kinetic(&end, !bodies_work) {
-                let lambda = if system.strand.ends.root == RootEnd::Free && system.held.is_none() {
+                let lambda = if free_root_momentum::applies(system) {
                     // a free strand keeps its momentum: its motion about the centre of
                     // mass is scaled
                     free_root_momentum::scale_to_kinetic(

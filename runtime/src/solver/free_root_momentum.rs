@@ -12,15 +12,22 @@
 //! [`super::linearly_implicit::linearly_implicit_euler`]), and the momentum it ends with
 //! is measured at the end's configuration q⁺: `M_X(q⁺) q̇⁺`. Where an element turns
 //! within the step the two differ at first order, by much more than the impulse when
-//! the rotation is fast (a rod pulled sideways at its tip lost 13 % of `F t` in the
-//! first step and kept the loss), so the run no longer follows F = ma. The correction
+//! the rotation is fast (uncorrected, a rod pulled sideways at its tip loses 13 % of
+//! `F t` in its first step and keeps the loss), so the run no longer follows F = ma. The correction
 //! moves Ẋ alone so that the momentum at the end is the start's plus the step's impulse
 //! `h F_X = M_X(q₀) q̇⁺ + (h/2)(B q̇⁺)_X − P(q₀, q̇)`: `Ẋ += (P_target − M_X(q⁺) q̇⁺)/m`,
 //! second order in h. It costs one mass matrix at q⁺ a step, on free-root strands only.
 
 use super::system::StrandSystem;
 use crate::kernels::kernel::{EvalInput, Terms};
+use crate::model::ends::RootEnd;
 use superhelix_kernels::body_field::BodyField;
+
+/// Whether the strand's momentum is kept here: a free root and no held tip (with a held
+/// tip the holder's multipliers carry the momentum's change).
+pub(super) fn applies(system: &StrandSystem) -> bool {
+    system.strand.ends.root == RootEnd::Free && system.held.is_none()
+}
 
 /// The momentum the step's own impulse gives (`P_target` above), from the terms still
 /// held for the start's configuration and the solved velocities `v`.

@@ -5,7 +5,6 @@ use super::predicted_contacts::resolve;
 use super::stats::StepStats;
 use super::system::{HeadInterval, StrandState, StrandSystem};
 use crate::kernels::kernel::Terms;
-use crate::model::ends::RootEnd;
 
 /// One Newton step of backward Euler (design page "Time stepping"), with the velocity
 /// term taken semi-implicitly:
@@ -94,10 +93,9 @@ pub fn linearly_implicit_euler(
         }
         resolve(system, &at, (h, h), q, v, stats)?;
     }
-    if system.strand.ends.root == RootEnd::Free && system.held.is_none() {
+    if free_root_momentum::applies(system) {
         // a free root's momentum changes by the step's impulse, the contacts that start
-        // within the step included (`free_root_momentum`); with a held tip the holder's
-        // multipliers carry the momentum's change
+        // within the step included
         let target = free_root_momentum::target(system, v, h);
         free_root_momentum::correct(system, q, v, target);
     }
