@@ -23,6 +23,7 @@ use crate::model::strand::{Strand, StrandGeometry};
 use crate::output::FrameSource;
 use crate::solver::embedded::{group_for, EmbeddedGroup};
 use crate::solver::initial_state::check_initial_state;
+use crate::solver::pair_coupling;
 use crate::solver::{
     solve_static, step, HeadInterval, StaticReport, StepContext, StepStats, StrandState,
     StrandSystem,
@@ -39,6 +40,8 @@ struct StrandSim {
     state: StrandState,
     stats: StepStats,
     group: String,
+    /// Its sides of the coupled hair–hair pairs (buffers of the pair solve).
+    sides: crate::solver::pair_coupling::StrandSides,
 }
 
 /// The strands of the embedded engine ([`Engine::Embedded`]): per strand its description
@@ -769,6 +772,7 @@ impl Simulation {
                     v: vec![0.0; n],
                 },
                 stats: StepStats::default(),
+                sides: Default::default(),
                 group: s.group,
             });
         }
@@ -1017,21 +1021,100 @@ impl Simulation {
             self.update_hair_pairs(t, h);
         }
         let interval = HeadInterval::new(&self.head, t, h);
-        let failure = self
+        // the coupled hair–hair pairs are solved after every strand's step, before the
+        // contacts' bookkeeping of the step's end
+        let coupled = self.hair_hair.is_some()
+            && self.strands.iter().any(|s| {
+                s.system
+                    .contacts
+                    .as_ref()
+                    .and_then(|c| c.hair_params())
+                    .is_some_and(|p| p.coupled)
+            });
+        let at_end = interval.at_end();
+        let mut failure = self
             .strands
             .par_iter_mut()
             .enumerate()
             .map(|(i, s)| {
                 let outcome = step(&mut s.system, &interval, &mut s.state, &mut s.stats);
-                if outcome.is_ok() {
+                if coupled && outcome.is_ok() {
+                    pair_coupling::strand_ends(
+                        &mut s.system,
+                        &at_end,
+                        &s.state.q,
+                        &s.state.v,
+                        &mut s.sides,
+                    );
+                }
+                if !coupled && outcome.is_ok() {
                     if let Some(c) = &mut s.system.contacts {
-                        c.after_step(&interval.at_end(), &s.system.strand.geometry, &s.state.q, h);
+                        c.after_step(&at_end, &s.system.strand.geometry, &s.state.q, h);
                     }
                 }
                 outcome.err().map(|cause| (i, cause))
             })
             .flatten()
             .min_by_key(|(i, _)| *i);
+        if coupled && failure.is_none() {
+            let pairs = self.hair_hair.as_ref().map_or(0, |hh| hh.pairs().len());
+            let mut sides: Vec<pair_coupling::StrandSides> = self
+                .strands
+                .iter_mut()
+                .map(|s| std::mem::take(&mut s.sides))
+                .collect();
+            let chosen = pair_coupling::select(&mut sides, pairs);
+            failure = self
+                .strands
+                .par_iter_mut()
+                .zip(sides.par_iter_mut())
+                .enumerate()
+                .map(|(i, (s, sides))| {
+                    pair_coupling::strand_responses(
+                        &mut s.system,
+                        &at_end,
+                        h,
+                        &s.state.q,
+                        &s.state.v,
+                        &mut s.stats,
+                        sides,
+                    )
+                    .err()
+                    .map(|cause| (i, cause))
+                })
+                .flatten()
+                .min_by_key(|(i, _)| *i);
+            if failure.is_none() && pair_coupling::solve(&mut sides, &chosen).is_none() {
+                for (s, sides) in self.strands.iter_mut().zip(&sides) {
+                    s.stats.pairs_unresolved += sides.responses();
+                }
+            }
+            failure = failure.or_else(|| {
+                self.strands
+                    .par_iter_mut()
+                    .zip(sides)
+                    .enumerate()
+                    .map(|(i, (s, sides))| {
+                        let outcome = pair_coupling::apply(
+                            &mut s.system,
+                            &sides,
+                            &at_end,
+                            &mut s.state.q,
+                            &mut s.state.v,
+                            &mut s.stats,
+                        );
+                        s.sides = sides;
+                        if outcome.is_ok() {
+                            if let Some(c) = &mut s.system.contacts {
+                                c.after_step(&at_end, &s.system.strand.geometry, &s.state.q, h);
+                            }
+                        }
+                        outcome.err().map(|cause| (i, cause))
+                    })
+                    .flatten()
+                    .min_by_key(|(i, _)| *i)
+            });
+        }
         if let Some((index, cause)) = failure {
             return Err(Error::Diverged {
                 strand: self.strands[index].system.strand.name.clone(),

@@ -564,7 +564,11 @@ fn the_balance_counts_the_power_of_the_partners_damping() {
     let mut kernel = MomentKernel::new(geom.clone(), ClosedForm);
     let config = ContactConfig {
         radius: 1e-3,
-        hair_hair: Some(HairHairConfig::default()),
+        // the partners as balls: the terms of a strand's own step
+        hair_hair: Some(HairHairConfig {
+            coupling: superhelix_runtime::forces::contacts::Coupling::Ball,
+            ..HairHairConfig::default()
+        }),
         ..ContactConfig::default()
     };
     let rho_s = material.mass_per_length;
@@ -714,7 +718,11 @@ fn contact_forces_are_minus_the_gradient_of_the_contact_energy() {
             kinetic_coefficient: 10.0,
             stiffness_ratio: 1.0,
         },
-        hair_hair: Some(HairHairConfig::default()),
+        // the partners as balls: the terms of a strand's own step
+        hair_hair: Some(HairHairConfig {
+            coupling: superhelix_runtime::forces::contacts::Coupling::Ball,
+            ..HairHairConfig::default()
+        }),
         ..ContactConfig::default()
     };
     let rho_s = material.mass_per_length;
@@ -760,6 +768,8 @@ fn contact_forces_are_minus_the_gradient_of_the_contact_energy() {
         reach: gap / 0.8,
         anchor: None,
         partner_s: Some(s_b),
+        pair: 0,
+        normal: Vector3::zeros(),
     });
     let self_pair = partners.pop().expect("the self pair");
     // each kind alone, so that none hides behind another
@@ -869,6 +879,8 @@ fn three_partners(
                 reach,
                 anchor: None,
                 partner_s: None,
+                pair: k,
+                normal: -off,
             }
         })
         .collect()

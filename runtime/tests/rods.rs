@@ -933,7 +933,7 @@ fn two_rods_crossing_and_pressed_together_share_the_load_without_passing_through
     let text = format!(
         "[simulation]\ndt = 0.002\nduration = 8.0\nengine = \"runtime\"\n[environment]\n\
          gravity = \"none\"\n[contacts]\nbodies = []\nsamples_per_element = 16\n\
-         [contacts.hair_hair]\nradius = 0.001\nstiffness = 1e4\n{}{}",
+         [contacts.hair_hair]\nradius = 0.001\nstiffness = 1e4\ncoupling = \"pair\"\n{}{}",
         rod("lower", "[-0.05, 0.0, 0.0]", "[1.0, 0.0, 0.0]", ""),
         rod(
             "upper",
@@ -968,15 +968,16 @@ fn two_rods_crossing_and_pressed_together_share_the_load_without_passing_through
         on_upper / load,
         closest / 0.002
     );
-    // measured: 0.4956 P and 0.5030 P. The props read the force as if it acted at the
-    // middle; the volumes touch over samples a fraction of a millimetre around it, and a
-    // load moved by u shifts a prop's share by 1.125 u / L of it (3.4e-3 at 0.3 mm), so
-    // the two readings agree to 1e-2 P, not to round-off
+    // measured: 0.4991 P and 0.4995 P (the pair's force solved for both rods; each rod
+    // seeing the other as a ball gave 0.4956 P and 0.5030 P). The props read the force as
+    // if it acted at the middle; the volumes touch a fraction of a millimetre around it,
+    // and a load moved by u shifts a prop's share by 1.125 u / L of it (3.4e-3 at
+    // 0.3 mm), so the readings agree to a few 1e-3 P, not to round-off
     assert!(
-        ((on_lower - on_upper) / load).abs() < 2e-2,
+        ((on_lower - on_upper) / load).abs() < 5e-3,
         "{on_lower:e} vs {on_upper:e}"
     );
-    assert!((on_lower / load - 0.5).abs() < 2e-2, "{on_lower:e}");
+    assert!((on_lower / load - 0.5).abs() < 5e-3, "{on_lower:e}");
     assert!(closest > 0.002 * (1.0 - 1e-2), "{closest:e}");
 }
 
@@ -2207,7 +2208,7 @@ fn a_free_rod_thrown_onto_a_frictionless_floor_keeps_its_horizontal_momentum() {
 /// 1 mm): the total momentum's largest departure from its start over `steps` steps of
 /// `dt`, relative to the start's, and the lower rod's momentum at the end (how much
 /// the collision passed on).
-fn colliding_free_rods(speed: f64, dt: f64, steps: usize) -> (f64, f64, f64) {
+fn colliding_free_rods(speed: f64, dt: f64, steps: usize, coupling: &str) -> (f64, f64, f64) {
     let rod = |name: &str, root: [f64; 3], direction: [f64; 3]| {
         format!(
             r#"
@@ -2243,6 +2244,7 @@ samples_per_element = 16
 [contacts.hair_hair]
 radius = 0.001
 stiffness = 1e3
+coupling = "{coupling}"
 {}{}"#,
         rod("lower", [-0.05, 0.01, 0.0], [1.0, 0.0, 0.0]),
         rod("upper", [0.0, -0.04, 0.004], [0.0, 1.0, 0.0]),
@@ -2274,22 +2276,26 @@ stiffness = 1e3
 }
 
 #[test]
-#[ignore = "fails: rod–rod contact does not keep the momentum (issue #47); cargo test --release -p superhelix-runtime --test rods -- --ignored two_free_rods"]
 fn two_free_rods_colliding_keep_their_total_momentum() {
     // no external force: whatever the contact does, the two rods' total momentum is a
-    // constant. Each strand's step sees the other as a ball where it was at the step's
-    // start (each side implicit on its own motion only), so the two forces of a pair are
-    // not equal and opposite: measured, the total momentum drifts by 0.89 of |P(0)| at
-    // dt = 1 ms and 0.45 at 0.2 ms (the upper rod loses 0.6 of its momentum, the lower
-    // gains 0.03 to 0.1), and the upper passes through the lower. Carrying the ball
-    // along the partner's velocity over the step did not help (0.89: the velocity
-    // from the last two positions overshoots a decelerating contact, and the lower rod
-    // kept being pushed after the upper had stopped feeling it)
+    // constant. With `coupling = "pair"` the pair's force is solved for both rods after
+    // their steps, equal and opposite (`solver::pair_coupling`). Measured: the drift is
+    // 7.7e-9 of |P(0)| at dt = 1 ms and 7.5e-9 at 0.2 ms (round-off of the momenta's
+    // assembly), and the lower rod carries 0.51 and 0.47 of the momentum after the
+    // collision. With each strand seeing the other as a ball where it was at the step's
+    // start (`coupling = "ball"`, the control) the drift is 0.89 at 1 ms
     for dt in [1e-3, 2e-4] {
-        let (drift, lower, t) = colliding_free_rods(0.1, dt, (0.1 / dt) as usize);
+        let (drift, lower, t) = colliding_free_rods(0.1, dt, (0.1 / dt) as usize, "pair");
         println!("dt {dt}: total momentum drift {drift:.3e} of |P(0)|, the lower rod's {lower:.3} at t = {t:.2}");
-        assert!(drift < 1e-3, "dt {dt}: {drift:e}");
+        assert!(drift < 1e-6, "dt {dt}: {drift:e}");
+        // the collision passes momentum on (an inelastic collision of two equal rods
+        // shares it half and half; the contact's damping and the rods' bending keep it
+        // from exactly that)
+        assert!((0.3..0.7).contains(&lower), "dt {dt}: {lower}");
     }
+    let (drift, _, _) = colliding_free_rods(0.1, 1e-3, 100, "ball");
+    println!("control, coupling = \"ball\": drift {drift:.3e} of |P(0)|");
+    assert!(drift > 0.1, "the control should lose momentum: {drift:e}");
 }
 
 /// A rope of 0.2 m (N = 40, r = 0.05 mm, E = 4 GPa, no gravity) pinned at both ends
@@ -2459,4 +2465,159 @@ root = "free"
         highest <= 1e-9 * scale,
         "energy created: {highest:e} J of {e0:e} J"
     );
+}
+
+/// Two ropes of 0.2 m (N = 30, radius 0.5 mm, E = 10 MPa), each pinned at both ends 0.19 m
+/// apart and hanging under gravity: the lower along x, the upper across it 30° off y,
+/// its middle over x = −3 cm (a third of the way from the lower's middle to its end),
+/// the two just touching, the upper pressed down at its middle by 5 mN (about two and a
+/// half times its weight). Hair volumes of radius 0.5 mm (contact at 1 mm between
+/// centrelines), frictionless; `stiffness` the pair penalty (`None`: the default). Steps
+/// of `dt` for 1.5 s. Returns, averaged over the last 0.5 s: where the lower rope is
+/// closest to the upper (x, m), how far that point is pushed sideways (y, m), and the
+/// closest approach of the two centrelines over the run over 2R.
+fn crossing_ropes(dt: f64, stiffness: Option<f64>, coupling: &str) -> (f64, f64, f64) {
+    let (length, span) = (0.2, 0.19);
+    let x = superhelix_runtime::model::ends::arc_half_angle(length, span);
+    let kappa = 2.0 * x / length;
+    let elements = 30;
+    let q0: Vec<String> = (0..elements)
+        .map(|_| format!("0.0, {}, 0.0", -kappa))
+        .collect();
+    let q0 = q0.join(", ");
+    // the arcs' sag at their middle, and the lower one's height at x = −3 cm
+    let radius = length / (2.0 * x);
+    let sag = radius * (1.0 - x.cos());
+    let lower_there = -((radius * radius - 0.03 * 0.03).sqrt() - radius * x.cos());
+    let z_upper = lower_there + 0.001 + sag;
+    let rope = |name: &str,
+                root: [f64; 3],
+                direction: [f64; 3],
+                normal: [f64; 3],
+                tip: [f64; 3],
+                extra: &str| {
+        format!(
+            r#"
+[[strands]]
+name = "{name}"
+length = {length}
+elements = {elements}
+radius = 5e-4
+youngs_modulus = 1e7
+root = {root:?}
+direction = {direction:?}
+normal = {normal:?}
+q0 = [{q0}]
+{extra}[strands.ends]
+root = "pinned"
+[strands.ends.tip]
+kind = "pinned"
+position = {tip:?}
+"#
+        )
+    };
+    let (c, s) = (x.cos(), x.sin());
+    let (st, ct) = (30f64.to_radians().sin(), 30f64.to_radians().cos());
+    let half = span / 2.0;
+    let stiffness = stiffness.map_or(String::new(), |k| format!("stiffness = {k}\n"));
+    let text = format!(
+        r#"
+[simulation]
+dt = {dt}
+duration = 1.5
+engine = "runtime"
+[environment]
+gravity = [0.0, 0.0, -9.81]
+[contacts]
+bodies = []
+[contacts.hair_hair]
+radius = 5e-4
+coupling = "{coupling}"
+{stiffness}{}{}"#,
+        rope(
+            "lower",
+            [-half, 0.0, 0.0],
+            [c, 0.0, -s],
+            [0.0, 1.0, 0.0],
+            [half, 0.0, 0.0],
+            ""
+        ),
+        rope(
+            "upper",
+            [-0.03 - half * st, -half * ct, z_upper],
+            [st * c, ct * c, -s],
+            [-ct, st, 0.0],
+            [-0.03 + half * st, half * ct, z_upper],
+            "[[strands.point_loads]]\ns = 0.1\nforce = [0.0, 0.0, -5e-3]\n"
+        ),
+    );
+    let mut sim = Simulation::new(parse_scene(&text).expect("scene"), None).expect("simulation");
+    let arcs: Vec<f64> = (0..=400).map(|k| length * k as f64 / 400.0).collect();
+    let closest_points = |sim: &Simulation| {
+        let a: Vec<_> = arcs.iter().map(|&s| sim.position_at(0, s)).collect();
+        let b: Vec<_> = arcs.iter().map(|&s| sim.position_at(1, s)).collect();
+        let mut best = (f64::INFINITY, 0);
+        for (i, p) in a.iter().enumerate() {
+            for q in &b {
+                let d = (p - q).norm();
+                if d < best.0 {
+                    best = (d, i);
+                }
+            }
+        }
+        (best.0, a[best.1])
+    };
+    let (mut closest, mut along, mut sideways, mut count) = (f64::INFINITY, 0.0, 0.0, 0);
+    while sim.time() < 1.5 - 1e-9 {
+        sim.step().expect("step");
+        let (d, lower) = closest_points(&sim);
+        closest = closest.min(d);
+        if sim.time() > 1.0 {
+            along += lower.x;
+            sideways += lower.y;
+            count += 1;
+        }
+    }
+    (
+        along / count as f64,
+        sideways / count as f64,
+        closest / 1e-3,
+    )
+}
+
+#[test]
+#[ignore = "fails: crossing ropes sink into each other at the default stiffness, and walk at 5 ms (issue #47); cargo test --release -p superhelix-runtime --test rods -- --ignored crossing_ropes"]
+fn crossing_ropes_hold_apart_and_stay_put_at_every_step() {
+    // the pair solve (`coupling = "pair"`) at the default stiffness and at 10⁵ N/m², at
+    // steps of 1, 2 and 5 ms. Measured (contact along the lower rope, its push sideways,
+    // closest approach over 2R):
+    //   default: x = −2.7199 / −2.7195 / −2.7196 cm, 2.49 / 2.56 / 2.60 mm, 0.351 / 0.487 / 0.583
+    //   10⁵:     x = −2.7776 / −2.7861 / −3.0595 cm, 1.83 / 1.80 / −0.99 mm, 0.986 / 0.987 / 0.877
+    // (`coupling = "ball"`: default 0.483 / 0.473 / 0.357; 10⁵: 0.955 / 0.941 / 0.276, the
+    // contact 1.7 mm apart between the steps). The default sinks half the reach; at 5 ms
+    // the stiff pair still walks 2.8 mm and pushes the lower rope the other way
+    for stiffness in [None, Some(1e5)] {
+        let runs: Vec<(f64, f64, f64)> = [1e-3, 2e-3, 5e-3]
+            .iter()
+            .map(|&dt| crossing_ropes(dt, stiffness, "pair"))
+            .collect();
+        for (dt, (along, sideways, closest)) in [1e-3, 2e-3, 5e-3].iter().zip(&runs) {
+            println!("k {stiffness:?} dt {dt}: contact at x {along:.4e} m, lower sideways {sideways:.3e} m, closest {closest:.3} of 2R");
+        }
+        let spread = |f: fn(&(f64, f64, f64)) -> f64| {
+            let v: Vec<f64> = runs.iter().map(f).collect();
+            v.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
+                - v.iter().fold(f64::INFINITY, |a, &b| a.min(b))
+        };
+        // the volumes hold at a fraction of R (closest approach above 1.5 R of 2R), and
+        // the contact stays where it is within a tenth of R whatever the step
+        for (_, _, closest) in &runs {
+            assert!(*closest > 0.75, "{stiffness:?}: closest {closest}");
+        }
+        assert!(spread(|r| r.0) < 5e-5, "{stiffness:?}: the contact moves");
+        assert!(
+            spread(|r| r.1) < 5e-5,
+            "{stiffness:?}: the push sideways moves"
+        );
+    }
 }

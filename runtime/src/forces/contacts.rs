@@ -14,7 +14,7 @@ pub mod hair_hair;
 pub mod predicted;
 pub mod strand_contacts;
 
-pub use config::{ContactConfig, Friction, HairHairConfig, RodFriction};
+pub use config::{ContactConfig, Coupling, Friction, HairHairConfig, RodFriction};
 pub use hair_hair::{HairHair, Pair, PairCounts};
 pub use strand_contacts::{
     ContactParams, ContactSummary, HairHairParams, PartnerAnchor, PartnerPoint, StrandContacts,

@@ -3,7 +3,7 @@
 
 use super::reader::{kind, Bound, Node, Range};
 use crate::bodies::BodySetup;
-use crate::forces::contacts::{ContactConfig, Friction, HairHairConfig, RodFriction};
+use crate::forces::contacts::{ContactConfig, Coupling, Friction, HairHairConfig, RodFriction};
 use toml::Value;
 
 /// Read `[contacts]`, checking body names against `bodies`.
@@ -149,6 +149,12 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
                 n.count(k, 1, 64, "the cap on the pairs a contact sample keeps")
             });
             let self_contact = super::reader::boolean(&mut h, "self_contact", false);
+            let couplings = ["pair", "ball"];
+            let coupling = h.optional("coupling", "ball", |n, k| {
+                n.choice(k, &couplings, |s| {
+                    couplings.iter().copied().find(|m| *m == s)
+                })
+            });
             let split_depth = if h.has("split_depth") {
                 h.f64(
                     "split_depth",
@@ -223,6 +229,7 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
                 split_depth,
                 hh_friction,
                 max_pairs,
+                coupling,
             ) {
                 (
                     Some(radius),
@@ -234,6 +241,7 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
                     Some(split_depth),
                     Some(friction),
                     Some(max_pairs_per_sample),
+                    Some(coupling),
                 ) => Some(Some(HairHairConfig {
                     radius,
                     stiffness,
@@ -244,6 +252,11 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
                     split_depth,
                     friction,
                     max_pairs_per_sample,
+                    coupling: if coupling == "ball" {
+                        Coupling::Ball
+                    } else {
+                        Coupling::Pair
+                    },
                 })),
                 _ => None,
             }

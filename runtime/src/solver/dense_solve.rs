@@ -39,6 +39,9 @@ pub struct DenseSolver {
     /// `x = S y`, and projections are taken of `S H S`, so that coordinates of very
     /// different units (a pinned root's joint, [`crate::model::ends`]) keep their digits.
     scale: Option<Vec<f64>>,
+    /// Factorisations so far: which factors `matrix` holds
+    /// ([`Self::factorizations`]).
+    factorizations: u64,
 }
 
 impl DenseSolver {
@@ -80,6 +83,7 @@ impl DenseSolver {
             last_valid: false,
             projections_repeated: 0,
             scale: None,
+            factorizations: 0,
         }
     }
 
@@ -107,6 +111,13 @@ impl DenseSolver {
                 *x *= f(s[i]);
             }
         }
+    }
+
+    /// How many factorisations ([`Self::solve_general`], [`Self::solve_spd`]) this
+    /// workspace made: the factors in `matrix` are those of the factorisation with this
+    /// number, which a caller keeps to know they are still there.
+    pub fn factorizations(&self) -> u64 {
+        self.factorizations
     }
 
     /// Replace the symmetric matrix `h` (lower triangle read) by its negative
@@ -266,6 +277,7 @@ impl DenseSolver {
     /// Cholesky-factor `matrix` (lower triangle read) and solve in place. Returns false,
     /// leaving `rhs` untouched, when the matrix is not numerically positive definite.
     pub fn solve_spd(&mut self) -> bool {
+        self.factorizations += 1;
         self.rescale(false, true, true);
         let stack = MemStack::new(&mut self.buffer);
         let ok = llt::factor::cholesky_in_place(
@@ -289,6 +301,7 @@ impl DenseSolver {
     /// LU-factor `matrix` with partial pivoting and solve in place. Returns false when
     /// the solution is not finite (singular matrix).
     pub fn solve_general(&mut self) -> bool {
+        self.factorizations += 1;
         self.rescale(false, true, true);
         let stack = MemStack::new(&mut self.buffer);
         let (_, perm) = lu::factor::lu_in_place(

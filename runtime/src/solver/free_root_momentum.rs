@@ -70,6 +70,12 @@ fn momentum(system: &StrandSystem, v: &[f64]) -> [f64; 3] {
     p
 }
 
+/// The momentum `M_X(q) v` (evaluates the mass matrix at q into the workspace's terms).
+pub(super) fn momentum_at(system: &mut StrandSystem, q: &[f64], v: &[f64]) -> [f64; 3] {
+    evaluate_mass(system, q, v);
+    momentum(system, v)
+}
+
 /// Move Ẋ so that the momentum at (`q`, `v`) is `target`.
 pub(super) fn correct(system: &mut StrandSystem, q: &[f64], v: &mut [f64], target: [f64; 3]) {
     evaluate_mass(system, q, v);

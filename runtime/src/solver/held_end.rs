@@ -419,13 +419,8 @@ impl HeldTip {
         t_end: f64,
         h: f64,
     ) -> Result<(), String> {
-        self.evaluate(kernel, geometry, q, t_end);
-        for r in 0..self.rows {
-            self.w[r].copy_from_slice(&self.g_jac[r]);
-            if !solve(&mut self.w[r]) {
-                return Err("held tip: singular step matrix".into());
-            }
-        }
+        self.solved_columns(kernel, geometry, solve, q, t_end)
+            .ok_or("held tip: singular step matrix")?;
         let mut x = Vector6::zeros();
         for r in 0..self.rows {
             let gv: f64 = self.g_jac[r].iter().zip(v.iter()).map(|(g, v)| g * v).sum();
@@ -458,13 +453,8 @@ impl HeldTip {
         force: &[f64],
         t: f64,
     ) -> Result<(), String> {
-        self.evaluate(kernel, geometry, q, t);
-        for r in 0..self.rows {
-            self.w[r].copy_from_slice(&self.g_jac[r]);
-            if !solve(&mut self.w[r]) {
-                return Err("held tip: singular mass matrix".into());
-            }
-        }
+        self.solved_columns(kernel, geometry, solve, q, t)
+            .ok_or("held tip: singular mass matrix")?;
         let mut accel = force.to_vec();
         if !solve(&mut accel) {
             return Err("held tip: singular mass matrix".into());
@@ -484,8 +474,74 @@ impl HeldTip {
         Ok(())
     }
 
+    /// For a change of velocity after the step's solve (the pair solve of two strands,
+    /// [`super::pair_coupling`]): the columns `A⁻¹ gᵣ` of the constraint rows at the end
+    /// `q` (time `t`) with the step matrix's factors in `solve`, for
+    /// [`Self::constrain_change`].
+    pub(crate) fn prepare_change(
+        &mut self,
+        kernel: &mut dyn StrandKernel,
+        geometry: &StrandGeometry,
+        solve: &mut impl FnMut(&mut [f64]) -> bool,
+        q: &[f64],
+        t: f64,
+    ) -> Result<(), String> {
+        self.solved_columns(kernel, geometry, solve, q, t)
+            .ok_or_else(|| "held tip: singular step matrix".into())
+    }
+
+    /// The rows at (q, t), and the columns `w_r = A⁻¹ g_r` with the factors in `solve`
+    /// (`None`: not finite).
+    fn solved_columns(
+        &mut self,
+        kernel: &mut dyn StrandKernel,
+        geometry: &StrandGeometry,
+        solve: &mut impl FnMut(&mut [f64]) -> bool,
+        q: &[f64],
+        t: f64,
+    ) -> Option<()> {
+        self.evaluate(kernel, geometry, q, t);
+        for r in 0..self.rows {
+            self.w[r].copy_from_slice(&self.g_jac[r]);
+            if !solve(&mut self.w[r]) {
+                return None;
+            }
+        }
+        Some(())
+    }
+
+    /// A velocity change `u = A⁻¹ Q` (of a generalized impulse Q) made to keep the
+    /// linearised tip on its holder: `u − A⁻¹Gᵀλ` with `G (u − A⁻¹Gᵀλ) = 0`. Returns λ,
+    /// the holder's impulse against Q (see [`Self::add_impulse`]); `None` when the rows
+    /// are dependent. Needs [`Self::prepare_change`].
+    pub(crate) fn constrain_change(&self, u: &mut [f64]) -> Option<Vector6<f64>> {
+        let mut x = Vector6::zeros();
+        for r in 0..self.rows {
+            x[r] = self.g_jac[r].iter().zip(u.iter()).map(|(g, v)| g * v).sum();
+        }
+        let lambda = self.solve_rows(&x)?;
+        for r in 0..self.rows {
+            for (uk, w) in u.iter_mut().zip(&self.w[r]) {
+                *uk -= w * lambda[r];
+            }
+        }
+        Some(lambda)
+    }
+
+    /// Add the holder's impulse `λ` (of [`Self::constrain_change`]) over a step of `h`
+    /// to the reaction recorded at `t`.
+    pub(crate) fn add_impulse(&mut self, lambda: &Vector6<f64>, h: f64, t: f64) {
+        let r = self.reaction_of(&(-lambda / h), t);
+        self.reaction += r;
+    }
+
     /// The reaction from multipliers μ of the rows (generalized force Gᵀμ on the strand).
     fn record_reaction(&mut self, mu: &Vector6<f64>, t: f64) {
+        self.reaction = self.reaction_of(mu, t);
+    }
+
+    /// The reaction (force, torque; world) of the multipliers μ at `t`.
+    fn reaction_of(&self, mu: &Vector6<f64>, t: f64) -> Vector6<f64> {
         let mut r = Vector6::zeros();
         let kind = self.end.kind;
         if kind.slides() {
@@ -502,7 +558,7 @@ impl HeldTip {
                 r[3 + k] = mu[p + k];
             }
         }
-        self.reaction = r;
+        r
     }
 
     /// For the static solve at (q, t): the multipliers μ that best balance the

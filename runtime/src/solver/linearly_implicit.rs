@@ -62,6 +62,7 @@ pub fn linearly_implicit_euler(
     if !ws.solver.solve_general() {
         return Err("linearly implicit Euler: singular step matrix".into());
     }
+    ws.implicit_factors = Some((ws.solver.factorizations(), h));
     v.copy_from_slice(system.workspace.solver.solution());
     let t_end = interval.t + h;
     if let Some(held) = system.held.as_mut() {

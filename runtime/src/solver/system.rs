@@ -56,6 +56,10 @@ pub struct StrandWorkspace {
     pub(super) loss_estimate: f64,
     /// The error-controlled step's state ([`super::error_control`]).
     pub(super) error_control: super::error_control::ErrorControl,
+    /// The last linearly implicit solve: the solver's factorisation number then and the
+    /// piece's length h (its factors are the step matrix `M − h D + …` the pair solve of
+    /// two strands needs, [`super::pair_coupling`], while the number is unchanged).
+    pub(super) implicit_factors: Option<(u64, f64)>,
 }
 
 impl StrandWorkspace {
@@ -83,6 +87,7 @@ impl StrandWorkspace {
             rotation_estimate: 0.0,
             loss_estimate: 0.0,
             error_control: super::error_control::ErrorControl::default(),
+            implicit_factors: None,
         }
     }
 

@@ -98,6 +98,24 @@ pub struct HairHairConfig {
     /// the memory and time of a step) grow linearly with the samples however dense the
     /// hair ([`DEFAULT_MAX_PAIRS_PER_SAMPLE`]).
     pub max_pairs_per_sample: usize,
+    /// How the two strands of a pair are stepped together ([`Coupling`]).
+    pub coupling: Coupling,
+}
+
+/// How the force of a pair of two strands in contact enters their steps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Coupling {
+    /// The pair's force is solved once for both strands after their steps (each
+    /// strand's compliance at the pair's point from its step matrix), and applied to
+    /// both, equal and opposite: the two strands' momentum is kept and neither sees the
+    /// other as immovable ([`crate::solver::pair_coupling`]).
+    Pair,
+    /// Each strand's step sees the other's point as a ball where it was at the step's
+    /// start, moving at its velocity, with the penalty implicit on its own side only: the
+    /// two forces of a pair are not equal and opposite while the strands move. Cheaper
+    /// on dense hair (each strand's pairs in its own step, in parallel).
+    #[default]
+    Ball,
 }
 
 /// The default cap on the pairs of a sample: more than the strands a sample of a dense
@@ -131,6 +149,7 @@ impl Default for HairHairConfig {
             split_depth: None,
             friction: None,
             max_pairs_per_sample: DEFAULT_MAX_PAIRS_PER_SAMPLE,
+            coupling: Coupling::default(),
         }
     }
 }

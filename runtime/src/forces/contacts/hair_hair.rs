@@ -496,7 +496,8 @@ impl HairHair {
             .par_iter()
             .zip(&closest)
             .zip(&anchors)
-            .map(|((p, &(ta, tb)), anchor)| {
+            .enumerate()
+            .map(|(index, ((p, &(ta, tb)), anchor))| {
                 let reach = reach - allowance.get(&(p.a.0, p.b.0)).copied().unwrap_or(0.0);
                 let at = |side: (usize, usize), t: f64| {
                     // the point at parameter t ∈ [−1, 1] around sample side.1: its arc
@@ -519,6 +520,12 @@ impl HairHair {
                 let (sa, wa, xa, va) = at(p.a, ta);
                 let (sb, wb, xb, vb) = at(p.b, tb);
                 let weight = wa.min(wb);
+                let line = xa - xb;
+                let normal = if line.norm() > 0.0 {
+                    line / line.norm()
+                } else {
+                    Vector3::zeros()
+                };
                 // each side's sample is pulled to the other's, offset by ±Δ*
                 let own_pair = p.a.0 == p.b.0;
                 let held = |own: (usize, usize), other: (usize, usize), sign: f64| {
@@ -541,6 +548,8 @@ impl HairHair {
                         reach,
                         anchor: held(p.a, p.b, 1.0),
                         partner_s: own_pair.then_some(sb),
+                        pair: index,
+                        normal,
                     },
                     PartnerPoint {
                         s: sb,
@@ -550,6 +559,8 @@ impl HairHair {
                         reach,
                         anchor: held(p.b, p.a, -1.0),
                         partner_s: own_pair.then_some(sa),
+                        pair: index,
+                        normal: -normal,
                     },
                 )
             })

@@ -92,6 +92,9 @@ pub struct HairHairParams {
     pub split_depth: Option<f64>,
     /// Coulomb friction between rods (`None`: none).
     pub friction: Option<RodFriction>,
+    /// The normal force of a pair of two strands is solved for both after their steps
+    /// ([`super::Coupling::Pair`]): a strand's own step leaves it out.
+    pub coupled: bool,
 }
 
 impl HairHairParams {
@@ -106,6 +109,7 @@ impl HairHairParams {
             damping: 2.0 * config.damping_ratio * (k * rho_s).sqrt(),
             split_depth: config.split_depth,
             friction: config.friction,
+            coupled: config.coupling == super::Coupling::Pair,
         }
     }
 }
@@ -132,6 +136,11 @@ pub struct PartnerPoint {
     /// and damping act through `J(s) − J(partner_s)`), not against a ball where the
     /// other part was at the step's start; `point` and `velocity` are only where it was.
     pub partner_s: Option<f64>,
+    /// The pair's index among the pairs of this step (both sides of a pair carry it).
+    pub pair: usize,
+    /// The line of centres at the step's start, from the other strand's point to this
+    /// one's, world coordinates (unit; zero when the two coincide).
+    pub normal: Vector3<f64>,
 }
 
 /// Where one of this strand's samples is held by friction against another strand: the
@@ -427,6 +436,11 @@ impl StrandContacts {
     /// The parameters.
     pub fn params(&self) -> &ContactParams {
         &self.params
+    }
+
+    /// The partner points of the coming step (hair–hair).
+    pub fn partners(&self) -> &[PartnerPoint] {
+        &self.partners
     }
 
     /// The hair–hair parameters, when hair–hair interaction is on.
@@ -882,28 +896,36 @@ impl StrandContacts {
                 summary.hair_contacts += 1;
                 let n = (y - p) / d;
                 let normal = hh.stiffness * w * (partner.reach - d);
-                let mut force = normal * n;
                 // the partner's velocity as seen in the head frame
                 let vp = head.rotation.transpose() * (partner.velocity - head.velocity)
                     - head.omega.cross(&p);
                 let vel = velocity(jac, v) - vp;
                 // with friction the damping acts along the line of centres only (the
-                // tangential force is Coulomb's); without, on the whole relative velocity
-                let damping = if hh.friction.is_some() {
+                // tangential force is Coulomb's); without, on the whole relative velocity.
+                // A coupled pair's penalty and damping are the pair solve's, after the
+                // step (`crate::solver::pair_coupling`): only its friction is the step's
+                let damping = if hh.coupled {
+                    Matrix3::zeros()
+                } else if hh.friction.is_some() {
                     hh.damping * w * n * n.transpose()
                 } else {
                     hh.damping * w * Matrix3::identity()
+                };
+                let mut force = if hh.coupled {
+                    Vector3::zeros()
+                } else {
+                    normal * n
                 };
                 force -= damping * vel;
                 if terms.force {
                     add_force(jac, &force, &mut out.force);
                 }
-                if terms.stiffness {
+                if terms.stiffness && !hh.coupled {
                     let a = -hh.stiffness * w * n * n.transpose();
                     add_projected(jac, &a, &mut self.aj, &mut out.stiffness);
                     stiffened = true;
                 }
-                if terms.damping {
+                if terms.damping && damping != Matrix3::zeros() {
                     add_projected(jac, &-damping, &mut self.aj, &mut out.damping);
                 }
                 // Coulomb friction: the anchored sample held to the partner's anchor point
@@ -1130,11 +1152,14 @@ impl StrandContacts {
                     continue;
                 }
                 let overlap = partner.reach - d;
-                potential += 0.5 * hh.stiffness * w * overlap * overlap;
-                let vp = head.rotation.transpose() * (partner.velocity - head.velocity)
-                    - head.omega.cross(&pt);
                 let n = (y - pt) / d;
-                rate += hh.stiffness * w * overlap * n.dot(&vp);
+                if !hh.coupled {
+                    // (a coupled pair's penalty is the pair solve's, not the step's)
+                    potential += 0.5 * hh.stiffness * w * overlap * overlap;
+                    let vp = head.rotation.transpose() * (partner.velocity - head.velocity)
+                        - head.omega.cross(&pt);
+                    rate += hh.stiffness * w * overlap * n.dot(&vp);
+                }
                 // the friction spring: its energy, and its rate through the anchor point's
                 // motion
                 let (Some(f), Some(anchor)) = (hh.friction, partner.anchor) else {
@@ -1232,7 +1257,8 @@ impl StrandContacts {
         jac: &mut [Vector3<f64>],
     ) -> f64 {
         let Some(hh) = self.hair else { return 0.0 };
-        if self.partners.is_empty() {
+        // a coupled pair's damping is not the step's (see `add_to_terms`)
+        if self.partners.is_empty() || hh.coupled {
             return 0.0;
         }
         self.sample_poses(kernel.geometry(), q);
@@ -1548,7 +1574,12 @@ impl StrandContacts {
                 self.touched[k] = self.touching(head, k, &self.poses[k].0).is_some();
             }
         }
-        let has_partners = !self.partners.is_empty();
+        // a coupled pair's normal force is not the step's: its approach is not checked
+        let coupled = self.hair.is_some_and(|h| h.coupled);
+        let has_partners = self
+            .partners
+            .iter()
+            .any(|p| p.partner_s.is_some() || !coupled);
         if has_partners {
             self.sample_y0.clear();
             self.sample_y0.extend(self.poses.iter().map(|p| p.0));
@@ -1576,9 +1607,10 @@ impl StrandContacts {
         // reach − split the step passes it
         let mut near = std::mem::take(&mut self.partner_near);
         near.clear();
+        let coupled = self.hair.is_some_and(|h| h.coupled);
         near.extend((0..self.partners.len()).filter(|&i| {
             let p = &self.partners[i];
-            if p.partner_s.is_some() {
+            if p.partner_s.is_some() || coupled {
                 return false;
             }
             let pt = rt * (p.point - head.position);
@@ -1881,7 +1913,11 @@ mod pruning_tests {
             &material,
         );
         let config = ContactConfig {
-            hair_hair: Some(HairHairConfig::default()),
+            // the partners as balls: the terms of a strand's own step are checked here
+            hair_hair: Some(HairHairConfig {
+                coupling: crate::forces::contacts::Coupling::Ball,
+                ..HairHairConfig::default()
+            }),
             ..ContactConfig::default()
         };
         let hair = HairHairParams::new(config.hair_hair.as_ref().expect("set"), 1e-5);
@@ -1918,6 +1954,8 @@ mod pruning_tests {
                 reach,
                 anchor: None,
                 partner_s: None,
+                pair: 0,
+                normal: Vector3::zeros(),
             });
         }
         out

@@ -1,0 +1,551 @@
+//! The force of a pair of two strands in contact, solved once for both after their steps
+//! (`[contacts.hair_hair] coupling = "pair"`).
+//!
+//! Each strand steps on its own (in parallel). A strand that saw its partner as an
+//! immovable ball where it was at the step's start would push, and be pushed, as if the
+//! other had no mass, and the two forces of a pair would not be equal and opposite while
+//! the strands move (two free rods colliding lost 0.89 of their total momentum that
+//! way, `coupling = "ball"`). Here a strand's step leaves its pairs with other strands
+//! out (their Coulomb friction excepted, which stays in each strand's step), and after
+//! every strand has stepped the pairs' forces are solved together, equal and opposite by
+//! construction, and added to both strands' steps as the force they would have added to
+//! the right-hand side:
+//!
+//! ```text
+//! q̇⁺ = q̇_free + σ A⁻¹ Jᵀ F,   q⁺ = q_free + c (q̇⁺ − q̇_free)
+//! ```
+//!
+//! with A the strand's step matrix (the factors its linearly implicit solve left, or a
+//! fresh assembly at the end for another integrator), σ = h the step (F's impulse is
+//! σ F) and c the length of the piece the factors are for (the step's, or its last
+//! piece's when it was split), J the Jacobian at the pair's point. The relative
+//! velocity and the separation of the pair's two points are then linear in F, through
+//! each side's compliance `D = J A⁻¹ Jᵀ` (3 × 3). The force is the pair's penalty along
+//! the line of centres n at the step's start (from the other point to this one; a point
+//! carried through the other strand within a step still counts as deep), with its
+//! damping, and the damping of the relative velocity across n (without friction):
+//!
+//! ```text
+//! f_n = max(0, k w (r − n·Δx) − c_h w n·Δv),   f_t = −c_h w P Δv,   P = I − n nᵀ
+//! ```
+//!
+//! at the step's end (Δx, Δv the separation and relative velocity; k, c_h the mean of
+//! the two strands'). The pairs are solved by Gauss–Seidel, each pair's force in closed
+//! form for the others' (its own compliance in the denominator, as an implicit penalty
+//! has it: stable at any k). A strand with a held tip sees its pairs through its
+//! constrained compliance and the holder's reaction takes its share; a strand with a
+//! free root keeps its momentum, the impulse σ Σ F added
+//! ([`super::free_root_momentum`]).
+//!
+//! With the step's own matrix the force is what the step would have added to its
+//! right-hand side: two rods pressed together settle where the penalty balances the
+//! loads, and moving, the two sides share every impulse: the momentum of two free rods
+//! colliding is kept to round-off.
+
+use super::free_root_momentum;
+use super::predicted_contacts::resolve_again;
+use super::stats::StepStats;
+use super::system::StrandSystem;
+use crate::bodies::Placement;
+use crate::kernels::kernel::Terms;
+use nalgebra::{Matrix3, Matrix6x3, Vector3, Vector6};
+
+/// Most Gauss–Seidel sweeps over the pairs of a step. The forces are equal and opposite
+/// after any number of sweeps (the momentum is kept whatever the count); the sweeps
+/// bring each pair's force to its penalty at the step's end, and what they leave is
+/// taken up at the next step.
+const MAX_SWEEPS: usize = 30;
+
+/// The sweeps stop when no pair's force changed by more than this fraction of the
+/// largest.
+const SWEEP_TOLERANCE: f64 = 1e-9;
+
+/// Sweeps whose largest force grew beyond this multiple of the first sweep's have
+/// diverged.
+const EXPLODED: f64 = 1e6;
+
+/// Sweeps that ran out are kept when their last changed no force by more than this
+/// fraction of the largest.
+const ACCEPTED_CHANGE: f64 = 0.1;
+
+/// The smallest relaxation of the sweeps (see [`solve`]).
+const MIN_RELAXATION: f64 = 1.0 / 64.0;
+
+/// No side: a pair's slot not yet filled, a side without a response.
+const NONE: usize = usize::MAX;
+
+/// The sides of the coupled pairs of one strand at its free step's end, and the change
+/// of its velocity the pair forces make (buffers kept from step to step).
+#[derive(Debug, Default)]
+pub struct StrandSides {
+    dofs: usize,
+    /// Per side (every coupled partner of the step): the pair's index among the step's
+    /// pairs.
+    pair: Vec<usize>,
+    /// y and ẏ at the free end, head frame.
+    point: Vec<Vector3<f64>>,
+    velocity: Vec<Vector3<f64>>,
+    /// The partner's arc length on this strand, m.
+    arc: Vec<f64>,
+    /// n, head frame (from the other strand's point to this one's, at the step's start).
+    normal: Vec<Vector3<f64>>,
+    /// The pair's weight (arc length), m, and reach, m.
+    weight: Vec<f64>,
+    reach: Vec<f64>,
+    /// This strand's penalty stiffness (N/m²), normal damping and tangential damping
+    /// (N s/m²; the tangential 0 with Coulomb friction, which the step holds).
+    stiffness: Vec<f64>,
+    damping: Vec<f64>,
+    tangential: Vec<f64>,
+    /// Per side: where its response is among the responses ([`NONE`]: the pair cannot
+    /// touch, [`select`]).
+    response_of: Vec<usize>,
+    /// Per response: J (∂y/∂q_j, `dofs` each) and the rows of `U = A⁻¹ Jᵀ` (constrained by
+    /// a held tip), `dofs` each.
+    jac: Vec<Vector3<f64>>,
+    response: Vec<Vector3<f64>>,
+    /// Per response: `D = J U`, the side's compliance at the point.
+    compliance: Vec<Matrix3<f64>>,
+    /// Per response: the held tip's impulse per unit force along each axis.
+    held: Vec<Matrix6x3<f64>>,
+    /// Per response: the pair's force on this side after [`solve`], N (head frame).
+    force: Vec<Vector3<f64>>,
+    /// The change of q̇ so far.
+    dv: Vec<f64>,
+    /// σ (the impulse's duration) and c (the end moves by c times the velocity change).
+    sigma: f64,
+    c: f64,
+    /// The factors are those the step's own solve left (its contacts with bodies that
+    /// started within it can be resolved again on them).
+    own_factors: bool,
+}
+
+impl StrandSides {
+    fn clear(&mut self, dofs: usize) {
+        self.dofs = dofs;
+        self.pair.clear();
+        self.point.clear();
+        self.velocity.clear();
+        self.arc.clear();
+        self.normal.clear();
+        self.weight.clear();
+        self.reach.clear();
+        self.stiffness.clear();
+        self.damping.clear();
+        self.tangential.clear();
+        self.response_of.clear();
+        self.jac.clear();
+        self.response.clear();
+        self.compliance.clear();
+        self.held.clear();
+        self.force.clear();
+        self.dv.clear();
+        self.dv.resize(dofs, 0.0);
+    }
+
+    /// The sides of pairs that may touch this step.
+    pub fn responses(&self) -> usize {
+        self.compliance.len()
+    }
+
+    /// Whether the strand has a pair that may touch this step.
+    pub fn is_empty(&self) -> bool {
+        self.compliance.is_empty()
+    }
+
+    /// `J dv` at response r.
+    fn moved(&self, r: usize) -> Vector3<f64> {
+        self.jac[r * self.dofs..(r + 1) * self.dofs]
+            .iter()
+            .zip(&self.dv)
+            .map(|(j, d)| j * *d)
+            .sum()
+    }
+
+    /// `dv += σ U F` at response r.
+    fn push(&mut self, r: usize, force: &Vector3<f64>) {
+        let f = force * self.sigma;
+        let rows = &self.response[r * self.dofs..(r + 1) * self.dofs];
+        for (d, u) in self.dv.iter_mut().zip(rows) {
+            *d += u.dot(&f);
+        }
+    }
+}
+
+/// The positive semidefinite part of the symmetric part of a side's compliance
+/// `J A⁻¹ Jᵀ` (A is not symmetric: gyroscopic and Coriolis terms): the diagonal block
+/// each pair's update divides by. The updates themselves move the strand by its actual
+/// `A⁻¹ Jᵀ`, so the forces the sweeps converge to do not depend on it; only how fast
+/// they converge does. Also whether the symmetric part has a negative eigenvalue (beyond
+/// round-off).
+fn positive_part(d: &Matrix3<f64>) -> (Matrix3<f64>, bool) {
+    let sym = (d + d.transpose()) * 0.5;
+    let eig = sym.symmetric_eigen();
+    let largest = eig.eigenvalues.max();
+    let indefinite = eig.eigenvalues.min() < -1e-9 * largest.abs();
+    let clamped = eig.eigenvalues.map(|x| x.max(0.0));
+    (
+        eig.eigenvectors * Matrix3::from_diagonal(&clamped) * eig.eigenvectors.transpose(),
+        indefinite,
+    )
+}
+
+/// `J q̇`.
+fn velocity_of(jac: &[Vector3<f64>], v: &[f64]) -> Vector3<f64> {
+    jac.iter().zip(v).map(|(j, v)| j * *v).sum()
+}
+
+/// The sides of `system`'s coupled pairs at the end (q, q̇) of its free step of `h`
+/// (the head at `at`), into `sides`: each side's point y and velocity ẏ there (the
+/// pairs that may touch are then selected from both sides' ends, [`select`]).
+pub fn strand_ends(
+    system: &mut StrandSystem,
+    at: &Placement,
+    q: &[f64],
+    v: &[f64],
+    sides: &mut StrandSides,
+) {
+    let dofs = q.len();
+    sides.clear(dofs);
+    let StrandSystem {
+        kernel,
+        workspace: ws,
+        contacts,
+        ..
+    } = system;
+    let Some(contacts) = contacts.as_ref() else {
+        return;
+    };
+    let Some(hh) = contacts.hair_params().filter(|p| p.coupled).copied() else {
+        return;
+    };
+    let rt = at.head.rotation.transpose();
+    for partner in contacts.partners() {
+        if partner.partner_s.is_some() || partner.normal == Vector3::zeros() {
+            continue;
+        }
+        let y = kernel.point(q, partner.s, &mut ws.jac, None);
+        sides.pair.push(partner.pair);
+        sides.point.push(y);
+        sides.velocity.push(velocity_of(&ws.jac[..dofs], v));
+        sides.arc.push(partner.s);
+        sides.normal.push(rt * partner.normal);
+        sides.weight.push(partner.weight);
+        sides.reach.push(partner.reach);
+        sides.stiffness.push(hh.stiffness);
+        sides.damping.push(hh.damping);
+        sides.tangential.push(if hh.friction.is_some() {
+            0.0
+        } else {
+            hh.damping
+        });
+        sides.response_of.push(NONE);
+    }
+}
+
+/// The pairs (`pairs`: the step's pair count) whose two sides are among `sides` and may
+/// touch at the step's end: closer along n than the reach, and not slid past each other
+/// across n by more than twice the reach. Marks their sides for [`strand_responses`];
+/// returns them as (strand, side) twice, the first side's first.
+pub fn select(sides: &mut [StrandSides], pairs: usize) -> Vec<[(usize, usize); 2]> {
+    let mut slots = vec![[(NONE, NONE); 2]; pairs];
+    for (i, s) in sides.iter().enumerate() {
+        for (k, &p) in s.pair.iter().enumerate() {
+            let Some(slot) = slots.get_mut(p) else {
+                continue;
+            };
+            if slot[0].0 == NONE {
+                slot[0] = (i, k);
+            } else {
+                slot[1] = (i, k);
+            }
+        }
+    }
+    let chosen: Vec<[(usize, usize); 2]> = slots
+        .into_iter()
+        .filter(|&[(i, a), (j, b)]| {
+            if i == NONE || j == NONE {
+                return false;
+            }
+            let (sa, sb) = (&sides[i], &sides[j]);
+            let n = sa.normal[a];
+            let offset = sa.point[a] - sb.point[b];
+            let along = n.dot(&offset);
+            let reach = sa.reach[a];
+            along < reach && (offset - n * along).norm() < 2.0 * reach
+        })
+        .collect();
+    for &[(i, a), (j, b)] in &chosen {
+        sides[i].response_of[a] = 0;
+        sides[j].response_of[b] = 0;
+    }
+    chosen
+}
+
+/// The responses of the sides [`select`] marked: J and the compliance rows `A⁻¹ Jᵀ` at
+/// the end (q, q̇) of the free step of `h` (the head and bodies at `at`), on the step
+/// matrix's factors (assembled afresh at the end when the step's solve did not leave
+/// them: another integrator), constrained by a held tip.
+pub fn strand_responses(
+    system: &mut StrandSystem,
+    at: &Placement,
+    h: f64,
+    q: &[f64],
+    v: &[f64],
+    stats: &mut StepStats,
+    sides: &mut StrandSides,
+) -> Result<(), String> {
+    let dofs = q.len();
+    if sides.response_of.iter().all(|&r| r == NONE) {
+        return Ok(());
+    }
+    // the step matrix's factors
+    let ws = &system.workspace;
+    sides.own_factors = false;
+    let c = match ws.implicit_factors {
+        Some((count, piece)) if count == ws.solver.factorizations() => {
+            sides.own_factors = true;
+            piece
+        }
+        _ => {
+            let assembled = system.assemble(at, q, v, Terms::all());
+            let ws = &mut system.workspace;
+            ws.step_matrix(assembled, h, stats);
+            ws.solver.rhs_mut()[..dofs].fill(0.0);
+            if !ws.solver.solve_general() {
+                return Err("hair–hair pairs: singular step matrix".into());
+            }
+            h
+        }
+    };
+    sides.sigma = h;
+    sides.c = c;
+    let StrandSystem {
+        strand,
+        kernel,
+        workspace: ws,
+        held,
+        ..
+    } = system;
+    if let Some(held) = held.as_mut() {
+        let solver = &mut ws.solver;
+        held.prepare_change(
+            kernel.as_mut(),
+            &strand.geometry,
+            &mut |x| solver.solve_factored(x),
+            q,
+            at.time,
+        )?;
+    }
+    let mut column = vec![0.0; dofs];
+    let mut one_sided = false;
+    for k in 0..sides.pair.len() {
+        if sides.response_of[k] == NONE {
+            continue;
+        }
+        sides.response_of[k] = sides.compliance.len();
+        kernel.point(q, sides.arc[k], &mut ws.jac, None);
+        let start = sides.jac.len();
+        sides.jac.extend_from_slice(&ws.jac[..dofs]);
+        sides.response.resize(start + dofs, Vector3::zeros());
+        let mut held_impulse = Matrix6x3::zeros();
+        for axis in 0..3 {
+            for (x, j) in column.iter_mut().zip(&ws.jac[..dofs]) {
+                *x = j[axis];
+            }
+            if !ws.solver.solve_factored(&mut column) {
+                return Err("hair–hair pairs: singular step matrix".into());
+            }
+            if let Some(held) = held.as_ref() {
+                let lambda = held.constrain_change(&mut column).ok_or_else(|| {
+                    "held tip: the constraints are dependent (singular G A⁻¹ Gᵀ)".to_string()
+                })?;
+                held_impulse.set_column(axis, &lambda);
+            }
+            for (r, x) in sides.response[start..].iter_mut().zip(&column) {
+                r[axis] = *x;
+            }
+        }
+        let mut d = Matrix3::zeros();
+        for (j, u) in ws.jac[..dofs].iter().zip(&sides.response[start..]) {
+            d += j * u.transpose();
+        }
+        let (positive, indefinite) = positive_part(&d);
+        one_sided |= indefinite;
+        sides.compliance.push(positive);
+        sides.held.push(held_impulse);
+        sides.force.push(Vector3::zeros());
+    }
+    if one_sided {
+        // the step's compliance is not positive at a pair (the strand's gyroscopic
+        // terms outweigh its mass there): the sweeps could diverge. The strand takes no
+        // share; its partners meet it where its step ended
+        sides.response.fill(Vector3::zeros());
+        sides.compliance.fill(Matrix3::zeros());
+        sides.held.fill(Matrix6x3::zeros());
+        stats.pairs_one_sided += sides.compliance.len();
+    }
+    Ok(())
+}
+
+/// Solve the forces of the pairs `chosen` ([`select`]), accumulating each strand's
+/// velocity change. Returns the sweeps taken; `None` (and no velocity change) when they
+/// did not converge within [`MAX_SWEEPS`] at every relaxation down to
+/// [`MIN_RELAXATION`].
+pub fn solve(sides: &mut [StrandSides], chosen: &[[(usize, usize); 2]]) -> Option<usize> {
+    // the force on each pair's first side (the second takes its opposite)
+    let mut force = vec![Vector3::zeros(); chosen.len()];
+    let mut sweeps = 0;
+    // the relaxation: each pair's update moves its force this fraction of the way to
+    // its closed form. A's skew part (a turning head's Coriolis term, the gyroscopic
+    // one) makes the compliances unsymmetric, where plain Gauss–Seidel can diverge; its
+    // symmetric part stays positive definite, so a small enough fraction converges
+    let mut relax = 1.0;
+    let mut last_change = f64::INFINITY;
+    let mut last_largest = 0.0;
+    let mut first_largest = 0.0;
+    let mut growing = 0;
+    let mut converged = chosen.is_empty();
+    while sweeps < MAX_SWEEPS {
+        sweeps += 1;
+        let (mut largest, mut change) = (0.0f64, 0.0f64);
+        for (p, &[(i, a), (j, b)]) in chosen.iter().enumerate() {
+            let (sa, sb) = (&sides[i], &sides[j]);
+            let (ra, rb) = (sa.response_of[a], sb.response_of[b]);
+            let n = sa.normal[a];
+            // the relative velocity and the separation are linear in the pair's force F:
+            // by σ_a D_a + σ_b D_b and (c σ D)_a + (c σ D)_b (each side's end moves by c
+            // times its velocity change)
+            let (ma, mb) = (sa.moved(ra), sb.moved(rb));
+            let relative = sa.velocity[a] + ma - sb.velocity[b] - mb;
+            let separation = sa.point[a] + ma * sa.c - sb.point[b] - mb * sb.c;
+            let d = sa.compliance[ra] * sa.sigma + sb.compliance[rb] * sb.sigma;
+            let dc = sa.compliance[ra] * (sa.sigma * sa.c) + sb.compliance[rb] * (sb.sigma * sb.c);
+            let old = force[p];
+            // without this pair's own force
+            let relative0 = relative - d * old;
+            let separation0 = separation - dc * old;
+            let weight = sa.weight[a].min(sb.weight[b]);
+            let kw = 0.5 * (sa.stiffness[a] + sb.stiffness[b]) * weight;
+            let cw = 0.5 * (sa.damping[a] + sb.damping[b]) * weight;
+            let tw = 0.5 * (sa.tangential[a] + sb.tangential[b]) * weight;
+            let reach = sa.reach[a];
+            // the normal force, the tangential part held
+            let across = old - n * n.dot(&old);
+            let gap = n.dot(&(separation0 + dc * across));
+            let speed = n.dot(&(relative0 + d * across));
+            let normal = ((kw * (reach - gap) - cw * speed)
+                / (1.0 + kw * n.dot(&(dc * n)) + cw * n.dot(&(d * n))))
+            .max(0.0);
+            // the tangential damping of the relative velocity across n, while in contact:
+            // (I + t P D P) f_t = −t P (v₀ + D n f)
+            let mut tangential = Vector3::zeros();
+            if normal > 0.0 && tw > 0.0 {
+                let plane = Matrix3::identity() - n * n.transpose();
+                let m = Matrix3::identity() + plane * d * plane * tw;
+                let rhs = -(plane * (relative0 + d * n * normal)) * tw;
+                if let Some(x) = m.lu().solve(&rhs) {
+                    tangential = plane * x;
+                }
+            }
+            let new = old + (n * normal + tangential - old) * relax;
+            let df = new - old;
+            if df != Vector3::zeros() {
+                sides[i].push(ra, &df);
+                sides[j].push(rb, &-df);
+            }
+            force[p] = new;
+            largest = largest.max(new.norm());
+            change = change.max(df.norm());
+        }
+        if change <= SWEEP_TOLERANCE * largest {
+            converged = true;
+            break;
+        }
+        if sweeps == 1 {
+            first_largest = largest;
+        }
+        // diverging: the change grew for two sweeps running (halve the relaxation and go
+        // on), or exploded (start again from no force at half the relaxation)
+        growing = if change > last_change { growing + 1 } else { 0 };
+        last_change = change;
+        last_largest = largest;
+        if !change.is_finite() || largest > EXPLODED * first_largest {
+            relax *= 0.5;
+            force.fill(Vector3::zeros());
+            for side in sides.iter_mut() {
+                side.dv.fill(0.0);
+            }
+            (growing, last_change) = (0, f64::INFINITY);
+            if relax < MIN_RELAXATION {
+                break;
+            }
+        } else if growing >= 2 && relax > MIN_RELAXATION {
+            relax *= 0.5;
+            growing = 0;
+        }
+    }
+    // sweeps that ran out while still closing in are kept
+    converged |= last_change.is_finite() && last_change <= ACCEPTED_CHANGE * last_largest;
+    if !converged {
+        // no force rather than a wrong one: the pairs are counted
+        for side in sides.iter_mut() {
+            side.dv.fill(0.0);
+        }
+        return None;
+    }
+    for (p, &[(i, a), (j, b)]) in chosen.iter().enumerate() {
+        let (ra, rb) = (sides[i].response_of[a], sides[j].response_of[b]);
+        sides[i].force[ra] = force[p];
+        sides[j].force[rb] = -force[p];
+    }
+    Some(sweeps)
+}
+
+/// Apply the velocity change [`solve`] accumulated for this strand to its end (q, q̇)
+/// (time `t_end`), with the holder's reaction and a free root's momentum updated; the
+/// held tip's drift projected out.
+pub fn apply(
+    system: &mut StrandSystem,
+    sides: &StrandSides,
+    at: &Placement,
+    q: &mut [f64],
+    v: &mut [f64],
+    stats: &mut StepStats,
+) -> Result<(), String> {
+    let t_end = at.time;
+    if sides.is_empty() || sides.dv.iter().all(|&x| x == 0.0) {
+        return Ok(());
+    }
+    let keep_momentum = free_root_momentum::applies(system);
+    let target = keep_momentum.then(|| {
+        let mut p = free_root_momentum::momentum_at(system, q, v);
+        for f in &sides.force {
+            for k in 0..3 {
+                p[k] += sides.sigma * f[k];
+            }
+        }
+        p
+    });
+    for j in 0..v.len() {
+        v[j] += sides.dv[j];
+        q[j] += sides.c * sides.dv[j];
+    }
+    // the contacts with bodies that started within the step, resolved again from the
+    // moved end on the same factors (the pairs may have pushed a point into a body)
+    if sides.own_factors {
+        resolve_again(system, at, q, v, stats)?;
+    }
+    if let Some(target) = target {
+        free_root_momentum::correct(system, q, v, target);
+    }
+    if let Some(held) = system.held.as_mut() {
+        let mut lambda = Vector6::zeros();
+        for (l, f) in sides.held.iter().zip(&sides.force) {
+            lambda += l * (f * sides.sigma);
+        }
+        held.add_impulse(&lambda, sides.sigma, t_end);
+        held.project(system.kernel.as_mut(), &system.strand.geometry, q, t_end)?;
+    }
+    Ok(())
+}
