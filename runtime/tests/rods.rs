@@ -2280,7 +2280,7 @@ fn two_free_rods_colliding_keep_their_total_momentum() {
     // no external force: whatever the contact does, the two rods' total momentum is a
     // constant. With `coupling = "pair"` the pair's force is solved for both rods after
     // their steps, equal and opposite (`solver::pair_coupling`). Measured: the drift is
-    // 7.7e-9 of |P(0)| at dt = 1 ms and 7.5e-9 at 0.2 ms (round-off of the momenta's
+    // 5.2e-9 of |P(0)| at dt = 1 ms and 7.8e-9 at 0.2 ms (round-off of the momenta's
     // assembly), and the lower rod carries 0.51 and 0.47 of the momentum after the
     // collision. With each strand seeing the other as a ball where it was at the step's
     // start (`coupling = "ball"`, the control) the drift is 0.89 at 1 ms

@@ -100,10 +100,18 @@ pub struct StrandSides {
     /// Per side: where its response is among the responses ([`NONE`]: the pair cannot
     /// touch, [`select`]).
     response_of: Vec<usize>,
-    /// Per response: J (∂y/∂q_j, `dofs` each) and the rows of `U = A⁻¹ Jᵀ` (constrained by
-    /// a held tip), `dofs` each.
+    /// Per contact sample of the strand: its node ([`NONE`]: none). J and U are taken at
+    /// the strand's contact samples (the nodes), and a pair's point between two samples
+    /// interpolates them linearly (U = A⁻¹ Jᵀ is linear in J): a sample's pairs, up to
+    /// `max_pairs_per_sample` of them, share its rows.
+    node_of: Vec<usize>,
+    /// Per node: J (∂y/∂q_j, `dofs` each) and the rows of `U = A⁻¹ Jᵀ` (constrained by a
+    /// held tip), `dofs` each; the held tip's impulse per unit force along each axis.
     jac: Vec<Vector3<f64>>,
     response: Vec<Vector3<f64>>,
+    node_held: Vec<Matrix6x3<f64>>,
+    /// Per response: its two nodes and the weight t of the second.
+    nodes: Vec<(usize, usize, f64)>,
     /// Per response: `D = J U`, the side's compliance at the point.
     compliance: Vec<Matrix3<f64>>,
     /// Per response: the held tip's impulse per unit force along each axis.
@@ -134,8 +142,11 @@ impl StrandSides {
         self.damping.clear();
         self.tangential.clear();
         self.response_of.clear();
+        self.node_of.clear();
         self.jac.clear();
         self.response.clear();
+        self.node_held.clear();
+        self.nodes.clear();
         self.compliance.clear();
         self.held.clear();
         self.force.clear();
@@ -153,21 +164,40 @@ impl StrandSides {
         self.compliance.is_empty()
     }
 
-    /// `J dv` at response r.
-    fn moved(&self, r: usize) -> Vector3<f64> {
-        self.jac[r * self.dofs..(r + 1) * self.dofs]
+    /// `J dv` at node k.
+    fn node_moved(&self, k: usize) -> Vector3<f64> {
+        self.jac[k * self.dofs..(k + 1) * self.dofs]
             .iter()
             .zip(&self.dv)
             .map(|(j, d)| j * *d)
             .sum()
     }
 
+    /// `J dv` at response r.
+    fn moved(&self, r: usize) -> Vector3<f64> {
+        let (a, b, t) = self.nodes[r];
+        if t == 0.0 {
+            return self.node_moved(a);
+        }
+        self.node_moved(a) * (1.0 - t) + self.node_moved(b) * t
+    }
+
     /// `dv += σ U F` at response r.
     fn push(&mut self, r: usize, force: &Vector3<f64>) {
+        let (a, b, t) = self.nodes[r];
         let f = force * self.sigma;
-        let rows = &self.response[r * self.dofs..(r + 1) * self.dofs];
-        for (d, u) in self.dv.iter_mut().zip(rows) {
-            *d += u.dot(&f);
+        let (fa, fb) = (f * (1.0 - t), f * t);
+        let dofs = self.dofs;
+        let rows_a = &self.response[a * dofs..(a + 1) * dofs];
+        if t == 0.0 {
+            for (d, u) in self.dv.iter_mut().zip(rows_a) {
+                *d += u.dot(&f);
+            }
+            return;
+        }
+        let rows_b = &self.response[b * dofs..(b + 1) * dofs];
+        for ((d, u), w) in self.dv.iter_mut().zip(rows_a).zip(rows_b) {
+            *d += u.dot(&fa) + w.dot(&fb);
         }
     }
 }
@@ -283,9 +313,10 @@ pub fn select(sides: &mut [StrandSides], pairs: usize) -> Vec<[(usize, usize); 2
 }
 
 /// The responses of the sides [`select`] marked: J and the compliance rows `A⁻¹ Jᵀ` at
-/// the end (q, q̇) of the free step of `h` (the head and bodies at `at`), on the step
-/// matrix's factors (assembled afresh at the end when the step's solve did not leave
-/// them: another integrator), constrained by a held tip.
+/// the end (q, q̇) of the free step of `h` (the head and bodies at `at`) at the contact
+/// samples around each side's point (interpolated there), on the step matrix's factors
+/// (assembled afresh at the end when the step's solve did not leave them: another
+/// integrator), constrained by a held tip.
 pub fn strand_responses(
     system: &mut StrandSystem,
     at: &Placement,
@@ -325,6 +356,7 @@ pub fn strand_responses(
         kernel,
         workspace: ws,
         held,
+        contacts,
         ..
     } = system;
     if let Some(held) = held.as_mut() {
@@ -337,6 +369,8 @@ pub fn strand_responses(
             at.time,
         )?;
     }
+    let samples = contacts.as_ref().map_or(&[][..], |c| c.samples());
+    sides.node_of.resize(samples.len(), NONE);
     let mut column = vec![0.0; dofs];
     let mut one_sided = false;
     for k in 0..sides.pair.len() {
@@ -344,36 +378,68 @@ pub fn strand_responses(
             continue;
         }
         sides.response_of[k] = sides.compliance.len();
-        kernel.point(q, sides.arc[k], &mut ws.jac, None);
-        let start = sides.jac.len();
-        sides.jac.extend_from_slice(&ws.jac[..dofs]);
-        sides.response.resize(start + dofs, Vector3::zeros());
-        let mut held_impulse = Matrix6x3::zeros();
-        for axis in 0..3 {
-            for (x, j) in column.iter_mut().zip(&ws.jac[..dofs]) {
-                *x = j[axis];
+        // the two samples around the pair's point (the nearest one beyond the ends)
+        let s = sides.arc[k];
+        let above = samples.partition_point(|x| x.0 < s);
+        let (lo, hi, t) = if samples.is_empty() {
+            return Err("hair–hair pairs: a strand without contact samples".into());
+        } else if above == 0 {
+            (0, 0, 0.0)
+        } else if above == samples.len() {
+            (above - 1, above - 1, 0.0)
+        } else {
+            let (s0, s1) = (samples[above - 1].0, samples[above].0);
+            (above - 1, above, ((s - s0) / (s1 - s0)).clamp(0.0, 1.0))
+        };
+        for sample in [lo, hi] {
+            if sides.node_of[sample] != NONE {
+                continue;
             }
-            if !ws.solver.solve_factored(&mut column) {
-                return Err("hair–hair pairs: singular step matrix".into());
+            sides.node_of[sample] = sides.node_held.len();
+            kernel.point(q, samples[sample].0, &mut ws.jac, None);
+            let start = sides.jac.len();
+            sides.jac.extend_from_slice(&ws.jac[..dofs]);
+            sides.response.resize(start + dofs, Vector3::zeros());
+            let mut held_impulse = Matrix6x3::zeros();
+            for axis in 0..3 {
+                for (x, j) in column.iter_mut().zip(&ws.jac[..dofs]) {
+                    *x = j[axis];
+                }
+                if !ws.solver.solve_factored(&mut column) {
+                    return Err("hair–hair pairs: singular step matrix".into());
+                }
+                if let Some(held) = held.as_ref() {
+                    let lambda = held.constrain_change(&mut column).ok_or_else(|| {
+                        "held tip: the constraints are dependent (singular G A⁻¹ Gᵀ)".to_string()
+                    })?;
+                    held_impulse.set_column(axis, &lambda);
+                }
+                for (r, x) in sides.response[start..].iter_mut().zip(&column) {
+                    r[axis] = *x;
+                }
             }
-            if let Some(held) = held.as_ref() {
-                let lambda = held.constrain_change(&mut column).ok_or_else(|| {
-                    "held tip: the constraints are dependent (singular G A⁻¹ Gᵀ)".to_string()
-                })?;
-                held_impulse.set_column(axis, &lambda);
-            }
-            for (r, x) in sides.response[start..].iter_mut().zip(&column) {
-                r[axis] = *x;
-            }
+            sides.node_held.push(held_impulse);
         }
+        let (a, b) = (sides.node_of[lo], sides.node_of[hi]);
+        sides.nodes.push((a, b, t));
+        // D = J U at the interpolated point
         let mut d = Matrix3::zeros();
-        for (j, u) in ws.jac[..dofs].iter().zip(&sides.response[start..]) {
+        let node = |n: usize| n * dofs..(n + 1) * dofs;
+        for ((ja, jb), (ua, ub)) in sides.jac[node(a)]
+            .iter()
+            .zip(&sides.jac[node(b)])
+            .zip(sides.response[node(a)].iter().zip(&sides.response[node(b)]))
+        {
+            let j = ja * (1.0 - t) + jb * t;
+            let u = ua * (1.0 - t) + ub * t;
             d += j * u.transpose();
         }
         let (positive, indefinite) = positive_part(&d);
         one_sided |= indefinite;
         sides.compliance.push(positive);
-        sides.held.push(held_impulse);
+        sides
+            .held
+            .push(sides.node_held[a] * (1.0 - t) + sides.node_held[b] * t);
         sides.force.push(Vector3::zeros());
     }
     if one_sided {
