@@ -208,8 +208,8 @@ pub struct RunResult {
     /// attempts (implicit solves), substeps (steps split), energy_rejected,
     /// energy_limited, energy_unbalanced, rotation_limited, stiffness_dropped,
     /// newton_iterations, newton_unconverged, contacts_predicted, error_steps,
-    /// error_rejected, pairs_one_sided, pairs_unresolved (hair–hair pairs of
-    /// `coupling = "pair"` left one-sided or unresolved).
+    /// error_rejected, pairs_indefinite, pairs_unresolved (hair–hair pairs of
+    /// `coupling = "pair"` left without force: indefinite compliance, unresolved sweeps).
     stats: Py<PyAny>,
     /// The run's summary (the runtime's RunSummary): mode, steps, strands, frames,
     /// planned_frames, wall_time (s, stepping only), strand_steps_per_second, max_speed,
@@ -578,7 +578,7 @@ pub fn stats_dict<'py>(py: Python<'py>, s: &StepStats) -> PyResult<Bound<'py, Py
     d.set_item("contacts_predicted", s.contacts_predicted)?;
     d.set_item("error_steps", s.error_steps)?;
     d.set_item("error_rejected", s.error_rejected)?;
-    d.set_item("pairs_one_sided", s.pairs_one_sided)?;
+    d.set_item("pairs_indefinite", s.pairs_indefinite)?;
     d.set_item("pairs_unresolved", s.pairs_unresolved)?;
     Ok(d)
 }

@@ -126,6 +126,9 @@ pub struct StrandSides {
     /// The factors are those the step's own solve left (its contacts with bodies that
     /// started within it can be resolved again on them).
     own_factors: bool,
+    /// The strand's compliance at one of its pairs is indefinite: its pairs are left
+    /// out of this step's solve.
+    excluded: bool,
 }
 
 impl StrandSides {
@@ -152,6 +155,7 @@ impl StrandSides {
         self.force.clear();
         self.dv.clear();
         self.dv.resize(dofs, 0.0);
+        self.excluded = false;
     }
 
     /// The sides of pairs that may touch this step.
@@ -273,11 +277,24 @@ pub fn strand_ends(
     }
 }
 
-/// The pairs (`pairs`: the step's pair count) whose two sides are among `sides` and may
-/// touch at the step's end: closer along n than the reach, and not slid past each other
-/// across n by more than twice the reach. Marks their sides for [`strand_responses`];
-/// returns them as (strand, side) twice, the first side's first.
-pub fn select(sides: &mut [StrandSides], pairs: usize) -> Vec<[(usize, usize); 2]> {
+/// A pair the step's solve takes: its two sides (strand, side; the first side's first)
+/// and the normal its penalty acts along.
+#[derive(Debug, Clone, Copy)]
+pub struct Chosen {
+    sides: [(usize, usize); 2],
+    /// The line of centres at the step's start n₀, the penalty's direction and the
+    /// gap's (a point carried through the other strand within the step counts as deep,
+    /// not as on the far side).
+    normal: Vector3<f64>,
+}
+
+/// The pairs (`pairs`: the step's pair count) whose two sides are among `sides` and
+/// overlap at the free end: closer than the reach, or carried through each other across
+/// n₀ within the step and still facing each other across it. Two points that slid past
+/// each other are left out (pushing them apart along n₀ by their approach would put
+/// energy in: on a head shaken at one solve per strand-step it whipped the strands to
+/// |q̇| = 5.4·10³). Marks their sides for [`strand_responses`].
+pub fn select(sides: &mut [StrandSides], pairs: usize) -> Vec<Chosen> {
     let mut slots = vec![[(NONE, NONE); 2]; pairs];
     for (i, s) in sides.iter().enumerate() {
         for (k, &p) in s.pair.iter().enumerate() {
@@ -291,21 +308,36 @@ pub fn select(sides: &mut [StrandSides], pairs: usize) -> Vec<[(usize, usize); 2
             }
         }
     }
-    let chosen: Vec<[(usize, usize); 2]> = slots
+    let chosen: Vec<Chosen> = slots
         .into_iter()
-        .filter(|&[(i, a), (j, b)]| {
+        .filter_map(|[(i, a), (j, b)]| {
             if i == NONE || j == NONE {
-                return false;
+                return None;
             }
             let (sa, sb) = (&sides[i], &sides[j]);
-            let n = sa.normal[a];
+            let n0 = sa.normal[a];
             let offset = sa.point[a] - sb.point[b];
-            let along = n.dot(&offset);
+            let along = n0.dot(&offset);
             let reach = sa.reach[a];
-            along < reach && (offset - n * along).norm() < 2.0 * reach
+            let distance = offset.norm();
+            if along > 0.0 {
+                // on its side: touching if within the reach
+                if distance >= reach {
+                    return None;
+                }
+            } else if (offset - n0 * along).norm() >= reach {
+                // carried through (or onto the other's centreline), but no longer facing
+                // the other point across n₀
+                return None;
+            }
+            Some(Chosen {
+                sides: [(i, a), (j, b)],
+                normal: n0,
+            })
         })
         .collect();
-    for &[(i, a), (j, b)] in &chosen {
+    for c in &chosen {
+        let [(i, a), (j, b)] = c.sides;
         sides[i].response_of[a] = 0;
         sides[j].response_of[b] = 0;
     }
@@ -372,7 +404,7 @@ pub fn strand_responses(
     let samples = contacts.as_ref().map_or(&[][..], |c| c.samples());
     sides.node_of.resize(samples.len(), NONE);
     let mut column = vec![0.0; dofs];
-    let mut one_sided = false;
+    let mut indefinite_anywhere = false;
     for k in 0..sides.pair.len() {
         if sides.response_of[k] == NONE {
             continue;
@@ -435,21 +467,20 @@ pub fn strand_responses(
             d += j * u.transpose();
         }
         let (positive, indefinite) = positive_part(&d);
-        one_sided |= indefinite;
+        indefinite_anywhere |= indefinite;
         sides.compliance.push(positive);
         sides
             .held
             .push(sides.node_held[a] * (1.0 - t) + sides.node_held[b] * t);
         sides.force.push(Vector3::zeros());
     }
-    if one_sided {
+    if indefinite_anywhere {
         // the step's compliance is not positive at a pair (the strand's gyroscopic
-        // terms outweigh its mass there): the sweeps could diverge. The strand takes no
-        // share; its partners meet it where its step ended
-        sides.response.fill(Vector3::zeros());
-        sides.compliance.fill(Matrix3::zeros());
-        sides.held.fill(Matrix6x3::zeros());
-        stats.pairs_one_sided += sides.compliance.len();
+        // terms outweigh its mass there): the sweeps would diverge, and meeting the
+        // strand as a wall where its step ended whips its partners. Its pairs take no
+        // force this step
+        sides.excluded = true;
+        stats.pairs_indefinite += sides.compliance.len();
     }
     Ok(())
 }
@@ -458,7 +489,7 @@ pub fn strand_responses(
 /// velocity change. Returns the sweeps taken; `None` (and no velocity change) when they
 /// did not converge within [`MAX_SWEEPS`] at every relaxation down to
 /// [`MIN_RELAXATION`].
-pub fn solve(sides: &mut [StrandSides], chosen: &[[(usize, usize); 2]]) -> Option<usize> {
+pub fn solve(sides: &mut [StrandSides], chosen: &[Chosen]) -> Option<usize> {
     // the force on each pair's first side (the second takes its opposite)
     let mut force = vec![Vector3::zeros(); chosen.len()];
     let mut sweeps = 0;
@@ -475,10 +506,14 @@ pub fn solve(sides: &mut [StrandSides], chosen: &[[(usize, usize); 2]]) -> Optio
     while sweeps < MAX_SWEEPS {
         sweeps += 1;
         let (mut largest, mut change) = (0.0f64, 0.0f64);
-        for (p, &[(i, a), (j, b)]) in chosen.iter().enumerate() {
+        for (p, pair) in chosen.iter().enumerate() {
+            let [(i, a), (j, b)] = pair.sides;
             let (sa, sb) = (&sides[i], &sides[j]);
+            if sa.excluded || sb.excluded {
+                continue;
+            }
             let (ra, rb) = (sa.response_of[a], sb.response_of[b]);
-            let n = sa.normal[a];
+            let n = pair.normal;
             // the relative velocity and the separation are linear in the pair's force F:
             // by σ_a D_a + σ_b D_b and (c σ D)_a + (c σ D)_b (each side's end moves by c
             // times its velocity change)
@@ -560,7 +595,8 @@ pub fn solve(sides: &mut [StrandSides], chosen: &[[(usize, usize); 2]]) -> Optio
         }
         return None;
     }
-    for (p, &[(i, a), (j, b)]) in chosen.iter().enumerate() {
+    for (p, pair) in chosen.iter().enumerate() {
+        let [(i, a), (j, b)] = pair.sides;
         let (ra, rb) = (sides[i].response_of[a], sides[j].response_of[b]);
         sides[i].force[ra] = force[p];
         sides[j].force[rb] = -force[p];

@@ -42,12 +42,12 @@ pub struct StepStats {
     pub error_steps: usize,
     /// Steps the error-controlled step rejected and retried shorter.
     pub error_rejected: usize,
-    /// Sides of hair–hair pairs whose strand took no share of the pair's force
-    /// ([`crate::solver::pair_coupling`]): its step's compliance at the pairs was not
-    /// positive (a whipping strand's gyroscopic terms), so the other strand met it as a
-    /// wall where its step ended.
+    /// Sides of hair–hair pairs left without force in a step because their strand's
+    /// step matrix made its compliance at one of its pairs indefinite (a whipping
+    /// strand's gyroscopic terms outweighing its mass there;
+    /// [`crate::solver::pair_coupling`]).
     #[serde(default)]
-    pub pairs_one_sided: usize,
+    pub pairs_indefinite: usize,
     /// Sides of hair–hair pairs left without force in a step because the pairs' solve
     /// did not converge ([`crate::solver::pair_coupling`]).
     #[serde(default)]
@@ -69,7 +69,7 @@ impl StepStats {
         self.contacts_predicted += o.contacts_predicted;
         self.error_steps += o.error_steps;
         self.error_rejected += o.error_rejected;
-        self.pairs_one_sided += o.pairs_one_sided;
+        self.pairs_indefinite += o.pairs_indefinite;
         self.pairs_unresolved += o.pairs_unresolved;
     }
 }
