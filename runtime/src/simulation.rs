@@ -1057,63 +1057,7 @@ impl Simulation {
             .flatten()
             .min_by_key(|(i, _)| *i);
         if coupled && failure.is_none() {
-            let pairs = self.hair_hair.as_ref().map_or(0, |hh| hh.pairs().len());
-            let mut sides: Vec<pair_coupling::StrandSides> = self
-                .strands
-                .iter_mut()
-                .map(|s| std::mem::take(&mut s.sides))
-                .collect();
-            let chosen = pair_coupling::select(&mut sides, pairs);
-            failure = self
-                .strands
-                .par_iter_mut()
-                .zip(sides.par_iter_mut())
-                .enumerate()
-                .map(|(i, (s, sides))| {
-                    pair_coupling::strand_responses(
-                        &mut s.system,
-                        &at_end,
-                        h,
-                        &s.state.q,
-                        &s.state.v,
-                        &mut s.stats,
-                        sides,
-                    )
-                    .err()
-                    .map(|cause| (i, cause))
-                })
-                .flatten()
-                .min_by_key(|(i, _)| *i);
-            if failure.is_none() && pair_coupling::solve(&mut sides, &chosen).is_none() {
-                for (s, sides) in self.strands.iter_mut().zip(&sides) {
-                    s.stats.pairs_unresolved += sides.responses();
-                }
-            }
-            failure = failure.or_else(|| {
-                self.strands
-                    .par_iter_mut()
-                    .zip(sides)
-                    .enumerate()
-                    .map(|(i, (s, sides))| {
-                        let outcome = pair_coupling::apply(
-                            &mut s.system,
-                            &sides,
-                            &at_end,
-                            &mut s.state.q,
-                            &mut s.state.v,
-                            &mut s.stats,
-                        );
-                        s.sides = sides;
-                        if outcome.is_ok() {
-                            if let Some(c) = &mut s.system.contacts {
-                                c.after_step(&at_end, &s.system.strand.geometry, &s.state.q, h);
-                            }
-                        }
-                        outcome.err().map(|cause| (i, cause))
-                    })
-                    .flatten()
-                    .min_by_key(|(i, _)| *i)
-            });
+            failure = self.solve_coupled_pairs(&at_end, h);
         }
         if let Some((index, cause)) = failure {
             return Err(Error::Diverged {
@@ -1126,6 +1070,71 @@ impl Simulation {
         self.time = t + h;
         self.steps += 1;
         Ok(())
+    }
+
+    /// The coupled hair–hair pairs of a step of `h` whose strands have all stepped
+    /// (`crate::solver::pair_coupling`): their ends, the pairs that touch, each strand's
+    /// responses, the pairs' forces, applied to every strand; then the contacts'
+    /// bookkeeping of the step's end (`at_end`). The first failure: (strand, cause).
+    fn solve_coupled_pairs(&mut self, at_end: &Placement, h: f64) -> Option<(usize, String)> {
+        let pairs = self.hair_hair.as_ref().map_or(0, |hh| hh.pairs().len());
+        let mut sides: Vec<pair_coupling::StrandSides> = self
+            .strands
+            .iter_mut()
+            .map(|s| std::mem::take(&mut s.sides))
+            .collect();
+        let chosen = pair_coupling::select(&mut sides, pairs);
+        let failure = self
+            .strands
+            .par_iter_mut()
+            .zip(sides.par_iter_mut())
+            .enumerate()
+            .map(|(i, (s, sides))| {
+                pair_coupling::strand_responses(
+                    &mut s.system,
+                    at_end,
+                    h,
+                    &s.state.q,
+                    &s.state.v,
+                    &mut s.stats,
+                    sides,
+                )
+                .err()
+                .map(|cause| (i, cause))
+            })
+            .flatten()
+            .min_by_key(|(i, _)| *i);
+        if failure.is_some() {
+            return failure;
+        }
+        if pair_coupling::solve(&mut sides, &chosen).is_none() {
+            for (s, sides) in self.strands.iter_mut().zip(&sides) {
+                s.stats.pairs_unresolved += sides.responses();
+            }
+        }
+        self.strands
+            .par_iter_mut()
+            .zip(sides)
+            .enumerate()
+            .map(|(i, (s, sides))| {
+                let outcome = pair_coupling::apply(
+                    &mut s.system,
+                    &sides,
+                    at_end,
+                    &mut s.state.q,
+                    &mut s.state.v,
+                    &mut s.stats,
+                );
+                s.sides = sides;
+                if outcome.is_ok() {
+                    if let Some(c) = &mut s.system.contacts {
+                        c.after_step(at_end, &s.system.strand.geometry, &s.state.q, h);
+                    }
+                }
+                outcome.err().map(|cause| (i, cause))
+            })
+            .flatten()
+            .min_by_key(|(i, _)| *i)
     }
 
     /// Track and search the hair–hair pairs at the state of time `t` (head there) and give

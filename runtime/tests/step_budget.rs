@@ -59,6 +59,14 @@ fn deepest_over(sim: &mut Simulation, steps: usize) -> f64 {
     deepest
 }
 
+/// `steps` steps of `sim`: its counters and largest |q̇| then.
+fn stepped(sim: &mut Simulation, steps: usize) -> (superhelix_runtime::solver::StepStats, f64) {
+    for _ in 0..steps {
+        sim.step().unwrap_or_else(|e| panic!("{e}"));
+    }
+    (sim.stats(), largest_velocity(sim))
+}
+
 fn largest_velocity(sim: &Simulation) -> f64 {
     (0..sim.strand_count())
         .flat_map(|i| sim.v(i).iter().copied())
@@ -80,11 +88,7 @@ fn one_solve_per_strand_step_keeps_the_shaken_head_bounded() {
     for budget in BUDGETS {
         let mut sim = simulation_with(&text, 0, budget);
         let (n, steps) = (sim.strand_count(), 30);
-        for _ in 0..steps {
-            sim.step().unwrap_or_else(|e| panic!("{e}"));
-        }
-        let stats = sim.stats();
-        let v = largest_velocity(&sim);
+        let (stats, v) = stepped(&mut sim, steps);
         eprintln!(
             "shaken head, one solve per strand-step, {} field stiffness, energy balance {}: {} of {} strand-steps rotation-limited, largest |q̇| {v:.3e} rad/(m s)",
             budget.0.name(),
@@ -121,11 +125,7 @@ fn the_pair_solve_keeps_the_shaken_head_bounded_at_one_solve() {
     assert!(text.contains("coupling = \"pair\""));
     let mut sim = simulation_with(&text, 0, (FieldStiffness::Projected, true));
     let (n, steps) = (sim.strand_count(), 30);
-    for _ in 0..steps {
-        sim.step().unwrap_or_else(|e| panic!("{e}"));
-    }
-    let stats = sim.stats();
-    let v = largest_velocity(&sim);
+    let (stats, v) = stepped(&mut sim, steps);
     eprintln!(
         "shaken head, pair solve, one solve per strand-step: {} of {} strand-steps rotation-limited, {} pair sides left out (indefinite), {} unresolved, largest |q̇| {v:.3e} rad/(m s)",
         stats.rotation_limited,

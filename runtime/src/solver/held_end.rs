@@ -419,7 +419,7 @@ impl HeldTip {
         t_end: f64,
         h: f64,
     ) -> Result<(), String> {
-        self.solved_columns(kernel, geometry, solve, q, t_end)
+        self.prepare_change(kernel, geometry, solve, q, t_end)
             .ok_or("held tip: singular step matrix")?;
         let mut x = Vector6::zeros();
         for r in 0..self.rows {
@@ -453,7 +453,7 @@ impl HeldTip {
         force: &[f64],
         t: f64,
     ) -> Result<(), String> {
-        self.solved_columns(kernel, geometry, solve, q, t)
+        self.prepare_change(kernel, geometry, solve, q, t)
             .ok_or("held tip: singular mass matrix")?;
         let mut accel = force.to_vec();
         if !solve(&mut accel) {
@@ -474,25 +474,12 @@ impl HeldTip {
         Ok(())
     }
 
-    /// For a change of velocity after the step's solve (the pair solve of two strands,
-    /// [`super::pair_coupling`]): the columns `A⁻¹ gᵣ` of the constraint rows at the end
-    /// `q` (time `t`) with the step matrix's factors in `solve`, for
-    /// [`Self::constrain_change`].
-    pub(crate) fn prepare_change(
-        &mut self,
-        kernel: &mut dyn StrandKernel,
-        geometry: &StrandGeometry,
-        solve: &mut impl FnMut(&mut [f64]) -> bool,
-        q: &[f64],
-        t: f64,
-    ) -> Result<(), String> {
-        self.solved_columns(kernel, geometry, solve, q, t)
-            .ok_or_else(|| "held tip: singular step matrix".into())
-    }
-
     /// The rows at (q, t), and the columns `w_r = A⁻¹ g_r` with the factors in `solve`
-    /// (`None`: not finite).
-    fn solved_columns(
+    /// (`None`: not finite): what [`Self::constrain_velocities`] and
+    /// [`Self::start_reaction`] start from, and what [`Self::constrain_change`] needs for a
+    /// change of velocity after the step's solve (the pair solve of two strands,
+    /// [`super::pair_coupling`]).
+    pub(crate) fn prepare_change(
         &mut self,
         kernel: &mut dyn StrandKernel,
         geometry: &StrandGeometry,

@@ -94,9 +94,9 @@ pub struct StrandSides {
     reach: Vec<f64>,
     /// This strand's penalty stiffness (N/m²), normal damping and tangential damping
     /// (N s/m²; the tangential 0 with Coulomb friction, which the step holds).
-    stiffness: Vec<f64>,
-    damping: Vec<f64>,
-    tangential: Vec<f64>,
+    stiffness: f64,
+    damping: f64,
+    tangential: f64,
     /// Per side: where its response is among the responses ([`NONE`]: the pair cannot
     /// touch, [`select`]).
     response_of: Vec<usize>,
@@ -120,6 +120,8 @@ pub struct StrandSides {
     force: Vec<Vector3<f64>>,
     /// The change of q̇ so far.
     dv: Vec<f64>,
+    /// A back-substitution's buffer.
+    column: Vec<f64>,
     /// σ (the impulse's duration) and c (the end moves by c times the velocity change).
     sigma: f64,
     c: f64,
@@ -141,9 +143,6 @@ impl StrandSides {
         self.normal.clear();
         self.weight.clear();
         self.reach.clear();
-        self.stiffness.clear();
-        self.damping.clear();
-        self.tangential.clear();
         self.response_of.clear();
         self.node_of.clear();
         self.jac.clear();
@@ -253,6 +252,13 @@ pub fn strand_ends(
     let Some(hh) = contacts.hair_params().filter(|p| p.coupled).copied() else {
         return;
     };
+    sides.stiffness = hh.stiffness;
+    sides.damping = hh.damping;
+    sides.tangential = if hh.friction.is_some() {
+        0.0
+    } else {
+        hh.damping
+    };
     let rt = at.head.rotation.transpose();
     for partner in contacts.partners() {
         if partner.partner_s.is_some() || partner.normal == Vector3::zeros() {
@@ -266,13 +272,6 @@ pub fn strand_ends(
         sides.normal.push(rt * partner.normal);
         sides.weight.push(partner.weight);
         sides.reach.push(partner.reach);
-        sides.stiffness.push(hh.stiffness);
-        sides.damping.push(hh.damping);
-        sides.tangential.push(if hh.friction.is_some() {
-            0.0
-        } else {
-            hh.damping
-        });
         sides.response_of.push(NONE);
     }
 }
@@ -399,11 +398,13 @@ pub fn strand_responses(
             &mut |x| solver.solve_factored(x),
             q,
             at.time,
-        )?;
+        )
+        .ok_or("held tip: singular step matrix")?;
     }
     let samples = contacts.as_ref().map_or(&[][..], |c| c.samples());
     sides.node_of.resize(samples.len(), NONE);
-    let mut column = vec![0.0; dofs];
+    let mut column = std::mem::take(&mut sides.column);
+    column.resize(dofs, 0.0);
     let mut indefinite_anywhere = false;
     for k in 0..sides.pair.len() {
         if sides.response_of[k] == NONE {
@@ -482,6 +483,7 @@ pub fn strand_responses(
         sides.excluded = true;
         stats.pairs_indefinite += sides.compliance.len();
     }
+    sides.column = column;
     Ok(())
 }
 
@@ -527,9 +529,9 @@ pub fn solve(sides: &mut [StrandSides], chosen: &[Chosen]) -> Option<usize> {
             let relative0 = relative - d * old;
             let separation0 = separation - dc * old;
             let weight = sa.weight[a].min(sb.weight[b]);
-            let kw = 0.5 * (sa.stiffness[a] + sb.stiffness[b]) * weight;
-            let cw = 0.5 * (sa.damping[a] + sb.damping[b]) * weight;
-            let tw = 0.5 * (sa.tangential[a] + sb.tangential[b]) * weight;
+            let kw = 0.5 * (sa.stiffness + sb.stiffness) * weight;
+            let cw = 0.5 * (sa.damping + sb.damping) * weight;
+            let tw = 0.5 * (sa.tangential + sb.tangential) * weight;
             let reach = sa.reach[a];
             // the normal force, the tangential part held
             let across = old - n * n.dot(&old);

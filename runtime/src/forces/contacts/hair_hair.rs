@@ -520,12 +520,7 @@ impl HairHair {
                 let (sa, wa, xa, va) = at(p.a, ta);
                 let (sb, wb, xb, vb) = at(p.b, tb);
                 let weight = wa.min(wb);
-                let line = xa - xb;
-                let normal = if line.norm() > 0.0 {
-                    line / line.norm()
-                } else {
-                    Vector3::zeros()
-                };
+                let normal = (xa - xb).try_normalize(0.0).unwrap_or_else(Vector3::zeros);
                 // each side's sample is pulled to the other's, offset by ±Δ*
                 let own_pair = p.a.0 == p.b.0;
                 let held = |own: (usize, usize), other: (usize, usize), sign: f64| {

@@ -888,6 +888,12 @@ impl StrandContacts {
                 if (y - p).norm() >= partner.reach {
                     continue;
                 }
+                if hh.coupled && hh.friction.is_none() {
+                    // all of a coupled pair's force is the pair solve's, after the step
+                    // (`crate::solver::pair_coupling`)
+                    summary.hair_contacts += 1;
+                    continue;
+                }
                 let y = kernel.point(q, s, jac, None);
                 let d = (y - p).norm();
                 if d >= partner.reach || d == 0.0 {
@@ -896,37 +902,31 @@ impl StrandContacts {
                 summary.hair_contacts += 1;
                 let n = (y - p) / d;
                 let normal = hh.stiffness * w * (partner.reach - d);
-                // the partner's velocity as seen in the head frame
-                let vp = head.rotation.transpose() * (partner.velocity - head.velocity)
-                    - head.omega.cross(&p);
-                let vel = velocity(jac, v) - vp;
                 // with friction the damping acts along the line of centres only (the
                 // tangential force is Coulomb's); without, on the whole relative velocity.
                 // A coupled pair's penalty and damping are the pair solve's, after the
                 // step (`crate::solver::pair_coupling`): only its friction is the step's
-                let damping = if hh.coupled {
-                    Matrix3::zeros()
-                } else if hh.friction.is_some() {
-                    hh.damping * w * n * n.transpose()
-                } else {
-                    hh.damping * w * Matrix3::identity()
-                };
-                let mut force = if hh.coupled {
-                    Vector3::zeros()
-                } else {
-                    normal * n
-                };
-                force -= damping * vel;
-                if terms.force {
-                    add_force(jac, &force, &mut out.force);
-                }
-                if terms.stiffness && !hh.coupled {
-                    let a = -hh.stiffness * w * n * n.transpose();
-                    add_projected(jac, &a, &mut self.aj, &mut out.stiffness);
-                    stiffened = true;
-                }
-                if terms.damping && damping != Matrix3::zeros() {
-                    add_projected(jac, &-damping, &mut self.aj, &mut out.damping);
+                if !hh.coupled {
+                    // the partner's velocity as seen in the head frame
+                    let vp = head.rotation.transpose() * (partner.velocity - head.velocity)
+                        - head.omega.cross(&p);
+                    let vel = velocity(jac, v) - vp;
+                    let damping = if hh.friction.is_some() {
+                        hh.damping * w * n * n.transpose()
+                    } else {
+                        hh.damping * w * Matrix3::identity()
+                    };
+                    if terms.force {
+                        add_force(jac, &(normal * n - damping * vel), &mut out.force);
+                    }
+                    if terms.stiffness {
+                        let a = -hh.stiffness * w * n * n.transpose();
+                        add_projected(jac, &a, &mut self.aj, &mut out.stiffness);
+                        stiffened = true;
+                    }
+                    if terms.damping {
+                        add_projected(jac, &-damping, &mut self.aj, &mut out.damping);
+                    }
                 }
                 // Coulomb friction: the anchored sample held to the partner's anchor point
                 let (Some(f), Some(anchor)) = (hh.friction, partner.anchor) else {
@@ -1607,7 +1607,6 @@ impl StrandContacts {
         // reach − split the step passes it
         let mut near = std::mem::take(&mut self.partner_near);
         near.clear();
-        let coupled = self.hair.is_some_and(|h| h.coupled);
         near.extend((0..self.partners.len()).filter(|&i| {
             let p = &self.partners[i];
             if p.partner_s.is_some() || coupled {
