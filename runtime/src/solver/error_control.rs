@@ -325,6 +325,11 @@ fn advance(
             } else {
                 hh
             };
+            if !last {
+                // the contacts' bookkeeping at every accepted step within the scene's
+                // (the last one's is the caller's)
+                energy = super::adaptive::between_steps(system, &whole, state, energy);
+            }
             t = if last { end } else { t + hh };
             // a step cut short to end on the interval does not shrink the next
             h = if last {

@@ -350,7 +350,10 @@ impl HairHair {
             // contact
             .filter(|(p, _)| distinct(arcs, self.self_exclusion, p.a, p.b))
             .collect();
-        carried.sort_unstable_by_key(|x| x.0);
+        // two pairs tracked to the same samples are one: the one that holds an anchor is
+        // kept (the anchored first), so that a contact sliding across the samples keeps
+        // its friction
+        carried.sort_unstable_by_key(|x| (x.0, x.1.is_none()));
         carried.dedup_by_key(|x| x.0);
         let (mut tracked, mut anchors): (Vec<Pair>, Vec<Option<PairAnchor>>) =
             carried.into_iter().unzip();

@@ -328,6 +328,8 @@ pub struct StrandContacts {
     predicted: PredictedContacts,
     /// Scratch of [`Self::deepest_inside`].
     sweep: Vec<Vector3<f64>>,
+    /// The time of the last [`Self::start`] or [`Self::after_step`], s.
+    updated: Option<f64>,
 }
 
 /// What a strand's contacts carry from one step to the next (a checkpoint's part): the
@@ -369,6 +371,7 @@ impl StrandContacts {
         self.root_zone = state.root_zone;
         self.summary = state.summary;
         self.self_touching = state.self_touching;
+        self.updated = None;
         Ok(())
     }
 }
@@ -430,6 +433,7 @@ impl StrandContacts {
             summary: ContactSummary::default(),
             predicted: PredictedContacts::default(),
             sweep: Vec::new(),
+            updated: None,
         }
     }
 
@@ -1724,6 +1728,7 @@ impl StrandContacts {
     /// pushed out, they could not leave (the root is clamped) and would bend the strand
     /// by a penalty of up to 10⁴ times its weight; a groom at rest would not stay at rest.
     pub fn start(&mut self, at: &Placement, geom: &StrandGeometry, q: &[f64]) {
+        self.updated = Some(at.time);
         self.place(at);
         let head = &at.head;
         self.sample_poses(geom, q);
@@ -1759,6 +1764,9 @@ impl StrandContacts {
     /// allowances of the points that started inside a body by the depenetration speed
     /// times h (and to their present depth); update the Coulomb anchors.
     pub fn after_step(&mut self, at: &Placement, geom: &StrandGeometry, q: &[f64], h: f64) {
+        // the time since the last bookkeeping (a step's pieces each have theirs)
+        let h = self.updated.map_or(h, |t0| (at.time - t0).clamp(0.0, h));
+        self.updated = Some(at.time);
         self.place(at);
         let head = &at.head;
         if self.allowance.iter().any(|a| *a > 0.0) {
