@@ -416,6 +416,34 @@ impl HairHair {
             .par_iter()
             .map(|p| closest_on_chains(points, p.a, p.b))
             .collect();
+        let fresh_pair: Vec<bool> = tracked
+            .iter()
+            .map(|p| new_pairs.binary_search(p).is_ok())
+            .collect();
+        // a contact is keyed by the samples nearest its two closest points: two sample
+        // pairs that are both local minima of the samples' distance around one crossing
+        // (the diagonal neighbours (i, j) and (i + 1, j + 1) of two rods crossing at an
+        // angle) refine to the same closest points and are one contact, not two (as two
+        // they pressed twice, and as one of them came and went with the motion the
+        // crossing's force jumped: two ropes crossing at rest were kept swinging)
+        let keyed: Vec<Keyed> = tracked
+            .into_iter()
+            .zip(anchors)
+            .zip(closest)
+            .zip(fresh_pair)
+            .map(|(((pair, anchor), closest), fresh)| Keyed {
+                pair,
+                anchor,
+                closest,
+                fresh,
+            })
+            .collect();
+        let keyed = rekey_to_closest(keyed, points, arcs, self.self_exclusion, &rt);
+        let tracked: Vec<Pair> = keyed.iter().map(|k| k.pair).collect();
+        let mut anchors: Vec<Option<PairAnchor>> = keyed.iter().map(|k| k.anchor).collect();
+        let closest: Vec<(f64, f64)> = keyed.iter().map(|k| k.closest).collect();
+        let fresh_pair: Vec<bool> = keyed.iter().map(|k| k.fresh).collect();
+        drop(keyed);
         // the allowances: a pair that is found already overlapping (at the first update,
         // or after the two strands met between two searches) is allowed its overlap, so
         // that it is let apart at the depenetration speed rather than pushed apart by its
@@ -424,7 +452,7 @@ impl HairHair {
         if self.depenetration_speed > 0.0 {
             let mut overlap: HashMap<(usize, usize), f64> = HashMap::new();
             let mut fresh: HashMap<(usize, usize), f64> = HashMap::new();
-            for (p, &(ta, tb)) in tracked.iter().zip(&closest) {
+            for (index, (p, &(ta, tb))) in tracked.iter().zip(&closest).enumerate() {
                 let depth = reach - (point_at(points, p.a, ta) - point_at(points, p.b, tb)).norm();
                 if depth <= 0.0 {
                     continue;
@@ -432,7 +460,7 @@ impl HairHair {
                 let key = (p.a.0, p.b.0);
                 let o = overlap.entry(key).or_insert(0.0);
                 *o = o.max(depth);
-                if new_pairs.binary_search(p).is_ok() && !known.contains(&key) {
+                if fresh_pair[index] && !known.contains(&key) {
                     let f = fresh.entry(key).or_insert(0.0);
                     *f = f.max(depth);
                 }
@@ -970,6 +998,77 @@ fn segment_closest(
 /// The closest points of the two chains around samples `a` and `b`, among the segments
 /// to each side's neighbours: parameters in [−1, 1] (−1: the previous sample, 1: the
 /// next, 0: the sample itself).
+/// A pair with its friction anchor, its closest points (as [`closest_on_chains`] returns)
+/// and whether this update's search found it.
+struct Keyed {
+    pair: Pair,
+    anchor: Option<PairAnchor>,
+    closest: (f64, f64),
+    fresh: bool,
+}
+
+/// The pairs keyed by the samples nearest their closest points (a side whose point lies
+/// more than half-way to a neighbouring sample moves to it), the closest points found
+/// again around the new samples, and the pairs that met the same samples merged into one
+/// (the one holding a friction anchor kept, its anchor carried to the samples it moved to
+/// as the tracking carries it; fresh only if all were). Sorted, as the pairs are.
+fn rekey_to_closest(
+    keyed: Vec<Keyed>,
+    points: &[Vec<Vector3<f64>>],
+    arcs: &[&[(f64, f64)]],
+    exclusion: Option<f64>,
+    rt: &Matrix3<f64>,
+) -> Vec<Keyed> {
+    let nearest = |(s, k): (usize, usize), t: f64| {
+        if t > 0.5 && k + 1 < points[s].len() {
+            (s, k + 1)
+        } else if t < -0.5 && k > 0 {
+            (s, k - 1)
+        } else {
+            (s, k)
+        }
+    };
+    let mut moved = false;
+    let mut keyed: Vec<Keyed> = keyed
+        .into_iter()
+        .map(|k| {
+            let p = k.pair;
+            let q = Pair {
+                a: nearest(p.a, k.closest.0),
+                b: nearest(p.b, k.closest.1),
+            };
+            if q == p || !distinct(arcs, exclusion, q.a, q.b) {
+                return k;
+            }
+            moved = true;
+            let anchor = k.anchor.map(|mut a| {
+                let shift = (points[q.a.0][q.a.1] - points[p.a.0][p.a.1])
+                    - (points[q.b.0][q.b.1] - points[p.b.0][p.b.1]);
+                a.offset += rt * shift;
+                a
+            });
+            Keyed {
+                pair: q,
+                anchor,
+                closest: closest_on_chains(points, q.a, q.b),
+                fresh: k.fresh,
+            }
+        })
+        .collect();
+    if moved {
+        keyed.sort_unstable_by_key(|k| (k.pair, k.anchor.is_none()));
+        keyed.dedup_by(|later, kept| {
+            if later.pair == kept.pair {
+                kept.fresh &= later.fresh;
+                true
+            } else {
+                false
+            }
+        });
+    }
+    keyed
+}
+
 fn closest_on_chains(p: &[Vec<Vector3<f64>>], a: (usize, usize), b: (usize, usize)) -> (f64, f64) {
     let sides = |(s, k): (usize, usize)| {
         let chain = &p[s];

@@ -100,9 +100,14 @@ pub struct HairHairParams {
 impl HairHairParams {
     /// The parameters of `config` for a strand of mass per length `rho_s`.
     pub fn new(config: &HairHairConfig, rho_s: f64) -> Self {
-        let k = config.stiffness.unwrap_or(
-            super::config::DEFAULT_HAIR_STIFFNESS_FACTOR * rho_s * STANDARD_GRAVITY / config.radius,
-        );
+        let factor = if config.coupling == super::Coupling::Pair {
+            super::config::DEFAULT_PAIR_STIFFNESS_FACTOR
+        } else {
+            super::config::DEFAULT_HAIR_STIFFNESS_FACTOR
+        };
+        let k = config
+            .stiffness
+            .unwrap_or(factor * rho_s * STANDARD_GRAVITY / config.radius);
         HairHairParams {
             radius: config.radius,
             stiffness: k,
