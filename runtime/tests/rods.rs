@@ -2771,3 +2771,95 @@ fn crossing_ropes_hold_apart_and_come_to_one_rest_at_every_step() {
         );
     }
 }
+
+/// The rope of `scenes/rope-pile.toml` (1 m, N = 100, radius 1 mm, its root lowered onto
+/// a floor at up to 0.6 m/s, self-contact and Coulomb friction) stepped for `duration` s,
+/// `replace` applied to the scene's text first. After every step: the closest distance
+/// between two of its points more than 6 mm apart along it (the centreline at 20 points
+/// an element), and, once the free end has come within 3 mm of the floor, how high it
+/// rises again and how fast it moves. Returns (closest over 2R, the tip's highest after
+/// landing (m), its fastest after landing (m/s), when the closest came).
+fn rope_pile(duration: f64, replace: &[(&str, &str)]) -> (f64, f64, f64, f64) {
+    let mut text = include_str!("../../scenes/rope-pile.toml").to_string();
+    for (from, to) in replace {
+        assert!(text.contains(from), "{from}");
+        text = text.replace(from, to);
+    }
+    let setup = parse_scene(&text).expect("scene");
+    let dt = setup.config.dt;
+    let mut sim = Simulation::new(setup, None).expect("simulation");
+    let g = sim.strand(0).geometry.clone();
+    let joint = g.lengths[0];
+    let own = g.length() - joint;
+    let samples = 2000;
+    let arcs: Vec<f64> = (0..=samples)
+        .map(|k| joint + own * k as f64 / samples as f64)
+        .collect();
+    let apart = (6e-3 / (own / samples as f64)).ceil() as usize;
+    let (mut closest, mut when) = (f64::INFINITY, 0.0);
+    let (mut landed, mut highest, mut fastest) = (false, 0.0f64, 0.0f64);
+    let mut points = Vec::new();
+    let world_tip = |sim: &mut Simulation| {
+        let c = sim.centreline_world(0, 1);
+        nalgebra::Vector3::from(c[c.len() - 1])
+    };
+    let mut tip_before = world_tip(&mut sim);
+    let started = std::time::Instant::now();
+    while sim.time() < duration - 1e-9 {
+        sim.step().expect("step");
+        superhelix_runtime::model::reconstruction::positions_at_sorted(
+            &g,
+            sim.q(0),
+            arcs.iter().copied(),
+            &mut points,
+        );
+        // the rope's points in head coordinates: the head moves the root, the floor is
+        // the world's; the closest distance between parts is the same in either
+        let mut here = f64::INFINITY;
+        for i in 0..points.len() {
+            for j in i + apart..points.len() {
+                here = here.min((points[i] - points[j]).norm());
+            }
+        }
+        if here < closest {
+            (closest, when) = (here, sim.time());
+        }
+        let tip = world_tip(&mut sim);
+        if tip.z < 3e-3 {
+            landed = true;
+        }
+        if landed {
+            highest = highest.max(tip.z);
+            fastest = fastest.max((tip - tip_before).norm() / dt);
+        }
+        tip_before = tip;
+        if sim.steps() % 50 == 0 {
+            println!(
+                "t {:.3}: closest {:.4} of 2R, tip at {:.4} m, after landing highest {highest:.4} m, fastest {fastest:.3} m/s ({:.0} s)",
+                sim.time(),
+                here / 2e-3,
+                tip.z,
+                started.elapsed().as_secs_f64()
+            );
+        }
+    }
+    (closest / 2e-3, highest, fastest, when)
+}
+
+#[test]
+#[ignore = "fails: the rope passes through itself at the default hair-hair stiffness (0.06 of 2R at 0.65 s) and its free end is kicked to 2.1 m/s on landing (issue #47); about 15 minutes: cargo test --release -p superhelix-runtime --test rods -- --ignored rope_fed_onto_a_floor --nocapture"]
+fn a_rope_fed_onto_a_floor_piles_without_passing_into_itself_or_leaping() {
+    // measured over the first 0.8 s: at the scene's default hair–hair stiffness
+    // (100 ρS g₀ / R = 4·10³ N/m²) its parts come to 0.06 of 2R (at 0.65 s); at
+    // `stiffness = 4e5` (a body's default factor) to 0.91 of 2R by 0.85 s, the free end then
+    // lifted to 2.9 cm. Either way the free end jumps 2 mm in one step as it lands (2.1 m/s
+    // where the root comes down at a few tenths): its centreline was 0.2 mm below the
+    // floor's plane, 1.2 R into the contact layer
+    let (closest, highest, fastest, when) = rope_pile(1.0, &[]);
+    println!(
+        "rope pile: closest {closest:.4} of 2R (at {when:.3} s); the free end after landing: highest {highest:.4} m, fastest {fastest:.3} m/s"
+    );
+    assert!(closest > 0.9, "closest {closest} of 2R at {when} s");
+    assert!(highest < 0.02, "the free end leaps to {highest} m");
+    assert!(fastest < 1.2, "the free end moves at {fastest} m/s");
+}

@@ -490,13 +490,14 @@ fn split(
     split(system, &second, state, &middle, stats, levels - 1)
 }
 
-/// Between two accepted error-controlled steps within a step of the scene, the contacts' bookkeeping of `piece`'s end, as the scene does
+/// Between two accepted pieces of a step of the scene (two error-controlled steps, or the
+/// halves of a split step), the contacts' bookkeeping of `piece`'s end, as the scene does
 /// after its own step: the Coulomb anchors stick, slide or let go, and the allowances of
 /// the points that started inside a body shrink. A sliding point's anchor is dragged
 /// behind it at every accepted step, not once per step of the scene: held where the scene's
 /// step began, the kinetic force of every point that slid on within the step, or newly
-/// touched, would be missing or spent, and a rope run over a drum beyond its holding
-/// ratio ran up to twice as far as the sliding law allows under the error control.
+/// touched, would be missing or spent: a rope run over a drum beyond its holding ratio
+/// ran up to twice as far as the sliding law allows under the error control.
 /// The start energy of the next piece (`end`) is measured again where the anchors moved.
 pub(super) fn between_steps(
     system: &mut StrandSystem,

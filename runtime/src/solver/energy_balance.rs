@@ -156,7 +156,10 @@ pub fn remeasure_contacts(
     e.load_moment += old_potential - potential;
     e.potential += potential - old_potential;
     e.load_rate += rate - old_rate;
-    e.ceiling = e.kinetic + e.elastic + e.potential;
+    // the contact potential's new reference shifts the bound the steps carry with it (a
+    // ceiling reset to E would drop what the steps before had lost below it, and let the
+    // next steps create that much)
+    e.ceiling = energy.ceiling + (potential - old_potential);
     workspace.last_contact = (potential, rate);
     e
 }
