@@ -88,6 +88,11 @@ pub struct HairHairParams {
     pub stiffness: f64,
     /// Damping per metre, N·s/m².
     pub damping: f64,
+    /// Penalty stiffness (N/m²) and damping per metre (N·s/m²) between two parts of this
+    /// strand (self-contact).
+    pub self_stiffness: f64,
+    /// See [`Self::self_stiffness`].
+    pub self_damping: f64,
     /// Depth of a new contact beyond which a step is split, m (`None`: the contacts').
     pub split_depth: Option<f64>,
     /// Coulomb friction between rods (`None`: none).
@@ -105,16 +110,29 @@ impl HairHairParams {
         } else {
             super::config::DEFAULT_HAIR_STIFFNESS_FACTOR
         };
-        let k = config
+        let weight = rho_s * STANDARD_GRAVITY / config.radius;
+        let k = config.stiffness.unwrap_or(factor * weight);
+        let k_self = config
             .stiffness
-            .unwrap_or(factor * rho_s * STANDARD_GRAVITY / config.radius);
+            .unwrap_or(super::config::DEFAULT_SELF_STIFFNESS_FACTOR * weight);
         HairHairParams {
             radius: config.radius,
             stiffness: k,
             damping: 2.0 * config.damping_ratio * (k * rho_s).sqrt(),
+            self_stiffness: k_self,
+            self_damping: 2.0 * config.damping_ratio * (k_self * rho_s).sqrt(),
             split_depth: config.split_depth,
             friction: config.friction,
             coupled: config.coupling == super::Coupling::Pair,
+        }
+    }
+
+    /// These parameters as they act between two parts of the strand (self-contact).
+    pub fn for_self(&self) -> Self {
+        HairHairParams {
+            stiffness: self.self_stiffness,
+            damping: self.self_damping,
+            ..*self
         }
     }
 }
@@ -992,6 +1010,7 @@ impl StrandContacts {
         if !self.partners.iter().any(|p| p.partner_s.is_some()) {
             return false;
         }
+        let hh = hh.for_self();
         let mut other = std::mem::take(&mut self.jac_other);
         let mut diff = std::mem::take(&mut self.jac_diff);
         other.resize(jac.len(), Vector3::zeros());
@@ -1070,6 +1089,7 @@ impl StrandContacts {
     /// The energy of the pairs of two parts of this strand at q (penalty and friction
     /// springs; the samples must be posed at q). Internal: no work through motion.
     fn self_pairs_energy(&mut self, hh: &HairHairParams, geom: &StrandGeometry, q: &[f64]) -> f64 {
+        let hh = &hh.for_self();
         let mut potential = 0.0;
         let mut buf = std::mem::take(&mut self.sweep);
         for partner in &self.partners {
