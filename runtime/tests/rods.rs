@@ -2716,7 +2716,12 @@ fn along_sideways_speed(
 ) {
     rest.along += lower.x;
     rest.sideways += lower.y;
-    for (b, n) in before.0.iter().zip(&now.0).chain(before.1.iter().zip(&now.1)) {
+    for (b, n) in before
+        .0
+        .iter()
+        .zip(&now.0)
+        .chain(before.1.iter().zip(&now.1))
+    {
         rest.speed = rest.speed.max((n - b).norm() / dt);
     }
 }
@@ -2738,9 +2743,7 @@ fn crossing_ropes_hold_apart_and_come_to_one_rest_at_every_step() {
                 .iter()
                 .map(|&dt| scope.spawn(move || crossing_ropes(dt, stiffness)))
                 .collect();
-            runs.into_iter()
-                .map(|r| r.join().expect("run"))
-                .collect()
+            runs.into_iter().map(|r| r.join().expect("run")).collect()
         });
         for (dt, r) in [1e-3, 2e-3, 5e-3].iter().zip(&runs) {
             println!(
@@ -2764,7 +2767,10 @@ fn crossing_ropes_hold_apart_and_come_to_one_rest_at_every_step() {
         }
         // one rest whatever the step: the contact within R/20 along the rope, the push
         // sideways within R/10 (the 1 ms rest pushes the lower rope 2.6 mm sideways)
-        assert!(spread(|r| r.along) < 2.5e-5, "{stiffness:?}: the contact moves");
+        assert!(
+            spread(|r| r.along) < 2.5e-5,
+            "{stiffness:?}: the contact moves"
+        );
         assert!(
             spread(|r| r.sideways) < 5e-5,
             "{stiffness:?}: the push sideways moves"
