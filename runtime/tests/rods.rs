@@ -1699,6 +1699,48 @@ fn a_rope_wrapped_by_three_quarter_turns_holds_up_to_the_capstan_ratio() {
     assert_capstan(theta, &rows, &[0.5]);
 }
 
+/// The closest distance between two points of strand 0 more than `apart` (m) apart along
+/// it, over its centreline sampled at `samples` + 1 points (the root joint left out).
+struct SelfGap {
+    geometry: superhelix_runtime::model::strand::StrandGeometry,
+    arcs: Vec<f64>,
+    apart: usize,
+    points: Vec<nalgebra::Vector3<f64>>,
+}
+
+impl SelfGap {
+    fn new(sim: &Simulation, samples: usize, apart: f64) -> Self {
+        let geometry = sim.strand(0).geometry.clone();
+        let joint = geometry.lengths[0];
+        let own = geometry.length() - joint;
+        SelfGap {
+            arcs: (0..=samples)
+                .map(|k| joint + own * k as f64 / samples as f64)
+                .collect(),
+            apart: (apart / (own / samples as f64)).ceil() as usize,
+            geometry,
+            points: Vec::new(),
+        }
+    }
+
+    fn closest(&mut self, sim: &Simulation) -> f64 {
+        superhelix_runtime::model::reconstruction::positions_at_sorted(
+            &self.geometry,
+            sim.q(0),
+            self.arcs.iter().copied(),
+            &mut self.points,
+        );
+        let p = &self.points;
+        let mut here = f64::INFINITY;
+        for i in 0..p.len() {
+            for j in i + self.apart..p.len() {
+                here = here.min((p[i] - p[j]).norm());
+            }
+        }
+        here
+    }
+}
+
 /// A rope of 30 cm (radius 1 mm, E = 1 MPa, N = 30) hanging from a pinned root, lowered
 /// 26 cm in 1.8 s ([`piled_rope_to`] lowers it `lowering`, with `per` samples an element
 /// and the hair–hair penalty `stiffness`) into a square well 2.4 cm wide (four walls and a floor, Coulomb
@@ -1769,30 +1811,11 @@ root = "pinned"
     );
     let setup = parse_scene(&text).expect("scene");
     let mut sim = Simulation::new(setup, None).expect("simulation");
-    let g = sim.strand(0).geometry.clone();
-    let joint = g.lengths[0];
-    let own = g.length() - joint;
-    let samples = 600;
-    let arcs: Vec<f64> = (0..=samples)
-        .map(|k| joint + own * k as f64 / samples as f64)
-        .collect();
-    let apart = (6e-3 / (own / samples as f64)).ceil() as usize;
+    let mut gap = SelfGap::new(&sim, 600, 6e-3);
     let (mut closest, mut touching) = (f64::INFINITY, 0);
-    let mut points = Vec::new();
     for _ in 0..2000 {
         sim.step().expect("step");
-        superhelix_runtime::model::reconstruction::positions_at_sorted(
-            &g,
-            sim.q(0),
-            arcs.iter().copied(),
-            &mut points,
-        );
-        let mut here = f64::INFINITY;
-        for i in 0..points.len() {
-            for j in i + apart..points.len() {
-                here = here.min((points[i] - points[j]).norm());
-            }
-        }
+        let here = gap.closest(&sim);
         closest = closest.min(here);
         if here < 2.2e-3 {
             touching += 1;
@@ -2794,17 +2817,9 @@ fn rope_pile(duration: f64, replace: &[(&str, &str)]) -> (f64, f64, f64, f64) {
     let setup = parse_scene(&text).expect("scene");
     let dt = setup.config.dt;
     let mut sim = Simulation::new(setup, None).expect("simulation");
-    let g = sim.strand(0).geometry.clone();
-    let joint = g.lengths[0];
-    let own = g.length() - joint;
-    let samples = 2000;
-    let arcs: Vec<f64> = (0..=samples)
-        .map(|k| joint + own * k as f64 / samples as f64)
-        .collect();
-    let apart = (6e-3 / (own / samples as f64)).ceil() as usize;
+    let mut gap = SelfGap::new(&sim, 2000, 6e-3);
     let (mut closest, mut when) = (f64::INFINITY, 0.0);
     let (mut landed, mut highest, mut fastest) = (false, 0.0f64, 0.0f64);
-    let mut points = Vec::new();
     let world_tip = |sim: &mut Simulation| {
         let c = sim.centreline_world(0, 1);
         nalgebra::Vector3::from(c[c.len() - 1])
@@ -2813,20 +2828,8 @@ fn rope_pile(duration: f64, replace: &[(&str, &str)]) -> (f64, f64, f64, f64) {
     let started = std::time::Instant::now();
     while sim.time() < duration - 1e-9 {
         sim.step().expect("step");
-        superhelix_runtime::model::reconstruction::positions_at_sorted(
-            &g,
-            sim.q(0),
-            arcs.iter().copied(),
-            &mut points,
-        );
-        // the rope's points in head coordinates: the head moves the root, the floor is
-        // the world's; the closest distance between parts is the same in either
-        let mut here = f64::INFINITY;
-        for i in 0..points.len() {
-            for j in i + apart..points.len() {
-                here = here.min((points[i] - points[j]).norm());
-            }
-        }
+        // (head coordinates: the distance between two parts is the same in the world's)
+        let here = gap.closest(&sim);
         if here < closest {
             (closest, when) = (here, sim.time());
         }

@@ -490,9 +490,8 @@ fn split(
     split(system, &second, state, &middle, stats, levels - 1)
 }
 
-/// Between two accepted pieces of a step of the scene (two error-controlled steps, or the
-/// halves of a split step), the contacts' bookkeeping of `piece`'s end, as the scene does
-/// after its own step: the Coulomb anchors stick, slide or let go, and the allowances of
+/// Between two accepted error-controlled steps within a step of the scene, the contacts'
+/// bookkeeping of `piece`'s end, as the scene does after its own step: the Coulomb anchors stick, slide or let go, and the allowances of
 /// the points that started inside a body shrink. A sliding point's anchor is dragged
 /// behind it at every accepted step, not once per step of the scene: held where the scene's
 /// step began, the kinetic force of every point that slid on within the step, or newly

@@ -995,9 +995,6 @@ fn segment_closest(
     (t, u, d.norm_squared())
 }
 
-/// The closest points of the two chains around samples `a` and `b`, among the segments
-/// to each side's neighbours: parameters in [−1, 1] (−1: the previous sample, 1: the
-/// next, 0: the sample itself).
 /// A pair with its friction anchor, its closest points (as [`closest_on_chains`] returns)
 /// and whether this update's search found it.
 struct Keyed {
@@ -1069,6 +1066,9 @@ fn rekey_to_closest(
     keyed
 }
 
+/// The closest points of the two chains around samples `a` and `b`, among the segments
+/// to each side's neighbours: parameters in [−1, 1] (−1: the previous sample, 1: the
+/// next, 0: the sample itself).
 fn closest_on_chains(p: &[Vec<Vector3<f64>>], a: (usize, usize), b: (usize, usize)) -> (f64, f64) {
     let sides = |(s, k): (usize, usize)| {
         let chain = &p[s];
