@@ -711,12 +711,17 @@ impl Simulation {
             if let (Some(c), Some(b)) = (&setup.contacts, &contact_bodies) {
                 let g = &system.strand.geometry;
                 let rho_s = system.strand.material.mass_per_length;
+                let free_ends = [
+                    c.end_samples && system.strand.ends.root == crate::model::ends::RootEnd::Free,
+                    c.end_samples && system.held.is_none(),
+                ];
                 system.contacts = Some(StrandContacts::new(
                     g,
                     b.clone(),
                     ContactParams::new(c, rho_s),
                     c.hair_hair.as_ref().map(|h| HairHairParams::new(h, rho_s)),
                     c.samples_per_element,
+                    free_ends,
                 ));
             }
             let mut q0 = s.q0;

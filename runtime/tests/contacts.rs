@@ -579,6 +579,7 @@ fn the_balance_counts_the_power_of_the_partners_damping() {
         ContactParams::new(&config, rho_s),
         Some(hair),
         4,
+        [false, true],
     );
     // partner points 0.3 reach off the strand at three arc lengths, moving
     let at = Placement::new(HeadState::rest(), 0.0);
@@ -734,6 +735,7 @@ fn contact_forces_are_minus_the_gradient_of_the_contact_energy() {
             ContactParams::new(&config, rho_s),
             Some(hair),
             8,
+            [false, true],
         )
     };
     let lowest = probe(&mut make(Vec::new()));

@@ -94,6 +94,7 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
     let samples = n.optional("samples_per_element", d.samples_per_element, |n, k| {
         n.count(k, 1, 64, "the cap on contact samples per element")
     });
+    let end_samples = super::reader::boolean(&mut n, "end_samples", d.end_samples);
     let models = ["none", "viscous", "coulomb"];
     let model = n.optional("friction", "viscous", |n, k| {
         n.choice(k, &models, |s| models.iter().copied().find(|m| *m == s))
@@ -296,6 +297,7 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
         friction,
         anisotropy: anisotropy?,
         samples_per_element: samples?,
+        end_samples: end_samples?,
         split_depth: split_depth?,
         hair_hair: hair_hair?,
     })

@@ -204,6 +204,11 @@ pub struct ContactConfig {
     pub anisotropy: f64,
     /// Contact points per helical element, 1 to 64.
     pub samples_per_element: usize,
+    /// A sample at each free end (a hair's tip, a free root): the outer part there takes
+    /// the two-point Gauss–Radau rule that includes the end instead of its midpoint, so
+    /// the end touches bodies and, with self-contact, the strand's other parts where it
+    /// is. Off: an end is half a part beyond its last sample.
+    pub end_samples: bool,
     /// A step that takes a contact point deeper than this (m) beyond its depth at the
     /// start of the step is split; `None`: the radius.
     pub split_depth: Option<f64>,
@@ -226,6 +231,7 @@ impl Default for ContactConfig {
             },
             anisotropy: 0.3,
             samples_per_element: 4,
+            end_samples: false,
             split_depth: None,
             hair_hair: None,
         }
