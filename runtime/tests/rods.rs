@@ -2878,26 +2878,27 @@ struct PileRun {
     lying: f64,
 }
 
-#[test]
-#[ignore = "about 10 minutes; figures below (issue #47): cargo test --release -p superhelix-runtime --test rods -- --ignored rope_fed_onto_a_floor --nocapture"]
-fn a_rope_fed_onto_a_floor_piles_without_passing_into_itself_or_leaping() {
-    // measured with end samples (scenes/rope-pile.toml with `end_samples = true`), at 1 ms: closest 0.9204
-    // of 2R (at 0.699 s), the free end at most 4.3 mm high after landing (it lies at
-    // 1 mm), fastest 1.229 m/s over the landing and after together (the split between
-    // the two not yet measured). Without end samples: 0.8128 of 2R, 1.69 cm, 2.1 m/s:
-    // the free end stood on its tip 1 mm inside the floor, held by its last sample at
-    // the edge of the contact radius, and chattered sideways.
-    let run = rope_pile(
-        1.0,
-        &[(
-            "anisotropy = 0.0\n",
-            "anisotropy = 0.0\nend_samples = true\n",
-        )],
-    );
+/// What [`rope_pile`] found, printed.
+fn print_pile(label: &str, run: &PileRun) {
     println!(
-        "rope pile: closest {:.4} of 2R (at {:.3} s); the free end after landing: highest {:.4} m, fastest {:.3} m/s in the 20 ms of its landing, {:.3} m/s after",
+        "rope pile, {label}: closest {:.4} of 2R (at {:.3} s); the free end after landing: highest {:.4} m, fastest {:.3} m/s in the 20 ms of its landing, {:.3} m/s after",
         run.closest, run.when, run.highest, run.landing, run.lying
     );
+}
+
+#[test]
+#[ignore = "about 6 minutes; figures below (issue #47): cargo test --release -p superhelix-runtime --test rods -- --ignored rope_fed_onto_a_floor_under --nocapture"]
+fn a_rope_fed_onto_a_floor_under_a_tolerance_lies_down_without_leaping_or_passing_into_itself() {
+    // measured (tolerance 1e-3): closest 2.94 of 2R (the rope lies down in its first
+    // second without touching itself), the free end 2.8 mm high at most after landing
+    // (its centreline lies at 1 mm), 0.79 m/s as it lands and 0.25 m/s after (dragged
+    // along the floor by the rope laid behind it). At 1e-4: 2.94 of 2R, 2.8 mm, 0.79 and
+    // 0.061 m/s
+    let run = rope_pile(
+        1.0,
+        &[("duration = 1.0\n", "duration = 1.0\ntolerance = 1e-3\n")],
+    );
+    print_pile("tolerance 1e-3", &run);
     assert!(
         run.closest > 0.9,
         "closest {} of 2R at {} s",
@@ -2906,10 +2907,36 @@ fn a_rope_fed_onto_a_floor_piles_without_passing_into_itself_or_leaping() {
     );
     // lying on the floor its centreline is 1 mm up (the contact radius)
     assert!(
-        run.highest < 0.02,
+        run.highest < 5e-3,
         "the free end leaps to {} m",
         run.highest
     );
     // the feed is at most 0.6 m/s
-    assert!(run.lying < 1.2, "the free end moves at {} m/s", run.lying);
+    assert!(run.lying < 0.6, "the free end moves at {} m/s", run.lying);
+}
+
+#[test]
+#[ignore = "about 10 minutes; figures below (issue #47): cargo test --release -p superhelix-runtime --test rods -- --ignored rope_fed_onto_a_floor_at_fixed --nocapture"]
+fn a_rope_fed_onto_a_floor_at_fixed_steps_stays_within_what_the_step_throws() {
+    // the scene as it is, fixed steps of 1 ms: they do not resolve the landing. The rope
+    // coils (its parts 0.9228 of 2R apart at 0.676 s), and the coils landing by the free
+    // end lift it: 4.9 mm, 1.28 m/s after landing (chaotic: 2.1 cm and 2.4 m/s when the
+    // anchors were kept between a split step's pieces or not, the last bits of the run
+    // apart), where under a tolerance (above) the rope lies down without touching itself
+    // and its end stays on the floor. Bounded here so that the thrown end of the midpoint
+    // samples (18.7 cm at 4.7 m/s) and deep coils do not come back
+    let run = rope_pile(1.0, &[]);
+    print_pile("fixed steps of 1 ms", &run);
+    assert!(
+        run.closest > 0.9,
+        "closest {} of 2R at {} s",
+        run.closest,
+        run.when
+    );
+    assert!(
+        run.highest < 0.03,
+        "the free end leaps to {} m",
+        run.highest
+    );
+    assert!(run.lying < 3.0, "the free end moves at {} m/s", run.lying);
 }

@@ -207,7 +207,11 @@ pub struct ContactConfig {
     /// A sample at each free end (a hair's tip, a free root): the outer part there takes
     /// the two-point Gauss–Radau rule that includes the end instead of its midpoint, so
     /// the end touches bodies and, with self-contact, the strand's other parts where it
-    /// is. Off: an end is half a part beyond its last sample.
+    /// is. Off: an end is half a part beyond its last sample, and can pass into a body
+    /// unseen (the tip of a 25 cm, N = 10 strand whipped by a shaking head went 1.7 mm into
+    /// a bar, its last sample 3.1 mm back clear of the contact radius). A scene with
+    /// `coupling = "pair"` between strands leaves it off unless it asks for it (the pair
+    /// solve's tip pairs whip dense hair at one solve per step).
     pub end_samples: bool,
     /// A step that takes a contact point deeper than this (m) beyond its depth at the
     /// start of the step is split; `None`: the radius.
@@ -231,7 +235,7 @@ impl Default for ContactConfig {
             },
             anisotropy: 0.3,
             samples_per_element: 4,
-            end_samples: false,
+            end_samples: true,
             split_depth: None,
             hair_hair: None,
         }

@@ -320,8 +320,9 @@ pub struct StrandContacts {
     /// Arc lengths and weights of the samples.
     samples: Vec<(f64, f64)>,
     anchors: Vec<Option<Anchor>>,
-    /// Scratch of [`Self::step_acceptable`]: which samples touched at the step's start.
-    touched: Vec<bool>,
+    /// Scratch of [`Self::step_acceptable`]: each sample's effective depth at the step's
+    /// start, m (0: it touched nothing).
+    start_depth: Vec<f64>,
     /// Depth each sample may have without force: what it had at the start, less what
     /// [`ContactParams::depenetration_speed`] took away since (see [`Self::after_step`]).
     allowance: Vec<f64>,
@@ -469,7 +470,7 @@ impl StrandContacts {
             params,
             hair,
             anchors: vec![None; n],
-            touched: vec![false; n],
+            start_depth: vec![0.0; n],
             allowance: vec![0.0; n],
             root_zone: (0, 0),
             partners: Vec::new(),
@@ -1589,10 +1590,10 @@ impl StrandContacts {
     }
 
     /// Whether a step from `q0` to `q1` (bodies placed at `start` and `end` at its two
-    /// ends) is acceptable for the contacts: no sample that touched nothing at the start
-    /// went deeper into a body, or into a partner's ball, than
-    /// [`ContactParams::split_depth`] (a fast approach is resolved by substeps rather than
-    /// met by a deep penalty). The depth in a partner's ball is measured along the line of
+    /// ends) is acceptable for the contacts: no sample went deeper into a body than
+    /// [`ContactParams::split_depth`] beyond its depth at the start (0 for one that touched
+    /// nothing), nor a sample that was apart from a partner that far into its ball (a fast
+    /// approach is resolved by substeps rather than met by a deep penalty). The depth in a partner's ball is measured along the line of
     /// centres at the start, so that a step that carries a point through the other strand
     /// counts as deep.
     pub fn step_acceptable(
@@ -1605,32 +1606,31 @@ impl StrandContacts {
     ) -> bool {
         let split = self.params.split_depth;
         let head = &end.head;
-        // which samples touch at the start: for a body on the head or in the world, those
-        // whose penalty stiffness is in the step's matrix (q0 with the head at the end; or,
-        // beyond δ_max, a constant force pushes them out); for a body on its own motion,
-        // those touching it where it is at the start, so that a body sweeping into the
-        // strand within the step makes new, checked contacts. Only the others, new
-        // contacts, are checked
+        // how deep the samples are at the start: for a body on the head or in the world, as
+        // the step's matrix has them (q0 with the head at the end); for a body on its own
+        // motion, where it is at the start, so that a body sweeping into the strand within
+        // the step makes new, checked contacts
         self.sample_poses(geom, q0);
+        let depth = |c: &Self, h: Option<BodyHit>, k: usize| {
+            h.map_or(0.0, |h| c.effective_depth(k, &h).max(0.0))
+        };
         if self.moving {
             self.place(start);
             for k in 0..self.samples.len() {
                 let y = self.poses[k].0;
-                self.touched[k] = self
-                    .body_hit_among(&start.head, k, &y, Some(true))
-                    .is_some_and(|h| self.effective_depth(k, &h) > 0.0);
+                let hit = self.body_hit_among(&start.head, k, &y, Some(true));
+                self.start_depth[k] = depth(self, hit, k);
             }
             self.place(end);
             for k in 0..self.samples.len() {
                 let y = self.poses[k].0;
-                self.touched[k] = self.touched[k]
-                    || self
-                        .body_hit_among(head, k, &y, Some(false))
-                        .is_some_and(|h| self.effective_depth(k, &h) > 0.0);
+                let hit = self.body_hit_among(head, k, &y, Some(false));
+                self.start_depth[k] = self.start_depth[k].max(depth(self, hit, k));
             }
         } else {
             for k in 0..self.samples.len() {
-                self.touched[k] = self.touching(head, k, &self.poses[k].0).is_some();
+                let hit = self.body_hit(head, k, &self.poses[k].0);
+                self.start_depth[k] = depth(self, hit, k);
             }
         }
         // a coupled pair's normal force is not the step's: its approach is not checked
@@ -1645,10 +1645,8 @@ impl StrandContacts {
         }
         self.sample_poses(geom, q1);
         let deep = (0..self.samples.len()).any(|k| {
-            !self.touched[k]
-                && self
-                    .body_hit(head, k, &self.poses[k].0)
-                    .is_some_and(|h| self.effective_depth(k, &h) > split)
+            self.body_hit(head, k, &self.poses[k].0)
+                .is_some_and(|h| self.effective_depth(k, &h) - self.start_depth[k] > split)
         });
         if deep {
             return false;
@@ -1745,9 +1743,18 @@ impl StrandContacts {
     }
 
     /// The samples that touch a body at q (bodies placed at `at`, root zone as
-    /// [`Self::start`] sets it; call that first): for each, the generalized force of a unit
-    /// normal force there, `Jᵀ n` (one entry per coordinate of q), in sample order. A
-    /// sag-free start with contacts chooses how much each carries.
+    /// [`Self::start`] sets it; call that first) and that the body meets first: none of
+    /// the samples beside them along the strand is deeper in it. For each, the generalized
+    /// force of a unit normal force there, `Jᵀ n` (one entry per coordinate of q), in
+    /// sample order. A sag-free start with contacts chooses how much each carries.
+    ///
+    /// A sample with a deeper neighbour is left out: as the strand settles onto the
+    /// penalty by the depth that carries its load (micrometres), the neighbour takes the
+    /// load first, and a load put on the shallower sample would move onto it in the run,
+    /// changing the shape (a strand whose free end lies on the crown of a cylinder: the
+    /// end sample is deeper than the one a third of a part inside, which the elastic
+    /// choice alone would load; the 10 cm strand of the propped-cantilever test then sagged
+    /// 34 µm between its ends in its first 0.1 s).
     pub fn support_directions(
         &mut self,
         at: &Placement,
@@ -1757,13 +1764,20 @@ impl StrandContacts {
         self.place(at);
         let head = at.head;
         self.sample_poses(kernel.geometry(), q);
+        let hits: Vec<Option<BodyHit>> = (0..self.samples.len())
+            .map(|k| self.body_hit(&head, k, &self.poses[k].0))
+            .collect();
+        let depth = |k: usize| hits[k].as_ref().map(|h| -h.distance);
         let mut jac = vec![Vector3::zeros(); q.len()];
         let mut out = Vec::new();
-        for k in 0..self.samples.len() {
-            let y = self.poses[k].0;
-            let Some(hit) = self.body_hit(&head, k, &y) else {
+        for (k, hit) in hits.iter().enumerate() {
+            let Some(hit) = hit else {
                 continue;
             };
+            let deeper = |j: Option<usize>| j.and_then(depth).is_some_and(|d| d > -hit.distance);
+            if deeper(k.checked_sub(1)) || deeper((k + 1 < hits.len()).then_some(k + 1)) {
+                continue;
+            }
             kernel.point(q, self.samples[k].0, &mut jac, None);
             out.push(jac.iter().map(|j| j.dot(&hit.normal)).collect());
         }
