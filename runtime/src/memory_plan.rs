@@ -187,10 +187,10 @@ pub fn hair_pairs_at_start(setup: &SimulationSetup) -> usize {
                 ContactParams::new(c, rho_s),
                 Some(HairHairParams::new(h, rho_s)),
                 c.samples_per_element,
-                [
-                    c.end_samples && s.strand.ends.root == crate::model::ends::RootEnd::Free,
-                    c.end_samples && s.tip.is_none(),
-                ],
+                c.free_ends(
+                    s.strand.ends.root == crate::model::ends::RootEnd::Free,
+                    s.tip.is_none(),
+                ),
             );
             if s.q0.len() != g.dofs() || s.q0.iter().any(|x| !x.is_finite()) {
                 return (Vec::new(), Vec::new());

@@ -711,10 +711,10 @@ impl Simulation {
             if let (Some(c), Some(b)) = (&setup.contacts, &contact_bodies) {
                 let g = &system.strand.geometry;
                 let rho_s = system.strand.material.mass_per_length;
-                let free_ends = [
-                    c.end_samples && system.strand.ends.root == crate::model::ends::RootEnd::Free,
-                    c.end_samples && system.held.is_none(),
-                ];
+                let free_ends = c.free_ends(
+                    system.strand.ends.root == crate::model::ends::RootEnd::Free,
+                    system.held.is_none(),
+                );
                 system.contacts = Some(StrandContacts::new(
                     g,
                     b.clone(),

@@ -94,8 +94,11 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
     let samples = n.optional("samples_per_element", d.samples_per_element, |n, k| {
         n.count(k, 1, 64, "the cap on contact samples per element")
     });
-    let end_samples_given = n.has("end_samples");
-    let end_samples = super::reader::boolean(&mut n, "end_samples", d.end_samples);
+    let end_samples = if n.has("end_samples") {
+        super::reader::boolean(&mut n, "end_samples", true).map(Some)
+    } else {
+        Some(d.end_samples)
+    };
     let models = ["none", "viscous", "coulomb"];
     let model = n.optional("friction", "viscous", |n, k| {
         n.choice(k, &models, |s| models.iter().copied().find(|m| *m == s))
@@ -288,17 +291,6 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
         },
     };
     n.finish();
-    let hair_hair = hair_hair?;
-    // the pair solve keeps end samples off unless asked for: with them, the dense shaken
-    // head at one solve per strand-step whipped to |q̇| = 5.6e3 rad/(m s) (476 without)
-    let pair = hair_hair
-        .as_ref()
-        .is_some_and(|h| h.coupling == Coupling::Pair);
-    let end_samples = if end_samples_given || !pair {
-        end_samples?
-    } else {
-        false
-    };
     Some(ContactConfig {
         bodies: body_list?,
         radius: radius?,
@@ -309,8 +301,8 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
         friction,
         anisotropy: anisotropy?,
         samples_per_element: samples?,
-        end_samples,
+        end_samples: end_samples?,
         split_depth: split_depth?,
-        hair_hair,
+        hair_hair: hair_hair?,
     })
 }

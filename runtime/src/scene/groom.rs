@@ -507,11 +507,10 @@ fn apply_sag_free(
                         ContactParams::new(c, rho_s),
                         None,
                         c.samples_per_element,
-                        [
-                            c.end_samples
-                                && s.strand.ends.root == crate::model::ends::RootEnd::Free,
-                            c.end_samples && s.tip.is_none(),
-                        ],
+                        c.free_ends(
+                            s.strand.ends.root == crate::model::ends::RootEnd::Free,
+                            s.tip.is_none(),
+                        ),
                     );
                     let at = Placement::at_rest(0.0);
                     contacts.start(&at, geom, &s.q0);

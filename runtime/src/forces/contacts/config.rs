@@ -209,15 +209,29 @@ pub struct ContactConfig {
     /// the end touches bodies and, with self-contact, the strand's other parts where it
     /// is. Off: an end is half a part beyond its last sample, and can pass into a body
     /// unseen (the tip of a 25 cm, N = 10 strand whipped by a shaking head went 1.7 mm into
-    /// a bar, its last sample 3.1 mm back clear of the contact radius). A scene with
-    /// `coupling = "pair"` between strands leaves it off unless it asks for it (the pair
-    /// solve's tip pairs whip dense hair at one solve per step).
-    pub end_samples: bool,
+    /// a bar, its last sample 3.1 mm back clear of the contact radius). `None`: on, but
+    /// off with `coupling = "pair"` between strands (the pair solve's tip pairs whip dense
+    /// hair at one solve per step: |q̇| = 5.6e3 rad/(m s) on the shaken head, 476 without);
+    /// [`Self::free_ends`] resolves it.
+    pub end_samples: Option<bool>,
     /// A step that takes a contact point deeper than this (m) beyond its depth at the
     /// start of the step is split; `None`: the radius.
     pub split_depth: Option<f64>,
     /// Hair–hair interaction; `None`: none, nothing built for it.
     pub hair_hair: Option<HairHairConfig>,
+}
+
+impl ContactConfig {
+    /// Which ends of a strand take a sample where they are ([`Self::end_samples`]):
+    /// (root, tip), given whether its root is free and its tip is not held.
+    pub fn free_ends(&self, root_free: bool, tip_free: bool) -> [bool; 2] {
+        let pair = self
+            .hair_hair
+            .as_ref()
+            .is_some_and(|h| h.coupling == Coupling::Pair);
+        let on = self.end_samples.unwrap_or(!pair);
+        [on && root_free, on && tip_free]
+    }
 }
 
 impl Default for ContactConfig {
@@ -235,7 +249,7 @@ impl Default for ContactConfig {
             },
             anisotropy: 0.3,
             samples_per_element: 4,
-            end_samples: true,
+            end_samples: None,
             split_depth: None,
             hair_hair: None,
         }
