@@ -139,7 +139,7 @@ impl Default for BenchOptions {
             length: 0.2,
             engine: Engine::Auto,
             max_split_depth: SimulationConfig::default().max_split_depth,
-            field_stiffness: FieldStiffness::Projected,
+            field_stiffness: FieldStiffness::default(),
             energy_balance: true,
         }
     }
@@ -169,6 +169,12 @@ pub struct BenchReport {
     pub rotation_limited: usize,
     /// Implicit (sub)steps solved, accepted or not.
     pub attempts: usize,
+    /// Solves whose field stiffness went into the matrix by the dissipative split
+    /// (`StepStats::field_split`).
+    pub field_split: usize,
+    /// Solves whose field stiffness was found by the spectral projection
+    /// (`StepStats::field_projected`).
+    pub field_projected: usize,
     /// Description of the kernel of strand 0.
     pub kernel: String,
     /// The engine that stepped the strands (`embedded` or `runtime`: what `auto`
@@ -390,6 +396,8 @@ pub fn bench_setup(setup: SimulationSetup, steps: usize) -> Result<BenchReport> 
         energy_limited: sim.stats().energy_limited,
         rotation_limited: sim.stats().rotation_limited,
         attempts: sim.stats().attempts,
+        field_split: sim.stats().field_split,
+        field_projected: sim.stats().field_projected,
         kernel: sim.kernel_description(0),
         engine: sim.engine().name(),
         threads: rayon::current_num_threads(),

@@ -208,3 +208,11 @@ pub fn end_cases() -> Vec<Case> {
 pub fn holds_a_tip(case: &Case) -> bool {
     case.setup.strands.iter().any(|s| s.tip.is_some())
 }
+
+/// Whether a strand of `case` has a pinned or free root (not clamped).
+pub fn frees_the_root(case: &Case) -> bool {
+    case.setup
+        .strands
+        .iter()
+        .any(|s| s.strand.ends.root != crate::runtime::model::ends::RootEnd::Clamped)
+}

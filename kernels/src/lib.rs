@@ -11,6 +11,9 @@
 //!   assembly into the terms of the equation of motion (paper eq. 4–6): M(q) and the
 //!   gravity force in O(N²), the full force in O(N), the Jacobians in O(N²), the rotary
 //!   inertia ([`moments::rotary`]).
+//! - [`field_split`]: the part of the field stiffness the implicit step's matrix takes,
+//!   by a dissipative split (one Cholesky factorisation on the common path), with
+//!   [`projection`] (a partial eigendecomposition) as its fallback.
 //! - [`body_field`]: gravity, head motion and drag as a force per unit length affine in
 //!   position and velocity.
 //! - [`lanes`]: four f64 lanes (`F4`), what the generated closed forms and the rotary
@@ -32,6 +35,7 @@ extern crate std;
 pub mod body_field;
 pub mod element;
 pub mod energy;
+pub mod field_split;
 pub mod fixed;
 pub mod float;
 pub mod head;

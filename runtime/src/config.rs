@@ -28,8 +28,16 @@ pub enum Mode {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum FieldStiffness {
     /// The stiffness of gravity, the head's fictitious forces, the point loads and the
-    /// contacts (with the curvature of the strand under the contact forces), projected on
-    /// its negative semidefinite part by an eigendecomposition at every solve; default.
+    /// contacts (with the curvature of the strand under the contact forces), by the
+    /// dissipative split of `superhelix_kernels::field_split`: all of it when the
+    /// strand's total stiffness K − H is positive definite (one Cholesky factorisation),
+    /// else H less the diagonal shift a modified Cholesky factorisation of K − H adds;
+    /// where that shift would leave more than a tenth of the step matrix's diagonal
+    /// explicit, and for strands without internal friction or drag, the projection of
+    /// [`FieldStiffness::Projected`].
+    Split,
+    /// The same stiffness projected on its negative semidefinite part by an
+    /// eigendecomposition at every solve; default.
     #[default]
     Projected,
     /// Only the contacts' normal, friction and hair–hair stiffness along the strand's
@@ -43,13 +51,14 @@ impl FieldStiffness {
     /// Name as written in scenes.
     pub fn name(self) -> &'static str {
         match self {
+            FieldStiffness::Split => "split",
             FieldStiffness::Projected => "projected",
             FieldStiffness::Explicit => "explicit",
         }
     }
     /// Parse a scene name.
     pub fn from_name(name: &str) -> Option<Self> {
-        [Self::Projected, Self::Explicit]
+        [Self::Split, Self::Projected, Self::Explicit]
             .into_iter()
             .find(|k| k.name() == name)
     }

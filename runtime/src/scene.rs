@@ -267,7 +267,11 @@ fn read_simulation(mut n: Node<'_>) -> SimulationConfig {
         )
     });
     let field_stiffness = n.optional("field_stiffness", d.field_stiffness, |n, k| {
-        n.choice(k, &["projected", "explicit"], FieldStiffness::from_name)
+        n.choice(
+            k,
+            &["projected", "split", "explicit"],
+            FieldStiffness::from_name,
+        )
     });
     let energy_balance = reader::boolean(&mut n, "energy_balance", d.energy_balance);
     if n.has("tolerance") && mode == Some(Mode::Static) {

@@ -30,6 +30,7 @@ use crate::solver::{
 };
 use rayon::prelude::*;
 pub use state::SimulationState;
+use superhelix_kernels::field_split::FieldRule;
 
 /// One strand of a running simulation: its system (model, kernel, buffers), state and
 /// counters.
@@ -194,10 +195,10 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
             "the embedded engine always checks the energy balance; energy_balance = false needs engine = \"runtime\"",
         ));
     }
-    if c.field_stiffness != crate::config::FieldStiffness::Projected {
+    if c.field_stiffness == crate::config::FieldStiffness::Explicit {
         errors.push(FieldError::new(
             "simulation.field_stiffness",
-            "the embedded engine projects the field stiffness; field_stiffness = \"explicit\" needs engine = \"runtime\"",
+            "the embedded engine takes the field stiffness into its matrix (\"split\" or \"projected\"); field_stiffness = \"explicit\" needs engine = \"runtime\"",
         ));
     }
     if c.max_split_depth != superhelix_kernels::energy::MAX_SUBSTEP_DEPTH {
@@ -295,7 +296,11 @@ fn embedded_strands(
         let g = match groups.iter().position(|(m, _)| *m == n) {
             Some(g) => g,
             None => match group_for(n) {
-                Some(group) => {
+                Some(mut group) => {
+                    group.set_field_rule(match setup.config.field_stiffness {
+                        crate::config::FieldStiffness::Projected => FieldRule::Projected,
+                        _ => FieldRule::Split,
+                    });
                     groups.push((n, group));
                     groups.len() - 1
                 }
@@ -668,6 +673,7 @@ impl Simulation {
                 == crate::config::FieldStiffness::Explicit
                 && setup.config.mode == Mode::Dynamic
                 && setup.config.integrator != IntegratorKind::Rk4,
+            field_split: setup.config.field_stiffness == crate::config::FieldStiffness::Split,
             energy_balance: setup.config.energy_balance,
             tolerance: setup
                 .config
@@ -1674,6 +1680,8 @@ impl Simulation {
             total.energy_rejected = e.counts.energy_rejected;
             total.energy_limited = e.counts.energy_limited;
             total.energy_unbalanced = e.counts.energy_unbalanced;
+            total.field_split = e.counts.field_split;
+            total.field_projected = e.counts.field_projected;
             let r = &e.tolerance_total;
             total.attempts += r.solves;
             total.energy_limited += r.energy_limited;
@@ -1755,6 +1763,7 @@ impl Simulation {
                 integrator: IntegratorKind::LinearlyImplicitEuler,
                 max_split_depth: superhelix_kernels::energy::MAX_SUBSTEP_DEPTH,
                 explicit_field_stiffness: false,
+                field_split: false,
                 energy_balance: true,
                 tolerance: None,
             },

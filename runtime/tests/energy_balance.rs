@@ -54,6 +54,7 @@ fn balance_sums(sim: &mut Simulation, head: &HeadMotion, steps: usize) -> (f64, 
         integrator: IntegratorKind::default(),
         max_split_depth: superhelix_kernels::energy::MAX_SUBSTEP_DEPTH,
         explicit_field_stiffness: false,
+        field_split: false,
         energy_balance: true,
         tolerance: None,
     };

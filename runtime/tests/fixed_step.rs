@@ -7,8 +7,9 @@ mod common;
 use common::{preset_strand, setup};
 use nalgebra::Vector3;
 use superhelix_generated::ClosedForm;
+use superhelix_kernels::field_split::FieldRule;
 use superhelix_kernels::fixed::{self, Effects, FixedStrand, FixedWorkspace, StepCounts};
-use superhelix_runtime::config::SimulationConfig;
+use superhelix_runtime::config::{FieldStiffness, SimulationConfig};
 use superhelix_runtime::model::material::Preset;
 use superhelix_runtime::model::strand::Strand;
 use superhelix_runtime::solver::embedded::fixed_params;
@@ -29,15 +30,35 @@ fn fixed_strand(s: &Strand) -> FixedStrand<N, D, B> {
 /// run, and both sides' counters.
 fn compare(
     strand: Strand,
+    fixed: FixedStrand<N, D, B>,
+    gravity: Option<Vector3<f64>>,
+    head: HeadMotion,
+    steps: usize,
+) -> (f64, String) {
+    compare_by(
+        strand,
+        fixed,
+        gravity,
+        head,
+        steps,
+        FieldStiffness::Projected,
+    )
+}
+
+/// [`compare`] with the field stiffness taken by `rule` on both sides.
+fn compare_by(
+    strand: Strand,
     mut fixed: FixedStrand<N, D, B>,
     gravity: Option<Vector3<f64>>,
     head: HeadMotion,
     steps: usize,
+    rule: FieldStiffness,
 ) -> (f64, String) {
     let dt = 1.0 / 30.0;
     let config = SimulationConfig {
         dt,
         duration: steps as f64 * dt,
+        field_stiffness: rule,
         ..Default::default()
     };
     let factory = superhelix_runtime::kernels::closed_form::kernel_factory();
@@ -46,6 +67,9 @@ fn compare(
     s.strands[0].q0 = fixed.q.to_vec();
     let mut sim = Simulation::new(s, Some(factory)).expect("valid setup");
     let mut ws = Box::new(FixedWorkspace::<N, D, E>::new());
+    if rule == FieldStiffness::Split {
+        ws.set_field_rule(FieldRule::Split);
+    }
     let effects = Effects {
         gravity,
         head_moves,
@@ -131,5 +155,40 @@ fn strand_on_a_shaking_head_matches_the_runtime() {
     };
     let (worst, stats) = compare(strand, fixed, Some(Vector3::new(0.0, 0.0, -9.81)), head, 60);
     eprintln!("shaking: {worst:.3e}; {stats}");
+    assert!(worst <= 1e-12, "largest relative |Δq| {worst:.3e}; {stats}");
+}
+
+#[test]
+fn the_dissipative_split_takes_the_same_steps_on_both_engines() {
+    // field_stiffness = "split" (superhelix_kernels::field_split): the same rule, shared,
+    // on both sides; a hanging curly strand and a fuzzy one on a shaking head (the
+    // runtime's counters show both the split and its fallback at work)
+    let strand = preset_strand(Preset::Curly, N, 0.2, Vector3::new(0.3, 0.0, -1.0));
+    let fixed = fixed_strand(&strand);
+    let gravity = Some(Vector3::new(0.0, 0.0, -9.81));
+    let (worst, stats) = compare_by(
+        strand,
+        fixed,
+        gravity,
+        HeadMotion::Still,
+        30,
+        FieldStiffness::Split,
+    );
+    eprintln!("hanging, split: {worst:.3e}; {stats}");
+    assert!(worst <= 1e-12, "largest relative |Δq| {worst:.3e}; {stats}");
+    assert!(
+        stats.contains("field_split: ") && !stats.contains("field_split: 0,"),
+        "{stats}"
+    );
+    let strand = preset_strand(Preset::Fuzzy, N, 0.25, Vector3::new(1.0, 0.0, -1.0));
+    let fixed = fixed_strand(&strand);
+    let head = HeadMotion::Oscillate {
+        axis: Vector3::z(),
+        amplitude: 30f64.to_radians(),
+        frequency_hz: 2.0,
+        center: Vector3::zeros(),
+    };
+    let (worst, stats) = compare_by(strand, fixed, gravity, head, 60, FieldStiffness::Split);
+    eprintln!("shaking, split: {worst:.3e}; {stats}");
     assert!(worst <= 1e-12, "largest relative |Δq| {worst:.3e}; {stats}");
 }

@@ -68,7 +68,8 @@ pub struct BenchArgs {
     #[arg(long, value_name = "TOL", allow_negative_numbers = true)]
     tolerance: Option<f64>,
     /// What of the external forces' stiffness the implicit step's matrix holds:
-    /// projected (default, or the scene's `[simulation] field_stiffness`) or explicit.
+    /// projected (default, or the scene's `[simulation] field_stiffness`), split or
+    /// explicit.
     #[arg(long)]
     field_stiffness: Option<String>,
     /// Check every implicit step against the energy balance: true (default, or the
@@ -202,7 +203,7 @@ fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
 /// `--field-stiffness`, parsed.
 fn field_stiffness(name: &str) -> Result<superhelix::runtime::config::FieldStiffness, Error> {
     superhelix::runtime::config::FieldStiffness::from_name(name)
-        .ok_or_else(|| Error::invalid("--field-stiffness", "must be projected or explicit"))
+        .ok_or_else(|| Error::invalid("--field-stiffness", "must be projected, split or explicit"))
 }
 
 /// The engine named by `--engine`.
@@ -233,6 +234,13 @@ fn print_report(report: &BenchReport) {
             solves
         );
     }
+    let field = report.field_split + report.field_projected;
+    println!(
+        "field stiffness: {} solves by the dissipative split, {} by the spectral projection ({:.2} % of the solves that took it)",
+        report.field_split,
+        report.field_projected,
+        100.0 * report.field_projected as f64 / field.max(1) as f64
+    );
     println!(
         "strand_steps_per_second={:.1}",
         report.strand_steps_per_second

@@ -26,7 +26,8 @@ pub struct StressArgs {
     #[arg(long)]
     integrator: Option<String>,
     /// Run every case with this field stiffness in the implicit step's matrix
-    /// (projected, the default, or explicit): cases are then named `<case>@explicit`.
+    /// (projected, the default, split or explicit): cases are then named `<case>@split`
+    /// or `<case>@explicit`.
     #[arg(long)]
     field_stiffness: Option<String>,
     /// Run every case on this engine: auto (the default: the embedded fixed-N step
@@ -57,8 +58,10 @@ pub fn run(args: StressArgs) -> Result<ExitCode, Error> {
         cases = stress::with_integrator(cases, integrator(name)?);
     }
     if let Some(name) = &args.field_stiffness {
-        let kind = superhelix::runtime::config::FieldStiffness::from_name(name)
-            .ok_or_else(|| Error::invalid("--field-stiffness", "must be projected or explicit"))?;
+        let kind =
+            superhelix::runtime::config::FieldStiffness::from_name(name).ok_or_else(|| {
+                Error::invalid("--field-stiffness", "must be projected, split or explicit")
+            })?;
         cases = stress::with_field_stiffness(cases, kind);
     }
     if let Some(name) = &args.engine {

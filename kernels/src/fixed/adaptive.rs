@@ -18,6 +18,7 @@
 //! Without these checks a strand on a head shaking at 2 Hz by ±30° overflows within a
 //! second at dt = 1/30 and 1/60 s (the demo scene); with them it does not.
 
+use super::dense::Projection;
 use super::step::{linearly_implicit, non_finite, StepError, StepInput, StepReport};
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
@@ -149,6 +150,12 @@ pub struct StepCounts {
     /// Deepest substeps accepted although their potential energy alone exceeded the
     /// bound.
     pub energy_unbalanced: usize,
+    /// Solves whose field stiffness went into the matrix by the dissipative split
+    /// ([`crate::field_split`]), whole or shifted.
+    pub field_split: usize,
+    /// Solves whose field stiffness was projected by the spectral projection (the split's
+    /// fallback, or the rule [`crate::field_split::FieldRule::Projected`]).
+    pub field_projected: usize,
 }
 
 impl StepCounts {
@@ -159,6 +166,8 @@ impl StepCounts {
         self.energy_rejected += other.energy_rejected;
         self.energy_limited += other.energy_limited;
         self.energy_unbalanced += other.energy_unbalanced;
+        self.field_split += other.field_split;
+        self.field_projected += other.field_projected;
     }
 }
 
@@ -470,6 +479,13 @@ fn adaptive<
     };
     let outcome = linearly_implicit(source, strand, &input, h, ws);
     counts.attempts += 1;
+    if let Ok(report) = &outcome {
+        match report.projection {
+            Some(Projection::Whole | Projection::Shifted) => counts.field_split += 1,
+            Some(_) => counts.field_projected += 1,
+            None => {}
+        }
+    }
     let finite = outcome.is_ok();
     let rotation = if finite {
         max_element_rotation(&strand.params.lengths, &strand.q, &saved_q).as_f64()

@@ -71,6 +71,12 @@ pub fn lu_solve<T: Float, const D: usize>(
 /// How the stabilising part of the field stiffness was obtained.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Projection {
+    /// The dissipative split ([`crate::field_split`]): K − H is positive definite, all
+    /// of H is in the step's matrix.
+    Whole,
+    /// The dissipative split: H less a diagonal shift E ⪰ 0 that makes K − H + E
+    /// positive definite.
+    Shifted,
     /// −H is positive definite (a Cholesky factorisation succeeded): H is its own part.
     Definite,
     /// By an eigendecomposition (partial, of the smaller side of the spectrum, or the

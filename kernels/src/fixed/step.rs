@@ -5,6 +5,7 @@ use super::dense::{lu_solve, negative_semidefinite_part, Projection};
 use super::workspace::{FixedWorkspace, ProjectionArrays};
 use super::FixedStrand;
 use crate::body_field::BodyField;
+use crate::field_split::{dissipative_split, FieldRule, SplitOutcome, SPLIT_LIMIT};
 use crate::float::Float;
 use crate::head::{body_field, HeadState};
 use crate::pose::Pose;
@@ -297,7 +298,9 @@ pub fn linearly_implicit<
 
 /// The step matrix `M − h D_v + (h/2) B − h² D_q` of the terms `assemble` left in `ws`
 /// into `ws.matrix_a` (D_q = H⁻ − K, H⁻ the negative semidefinite part of the
-/// symmetrised field stiffness when `field_stiffness`; `ws.stiffness` then holds H⁻).
+/// symmetrised field stiffness when `field_stiffness`, by the dissipative split of
+/// [`crate::field_split`] or the spectral projection, `ws.field_rule`; `ws.stiffness`
+/// then holds that part).
 /// Returns how H⁻ was found and whether it is in the matrix (not when the projection
 /// failed).
 pub(super) fn step_matrix<
@@ -325,13 +328,44 @@ pub(super) fn step_matrix<
             }
             st[j][j] += p.stiffness[j];
         }
-        Some(project(
-            &mut ws.stiffness,
-            &mut strand.basis,
-            &mut strand.basis_k,
-            &mut strand.basis_negative,
-            &mut ws.projection,
-        ))
+        // a strand without internal friction or drag keeps the projection (see
+        // crate::field_split)
+        let dissipative = p.air_drag > T::zero() || p.friction.iter().any(|&g| g > T::zero());
+        let split = match ws.field_rule {
+            FieldRule::Split if dissipative => {
+                // the metric of the step matrix's diagonal, M_jj/h² + K_j
+                let inv_h2 = T::one() / (h * h);
+                let metric: [T; D] =
+                    core::array::from_fn(|j| ws.assembly.mass[j][j] * inv_h2 + p.stiffness[j]);
+                dissipative_split(
+                    D,
+                    ws.stiffness.as_flattened(),
+                    &p.stiffness,
+                    &metric,
+                    T::of(SPLIT_LIMIT),
+                    ws.split_work.as_flattened_mut(),
+                    &mut ws.split_shift,
+                    &mut ws.split_order,
+                )
+            }
+            _ => SplitOutcome::Beyond,
+        };
+        Some(match split {
+            SplitOutcome::Whole => Projection::Whole,
+            SplitOutcome::Shifted => {
+                for j in 0..D {
+                    ws.stiffness[j][j] -= ws.split_shift[j];
+                }
+                Projection::Shifted
+            }
+            SplitOutcome::Beyond => project(
+                &mut ws.stiffness,
+                &mut strand.basis,
+                &mut strand.basis_k,
+                &mut strand.basis_negative,
+                &mut ws.projection,
+            ),
+        })
     } else {
         None
     };

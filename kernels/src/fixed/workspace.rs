@@ -1,5 +1,6 @@
 //! The scratch of one fixed-N step, one per worker thread.
 
+use crate::field_split::FieldRule;
 use crate::float::Float;
 use crate::moments::jacobians::VelocityRow;
 use crate::moments::rotary::RotaryElement;
@@ -31,6 +32,13 @@ pub struct FixedWorkspace<const N: usize, const D: usize, const E: usize, T: Flo
     /// Scratch of the projection: the shared algorithm's
     /// ([`crate::projection::ProjectionScratch`]) and the full Jacobi fallback's.
     pub(super) projection: ProjectionArrays<D, T>,
+    /// How the field stiffness's part in the step's matrix is found.
+    pub(super) field_rule: FieldRule,
+    /// Scratch of the dissipative split ([`crate::field_split`]): its factor, the
+    /// diagonal shift E and the pivot order.
+    pub(super) split_work: [[T; D]; D],
+    pub(super) split_shift: [T; D],
+    pub(super) split_order: [usize; D],
     /// The checked step's largest `2^depth r` over its accepted pieces so far (see
     /// [`crate::energy::predicted_split_levels`]).
     pub(super) rotation_estimate: f64,
@@ -118,9 +126,24 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
                 eigen: [[T::zero(); D]; D],
                 eigenvalues: [T::zero(); D],
             },
+            field_rule: FieldRule::default(),
+            split_work: [[T::zero(); D]; D],
+            split_shift: [T::zero(); D],
+            split_order: [0; D],
             rotation_estimate: 0.0,
             loss_estimate: 0.0,
         }
+    }
+
+    /// Find the field stiffness's part in the step's matrix by `rule` (the default:
+    /// [`FieldRule::Split`]).
+    pub fn set_field_rule(&mut self, rule: FieldRule) {
+        self.field_rule = rule;
+    }
+
+    /// How the field stiffness's part in the step's matrix is found.
+    pub fn field_rule(&self) -> FieldRule {
+        self.field_rule
     }
 
     /// Forget the element moments of the last strand (the next evaluation computes

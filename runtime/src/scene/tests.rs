@@ -174,7 +174,7 @@ const BROKEN: &[(&str, &str, &str)] = &[
     ("[simulation]\ndtt = 0.1\n[[strands]]\nlength = 0.3", "simulation.dtt", "unknown field"),
     ("[simulation]\nmax_split_depth = 9\n[[strands]]\nlength = 0.3", "simulation.max_split_depth", "deepest split"),
     ("[simulation]\nmax_split_depth = -1\n[[strands]]\nlength = 0.3", "simulation.max_split_depth", ">= 0"),
-    ("[simulation]\nfield_stiffness = \"none\"\n[[strands]]\nlength = 0.3", "simulation.field_stiffness", "allowed: projected, explicit"),
+    ("[simulation]\nfield_stiffness = \"none\"\n[[strands]]\nlength = 0.3", "simulation.field_stiffness", "allowed: projected, split, explicit"),
     ("[simulation]\nenergy_balance = 1\n[[strands]]\nlength = 0.3", "simulation.energy_balance", "expected true or false"),
     ("[environment]\nair_drag = -1.0\n[[strands]]\nlength = 0.3", "environment.air_drag", "must be in [0, 100]"),
     ("[environment]\ngravity = \"down\"\n[[strands]]\nlength = 0.3", "environment.gravity", "none"),

@@ -79,6 +79,9 @@ struct StrandSimState {
 struct EmbeddedState {
     groups: Vec<Vec<FixedStrandState>>,
     counts: [usize; 5],
+    /// The solves by the dissipative split and by the spectral projection.
+    #[serde(default)]
+    field_counts: [usize; 2],
     total: ReportState,
     window: ReportState,
 }
@@ -100,6 +103,7 @@ fn counts_from(c: [usize; 5]) -> StepCounts {
         energy_rejected: c[2],
         energy_limited: c[3],
         energy_unbalanced: c[4],
+        ..StepCounts::default()
     }
 }
 
@@ -132,6 +136,7 @@ impl Simulation {
             embedded: self.embedded.as_ref().map(|e| EmbeddedState {
                 groups: e.groups.iter().map(|(_, g)| g.state()).collect(),
                 counts: counts_of(&e.counts),
+                field_counts: [e.counts.field_split, e.counts.field_projected],
                 total: ReportState::of(&e.tolerance_total),
                 window: ReportState::of(&e.tolerance_window),
             }),
@@ -192,6 +197,7 @@ impl Simulation {
                     group.restore(states).map_err(mismatch)?;
                 }
                 e.counts = counts_from(saved.counts);
+                [e.counts.field_split, e.counts.field_projected] = saved.field_counts;
                 e.tolerance_total = saved.total.report();
                 e.tolerance_window = saved.window.report();
             }

@@ -12,6 +12,7 @@
 use crate::model::strand::Strand;
 use rayon::prelude::*;
 use superhelix_generated::ClosedForm;
+use superhelix_kernels::field_split::FieldRule;
 use superhelix_kernels::fixed::{
     self, Effects, FixedParams, FixedStrand, FixedWorkspace, HeadTrajectory, StepCounts,
     StepHistory, ToleranceReport,
@@ -60,6 +61,8 @@ pub trait EmbeddedGroup: Send + Sync {
     fn strand_bytes(&self) -> usize;
     /// Bytes of one workspace.
     fn workspace_bytes(&self) -> usize;
+    /// How the steps take the field stiffness into their matrix.
+    fn set_field_rule(&mut self, rule: FieldRule);
 }
 
 /// [`EmbeddedGroup`] for N elements (D = 3N coordinates, E = N + 1 ends, a kept
@@ -69,6 +72,7 @@ pub struct Group<const N: usize, const D: usize, const E: usize, const B: usize>
     /// Per strand, the error-controlled step's history and what it did (empty until the
     /// first step with a tolerance).
     histories: Vec<(StepHistory<D>, ToleranceReport)>,
+    field_rule: FieldRule,
 }
 
 impl<const N: usize, const D: usize, const E: usize, const B: usize> Default for Group<N, D, E, B> {
@@ -76,6 +80,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Default for
         Group {
             strands: Vec::new(),
             histories: Vec::new(),
+            field_rule: FieldRule::default(),
         }
     }
 }
@@ -151,6 +156,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 .enumerate()
                 .map(|(c, strands)| {
                     let mut ws = Box::new(FixedWorkspace::<N, D, E>::new());
+                    ws.set_field_rule(self.field_rule);
                     let mut first = None;
                     let mut counts = StepCounts::default();
                     for (k, s) in strands.iter_mut().enumerate() {
@@ -172,6 +178,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                     .enumerate()
                     .map(|(c, (strands, histories))| {
                         let mut ws = Box::new(FixedWorkspace::<N, D, E>::new());
+                        ws.set_field_rule(self.field_rule);
                         let mut first = None;
                         let mut total = ToleranceReport::default();
                         for (k, (s, (history, done))) in
@@ -299,6 +306,9 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
     }
     fn workspace_bytes(&self) -> usize {
         FixedWorkspace::<N, D, E>::BYTES
+    }
+    fn set_field_rule(&mut self, rule: FieldRule) {
+        self.field_rule = rule;
     }
 }
 

@@ -52,6 +52,15 @@ pub struct StepStats {
     /// did not converge ([`crate::solver::pair_coupling`]).
     #[serde(default)]
     pub pairs_unresolved: usize,
+    /// Solves whose field stiffness went into the step's matrix by the dissipative split
+    /// ([`superhelix_kernels::field_split`]: one Cholesky factorisation), whole or with a
+    /// diagonal shift.
+    #[serde(default)]
+    pub field_split: usize,
+    /// Solves whose field stiffness was projected by the spectral projection (the
+    /// split's fallback, or `field_stiffness = "projected"`).
+    #[serde(default)]
+    pub field_projected: usize,
 }
 
 impl StepStats {
@@ -71,5 +80,7 @@ impl StepStats {
         self.error_rejected += o.error_rejected;
         self.pairs_indefinite += o.pairs_indefinite;
         self.pairs_unresolved += o.pairs_unresolved;
+        self.field_split += o.field_split;
+        self.field_projected += o.field_projected;
     }
 }

@@ -18,6 +18,7 @@ use crate::forces::point_loads::{add_point_loads, point_load_potential};
 use crate::kernels::kernel::{EvalInput, StrandKernel, StrandTerms, Terms};
 use crate::model::strand::Strand;
 use nalgebra::Vector3;
+use superhelix_kernels::field_split::{dissipative_split, SplitOutcome, SPLIT_LIMIT};
 
 /// Per-strand buffers of the integrators.
 pub struct StrandWorkspace {
@@ -60,6 +61,11 @@ pub struct StrandWorkspace {
     /// piece's length h (its factors are the step matrix `M − h D + …` the pair solve of
     /// two strands needs, [`super::pair_coupling`], while the number is unchanged).
     pub(super) implicit_factors: Option<(u64, f64)>,
+    /// The dissipative split's buffers ([`superhelix_kernels::field_split`]): H
+    /// (n², contiguous), the factor (n²), the metric and the shift (n each), the pivot
+    /// order.
+    split: [Vec<f64>; 4],
+    split_order: Vec<usize>,
 }
 
 impl StrandWorkspace {
@@ -88,6 +94,13 @@ impl StrandWorkspace {
             loss_estimate: 0.0,
             error_control: super::error_control::ErrorControl::default(),
             implicit_factors: None,
+            split: [
+                vec![0.0; n * n],
+                vec![0.0; n * n],
+                vec![0.0; n],
+                vec![0.0; n],
+            ],
+            split_order: vec![0; n],
         }
     }
 
@@ -243,6 +256,10 @@ pub struct StepContext {
     /// Whether the step's matrix holds only the contacts' stiffness along the Jacobian
     /// ([`crate::config::FieldStiffness::Explicit`]), unprojected.
     pub explicit_field_stiffness: bool,
+    /// Whether the field stiffness goes into the step's matrix by the dissipative split
+    /// ([`superhelix_kernels::field_split`], the spectral projection its fallback) or by
+    /// the projection alone ([`crate::config::FieldStiffness`]).
+    pub field_split: bool,
     /// Whether implicit steps are checked against the energy balance
     /// ([`crate::config::SimulationConfig::energy_balance`]).
     pub energy_balance: bool,
@@ -288,6 +305,9 @@ pub struct Assembled {
     /// semidefinite as they are: no projection
     /// ([`crate::config::FieldStiffness::Explicit`]).
     pub unprojected: bool,
+    /// The field stiffness goes in by the dissipative split first
+    /// ([`StepContext::field_split`]).
+    pub split: bool,
 }
 
 impl StrandSystem {
@@ -413,6 +433,9 @@ impl StrandSystem {
             },
             gyroscopic: ctx.effects.head_moves && head.omega != Vector3::zeros() && terms.damping,
             unprojected: explicit,
+            // (a strand without internal friction or drag keeps the projection: see
+            // superhelix_kernels::field_split)
+            split: ctx.field_split && (strand.internal_friction > 0.0 || strand.air_drag > 0.0),
         }
     }
 
@@ -591,14 +614,51 @@ impl StrandWorkspace {
                 // as it is
                 true
             } else {
-                // projected
-                let ok = ws
-                    .solver
-                    .project_negative_semidefinite(&mut ws.terms.stiffness);
-                if !ok {
-                    stats.stiffness_dropped += 1;
+                let split = if assembled.split {
+                    let [hh, work, metric, shift] = &mut ws.split;
+                    let inv_h2 = 1.0 / (h * h);
+                    for j in 0..n {
+                        hh[j * n..(j + 1) * n].copy_from_slice(&st.col_as_slice(j)[..n]);
+                        metric[j] = ws.terms.mass[(j, j)] * inv_h2 + ws.stiffness[j];
+                    }
+                    let order = &mut ws.split_order;
+                    dissipative_split(
+                        n,
+                        hh,
+                        &ws.stiffness,
+                        metric,
+                        SPLIT_LIMIT,
+                        work,
+                        shift,
+                        order,
+                    )
+                } else {
+                    SplitOutcome::Beyond
+                };
+                match split {
+                    SplitOutcome::Whole => {
+                        stats.field_split += 1;
+                        true
+                    }
+                    SplitOutcome::Shifted => {
+                        stats.field_split += 1;
+                        for j in 0..n {
+                            ws.terms.stiffness[(j, j)] -= ws.split[3][j];
+                        }
+                        true
+                    }
+                    SplitOutcome::Beyond => {
+                        // projected
+                        stats.field_projected += 1;
+                        let ok = ws
+                            .solver
+                            .project_negative_semidefinite(&mut ws.terms.stiffness);
+                        if !ok {
+                            stats.stiffness_dropped += 1;
+                        }
+                        ok
+                    }
                 }
-                ok
             }
         };
         let t = &ws.terms;
