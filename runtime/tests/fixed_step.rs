@@ -143,16 +143,21 @@ fn hanging_strand_under_gravity_matches_the_runtime() {
     assert!(worst <= 1e-12, "largest relative |Δq| {worst:.3e}; {stats}");
 }
 
-#[test]
-fn strand_on_a_shaking_head_matches_the_runtime() {
-    let strand = preset_strand(Preset::Fuzzy, N, 0.25, Vector3::new(1.0, 0.0, -1.0));
-    let fixed = fixed_strand(&strand);
-    let head = HeadMotion::Oscillate {
+/// The head shaking about the vertical by ±30° at 2 Hz.
+fn shaking_head() -> HeadMotion {
+    HeadMotion::Oscillate {
         axis: Vector3::z(),
         amplitude: 30f64.to_radians(),
         frequency_hz: 2.0,
         center: Vector3::zeros(),
-    };
+    }
+}
+
+#[test]
+fn strand_on_a_shaking_head_matches_the_runtime() {
+    let strand = preset_strand(Preset::Fuzzy, N, 0.25, Vector3::new(1.0, 0.0, -1.0));
+    let fixed = fixed_strand(&strand);
+    let head = shaking_head();
     let (worst, stats) = compare(strand, fixed, Some(Vector3::new(0.0, 0.0, -9.81)), head, 60);
     eprintln!("shaking: {worst:.3e}; {stats}");
     assert!(worst <= 1e-12, "largest relative |Δq| {worst:.3e}; {stats}");
@@ -182,12 +187,7 @@ fn the_dissipative_split_takes_the_same_steps_on_both_engines() {
     );
     let strand = preset_strand(Preset::Fuzzy, N, 0.25, Vector3::new(1.0, 0.0, -1.0));
     let fixed = fixed_strand(&strand);
-    let head = HeadMotion::Oscillate {
-        axis: Vector3::z(),
-        amplitude: 30f64.to_radians(),
-        frequency_hz: 2.0,
-        center: Vector3::zeros(),
-    };
+    let head = shaking_head();
     let (worst, stats) = compare_by(strand, fixed, gravity, head, 60, FieldStiffness::Split);
     eprintln!("shaking, split: {worst:.3e}; {stats}");
     assert!(worst <= 1e-12, "largest relative |Δq| {worst:.3e}; {stats}");
