@@ -1900,6 +1900,65 @@ fn a_free_root_is_refused_where_nothing_would_hold_it_and_named() {
     }
 }
 
+/// A straight free rod (10 cm, N = 5, contact radius R = 1 mm) standing upright 1 cm
+/// above a floor, dropped onto it on its root (`root_down`) or on its tip: the deepest its
+/// centreline goes into the floor over 0.1 s, m. It lands at √(2 g · 1 cm) = 0.44 m/s on
+/// the end sample alone (weight a quarter of a part, 1.25 mm): the penalty of a body
+/// (10⁴ ρS g / R per metre) and that weight stop the rod's mass within about
+/// v √(m / (k w)) = 0.4 R of the contact radius, so the centreline stays out of the floor.
+fn rod_dropped_on_an_end(root_down: bool, tolerance: Option<f64>) -> f64 {
+    let direction = if root_down { 1.0 } else { -1.0 };
+    let root_z = if root_down { 0.01 } else { 0.11 };
+    let tolerance = tolerance.map_or(String::new(), |t| format!("tolerance = {t}\n"));
+    let text = format!(
+        r#"
+[simulation]
+dt = 0.01
+duration = 0.1
+{tolerance}[[strands]]
+name = "upright"
+length = 0.1
+elements = 5
+root = [0.0, 0.0, {root_z}]
+direction = [0.0, 0.0, {direction}]
+internal_friction = 0.0
+air_drag = 0.0
+[strands.ends]
+root = "free"
+[[bodies]]
+name = "floor"
+shape = "plane"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+[contacts]
+radius = 0.001
+"#
+    );
+    let mut sim = Simulation::new(parse_scene(&text).expect("scene"), None).expect("simulation");
+    let mut deepest = 0.0f64;
+    for _ in 0..10 {
+        sim.step().expect("step");
+        deepest = deepest.max(sim.max_penetration().expect("contacts"));
+    }
+    deepest
+}
+
+#[test]
+fn a_free_rod_dropped_on_either_end_is_held_out_of_the_floor_by_that_end() {
+    // a free root's end sample sat on its root joint (an element of 10⁻¹⁰ L) with no
+    // weight: the root went 1.3 mm into a floor (the first sample that held it half a
+    // part up), the tip, with its own end sample, not at all
+    for tolerance in [None, Some(1e-3)] {
+        for root_down in [true, false] {
+            let deepest = rod_dropped_on_an_end(root_down, tolerance);
+            assert!(
+                deepest == 0.0,
+                "root down {root_down}, tolerance {tolerance:?}: the centreline went {deepest:.3e} m into the floor"
+            );
+        }
+    }
+}
+
 /// A rod of 10 cm lying across two parallel rails 6 cm apart, without gravity (hair
 /// volumes of radius 1 mm, penalty 100 N/m², Coulomb friction μ between the rods): each
 /// rail a stiff rod along x (radius 1 mm), clamped at its root and clamped on a slider

@@ -35,6 +35,7 @@ use crate::bodies::{Attachment, Body, Placement};
 use crate::forces::head_motion::HeadState;
 use crate::kernels::kernel::{StrandKernel, StrandTerms, Terms};
 use crate::model::element::local_pose;
+use crate::model::ends::ROOT_JOINT_FRACTION;
 use crate::model::reconstruction::{darboux, positions_at_sorted, Pose};
 use crate::model::strand::StrandGeometry;
 use faer::Mat;
@@ -408,14 +409,26 @@ impl StrandContacts {
 /// with both takes Simpson's rule). The end then touches a body or another part where it
 /// is: at the midpoints alone, a rope landing end-first stood on its tip 1 mm inside the
 /// floor, held by a sample half a part up.
+///
+/// A pinned or free root's joint (an element of [`ROOT_JOINT_FRACTION`] of the length,
+/// [`crate::model::ends`]) takes no sample: samples there would weigh nothing, and the
+/// root's own end sample is that of the first element of the strand's own (on the
+/// joint, a free rod's root went 1.3 mm into a floor that nothing held it out of).
 fn sample_points(geom: &StrandGeometry, per: usize, free_ends: [bool; 2]) -> Vec<(f64, f64)> {
     let mut out = Vec::with_capacity(geom.lengths.len() * per + 2);
     let mut start = 0.0;
     let last = geom.lengths.len().saturating_sub(1);
+    let sliver = 2.0 * ROOT_JOINT_FRACTION * geom.lengths.iter().sum::<f64>();
+    // the first element of the strand's own (after a root joint)
+    let own = geom.lengths.iter().position(|&l| l > sliver).unwrap_or(0);
     for (e, &l) in geom.lengths.iter().enumerate() {
+        if e < own {
+            start += l;
+            continue;
+        }
         let w = l / per as f64;
         for j in 0..per {
-            let first = e == 0 && j == 0 && free_ends[0];
+            let first = e == own && j == 0 && free_ends[0];
             let end = e == last && j + 1 == per && free_ends[1];
             let a = start + w * j as f64;
             match (first, end) {
