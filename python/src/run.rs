@@ -206,7 +206,7 @@ pub struct RunResult {
     radii: Py<PyAny>,
     /// The solver's counters summed over strands and steps (the runtime's StepStats):
     /// attempts (implicit solves), substeps (steps split), energy_rejected,
-    /// energy_limited, energy_unbalanced, rotation_limited, stiffness_dropped,
+    /// energy_limited, energy_unbalanced, energy_pulled_back, rotation_limited, stiffness_dropped,
     /// newton_iterations, newton_unconverged, contacts_predicted, error_steps,
     /// error_rejected, pairs_indefinite, pairs_unresolved (hair–hair pairs of
     /// `coupling = "pair"` left without force: indefinite compliance, unresolved sweeps).
@@ -571,6 +571,7 @@ pub fn stats_dict<'py>(py: Python<'py>, s: &StepStats) -> PyResult<Bound<'py, Py
     d.set_item("energy_rejected", s.energy_rejected)?;
     d.set_item("energy_limited", s.energy_limited)?;
     d.set_item("energy_unbalanced", s.energy_unbalanced)?;
+    d.set_item("energy_pulled_back", s.energy_pulled_back)?;
     d.set_item("rotation_limited", s.rotation_limited)?;
     d.set_item("stiffness_dropped", s.stiffness_dropped)?;
     d.set_item("newton_iterations", s.newton_iterations)?;

@@ -1680,6 +1680,7 @@ impl Simulation {
             total.energy_rejected = e.counts.energy_rejected;
             total.energy_limited = e.counts.energy_limited;
             total.energy_unbalanced = e.counts.energy_unbalanced;
+            total.energy_pulled_back = e.counts.energy_pulled_back;
             total.field_split = e.counts.field_split;
             total.field_projected = e.counts.field_projected;
             let r = &e.tolerance_total;

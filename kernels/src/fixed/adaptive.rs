@@ -23,7 +23,7 @@ use super::step::{linearly_implicit, non_finite, StepError, StepInput, StepRepor
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::energy::{
-    balance, end_ceiling, energy_splits, predicted_split_levels, rotation_split_levels,
+    balance, end_ceiling, energy_splits, predicted_split_levels, rotation_split_levels, Balance,
     StateEnergy, ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION, MAX_SUBSTEP_DEPTH,
     WORK_SPLIT_FRACTION,
 };
@@ -150,6 +150,10 @@ pub struct StepCounts {
     /// Deepest substeps accepted although their potential energy alone exceeded the
     /// bound.
     pub energy_unbalanced: usize,
+    /// Deepest substeps whose potential energy exceeded the bound and whose change of q
+    /// was pulled back towards the start until it did not ([`crate::energy`]'s balance;
+    /// no solve).
+    pub energy_pulled_back: usize,
     /// Solves whose field stiffness went into the matrix by the dissipative split
     /// ([`crate::field_split`]), whole or shifted.
     pub field_split: usize,
@@ -166,6 +170,7 @@ impl StepCounts {
         self.energy_rejected += other.energy_rejected;
         self.energy_limited += other.energy_limited;
         self.energy_unbalanced += other.energy_unbalanced;
+        self.energy_pulled_back += other.energy_pulled_back;
         self.field_split += other.field_split;
         self.field_projected += other.field_projected;
     }
@@ -535,6 +540,17 @@ fn adaptive<
             WORK_SPLIT_FRACTION
         };
         let split = energy_levels > 0 || (!deepest && excess > T::of(fraction) * start.scale);
+        let mut balance = balance;
+        if !split && deepest && balance.limited_kinetic(&end, true).is_none() {
+            // the potential energy alone is above what the step may end with, and the step
+            // cannot be split further: its change of q is pulled back towards the start
+            // (the runtime's `pull_back`)
+            if let Some((e, b)) = pull_back(source, strand, effects, interval, start, &saved_q, ws)
+            {
+                (end, balance) = (e, b);
+                counts.energy_pulled_back += 1;
+            }
+        }
         if !split {
             // the kinetic energy that brings E down to the bound
             if let Some(kinetic) = balance.limited_kinetic(&end, true) {
@@ -565,6 +581,73 @@ fn adaptive<
     split(
         source, strand, head, effects, interval, start, ws, counts, levels,
     )
+}
+
+/// Steps of the bisection of [`pull_back`].
+const PULL_BACK_BISECTIONS: usize = 10;
+
+/// At the deepest split, a step whose end has more potential energy than its bound
+/// allows: the largest fraction λ of its change of q from `q0` whose end the velocities
+/// can bring down to the bound (bisection), with its energy and balance, the strand set
+/// to it; `None` (the strand as it was) when not even `q0` balances. The runtime's
+/// `solver::adaptive::pull_back`.
+#[allow(clippy::too_many_arguments)]
+fn pull_back<
+    S: MomentSource<T>,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
+    source: &S,
+    strand: &mut FixedStrand<N, D, B, T>,
+    effects: &Effects,
+    interval: &Interval,
+    start: &StateEnergy<T>,
+    q0: &[T; D],
+    ws: &mut FixedWorkspace<N, D, E, T>,
+) -> Option<(StateEnergy<T>, Balance<T>)> {
+    let end_q = strand.q;
+    let time = interval.t + interval.h;
+    let eval = |strand: &mut FixedStrand<N, D, B, T>,
+                ws: &mut FixedWorkspace<N, D, E, T>,
+                lambda: f64,
+                prepare: bool| {
+        for i in 0..D {
+            strand.q[i] = q0[i] + T::of(lambda) * (end_q[i] - q0[i]);
+        }
+        let (q, v) = (strand.q, strand.v);
+        let end = measure(
+            source,
+            strand,
+            effects,
+            &interval.end,
+            time,
+            &q,
+            &v,
+            ws,
+            prepare,
+        );
+        let b = balance(start, &end, interval.uniform);
+        (b.limited_kinetic(&end, true).is_some(), end, b)
+    };
+    if !eval(strand, ws, 0.0, false).0 {
+        strand.q = end_q;
+        return None;
+    }
+    let (mut lo, mut hi) = (0.0, 1.0);
+    for _ in 0..PULL_BACK_BISECTIONS {
+        let mid = 0.5 * (lo + hi);
+        if eval(strand, ws, mid, false).0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    // a later piece of the step starts from this state
+    let (_, end, b) = eval(strand, ws, lo, !interval.last);
+    Some((end, b))
 }
 
 /// `interval` halved `levels` times (each halving counted in [`StepCounts::substeps`]),

@@ -82,6 +82,9 @@ struct EmbeddedState {
     /// The solves by the dissipative split and by the spectral projection.
     #[serde(default)]
     field_counts: [usize; 2],
+    /// The deepest substeps pulled back for the energy balance.
+    #[serde(default)]
+    pulled_back: usize,
     total: ReportState,
     window: ReportState,
 }
@@ -137,6 +140,7 @@ impl Simulation {
                 groups: e.groups.iter().map(|(_, g)| g.state()).collect(),
                 counts: counts_of(&e.counts),
                 field_counts: [e.counts.field_split, e.counts.field_projected],
+                pulled_back: e.counts.energy_pulled_back,
                 total: ReportState::of(&e.tolerance_total),
                 window: ReportState::of(&e.tolerance_window),
             }),
@@ -198,6 +202,7 @@ impl Simulation {
                 }
                 e.counts = counts_from(saved.counts);
                 [e.counts.field_split, e.counts.field_projected] = saved.field_counts;
+                e.counts.energy_pulled_back = saved.pulled_back;
                 e.tolerance_total = saved.total.report();
                 e.tolerance_window = saved.window.report();
             }

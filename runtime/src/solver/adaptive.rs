@@ -164,6 +164,70 @@ fn max_element_rotation(lengths: &[f64], q: &[f64], q0: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// Steps of the bisection of [`pull_back`]: the step's change of q is kept to within
+/// 2⁻¹⁰ of the largest fraction that balances.
+const PULL_BACK_BISECTIONS: usize = 10;
+
+/// At the deepest split, a step whose end has more potential energy than its bound
+/// allows (so that no scaling of the velocities balances it): the largest fraction λ of
+/// its change of q, `q₀ + λ (q − q₀)`, whose end the velocities can bring down to the
+/// bound (bisection, [`PULL_BACK_BISECTIONS`] steps; the velocities as the solve left
+/// them, limited by the caller), with its energy and balance. `None` (the state as it
+/// was) when not even the start's configuration can be balanced. Energy evaluations
+/// only, no solve: the step budget holds.
+fn pull_back(
+    system: &mut StrandSystem,
+    interval: &HeadInterval,
+    state: &mut StrandState,
+    start: &StateEnergy,
+    inertial: bool,
+    to_bound: bool,
+) -> Option<(StateEnergy, energy_balance::Balance)> {
+    let time = interval.t + interval.h;
+    // the solve's end (the step's scratch is free once its solve is done)
+    let mut end_q = std::mem::take(&mut system.workspace.scratch[4]);
+    end_q.clear();
+    end_q.extend_from_slice(&state.q);
+    let set = |system: &mut StrandSystem, state: &mut StrandState, lambda: f64| {
+        let q0 = &system.workspace.saved_q;
+        for ((x, a), b) in state.q.iter_mut().zip(q0).zip(&end_q) {
+            *x = a + lambda * (b - a);
+        }
+        let end = energy_balance::measure(system, &interval.end, time, &state.q, &state.v);
+        let balance = energy_balance::balance(start, &end, inertial);
+        let ok = balance.limited_kinetic(&end, to_bound).is_some();
+        (ok, end, balance)
+    };
+    let mut found = None;
+    let (ok, end, balance) = set(system, state, 0.0);
+    if ok {
+        found = Some((0.0, end, balance));
+        let (mut lo, mut hi) = (0.0, 1.0);
+        for _ in 0..PULL_BACK_BISECTIONS {
+            let mid = 0.5 * (lo + hi);
+            let (ok, end, balance) = set(system, state, mid);
+            if ok {
+                lo = mid;
+                found = Some((mid, end, balance));
+            } else {
+                hi = mid;
+            }
+        }
+    }
+    let result = match found {
+        Some((lambda, end, balance)) => {
+            set(system, state, lambda);
+            Some((end, balance))
+        }
+        None => {
+            state.q.copy_from_slice(&end_q);
+            None
+        }
+    };
+    system.workspace.scratch[4] = end_q;
+    result
+}
+
 /// The cause a run stops with when the deepest split of a step still rotates an element
 /// by `rotation` (> [`MAX_ELEMENT_ROTATION`]) within its piece of `h` s from `t`.
 fn unresolved_motion(rotation: f64, h: f64, t: f64) -> String {
@@ -374,7 +438,7 @@ fn implicit_adaptive(
             record_history(kind, &mut system.workspace, h);
             return Ok(*start);
         }
-        let mut end =
+        let end =
             energy_balance::measure(system, &interval.end, interval.t + h, &state.q, &state.v);
         // contacts with what moves relative to the head (a world body while the head
         // moves, a body on its own motion, other strands) do work: the step is then
@@ -416,6 +480,17 @@ fn implicit_adaptive(
             WORK_SPLIT_FRACTION
         };
         let split = energy_levels > 0 || (!deepest && excess > fraction * start.scale);
+        let (mut end, mut balance) = (end, balance);
+        if !split && deepest && balance.limited_kinetic(&end, !bodies_work).is_none() {
+            // the potential energy alone is above what the step may end with, and the step
+            // cannot be split further: its change of q is pulled back towards the start
+            // until the velocities can bring E down to the bound
+            if let Some((e, b)) = pull_back(system, interval, state, start, inertial, !bodies_work)
+            {
+                (end, balance) = (e, b);
+                stats.energy_pulled_back += 1;
+            }
+        }
         if !split {
             // the kinetic energy that brings E down to the bound (to its allowance's edge
             // when moving bodies work, see `limited_kinetic`)

@@ -32,6 +32,11 @@ pub struct StepStats {
     /// [`TRUSTED_ELEMENT_ROTATION`](crate::solver::adaptive::TRUSTED_ELEMENT_ROTATION): their
     /// change of q and their velocities were scaled down to that rotation.
     pub rotation_limited: usize,
+    /// Steps taken at the deepest split allowed whose end had more potential energy than
+    /// the energy balance allows: their change of q was pulled back towards the start
+    /// (no solve; [`crate::solver::adaptive`]).
+    #[serde(default)]
+    pub energy_pulled_back: usize,
     /// Contacts that started within a step and pushed in it (a sample that touched
     /// nothing at the step's start, found by the predicted test or at the solve's end,
     /// or one whose centreline ended inside a body: [`crate::forces::contacts::predicted`]),
@@ -75,6 +80,7 @@ impl StepStats {
         self.energy_limited += o.energy_limited;
         self.energy_unbalanced += o.energy_unbalanced;
         self.rotation_limited += o.rotation_limited;
+        self.energy_pulled_back += o.energy_pulled_back;
         self.contacts_predicted += o.contacts_predicted;
         self.error_steps += o.error_steps;
         self.error_rejected += o.error_rejected;
