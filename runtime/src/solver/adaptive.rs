@@ -198,31 +198,21 @@ fn pull_back(
         let ok = balance.limited_kinetic(&end, to_bound).is_some();
         (ok, end, balance)
     };
-    let mut found = None;
-    let (ok, end, balance) = set(system, state, 0.0);
-    if ok {
-        found = Some((0.0, end, balance));
+    let result = if set(system, state, 0.0).0 {
         let (mut lo, mut hi) = (0.0, 1.0);
         for _ in 0..PULL_BACK_BISECTIONS {
             let mid = 0.5 * (lo + hi);
-            let (ok, end, balance) = set(system, state, mid);
-            if ok {
+            if set(system, state, mid).0 {
                 lo = mid;
-                found = Some((mid, end, balance));
             } else {
                 hi = mid;
             }
         }
-    }
-    let result = match found {
-        Some((lambda, end, balance)) => {
-            set(system, state, lambda);
-            Some((end, balance))
-        }
-        None => {
-            state.q.copy_from_slice(&end_q);
-            None
-        }
+        let (_, end, balance) = set(system, state, lo);
+        Some((end, balance))
+    } else {
+        state.q.copy_from_slice(&end_q);
+        None
     };
     system.workspace.scratch[4] = end_q;
     result
