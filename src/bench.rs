@@ -175,6 +175,9 @@ pub struct BenchReport {
     /// Solves whose field stiffness was found by the spectral projection
     /// (`StepStats::field_projected`).
     pub field_projected: usize,
+    /// Solves of strands without internal friction or drag, which the split's rule keeps
+    /// on the projection (`StepStats::field_undamped`).
+    pub field_undamped: usize,
     /// Description of the kernel of strand 0.
     pub kernel: String,
     /// The engine that stepped the strands (`embedded` or `runtime`: what `auto`
@@ -398,6 +401,7 @@ pub fn bench_setup(setup: SimulationSetup, steps: usize) -> Result<BenchReport> 
         attempts: sim.stats().attempts,
         field_split: sim.stats().field_split,
         field_projected: sim.stats().field_projected,
+        field_undamped: sim.stats().field_undamped,
         kernel: sim.kernel_description(0),
         engine: sim.engine().name(),
         threads: rayon::current_num_threads(),

@@ -301,6 +301,9 @@ pub struct CaseResult {
     /// Solves whose field stiffness was found by the spectral projection, the split's
     /// fallback (`StepStats::field_projected`).
     pub field_projected: usize,
+    /// Solves of a strand without friction or drag, which the split's rule keeps on the
+    /// projection (`StepStats::field_undamped`).
+    pub field_undamped: usize,
     /// Largest kinetic energy relative to the head / the budget B.
     pub kinetic_peak: f64,
     /// Mean kinetic energy over the first and over the second half, in units of B
@@ -1060,6 +1063,21 @@ pub struct StepTrace {
     pub substeps: usize,
 }
 
+/// The line `superhelix stress` and `superhelix bench` print on how the field stiffness
+/// went into the solves' matrices: by the dissipative split, by the spectral projection
+/// (the rule `projected`, or the split's fallback: its share of the two), and by the
+/// projection the split's rule keeps for strands without friction or drag.
+pub fn field_stiffness_line(split: usize, projected: usize, undamped: usize) -> String {
+    let mut line = format!(
+        "field stiffness: {split} solves by the dissipative split, {projected} by the spectral projection ({:.2} % of the solves that took either)",
+        100.0 * projected as f64 / (split + projected).max(1) as f64
+    );
+    if undamped > 0 {
+        line += &format!(", {undamped} by the projection for strands without friction or drag");
+    }
+    line
+}
+
 /// Run one case.
 pub fn run_case(case: &Case) -> CaseResult {
     run_case_traced(case, &mut |_| {})
@@ -1087,6 +1105,7 @@ pub fn run_case_traced(case: &Case, trace: &mut dyn FnMut(&StepTrace)) -> CaseRe
         newton_fallbacks: 0,
         field_split: 0,
         field_projected: 0,
+        field_undamped: 0,
         kinetic_peak: 0.0,
         mean_kinetic: None,
         energy_growth: None,
@@ -1335,6 +1354,7 @@ pub fn run_case_traced(case: &Case, trace: &mut dyn FnMut(&StepTrace)) -> CaseRe
     result.newton_fallbacks = stats.newton_unconverged;
     result.field_split = stats.field_split;
     result.field_projected = stats.field_projected;
+    result.field_undamped = stats.field_undamped;
     result.seconds = start.elapsed().as_secs_f64();
     result
 }
@@ -1507,14 +1527,14 @@ pub fn render(results: &[CaseResult], wall_seconds: f64) -> String {
         failed.len() - known,
         fixed.len()
     );
-    let (split, projected) = (
-        results.iter().map(|r| r.field_split).sum::<usize>(),
-        results.iter().map(|r| r.field_projected).sum::<usize>(),
-    );
     let _ = writeln!(
         out,
-        "field stiffness: {split} solves by the dissipative split, {projected} by the spectral projection ({:.2} % of the solves that took it)",
-        100.0 * projected as f64 / (split + projected).max(1) as f64
+        "{}",
+        field_stiffness_line(
+            results.iter().map(|r| r.field_split).sum(),
+            results.iter().map(|r| r.field_projected).sum(),
+            results.iter().map(|r| r.field_undamped).sum(),
+        )
     );
     let _ = writeln!(
         out,

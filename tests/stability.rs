@@ -217,16 +217,23 @@ fn quick_subset_of_the_hard_cases_passes() {
 #[test]
 fn quick_subset_of_the_hard_cases_passes_with_the_dissipative_split() {
     // `field_stiffness = "split"` (superhelix_kernels::field_split): the same checks, every
-    // case passes; the split takes the field stiffness of 20,717 solves and the spectral
-    // projection of 25,987 (the conservative group's frictionless strands keep it, and
-    // shifts beyond the limit fall back to it)
+    // case passes; the split takes the field stiffness of 53,296 solves, its fallback (the
+    // spectral projection where the factorisation breaks down) 1, and the frictionless
+    // strands keep the projection on 1,492. The fallback is held to the bound,
+    // 5 % of the solves of strands that take the split
     let cases = stress::with_field_stiffness(stress::quick_cases(), FieldStiffness::Split);
     assert!(cases.len() >= 80, "{}", cases.len());
     let results = run_failing_only_where_known(&cases, |_| false);
     let split: usize = results.iter().map(|r| r.field_split).sum();
     let projected: usize = results.iter().map(|r| r.field_projected).sum();
-    println!("split {split}, projected {projected}");
-    assert!(split > 10_000 && projected > 0, "{split} {projected}");
+    let undamped: usize = results.iter().map(|r| r.field_undamped).sum();
+    println!("split {split}, fallback {projected}, kept on the projection {undamped}");
+    assert!(split > 10_000 && undamped > 0, "{split} {undamped}");
+    assert!(
+        projected as f64 <= 0.05 * (split + projected) as f64,
+        "{projected} of {}",
+        split + projected
+    );
 }
 
 #[test]

@@ -1,5 +1,5 @@
 //! The field stiffness in the implicit step's matrix without an eigendecomposition: a
-//! dissipative split by a modified Cholesky factorisation.
+//! dissipative split by a modified L D Lᵀ factorisation.
 //!
 //! The linearly implicit step (paper, section 3.4) takes the stiffness of the external
 //! field, H = ∂f_field/∂q (gravity and the head's fictitious forces acting through the
@@ -18,28 +18,29 @@
 //! semidefinite part of H (`K + |H| ⪰ 0`); it needs an eigendecomposition, and leaves all
 //! of H⁺ explicit even where the elastic stiffness holds it.
 //!
-//! This module takes `H̃ = H − E` with E ⪰ 0 diagonal such that `K − H + E ⪰ 0`: then
+//! This module takes `H̃ = H − E` with E ⪰ 0 such that `K − H + E ⪰ 0`: then
 //! `K − H̃ = K − H + E ⪰ 0` and `K + H − 2H̃ = (K − H + E) + E ⪰ 0`, both conditions
-//! hold. E is what a modified Cholesky factorisation `P (K − H + E) Pᵀ = L D Lᵀ` adds to
-//! the diagonal (Gill, Murray & Wright, *Practical Optimization*, 1981, §4.4.2.2): the
-//! pivot `d_j = max(δ, |c_jj|, θ_j²/β²)`, θ_j the largest entry of the column below it,
-//! bounds the factor's entries by β, and the symmetric pivoting takes the largest
-//! remaining diagonal first; E is zero when the strand's total stiffness `K − H` is
-//! comfortably positive definite (a strand near a stable rest). One factorisation,
-//! O(n³/6). The factorisation is taken in the metric of the step matrix's diagonal,
-//! `w_j = M_jj/h² + K_j`, so that a scaled shift `E_j/w_j` is the fraction of the step
-//! matrix's diagonal left explicit; GMW's floors δ = ε(γ + ξ) and β² are taken relative
-//! to the matrix (in this metric K − H is of the order of h²K/M, far below 1 at small h,
-//! and an absolute ε would be a large shift in f32). When a scaled shift exceeds the
-//! caller's limit ([`SPLIT_LIMIT`]) the split returns [`SplitOutcome::Beyond`] and the
-//! caller takes the spectral projection ([`crate::projection`]) instead, counted: a
-//! wavy or curly strand whose curls hang to one side is unstable in twist under gravity
-//! (its twist stiffness GJ is far below the weight's moment about the tangent), and the
-//! diagonal shift that covers such a direction is of the order of the step matrix's
-//! diagonal, where the projection, which leaves exactly that direction explicit, is the
-//! better split. (Without pivoting, twice as many solves went beyond the limit on the
-//! N = 5 bench; at a limit of 1 the f32 step parts from the f64 one on a head that stops
-//! suddenly, where the two types cross the limit at different steps.)
+//! hold. E comes from one factorisation of the total stiffness, in the metric of the step
+//! matrix's diagonal `w_j = M_jj/h² + K_j` (`A = W^{-1/2}(K − H)W^{-1/2}`, so that E's
+//! scaled size is the fraction of the step matrix left explicit): `P A Pᵀ = L D Lᵀ` with
+//! 1 × 1 pivots, the largest remaining diagonal magnitude first, and
+//! `E = W^{1/2} Pᵀ L (D⁺ − D) Lᵀ P W^{1/2}`, `D⁺ = max(D, 0)` (Cheng & Higham, SIAM J.
+//! Matrix Anal. Appl. 19, 1998, whose D⁺ keeps a floor where this one keeps zero: the
+//! step's matrix holds M/h² besides). Then `K − H + E = W^{1/2}Pᵀ L D⁺ Lᵀ P W^{1/2} ⪰ 0`
+//! exactly, and E has the rank of the number of negative eigenvalues of K − H
+//! (Sylvester's law of inertia): E = 0 when the strand's total stiffness is positive
+//! definite (a strand near a stable rest), and otherwise only the few unstable
+//! directions are left explicit — a wavy or curly strand whose curls hang to one side is
+//! unstable in twist under gravity (its twist stiffness GJ is far below the weight's
+//! moment about the tangent), one or two directions, which a diagonal shift (a
+//! Gill–Murray–Wright modified Cholesky) could only cover by shifting every coordinate by
+//! a large fraction of the step matrix's diagonal. One factorisation, O(n³/6), and an
+//! O(n² r) update for r negative pivots. Without 2 × 2 pivots the factorisation may
+//! break down (a pivot far smaller than its column: an entry of L beyond
+//! [`SPLIT_GROWTH`]); the caller then takes the spectral projection
+//! ([`crate::projection`]), counted. On the embedded N = 5 and N = 10 benches, the
+//! shaking head and `superhelix stress --field-stiffness split` that fallback did not
+//! occur (docs/performance.md).
 //!
 //! The identity above is the linearised motion's. The step's nonlinearity (M(q), H(q)
 //! taken at the step's start) creates energy of a higher order in h, which the
@@ -55,16 +56,11 @@
 
 use crate::float::Float;
 
-/// Largest fraction of the step matrix's diagonal a dissipative split may leave explicit
-/// (`E_j / (M_jj/h² + K_j)`) before the step takes the spectral projection instead.
-pub const SPLIT_LIMIT: f64 = 0.3;
-
 /// How the part of the field stiffness in the step's matrix is found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum FieldRule {
-    /// The dissipative split of this module, the spectral projection where it would
-    /// leave more than [`SPLIT_LIMIT`] explicit (or for a strand without internal
-    /// friction or drag).
+    /// The dissipative split of this module, the spectral projection where its
+    /// factorisation breaks down (or for a strand without internal friction or drag).
     Split,
     /// The spectral projection on the negative semidefinite part at every solve (the
     /// default, until the split's fallback is rare on a shaking head).
@@ -72,169 +68,157 @@ pub enum FieldRule {
     Projected,
 }
 
+impl FieldRule {
+    /// Whether a strand's solves take the dissipative split under this rule: a strand
+    /// with internal friction or air drag (`dissipative`) under [`FieldRule::Split`].
+    pub fn splits(self, dissipative: bool) -> bool {
+        self == FieldRule::Split && dissipative
+    }
+}
+
 /// What [`dissipative_split`] found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SplitOutcome {
     /// No shift: all of H goes into the step's matrix (E = 0, `K − H` positive
-    /// definite).
+    /// semidefinite).
     Whole,
-    /// A diagonal E ⪰ 0 within the limit makes `K − H + E` positive definite.
+    /// H less a low-rank E ⪰ 0 that makes `K − H + E` positive semidefinite.
     Shifted,
-    /// The split would leave more than the limit explicit, or a value is not finite:
-    /// take the spectral projection.
+    /// The factorisation broke down, or a value is not finite: take the spectral
+    /// projection.
     Beyond,
 }
 
+/// Largest entry of the unit lower factor [`dissipative_split`] accepts: beyond, the
+/// factorisation without 2 × 2 pivots has broken down (a pivot far smaller than its
+/// column) and the caller takes the spectral projection.
+pub const SPLIT_GROWTH: f64 = 1e3;
+
 /// The dissipative split of the symmetric field stiffness `h` (n × n, column-major, both
 /// triangles) against the elastic stiffness `stiffness` (K's diagonal), in the metric
-/// `metric` (w_j > 0; the step's `M_jj/h² + K_j`): fills `shift` with E's diagonal (in
-/// the units of H) and returns [`SplitOutcome::Whole`] or [`SplitOutcome::Shifted`];
-/// [`SplitOutcome::Beyond`] when a scaled shift `E_j/w_j` exceeds `limit` or an input is
-/// not finite (`shift` then undefined). `work` (n², column-major) is scratch; `h` is
-/// read only: the caller subtracts E from its diagonal.
+/// `metric` (w_j > 0; the step's `M_jj/h² + K_j`), by a modified L D Lᵀ factorisation
+/// with a low-rank E (Cheng & Higham, "A modified Cholesky algorithm based on a
+/// symmetric indefinite factorization", SIAM J. Matrix Anal. Appl. 19, 1998, with 1 × 1
+/// pivots): the scaled total stiffness `A = W^{-1/2} (K − H) W^{-1/2}` is factorised as
+/// `P A Pᵀ = L D Lᵀ` with symmetric pivoting on the largest remaining diagonal magnitude,
+/// and `E = W^{1/2} Pᵀ L (D⁺ − D) Lᵀ P W^{1/2}`, `D⁺ = max(D, 0)`. Then
+/// `K − H + E = W^{1/2} Pᵀ L D⁺ Lᵀ P W^{1/2} ⪰ 0` exactly, and E ⪰ 0 has the rank of the
+/// number of negative eigenvalues of K − H (Sylvester's law of inertia): only those
+/// directions are left explicit, which a diagonal shift cannot do. On success `h` is
+/// replaced by `H̃ = H − E` and [`SplitOutcome::Whole`] (E = 0) or
+/// [`SplitOutcome::Shifted`] is returned; [`SplitOutcome::Beyond`] (h unchanged) when an
+/// input is not finite or an entry of L exceeds [`SPLIT_GROWTH`]. `work` (n², column-major)
+/// and `scale` (n) are scratch.
 pub fn dissipative_split<T: Float>(
     n: usize,
-    h: &[T],
+    h: &mut [T],
     stiffness: &[T],
     metric: &[T],
-    limit: T,
     work: &mut [T],
-    shift: &mut [T],
+    scale: &mut [T],
     order: &mut [usize],
 ) -> SplitOutcome {
     if h.len() < n * n
         || stiffness.len() < n
         || metric.len() < n
         || work.len() < n * n
-        || shift.len() < n
+        || scale.len() < n
         || order.len() < n
     {
         return SplitOutcome::Beyond;
     }
-    let (shift, order) = (&mut shift[..n], &mut order[..n]);
-    // the scaled total stiffness a = W^{-1/2} (K − H) W^{-1/2}, lower triangle
-    let fill = |work: &mut [T], shift: &mut [T]| -> bool {
-        for j in 0..n {
-            let wj = metric[j];
-            if wj.not_a_number() || wj <= T::zero() || !wj.is_finite() {
-                return false;
-            }
-            shift[j] = T::one() / wj.sqrt();
-        }
-        for j in 0..n {
-            for i in j..n {
-                let mut a = -h[j * n + i];
-                if i == j {
-                    a += stiffness[j];
-                }
-                let a = a * shift[i] * shift[j];
-                if !a.is_finite() {
-                    return false;
-                }
-                work[j * n + i] = a;
-            }
-        }
-        true
-    };
-    if !fill(work, shift) {
-        return SplitOutcome::Beyond;
-    }
-    // full symmetric copy (the lower triangle filled above)
+    let (scale, order) = (&mut scale[..n], &mut order[..n]);
     for j in 0..n {
-        for i in j + 1..n {
-            work[i * n + j] = work[j * n + i];
-        }
-    }
-    // Gill–Murray–Wright: γ, ξ the largest diagonal and off-diagonal magnitudes
-    let (mut gamma, mut xi) = (T::zero(), T::zero());
-    for j in 0..n {
-        gamma = gamma.max(work[j * n + j].abs());
-        for i in j + 1..n {
-            xi = xi.max(work[j * n + i].abs());
-        }
-    }
-    let eps = T::EPSILON;
-    let off_bound = if n > 1 {
-        xi / T::of((n * n - 1) as f64).sqrt()
-    } else {
-        T::zero()
-    };
-    // (relative to the matrix, not GMW's absolute floors max(·, ε) and max(·, 1): in the
-    // metric of the step's matrix K − H is of the order of h²K/M, far below 1 at small h,
-    // and an absolute ε would be a large shift in f32 there)
-    let beta2 = gamma.max(off_bound);
-    let delta = eps * (gamma + xi);
-    // right-looking L D Lᵀ = P (A + E) Pᵀ with symmetric pivoting on the largest
-    // remaining diagonal (GMW's choice): order[k] is the coordinate in position k
-    for (k, o) in order.iter_mut().enumerate() {
-        *o = k;
-    }
-    for j in 0..n {
-        {
-            let mut q = j;
-            for i in j + 1..n {
-                if work[i * n + i].abs() > work[q * n + q].abs() {
-                    q = i;
-                }
-            }
-            if q != j {
-                for k in 0..n {
-                    work.swap(k * n + j, k * n + q);
-                }
-                for k in 0..n {
-                    work.swap(j * n + k, q * n + k);
-                }
-                order.swap(j, q);
-            }
-        }
-        let c_jj = work[j * n + j];
-        let mut theta = T::zero();
-        for i in j + 1..n {
-            theta = theta.max(work[j * n + i].abs());
-        }
-        let bound = if beta2 > T::zero() {
-            theta * theta / beta2
-        } else {
-            T::zero()
-        };
-        let d = delta.max(c_jj.abs()).max(bound);
-        let e = d - c_jj;
-        if e.not_a_number() || e > limit {
+        let wj = metric[j];
+        if wj.not_a_number() || wj <= T::zero() || !wj.is_finite() {
             return SplitOutcome::Beyond;
         }
-        let inverse = if d > T::zero() {
-            T::one() / d
-        } else {
-            T::zero()
-        };
-        // the trailing Schur complement, both triangles
-        for k in j + 1..n {
-            let ck = work[j * n + k];
-            let f = ck * inverse;
-            for i in k..n {
-                let v = work[k * n + i] - f * work[j * n + i];
+        scale[j] = T::one() / wj.sqrt();
+        order[j] = j;
+    }
+    // the scaled total stiffness, both triangles
+    for j in 0..n {
+        for i in 0..n {
+            let mut a = -h[j * n + i];
+            if i == j {
+                a += stiffness[j];
+            }
+            let a = a * scale[i] * scale[j];
+            if !a.is_finite() {
+                return SplitOutcome::Beyond;
+            }
+            work[j * n + i] = a;
+        }
+    }
+    let growth = T::of(SPLIT_GROWTH);
+    let mut negative = false;
+    // right-looking L D Lᵀ = P A Pᵀ: position k holds coordinate order[k]; column j of
+    // `work` below the diagonal becomes L's column j, the diagonal D
+    for j in 0..n {
+        let mut q = j;
+        for i in j + 1..n {
+            if work[i * n + i].abs() > work[q * n + q].abs() {
+                q = i;
+            }
+        }
+        if q != j {
+            for k in 0..n {
+                work.swap(k * n + j, k * n + q);
+            }
+            for k in 0..n {
+                work.swap(j * n + k, q * n + k);
+            }
+            order.swap(j, q);
+        }
+        let d = work[j * n + j];
+        if d == T::zero() {
+            // the whole trailing block is zero (d is its largest diagonal) unless the
+            // factorisation has broken down
+            if (j + 1..n).any(|i| work[j * n + i] != T::zero()) {
+                return SplitOutcome::Beyond;
+            }
+            continue;
+        }
+        if d < T::zero() {
+            negative = true;
+        }
+        let inverse = T::one() / d;
+        for i in j + 1..n {
+            let l = work[j * n + i] * inverse;
+            if l.not_a_number() || l.abs() > growth {
+                return SplitOutcome::Beyond;
+            }
+            // the trailing Schur complement, both triangles: a_ik −= l_i d l_k
+            let li_d = work[j * n + i];
+            for k in j + 1..=i {
+                let v = work[k * n + i] - li_d * (work[j * n + k] * inverse);
                 work[k * n + i] = v;
                 work[i * n + k] = v;
             }
         }
         for i in j + 1..n {
             work[j * n + i] *= inverse;
-            work[i * n + j] = work[j * n + i];
         }
-        // (d_j is not read again: the diagonal keeps the scaled shift)
-        work[j * n + j] = e;
     }
-    // unscaled E of coordinate order[j]: e_j w = e_j / scale², the scales read before
-    // `shift` is overwritten
-    for j in 0..n {
-        let scale = shift[order[j]];
-        work[j * n + j] /= scale * scale;
-    }
-    for j in 0..n {
-        shift[order[j]] = work[j * n + j];
-    }
-    if shift.iter().all(|&e| e == T::zero()) {
+    if !negative {
         return SplitOutcome::Whole;
+    }
+    // H̃ = H − E, E = Σ_{d_j < 0} (−d_j) u uᵀ with u = W^{1/2} Pᵀ l_j
+    for j in 0..n {
+        let d = work[j * n + j];
+        if d >= T::zero() {
+            continue;
+        }
+        for k in j..n {
+            let lk = if k == j { T::one() } else { work[j * n + k] };
+            let c = order[k];
+            let dk = d * lk / scale[c];
+            for i in j..n {
+                let li = if i == j { T::one() } else { work[j * n + i] };
+                let r = order[i];
+                h[c * n + r] += dk * li / scale[r];
+            }
+        }
     }
     SplitOutcome::Shifted
 }
@@ -243,18 +227,13 @@ pub fn dissipative_split<T: Float>(
 mod tests {
     use super::*;
 
-    /// [`dissipative_split`] of n × n inputs on fresh scratch; the shift into `shift`.
-    fn split<T: Float>(
-        h: &[T],
-        k: &[T],
-        metric: &[T],
-        limit: f64,
-        shift: &mut [T],
-    ) -> SplitOutcome {
+    /// [`dissipative_split`] of n × n inputs on fresh scratch: H̃ into `h`.
+    fn split<T: Float>(h: &mut [T], k: &[T], metric: &[T]) -> SplitOutcome {
         let n = k.len();
         let mut work = std::vec![T::zero(); n * n];
+        let mut scale = std::vec![T::zero(); n];
         let mut order = std::vec![0usize; n];
-        dissipative_split(n, h, k, metric, T::of(limit), &mut work, shift, &mut order)
+        dissipative_split(n, h, k, metric, &mut work, &mut scale, &mut order)
     }
 
     /// A symmetric n × n matrix from a seed (entries in [−1, 1]).
@@ -287,85 +266,165 @@ mod tests {
         crate::projection::cholesky(&mut b, n)
     }
 
-    #[test]
-    fn a_positive_definite_total_stiffness_keeps_the_whole_field() {
-        let n = 9;
-        let h = symmetric(n, 3);
-        // K above n, H's largest eigenvalue's bound (Gershgorin): K − H positive definite
-        let k = std::vec![n as f64 + 0.1; n];
-        let metric = std::vec![5.0; n];
-        let mut shift = std::vec![1.0; n];
-        let out = split(&h, &k, &metric, 10.0, &mut shift);
-        assert_eq!(out, SplitOutcome::Whole);
-        assert!(shift.iter().all(|&e| e == 0.0));
+    /// The number of eigenvalues of the symmetric `a` (n × n) below −tol, by cyclic
+    /// Jacobi rotations (an independent reference for the factorisation's inertia).
+    fn negative_count(n: usize, a: &[f64], tol: f64) -> usize {
+        let mut m = a.to_vec();
+        for _sweep in 0..100 {
+            let off: f64 = (0..n)
+                .flat_map(|j| (0..n).filter(move |&i| i != j).map(move |i| (i, j)))
+                .map(|(i, j)| m[j * n + i] * m[j * n + i])
+                .sum();
+            if off < 1e-30 {
+                break;
+            }
+            for p in 0..n {
+                for q in p + 1..n {
+                    let apq = m[q * n + p];
+                    if apq == 0.0 {
+                        continue;
+                    }
+                    let theta = (m[q * n + q] - m[p * n + p]) / (2.0 * apq);
+                    let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                    let t = if theta == 0.0 { 1.0 } else { t };
+                    let c = 1.0 / (t * t + 1.0).sqrt();
+                    let s = t * c;
+                    for k in 0..n {
+                        let (akp, akq) = (m[p * n + k], m[q * n + k]);
+                        m[p * n + k] = c * akp - s * akq;
+                        m[q * n + k] = s * akp + c * akq;
+                    }
+                    for k in 0..n {
+                        let (apk, aqk) = (m[k * n + p], m[k * n + q]);
+                        m[k * n + p] = c * apk - s * aqk;
+                        m[k * n + q] = s * apk + c * aqk;
+                    }
+                }
+            }
+        }
+        (0..n).filter(|&j| m[j * n + j] < -tol).count()
     }
 
     #[test]
-    fn an_indefinite_total_stiffness_is_shifted_to_a_dissipative_split() {
+    fn a_positive_definite_total_stiffness_keeps_the_whole_field() {
+        let n = 9;
+        let mut h = symmetric(n, 3);
+        let before = h.clone();
+        // K above n, H's largest eigenvalue's bound (Gershgorin): K − H positive definite
+        let k = std::vec![n as f64 + 0.1; n];
+        let metric = std::vec![5.0; n];
+        assert_eq!(split(&mut h, &k, &metric), SplitOutcome::Whole);
+        assert_eq!(h, before);
+    }
+
+    #[test]
+    fn an_indefinite_total_stiffness_is_split_dissipatively_with_e_of_its_negative_rank() {
         // the two conditions of the module's energy identity, K − H̃ ⪰ 0 and
-        // K + H − 2H̃ ⪰ 0 with H̃ = H − E, checked by eigenvalues for 40 random cases
+        // K + H − 2H̃ ⪰ 0, and E = H − H̃ ⪰ 0 of rank the number of negative eigenvalues
+        // of K − H, checked by eigenvalues for 40 random cases (the reference's count
+        // checked first on matrices of known spectrum: {−1, 1}, {1, 3}, {−2, −1, 3})
+        assert_eq!(negative_count(2, &[0.0, 1.0, 1.0, 0.0], 1e-12), 1);
+        assert_eq!(negative_count(2, &[2.0, 1.0, 1.0, 2.0], 1e-12), 0);
+        // diag(−2, −1, 3) turned about the third axis
+        let (s1, c1) = (0.8f64, 0.6f64);
+        let r = [c1, s1, 0.0, -s1, c1, 0.0, 0.0, 0.0, 1.0];
+        let d = [-2.0, -1.0, 3.0];
+        let mut m = [0.0; 9];
+        for j in 0..3 {
+            for i in 0..3 {
+                m[j * 3 + i] = (0..3).map(|k| r[k * 3 + i] * d[k] * r[k * 3 + j]).sum();
+            }
+        }
+        assert_eq!(negative_count(3, &m, 1e-12), 2);
         for seed in 0..40 {
             let n = 3 + (seed as usize % 13);
             let h = symmetric(n, seed);
             let k: std::vec::Vec<f64> = (0..n).map(|i| 0.2 + 0.1 * (i % 3) as f64).collect();
             let metric: std::vec::Vec<f64> = (0..n).map(|i| 1.0 + (i % 4) as f64).collect();
-            let mut shift = std::vec![0.0; n];
-            let out = split(&h, &k, &metric, 1e9, &mut shift);
-            assert_eq!(out, SplitOutcome::Shifted, "seed {seed}");
-            assert!(shift.iter().all(|&e| e >= 0.0));
-            let mut total = std::vec![0.0; n * n]; // K − H + E
-            let mut dissipation = std::vec![0.0; n * n]; // K + H − 2(H − E)
+            let mut ht = h.clone();
+            assert_eq!(
+                split(&mut ht, &k, &metric),
+                SplitOutcome::Shifted,
+                "seed {seed}"
+            );
+            let mut bare = std::vec![0.0; n * n]; // K − H
+            let mut total = std::vec![0.0; n * n]; // K − H̃
+            let mut dissipation = std::vec![0.0; n * n]; // K + H − 2H̃
+            let mut e = std::vec![0.0; n * n]; // H − H̃
             for j in 0..n {
                 for i in 0..n {
-                    let diag = if i == j { 1.0 } else { 0.0 };
-                    total[j * n + i] = diag * (k[j] + shift[j]) - h[j * n + i];
-                    dissipation[j * n + i] = diag * (k[j] + 2.0 * shift[j]) - h[j * n + i];
+                    let diag = if i == j { k[j] } else { 0.0 };
+                    let x = j * n + i;
+                    bare[x] = diag - h[x];
+                    total[x] = diag - ht[x];
+                    dissipation[x] = diag + h[x] - 2.0 * ht[x];
+                    e[x] = h[x] - ht[x];
+                    // H̃ stays symmetric
+                    assert!((ht[x] - ht[i * n + j]).abs() <= 1e-12, "seed {seed}");
                 }
             }
-            let scale = 1.0 + shift.iter().cloned().fold(0.0, f64::max);
-            assert!(at_least(n, &total, 1e-12 * scale), "seed {seed}");
-            assert!(at_least(n, &dissipation, 1e-12 * scale), "seed {seed}");
-            // and the split is not the trivial one: K − H itself is indefinite
-            let bare: std::vec::Vec<f64> = (0..n * n)
-                .map(|x| if x % (n + 1) == 0 { k[x / n] } else { 0.0 } - h[x])
-                .collect();
-            assert!(!at_least(n, &bare, 0.0), "seed {seed}");
+            let scale = 1.0 + e.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            let tol = 1e-10 * scale;
+            assert!(at_least(n, &total, tol), "seed {seed}");
+            assert!(at_least(n, &dissipation, tol), "seed {seed}");
+            assert!(at_least(n, &e, tol), "seed {seed}");
+            let negative = negative_count(n, &bare, tol);
+            assert!(negative > 0, "seed {seed}: K − H is indefinite");
+            // rank of E: its eigenvalues above the tolerance
+            let minus_e: std::vec::Vec<f64> = e.iter().map(|x| -x).collect();
+            assert_eq!(negative_count(n, &minus_e, tol), negative, "seed {seed}");
         }
     }
 
     #[test]
-    fn a_shift_beyond_the_limit_asks_for_the_projection() {
+    fn a_diagonal_total_stiffness_leaves_exactly_its_negative_part_explicit() {
+        // with K − H diagonal the factorisation is the matrix itself: E = (K − H)⁻
+        let n = 5;
+        let k = [1.0f64, 2.0, 0.5, 3.0, 0.1];
+        let hd = [0.5f64, 2.5, 0.2, 4.0, -1.0];
+        let mut h = std::vec![0.0; n * n];
+        for j in 0..n {
+            h[j * n + j] = hd[j];
+        }
+        let metric = [7.0, 1.0, 3.0, 0.2, 5.0];
+        assert_eq!(split(&mut h, &k, &metric), SplitOutcome::Shifted);
+        for j in 0..n {
+            let e = hd[j] - h[j * n + j];
+            let expected = (hd[j] - k[j]).max(0.0);
+            assert!((e - expected).abs() <= 1e-14, "{j}: {e} against {expected}");
+        }
+    }
+
+    #[test]
+    fn a_breakdown_or_a_value_not_finite_asks_for_the_projection() {
+        // [[0, 1], [1, 0]]: no 1 × 1 pivot (the zero diagonal with its column not zero)
+        let k = [0.0, 0.0];
+        let metric = [1.0, 1.0];
+        let mut h = std::vec![0.0, -1.0, -1.0, 0.0];
+        let before = h.clone();
+        assert_eq!(split(&mut h, &k, &metric), SplitOutcome::Beyond);
+        assert_eq!(h, before);
         let n = 6;
-        let h = symmetric(n, 11);
-        let k = std::vec![0.01; n];
-        let metric = std::vec![1.0; n];
-        let mut shift = std::vec![0.0; n];
-        assert_eq!(
-            split(&h, &k, &metric, 1e-3, &mut shift),
-            SplitOutcome::Beyond
-        );
-        let mut bad = h.clone();
+        let mut bad = symmetric(n, 11);
         bad[7] = f64::NAN;
         assert_eq!(
-            split(&bad, &k, &metric, 1e9, &mut shift),
+            split(&mut bad, &std::vec![0.1; n], &std::vec![1.0; n]),
             SplitOutcome::Beyond
         );
     }
 
     #[test]
-    fn the_split_in_f32_shifts_as_in_f64() {
+    fn the_split_in_f32_matches_f64() {
         let n = 7;
         let h = symmetric(n, 5);
         let k = std::vec![0.3; n];
         let metric = std::vec![2.0; n];
-        let mut shift = std::vec![0.0; n];
-        split(&h, &k, &metric, 1e9, &mut shift);
-        let h32: std::vec::Vec<f32> = h.iter().map(|&x| x as f32).collect();
+        let mut h64 = h.clone();
+        assert_eq!(split(&mut h64, &k, &metric), SplitOutcome::Shifted);
+        let mut h32: std::vec::Vec<f32> = h.iter().map(|&x| x as f32).collect();
         let (k32, m32) = (std::vec![0.3f32; n], std::vec![2.0f32; n]);
-        let mut s32 = std::vec![0.0f32; n];
-        let out = split(&h32, &k32, &m32, 1e9, &mut s32);
-        assert_eq!(out, SplitOutcome::Shifted);
-        for (a, b) in shift.iter().zip(&s32) {
+        assert_eq!(split(&mut h32, &k32, &m32), SplitOutcome::Shifted);
+        for (a, b) in h64.iter().zip(&h32) {
             assert!((a - *b as f64).abs() <= 1e-4 * (1.0 + a.abs()), "{a} {b}");
         }
     }

@@ -30,11 +30,10 @@ pub enum FieldStiffness {
     /// The stiffness of gravity, the head's fictitious forces, the point loads and the
     /// contacts (with the curvature of the strand under the contact forces), by the
     /// dissipative split of `superhelix_kernels::field_split`: all of it when the
-    /// strand's total stiffness K − H is positive definite (one Cholesky factorisation),
-    /// else H less the diagonal shift a modified Cholesky factorisation of K − H adds;
-    /// where that shift would leave more than a tenth of the step matrix's diagonal
-    /// explicit, and for strands without internal friction or drag, the projection of
-    /// [`FieldStiffness::Projected`].
+    /// strand's total stiffness K − H is positive semidefinite, else H less its part
+    /// along K − H's negative directions (one L D Lᵀ factorisation of K − H); where the
+    /// factorisation breaks down, and for strands without internal friction or drag, the
+    /// projection of [`FieldStiffness::Projected`].
     Split,
     /// The same stiffness projected on its negative semidefinite part by an
     /// eigendecomposition at every solve; default.

@@ -1683,6 +1683,7 @@ impl Simulation {
             total.energy_pulled_back = e.counts.energy_pulled_back;
             total.field_split = e.counts.field_split;
             total.field_projected = e.counts.field_projected;
+            total.field_undamped = e.counts.field_undamped;
             let r = &e.tolerance_total;
             total.attempts += r.solves;
             total.energy_limited += r.energy_limited;

@@ -234,12 +234,13 @@ fn print_report(report: &BenchReport) {
             solves
         );
     }
-    let field = report.field_split + report.field_projected;
     println!(
-        "field stiffness: {} solves by the dissipative split, {} by the spectral projection ({:.2} % of the solves that took it)",
-        report.field_split,
-        report.field_projected,
-        100.0 * report.field_projected as f64 / field.max(1) as f64
+        "{}",
+        superhelix::stress::field_stiffness_line(
+            report.field_split,
+            report.field_projected,
+            report.field_undamped
+        )
     );
     println!(
         "strand_steps_per_second={:.1}",

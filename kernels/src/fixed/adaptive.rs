@@ -160,6 +160,10 @@ pub struct StepCounts {
     /// Solves whose field stiffness was projected by the spectral projection (the split's
     /// fallback, or the rule [`crate::field_split::FieldRule::Projected`]).
     pub field_projected: usize,
+    /// Solves of a strand without internal friction or air drag under
+    /// [`crate::field_split::FieldRule::Split`]: the rule keeps the spectral projection
+    /// for it (see [`crate::field_split`]).
+    pub field_undamped: usize,
 }
 
 impl StepCounts {
@@ -173,6 +177,7 @@ impl StepCounts {
         self.energy_pulled_back += other.energy_pulled_back;
         self.field_split += other.field_split;
         self.field_projected += other.field_projected;
+        self.field_undamped += other.field_undamped;
     }
 }
 
@@ -487,6 +492,13 @@ fn adaptive<
     if let Ok(report) = &outcome {
         match report.projection {
             Some(Projection::Whole | Projection::Shifted) => counts.field_split += 1,
+            // the split's rule keeps the projection for a strand that does not dissipate
+            Some(_)
+                if ws.field_rule() == crate::field_split::FieldRule::Split
+                    && !strand.params.dissipative() =>
+            {
+                counts.field_undamped += 1
+            }
             Some(_) => counts.field_projected += 1,
             None => {}
         }

@@ -71,11 +71,11 @@ pub fn lu_solve<T: Float, const D: usize>(
 /// How the stabilising part of the field stiffness was obtained.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Projection {
-    /// The dissipative split ([`crate::field_split`]): K − H is positive definite, all
-    /// of H is in the step's matrix.
+    /// The dissipative split ([`crate::field_split`]): K − H is positive semidefinite,
+    /// all of H is in the step's matrix.
     Whole,
-    /// The dissipative split: H less a diagonal shift E ⪰ 0 that makes K − H + E
-    /// positive definite.
+    /// The dissipative split: H less a low-rank E ⪰ 0 that makes K − H + E positive
+    /// semidefinite.
     Shifted,
     /// −H is positive definite (a Cholesky factorisation succeeded): H is its own part.
     Definite,

@@ -53,6 +53,13 @@ fn non_negative(x: f64) -> bool {
 }
 
 impl<const N: usize, const D: usize, T: Float> FixedParams<N, D, T> {
+    /// Whether the strand dissipates at first order in the step (internal friction or
+    /// air drag): only such a strand's solves take the dissipative split of the field
+    /// stiffness ([`crate::field_split`]).
+    pub fn dissipative(&self) -> bool {
+        self.air_drag > T::zero() || self.friction.iter().any(|&g| g > T::zero())
+    }
+
     /// The parameters of a strand rooted at `root_position` with frame `root_frame`
     /// (orthonormal, head coordinates), elements of lengths `lengths`, cross-section
     /// terms `section` ([`crate::material::section_terms`]), natural (τ, κ1, κ2) per

@@ -5,7 +5,7 @@ use super::dense::{lu_solve, negative_semidefinite_part, Projection};
 use super::workspace::{FixedWorkspace, ProjectionArrays};
 use super::FixedStrand;
 use crate::body_field::BodyField;
-use crate::field_split::{dissipative_split, FieldRule, SplitOutcome, SPLIT_LIMIT};
+use crate::field_split::{dissipative_split, SplitOutcome};
 use crate::float::Float;
 use crate::head::{body_field, HeadState};
 use crate::pose::Pose;
@@ -330,34 +330,26 @@ pub(super) fn step_matrix<
         }
         // a strand without internal friction or drag keeps the projection (see
         // crate::field_split)
-        let dissipative = p.air_drag > T::zero() || p.friction.iter().any(|&g| g > T::zero());
-        let split = match ws.field_rule {
-            FieldRule::Split if dissipative => {
-                // the metric of the step matrix's diagonal, M_jj/h² + K_j
-                let inv_h2 = T::one() / (h * h);
-                let metric: [T; D] =
-                    core::array::from_fn(|j| ws.assembly.mass[j][j] * inv_h2 + p.stiffness[j]);
-                dissipative_split(
-                    D,
-                    ws.stiffness.as_flattened(),
-                    &p.stiffness,
-                    &metric,
-                    T::of(SPLIT_LIMIT),
-                    ws.split_work.as_flattened_mut(),
-                    &mut ws.split_shift,
-                    &mut ws.split_order,
-                )
-            }
-            _ => SplitOutcome::Beyond,
+        let split = if ws.field_rule.splits(p.dissipative()) {
+            // the metric of the step matrix's diagonal, M_jj/h² + K_j
+            let inv_h2 = T::one() / (h * h);
+            let metric: [T; D] =
+                core::array::from_fn(|j| ws.assembly.mass[j][j] * inv_h2 + p.stiffness[j]);
+            dissipative_split(
+                D,
+                ws.stiffness.as_flattened_mut(),
+                &p.stiffness,
+                &metric,
+                ws.split_work.as_flattened_mut(),
+                &mut ws.split_scale,
+                &mut ws.split_order,
+            )
+        } else {
+            SplitOutcome::Beyond
         };
         Some(match split {
             SplitOutcome::Whole => Projection::Whole,
-            SplitOutcome::Shifted => {
-                for j in 0..D {
-                    ws.stiffness[j][j] -= ws.split_shift[j];
-                }
-                Projection::Shifted
-            }
+            SplitOutcome::Shifted => Projection::Shifted,
             SplitOutcome::Beyond => project(
                 &mut ws.stiffness,
                 &mut strand.basis,

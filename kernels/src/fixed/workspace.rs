@@ -35,9 +35,9 @@ pub struct FixedWorkspace<const N: usize, const D: usize, const E: usize, T: Flo
     /// How the field stiffness's part in the step's matrix is found.
     pub(super) field_rule: FieldRule,
     /// Scratch of the dissipative split ([`crate::field_split`]): its factor, the
-    /// diagonal shift E and the pivot order.
+    /// metric's scales and the pivot order.
     pub(super) split_work: [[T; D]; D],
-    pub(super) split_shift: [T; D],
+    pub(super) split_scale: [T; D],
     pub(super) split_order: [usize; D],
     /// The checked step's largest `2^depth r` over its accepted pieces so far (see
     /// [`crate::energy::predicted_split_levels`]).
@@ -128,7 +128,7 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
             },
             field_rule: FieldRule::default(),
             split_work: [[T::zero(); D]; D],
-            split_shift: [T::zero(); D],
+            split_scale: [T::zero(); D],
             split_order: [0; D],
             rotation_estimate: 0.0,
             loss_estimate: 0.0,
@@ -136,7 +136,7 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
     }
 
     /// Find the field stiffness's part in the step's matrix by `rule` (the default:
-    /// [`FieldRule::Split`]).
+    /// [`FieldRule::Projected`]).
     pub fn set_field_rule(&mut self, rule: FieldRule) {
         self.field_rule = rule;
     }

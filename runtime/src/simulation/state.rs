@@ -85,6 +85,9 @@ struct EmbeddedState {
     /// The deepest substeps pulled back for the energy balance.
     #[serde(default)]
     pulled_back: usize,
+    /// The solves of strands the split's rule keeps on the spectral projection.
+    #[serde(default)]
+    undamped: usize,
     total: ReportState,
     window: ReportState,
 }
@@ -141,6 +144,7 @@ impl Simulation {
                 counts: counts_of(&e.counts),
                 field_counts: [e.counts.field_split, e.counts.field_projected],
                 pulled_back: e.counts.energy_pulled_back,
+                undamped: e.counts.field_undamped,
                 total: ReportState::of(&e.tolerance_total),
                 window: ReportState::of(&e.tolerance_window),
             }),
@@ -203,6 +207,7 @@ impl Simulation {
                 e.counts = counts_from(saved.counts);
                 [e.counts.field_split, e.counts.field_projected] = saved.field_counts;
                 e.counts.energy_pulled_back = saved.pulled_back;
+                e.counts.field_undamped = saved.undamped;
                 e.tolerance_total = saved.total.report();
                 e.tolerance_window = saved.window.report();
             }

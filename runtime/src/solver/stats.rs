@@ -58,14 +58,19 @@ pub struct StepStats {
     #[serde(default)]
     pub pairs_unresolved: usize,
     /// Solves whose field stiffness went into the step's matrix by the dissipative split
-    /// ([`superhelix_kernels::field_split`]: one Cholesky factorisation), whole or with a
-    /// diagonal shift.
+    /// ([`superhelix_kernels::field_split`]: one L D Lᵀ factorisation), whole or less a
+    /// low-rank part.
     #[serde(default)]
     pub field_split: usize,
     /// Solves whose field stiffness was projected by the spectral projection (the
     /// split's fallback, or `field_stiffness = "projected"`).
     #[serde(default)]
     pub field_projected: usize,
+    /// Solves of a strand without internal friction or air drag under `field_stiffness =
+    /// "split"`: the rule keeps the spectral projection for it
+    /// ([`superhelix_kernels::field_split`]).
+    #[serde(default)]
+    pub field_undamped: usize,
 }
 
 impl StepStats {
@@ -88,5 +93,6 @@ impl StepStats {
         self.pairs_unresolved += o.pairs_unresolved;
         self.field_split += o.field_split;
         self.field_projected += o.field_projected;
+        self.field_undamped += o.field_undamped;
     }
 }

@@ -18,7 +18,7 @@ use crate::forces::point_loads::{add_point_loads, point_load_potential};
 use crate::kernels::kernel::{EvalInput, StrandKernel, StrandTerms, Terms};
 use crate::model::strand::Strand;
 use nalgebra::Vector3;
-use superhelix_kernels::field_split::{dissipative_split, SplitOutcome, SPLIT_LIMIT};
+use superhelix_kernels::field_split::{dissipative_split, SplitOutcome};
 
 /// Per-strand buffers of the integrators.
 pub struct StrandWorkspace {
@@ -62,8 +62,8 @@ pub struct StrandWorkspace {
     /// two strands needs, [`super::pair_coupling`], while the number is unchanged).
     pub(super) implicit_factors: Option<(u64, f64)>,
     /// The dissipative split's buffers ([`superhelix_kernels::field_split`]): H
-    /// (n², contiguous), the factor (n²), the metric and the shift (n each), the pivot
-    /// order.
+    /// (n², contiguous; H̃ after the split), the factor (n²), the metric and its scales
+    /// (n each), the pivot order.
     split: [Vec<f64>; 4],
     split_order: Vec<usize>,
 }
@@ -308,6 +308,9 @@ pub struct Assembled {
     /// The field stiffness goes in by the dissipative split first
     /// ([`StepContext::field_split`]).
     pub split: bool,
+    /// The split's rule keeps the projection for this strand: it neither has internal
+    /// friction nor air drag.
+    pub undamped: bool,
 }
 
 impl StrandSystem {
@@ -425,6 +428,9 @@ impl StrandSystem {
             Some(c) => c.add_to_terms(at, kernel, q, v, terms, !explicit, &mut ws.jac, t),
             None => false,
         };
+        // a strand without internal friction or drag keeps the projection (see
+        // superhelix_kernels::field_split)
+        let dissipative = strand.internal_friction > 0.0 || strand.air_drag > 0.0;
         Assembled {
             field_stiffness: if explicit {
                 touching
@@ -433,9 +439,8 @@ impl StrandSystem {
             },
             gyroscopic: ctx.effects.head_moves && head.omega != Vector3::zeros() && terms.damping,
             unprojected: explicit,
-            // (a strand without internal friction or drag keeps the projection: see
-            // superhelix_kernels::field_split)
-            split: ctx.field_split && (strand.internal_friction > 0.0 || strand.air_drag > 0.0),
+            split: ctx.field_split && dissipative,
+            undamped: ctx.field_split && !dissipative,
         }
     }
 
@@ -615,23 +620,14 @@ impl StrandWorkspace {
                 true
             } else {
                 let split = if assembled.split {
-                    let [hh, work, metric, shift] = &mut ws.split;
+                    let [hh, work, metric, scale] = &mut ws.split;
                     let inv_h2 = 1.0 / (h * h);
                     for j in 0..n {
                         hh[j * n..(j + 1) * n].copy_from_slice(&st.col_as_slice(j)[..n]);
                         metric[j] = ws.terms.mass[(j, j)] * inv_h2 + ws.stiffness[j];
                     }
                     let order = &mut ws.split_order;
-                    dissipative_split(
-                        n,
-                        hh,
-                        &ws.stiffness,
-                        metric,
-                        SPLIT_LIMIT,
-                        work,
-                        shift,
-                        order,
-                    )
+                    dissipative_split(n, hh, &ws.stiffness, metric, work, scale, order)
                 } else {
                     SplitOutcome::Beyond
                 };
@@ -641,15 +637,22 @@ impl StrandWorkspace {
                         true
                     }
                     SplitOutcome::Shifted => {
+                        // H̃ = H − E
                         stats.field_split += 1;
+                        let hh = &ws.split[0];
                         for j in 0..n {
-                            ws.terms.stiffness[(j, j)] -= ws.split[3][j];
+                            ws.terms.stiffness.col_as_slice_mut(j)[..n]
+                                .copy_from_slice(&hh[j * n..(j + 1) * n]);
                         }
                         true
                     }
                     SplitOutcome::Beyond => {
                         // projected
-                        stats.field_projected += 1;
+                        if assembled.undamped {
+                            stats.field_undamped += 1;
+                        } else {
+                            stats.field_projected += 1;
+                        }
                         let ok = ws
                             .solver
                             .project_negative_semidefinite(&mut ws.terms.stiffness);
