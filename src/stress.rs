@@ -876,10 +876,11 @@ pub fn with_integrator(cases: Vec<Case>, kind: IntegratorKind) -> Vec<Case> {
         .collect()
 }
 
-/// `cases` with the implicit step's matrix holding only the contacts' stiffness
-/// (`field_stiffness = "explicit"`), named `<case>@explicit`; unchanged for the default.
+/// `cases` with the field stiffness in the implicit step's matrix taken by `kind`
+/// (`field_stiffness`), named `<case>@split` or `<case>@explicit`; unchanged for the
+/// default (the projection).
 pub fn with_field_stiffness(cases: Vec<Case>, kind: FieldStiffness) -> Vec<Case> {
-    if kind == FieldStiffness::Projected {
+    if kind == FieldStiffness::default() {
         return cases;
     }
     cases

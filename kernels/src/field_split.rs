@@ -63,7 +63,7 @@ pub enum FieldRule {
     /// factorisation breaks down (or for a strand without internal friction or drag).
     Split,
     /// The spectral projection on the negative semidefinite part at every solve (the
-    /// default, until the split's fallback is rare on a shaking head).
+    /// default: see docs/performance.md for what the split changes).
     #[default]
     Projected,
 }

@@ -41,7 +41,7 @@ fn compare(
         gravity,
         head,
         steps,
-        FieldStiffness::Projected,
+        FieldStiffness::default(),
     )
 }
 
@@ -67,9 +67,10 @@ fn compare_by(
     s.strands[0].q0 = fixed.q.to_vec();
     let mut sim = Simulation::new(s, Some(factory)).expect("valid setup");
     let mut ws = Box::new(FixedWorkspace::<N, D, E>::new());
-    if rule == FieldStiffness::Split {
-        ws.set_field_rule(FieldRule::Split);
-    }
+    ws.set_field_rule(match rule {
+        FieldStiffness::Split => FieldRule::Split,
+        _ => FieldRule::Projected,
+    });
     let effects = Effects {
         gravity,
         head_moves,
@@ -164,31 +165,32 @@ fn strand_on_a_shaking_head_matches_the_runtime() {
 }
 
 #[test]
-fn the_dissipative_split_takes_the_same_steps_on_both_engines() {
-    // field_stiffness = "split" (superhelix_kernels::field_split): the same rule, shared,
-    // on both sides; a hanging curly strand and a fuzzy one on a shaking head (the
-    // runtime's counters show both the split and its fallback at work)
-    let strand = preset_strand(Preset::Curly, N, 0.2, Vector3::new(0.3, 0.0, -1.0));
-    let fixed = fixed_strand(&strand);
-    let gravity = Some(Vector3::new(0.0, 0.0, -9.81));
-    let (worst, stats) = compare_by(
-        strand,
-        fixed,
-        gravity,
-        HeadMotion::Still,
-        30,
-        FieldStiffness::Split,
-    );
-    eprintln!("hanging, split: {worst:.3e}; {stats}");
-    assert!(worst <= 1e-12, "largest relative |Δq| {worst:.3e}; {stats}");
-    assert!(
-        stats.contains("field_split: ") && !stats.contains("field_split: 0,"),
-        "{stats}"
-    );
-    let strand = preset_strand(Preset::Fuzzy, N, 0.25, Vector3::new(1.0, 0.0, -1.0));
-    let fixed = fixed_strand(&strand);
-    let head = shaking_head();
-    let (worst, stats) = compare_by(strand, fixed, gravity, head, 60, FieldStiffness::Split);
-    eprintln!("shaking, split: {worst:.3e}; {stats}");
-    assert!(worst <= 1e-12, "largest relative |Δq| {worst:.3e}; {stats}");
+fn both_field_stiffness_rules_take_the_same_steps_on_both_engines() {
+    // field_stiffness = "split" (superhelix_kernels::field_split, the default) and
+    // "projected": the same rule, shared, on both sides; a hanging curly strand and a
+    // fuzzy one on a shaking head, the counters showing which rule took the solves
+    for rule in [FieldStiffness::Split, FieldStiffness::Projected] {
+        let strand = preset_strand(Preset::Curly, N, 0.2, Vector3::new(0.3, 0.0, -1.0));
+        let fixed = fixed_strand(&strand);
+        let gravity = Some(Vector3::new(0.0, 0.0, -9.81));
+        let (worst, stats) = compare_by(strand, fixed, gravity, HeadMotion::Still, 30, rule);
+        eprintln!("hanging, {}: {worst:.3e}; {stats}", rule.name());
+        assert!(worst <= 1e-12, "largest relative |Δq| {worst:.3e}; {stats}");
+        let (taken, other) = match rule {
+            FieldStiffness::Split => ("field_split: ", "field_projected: "),
+            _ => ("field_projected: ", "field_split: "),
+        };
+        assert!(
+            stats.contains(taken)
+                && !stats.contains(&format!("{taken}0,"))
+                && stats.contains(&format!("{other}0,")),
+            "{stats}"
+        );
+        let strand = preset_strand(Preset::Fuzzy, N, 0.25, Vector3::new(1.0, 0.0, -1.0));
+        let fixed = fixed_strand(&strand);
+        let head = shaking_head();
+        let (worst, stats) = compare_by(strand, fixed, gravity, head, 60, rule);
+        eprintln!("shaking, {}: {worst:.3e}; {stats}", rule.name());
+        assert!(worst <= 1e-12, "largest relative |Δq| {worst:.3e}; {stats}");
+    }
 }
