@@ -107,8 +107,8 @@ pub const SPLIT_GROWTH: f64 = 1e3;
 /// directions are left explicit, which a diagonal shift cannot do. On success `h` is
 /// replaced by `H̃ = H − E` and [`SplitOutcome::Whole`] (E = 0) or
 /// [`SplitOutcome::Shifted`] is returned; [`SplitOutcome::Beyond`] (h unchanged) when an
-/// input is not finite or an entry of L exceeds [`SPLIT_GROWTH`]. `work` (n², column-major)
-/// and `scale` (n) are scratch.
+/// input is not finite or an entry of L exceeds [`SPLIT_GROWTH`]. `work` (n²), `scale` (n)
+/// and `order` (n) are scratch.
 pub fn dissipative_split<T: Float>(
     n: usize,
     h: &mut [T],
@@ -136,24 +136,27 @@ pub fn dissipative_split<T: Float>(
         scale[j] = T::one() / wj.sqrt();
         order[j] = j;
     }
-    // the scaled total stiffness, both triangles
-    for j in 0..n {
-        for i in 0..n {
-            let mut a = -h[j * n + i];
-            if i == j {
-                a += stiffness[j];
+    // the scaled total stiffness A = W^{-1/2}(K − H)W^{-1/2}, its lower triangle by rows
+    // (`work[i * n + k]`, k ≤ i); the strict upper triangle holds, while column j is
+    // eliminated, that column's multipliers (`work[j * n + k]`, k > j)
+    let work = &mut work[..n * n];
+    for i in 0..n {
+        for k in 0..=i {
+            let mut a = -h[k * n + i];
+            if i == k {
+                a += stiffness[i];
             }
-            let a = a * scale[i] * scale[j];
+            let a = a * scale[i] * scale[k];
             if !a.is_finite() {
                 return SplitOutcome::Beyond;
             }
-            work[j * n + i] = a;
+            work[i * n + k] = a;
         }
     }
     let growth = T::of(SPLIT_GROWTH);
     let mut negative = false;
-    // right-looking L D Lᵀ = P A Pᵀ: position k holds coordinate order[k]; column j of
-    // `work` below the diagonal becomes L's column j, the diagonal D
+    // P A Pᵀ = L D Lᵀ: 1 × 1 pivots, the largest remaining diagonal magnitude first; L
+    // below the diagonal (unit diagonal), D on it
     for j in 0..n {
         let mut q = j;
         for i in j + 1..n {
@@ -162,19 +165,24 @@ pub fn dissipative_split<T: Float>(
             }
         }
         if q != j {
-            for k in 0..n {
-                work.swap(k * n + j, k * n + q);
-            }
-            for k in 0..n {
+            // the symmetric swap of rows and columns j and q, in lower storage
+            work.swap(j * n + j, q * n + q);
+            for k in 0..j {
                 work.swap(j * n + k, q * n + k);
+            }
+            for k in j + 1..q {
+                work.swap(k * n + j, q * n + k);
+            }
+            for k in q + 1..n {
+                work.swap(k * n + j, k * n + q);
             }
             order.swap(j, q);
         }
         let d = work[j * n + j];
         if d == T::zero() {
-            // the whole trailing block is zero (d is its largest diagonal) unless the
-            // factorisation has broken down
-            if (j + 1..n).any(|i| work[j * n + i] != T::zero()) {
+            // a zero pivot: factorisable only when its column is zero too (then L's
+            // column is zero and D_j = 0)
+            if (j + 1..n).any(|i| work[i * n + j] != T::zero()) {
                 return SplitOutcome::Beyond;
             }
             continue;
@@ -184,39 +192,53 @@ pub fn dissipative_split<T: Float>(
         }
         let inverse = T::one() / d;
         for i in j + 1..n {
-            let l = work[j * n + i] * inverse;
+            let l = work[i * n + j] * inverse;
             if l.not_a_number() || l.abs() > growth {
                 return SplitOutcome::Beyond;
             }
-            // the trailing Schur complement, both triangles: a_ik −= l_i d l_k
-            let li_d = work[j * n + i];
-            for k in j + 1..=i {
-                let v = work[k * n + i] - li_d * (work[j * n + k] * inverse);
-                work[k * n + i] = v;
-                work[i * n + k] = v;
+            work[j * n + i] = l;
+        }
+        // the Schur complement, row by row: A_ik −= A_ij (A_kj / d)
+        for i in j + 1..n {
+            let a_ij = work[i * n + j];
+            let (head, tail) = work.split_at_mut(i * n);
+            let multipliers = &head[j * n + j + 1..j * n + i + 1];
+            let row = &mut tail[j + 1..i + 1];
+            for (x, &l) in row.iter_mut().zip(multipliers) {
+                *x -= a_ij * l;
             }
         }
         for i in j + 1..n {
-            work[j * n + i] *= inverse;
+            work[i * n + j] = work[j * n + i];
         }
     }
     if !negative {
         return SplitOutcome::Whole;
     }
-    // H̃ = H − E, E = Σ_{d_j < 0} (−d_j) u uᵀ with u = W^{1/2} Pᵀ l_j
+    // H̃ = H − E: each negative pivot adds D_j u uᵀ, u = W^{1/2} Pᵀ l_j (into `scale`'s
+    // reciprocal: u_c = l_kj / scale_c at c = order_k); H̃ stays exactly symmetric
     for j in 0..n {
         let d = work[j * n + j];
         if d >= T::zero() {
             continue;
         }
+        // u below the pivot, in the strict upper triangle's row j (free once column j
+        // is eliminated); u at the pivot is `uj`
+        let uj = T::one() / scale[order[j]];
+        for k in j + 1..n {
+            work[j * n + k] = work[k * n + j] / scale[order[k]];
+        }
+        let u = |k: usize| if k == j { uj } else { work[j * n + k] };
         for k in j..n {
-            let lk = if k == j { T::one() } else { work[j * n + k] };
             let c = order[k];
-            let dk = d * lk / scale[c];
+            let dk = d * u(k);
             for i in j..n {
-                let li = if i == j { T::one() } else { work[j * n + i] };
                 let r = order[i];
-                h[c * n + r] += dk * li / scale[r];
+                if r <= c {
+                    let x = h[c * n + r] + dk * u(i);
+                    h[c * n + r] = x;
+                    h[r * n + c] = x;
+                }
             }
         }
     }
