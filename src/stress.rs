@@ -301,8 +301,8 @@ pub struct CaseResult {
     /// Solves whose field stiffness was found by the spectral projection, the split's
     /// fallback (`StepStats::field_projected`).
     pub field_projected: usize,
-    /// Solves of a strand without friction or drag, which the split's rule keeps on the
-    /// projection (`StepStats::field_undamped`).
+    /// Solves the split's rule keeps on the projection: a strand without friction or drag,
+    /// or one that touches, is held or carries point loads (`StepStats::field_undamped`).
     pub field_undamped: usize,
     /// Largest kinetic energy relative to the head / the budget B.
     pub kinetic_peak: f64,
@@ -1067,14 +1067,17 @@ pub struct StepTrace {
 /// The line `superhelix stress` and `superhelix bench` print on how the field stiffness
 /// went into the solves' matrices: by the dissipative split, by the spectral projection
 /// (the rule `projected`, or the split's fallback: its share of the two), and by the
-/// projection the split's rule keeps for strands without friction or drag.
+/// projection the split's rule keeps (strands without friction or drag; touching, held or
+/// loaded strands).
 pub fn field_stiffness_line(split: usize, projected: usize, undamped: usize) -> String {
     let mut line = format!(
         "field stiffness: {split} solves by the dissipative split, {projected} by the spectral projection ({:.2} % of the solves that took either)",
         100.0 * projected as f64 / (split + projected).max(1) as f64
     );
     if undamped > 0 {
-        line += &format!(", {undamped} by the projection for strands without friction or drag");
+        line += &format!(
+            ", {undamped} by the projection the rule keeps (no friction or drag; touching, held or loaded)"
+        );
     }
     line
 }

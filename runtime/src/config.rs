@@ -27,16 +27,17 @@ pub enum Mode {
 /// (`[simulation] field_stiffness`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum FieldStiffness {
-    /// The stiffness of gravity, the head's fictitious forces, the point loads and the
-    /// contacts (with the curvature of the strand under the contact forces), by the
-    /// dissipative split of `superhelix_kernels::field_split`: all of it when the
-    /// strand's total stiffness K − H is positive semidefinite, else H less its part
-    /// along K − H's negative directions (one L D Lᵀ factorisation of K − H); where the
-    /// factorisation breaks down, and for strands without internal friction or drag, the
-    /// projection of [`FieldStiffness::Projected`].
+    /// The stiffness of gravity and the head's fictitious forces by the dissipative split
+    /// of `superhelix_kernels::field_split`: all of it when it is negative
+    /// semidefinite, else H less a low-rank E ⪰ 0 along its positive directions (one
+    /// L D Lᵀ factorisation of −H, no eigendecomposition). Where the factorisation
+    /// breaks down, for strands without internal friction or drag, and for a strand that
+    /// touches, is held or carries point loads, the projection of
+    /// [`FieldStiffness::Projected`].
     Split,
-    /// The same stiffness projected on its negative semidefinite part by an
-    /// eigendecomposition at every solve; default.
+    /// The same stiffness (and that of the point loads, the held ends and the contacts,
+    /// with the curvature of the strand under their forces) projected on its negative
+    /// semidefinite part by an eigendecomposition at every solve; default.
     #[default]
     Projected,
     /// Only the contacts' normal, friction and hair–hair stiffness along the strand's

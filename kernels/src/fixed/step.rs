@@ -338,7 +338,6 @@ pub(super) fn step_matrix<
             dissipative_split(
                 D,
                 ws.stiffness.as_flattened_mut(),
-                &p.stiffness,
                 &metric,
                 ws.split_work.as_flattened_mut(),
                 &mut ws.split_scale,

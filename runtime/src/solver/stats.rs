@@ -66,9 +66,9 @@ pub struct StepStats {
     /// split's fallback, or `field_stiffness = "projected"`).
     #[serde(default)]
     pub field_projected: usize,
-    /// Solves of a strand without internal friction or air drag under `field_stiffness =
-    /// "split"`: the rule keeps the spectral projection for it
-    /// ([`superhelix_kernels::field_split`]).
+    /// Solves the rule `field_stiffness = "split"` keeps on the spectral projection: a
+    /// strand without internal friction or air drag, or one that touches, is held or
+    /// carries point loads ([`superhelix_kernels::field_split`]).
     #[serde(default)]
     pub field_undamped: usize,
 }

@@ -308,8 +308,8 @@ pub struct Assembled {
     /// The field stiffness goes in by the dissipative split first
     /// ([`StepContext::field_split`]).
     pub split: bool,
-    /// The split's rule keeps the projection for this strand: it neither has internal
-    /// friction nor air drag.
+    /// The split's rule keeps the projection for this strand: it has neither internal
+    /// friction nor air drag, or it touches, is held or carries point loads.
     pub undamped: bool,
 }
 
@@ -428,9 +428,10 @@ impl StrandSystem {
             Some(c) => c.add_to_terms(at, kernel, q, v, terms, !explicit, &mut ws.jac, t),
             None => false,
         };
-        // a strand without internal friction or drag keeps the projection (see
-        // superhelix_kernels::field_split)
+        // a strand without internal friction or drag keeps the projection, and so does one
+        // that touches, is held or carries point loads (see superhelix_kernels::field_split)
         let dissipative = strand.internal_friction > 0.0 || strand.air_drag > 0.0;
+        let loaded = touching || held.is_some() || !strand.point_loads.is_empty();
         Assembled {
             field_stiffness: if explicit {
                 touching
@@ -439,8 +440,8 @@ impl StrandSystem {
             },
             gyroscopic: ctx.effects.head_moves && head.omega != Vector3::zeros() && terms.damping,
             unprojected: explicit,
-            split: ctx.field_split && dissipative,
-            undamped: ctx.field_split && !dissipative,
+            split: ctx.field_split && dissipative && !loaded,
+            undamped: ctx.field_split && (!dissipative || loaded),
         }
     }
 
@@ -627,7 +628,7 @@ impl StrandWorkspace {
                         metric[j] = ws.terms.mass[(j, j)] * inv_h2 + ws.stiffness[j];
                     }
                     let order = &mut ws.split_order;
-                    dissipative_split(n, hh, &ws.stiffness, metric, work, scale, order)
+                    dissipative_split(n, hh, metric, work, scale, order)
                 } else {
                     SplitOutcome::Beyond
                 };
