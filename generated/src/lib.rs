@@ -177,6 +177,15 @@ impl MomentSource for ClosedForm {
     ) {
         crate::mass_moments_batch_into(d, l, rotary, out);
     }
+    fn force_moments_batch(
+        &self,
+        d: &[Vector3<f64>],
+        l: &[f64],
+        rotary: &[f64; 3],
+        out: &mut [ElementMoments],
+    ) {
+        crate::force_moments_batch_into(d, l, rotary, out);
+    }
     fn point(&self, d: &Vector3<f64>, u: f64, out: &mut ElementPoint) {
         crate::element_point_into(d, u, out);
     }
@@ -314,7 +323,7 @@ pub fn element_moments_batch_into(
     rotary: &[f64; 3],
     out: &mut [ElementMoments],
 ) {
-    moments_batch(d, l, rotary, out, true);
+    moments_batch(d, l, rotary, out, true, true);
 }
 
 /// [`element_moments_batch_into`] for the fields of M only (the `mass_moments` fields;
@@ -325,28 +334,43 @@ pub fn mass_moments_batch_into(
     rotary: &[f64; 3],
     out: &mut [ElementMoments],
 ) {
-    moments_batch(d, l, rotary, out, false);
+    moments_batch(d, l, rotary, out, true, false);
 }
 
-/// The batch of [`element_moments_batch_into`], with the force-only fields when `force`.
+/// [`element_moments_batch_into`] for the fields that are not M's (the mass fields are
+/// left as they were): the same bits for those fields.
+pub fn force_moments_batch_into(
+    d: &[Vector3<f64>],
+    l: &[f64],
+    rotary: &[f64; 3],
+    out: &mut [ElementMoments],
+) {
+    moments_batch(d, l, rotary, out, false, true);
+}
+
+/// The batch of [`element_moments_batch_into`]: M's fields when `mass`, the force-only
+/// fields when `force`.
 fn moments_batch(
     d: &[Vector3<f64>],
     l: &[f64],
     rotary: &[f64; 3],
     out: &mut [ElementMoments],
+    mass: bool,
     force: bool,
 ) {
     let n = d.len().min(l.len()).min(out.len());
     let dd = |p: usize| [d[p][0], d[p][1], d[p][2]];
-    each_element(
-        n,
-        &dd,
-        l,
-        CENTRELINE_MASS_SWITCH,
-        centreline_mass,
-        centreline_mass_closed_x4,
-        |p, o: &[f64; 51]| fill_mass(o, &mut out[p]),
-    );
+    if mass {
+        each_element(
+            n,
+            &dd,
+            l,
+            CENTRELINE_MASS_SWITCH,
+            centreline_mass,
+            centreline_mass_closed_x4,
+            |p, o: &[f64; 51]| fill_mass(o, &mut out[p]),
+        );
+    }
     if force {
         each_element(
             n,
@@ -357,6 +381,9 @@ fn moments_batch(
             centreline_force_closed_x4,
             |p, o: &[f64; 135]| fill_force(o, &mut out[p]),
         );
+    }
+    if !mass {
+        return;
     }
     if rotary.iter().all(|&x| x == 0.0) {
         out[..n].iter_mut().for_each(clear_rotary);
@@ -526,6 +553,17 @@ impl MomentSource<f32> for ClosedForm {
             mass_moments_f32_into(d, l, rotary, out);
         }
     }
+    fn force_moments_batch(
+        &self,
+        d: &[Vector3<f32>],
+        l: &[f32],
+        rotary: &[f32; 3],
+        out: &mut [ElementMoments<f32>],
+    ) {
+        for ((d, &l), out) in d.iter().zip(l).zip(out.iter_mut()) {
+            force_moments_f32_into(d, l, rotary, out);
+        }
+    }
     fn point(&self, d: &Vector3<f32>, u: f32, out: &mut ElementPoint<f32>) {
         element_point_f32_into(d, u, out);
     }
@@ -581,6 +619,20 @@ pub fn mass_moments_f32_into(
     centreline_mass_f32(&dd, l, &mut om);
     fill_mass(&om, out);
     rotary_f32_into(&dd, l, rotary, out);
+}
+
+/// [`element_moments_f32_into`] for the fields that are not M's (M's are left as they
+/// were).
+pub fn force_moments_f32_into(
+    d: &Vector3<f32>,
+    l: f32,
+    _rotary: &[f32; 3],
+    out: &mut ElementMoments<f32>,
+) {
+    let dd = [d[0], d[1], d[2]];
+    let mut of = [0.0; 135];
+    centreline_force_f32(&dd, l, &mut of);
+    fill_force(&of, out);
 }
 
 /// Index of `d2p_ij_m` (i ≤ j) in the output of [`element_point_f32()`]: the symmetric

@@ -143,7 +143,8 @@ fn closed_form_moments_match_high_order_quadrature() {
 /// The batched moments (one function at a time over a strand's elements, those in a
 /// function's closed-form branch four at a time in SIMD lanes) are element by element's
 /// bit for bit: strands of 1 to 13 elements whose W l mixes every branch of every
-/// function (0, around each switch, up to 100), with and without rotary inertia.
+/// function (0, around each switch, up to 100), with and without rotary inertia; the
+/// mass batch followed by the force batch gives the same bits.
 #[test]
 fn batched_moments_are_element_by_element_bit_for_bit() {
     let mut rng = Rng(0x51f1_5eed_2b7e_1516);
@@ -180,11 +181,23 @@ fn batched_moments_are_element_by_element_bit_for_bit() {
             .count();
         let mut batched = vec![ElementMoments::default(); n];
         superhelix_generated::element_moments_batch_into(&d, &l, &rotary, &mut batched);
+        // M's fields by the mass batch (a step's end measure), the others by the force
+        // batch (the next step's first solve): the full batch's bits
+        let mut parts = vec![ElementMoments::default(); n];
+        superhelix_generated::mass_moments_batch_into(&d, &l, &rotary, &mut parts);
+        superhelix_generated::force_moments_batch_into(&d, &l, &rotary, &mut parts);
         for p in 0..n {
             let one = superhelix_generated::element_moments(&d[p], l[p], &rotary);
             for ((name, a), (_, b)) in fields(&batched[p]).iter().zip(fields(&one).iter()) {
                 let same = a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
                 assert!(same, "case {case}, element {p}, field {name}");
+            }
+            for ((name, a), (_, b)) in fields(&parts[p]).iter().zip(fields(&one).iter()) {
+                let same = a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+                assert!(
+                    same,
+                    "case {case}, element {p}, field {name} by mass + force"
+                );
             }
         }
     }

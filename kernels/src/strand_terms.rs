@@ -54,6 +54,19 @@ pub trait MomentSource<T: Float = f64> {
     ) {
         self.moments_batch(d, l, rotary, out);
     }
+    /// [`MomentSource::moments_batch`] for the fields that are not M's (the mass fields
+    /// may be left as they were: the caller holds them for these elements, by
+    /// [`MomentSource::mass_moments_batch`] or an earlier full batch), the same bits for
+    /// those. Defaults to the full batch.
+    fn force_moments_batch(
+        &self,
+        d: &[Vector3<T>],
+        l: &[T],
+        rotary: &[T; 3],
+        out: &mut [ElementMoments<T>],
+    ) {
+        self.moments_batch(d, l, rotary, out);
+    }
     /// E(u), p(u), w_i(u) and their d-derivatives (see [`ElementPoint`]).
     fn point(&self, d: &Vector3<T>, u: T, out: &mut ElementPoint<T>) {
         *out = ElementPoint::by_jets(d, u);
@@ -183,6 +196,10 @@ pub struct MomentBuffers<'a, T: Float = f64> {
     /// The q the ends, end derivatives and moments were prepared for (NaN before the
     /// first evaluation: equal to no q).
     pub prepared: &'a mut [T],
+    /// The q the mass fields of `moments` ([`crate::moments::MassMoments`]) hold (NaN:
+    /// none); equal to `prepared` after a full preparation, and ahead of it after an
+    /// energy measure or when a step's end state was handed over.
+    pub mass_prepared: &'a mut [T],
 }
 
 /// Which matrix [`evaluate_terms`] hands to its sink.
@@ -222,7 +239,13 @@ pub fn prepare<T: Float, S: MomentSource<T> + ?Sized>(
     b.prepared.copy_from_slice(q);
     *b.mass_valid = false;
     ends_and_derivatives(source, shape, b, q, true);
-    source.moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
+    if *b.mass_prepared == *q {
+        // M's moments at q are held (a measure of this state, or the last step's end)
+        source.force_moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
+    } else {
+        source.moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
+        b.mass_prepared.copy_from_slice(q);
+    }
 }
 
 /// The Darboux vectors, element ends and end derivatives of q, from the source's element
@@ -308,7 +331,10 @@ pub fn evaluate_energy<T: Float, S: MomentSource<T> + ?Sized>(
         b.prepared[0] = T::nan();
         *b.mass_valid = false;
         ends_and_derivatives(source, shape, b, q, false);
-        source.mass_moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
+        if *b.mass_prepared != *q {
+            source.mass_moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
+            b.mass_prepared.copy_from_slice(q);
+        }
     }
     frame_velocities(b.ends, b.end_derivs, v, b.motions);
     let two = T::of(2.0);

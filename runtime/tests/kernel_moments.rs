@@ -337,6 +337,7 @@ fn the_energy_measurement_matches_the_generic_kernel() {
                 );
                 let (mut vector, mut prepared, mut valid) =
                     (vec![0.0; 3 * n], vec![f64::NAN; 3 * n], false);
+                let mut mass_prepared = vec![f64::NAN; 3 * n];
                 let mut buffers = MomentBuffers {
                     ends: &mut ends,
                     darboux: &mut darboux,
@@ -353,6 +354,7 @@ fn the_energy_measurement_matches_the_generic_kernel() {
                     matrix: &mut matrix,
                     vector: &mut vector,
                     prepared: &mut prepared,
+                    mass_prepared: &mut mass_prepared,
                 };
                 let shape = StrandShape {
                     root_position: g.root_position,

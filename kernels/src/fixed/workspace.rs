@@ -84,6 +84,7 @@ pub struct Assembly<const N: usize, const D: usize, const E: usize, T: Float = f
     pub(super) matrix: [[T; D]; D],
     pub(super) vector: [T; D],
     pub(super) prepared: [T; D],
+    pub(super) mass_prepared: [T; D],
 }
 
 impl<const N: usize, const D: usize, const E: usize, T: Float> Default
@@ -150,6 +151,7 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
     /// them afresh).
     pub fn forget(&mut self) {
         self.assembly.prepared[0] = T::nan();
+        self.assembly.mass_prepared[0] = T::nan();
         self.assembly.mass_valid = false;
         self.projection.last_valid = false;
     }
@@ -180,6 +182,7 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> Assembly<N, D, E,
             matrix: [[T::zero(); D]; D],
             vector: [T::zero(); D],
             prepared: [T::nan(); D],
+            mass_prepared: [T::nan(); D],
         }
     }
 
@@ -201,6 +204,7 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> Assembly<N, D, E,
             matrix: self.matrix.as_flattened_mut(),
             vector: &mut self.vector,
             prepared: &mut self.prepared,
+            mass_prepared: &mut self.mass_prepared,
         }
     }
 }

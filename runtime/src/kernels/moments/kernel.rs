@@ -73,6 +73,8 @@ pub struct MomentKernel<S: MomentSource + Send> {
     /// The q the element ends, end derivatives and moments were prepared for (NaN before
     /// the first evaluation: equal to no q).
     prepared: Vec<f64>,
+    /// The q the mass fields of `moments` hold (`MomentBuffers::mass_prepared`).
+    mass_prepared: Vec<f64>,
     /// The scratch of [`StrandKernel::point`] (apart from the prepared element data, so
     /// that a point at another q leaves them alone) and what it holds.
     point_ends: Vec<Pose>,
@@ -101,6 +103,7 @@ impl<S: MomentSource + Send> MomentKernel<S> {
             mass_valid: false,
             vector: vec![0.0; 3 * n],
             prepared: vec![f64::NAN; 3 * n],
+            mass_prepared: vec![f64::NAN; 3 * n],
             point_ends: vec![Pose::default(); n + 1],
             point_derivs: vec![EndDerivatives::default(); n],
             point_chain: PointChain::new(3 * n),
@@ -165,6 +168,7 @@ impl<S: MomentSource + Send> StrandKernel for MomentKernel<S> {
             mass_valid,
             vector,
             prepared,
+            mass_prepared,
             ..
         } = self;
         let mut buffers = MomentBuffers {
@@ -183,6 +187,7 @@ impl<S: MomentSource + Send> StrandKernel for MomentKernel<S> {
             matrix,
             vector,
             prepared,
+            mass_prepared,
         };
         let StrandTerms {
             mass: out_mass,
