@@ -557,11 +557,11 @@ impl MomentSource<f32> for ClosedForm {
         &self,
         d: &[Vector3<f32>],
         l: &[f32],
-        rotary: &[f32; 3],
+        _rotary: &[f32; 3],
         out: &mut [ElementMoments<f32>],
     ) {
         for ((d, &l), out) in d.iter().zip(l).zip(out.iter_mut()) {
-            force_moments_f32_into(d, l, rotary, out);
+            force_moments_f32_into(d, l, out);
         }
     }
     fn point(&self, d: &Vector3<f32>, u: f32, out: &mut ElementPoint<f32>) {
@@ -623,12 +623,7 @@ pub fn mass_moments_f32_into(
 
 /// [`element_moments_f32_into`] for the fields that are not M's (M's are left as they
 /// were).
-pub fn force_moments_f32_into(
-    d: &Vector3<f32>,
-    l: f32,
-    _rotary: &[f32; 3],
-    out: &mut ElementMoments<f32>,
-) {
+pub fn force_moments_f32_into(d: &Vector3<f32>, l: f32, out: &mut ElementMoments<f32>) {
     let dd = [d[0], d[1], d[2]];
     let mut of = [0.0; 135];
     centreline_force_f32(&dd, l, &mut of);

@@ -196,9 +196,9 @@ pub struct MomentBuffers<'a, T: Float = f64> {
     /// The q the ends, end derivatives and moments were prepared for (NaN before the
     /// first evaluation: equal to no q).
     pub prepared: &'a mut [T],
-    /// The q the mass fields of `moments` ([`crate::moments::MassMoments`]) hold (NaN:
-    /// none); equal to `prepared` after a full preparation, and ahead of it after an
-    /// energy measure or when a step's end state was handed over.
+    /// The q the fields of M in `moments` (those [`MomentSource::mass_moments_batch`]
+    /// fills) hold (NaN: none): equal to `prepared` after a full preparation, ahead of
+    /// it after an energy measure ([`evaluate_energy`] without `prepare_terms`).
     pub mass_prepared: &'a mut [T],
 }
 
@@ -240,7 +240,7 @@ pub fn prepare<T: Float, S: MomentSource<T> + ?Sized>(
     *b.mass_valid = false;
     ends_and_derivatives(source, shape, b, q, true);
     if *b.mass_prepared == *q {
-        // M's moments at q are held (a measure of this state, or the last step's end)
+        // M's moments at q are held (an energy measure of this state)
         source.force_moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
     } else {
         source.moments_batch(b.darboux, shape.lengths, &shape.rotary_inertia, b.moments);
