@@ -227,31 +227,47 @@ pub fn dissipative_split<T: Float>(
     if !negative {
         return SplitOutcome::Whole;
     }
-    // H̃ = H − E: each negative pivot adds D_j u uᵀ, u = W^{1/2} Pᵀ l_j (into `scale`'s
-    // reciprocal: u_c = l_kj / scale_c at c = order_k); H̃ stays exactly symmetric
-    for j in 0..n {
+    // H̃ = H − E = H + W^{1/2} Pᵀ F P W^{1/2}, F = Σ_{D_j < 0} D_j l_j l_jᵀ (l_j column j
+    // of L, unit at j). L's columns, in the final pivot order in the lower triangle (a
+    // later swap exchanges rows there, not in the multipliers' upper copies), go to the
+    // strict upper triangle's rows (`work[j * n + k]`, k > j); F is summed in the lower
+    // triangle by rows, pivots from the last, so that D_j is still on the diagonal when
+    // its pivot is met and each pivot's update is contiguous in each row. F's strict
+    // lower triangle starts at zero, its diagonal at D (a negative D_j is its own pivot's
+    // term D_j · 1 · 1; a non-negative one is cleared when its pivot is met)
+    for i in 1..n {
+        for k in 0..i {
+            work[k * n + i] = work[i * n + k];
+        }
+        work[i * n..i * n + i].fill(T::zero());
+    }
+    for j in (0..n).rev() {
         let d = work[j * n + j];
         if d >= T::zero() {
+            work[j * n + j] = T::zero();
             continue;
         }
-        // u below the pivot, in the strict upper triangle's row j (free once column j
-        // is eliminated); u at the pivot is `uj`
-        let uj = T::one() / scale[order[j]];
-        for k in j + 1..n {
-            work[j * n + k] = work[k * n + j] / scale[order[k]];
-        }
-        let u = |k: usize| if k == j { uj } else { work[j * n + k] };
-        for k in j..n {
-            let c = order[k];
-            let dk = d * u(k);
-            for i in j..n {
-                let r = order[i];
-                if r <= c {
-                    let x = h[c * n + r] + dk * u(i);
-                    h[c * n + r] = x;
-                    h[r * n + c] = x;
-                }
+        let (head, tail) = work.split_at_mut((j + 1) * n);
+        let l = &head[j * n + j + 1..j * n + n];
+        for (r, row) in tail.chunks_exact_mut(n).enumerate() {
+            // row i = j + 1 + r of F, columns j..=i
+            let a = d * l[r];
+            row[j] += a;
+            for (x, &lk) in row[j + 1..j + 2 + r].iter_mut().zip(&l[..=r]) {
+                *x += a * lk;
             }
+        }
+    }
+    // into H, each unordered pair of H's indices once (i ≥ k in the pivot order), read
+    // from H's upper triangle and written to both, so that H̃ is exactly symmetric
+    for i in 0..n {
+        let r = order[i];
+        for k in 0..=i {
+            let c = order[k];
+            let (lo, hi) = if r <= c { (r, c) } else { (c, r) };
+            let x = h[hi * n + lo] + work[i * n + k] / (scale[r] * scale[c]);
+            h[hi * n + lo] = x;
+            h[lo * n + hi] = x;
         }
     }
     SplitOutcome::Shifted
