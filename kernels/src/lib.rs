@@ -33,6 +33,8 @@
 extern crate std;
 
 pub mod body_field;
+pub mod collider;
+pub mod contact;
 pub mod element;
 pub mod energy;
 pub mod field_split;

@@ -47,6 +47,15 @@ pub fn ceil(x: f64) -> f64 {
     return libm::ceil(x);
 }
 
+/// The largest integer not above x.
+#[inline(always)]
+pub fn floor(x: f64) -> f64 {
+    #[cfg(feature = "std")]
+    return std::primitive::f64::floor(x);
+    #[cfg(not(feature = "std"))]
+    return libm::floor(x);
+}
+
 /// √x in f32 (for the generated f32 kernels).
 #[inline(always)]
 pub fn sqrtf(x: f32) -> f32 {

@@ -25,16 +25,16 @@ pub mod mesh_distance;
 pub mod mesh_sdf;
 pub mod motion;
 pub mod obj;
-pub mod proximity;
 pub mod setup;
 pub mod shape;
-pub mod shape_capsule;
-pub mod shape_cylinder;
-pub mod shape_ellipsoid;
-pub mod shape_plane;
-pub mod shape_sphere;
 pub mod triangle;
 pub mod triangle_mesh;
+
+// the analytic shapes and the answer of a query live with the strand's step, in the
+// kernels crate (no std), and keep their paths here
+pub use superhelix_kernels::collider::{
+    proximity, shape_capsule, shape_cylinder, shape_ellipsoid, shape_plane, shape_sphere,
+};
 
 pub use body::{Body, Placement};
 pub use collection::{Bodies, PlacedBodies};

@@ -9,7 +9,7 @@ use crate::config::{
 };
 use crate::error::{Error, FieldError, Result};
 use crate::forces::contacts::{
-    ContactParams, ContactSummary, HairHair, HairHairParams, PairCounts, StrandContacts,
+    ContactSummary, HairHair, HairHairParams, PairCounts, StrandContacts,
 };
 use crate::forces::effects::GlobalEffects;
 use crate::forces::electrostatics::{Electrostatics, FieldSummary};
@@ -724,7 +724,7 @@ impl Simulation {
                 system.contacts = Some(StrandContacts::new(
                     g,
                     b.clone(),
-                    ContactParams::new(c, rho_s),
+                    c.params(rho_s),
                     c.hair_hair.as_ref().map(|h| HairHairParams::new(h, rho_s)),
                     c.samples_per_element,
                     free_ends,

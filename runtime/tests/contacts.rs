@@ -551,7 +551,7 @@ fn the_balance_counts_the_power_of_the_partners_damping() {
     use superhelix_kernels::head::HeadState;
     use superhelix_runtime::bodies::{Body, Placement};
     use superhelix_runtime::forces::contacts::{
-        ContactConfig, ContactParams, HairHairConfig, HairHairParams, PartnerPoint, StrandContacts,
+        ContactConfig, HairHairConfig, HairHairParams, PartnerPoint, StrandContacts,
     };
     use superhelix_runtime::kernels::closed_form::ClosedForm;
     use superhelix_runtime::kernels::kernel::{StrandTerms, Terms};
@@ -576,7 +576,7 @@ fn the_balance_counts_the_power_of_the_partners_damping() {
     let mut contacts = StrandContacts::new(
         &geom,
         Arc::<[Body]>::from(Vec::new()),
-        ContactParams::new(&config, rho_s),
+        config.params(rho_s),
         Some(hair),
         4,
         [false, true],
@@ -691,8 +691,7 @@ fn contact_forces_are_minus_the_gradient_of_the_contact_energy() {
     use superhelix_runtime::bodies::shape_plane::Plane;
     use superhelix_runtime::bodies::{Attachment, Body, Placement, Shape};
     use superhelix_runtime::forces::contacts::{
-        ContactConfig, ContactParams, Friction, HairHairConfig, HairHairParams, PartnerPoint,
-        StrandContacts,
+        ContactConfig, Friction, HairHairConfig, HairHairParams, PartnerPoint, StrandContacts,
     };
     use superhelix_runtime::kernels::closed_form::ClosedForm;
     use superhelix_runtime::kernels::kernel::{StrandKernel, StrandTerms, Terms};
@@ -732,7 +731,7 @@ fn contact_forces_are_minus_the_gradient_of_the_contact_energy() {
         StrandContacts::new(
             &geom,
             Arc::<[Body]>::from(bodies),
-            ContactParams::new(&config, rho_s),
+            config.params(rho_s),
             Some(hair),
             8,
             [false, true],

@@ -19,7 +19,7 @@ pub struct Proximity {
 
 /// A unit vector perpendicular to `axis` (+z when `axis` is zero): the normal chosen where
 /// every direction is equally valid.
-pub(super) fn any_unit(axis: &Vector3<f64>) -> Vector3<f64> {
+pub fn any_unit(axis: &Vector3<f64>) -> Vector3<f64> {
     let norm = axis.norm();
     if norm == 0.0 || !norm.is_finite() {
         return Vector3::z();

@@ -42,7 +42,7 @@ impl Cylinder {
         let d_side = rho - self.radius;
         let d_cap = along.abs() - half;
         let (distance, normal) = if d_side > 0.0 && d_cap > 0.0 {
-            let d = (d_side * d_side + d_cap * d_cap).sqrt();
+            let d = crate::math::sqrt(d_side * d_side + d_cap * d_cap);
             (d, (r_hat * d_side + cap * d_cap) / d)
         } else if d_side >= d_cap {
             (d_side, r_hat)

@@ -13,6 +13,7 @@
 //! closest point may leave the plane (inside, near the centre).
 
 use super::proximity::Proximity;
+use crate::math::sqrt;
 use nalgebra::{Matrix3, Vector3};
 
 /// Bisection steps that exhaust a double's bracket: digits − minimum exponent.
@@ -34,10 +35,7 @@ impl Ellipsoid {
     pub fn query(&self, y: &Vector3<f64>) -> Proximity {
         let local = self.rotation.transpose() * (y - self.center);
         let closest = self.closest_local(&local);
-        let inside = (0..3)
-            .map(|i| (local[i] / self.radii[i]).powi(2))
-            .sum::<f64>()
-            < 1.0;
+        let inside = (0..3).map(|i| sq(local[i] / self.radii[i])).sum::<f64>() < 1.0;
         let gap = (local - closest).norm();
         let normal = closest.component_div(&self.radii.component_mul(&self.radii));
         let normal = self.rotation * normal.normalize();
@@ -62,7 +60,15 @@ impl Ellipsoid {
     fn closest_local(&self, local: &Vector3<f64>) -> Vector3<f64> {
         let a = self.radii;
         let mut order = [0usize, 1, 2];
-        order.sort_by(|&i, &j| a[j].total_cmp(&a[i]));
+        // the axes by decreasing radius, equal radii in axis order (a stable insertion
+        // sort: no allocation)
+        for i in 1..3 {
+            let mut j = i;
+            while j > 0 && a[order[j - 1]].total_cmp(&a[order[j]]).is_lt() {
+                order.swap(j - 1, j);
+                j -= 1;
+            }
+        }
         let e = order.map(|k| a[k]);
         let y = order.map(|k| local[k].abs());
         let x = closest_in_octant(e, y);
@@ -80,7 +86,7 @@ fn robust_length(v: &[f64]) -> f64 {
     if m == 0.0 {
         return 0.0;
     }
-    m * v.iter().map(|x| (x / m).powi(2)).sum::<f64>().sqrt()
+    m * sqrt(v.iter().map(|x| sq(x / m)).sum::<f64>())
 }
 
 /// The root w of `F(w) = Σ (nᵢ / (w + qᵢ))² − 1`, nᵢ = rᵢ zᵢ, qᵢ = rᵢ − 1 (the last q is
@@ -90,7 +96,7 @@ fn robust_length(v: &[f64]) -> f64 {
 /// where the root is near `s = −1` (inside, near the shortest axis), where `s + 1` would
 /// cancel.
 fn root<const D: usize>(r: [f64; D], q: [f64; D], z: [f64; D], g: f64) -> f64 {
-    let n: [f64; D] = std::array::from_fn(|i| r[i] * z[i]);
+    let n: [f64; D] = core::array::from_fn(|i| r[i] * z[i]);
     let mut w0 = z[D - 1];
     let mut w1 = if g < 0.0 { 1.0 } else { robust_length(&n) };
     let mut w = w0;
@@ -99,7 +105,7 @@ fn root<const D: usize>(r: [f64; D], q: [f64; D], z: [f64; D], g: f64) -> f64 {
         if w == w0 || w == w1 {
             break;
         }
-        let g: f64 = (0..D).map(|i| (n[i] / (w + q[i])).powi(2)).sum::<f64>() - 1.0;
+        let g: f64 = (0..D).map(|i| sq(n[i] / (w + q[i]))).sum::<f64>() - 1.0;
         if g > 0.0 {
             w0 = w;
         } else if g < 0.0 {
@@ -125,7 +131,7 @@ fn closest_on_ellipse(e0: f64, e1: f64, y0: f64, y1: f64) -> (f64, f64) {
             if g == 0.0 {
                 return (y0, y1);
             }
-            let r0 = (e0 / e1).powi(2);
+            let r0 = sq(e0 / e1);
             let q0 = ratio_excess(e0, e1);
             let w = root([r0, 1.0], [q0, 0.0], [z0, z1], g);
             (r0 * y0 / (w + q0), y1 / w)
@@ -137,7 +143,7 @@ fn closest_on_ellipse(e0: f64, e1: f64, y0: f64, y1: f64) -> (f64, f64) {
         if numer0 < denom0 {
             // inside near the centre on the long axis: the closest point leaves the axis
             let xde0 = numer0 / denom0;
-            (e0 * xde0, e1 * (1.0 - xde0 * xde0).max(0.0).sqrt())
+            (e0 * xde0, e1 * sqrt((1.0 - xde0 * xde0).max(0.0)))
         } else {
             (e0, 0.0)
         }
@@ -156,7 +162,7 @@ fn closest_in_octant(e: [f64; 3], y: [f64; 3]) -> [f64; 3] {
                 if g == 0.0 {
                     return y;
                 }
-                let r = [(e0 / e2).powi(2), (e1 / e2).powi(2), 1.0];
+                let r = [sq(e0 / e2), sq(e1 / e2), 1.0];
                 let q = [ratio_excess(e0, e2), ratio_excess(e1, e2), 0.0];
                 let w = root(r, q, z, g);
                 [r[0] * y0 / (w + q[0]), r[1] * y1 / (w + q[1]), y2 / w]
@@ -179,12 +185,18 @@ fn closest_in_octant(e: [f64; 3], y: [f64; 3]) -> [f64; 3] {
             let (xde0, xde1) = (numer0 / denom0, numer1 / denom1);
             let discr = 1.0 - xde0 * xde0 - xde1 * xde1;
             if discr > 0.0 {
-                return [e0 * xde0, e1 * xde1, e2 * discr.sqrt()];
+                return [e0 * xde0, e1 * xde1, e2 * sqrt(discr)];
             }
         }
         let (x0, x1) = closest_on_ellipse(e0, e1, y0, y1);
         [x0, x1, 0.0]
     }
+}
+
+/// x².
+#[inline(always)]
+fn sq(x: f64) -> f64 {
+    x * x
 }
 
 #[cfg(test)]

@@ -9,11 +9,12 @@
 
 use super::grid::Grid;
 use super::mesh_distance::MeshDistance;
-use super::proximity::{any_unit, Proximity};
+use super::proximity::Proximity;
 use super::setup::{DEFAULT_CELLS_PER_SIDE, MAX_GRID_NODES};
 use super::triangle_mesh::ClosedMesh;
 use nalgebra::Vector3;
 use rayon::prelude::*;
+use superhelix_kernels::collider::SdfGrid;
 
 /// Fraction of the mesh box's longest side added on every side of the grid.
 pub const MARGIN_FRACTION: f64 = 0.1;
@@ -112,17 +113,9 @@ impl MeshSdf {
     /// Signed distance (interpolated), unit outward normal (the normalised gradient of the
     /// interpolant; +z where it vanishes) and closest point `y − d n` (first order).
     pub fn query(&self, y: &Vector3<f64>) -> Proximity {
-        let (distance, gradient) = self.grid.sample(y);
-        let norm = gradient.norm();
-        let normal = if norm > 0.0 && norm.is_finite() {
-            gradient / norm
-        } else {
-            any_unit(&Vector3::zeros())
-        };
-        Proximity {
-            distance,
-            normal,
-            closest: y - normal * distance,
+        SdfGrid {
+            grid: self.grid.view(),
         }
+        .query(y)
     }
 }

@@ -76,3 +76,12 @@ impl Shape {
         }
     }
 }
+
+impl superhelix_kernels::collider::Collider for Shape {
+    fn proximity(&self, y: &Vector3<f64>) -> Proximity {
+        self.query(y)
+    }
+    fn farther_than(&self, y: &Vector3<f64>, r: f64) -> bool {
+        Shape::farther_than(self, y, r)
+    }
+}

@@ -9,7 +9,7 @@ use super::strands::{
 };
 use crate::bodies::{Attachment, Bodies, Body, BodySetup, Placement, Shape};
 use crate::config::StrandSetup;
-use crate::forces::contacts::{ContactConfig, ContactParams, StrandContacts};
+use crate::forces::contacts::{ContactConfig, StrandContacts};
 use crate::groom::fit::{fit_curve, FitSettings, FittedCurve};
 use crate::groom::read_curves;
 use crate::groom::region::{PlaneCut, Region};
@@ -504,7 +504,7 @@ fn apply_sag_free(
                     let mut contacts = StrandContacts::new(
                         geom,
                         bodies.clone(),
-                        ContactParams::new(c, rho_s),
+                        c.params(rho_s),
                         None,
                         c.samples_per_element,
                         c.free_ends(

@@ -43,43 +43,7 @@ pub const DEFAULT_PAIR_STIFFNESS_FACTOR: f64 = 1e4;
 /// the coils below with the weight of all the rope above them.
 pub const DEFAULT_SELF_STIFFNESS_FACTOR: f64 = 1e4;
 
-/// How the tangential (friction) force of a hair–body contact is modelled.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Friction {
-    /// Frictionless contact.
-    None,
-    /// The paper's tangential viscous friction (section 4.2), scaled by the normal force:
-    /// `f_t = −μ(θ) f_n v_t / v_s`, Coulomb's force at the slip speed v_s.
-    Viscous {
-        /// μ, ≥ 0.
-        coefficient: f64,
-        /// v_s, m/s, > 0.
-        slip_speed: f64,
-    },
-    /// Coulomb friction with real sticking: each contact point is held to an anchor on
-    /// the body by a tangential spring while `|f_t| ≤ μ_s(θ) f_n`, and slides (its anchor
-    /// dragged behind it) with `|f_t| = μ_k(θ) f_n` otherwise.
-    Coulomb {
-        /// μ_s, ≥ 0.
-        static_coefficient: f64,
-        /// μ_k, in [0, μ_s].
-        kinetic_coefficient: f64,
-        /// Tangential spring stiffness over the normal penalty stiffness, > 0.
-        stiffness_ratio: f64,
-    },
-}
-
-/// Coulomb friction between rods: coefficients and the tangential spring's stiffness
-/// over the normal penalty's.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RodFriction {
-    /// μ_s, ≥ 0.
-    pub static_coefficient: f64,
-    /// μ_k, in [0, μ_s].
-    pub kinetic_coefficient: f64,
-    /// k_t / k, > 0.
-    pub stiffness_ratio: f64,
-}
+pub use superhelix_kernels::contact::{ContactParams, Friction, RodFriction};
 
 /// Hair–hair interaction between the simulated strands (Choe et al. 2005: dissipative
 /// penalty forces between hair volumes; pairs tracked over time after Raghupathi et al.
@@ -516,5 +480,21 @@ impl ContactConfig {
     pub fn stiffness_for(&self, rho_s: f64) -> f64 {
         self.stiffness
             .unwrap_or(DEFAULT_STIFFNESS_FACTOR * rho_s * STANDARD_GRAVITY / self.radius)
+    }
+
+    /// The resolved parameters of these contacts for a strand of mass per length `rho_s`:
+    /// the damping `c = 2 ζ √(k ρS)` of the penalty's stiffness k.
+    pub fn params(&self, rho_s: f64) -> ContactParams {
+        let k = self.stiffness_for(rho_s);
+        ContactParams {
+            radius: self.radius,
+            stiffness: k,
+            damping: 2.0 * self.damping_ratio * (k * rho_s).sqrt(),
+            max_depth: self.max_depth(),
+            split_depth: self.split_depth(),
+            depenetration_speed: self.depenetration_speed,
+            friction: self.friction,
+            anisotropy: self.anisotropy,
+        }
     }
 }

@@ -29,7 +29,7 @@
 //! at any penalty stiffness. Beyond δ_max the normal force is constant (no stiffness): a
 //! strand that starts inside a body is pushed out over several steps, never kicked.
 
-use super::config::{ContactConfig, Friction, HairHairConfig, RodFriction, STANDARD_GRAVITY};
+use super::config::{Friction, HairHairConfig, RodFriction, STANDARD_GRAVITY};
 use super::predicted::{Candidate, PredictedContacts};
 use crate::bodies::{Attachment, Body, Placement};
 use crate::forces::head_motion::HeadState;
@@ -41,44 +41,9 @@ use crate::model::strand::StrandGeometry;
 use faer::Mat;
 use nalgebra::{Matrix3, Vector3};
 use std::sync::Arc;
-
-/// The resolved contact parameters of one strand.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ContactParams {
-    /// Contact radius r, m.
-    pub radius: f64,
-    /// Normal penalty stiffness k, N/m².
-    pub stiffness: f64,
-    /// Normal damping c per metre, N·s/m².
-    pub damping: f64,
-    /// δ_max, m.
-    pub max_depth: f64,
-    /// A step taking a new contact deeper than this is split, m.
-    pub split_depth: f64,
-    /// Speed at which a point that started inside a body is let out, m/s.
-    pub depenetration_speed: f64,
-    /// Friction model.
-    pub friction: Friction,
-    /// α.
-    pub anisotropy: f64,
-}
-
-impl ContactParams {
-    /// The parameters of `config` for a strand of mass per length `rho_s`.
-    pub fn new(config: &ContactConfig, rho_s: f64) -> Self {
-        let k = config.stiffness_for(rho_s);
-        ContactParams {
-            radius: config.radius,
-            stiffness: k,
-            damping: 2.0 * config.damping_ratio * (k * rho_s).sqrt(),
-            max_depth: config.max_depth(),
-            split_depth: config.split_depth(),
-            depenetration_speed: config.depenetration_speed,
-            friction: config.friction,
-            anisotropy: config.anisotropy,
-        }
-    }
-}
+use superhelix_kernels::collider::Mount;
+pub use superhelix_kernels::contact::ContactParams;
+use superhelix_kernels::contact::{body_damping, body_elastic, rod_friction, rod_spring_energy};
 
 /// Hair–hair penalty parameters of one strand.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -190,82 +155,6 @@ pub struct PartnerAnchor {
     /// predicted at the step's end (the slip now plus the relative velocity times the
     /// step), not against the slip now, which is shorter than one step's motion.
     pub step: f64,
-}
-
-/// The tangential spring of a Coulomb contact (bodies or rods): its force and stiffness
-/// matrix for the slip `slip` (in the plane of `tangent_plane`), stiffness `stiff`; while
-/// sticking `−stiff · slip`; beyond the static limit `limit`, or while `sliding`, the
-/// kinetic force `kinetic` along the slip, whose only stiffness is that of its turning.
-fn coulomb_spring(
-    tangent_plane: &Matrix3<f64>,
-    slip: &Vector3<f64>,
-    stiff: f64,
-    limit: f64,
-    kinetic: f64,
-    sliding: bool,
-) -> (Vector3<f64>, Matrix3<f64>) {
-    let norm = slip.norm();
-    if (sliding || stiff * norm > limit) && norm > 0.0 {
-        let dir = slip / norm;
-        (
-            -kinetic * dir,
-            (kinetic / norm) * (tangent_plane - dir * dir.transpose()),
-        )
-    } else {
-        (-stiff * slip, stiff * tangent_plane)
-    }
-}
-
-/// The friction between two rods at an anchored pair (Coulomb, `f`): the force on this
-/// strand, its stiffness matrix and its damping matrix, for the slip `slip` of the
-/// anchored point across the line of centres (`plane`), its velocity `rel` relative to
-/// what it is held to, the spring's stiffness `stiff` and the normal force `normal`.
-/// Sticking, the spring `−stiff · slip` (up to μ_s f_n). Sliding (over the last step, or
-/// beyond the static limit now), the kinetic force μ_k f_n against the slip predicted at
-/// the step's end, u = slip + h v_t: the slip now, within μ δ / ratio, is far shorter
-/// than a step's motion, and its direction would lag a step behind; its turning with the
-/// velocity goes in the damping, h (μ_k f_n / |u|) (P − ûûᵀ).
-fn rod_friction(
-    f: &RodFriction,
-    anchor: &PartnerAnchor,
-    plane: &Matrix3<f64>,
-    slip: &Vector3<f64>,
-    rel: &Vector3<f64>,
-    stiff: f64,
-    normal: f64,
-) -> (Vector3<f64>, Matrix3<f64>, Matrix3<f64>) {
-    let kinetic = f.kinetic_coefficient * normal;
-    let limit = f.static_coefficient * normal;
-    let slides = anchor.sliding || stiff * slip.norm() > limit;
-    let predicted = slip + plane * rel * anchor.step;
-    if slides && predicted.norm() > 0.0 {
-        let (spring, kt) = coulomb_spring(plane, &predicted, stiff, 0.0, kinetic, true);
-        (spring, Matrix3::zeros(), kt * anchor.step)
-    } else {
-        let (spring, kt) = coulomb_spring(plane, slip, stiff, limit, kinetic, false);
-        (spring, kt, Matrix3::zeros())
-    }
-}
-
-/// The energy of a rod friction spring (see [`rod_friction`]): `|f_t|² / (2 k_t)` of the
-/// force it holds at `slip`.
-fn rod_spring_energy(
-    f: &RodFriction,
-    anchor: &PartnerAnchor,
-    plane: &Matrix3<f64>,
-    slip: &Vector3<f64>,
-    stiff: f64,
-    normal: f64,
-) -> (f64, Vector3<f64>) {
-    let (spring, _) = coulomb_spring(
-        plane,
-        slip,
-        stiff,
-        f.static_coefficient * normal,
-        f.kinetic_coefficient * normal,
-        anchor.sliding,
-    );
-    (0.5 * spring.norm_squared() / stiff, spring)
 }
 
 /// Where a sticking contact point is held (Coulomb friction): a point of a body, in that
@@ -458,7 +347,7 @@ fn sample_points(geom: &StrandGeometry, per: usize, free_ends: [bool; 2]) -> Vec
 impl StrandContacts {
     /// The contacts of a strand of geometry `geom` with `bodies` (and other strands when
     /// `hair` is given), `per` samples per element; `free_ends` (root, tip): the ends
-    /// that take a sample where they are (see [`ContactConfig::end_samples`]).
+    /// that take a sample where they are (see [`super::ContactConfig::end_samples`]).
     pub fn new(
         geom: &StrandGeometry,
         bodies: Arc<[Body]>,
@@ -606,6 +495,15 @@ impl StrandContacts {
             .unwrap_or_else(HeadState::rest)
     }
 
+    /// Where body `b`'s coordinates are (bodies on their own motion as last placed).
+    fn mount(&self, b: usize) -> Mount {
+        match self.bodies[b].attached {
+            Attachment::Head => Mount::Head,
+            Attachment::World => Mount::World,
+            Attachment::Motion(_) => Mount::Frame(self.frame(b)),
+        }
+    }
+
     /// The body sample `k` at `y` presses into (its effective depth > 0), if any.
     fn touching(&self, head: &HeadState, k: usize, y: &Vector3<f64>) -> Option<BodyHit> {
         self.body_hit(head, k, y)
@@ -746,14 +644,7 @@ impl StrandContacts {
             if skip == Some(b) || only.is_some_and(|m| m != body.attached.is_motion()) {
                 continue;
             }
-            let local = match body.attached {
-                Attachment::Head => *y,
-                Attachment::World => head.position + head.rotation * y,
-                Attachment::Motion(_) => {
-                    let f = self.frame(b);
-                    f.rotation.transpose() * (head.position + head.rotation * y - f.position)
-                }
-            };
+            let local = self.mount(b).local(head, y);
             if body.shape.farther_than(&local, reach) {
                 continue;
             }
@@ -768,28 +659,9 @@ impl StrandContacts {
     /// Signed distance and outward normal (head coordinates) of body `b` at head-frame
     /// `y`, with the head in `head` (bodies on their own motion as last placed).
     fn body_query(&self, head: &HeadState, b: usize, y: &Vector3<f64>) -> BodyHit {
-        let body = &self.bodies[b];
-        let (distance, normal) = match body.attached {
-            Attachment::Head => {
-                let p = body.shape.query(y);
-                (p.distance, p.normal)
-            }
-            Attachment::World => {
-                let x = head.position + head.rotation * y;
-                let p = body.shape.query(&x);
-                (p.distance, head.rotation.transpose() * p.normal)
-            }
-            Attachment::Motion(_) => {
-                let f = self.frame(b);
-                let local =
-                    f.rotation.transpose() * (head.position + head.rotation * y - f.position);
-                let p = body.shape.query(&local);
-                (
-                    p.distance,
-                    head.rotation.transpose() * (f.rotation * p.normal),
-                )
-            }
-        };
+        let mount = self.mount(b);
+        let p = self.bodies[b].shape.query(&mount.local(head, y));
+        let (distance, normal) = (p.distance, mount.direction_to_head(head, &p.normal));
         BodyHit {
             body: b,
             distance,
@@ -799,30 +671,14 @@ impl StrandContacts {
 
     /// The velocity, head coordinates, of body `b`'s material point at head-frame `y`.
     fn body_velocity(&self, head: &HeadState, b: usize, y: &Vector3<f64>) -> Vector3<f64> {
-        match self.bodies[b].attached {
-            Attachment::Head => Vector3::zeros(),
-            Attachment::World => -(head.rotation.transpose() * head.velocity + head.omega.cross(y)),
-            Attachment::Motion(_) => {
-                let f = self.frame(b);
-                let z = f.rotation.transpose() * (head.position + head.rotation * y - f.position);
-                let world = f.velocity + f.rotation * f.omega.cross(&z);
-                head.rotation.transpose() * (world - head.velocity) - head.omega.cross(y)
-            }
-        }
+        self.mount(b).velocity(head, y)
     }
 
     /// The anchor of sample `k` in head coordinates when it is held to body `b`, and
     /// whether it slid over the last step.
     fn anchor_at(&self, head: &HeadState, k: usize, b: usize) -> Option<(Vector3<f64>, bool)> {
         let a = self.anchors[k].filter(|a| a.body == b)?;
-        let point = match self.bodies[b].attached {
-            Attachment::Head => a.point,
-            Attachment::World => head.rotation.transpose() * (a.point - head.position),
-            Attachment::Motion(_) => {
-                let f = self.frame(b);
-                head.rotation.transpose() * (f.position + f.rotation * a.point - head.position)
-            }
-        };
+        let point = self.mount(b).point_to_head(head, &a.point);
         Some((point, a.sliding))
     }
 
@@ -840,37 +696,10 @@ impl StrandContacts {
         y: &Vector3<f64>,
         t: &Vector3<f64>,
     ) -> (Vector3<f64>, Vector3<f64>, f64, Matrix3<f64>) {
-        let p = &self.params;
         let w = self.samples[k].1;
         let depth = self.effective_depth(k, hit);
-        let n = hit.normal;
-        let normal = p.stiffness * w * depth.clamp(0.0, p.max_depth) * n;
-        let kn = if depth < p.max_depth {
-            p.stiffness * w
-        } else {
-            0.0
-        };
-        let (mut spring, mut kt) = (Vector3::zeros(), Matrix3::zeros());
-        if let Friction::Coulomb {
-            static_coefficient,
-            kinetic_coefficient,
-            stiffness_ratio,
-        } = p.friction
-        {
-            if let Some((a, sliding)) = self.anchor_at(head, k, hit.body) {
-                let tangent_plane = Matrix3::identity() - n * n.transpose();
-                let slip = tangent_plane * (y - a);
-                let stiff = stiffness_ratio * p.stiffness * w;
-                let norm = slip.norm();
-                let cos = if norm > 0.0 { t.dot(&slip) / norm } else { 0.0 };
-                let scale = 1.0 + p.anisotropy * cos;
-                let limit = static_coefficient * scale * normal.norm();
-                let kinetic = kinetic_coefficient * scale * normal.norm();
-                (spring, kt) =
-                    coulomb_spring(&tangent_plane, &slip, stiff, limit, kinetic, sliding);
-            }
-        }
-        (normal, spring, kn, kt)
+        let anchor = self.anchor_at(head, k, hit.body);
+        body_elastic(&self.params, w, depth, &hit.normal, t, y, anchor)
     }
 
     /// Add the contact forces at (q, q̇) with the bodies placed at `at` to `out` (force, and the
@@ -909,32 +738,9 @@ impl StrandContacts {
             let hess = (terms.stiffness && curvature).then_some((elastic, &mut out.stiffness));
             kernel.point(q, s, jac, hess);
             let n = hit.normal;
-            let mut force = elastic;
-            let mut damping = Matrix3::zeros();
-            {
-                let vel = velocity(jac, v) - self.body_velocity(head, hit.body, &y);
-                let cn = self.params.damping * w;
-                force -= cn * n.dot(&vel) * n;
-                damping -= cn * n * n.transpose();
-                if let Friction::Viscous {
-                    coefficient,
-                    slip_speed,
-                } = self.params.friction
-                {
-                    let p = Matrix3::identity() - n * n.transpose();
-                    let slide = p * vel;
-                    let norm = slide.norm();
-                    let cos = if norm > 0.0 {
-                        t.dot(&slide) / norm
-                    } else {
-                        0.0
-                    };
-                    let ct = coefficient * (1.0 + self.params.anisotropy * cos) * normal.norm()
-                        / slip_speed;
-                    force -= ct * slide;
-                    damping -= ct * p;
-                }
-            }
+            let vel = velocity(jac, v) - self.body_velocity(head, hit.body, &y);
+            let (force, damping) =
+                body_damping(&self.params, w, &n, &t, normal.norm(), &vel, elastic);
             if terms.force {
                 add_force(jac, &force, &mut out.force);
             }
@@ -1013,8 +819,16 @@ impl StrandContacts {
                 let stiff = f.stiffness_ratio * hh.stiffness * w;
                 let va = rt * (anchor.velocity - head.velocity) - head.omega.cross(&target);
                 let rel = velocity(jac, v) - va;
-                let (spring, kt, turning) =
-                    rod_friction(&f, &anchor, &plane, &slip, &rel, stiff, normal);
+                let (spring, kt, turning) = rod_friction(
+                    &f,
+                    anchor.sliding,
+                    anchor.step,
+                    &plane,
+                    &slip,
+                    &rel,
+                    stiff,
+                    normal,
+                );
                 if terms.force {
                     add_force(jac, &spring, &mut out.force);
                 }
@@ -1113,8 +927,16 @@ impl StrandContacts {
             let slip = plane * (ya - yb - anchor.offset);
             let stiff = f.stiffness_ratio * hh.stiffness * w;
             let rel = velocity(&diff, v);
-            let (spring, kt, turning) =
-                rod_friction(&f, &anchor, &plane, &slip, &rel, stiff, normal);
+            let (spring, kt, turning) = rod_friction(
+                &f,
+                anchor.sliding,
+                anchor.step,
+                &plane,
+                &slip,
+                &rel,
+                stiff,
+                normal,
+            );
             if terms.force {
                 add_force(&diff, &spring, &mut out.force);
             }
@@ -1172,7 +994,7 @@ impl StrandContacts {
             let slip = plane * (ya - yb - anchor.offset);
             let stiff = f.stiffness_ratio * hh.stiffness * w;
             let normal = hh.stiffness * w * overlap;
-            potential += rod_spring_energy(&f, &anchor, &plane, &slip, stiff, normal).0;
+            potential += rod_spring_energy(&f, anchor.sliding, &plane, &slip, stiff, normal).0;
         }
         self.sweep = buf;
         potential
@@ -1246,7 +1068,8 @@ impl StrandContacts {
                 let slip = plane * (ya - target);
                 let stiff = f.stiffness_ratio * hh.stiffness * w;
                 let normal = hh.stiffness * w * overlap;
-                let (held, spring) = rod_spring_energy(&f, &anchor, &plane, &slip, stiff, normal);
+                let (held, spring) =
+                    rod_spring_energy(&f, anchor.sliding, &plane, &slip, stiff, normal);
                 potential += held;
                 let va = rt * (anchor.velocity - head.velocity) - head.omega.cross(&target);
                 rate += spring.dot(&(plane * va));
@@ -1913,14 +1736,7 @@ impl StrandContacts {
                 }
                 None => (y, false),
             };
-            let point = match self.bodies[hit.body].attached {
-                Attachment::Head => anchor,
-                Attachment::World => head.position + head.rotation * anchor,
-                Attachment::Motion(_) => {
-                    let f = self.frame(hit.body);
-                    f.rotation.transpose() * (head.position + head.rotation * anchor - f.position)
-                }
-            };
+            let point = self.mount(hit.body).local(head, &anchor);
             self.anchors[k] = Some(Anchor {
                 body: hit.body,
                 point,
@@ -1976,6 +1792,7 @@ mod pruning_tests {
     //! others are the sums over all), and the bound that lets
     //! [`StrandContacts::step_acceptable`] skip a partner never changes its verdict.
     use super::*;
+    use crate::forces::contacts::ContactConfig;
     use crate::model::material::Material;
 
     /// A small deterministic generator (xorshift), uniform in [−1, 1).
@@ -2013,7 +1830,7 @@ mod pruning_tests {
         let contacts = StrandContacts::new(
             &geom,
             Arc::<[Body]>::from(Vec::new()),
-            ContactParams::new(&config, 1e-5),
+            config.params(1e-5),
             Some(hair),
             3,
             [false, false],

@@ -1,0 +1,88 @@
+//! What a strand's contacts collide with, in the strand's own crate (no `std`, no
+//! allocation): the exact signed distances of the analytic shapes — [`Sphere`],
+//! [`Ellipsoid`], [`Capsule`], [`Cylinder`] and [`Plane`] — each answering a
+//! [`Proximity`] (signed distance, unit outward normal, closest surface point) for a
+//! point in the shape's own coordinates — and a signed distance sampled on a grid the
+//! caller owns ([`SdfGrid`] on a [`GridView`]: trilinear, extended beyond its box).
+//!
+//! [`Mount`] says where a collider's coordinates are (the head's frame, the world, a
+//! frame on its own motion) and turns points, normals and the collider's velocity into
+//! the head coordinates a strand's step works in; [`Collider`] is what anything that
+//! answers a signed distance implements.
+//!
+//! The runtime places them in a scene (attached to the head, fixed in the world or on
+//! their own motion) and adds the sampled signed distance of a triangle mesh beside them
+//! (`superhelix_runtime::bodies`).
+
+pub mod grid;
+pub mod mount;
+pub mod proximity;
+pub mod shape_capsule;
+pub mod shape_cylinder;
+pub mod shape_ellipsoid;
+pub mod shape_plane;
+pub mod shape_sphere;
+
+pub use grid::{GridView, SdfGrid};
+pub use mount::Mount;
+pub use proximity::Proximity;
+pub use shape_capsule::Capsule;
+pub use shape_cylinder::Cylinder;
+pub use shape_ellipsoid::Ellipsoid;
+pub use shape_plane::Plane;
+pub use shape_sphere::Sphere;
+
+/// Anything that answers a signed distance in its own coordinates: the analytic shapes,
+/// a signed-distance grid, the runtime's meshes.
+pub trait Collider {
+    /// Signed distance (negative inside), unit outward normal and closest surface point
+    /// of the point `y` of the collider's coordinates.
+    fn proximity(&self, y: &nalgebra::Vector3<f64>) -> Proximity;
+
+    /// Whether `y` is certainly farther than `r` outside the surface (a cheap test that
+    /// may answer false for some such points, never true for a nearer one). By default
+    /// false: every point is queried.
+    fn farther_than(&self, y: &nalgebra::Vector3<f64>, r: f64) -> bool {
+        let _ = (y, r);
+        false
+    }
+}
+
+impl Collider for Sphere {
+    fn proximity(&self, y: &nalgebra::Vector3<f64>) -> Proximity {
+        self.query(y)
+    }
+}
+
+impl Collider for Ellipsoid {
+    fn proximity(&self, y: &nalgebra::Vector3<f64>) -> Proximity {
+        self.query(y)
+    }
+    fn farther_than(&self, y: &nalgebra::Vector3<f64>, r: f64) -> bool {
+        Ellipsoid::farther_than(self, y, r)
+    }
+}
+
+impl Collider for Capsule {
+    fn proximity(&self, y: &nalgebra::Vector3<f64>) -> Proximity {
+        self.query(y)
+    }
+}
+
+impl Collider for Cylinder {
+    fn proximity(&self, y: &nalgebra::Vector3<f64>) -> Proximity {
+        self.query(y)
+    }
+}
+
+impl Collider for Plane {
+    fn proximity(&self, y: &nalgebra::Vector3<f64>) -> Proximity {
+        self.query(y)
+    }
+}
+
+impl Collider for SdfGrid<'_> {
+    fn proximity(&self, y: &nalgebra::Vector3<f64>) -> Proximity {
+        self.query(y)
+    }
+}
