@@ -17,10 +17,13 @@
 //! ```
 //!
 //! v is the point's velocity relative to the collider ([`crate::collider::Mount`]).
+//! Where the samples are along the strand, and what each weighs: [`samples`].
 
 pub mod law;
+pub mod samples;
 
 pub use law::{
-    body_damping, body_elastic, body_sample, coulomb_spring, rod_friction, rod_spring_energy,
-    ContactParams, Friction, RodFriction, SampleLaw,
+    anchor_after_step, body_damping, body_elastic, body_potential, body_sample, coulomb_spring,
+    rod_friction, rod_spring_energy, ContactParams, Friction, RodFriction, SampleLaw,
 };
+pub use samples::sample_points;

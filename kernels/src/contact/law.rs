@@ -284,6 +284,77 @@ pub fn body_sample(
     }
 }
 
+/// The energy a body contact stores, as its two parts: the penalty's `∫ f_n dδ` (k w δ²/2
+/// up to δ_max, linear beyond, where the force no longer grows) and the Coulomb spring's
+/// `|f_t|² / (2 k_t)` of the spring force `spring` (0 without Coulomb friction), for a
+/// sample of weight `w` at effective depth `depth`.
+pub fn body_potential(p: &ContactParams, w: f64, depth: f64, spring: &V3) -> (f64, f64) {
+    let kw = p.stiffness * w;
+    let penalty = if depth <= p.max_depth {
+        0.5 * kw * depth * depth
+    } else {
+        kw * p.max_depth * (depth - 0.5 * p.max_depth)
+    };
+    let held = match p.friction {
+        Friction::Coulomb {
+            stiffness_ratio, ..
+        } => 0.5 * spring.norm_squared() / (stiffness_ratio * kw),
+        _ => 0.0,
+    };
+    (penalty, held)
+}
+
+/// Where a touching sample is held after an accepted step (Coulomb friction; `None`
+/// under another friction model): at its anchor `previous` (head coordinates, and whether
+/// it slid over the step before) while the spring's stretch stays within the static limit
+/// (the kinetic one once it slides), else dragged behind the sample so that the spring
+/// holds the kinetic force; a new contact is held where it is. For a sample of weight
+/// `w` at effective depth `depth` (> 0) under the normal `n`, tangent `t`, at `y`.
+#[allow(clippy::too_many_arguments)]
+pub fn anchor_after_step(
+    p: &ContactParams,
+    w: f64,
+    depth: f64,
+    n: &V3,
+    t: &V3,
+    y: &V3,
+    previous: Option<(V3, bool)>,
+) -> Option<(V3, bool)> {
+    let Friction::Coulomb {
+        static_coefficient,
+        kinetic_coefficient,
+        stiffness_ratio,
+    } = p.friction
+    else {
+        return None;
+    };
+    let fn_ = p.stiffness * w * depth.min(p.max_depth);
+    let stiff = stiffness_ratio * p.stiffness * w;
+    Some(match previous {
+        Some((a, was_sliding)) => {
+            let slip = (y - a) - n * n.dot(&(y - a));
+            let norm = slip.norm();
+            let cos = if norm > 0.0 { t.dot(&slip) / norm } else { 0.0 };
+            let scale = 1.0 + p.anisotropy * cos;
+            // the stretch the kinetic force holds, and the static limit's
+            let keep = kinetic_coefficient * scale * fn_ / stiff;
+            let limit = static_coefficient * scale * fn_ / stiff;
+            let slides = if was_sliding {
+                norm > keep
+            } else {
+                norm > limit
+            };
+            if slides && norm > 0.0 {
+                // slide: the anchor is dragged behind, the spring holds the kinetic force
+                (y - slip * (keep / norm), true)
+            } else {
+                (a, false)
+            }
+        }
+        None => (*y, false),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -421,5 +492,71 @@ mod tests {
         let fn_ = law.normal.norm();
         assert!((law.spring.norm() - 0.3 * fn_).abs() <= 1e-15 * fn_);
         assert!(law.spring.dot(&y) < 0.0, "against the slip");
+    }
+
+    /// The penalty's energy is the integral of its force: its derivative in the depth
+    /// (central differences) is |f_n| below and beyond δ_max; the spring's energy is
+    /// |f_t|²/(2 k_t).
+    #[test]
+    fn the_stored_energy_is_the_integral_of_the_force() {
+        let p = params(Friction::Coulomb {
+            static_coefficient: 0.4,
+            kinetic_coefficient: 0.3,
+            stiffness_ratio: 0.5,
+        });
+        let (n, t, w) = (V3::z(), V3::x(), 2e-3);
+        for depth in [0.3e-3, 0.9e-3, 1.7e-3] {
+            let h = 1e-9;
+            let energy = |d: f64| body_potential(&p, w, d, &V3::zeros()).0;
+            let rate = (energy(depth + h) - energy(depth - h)) / (2.0 * h);
+            let force = body_sample(&p, w, depth, &n, &t, &V3::zeros(), None, &V3::zeros());
+            assert!((rate - force.normal.norm()).abs() <= 1e-6 * force.normal.norm());
+        }
+        let spring = V3::new(3e-6, -1e-6, 0.0);
+        let kt = 0.5 * p.stiffness * w;
+        let held = body_potential(&p, w, 0.5e-3, &spring).1;
+        assert!((held - spring.norm_squared() / (2.0 * kt)).abs() <= 1e-15 * held);
+        assert_eq!(
+            body_potential(&params(Friction::None), w, 0.5e-3, &spring).1,
+            0.0
+        );
+    }
+
+    /// A new contact is held where it is; an anchor within the static limit stays; one
+    /// beyond it is dragged behind the sample until the spring holds exactly the kinetic
+    /// force μ_k f_n (and is then sliding); without Coulomb friction there is no anchor.
+    #[test]
+    fn anchors_stay_within_the_static_limit_and_are_dragged_beyond_it() {
+        let coulomb = Friction::Coulomb {
+            static_coefficient: 0.4,
+            kinetic_coefficient: 0.3,
+            stiffness_ratio: 0.5,
+        };
+        let p = params(coulomb);
+        let (n, t, w, depth) = (V3::z(), V3::x(), 2e-3, 0.5e-3);
+        let y = V3::new(0.01, 0.02, -0.0005);
+        assert_eq!(
+            anchor_after_step(&p, w, depth, &n, &t, &y, None),
+            Some((y, false))
+        );
+        assert_eq!(
+            anchor_after_step(&params(Friction::None), w, depth, &n, &t, &y, None),
+            None
+        );
+        let (fn_, kt) = (p.stiffness * w * depth, 0.5 * p.stiffness * w);
+        let static_stretch = 0.4 * fn_ / kt;
+        // within the limit (and off the plane by a normal offset, which does not count)
+        let near = y - V3::new(0.5 * static_stretch, 0.0, 1e-4);
+        assert_eq!(
+            anchor_after_step(&p, w, depth, &n, &t, &y, Some((near, false))),
+            Some((near, false))
+        );
+        let far = y - V3::new(0.0, 2.0 * static_stretch, 0.0);
+        let (a, sliding) =
+            anchor_after_step(&p, w, depth, &n, &t, &y, Some((far, false))).expect("Coulomb");
+        assert!(sliding);
+        let stretch = (y - a) - n * n.dot(&(y - a));
+        assert!((kt * stretch.norm() - 0.3 * fn_).abs() <= 1e-12 * fn_);
+        assert!(stretch.normalize().dot(&(y - far).normalize()) > 1.0 - 1e-12);
     }
 }

@@ -43,7 +43,9 @@ use nalgebra::{Matrix3, Vector3};
 use std::sync::Arc;
 use superhelix_kernels::collider::Mount;
 pub use superhelix_kernels::contact::ContactParams;
-use superhelix_kernels::contact::{body_damping, body_elastic, rod_friction, rod_spring_energy};
+use superhelix_kernels::contact::{
+    anchor_after_step, body_damping, body_elastic, body_potential, rod_friction, rod_spring_energy,
+};
 
 /// Hair–hair penalty parameters of one strand.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -290,57 +292,18 @@ impl StrandContacts {
     }
 }
 
-/// Sample arc lengths and weights: `per` points per element at the centres of equal
-/// parts (the midpoint rule), except, where `free_ends` (root, tip) asks, on the outer
-/// part at that end, which takes the two-point Gauss–Radau rule that includes the end:
-/// the end itself with a quarter of the part's weight and a point two thirds of the part
-/// in with three quarters (exact to degree 2 like the midpoint rule; a strand of one part
-/// with both takes Simpson's rule). The end then touches a body or another part where it
-/// is: at the midpoints alone, a rope landing end-first stood on its tip 1 mm inside the
-/// floor, held by a sample half a part up.
-///
-/// A pinned or free root's joint (an element of [`ROOT_JOINT_FRACTION`] of the length,
-/// [`crate::model::ends`]) takes no sample: samples there would weigh nothing, and the
-/// root's own end sample is that of the first element of the strand's own (on the
-/// joint, a free rod's root went 1.3 mm into a floor that nothing held it out of).
+/// The contact samples of a strand of geometry `geom`: arc lengths and weights by
+/// [`superhelix_kernels::contact::sample_points`], the root's joint of
+/// [`ROOT_JOINT_FRACTION`] of the length left without samples.
 fn sample_points(geom: &StrandGeometry, per: usize, free_ends: [bool; 2]) -> Vec<(f64, f64)> {
     let mut out = Vec::with_capacity(geom.lengths.len() * per + 2);
-    let mut start = 0.0;
-    let last = geom.lengths.len().saturating_sub(1);
-    let sliver = 2.0 * ROOT_JOINT_FRACTION * geom.lengths.iter().sum::<f64>();
-    // the first element of the strand's own (after a root joint)
-    let own = geom.lengths.iter().position(|&l| l > sliver).unwrap_or(0);
-    for (e, &l) in geom.lengths.iter().enumerate() {
-        if e < own {
-            start += l;
-            continue;
-        }
-        let w = l / per as f64;
-        for j in 0..per {
-            let first = e == own && j == 0 && free_ends[0];
-            let end = e == last && j + 1 == per && free_ends[1];
-            let a = start + w * j as f64;
-            match (first, end) {
-                (true, true) => {
-                    out.push((a, w / 6.0));
-                    out.push((a + 0.5 * w, 4.0 * w / 6.0));
-                    out.push((a + w, w / 6.0));
-                }
-                (true, false) => {
-                    out.push((a, 0.25 * w));
-                    out.push((a + 2.0 * w / 3.0, 0.75 * w));
-                }
-                (false, true) => {
-                    out.push((a + w / 3.0, 0.75 * w));
-                    out.push((a + w, 0.25 * w));
-                }
-                // (as written: a case of the stress matrix at its edge moves with the
-                // last bit of a sample's arc length)
-                _ => out.push((start + l * (j as f64 + 0.5) / per as f64, l / per as f64)),
-            }
-        }
-        start += l;
-    }
+    superhelix_kernels::contact::sample_points(
+        &geom.lengths,
+        per,
+        free_ends,
+        ROOT_JOINT_FRACTION,
+        |s, w| out.push((s, w)),
+    );
     out
 }
 
@@ -1017,19 +980,10 @@ impl StrandContacts {
             };
             let w = self.samples[k].1;
             let depth = self.effective_depth(k, &hit);
-            let kw = p.stiffness * w;
-            potential += if depth <= p.max_depth {
-                0.5 * kw * depth * depth
-            } else {
-                kw * p.max_depth * (depth - 0.5 * p.max_depth)
-            };
             let (normal, spring, _, _) = self.elastic(head, k, &hit, &y, &t);
-            if let Friction::Coulomb {
-                stiffness_ratio, ..
-            } = p.friction
-            {
-                potential += 0.5 * spring.norm_squared() / (stiffness_ratio * kw);
-            }
+            let (penalty, held) = body_potential(&p, w, depth, &spring);
+            potential += penalty;
+            potential += held;
             let u = self.body_velocity(head, hit.body, &y);
             rate += (normal + spring).dot(&u);
         }
@@ -1692,14 +1646,9 @@ impl StrandContacts {
     /// Stick new contact points where they are, drag sliding anchors to the friction
     /// cone's edge, release the points that left their body (Coulomb friction only).
     fn update_anchors(&mut self, head: &HeadState, geom: &StrandGeometry, q: &[f64]) {
-        let Friction::Coulomb {
-            static_coefficient,
-            kinetic_coefficient,
-            stiffness_ratio,
-        } = self.params.friction
-        else {
+        if !matches!(self.params.friction, Friction::Coulomb { .. }) {
             return;
-        };
+        }
         self.sample_poses(geom, q);
         for k in 0..self.samples.len() {
             let (y, t) = self.poses[k];
@@ -1707,34 +1656,14 @@ impl StrandContacts {
                 self.anchors[k] = None;
                 continue;
             };
-            let n = hit.normal;
             let w = self.samples[k].1;
             let depth = self.effective_depth(k, &hit);
-            let fn_ = self.params.stiffness * w * depth.min(self.params.max_depth);
-            let stiff = stiffness_ratio * self.params.stiffness * w;
-            let (anchor, sliding) = match self.anchor_at(head, k, hit.body) {
-                Some((a, was_sliding)) => {
-                    let slip = (y - a) - n * n.dot(&(y - a));
-                    let norm = slip.norm();
-                    let cos = if norm > 0.0 { t.dot(&slip) / norm } else { 0.0 };
-                    let scale = 1.0 + self.params.anisotropy * cos;
-                    // the stretch the kinetic force holds, and the static limit's
-                    let keep = kinetic_coefficient * scale * fn_ / stiff;
-                    let limit = static_coefficient * scale * fn_ / stiff;
-                    let slides = if was_sliding {
-                        norm > keep
-                    } else {
-                        norm > limit
-                    };
-                    if slides && norm > 0.0 {
-                        // slide: the anchor is dragged behind, the spring holds the
-                        // kinetic force
-                        (y - slip * (keep / norm), true)
-                    } else {
-                        (a, false)
-                    }
-                }
-                None => (y, false),
+            let previous = self.anchor_at(head, k, hit.body);
+            let Some((anchor, sliding)) =
+                anchor_after_step(&self.params, w, depth, &hit.normal, &t, &y, previous)
+            else {
+                self.anchors[k] = None;
+                continue;
             };
             let point = self.mount(hit.body).local(head, &anchor);
             self.anchors[k] = Some(Anchor {
