@@ -8,7 +8,9 @@
 //! [`Mount`] says where a collider's coordinates are (the head's frame, the world, a
 //! frame on its own motion) and turns points, normals and the collider's velocity into
 //! the head coordinates a strand's step works in; [`Collider`] is what anything that
-//! answers a signed distance implements.
+//! answers a signed distance implements (a closure `Fn(&Vector3<f64>) -> Proximity`
+//! among them, the form a callback takes); [`PoseOverStep`] gives a frame's state within
+//! a step from its poses at the step's two ends, as an engine hands them.
 //!
 //! The runtime places them in a scene (attached to the head, fixed in the world or on
 //! their own motion) and adds the sampled signed distance of a triangle mesh beside them
@@ -16,6 +18,7 @@
 
 pub mod grid;
 pub mod mount;
+pub mod pose_over_step;
 pub mod proximity;
 pub mod shape_capsule;
 pub mod shape_cylinder;
@@ -25,6 +28,7 @@ pub mod shape_sphere;
 
 pub use grid::{GridView, SdfGrid};
 pub use mount::Mount;
+pub use pose_over_step::PoseOverStep;
 pub use proximity::Proximity;
 pub use shape_capsule::Capsule;
 pub use shape_cylinder::Cylinder;
@@ -84,5 +88,38 @@ impl Collider for Plane {
 impl Collider for SdfGrid<'_> {
     fn proximity(&self, y: &nalgebra::Vector3<f64>) -> Proximity {
         self.query(y)
+    }
+}
+
+/// A callback as a collider: `f(y)` answers for the point y of its coordinates.
+impl<F: Fn(&nalgebra::Vector3<f64>) -> Proximity> Collider for F {
+    fn proximity(&self, y: &nalgebra::Vector3<f64>) -> Proximity {
+        self(y)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+
+    /// Anything answering a signed distance is queried alike through the trait: a ball,
+    /// and a callback answering for the same ball.
+    #[test]
+    fn shapes_and_callbacks_answer_through_one_trait() {
+        let ball = Sphere {
+            center: Vector3::new(0.0, 0.0, 0.1),
+            radius: 0.08,
+        };
+        let callback = |y: &Vector3<f64>| ball.query(y);
+        let colliders: [&dyn Collider; 2] = [&ball, &callback];
+        let y = Vector3::new(0.03, -0.02, 0.2);
+        let answers = colliders.map(|c| c.proximity(&y));
+        assert_eq!(answers[0], answers[1]);
+        assert!((answers[0].distance - ((y - ball.center).norm() - ball.radius)).abs() < 1e-16);
+        assert!(
+            !colliders[1].farther_than(&y, 1.0),
+            "a callback is always queried"
+        );
     }
 }
