@@ -11,14 +11,12 @@
 use crate::kernels::kernel::{EvalInput, StrandKernel, StrandTerms};
 use crate::kernels::moments::jacobians::VelocityRow;
 use crate::kernels::moments::rotary::RotaryElement;
-use crate::kernels::moments::{
-    end_derivatives_from, ElementMoments, EndDerivatives, FrameMotion, SuffixBody,
-};
-use crate::model::element::ElementPoint;
-use crate::model::reconstruction::{darboux, Pose};
+use crate::kernels::moments::{ElementMoments, EndDerivatives, FrameMotion, SuffixBody};
+use crate::model::reconstruction::Pose;
 use crate::model::strand::StrandGeometry;
 use faer::Mat;
 use nalgebra::{Matrix3, Vector3};
+use superhelix_kernels::strand_point;
 pub use superhelix_kernels::strand_terms::MomentSource;
 use superhelix_kernels::strand_terms::{
     self, evaluate_terms, MomentBuffers, StrandShape, TermMatrix, TermVectors,
@@ -287,83 +285,41 @@ pub(crate) fn point_from_source<S: MomentSource + ?Sized>(
     jac: &mut [Vector3<f64>],
     hessian: Option<(Vector3<f64>, &mut Mat<f64>)>,
 ) -> Vector3<f64> {
-    let (e, u) = geom.locate(s);
-    // ends and end derivatives of the elements up to e (those the chain holds for this q
-    // are kept)
-    let first = match chain {
-        Some(c) => {
-            let first = if c.q == q {
-                c.valid.min(e)
-            } else {
-                c.q.copy_from_slice(q);
-                c.valid = 0;
-                0
-            };
-            c.valid = c.valid.max(e);
-            first
-        }
-        None => 0,
-    };
-    ends[0] = Pose {
+    let root = Pose {
         position: geom.root_position,
         frame: geom.root_frame,
     };
-    let mut pt = ElementPoint::default();
-    for p in first..e {
-        let d = darboux(q, p);
-        source.point(&d, geom.lengths[p], &mut pt);
-        let start = ends[p];
-        ends[p + 1] = Pose {
-            position: start.position + start.frame * pt.p,
-            frame: start.frame * pt.frame,
-        };
-        end_derivs[p] = end_derivatives_from(&start.frame, &pt);
-    }
-    source.point(&darboux(q, e), u, &mut pt);
-    let f = ends[e].frame;
-    let y = ends[e].position + f * pt.p;
-    for col in jac.iter_mut() {
-        *col = Vector3::zeros();
-    }
-    for qe in 0..e {
-        let ed = &end_derivs[qe];
-        let rho = y - ends[qe + 1].position;
-        for i in 0..3 {
-            jac[3 * qe + i] = ed.dp[i] + ed.dtheta[i].cross(&rho);
+    let chain = chain.map(|c| strand_point::PointChain {
+        q: &mut c.q,
+        valid: &mut c.valid,
+    });
+    match hessian {
+        Some((c, h)) => {
+            let mut add = |k: usize, l: usize, v: f64| h[(k, l)] += v;
+            strand_point::strand_point(
+                source,
+                &root,
+                &geom.lengths,
+                ends,
+                end_derivs,
+                chain,
+                q,
+                s,
+                jac,
+                Some((c, &mut add)),
+            )
         }
+        None => strand_point::strand_point(
+            source,
+            &root,
+            &geom.lengths,
+            ends,
+            end_derivs,
+            chain,
+            q,
+            s,
+            jac,
+            strand_point::NO_HESSIAN,
+        ),
     }
-    for i in 0..3 {
-        jac[3 * e + i] = f * pt.dp[i];
-    }
-    if let Some((c, h)) = hessian {
-        // k upstream of l (different elements): c·(dθ_k × J_l)
-        for l in 3..3 * (e + 1) {
-            for k in 0..3 * (l / 3) {
-                let val = c.cross(&end_derivs[k / 3].dtheta[k % 3]).dot(&jac[l]);
-                h[(k, l)] += val;
-                h[(l, k)] += val;
-            }
-        }
-        // pairs within an element upstream of e
-        for qe in 0..e {
-            let ed = &end_derivs[qe];
-            let rho = y - ends[qe + 1].position;
-            for i in 0..3 {
-                for j in 0..3 {
-                    let d2 = ed.d2p[i][j]
-                        + ed.dw[i][j].cross(&rho)
-                        + ed.dtheta[i].cross(&ed.dtheta[j].cross(&rho));
-                    h[(3 * qe + i, 3 * qe + j)] += c.dot(&d2);
-                }
-            }
-        }
-        // pairs within element e
-        let cf = f.transpose() * c;
-        for i in 0..3 {
-            for j in 0..3 {
-                h[(3 * e + i, 3 * e + j)] += cf.dot(&pt.d2p[i][j]);
-            }
-        }
-    }
-    y
 }
