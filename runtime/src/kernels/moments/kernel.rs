@@ -293,33 +293,26 @@ pub(crate) fn point_from_source<S: MomentSource + ?Sized>(
         q: &mut c.q,
         valid: &mut c.valid,
     });
-    match hessian {
-        Some((c, h)) => {
-            let mut add = |k: usize, l: usize, v: f64| h[(k, l)] += v;
-            strand_point::strand_point(
-                source,
-                &root,
-                &geom.lengths,
-                ends,
-                end_derivs,
-                chain,
-                q,
-                s,
-                jac,
-                Some((c, &mut add)),
-            )
+    let (c, mut h) = match hessian {
+        Some((c, h)) => (c, Some(h)),
+        None => (Vector3::zeros(), None),
+    };
+    let asked = h.is_some();
+    let mut add = |k: usize, l: usize, v: f64| {
+        if let Some(h) = h.as_deref_mut() {
+            h[(k, l)] += v;
         }
-        None => strand_point::strand_point(
-            source,
-            &root,
-            &geom.lengths,
-            ends,
-            end_derivs,
-            chain,
-            q,
-            s,
-            jac,
-            strand_point::NO_HESSIAN,
-        ),
-    }
+    };
+    strand_point::strand_point(
+        source,
+        &root,
+        &geom.lengths,
+        ends,
+        end_derivs,
+        chain,
+        q,
+        s,
+        jac,
+        asked.then_some((c, &mut add)),
+    )
 }
