@@ -17,13 +17,16 @@
 //! ```
 //!
 //! v is the point's velocity relative to the collider ([`crate::collider::Mount`]).
-//! Where the samples are along the strand, and what each weighs: [`samples`].
+//! Where the samples are along the strand, and what each weighs: [`samples`]; a strand's
+//! samples against its colliders, on the caller's storage: [`body`].
 
+pub mod body;
 pub mod law;
 pub mod samples;
 
+pub use body::{Anchor, BodyContacts, BodyHit, BodySummary, ColliderSet, ContactSink, TermsAsked};
 pub use law::{
     anchor_after_step, body_damping, body_elastic, body_potential, body_sample, coulomb_spring,
     rod_friction, rod_spring_energy, ContactParams, Friction, RodFriction, SampleLaw,
 };
-pub use samples::sample_points;
+pub use samples::{sample_points, sample_poses};

@@ -141,14 +141,14 @@ pub fn strand_point<S: MomentSource + ?Sized, F: FnMut(usize, usize, f64)>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::moments::ElementMoments;
     use std::vec;
     use std::vec::Vec;
 
     /// The element points by jets; the moments by quadrature (not read here).
-    struct Jets;
+    pub(crate) struct Jets;
     impl MomentSource for Jets {
         fn moments(&self, d: &Vector3<f64>, l: f64, rotary: &[f64; 3], out: &mut ElementMoments) {
             *out = ElementMoments::by_quadrature(d, l, rotary, 8);

@@ -1,5 +1,10 @@
 //! Where a strand's contacts are sampled along it: arc lengths and the weights (the arc
-//! length each sample stands for) of a quadrature of the contact forces over the strand.
+//! length each sample stands for) of a quadrature of the contact forces over the strand;
+//! their poses at a state.
+
+use crate::element::local_pose;
+use crate::pose::{darboux, Pose};
+use nalgebra::Vector3;
 
 /// Sample arc lengths and weights: `per` points per element at the centres of equal
 /// parts (the midpoint rule), except, where `free_ends` (root, tip) asks, on the outer
@@ -58,6 +63,73 @@ pub fn sample_points(
             }
         }
         start += l;
+    }
+}
+
+/// The positions y(s) at the arc lengths `arcs` (increasing; each clamped to the
+/// strand) of a strand rooted at `root` with element lengths `lengths` at q, head
+/// coordinates, handed to `visit(s, y)` in one pass along the strand (an element's end
+/// pose once, one local pose per point).
+pub fn positions_along(
+    root: &Pose,
+    lengths: &[f64],
+    q: &[f64],
+    arcs: impl IntoIterator<Item = f64>,
+    mut visit: impl FnMut(f64, Vector3<f64>),
+) {
+    let n = lengths.len();
+    if n == 0 {
+        return;
+    }
+    let mut start = *root;
+    let (mut element, mut s0) = (0, 0.0);
+    let mut d = darboux(q, 0);
+    for s in arcs {
+        while element + 1 < n && s > s0 + lengths[element] {
+            let (e, p) = local_pose(&d, lengths[element]);
+            start = Pose {
+                position: start.position + start.frame * p,
+                frame: start.frame * e,
+            };
+            s0 += lengths[element];
+            element += 1;
+            d = darboux(q, element);
+        }
+        let u = (s - s0).clamp(0.0, lengths[element]);
+        let (_, p) = local_pose(&d, u);
+        visit(s, start.position + start.frame * p);
+    }
+}
+
+/// Positions y(s_k) and unit tangents of the samples at arc lengths `samples` (in
+/// increasing order, first entries of the pairs) of a strand rooted at `root` with element
+/// lengths `lengths` at q, head coordinates, into `poses` (as many as the samples): one
+/// pass along the strand, an element's end pose once and one local pose per sample.
+pub fn sample_poses(
+    root: &Pose,
+    lengths: &[f64],
+    q: &[f64],
+    samples: &[(f64, f64)],
+    poses: &mut [(Vector3<f64>, Vector3<f64>)],
+) {
+    let mut start = *root;
+    let mut k = 0;
+    let mut s0 = 0.0;
+    let n = samples.len().min(poses.len());
+    for (e, &l) in lengths.iter().enumerate() {
+        let d = darboux(q, e);
+        while k < n && (samples[k].0 <= s0 + l || e + 1 == lengths.len()) {
+            let (f, p) = local_pose(&d, samples[k].0 - s0);
+            let frame = start.frame * f;
+            poses[k] = (start.position + start.frame * p, frame.column(0).into());
+            k += 1;
+        }
+        let (f, p) = local_pose(&d, l);
+        start = Pose {
+            position: start.position + start.frame * p,
+            frame: start.frame * f,
+        };
+        s0 += l;
     }
 }
 

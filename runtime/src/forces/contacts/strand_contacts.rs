@@ -34,18 +34,20 @@ use super::predicted::{Candidate, PredictedContacts};
 use crate::bodies::{Attachment, Body, Placement};
 use crate::forces::head_motion::HeadState;
 use crate::kernels::kernel::{StrandKernel, StrandTerms, Terms};
-use crate::model::element::local_pose;
 use crate::model::ends::ROOT_JOINT_FRACTION;
-use crate::model::reconstruction::{darboux, positions_at_sorted, Pose};
+use crate::model::reconstruction::positions_at_sorted;
 use crate::model::strand::StrandGeometry;
 use faer::Mat;
 use nalgebra::{Matrix3, Vector3};
 use std::sync::Arc;
 use superhelix_kernels::collider::Mount;
-pub use superhelix_kernels::contact::ContactParams;
-use superhelix_kernels::contact::{
-    anchor_after_step, body_damping, body_elastic, body_potential, rod_friction, rod_spring_energy,
+use superhelix_kernels::collider::Proximity;
+use superhelix_kernels::contact::body::{
+    self, add_generalized_force, point_velocity, Anchor, BodyContacts, BodyHit, ColliderSet,
+    ContactSink, TermsAsked,
 };
+pub use superhelix_kernels::contact::ContactParams;
+use superhelix_kernels::contact::{rod_friction, rod_spring_energy};
 
 /// Hair–hair penalty parameters of one strand.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -159,16 +161,33 @@ pub struct PartnerAnchor {
     pub step: f64,
 }
 
-/// Where a sticking contact point is held (Coulomb friction): a point of a body, in that
-/// body's coordinates (head coordinates for a body on the head, its own for a body on its
-/// own motion, world otherwise).
+/// A Coulomb anchor as a checkpoint keeps it ([`Anchor`]: a point of a body in that
+/// body's coordinates, and whether it slid over the last step).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-struct Anchor {
+struct SavedAnchor {
     body: usize,
     point: Vector3<f64>,
-    /// The point slid over the last step: the spring holds the kinetic force and has no
-    /// stiffness along the sliding direction.
     sliding: bool,
+}
+
+impl From<Anchor> for SavedAnchor {
+    fn from(a: Anchor) -> Self {
+        SavedAnchor {
+            body: a.body,
+            point: a.point,
+            sliding: a.sliding,
+        }
+    }
+}
+
+impl From<SavedAnchor> for Anchor {
+    fn from(a: SavedAnchor) -> Self {
+        Anchor {
+            body: a.body,
+            point: a.point,
+            sliding: a.sliding,
+        }
+    }
 }
 
 /// What the last evaluation found, for diagnostics and tests.
@@ -185,16 +204,7 @@ pub struct ContactSummary {
     pub normal_force: f64,
 }
 
-/// One sample's contact with a body at the current state.
-#[derive(Debug, Clone, Copy)]
-struct BodyHit {
-    body: usize,
-    distance: f64,
-    normal: Vector3<f64>,
-}
-
-/// Arc-length spacing of the dense sweep of [`StrandContacts::deepest_inside`], m.
-pub const SWEEP_SPACING: f64 = 5e-4;
+pub use superhelix_kernels::contact::body::SWEEP_SPACING;
 
 /// The contacts of one strand (see the module page).
 pub struct StrandContacts {
@@ -254,7 +264,7 @@ pub struct StrandContacts {
 /// cache of a pure function of the time or of q (the bodies' frames, the sample poses).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StrandContactsState {
-    anchors: Vec<Option<Anchor>>,
+    anchors: Vec<Option<SavedAnchor>>,
     allowance: Vec<f64>,
     root_zone: (usize, usize),
     summary: ContactSummary,
@@ -265,7 +275,11 @@ impl StrandContacts {
     /// What the next step needs (see [`StrandContactsState`]).
     pub fn state(&self) -> StrandContactsState {
         StrandContactsState {
-            anchors: self.anchors.clone(),
+            anchors: self
+                .anchors
+                .iter()
+                .map(|a| a.map(SavedAnchor::from))
+                .collect(),
             allowance: self.allowance.clone(),
             root_zone: self.root_zone,
             summary: self.summary,
@@ -282,7 +296,11 @@ impl StrandContacts {
                 state.anchors.len()
             ));
         }
-        self.anchors = state.anchors;
+        self.anchors = state
+            .anchors
+            .into_iter()
+            .map(|a| a.map(Anchor::from))
+            .collect();
         self.allowance = state.allowance;
         self.root_zone = state.root_zone;
         self.summary = state.summary;
@@ -449,36 +467,6 @@ impl StrandContacts {
         self.placed = Some((at.time, at.at_rest));
     }
 
-    /// The frame of body `b` on its own motion (placed by [`Self::place`]).
-    fn frame(&self, b: usize) -> HeadState {
-        self.frames
-            .get(b)
-            .copied()
-            .flatten()
-            .unwrap_or_else(HeadState::rest)
-    }
-
-    /// Where body `b`'s coordinates are (bodies on their own motion as last placed).
-    fn mount(&self, b: usize) -> Mount {
-        match self.bodies[b].attached {
-            Attachment::Head => Mount::Head,
-            Attachment::World => Mount::World,
-            Attachment::Motion(_) => Mount::Frame(self.frame(b)),
-        }
-    }
-
-    /// The body sample `k` at `y` presses into (its effective depth > 0), if any.
-    fn touching(&self, head: &HeadState, k: usize, y: &Vector3<f64>) -> Option<BodyHit> {
-        self.body_hit(head, k, y)
-            .filter(|h| self.effective_depth(k, h) > 0.0)
-    }
-
-    /// The depth of sample `k` in `hit` that the penalty acts on: the depth less the
-    /// sample's allowance, m (≤ 0: no force).
-    fn effective_depth(&self, k: usize, hit: &BodyHit) -> f64 {
-        self.params.radius - hit.distance - self.allowance[k]
-    }
-
     /// The partners the samples' poses (head in `head`) do not rule out, into `near`
     /// (indices, in arc-length order): a partner is ruled out when the centreline at its
     /// arc length s is certainly farther than its reach from its point, judged from the
@@ -537,33 +525,47 @@ impl StrandContacts {
         }
         self.posed.clear();
         self.posed.extend_from_slice(q);
-        let mut start = geom.root_pose(q);
-        let mut k = 0;
-        let mut s0 = 0.0;
-        for (e, &l) in geom.lengths.iter().enumerate() {
-            let d = darboux(q, e);
-            while k < self.samples.len()
-                && (self.samples[k].0 <= s0 + l || e + 1 == geom.lengths.len())
-            {
-                let (f, p) = local_pose(&d, self.samples[k].0 - s0);
-                let frame = start.frame * f;
-                self.poses[k] = (start.position + start.frame * p, frame.column(0).into());
-                k += 1;
-            }
-            let (f, p) = local_pose(&d, l);
-            start = Pose {
-                position: start.position + start.frame * p,
-                frame: start.frame * f,
-            };
-            s0 += l;
+        superhelix_kernels::contact::sample_poses(
+            &geom.root_pose(q),
+            &geom.lengths,
+            q,
+            &self.samples,
+            &mut self.poses,
+        );
+    }
+
+    /// The body contacts' view of this strand (bodies on their own motion as last
+    /// placed): the queries and the law of `superhelix_kernels::contact::body`.
+    fn view(&self) -> BodyContacts<'_, PlacedBodies<'_>> {
+        BodyContacts {
+            colliders: PlacedBodies {
+                bodies: &self.bodies,
+                frames: &self.frames,
+            },
+            params: &self.params,
+            samples: &self.samples,
+            anchors: &self.anchors,
+            allowance: &self.allowance,
+            root_zone: self.root_zone,
         }
+    }
+
+    /// The body sample `k` at `y` presses into (its effective depth > 0), if any.
+    fn touching(&self, head: &HeadState, k: usize, y: &Vector3<f64>) -> Option<BodyHit> {
+        self.view().touching(head, k, y)
+    }
+
+    /// The depth of sample `k` in `hit` that the penalty acts on: the depth less the
+    /// sample's allowance, m (≤ 0: no force).
+    fn effective_depth(&self, k: usize, hit: &BodyHit) -> f64 {
+        self.params.radius - hit.distance - self.allowance[k]
     }
 
     /// The body sample `k` at head-frame `y` touches most deeply (within the contact
     /// radius), with the head in `head`; a sample of the root zone does not touch the
     /// body its strand grows from.
     fn body_hit(&self, head: &HeadState, k: usize, y: &Vector3<f64>) -> Option<BodyHit> {
-        self.body_hit_among(head, k, y, None)
+        self.view().sample_hit(head, k, y)
     }
 
     /// [`Self::body_hit`] among the bodies on their own motion (`only = Some(true)`) or
@@ -575,94 +577,35 @@ impl StrandContacts {
         y: &Vector3<f64>,
         only: Option<bool>,
     ) -> Option<BodyHit> {
-        let (root_body, zone) = self.root_zone;
-        self.nearest_body(head, y, (k < zone).then_some(root_body), only)
+        self.view().sample_hit_among(head, k, y, only)
     }
 
     /// The body a head-frame point `y` touches most deeply (within the contact radius),
-    /// with the head in `head` (bodies on their own motion as last placed), other than
-    /// `skip`; with `only`, among the bodies on their own motion (`Some(true)`) or the
-    /// others (`Some(false)`).
+    /// other than `skip`.
     fn nearest_body(
         &self,
         head: &HeadState,
         y: &Vector3<f64>,
         skip: Option<usize>,
-        only: Option<bool>,
     ) -> Option<BodyHit> {
-        self.nearest_within(head, y, skip, only, self.params.radius)
+        self.view().nearest(head, y, skip, None)
     }
 
-    /// [`Self::nearest_body`] among the bodies nearer than `reach` (≥ 0) to `y`.
+    /// The body nearest to `y` among those nearer than `reach` (≥ 0), other than `skip`.
     fn nearest_within(
         &self,
         head: &HeadState,
         y: &Vector3<f64>,
         skip: Option<usize>,
-        only: Option<bool>,
         reach: f64,
     ) -> Option<BodyHit> {
-        let mut best: Option<BodyHit> = None;
-        for (b, body) in self.bodies.iter().enumerate() {
-            if skip == Some(b) || only.is_some_and(|m| m != body.attached.is_motion()) {
-                continue;
-            }
-            let local = self.mount(b).local(head, y);
-            if body.shape.farther_than(&local, reach) {
-                continue;
-            }
-            let hit = self.body_query(head, b, y);
-            if hit.distance < reach && best.is_none_or(|h| hit.distance < h.distance) {
-                best = Some(hit);
-            }
-        }
-        best
+        self.view().nearest_within(head, y, skip, None, reach)
     }
 
     /// Signed distance and outward normal (head coordinates) of body `b` at head-frame
     /// `y`, with the head in `head` (bodies on their own motion as last placed).
     fn body_query(&self, head: &HeadState, b: usize, y: &Vector3<f64>) -> BodyHit {
-        let mount = self.mount(b);
-        let p = self.bodies[b].shape.query(&mount.local(head, y));
-        let (distance, normal) = (p.distance, mount.direction_to_head(head, &p.normal));
-        BodyHit {
-            body: b,
-            distance,
-            normal,
-        }
-    }
-
-    /// The velocity, head coordinates, of body `b`'s material point at head-frame `y`.
-    fn body_velocity(&self, head: &HeadState, b: usize, y: &Vector3<f64>) -> Vector3<f64> {
-        self.mount(b).velocity(head, y)
-    }
-
-    /// The anchor of sample `k` in head coordinates when it is held to body `b`, and
-    /// whether it slid over the last step.
-    fn anchor_at(&self, head: &HeadState, k: usize, b: usize) -> Option<(Vector3<f64>, bool)> {
-        let a = self.anchors[k].filter(|a| a.body == b)?;
-        let point = self.mount(b).point_to_head(head, &a.point);
-        Some((point, a.sliding))
-    }
-
-    /// The elastic forces (normal penalty and Coulomb spring) of sample `k` touching `hit`
-    /// at `y` with tangent `t`, head coordinates; the normal stiffness of the sample (k w
-    /// while below δ_max, else 0) and the tangential stiffness matrix of the spring (k_t w P
-    /// while it sticks; while it slides, or is stretched beyond the static limit, the
-    /// force is the kinetic one along the slip and only its turning has stiffness:
-    /// `(|f_t| / |slip|) (P − ŝŝᵀ)`).
-    fn elastic(
-        &self,
-        head: &HeadState,
-        k: usize,
-        hit: &BodyHit,
-        y: &Vector3<f64>,
-        t: &Vector3<f64>,
-    ) -> (Vector3<f64>, Vector3<f64>, f64, Matrix3<f64>) {
-        let w = self.samples[k].1;
-        let depth = self.effective_depth(k, hit);
-        let anchor = self.anchor_at(head, k, hit.body);
-        body_elastic(&self.params, w, depth, &hit.normal, t, y, anchor)
+        self.view().query(head, b, y)
     }
 
     /// Add the contact forces at (q, q̇) with the bodies placed at `at` to `out` (force, and the
@@ -685,37 +628,32 @@ impl StrandContacts {
         self.place(at);
         let head = &at.head;
         self.sample_poses(kernel.geometry(), q);
-        let mut summary = ContactSummary::default();
-        let mut stiffened = false;
-        for k in 0..self.samples.len() {
-            let (y, t) = self.poses[k];
-            let Some(hit) = self.touching(head, k, &y) else {
-                continue;
-            };
-            let (s, w) = self.samples[k];
-            summary.body_contacts += 1;
-            summary.max_penetration = summary.max_penetration.max(-hit.distance);
-            let (normal, spring, kn, kt) = self.elastic(head, k, &hit, &y, &t);
-            summary.normal_force += normal.norm();
-            let elastic = normal + spring;
-            let hess = (terms.stiffness && curvature).then_some((elastic, &mut out.stiffness));
-            kernel.point(q, s, jac, hess);
-            let n = hit.normal;
-            let vel = velocity(jac, v) - self.body_velocity(head, hit.body, &y);
-            let (force, damping) =
-                body_damping(&self.params, w, &n, &t, normal.norm(), &vel, elastic);
-            if terms.force {
-                add_force(jac, &force, &mut out.force);
-            }
-            if terms.stiffness {
-                let a = -kn * n * n.transpose() - kt;
-                add_projected(jac, &a, &mut self.aj, &mut out.stiffness);
-                stiffened = true;
-            }
-            if terms.damping {
-                add_projected(jac, &damping, &mut self.aj, &mut out.damping);
-            }
-        }
+        let mut aj = std::mem::take(&mut self.aj);
+        let (body, mut stiffened) = self.view().add_terms(
+            head,
+            &self.poses,
+            v,
+            TermsAsked {
+                force: terms.force,
+                stiffness: terms.stiffness,
+                curvature,
+                damping: terms.damping,
+            },
+            jac,
+            &mut TermsSink {
+                kernel: &mut *kernel,
+                q,
+                out: &mut *out,
+                aj: &mut aj,
+            },
+        );
+        self.aj = aj;
+        let mut summary = ContactSummary {
+            body_contacts: body.contacts,
+            max_penetration: body.max_penetration,
+            normal_force: body.normal_force,
+            ..ContactSummary::default()
+        };
         if let Some(hh) = self.hair {
             // the partners the samples do not rule out are placed on the strand first (one
             // pass); J is computed only for those within reach
@@ -971,22 +909,7 @@ impl StrandContacts {
         self.place(at);
         let head = &at.head;
         self.sample_poses(geom, q);
-        let p = self.params;
-        let (mut potential, mut rate) = (0.0, 0.0);
-        for k in 0..self.samples.len() {
-            let (y, t) = self.poses[k];
-            let Some(hit) = self.touching(head, k, &y) else {
-                continue;
-            };
-            let w = self.samples[k].1;
-            let depth = self.effective_depth(k, &hit);
-            let (normal, spring, _, _) = self.elastic(head, k, &hit, &y, &t);
-            let (penalty, held) = body_potential(&p, w, depth, &spring);
-            potential += penalty;
-            potential += held;
-            let u = self.body_velocity(head, hit.body, &y);
-            rate += (normal + spring).dot(&u);
-        }
+        let (mut potential, mut rate) = self.view().energy(head, &self.poses);
         if let Some(hh) = self.hair {
             // only the partners the samples do not rule out (most of those the search
             // keeps are beyond reach, and contribute nothing) are placed on the strand
@@ -1055,44 +978,9 @@ impl StrandContacts {
         self.place(at);
         let head = &at.head;
         self.sample_poses(kernel.geometry(), q);
-        let mut power = 0.0;
-        for k in 0..self.samples.len() {
-            let (y, t) = self.poses[k];
-            let Some(hit) = self.touching(head, k, &y) else {
-                continue;
-            };
-            if !self.bodies[hit.body].attached.is_motion() {
-                continue;
-            }
-            let u = self.body_velocity(head, hit.body, &y);
-            if u == Vector3::zeros() {
-                continue;
-            }
-            let (s, w) = self.samples[k];
+        let power = self.view().drag_power(head, &self.poses, v, jac, |s, jac| {
             kernel.point(q, s, jac, None);
-            let ydot = velocity(jac, v);
-            let n = hit.normal;
-            let mut f = self.params.damping * w * n.dot(&u) * n;
-            if let Friction::Viscous {
-                coefficient,
-                slip_speed,
-            } = self.params.friction
-            {
-                let p = Matrix3::identity() - n * n.transpose();
-                let slide = p * (ydot - u);
-                let norm = slide.norm();
-                let cos = if norm > 0.0 {
-                    t.dot(&slide) / norm
-                } else {
-                    0.0
-                };
-                let depth = self.effective_depth(k, &hit);
-                let normal = self.params.stiffness * w * depth.clamp(0.0, self.params.max_depth);
-                let ct = coefficient * (1.0 + self.params.anisotropy * cos) * normal / slip_speed;
-                f += ct * (p * u);
-            }
-            power += f.dot(&ydot);
-        }
+        });
         power + self.partner_drag_power(head, kernel, q, v, jac)
     }
 
@@ -1196,8 +1084,7 @@ impl StrandContacts {
                 let onset = r - self.allowance[k];
                 let skip = (k < zone).then_some(root_body);
                 let end = self.poses[k].0;
-                let Some(hit) = self.nearest_within(&head, &end, skip, None, onset + 0.5 * r)
-                else {
+                let Some(hit) = self.nearest_within(&head, &end, skip, onset + 0.5 * r) else {
                     continue;
                 };
                 pc.listed[k] = true;
@@ -1309,7 +1196,7 @@ impl StrandContacts {
         // it started the step (not inside, for a tip that started outside)
         if let (Some(end), Some(start), false) = (tip_end, pc.lin_tip, pc.tip_listed) {
             let skip = (self.root_zone.1 >= self.samples.len()).then_some(self.root_zone.0);
-            if let Some(hit) = self.nearest_within(&head, &end, skip, None, 0.0) {
+            if let Some(hit) = self.nearest_within(&head, &end, skip, 0.0) {
                 let from = self.body_query(&head, hit.body, &start);
                 let onset = from.distance.min(0.0);
                 if hit.distance < onset {
@@ -1345,27 +1232,8 @@ impl StrandContacts {
     /// spacing.
     pub fn deepest_inside(&mut self, at: &Placement, geom: &StrandGeometry, q: &[f64]) -> f64 {
         self.place(at);
-        let head = at.head;
-        let length: f64 = geom.lengths.iter().sum();
-        let count = (length / SWEEP_SPACING).ceil().max(1.0) as usize;
-        let arcs = (0..=count).map(|i| length * i as f64 / count as f64);
-        let mut points = std::mem::take(&mut self.sweep);
-        positions_at_sorted(geom, q, arcs, &mut points);
-        let (root_body, zone) = self.root_zone;
-        let zone_end = match zone.checked_sub(1).and_then(|k| self.samples.get(k)) {
-            Some((s, w)) => s + 0.5 * w,
-            None => -1.0,
-        };
-        let mut deepest = 0.0f64;
-        for (i, y) in points.iter().enumerate() {
-            let s = length * i as f64 / count as f64;
-            let skip = (s <= zone_end).then_some(root_body);
-            if let Some(hit) = self.nearest_within(&head, y, skip, None, 0.0) {
-                deepest = deepest.max(-hit.distance);
-            }
-        }
-        self.sweep = points;
-        deepest
+        self.view()
+            .deepest_inside(&at.head, &geom.root_pose(q), &geom.lengths, q)
     }
 
     /// The deepest penetration of the contact radius by a sample at q, m (0: none).
@@ -1594,7 +1462,7 @@ impl StrandContacts {
         self.root_zone = (0, 0);
         // a free root is not held by the body it starts on: no root zone
         let root_body = (!geom.floating)
-            .then(|| self.nearest_body(head, &geom.root_position, None, None))
+            .then(|| self.nearest_body(head, &geom.root_position, None))
             .flatten();
         if let Some(root) = root_body {
             let quarter = 0.25 * geom.lengths.iter().sum::<f64>();
@@ -1602,7 +1470,7 @@ impl StrandContacts {
                 .take_while(|&k| {
                     self.samples[k].0 <= quarter
                         && self
-                            .nearest_body(head, &self.poses[k].0, None, None)
+                            .nearest_body(head, &self.poses[k].0, None)
                             .is_some_and(|h| h.body == root.body)
                 })
                 .count();
@@ -1630,14 +1498,8 @@ impl StrandContacts {
         let head = &at.head;
         if self.allowance.iter().any(|a| *a > 0.0) {
             self.sample_poses(geom, q);
-            let shrink = self.params.depenetration_speed * h;
             for k in 0..self.samples.len() {
-                if self.allowance[k] > 0.0 {
-                    let depth = self
-                        .body_hit(head, k, &self.poses[k].0)
-                        .map_or(0.0, |hit| (self.params.radius - hit.distance).max(0.0));
-                    self.allowance[k] = (self.allowance[k].min(depth) - shrink).max(0.0);
-                }
+                self.allowance[k] = self.view().allowance_after(head, k, &self.poses[k].0, h);
             }
         }
         self.update_anchors(head, geom, q);
@@ -1652,65 +1514,95 @@ impl StrandContacts {
         self.sample_poses(geom, q);
         for k in 0..self.samples.len() {
             let (y, t) = self.poses[k];
-            let Some(hit) = self.touching(head, k, &y) else {
-                self.anchors[k] = None;
-                continue;
-            };
-            let w = self.samples[k].1;
-            let depth = self.effective_depth(k, &hit);
-            let previous = self.anchor_at(head, k, hit.body);
-            let Some((anchor, sliding)) =
-                anchor_after_step(&self.params, w, depth, &hit.normal, &t, &y, previous)
-            else {
-                self.anchors[k] = None;
-                continue;
-            };
-            let point = self.mount(hit.body).local(head, &anchor);
-            self.anchors[k] = Some(Anchor {
-                body: hit.body,
-                point,
-                sliding,
-            });
+            self.anchors[k] = self.view().anchor_after(head, k, &y, &t);
         }
     }
 }
 
 /// ẏ = J q̇.
 fn velocity(jac: &[Vector3<f64>], v: &[f64]) -> Vector3<f64> {
-    jac.iter().zip(v).map(|(c, &x)| c * x).sum()
+    point_velocity(jac, v)
 }
 
 /// `force += Jᵀ f`.
 fn add_force(jac: &[Vector3<f64>], f: &Vector3<f64>, force: &mut [f64]) {
-    for (i, c) in jac.iter().enumerate() {
-        force[i] += c.dot(f);
-    }
+    add_generalized_force(jac, f, force);
 }
 
-/// `m += Jᵀ A J` (A symmetric), `aj` scratch of 3N columns. J(s) has no columns beyond
-/// the element holding s (they are zero), and the product is symmetric: only the lower
-/// triangle of the nonzero block is computed, and mirrored.
+/// `m += Jᵀ A J` (A symmetric), `aj` scratch of 3N columns (see
+/// [`superhelix_kernels::contact::body::add_projected`]).
 fn add_projected(
     jac: &[Vector3<f64>],
     a: &Matrix3<f64>,
     aj: &mut [Vector3<f64>],
     m: &mut Mat<f64>,
 ) {
-    let n = jac
-        .iter()
-        .rposition(|c| *c != Vector3::zeros())
-        .map_or(0, |i| i + 1);
-    for (o, c) in aj[..n].iter_mut().zip(&jac[..n]) {
-        *o = a * c;
+    body::add_projected(jac, a, aj, |i, j, x| m[(i, j)] += x);
+}
+
+/// The runtime's bodies placed at a time, as the colliders of
+/// `superhelix_kernels::contact::body`: each body's shape, and its frame when it moves on
+/// its own motion (as [`StrandContacts::place`] last placed it).
+struct PlacedBodies<'a> {
+    bodies: &'a [Body],
+    frames: &'a [Option<HeadState>],
+}
+
+impl ColliderSet for PlacedBodies<'_> {
+    fn count(&self) -> usize {
+        self.bodies.len()
     }
-    for j in 0..n {
-        for i in j..n {
-            let x = jac[i].dot(&aj[j]);
-            m[(i, j)] += x;
-            if i != j {
-                m[(j, i)] += x;
-            }
+    fn proximity(&self, b: usize, local: &Vector3<f64>) -> Proximity {
+        self.bodies[b].shape.query(local)
+    }
+    fn farther_than(&self, b: usize, local: &Vector3<f64>, r: f64) -> bool {
+        self.bodies[b].shape.farther_than(local, r)
+    }
+    fn mount(&self, b: usize) -> Mount {
+        match self.bodies[b].attached {
+            Attachment::Head => Mount::Head,
+            Attachment::World => Mount::World,
+            Attachment::Motion(_) => Mount::Frame(
+                self.frames
+                    .get(b)
+                    .copied()
+                    .flatten()
+                    .unwrap_or_else(HeadState::rest),
+            ),
         }
+    }
+    fn on_own_motion(&self, b: usize) -> bool {
+        self.bodies[b].attached.is_motion()
+    }
+}
+
+/// A strand's terms as the sink of the body contacts' terms: the kernel's points at q,
+/// the force, stiffness and damping of `out`.
+struct TermsSink<'a> {
+    kernel: &'a mut dyn StrandKernel,
+    q: &'a [f64],
+    out: &'a mut StrandTerms,
+    aj: &'a mut [Vector3<f64>],
+}
+
+impl ContactSink for TermsSink<'_> {
+    fn point(
+        &mut self,
+        s: f64,
+        jac: &mut [Vector3<f64>],
+        curvature: Option<Vector3<f64>>,
+    ) -> Vector3<f64> {
+        let hess = curvature.map(|f| (f, &mut self.out.stiffness));
+        self.kernel.point(self.q, s, jac, hess)
+    }
+    fn add_force(&mut self, jac: &[Vector3<f64>], f: &Vector3<f64>) {
+        add_force(jac, f, &mut self.out.force);
+    }
+    fn add_stiffness(&mut self, jac: &[Vector3<f64>], a: &Matrix3<f64>) {
+        add_projected(jac, a, self.aj, &mut self.out.stiffness);
+    }
+    fn add_damping(&mut self, jac: &[Vector3<f64>], a: &Matrix3<f64>) {
+        add_projected(jac, a, self.aj, &mut self.out.damping);
     }
 }
 
