@@ -10,6 +10,12 @@
 //! - [`step`]: the linearly implicit Euler step of paper section 3.4 with the runtime's
 //!   treatment of its terms ([`linearly_implicit`]), checked after the fact and split as
 //!   the runtime's step is (energy balance, element rotation);
+//! - [`step_with_contacts`]: [`step`] with a strand's contacts with colliders
+//!   ([`ContactHooks`]; [`FixedContacts`] on the caller's [`ContactStore`], the colliders
+//!   a [`StepColliders`] such as a slice of (collider, mount) pairs): their penalty,
+//!   friction and damping in every solve, their energy in the balance, a step split where
+//!   a sample goes deeper than the split depth, the anchors and allowances kept between
+//!   steps;
 //! - [`step_to_tolerance`]: the error-controlled step instead (variable-step BDF2,
 //!   [`bdf2`], with its own steps chosen to keep the estimated local error below a
 //!   tolerance), whose history a strand keeps in a [`StepHistory`] beside it.
@@ -28,6 +34,7 @@
 
 mod adaptive;
 mod bdf2;
+mod contacts;
 mod dense;
 mod error_control;
 mod params;
@@ -35,17 +42,23 @@ mod step;
 mod workspace;
 
 pub use adaptive::{
-    energy, phase_cut, step, Effects, ExtrapolatedHead, HeadTrajectory, StepCounts, StillHead,
-    PHASE_CUT_MARGIN,
+    energy, phase_cut, step, step_with_contacts, Effects, ExtrapolatedHead, HeadTrajectory,
+    StepCounts, StillHead, PHASE_CUT_MARGIN,
 };
 pub use bdf2::{bdf2, Bdf2History};
+pub use contacts::{
+    ContactHooks, ContactScalars, ContactStore, FixedContacts, StepColliders, STANDARD_GRAVITY,
+};
 pub use dense::{lu_solve, negative_semidefinite_part, Projection};
 pub use error_control::{
     min_tolerance, step_to_tolerance, StepHistory, ToleranceReport, MAX_TOLERANCE, MIN_STEP,
     MIN_TOLERANCE,
 };
 pub use params::{FixedParams, ParamsError};
-pub use step::{centreline, evaluate, linearly_implicit, StepError, StepInput, StepReport};
+pub use step::{
+    centreline, evaluate, linearly_implicit, linearly_implicit_with, StepError, StepInput,
+    StepReport,
+};
 pub use workspace::{Assembly, FixedWorkspace};
 
 use crate::energy::StateEnergy;

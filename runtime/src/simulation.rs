@@ -21,7 +21,7 @@ use crate::model::reconstruction::pose_at as strand_pose_at;
 use crate::model::reconstruction::{pose_at, sample_centreline};
 use crate::model::strand::{Strand, StrandGeometry};
 use crate::output::FrameSource;
-use crate::solver::embedded::{group_for, EmbeddedGroup};
+use crate::solver::embedded::{group_for, EmbeddedContacts, EmbeddedGroup};
 use crate::solver::initial_state::check_initial_state;
 use crate::solver::pair_coupling;
 use crate::solver::{
@@ -232,11 +232,25 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
             "the embedded engine has no electrostatics; use engine = \"runtime\"",
         ));
     }
-    if setup.contacts.is_some() {
-        errors.push(FieldError::new(
-            "contacts",
-            "the embedded engine has no contacts; use engine = \"runtime\"",
-        ));
+    if let Some(c) = &setup.contacts {
+        if c.hair_hair.is_some() {
+            errors.push(FieldError::new(
+                "contacts.hair_hair",
+                "the embedded engine has no contacts between strands; use engine = \"runtime\"",
+            ));
+        }
+        if c.predict {
+            errors.push(FieldError::new(
+                "contacts.predict",
+                "the embedded engine does not predict the contacts that start within a step (its steps split where a sample goes deeper than split_depth); set predict = false or use engine = \"runtime\"",
+            ));
+        }
+        if setup.config.tolerance.is_some() {
+            errors.push(FieldError::new(
+                "simulation.tolerance",
+                "the embedded engine's error-controlled step has no contacts; use engine = \"runtime\" or leave tolerance unset",
+            ));
+        }
     }
     for (index, s) in setup.strands.iter().enumerate() {
         let n = s.strand.geometry.elements();
@@ -291,6 +305,16 @@ fn embedded_strands(
     }
     let mut groups: Vec<(usize, Box<dyn EmbeddedGroup>)> = Vec::new();
     let mut strands = Vec::with_capacity(setup.strands.len());
+    // the bodies the strands touch (those `[contacts] bodies` names)
+    let contacts = setup.contacts.as_ref().map(|c| EmbeddedContacts {
+        bodies: bodies
+            .as_slice()
+            .iter()
+            .filter(|b| c.touches(&b.name))
+            .cloned()
+            .collect(),
+        config: c.clone(),
+    });
     for (index, s) in setup.strands.into_iter().enumerate() {
         let n = s.strand.geometry.elements();
         let g = match groups.iter().position(|(m, _)| *m == n) {
@@ -315,7 +339,7 @@ fn embedded_strands(
         };
         let group = &mut groups[g].1;
         let position = group.len();
-        if !group.push(&s.strand, &s.q0) {
+        if !group.push(&s.strand, &s.q0, contacts.as_ref()) {
             errors.push(FieldError::new(
                 format!("strands[{index}].q0"),
                 format!("must have 3N = {} values", 3 * n),
@@ -328,6 +352,11 @@ fn embedded_strands(
         return Err(Error::Invalid(errors));
     }
     let head_moves = setup.head != HeadMotion::Still;
+    // contact points inside a body at the start are let out slowly; Coulomb anchors
+    let head0 = setup.head.state(0.0);
+    for (_, group) in groups.iter_mut() {
+        group.start_contacts(0.0, &head0);
+    }
     Ok((
         Simulation {
             embedded: Some(EmbeddedStrands {
@@ -721,14 +750,17 @@ impl Simulation {
                     system.strand.ends.root == crate::model::ends::RootEnd::Free,
                     system.held.is_none(),
                 );
-                system.contacts = Some(StrandContacts::new(
-                    g,
-                    b.clone(),
-                    c.params(rho_s),
-                    c.hair_hair.as_ref().map(|h| HairHairParams::new(h, rho_s)),
-                    c.samples_per_element,
-                    free_ends,
-                ));
+                system.contacts = Some(
+                    StrandContacts::new(
+                        g,
+                        b.clone(),
+                        c.params(rho_s),
+                        c.hair_hair.as_ref().map(|h| HairHairParams::new(h, rho_s)),
+                        c.samples_per_element,
+                        free_ends,
+                    )
+                    .with_prediction(c.predict),
+                );
             }
             let mut q0 = s.q0;
             if let Some(held) = system.held.as_mut() {
@@ -1226,6 +1258,14 @@ impl Simulation {
     /// time, on a dense sweep of each centreline
     /// ([`StrandContacts::deepest_inside`](crate::forces::contacts::StrandContacts::deepest_inside)).
     pub fn max_penetration(&mut self) -> Option<f64> {
+        if let Some(e) = &mut self.embedded {
+            let (t, head) = (self.time, self.head.state(self.time));
+            return e
+                .strands
+                .iter()
+                .filter_map(|s| e.groups[s.2].1.deepest_inside(s.3, t, &head))
+                .reduce(f64::max);
+        }
         let head = Placement::new(self.head.state(self.time), self.time);
         // (the strands in parallel)
         self.strands

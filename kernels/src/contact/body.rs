@@ -450,6 +450,63 @@ impl<C: ColliderSet> BodyContacts<'_, C> {
         deepest
     }
 
+    /// The root zone of a strand rooted at `root` (None: a free root, which no collider
+    /// holds) whose samples are at `poses`, of length `length`: the collider the root
+    /// lies within the contact radius of, and its samples from the root on that lie
+    /// within the contact radius of that collider (nearest to it), up to the first that
+    /// does not and at most a quarter of the length. They stand for the hair leaving its
+    /// follicle: pushed out, they could not leave (the root is clamped) and would bend
+    /// the strand by a penalty of up to 10⁴ times its weight.
+    pub fn root_zone_at(
+        &self,
+        head: &HeadState,
+        root: Option<&V3>,
+        poses: &[(V3, V3)],
+        length: f64,
+    ) -> (usize, usize) {
+        let Some(root) = root.and_then(|r| self.nearest(head, r, None, None)) else {
+            return (0, 0);
+        };
+        let quarter = 0.25 * length;
+        let zone = (0..self.samples.len().min(poses.len()))
+            .take_while(|&k| {
+                self.samples[k].0 <= quarter
+                    && self
+                        .nearest(head, &poses[k].0, None, None)
+                        .is_some_and(|h| h.body == root.body)
+            })
+            .count();
+        (root.body, zone)
+    }
+
+    /// Sample `k`'s allowance at the start, the sample at `y`: a depth whose penalty is
+    /// within `harmless` (m) is left to the penalty (a strand laid on a collider at rest),
+    /// the rest allowed, to be let out at the depenetration speed rather than kicked out.
+    pub fn start_allowance(&self, head: &HeadState, k: usize, y: &V3, harmless: f64) -> f64 {
+        self.sample_hit(head, k, y).map_or(0.0, |h| {
+            (self.params.radius - h.distance - harmless).max(0.0)
+        })
+    }
+
+    /// Sample `k`'s effective depth (≥ 0) at `y` among the colliders on their own motion
+    /// or the others (`only`; all with `None`): what a step's acceptance measures from.
+    pub fn depth_among(&self, head: &HeadState, k: usize, y: &V3, only: Option<bool>) -> f64 {
+        self.sample_hit_among(head, k, y, only)
+            .map_or(0.0, |h| self.effective_depth(k, &h).max(0.0))
+    }
+
+    /// Whether a sample at `poses` (the step's end, the colliders placed there) went
+    /// deeper than [`ContactParams::split_depth`] beyond its depth at the start,
+    /// `start_depth` ([`Self::depth_among`]): a fast approach is resolved by substeps
+    /// rather than met by a deep penalty.
+    pub fn too_deep(&self, head: &HeadState, poses: &[(V3, V3)], start_depth: &[f64]) -> bool {
+        let split = self.params.split_depth;
+        (0..self.samples.len().min(poses.len())).any(|k| {
+            self.sample_hit(head, k, &poses[k].0)
+                .is_some_and(|h| self.effective_depth(k, &h) - start_depth[k] > split)
+        })
+    }
+
     /// The arc length up to which the root zone's points do not count against its
     /// collider: its last sample's arc length and half its weight (−1: no zone).
     pub fn zone_end(&self) -> f64 {

@@ -18,14 +18,15 @@
 //! Without these checks a strand on a head shaking at 2 Hz by ±30° overflows within a
 //! second at dt = 1/30 and 1/60 s (the demo scene); with them it does not.
 
+use super::contacts::ContactHooks;
 use super::dense::Projection;
-use super::step::{linearly_implicit, non_finite, StepError, StepInput, StepReport};
+use super::step::{linearly_implicit_with, non_finite, StepError, StepInput, StepReport};
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::energy::{
     balance, end_ceiling, energy_splits, predicted_split_levels, rotation_split_levels, Balance,
     StateEnergy, ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION, MAX_SUBSTEP_DEPTH,
-    WORK_SPLIT_FRACTION,
+    TRUSTED_ELEMENT_ROTATION, WORK_SPLIT_FRACTION,
 };
 use crate::float::Float;
 use crate::head::{body_field, HeadState};
@@ -243,6 +244,7 @@ impl Interval {
 /// moments, see [`crate::strand_terms::evaluate_energy`]).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn measure<
+    'c,
     S: MomentSource<T>,
     const N: usize,
     const D: usize,
@@ -259,6 +261,7 @@ pub(super) fn measure<
     v: &[T; D],
     ws: &mut FixedWorkspace<N, D, E, T>,
     prepare_terms: bool,
+    contacts: Option<&mut (dyn ContactHooks<T, D> + 'c)>,
 ) -> StateEnergy<T> {
     let p = &strand.params;
     let rho_s = p.mass_per_length;
@@ -288,7 +291,16 @@ pub(super) fn measure<
     let dissipation = (0..D).map(|i| p.friction[i] * v[i] * v[i]).sum::<T>()
         + T::of(2.0) * p.air_drag / rho_s * kinetic;
     let length = p.length();
-    let potential = -full.uniform.dot(&moment);
+    // the contact potential joins V (as the runtime's point loads' part), its rate at
+    // fixed q (with the work of moving colliders' damping) the loads' rate
+    let (mut load_moment, mut load_rate) = (T::zero(), T::zero());
+    if let Some(c) = contacts {
+        let (potential, rate) = c.energy(q, v, t, head);
+        load_moment -= T::of(potential);
+        load_rate += T::of(rate);
+        *c.last_contact() = (potential, rate);
+    }
+    let potential = -full.uniform.dot(&moment) - load_moment;
     StateEnergy {
         time: t,
         kinetic,
@@ -297,8 +309,8 @@ pub(super) fn measure<
         moment,
         uniform: full.uniform,
         power,
-        load_moment: T::zero(),
-        load_rate: T::zero(),
+        load_moment,
+        load_rate,
         dissipation,
         ceiling: kinetic + elastic + potential,
         scale: kinetic + elastic + full.uniform.norm() * length * length,
@@ -326,13 +338,36 @@ pub fn energy<
 ) -> StateEnergy<T> {
     ws.forget();
     let (q, v) = (strand.q, strand.v);
-    let e = measure(source, strand, effects, head, t, &q, &v, ws, false);
+    let e = measure(source, strand, effects, head, t, &q, &v, ws, false, None);
     ws.forget();
     e
 }
 
+/// `energy` (measured at this (q, q̇), head state and time) with its contact part
+/// measured again: what changes between two pieces of a step without the strand moving
+/// when the contacts have a history (anchors slid, allowances shrank). The runtime's
+/// `energy_balance::remeasure_contacts`.
+fn remeasure_contacts<T: Float, const D: usize>(
+    c: &mut dyn ContactHooks<T, D>,
+    head: &HeadState,
+    q: &[T; D],
+    v: &[T; D],
+    energy: &StateEnergy<T>,
+) -> StateEnergy<T> {
+    let mut e = *energy;
+    let (potential, rate) = c.energy(q, v, energy.time, head);
+    let (old_potential, old_rate) = *c.last_contact();
+    e.load_moment += T::of(old_potential - potential);
+    e.potential += T::of(potential - old_potential);
+    e.load_rate += T::of(rate - old_rate);
+    // the contact potential's new reference shifts the bound the steps carry with it
+    e.ceiling = energy.ceiling + T::of(potential - old_potential);
+    *c.last_contact() = (potential, rate);
+    e
+}
+
 /// Advance `strand` from time `t` by `h` seconds with the head moving as `head`: the
-/// linearly implicit Euler step ([`linearly_implicit`]) checked after the fact and split
+/// linearly implicit Euler step ([`super::linearly_implicit`]) checked after the fact and split
 /// when it is not acceptable (see the module page), exactly the runtime's
 /// `linearly-implicit-euler` step for a strand without point loads. A step that holds a
 /// change of the head's motion phase is taken as two, cut there ([`phase_cut`]). The
@@ -357,42 +392,18 @@ pub fn step<
     ws: &mut FixedWorkspace<N, D, E, T>,
     counts: &mut StepCounts,
 ) -> Result<StepReport, StepError> {
-    if !(h.is_finite() && h > 0.0 && t.is_finite()) {
-        return Err(StepError::TimeStep);
-    }
-    let q0 = strand.q;
-    let end = t + h;
-    let mut now = t;
-    loop {
-        let cut = phase_cut(head, now, end);
-        step_piece(
-            source,
-            strand,
-            head,
-            effects,
-            now,
-            cut.unwrap_or(end) - now,
-            ws,
-            counts,
-        )?;
-        if let Some(e) = non_finite(&strand.q, &strand.v) {
-            return Err(e);
-        }
-        match cut {
-            Some(b) => now = b,
-            None => break,
-        }
-    }
-    let rotation = max_element_rotation(&strand.params.lengths, &strand.q, &q0);
-    Ok(StepReport {
-        max_element_rotation: rotation.as_f64(),
-        projection: None,
-    })
+    step_with_contacts(source, strand, head, effects, t, h, ws, counts, None)
 }
 
-/// One checked step from `t` by `h` within which the head keeps its motion phase.
+/// [`step`] with contacts: their terms in every solve, their energy in the balance, a
+/// (sub)step whose samples go deeper than the split depth split (at most as deep as any
+/// step), the bookkeeping (anchors, allowances) between the pieces of a split step and
+/// at the step's end; the first step starts them ([`ContactHooks::start`]). The
+/// runtime's step for a strand with body contacts, except the contacts predicted to
+/// start within a step (here caught by the depth check alone).
 #[allow(clippy::too_many_arguments)]
-fn step_piece<
+pub fn step_with_contacts<
+    'c,
     S: MomentSource<T>,
     const N: usize,
     const D: usize,
@@ -408,12 +419,85 @@ fn step_piece<
     h: f64,
     ws: &mut FixedWorkspace<N, D, E, T>,
     counts: &mut StepCounts,
+    mut contacts: Option<&mut (dyn ContactHooks<T, D> + 'c)>,
+) -> Result<StepReport, StepError> {
+    if !(h.is_finite() && h > 0.0 && t.is_finite()) {
+        return Err(StepError::TimeStep);
+    }
+    if let Some(c) = contacts.as_deref_mut() {
+        if !c.started() {
+            c.start(&strand.q, t, &head.state(t));
+        }
+    }
+    let q0 = strand.q;
+    let end = t + h;
+    let mut now = t;
+    loop {
+        let cut = phase_cut(head, now, end);
+        step_piece(
+            source,
+            strand,
+            head,
+            effects,
+            now,
+            cut.unwrap_or(end) - now,
+            ws,
+            counts,
+            contacts.as_deref_mut(),
+        )?;
+        if let Some(e) = non_finite(&strand.q, &strand.v) {
+            return Err(e);
+        }
+        match cut {
+            Some(b) => now = b,
+            None => break,
+        }
+    }
+    if let Some(c) = contacts {
+        // the step's end: anchors stick, slide or let go; allowances shrink
+        c.after_step(&strand.q, end, &head.state(end), h);
+    }
+    let rotation = max_element_rotation(&strand.params.lengths, &strand.q, &q0);
+    Ok(StepReport {
+        max_element_rotation: rotation.as_f64(),
+        projection: None,
+    })
+}
+
+/// One checked step from `t` by `h` within which the head keeps its motion phase.
+#[allow(clippy::too_many_arguments)]
+fn step_piece<
+    'c,
+    S: MomentSource<T>,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
+    source: &S,
+    strand: &mut FixedStrand<N, D, B, T>,
+    head: &dyn HeadTrajectory,
+    effects: &Effects,
+    t: f64,
+    h: f64,
+    ws: &mut FixedWorkspace<N, D, E, T>,
+    counts: &mut StepCounts,
+    mut contacts: Option<&mut (dyn ContactHooks<T, D> + 'c)>,
 ) -> Result<(), StepError> {
     ws.forget();
     let interval = Interval::new(head, t, h);
+    // contacts with a history (anchors, allowances) are measured afresh; a strand with
+    // contacts tries its whole step first
+    let history = contacts.as_deref().is_some_and(|c| c.has_history());
     let (start, levels) = match strand.last_energy {
-        Some(e) if (e.time - t).abs() <= 1e-12 * t.abs().max(1.0) => {
-            (e, usize::from(strand.split_hint))
+        Some(e) if !history && (e.time - t).abs() <= 1e-12 * t.abs().max(1.0) => {
+            let levels = if contacts.is_some() {
+                0
+            } else {
+                usize::from(strand.split_hint)
+            };
+            (e, levels)
         }
         _ => {
             let (q, v) = (strand.q, strand.v);
@@ -428,6 +512,7 @@ fn step_piece<
                 &v,
                 ws,
                 true,
+                contacts.as_deref_mut(),
             );
             (e, 0)
         }
@@ -435,7 +520,7 @@ fn step_piece<
     ws.rotation_estimate = 0.0;
     ws.loss_estimate = 0.0;
     let end = split(
-        source, strand, head, effects, &interval, &start, ws, counts, levels,
+        source, strand, head, effects, &interval, &start, ws, counts, levels, contacts,
     )?;
     strand.last_energy = Some(end);
     strand.split_hint = predicted_split_levels(ws.rotation_estimate, ws.loss_estimate) as u8;
@@ -463,6 +548,7 @@ pub(super) fn max_element_rotation<const N: usize, const D: usize, T: Float>(
 /// The runtime's `implicit_adaptive` for the linearly implicit Euler step.
 #[allow(clippy::too_many_arguments)]
 fn adaptive<
+    'c,
     S: MomentSource<T>,
     const N: usize,
     const D: usize,
@@ -478,6 +564,7 @@ fn adaptive<
     start: &StateEnergy<T>,
     ws: &mut FixedWorkspace<N, D, E, T>,
     counts: &mut StepCounts,
+    mut contacts: Option<&mut (dyn ContactHooks<T, D> + 'c)>,
 ) -> Result<StateEnergy<T>, StepError> {
     let h = interval.h;
     let (saved_q, saved_v) = (strand.q, strand.v);
@@ -487,7 +574,15 @@ fn adaptive<
         gravity: effects.gravity,
         head_moves: effects.head_moves,
     };
-    let outcome = linearly_implicit(source, strand, &input, h, ws);
+    let t_end = interval.t + h;
+    let outcome = linearly_implicit_with(
+        source,
+        strand,
+        &input,
+        h,
+        ws,
+        contacts.as_deref_mut().map(|c| (c, t_end)),
+    );
     counts.attempts += 1;
     if let Ok(report) = &outcome {
         match report.projection {
@@ -504,17 +599,46 @@ fn adaptive<
         }
     }
     let finite = outcome.is_ok();
-    let rotation = if finite {
+    let mut rotation = if finite {
         max_element_rotation(&strand.params.lengths, &strand.q, &saved_q).as_f64()
     } else {
         f64::INFINITY
     };
-    let acceptable = finite && rotation <= MAX_ELEMENT_ROTATION;
+    // a strand with contacts keeps the tighter limit (its numerical loss is not checked)
+    let rotation_limit = if contacts.is_some() {
+        TRUSTED_ELEMENT_ROTATION
+    } else {
+        MAX_ELEMENT_ROTATION
+    };
+    // at the deepest split the contacts' depth check could not split the step: skipped
+    let acceptable = finite
+        && rotation <= rotation_limit
+        && (deepest
+            || contacts.as_deref_mut().is_none_or(|c| {
+                c.acceptable(
+                    &saved_q,
+                    &strand.q,
+                    interval.t,
+                    &interval.start,
+                    t_end,
+                    &interval.end,
+                )
+            }));
     let mut energy_levels = 0;
     if acceptable || deepest {
         outcome?;
         if !finite {
             return Err(StepError::SingularMatrix);
+        }
+        if deepest && rotation > rotation_limit && contacts.is_some() {
+            // the deepest split allowed still rotates an element beyond what an unchecked
+            // step may: the change of q and the velocities are scaled to that limit
+            let lambda = T::of(TRUSTED_ELEMENT_ROTATION / rotation);
+            for i in 0..D {
+                strand.q[i] = saved_q[i] + lambda * (strand.q[i] - saved_q[i]);
+                strand.v[i] *= lambda;
+            }
+            rotation = TRUSTED_ELEMENT_ROTATION;
         }
         ws.rotation_estimate = ws
             .rotation_estimate
@@ -531,8 +655,14 @@ fn adaptive<
             ws,
             // a later piece of the step starts from this state
             !interval.last,
+            contacts.as_deref_mut(),
         );
-        let inertial = interval.uniform;
+        // contacts with what moves relative to the head do work: the step is then
+        // balanced against work
+        let bodies_work = contacts
+            .as_deref()
+            .is_some_and(|c| c.moves_relative(interval.t, t_end, &interval.start, &interval.end));
+        let inertial = interval.uniform && !bodies_work;
         let balance = balance(start, &end, inertial);
         let excess = balance.excess;
         // beyond the trusted rotation the energy asks for pieces too; the loss of the
@@ -553,19 +683,27 @@ fn adaptive<
         };
         let split = energy_levels > 0 || (!deepest && excess > T::of(fraction) * start.scale);
         let mut balance = balance;
-        if !split && deepest && balance.limited_kinetic(&end, true).is_none() {
+        if !split && deepest && balance.limited_kinetic(&end, !bodies_work).is_none() {
             // the potential energy alone is above what the step may end with, and the step
             // cannot be split further: its change of q is pulled back towards the start
             // (the runtime's `pull_back`)
-            if let Some((e, b)) = pull_back(source, strand, effects, interval, start, &saved_q, ws)
-            {
+            if let Some((e, b)) = pull_back(
+                source,
+                strand,
+                effects,
+                interval,
+                start,
+                &saved_q,
+                ws,
+                (contacts.as_deref_mut(), !bodies_work),
+            ) {
                 (end, balance) = (e, b);
                 counts.energy_pulled_back += 1;
             }
         }
         if !split {
             // the kinetic energy that brings E down to the bound
-            if let Some(kinetic) = balance.limited_kinetic(&end, true) {
+            if let Some(kinetic) = balance.limited_kinetic(&end, !bodies_work) {
                 let lambda = (kinetic / end.kinetic).sqrt();
                 for x in strand.v.iter_mut() {
                     *x *= lambda;
@@ -585,13 +723,16 @@ fn adaptive<
     }
     strand.q = saved_q;
     strand.v = saved_v;
-    let levels = if !acceptable && rotation.is_finite() && rotation > MAX_ELEMENT_ROTATION {
-        rotation_split_levels(rotation, MAX_ELEMENT_ROTATION, interval.depth)
-    } else {
-        energy_levels.max(1)
-    };
+    // with contacts, level by level (a contact starts or ends within the step: the
+    // quiet pieces pass coarse)
+    let levels =
+        if !acceptable && contacts.is_none() && rotation.is_finite() && rotation > rotation_limit {
+            rotation_split_levels(rotation, rotation_limit, interval.depth)
+        } else {
+            energy_levels.max(1)
+        };
     split(
-        source, strand, head, effects, interval, start, ws, counts, levels,
+        source, strand, head, effects, interval, start, ws, counts, levels, contacts,
     )
 }
 
@@ -605,6 +746,7 @@ const PULL_BACK_BISECTIONS: usize = 10;
 /// `solver::adaptive::pull_back`.
 #[allow(clippy::too_many_arguments)]
 fn pull_back<
+    'c,
     S: MomentSource<T>,
     const N: usize,
     const D: usize,
@@ -619,13 +761,14 @@ fn pull_back<
     start: &StateEnergy<T>,
     q0: &[T; D],
     ws: &mut FixedWorkspace<N, D, E, T>,
+    (mut contacts, to_bound): (Option<&mut (dyn ContactHooks<T, D> + 'c)>, bool),
 ) -> Option<(StateEnergy<T>, Balance<T>)> {
     let end_q = strand.q;
     let time = interval.t + interval.h;
-    let eval = |strand: &mut FixedStrand<N, D, B, T>,
-                ws: &mut FixedWorkspace<N, D, E, T>,
-                lambda: f64,
-                prepare: bool| {
+    let mut eval = |strand: &mut FixedStrand<N, D, B, T>,
+                    ws: &mut FixedWorkspace<N, D, E, T>,
+                    lambda: f64,
+                    prepare: bool| {
         for i in 0..D {
             strand.q[i] = q0[i] + T::of(lambda) * (end_q[i] - q0[i]);
         }
@@ -640,9 +783,10 @@ fn pull_back<
             &v,
             ws,
             prepare,
+            contacts.as_deref_mut(),
         );
-        let b = balance(start, &end, interval.uniform);
-        (b.limited_kinetic(&end, true).is_some(), end, b)
+        let b = balance(start, &end, interval.uniform && to_bound);
+        (b.limited_kinetic(&end, to_bound).is_some(), end, b)
     };
     if !eval(strand, ws, 0.0, false).0 {
         strand.q = end_q;
@@ -666,6 +810,7 @@ fn pull_back<
 /// its pieces stepped in order by [`adaptive`]: the runtime's `split`.
 #[allow(clippy::too_many_arguments)]
 fn split<
+    'c,
     S: MomentSource<T>,
     const N: usize,
     const D: usize,
@@ -682,13 +827,16 @@ fn split<
     ws: &mut FixedWorkspace<N, D, E, T>,
     counts: &mut StepCounts,
     levels: usize,
+    mut contacts: Option<&mut (dyn ContactHooks<T, D> + 'c)>,
 ) -> Result<StateEnergy<T>, StepError> {
     if levels == 0 {
-        return adaptive(source, strand, head, effects, interval, start, ws, counts);
+        return adaptive(
+            source, strand, head, effects, interval, start, ws, counts, contacts,
+        );
     }
     counts.substeps += 1;
     let first = interval.first_half(head);
-    let middle = split(
+    let mut middle = split(
         source,
         strand,
         head,
@@ -698,7 +846,17 @@ fn split<
         ws,
         counts,
         levels - 1,
+        contacts.as_deref_mut(),
     )?;
+    if let Some(c) = contacts.as_deref_mut() {
+        // between two accepted pieces, the contacts' bookkeeping of the first's end (the
+        // runtime's `between_steps`), its energy measured again where the anchors moved
+        let t = first.t + first.h;
+        c.after_step(&strand.q, t, &first.end, first.h);
+        if c.has_history() {
+            middle = remeasure_contacts(c, &first.end, &strand.q, &strand.v, &middle);
+        }
+    }
     let second = interval.second_half(&first, head);
     split(
         source,
@@ -710,5 +868,6 @@ fn split<
         ws,
         counts,
         levels - 1,
+        contacts,
     )
 }

@@ -80,8 +80,8 @@ pub fn bdf2<
         qh[i] = a1 * q[i] - a2 * previous.q[i];
         vh[i] = a1 * v[i] - a2 * previous.v[i];
     }
-    let field_stiffness = assemble(source, strand, &qt, &vt, input, ws);
-    let (projection, use_h) = step_matrix(strand, field_stiffness, bh, ws);
+    let (field_stiffness, _) = assemble(source, strand, &qt, &vt, input, ws, None);
+    let (projection, use_h) = step_matrix(strand, field_stiffness, false, bh, ws);
     let p = &strand.params;
     // D_q (q̂ − q̃), D_q = H⁻ − K
     let mut dq = [T::zero(); D];

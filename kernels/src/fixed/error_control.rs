@@ -201,6 +201,7 @@ pub fn step_to_tolerance<
                 &v,
                 ws,
                 false,
+                None,
             )
         }
     };
@@ -286,7 +287,18 @@ pub fn step_to_tolerance<
             history.h = hh;
             // the energy balance of the checked step
             let (q, v) = (strand.q, strand.v);
-            let mut e = measure(source, strand, effects, &input.head, t1, &q, &v, ws, false);
+            let mut e = measure(
+                source,
+                strand,
+                effects,
+                &input.head,
+                t1,
+                &q,
+                &v,
+                ws,
+                false,
+                None,
+            );
             let inertial = head.uniform_over(now, t1);
             let balance = balance(&energy, &e, inertial);
             if balance.excess > T::zero() && e.kinetic > T::zero() {

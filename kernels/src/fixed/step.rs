@@ -1,6 +1,7 @@
 //! The fixed-N step: the terms of the equation of motion, the linearly implicit Euler
 //! step, and the centreline.
 
+use super::contacts::ContactHooks;
 use super::dense::{lu_solve, negative_semidefinite_part, Projection};
 use super::workspace::{FixedWorkspace, ProjectionArrays};
 use super::FixedStrand;
@@ -166,11 +167,12 @@ pub fn evaluate<
     ws: &mut FixedWorkspace<N, D, E, T>,
 ) -> bool {
     ws.forget();
-    assemble(source, strand, &strand.q, &strand.v, input, ws)
+    assemble(source, strand, &strand.q, &strand.v, input, ws, None).0
 }
 
 /// [`evaluate`] at (q, q̇) without forgetting what `ws` was prepared for.
 pub(super) fn assemble<
+    'c,
     S: MomentSource<T>,
     const N: usize,
     const D: usize,
@@ -184,7 +186,8 @@ pub(super) fn assemble<
     v: &[T; D],
     input: &StepInput,
     ws: &mut FixedWorkspace<N, D, E, T>,
-) -> bool {
+    contacts: Option<(&mut (dyn ContactHooks<T, D> + 'c), f64)>,
+) -> (bool, bool) {
     let p = &strand.params;
     let field = body_field(
         input.gravity,
@@ -218,7 +221,20 @@ pub(super) fn assemble<
         ws.stiffness[i][i] -= p.stiffness[i];
         ws.damping[i][i] -= p.friction[i];
     }
-    position_field
+    // the contacts' force, stiffness and damping at the step's end (time t)
+    let touching = match contacts {
+        Some((c, t)) => c.add_terms(
+            q,
+            v,
+            t,
+            &input.head,
+            &mut ws.force,
+            &mut ws.stiffness,
+            &mut ws.damping,
+        ),
+        None => false,
+    };
+    (position_field || touching, touching)
 }
 
 /// Advance `strand` by `h` seconds: one linearly implicit Euler step (paper section
@@ -250,13 +266,34 @@ pub fn linearly_implicit<
     h: f64,
     ws: &mut FixedWorkspace<N, D, E, T>,
 ) -> Result<StepReport, StepError> {
+    linearly_implicit_with(source, strand, input, h, ws, None)
+}
+
+/// [`linearly_implicit`] with contacts: their terms at the step's start state with the
+/// colliders placed at the step's end, time `t` (`contacts = Some((hooks, t))`).
+pub fn linearly_implicit_with<
+    'c,
+    S: MomentSource<T>,
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+    T: Float,
+>(
+    source: &S,
+    strand: &mut FixedStrand<N, D, B, T>,
+    input: &StepInput,
+    h: f64,
+    ws: &mut FixedWorkspace<N, D, E, T>,
+    contacts: Option<(&mut (dyn ContactHooks<T, D> + 'c), f64)>,
+) -> Result<StepReport, StepError> {
     if !(h.is_finite() && h > 0.0) {
         return Err(StepError::TimeStep);
     }
     let h = T::of(h);
     let (q0, v0) = (strand.q, strand.v);
-    let field_stiffness = assemble(source, strand, &q0, &v0, input, ws);
-    let (projection, _) = step_matrix(strand, field_stiffness, h, ws);
+    let (field_stiffness, touching) = assemble(source, strand, &q0, &v0, input, ws, contacts);
+    let (projection, _) = step_matrix(strand, field_stiffness, touching, h, ws);
     let p = &strand.params;
     let (q, v) = (&mut strand.q, &mut strand.v);
     for i in 0..D {
@@ -312,6 +349,7 @@ pub(super) fn step_matrix<
 >(
     strand: &mut FixedStrand<N, D, B, T>,
     field_stiffness: bool,
+    touching: bool,
     h: T,
     ws: &mut FixedWorkspace<N, D, E, T>,
 ) -> (Option<Projection>, bool) {
@@ -328,9 +366,9 @@ pub(super) fn step_matrix<
             }
             st[j][j] += p.stiffness[j];
         }
-        // a strand without internal friction or drag keeps the projection (see
-        // crate::field_split)
-        let split = if ws.field_rule.splits(p.dissipative()) {
+        // a strand without internal friction or drag keeps the projection, and so does one
+        // that touches (see crate::field_split)
+        let split = if ws.field_rule.splits(p.dissipative()) && !touching {
             // the metric of the step matrix's diagonal, M_jj/h² + K_j
             let inv_h2 = T::one() / (h * h);
             let metric: [T; D] =

@@ -99,6 +99,7 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
     } else {
         Some(d.end_samples)
     };
+    let predict = super::reader::boolean(&mut n, "predict", d.predict);
     let models = ["none", "viscous", "coulomb"];
     let model = n.optional("friction", "viscous", |n, k| {
         n.choice(k, &models, |s| models.iter().copied().find(|m| *m == s))
@@ -304,5 +305,6 @@ pub(super) fn read_contacts(mut n: Node<'_>, bodies: &[BodySetup]) -> Option<Con
         end_samples: end_samples?,
         split_depth: split_depth?,
         hair_hair: hair_hair?,
+        predict: predict?,
     })
 }

@@ -9,14 +9,22 @@
 //! its checks after the fact (energy balance, splitting a step that rotates an element
 //! too far), the same steps to round-off (`runtime/tests/fixed_step.rs`).
 
+use crate::bodies::Body;
+use crate::forces::contacts::strand_contacts::{sample_points, BodyColliders};
+use crate::forces::contacts::ContactConfig;
+use crate::forces::head_motion::HeadState;
 use crate::model::strand::Strand;
 use rayon::prelude::*;
+use std::sync::Arc;
 use superhelix_generated::ClosedForm;
+use superhelix_kernels::contact::{Anchor, ContactParams};
 use superhelix_kernels::field_split::FieldRule;
 use superhelix_kernels::fixed::{
-    self, Effects, FixedParams, FixedStrand, FixedWorkspace, HeadTrajectory, StepCounts,
-    StepHistory, ToleranceReport,
+    self, ContactScalars, ContactStore, Effects, FixedContacts, FixedParams, FixedStrand,
+    FixedWorkspace, HeadTrajectory, StepCounts, StepHistory, ToleranceReport,
 };
+use superhelix_kernels::moments::EndDerivatives;
+use superhelix_kernels::pose::Pose;
 
 /// Strands of one N stepped by the fixed-N step.
 pub trait EmbeddedGroup: Send + Sync {
@@ -26,8 +34,10 @@ pub trait EmbeddedGroup: Send + Sync {
     fn is_empty(&self) -> bool {
         self.len() == 0
     }
-    /// Add a strand at state (q, q̇ = 0); false when its N is not this group's.
-    fn push(&mut self, strand: &Strand, q0: &[f64]) -> bool;
+    /// Add a strand at state (q, q̇ = 0), touching `contacts` (the bodies and the
+    /// contact settings; the same for every strand of a scene); false when its N is not
+    /// this group's.
+    fn push(&mut self, strand: &Strand, q0: &[f64], contacts: Option<&EmbeddedContacts>) -> bool;
     /// Step every strand from `t` by `h` in parallel, one workspace per chunk of strands:
     /// the checked fixed-N step, adding the checks' counters to `counts`, or with a
     /// `tolerance` the error-controlled one (`fixed::step_to_tolerance`), adding what it
@@ -63,12 +73,22 @@ pub trait EmbeddedGroup: Send + Sync {
     fn workspace_bytes(&self) -> usize;
     /// How the steps take the field stiffness into their matrix.
     fn set_field_rule(&mut self, rule: FieldRule);
+    /// The deepest point of strand `i`'s centreline inside a body at time `t`, the head
+    /// in `head` (`None`: no contacts).
+    fn deepest_inside(&mut self, i: usize, t: f64, head: &HeadState) -> Option<f64>;
+    /// Start every strand's contacts at its present state, time `t`, the head in `head`
+    /// (the root zones, the depths allowed at the start, the first anchors), as the
+    /// runtime engine does when it is built; nothing without contacts.
+    fn start_contacts(&mut self, t: f64, head: &HeadState);
 }
 
 /// [`EmbeddedGroup`] for N elements (D = 3N coordinates, E = N + 1 ends, a kept
 /// eigenbasis of B = D/2 columns).
 pub struct Group<const N: usize, const D: usize, const E: usize, const B: usize> {
     strands: Vec<FixedStrand<N, D, B>>,
+    /// The bodies the strands touch and, per strand, its contacts' storage (`None`: no
+    /// contacts).
+    contacts: Option<(Arc<[Body]>, Vec<StrandContactBuffers>)>,
     /// Per strand, the error-controlled step's history and what it did (empty until the
     /// first step with a tolerance).
     histories: Vec<(StepHistory<D>, ToleranceReport)>,
@@ -79,6 +99,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Default for
     fn default() -> Self {
         Group {
             strands: Vec::new(),
+            contacts: None,
             histories: Vec::new(),
             field_rule: FieldRule::default(),
         }
@@ -112,7 +133,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
     fn len(&self) -> usize {
         self.strands.len()
     }
-    fn push(&mut self, strand: &Strand, q0: &[f64]) -> bool {
+    fn push(&mut self, strand: &Strand, q0: &[f64], contacts: Option<&EmbeddedContacts>) -> bool {
         let Some(params) = fixed_params::<N, D>(strand) else {
             return false;
         };
@@ -122,6 +143,12 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         let mut s = FixedStrand::at_rest(params);
         s.q.copy_from_slice(q0);
         self.strands.push(s);
+        if let Some(c) = contacts {
+            let (_, buffers) = self
+                .contacts
+                .get_or_insert_with(|| (c.bodies.clone(), Vec::new()));
+            buffers.push(StrandContactBuffers::new(strand, &c.config));
+        }
         true
     }
     fn step(
@@ -149,8 +176,40 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
             (first, ca, ra)
         };
         let empty = || (None, StepCounts::default(), ToleranceReport::default());
-        let (failure, total, steps) = match tolerance {
-            None => self
+        let (failure, total, steps) = match (tolerance, self.contacts.as_mut()) {
+            (None, Some((bodies, buffers))) => self
+                .strands
+                .par_chunks_mut(chunk)
+                .zip(buffers.par_chunks_mut(chunk))
+                .enumerate()
+                .map(|(c, (strands, buffers))| {
+                    let mut ws = Box::new(FixedWorkspace::<N, D, E>::new());
+                    ws.set_field_rule(self.field_rule);
+                    let mut colliders = BodyColliders::new(bodies.clone());
+                    let mut first = None;
+                    let mut counts = StepCounts::default();
+                    for (k, (s, b)) in strands.iter_mut().zip(buffers.iter_mut()).enumerate() {
+                        let lengths = s.params.lengths;
+                        let mut contacts = b.contacts(&s.params, &lengths, &mut colliders);
+                        let r = fixed::step_with_contacts(
+                            &ClosedForm,
+                            s,
+                            head,
+                            effects,
+                            t,
+                            h,
+                            &mut ws,
+                            &mut counts,
+                            Some(&mut contacts),
+                        );
+                        if let Err(e) = r {
+                            first.get_or_insert((c * chunk + k, e.to_string()));
+                        }
+                    }
+                    (first, counts, ToleranceReport::default())
+                })
+                .reduce(empty, merge),
+            (None, None) => self
                 .strands
                 .par_chunks_mut(chunk)
                 .enumerate()
@@ -169,7 +228,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                     (first, counts, ToleranceReport::default())
                 })
                 .reduce(empty, merge),
-            Some(tolerance) => {
+            (Some(tolerance), _) => {
                 self.histories
                     .resize(self.strands.len(), Default::default());
                 self.strands
@@ -249,6 +308,11 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                     next_h: h.next_h,
                     report: ReportState::of(r),
                 }),
+                contacts: self
+                    .contacts
+                    .as_ref()
+                    .and_then(|(_, b)| b.get(i))
+                    .map(StrandContactBuffers::state),
             })
             .collect()
     }
@@ -265,7 +329,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
             return Err("some strands have an error-control history and some not".into());
         }
         let mut restored = Vec::with_capacity(histories);
-        for (s, state) in self.strands.iter_mut().zip(states) {
+        for (position, (s, state)) in self.strands.iter_mut().zip(states).enumerate() {
             let size = |len: usize| len == D;
             if !size(state.q.len())
                 || !size(state.v.len())
@@ -286,6 +350,17 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 .last_energy
                 .as_ref()
                 .map(super::system::energy_from_words);
+            match (self.contacts.as_mut(), state.contacts) {
+                (None, None) => {}
+                (Some((_, buffers)), Some(c)) => {
+                    let b = buffers
+                        .get_mut(position)
+                        .ok_or("contacts of fewer strands than the scene's")?;
+                    b.restore(c)?;
+                }
+                (Some(_), None) => return Err("the scene has contacts, the checkpoint none".into()),
+                (None, Some(_)) => return Err("the checkpoint has contacts, the scene none".into()),
+            }
             if let Some(h) = state.history {
                 if !size(h.q.len()) || !size(h.v.len()) {
                     return Err(format!("a step history that is not of {N} elements"));
@@ -310,6 +385,160 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
     fn set_field_rule(&mut self, rule: FieldRule) {
         self.field_rule = rule;
     }
+    fn start_contacts(&mut self, t: f64, head: &HeadState) {
+        use superhelix_kernels::fixed::ContactHooks;
+        let Some((bodies, buffers)) = self.contacts.as_mut() else {
+            return;
+        };
+        let mut colliders = BodyColliders::new(bodies.clone());
+        for (s, b) in self.strands.iter().zip(buffers.iter_mut()) {
+            let lengths = s.params.lengths;
+            b.contacts(&s.params, &lengths, &mut colliders)
+                .start(&s.q, t, head);
+        }
+    }
+    fn deepest_inside(&mut self, i: usize, t: f64, head: &HeadState) -> Option<f64> {
+        use superhelix_kernels::fixed::ContactHooks;
+        let (bodies, buffers) = self.contacts.as_mut()?;
+        let s = self.strands.get(i)?;
+        let mut colliders = BodyColliders::new(bodies.clone());
+        let lengths = s.params.lengths;
+        let mut contacts = buffers
+            .get_mut(i)?
+            .contacts(&s.params, &lengths, &mut colliders);
+        Some(contacts.deepest(&s.q, t, head))
+    }
+}
+
+/// What the embedded engine's strands touch: the bodies and the contact settings.
+pub struct EmbeddedContacts {
+    /// The bodies the strands may touch.
+    pub bodies: Arc<[Body]>,
+    /// The scene's contact settings (without hair–hair contacts).
+    pub config: ContactConfig,
+}
+
+/// One strand's contacts in the embedded engine: its law, its samples and the storage of
+/// the fixed-N step's contacts (`superhelix_kernels::fixed::ContactStore`).
+pub struct StrandContactBuffers {
+    params: ContactParams,
+    samples: Vec<(f64, f64)>,
+    anchors: Vec<Option<Anchor>>,
+    allowance: Vec<f64>,
+    start_depth: Vec<f64>,
+    poses: Vec<(nalgebra::Vector3<f64>, nalgebra::Vector3<f64>)>,
+    jac: Vec<nalgebra::Vector3<f64>>,
+    aj: Vec<nalgebra::Vector3<f64>>,
+    ends: Vec<Pose>,
+    end_derivs: Vec<EndDerivatives>,
+    chain_q: Vec<f64>,
+    chain_valid: usize,
+    scalars: ContactScalars,
+}
+
+impl StrandContactBuffers {
+    /// The buffers of `strand`'s contacts under `config` (a clamped root, a free tip).
+    pub fn new(strand: &Strand, config: &ContactConfig) -> Self {
+        let g = &strand.geometry;
+        let samples = sample_points(
+            g,
+            config.samples_per_element.max(1),
+            config.free_ends(false, true),
+        );
+        let (n, dofs, elements) = (samples.len(), g.dofs(), g.lengths.len());
+        let zero = nalgebra::Vector3::zeros();
+        StrandContactBuffers {
+            params: config.params(g.mass_per_length),
+            anchors: vec![None; n],
+            allowance: vec![0.0; n],
+            start_depth: vec![0.0; n],
+            poses: vec![(zero, zero); n],
+            jac: vec![zero; dofs],
+            aj: vec![zero; dofs],
+            ends: vec![Pose::default(); elements + 1],
+            end_derivs: vec![EndDerivatives::default(); elements],
+            chain_q: vec![f64::NAN; dofs],
+            chain_valid: 0,
+            scalars: ContactScalars::default(),
+            samples,
+        }
+    }
+
+    /// What the strand's contacts carry from step to step.
+    fn state(&self) -> ContactState {
+        ContactState {
+            anchors: self
+                .anchors
+                .iter()
+                .map(|a| a.map(|a| (a.body, [a.point.x, a.point.y, a.point.z], a.sliding)))
+                .collect(),
+            allowance: self.allowance.clone(),
+            root_zone: self.scalars.root_zone,
+            started: self.scalars.started,
+            updated: self.scalars.updated,
+        }
+    }
+
+    /// Continue from `state`; an error when its samples are not this strand's.
+    fn restore(&mut self, state: ContactState) -> Result<(), String> {
+        let n = self.samples.len();
+        if state.anchors.len() != n || state.allowance.len() != n {
+            return Err(format!(
+                "contacts of {} samples in the checkpoint, {n} in the scene",
+                state.anchors.len()
+            ));
+        }
+        self.anchors = state
+            .anchors
+            .into_iter()
+            .map(|a| {
+                a.map(|(body, p, sliding)| Anchor {
+                    body,
+                    point: nalgebra::Vector3::from(p),
+                    sliding,
+                })
+            })
+            .collect();
+        self.allowance = state.allowance;
+        self.scalars = ContactScalars {
+            root_zone: state.root_zone,
+            started: state.started,
+            updated: state.updated,
+            ..ContactScalars::default()
+        };
+        Ok(())
+    }
+
+    /// The fixed-N step's contacts of the strand of `params` on these buffers.
+    fn contacts<'a, const N: usize, const D: usize>(
+        &'a mut self,
+        params: &FixedParams<N, D>,
+        lengths: &'a [f64],
+        colliders: &'a mut BodyColliders,
+    ) -> FixedContacts<'a, BodyColliders, ClosedForm> {
+        let store = ContactStore {
+            anchors: &mut self.anchors,
+            allowance: &mut self.allowance,
+            start_depth: &mut self.start_depth,
+            poses: &mut self.poses,
+            jac: &mut self.jac,
+            aj: &mut self.aj,
+            ends: &mut self.ends,
+            end_derivs: &mut self.end_derivs,
+            chain_q: &mut self.chain_q,
+            chain_valid: &mut self.chain_valid,
+            scalars: &mut self.scalars,
+        };
+        FixedContacts::new(
+            params,
+            lengths,
+            colliders,
+            &ClosedForm,
+            &self.params,
+            &self.samples,
+            store,
+        )
+    }
 }
 
 /// What one strand of the embedded engine carries from one step to the next (a
@@ -325,6 +554,21 @@ pub struct FixedStrandState {
     split_hint: u8,
     last_energy: Option<[f64; super::system::ENERGY_WORDS]>,
     history: Option<HistoryState>,
+    /// With contacts, what they carry from step to step.
+    contacts: Option<ContactState>,
+}
+
+/// What a strand's contacts carry from one step to the next in the embedded engine (see
+/// [`FixedStrandState`]): per sample its Coulomb anchor (collider, point in its
+/// coordinates, sliding) and allowance, the root zone, whether they were started and the
+/// time of their last bookkeeping.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+struct ContactState {
+    anchors: Vec<Option<(usize, [f64; 3], bool)>>,
+    allowance: Vec<f64>,
+    root_zone: (usize, usize),
+    started: bool,
+    updated: Option<f64>,
 }
 
 /// A strand's error-controlled step history and report (see [`FixedStrandState`]).

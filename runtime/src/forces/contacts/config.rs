@@ -183,6 +183,11 @@ pub struct ContactConfig {
     pub split_depth: Option<f64>,
     /// Hair–hair interaction; `None`: none, nothing built for it.
     pub hair_hair: Option<HairHairConfig>,
+    /// Whether the contacts that start within a step are predicted from the step's own
+    /// solution and resolved in it (`superhelix_runtime::forces::contacts::predicted`);
+    /// off, such a contact is caught by the step's depth check alone (a step taking a
+    /// sample deeper than [`Self::split_depth`] is split), as the embedded engine does.
+    pub predict: bool,
 }
 
 impl ContactConfig {
@@ -216,6 +221,7 @@ impl Default for ContactConfig {
             end_samples: None,
             split_depth: None,
             hair_hair: None,
+            predict: true,
         }
     }
 }

@@ -256,6 +256,8 @@ pub struct StrandContacts {
     sweep: Vec<Vector3<f64>>,
     /// The time of the last [`Self::start`] or [`Self::after_step`], s.
     updated: Option<f64>,
+    /// Whether the contacts that start within a step are predicted ([`Self::predict`]).
+    predicting: bool,
 }
 
 /// What a strand's contacts carry from one step to the next (a checkpoint's part): the
@@ -313,7 +315,11 @@ impl StrandContacts {
 /// The contact samples of a strand of geometry `geom`: arc lengths and weights by
 /// [`superhelix_kernels::contact::sample_points`], the root's joint of
 /// [`ROOT_JOINT_FRACTION`] of the length left without samples.
-fn sample_points(geom: &StrandGeometry, per: usize, free_ends: [bool; 2]) -> Vec<(f64, f64)> {
+pub(crate) fn sample_points(
+    geom: &StrandGeometry,
+    per: usize,
+    free_ends: [bool; 2],
+) -> Vec<(f64, f64)> {
     let mut out = Vec::with_capacity(geom.lengths.len() * per + 2);
     superhelix_kernels::contact::sample_points(
         &geom.lengths,
@@ -371,7 +377,15 @@ impl StrandContacts {
             predicted: PredictedContacts::default(),
             sweep: Vec::new(),
             updated: None,
+            predicting: true,
         }
+    }
+
+    /// The same contacts, predicting the contacts that start within a step or not
+    /// ([`super::ContactConfig::predict`]; on by default).
+    pub fn with_prediction(mut self, predicting: bool) -> Self {
+        self.predicting = predicting;
+        self
     }
 
     /// The parameters.
@@ -433,22 +447,7 @@ impl StrandContacts {
     /// the world while the head moves at either end. Then contacts can do work on the
     /// strand even while the head moves uniformly.
     pub fn moves_relative(&self, start: &Placement, end: &Placement) -> bool {
-        let head_moves =
-            |h: &HeadState| h.velocity != Vector3::zeros() || h.omega != Vector3::zeros();
-        let head_still = !head_moves(&start.head) && !head_moves(&end.head);
-        !self.partners.is_empty()
-            || self.bodies.iter().any(|b| match &b.attached {
-                Attachment::Head => false,
-                Attachment::World => !head_still,
-                Attachment::Motion(m) => {
-                    let s = m.state(start.time);
-                    let still = start.at_rest
-                        || (m.uniform_over(start.time, end.time)
-                            && s.velocity == Vector3::zeros()
-                            && s.omega == Vector3::zeros());
-                    !(still && head_still)
-                }
-            })
+        !self.partners.is_empty() || bodies_move_relative(&self.bodies, start, end)
     }
 
     /// Place the bodies on their own motion at `at` (once per time; nothing without such
@@ -555,40 +554,11 @@ impl StrandContacts {
         self.view().touching(head, k, y)
     }
 
-    /// The depth of sample `k` in `hit` that the penalty acts on: the depth less the
-    /// sample's allowance, m (≤ 0: no force).
-    fn effective_depth(&self, k: usize, hit: &BodyHit) -> f64 {
-        self.params.radius - hit.distance - self.allowance[k]
-    }
-
     /// The body sample `k` at head-frame `y` touches most deeply (within the contact
     /// radius), with the head in `head`; a sample of the root zone does not touch the
     /// body its strand grows from.
     fn body_hit(&self, head: &HeadState, k: usize, y: &Vector3<f64>) -> Option<BodyHit> {
         self.view().sample_hit(head, k, y)
-    }
-
-    /// [`Self::body_hit`] among the bodies on their own motion (`only = Some(true)`) or
-    /// the others (`Some(false)`).
-    fn body_hit_among(
-        &self,
-        head: &HeadState,
-        k: usize,
-        y: &Vector3<f64>,
-        only: Option<bool>,
-    ) -> Option<BodyHit> {
-        self.view().sample_hit_among(head, k, y, only)
-    }
-
-    /// The body a head-frame point `y` touches most deeply (within the contact radius),
-    /// other than `skip`.
-    fn nearest_body(
-        &self,
-        head: &HeadState,
-        y: &Vector3<f64>,
-        skip: Option<usize>,
-    ) -> Option<BodyHit> {
-        self.view().nearest(head, y, skip, None)
     }
 
     /// The body nearest to `y` among those nearer than `reach` (≥ 0), other than `skip`.
@@ -1050,6 +1020,11 @@ impl StrandContacts {
         q_lin: &[f64],
         q_pred: &[f64],
     ) -> bool {
+        if !self.predicting {
+            // nothing predicted: the step's resolution finds no linearisation point
+            self.predicted.forget();
+            return false;
+        }
         let mut pc = std::mem::take(&mut self.predicted);
         pc.candidates.clear();
         pc.q_lin.clear();
@@ -1269,26 +1244,22 @@ impl StrandContacts {
         // motion, where it is at the start, so that a body sweeping into the strand within
         // the step makes new, checked contacts
         self.sample_poses(geom, q0);
-        let depth = |c: &Self, h: Option<BodyHit>, k: usize| {
-            h.map_or(0.0, |h| c.effective_depth(k, &h).max(0.0))
-        };
         if self.moving {
             self.place(start);
             for k in 0..self.samples.len() {
                 let y = self.poses[k].0;
-                let hit = self.body_hit_among(&start.head, k, &y, Some(true));
-                self.start_depth[k] = depth(self, hit, k);
+                self.start_depth[k] = self.view().depth_among(&start.head, k, &y, Some(true));
             }
             self.place(end);
             for k in 0..self.samples.len() {
                 let y = self.poses[k].0;
-                let hit = self.body_hit_among(head, k, &y, Some(false));
-                self.start_depth[k] = self.start_depth[k].max(depth(self, hit, k));
+                let d = self.view().depth_among(head, k, &y, Some(false));
+                self.start_depth[k] = self.start_depth[k].max(d);
             }
         } else {
             for k in 0..self.samples.len() {
-                let hit = self.body_hit(head, k, &self.poses[k].0);
-                self.start_depth[k] = depth(self, hit, k);
+                let y = self.poses[k].0;
+                self.start_depth[k] = self.view().depth_among(head, k, &y, None);
             }
         }
         // a coupled pair's normal force is not the step's: its approach is not checked
@@ -1302,11 +1273,7 @@ impl StrandContacts {
             self.sample_y0.extend(self.poses.iter().map(|p| p.0));
         }
         self.sample_poses(geom, q1);
-        let deep = (0..self.samples.len()).any(|k| {
-            self.body_hit(head, k, &self.poses[k].0)
-                .is_some_and(|h| self.effective_depth(k, &h) - self.start_depth[k] > split)
-        });
-        if deep {
+        if self.view().too_deep(head, &self.poses, &self.start_depth) {
             return false;
         }
         if !has_partners {
@@ -1459,30 +1426,19 @@ impl StrandContacts {
         self.place(at);
         let head = &at.head;
         self.sample_poses(geom, q);
-        self.root_zone = (0, 0);
         // a free root is not held by the body it starts on: no root zone
-        let root_body = (!geom.floating)
-            .then(|| self.nearest_body(head, &geom.root_position, None))
-            .flatten();
-        if let Some(root) = root_body {
-            let quarter = 0.25 * geom.lengths.iter().sum::<f64>();
-            let zone = (0..self.samples.len())
-                .take_while(|&k| {
-                    self.samples[k].0 <= quarter
-                        && self
-                            .nearest_body(head, &self.poses[k].0, None)
-                            .is_some_and(|h| h.body == root.body)
-                })
-                .count();
-            self.root_zone = (root.body, zone);
-        }
+        let root = (!geom.floating).then_some(&geom.root_position);
+        self.root_zone = (0, 0);
+        self.root_zone =
+            self.view()
+                .root_zone_at(head, root, &self.poses, geom.lengths.iter().sum());
         // a depth whose penalty is within a hundred times the strand's weight is harmless
         // and left to the penalty (a strand laid on a body at rest)
         let harmless = 100.0 * geom.mass_per_length * STANDARD_GRAVITY / self.params.stiffness;
         for k in 0..self.samples.len() {
-            self.allowance[k] = self.body_hit(head, k, &self.poses[k].0).map_or(0.0, |h| {
-                (self.params.radius - h.distance - harmless).max(0.0)
-            });
+            self.allowance[k] = self
+                .view()
+                .start_allowance(head, k, &self.poses[k].0, harmless);
         }
         self.update_anchors(head, geom, q);
     }
@@ -1538,6 +1494,97 @@ fn add_projected(
     m: &mut Mat<f64>,
 ) {
     body::add_projected(jac, a, aj, |i, j, x| m[(i, j)] += x);
+}
+
+/// Whether one of `bodies` moves relative to the head frame between `start` and `end`
+/// (the two ends of a step): a body on its own motion unless it is still over the whole
+/// step and the head still at both ends; a body fixed in the world while the head moves
+/// at either end.
+fn bodies_move_relative(bodies: &[Body], start: &Placement, end: &Placement) -> bool {
+    let head_moves = |h: &HeadState| h.velocity != Vector3::zeros() || h.omega != Vector3::zeros();
+    let head_still = !head_moves(&start.head) && !head_moves(&end.head);
+    bodies.iter().any(|b| match &b.attached {
+        Attachment::Head => false,
+        Attachment::World => !head_still,
+        Attachment::Motion(m) => {
+            let s = m.state(start.time);
+            let still = start.at_rest
+                || (m.uniform_over(start.time, end.time)
+                    && s.velocity == Vector3::zeros()
+                    && s.omega == Vector3::zeros());
+            !(still && head_still)
+        }
+    })
+}
+
+/// A scene's bodies as the colliders of the fixed-N step
+/// (`superhelix_kernels::fixed::StepColliders`): placed at each time the step asks, the
+/// bodies on their own motion in their frames of that time.
+#[derive(Clone)]
+pub struct BodyColliders {
+    bodies: Arc<[Body]>,
+    frames: Vec<Option<HeadState>>,
+    placed: Option<f64>,
+}
+
+impl BodyColliders {
+    /// The colliders of `bodies`.
+    pub fn new(bodies: Arc<[Body]>) -> Self {
+        BodyColliders {
+            frames: vec![None; bodies.len()],
+            bodies,
+            placed: None,
+        }
+    }
+
+    fn placed(&self) -> PlacedBodies<'_> {
+        PlacedBodies {
+            bodies: &self.bodies,
+            frames: &self.frames,
+        }
+    }
+}
+
+impl ColliderSet for BodyColliders {
+    fn count(&self) -> usize {
+        self.bodies.len()
+    }
+    fn proximity(&self, b: usize, local: &Vector3<f64>) -> Proximity {
+        self.placed().proximity(b, local)
+    }
+    fn farther_than(&self, b: usize, local: &Vector3<f64>, r: f64) -> bool {
+        self.placed().farther_than(b, local, r)
+    }
+    fn mount(&self, b: usize) -> Mount {
+        self.placed().mount(b)
+    }
+    fn on_own_motion(&self, b: usize) -> bool {
+        self.placed().on_own_motion(b)
+    }
+}
+
+impl superhelix_kernels::fixed::StepColliders for BodyColliders {
+    fn place(&mut self, t: f64, head: &HeadState) {
+        if self.placed == Some(t) {
+            return;
+        }
+        let at = Placement::new(*head, t);
+        for (f, b) in self.frames.iter_mut().zip(self.bodies.iter()) {
+            *f = if b.attached.is_motion() {
+                b.frame(&at)
+            } else {
+                None
+            };
+        }
+        self.placed = Some(t);
+    }
+    fn moves_relative(&self, t0: f64, t1: f64, head0: &HeadState, head1: &HeadState) -> bool {
+        bodies_move_relative(
+            &self.bodies,
+            &Placement::new(*head0, t0),
+            &Placement::new(*head1, t1),
+        )
+    }
 }
 
 /// The runtime's bodies placed at a time, as the colliders of

@@ -1,0 +1,642 @@
+//! The fixed-N step's contacts with colliders: what the checked step asks of a strand's
+//! contacts ([`ContactHooks`]: their terms in the step's matrix, the energy they store
+//! for the energy balance, whether a step went too deep, the bookkeeping after a step)
+//! and its implementation for a strand's body contacts on the caller's storage
+//! ([`FixedContacts`], on [`crate::contact::body`]: the law, the queries and the sweep
+//! the runtime's contacts use).
+//!
+//! The step places the colliders at each time it evaluates ([`StepColliders::place`]):
+//! at a step's end for its terms (the linearly implicit step's matrix is built there),
+//! at both ends for its acceptance. The contacts that start within a step are caught by
+//! the acceptance: a sample that ends deeper than [`ContactParams::split_depth`] beyond
+//! its start splits the step.
+
+use super::params::FixedParams;
+use crate::contact::body::{BodyContacts, BodySummary, ColliderSet, ContactSink, TermsAsked};
+use crate::contact::{sample_poses, Anchor, ContactParams, Friction};
+use crate::float::Float;
+use crate::head::HeadState;
+use crate::moments::EndDerivatives;
+use crate::pose::Pose;
+use crate::strand_point::{strand_point, PointChain};
+use crate::strand_terms::MomentSource;
+use nalgebra::Vector3;
+
+type V3 = Vector3<f64>;
+
+/// Standard gravity, m/s²: the scale of "a hundred times the strand's weight" below which
+/// a depth at the start is left to the penalty.
+pub const STANDARD_GRAVITY: f64 = 9.80665;
+
+/// Colliders a step places in time: those on their own motion take their pose at `t`.
+pub trait StepColliders: ColliderSet {
+    /// Place the colliders at time `t`, the head in `head` (nothing for colliders on the
+    /// head or in the world).
+    fn place(&mut self, t: f64, head: &HeadState);
+    /// Whether a collider moves relative to the head frame over the step from `t0` (head
+    /// `head0`) to `t1` (head `head1`): then contacts do work on the strand even while the
+    /// head moves uniformly (a world collider while the head moves, a collider on its own
+    /// motion that moves).
+    fn moves_relative(&self, t0: f64, t1: f64, head0: &HeadState, head1: &HeadState) -> bool;
+}
+
+/// Colliders placed once and never moved: a set on the head, or in the world.
+impl<T: crate::collider::Collider> StepColliders for [(T, crate::collider::Mount)] {
+    fn place(&mut self, _t: f64, _head: &HeadState) {}
+    fn moves_relative(&self, _t0: f64, _t1: f64, head0: &HeadState, head1: &HeadState) -> bool {
+        let moves = |h: &HeadState| h.velocity != V3::zeros() || h.omega != V3::zeros();
+        let world = self
+            .iter()
+            .any(|(_, m)| !matches!(m, crate::collider::Mount::Head));
+        world && (moves(head0) || moves(head1))
+    }
+}
+
+/// What the checked fixed-N step asks of a strand's contacts. q and q̇ are the step's
+/// (`T`), the contacts work in `f64`.
+pub trait ContactHooks<T: Float, const D: usize> {
+    /// Before the strand's first step, at state q, time t: the root zone, the depths
+    /// allowed at the start, the first anchors.
+    fn start(&mut self, q: &[T; D], t: f64, head: &HeadState);
+    /// Whether [`Self::start`] was done.
+    fn started(&self) -> bool;
+    /// Add the contact terms at (q, q̇), time t (the colliders placed there) to the step's
+    /// force, stiffness (with the strand's curvature under the forces) and damping;
+    /// whether a contact added stiffness.
+    #[allow(clippy::too_many_arguments)]
+    fn add_terms(
+        &mut self,
+        q: &[T; D],
+        v: &[T; D],
+        t: f64,
+        head: &HeadState,
+        force: &mut [T; D],
+        stiffness: &mut [[T; D]; D],
+        damping: &mut [[T; D]; D],
+    ) -> bool;
+    /// The energy the contacts store at (q, q̇), time t, and its rate at fixed q through
+    /// the colliders' motion (with the work of moving colliders' damping).
+    fn energy(&mut self, q: &[T; D], v: &[T; D], t: f64, head: &HeadState) -> (f64, f64);
+    /// Whether a step from q0 (time t0) to q1 (time t1) is acceptable for the contacts:
+    /// no sample went deeper than the split depth beyond its depth at the start.
+    #[allow(clippy::too_many_arguments)]
+    fn acceptable(
+        &mut self,
+        q0: &[T; D],
+        q1: &[T; D],
+        t0: f64,
+        head0: &HeadState,
+        t1: f64,
+        head1: &HeadState,
+    ) -> bool;
+    /// After an accepted step of `h` seconds ending at (q, t): the allowances shrink, the
+    /// anchors stick, slide or let go.
+    fn after_step(&mut self, q: &[T; D], t: f64, head: &HeadState, h: f64);
+    /// Whether the contacts carry a history from step to step (anchors, allowances): the
+    /// start energy of a step is then measured afresh.
+    fn has_history(&self) -> bool;
+    /// [`StepColliders::moves_relative`].
+    fn moves_relative(&self, t0: f64, t1: f64, head0: &HeadState, head1: &HeadState) -> bool;
+    /// The deepest point of the centreline inside a collider at q, time t, m (0: none).
+    fn deepest(&mut self, q: &[T; D], t: f64, head: &HeadState) -> f64;
+    /// What the last [`Self::add_terms`] found.
+    fn summary(&self) -> BodySummary;
+    /// The contact energy and rate of the last measure of the energy balance (kept by
+    /// the caller of [`Self::energy`]).
+    fn last_contact(&mut self) -> &mut (f64, f64);
+}
+
+/// What a strand's contacts carry from step to step besides the per-sample arrays.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ContactScalars {
+    /// The root zone: `(collider, count)`.
+    pub root_zone: (usize, usize),
+    /// Whether the start's bookkeeping was done.
+    pub started: bool,
+    /// The time of the last bookkeeping (start or after a step), s.
+    pub updated: Option<f64>,
+    /// What the last evaluation of the terms found.
+    pub summary: BodySummary,
+    /// The contact energy and its rate at the last measure of the energy balance.
+    pub last_contact: (f64, f64),
+}
+
+/// A strand's contact storage, the caller's: per sample its anchor, allowance, pose and
+/// depth at a step's start; per coordinate (3N) two Jacobian columns; per element its
+/// end pose (N + 1) and end derivatives (N); and the scalars.
+pub struct ContactStore<'a> {
+    /// Coulomb anchors, one per sample.
+    pub anchors: &'a mut [Option<Anchor>],
+    /// Allowed depths, one per sample, m.
+    pub allowance: &'a mut [f64],
+    /// Scratch: depth at a step's start, one per sample.
+    pub start_depth: &'a mut [f64],
+    /// Scratch: position and unit tangent, one per sample.
+    pub poses: &'a mut [(V3, V3)],
+    /// Scratch: J(s), 3N columns.
+    pub jac: &'a mut [V3],
+    /// Scratch: A J(s), 3N columns.
+    pub aj: &'a mut [V3],
+    /// Scratch: element end poses, N + 1.
+    pub ends: &'a mut [Pose],
+    /// Scratch: element end derivatives, N.
+    pub end_derivs: &'a mut [EndDerivatives],
+    /// Scratch: the q the chain of ends was computed for (3N), and its count.
+    pub chain_q: &'a mut [f64],
+    /// Elements of the chain valid for `chain_q`.
+    pub chain_valid: &'a mut usize,
+    /// The rest of what the contacts carry.
+    pub scalars: &'a mut ContactScalars,
+}
+
+/// A strand's body contacts in the fixed-N step: its colliders, the source of its points
+/// (the f64 closed forms), the law, the samples, and its storage.
+pub struct FixedContacts<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> {
+    /// The colliders.
+    pub colliders: &'a mut C,
+    /// Where the strand's points come from (f64).
+    pub source: &'a P,
+    /// The contact law's parameters.
+    pub params: &'a ContactParams,
+    /// Arc length and weight of each sample ([`crate::contact::sample_points`]).
+    pub samples: &'a [(f64, f64)],
+    /// The strand's root pose, head coordinates.
+    pub root: Pose,
+    /// Element lengths, m.
+    pub lengths: &'a [f64],
+    /// Mass per length ρS, kg/m (the scale of a harmless depth at the start).
+    pub mass_per_length: f64,
+    /// The storage.
+    pub store: ContactStore<'a>,
+}
+
+impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, C, P> {
+    /// The contacts of the strand of `params` (its root, lengths and ρS), with `colliders`
+    /// and `samples`, points from `source`, on `store`.
+    pub fn new<const N: usize, const D: usize, T: Float>(
+        strand: &FixedParams<N, D, T>,
+        lengths: &'a [f64],
+        colliders: &'a mut C,
+        source: &'a P,
+        params: &'a ContactParams,
+        samples: &'a [(f64, f64)],
+        store: ContactStore<'a>,
+    ) -> Self {
+        FixedContacts {
+            colliders,
+            source,
+            params,
+            samples,
+            root: Pose {
+                position: strand.root_position.map(|x| x.as_f64()),
+                frame: strand.root_frame.map(|x| x.as_f64()),
+            },
+            lengths,
+            mass_per_length: strand.mass_per_length.as_f64(),
+            store,
+        }
+    }
+
+    /// The samples' poses at q into the storage.
+    fn pose(&mut self, q: &[f64]) {
+        sample_poses(&self.root, self.lengths, q, self.samples, self.store.poses);
+    }
+
+    /// Re-anchor every sample (Coulomb friction only), the poses current.
+    fn update_anchors(&mut self, head: &HeadState) {
+        if !matches!(self.params.friction, Friction::Coulomb { .. }) {
+            return;
+        }
+        for k in 0..self.samples.len() {
+            let (y, t) = self.store.poses[k];
+            let a = view(self).anchor_after(head, k, &y, &t);
+            self.store.anchors[k] = a;
+        }
+    }
+}
+
+/// The body contacts' view of the storage.
+fn view<'b, C: StepColliders + ?Sized, P: MomentSource + ?Sized>(
+    c: &'b FixedContacts<'_, C, P>,
+) -> BodyContacts<'b, &'b C> {
+    BodyContacts {
+        colliders: &*c.colliders,
+        params: c.params,
+        samples: c.samples,
+        anchors: c.store.anchors,
+        allowance: c.store.allowance,
+        root_zone: c.store.scalars.root_zone,
+    }
+}
+
+/// q in f64.
+fn wide<T: Float, const D: usize>(q: &[T; D]) -> [f64; D] {
+    core::array::from_fn(|i| q[i].as_f64())
+}
+
+/// The fixed step's arrays as the sink of the contact terms.
+struct ArraySink<'s, T: Float, const D: usize, P: MomentSource + ?Sized> {
+    source: &'s P,
+    root: &'s Pose,
+    lengths: &'s [f64],
+    ends: &'s mut [Pose],
+    end_derivs: &'s mut [EndDerivatives],
+    chain_q: &'s mut [f64],
+    chain_valid: &'s mut usize,
+    q: &'s [f64; D],
+    aj: &'s mut [V3],
+    force: &'s mut [T; D],
+    stiffness: &'s mut [[T; D]; D],
+    damping: &'s mut [[T; D]; D],
+}
+
+impl<T: Float, const D: usize, P: MomentSource + ?Sized> ContactSink for ArraySink<'_, T, D, P> {
+    fn point(&mut self, s: f64, jac: &mut [V3], curvature: Option<V3>) -> V3 {
+        let st = &mut *self.stiffness;
+        let mut add = |k: usize, l: usize, v: f64| st[k][l] += T::of(v);
+        let chain = Some(PointChain {
+            q: &mut *self.chain_q,
+            valid: &mut *self.chain_valid,
+        });
+        strand_point(
+            self.source,
+            self.root,
+            self.lengths,
+            self.ends,
+            self.end_derivs,
+            chain,
+            self.q,
+            s,
+            jac,
+            curvature.map(|c| (c, &mut add)),
+        )
+    }
+    fn add_force(&mut self, jac: &[V3], f: &V3) {
+        for (i, c) in jac.iter().enumerate() {
+            self.force[i] += T::of(c.dot(f));
+        }
+    }
+    fn add_stiffness(&mut self, jac: &[V3], a: &nalgebra::Matrix3<f64>) {
+        let m = &mut *self.stiffness;
+        crate::contact::body::add_projected(jac, a, self.aj, |i, j, x| m[i][j] += T::of(x));
+    }
+    fn add_damping(&mut self, jac: &[V3], a: &nalgebra::Matrix3<f64>) {
+        let m = &mut *self.damping;
+        crate::contact::body::add_projected(jac, a, self.aj, |i, j, x| m[i][j] += T::of(x));
+    }
+}
+
+impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Sized>
+    ContactHooks<T, D> for FixedContacts<'_, C, P>
+{
+    fn start(&mut self, q: &[T; D], t: f64, head: &HeadState) {
+        let q = wide(q);
+        self.store.scalars.updated = Some(t);
+        self.colliders.place(t, head);
+        self.pose(&q);
+        let length: f64 = self.lengths.iter().sum();
+        self.store.scalars.root_zone = (0, 0);
+        let root = self.root.position;
+        let zone = view(self).root_zone_at(head, Some(&root), self.store.poses, length);
+        self.store.scalars.root_zone = zone;
+        // a depth whose penalty is within a hundred times the strand's weight is harmless
+        let harmless = 100.0 * self.mass_per_length * STANDARD_GRAVITY / self.params.stiffness;
+        for k in 0..self.samples.len() {
+            let y = self.store.poses[k].0;
+            let a = view(self).start_allowance(head, k, &y, harmless);
+            self.store.allowance[k] = a;
+        }
+        self.update_anchors(head);
+        self.store.scalars.started = true;
+    }
+
+    fn started(&self) -> bool {
+        self.store.scalars.started
+    }
+
+    fn add_terms(
+        &mut self,
+        q: &[T; D],
+        v: &[T; D],
+        t: f64,
+        head: &HeadState,
+        force: &mut [T; D],
+        stiffness: &mut [[T; D]; D],
+        damping: &mut [[T; D]; D],
+    ) -> bool {
+        let (q, v) = (wide(q), wide(v));
+        self.colliders.place(t, head);
+        self.pose(&q);
+        let FixedContacts {
+            colliders,
+            source,
+            params,
+            samples,
+            root,
+            lengths,
+            store,
+            ..
+        } = self;
+        let contacts = BodyContacts {
+            colliders: &**colliders,
+            params,
+            samples,
+            anchors: store.anchors,
+            allowance: store.allowance,
+            root_zone: store.scalars.root_zone,
+        };
+        let mut sink = ArraySink {
+            source: *source,
+            root,
+            lengths,
+            ends: store.ends,
+            end_derivs: store.end_derivs,
+            chain_q: store.chain_q,
+            chain_valid: store.chain_valid,
+            q: &q,
+            aj: store.aj,
+            force,
+            stiffness,
+            damping,
+        };
+        let asked = TermsAsked {
+            force: true,
+            stiffness: true,
+            curvature: true,
+            damping: true,
+        };
+        let (summary, stiffened) =
+            contacts.add_terms(head, store.poses, &v, asked, store.jac, &mut sink);
+        store.scalars.summary = summary;
+        stiffened
+    }
+
+    fn energy(&mut self, q: &[T; D], v: &[T; D], t: f64, head: &HeadState) -> (f64, f64) {
+        let (q, v) = (wide(q), wide(v));
+        self.colliders.place(t, head);
+        self.pose(&q);
+        let (potential, rate) = view(self).energy(head, self.store.poses);
+        let moving = (0..self.colliders.count()).any(|b| self.colliders.on_own_motion(b));
+        if !moving {
+            return (potential, rate);
+        }
+        let FixedContacts {
+            colliders,
+            source,
+            params,
+            samples,
+            root,
+            lengths,
+            store,
+            ..
+        } = self;
+        let contacts = BodyContacts {
+            colliders: &**colliders,
+            params,
+            samples,
+            anchors: store.anchors,
+            allowance: store.allowance,
+            root_zone: store.scalars.root_zone,
+        };
+        let (ends, derivs) = (&mut *store.ends, &mut *store.end_derivs);
+        let power = contacts.drag_power(head, store.poses, &v, store.jac, |s, jac| {
+            strand_point(
+                *source,
+                root,
+                lengths,
+                ends,
+                derivs,
+                None,
+                &q,
+                s,
+                jac,
+                crate::strand_point::NO_HESSIAN,
+            );
+        });
+        (potential, rate + power)
+    }
+
+    fn acceptable(
+        &mut self,
+        q0: &[T; D],
+        q1: &[T; D],
+        t0: f64,
+        head0: &HeadState,
+        t1: f64,
+        head1: &HeadState,
+    ) -> bool {
+        let (q0, q1) = (wide(q0), wide(q1));
+        // how deep the samples are at the start: for a collider on the head or in the
+        // world, as the step's matrix has them (q0 with the head at the end); for one on
+        // its own motion, where it is at the start, so that a collider sweeping into the
+        // strand within the step makes new, checked contacts
+        self.pose(&q0);
+        let n = self.samples.len();
+        let moving = (0..self.colliders.count()).any(|b| self.colliders.on_own_motion(b));
+        if moving {
+            self.colliders.place(t0, head0);
+            for k in 0..n {
+                let y = self.store.poses[k].0;
+                self.store.start_depth[k] = view(self).depth_among(head0, k, &y, Some(true));
+            }
+            self.colliders.place(t1, head1);
+            for k in 0..n {
+                let y = self.store.poses[k].0;
+                let d = view(self).depth_among(head1, k, &y, Some(false));
+                self.store.start_depth[k] = self.store.start_depth[k].max(d);
+            }
+        } else {
+            self.colliders.place(t1, head1);
+            for k in 0..n {
+                let y = self.store.poses[k].0;
+                self.store.start_depth[k] = view(self).depth_among(head1, k, &y, None);
+            }
+        }
+        self.pose(&q1);
+        !view(self).too_deep(head1, self.store.poses, self.store.start_depth)
+    }
+
+    fn after_step(&mut self, q: &[T; D], t: f64, head: &HeadState, h: f64) {
+        let q = wide(q);
+        let h = self
+            .store
+            .scalars
+            .updated
+            .map_or(h, |t0| (t - t0).clamp(0.0, h));
+        self.store.scalars.updated = Some(t);
+        self.colliders.place(t, head);
+        self.pose(&q);
+        if self.store.allowance.iter().any(|a| *a > 0.0) {
+            for k in 0..self.samples.len() {
+                let y = self.store.poses[k].0;
+                let a = view(self).allowance_after(head, k, &y, h);
+                self.store.allowance[k] = a;
+            }
+        }
+        self.update_anchors(head);
+    }
+
+    fn has_history(&self) -> bool {
+        matches!(self.params.friction, Friction::Coulomb { .. })
+            || self.store.allowance.iter().any(|a| *a > 0.0)
+    }
+
+    fn moves_relative(&self, t0: f64, t1: f64, head0: &HeadState, head1: &HeadState) -> bool {
+        self.colliders.moves_relative(t0, t1, head0, head1)
+    }
+
+    fn deepest(&mut self, q: &[T; D], t: f64, head: &HeadState) -> f64 {
+        let q = wide(q);
+        self.colliders.place(t, head);
+        view(self).deepest_inside(head, &self.root, self.lengths, &q)
+    }
+
+    fn summary(&self) -> BodySummary {
+        self.store.scalars.summary
+    }
+
+    fn last_contact(&mut self) -> &mut (f64, f64) {
+        &mut self.store.scalars.last_contact
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::collider::{Mount, Sphere};
+    use crate::contact::sample_points;
+    use crate::fixed::{
+        step_with_contacts, Effects, FixedStrand, FixedWorkspace, StepCounts, StillHead,
+    };
+    use crate::material::section_terms;
+    use crate::strand_point::tests::Jets;
+    use std::vec;
+    use std::vec::Vec;
+
+    const N: usize = 3;
+    const D: usize = 9;
+
+    /// A strand of 9 cm, N = 3, held horizontally 1 cm above a ball of radius 5 cm
+    /// fixed on the head (what an engine hands the step: a slice of colliders with their
+    /// mounts, the storage its own), falls onto it under gravity for 0.6 s at 1/60 s: the
+    /// step takes its contacts (the strand ends lying on the ball, within the contact
+    /// radius and no point more than 0.5 mm inside); without the colliders it falls
+    /// through the ball's top.
+    #[test]
+    fn a_strand_falls_onto_a_ball_and_stays_out() {
+        let section = section_terms(50e-6, 1.0, 1.5e9, 0.48, 1300.0);
+        let lengths = [0.03; N];
+        let natural = [0.0; D];
+        let params = crate::fixed::FixedParams::<N, D>::new(
+            [0.0, -0.045, 0.06],
+            [[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
+            lengths,
+            &section,
+            natural,
+            1e-12,
+            0.0,
+        )
+        .expect("params");
+        let ball = Sphere {
+            center: Vector3::zeros(),
+            radius: 0.05,
+        };
+        let contact = ContactParams {
+            radius: 1e-3,
+            stiffness: 1e4 * params.mass_per_length * STANDARD_GRAVITY / 1e-3,
+            damping: 2.0
+                * 0.5
+                * libm::sqrt(
+                    1e4 * params.mass_per_length * STANDARD_GRAVITY / 1e-3 * params.mass_per_length,
+                ),
+            max_depth: 1e-3,
+            split_depth: 1e-3,
+            depenetration_speed: 0.05,
+            friction: Friction::None,
+            anisotropy: 0.0,
+        };
+        let mut samples = Vec::new();
+        sample_points(&lengths, 4, [false, true], 0.0, |s, w| samples.push((s, w)));
+        let m = samples.len();
+        let run = |with_ball: bool| {
+            let mut strand = FixedStrand::<N, D, 4>::at_rest(params);
+            let mut ws = FixedWorkspace::<N, D, { N + 1 }>::new();
+            let mut colliders = [(ball, Mount::Head)];
+            let (mut anchors, mut allowance, mut start_depth) =
+                (vec![None; m], vec![0.0; m], vec![0.0; m]);
+            let mut poses = vec![(V3::zeros(), V3::zeros()); m];
+            let (mut jac, mut aj) = (vec![V3::zeros(); D], vec![V3::zeros(); D]);
+            let mut ends = vec![Pose::default(); N + 1];
+            let mut derivs = vec![EndDerivatives::default(); N];
+            let (mut chain_q, mut chain_valid) = (vec![f64::NAN; D], 0usize);
+            let mut scalars = ContactScalars::default();
+            let effects = Effects {
+                gravity: Some(Vector3::new(0.0, 0.0, -9.81)),
+                head_moves: false,
+            };
+            let mut counts = StepCounts::default();
+            let (mut deepest, mut t) = (0.0f64, 0.0);
+            let h = 1.0 / 60.0;
+            for _ in 0..36 {
+                let mut contacts = FixedContacts::new(
+                    &strand.params,
+                    &lengths,
+                    &mut colliders[..],
+                    &Jets,
+                    &contact,
+                    &samples,
+                    ContactStore {
+                        anchors: &mut anchors,
+                        allowance: &mut allowance,
+                        start_depth: &mut start_depth,
+                        poses: &mut poses,
+                        jac: &mut jac,
+                        aj: &mut aj,
+                        ends: &mut ends,
+                        end_derivs: &mut derivs,
+                        chain_q: &mut chain_q,
+                        chain_valid: &mut chain_valid,
+                        scalars: &mut scalars,
+                    },
+                );
+                let hooks: Option<&mut dyn ContactHooks<f64, D>> =
+                    if with_ball { Some(&mut contacts) } else { None };
+                step_with_contacts(
+                    &Jets,
+                    &mut strand,
+                    &StillHead,
+                    &effects,
+                    t,
+                    h,
+                    &mut ws,
+                    &mut counts,
+                    hooks,
+                )
+                .expect("step");
+                t += h;
+                deepest = deepest.max(contacts.deepest(&strand.q, t, &HeadState::rest()));
+            }
+            // the centreline's distance to the ball's surface, nearest point
+            let mut nearest = f64::INFINITY;
+            crate::contact::samples::positions_along(
+                &Pose {
+                    position: strand.params.root_position,
+                    frame: strand.params.root_frame,
+                },
+                &lengths,
+                &strand.q,
+                (0..=90).map(|i| 0.09 * i as f64 / 90.0),
+                |_, y| nearest = nearest.min(y.norm() - ball.radius),
+            );
+            (deepest, nearest)
+        };
+        let (deepest, nearest) = run(true);
+        assert!(deepest <= 5e-4, "{deepest} m inside the ball");
+        assert!(
+            (-5e-4..=1e-3).contains(&nearest),
+            "the strand ends {nearest} m from the ball"
+        );
+        let (_, through) = run(false);
+        assert!(through < -5e-3, "without the ball's contacts: {through} m");
+    }
+}
