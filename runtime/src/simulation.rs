@@ -1261,9 +1261,9 @@ impl Simulation {
         if let Some(e) = &mut self.embedded {
             let (t, head) = (self.time, self.head.state(self.time));
             return e
-                .strands
-                .iter()
-                .filter_map(|s| e.groups[s.2].1.deepest_inside(s.3, t, &head))
+                .groups
+                .iter_mut()
+                .filter_map(|(_, g)| g.deepest_inside(t, &head))
                 .reduce(f64::max);
         }
         let head = Placement::new(self.head.state(self.time), self.time);

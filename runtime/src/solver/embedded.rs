@@ -73,9 +73,9 @@ pub trait EmbeddedGroup: Send + Sync {
     fn workspace_bytes(&self) -> usize;
     /// How the steps take the field stiffness into their matrix.
     fn set_field_rule(&mut self, rule: FieldRule);
-    /// The deepest point of strand `i`'s centreline inside a body at time `t`, the head
-    /// in `head` (`None`: no contacts).
-    fn deepest_inside(&mut self, i: usize, t: f64, head: &HeadState) -> Option<f64>;
+    /// The deepest point of any strand's centreline inside a body at time `t`, the head
+    /// in `head` (`None`: no contacts), on the dense sweep of each centreline.
+    fn deepest_inside(&mut self, t: f64, head: &HeadState) -> Option<f64>;
     /// Start every strand's contacts at its present state, time `t`, the head in `head`
     /// (the root zones, the depths allowed at the start, the first anchors), as the
     /// runtime engine does when it is built; nothing without contacts.
@@ -186,11 +186,13 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                     let mut ws = Box::new(FixedWorkspace::<N, D, E>::new());
                     ws.set_field_rule(self.field_rule);
                     let mut colliders = BodyColliders::new(bodies.clone());
+                    let mut scratch = ContactScratch::for_strands(buffers, N);
                     let mut first = None;
                     let mut counts = StepCounts::default();
                     for (k, (s, b)) in strands.iter_mut().zip(buffers.iter_mut()).enumerate() {
                         let lengths = s.params.lengths;
-                        let mut contacts = b.contacts(&s.params, &lengths, &mut colliders);
+                        let mut contacts =
+                            b.contacts(&s.params, &lengths, &mut colliders, &mut scratch);
                         let r = fixed::step_with_contacts(
                             &ClosedForm,
                             s,
@@ -391,22 +393,34 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
             return;
         };
         let mut colliders = BodyColliders::new(bodies.clone());
+        let mut scratch = ContactScratch::for_strands(buffers, N);
         for (s, b) in self.strands.iter().zip(buffers.iter_mut()) {
             let lengths = s.params.lengths;
-            b.contacts(&s.params, &lengths, &mut colliders)
+            b.contacts(&s.params, &lengths, &mut colliders, &mut scratch)
                 .start(&s.q, t, head);
         }
     }
-    fn deepest_inside(&mut self, i: usize, t: f64, head: &HeadState) -> Option<f64> {
+    fn deepest_inside(&mut self, t: f64, head: &HeadState) -> Option<f64> {
         use superhelix_kernels::fixed::ContactHooks;
         let (bodies, buffers) = self.contacts.as_mut()?;
-        let s = self.strands.get(i)?;
-        let mut colliders = BodyColliders::new(bodies.clone());
-        let lengths = s.params.lengths;
-        let mut contacts = buffers
-            .get_mut(i)?
-            .contacts(&s.params, &lengths, &mut colliders);
-        Some(contacts.deepest(&s.q, t, head))
+        // (the strands in parallel, one scratch per chunk)
+        self.strands
+            .par_chunks(64)
+            .zip(buffers.par_chunks_mut(64))
+            .map(|(strands, buffers)| {
+                let mut colliders = BodyColliders::new(bodies.clone());
+                let mut scratch = ContactScratch::for_strands(buffers, N);
+                strands
+                    .iter()
+                    .zip(buffers.iter_mut())
+                    .map(|(s, b)| {
+                        let lengths = s.params.lengths;
+                        b.contacts(&s.params, &lengths, &mut colliders, &mut scratch)
+                            .deepest(&s.q, t, head)
+                    })
+                    .fold(0.0, f64::max)
+            })
+            .reduce_with(f64::max)
     }
 }
 
@@ -418,13 +432,20 @@ pub struct EmbeddedContacts {
     pub config: ContactConfig,
 }
 
-/// One strand's contacts in the embedded engine: its law, its samples and the storage of
-/// the fixed-N step's contacts (`superhelix_kernels::fixed::ContactStore`).
+/// One strand's contacts in the embedded engine: its law, its samples and what they
+/// carry from step to step (the rest of the fixed-N step's `ContactStore` is a worker's
+/// [`ContactScratch`]).
 pub struct StrandContactBuffers {
     params: ContactParams,
     samples: Vec<(f64, f64)>,
     anchors: Vec<Option<Anchor>>,
     allowance: Vec<f64>,
+    scalars: ContactScalars,
+}
+
+/// The scratch of the contacts of a worker's strands (one per chunk of strands, sized
+/// for the most samples among them).
+pub struct ContactScratch {
     start_depth: Vec<f64>,
     poses: Vec<(nalgebra::Vector3<f64>, nalgebra::Vector3<f64>)>,
     jac: Vec<nalgebra::Vector3<f64>>,
@@ -433,7 +454,30 @@ pub struct StrandContactBuffers {
     end_derivs: Vec<EndDerivatives>,
     chain_q: Vec<f64>,
     chain_valid: usize,
-    scalars: ContactScalars,
+}
+
+impl ContactScratch {
+    /// Scratch for strands of `elements` elements and at most `samples` samples.
+    pub fn new(samples: usize, elements: usize) -> Self {
+        let zero = nalgebra::Vector3::zeros();
+        let dofs = 3 * elements;
+        ContactScratch {
+            start_depth: vec![0.0; samples],
+            poses: vec![(zero, zero); samples],
+            jac: vec![zero; dofs],
+            aj: vec![zero; dofs],
+            ends: vec![Pose::default(); elements + 1],
+            end_derivs: vec![EndDerivatives::default(); elements],
+            chain_q: vec![f64::NAN; dofs],
+            chain_valid: 0,
+        }
+    }
+
+    /// Scratch for the strands of `buffers`, of `elements` elements.
+    fn for_strands(buffers: &[StrandContactBuffers], elements: usize) -> Self {
+        let samples = buffers.iter().map(|b| b.samples.len()).max().unwrap_or(0);
+        ContactScratch::new(samples, elements)
+    }
 }
 
 impl StrandContactBuffers {
@@ -445,20 +489,11 @@ impl StrandContactBuffers {
             config.samples_per_element.max(1),
             config.free_ends(false, true),
         );
-        let (n, dofs, elements) = (samples.len(), g.dofs(), g.lengths.len());
-        let zero = nalgebra::Vector3::zeros();
+        let n = samples.len();
         StrandContactBuffers {
             params: config.params(g.mass_per_length),
             anchors: vec![None; n],
             allowance: vec![0.0; n],
-            start_depth: vec![0.0; n],
-            poses: vec![(zero, zero); n],
-            jac: vec![zero; dofs],
-            aj: vec![zero; dofs],
-            ends: vec![Pose::default(); elements + 1],
-            end_derivs: vec![EndDerivatives::default(); elements],
-            chain_q: vec![f64::NAN; dofs],
-            chain_valid: 0,
             scalars: ContactScalars::default(),
             samples,
         }
@@ -509,24 +544,29 @@ impl StrandContactBuffers {
         Ok(())
     }
 
-    /// The fixed-N step's contacts of the strand of `params` on these buffers.
+    /// The fixed-N step's contacts of the strand of `params` on these buffers and a
+    /// worker's `scratch`.
     fn contacts<'a, const N: usize, const D: usize>(
         &'a mut self,
         params: &FixedParams<N, D>,
         lengths: &'a [f64],
         colliders: &'a mut BodyColliders,
+        scratch: &'a mut ContactScratch,
     ) -> FixedContacts<'a, BodyColliders, ClosedForm> {
+        let m = self.samples.len();
+        // the chain of element ends kept in the scratch was another strand's
+        scratch.chain_valid = 0;
         let store = ContactStore {
             anchors: &mut self.anchors,
             allowance: &mut self.allowance,
-            start_depth: &mut self.start_depth,
-            poses: &mut self.poses,
-            jac: &mut self.jac,
-            aj: &mut self.aj,
-            ends: &mut self.ends,
-            end_derivs: &mut self.end_derivs,
-            chain_q: &mut self.chain_q,
-            chain_valid: &mut self.chain_valid,
+            start_depth: &mut scratch.start_depth[..m],
+            poses: &mut scratch.poses[..m],
+            jac: &mut scratch.jac,
+            aj: &mut scratch.aj,
+            ends: &mut scratch.ends,
+            end_derivs: &mut scratch.end_derivs,
+            chain_q: &mut scratch.chain_q,
+            chain_valid: &mut scratch.chain_valid,
             scalars: &mut self.scalars,
         };
         FixedContacts::new(
