@@ -39,6 +39,7 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::lu::partial_pivoting as lu;
 use faer::{MatMut, Par};
 use nalgebra::Vector3;
+use superhelix_kernels::contact::complementarity::block_principal_pivoting;
 
 /// One sample that may reach a body within the step.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -148,52 +149,33 @@ impl PredictedContacts {
         self.lambda.clear();
         self.lambda.resize(m, 0.0);
         self.active.clear();
-        self.active.extend(self.a.iter().map(|&a| a < 0.0));
-        self.pivots = 0;
-        // block principal pivoting (Júdice and Pires 1994): flip every infeasible index at
-        // once while their number falls, with Murty's single least-index flip as the
-        // backup after three rounds without progress; finite for a P-matrix. Round-off
-        // at the boundary is tolerated (relative to the gaps and to the forces)
-        let scale = self.a.iter().fold(0.0f64, |m, a| m.max(a.abs()));
-        let gap_tol = 1e-12 * scale.max(f64::MIN_POSITIVE);
-        let mut best = m + 1;
-        let mut backup = 3;
-        for _ in 0..(10 * m + 20) {
-            self.solve_active(m);
-            let force_tol = 1e-12 * self.lambda.iter().fold(0.0f64, |m, l| m.max(l.abs()));
-            let infeasible = |c: usize, this: &Self| {
-                if this.active[c] {
-                    this.lambda[c] < -force_tol
-                } else {
-                    this.a[c]
-                        + (0..m)
-                            .map(|j| this.s[c + j * m] * this.lambda[j])
-                            .sum::<f64>()
-                        < -gap_tol
-                }
-            };
-            let count = (0..m).filter(|&c| infeasible(c, self)).count();
-            if count == 0 {
-                break;
-            }
-            self.pivots += 1;
-            if count < best {
-                best = count;
-                backup = 3;
-            } else if backup > 0 {
-                backup -= 1;
-            } else {
-                if let Some(c) = (0..m).rev().find(|&c| infeasible(c, self)) {
-                    self.active[c] = !self.active[c];
-                }
-                continue;
-            }
-            for c in 0..m {
-                if infeasible(c, self) {
-                    self.active[c] = !self.active[c];
-                }
-            }
-        }
+        self.active.resize(m, false);
+        // block principal pivoting (superhelix_kernels::contact::complementarity), the
+        // principal subproblems by faer's LU on this buffer
+        let PredictedContacts {
+            s,
+            a,
+            lambda,
+            active,
+            sub,
+            sub_rhs,
+            index,
+            perm,
+            perm_inv,
+            buffer,
+            ..
+        } = self;
+        let mut scratch = ActiveScratch {
+            sub,
+            sub_rhs,
+            index,
+            perm,
+            perm_inv,
+            buffer,
+        };
+        self.pivots = block_principal_pivoting(m, s, a, lambda, active, |active, lambda| {
+            scratch.solve(m, s, a, active, lambda)
+        });
         for l in self.lambda.iter_mut() {
             *l = l.max(0.0);
         }
@@ -239,13 +221,25 @@ impl PredictedContacts {
                 .sum::<f64>()
             - self.lambda[k] / self.candidates[k].stiffness
     }
+}
 
-    /// λ on the active set: `S_AA λ_A = −a_A`, 0 elsewhere.
-    fn solve_active(&mut self, m: usize) {
+/// The buffers of the principal subproblems of [`PredictedContacts::solve`].
+struct ActiveScratch<'a> {
+    sub: &'a mut Vec<f64>,
+    sub_rhs: &'a mut Vec<f64>,
+    index: &'a mut Vec<usize>,
+    perm: &'a mut Vec<usize>,
+    perm_inv: &'a mut Vec<usize>,
+    buffer: &'a mut Option<(usize, MemBuffer)>,
+}
+
+impl ActiveScratch<'_> {
+    /// λ on the active set: `S_AA λ_A = −a_A`, 0 elsewhere (S m × m, column-major).
+    fn solve(&mut self, m: usize, s: &[f64], a: &[f64], active: &[bool], lambda: &mut [f64]) {
         self.index.clear();
-        self.index.extend((0..m).filter(|&c| self.active[c]));
+        self.index.extend((0..m).filter(|&c| active[c]));
         let p = self.index.len();
-        for l in self.lambda.iter_mut() {
+        for l in lambda.iter_mut() {
             *l = 0.0;
         }
         if p == 0 {
@@ -255,9 +249,9 @@ impl PredictedContacts {
         self.sub_rhs.resize(p, 0.0);
         for (jj, &j) in self.index.iter().enumerate() {
             for (ii, &i) in self.index.iter().enumerate() {
-                self.sub[ii + jj * p] = self.s[i + j * m];
+                self.sub[ii + jj * p] = s[i + j * m];
             }
-            self.sub_rhs[jj] = -self.a[j];
+            self.sub_rhs[jj] = -a[j];
         }
         self.perm.resize(p, 0);
         self.perm_inv.resize(p, 0);
@@ -269,7 +263,7 @@ impl PredictedContacts {
                         1,
                         Par::Seq,
                     ));
-            self.buffer = Some((p, MemBuffer::new(req)));
+            *self.buffer = Some((p, MemBuffer::new(req)));
         }
         let Some((_, buffer)) = self.buffer.as_mut() else {
             return;
@@ -277,8 +271,8 @@ impl PredictedContacts {
         let mut mat = MatMut::from_column_major_slice_mut(&mut self.sub[..p * p], p, p);
         let (_, perm) = lu::factor::lu_in_place(
             mat.as_mut(),
-            &mut self.perm,
-            &mut self.perm_inv,
+            self.perm,
+            self.perm_inv,
             Par::Seq,
             MemStack::new(buffer),
             Default::default(),
@@ -296,7 +290,7 @@ impl PredictedContacts {
             let x = self.sub_rhs[ii];
             // a singular block (two candidates on the same constraint) leaves no usable
             // force: none is better than a non-finite one
-            self.lambda[i] = if x.is_finite() { x } else { 0.0 };
+            lambda[i] = if x.is_finite() { x } else { 0.0 };
         }
     }
 }
