@@ -927,7 +927,10 @@ pub fn with_tolerance(cases: Vec<Case>, tolerance: f64) -> Vec<Case> {
 }
 
 /// `cases` on `engine` (`auto`, the scenes' default: the embedded engine wherever it can
-/// run a case), names unchanged.
+/// run a case), names unchanged. On the embedded engine a case with contacts takes them
+/// without the prediction of the contacts that start within a step (`predict = false`:
+/// the embedded engine does not predict them; its steps split where a sample goes deeper
+/// than `split_depth`).
 pub fn with_engine(cases: Vec<Case>, engine: Engine) -> Vec<Case> {
     cases
         .into_iter()
@@ -935,6 +938,11 @@ pub fn with_engine(cases: Vec<Case>, engine: Engine) -> Vec<Case> {
         .filter(|c| engine != Engine::Embedded || c.group != "ends")
         .map(|mut c| {
             c.setup.config.engine = engine;
+            if engine == Engine::Embedded {
+                if let Some(contacts) = c.setup.contacts.as_mut() {
+                    contacts.predict = false;
+                }
+            }
             c
         })
         .collect()
