@@ -49,7 +49,7 @@ pub use bdf2::{bdf2, Bdf2History};
 pub use contacts::{
     ContactHooks, ContactScalars, ContactStore, FixedContacts, StepColliders, STANDARD_GRAVITY,
 };
-pub use dense::{lu_solve, negative_semidefinite_part, Projection};
+pub use dense::{lu_solve, lu_solve_factored, negative_semidefinite_part, Projection};
 pub use error_control::{
     min_tolerance, step_to_tolerance, StepHistory, ToleranceReport, MAX_TOLERANCE, MIN_STEP,
     MIN_TOLERANCE,

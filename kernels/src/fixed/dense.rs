@@ -48,6 +48,21 @@ pub fn lu_solve<T: Float, const D: usize>(
             }
         }
     }
+    lu_solve_factored(a, pivots, b)
+}
+
+/// Solve `a x = b` in place (`b`, D long, becomes x) with the factors [`lu_solve`] left
+/// in `a` and `pivots`: another right-hand side of the same matrix (the columns of the
+/// contacts that start within a step, on the step's matrix) for two triangular solves.
+/// Returns false when the solution is not finite.
+pub fn lu_solve_factored<T: Float, const D: usize>(
+    a: &[[T; D]; D],
+    pivots: &[usize; D],
+    b: &mut [T],
+) -> bool {
+    if b.len() != D {
+        return false;
+    }
     // P b, then L y = P b (unit lower), then U x = y
     for k in 0..D {
         b.swap(k, pivots[k]);
@@ -229,6 +244,12 @@ mod tests {
             let ax: f64 = (0..D).map(|c| a[c][r] * x[c]).sum();
             assert!((ax - b[r]).abs() < 1e-12, "row {r}: {ax} vs {}", b[r]);
         }
+        // another right-hand side on the factors: the bits of a fresh solve
+        let c: [f64; D] = core::array::from_fn(|_| next());
+        let (mut fresh, mut again) = ((a, c), c);
+        assert!(lu_solve(&mut fresh.0, &mut fresh.1, &mut [0; D]));
+        assert!(lu_solve_factored(&lu, &piv, &mut again));
+        assert_eq!(fresh.1, again);
         let mut singular = a;
         singular[3] = singular[5];
         let (mut x, mut piv) = (b, [0; D]);
