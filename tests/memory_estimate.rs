@@ -56,7 +56,7 @@ fn the_estimate_is_within_a_quarter_of_the_measured_peak() {
             .replace("center = [0.0, 0.0, 0.101]", "center = [0.0, 0.0, 0.115]")
             .replace("0.0333333", "0.1")
     };
-    let table: [(&str, String, &str); 10] = [
+    let table: [(&str, String, &str); 11] = [
         ("runtime, N = 5", patch("runtime", [25, 40], 5, ""), "npy"),
         ("runtime, N = 20", patch("runtime", [10, 20], 20, ""), "npy"),
         ("runtime, N = 50", patch("runtime", [5, 10], 50, ""), "npy"),
@@ -73,6 +73,16 @@ fn the_estimate_is_within_a_quarter_of_the_measured_peak() {
         (
             "runtime, N = 10, body contacts",
             patch("runtime", [20, 25], 10, sphere),
+            "npy",
+        ),
+        (
+            "embedded, N = 5, body contacts",
+            patch(
+                "embedded",
+                [100, 150],
+                5,
+                &format!("{sphere}predict = false\n"),
+            ),
             "npy",
         ),
         (
