@@ -21,6 +21,7 @@
 //! samples against its colliders, on the caller's storage: [`body`].
 
 pub mod body;
+pub mod candidates;
 pub mod complementarity;
 pub mod law;
 pub mod samples;

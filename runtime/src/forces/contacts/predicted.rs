@@ -41,31 +41,7 @@ use faer::{MatMut, Par};
 use nalgebra::Vector3;
 use superhelix_kernels::contact::complementarity::block_principal_pivoting;
 
-/// One sample that may reach a body within the step.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Candidate {
-    /// Index of the sample (beyond the samples: the tip).
-    pub sample: usize,
-    /// Its arc length, m.
-    pub s: f64,
-    /// Its penalty stiffness k w, N/m.
-    pub stiffness: f64,
-    /// The body.
-    pub body: usize,
-    /// The body's outward normal at the linearisation point, head coordinates.
-    pub normal: Vector3<f64>,
-    /// The distance to the body at which its penalty starts, m: the contact radius (less
-    /// the sample's allowance) for a sample that touched nothing at the start; 0 (less
-    /// the allowance) for one whose stiffness is in the step's matrix and whose
-    /// centreline ended inside the body (the linearisation's error: it then adds to
-    /// the matrix's penalty what keeps the centreline out).
-    pub onset: f64,
-    /// The gap φ = d − onset at the linearisation point, plus the correction of the
-    /// linearisation found by checking the step's end (see [`PredictedContacts`]), m.
-    pub gap: f64,
-    /// The gap measured at the end of the step's last solve (`None`: not measured).
-    pub end_gap: Option<f64>,
-}
+pub use superhelix_kernels::contact::candidates::Candidate;
 
 /// The predicted contacts of one strand's step and the buffers of their complementarity
 /// problem (see the module page), grown to the largest number of candidates met and

@@ -1050,20 +1050,17 @@ impl StrandContacts {
             pc.touching
                 .extend((0..n).map(|k| self.touching(&head, k, &pc.lin_y[k]).is_some()));
             self.sample_poses(geom, q_pred);
-            let r = self.params.radius;
-            let (root_body, zone) = self.root_zone;
             for k in 0..n {
                 if pc.touching[k] {
                     continue;
                 }
-                let onset = r - self.allowance[k];
-                let skip = (k < zone).then_some(root_body);
                 let end = self.poses[k].0;
-                let Some(hit) = self.nearest_within(&head, &end, skip, onset + 0.5 * r) else {
+                let view = self.view();
+                let Some((hit, onset)) = view.predicted_hit(&head, k, &end) else {
                     continue;
                 };
                 pc.listed[k] = true;
-                let c = self.sample_candidate(&head, k, hit.body, onset, &pc.lin_y[k], None);
+                let c = view.candidate(&head, k, hit.body, onset, &pc.lin_y[k], None);
                 pc.candidates.push(c);
             }
         } else {
@@ -1072,30 +1069,6 @@ impl StrandContacts {
         let any = !pc.candidates.is_empty();
         self.predicted = pc;
         any
-    }
-
-    /// Sample `k` as a candidate against body `b` (penalty from distance `onset`),
-    /// linearised where it is at the linearisation point, `lin_y`.
-    fn sample_candidate(
-        &self,
-        head: &HeadState,
-        k: usize,
-        b: usize,
-        onset: f64,
-        lin_y: &Vector3<f64>,
-        end_gap: Option<f64>,
-    ) -> Candidate {
-        let start = self.body_query(head, b, lin_y);
-        Candidate {
-            sample: k,
-            s: self.samples[k].0,
-            stiffness: self.params.stiffness * self.samples[k].1,
-            body: b,
-            normal: start.normal,
-            onset,
-            gap: start.distance - onset,
-            end_gap,
-        }
     }
 
     /// The columns `g_c = J(s_c)ᵀ n_c` of the candidates from `from` on, at `q_lin`, into
@@ -1150,21 +1123,18 @@ impl StrandContacts {
             c.end_gap = Some(hit.distance - c.onset);
         }
         let before = pc.candidates.len();
-        let r = self.params.radius;
         for k in 0..self.samples.len().min(pc.listed.len()) {
             if pc.listed[k] {
                 continue;
             }
-            let Some(hit) = self.body_hit(&head, k, &self.poses[k].0) else {
+            let view = self.view();
+            let Some((hit, onset)) = view.end_hit(&head, k, &self.poses[k].0, pc.touching[k])
+            else {
                 continue;
             };
-            let onset = if pc.touching[k] { 0.0 } else { r } - self.allowance[k];
-            if hit.distance >= onset {
-                continue;
-            }
             pc.listed[k] = true;
             let end = Some(hit.distance - onset);
-            let c = self.sample_candidate(&head, k, hit.body, onset, &pc.lin_y[k], end);
+            let c = view.candidate(&head, k, hit.body, onset, &pc.lin_y[k], end);
             pc.candidates.push(c);
         }
         // the tip (not a sample): its centreline kept from going deeper into a body than
