@@ -229,6 +229,60 @@ fn view<'b, C: StepColliders + ?Sized, P: MomentSource + ?Sized>(
     }
 }
 
+/// The rest of a [`FixedContacts`]' storage beside its view: what a strand's points are
+/// made of, and the scratch they are made in.
+struct Parts<'b, P: MomentSource + ?Sized> {
+    source: &'b P,
+    root: &'b Pose,
+    lengths: &'b [f64],
+    poses: &'b [(V3, V3)],
+    jac: &'b mut [V3],
+    aj: &'b mut [V3],
+    ends: &'b mut [Pose],
+    end_derivs: &'b mut [EndDerivatives],
+    chain_q: &'b mut [f64],
+    chain_valid: &'b mut usize,
+    summary: &'b mut BodySummary,
+}
+
+/// The body contacts' view of the storage and the rest of it, borrowed apart.
+fn split<'b, C: StepColliders + ?Sized, P: MomentSource + ?Sized>(
+    c: &'b mut FixedContacts<'_, C, P>,
+) -> (BodyContacts<'b, &'b C>, Parts<'b, P>) {
+    let FixedContacts {
+        colliders,
+        source,
+        params,
+        samples,
+        root,
+        lengths,
+        store,
+        ..
+    } = c;
+    let view = BodyContacts {
+        colliders: &**colliders,
+        params,
+        samples,
+        anchors: store.anchors,
+        allowance: store.allowance,
+        root_zone: store.scalars.root_zone,
+    };
+    let parts = Parts {
+        source: *source,
+        root,
+        lengths,
+        poses: store.poses,
+        jac: store.jac,
+        aj: store.aj,
+        ends: store.ends,
+        end_derivs: store.end_derivs,
+        chain_q: store.chain_q,
+        chain_valid: store.chain_valid,
+        summary: &mut store.scalars.summary,
+    };
+    (view, parts)
+}
+
 /// q in f64.
 fn wide<T: Float, const D: usize>(q: &[T; D]) -> [f64; D] {
     core::array::from_fn(|i| q[i].as_f64())
@@ -327,34 +381,17 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
         let (q, v) = (wide(q), wide(v));
         self.colliders.place(t, head);
         self.pose(&q);
-        let FixedContacts {
-            colliders,
-            source,
-            params,
-            samples,
-            root,
-            lengths,
-            store,
-            ..
-        } = self;
-        let contacts = BodyContacts {
-            colliders: &**colliders,
-            params,
-            samples,
-            anchors: store.anchors,
-            allowance: store.allowance,
-            root_zone: store.scalars.root_zone,
-        };
+        let (contacts, p) = split(self);
         let mut sink = ArraySink {
-            source: *source,
-            root,
-            lengths,
-            ends: store.ends,
-            end_derivs: store.end_derivs,
-            chain_q: store.chain_q,
-            chain_valid: store.chain_valid,
+            source: p.source,
+            root: p.root,
+            lengths: p.lengths,
+            ends: p.ends,
+            end_derivs: p.end_derivs,
+            chain_q: p.chain_q,
+            chain_valid: p.chain_valid,
             q: &q,
-            aj: store.aj,
+            aj: p.aj,
             force,
             stiffness,
             damping,
@@ -365,9 +402,8 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
             curvature: true,
             damping: true,
         };
-        let (summary, stiffened) =
-            contacts.add_terms(head, store.poses, &v, asked, store.jac, &mut sink);
-        store.scalars.summary = summary;
+        let (summary, stiffened) = contacts.add_terms(head, p.poses, &v, asked, p.jac, &mut sink);
+        *p.summary = summary;
         stiffened
     }
 
@@ -380,28 +416,12 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
         if !moving {
             return (potential, rate);
         }
-        let FixedContacts {
-            colliders,
-            source,
-            params,
-            samples,
-            root,
-            lengths,
-            store,
-            ..
-        } = self;
-        let contacts = BodyContacts {
-            colliders: &**colliders,
-            params,
-            samples,
-            anchors: store.anchors,
-            allowance: store.allowance,
-            root_zone: store.scalars.root_zone,
-        };
-        let (ends, derivs) = (&mut *store.ends, &mut *store.end_derivs);
-        let power = contacts.drag_power(head, store.poses, &v, store.jac, |s, jac| {
+        let (contacts, p) = split(self);
+        let (source, root, lengths) = (p.source, p.root, p.lengths);
+        let (ends, derivs) = (p.ends, p.end_derivs);
+        let power = contacts.drag_power(head, p.poses, &v, p.jac, |s, jac| {
             strand_point(
-                *source,
+                source,
                 root,
                 lengths,
                 ends,
