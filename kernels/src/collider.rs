@@ -91,6 +91,17 @@ impl Collider for SdfGrid<'_> {
     }
 }
 
+/// A collider of any kind behind a reference: colliders of different kinds side by side
+/// (a slice of `(&dyn Collider, Mount)` pairs is a `contact::body::ColliderSet`).
+impl Collider for &dyn Collider {
+    fn proximity(&self, y: &nalgebra::Vector3<f64>) -> Proximity {
+        (**self).proximity(y)
+    }
+    fn farther_than(&self, y: &nalgebra::Vector3<f64>, r: f64) -> bool {
+        (**self).farther_than(y, r)
+    }
+}
+
 /// A callback as a collider: `f(y)` answers for the point y of its coordinates.
 impl<F: Fn(&nalgebra::Vector3<f64>) -> Proximity> Collider for F {
     fn proximity(&self, y: &nalgebra::Vector3<f64>) -> Proximity {
@@ -121,5 +132,11 @@ mod tests {
             !colliders[1].farther_than(&y, 1.0),
             "a callback is always queried"
         );
+        // side by side with their mounts, they are a step's collider set
+        use crate::contact::body::ColliderSet;
+        let set = [(colliders[0], Mount::Head), (colliders[1], Mount::World)];
+        assert_eq!(set[..].count(), 2);
+        assert_eq!(set[..].proximity(1, &y), answers[0]);
+        assert_eq!(set[..].mount(1), Mount::World);
     }
 }

@@ -559,22 +559,6 @@ impl<T: crate::collider::Collider> ColliderSet for [(T, Mount)] {
     }
 }
 
-/// A set of colliders of different kinds: trait objects with their mounts.
-impl ColliderSet for [(&dyn crate::collider::Collider, Mount)] {
-    fn count(&self) -> usize {
-        self.len()
-    }
-    fn proximity(&self, b: usize, local: &V3) -> Proximity {
-        self[b].0.proximity(local)
-    }
-    fn farther_than(&self, b: usize, local: &V3, r: f64) -> bool {
-        self[b].0.farther_than(local, r)
-    }
-    fn mount(&self, b: usize) -> Mount {
-        self[b].1
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
