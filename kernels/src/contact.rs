@@ -24,6 +24,7 @@ pub mod body;
 pub mod candidates;
 pub mod complementarity;
 pub mod law;
+pub mod predicted;
 pub mod samples;
 
 pub use body::{Anchor, BodyContacts, BodyHit, BodySummary, ColliderSet, ContactSink, TermsAsked};

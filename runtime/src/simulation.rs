@@ -239,12 +239,6 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
                 "the embedded engine has no contacts between strands; use engine = \"runtime\"",
             ));
         }
-        if c.predict {
-            errors.push(FieldError::new(
-                "contacts.predict",
-                "the embedded engine does not predict the contacts that start within a step (its steps split where a sample goes deeper than split_depth); set predict = false or use engine = \"runtime\"",
-            ));
-        }
         if setup.config.tolerance.is_some() {
             errors.push(FieldError::new(
                 "simulation.tolerance",
@@ -1245,6 +1239,16 @@ impl Simulation {
     /// What the contacts of strand `i` found at its last evaluation (`None`: the scene has
     /// no `[contacts]`).
     pub fn contact_summary(&self, i: usize) -> Option<ContactSummary> {
+        if let Some(e) = &self.embedded {
+            let (_, _, g, p) = e.strands.get(i)?;
+            let s = e.groups[*g].1.contact_summary(*p)?;
+            return Some(ContactSummary {
+                body_contacts: s.contacts,
+                hair_contacts: 0,
+                max_penetration: s.max_penetration,
+                normal_force: s.normal_force,
+            });
+        }
         self.strands
             .get(i)?
             .system
@@ -1724,6 +1728,8 @@ impl Simulation {
             total.field_split = e.counts.field_split;
             total.field_projected = e.counts.field_projected;
             total.field_undamped = e.counts.field_undamped;
+            total.contacts_predicted = e.counts.contacts_predicted;
+            total.rotation_limited = e.counts.rotation_limited;
             let r = &e.tolerance_total;
             total.attempts += r.solves;
             total.energy_limited += r.energy_limited;

@@ -294,10 +294,10 @@ fn incline(offset: f64) -> String {
 /// hang on a nanometre.
 const OFFSETS: [f64; 4] = [0.0, 1e-15, 1e-12, 1e-9];
 
-/// With contacts `engine = "auto"` takes the runtime engine, naming `contacts.predict`
-/// (the embedded engine does not predict the contacts that start within a step); with
-/// `predict = false` too, naming `simulation.tolerance` (its error-controlled step has no
-/// contacts). The tests below run the runtime engine.
+/// With contacts and a tolerance `engine = "auto"` takes the runtime engine, naming
+/// `simulation.tolerance` (the embedded engine's error-controlled step has no contacts),
+/// with the contacts that start within a step predicted or not. The tests below run the
+/// runtime engine.
 #[test]
 fn auto_takes_the_runtime_engine_with_contacts() {
     let text = swing(1e-3, &format!("engine = \"auto\"\n{}", incline(0.0)));
@@ -306,22 +306,17 @@ fn auto_takes_the_runtime_engine_with_contacts() {
         "friction = \"none\"\npredict = false",
     );
     assert_ne!(without, text);
-    let setup = parse_scene(&without).unwrap_or_else(|e| panic!("{e}"));
-    let (engine, reason) = engine_for(&setup);
-    assert_eq!(engine, Engine::Runtime);
-    assert_eq!(
-        reason.map(|r| r.field),
-        Some("simulation.tolerance".to_string())
-    );
-    let setup = parse_scene(&text).unwrap_or_else(|e| panic!("{e}"));
-    let (engine, reason) = engine_for(&setup);
-    assert_eq!(engine, Engine::Runtime);
-    assert_eq!(
-        reason.map(|r| r.field),
-        Some("contacts.predict".to_string())
-    );
-    let sim = Simulation::new(setup, None).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(sim.engine(), Engine::Runtime);
+    for scene in [&without, &text] {
+        let setup = parse_scene(scene).unwrap_or_else(|e| panic!("{e}"));
+        let (engine, reason) = engine_for(&setup);
+        assert_eq!(engine, Engine::Runtime);
+        assert_eq!(
+            reason.map(|r| r.field),
+            Some("simulation.tolerance".to_string())
+        );
+        let sim = Simulation::new(setup, None).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(sim.engine(), Engine::Runtime);
+    }
 }
 
 /// The swing down the [`incline`] at each of the [`OFFSETS`], the strand with the

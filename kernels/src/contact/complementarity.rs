@@ -68,6 +68,84 @@ pub fn block_principal_pivoting(
     pivots
 }
 
+/// The principal subproblem of [`block_principal_pivoting`] on caller storage: `S_AA λ_A
+/// = −a_A` for the active set, 0 elsewhere (S m × m, column-major), by Gaussian
+/// elimination with partial pivoting (Golub & Van Loan, algorithm 3.4.1) of the p × p
+/// block in `sub` (≥ p², p the active count) with `rhs`, `index` and `perm` (≥ p). An
+/// entry whose solution is not finite (a singular block: two candidates on the same
+/// constraint) is left at 0: no force is better than a non-finite one.
+#[allow(clippy::too_many_arguments)]
+pub fn solve_principal(
+    m: usize,
+    s: &[f64],
+    a: &[f64],
+    active: &[bool],
+    lambda: &mut [f64],
+    sub: &mut [f64],
+    rhs: &mut [f64],
+    index: &mut [usize],
+) {
+    let mut p = 0;
+    for c in 0..m {
+        if active[c] {
+            index[p] = c;
+            p += 1;
+        }
+    }
+    for l in lambda.iter_mut().take(m) {
+        *l = 0.0;
+    }
+    if p == 0 {
+        return;
+    }
+    for jj in 0..p {
+        let j = index[jj];
+        for ii in 0..p {
+            sub[ii + jj * p] = s[index[ii] + j * m];
+        }
+        rhs[jj] = -a[j];
+    }
+    for k in 0..p {
+        // pivot: the largest entry of column k at or below the diagonal
+        let mut piv = k;
+        let mut best = sub[k + k * p].abs();
+        for r in k + 1..p {
+            let x = sub[r + k * p].abs();
+            if x > best {
+                best = x;
+                piv = r;
+            }
+        }
+        if piv != k {
+            for j in 0..p {
+                sub.swap(k + j * p, piv + j * p);
+            }
+            rhs.swap(k, piv);
+        }
+        let d = sub[k + k * p];
+        for r in k + 1..p {
+            let f = sub[r + k * p] / d;
+            if f != 0.0 {
+                for j in k + 1..p {
+                    sub[r + j * p] -= f * sub[k + j * p];
+                }
+                rhs[r] -= f * rhs[k];
+            }
+        }
+    }
+    for k in (0..p).rev() {
+        let mut x = rhs[k];
+        for j in k + 1..p {
+            x -= sub[k + j * p] * rhs[j];
+        }
+        rhs[k] = x / sub[k + k * p];
+    }
+    for ii in 0..p {
+        let x = rhs[ii];
+        lambda[index[ii]] = if x.is_finite() { x } else { 0.0 };
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -134,6 +212,18 @@ mod tests {
             block_principal_pivoting(m, &s, &a, &mut lambda, &mut active, |act, l| {
                 dense_active(m, &s, &a, act, l)
             });
+            // the same problem with the subproblems by `solve_principal`
+            let (mut lambda2, mut active2) = (vec![0.0; m], vec![false; m]);
+            let (mut sub, mut rhs, mut index) = (vec![0.0; m * m], vec![0.0; m], vec![0; m]);
+            block_principal_pivoting(m, &s, &a, &mut lambda2, &mut active2, |act, l| {
+                solve_principal(m, &s, &a, act, l, &mut sub, &mut rhs, &mut index)
+            });
+            for i in 0..m {
+                assert!(
+                    (lambda2[i] - lambda[i]).abs() <= 1e-12,
+                    "case {case}: λ[{i}]"
+                );
+            }
             let w: Vec<f64> = (0..m)
                 .map(|i| a[i] + (0..m).map(|j| s[i + j * m] * lambda[j]).sum::<f64>())
                 .collect();

@@ -20,7 +20,9 @@
 
 use super::contacts::ContactHooks;
 use super::dense::Projection;
-use super::step::{linearly_implicit_with, non_finite, StepError, StepInput, StepReport};
+use super::step::{
+    linearly_implicit_with, non_finite, solve_factored_f64, StepError, StepInput, StepReport,
+};
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::energy::{
@@ -161,10 +163,15 @@ pub struct StepCounts {
     /// Solves whose field stiffness was projected by the spectral projection (the split's
     /// fallback, or the rule [`crate::field_split::FieldRule::Projected`]).
     pub field_projected: usize,
-    /// Solves of a strand without internal friction or air drag under
-    /// [`crate::field_split::FieldRule::Split`]: the rule keeps the spectral projection
-    /// for it (see [`crate::field_split`]).
+    /// Solves of a strand without internal friction or air drag, or touching a collider,
+    /// under [`crate::field_split::FieldRule::Split`]: the rule keeps the spectral
+    /// projection for it (see [`crate::field_split`]).
     pub field_undamped: usize,
+    /// Contacts that started within a step and pushed ([`crate::contact::predicted`]).
+    pub contacts_predicted: usize,
+    /// Deepest substeps of a strand with contacts whose rotation was scaled to the
+    /// trusted limit.
+    pub rotation_limited: usize,
 }
 
 impl StepCounts {
@@ -179,6 +186,22 @@ impl StepCounts {
         self.field_split += other.field_split;
         self.field_projected += other.field_projected;
         self.field_undamped += other.field_undamped;
+        self.contacts_predicted += other.contacts_predicted;
+        self.rotation_limited += other.rotation_limited;
+    }
+}
+
+/// Scale the step from `saved_q` to the strand's state to the trusted rotation: the change
+/// of q and the velocities by `TRUSTED_ELEMENT_ROTATION / rotation`.
+fn limit_rotation<const N: usize, const D: usize, const B: usize, T: Float>(
+    strand: &mut FixedStrand<N, D, B, T>,
+    saved_q: &[T; D],
+    rotation: f64,
+) {
+    let lambda = T::of(TRUSTED_ELEMENT_ROTATION / rotation);
+    for i in 0..D {
+        strand.q[i] = saved_q[i] + lambda * (strand.q[i] - saved_q[i]);
+        strand.v[i] *= lambda;
     }
 }
 
@@ -461,6 +484,8 @@ pub fn step_with_contacts<
     Ok(StepReport {
         max_element_rotation: rotation.as_f64(),
         projection: None,
+        contacts_predicted: 0,
+        touching: false,
     })
 }
 
@@ -575,6 +600,10 @@ fn adaptive<
         head_moves: effects.head_moves,
     };
     let t_end = interval.t + h;
+    if let Some(c) = contacts.as_deref_mut() {
+        // no contacts predicted for this solve yet
+        c.forget();
+    }
     let outcome = linearly_implicit_with(
         source,
         strand,
@@ -585,12 +614,14 @@ fn adaptive<
     );
     counts.attempts += 1;
     if let Ok(report) = &outcome {
+        counts.contacts_predicted += report.contacts_predicted;
         match report.projection {
             Some(Projection::Whole | Projection::Shifted) => counts.field_split += 1,
             // the split's rule keeps the projection for a strand that does not dissipate
+            // and for one that touches
             Some(_)
                 if ws.field_rule() == crate::field_split::FieldRule::Split
-                    && !strand.params.dissipative() =>
+                    && (!strand.params.dissipative() || report.touching) =>
             {
                 counts.field_undamped += 1
             }
@@ -633,10 +664,28 @@ fn adaptive<
         if deepest && rotation > rotation_limit && contacts.is_some() {
             // the deepest split allowed still rotates an element beyond what an unchecked
             // step may: the change of q and the velocities are scaled to that limit
-            let lambda = T::of(TRUSTED_ELEMENT_ROTATION / rotation);
-            for i in 0..D {
-                strand.q[i] = saved_q[i] + lambda * (strand.q[i] - saved_q[i]);
-                strand.v[i] *= lambda;
+            limit_rotation(strand, &saved_q, rotation);
+            counts.rotation_limited += 1;
+            // the scaled end is checked for the contacts that start within the step again
+            // (its shape is not on the line from the start to the solve's end: q → y(q)
+            // is not linear); what that adds is limited too
+            if let Some(c) = contacts.as_deref_mut() {
+                let (a, pivots) = (&ws.matrix_a, &ws.pivots);
+                let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, x);
+                c.resolve(
+                    &mut strand.q,
+                    &mut strand.v,
+                    None,
+                    t_end,
+                    &interval.end,
+                    &mut solve,
+                )
+                .map_err(|_| StepError::SingularMatrix)?;
+                let again =
+                    max_element_rotation(&strand.params.lengths, &strand.q, &saved_q).as_f64();
+                if again > TRUSTED_ELEMENT_ROTATION {
+                    limit_rotation(strand, &saved_q, again);
+                }
             }
             rotation = TRUSTED_ELEMENT_ROTATION;
         }

@@ -120,5 +120,7 @@ pub fn bdf2<
     Ok(StepReport {
         max_element_rotation: rotation.as_f64(),
         projection,
+        contacts_predicted: 0,
+        touching: false,
     })
 }

@@ -13,6 +13,8 @@
 
 use super::params::FixedParams;
 use crate::contact::body::{BodyContacts, BodySummary, ColliderSet, ContactSink, TermsAsked};
+use crate::contact::predicted::{self, PredictedArrays, PredictionHost, SingularStep};
+use crate::contact::samples::positions_along;
 use crate::contact::{sample_poses, Anchor, ContactParams, Friction};
 use crate::float::Float;
 use crate::head::HeadState;
@@ -104,6 +106,36 @@ pub trait ContactHooks<T: Float, const D: usize> {
     /// The contact energy and rate of the last measure of the energy balance (kept by
     /// the caller of [`Self::energy`]).
     fn last_contact(&mut self) -> &mut (f64, f64);
+    /// Forget the last prediction of the contacts that start within a step (before each
+    /// attempt of a step). Nothing for contacts that do not predict.
+    fn forget(&mut self) {}
+    /// Predict the contacts that start within a step
+    /// ([`crate::contact::predicted`]): from the step's linearisation point `q_lin` and
+    /// its solution without them `q_pred`, the colliders placed at `t` (the step's end,
+    /// head `head`). Whether there is any candidate; false for contacts that do not
+    /// predict.
+    fn predict(&mut self, q_lin: &[T; D], q_pred: &[T; D], t: f64, head: &HeadState) -> bool {
+        let _ = (q_lin, q_pred, t, head);
+        false
+    }
+    /// Resolve the predicted contacts at the end (q, q̇) of the step's solve
+    /// ([`crate::contact::predicted::resolve`], `map = Some((c, σ))`), or again on an end
+    /// changed since (`None`: [`crate::contact::predicted::resolve_again`]), with the
+    /// step's factors in `solve` (A x = b in place, f64). The colliders are placed at
+    /// `t`. Returns the number of candidates that push.
+    #[allow(clippy::too_many_arguments)]
+    fn resolve(
+        &mut self,
+        q: &mut [T; D],
+        v: &mut [T; D],
+        map: Option<(f64, f64)>,
+        t: f64,
+        head: &HeadState,
+        solve: &mut dyn FnMut(&mut [f64]) -> bool,
+    ) -> Result<usize, SingularStep> {
+        let _ = (q, v, map, t, head, solve);
+        Ok(0)
+    }
 }
 
 /// What a strand's contacts carry from step to step besides the per-sample arrays.
@@ -168,6 +200,9 @@ pub struct FixedContacts<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized
     pub mass_per_length: f64,
     /// The storage.
     pub store: ContactStore<'a>,
+    /// The arrays of the contacts that start within a step (`None`: not predicted; the
+    /// step's acceptance by depth catches them): [`Self::with_prediction`].
+    pub predicted: Option<PredictedArrays<'a>>,
 }
 
 impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, C, P> {
@@ -194,7 +229,25 @@ impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, 
             lengths,
             mass_per_length: strand.mass_per_length.as_f64(),
             store,
+            predicted: None,
         }
+    }
+
+    /// The same contacts predicting the contacts that start within a step
+    /// ([`crate::contact::predicted`]) on `arrays` (the
+    /// runtime's `[contacts] predict = true`), cut from the caller's pools by
+    /// [`PredictedArrays::carve`].
+    pub fn with_prediction(mut self, arrays: PredictedArrays<'a>) -> Self {
+        self.predicted = Some(arrays);
+        self
+    }
+
+    /// The tip's position at q.
+    fn tip(&self, q: &[f64]) -> Option<V3> {
+        let length: f64 = self.lengths.iter().sum();
+        let mut tip = None;
+        positions_along(&self.root, self.lengths, q, [length], |_, y| tip = Some(y));
+        tip
     }
 
     /// The samples' poses at q into the storage.
@@ -340,9 +393,134 @@ impl<T: Float, const D: usize, P: MomentSource + ?Sized> ContactSink for ArraySi
     }
 }
 
+/// The fixed step as the predicted contacts' host: the strand's points and the step's
+/// factors.
+struct FixedHost<'h, 'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> {
+    contacts: &'h mut FixedContacts<'a, C, P>,
+    solve: &'h mut dyn FnMut(&mut [f64]) -> bool,
+    head: &'h HeadState,
+    dofs: usize,
+}
+
+impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> PredictionHost<PredictedArrays<'a>>
+    for FixedHost<'_, 'a, C, P>
+{
+    fn solve_factored(&mut self, x: &mut [f64]) -> bool {
+        (self.solve)(x)
+    }
+    fn linearize(&mut self, buffers: &mut PredictedArrays<'a>, from: usize) {
+        let (_, p) = split(self.contacts);
+        let (source, root, lengths) = (p.source, p.root, p.lengths);
+        let (ends, derivs, chain_q, chain_valid) = (p.ends, p.end_derivs, p.chain_q, p.chain_valid);
+        predicted::linearize(buffers, self.dofs, from, p.jac, |q, s, jac| {
+            let chain = Some(PointChain {
+                q: &mut *chain_q,
+                valid: &mut *chain_valid,
+            });
+            strand_point(
+                source,
+                root,
+                lengths,
+                ends,
+                derivs,
+                chain,
+                q,
+                s,
+                jac,
+                crate::strand_point::NO_HESSIAN,
+            );
+        });
+    }
+    fn end_check(&mut self, buffers: &mut PredictedArrays<'a>, q: &[f64]) -> usize {
+        let c = &mut *self.contacts;
+        c.pose(q);
+        let tip = c.tip(q);
+        let length: f64 = c.lengths.iter().sum();
+        predicted::check(
+            buffers,
+            &view(c),
+            self.head,
+            self.dofs,
+            c.store.poses,
+            tip,
+            length,
+        )
+    }
+}
+
 impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Sized>
     ContactHooks<T, D> for FixedContacts<'_, C, P>
 {
+    fn forget(&mut self) {
+        if let Some(p) = self.predicted.as_mut() {
+            predicted::forget(p);
+        }
+    }
+
+    fn predict(&mut self, q_lin: &[T; D], q_pred: &[T; D], t: f64, head: &HeadState) -> bool {
+        let Some(mut pc) = self.predicted.take() else {
+            return false;
+        };
+        if self.colliders.count() == 0 {
+            predicted::forget(&mut pc);
+            self.predicted = Some(pc);
+            return false;
+        }
+        let (q_lin, q_pred) = (wide(q_lin), wide(q_pred));
+        self.colliders.place(t, head);
+        self.pose(&q_lin);
+        let lin_tip = self.tip(&q_lin);
+        predicted::begin(
+            &mut pc,
+            &view(self),
+            head,
+            &q_lin,
+            self.store.poses,
+            lin_tip,
+        );
+        self.pose(&q_pred);
+        let any = predicted::list(&mut pc, &view(self), head, D, self.store.poses);
+        self.predicted = Some(pc);
+        any
+    }
+
+    fn resolve(
+        &mut self,
+        q: &mut [T; D],
+        v: &mut [T; D],
+        map: Option<(f64, f64)>,
+        t: f64,
+        head: &HeadState,
+        solve: &mut dyn FnMut(&mut [f64]) -> bool,
+    ) -> Result<usize, SingularStep> {
+        let Some(mut pc) = self.predicted.take() else {
+            return Ok(0);
+        };
+        if self.colliders.count() == 0 {
+            self.predicted = Some(pc);
+            return Ok(0);
+        }
+        self.colliders.place(t, head);
+        let tolerance = predicted::GAP_TOLERANCE * self.params.radius;
+        let (mut qw, mut vw) = (wide(q), wide(v));
+        let mut host = FixedHost {
+            contacts: self,
+            solve,
+            head,
+            dofs: D,
+        };
+        let result = match map {
+            Some(map) => predicted::resolve(&mut pc, &mut host, map, tolerance, &mut qw, &mut vw),
+            None => predicted::resolve_again(&mut pc, &mut host, tolerance, &mut qw, &mut vw),
+        };
+        self.predicted = Some(pc);
+        for i in 0..D {
+            q[i] = T::of(qw[i]);
+            v[i] = T::of(vw[i]);
+        }
+        result
+    }
+
     fn start(&mut self, q: &[T; D], t: f64, head: &HeadState) {
         let q = wide(q);
         self.store.scalars.updated = Some(t);
@@ -540,8 +718,9 @@ mod tests {
     /// fixed on the head (what an engine hands the step: a slice of colliders with their
     /// mounts, the storage its own), falls onto it under gravity for 0.6 s at 1/60 s: the
     /// step takes its contacts (the strand ends lying on the ball, within the contact
-    /// radius and no point more than 0.5 mm inside); without the colliders it falls
-    /// through the ball's top.
+    /// radius and no point more than 0.5 mm inside), with the contacts that start within
+    /// a step predicted (arrays cut from the caller's pools) or caught by the depth check
+    /// alone; without the colliders it falls through the ball's top.
     #[test]
     fn a_strand_falls_onto_a_ball_and_stays_out() {
         let section = section_terms(50e-6, 1.0, 1.5e9, 0.48, 1300.0);
@@ -578,7 +757,15 @@ mod tests {
         let mut samples = Vec::new();
         sample_points(&lengths, 4, [false, true], 0.0, |s, w| samples.push((s, w)));
         let m = samples.len();
-        let run = |with_ball: bool| {
+        let run = |with_ball: bool, predict: bool| {
+            // per worker, the prediction's pools
+            let sizes = crate::contact::predicted::PoolSizes::of(m, D);
+            let mut pscalars = crate::contact::predicted::PredictedScalars::default();
+            let mut floats = vec![0.0; sizes.floats];
+            let mut flags = vec![false; sizes.flags];
+            let mut indices = vec![0usize; sizes.indices];
+            let mut cands = vec![crate::contact::predicted::Candidate::NONE; sizes.candidates];
+            let mut points = vec![V3::zeros(); sizes.points];
             let mut strand = FixedStrand::<N, D, 4>::at_rest(params);
             let mut ws = FixedWorkspace::<N, D, { N + 1 }>::new();
             let mut colliders = [(ball, Mount::Head)];
@@ -619,6 +806,20 @@ mod tests {
                         scalars: &mut scalars,
                     },
                 );
+                if predict {
+                    let arrays = PredictedArrays::carve(
+                        m,
+                        D,
+                        &mut pscalars,
+                        &mut floats,
+                        &mut flags,
+                        &mut indices,
+                        &mut cands,
+                        &mut points,
+                    )
+                    .expect("pools of PoolSizes::of");
+                    contacts = contacts.with_prediction(arrays);
+                }
                 let hooks: Option<&mut dyn ContactHooks<f64, D>> =
                     if with_ball { Some(&mut contacts) } else { None };
                 step_with_contacts(
@@ -648,15 +849,27 @@ mod tests {
                 (0..=90).map(|i| 0.09 * i as f64 / 90.0),
                 |_, y| nearest = nearest.min(y.norm() - ball.radius),
             );
-            (deepest, nearest)
+            (deepest, nearest, counts.contacts_predicted)
         };
-        let (deepest, nearest) = run(true);
-        assert!(deepest <= 5e-4, "{deepest} m inside the ball");
-        assert!(
-            (-5e-4..=1e-3).contains(&nearest),
-            "the strand ends {nearest} m from the ball"
-        );
-        let (_, through) = run(false);
+        for predict in [false, true] {
+            let (deepest, nearest, predicted) = run(true, predict);
+            assert!(
+                deepest <= 5e-4,
+                "predict {predict}: {deepest} m inside the ball"
+            );
+            assert!(
+                (-5e-4..=1e-3).contains(&nearest),
+                "predict {predict}: the strand ends {nearest} m from the ball"
+            );
+            // the samples reach the ball within a step: with the prediction some push
+            // in the step's own solve
+            assert_eq!(
+                predicted > 0,
+                predict,
+                "{predicted} predicted contacts pushed"
+            );
+        }
+        let (_, through, _) = run(false, false);
         assert!(through < -5e-3, "without the ball's contacts: {through} m");
     }
 }

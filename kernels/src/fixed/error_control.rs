@@ -352,6 +352,8 @@ pub fn step_to_tolerance<
     Ok(StepReport {
         max_element_rotation: rotation.as_f64(),
         projection: None,
+        contacts_predicted: 0,
+        touching: false,
     })
 }
 

@@ -2,7 +2,7 @@
 //! step, and the centreline.
 
 use super::contacts::ContactHooks;
-use super::dense::{lu_solve, negative_semidefinite_part, Projection};
+use super::dense::{lu_solve, lu_solve_factored, negative_semidefinite_part, Projection};
 use super::workspace::{FixedWorkspace, ProjectionArrays};
 use super::FixedStrand;
 use crate::body_field::BodyField;
@@ -40,6 +40,12 @@ pub struct StepReport {
     /// How the stabilising part of the field stiffness was found (`None`: the field has
     /// no stiffness, e.g. no gravity and a still head).
     pub projection: Option<Projection>,
+    /// Contacts that started within the step and pushed
+    /// ([`crate::contact::predicted`]; 0 without predicted contacts).
+    pub contacts_predicted: usize,
+    /// Whether a contact added stiffness to the step's matrix (the dissipative split's
+    /// rule then keeps the spectral projection, [`crate::field_split`]).
+    pub touching: bool,
 }
 
 /// The first non-finite entry of (q, q̇) as a [`StepError::NonFinite`], if any.
@@ -290,9 +296,19 @@ pub fn linearly_implicit_with<
     if !(h.is_finite() && h > 0.0) {
         return Err(StepError::TimeStep);
     }
+    let h_f64 = h;
     let h = T::of(h);
     let (q0, v0) = (strand.q, strand.v);
-    let (field_stiffness, touching) = assemble(source, strand, &q0, &v0, input, ws, contacts);
+    let mut contacts = contacts;
+    let (field_stiffness, touching) = assemble(
+        source,
+        strand,
+        &q0,
+        &v0,
+        input,
+        ws,
+        contacts.as_mut().map(|(c, t)| (&mut **c, *t)),
+    );
     let (projection, _) = step_matrix(strand, field_stiffness, touching, h, ws);
     let p = &strand.params;
     let (q, v) = (&mut strand.q, &mut strand.v);
@@ -309,8 +325,21 @@ pub fn linearly_implicit_with<
         return Err(StepError::SingularMatrix);
     }
     let mut q_new = *q;
+    let mut v_new = ws.rhs;
     for i in 0..D {
-        q_new[i] += h * ws.rhs[i];
+        q_new[i] += h * v_new[i];
+    }
+    let mut contacts_predicted = 0;
+    if let Some((c, t)) = contacts {
+        // the contacts that start within the step, predicted along the solution and
+        // resolved on the step's factors
+        c.predict(q, &q_new, t, &input.head);
+        let (a, pivots) = (&ws.matrix_a, &ws.pivots);
+        let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, x);
+        let map = Some((h_f64, h_f64));
+        contacts_predicted = c
+            .resolve(&mut q_new, &mut v_new, map, t, &input.head, &mut solve)
+            .map_err(|_| StepError::SingularMatrix)?;
     }
     if let Some(i) = q_new.iter().position(|x| !x.is_finite()) {
         return Err(StepError::NonFinite {
@@ -326,11 +355,31 @@ pub fn linearly_implicit_with<
         rotation = rotation.max(l * d.sqrt());
     }
     *q = q_new;
-    *v = ws.rhs;
+    *v = v_new;
     Ok(StepReport {
         max_element_rotation: rotation.as_f64(),
         projection,
+        contacts_predicted,
+        touching,
     })
+}
+
+/// `A x = b` in place for an f64 `b` (D long) with the step's factors in `T` (the
+/// columns of the contacts that start within a step).
+pub(super) fn solve_factored_f64<T: Float, const D: usize>(
+    a: &[[T; D]; D],
+    pivots: &[usize; D],
+    x: &mut [f64],
+) -> bool {
+    let mut b = [T::zero(); D];
+    for (bi, xi) in b.iter_mut().zip(x.iter()) {
+        *bi = T::of(*xi);
+    }
+    let ok = lu_solve_factored(a, pivots, &mut b);
+    for (xi, bi) in x.iter_mut().zip(b.iter()) {
+        *xi = bi.as_f64();
+    }
+    ok
 }
 
 /// The step matrix `M − h D_v + (h/2) B − h² D_q` of the terms `assemble` left in `ws`

@@ -88,6 +88,10 @@ struct EmbeddedState {
     /// The solves of strands the split's rule keeps on the spectral projection.
     #[serde(default)]
     undamped: usize,
+    /// The contacts that started within a step and pushed, and the deepest substeps
+    /// whose rotation was limited.
+    #[serde(default)]
+    contact_counts: [usize; 2],
     total: ReportState,
     window: ReportState,
 }
@@ -145,6 +149,7 @@ impl Simulation {
                 field_counts: [e.counts.field_split, e.counts.field_projected],
                 pulled_back: e.counts.energy_pulled_back,
                 undamped: e.counts.field_undamped,
+                contact_counts: [e.counts.contacts_predicted, e.counts.rotation_limited],
                 total: ReportState::of(&e.tolerance_total),
                 window: ReportState::of(&e.tolerance_window),
             }),
@@ -208,6 +213,7 @@ impl Simulation {
                 [e.counts.field_split, e.counts.field_projected] = saved.field_counts;
                 e.counts.energy_pulled_back = saved.pulled_back;
                 e.counts.field_undamped = saved.undamped;
+                [e.counts.contacts_predicted, e.counts.rotation_limited] = saved.contact_counts;
                 e.tolerance_total = saved.total.report();
                 e.tolerance_window = saved.window.report();
             }

@@ -10,6 +10,7 @@
 //! too far), the same steps to round-off (`runtime/tests/fixed_step.rs`).
 
 use crate::bodies::Body;
+use crate::forces::contacts::predicted::PredictedContacts;
 use crate::forces::contacts::strand_contacts::{sample_points, BodyColliders};
 use crate::forces::contacts::ContactConfig;
 use crate::forces::head_motion::HeadState;
@@ -17,7 +18,8 @@ use crate::model::strand::Strand;
 use rayon::prelude::*;
 use std::sync::Arc;
 use superhelix_generated::ClosedForm;
-use superhelix_kernels::contact::{Anchor, ContactParams};
+use superhelix_kernels::contact::predicted::PredictedBuffers;
+use superhelix_kernels::contact::{Anchor, BodySummary, ContactParams};
 use superhelix_kernels::field_split::FieldRule;
 use superhelix_kernels::fixed::{
     self, ContactScalars, ContactStore, Effects, FixedContacts, FixedParams, FixedStrand,
@@ -76,6 +78,9 @@ pub trait EmbeddedGroup: Send + Sync {
     /// The deepest point of any strand's centreline inside a body at time `t`, the head
     /// in `head` (`None`: no contacts), on the dense sweep of each centreline.
     fn deepest_inside(&mut self, t: f64, head: &HeadState) -> Option<f64>;
+    /// What the last evaluation of strand `i`'s contact terms found (`None`: no
+    /// contacts).
+    fn contact_summary(&self, i: usize) -> Option<BodySummary>;
     /// Start every strand's contacts at its present state, time `t`, the head in `head`
     /// (the root zones, the depths allowed at the start, the first anchors), as the
     /// runtime engine does when it is built; nothing without contacts.
@@ -387,6 +392,12 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
     fn set_field_rule(&mut self, rule: FieldRule) {
         self.field_rule = rule;
     }
+    fn contact_summary(&self, i: usize) -> Option<BodySummary> {
+        self.contacts
+            .as_ref()
+            .and_then(|(_, b)| b.get(i))
+            .map(|b| b.scalars.summary)
+    }
     fn start_contacts(&mut self, t: f64, head: &HeadState) {
         use superhelix_kernels::fixed::ContactHooks;
         let Some((bodies, buffers)) = self.contacts.as_mut() else {
@@ -441,6 +452,9 @@ pub struct StrandContactBuffers {
     anchors: Vec<Option<Anchor>>,
     allowance: Vec<f64>,
     scalars: ContactScalars,
+    /// Whether the contacts that start within a step are predicted
+    /// ([`ContactConfig::predict`]).
+    predict: bool,
 }
 
 /// The scratch of the contacts of a worker's strands (one per chunk of strands, sized
@@ -454,6 +468,8 @@ pub struct ContactScratch {
     end_derivs: Vec<EndDerivatives>,
     chain_q: Vec<f64>,
     chain_valid: usize,
+    /// The arrays of the contacts that start within a step.
+    predicted: PredictedContacts,
 }
 
 impl ContactScratch {
@@ -470,6 +486,7 @@ impl ContactScratch {
             end_derivs: vec![EndDerivatives::default(); elements],
             chain_q: vec![f64::NAN; dofs],
             chain_valid: 0,
+            predicted: PredictedContacts::new(samples),
         }
     }
 
@@ -495,6 +512,7 @@ impl StrandContactBuffers {
             anchors: vec![None; n],
             allowance: vec![0.0; n],
             scalars: ContactScalars::default(),
+            predict: config.predict,
             samples,
         }
     }
@@ -569,7 +587,7 @@ impl StrandContactBuffers {
             chain_valid: &mut scratch.chain_valid,
             scalars: &mut self.scalars,
         };
-        FixedContacts::new(
+        let contacts = FixedContacts::new(
             params,
             lengths,
             colliders,
@@ -577,7 +595,12 @@ impl StrandContactBuffers {
             &self.params,
             &self.samples,
             store,
-        )
+        );
+        if self.predict {
+            contacts.with_prediction(scratch.predicted.arrays(m + 1, D))
+        } else {
+            contacts
+        }
     }
 }
 

@@ -30,7 +30,7 @@
 //! strand that starts inside a body is pushed out over several steps, never kicked.
 
 use super::config::{Friction, HairHairConfig, RodFriction, STANDARD_GRAVITY};
-use super::predicted::{Candidate, PredictedContacts};
+use super::predicted::PredictedContacts;
 use crate::bodies::{Attachment, Body, Placement};
 use crate::forces::head_motion::HeadState;
 use crate::kernels::kernel::{StrandKernel, StrandTerms, Terms};
@@ -46,6 +46,7 @@ use superhelix_kernels::contact::body::{
     self, add_generalized_force, point_velocity, Anchor, BodyContacts, BodyHit, ColliderSet,
     ContactSink, TermsAsked,
 };
+use superhelix_kernels::contact::predicted;
 pub use superhelix_kernels::contact::ContactParams;
 use superhelix_kernels::contact::{rod_friction, rod_spring_energy};
 
@@ -374,7 +375,7 @@ impl StrandContacts {
             aj: vec![Vector3::zeros(); geom.dofs()],
             samples,
             summary: ContactSummary::default(),
-            predicted: PredictedContacts::default(),
+            predicted: PredictedContacts::new(n),
             sweep: Vec::new(),
             updated: None,
             predicting: true,
@@ -549,33 +550,11 @@ impl StrandContacts {
         }
     }
 
-    /// The body sample `k` at `y` presses into (its effective depth > 0), if any.
-    fn touching(&self, head: &HeadState, k: usize, y: &Vector3<f64>) -> Option<BodyHit> {
-        self.view().touching(head, k, y)
-    }
-
     /// The body sample `k` at head-frame `y` touches most deeply (within the contact
     /// radius), with the head in `head`; a sample of the root zone does not touch the
     /// body its strand grows from.
     fn body_hit(&self, head: &HeadState, k: usize, y: &Vector3<f64>) -> Option<BodyHit> {
         self.view().sample_hit(head, k, y)
-    }
-
-    /// The body nearest to `y` among those nearer than `reach` (≥ 0), other than `skip`.
-    fn nearest_within(
-        &self,
-        head: &HeadState,
-        y: &Vector3<f64>,
-        skip: Option<usize>,
-        reach: f64,
-    ) -> Option<BodyHit> {
-        self.view().nearest_within(head, y, skip, None, reach)
-    }
-
-    /// Signed distance and outward normal (head coordinates) of body `b` at head-frame
-    /// `y`, with the head in `head` (bodies on their own motion as last placed).
-    fn body_query(&self, head: &HeadState, b: usize, y: &Vector3<f64>) -> BodyHit {
-        self.view().query(head, b, y)
     }
 
     /// Add the contact forces at (q, q̇) with the bodies placed at `at` to `out` (force, and the
@@ -1008,11 +987,12 @@ impl StrandContacts {
         &mut self.predicted
     }
 
-    /// Find the samples that may reach a body within the coming step (the predicted test
-    /// of [`super::predicted`]), with the bodies placed at the step's end `at`: those that
-    /// do not touch a body at the linearisation point `q_lin` (their stiffness is not in
-    /// the step's matrix) and come within one and a half contact radii of a body at the
-    /// predicted end `q_pred`. Keeps `q_lin`. Returns whether there is any.
+    /// Find the samples that may reach a body within the coming step
+    /// ([`superhelix_kernels::contact::predicted::list`]), with the bodies placed at the
+    /// step's end `at`: those that do not touch a body at the linearisation point `q_lin`
+    /// (their stiffness is not in the step's matrix) and come within one and a half
+    /// contact radii of a body at the predicted end `q_pred`. Keeps `q_lin`. Returns
+    /// whether there is any.
     pub fn predict(
         &mut self,
         at: &Placement,
@@ -1020,148 +1000,56 @@ impl StrandContacts {
         q_lin: &[f64],
         q_pred: &[f64],
     ) -> bool {
-        if !self.predicting {
+        if !self.predicting || self.bodies.is_empty() {
             // nothing predicted: the step's resolution finds no linearisation point
             self.predicted.forget();
             return false;
         }
         let mut pc = std::mem::take(&mut self.predicted);
-        pc.candidates.clear();
-        pc.q_lin.clear();
-        pc.q_lin.extend_from_slice(q_lin);
-        let n = self.samples.len();
-        pc.touching.clear();
-        pc.listed.clear();
-        pc.lin_tip = None;
-        pc.tip_listed = false;
-        pc.listed.resize(n, false);
-        if !self.bodies.is_empty() {
-            self.place(at);
-            let head = at.head;
-            self.sample_poses(geom, q_lin);
-            pc.lin_y.clear();
-            pc.lin_y.extend(self.poses.iter().map(|p| p.0));
-            // the tip, beyond the last sample: guarded at the end check
-            let length = geom.length();
-            let mut tip = std::mem::take(&mut self.sweep);
-            positions_at_sorted(geom, q_lin, [length], &mut tip);
-            pc.lin_tip = tip.first().copied();
-            self.sweep = tip;
-            pc.touching
-                .extend((0..n).map(|k| self.touching(&head, k, &pc.lin_y[k]).is_some()));
-            self.sample_poses(geom, q_pred);
-            for k in 0..n {
-                if pc.touching[k] {
-                    continue;
-                }
-                let end = self.poses[k].0;
-                let view = self.view();
-                let Some((hit, onset)) = view.predicted_hit(&head, k, &end) else {
-                    continue;
-                };
-                pc.listed[k] = true;
-                let c = view.candidate(&head, k, hit.body, onset, &pc.lin_y[k], None);
-                pc.candidates.push(c);
-            }
-        } else {
-            pc.touching.resize(n, false);
-        }
-        let any = !pc.candidates.is_empty();
+        self.place(at);
+        let head = at.head;
+        self.sample_poses(geom, q_lin);
+        // the tip, beyond the last sample: guarded at the end check
+        let lin_tip = self.tip_at(geom, q_lin);
+        predicted::begin(&mut pc, &self.view(), &head, q_lin, &self.poses, lin_tip);
+        self.sample_poses(geom, q_pred);
+        let any = predicted::list(&mut pc, &self.view(), &head, q_lin.len(), &self.poses);
         self.predicted = pc;
         any
     }
 
-    /// The columns `g_c = J(s_c)ᵀ n_c` of the candidates from `from` on, at `q_lin`, into
-    /// the predicted contacts' buffers (sized here). `jac` is 3N columns of scratch.
-    pub fn linearize_predicted(
-        &mut self,
-        kernel: &mut dyn StrandKernel,
-        q_lin: &[f64],
-        jac: &mut [Vector3<f64>],
-        from: usize,
-    ) {
-        let dofs = q_lin.len();
-        let pc = &mut self.predicted;
-        pc.size_columns(dofs);
-        for c in from..pc.candidates.len() {
-            let cand = pc.candidates[c];
-            kernel.point(q_lin, cand.s, jac, None);
-            let g = &mut pc.g[c * dofs..(c + 1) * dofs];
-            for (gi, ji) in g.iter_mut().zip(jac.iter()) {
-                *gi = ji.dot(&cand.normal);
-            }
-        }
-    }
-
-    /// At the end `q_end` of a step's solve (bodies placed at `at`): the gap of each
-    /// candidate into its `end_gap`; and new candidates (linearised at the start's
-    /// position, their `end_gap` set): the samples that touched nothing at the start and
-    /// end within the contact radius of a body, and those that touched (their stiffness
-    /// in the matrix) and whose centreline ends inside a body. Returns the number of
-    /// candidates before the additions.
+    /// The end check of the contacts predicted in `pc` at the end `q_end` of a step's
+    /// solve, the bodies placed at `at` ([`superhelix_kernels::contact::predicted::check`]).
+    /// Returns the number of candidates before it.
     pub fn check_predicted(
         &mut self,
+        pc: &mut PredictedContacts,
         at: &Placement,
         geom: &StrandGeometry,
         q_end: &[f64],
     ) -> usize {
-        let mut pc = std::mem::take(&mut self.predicted);
         self.place(at);
         let head = at.head;
         self.sample_poses(geom, q_end);
-        let length = geom.length();
+        let tip_end = self.tip_at(geom, q_end);
+        predicted::check(
+            pc,
+            &self.view(),
+            &head,
+            q_end.len(),
+            &self.poses,
+            tip_end,
+            geom.length(),
+        )
+    }
+
+    /// The tip's position at q, head coordinates.
+    fn tip_at(&mut self, geom: &StrandGeometry, q: &[f64]) -> Option<Vector3<f64>> {
         let mut tip = std::mem::take(&mut self.sweep);
-        positions_at_sorted(geom, q_end, [length], &mut tip);
-        let tip_end = tip.first().copied();
+        positions_at_sorted(geom, q, [geom.length()], &mut tip);
+        let end = tip.first().copied();
         self.sweep = tip;
-        for c in pc.candidates.iter_mut() {
-            let y = match self.poses.get(c.sample) {
-                Some(p) => p.0,
-                None => tip_end.unwrap_or_default(),
-            };
-            let hit = self.body_query(&head, c.body, &y);
-            c.end_gap = Some(hit.distance - c.onset);
-        }
-        let before = pc.candidates.len();
-        for k in 0..self.samples.len().min(pc.listed.len()) {
-            if pc.listed[k] {
-                continue;
-            }
-            let view = self.view();
-            let Some((hit, onset)) = view.end_hit(&head, k, &self.poses[k].0, pc.touching[k])
-            else {
-                continue;
-            };
-            pc.listed[k] = true;
-            let end = Some(hit.distance - onset);
-            let c = view.candidate(&head, k, hit.body, onset, &pc.lin_y[k], end);
-            pc.candidates.push(c);
-        }
-        // the tip (not a sample): its centreline kept from going deeper into a body than
-        // it started the step (not inside, for a tip that started outside)
-        if let (Some(end), Some(start), false) = (tip_end, pc.lin_tip, pc.tip_listed) {
-            let skip = (self.root_zone.1 >= self.samples.len()).then_some(self.root_zone.0);
-            if let Some(hit) = self.nearest_within(&head, &end, skip, 0.0) {
-                let from = self.body_query(&head, hit.body, &start);
-                let onset = from.distance.min(0.0);
-                if hit.distance < onset {
-                    let w = self.samples.last().map_or(0.0, |s| 0.5 * s.1);
-                    pc.tip_listed = true;
-                    pc.candidates.push(Candidate {
-                        sample: usize::MAX,
-                        s: length,
-                        stiffness: self.params.stiffness * w,
-                        body: hit.body,
-                        normal: from.normal,
-                        onset,
-                        gap: from.distance - onset,
-                        end_gap: Some(hit.distance - onset),
-                    });
-                }
-            }
-        }
-        self.predicted = pc;
-        before
+        end
     }
 
     /// The deepest point of the centreline inside a body at q (bodies placed at `at`),
