@@ -927,10 +927,8 @@ pub fn with_tolerance(cases: Vec<Case>, tolerance: f64) -> Vec<Case> {
 }
 
 /// `cases` on `engine` (`auto`, the scenes' default: the embedded engine wherever it can
-/// run a case), names unchanged. On the embedded engine a case with contacts takes them
-/// without the prediction of the contacts that start within a step (`predict = false`:
-/// the embedded engine does not predict them; its steps split where a sample goes deeper
-/// than `split_depth`).
+/// run a case), names unchanged; on the embedded engine without the cases it cannot run
+/// (held ends, other integrators).
 pub fn with_engine(cases: Vec<Case>, engine: Engine) -> Vec<Case> {
     cases
         .into_iter()
@@ -943,11 +941,6 @@ pub fn with_engine(cases: Vec<Case>, engine: Engine) -> Vec<Case> {
         })
         .map(|mut c| {
             c.setup.config.engine = engine;
-            if engine == Engine::Embedded {
-                if let Some(contacts) = c.setup.contacts.as_mut() {
-                    contacts.predict = false;
-                }
-            }
             c
         })
         .collect()

@@ -75,6 +75,11 @@ pub enum FieldRule {
     /// default: see docs/performance.md for what keeps the split from being it).
     #[default]
     Projected,
+    /// No field stiffness in the step's matrix (the runtime's `field_stiffness =
+    /// "explicit"`, the step budget's): only the contacts' stiffness along their
+    /// Jacobians, without the strand's curvature, unprojected. A step that must be split
+    /// takes [`FieldRule::Projected`] in its pieces.
+    Explicit,
 }
 
 impl FieldRule {

@@ -21,7 +21,7 @@ use crate::model::reconstruction::pose_at as strand_pose_at;
 use crate::model::reconstruction::{pose_at, sample_centreline};
 use crate::model::strand::{Strand, StrandGeometry};
 use crate::output::FrameSource;
-use crate::solver::embedded::{group_for, EmbeddedContacts, EmbeddedGroup};
+use crate::solver::embedded::{group_for, EmbeddedContacts, EmbeddedGroup, StepRules};
 use crate::solver::initial_state::check_initial_state;
 use crate::solver::pair_coupling;
 use crate::solver::{
@@ -189,28 +189,6 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
             ),
         ));
     }
-    if !c.energy_balance {
-        errors.push(FieldError::new(
-            "simulation.energy_balance",
-            "the embedded engine always checks the energy balance; energy_balance = false needs engine = \"runtime\"",
-        ));
-    }
-    if c.field_stiffness == crate::config::FieldStiffness::Explicit {
-        errors.push(FieldError::new(
-            "simulation.field_stiffness",
-            "the embedded engine takes the field stiffness into its matrix (\"split\" or \"projected\"); field_stiffness = \"explicit\" needs engine = \"runtime\"",
-        ));
-    }
-    if c.max_split_depth != superhelix_kernels::energy::MAX_SUBSTEP_DEPTH {
-        errors.push(FieldError::new(
-            "simulation.max_split_depth",
-            format!(
-                "the embedded engine splits its steps up to {} levels deep; max_split_depth = {} needs engine = \"runtime\"",
-                superhelix_kernels::energy::MAX_SUBSTEP_DEPTH,
-                c.max_split_depth
-            ),
-        ));
-    }
     if c.mode == Mode::Static {
         errors.push(FieldError::new(
             "simulation.engine",
@@ -315,9 +293,14 @@ fn embedded_strands(
             Some(g) => g,
             None => match group_for(n) {
                 Some(mut group) => {
-                    group.set_field_rule(match setup.config.field_stiffness {
-                        crate::config::FieldStiffness::Projected => FieldRule::Projected,
-                        _ => FieldRule::Split,
+                    group.set_rules(StepRules {
+                        field_rule: match setup.config.field_stiffness {
+                            crate::config::FieldStiffness::Projected => FieldRule::Projected,
+                            crate::config::FieldStiffness::Explicit => FieldRule::Explicit,
+                            crate::config::FieldStiffness::Split => FieldRule::Split,
+                        },
+                        max_split_depth: setup.config.max_split_depth,
+                        energy_balance: setup.config.energy_balance,
                     });
                     groups.push((n, group));
                     groups.len() - 1

@@ -115,14 +115,6 @@ fn auto_takes_the_embedded_engine_exactly_where_it_can_run_the_scene() {
     for (text, field) in [
         (scene("auto", "integrator = \"bdf2\""), "simulation.engine"),
         (scene("auto", "kernels = \"generic\""), "simulation.kernels"),
-        (
-            scene("auto", "max_split_depth = 0"),
-            "simulation.max_split_depth",
-        ),
-        (
-            scene("auto", "energy_balance = false"),
-            "simulation.energy_balance",
-        ),
         (with_load, "strands[1].point_loads"),
         (odd_n, "SUPERHELIX_N=7"),
     ] {
@@ -133,6 +125,15 @@ fn auto_takes_the_embedded_engine_exactly_where_it_can_run_the_scene() {
         assert_eq!(engine, Engine::Runtime);
         let why = why.map(|e| e.to_string()).unwrap_or_default();
         assert!(why.contains(field), "{field} not named in {why}");
+    }
+    // the step budget's rules are the fixed-N step's too
+    for rules in [
+        "max_split_depth = 0",
+        "energy_balance = false",
+        "field_stiffness = \"explicit\"",
+    ] {
+        let sim = simulation(&scene("auto", rules)).expect("valid scene");
+        assert_eq!(sim.engine(), Engine::Embedded, "{rules}");
     }
     // named explicitly, the runtime engine is kept
     let runtime = simulation(&scene("runtime", "")).expect("valid scene");

@@ -4,7 +4,7 @@
 //!
 //! - a step that fails (singular matrix, non-finite values) or rotates an element by more
 //!   than [`MAX_ELEMENT_ROTATION`] is split in two, recursively, at most
-//!   [`MAX_SUBSTEP_DEPTH`] deep (a rotation r at once into the 2^j pieces of
+//!   [`MAX_SUBSTEP_DEPTH`](crate::energy::MAX_SUBSTEP_DEPTH) deep (a rotation r at once into the 2^j pieces of
 //!   [`rotation_split_levels`], r / 2^j within the limit);
 //! - E(end) must not exceed its bound (see [`crate::energy::balance`]); a step whose
 //!   excess is above [`ENERGY_SPLIT_FRACTION`] (head moving uniformly) or
@@ -27,9 +27,10 @@ use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::energy::{
     balance, end_ceiling, energy_splits, predicted_split_levels, rotation_split_levels, Balance,
-    StateEnergy, ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION, MAX_SUBSTEP_DEPTH,
-    TRUSTED_ELEMENT_ROTATION, WORK_SPLIT_FRACTION,
+    StateEnergy, ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION, TRUSTED_ELEMENT_ROTATION,
+    WORK_SPLIT_FRACTION,
 };
+use crate::field_split::FieldRule;
 use crate::float::Float;
 use crate::head::{body_field, HeadState};
 use crate::strand_terms::MomentSource;
@@ -515,15 +516,26 @@ fn step_piece<
     // contacts with a history (anchors, allowances) are measured afresh; a strand with
     // contacts tries its whole step first
     let history = contacts.as_deref().is_some_and(|c| c.has_history());
+    let continued = strand
+        .last_energy
+        .is_some_and(|e| (e.time - t).abs() <= 1e-12 * t.abs().max(1.0));
+    // the step starts as finely as its last step ended; a strand with contacts tries its
+    // whole step first
+    let hint = if contacts.is_some() {
+        0
+    } else {
+        usize::from(strand.split_hint).min(ws.max_split_depth)
+    };
     let (start, levels) = match strand.last_energy {
-        Some(e) if !history && (e.time - t).abs() <= 1e-12 * t.abs().max(1.0) => {
-            let levels = if contacts.is_some() {
-                0
-            } else {
-                usize::from(strand.split_hint)
+        // without the energy balance no energy is measured: the start's stands empty
+        _ if !ws.energy_balance => {
+            let start = StateEnergy {
+                time: t,
+                ..StateEnergy::default()
             };
-            (e, levels)
+            (start, if continued { hint } else { 0 })
         }
+        Some(e) if !history && continued => (e, hint),
         _ => {
             let (q, v) = (strand.q, strand.v);
             // the step's first solve starts from this state
@@ -593,7 +605,8 @@ fn adaptive<
 ) -> Result<StateEnergy<T>, StepError> {
     let h = interval.h;
     let (saved_q, saved_v) = (strand.q, strand.v);
-    let deepest = interval.depth == MAX_SUBSTEP_DEPTH;
+    let max_depth = ws.max_split_depth;
+    let deepest = interval.depth >= max_depth;
     let input = StepInput {
         head: interval.end,
         gravity: effects.gravity,
@@ -617,10 +630,11 @@ fn adaptive<
         counts.contacts_predicted += report.contacts_predicted;
         match report.projection {
             Some(Projection::Whole | Projection::Shifted) => counts.field_split += 1,
+            Some(Projection::Unprojected) => {}
             // the split's rule keeps the projection for a strand that does not dissipate
             // and for one that touches
             Some(_)
-                if ws.field_rule() == crate::field_split::FieldRule::Split
+                if ws.field_rule() == FieldRule::Split
                     && (!strand.params.dissipative() || report.touching) =>
             {
                 counts.field_undamped += 1
@@ -661,9 +675,11 @@ fn adaptive<
         if !finite {
             return Err(StepError::SingularMatrix);
         }
-        if deepest && rotation > rotation_limit && contacts.is_some() {
+        if deepest && rotation > rotation_limit {
             // the deepest split allowed still rotates an element beyond what an unchecked
-            // step may: the change of q and the velocities are scaled to that limit
+            // step may: the change of q and the velocities are scaled to that limit (a
+            // strand rooted on the head: what the limit takes is energy, which the
+            // balance allows)
             limit_rotation(strand, &saved_q, rotation);
             counts.rotation_limited += 1;
             // the scaled end is checked for the contacts that start within the step again
@@ -692,6 +708,13 @@ fn adaptive<
         ws.rotation_estimate = ws
             .rotation_estimate
             .max(rotation * (1u64 << interval.depth) as f64);
+        if !ws.energy_balance {
+            // nothing measured: the end stands as empty as the start
+            return Ok(StateEnergy {
+                time: t_end,
+                ..StateEnergy::default()
+            });
+        }
         let (q, v) = (strand.q, strand.v);
         let mut end = measure(
             source,
@@ -720,7 +743,9 @@ fn adaptive<
         ws.loss_estimate = ws
             .loss_estimate
             .max(splits.loss * (1u64 << (2 * interval.depth)) as f64);
-        energy_levels = splits.levels();
+        energy_levels = splits
+            .levels()
+            .min(max_depth.saturating_sub(interval.depth));
         if energy_levels == 0 && excess <= T::zero() {
             end.ceiling = end_ceiling(start, &end, inertial);
             return Ok(end);
@@ -777,9 +802,22 @@ fn adaptive<
     let levels =
         if !acceptable && contacts.is_none() && rotation.is_finite() && rotation > rotation_limit {
             rotation_split_levels(rotation, rotation_limit, interval.depth)
+                .min(max_depth - interval.depth)
         } else {
             energy_levels.max(1)
         };
+    if ws.field_rule == FieldRule::Explicit {
+        // with the field stiffness explicit, a step that must be split is one the
+        // explicit stiffness may not resolve at any substep (energy created by the
+        // contact forces' curvature on the twist; a strand thrown into a body): its
+        // pieces take the projected stiffness
+        ws.field_rule = FieldRule::Projected;
+        let end = split(
+            source, strand, head, effects, interval, start, ws, counts, levels, contacts,
+        );
+        ws.field_rule = FieldRule::Explicit;
+        return end;
+    }
     split(
         source, strand, head, effects, interval, start, ws, counts, levels, contacts,
     )
@@ -902,7 +940,7 @@ fn split<
         // runtime's `between_steps`), its energy measured again where the anchors moved
         let t = first.t + first.h;
         c.after_step(&strand.q, t, &first.end, first.h);
-        if c.has_history() {
+        if ws.energy_balance && c.has_history() {
             middle = remeasure_contacts(c, &first.end, &strand.q, &strand.v, &middle);
         }
     }

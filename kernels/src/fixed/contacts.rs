@@ -63,8 +63,8 @@ pub trait ContactHooks<T: Float, const D: usize> {
     /// Whether [`Self::start`] was done.
     fn started(&self) -> bool;
     /// Add the contact terms at (q, q̇), time t (the colliders placed there) to the step's
-    /// force, stiffness (with the strand's curvature under the forces) and damping;
-    /// whether a contact added stiffness.
+    /// force, stiffness (with the strand's curvature under the forces when `curvature`)
+    /// and damping; whether a contact added stiffness.
     #[allow(clippy::too_many_arguments)]
     fn add_terms(
         &mut self,
@@ -72,6 +72,7 @@ pub trait ContactHooks<T: Float, const D: usize> {
         v: &[T; D],
         t: f64,
         head: &HeadState,
+        curvature: bool,
         force: &mut [T; D],
         stiffness: &mut [[T; D]; D],
         damping: &mut [[T; D]; D],
@@ -552,6 +553,7 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
         v: &[T; D],
         t: f64,
         head: &HeadState,
+        curvature: bool,
         force: &mut [T; D],
         stiffness: &mut [[T; D]; D],
         damping: &mut [[T; D]; D],
@@ -577,7 +579,7 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
         let asked = TermsAsked {
             force: true,
             stiffness: true,
-            curvature: true,
+            curvature,
             damping: true,
         };
         let (summary, stiffened) = contacts.add_terms(head, p.poses, &v, asked, p.jac, &mut sink);

@@ -105,6 +105,9 @@ pub enum Projection {
     /// The matrix holds a value that is not finite: left unchanged, the stiffness stays
     /// explicit.
     Failed,
+    /// Not projected ([`crate::field_split::FieldRule::Explicit`]): the contacts'
+    /// stiffness along their Jacobians, negative semidefinite as it is.
+    Unprojected,
 }
 
 /// Cholesky factorisation of the symmetric `a` (lower triangle read; the factor

@@ -6,7 +6,7 @@ use super::dense::{lu_solve, lu_solve_factored, negative_semidefinite_part, Proj
 use super::workspace::{FixedWorkspace, ProjectionArrays};
 use super::FixedStrand;
 use crate::body_field::BodyField;
-use crate::field_split::{dissipative_split, SplitOutcome};
+use crate::field_split::{dissipative_split, FieldRule, SplitOutcome};
 use crate::float::Float;
 use crate::head::{body_field, HeadState};
 use crate::pose::Pose;
@@ -204,10 +204,11 @@ pub(super) fn assemble<
     );
     let position_field = field.uniform != Vector3::zeros() || field.has_linear();
     let velocity_field = field.velocity != nalgebra::Matrix3::zeros();
+    let explicit = ws.field_rule == FieldRule::Explicit;
     let terms = Terms {
         mass: true,
         force: true,
-        stiffness: position_field,
+        stiffness: position_field && !explicit,
         damping: velocity_field,
         velocity_term_jacobian: true,
         field_force: false,
@@ -216,7 +217,7 @@ pub(super) fn assemble<
         split_damping: true,
     };
     evaluate_at(source, strand, q, v, &field, terms, ws);
-    if !position_field {
+    if !terms.stiffness {
         ws.stiffness = [[T::zero(); D]; D];
     }
     if !velocity_field {
@@ -234,13 +235,20 @@ pub(super) fn assemble<
             v,
             t,
             &input.head,
+            !explicit,
             &mut ws.force,
             &mut ws.stiffness,
             &mut ws.damping,
         ),
         None => false,
     };
-    (position_field || touching, touching)
+    // with the field stiffness explicit, only the contacts' stiffness is in the matrix
+    let field_stiffness = if explicit {
+        touching
+    } else {
+        position_field || touching
+    };
+    (field_stiffness, touching)
 }
 
 /// Advance `strand` by `h` seconds: one linearly implicit Euler step (paper section
@@ -415,6 +423,7 @@ pub(super) fn step_matrix<
             }
             st[j][j] += p.stiffness[j];
         }
+        let explicit = ws.field_rule == FieldRule::Explicit;
         // a strand without internal friction or drag keeps the projection, and so does one
         // that touches (see crate::field_split)
         let split = if ws.field_rule.splits(p.dissipative()) && !touching {
@@ -434,6 +443,9 @@ pub(super) fn step_matrix<
             SplitOutcome::Beyond
         };
         Some(match split {
+            // the contacts' stiffness along their Jacobians alone: negative semidefinite
+            // as it is
+            _ if explicit => Projection::Unprojected,
             SplitOutcome::Whole => Projection::Whole,
             SplitOutcome::Shifted => Projection::Shifted,
             SplitOutcome::Beyond => project(

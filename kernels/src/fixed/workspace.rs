@@ -1,5 +1,6 @@
 //! The scratch of one fixed-N step, one per worker thread.
 
+use crate::energy::MAX_SUBSTEP_DEPTH;
 use crate::field_split::FieldRule;
 use crate::float::Float;
 use crate::moments::jacobians::VelocityRow;
@@ -34,6 +35,10 @@ pub struct FixedWorkspace<const N: usize, const D: usize, const E: usize, T: Flo
     pub(super) projection: ProjectionArrays<D, T>,
     /// How the field stiffness's part in the step's matrix is found.
     pub(super) field_rule: FieldRule,
+    /// The deepest split of a checked step (0: one solve per step, the step budget).
+    pub(super) max_split_depth: usize,
+    /// Whether the checked step keeps its energy balance.
+    pub(super) energy_balance: bool,
     /// Scratch of the dissipative split ([`crate::field_split`]): its factor, the
     /// metric's scales and the pivot order.
     pub(super) split_work: [[T; D]; D],
@@ -128,6 +133,8 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
                 eigenvalues: [T::zero(); D],
             },
             field_rule: FieldRule::default(),
+            max_split_depth: MAX_SUBSTEP_DEPTH,
+            energy_balance: true,
             split_work: [[T::zero(); D]; D],
             split_scale: [T::zero(); D],
             split_order: [0; D],
@@ -145,6 +152,31 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
     /// How the field stiffness's part in the step's matrix is found.
     pub fn field_rule(&self) -> FieldRule {
         self.field_rule
+    }
+
+    /// Split a checked step at most `depth` levels deep (clamped to
+    /// [`MAX_SUBSTEP_DEPTH`], the default; 0: one solve per step, the runtime's step
+    /// budget `max_split_depth`). At the deepest level a step is accepted with its
+    /// rotation limited, as the runtime's.
+    pub fn set_max_split_depth(&mut self, depth: usize) {
+        self.max_split_depth = depth.min(MAX_SUBSTEP_DEPTH);
+    }
+
+    /// The deepest split of a checked step.
+    pub fn max_split_depth(&self) -> usize {
+        self.max_split_depth
+    }
+
+    /// Keep the energy balance of the checked step (the default) or not (the runtime's
+    /// `energy_balance = false`: no energy is measured, no step is split or limited for
+    /// it).
+    pub fn set_energy_balance(&mut self, on: bool) {
+        self.energy_balance = on;
+    }
+
+    /// Whether the checked step keeps its energy balance.
+    pub fn energy_balance(&self) -> bool {
+        self.energy_balance
     }
 
     /// Forget the element moments of the last strand (the next evaluation computes

@@ -73,8 +73,8 @@ pub trait EmbeddedGroup: Send + Sync {
     fn strand_bytes(&self) -> usize;
     /// Bytes of one workspace.
     fn workspace_bytes(&self) -> usize;
-    /// How the steps take the field stiffness into their matrix.
-    fn set_field_rule(&mut self, rule: FieldRule);
+    /// The scene's rules for the steps.
+    fn set_rules(&mut self, rules: StepRules);
     /// The deepest point of any strand's centreline inside a body at time `t`, the head
     /// in `head` (`None`: no contacts), on the dense sweep of each centreline.
     fn deepest_inside(&mut self, t: f64, head: &HeadState) -> Option<f64>;
@@ -97,7 +97,42 @@ pub struct Group<const N: usize, const D: usize, const E: usize, const B: usize>
     /// Per strand, the error-controlled step's history and what it did (empty until the
     /// first step with a tolerance).
     histories: Vec<(StepHistory<D>, ToleranceReport)>,
-    field_rule: FieldRule,
+    rules: StepRules,
+}
+
+/// The scene's rules for the fixed-N step (`[simulation] field_stiffness`,
+/// `max_split_depth`, `energy_balance`), set on each worker's workspace.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StepRules {
+    /// How the field stiffness enters the step's matrix.
+    pub field_rule: FieldRule,
+    /// The deepest split of a step.
+    pub max_split_depth: usize,
+    /// Whether the step keeps its energy balance.
+    pub energy_balance: bool,
+}
+
+impl Default for StepRules {
+    fn default() -> Self {
+        StepRules {
+            field_rule: FieldRule::default(),
+            max_split_depth: superhelix_kernels::energy::MAX_SUBSTEP_DEPTH,
+            energy_balance: true,
+        }
+    }
+}
+
+impl StepRules {
+    /// A worker's workspace under these rules.
+    fn workspace<const N: usize, const D: usize, const E: usize>(
+        &self,
+    ) -> Box<FixedWorkspace<N, D, E>> {
+        let mut ws = Box::new(FixedWorkspace::<N, D, E>::new());
+        ws.set_field_rule(self.field_rule);
+        ws.set_max_split_depth(self.max_split_depth);
+        ws.set_energy_balance(self.energy_balance);
+        ws
+    }
 }
 
 impl<const N: usize, const D: usize, const E: usize, const B: usize> Default for Group<N, D, E, B> {
@@ -106,7 +141,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Default for
             strands: Vec::new(),
             contacts: None,
             histories: Vec::new(),
-            field_rule: FieldRule::default(),
+            rules: StepRules::default(),
         }
     }
 }
@@ -188,8 +223,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 .zip(buffers.par_chunks_mut(chunk))
                 .enumerate()
                 .map(|(c, (strands, buffers))| {
-                    let mut ws = Box::new(FixedWorkspace::<N, D, E>::new());
-                    ws.set_field_rule(self.field_rule);
+                    let mut ws = self.rules.workspace::<N, D, E>();
                     let mut colliders = BodyColliders::new(bodies.clone());
                     let mut scratch = ContactScratch::for_strands(buffers, N);
                     let mut first = None;
@@ -221,8 +255,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 .par_chunks_mut(chunk)
                 .enumerate()
                 .map(|(c, strands)| {
-                    let mut ws = Box::new(FixedWorkspace::<N, D, E>::new());
-                    ws.set_field_rule(self.field_rule);
+                    let mut ws = self.rules.workspace::<N, D, E>();
                     let mut first = None;
                     let mut counts = StepCounts::default();
                     for (k, s) in strands.iter_mut().enumerate() {
@@ -243,8 +276,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                     .zip(self.histories.par_chunks_mut(chunk))
                     .enumerate()
                     .map(|(c, (strands, histories))| {
-                        let mut ws = Box::new(FixedWorkspace::<N, D, E>::new());
-                        ws.set_field_rule(self.field_rule);
+                        let mut ws = self.rules.workspace::<N, D, E>();
                         let mut first = None;
                         let mut total = ToleranceReport::default();
                         for (k, (s, (history, done))) in
@@ -389,8 +421,8 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
     fn workspace_bytes(&self) -> usize {
         FixedWorkspace::<N, D, E>::BYTES
     }
-    fn set_field_rule(&mut self, rule: FieldRule) {
-        self.field_rule = rule;
+    fn set_rules(&mut self, rules: StepRules) {
+        self.rules = rules;
     }
     fn contact_summary(&self, i: usize) -> Option<BodySummary> {
         self.contacts
