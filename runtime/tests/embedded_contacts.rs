@@ -54,6 +54,15 @@ fn centrelines(sim: &mut Simulation, strands: usize) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// The largest distance between the two simulations' centreline points (4 strands), m.
+fn apart(a: &mut Simulation, b: &mut Simulation) -> f64 {
+    let (a, b) = (centrelines(a, 4), centrelines(b, 4));
+    a.iter()
+        .zip(&b)
+        .map(|(p, q)| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt())
+        .fold(0.0, f64::max)
+}
+
 /// Each friction model, with the contacts that start within a step predicted and not,
 /// 1 s of falling onto the ball: the embedded engine's centrelines are the runtime
 /// engine's to 1e-12 L at every step (the same law, queries, prediction and checks on
@@ -81,11 +90,7 @@ fn the_embedded_engine_lands_strands_on_a_ball_as_the_runtime_does() {
         while runtime.time() < 1.0 - 1e-9 {
             embedded.step().expect("embedded step");
             runtime.step().expect("runtime step");
-            let (a, b) = (centrelines(&mut embedded, 4), centrelines(&mut runtime, 4));
-            for (p, q) in a.iter().zip(&b) {
-                let d = (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt();
-                worst = worst.max(d);
-            }
+            worst = worst.max(apart(&mut embedded, &mut runtime));
             deepest[0] = deepest[0].max(embedded.max_penetration().expect("contacts"));
             deepest[1] = deepest[1].max(runtime.max_penetration().expect("contacts"));
         }
@@ -198,11 +203,7 @@ fn the_step_budgets_rules_agree_on_both_engines() {
         while runtime.time() < 1.0 - 1e-9 {
             embedded.step().expect("embedded step");
             runtime.step().expect("runtime step");
-            let (a, b) = (centrelines(&mut embedded, 4), centrelines(&mut runtime, 4));
-            for (p, q) in a.iter().zip(&b) {
-                let d = (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt();
-                worst = worst.max(d);
-            }
+            worst = worst.max(apart(&mut embedded, &mut runtime));
             deepest = deepest.max(embedded.max_penetration().expect("contacts"));
         }
         let (e, r) = (embedded.stats(), runtime.stats());
