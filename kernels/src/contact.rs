@@ -24,6 +24,7 @@ pub mod body;
 pub mod candidates;
 pub mod complementarity;
 pub mod law;
+pub mod partners;
 pub mod predicted;
 pub mod samples;
 

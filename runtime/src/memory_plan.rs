@@ -168,7 +168,7 @@ pub fn estimate_with(setup: &SimulationSetup, engine: Engine, usd: bool) -> Memo
 /// as the first step searches them ([`crate::forces::contacts::hair_hair::pairs_at_start`],
 /// at most `max_pairs_per_sample` per sample).
 pub fn hair_pairs_at_start(setup: &SimulationSetup) -> usize {
-    use crate::forces::contacts::{HairHairParams, StrandContacts};
+    use crate::forces::contacts::StrandContacts;
     use rayon::prelude::*;
     let Some(c) = setup.contacts.as_ref() else {
         return 0;
@@ -189,7 +189,7 @@ pub fn hair_pairs_at_start(setup: &SimulationSetup) -> usize {
                 g,
                 bodies.clone(),
                 c.params(rho_s),
-                Some(HairHairParams::new(h, rho_s)),
+                Some(h.params(rho_s)),
                 c.samples_per_element,
                 c.free_ends(
                     s.strand.ends.root == crate::model::ends::RootEnd::Free,

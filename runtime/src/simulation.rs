@@ -8,9 +8,7 @@ use crate::config::{
     Engine, IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup,
 };
 use crate::error::{Error, FieldError, Result};
-use crate::forces::contacts::{
-    ContactSummary, HairHair, HairHairParams, PairCounts, StrandContacts,
-};
+use crate::forces::contacts::{ContactSummary, HairHair, PairCounts, StrandContacts};
 use crate::forces::effects::GlobalEffects;
 use crate::forces::electrostatics::{Electrostatics, FieldSummary};
 use crate::forces::head_motion::HeadMotion;
@@ -732,7 +730,7 @@ impl Simulation {
                         g,
                         b.clone(),
                         c.params(rho_s),
-                        c.hair_hair.as_ref().map(|h| HairHairParams::new(h, rho_s)),
+                        c.hair_hair.as_ref().map(|h| h.params(rho_s)),
                         c.samples_per_element,
                         free_ends,
                     )

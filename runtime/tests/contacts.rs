@@ -572,7 +572,7 @@ fn the_balance_counts_the_power_of_the_partners_damping() {
         ..ContactConfig::default()
     };
     let rho_s = material.mass_per_length;
-    let hair = HairHairParams::new(config.hair_hair.as_ref().expect("set"), rho_s);
+    let hair = config.hair_hair.as_ref().expect("set").params(rho_s);
     let mut contacts = StrandContacts::new(
         &geom,
         Arc::<[Body]>::from(Vec::new()),
@@ -726,7 +726,7 @@ fn contact_forces_are_minus_the_gradient_of_the_contact_energy() {
         ..ContactConfig::default()
     };
     let rho_s = material.mass_per_length;
-    let hair = HairHairParams::new(config.hair_hair.as_ref().expect("set"), rho_s);
+    let hair = config.hair_hair.as_ref().expect("set").params(rho_s);
     let make = |bodies: Vec<Body>| {
         StrandContacts::new(
             &geom,

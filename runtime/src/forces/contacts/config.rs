@@ -115,6 +115,31 @@ pub const DEFAULT_MAX_PAIRS_PER_SAMPLE: usize = 16;
 pub const SELF_EXCLUSION_RADII: f64 = 4.0;
 
 impl HairHairConfig {
+    /// The hair–hair parameters of a strand of mass per length `rho_s` (kg/m) under this
+    /// configuration.
+    pub fn params(&self, rho_s: f64) -> superhelix_kernels::contact::partners::HairHairParams {
+        let factor = if self.coupling == Coupling::Pair {
+            DEFAULT_PAIR_STIFFNESS_FACTOR
+        } else {
+            DEFAULT_HAIR_STIFFNESS_FACTOR
+        };
+        let weight = rho_s * STANDARD_GRAVITY / self.radius;
+        let k = self.stiffness.unwrap_or(factor * weight);
+        let k_self = self
+            .stiffness
+            .unwrap_or(DEFAULT_SELF_STIFFNESS_FACTOR * weight);
+        superhelix_kernels::contact::partners::HairHairParams {
+            radius: self.radius,
+            stiffness: k,
+            damping: 2.0 * self.damping_ratio * (k * rho_s).sqrt(),
+            self_stiffness: k_self,
+            self_damping: 2.0 * self.damping_ratio * (k_self * rho_s).sqrt(),
+            split_depth: self.split_depth,
+            friction: self.friction,
+            coupled: self.coupling == Coupling::Pair,
+        }
+    }
+
     /// The arc length within which two points of one strand do not touch, m.
     pub fn self_exclusion(&self) -> f64 {
         self.self_exclusion

@@ -29,7 +29,7 @@
 //! at any penalty stiffness. Beyond δ_max the normal force is constant (no stiffness): a
 //! strand that starts inside a body is pushed out over several steps, never kicked.
 
-use super::config::{Friction, HairHairConfig, RodFriction, STANDARD_GRAVITY};
+use super::config::{Friction, STANDARD_GRAVITY};
 use super::predicted::PredictedContacts;
 use crate::bodies::{Attachment, Body, Placement};
 use crate::forces::head_motion::HeadState;
@@ -50,117 +50,10 @@ use superhelix_kernels::contact::predicted;
 pub use superhelix_kernels::contact::ContactParams;
 use superhelix_kernels::contact::{rod_friction, rod_spring_energy};
 
-/// Hair–hair penalty parameters of one strand.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HairHairParams {
-    /// Radius of the hair volume, m.
-    pub radius: f64,
-    /// Penalty stiffness, N/m².
-    pub stiffness: f64,
-    /// Damping per metre, N·s/m².
-    pub damping: f64,
-    /// Penalty stiffness (N/m²) and damping per metre (N·s/m²) between two parts of this
-    /// strand (self-contact).
-    pub self_stiffness: f64,
-    /// See [`Self::self_stiffness`].
-    pub self_damping: f64,
-    /// Depth of a new contact beyond which a step is split, m (`None`: the contacts').
-    pub split_depth: Option<f64>,
-    /// Coulomb friction between rods (`None`: none).
-    pub friction: Option<RodFriction>,
-    /// The normal force of a pair of two strands is solved for both after their steps
-    /// ([`super::Coupling::Pair`]): a strand's own step leaves it out.
-    pub coupled: bool,
-}
-
-impl HairHairParams {
-    /// The parameters of `config` for a strand of mass per length `rho_s`.
-    pub fn new(config: &HairHairConfig, rho_s: f64) -> Self {
-        let factor = if config.coupling == super::Coupling::Pair {
-            super::config::DEFAULT_PAIR_STIFFNESS_FACTOR
-        } else {
-            super::config::DEFAULT_HAIR_STIFFNESS_FACTOR
-        };
-        let weight = rho_s * STANDARD_GRAVITY / config.radius;
-        let k = config.stiffness.unwrap_or(factor * weight);
-        let k_self = config
-            .stiffness
-            .unwrap_or(super::config::DEFAULT_SELF_STIFFNESS_FACTOR * weight);
-        HairHairParams {
-            radius: config.radius,
-            stiffness: k,
-            damping: 2.0 * config.damping_ratio * (k * rho_s).sqrt(),
-            self_stiffness: k_self,
-            self_damping: 2.0 * config.damping_ratio * (k_self * rho_s).sqrt(),
-            split_depth: config.split_depth,
-            friction: config.friction,
-            coupled: config.coupling == super::Coupling::Pair,
-        }
-    }
-
-    /// These parameters as they act between two parts of the strand (self-contact).
-    pub fn for_self(&self) -> Self {
-        HairHairParams {
-            stiffness: self.self_stiffness,
-            damping: self.self_damping,
-            ..*self
-        }
-    }
-}
-
-/// A point of another strand that one of this strand's samples was paired with for the
-/// coming step (hair–hair): it acts as a moving ball of radius `reach` around `point`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PartnerPoint {
-    /// This strand's arc length at the pair's closest point, m.
-    pub s: f64,
-    /// The arc length the pair stands for, m.
-    pub weight: f64,
-    /// The other strand's point, world coordinates, m.
-    pub point: Vector3<f64>,
-    /// Its velocity, world coordinates, m/s.
-    pub velocity: Vector3<f64>,
-    /// Distance below which the two interact (the sum of the two volumes' radii), m.
-    pub reach: f64,
-    /// The pair's friction anchor, when it sticks or slides (Coulomb friction between
-    /// rods, see [`super::hair_hair`]).
-    pub anchor: Option<PartnerAnchor>,
-    /// For a pair of two parts of this strand (self-contact): the other part's arc
-    /// length, m. The pair is then stepped implicitly on both parts (its force, stiffness
-    /// and damping act through `J(s) − J(partner_s)`), not against a ball where the
-    /// other part was at the step's start; `point` and `velocity` are only where it was.
-    pub partner_s: Option<f64>,
-    /// The pair's index among the pairs of this step (both sides of a pair carry it).
-    pub pair: usize,
-    /// The line of centres at the step's start, from the other strand's point to this
-    /// one's, world coordinates (unit; zero when the two coincide).
-    pub normal: Vector3<f64>,
-}
-
-/// Where one of this strand's samples is held by friction against another strand: the
-/// other strand's sample, offset by the pair's anchor.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PartnerAnchor {
-    /// This strand's sample (index among [`StrandContacts::samples`]).
-    pub sample: usize,
-    /// The point it is held to, world coordinates, m.
-    pub point: Vector3<f64>,
-    /// Its velocity, world coordinates, m/s.
-    pub velocity: Vector3<f64>,
-    /// Whether the pair slid over the last step (the spring then holds the kinetic
-    /// force).
-    pub sliding: bool,
-    /// For a pair of two parts of this strand: the other part's sample (the spring then
-    /// joins the two samples, held `offset` apart across the line of centres).
-    pub partner_sample: Option<usize>,
-    /// Δ*, head coordinates, m: where this sample is held relative to the partner's
-    /// sample (for a pair of two parts of this strand; `point` holds it otherwise).
-    pub offset: Vector3<f64>,
-    /// The coming step's length, s: a sliding pair's force points against its slip
-    /// predicted at the step's end (the slip now plus the relative velocity times the
-    /// step), not against the slip now, which is shorter than one step's motion.
-    pub step: f64,
-}
+use superhelix_kernels::contact::partners;
+pub use superhelix_kernels::contact::partners::{
+    HairHairParams, PartnerAnchor, PartnerContacts, PartnerPoint,
+};
 
 /// A Coulomb anchor as a checkpoint keeps it ([`Anchor`]: a point of a body in that
 /// body's coordinates, and whether it slid over the last step).
@@ -468,38 +361,20 @@ impl StrandContacts {
     }
 
     /// The partners the samples' poses (head in `head`) do not rule out, into `near`
-    /// (indices, in arc-length order): a partner is ruled out when the centreline at its
-    /// arc length s is certainly farther than its reach from its point, judged from the
-    /// two samples around s (within |s − s_k| of sample k, the centreline is within that
-    /// arc length of it).
+    /// (indices, in arc-length order; [`PartnerContacts::near`]).
     fn near_partners(&self, head: &HeadState, near: &mut Vec<usize>) {
         near.clear();
-        let Some(last) = self.samples.len().checked_sub(1) else {
-            near.extend((0..self.partners.len()).filter(|&i| self.partners[i].partner_s.is_none()));
-            return;
-        };
-        let rt = head.rotation.transpose();
-        // the partners are in arc-length order: the first sample at or beyond s only moves on
-        let mut k = 0;
-        for (i, p) in self.partners.iter().enumerate() {
-            // a pair of two parts of this strand is handled on its own
-            // ([`Self::add_self_pairs`])
-            if p.partner_s.is_some() {
-                continue;
-            }
-            while k < last && self.samples[k].0 < p.s {
-                k += 1;
-            }
-            let pt = rt * (p.point - head.position);
-            let bound = |k: usize| (self.poses[k].0 - pt).norm() - (self.samples[k].0 - p.s).abs();
-            let lower = if k > 0 {
-                bound(k).max(bound(k - 1))
-            } else {
-                bound(k)
-            };
-            if lower <= p.reach {
-                near.push(i);
-            }
+        partners::near(&self.partners, &self.samples, head, &self.poses, |i| {
+            near.push(i)
+        });
+    }
+
+    /// The partners' view with the hair–hair parameters `hh`.
+    fn partner_view<'a>(&'a self, hh: &'a HairHairParams) -> PartnerContacts<'a> {
+        PartnerContacts {
+            params: hh,
+            partners: &self.partners,
+            samples: &self.samples,
         }
     }
 
@@ -577,26 +452,22 @@ impl StrandContacts {
         self.place(at);
         let head = &at.head;
         self.sample_poses(kernel.geometry(), q);
+        let asked = TermsAsked {
+            force: terms.force,
+            stiffness: terms.stiffness,
+            curvature,
+            damping: terms.damping,
+        };
         let mut aj = std::mem::take(&mut self.aj);
-        let (body, mut stiffened) = self.view().add_terms(
-            head,
-            &self.poses,
-            v,
-            TermsAsked {
-                force: terms.force,
-                stiffness: terms.stiffness,
-                curvature,
-                damping: terms.damping,
-            },
-            jac,
-            &mut TermsSink {
-                kernel: &mut *kernel,
-                q,
-                out: &mut *out,
-                aj: &mut aj,
-            },
-        );
-        self.aj = aj;
+        let mut sink = TermsSink {
+            kernel: &mut *kernel,
+            q,
+            out: &mut *out,
+            aj: &mut aj,
+        };
+        let (body, mut stiffened) =
+            self.view()
+                .add_terms(head, &self.poses, v, asked, jac, &mut sink);
         let mut summary = ContactSummary {
             body_contacts: body.contacts,
             max_penetration: body.max_penetration,
@@ -605,90 +476,27 @@ impl StrandContacts {
         };
         if let Some(hh) = self.hair {
             // the partners the samples do not rule out are placed on the strand first (one
-            // pass); J is computed only for those within reach
-            let rt = head.rotation.transpose();
-            self.place_near_partners(head, kernel.geometry(), q);
-            for k in 0..self.partner_near.len() {
-                let (partner, y) = (self.partners[self.partner_near[k]], self.partner_y[k]);
-                let (s, w) = (partner.s, partner.weight);
-                let p = rt * (partner.point - head.position);
-                if (y - p).norm() >= partner.reach {
-                    continue;
-                }
-                if hh.coupled && hh.friction.is_none() {
-                    // all of a coupled pair's force is the pair solve's, after the step
-                    // (`crate::solver::pair_coupling`)
-                    summary.hair_contacts += 1;
-                    continue;
-                }
-                let y = kernel.point(q, s, jac, None);
-                let d = (y - p).norm();
-                if d >= partner.reach || d == 0.0 {
-                    continue;
-                }
-                summary.hair_contacts += 1;
-                let n = (y - p) / d;
-                let normal = hh.stiffness * w * (partner.reach - d);
-                // with friction the damping acts along the line of centres only (the
-                // tangential force is Coulomb's); without, on the whole relative velocity.
-                // A coupled pair's penalty and damping are the pair solve's, after the
-                // step (`crate::solver::pair_coupling`): only its friction is the step's
-                if !hh.coupled {
-                    // the partner's velocity as seen in the head frame
-                    let vp = head.rotation.transpose() * (partner.velocity - head.velocity)
-                        - head.omega.cross(&p);
-                    let vel = velocity(jac, v) - vp;
-                    let damping = if hh.friction.is_some() {
-                        hh.damping * w * n * n.transpose()
-                    } else {
-                        hh.damping * w * Matrix3::identity()
-                    };
-                    if terms.force {
-                        add_force(jac, &(normal * n - damping * vel), &mut out.force);
-                    }
-                    if terms.stiffness {
-                        let a = -hh.stiffness * w * n * n.transpose();
-                        add_projected(jac, &a, &mut self.aj, &mut out.stiffness);
-                        stiffened = true;
-                    }
-                    if terms.damping {
-                        add_projected(jac, &-damping, &mut self.aj, &mut out.damping);
-                    }
-                }
-                // Coulomb friction: the anchored sample held to the partner's anchor point
-                let (Some(f), Some(anchor)) = (hh.friction, partner.anchor) else {
-                    continue;
-                };
-                let Some(&(s_anchor, _)) = self.samples.get(anchor.sample) else {
-                    continue;
-                };
-                let ya = kernel.point(q, s_anchor, jac, None);
-                let target = rt * (anchor.point - head.position);
-                let plane = Matrix3::identity() - n * n.transpose();
-                let slip = plane * (ya - target);
-                let stiff = f.stiffness_ratio * hh.stiffness * w;
-                let va = rt * (anchor.velocity - head.velocity) - head.omega.cross(&target);
-                let rel = velocity(jac, v) - va;
-                let (spring, kt, turning) = rod_friction(
-                    &f,
-                    anchor.sliding,
-                    anchor.step,
-                    &plane,
-                    &slip,
-                    &rel,
-                    stiff,
-                    normal,
-                );
-                if terms.force {
-                    add_force(jac, &spring, &mut out.force);
-                }
-                if terms.stiffness {
-                    add_projected(jac, &-kt, &mut self.aj, &mut out.stiffness);
-                }
-                if terms.damping && turning != Matrix3::zeros() {
-                    add_projected(jac, &-turning, &mut self.aj, &mut out.damping);
-                }
-            }
+            // pass); J is computed only for those within reach (a partner's force acts
+            // along the Jacobian only: no curvature). A coupled pair's penalty and damping
+            // are the pair solve's, after the step (`crate::solver::pair_coupling`)
+            self.place_near_partners(head, sink.kernel.geometry(), q);
+            let (touching, partner_stiffness) = self.partner_view(&hh).add_terms(
+                head,
+                &self.partner_near,
+                &self.partner_y,
+                v,
+                TermsAsked {
+                    curvature: false,
+                    ..asked
+                },
+                jac,
+                &mut sink,
+            );
+            summary.hair_contacts += touching;
+            stiffened |= partner_stiffness;
+        }
+        self.aj = aj;
+        if let Some(hh) = self.hair {
             if self.add_self_pairs(hh, kernel, q, v, terms, jac, out) {
                 stiffened = true;
             }
@@ -862,44 +670,14 @@ impl StrandContacts {
         if let Some(hh) = self.hair {
             // only the partners the samples do not rule out (most of those the search
             // keeps are beyond reach, and contribute nothing) are placed on the strand
-            let rt = head.rotation.transpose();
             self.place_near_partners(head, geom, q);
-            for (&i, &y) in self.partner_near.iter().zip(&self.partner_y) {
-                let partner = &self.partners[i];
-                let w = partner.weight;
-                let pt = rt * (partner.point - head.position);
-                let d = (y - pt).norm();
-                if d >= partner.reach || d == 0.0 {
-                    continue;
-                }
-                let overlap = partner.reach - d;
-                let n = (y - pt) / d;
-                if !hh.coupled {
-                    // (a coupled pair's penalty is the pair solve's, not the step's)
-                    potential += 0.5 * hh.stiffness * w * overlap * overlap;
-                    let vp = head.rotation.transpose() * (partner.velocity - head.velocity)
-                        - head.omega.cross(&pt);
-                    rate += hh.stiffness * w * overlap * n.dot(&vp);
-                }
-                // the friction spring: its energy, and its rate through the anchor point's
-                // motion
-                let (Some(f), Some(anchor)) = (hh.friction, partner.anchor) else {
-                    continue;
-                };
-                let Some(&(ya, _)) = self.poses.get(anchor.sample) else {
-                    continue;
-                };
-                let target = rt * (anchor.point - head.position);
-                let plane = Matrix3::identity() - n * n.transpose();
-                let slip = plane * (ya - target);
-                let stiff = f.stiffness_ratio * hh.stiffness * w;
-                let normal = hh.stiffness * w * overlap;
-                let (held, spring) =
-                    rod_spring_energy(&f, anchor.sliding, &plane, &slip, stiff, normal);
-                potential += held;
-                let va = rt * (anchor.velocity - head.velocity) - head.omega.cross(&target);
-                rate += spring.dot(&(plane * va));
-            }
+            (potential, rate) = self.partner_view(&hh).energy(
+                head,
+                &self.partner_near,
+                &self.partner_y,
+                &self.poses,
+                (potential, rate),
+            );
             potential += self.self_pairs_energy(&hh, geom, q);
         }
         (potential, rate)
@@ -949,32 +727,15 @@ impl StrandContacts {
             return 0.0;
         }
         self.sample_poses(kernel.geometry(), q);
-        let rt = head.rotation.transpose();
         self.place_near_partners(head, kernel.geometry(), q);
-        let mut power = 0.0;
-        for k in 0..self.partner_near.len() {
-            let (partner, y) = (self.partners[self.partner_near[k]], self.partner_y[k]);
-            let p = rt * (partner.point - head.position);
-            if (y - p).norm() >= partner.reach {
-                continue;
-            }
-            let y = kernel.point(q, partner.s, jac, None);
-            let d = (y - p).norm();
-            if d >= partner.reach || d == 0.0 {
-                continue;
-            }
-            let vp = rt * (partner.velocity - head.velocity) - head.omega.cross(&p);
-            let ydot = velocity(jac, v);
-            power += hh.damping
-                * partner.weight
-                * if hh.friction.is_some() {
-                    let n = (y - p) / d;
-                    n.dot(&vp) * n.dot(&ydot)
-                } else {
-                    vp.dot(&ydot)
-                };
-        }
-        power
+        self.partner_view(&hh).drag_power(
+            head,
+            &self.partner_near,
+            &self.partner_y,
+            v,
+            jac,
+            |s, jac| kernel.point(q, s, jac, None),
+        )
     }
 
     /// Whether the strand may touch a body.
@@ -1137,38 +898,16 @@ impl StrandContacts {
         if !has_partners {
             return true;
         }
-        let rt = head.rotation.transpose();
-        let split = self.hair.and_then(|h| h.split_depth).unwrap_or(split);
-        // a partner is checked on the strand only when the samples do not settle it: along
-        // the line of centres the point at s moved by at least
-        //   |y0(s_k) − p| − |y1(s_k) − y0(s_k)| − 3 |s − s_k|
-        // for any sample k (|y0(s) − y0(s_k)| ≤ |s − s_k| and the displacement changes by
-        // at most 2 |s − s_k| between them: unit tangents), and when that is at least
-        // reach − split the step passes it
+        let Some(hh) = self.hair else {
+            return true;
+        };
+        let split = hh.split_depth.unwrap_or(split);
+        // a partner is checked on the strand only when the samples do not settle it
+        // ([`PartnerContacts::unsettled`])
         let mut near = std::mem::take(&mut self.partner_near);
         near.clear();
-        near.extend((0..self.partners.len()).filter(|&i| {
-            let p = &self.partners[i];
-            if p.partner_s.is_some() || coupled {
-                return false;
-            }
-            let pt = rt * (p.point - head.position);
-            let k = self
-                .samples
-                .partition_point(|(arc, _)| *arc < p.s)
-                .min(self.samples.len().saturating_sub(1));
-            let bound = |k: usize| {
-                (self.sample_y0[k] - pt).norm()
-                    - (self.poses[k].0 - self.sample_y0[k]).norm()
-                    - 3.0 * (self.samples[k].0 - p.s).abs()
-            };
-            let lower = if k > 0 {
-                bound(k).max(bound(k - 1))
-            } else {
-                bound(k)
-            };
-            lower < p.reach - split
-        }));
+        self.partner_view(&hh)
+            .unsettled(head, &self.sample_y0, &self.poses, split, |i| near.push(i));
         let (mut y0, mut y1) = (
             std::mem::take(&mut self.partner_y0),
             std::mem::take(&mut self.partner_y),
@@ -1176,17 +915,9 @@ impl StrandContacts {
         let arcs = || near.iter().map(|&i| self.partners[i].s);
         positions_at_sorted(geom, q0, arcs(), &mut y0);
         positions_at_sorted(geom, q1, arcs(), &mut y1);
-        let ok = near.iter().zip(&y0).zip(&y1).all(|((&i, y0), y1)| {
-            let p = &self.partners[i];
-            let pt = rt * (p.point - head.position);
-            let d0 = y0 - pt;
-            let norm = d0.norm();
-            if norm == 0.0 {
-                return true;
-            }
-            let along = (y1 - pt).dot(&(d0 / norm));
-            norm < p.reach || p.reach - along <= split
-        });
+        let ok = self
+            .partner_view(&hh)
+            .approach_acceptable(head, &near, &y0, &y1, split);
         (self.partner_near, self.partner_y0, self.partner_y) = (near, y0, y1);
         ok && self.self_pairs_acceptable(geom, q0, q1, split)
     }
@@ -1518,6 +1249,7 @@ mod pruning_tests {
     //! others are the sums over all), and the bound that lets
     //! [`StrandContacts::step_acceptable`] skip a partner never changes its verdict.
     use super::*;
+    use crate::forces::contacts::HairHairConfig;
     use crate::forces::contacts::ContactConfig;
     use crate::model::material::Material;
 
@@ -1552,7 +1284,7 @@ mod pruning_tests {
             }),
             ..ContactConfig::default()
         };
-        let hair = HairHairParams::new(config.hair_hair.as_ref().expect("set"), 1e-5);
+        let hair = config.hair_hair.as_ref().expect("set").params(1e-5);
         let contacts = StrandContacts::new(
             &geom,
             Arc::<[Body]>::from(Vec::new()),
