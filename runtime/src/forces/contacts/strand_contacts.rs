@@ -1249,8 +1249,8 @@ mod pruning_tests {
     //! others are the sums over all), and the bound that lets
     //! [`StrandContacts::step_acceptable`] skip a partner never changes its verdict.
     use super::*;
-    use crate::forces::contacts::HairHairConfig;
     use crate::forces::contacts::ContactConfig;
+    use crate::forces::contacts::HairHairConfig;
     use crate::model::material::Material;
 
     /// A small deterministic generator (xorshift), uniform in [−1, 1).
