@@ -148,13 +148,20 @@ impl Default for BenchOptions {
 /// Measured figures.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BenchReport {
-    /// Wall time of the stepping loop, s.
+    /// Wall time of the steps, s.
     pub seconds: f64,
+    /// Steps per second of wall time (frames per second at one step per frame).
+    pub frames_per_second: f64,
+    /// The deepest point of any centreline inside a body after any step, m, on the dense
+    /// sweep of every centreline after each step (not timed; `None`: no `[contacts]`).
+    pub deepest: Option<f64>,
+    /// Hair–hair pairs per step, averaged over the steps (`None`: no hair–hair).
+    pub hair_pairs: Option<f64>,
     /// S·T / seconds.
     pub strand_steps_per_second: f64,
     /// S·T.
     pub strand_steps: usize,
-    /// On-CPU time of the process during the stepping loop (all threads), s, where the
+    /// On-CPU time of the process during the steps (all threads), s, where the
     /// platform has it: robust to other load on the machine.
     pub cpu_seconds: Option<f64>,
     /// Implicit steps that were split (see `StepStats::substeps`).
@@ -380,17 +387,29 @@ pub fn bench(o: &BenchOptions) -> Result<BenchReport> {
 pub fn bench_setup(setup: SimulationSetup, steps: usize) -> Result<BenchReport> {
     let strand_count = setup.strands.len();
     let mut sim = Simulation::new(setup, crate::kernel_factory())?;
-    let start = Instant::now();
-    let cpu_start = crate::cpu_time::process_seconds();
+    // only the steps are timed: the deepest point's sweep after each step and the pairs'
+    // count are not
+    let (mut seconds, mut cpu_seconds) = (0.0, Some(0.0));
+    let (mut deepest, mut pairs) = (None::<f64>, 0);
     for _ in 0..steps {
+        let start = Instant::now();
+        let cpu_start = crate::cpu_time::process_seconds();
         sim.step()?;
+        seconds += start.elapsed().as_secs_f64();
+        let cpu = cpu_start
+            .zip(crate::cpu_time::process_seconds())
+            .map(|(a, b)| b - a);
+        cpu_seconds = cpu_seconds.zip(cpu).map(|(a, b)| a + b);
+        if let Some(d) = sim.max_penetration() {
+            deepest = Some(deepest.map_or(d, |e| e.max(d)));
+        }
+        pairs += sim.hair_pairs().map_or(0, |c| c.pairs);
     }
-    let seconds = start.elapsed().as_secs_f64();
-    let cpu_seconds = cpu_start
-        .zip(crate::cpu_time::process_seconds())
-        .map(|(a, b)| b - a);
     Ok(BenchReport {
         seconds,
+        frames_per_second: steps as f64 / seconds.max(1e-12),
+        deepest,
+        hair_pairs: sim.hair_pairs().map(|_| pairs as f64 / steps.max(1) as f64),
         strand_steps_per_second: (strand_count * steps) as f64 / seconds.max(1e-12),
         strand_steps: strand_count * steps,
         cpu_seconds,

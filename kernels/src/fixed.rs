@@ -47,7 +47,8 @@ pub use adaptive::{
 };
 pub use bdf2::{bdf2, Bdf2History};
 pub use contacts::{
-    ContactHooks, ContactScalars, ContactStore, FixedContacts, StepColliders, STANDARD_GRAVITY,
+    ContactHooks, ContactScalars, ContactStore, FixedContacts, PartnerStore, StepColliders,
+    STANDARD_GRAVITY,
 };
 pub use dense::{lu_solve, lu_solve_factored, negative_semidefinite_part, Projection};
 pub use error_control::{

@@ -209,11 +209,13 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
         ));
     }
     if let Some(c) = &setup.contacts {
-        if c.hair_hair.is_some() {
-            errors.push(FieldError::new(
-                "contacts.hair_hair",
-                "the embedded engine has no contacts between strands; use engine = \"runtime\"",
-            ));
+        if let Some(h) = &c.hair_hair {
+            if h.coupling == crate::forces::contacts::Coupling::Pair {
+                errors.push(FieldError::new(
+                    "contacts.hair_hair.coupling",
+                    "the embedded engine steps each strand against its partners (coupling = \"ball\"); coupling = \"pair\" needs engine = \"runtime\"",
+                ));
+            }
         }
         if setup.config.tolerance.is_some() {
             errors.push(FieldError::new(
@@ -260,6 +262,24 @@ pub fn engine_for(setup: &SimulationSetup) -> (Engine, Option<FieldError>) {
             Some(reason) => (Engine::Runtime, Some(reason)),
         },
     }
+}
+
+/// The hair–hair broad phase and pair tracking of the contacts `c` (`None`: no
+/// `[contacts.hair_hair]`). Strands that overlap at the start are let apart slowly, as
+/// points that start inside a body.
+fn hair_hair_of(c: &crate::forces::contacts::ContactConfig) -> Option<HairHair> {
+    let h = c.hair_hair.as_ref()?;
+    let mut hh = HairHair::new(h.search_every)
+        .with_depenetration_speed(c.depenetration_speed)
+        .with_pair_cap(h.max_pairs_per_sample);
+    if let Some(f) = h.friction {
+        hh = hh.with_friction(f);
+    }
+    Some(if h.self_contact {
+        hh.with_self_contact(h.self_exclusion())
+    } else {
+        hh
+    })
 }
 
 /// The simulation of `setup` on the embedded engine, or every reason it cannot take it
@@ -327,6 +347,7 @@ fn embedded_strands(
         return Err(Error::Invalid(errors));
     }
     let head_moves = setup.head != HeadMotion::Still;
+    let hair_hair = setup.contacts.as_ref().and_then(hair_hair_of);
     // contact points inside a body at the start are let out slowly; Coulomb anchors
     let head0 = setup.head.state(0.0);
     for (_, group) in groups.iter_mut() {
@@ -349,7 +370,7 @@ fn embedded_strands(
             samples_per_element: setup.samples_per_element,
             strands: Vec::new(),
             electrostatics: None,
-            hair_hair: None,
+            hair_hair,
             time: 0.0,
             steps: 0,
             reported_steps: (0, 0),
@@ -819,23 +840,7 @@ impl Simulation {
             strands,
             embedded: None,
             electrostatics,
-            // strands that overlap at the start are let apart slowly, as points that start
-            // inside a body
-            hair_hair: setup.contacts.as_ref().and_then(|c| {
-                c.hair_hair.as_ref().map(|h| {
-                    let mut hh = HairHair::new(h.search_every)
-                        .with_depenetration_speed(c.depenetration_speed)
-                        .with_pair_cap(h.max_pairs_per_sample);
-                    if let Some(f) = h.friction {
-                        hh = hh.with_friction(f);
-                    }
-                    if h.self_contact {
-                        hh.with_self_contact(h.self_exclusion())
-                    } else {
-                        hh
-                    }
-                })
-            }),
+            hair_hair: setup.contacts.as_ref().and_then(hair_hair_of),
             time: 0.0,
             steps: 0,
             reported_steps: (0, 0),
@@ -985,6 +990,9 @@ impl Simulation {
             ));
         }
         let t = self.time;
+        if self.embedded.is_some() && self.hair_hair.is_some() {
+            self.update_embedded_hair_pairs(t, h);
+        }
         if let Some(e) = &mut self.embedded {
             let effects = superhelix_kernels::fixed::Effects {
                 gravity: e.gravity,
@@ -1211,6 +1219,51 @@ impl Simulation {
             });
     }
 
+    /// [`Self::update_hair_pairs`] on the embedded engine: the samples of every strand
+    /// at the state of time `t` (the groups' order put back into the scene's), the pairs
+    /// tracked and searched, each strand handed its partner points.
+    fn update_embedded_hair_pairs(&mut self, t: f64, h: f64) {
+        let (Some(e), Some(hh)) = (&mut self.embedded, &mut self.hair_hair) else {
+            return;
+        };
+        let head = self.head.state(t);
+        let mut by_group: Vec<Vec<Vec<nalgebra::Vector3<f64>>>> = e
+            .groups
+            .iter()
+            .map(|(_, g)| g.sample_positions(&head))
+            .collect();
+        let points: Vec<Vec<nalgebra::Vector3<f64>>> = e
+            .strands
+            .iter()
+            .map(|s| std::mem::take(&mut by_group[s.2][s.3]))
+            .collect();
+        let reach = e
+            .groups
+            .iter()
+            .filter_map(|(_, g)| g.hair_reach())
+            .fold(0.0, f64::max);
+        let fall = e.gravity.map_or(0.0, |g| g.norm() * h * h);
+        let arcs: Vec<&[(f64, f64)]> = e
+            .strands
+            .iter()
+            .map(|s| e.groups[s.2].1.samples(s.3))
+            .collect();
+        let partners = hh.update(&points, &arcs, reach, h, fall, &head.rotation);
+        drop(arcs);
+        // back into each group's order
+        let mut by_group: Vec<Vec<Vec<crate::forces::contacts::PartnerPoint>>> = e
+            .groups
+            .iter()
+            .map(|(_, g)| vec![Vec::new(); g.len()])
+            .collect();
+        for (s, p) in e.strands.iter().zip(partners) {
+            by_group[s.2][s.3] = p;
+        }
+        for ((_, group), lists) in e.groups.iter_mut().zip(by_group) {
+            group.set_partners(lists);
+        }
+    }
+
     /// How many hair–hair pairs hold a friction anchor, and how many of those slid over
     /// the last step (`None`: no hair–hair interaction).
     pub fn rod_friction_anchors(&self) -> Option<(usize, usize)> {
@@ -1222,10 +1275,10 @@ impl Simulation {
     pub fn contact_summary(&self, i: usize) -> Option<ContactSummary> {
         if let Some(e) = &self.embedded {
             let (_, _, g, p) = e.strands.get(i)?;
-            let s = e.groups[*g].1.contact_summary(*p)?;
+            let (s, hair) = e.groups[*g].1.contact_summary(*p)?;
             return Some(ContactSummary {
                 body_contacts: s.contacts,
-                hair_contacts: 0,
+                hair_contacts: hair,
                 max_penetration: s.max_penetration,
                 normal_force: s.normal_force,
             });

@@ -551,7 +551,7 @@ fn the_balance_counts_the_power_of_the_partners_damping() {
     use superhelix_kernels::head::HeadState;
     use superhelix_runtime::bodies::{Body, Placement};
     use superhelix_runtime::forces::contacts::{
-        ContactConfig, HairHairConfig, HairHairParams, PartnerPoint, StrandContacts,
+        ContactConfig, HairHairConfig, PartnerPoint, StrandContacts,
     };
     use superhelix_runtime::kernels::closed_form::ClosedForm;
     use superhelix_runtime::kernels::kernel::{StrandTerms, Terms};
@@ -691,7 +691,7 @@ fn contact_forces_are_minus_the_gradient_of_the_contact_energy() {
     use superhelix_runtime::bodies::shape_plane::Plane;
     use superhelix_runtime::bodies::{Attachment, Body, Placement, Shape};
     use superhelix_runtime::forces::contacts::{
-        ContactConfig, Friction, HairHairConfig, HairHairParams, PartnerPoint, StrandContacts,
+        ContactConfig, Friction, HairHairConfig, PartnerPoint, StrandContacts,
     };
     use superhelix_runtime::kernels::closed_form::ClosedForm;
     use superhelix_runtime::kernels::kernel::{StrandKernel, StrandTerms, Terms};

@@ -242,6 +242,16 @@ fn print_report(report: &BenchReport) {
             report.field_undamped
         )
     );
+    if let Some(pairs) = report.hair_pairs {
+        println!("hair-hair pairs: {pairs:.0} per step on average");
+    }
+    if let Some(d) = report.deepest {
+        println!(
+            "deepest centreline point inside a body after any step: {:.3} mm (dense sweep, not timed)",
+            1e3 * d
+        );
+    }
+    println!("frames_per_second={:.1}", report.frames_per_second);
     println!(
         "strand_steps_per_second={:.1}",
         report.strand_steps_per_second

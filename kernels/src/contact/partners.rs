@@ -412,6 +412,182 @@ impl PartnerContacts<'_> {
         (potential, rate)
     }
 
+    /// Add the terms of the pairs of two parts of this strand (self-contact, the partners
+    /// with [`PartnerPoint::partner_s`]) within reach at (q, q̇ = `v`) to `sink`, as
+    /// `asked` (never the curvature), each stepped implicitly on both parts: with
+    /// `D = J(s) − J(s')`, the penalty `Dᵀ k w δ n`, its stiffness `−Dᵀ k w n nᵀ D`, the
+    /// damping of the relative velocity `−Dᵀ c w D` (along n only with friction), and the
+    /// friction spring between the two anchored samples; the self parameters
+    /// ([`HairHairParams::for_self`]). `jac`, `other` and `diff` are 3N columns of
+    /// scratch each. Returns the pairs within reach and whether one added stiffness.
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_self_terms(
+        &self,
+        v: &[f64],
+        asked: TermsAsked,
+        jac: &mut [V3],
+        other: &mut [V3],
+        diff: &mut [V3],
+        sink: &mut impl ContactSink,
+    ) -> (usize, bool) {
+        let hh = self.params.for_self();
+        let (mut touching, mut stiffened) = (0, false);
+        for partner in self.partners {
+            let Some(s_other) = partner.partner_s else {
+                continue;
+            };
+            let w = partner.weight;
+            let y = sink.point(partner.s, jac, None);
+            let yo = sink.point(s_other, other, None);
+            let d = (y - yo).norm();
+            if d >= partner.reach || d == 0.0 {
+                continue;
+            }
+            touching += 1;
+            for ((c, a), b) in diff.iter_mut().zip(jac.iter()).zip(other.iter()) {
+                *c = a - b;
+            }
+            let n = (y - yo) / d;
+            let normal = hh.stiffness * w * (partner.reach - d);
+            let damping = if hh.friction.is_some() {
+                hh.damping * w * n * n.transpose()
+            } else {
+                hh.damping * w * M3::identity()
+            };
+            let force = normal * n - damping * point_velocity(diff, v);
+            if asked.force {
+                sink.add_force(diff, &force);
+            }
+            if asked.stiffness {
+                let a = -hh.stiffness * w * n * n.transpose();
+                sink.add_stiffness(diff, &a);
+                stiffened = true;
+            }
+            if asked.damping {
+                sink.add_damping(diff, &-damping);
+            }
+            let (Some(f), Some(anchor)) = (hh.friction, partner.anchor) else {
+                continue;
+            };
+            let (Some(&(sa, _)), Some(&(sb, _))) = (
+                self.samples.get(anchor.sample),
+                anchor.partner_sample.and_then(|k| self.samples.get(k)),
+            ) else {
+                continue;
+            };
+            let ya = sink.point(sa, jac, None);
+            let yb = sink.point(sb, other, None);
+            for ((c, a), b) in diff.iter_mut().zip(jac.iter()).zip(other.iter()) {
+                *c = a - b;
+            }
+            let plane = M3::identity() - n * n.transpose();
+            let slip = plane * (ya - yb - anchor.offset);
+            let stiff = f.stiffness_ratio * hh.stiffness * w;
+            let rel = point_velocity(diff, v);
+            let (spring, kt, turning) = rod_friction(
+                &f,
+                anchor.sliding,
+                anchor.step,
+                &plane,
+                &slip,
+                &rel,
+                stiff,
+                normal,
+            );
+            if asked.force {
+                sink.add_force(diff, &spring);
+            }
+            if asked.stiffness {
+                sink.add_stiffness(diff, &-kt);
+            }
+            if asked.damping && turning != M3::zeros() {
+                sink.add_damping(diff, &-turning);
+            }
+        }
+        (touching, stiffened)
+    }
+
+    /// The energy of the pairs of two parts of this strand at q (penalty and friction
+    /// springs; internal: no work through motion): `points(lo, hi)` gives the strand's
+    /// points at the arc lengths lo ≤ hi of a pair, `poses` the samples' positions (for
+    /// the anchored ones).
+    pub fn self_energy(
+        &self,
+        poses: &[(V3, V3)],
+        mut points: impl FnMut(f64, f64) -> Option<(V3, V3)>,
+    ) -> f64 {
+        let hh = self.params.for_self();
+        let mut potential = 0.0;
+        for partner in self.partners {
+            let Some(s_other) = partner.partner_s else {
+                continue;
+            };
+            let (lo, hi) = if partner.s <= s_other {
+                (partner.s, s_other)
+            } else {
+                (s_other, partner.s)
+            };
+            let Some((a, b)) = points(lo, hi) else {
+                continue;
+            };
+            let d = (a - b).norm();
+            if d >= partner.reach || d == 0.0 {
+                continue;
+            }
+            let w = partner.weight;
+            let overlap = partner.reach - d;
+            potential += 0.5 * hh.stiffness * w * overlap * overlap;
+            let (Some(f), Some(anchor)) = (hh.friction, partner.anchor) else {
+                continue;
+            };
+            let (Some(&(ya, _)), Some(&(yb, _))) = (
+                poses.get(anchor.sample),
+                anchor.partner_sample.and_then(|k| poses.get(k)),
+            ) else {
+                continue;
+            };
+            // n from this point to the other, oriented as in the step
+            let (y, yo) = if partner.s <= s_other { (a, b) } else { (b, a) };
+            let n = (y - yo) / d;
+            let plane = M3::identity() - n * n.transpose();
+            let slip = plane * (ya - yb - anchor.offset);
+            let stiff = f.stiffness_ratio * hh.stiffness * w;
+            let normal = hh.stiffness * w * overlap;
+            potential += rod_spring_energy(&f, anchor.sliding, &plane, &slip, stiff, normal).0;
+        }
+        potential
+    }
+
+    /// Whether a step passes the pairs of two parts of this strand: a pair apart at the
+    /// start may not end closer than its reach less `split` along the line of centres at
+    /// the start (both parts move within the step). `points(end, lo, hi)` gives the
+    /// strand's points at the arc lengths lo ≤ hi of a pair at the step's start
+    /// (`end = false`) or end.
+    pub fn self_approach_acceptable(
+        &self,
+        split: f64,
+        mut points: impl FnMut(bool, f64, f64) -> (V3, V3),
+    ) -> bool {
+        for partner in self.partners {
+            let Some(s_other) = partner.partner_s else {
+                continue;
+            };
+            let (lo, hi) = (partner.s.min(s_other), partner.s.max(s_other));
+            let (a0, b0) = points(false, lo, hi);
+            let d0 = a0 - b0;
+            let (a1, b1) = points(true, lo, hi);
+            let d1 = a1 - b1;
+            let norm = d0.norm();
+            if norm == 0.0 || norm < partner.reach {
+                continue;
+            }
+            if partner.reach - d1.dot(&(d0 / norm)) > split {
+                return false;
+            }
+        }
+        true
+    }
+
     /// The power `c w v_p · ẏ` (along n only with friction) of the damping of the
     /// partners `near` within reach through their velocities v_p (head frame) at
     /// (q, q̇ = `v`): the work the energy balance allows a step besides the energy's

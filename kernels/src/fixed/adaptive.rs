@@ -536,6 +536,16 @@ fn step_piece<
             (start, if continued { hint } else { 0 })
         }
         Some(e) if !history && continued => (e, hint),
+        // the partners moved since: the contact part measured again (equal to a fresh
+        // measure to round-off, at a fraction of its cost); a history of anchors or
+        // allowances alone is measured afresh
+        Some(e) if continued && contacts.as_deref().is_some_and(|c| c.has_partners()) => {
+            let (q, v) = (strand.q, strand.v);
+            match contacts.as_deref_mut() {
+                Some(c) => (remeasure_contacts(c, &interval.start, &q, &v, &e), hint),
+                None => (e, hint),
+            }
+        }
         _ => {
             let (q, v) = (strand.q, strand.v);
             // the step's first solve starts from this state

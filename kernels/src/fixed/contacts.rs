@@ -10,9 +10,18 @@
 //! at both ends for its acceptance. The contacts that start within a step are caught by
 //! the acceptance: a sample that ends deeper than [`ContactParams::split_depth`] beyond
 //! its start splits the step.
+//!
+//! Hair–hair contact enters as the strand's *partners* ([`PartnerStore`],
+//! [`FixedContacts::with_partners`]): points of other strands the caller's broad phase
+//! paired with this strand's samples before the step, each a ball of radius `reach`
+//! moving with the other strand's point ([`crate::contact::partners`]: the penalty,
+//! damping and rod friction of the runtime's `coupling = "ball"`); a pair of two parts of
+//! one strand (self-contact, [`PartnerPoint::partner_s`]) is stepped implicitly on both
+//! parts.
 
 use super::params::FixedParams;
 use crate::contact::body::{BodyContacts, BodySummary, ColliderSet, ContactSink, TermsAsked};
+use crate::contact::partners::{self, HairHairParams, PartnerContacts, PartnerPoint};
 use crate::contact::predicted::{self, PredictedArrays, PredictionHost, SingularStep};
 use crate::contact::samples::positions_along;
 use crate::contact::{sample_poses, Anchor, ContactParams, Friction};
@@ -98,8 +107,15 @@ pub trait ContactHooks<T: Float, const D: usize> {
     /// Whether the contacts carry a history from step to step (anchors, allowances): the
     /// start energy of a step is then measured afresh.
     fn has_history(&self) -> bool;
-    /// [`StepColliders::moves_relative`].
+    /// Whether what the strand touches moves relative to the head frame over the step
+    /// ([`StepColliders::moves_relative`], or partners of other strands).
     fn moves_relative(&self, t0: f64, t1: f64, head0: &HeadState, head1: &HeadState) -> bool;
+    /// Whether the strand has partners of other strands for the coming step: their
+    /// energy at the step's start is then measured again (they moved since the last
+    /// step's end), the rest of the start's energy kept.
+    fn has_partners(&self) -> bool {
+        false
+    }
     /// The deepest point of the centreline inside a collider at q, time t, m (0: none).
     fn deepest(&mut self, q: &[T; D], t: f64, head: &HeadState) -> f64;
     /// What the last [`Self::add_terms`] found.
@@ -152,6 +168,8 @@ pub struct ContactScalars {
     pub summary: BodySummary,
     /// The contact energy and its rate at the last measure of the energy balance.
     pub last_contact: (f64, f64),
+    /// Partners within reach at the last evaluation of the terms.
+    pub partners_touching: usize,
 }
 
 /// A strand's contact storage, the caller's: per sample its anchor, allowance, pose and
@@ -204,6 +222,46 @@ pub struct FixedContacts<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized
     /// The arrays of the contacts that start within a step (`None`: not predicted; the
     /// step's acceptance by depth catches them): [`Self::with_prediction`].
     pub predicted: Option<PredictedArrays<'a>>,
+    /// Hair–hair: the strand's partners and their scratch (`None`: no hair–hair
+    /// contact): [`Self::with_partners`].
+    pub partners: Option<PartnerStore<'a>>,
+}
+
+/// A strand's hair–hair partners for the coming step and their scratch, the caller's.
+/// The scratch arrays hold at least as many entries as `partners` (`sample_y0` as many
+/// as the samples).
+pub struct PartnerStore<'a> {
+    /// The hair–hair law's parameters.
+    pub params: &'a HairHairParams,
+    /// The partners, in arc-length order (`s` increasing).
+    pub partners: &'a [PartnerPoint],
+    /// Scratch: the partners the samples do not rule out.
+    pub near: &'a mut [usize],
+    /// Scratch: their points on the strand.
+    pub near_y: &'a mut [V3],
+    /// Scratch: their points on the strand at a step's start.
+    pub near_y0: &'a mut [V3],
+    /// Scratch: the samples' positions at a step's start, one per sample.
+    pub sample_y0: &'a mut [V3],
+    /// Scratch of the pairs of two parts of the strand (self-contact): J at the other
+    /// part and `J(s) − J(s')`, 3N columns each (empty without such pairs).
+    pub other: &'a mut [V3],
+    /// See [`Self::other`].
+    pub diff: &'a mut [V3],
+}
+
+impl PartnerStore<'_> {
+    /// Whether the scratch arrays hold the partners, `samples` samples and, with pairs
+    /// of two parts of the strand, `dofs` columns.
+    fn fits(&self, samples: usize, dofs: usize) -> bool {
+        let m = self.partners.len();
+        let own = self.partners.iter().any(|p| p.partner_s.is_some());
+        self.near.len() >= m
+            && self.near_y.len() >= m
+            && self.near_y0.len() >= m
+            && self.sample_y0.len() >= samples
+            && (!own || (self.other.len() == dofs && self.diff.len() == dofs))
+    }
 }
 
 impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, C, P> {
@@ -231,7 +289,236 @@ impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, 
             mass_per_length: strand.mass_per_length.as_f64(),
             store,
             predicted: None,
+            partners: None,
         }
+    }
+
+    /// The same contacts touching the partners of `store` too (hair–hair, the runtime's
+    /// `coupling = "ball"`; the pairs of two parts of the strand stepped on both parts).
+    /// Panics when its scratch arrays are shorter than its partners or than the samples,
+    /// or, with pairs of two parts of the strand, its `other` and `diff` are not 3N
+    /// columns.
+    pub fn with_partners(mut self, store: PartnerStore<'a>) -> Self {
+        assert!(
+            store.fits(self.samples.len(), self.store.jac.len()),
+            "the partners' scratch is shorter than the partners, the samples or 3N"
+        );
+        self.partners = Some(store);
+        self
+    }
+
+    /// The partners the samples (posed) do not rule out into the store's `near`, their
+    /// points on the strand at q into `near_y`; their count (0 without partners).
+    fn place_near_partners(&mut self, head: &HeadState, q: &[f64]) -> usize {
+        let Some(ps) = self.partners.as_mut() else {
+            return 0;
+        };
+        let mut m = 0;
+        let near = &mut *ps.near;
+        partners::near(ps.partners, self.samples, head, self.store.poses, |i| {
+            near[m] = i;
+            m += 1;
+        });
+        let (list, y) = (&ps.near[..m], &mut *ps.near_y);
+        let arcs = list.iter().map(|&i| ps.partners[i].s);
+        let mut j = 0;
+        positions_along(&self.root, self.lengths, q, arcs, |_, p| {
+            y[j] = p;
+            j += 1;
+        });
+        m
+    }
+
+    /// Add the terms of the first `m` partners of the store's `near` (placed at q by
+    /// [`Self::place_near_partners`]) at (q, q̇ = `v`) to the step's arrays; the partners
+    /// within reach and whether one added stiffness.
+    #[allow(clippy::too_many_arguments)]
+    fn add_partner_terms<T: Float, const D: usize>(
+        &mut self,
+        m: usize,
+        head: &HeadState,
+        q: &[f64; D],
+        v: &[f64; D],
+        force: &mut [T; D],
+        stiffness: &mut [[T; D]; D],
+        damping: &mut [[T; D]; D],
+    ) -> (usize, bool) {
+        let FixedContacts {
+            source,
+            root,
+            lengths,
+            samples,
+            store,
+            partners: Some(ps),
+            ..
+        } = self
+        else {
+            return (0, false);
+        };
+        let mut sink = ArraySink {
+            source: *source,
+            root,
+            lengths,
+            ends: store.ends,
+            end_derivs: store.end_derivs,
+            chain_q: store.chain_q,
+            chain_valid: store.chain_valid,
+            q,
+            aj: store.aj,
+            force,
+            stiffness,
+            damping,
+        };
+        // a partner's force acts along the strand's Jacobian only: no curvature
+        let asked = TermsAsked {
+            force: true,
+            stiffness: true,
+            curvature: false,
+            damping: true,
+        };
+        let view = PartnerContacts {
+            params: ps.params,
+            partners: ps.partners,
+            samples,
+        };
+        let (touching, stiffened) = view.add_terms(
+            head,
+            &ps.near[..m],
+            &ps.near_y[..m],
+            v,
+            asked,
+            store.jac,
+            &mut sink,
+        );
+        if !ps.partners.iter().any(|p| p.partner_s.is_some()) {
+            return (touching, stiffened);
+        }
+        // the pairs of two parts of this strand, stepped on both parts
+        let (own, own_stiffness) =
+            view.add_self_terms(v, asked, store.jac, ps.other, ps.diff, &mut sink);
+        (touching + own, stiffened || own_stiffness)
+    }
+
+    /// The power of the partners' damping through their velocities at (q, q̇ = `v`),
+    /// the first `m` of the store's `near` placed at q ([`PartnerContacts::drag_power`]);
+    /// 0 without partners.
+    fn partner_drag_power(&mut self, m: usize, head: &HeadState, q: &[f64], v: &[f64]) -> f64 {
+        let FixedContacts {
+            source,
+            root,
+            lengths,
+            samples,
+            store,
+            partners: Some(ps),
+            ..
+        } = self
+        else {
+            return 0.0;
+        };
+        let view = PartnerContacts {
+            params: ps.params,
+            partners: ps.partners,
+            samples,
+        };
+        let (ends, derivs) = (&mut *store.ends, &mut *store.end_derivs);
+        let (chain_q, chain_valid) = (&mut *store.chain_q, &mut *store.chain_valid);
+        view.drag_power(
+            head,
+            &ps.near[..m],
+            &ps.near_y[..m],
+            v,
+            store.jac,
+            |s, jac| {
+                // (through the chain kept for q: the ends are its scratch)
+                let chain = Some(PointChain {
+                    q: &mut *chain_q,
+                    valid: &mut *chain_valid,
+                });
+                strand_point(
+                    *source,
+                    root,
+                    lengths,
+                    ends,
+                    derivs,
+                    chain,
+                    q,
+                    s,
+                    jac,
+                    crate::strand_point::NO_HESSIAN,
+                )
+            },
+        )
+    }
+
+    /// Whether the step from q0 (samples' positions there in the store's `sample_y0`) to
+    /// q1 (samples posed there) passes the partners: none apart at the start ends deeper
+    /// than the split depth into its ball ([`PartnerContacts::approach_acceptable`], for
+    /// the partners the samples do not settle). True without partners.
+    fn partners_acceptable(&mut self, head: &HeadState, q0: &[f64], q1: &[f64]) -> bool {
+        let FixedContacts {
+            params,
+            root,
+            lengths,
+            samples,
+            store,
+            partners: Some(ps),
+            ..
+        } = self
+        else {
+            return true;
+        };
+        let split = ps.params.split_depth.unwrap_or(params.split_depth);
+        let view = PartnerContacts {
+            params: ps.params,
+            partners: ps.partners,
+            samples,
+        };
+        let mut m = 0;
+        let near = &mut *ps.near;
+        view.unsettled(
+            head,
+            &ps.sample_y0[..samples.len()],
+            store.poses,
+            split,
+            |i| {
+                near[m] = i;
+                m += 1;
+            },
+        );
+        let arcs = || ps.near[..m].iter().map(|&i| ps.partners[i].s);
+        let (y0, y1) = (&mut *ps.near_y0, &mut *ps.near_y);
+        let mut j = 0;
+        positions_along(root, lengths, q0, arcs(), |_, p| {
+            y0[j] = p;
+            j += 1;
+        });
+        j = 0;
+        positions_along(root, lengths, q1, arcs(), |_, p| {
+            y1[j] = p;
+            j += 1;
+        });
+        let (root, lengths) = (&*root, &**lengths);
+        view.approach_acceptable(
+            head,
+            &ps.near[..m],
+            &ps.near_y0[..m],
+            &ps.near_y[..m],
+            split,
+        ) && view.self_approach_acceptable(split, |end, lo, hi| {
+            let mut ends = [V3::zeros(); 2];
+            let mut j = 0;
+            positions_along(
+                root,
+                lengths,
+                if end { q1 } else { q0 },
+                [lo, hi],
+                |_, p| {
+                    ends[j] = p;
+                    j += 1;
+                },
+            );
+            (ends[0], ends[1])
+        })
     }
 
     /// The same contacts predicting the contacts that start within a step
@@ -582,8 +869,18 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
             curvature,
             damping: true,
         };
-        let (summary, stiffened) = contacts.add_terms(head, p.poses, &v, asked, p.jac, &mut sink);
+        let (summary, mut stiffened) =
+            contacts.add_terms(head, p.poses, &v, asked, p.jac, &mut sink);
         *p.summary = summary;
+        if self.partners.is_some() {
+            // the partners the samples do not rule out are placed on the strand first
+            // (one pass); J is computed only for those within reach
+            let m = self.place_near_partners(head, &q);
+            let (touching, partner_stiffness) =
+                self.add_partner_terms(m, head, &q, &v, force, stiffness, damping);
+            self.store.scalars.partners_touching = touching;
+            stiffened |= partner_stiffness;
+        }
         stiffened
     }
 
@@ -591,28 +888,68 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
         let (q, v) = (wide(q), wide(v));
         self.colliders.place(t, head);
         self.pose(&q);
-        let (potential, rate) = view(self).energy(head, self.store.poses);
+        let (mut potential, mut rate) = view(self).energy(head, self.store.poses);
+        // only the partners the samples do not rule out (most of those the search keeps
+        // are beyond reach, and contribute nothing) are placed on the strand
+        let m = self.place_near_partners(head, &q);
+        if let Some(ps) = self.partners.as_ref() {
+            let view = PartnerContacts {
+                params: ps.params,
+                partners: ps.partners,
+                samples: self.samples,
+            };
+            (potential, rate) = view.energy(
+                head,
+                &ps.near[..m],
+                &ps.near_y[..m],
+                self.store.poses,
+                (potential, rate),
+            );
+            // the pairs of two parts of this strand (internal: no work through motion)
+            let (root, lengths) = (&self.root, self.lengths);
+            potential += view.self_energy(self.store.poses, |lo, hi| {
+                let mut ends = [None, None];
+                let mut j = 0;
+                positions_along(root, lengths, &q, [lo, hi], |_, p| {
+                    ends[j] = Some(p);
+                    j += 1;
+                });
+                Some((ends[0]?, ends[1]?))
+            });
+        }
         let moving = (0..self.colliders.count()).any(|b| self.colliders.on_own_motion(b));
         if !moving {
-            return (potential, rate);
+            if self.partners.is_none() {
+                return (potential, rate);
+            }
+            let power = self.partner_drag_power(m, head, &q, &v);
+            return (potential, rate + power);
         }
         let (contacts, p) = split(self);
         let (source, root, lengths) = (p.source, p.root, p.lengths);
         let (ends, derivs) = (p.ends, p.end_derivs);
+        let (chain_q, chain_valid) = (p.chain_q, p.chain_valid);
         let power = contacts.drag_power(head, p.poses, &v, p.jac, |s, jac| {
+            // (through the chain kept for q: the ends are its scratch, and a point taken
+            // without it would leave the chain's ends another q's)
+            let chain = Some(PointChain {
+                q: &mut *chain_q,
+                valid: &mut *chain_valid,
+            });
             strand_point(
                 source,
                 root,
                 lengths,
                 ends,
                 derivs,
-                None,
+                chain,
                 &q,
                 s,
                 jac,
                 crate::strand_point::NO_HESSIAN,
             );
         });
+        let power = power + self.partner_drag_power(m, head, &q, &v);
         (potential, rate + power)
     }
 
@@ -652,8 +989,16 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
                 self.store.start_depth[k] = view(self).depth_among(head1, k, &y, None);
             }
         }
+        if let Some(ps) = self.partners.as_mut() {
+            for (y0, pose) in ps.sample_y0.iter_mut().zip(self.store.poses.iter()) {
+                *y0 = pose.0;
+            }
+        }
         self.pose(&q1);
-        !view(self).too_deep(head1, self.store.poses, self.store.start_depth)
+        if view(self).too_deep(head1, self.store.poses, self.store.start_depth) {
+            return false;
+        }
+        self.partners_acceptable(head1, &q0, &q1)
     }
 
     fn after_step(&mut self, q: &[T; D], t: f64, head: &HeadState, h: f64) {
@@ -677,12 +1022,23 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
     }
 
     fn has_history(&self) -> bool {
-        matches!(self.params.friction, Friction::Coulomb { .. })
+        self.partners.is_some()
+            || matches!(self.params.friction, Friction::Coulomb { .. })
             || self.store.allowance.iter().any(|a| *a > 0.0)
     }
 
     fn moves_relative(&self, t0: f64, t1: f64, head0: &HeadState, head1: &HeadState) -> bool {
-        self.colliders.moves_relative(t0, t1, head0, head1)
+        let partners = self
+            .partners
+            .as_ref()
+            .is_some_and(|p| !p.partners.is_empty());
+        partners || self.colliders.moves_relative(t0, t1, head0, head1)
+    }
+
+    fn has_partners(&self) -> bool {
+        self.partners
+            .as_ref()
+            .is_some_and(|p| !p.partners.is_empty())
     }
 
     fn deepest(&mut self, q: &[T; D], t: f64, head: &HeadState) -> f64 {

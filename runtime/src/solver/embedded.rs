@@ -18,12 +18,13 @@ use crate::model::strand::Strand;
 use rayon::prelude::*;
 use std::sync::Arc;
 use superhelix_generated::ClosedForm;
+use superhelix_kernels::contact::partners::{HairHairParams, PartnerPoint};
 use superhelix_kernels::contact::predicted::PredictedBuffers;
 use superhelix_kernels::contact::{Anchor, BodySummary, ContactParams};
 use superhelix_kernels::field_split::FieldRule;
 use superhelix_kernels::fixed::{
     self, ContactScalars, ContactStore, Effects, FixedContacts, FixedParams, FixedStrand,
-    FixedWorkspace, HeadTrajectory, StepCounts, StepHistory, ToleranceReport,
+    FixedWorkspace, HeadTrajectory, PartnerStore, StepCounts, StepHistory, ToleranceReport,
 };
 use superhelix_kernels::moments::EndDerivatives;
 use superhelix_kernels::pose::Pose;
@@ -78,9 +79,23 @@ pub trait EmbeddedGroup: Send + Sync {
     /// The deepest point of any strand's centreline inside a body at time `t`, the head
     /// in `head` (`None`: no contacts), on the dense sweep of each centreline.
     fn deepest_inside(&mut self, t: f64, head: &HeadState) -> Option<f64>;
-    /// What the last evaluation of strand `i`'s contact terms found (`None`: no
+    /// What the last evaluation of strand `i`'s contact terms found, and how many of its
+    /// partners (hair–hair) were within reach (`None`: no contacts).
+    fn contact_summary(&self, i: usize) -> Option<(BodySummary, usize)>;
+    /// The twice the hair volume's radius of the strands' hair–hair contacts, m (`None`:
+    /// no hair–hair contacts).
+    fn hair_reach(&self) -> Option<f64>;
+    /// Arc length and weight of the contact samples of strand `i` (empty without
     /// contacts).
-    fn contact_summary(&self, i: usize) -> Option<BodySummary>;
+    fn samples(&self, i: usize) -> &[(f64, f64)];
+    /// Every strand's contact samples' positions at its present state, world
+    /// coordinates, the head in `head` (one list per strand, in order; empty lists
+    /// without contacts).
+    fn sample_positions(&self, head: &HeadState) -> Vec<Vec<nalgebra::Vector3<f64>>>;
+    /// Set every strand's partners for the coming step (hair–hair; one list per strand,
+    /// in order; taken, each put in arc-length order, the strands in parallel); nothing
+    /// without contacts.
+    fn set_partners(&mut self, partners: Vec<Vec<PartnerPoint>>);
     /// Start every strand's contacts at its present state, time `t`, the head in `head`
     /// (the root zones, the depths allowed at the start, the first anchors), as the
     /// runtime engine does when it is built; nothing without contacts.
@@ -98,6 +113,17 @@ pub struct Group<const N: usize, const D: usize, const E: usize, const B: usize>
     /// first step with a tolerance).
     histories: Vec<(StepHistory<D>, ToleranceReport)>,
     rules: StepRules,
+    /// What each worker (a chunk of strands) keeps from step to step, so that a step
+    /// allocates nothing: one per chunk of the last step.
+    workers: Vec<Worker<N, D, E>>,
+}
+
+/// What one worker of a [`Group`] keeps from step to step: its workspace under the
+/// group's rules and, with contacts, its colliders and contact scratch (sized for the
+/// group's strands).
+struct Worker<const N: usize, const D: usize, const E: usize> {
+    ws: Box<FixedWorkspace<N, D, E>>,
+    contacts: Option<(BodyColliders, ContactScratch)>,
 }
 
 /// The scene's rules for the fixed-N step (`[simulation] field_stiffness`,
@@ -142,7 +168,31 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Default for
             contacts: None,
             histories: Vec::new(),
             rules: StepRules::default(),
+            workers: Vec::new(),
         }
+    }
+}
+
+impl<const N: usize, const D: usize, const E: usize, const B: usize> Group<N, D, E, B> {
+    /// The strands per chunk of a step (a quarter of a thread's share: load balance),
+    /// and `chunks` workers ready for them.
+    fn chunk_workers(&mut self) -> usize {
+        let threads = rayon::current_num_threads().max(1);
+        let chunk = self.strands.len().div_ceil(4 * threads).max(1);
+        let chunks = self.strands.len().div_ceil(chunk);
+        while self.workers.len() < chunks {
+            let contacts = self.contacts.as_ref().map(|(bodies, buffers)| {
+                (
+                    BodyColliders::new(bodies.clone()),
+                    ContactScratch::for_strands(buffers, N),
+                )
+            });
+            self.workers.push(Worker {
+                ws: self.rules.workspace::<N, D, E>(),
+                contacts,
+            });
+        }
+        chunk
     }
 }
 
@@ -183,6 +233,8 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         let mut s = FixedStrand::at_rest(params);
         s.q.copy_from_slice(q0);
         self.strands.push(s);
+        // (their contact scratch is sized for the strands they had)
+        self.workers.clear();
         if let Some(c) = contacts {
             let (_, buffers) = self
                 .contacts
@@ -201,10 +253,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         counts: &mut StepCounts,
         report: &mut ToleranceReport,
     ) -> Option<(usize, String)> {
-        // a quarter of a thread's share per chunk (load balance), at least 64 strands
-        // (one workspace per chunk: making one costs about as much as a step)
-        let threads = rayon::current_num_threads().max(1);
-        let chunk = self.strands.len().div_ceil(4 * threads).max(64);
+        let chunk = self.chunk_workers();
         type Partial = (Option<(usize, String)>, StepCounts, ToleranceReport);
         let merge = |(a, mut ca, mut ra): Partial, (b, cb, rb): Partial| {
             ca.add(&cb);
@@ -217,21 +266,26 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         };
         let empty = || (None, StepCounts::default(), ToleranceReport::default());
         let (failure, total, steps) = match (tolerance, self.contacts.as_mut()) {
-            (None, Some((bodies, buffers))) => self
+            (None, Some((_, buffers))) => self
                 .strands
                 .par_chunks_mut(chunk)
                 .zip(buffers.par_chunks_mut(chunk))
+                .zip(self.workers.par_iter_mut())
                 .enumerate()
-                .map(|(c, (strands, buffers))| {
-                    let mut ws = self.rules.workspace::<N, D, E>();
-                    let mut colliders = BodyColliders::new(bodies.clone());
-                    let mut scratch = ContactScratch::for_strands(buffers, N);
+                .map(|(c, ((strands, buffers), worker))| {
+                    let ws = &mut worker.ws;
+                    let Some((colliders, scratch)) = worker.contacts.as_mut() else {
+                        return (
+                            Some((c * chunk, "a worker without contact scratch".into())),
+                            StepCounts::default(),
+                            ToleranceReport::default(),
+                        );
+                    };
                     let mut first = None;
                     let mut counts = StepCounts::default();
                     for (k, (s, b)) in strands.iter_mut().zip(buffers.iter_mut()).enumerate() {
                         let lengths = s.params.lengths;
-                        let mut contacts =
-                            b.contacts(&s.params, &lengths, &mut colliders, &mut scratch);
+                        let mut contacts = b.contacts(&s.params, &lengths, colliders, scratch);
                         let r = fixed::step_with_contacts(
                             &ClosedForm,
                             s,
@@ -239,7 +293,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                             effects,
                             t,
                             h,
-                            &mut ws,
+                            ws,
                             &mut counts,
                             Some(&mut contacts),
                         );
@@ -253,14 +307,14 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
             (None, None) => self
                 .strands
                 .par_chunks_mut(chunk)
+                .zip(self.workers.par_iter_mut())
                 .enumerate()
-                .map(|(c, strands)| {
-                    let mut ws = self.rules.workspace::<N, D, E>();
+                .map(|(c, (strands, worker))| {
+                    let ws = &mut worker.ws;
                     let mut first = None;
                     let mut counts = StepCounts::default();
                     for (k, s) in strands.iter_mut().enumerate() {
-                        let r =
-                            fixed::step(&ClosedForm, s, head, effects, t, h, &mut ws, &mut counts);
+                        let r = fixed::step(&ClosedForm, s, head, effects, t, h, ws, &mut counts);
                         if let Err(e) = r {
                             first.get_or_insert((c * chunk + k, e.to_string()));
                         }
@@ -274,9 +328,10 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 self.strands
                     .par_chunks_mut(chunk)
                     .zip(self.histories.par_chunks_mut(chunk))
+                    .zip(self.workers.par_iter_mut())
                     .enumerate()
-                    .map(|(c, (strands, histories))| {
-                        let mut ws = self.rules.workspace::<N, D, E>();
+                    .map(|(c, ((strands, histories), worker))| {
+                        let ws = &mut worker.ws;
                         let mut first = None;
                         let mut total = ToleranceReport::default();
                         for (k, (s, (history, done))) in
@@ -292,7 +347,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                                 t,
                                 h,
                                 tolerance,
-                                &mut ws,
+                                ws,
                                 &mut r,
                             );
                             done.add(&r);
@@ -423,12 +478,67 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
     }
     fn set_rules(&mut self, rules: StepRules) {
         self.rules = rules;
+        // (their workspaces were under the old rules)
+        self.workers.clear();
     }
-    fn contact_summary(&self, i: usize) -> Option<BodySummary> {
+    fn contact_summary(&self, i: usize) -> Option<(BodySummary, usize)> {
         self.contacts
             .as_ref()
             .and_then(|(_, b)| b.get(i))
-            .map(|b| b.scalars.summary)
+            .map(|b| (b.scalars.summary, b.scalars.partners_touching))
+    }
+    fn hair_reach(&self) -> Option<f64> {
+        let (_, buffers) = self.contacts.as_ref()?;
+        buffers
+            .iter()
+            .filter_map(|b| b.hair.map(|h| 2.0 * h.radius))
+            .reduce(f64::max)
+    }
+    fn samples(&self, i: usize) -> &[(f64, f64)] {
+        self.contacts
+            .as_ref()
+            .and_then(|(_, b)| b.get(i))
+            .map_or(&[][..], |b| &b.samples[..])
+    }
+    fn sample_positions(&self, head: &HeadState) -> Vec<Vec<nalgebra::Vector3<f64>>> {
+        let Some((_, buffers)) = self.contacts.as_ref() else {
+            return vec![Vec::new(); self.strands.len()];
+        };
+        self.strands
+            .par_iter()
+            .zip(buffers.par_iter())
+            .map(|(s, b)| {
+                let root = Pose {
+                    position: s.params.root_position,
+                    frame: s.params.root_frame,
+                };
+                let zero = nalgebra::Vector3::zeros();
+                let mut poses = vec![(zero, zero); b.samples.len()];
+                superhelix_kernels::contact::sample_poses(
+                    &root,
+                    &s.params.lengths,
+                    &s.q,
+                    &b.samples,
+                    &mut poses,
+                );
+                poses
+                    .iter()
+                    .map(|(y, _)| head.position + head.rotation * y)
+                    .collect()
+            })
+            .collect()
+    }
+    fn set_partners(&mut self, partners: Vec<Vec<PartnerPoint>>) {
+        let Some((_, buffers)) = self.contacts.as_mut() else {
+            return;
+        };
+        buffers
+            .par_iter_mut()
+            .zip(partners)
+            .for_each(|(b, partners)| {
+                // in arc-length order: their positions are then one pass along the strand
+                b.partners = crate::forces::contacts::strand_contacts::in_arc_order(partners);
+            });
     }
     fn start_contacts(&mut self, t: f64, head: &HeadState) {
         use superhelix_kernels::fixed::ContactHooks;
@@ -471,7 +581,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
 pub struct EmbeddedContacts {
     /// The bodies the strands may touch.
     pub bodies: Arc<[Body]>,
-    /// The scene's contact settings (without hair–hair contacts).
+    /// The scene's contact settings (hair–hair contacts with `coupling = "ball"`).
     pub config: ContactConfig,
 }
 
@@ -487,6 +597,10 @@ pub struct StrandContactBuffers {
     /// Whether the contacts that start within a step are predicted
     /// ([`ContactConfig::predict`]).
     predict: bool,
+    /// Hair–hair: the law (`None`: no hair–hair contacts) and the partners of the coming
+    /// step, in arc-length order.
+    hair: Option<HairHairParams>,
+    partners: Vec<PartnerPoint>,
 }
 
 /// The scratch of the contacts of a worker's strands (one per chunk of strands, sized
@@ -502,6 +616,15 @@ pub struct ContactScratch {
     chain_valid: usize,
     /// The arrays of the contacts that start within a step.
     predicted: PredictedContacts,
+    /// The partners' scratch ([`PartnerStore`]): as many as the most partners of a
+    /// strand so far, and the samples at a step's start.
+    near: Vec<usize>,
+    near_y: Vec<nalgebra::Vector3<f64>>,
+    near_y0: Vec<nalgebra::Vector3<f64>>,
+    sample_y0: Vec<nalgebra::Vector3<f64>>,
+    /// J at the other part of a pair of two parts of a strand, and `J(s) − J(s')`.
+    other: Vec<nalgebra::Vector3<f64>>,
+    diff: Vec<nalgebra::Vector3<f64>>,
 }
 
 impl ContactScratch {
@@ -519,6 +642,12 @@ impl ContactScratch {
             chain_q: vec![f64::NAN; dofs],
             chain_valid: 0,
             predicted: PredictedContacts::new(samples),
+            near: Vec::new(),
+            near_y: Vec::new(),
+            near_y0: Vec::new(),
+            sample_y0: vec![zero; samples],
+            other: vec![zero; dofs],
+            diff: vec![zero; dofs],
         }
     }
 
@@ -545,6 +674,11 @@ impl StrandContactBuffers {
             allowance: vec![0.0; n],
             scalars: ContactScalars::default(),
             predict: config.predict,
+            hair: config
+                .hair_hair
+                .as_ref()
+                .map(|h| h.params(g.mass_per_length)),
+            partners: Vec::new(),
             samples,
         }
     }
@@ -606,6 +740,13 @@ impl StrandContactBuffers {
         let m = self.samples.len();
         // the chain of element ends kept in the scratch was another strand's
         scratch.chain_valid = 0;
+        let partners = self.partners.len();
+        if scratch.near.len() < partners {
+            let zero = nalgebra::Vector3::zeros();
+            scratch.near.resize(partners, 0);
+            scratch.near_y.resize(partners, zero);
+            scratch.near_y0.resize(partners, zero);
+        }
         let store = ContactStore {
             anchors: &mut self.anchors,
             allowance: &mut self.allowance,
@@ -628,10 +769,23 @@ impl StrandContactBuffers {
             &self.samples,
             store,
         );
-        if self.predict {
+        let contacts = if self.predict {
             contacts.with_prediction(scratch.predicted.arrays(m + 1, D))
         } else {
             contacts
+        };
+        match &self.hair {
+            Some(params) => contacts.with_partners(PartnerStore {
+                params,
+                partners: &self.partners,
+                near: &mut scratch.near,
+                near_y: &mut scratch.near_y,
+                near_y0: &mut scratch.near_y0,
+                sample_y0: &mut scratch.sample_y0[..m],
+                other: &mut scratch.other,
+                diff: &mut scratch.diff,
+            }),
+            None => contacts,
         }
     }
 }

@@ -360,11 +360,13 @@ impl HairHair {
         self.tracked_last = tracked.len();
         // the pairs of strands already in contact: a pair the search finds between them
         // again is no new meeting and takes no allowance
-        let known: std::collections::HashSet<(usize, usize)> = if self.depenetration_speed > 0.0 {
+        // (their strands kept as they are; sorted only when a fresh pair overlaps)
+        let mut known: Vec<(usize, usize)> = if self.depenetration_speed > 0.0 {
             tracked.iter().map(|p| (p.a.0, p.b.0)).collect()
         } else {
-            Default::default()
+            Vec::new()
         };
+        let mut known_sorted = false;
         // 2. broad phase
         let mut found = 0;
         let mut new_pairs = Vec::new();
@@ -460,7 +462,14 @@ impl HairHair {
                 let key = (p.a.0, p.b.0);
                 let o = overlap.entry(key).or_insert(0.0);
                 *o = o.max(depth);
-                if fresh_pair[index] && !known.contains(&key) {
+                if fresh_pair[index] && {
+                    if !known_sorted {
+                        known.sort_unstable();
+                        known.dedup();
+                        known_sorted = true;
+                    }
+                    known.binary_search(&key).is_err()
+                } {
                     let f = fresh.entry(key).or_insert(0.0);
                     *f = f.max(depth);
                 }
@@ -476,6 +485,14 @@ impl HairHair {
             }
         }
         let allowance = &self.allowance;
+        // the reach of a pair of strands less its allowance (most steps there is none)
+        let allowed = |key: (usize, usize)| {
+            if allowance.is_empty() {
+                reach
+            } else {
+                reach - allowance.get(&key).copied().unwrap_or(0.0)
+            }
+        };
         // the friction anchors, from where the samples went over the last step
         let friction = self.friction;
         anchors
@@ -487,7 +504,7 @@ impl HairHair {
                     *anchor = None;
                     return;
                 };
-                let reach = reach - allowance.get(&(p.a.0, p.b.0)).copied().unwrap_or(0.0);
+                let reach = allowed((p.a.0, p.b.0));
                 let line = point_at(points, p.a, ta) - point_at(points, p.b, tb);
                 let d = line.norm();
                 if d >= reach || d == 0.0 {
@@ -529,7 +546,7 @@ impl HairHair {
             .zip(&anchors)
             .enumerate()
             .map(|(index, ((p, &(ta, tb)), anchor))| {
-                let reach = reach - allowance.get(&(p.a.0, p.b.0)).copied().unwrap_or(0.0);
+                let reach = allowed((p.a.0, p.b.0));
                 let at = |side: (usize, usize), t: f64| {
                     // the point at parameter t ∈ [−1, 1] around sample side.1: its arc
                     // length, weight, position and velocity (linear between samples)
@@ -694,17 +711,21 @@ fn keep_nearest(
     if held.iter().all(|&n| n <= cap) {
         return (pairs, anchors);
     }
-    // every pair twice, under each of its samples, nearest first
+    // a sample that holds at most `cap` pairs keeps them all; the others rank theirs:
+    // every pair under each of its samples that holds more, nearest first
+    let over = |(s, k): (usize, usize)| held[offsets[s] + k] > cap;
     let mut ends: Vec<((usize, usize), f64, usize)> = pairs
-        .par_iter()
+        .iter()
         .enumerate()
-        .flat_map_iter(|(i, p)| {
+        .filter(|(_, p)| over(p.a) || over(p.b))
+        .flat_map(|(i, p)| {
             let d = dist2(points, p.a, p.b);
             [(p.a, d, i), (p.b, d, i)]
         })
+        .filter(|e| over(e.0))
         .collect();
     ends.par_sort_unstable_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)).then(x.2.cmp(&y.2)));
-    let mut keep = vec![false; pairs.len()];
+    let mut keep: Vec<bool> = pairs.iter().map(|p| !over(p.a) || !over(p.b)).collect();
     let mut rank = 0;
     for j in 0..ends.len() {
         rank = if j > 0 && ends[j].0 == ends[j - 1].0 {
@@ -760,6 +781,14 @@ pub struct Filed {
     around: [[f64; 3]; 2],
     /// Their arc lengths.
     around_arc: [f64; 2],
+}
+
+/// What the broad phase's inner loop reads of a filed sample (see [`Filed`]).
+#[derive(Debug, Clone, Copy)]
+struct Hot {
+    x: [f64; 3],
+    radius: f64,
+    strand: u32,
 }
 
 fn dist2_of(a: &[f64; 3], b: &[f64; 3]) -> f64 {
@@ -850,16 +879,27 @@ fn broad_phase(
     }
     cells.par_sort_unstable_by_key(|f| (f.cell, f.strand, f.sample));
     let cells = &cells[..];
+    // what the inner loop reads of every sample, packed (a third of a [`Filed`]): its
+    // position, search distance and strand; the rest is read for the pairs within it
+    let hot: Vec<Hot> = cells
+        .iter()
+        .map(|f| Hot {
+            x: f.x,
+            radius: f.radius,
+            strand: f.strand,
+        })
+        .collect();
     // the start of each cell's run
     let starts: Vec<usize> = (0..cells.len())
         .filter(|&i| i == 0 || cells[i].cell != cells[i - 1].cell)
         .collect();
     // the cells' keys in order, apart from the samples (a small array to search)
     let keys: Vec<u64> = starts.iter().map(|&i| cells[i].cell).collect();
-    let run = |c: u64| -> &[Filed] {
+    // the samples of cell c: their range in `cells` (and `hot`)
+    let run = |c: u64| -> core::ops::Range<usize> {
         match keys.binary_search(&c) {
-            Ok(n) => &cells[starts[n]..starts.get(n + 1).copied().unwrap_or(cells.len())],
-            Err(_) => &[],
+            Ok(n) => starts[n]..starts.get(n + 1).copied().unwrap_or(cells.len()),
+            Err(_) => 0..0,
         }
     };
     let mut pairs: Vec<Pair> = starts
@@ -901,21 +941,22 @@ fn broad_phase(
                         if others.is_empty() {
                             continue;
                         }
-                        for (ia, fa) in own.iter().enumerate() {
-                            let ra = fa.radius;
-                            for fb in others {
-                                if fa.strand == fb.strand
+                        for (ia, ha) in hot[lo..hi].iter().enumerate() {
+                            let ra = ha.radius;
+                            for (hb, fb) in hot[others.clone()].iter().zip(&cells[others.clone()]) {
+                                let r = ra.max(hb.radius);
+                                let d = dist2_of(&ha.x, &hb.x);
+                                if d >= r * r {
+                                    continue;
+                                }
+                                let fa = &own[ia];
+                                if ha.strand == hb.strand
                                     && self_exclusion.is_none_or(|e| (fa.arc - fb.arc).abs() <= e)
                                 {
                                     continue;
                                 }
-                                let r = ra.max(fb.radius);
-                                let d = dist2_of(&fa.x, &fb.x);
                                 // only the local minima of the distance along both chains
-                                if d >= r * r
-                                    || !takes(fa, fb)
-                                    || !fa.local_minimum(fb, d, self_exclusion)
-                                {
+                                if !takes(fa, fb) || !fa.local_minimum(fb, d, self_exclusion) {
                                     continue;
                                 }
                                 let a = (fa.strand as usize, fa.sample as usize);
@@ -1025,9 +1066,9 @@ fn rekey_to_closest(
             (s, k)
         }
     };
-    let mut moved = false;
-    let mut keyed: Vec<Keyed> = keyed
-        .into_iter()
+    // (the pairs in parallel, in order)
+    let keyed: Vec<(Keyed, bool)> = keyed
+        .into_par_iter()
         .map(|k| {
             let p = k.pair;
             let q = Pair {
@@ -1035,23 +1076,25 @@ fn rekey_to_closest(
                 b: nearest(p.b, k.closest.1),
             };
             if q == p || !distinct(arcs, exclusion, q.a, q.b) {
-                return k;
+                return (k, false);
             }
-            moved = true;
             let anchor = k.anchor.map(|mut a| {
                 let shift = (points[q.a.0][q.a.1] - points[p.a.0][p.a.1])
                     - (points[q.b.0][q.b.1] - points[p.b.0][p.b.1]);
                 a.offset += rt * shift;
                 a
             });
-            Keyed {
+            let moved = Keyed {
                 pair: q,
                 anchor,
                 closest: closest_on_chains(points, q.a, q.b),
                 fresh: k.fresh,
-            }
+            };
+            (moved, true)
         })
         .collect();
+    let moved = keyed.iter().any(|k| k.1);
+    let mut keyed: Vec<Keyed> = keyed.into_iter().map(|k| k.0).collect();
     if moved {
         keyed.sort_unstable_by_key(|k| (k.pair, k.anchor.is_none()));
         keyed.dedup_by(|later, kept| {

@@ -43,12 +43,11 @@ use std::sync::Arc;
 use superhelix_kernels::collider::Mount;
 use superhelix_kernels::collider::Proximity;
 use superhelix_kernels::contact::body::{
-    self, add_generalized_force, point_velocity, Anchor, BodyContacts, BodyHit, ColliderSet,
-    ContactSink, TermsAsked,
+    self, add_generalized_force, Anchor, BodyContacts, BodyHit, ColliderSet, ContactSink,
+    TermsAsked,
 };
 use superhelix_kernels::contact::predicted;
 pub use superhelix_kernels::contact::ContactParams;
-use superhelix_kernels::contact::{rod_friction, rod_spring_energy};
 
 use superhelix_kernels::contact::partners;
 pub use superhelix_kernels::contact::partners::{
@@ -309,10 +308,8 @@ impl StrandContacts {
 
     /// Set the partner points of the coming step (hair–hair).
     pub fn set_partners(&mut self, partners: Vec<PartnerPoint>) {
-        // taken, not copied
-        self.partners = partners;
         // in arc-length order: their positions are then one pass along the strand
-        self.partners.sort_by(|a, b| a.s.total_cmp(&b.s));
+        self.partners = in_arc_order(partners);
     }
 
     /// Drop the partner points (their memory is freed before the next update builds
@@ -495,165 +492,45 @@ impl StrandContacts {
             summary.hair_contacts += touching;
             stiffened |= partner_stiffness;
         }
-        self.aj = aj;
         if let Some(hh) = self.hair {
-            if self.add_self_pairs(hh, kernel, q, v, terms, jac, out) {
-                stiffened = true;
+            // the pairs of two parts of this strand, stepped on both parts
+            self.self_touching = 0;
+            if self.partners.iter().any(|p| p.partner_s.is_some()) {
+                let mut other = std::mem::take(&mut self.jac_other);
+                let mut diff = std::mem::take(&mut self.jac_diff);
+                other.resize(jac.len(), Vector3::zeros());
+                diff.resize(jac.len(), Vector3::zeros());
+                let (touching, self_stiffness) = self.partner_view(&hh).add_self_terms(
+                    v,
+                    TermsAsked {
+                        curvature: false,
+                        ..asked
+                    },
+                    jac,
+                    &mut other,
+                    &mut diff,
+                    &mut sink,
+                );
+                self.self_touching = touching;
+                stiffened |= self_stiffness;
+                (self.jac_other, self.jac_diff) = (other, diff);
             }
             summary.hair_contacts += self.self_touching;
         }
+        self.aj = aj;
         self.summary = summary;
         stiffened
     }
 
-    /// The pairs of two parts of this strand within reach (self-contact), stepped
-    /// implicitly on both parts: with `D = J(s) − J(s')`, the penalty `Dᵀ k w δ n`, its
-    /// stiffness `−Dᵀ k w n nᵀ D`, the damping of the relative velocity `−Dᵀ c w D` (along
-    /// n only with friction), and the friction spring between the two anchored samples.
-    /// Returns whether one added stiffness; counts them into `self_touching`.
-    #[allow(clippy::too_many_arguments)]
-    fn add_self_pairs(
-        &mut self,
-        hh: HairHairParams,
-        kernel: &mut dyn StrandKernel,
-        q: &[f64],
-        v: &[f64],
-        terms: Terms,
-        jac: &mut [Vector3<f64>],
-        out: &mut StrandTerms,
-    ) -> bool {
-        self.self_touching = 0;
-        if !self.partners.iter().any(|p| p.partner_s.is_some()) {
-            return false;
-        }
-        let hh = hh.for_self();
-        let mut other = std::mem::take(&mut self.jac_other);
-        let mut diff = std::mem::take(&mut self.jac_diff);
-        other.resize(jac.len(), Vector3::zeros());
-        diff.resize(jac.len(), Vector3::zeros());
-        let mut stiffened = false;
-        for i in 0..self.partners.len() {
-            let partner = self.partners[i];
-            let Some(s_other) = partner.partner_s else {
-                continue;
-            };
-            let w = partner.weight;
-            let y = kernel.point(q, partner.s, jac, None);
-            let yo = kernel.point(q, s_other, &mut other, None);
-            let d = (y - yo).norm();
-            if d >= partner.reach || d == 0.0 {
-                continue;
-            }
-            self.self_touching += 1;
-            for ((c, a), b) in diff.iter_mut().zip(jac.iter()).zip(&other) {
-                *c = a - b;
-            }
-            let n = (y - yo) / d;
-            let normal = hh.stiffness * w * (partner.reach - d);
-            let damping = if hh.friction.is_some() {
-                hh.damping * w * n * n.transpose()
-            } else {
-                hh.damping * w * Matrix3::identity()
-            };
-            let force = normal * n - damping * velocity(&diff, v);
-            if terms.force {
-                add_force(&diff, &force, &mut out.force);
-            }
-            if terms.stiffness {
-                let a = -hh.stiffness * w * n * n.transpose();
-                add_projected(&diff, &a, &mut self.aj, &mut out.stiffness);
-                stiffened = true;
-            }
-            if terms.damping {
-                add_projected(&diff, &-damping, &mut self.aj, &mut out.damping);
-            }
-            let (Some(f), Some(anchor)) = (hh.friction, partner.anchor) else {
-                continue;
-            };
-            let (Some(&(sa, _)), Some(&(sb, _))) = (
-                self.samples.get(anchor.sample),
-                anchor.partner_sample.and_then(|k| self.samples.get(k)),
-            ) else {
-                continue;
-            };
-            let ya = kernel.point(q, sa, jac, None);
-            let yb = kernel.point(q, sb, &mut other, None);
-            for ((c, a), b) in diff.iter_mut().zip(jac.iter()).zip(&other) {
-                *c = a - b;
-            }
-            let plane = Matrix3::identity() - n * n.transpose();
-            let slip = plane * (ya - yb - anchor.offset);
-            let stiff = f.stiffness_ratio * hh.stiffness * w;
-            let rel = velocity(&diff, v);
-            let (spring, kt, turning) = rod_friction(
-                &f,
-                anchor.sliding,
-                anchor.step,
-                &plane,
-                &slip,
-                &rel,
-                stiff,
-                normal,
-            );
-            if terms.force {
-                add_force(&diff, &spring, &mut out.force);
-            }
-            if terms.stiffness {
-                add_projected(&diff, &-kt, &mut self.aj, &mut out.stiffness);
-            }
-            if terms.damping && turning != Matrix3::zeros() {
-                add_projected(&diff, &-turning, &mut self.aj, &mut out.damping);
-            }
-        }
-        self.jac_other = other;
-        self.jac_diff = diff;
-        stiffened
-    }
-
     /// The energy of the pairs of two parts of this strand at q (penalty and friction
-    /// springs; the samples must be posed at q). Internal: no work through motion.
+    /// springs; the samples must be posed at q). Internal: no work through motion
+    /// ([`PartnerContacts::self_energy`]).
     fn self_pairs_energy(&mut self, hh: &HairHairParams, geom: &StrandGeometry, q: &[f64]) -> f64 {
-        let hh = &hh.for_self();
-        let mut potential = 0.0;
         let mut buf = std::mem::take(&mut self.sweep);
-        for partner in &self.partners {
-            let Some(s_other) = partner.partner_s else {
-                continue;
-            };
-            let (lo, hi) = if partner.s <= s_other {
-                (partner.s, s_other)
-            } else {
-                (s_other, partner.s)
-            };
+        let potential = self.partner_view(hh).self_energy(&self.poses, |lo, hi| {
             positions_at_sorted(geom, q, [lo, hi], &mut buf);
-            let (Some(&a), Some(&b)) = (buf.first(), buf.get(1)) else {
-                continue;
-            };
-            let d = (a - b).norm();
-            if d >= partner.reach || d == 0.0 {
-                continue;
-            }
-            let w = partner.weight;
-            let overlap = partner.reach - d;
-            potential += 0.5 * hh.stiffness * w * overlap * overlap;
-            let (Some(f), Some(anchor)) = (hh.friction, partner.anchor) else {
-                continue;
-            };
-            let (Some(&(ya, _)), Some(&(yb, _))) = (
-                self.poses.get(anchor.sample),
-                anchor.partner_sample.and_then(|k| self.poses.get(k)),
-            ) else {
-                continue;
-            };
-            // n from this point to the other, oriented as in the step
-            let (y, yo) = if partner.s <= s_other { (a, b) } else { (b, a) };
-            let n = (y - yo) / d;
-            let plane = Matrix3::identity() - n * n.transpose();
-            let slip = plane * (ya - yb - anchor.offset);
-            let stiff = f.stiffness_ratio * hh.stiffness * w;
-            let normal = hh.stiffness * w * overlap;
-            potential += rod_spring_energy(&f, anchor.sliding, &plane, &slip, stiff, normal).0;
-        }
+            Some((*buf.first()?, *buf.get(1)?))
+        });
         self.sweep = buf;
         potential
     }
@@ -922,9 +799,8 @@ impl StrandContacts {
         ok && self.self_pairs_acceptable(geom, q0, q1, split)
     }
 
-    /// [`Self::step_acceptable`] for the pairs of two parts of this strand: a pair apart
-    /// at the start may not end closer than its reach less `split` along the line
-    /// of centres at the start (both parts move within the step).
+    /// [`Self::step_acceptable`] for the pairs of two parts of this strand
+    /// ([`PartnerContacts::self_approach_acceptable`]).
     fn self_pairs_acceptable(
         &mut self,
         geom: &StrandGeometry,
@@ -932,26 +808,16 @@ impl StrandContacts {
         q1: &[f64],
         split: f64,
     ) -> bool {
+        let Some(hh) = self.hair else {
+            return true;
+        };
         let mut buf = std::mem::take(&mut self.sweep);
-        let mut ok = true;
-        for partner in &self.partners {
-            let Some(s_other) = partner.partner_s else {
-                continue;
-            };
-            let arcs = [partner.s.min(s_other), partner.s.max(s_other)];
-            positions_at_sorted(geom, q0, arcs, &mut buf);
-            let d0 = buf[0] - buf[1];
-            positions_at_sorted(geom, q1, arcs, &mut buf);
-            let d1 = buf[0] - buf[1];
-            let norm = d0.norm();
-            if norm == 0.0 || norm < partner.reach {
-                continue;
-            }
-            if partner.reach - d1.dot(&(d0 / norm)) > split {
-                ok = false;
-                break;
-            }
-        }
+        let ok = self
+            .partner_view(&hh)
+            .self_approach_acceptable(split, |end, lo, hi| {
+                positions_at_sorted(geom, if end { q1 } else { q0 }, [lo, hi], &mut buf);
+                (buf[0], buf[1])
+            });
         self.sweep = buf;
         ok
     }
@@ -1064,9 +930,19 @@ impl StrandContacts {
     }
 }
 
-/// ẏ = J q̇.
-fn velocity(jac: &[Vector3<f64>], v: &[f64]) -> Vector3<f64> {
-    point_velocity(jac, v)
+/// `partners` in arc-length order (`s` increasing; equal arc lengths keep their order, as
+/// a stable sort), each moved once: the order is sorted on the arc lengths alone (a
+/// partner point is some 200 bytes), and a list already in order is taken as it is.
+pub fn in_arc_order(partners: Vec<PartnerPoint>) -> Vec<PartnerPoint> {
+    if partners
+        .windows(2)
+        .all(|w| w[0].s.total_cmp(&w[1].s).is_le())
+    {
+        return partners;
+    }
+    let mut order: Vec<(f64, usize)> = partners.iter().map(|p| p.s).zip(0..).collect();
+    order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    order.into_iter().map(|(_, i)| partners[i]).collect()
 }
 
 /// `force += Jᵀ f`.
