@@ -157,6 +157,9 @@ pub struct BenchReport {
     pub deepest: Option<f64>,
     /// Hair–hair pairs per step, averaged over the steps (`None`: no hair–hair).
     pub hair_pairs: Option<f64>,
+    /// Of [`Self::seconds`], the wall time of the hair–hair pairs' tracking and search
+    /// (`None`: no hair–hair).
+    pub hair_pair_seconds: Option<f64>,
     /// S·T / seconds.
     pub strand_steps_per_second: f64,
     /// S·T.
@@ -410,6 +413,7 @@ pub fn bench_setup(setup: SimulationSetup, steps: usize) -> Result<BenchReport> 
         frames_per_second: steps as f64 / seconds.max(1e-12),
         deepest,
         hair_pairs: sim.hair_pairs().map(|_| pairs as f64 / steps.max(1) as f64),
+        hair_pair_seconds: sim.hair_pair_seconds(),
         strand_steps_per_second: (strand_count * steps) as f64 / seconds.max(1e-12),
         strand_steps: strand_count * steps,
         cpu_seconds,

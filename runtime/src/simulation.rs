@@ -169,6 +169,8 @@ pub struct Simulation {
     steps: usize,
     /// Error-controlled steps accepted and rejected up to the last frame's report.
     reported_steps: (usize, usize),
+    /// Wall time the hair–hair pairs' tracking and search took so far, s.
+    hair_pair_seconds: f64,
 }
 
 /// What keeps the embedded engine from running `setup`: every setting and strand it
@@ -374,6 +376,7 @@ fn embedded_strands(
             time: 0.0,
             steps: 0,
             reported_steps: (0, 0),
+            hair_pair_seconds: 0.0,
         },
         (),
     ))
@@ -844,6 +847,7 @@ impl Simulation {
             time: 0.0,
             steps: 0,
             reported_steps: (0, 0),
+            hair_pair_seconds: 0.0,
         };
         // contact points inside a body at the start are let out slowly; Coulomb anchors
         for st in &mut sim.strands {
@@ -991,7 +995,9 @@ impl Simulation {
         }
         let t = self.time;
         if self.embedded.is_some() && self.hair_hair.is_some() {
+            let start = std::time::Instant::now();
             self.update_embedded_hair_pairs(t, h);
+            self.hair_pair_seconds += start.elapsed().as_secs_f64();
         }
         if let Some(e) = &mut self.embedded {
             let effects = superhelix_kernels::fixed::Effects {
@@ -1044,7 +1050,9 @@ impl Simulation {
             }
         }
         if self.hair_hair.is_some() {
+            let start = std::time::Instant::now();
             self.update_hair_pairs(t, h);
+            self.hair_pair_seconds += start.elapsed().as_secs_f64();
         }
         let interval = HeadInterval::new(&self.head, t, h);
         // the coupled hair–hair pairs are solved after every strand's step, before the
@@ -1427,6 +1435,12 @@ impl Simulation {
     /// The hair–hair pairs of the last step (`None`: no hair–hair interaction).
     pub fn hair_pairs(&self) -> Option<PairCounts> {
         self.hair_hair.as_ref().map(|h| h.counts())
+    }
+
+    /// The wall time the hair–hair pairs' tracking and search (the broad phase, before
+    /// each step) took over the steps so far, s (`None`: no hair–hair interaction).
+    pub fn hair_pair_seconds(&self) -> Option<f64> {
+        self.hair_hair.as_ref().map(|_| self.hair_pair_seconds)
     }
 
     /// Solve every strand's static equilibrium in place (gravity and point loads, head at

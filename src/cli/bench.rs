@@ -243,7 +243,10 @@ fn print_report(report: &BenchReport) {
         )
     );
     if let Some(pairs) = report.hair_pairs {
-        println!("hair-hair pairs: {pairs:.0} per step on average");
+        println!(
+            "hair-hair pairs: {pairs:.0} per step on average, tracked and searched in {:.3} s of the wall time",
+            report.hair_pair_seconds.unwrap_or(0.0)
+        );
     }
     if let Some(d) = report.deepest {
         println!(

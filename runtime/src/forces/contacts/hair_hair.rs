@@ -783,14 +783,6 @@ pub struct Filed {
     around_arc: [f64; 2],
 }
 
-/// What the broad phase's inner loop reads of a filed sample (see [`Filed`]).
-#[derive(Debug, Clone, Copy)]
-struct Hot {
-    x: [f64; 3],
-    radius: f64,
-    strand: u32,
-}
-
 fn dist2_of(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
     d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
@@ -879,27 +871,16 @@ fn broad_phase(
     }
     cells.par_sort_unstable_by_key(|f| (f.cell, f.strand, f.sample));
     let cells = &cells[..];
-    // what the inner loop reads of every sample, packed (a third of a [`Filed`]): its
-    // position, search distance and strand; the rest is read for the pairs within it
-    let hot: Vec<Hot> = cells
-        .iter()
-        .map(|f| Hot {
-            x: f.x,
-            radius: f.radius,
-            strand: f.strand,
-        })
-        .collect();
     // the start of each cell's run
     let starts: Vec<usize> = (0..cells.len())
         .filter(|&i| i == 0 || cells[i].cell != cells[i - 1].cell)
         .collect();
     // the cells' keys in order, apart from the samples (a small array to search)
     let keys: Vec<u64> = starts.iter().map(|&i| cells[i].cell).collect();
-    // the samples of cell c: their range in `cells` (and `hot`)
-    let run = |c: u64| -> core::ops::Range<usize> {
+    let run = |c: u64| -> &[Filed] {
         match keys.binary_search(&c) {
-            Ok(n) => starts[n]..starts.get(n + 1).copied().unwrap_or(cells.len()),
-            Err(_) => 0..0,
+            Ok(n) => &cells[starts[n]..starts.get(n + 1).copied().unwrap_or(cells.len())],
+            Err(_) => &[],
         }
     };
     let mut pairs: Vec<Pair> = starts
@@ -941,22 +922,21 @@ fn broad_phase(
                         if others.is_empty() {
                             continue;
                         }
-                        for (ia, ha) in hot[lo..hi].iter().enumerate() {
-                            let ra = ha.radius;
-                            for (hb, fb) in hot[others.clone()].iter().zip(&cells[others.clone()]) {
-                                let r = ra.max(hb.radius);
-                                let d = dist2_of(&ha.x, &hb.x);
-                                if d >= r * r {
-                                    continue;
-                                }
-                                let fa = &own[ia];
-                                if ha.strand == hb.strand
+                        for (ia, fa) in own.iter().enumerate() {
+                            let ra = fa.radius;
+                            for fb in others {
+                                if fa.strand == fb.strand
                                     && self_exclusion.is_none_or(|e| (fa.arc - fb.arc).abs() <= e)
                                 {
                                     continue;
                                 }
+                                let r = ra.max(fb.radius);
+                                let d = dist2_of(&fa.x, &fb.x);
                                 // only the local minima of the distance along both chains
-                                if !takes(fa, fb) || !fa.local_minimum(fb, d, self_exclusion) {
+                                if d >= r * r
+                                    || !takes(fa, fb)
+                                    || !fa.local_minimum(fb, d, self_exclusion)
+                                {
                                     continue;
                                 }
                                 let a = (fa.strand as usize, fa.sample as usize);
