@@ -264,8 +264,27 @@ fn an_embedded_run_with_contacts_resumes_from_its_state_exactly() {
     }
 }
 
+/// The same with hair–hair contacts and rod friction (self-contact too): the pairs,
+/// their anchors and the samples' last positions (the partners' velocities) are in the
+/// state.
+#[test]
+fn an_embedded_run_with_hair_hair_contacts_resumes_from_its_state_exactly() {
+    let text = hair_scene(
+        "embedded",
+        "coulomb",
+        "friction = \"coulomb\"\nfriction_coefficient = 0.3\nself_contact = true",
+        1.0,
+    );
+    resumes_exactly_from(|| parse_scene(&text).expect("hair scene"));
+}
+
 fn resumes_exactly(predict: bool) {
-    let setup = || parse_scene(&scene("embedded", "coulomb", Some(predict), 1.0)).expect("scene");
+    resumes_exactly_from(|| {
+        parse_scene(&scene("embedded", "coulomb", Some(predict), 1.0)).expect("scene")
+    });
+}
+
+fn resumes_exactly_from(setup: impl Fn() -> superhelix_runtime::SimulationSetup) {
     let mut whole = Simulation::new(setup(), None).expect("simulation");
     let mut first = Simulation::new(setup(), None).expect("simulation");
     for _ in 0..15 {

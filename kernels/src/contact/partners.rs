@@ -167,6 +167,50 @@ pub fn near(
     }
 }
 
+/// The friction spring of an anchored pair in contact: the plane across its line of
+/// centres, its slip and relative velocity there, its stiffness and the pair's normal
+/// force (the limit of its force).
+struct RodSpring {
+    plane: M3,
+    slip: V3,
+    rel: V3,
+    stiff: f64,
+    normal: f64,
+}
+
+impl RodSpring {
+    /// Its force, stiffness and the damping of its turning ([`rod_friction`]) through
+    /// `jac` into `sink`, as `asked`.
+    fn add(
+        &self,
+        f: &RodFriction,
+        anchor: &PartnerAnchor,
+        asked: TermsAsked,
+        jac: &[V3],
+        sink: &mut impl ContactSink,
+    ) {
+        let (spring, kt, turning) = rod_friction(
+            f,
+            anchor.sliding,
+            anchor.step,
+            &self.plane,
+            &self.slip,
+            &self.rel,
+            self.stiff,
+            self.normal,
+        );
+        if asked.force {
+            sink.add_force(jac, &spring);
+        }
+        if asked.stiffness {
+            sink.add_stiffness(jac, &-kt);
+        }
+        if asked.damping && turning != M3::zeros() {
+            sink.add_damping(jac, &-turning);
+        }
+    }
+}
+
 /// A partner's point and velocity in head coordinates (the head in `head`).
 fn in_head(head: &HeadState, point: &V3, velocity: &V3) -> (V3, V3) {
     let rt = head.rotation.transpose();
@@ -334,25 +378,14 @@ impl PartnerContacts<'_> {
             let stiff = f.stiffness_ratio * hh.stiffness * w;
             let va = rt * (anchor.velocity - head.velocity) - head.omega.cross(&target);
             let rel = point_velocity(jac, v) - va;
-            let (spring, kt, turning) = rod_friction(
-                &f,
-                anchor.sliding,
-                anchor.step,
-                &plane,
-                &slip,
-                &rel,
+            let spring = RodSpring {
+                plane,
+                slip,
+                rel,
                 stiff,
                 normal,
-            );
-            if asked.force {
-                sink.add_force(jac, &spring);
-            }
-            if asked.stiffness {
-                sink.add_stiffness(jac, &-kt);
-            }
-            if asked.damping && turning != M3::zeros() {
-                sink.add_damping(jac, &-turning);
-            }
+            };
+            spring.add(&f, &anchor, asked, jac, sink);
         }
         (touching, stiffened)
     }
@@ -484,25 +517,14 @@ impl PartnerContacts<'_> {
             let slip = plane * (ya - yb - anchor.offset);
             let stiff = f.stiffness_ratio * hh.stiffness * w;
             let rel = point_velocity(diff, v);
-            let (spring, kt, turning) = rod_friction(
-                &f,
-                anchor.sliding,
-                anchor.step,
-                &plane,
-                &slip,
-                &rel,
+            let spring = RodSpring {
+                plane,
+                slip,
+                rel,
                 stiff,
                 normal,
-            );
-            if asked.force {
-                sink.add_force(diff, &spring);
-            }
-            if asked.stiffness {
-                sink.add_stiffness(diff, &-kt);
-            }
-            if asked.damping && turning != M3::zeros() {
-                sink.add_damping(diff, &-turning);
-            }
+            };
+            spring.add(&f, &anchor, asked, diff, sink);
         }
         (touching, stiffened)
     }

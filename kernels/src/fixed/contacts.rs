@@ -505,19 +505,7 @@ impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, 
             &ps.near_y[..m],
             split,
         ) && view.self_approach_acceptable(split, |end, lo, hi| {
-            let mut ends = [V3::zeros(); 2];
-            let mut j = 0;
-            positions_along(
-                root,
-                lengths,
-                if end { q1 } else { q0 },
-                [lo, hi],
-                |_, p| {
-                    ends[j] = p;
-                    j += 1;
-                },
-            );
-            (ends[0], ends[1])
+            two_points(root, lengths, if end { q1 } else { q0 }, lo, hi)
         })
     }
 
@@ -554,6 +542,17 @@ impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, 
             self.store.anchors[k] = a;
         }
     }
+}
+
+/// The strand's points at the arc lengths lo ≤ hi at q (one pass along it).
+fn two_points(root: &Pose, lengths: &[f64], q: &[f64], lo: f64, hi: f64) -> (V3, V3) {
+    let mut ends = [V3::zeros(); 2];
+    let mut j = 0;
+    positions_along(root, lengths, q, [lo, hi], |_, p| {
+        ends[j] = p;
+        j += 1;
+    });
+    (ends[0], ends[1])
 }
 
 /// The body contacts' view of the storage.
@@ -908,13 +907,7 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
             // the pairs of two parts of this strand (internal: no work through motion)
             let (root, lengths) = (&self.root, self.lengths);
             potential += view.self_energy(self.store.poses, |lo, hi| {
-                let mut ends = [None, None];
-                let mut j = 0;
-                positions_along(root, lengths, &q, [lo, hi], |_, p| {
-                    ends[j] = Some(p);
-                    j += 1;
-                });
-                Some((ends[0]?, ends[1]?))
+                Some(two_points(root, lengths, &q, lo, hi))
             });
         }
         let moving = (0..self.colliders.count()).any(|b| self.colliders.on_own_motion(b));
