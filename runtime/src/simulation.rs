@@ -994,9 +994,14 @@ impl Simulation {
             ));
         }
         let t = self.time;
-        if self.embedded.is_some() && self.hair_hair.is_some() {
+        if self.hair_hair.is_some() {
+            // the pairs at the step's start, for either engine's strands
             let start = std::time::Instant::now();
-            self.update_embedded_hair_pairs(t, h);
+            if self.embedded.is_some() {
+                self.update_embedded_hair_pairs(t, h);
+            } else {
+                self.update_hair_pairs(t, h);
+            }
             self.hair_pair_seconds += start.elapsed().as_secs_f64();
         }
         if let Some(e) = &mut self.embedded {
@@ -1048,11 +1053,6 @@ impl Simulation {
                         cause,
                     })?;
             }
-        }
-        if self.hair_hair.is_some() {
-            let start = std::time::Instant::now();
-            self.update_hair_pairs(t, h);
-            self.hair_pair_seconds += start.elapsed().as_secs_f64();
         }
         let interval = HeadInterval::new(&self.head, t, h);
         // the coupled hair–hair pairs are solved after every strand's step, before the

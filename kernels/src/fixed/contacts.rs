@@ -420,33 +420,22 @@ impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, 
             partners: ps.partners,
             samples,
         };
-        let (ends, derivs) = (&mut *store.ends, &mut *store.end_derivs);
-        let (chain_q, chain_valid) = (&mut *store.chain_q, &mut *store.chain_valid);
+        let mut points = ChainedPoints {
+            source: *source,
+            root,
+            lengths,
+            ends: store.ends,
+            derivs: store.end_derivs,
+            chain_q: store.chain_q,
+            chain_valid: store.chain_valid,
+        };
         view.drag_power(
             head,
             &ps.near[..m],
             &ps.near_y[..m],
             v,
             store.jac,
-            |s, jac| {
-                // (through the chain kept for q: the ends are its scratch)
-                let chain = Some(PointChain {
-                    q: &mut *chain_q,
-                    valid: &mut *chain_valid,
-                });
-                strand_point(
-                    *source,
-                    root,
-                    lengths,
-                    ends,
-                    derivs,
-                    chain,
-                    q,
-                    s,
-                    jac,
-                    crate::strand_point::NO_HESSIAN,
-                )
-            },
+            |s, jac| points.point(q, s, jac),
         )
     }
 
@@ -541,6 +530,41 @@ impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, 
             let a = view(self).anchor_after(head, k, &y, &t);
             self.store.anchors[k] = a;
         }
+    }
+}
+
+/// What a strand's points are made of, and the chain of element ends kept for one q
+/// (the ends and their derivatives are the chain's scratch: a point taken without the
+/// chain would leave them another q's while the chain still claims them).
+struct ChainedPoints<'b, P: MomentSource + ?Sized> {
+    source: &'b P,
+    root: &'b Pose,
+    lengths: &'b [f64],
+    ends: &'b mut [Pose],
+    derivs: &'b mut [EndDerivatives],
+    chain_q: &'b mut [f64],
+    chain_valid: &'b mut usize,
+}
+
+impl<P: MomentSource + ?Sized> ChainedPoints<'_, P> {
+    /// y(s) at q, J(s) into `jac` (no Hessian).
+    fn point(&mut self, q: &[f64], s: f64, jac: &mut [V3]) -> V3 {
+        let chain = Some(PointChain {
+            q: &mut *self.chain_q,
+            valid: &mut *self.chain_valid,
+        });
+        strand_point(
+            self.source,
+            self.root,
+            self.lengths,
+            self.ends,
+            self.derivs,
+            chain,
+            q,
+            s,
+            jac,
+            crate::strand_point::NO_HESSIAN,
+        )
     }
 }
 
@@ -697,25 +721,17 @@ impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> PredictionHost<Pre
     }
     fn linearize(&mut self, buffers: &mut PredictedArrays<'a>, from: usize) {
         let (_, p) = split(self.contacts);
-        let (source, root, lengths) = (p.source, p.root, p.lengths);
-        let (ends, derivs, chain_q, chain_valid) = (p.ends, p.end_derivs, p.chain_q, p.chain_valid);
+        let mut points = ChainedPoints {
+            source: p.source,
+            root: p.root,
+            lengths: p.lengths,
+            ends: p.ends,
+            derivs: p.end_derivs,
+            chain_q: p.chain_q,
+            chain_valid: p.chain_valid,
+        };
         predicted::linearize(buffers, self.dofs, from, p.jac, |q, s, jac| {
-            let chain = Some(PointChain {
-                q: &mut *chain_q,
-                valid: &mut *chain_valid,
-            });
-            strand_point(
-                source,
-                root,
-                lengths,
-                ends,
-                derivs,
-                chain,
-                q,
-                s,
-                jac,
-                crate::strand_point::NO_HESSIAN,
-            );
+            points.point(q, s, jac);
         });
     }
     fn end_check(&mut self, buffers: &mut PredictedArrays<'a>, q: &[f64]) -> usize {
@@ -919,28 +935,17 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
             return (potential, rate + power);
         }
         let (contacts, p) = split(self);
-        let (source, root, lengths) = (p.source, p.root, p.lengths);
-        let (ends, derivs) = (p.ends, p.end_derivs);
-        let (chain_q, chain_valid) = (p.chain_q, p.chain_valid);
+        let mut points = ChainedPoints {
+            source: p.source,
+            root: p.root,
+            lengths: p.lengths,
+            ends: p.ends,
+            derivs: p.end_derivs,
+            chain_q: p.chain_q,
+            chain_valid: p.chain_valid,
+        };
         let power = contacts.drag_power(head, p.poses, &v, p.jac, |s, jac| {
-            // (through the chain kept for q: the ends are its scratch, and a point taken
-            // without it would leave the chain's ends another q's)
-            let chain = Some(PointChain {
-                q: &mut *chain_q,
-                valid: &mut *chain_valid,
-            });
-            strand_point(
-                source,
-                root,
-                lengths,
-                ends,
-                derivs,
-                chain,
-                &q,
-                s,
-                jac,
-                crate::strand_point::NO_HESSIAN,
-            );
+            points.point(&q, s, jac);
         });
         let power = power + self.partner_drag_power(m, head, &q, &v);
         (potential, rate + power)

@@ -555,20 +555,24 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
     }
     fn deepest_inside(&mut self, t: f64, head: &HeadState) -> Option<f64> {
         use superhelix_kernels::fixed::ContactHooks;
-        let (bodies, buffers) = self.contacts.as_mut()?;
-        // (the strands in parallel, one scratch per chunk)
+        self.contacts.as_ref()?;
+        let chunk = self.chunk_workers();
+        let (_, buffers) = self.contacts.as_mut()?;
+        // (the strands in parallel, on the workers' colliders and scratch)
         self.strands
-            .par_chunks(64)
-            .zip(buffers.par_chunks_mut(64))
-            .map(|(strands, buffers)| {
-                let mut colliders = BodyColliders::new(bodies.clone());
-                let mut scratch = ContactScratch::for_strands(buffers, N);
+            .par_chunks(chunk)
+            .zip(buffers.par_chunks_mut(chunk))
+            .zip(self.workers.par_iter_mut())
+            .map(|((strands, buffers), worker)| {
+                let Some((colliders, scratch)) = worker.contacts.as_mut() else {
+                    return 0.0;
+                };
                 strands
                     .iter()
                     .zip(buffers.iter_mut())
                     .map(|(s, b)| {
                         let lengths = s.params.lengths;
-                        b.contacts(&s.params, &lengths, &mut colliders, &mut scratch)
+                        b.contacts(&s.params, &lengths, colliders, scratch)
                             .deepest(&s.q, t, head)
                     })
                     .fold(0.0, f64::max)
