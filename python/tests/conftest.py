@@ -111,7 +111,8 @@ preset = "smooth"
 """
 
 # Two strands resting on a sphere on a nodding head, with body and hair-hair contacts and
-# BDF2: the runtime engine.
+# BDF2: the runtime engine (the embedded engine steps by linearly implicit Euler).
+# TOUCHING_EULER: the same scene by linearly implicit Euler, on the embedded engine.
 TOUCHING = """
 [simulation]
 dt = 0.03333333333333333
@@ -152,3 +153,5 @@ length = 0.18
 elements = 6
 preset = "smooth"
 """
+
+TOUCHING_EULER = TOUCHING.replace('"bdf2"', '"linearly-implicit-euler"')

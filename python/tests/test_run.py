@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import superhelix
-from conftest import SHAKING, TOUCHING, hanging_strand
+from conftest import SHAKING, TOUCHING, TOUCHING_EULER, hanging_strand
 
 
 @pytest.fixture(scope="module")
@@ -70,7 +70,11 @@ def run_cli(cli, tmp_path, text, *extra):
     return out_dir, done.stdout
 
 
-@pytest.mark.parametrize("text", [SHAKING, TOUCHING], ids=["embedded", "runtime-contacts"])
+@pytest.mark.parametrize(
+    "text",
+    [SHAKING, TOUCHING_EULER, TOUCHING],
+    ids=["embedded", "embedded-contacts", "runtime-contacts"],
+)
 def test_frames_match_the_command_lines_frames_npy_bit_for_bit(cli, tmp_path, text):
     out_dir, stdout = run_cli(cli, tmp_path, text)
     r = superhelix.Scene.from_toml(text).run(energies=False)
@@ -124,11 +128,14 @@ def test_stepping_by_hand_gives_the_runs_states(shaking):
     sim.step(scene.dt)  # the simulation's own dt is accepted
 
 
-def test_the_runtime_engine_by_hand_matches_its_run():
-    scene = superhelix.Scene.from_toml(TOUCHING)
+@pytest.mark.parametrize(
+    "text, engine", [(TOUCHING_EULER, "embedded"), (TOUCHING, "runtime")]
+)
+def test_an_engine_with_contacts_by_hand_matches_its_run(text, engine):
+    scene = superhelix.Scene.from_toml(text)
     r = scene.run(frames=6)
     sim = scene.simulation()
-    assert sim.engine == r.engine == "runtime"
+    assert sim.engine == r.engine == engine
     sim.step(steps=5)
     np.testing.assert_array_equal(sim.q, r.q[5])
     np.testing.assert_array_equal(sim.qdot, r.qdot[5])

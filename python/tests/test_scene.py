@@ -79,8 +79,9 @@ def test_the_default_scene_is_the_commands():
     assert scene.strand_count == 100
     assert set(scene.elements) == {6}
     assert scene.steps == 90 and scene.frame_count == 91
-    assert scene.engine == "runtime"  # contacts
-    assert "contacts" in scene.validate()["engine_reason"]
+    # bodies and hair-hair contacts on the fixed-N step
+    assert scene.engine == "embedded"
+    assert scene.validate()["engine_reason"] is None
 
 
 BAD = """
