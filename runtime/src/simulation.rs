@@ -1180,8 +1180,6 @@ impl Simulation {
             .par_iter_mut()
             .map(|s| match &mut s.system.contacts {
                 Some(c) => {
-                    // the last step's partners go before the new ones are built
-                    c.clear_partners();
                     c.sample_poses(&s.system.strand.geometry, &s.state.q);
                     c.sample_positions()
                         .map(|y| head.position + head.rotation * y)
@@ -1214,17 +1212,15 @@ impl Simulation {
             .iter()
             .map(|s| s.system.contacts.as_ref().map_or(&[][..], |c| c.samples()))
             .collect();
-        let partners = hh.update(&points, &arcs, reach, h, fall, &head.rotation);
+        hh.update(&points, &arcs, reach, h, fall, &head.rotation);
         drop(arcs);
-        // (each strand sorts its own: in parallel)
-        self.strands
-            .par_iter_mut()
-            .zip(partners)
-            .for_each(|(s, p)| {
-                if let Some(c) = &mut s.system.contacts {
-                    c.set_partners(p);
-                }
-            });
+        // (each strand's list written in parallel, in arc-length order)
+        let hh = &*hh;
+        self.strands.par_iter_mut().enumerate().for_each(|(i, s)| {
+            if let Some(c) = &mut s.system.contacts {
+                hh.fill_partners(i, &points, c.partners_mut());
+            }
+        });
     }
 
     /// [`Self::update_hair_pairs`] on the embedded engine: the samples of every strand
@@ -1256,19 +1252,17 @@ impl Simulation {
             .iter()
             .map(|s| e.groups[s.2].1.samples(s.3))
             .collect();
-        let partners = hh.update(&points, &arcs, reach, h, fall, &head.rotation);
+        hh.update(&points, &arcs, reach, h, fall, &head.rotation);
         drop(arcs);
-        // back into each group's order
-        let mut by_group: Vec<Vec<Vec<crate::forces::contacts::PartnerPoint>>> = e
-            .groups
-            .iter()
-            .map(|(_, g)| vec![Vec::new(); g.len()])
-            .collect();
-        for (s, p) in e.strands.iter().zip(partners) {
-            by_group[s.2][s.3] = p;
+        // each group's strands' lists written in parallel, in arc-length order (a
+        // group's strand p is the scene's strand scene[g][p])
+        let mut scene: Vec<Vec<usize>> = e.groups.iter().map(|(_, g)| vec![0; g.len()]).collect();
+        for (i, s) in e.strands.iter().enumerate() {
+            scene[s.2][s.3] = i;
         }
-        for ((_, group), lists) in e.groups.iter_mut().zip(by_group) {
-            group.set_partners(lists);
+        let hh = &*hh;
+        for ((_, group), scene) in e.groups.iter_mut().zip(&scene) {
+            group.fill_partners(&|p, out| hh.fill_partners(scene[p], &points, out));
         }
     }
 

@@ -143,12 +143,13 @@ fn hair_scene(engine: &str, friction: &str, hair_hair: &str, duration: f64) -> S
 /// 346 without), 1 s of four strands pressed together
 /// falling onto a ball, on both engines and on the runtime engine again from q0 changed
 /// by 1e-15 (relative): the scene's own sensitivity to round-off. The pressed bundle
-/// amplifies round-off (measured over 1 s: 1.2e-8 m without rod friction, 7.6 mm with it,
-/// whose stick-or-slip switches), so the engines, whose arithmetic differs in order only,
-/// cannot agree closer than that: their centrelines agree to 1e-11 L over the first
-/// 0.2 s (measured 1.5e-13 m without rod friction, 9.2e-13 m with it), and over the
-/// whole second to 1e-9 L or ten times the scene's own spread, whichever is more
-/// (measured: 2.8e-8 m against a spread of 1.2e-8 m; 7.2 mm against 7.6 mm); the same
+/// amplifies round-off (measured over 1 s: 1.2e-8 m without rod friction, 14 mm with it,
+/// whose stick-or-slip switches; 6.0e-11 m already over the first 0.2 s), so the
+/// engines, whose arithmetic differs in order only, cannot agree closer than that: their
+/// centrelines agree over the first 0.2 s to 1e-11 L or the scene's own spread then,
+/// whichever is more (measured 1.5e-13 m without rod friction, 6.0e-12 m with it), and
+/// over the whole second to 1e-9 L or ten times the scene's own spread, whichever is more
+/// (measured: 2.8e-8 m against a spread of 1.2e-8 m; 15 mm against 14 mm); the same
 /// pairs each step while they agree to 1e-12 L; the strands
 /// touch each other on both (partners within reach counted by `contact_summary`), and no
 /// point goes more than 0.5 mm into the ball.
@@ -178,6 +179,7 @@ fn the_embedded_engine_steps_hair_against_hair_as_the_runtime_does() {
         }
         assert_eq!(embedded.engine(), Engine::Embedded);
         let (mut early, mut worst, mut spread) = (0.0f64, 0.0f64, 0.0f64);
+        let mut early_spread = 0.0f64;
         let (mut touching, mut deepest) = ([0usize; 2], 0.0f64);
         while runtime.time() < 1.0 - 1e-9 {
             for sim in [&mut embedded, &mut runtime, &mut perturbed] {
@@ -200,6 +202,9 @@ fn the_embedded_engine_steps_hair_against_hair_as_the_runtime_does() {
             }
             worst = worst.max(apart_now);
             spread = spread.max(apart(&mut runtime, &mut perturbed));
+            if runtime.time() <= 0.2 + 1e-9 {
+                early_spread = spread;
+            }
             for (sim, n) in [&embedded, &runtime].into_iter().zip(&mut touching) {
                 *n += (0..4)
                     .map(|i| sim.contact_summary(i).expect("contacts").hair_contacts)
@@ -214,8 +219,9 @@ fn the_embedded_engine_steps_hair_against_hair_as_the_runtime_does() {
             "{friction}: partners within reach over the run {touching:?} (embedded, runtime)"
         );
         assert!(
-            early <= 1e-11 * LENGTH,
-            "{friction}: the engines part by {early:e} m over 0.2 s"
+            early <= (1e-11 * LENGTH).max(early_spread),
+            "{friction}: the engines part by {early:e} m over 0.2 s, the scene from itself by \
+             {early_spread:e} m"
         );
         assert!(
             worst <= (1e-9 * LENGTH).max(10.0 * spread),
@@ -246,12 +252,10 @@ fn auto_takes_the_embedded_engine_for_contacts_with_bodies() {
         engine_for(&hair("self_contact = true")),
         (Engine::Embedded, None)
     );
-    for (extra, field) in [("coupling = \"pair\"", "contacts.hair_hair.coupling")] {
-        let (engine, reason) = engine_for(&hair(extra));
-        assert_eq!(engine, Engine::Runtime, "{extra}");
-        let reason = reason.expect("a reason");
-        assert_eq!(reason.field, field, "{reason:?}");
-    }
+    let (engine, reason) = engine_for(&hair("coupling = \"pair\""));
+    assert_eq!(engine, Engine::Runtime);
+    let reason = reason.expect("a reason");
+    assert_eq!(reason.field, "contacts.hair_hair.coupling", "{reason:?}");
 }
 
 /// A run of the embedded engine with Coulomb contacts stopped halfway, its state taken

@@ -92,10 +92,10 @@ pub trait EmbeddedGroup: Send + Sync {
     /// coordinates, the head in `head` (one list per strand, in order; empty lists
     /// without contacts).
     fn sample_positions(&self, head: &HeadState) -> Vec<Vec<nalgebra::Vector3<f64>>>;
-    /// Set every strand's partners for the coming step (hair–hair; one list per strand,
-    /// in order; taken, each put in arc-length order, the strands in parallel); nothing
-    /// without contacts.
-    fn set_partners(&mut self, partners: Vec<Vec<PartnerPoint>>);
+    /// Write every strand's partners for the coming step (hair–hair): `fill(p, list)`
+    /// writes strand p's into its list (cleared, memory kept; the strands in parallel);
+    /// nothing without contacts.
+    fn fill_partners(&mut self, fill: &(dyn Fn(usize, &mut Vec<PartnerPoint>) + Sync));
     /// Start every strand's contacts at its present state, time `t`, the head in `head`
     /// (the root zones, the depths allowed at the start, the first anchors), as the
     /// runtime engine does when it is built; nothing without contacts.
@@ -528,17 +528,14 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
             })
             .collect()
     }
-    fn set_partners(&mut self, partners: Vec<Vec<PartnerPoint>>) {
+    fn fill_partners(&mut self, fill: &(dyn Fn(usize, &mut Vec<PartnerPoint>) + Sync)) {
         let Some((_, buffers)) = self.contacts.as_mut() else {
             return;
         };
         buffers
             .par_iter_mut()
-            .zip(partners)
-            .for_each(|(b, partners)| {
-                // in arc-length order: their positions are then one pass along the strand
-                b.partners = crate::forces::contacts::strand_contacts::in_arc_order(partners);
-            });
+            .enumerate()
+            .for_each(|(p, b)| fill(p, &mut b.partners));
     }
     fn start_contacts(&mut self, t: f64, head: &HeadState) {
         use superhelix_kernels::fixed::ContactHooks;

@@ -96,6 +96,8 @@ pub struct HairHair {
     previous: Vec<Vec<Vector3<f64>>>,
     /// The broad phase's samples by cell (kept for its allocation).
     grid: Vec<Filed>,
+    /// The samples' search distances (kept for its allocation).
+    radii: Vec<f64>,
     steps: usize,
     search_every: usize,
     tracked_last: usize,
@@ -109,6 +111,21 @@ pub struct HairHair {
     self_exclusion: Option<f64>,
     /// The most pairs a sample keeps (its nearest; `None`: no cap).
     pair_cap: Option<usize>,
+    /// What the last update left for [`HairHair::fill_partners`]: per pair its closest
+    /// points (as [`closest_on_chains`] returns) and its reach less its strands'
+    /// allowance; per sample its velocity; per strand its partners as (arc length, pair)
+    /// in order (strand i's from `index_start[i]` to `index_start[i + 1]`); the head's
+    /// orientation and the step.
+    closest: Vec<(f64, f64)>,
+    /// Per pair: the arc lengths of its two closest points and the arc length it stands
+    /// for (the lesser of its two samples').
+    along: Vec<(f64, f64, f64)>,
+    allowed: Vec<f64>,
+    velocity: Vec<Vec<Vector3<f64>>>,
+    index: Vec<(f64, u32)>,
+    index_start: Vec<usize>,
+    rotation: Matrix3<f64>,
+    h: f64,
 }
 
 /// What the last update did.
@@ -284,11 +301,11 @@ impl HairHair {
         h: f64,
         fall: f64,
         rotation: &Matrix3<f64>,
-    ) -> Vec<Vec<PartnerPoint>> {
+    ) {
         // the search reaches as far as the two samples of a pair moved over the last
         // step, twice the larger (a pair must exist before the two points meet: the step
         // that brings them together is split by the strand's contact check until it
-        // resolves the approach); the grid's cells are as large as the smallest search
+        // resolves the approach)
         let motion: Vec<Vec<f64>> = points
             .par_iter()
             .enumerate()
@@ -314,7 +331,7 @@ impl HairHair {
         let rt = rotation.transpose();
         let mut anchors = std::mem::take(&mut self.anchors);
         anchors.resize(self.pairs.len(), None);
-        let mut carried: Vec<(Pair, Option<PairAnchor>)> = self
+        let carried: Vec<((Pair, Option<PairAnchor>), bool)> = self
             .pairs
             .par_iter()
             .zip(&anchors)
@@ -343,17 +360,17 @@ impl HairHair {
                     }
                     a
                 });
-                (p, anchor)
+                ((p, anchor), p != start)
             })
-            .filter(|(p, _)| dist2(points, p.a, p.b) < search2(p.a, p.b))
+            .filter(|((p, _), _)| dist2(points, p.a, p.b) < search2(p.a, p.b))
             // a pair of one strand whose sides slid together within the exclusion is no
             // contact
-            .filter(|(p, _)| distinct(arcs, self.self_exclusion, p.a, p.b))
+            .filter(|((p, _), _)| distinct(arcs, self.self_exclusion, p.a, p.b))
             .collect();
         // two pairs tracked to the same samples are one: the one that holds an anchor is
         // kept (the anchored first), so that a contact sliding across the samples keeps
         // its friction
-        carried.sort_unstable_by_key(|x| (x.0, x.1.is_none()));
+        let mut carried = in_order(carried, |x| (x.0, x.1.is_none()));
         carried.dedup_by_key(|x| x.0);
         let (mut tracked, mut anchors): (Vec<Pair>, Vec<Option<PairAnchor>>) =
             carried.into_iter().unzip();
@@ -371,16 +388,34 @@ impl HairHair {
         let mut found = 0;
         let mut new_pairs = Vec::new();
         if self.steps % self.search_every == 0 {
+            // the grid's cells as large as the search of nine samples in ten (at least the
+            // smallest search): the others look further, over more cells
+            let mut radii = std::mem::take(&mut self.radii);
+            radii.clear();
+            radii.extend(radius.iter().flatten().copied());
+            let cell = if radii.is_empty() {
+                reach + margin(0.0)
+            } else {
+                let n = (radii.len() - 1) * 9 / 10;
+                let (_, q, _) = radii.select_nth_unstable_by(n, |a, b| a.total_cmp(b));
+                q.max(reach + margin(0.0))
+            };
+            self.radii = radii;
             new_pairs = broad_phase(
                 points,
                 arcs,
                 self.self_exclusion,
                 &radius,
-                reach + margin(0.0),
+                cell,
                 self.pair_cap.unwrap_or(usize::MAX),
                 &mut self.grid,
             );
-            new_pairs.retain(|p| tracked.binary_search(p).is_err());
+            // the pairs not tracked already, sorted (most of those found are)
+            new_pairs = new_pairs
+                .into_par_iter()
+                .filter(|p| tracked.binary_search(p).is_err())
+                .collect();
+            new_pairs.sort_unstable();
             found = new_pairs.len();
             // both lists are sorted: merged (the new pairs hold no anchor)
             if found > 0 {
@@ -406,46 +441,35 @@ impl HairHair {
         }
         self.found_last = found;
         self.steps += 1;
-        // 3. partners
-        let velocity = |s: usize, k: usize| match self.previous.get(s).and_then(|c| c.get(k)) {
-            Some(x0) if h > 0.0 && self.previous[s].len() == points[s].len() => {
-                (points[s][k] - x0) / h
-            }
-            _ => Vector3::zeros(),
-        };
-        let mut partners: Vec<Vec<PartnerPoint>> = vec![Vec::new(); points.len()];
-        let closest: Vec<(f64, f64)> = tracked
-            .par_iter()
-            .map(|p| closest_on_chains(points, p.a, p.b))
-            .collect();
-        let fresh_pair: Vec<bool> = tracked
-            .iter()
-            .map(|p| new_pairs.binary_search(p).is_ok())
-            .collect();
-        // a contact is keyed by the samples nearest its two closest points: two sample
+        // 3. partners: each pair's closest points, keyed by the samples nearest them
+        // (a contact is keyed by the samples nearest its two closest points: two sample
         // pairs that are both local minima of the samples' distance around one crossing
         // (the diagonal neighbours (i, j) and (i + 1, j + 1) of two rods crossing at an
         // angle) refine to the same closest points and are one contact, not two (as two
         // they pressed twice, and as one of them came and went with the motion the
-        // crossing's force jumped: two ropes crossing at rest were kept swinging)
+        // crossing's force jumped: two ropes crossing at rest were kept swinging))
         let keyed: Vec<Keyed> = tracked
-            .into_iter()
+            .into_par_iter()
             .zip(anchors)
-            .zip(closest)
-            .zip(fresh_pair)
-            .map(|(((pair, anchor), closest), fresh)| Keyed {
+            .map(|(pair, anchor)| Keyed {
                 pair,
                 anchor,
-                closest,
-                fresh,
+                closest: closest_on_chains(points, pair.a, pair.b),
+                fresh: new_pairs.binary_search(&pair).is_ok(),
             })
             .collect();
         let keyed = rekey_to_closest(keyed, points, arcs, self.self_exclusion, &rt);
-        let tracked: Vec<Pair> = keyed.iter().map(|k| k.pair).collect();
-        let mut anchors: Vec<Option<PairAnchor>> = keyed.iter().map(|k| k.anchor).collect();
-        let closest: Vec<(f64, f64)> = keyed.iter().map(|k| k.closest).collect();
-        let fresh_pair: Vec<bool> = keyed.iter().map(|k| k.fresh).collect();
-        drop(keyed);
+        let mut tracked = Vec::with_capacity(keyed.len());
+        let mut anchors = Vec::with_capacity(keyed.len());
+        let mut closest = std::mem::take(&mut self.closest);
+        closest.clear();
+        let mut fresh_pair = Vec::with_capacity(keyed.len());
+        for k in keyed {
+            tracked.push(k.pair);
+            anchors.push(k.anchor);
+            closest.push(k.closest);
+            fresh_pair.push(k.fresh);
+        }
         // the allowances: a pair that is found already overlapping (at the first update,
         // or after the two strands met between two searches) is allowed its overlap, so
         // that it is let apart at the depenetration speed rather than pushed apart by its
@@ -484,27 +508,31 @@ impl HairHair {
                 *a = a.max(f);
             }
         }
+        drop(fresh_pair);
+        // the reach of each pair: its strands' reach less their allowance (most steps
+        // there is none)
         let allowance = &self.allowance;
-        // the reach of a pair of strands less its allowance (most steps there is none)
-        let allowed = |key: (usize, usize)| {
+        let mut allowed = std::mem::take(&mut self.allowed);
+        allowed.clear();
+        allowed.extend(tracked.iter().map(|p| {
             if allowance.is_empty() {
                 reach
             } else {
-                reach - allowance.get(&key).copied().unwrap_or(0.0)
+                reach - allowance.get(&(p.a.0, p.b.0)).copied().unwrap_or(0.0)
             }
-        };
+        }));
         // the friction anchors, from where the samples went over the last step
         let friction = self.friction;
         anchors
             .par_iter_mut()
             .zip(&tracked)
             .zip(&closest)
-            .for_each(|((anchor, p), &(ta, tb))| {
+            .zip(&allowed)
+            .for_each(|(((anchor, p), &(ta, tb)), &reach)| {
                 let Some(f) = friction else {
                     *anchor = None;
                     return;
                 };
-                let reach = allowed((p.a.0, p.b.0));
                 let line = point_at(points, p.a, ta) - point_at(points, p.b, tb);
                 let d = line.norm();
                 if d >= reach || d == 0.0 {
@@ -540,93 +568,81 @@ impl HairHair {
                     }
                 });
             });
-        let points_of = tracked
-            .par_iter()
-            .zip(&closest)
-            .zip(&anchors)
-            .enumerate()
-            .map(|(index, ((p, &(ta, tb)), anchor))| {
-                let reach = allowed((p.a.0, p.b.0));
-                let at = |side: (usize, usize), t: f64| {
-                    // the point at parameter t ∈ [−1, 1] around sample side.1: its arc
-                    // length, weight, position and velocity (linear between samples)
-                    let (s, k) = side;
-                    let j = if t < 0.0 { k - 1 } else { k + 1 };
-                    let f = t.abs();
-                    let (arc, wt) = arcs[s][k];
-                    let (arc2, _) = arcs[s].get(j).copied().unwrap_or((arc, wt));
-                    let x = points[s][k]
-                        + (points[s].get(j).copied().unwrap_or(points[s][k]) - points[s][k]) * f;
-                    let v0 = velocity(s, k);
-                    let v = if j < points[s].len() {
-                        v0 + (velocity(s, j) - v0) * f
-                    } else {
-                        v0
-                    };
-                    (arc + (arc2 - arc) * f, wt, x, v)
-                };
-                let (sa, wa, xa, va) = at(p.a, ta);
-                let (sb, wb, xb, vb) = at(p.b, tb);
-                let weight = wa.min(wb);
-                let normal = (xa - xb).try_normalize(0.0).unwrap_or_else(Vector3::zeros);
-                // each side's sample is pulled to the other's, offset by ±Δ*
-                let own_pair = p.a.0 == p.b.0;
-                let held = |own: (usize, usize), other: (usize, usize), sign: f64| {
-                    anchor.map(|a| PartnerAnchor {
-                        sample: own.1,
-                        point: points[other.0][other.1] + rotation * a.offset * sign,
-                        velocity: velocity(other.0, other.1),
-                        sliding: a.sliding,
-                        partner_sample: own_pair.then_some(other.1),
-                        offset: a.offset * sign,
-                        step: h,
-                    })
-                };
-                (
-                    PartnerPoint {
-                        s: sa,
-                        weight,
-                        point: xb,
-                        velocity: vb,
-                        reach,
-                        anchor: held(p.a, p.b, 1.0),
-                        partner_s: own_pair.then_some(sb),
-                        pair: index,
-                        normal,
-                    },
-                    PartnerPoint {
-                        s: sb,
-                        weight,
-                        point: xa,
-                        velocity: va,
-                        reach,
-                        anchor: held(p.b, p.a, -1.0),
-                        partner_s: own_pair.then_some(sa),
-                        pair: index,
-                        normal: -normal,
-                    },
-                )
-            })
-            .collect::<Vec<_>>();
-        // each strand's list sized once (a dense groom holds millions of partner points)
-        let mut counts = vec![0usize; points.len()];
+        // the velocities of the samples, from their positions of the last update
+        let previous = &self.previous;
+        let mut velocity = std::mem::take(&mut self.velocity);
+        velocity.resize(points.len(), Vec::new());
+        velocity.par_iter_mut().enumerate().for_each(|(s, v)| {
+            v.clear();
+            match previous.get(s) {
+                Some(prev) if h > 0.0 && prev.len() == points[s].len() => {
+                    v.extend(points[s].iter().zip(prev).map(|(x, x0)| (x - x0) / h))
+                }
+                _ => v.resize(points[s].len(), Vector3::zeros()),
+            }
+        });
+        self.velocity = velocity;
+        // each strand's partners in the order of their arc lengths along it (a pair of
+        // two parts of one strand acts on it through its first side; ties in the order
+        // of the pairs): (arc length, pair), strand by strand
+        let arc_at = |(s, k): (usize, usize), t: f64| {
+            let j = if t < 0.0 { k.wrapping_sub(1) } else { k + 1 };
+            let arc = arcs[s][k].0;
+            let arc2 = arcs[s].get(j).map_or(arc, |a| a.0);
+            arc + (arc2 - arc) * t.abs()
+        };
+        let mut start = std::mem::take(&mut self.index_start);
+        start.clear();
+        start.resize(points.len() + 1, 0);
         for p in &tracked {
-            counts[p.a.0] += 1;
+            start[p.a.0 + 1] += 1;
             if p.a.0 != p.b.0 {
-                counts[p.b.0] += 1;
+                start[p.b.0 + 1] += 1;
             }
         }
-        for (list, &n) in partners.iter_mut().zip(&counts) {
-            list.reserve_exact(n);
+        for i in 0..points.len() {
+            start[i + 1] += start[i];
         }
-        drop(counts);
-        for (p, (on_a, on_b)) in tracked.iter().zip(points_of) {
-            partners[p.a.0].push(on_a);
-            // a pair of two parts of one strand acts on both through its first side
+        let mut along = std::mem::take(&mut self.along);
+        along.clear();
+        along.extend(tracked.iter().zip(&closest).map(|(p, &(ta, tb))| {
+            let weight = arcs[p.a.0][p.a.1].1.min(arcs[p.b.0][p.b.1].1);
+            (arc_at(p.a, ta), arc_at(p.b, tb), weight)
+        }));
+        let mut index = std::mem::take(&mut self.index);
+        index.clear();
+        index.resize(start[points.len()], (0.0, 0));
+        let mut cursor: Vec<usize> = start[..points.len()].to_vec();
+        for (i, (p, &(sa, sb, _))) in tracked.iter().zip(&along).enumerate() {
+            index[cursor[p.a.0]] = (sa, i as u32);
+            cursor[p.a.0] += 1;
             if p.a.0 != p.b.0 {
-                partners[p.b.0].push(on_b);
+                index[cursor[p.b.0]] = (sb, i as u32);
+                cursor[p.b.0] += 1;
             }
         }
+        drop(cursor);
+        {
+            let mut lists: Vec<&mut [(f64, u32)]> = Vec::with_capacity(points.len());
+            let mut rest = &mut index[..];
+            for w in start.windows(2) {
+                let (list, tail) = rest.split_at_mut(w[1] - w[0]);
+                lists.push(list);
+                rest = tail;
+            }
+            lists.par_iter_mut().for_each(|list| {
+                if !list.windows(2).all(|w| w[0].0.total_cmp(&w[1].0).is_le()) {
+                    list.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+                }
+            });
+        }
+        self.index = index;
+        self.index_start = start;
+        self.along = along;
+        self.closest = closest;
+        self.allowed = allowed;
+        self.rotation = *rotation;
+        self.h = h;
         self.pairs = tracked;
         self.anchors = anchors;
         self.previous.resize(points.len(), Vec::new());
@@ -634,7 +650,117 @@ impl HairHair {
             prev.clear();
             prev.extend_from_slice(now);
         }
-        partners
+    }
+
+    /// Strand `strand`'s partner points for the coming step, from the pairs of the last
+    /// [`Self::update`] at `points` (the same positions, `arcs` the same arc lengths):
+    /// written into `out` (cleared first; its memory kept), in the order of their arc
+    /// lengths along the strand. Each pair gives each of its strands a
+    /// [`PartnerPoint`]: its own arc length at the pair's closest point, and the other
+    /// side's point and velocity there (linear between samples); a pair of two parts of
+    /// one strand gives it one, through its first side.
+    pub fn fill_partners(
+        &self,
+        strand: usize,
+        points: &[Vec<Vector3<f64>>],
+        out: &mut Vec<PartnerPoint>,
+    ) {
+        out.clear();
+        let (Some(&lo), Some(&hi)) = (
+            self.index_start.get(strand),
+            self.index_start.get(strand + 1),
+        ) else {
+            return;
+        };
+        out.reserve(hi - lo);
+        for &(_, index) in &self.index[lo..hi] {
+            let index = index as usize;
+            out.push(self.partner_point(index, self.pairs[index].a.0 == strand, points));
+        }
+    }
+
+    /// The partner point pair `index` gives the strand of its side a (`on_a`) or b.
+    fn partner_point(
+        &self,
+        index: usize,
+        on_a: bool,
+        points: &[Vec<Vector3<f64>>],
+    ) -> PartnerPoint {
+        let p = self.pairs[index];
+        let (ta, tb) = self.closest[index];
+        let reach = self.allowed[index];
+        let anchor = self.anchors[index];
+        let (rotation, h) = (&self.rotation, self.h);
+        let velocity = |s: usize, k: usize| self.velocity[s][k];
+        let (sa, sb, weight) = self.along[index];
+        let at = |side: (usize, usize), t: f64| {
+            // the point at parameter t ∈ [−1, 1] around sample side.1: its position and
+            // velocity (linear between samples)
+            let (s, k) = side;
+            let j = if t < 0.0 { k.wrapping_sub(1) } else { k + 1 };
+            let f = t.abs();
+            let x = points[s][k]
+                + (points[s].get(j).copied().unwrap_or(points[s][k]) - points[s][k]) * f;
+            let v0 = velocity(s, k);
+            let v = if j < points[s].len() {
+                v0 + (velocity(s, j) - v0) * f
+            } else {
+                v0
+            };
+            (x, v)
+        };
+        let (xa, va) = at(p.a, ta);
+        let (xb, vb) = at(p.b, tb);
+        let normal = (xa - xb).try_normalize(0.0).unwrap_or_else(Vector3::zeros);
+        // each side's sample is pulled to the other's, offset by ±Δ*
+        let own_pair = p.a.0 == p.b.0;
+        let held = |own: (usize, usize), other: (usize, usize), sign: f64| {
+            anchor.map(|a| PartnerAnchor {
+                sample: own.1,
+                point: points[other.0][other.1] + rotation * a.offset * sign,
+                velocity: velocity(other.0, other.1),
+                sliding: a.sliding,
+                partner_sample: own_pair.then_some(other.1),
+                offset: a.offset * sign,
+                step: h,
+            })
+        };
+        if on_a {
+            PartnerPoint {
+                s: sa,
+                weight,
+                point: xb,
+                velocity: vb,
+                reach,
+                anchor: held(p.a, p.b, 1.0),
+                partner_s: own_pair.then_some(sb),
+                pair: index,
+                normal,
+            }
+        } else {
+            PartnerPoint {
+                s: sb,
+                weight,
+                point: xa,
+                velocity: va,
+                reach,
+                anchor: held(p.b, p.a, -1.0),
+                partner_s: own_pair.then_some(sa),
+                pair: index,
+                normal: -normal,
+            }
+        }
+    }
+
+    /// Every strand's partner points ([`Self::fill_partners`] for each).
+    pub fn partners(&self, points: &[Vec<Vector3<f64>>]) -> Vec<Vec<PartnerPoint>> {
+        (0..points.len())
+            .map(|s| {
+                let mut out = Vec::new();
+                self.fill_partners(s, points, &mut out);
+                out
+            })
+            .collect()
     }
 }
 
@@ -671,7 +797,7 @@ pub fn pairs_at_start(
 ) -> usize {
     let search = reach + fall.clamp(reach, SEARCH_MARGIN * reach);
     let radius: Vec<Vec<f64>> = points.iter().map(|c| vec![search; c.len()]).collect();
-    let found = broad_phase(
+    let mut found = broad_phase(
         points,
         arcs,
         self_exclusion,
@@ -680,6 +806,7 @@ pub fn pairs_at_start(
         cap,
         &mut Vec::new(),
     );
+    found.sort_unstable();
     let anchors = vec![None; found.len()];
     keep_nearest(found, anchors, points, cap).0.len()
 }
@@ -809,15 +936,14 @@ impl Filed {
 /// The sample pairs (a, b) of different strands (or of one strand more than
 /// `self_exclusion` apart in arc length, when given) closer than the larger of their two
 /// search distances (`radius`, per strand per sample) that are local minima of their
-/// distance along both chains ([`Filed::local_minimum`]; sorted, without repeats). Every sample is
-/// filed under its cell of a grid of cells of size `cell` (in `cells`, sorted by cell);
-/// the samples of a cell are compared with those of the cells within their largest
-/// search distance around it (the 27 nearest when it is at most `cell`), the cells in
-/// parallel: a pair beyond what one of its samples looks at is found by the other, whose
-/// search distance is the larger, so a few fast samples (a whipping tip) do not widen
-/// the search of all the others. Each pair is taken once: by the sample in the earlier
-/// cell (or the earlier sample of one cell) when neither searches beyond a cell, else by
-/// the one that searches the farther. Each sample keeps the `cap` nearest of the pairs
+/// distance along both chains ([`Filed::local_minimum`]; each once, in no order). Every
+/// sample is filed under its cell of a grid of cells of size `cell` (in `cells`, sorted
+/// by cell), the cells in parallel. Each pair is taken once: when neither of its samples
+/// searches beyond a cell, by the sample in the earlier cell (or the earlier sample of
+/// one cell), which looks at its own cell and the 13 of the 26 around it that come after
+/// it; else by the one that searches the farther, which looks at every cell within its
+/// search distance (so a few fast samples, a whipping tip, do not widen the search of
+/// all the others). Each sample keeps the `cap` nearest of the pairs
 /// it took (by distance, then by pair): at most `cap` pairs a sample, and every pair
 /// among the `cap` nearest of both its samples.
 fn broad_phase(
@@ -833,6 +959,8 @@ fn broad_phase(
     // a point outside that range is not filed
     const BIAS: i64 = 1 << 20;
     const SPAN: i64 = 64;
+    // one cell along each axis
+    const ONE: u64 = (1 << 42) + (1 << 21) + 1;
     let coord = |x: f64| -> Option<u64> {
         let c = (x / cell).floor();
         (c.is_finite() && c.abs() < (BIAS - SPAN) as f64).then(|| (c as i64 + BIAS) as u64)
@@ -883,66 +1011,81 @@ fn broad_phase(
             Err(_) => &[],
         }
     };
-    let mut pairs: Vec<Pair> = starts
+    let pairs: Vec<Pair> = starts
         .par_iter()
         .enumerate()
         .flat_map_iter(|(n, &lo)| {
             let hi = starts.get(n + 1).copied().unwrap_or(cells.len());
             let own = &cells[lo..hi];
             let c = own[0].cell;
-            let widest = own.iter().map(|f| f.radius).fold(0.0, f64::max);
-            let span = ((widest / cell).ceil() as i64).clamp(1, SPAN - 1) as u64;
-            let corner = (span << 42) + (span << 21) + span;
             // every pair is taken once, by one rule: a pair whose larger search distance
             // is at most a cell, from the cell earlier in the order of the keys (within
             // one cell, from its earlier sample); any other from the side of the larger
             // search distance, which looks as far as it (at a tie, the earlier sample's)
             let earlier =
                 |f: &Filed, g: &Filed| (f.cell, f.strand, f.sample) < (g.cell, g.strand, g.sample);
-            let takes = |fa: &Filed, fb: &Filed| {
-                if fa.radius.max(fb.radius) <= cell {
-                    earlier(fa, fb)
-                } else {
-                    fa.radius > fb.radius || (fa.radius == fb.radius && earlier(fa, fb))
-                }
-            };
             // what the cell's samples take: (sample within the cell, squared distance,
             // pair)
             let mut taken: Vec<(u32, f64, Pair)> = Vec::new();
-            for dx in 0..=2 * span {
-                for dy in 0..=2 * span {
-                    for dz in 0..=2 * span {
-                        let other = (c + (dx << 42) + (dy << 21) + dz).wrapping_sub(corner);
-                        // a cell of slow samples looks only at the cells after it (the
-                        // cells before it look at it)
-                        if widest <= cell && other < c {
-                            continue;
-                        }
-                        let others = run(other);
-                        if others.is_empty() {
-                            continue;
-                        }
-                        for (ia, fa) in own.iter().enumerate() {
-                            let ra = fa.radius;
-                            for fb in others {
-                                if fa.strand == fb.strand
-                                    && self_exclusion.is_none_or(|e| (fa.arc - fb.arc).abs() <= e)
-                                {
-                                    continue;
+            let mut consider = |ia: usize, fa: &Filed, fb: &Filed| {
+                if fa.strand == fb.strand
+                    && self_exclusion.is_none_or(|e| (fa.arc - fb.arc).abs() <= e)
+                {
+                    return;
+                }
+                let r = fa.radius.max(fb.radius);
+                let d = dist2_of(&fa.x, &fb.x);
+                // only the local minima of the distance along both chains
+                if d >= r * r || !fa.local_minimum(fb, d, self_exclusion) {
+                    return;
+                }
+                let a = (fa.strand as usize, fa.sample as usize);
+                let b = (fb.strand as usize, fb.sample as usize);
+                let (a, b) = if a < b { (a, b) } else { (b, a) };
+                taken.push((ia as u32, d, Pair { a, b }));
+            };
+            // the samples that search within a cell take their pairs with the others that
+            // do in this cell and the cells after it (the cells before it take theirs with
+            // this one)
+            let slow = |f: &Filed| f.radius <= cell;
+            if own.iter().any(slow) {
+                for dx in 0..=2u64 {
+                    for dy in 0..=2u64 {
+                        for dz in 0..=2u64 {
+                            let other = (c + (dx << 42) + (dy << 21) + dz).wrapping_sub(ONE);
+                            if other < c {
+                                continue;
+                            }
+                            let others = run(other);
+                            for (ia, fa) in own.iter().enumerate().filter(|(_, f)| slow(f)) {
+                                // within the cell, from its earlier sample
+                                let from = if other == c { ia + 1 } else { 0 };
+                                for fb in others.get(from..).unwrap_or(&[]) {
+                                    if slow(fb) {
+                                        consider(ia, fa, fb);
+                                    }
                                 }
-                                let r = ra.max(fb.radius);
-                                let d = dist2_of(&fa.x, &fb.x);
-                                // only the local minima of the distance along both chains
-                                if d >= r * r
-                                    || !takes(fa, fb)
-                                    || !fa.local_minimum(fb, d, self_exclusion)
+                            }
+                        }
+                    }
+                }
+            }
+            // a sample that searches further takes its pairs with every sample that
+            // searches less far (or as far, and comes after it), over the cells within its
+            // search distance
+            for (ia, fa) in own.iter().enumerate().filter(|(_, f)| !slow(f)) {
+                let span = ((fa.radius / cell).ceil() as i64).clamp(1, SPAN - 1) as u64;
+                let corner = (span << 42) + (span << 21) + span;
+                for dx in 0..=2 * span {
+                    for dy in 0..=2 * span {
+                        for dz in 0..=2 * span {
+                            let other = (c + (dx << 42) + (dy << 21) + dz).wrapping_sub(corner);
+                            for fb in run(other) {
+                                if fa.radius > fb.radius
+                                    || (fa.radius == fb.radius && earlier(fa, fb))
                                 {
-                                    continue;
+                                    consider(ia, fa, fb);
                                 }
-                                let a = (fa.strand as usize, fa.sample as usize);
-                                let b = (fb.strand as usize, fb.sample as usize);
-                                let (a, b) = if a < b { (a, b) } else { (b, a) };
-                                taken.push((ia as u32, d, Pair { a, b }));
                             }
                         }
                     }
@@ -966,8 +1109,6 @@ fn broad_phase(
             taken.into_iter().map(|x| x.2)
         })
         .collect();
-    pairs.par_sort_unstable();
-    pairs.dedup();
     pairs
 }
 
@@ -1073,20 +1214,53 @@ fn rekey_to_closest(
             (moved, true)
         })
         .collect();
-    let moved = keyed.iter().any(|k| k.1);
-    let mut keyed: Vec<Keyed> = keyed.into_iter().map(|k| k.0).collect();
-    if moved {
-        keyed.sort_unstable_by_key(|k| (k.pair, k.anchor.is_none()));
-        keyed.dedup_by(|later, kept| {
-            if later.pair == kept.pair {
-                kept.fresh &= later.fresh;
-                true
-            } else {
-                false
-            }
-        });
-    }
+    let mut keyed = in_order(keyed, |k| (k.pair, k.anchor.is_none()));
+    keyed.dedup_by(|later, kept| {
+        if later.pair == kept.pair {
+            kept.fresh &= later.fresh;
+            true
+        } else {
+            false
+        }
+    });
     keyed
+}
+
+/// `items` in the order of `key` (at equal keys, in their order), given that those not
+/// marked as moved are in that order already (as when a sorted list's items move, a
+/// few of them out of their places): the moved ones sorted and merged in, at equal keys
+/// after the others (when the others are not in order after all, all are sorted).
+fn in_order<T: Send, K: Ord>(items: Vec<(T, bool)>, key: impl Fn(&T) -> K) -> Vec<T> {
+    let moves = items.iter().filter(|x| x.1).count();
+
+    if moves == 0 {
+        return items.into_iter().map(|x| x.0).collect();
+    }
+    let mut kept = Vec::with_capacity(items.len() - moves);
+    let mut moved = Vec::with_capacity(moves);
+    for (item, m) in items {
+        if m {
+            moved.push(item);
+        } else {
+            kept.push(item);
+        }
+    }
+    moved.sort_by_key(&key);
+    if !kept.windows(2).all(|w| key(&w[0]) <= key(&w[1])) {
+        kept.append(&mut moved);
+        kept.sort_by_key(&key);
+        return kept;
+    }
+    let mut out = Vec::with_capacity(kept.len() + moved.len());
+    let mut moved = moved.into_iter().peekable();
+    for item in kept {
+        while let Some(m) = moved.next_if(|m| key(m) < key(&item)) {
+            out.push(m);
+        }
+        out.push(item);
+    }
+    out.extend(moved);
+    out
 }
 
 /// The closest points of the two chains around samples `a` and `b`, among the segments
@@ -1228,7 +1402,7 @@ mod tests {
             r * r
         };
         let mut cells = Vec::new();
-        let found = broad_phase(
+        let mut found = broad_phase(
             &points,
             &arcs,
             exclusion,
@@ -1237,6 +1411,8 @@ mod tests {
             usize::MAX,
             &mut cells,
         );
+        // (each pair once: a repeat would stay after sorting)
+        found.sort_unstable();
         let mut all = Vec::new();
         for i in 0..points.len() {
             for j in i..points.len() {
@@ -1279,7 +1455,8 @@ mod tests {
             own.into_iter().map(|u| u.1).collect::<Vec<_>>()
         };
         for cap in [1, 2, 4] {
-            let capped = broad_phase(&points, &arcs, exclusion, &radius, cell, cap, &mut cells);
+            let mut capped = broad_phase(&points, &arcs, exclusion, &radius, cell, cap, &mut cells);
+            capped.sort_unstable();
             assert!(capped.iter().all(|p| all.binary_search(p).is_ok()));
             assert!(capped.len() <= cap * samples);
             let must: Vec<Pair> = all

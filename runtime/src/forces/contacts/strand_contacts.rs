@@ -312,10 +312,10 @@ impl StrandContacts {
         self.partners = in_arc_order(partners);
     }
 
-    /// Drop the partner points (their memory is freed before the next update builds
-    /// the new ones).
-    pub fn clear_partners(&mut self) {
-        self.partners = Vec::new();
+    /// The partner points of the coming step, to be written in arc-length order (their
+    /// positions are then one pass along the strand; [`Self::set_partners`] orders them).
+    pub fn partners_mut(&mut self) -> &mut Vec<PartnerPoint> {
+        &mut self.partners
     }
 
     /// Whether the strand has partner points for the coming step.
