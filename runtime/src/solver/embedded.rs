@@ -696,6 +696,7 @@ impl StrandContactBuffers {
             root_zone: self.scalars.root_zone,
             started: self.scalars.started,
             updated: self.scalars.updated,
+            last_contact: self.scalars.last_contact,
         }
     }
 
@@ -724,6 +725,7 @@ impl StrandContactBuffers {
             root_zone: state.root_zone,
             started: state.started,
             updated: state.updated,
+            last_contact: state.last_contact,
             ..ContactScalars::default()
         };
         Ok(())
@@ -810,8 +812,11 @@ pub struct FixedStrandState {
 
 /// What a strand's contacts carry from one step to the next in the embedded engine (see
 /// [`FixedStrandState`]): per sample its Coulomb anchor (collider, point in its
-/// coordinates, sliding) and allowance, the root zone, whether they were started and the
-/// time of their last bookkeeping.
+/// coordinates, sliding) and allowance, the root zone, whether they were started, the
+/// time of their last bookkeeping, and the contact energy and its rate at the last
+/// measure of the energy balance (the reference the next step's start energy is
+/// corrected from when the contacts have a history, as the runtime's checkpoint keeps
+/// it).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 struct ContactState {
     anchors: Vec<Option<(usize, [f64; 3], bool)>>,
@@ -819,6 +824,8 @@ struct ContactState {
     root_zone: (usize, usize),
     started: bool,
     updated: Option<f64>,
+    #[serde(default)]
+    last_contact: (f64, f64),
 }
 
 /// A strand's error-controlled step history and report (see [`FixedStrandState`]).

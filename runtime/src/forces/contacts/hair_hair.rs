@@ -331,7 +331,15 @@ impl HairHair {
         let rt = rotation.transpose();
         let mut anchors = std::mem::take(&mut self.anchors);
         anchors.resize(self.pairs.len(), None);
-        let carried: Vec<((Pair, Option<PairAnchor>), bool)> = self
+        // each pair is then keyed by the samples nearest its closest points (a contact
+        // is keyed by the samples nearest its two closest points: two sample pairs that
+        // are both local minima of the samples' distance around one crossing (the
+        // diagonal neighbours (i, j) and (i + 1, j + 1) of two rods crossing at an
+        // angle) refine to the same closest points and are one contact, not two (as two
+        // they pressed twice, and as one of them came and went with the motion the
+        // crossing's force jumped: two ropes crossing at rest were kept swinging))
+        let exclusion = self.self_exclusion;
+        let carried: Vec<(Keyed, bool)> = self
             .pairs
             .par_iter()
             .zip(&anchors)
@@ -341,16 +349,24 @@ impl HairHair {
                     && p.a.1 < points[p.a.0].len()
                     && p.b.1 < points[p.b.0].len()
             })
-            .map(|(p, anchor)| {
+            .filter_map(|(p, anchor)| {
                 let start = *p;
                 let mut p = *p;
                 for _ in 0..4 {
                     let before = p;
-                    descend(points, arcs, self.self_exclusion, &mut p, 0);
-                    descend(points, arcs, self.self_exclusion, &mut p, 1);
+                    descend(points, arcs, exclusion, &mut p, 0);
+                    descend(points, arcs, exclusion, &mut p, 1);
                     if p == before {
                         break;
                     }
+                }
+                // a pair whose points drifted apart beyond the search is dropped, and a
+                // pair of one strand whose sides slid together within the exclusion is
+                // no contact
+                if dist2(points, p.a, p.b) >= search2(p.a, p.b)
+                    || !distinct(arcs, exclusion, p.a, p.b)
+                {
+                    return None;
                 }
                 let anchor = anchor.map(|mut a| {
                     if p != start {
@@ -360,33 +376,28 @@ impl HairHair {
                     }
                     a
                 });
-                ((p, anchor), p != start)
+                let keyed = to_closest(p, anchor, false, points, arcs, exclusion, &rt);
+                let moved = keyed.pair != start;
+                Some((keyed, moved))
             })
-            .filter(|((p, _), _)| dist2(points, p.a, p.b) < search2(p.a, p.b))
-            // a pair of one strand whose sides slid together within the exclusion is no
-            // contact
-            .filter(|((p, _), _)| distinct(arcs, self.self_exclusion, p.a, p.b))
             .collect();
         // two pairs tracked to the same samples are one: the one that holds an anchor is
         // kept (the anchored first), so that a contact sliding across the samples keeps
         // its friction
-        let mut carried = in_order(carried, |x| (x.0, x.1.is_none()));
-        carried.dedup_by_key(|x| x.0);
-        let (mut tracked, mut anchors): (Vec<Pair>, Vec<Option<PairAnchor>>) =
-            carried.into_iter().unzip();
-        self.tracked_last = tracked.len();
+        let mut keyed = in_order(carried, |k| (k.pair, k.anchor.is_none()));
+        keyed.dedup_by_key(|k| k.pair);
+        self.tracked_last = keyed.len();
         // the pairs of strands already in contact: a pair the search finds between them
         // again is no new meeting and takes no allowance
         // (their strands kept as they are; sorted only when a fresh pair overlaps)
         let mut known: Vec<(usize, usize)> = if self.depenetration_speed > 0.0 {
-            tracked.iter().map(|p| (p.a.0, p.b.0)).collect()
+            keyed.iter().map(|k| (k.pair.a.0, k.pair.b.0)).collect()
         } else {
             Vec::new()
         };
         let mut known_sorted = false;
         // 2. broad phase
         let mut found = 0;
-        let mut new_pairs = Vec::new();
         if self.steps % self.search_every == 0 {
             // the grid's cells as large as the search of nine samples in ten (at least the
             // smallest search): the others look further, over more cells
@@ -401,64 +412,48 @@ impl HairHair {
                 q.max(reach + margin(0.0))
             };
             self.radii = radii;
-            new_pairs = broad_phase(
+            let new_pairs = broad_phase(
                 points,
                 arcs,
-                self.self_exclusion,
+                exclusion,
                 &radius,
                 cell,
                 self.pair_cap.unwrap_or(usize::MAX),
                 &mut self.grid,
             );
-            // the pairs not tracked already, sorted (most of those found are)
-            new_pairs = new_pairs
+            // the pairs not tracked already, keyed as the tracked ones are and in order
+            let tracked = &keyed;
+            let mut fresh: Vec<Keyed> = new_pairs
                 .into_par_iter()
-                .filter(|p| tracked.binary_search(p).is_err())
+                .filter(|p| tracked.binary_search_by(|k| k.pair.cmp(p)).is_err())
+                .map(|p| to_closest(p, None, true, points, arcs, exclusion, &rt))
                 .collect();
-            new_pairs.sort_unstable();
-            found = new_pairs.len();
-            // both lists are sorted: merged (the new pairs hold no anchor)
-            if found > 0 {
-                let merged = merge_sorted(&tracked, &new_pairs);
-                let mut old = tracked.iter().zip(&anchors).peekable();
-                anchors = merged
-                    .iter()
-                    .map(|p| match old.peek() {
-                        Some((q, a)) if *q == p => {
-                            let a = **a;
-                            old.next();
-                            a
+            found = fresh.len();
+            fresh.sort_unstable_by_key(|k| k.pair);
+            fresh.dedup_by_key(|k| k.pair);
+            // both lists are sorted: merged (a pair keyed as a tracked one is that one)
+            if !fresh.is_empty() {
+                let mut merged = Vec::with_capacity(keyed.len() + fresh.len());
+                let mut fresh = fresh.into_iter().peekable();
+                for k in keyed {
+                    while let Some(f) = fresh.next_if(|f| f.pair <= k.pair) {
+                        if f.pair != k.pair {
+                            merged.push(f);
                         }
-                        _ => None,
-                    })
-                    .collect();
-                tracked = merged;
+                    }
+                    merged.push(k);
+                }
+                merged.extend(fresh);
+                keyed = merged;
             }
         }
         // the cap: the pairs tracked to new samples and those found may crowd a sample
         if let Some(cap) = self.pair_cap {
-            (tracked, anchors) = keep_nearest(tracked, anchors, points, cap);
+            keyed = keep_nearest(keyed, |k| k.pair, points, cap);
         }
         self.found_last = found;
         self.steps += 1;
-        // 3. partners: each pair's closest points, keyed by the samples nearest them
-        // (a contact is keyed by the samples nearest its two closest points: two sample
-        // pairs that are both local minima of the samples' distance around one crossing
-        // (the diagonal neighbours (i, j) and (i + 1, j + 1) of two rods crossing at an
-        // angle) refine to the same closest points and are one contact, not two (as two
-        // they pressed twice, and as one of them came and went with the motion the
-        // crossing's force jumped: two ropes crossing at rest were kept swinging))
-        let keyed: Vec<Keyed> = tracked
-            .into_par_iter()
-            .zip(anchors)
-            .map(|(pair, anchor)| Keyed {
-                pair,
-                anchor,
-                closest: closest_on_chains(points, pair.a, pair.b),
-                fresh: new_pairs.binary_search(&pair).is_ok(),
-            })
-            .collect();
-        let keyed = rekey_to_closest(keyed, points, arcs, self.self_exclusion, &rt);
+        // 3. partners
         let mut tracked = Vec::with_capacity(keyed.len());
         let mut anchors = Vec::with_capacity(keyed.len());
         let mut closest = std::mem::take(&mut self.closest);
@@ -807,21 +802,20 @@ pub fn pairs_at_start(
         &mut Vec::new(),
     );
     found.sort_unstable();
-    let anchors = vec![None; found.len()];
-    keep_nearest(found, anchors, points, cap).0.len()
+    keep_nearest(found, |p| *p, points, cap).len()
 }
 
-/// The pairs (sorted, with their anchors) that are among the `cap` nearest of either of
-/// their two samples (distance between the samples at `points`; ties by pair), in the same
-/// order.
-fn keep_nearest(
-    pairs: Vec<Pair>,
-    anchors: Vec<Option<PairAnchor>>,
+/// The items (each standing for its `pair`; sorted) whose pairs are among the `cap`
+/// nearest of either of their two samples (distance between the samples at `points`;
+/// ties by order), in the same order.
+fn keep_nearest<T>(
+    items: Vec<T>,
+    pair: impl Fn(&T) -> Pair,
     points: &[Vec<Vector3<f64>>],
     cap: usize,
-) -> (Vec<Pair>, Vec<Option<PairAnchor>>) {
-    if pairs.len() <= cap {
-        return (pairs, anchors);
+) -> Vec<T> {
+    if items.len() <= cap {
+        return items;
     }
     // most steps no sample holds more than `cap` pairs: counted without sorting
     let mut offsets = Vec::with_capacity(points.len());
@@ -831,18 +825,19 @@ fn keep_nearest(
         total += chain.len();
     }
     let mut held = vec![0usize; total];
-    for p in &pairs {
+    for p in items.iter().map(&pair) {
         held[offsets[p.a.0] + p.a.1] += 1;
         held[offsets[p.b.0] + p.b.1] += 1;
     }
     if held.iter().all(|&n| n <= cap) {
-        return (pairs, anchors);
+        return items;
     }
     // a sample that holds at most `cap` pairs keeps them all; the others rank theirs:
     // every pair under each of its samples that holds more, nearest first
     let over = |(s, k): (usize, usize)| held[offsets[s] + k] > cap;
-    let mut ends: Vec<((usize, usize), f64, usize)> = pairs
+    let mut ends: Vec<((usize, usize), f64, usize)> = items
         .iter()
+        .map(&pair)
         .enumerate()
         .filter(|(_, p)| over(p.a) || over(p.b))
         .flat_map(|(i, p)| {
@@ -852,7 +847,11 @@ fn keep_nearest(
         .filter(|e| over(e.0))
         .collect();
     ends.par_sort_unstable_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)).then(x.2.cmp(&y.2)));
-    let mut keep: Vec<bool> = pairs.iter().map(|p| !over(p.a) || !over(p.b)).collect();
+    let mut keep: Vec<bool> = items
+        .iter()
+        .map(&pair)
+        .map(|p| !over(p.a) || !over(p.b))
+        .collect();
     let mut rank = 0;
     for j in 0..ends.len() {
         rank = if j > 0 && ends[j].0 == ends[j - 1].0 {
@@ -865,32 +864,13 @@ fn keep_nearest(
         }
     }
     if keep.iter().all(|&k| k) {
-        return (pairs, anchors);
+        return items;
     }
-    pairs
+    items
         .into_iter()
-        .zip(anchors)
         .zip(keep)
         .filter_map(|(x, k)| k.then_some(x))
-        .unzip()
-}
-
-/// The union of two sorted lists without common elements, sorted.
-fn merge_sorted(a: &[Pair], b: &[Pair]) -> Vec<Pair> {
-    let mut out = Vec::with_capacity(a.len() + b.len());
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() && j < b.len() {
-        if a[i] <= b[j] {
-            out.push(a[i]);
-            i += 1;
-        } else {
-            out.push(b[j]);
-            j += 1;
-        }
-    }
-    out.extend_from_slice(&a[i..]);
-    out.extend_from_slice(&b[j..]);
-    out
+        .collect()
 }
 
 /// A sample filed on the broad phase's grid: its cell, strand and sample, position and
@@ -1166,18 +1146,22 @@ struct Keyed {
     fresh: bool,
 }
 
-/// The pairs keyed by the samples nearest their closest points (a side whose point lies
-/// more than half-way to a neighbouring sample moves to it), the closest points found
-/// again around the new samples, and the pairs that met the same samples merged into one
-/// (the one holding a friction anchor kept, its anchor carried to the samples it moved to
-/// as the tracking carries it; fresh only if all were). Sorted, as the pairs are.
-fn rekey_to_closest(
-    keyed: Vec<Keyed>,
+/// Pair `p` (with its anchor, and whether this update's search found it) keyed by the
+/// samples nearest its closest points: the closest points of the two chains around its
+/// samples ([`closest_on_chains`]), and when a side's point lies more than half-way to
+/// a neighbouring sample, the pair moved to that sample (unless that makes two parts of
+/// one strand within the exclusion), its closest points found again there and its
+/// anchor carried along as the tracking carries it.
+fn to_closest(
+    p: Pair,
+    anchor: Option<PairAnchor>,
+    fresh: bool,
     points: &[Vec<Vector3<f64>>],
     arcs: &[&[(f64, f64)]],
     exclusion: Option<f64>,
     rt: &Matrix3<f64>,
-) -> Vec<Keyed> {
+) -> Keyed {
+    let closest = closest_on_chains(points, p.a, p.b);
     let nearest = |(s, k): (usize, usize), t: f64| {
         if t > 0.5 && k + 1 < points[s].len() {
             (s, k + 1)
@@ -1187,43 +1171,30 @@ fn rekey_to_closest(
             (s, k)
         }
     };
-    // (the pairs in parallel, in order)
-    let keyed: Vec<(Keyed, bool)> = keyed
-        .into_par_iter()
-        .map(|k| {
-            let p = k.pair;
-            let q = Pair {
-                a: nearest(p.a, k.closest.0),
-                b: nearest(p.b, k.closest.1),
-            };
-            if q == p || !distinct(arcs, exclusion, q.a, q.b) {
-                return (k, false);
-            }
-            let anchor = k.anchor.map(|mut a| {
-                let shift = (points[q.a.0][q.a.1] - points[p.a.0][p.a.1])
-                    - (points[q.b.0][q.b.1] - points[p.b.0][p.b.1]);
-                a.offset += rt * shift;
-                a
-            });
-            let moved = Keyed {
-                pair: q,
-                anchor,
-                closest: closest_on_chains(points, q.a, q.b),
-                fresh: k.fresh,
-            };
-            (moved, true)
-        })
-        .collect();
-    let mut keyed = in_order(keyed, |k| (k.pair, k.anchor.is_none()));
-    keyed.dedup_by(|later, kept| {
-        if later.pair == kept.pair {
-            kept.fresh &= later.fresh;
-            true
-        } else {
-            false
-        }
+    let q = Pair {
+        a: nearest(p.a, closest.0),
+        b: nearest(p.b, closest.1),
+    };
+    if q == p || !distinct(arcs, exclusion, q.a, q.b) {
+        return Keyed {
+            pair: p,
+            anchor,
+            closest,
+            fresh,
+        };
+    }
+    let anchor = anchor.map(|mut a| {
+        let shift = (points[q.a.0][q.a.1] - points[p.a.0][p.a.1])
+            - (points[q.b.0][q.b.1] - points[p.b.0][p.b.1]);
+        a.offset += rt * shift;
+        a
     });
-    keyed
+    Keyed {
+        pair: q,
+        anchor,
+        closest: closest_on_chains(points, q.a, q.b),
+        fresh,
+    }
 }
 
 /// `items` in the order of `key` (at equal keys, in their order), given that those not
@@ -1470,8 +1441,7 @@ mod tests {
                 assert!(capped.binary_search(p).is_ok(), "cap {cap}: {p:?} dropped");
             }
             // and the cap after tracking keeps what the search kept
-            let anchors = vec![None; capped.len()];
-            let (kept, _) = keep_nearest(capped.clone(), anchors, &points, cap);
+            let kept = keep_nearest(capped.clone(), |p| *p, &points, cap);
             for p in &must {
                 assert!(kept.binary_search(p).is_ok(), "cap {cap}: {p:?} not kept");
             }
