@@ -92,7 +92,7 @@ pub(crate) const DEFAULT_PARAMS: ShContactParams = ShContactParams {
     damping_ratio: 0.5,
     friction: SH_FRICTION_VISCOUS,
     friction_coefficient: 0.3,
-    kinetic_friction_coefficient: 0.0,
+    kinetic_friction_coefficient: 0.3,
     slip_speed: 0.05,
     tangential_stiffness_ratio: 1.0,
     anisotropy: 0.3,
