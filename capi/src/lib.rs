@@ -40,6 +40,11 @@ pub mod contacts;
 mod contacts_api;
 pub mod sizes;
 
+pub use contacts_api::{
+    sh_batch_contacts, sh_batch_set_collider_pose, sh_batch_set_colliders, sh_batch_set_contacts,
+    sh_contact_params_default,
+};
+
 use batch::{BuildError, Group, RangeOutcome, StepSettings, StrandSpec, Workspace};
 use core::ffi::{c_char, c_int, CStr};
 use core::panic::AssertUnwindSafe;
@@ -814,18 +819,21 @@ unsafe fn with_batch(
     }
     // SAFETY: non-NULL, live and not shared during the call (caller).
     let b = unsafe { &mut *batch };
-    let mut result = Err(Failure::plain(ShStatus::Panic));
+    // (nothing allocated on the way of a success: the step's path allocates nothing)
+    let mut result = None;
     let status = guard(|| {
-        result = f(b);
-        match &result {
+        let r = f(b);
+        let status = match &r {
             Ok(()) => ShStatus::Ok,
             Err(e) => e.status,
-        }
+        };
+        result = Some(r);
+        status
     });
     b.last_error = match result {
-        Ok(()) if status == ShStatus::Ok => ShError::NONE,
-        Ok(()) => Failure::plain(status).to_error(),
-        Err(e) => e.to_error(),
+        Some(Ok(())) if status == ShStatus::Ok => ShError::NONE,
+        Some(Err(e)) => e.to_error(),
+        _ => Failure::plain(status).to_error(),
     };
     status
 }
