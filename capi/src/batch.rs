@@ -170,9 +170,12 @@ pub(crate) fn step_strand_with_contacts<
     let scalars = contacts.scalars;
     let outcome = {
         let (frames, mut parts) = scratch.parts();
-        let mut set = StepSet::new(colliders, frames, t, dt);
         let lengths = strand.params.lengths;
         let params = strand.params;
+        let Some(mut set) = StepSet::new(&colliders.items, frames, t, dt) else {
+            // (the scratch is fitted to the colliders above: never reached)
+            return Err(StepError::SingularMatrix);
+        };
         let mut hooks = contacts.hooks(&params, &lengths, &mut set, &mut parts);
         fixed::step_with_contacts(
             &ClosedForm,

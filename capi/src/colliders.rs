@@ -8,17 +8,17 @@
 //! caller's memory (`SdfGrid`: trilinear inside its box, `f(p) + |x − p|` beyond it) or
 //! the caller's callback; its mount says where those coordinates are: the head's frame,
 //! the world, or a frame on its own motion given by its poses at the two ends of each
-//! step (`PoseOverStep`: uniform motion, a constant turn).
+//! step (`PoseOverStep`: uniform motion, a constant turn; placed by the kernels'
+//! `PosedColliders`).
 
 use core::ffi::{c_int, c_void};
 use nalgebra::{Matrix3, Vector3};
 use superhelix_kernels::collider::{
-    Capsule, Collider, Cylinder, Ellipsoid, GridView, Mount, Plane, PoseOverStep, Proximity,
-    SdfGrid, Sphere,
+    Capsule, Collider, Cylinder, Ellipsoid, GridView, Plane, PoseOverStep, Proximity, SdfGrid,
+    Sphere,
 };
-use superhelix_kernels::contact::ColliderSet;
-use superhelix_kernels::fixed::StepColliders;
-use superhelix_kernels::head::HeadState;
+pub(crate) use superhelix_kernels::fixed::Carrier;
+use superhelix_kernels::fixed::PosedColliders;
 
 type V3 = Vector3<f64>;
 
@@ -249,14 +249,6 @@ pub(crate) enum Shape {
     },
 }
 
-/// Where a collider's coordinates are, checked.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) enum Carrier {
-    Head,
-    World,
-    Pose(PoseOverStep),
-}
-
 /// The colliders of a batch, copied from their descriptions (a grid's values and a
 /// callback's user data stay the caller's).
 #[derive(Debug, Default)]
@@ -485,6 +477,21 @@ pub(crate) fn pose(p: &ShPose, field: &str) -> Result<(V3, Matrix3<f64>), Refusa
     Ok((position, r))
 }
 
+impl Collider for Shape {
+    fn proximity(&self, y: &V3) -> Proximity {
+        self.answer(y).0
+    }
+    fn farther_than(&self, y: &V3, r: f64) -> bool {
+        Shape::farther_than(self, y, r)
+    }
+    fn surface_velocity(&self, y: &V3) -> V3 {
+        self.answer(y).1
+    }
+    fn surface_moves(&self) -> bool {
+        matches!(self, Shape::Callback { moves: true, .. })
+    }
+}
+
 impl Shape {
     /// Signed distance, outward normal and closest point of `y` (the collider's
     /// coordinates), and the surface's own velocity there (callbacks only).
@@ -570,100 +577,7 @@ fn call(query: CallbackFn, user_data: *mut c_void, y: &V3) -> (Proximity, V3) {
     )
 }
 
-/// The colliders of a batch placed in time for one strand's step: those on a pose of
-/// their own at the pose of the time asked (`PoseOverStep` over the step from `t0` to
-/// `t0 + h`), in a worker's `frames`.
-pub(crate) struct StepSet<'a> {
-    colliders: &'a Colliders,
-    frames: &'a mut [HeadState],
-    t0: f64,
-    h: f64,
-    placed: Option<f64>,
-}
-
-impl<'a> StepSet<'a> {
-    /// The colliders over the step from `t0` by `h` (> 0), placed in `frames` (one per
-    /// collider at least).
-    pub fn new(colliders: &'a Colliders, frames: &'a mut [HeadState], t0: f64, h: f64) -> Self {
-        StepSet {
-            colliders,
-            frames,
-            t0,
-            h,
-            placed: None,
-        }
-    }
-
-    /// The colliders at the end of the last step that ended at `t` (their end poses).
-    pub fn at_end(colliders: &'a Colliders, frames: &'a mut [HeadState], t: f64) -> Self {
-        StepSet::new(colliders, frames, t - 1.0, 1.0)
-    }
-}
-
-impl ColliderSet for StepSet<'_> {
-    fn count(&self) -> usize {
-        self.colliders.items.len()
-    }
-    fn proximity(&self, b: usize, local: &V3) -> Proximity {
-        self.colliders.items[b].0.answer(local).0
-    }
-    fn farther_than(&self, b: usize, local: &V3, r: f64) -> bool {
-        self.colliders.items[b].0.farther_than(local, r)
-    }
-    fn mount(&self, b: usize) -> Mount {
-        match self.colliders.items[b].1 {
-            Carrier::Head => Mount::Head,
-            Carrier::World => Mount::World,
-            Carrier::Pose(_) => Mount::Frame(self.frames[b]),
-        }
-    }
-    fn on_own_motion(&self, b: usize) -> bool {
-        match self.colliders.items[b] {
-            (_, Carrier::Pose(_)) => true,
-            (Shape::Callback { moves, .. }, _) => moves,
-            _ => false,
-        }
-    }
-    fn velocity(&self, b: usize, head: &HeadState, y: &V3) -> V3 {
-        let mount = self.mount(b);
-        let carried = mount.velocity(head, y);
-        match self.colliders.items[b].0 {
-            Shape::Callback { moves: true, .. } => {
-                let own = self.colliders.items[b].0.answer(&mount.local(head, y)).1;
-                carried + mount.direction_to_head(head, &own)
-            }
-            _ => carried,
-        }
-    }
-}
-
-impl StepColliders for StepSet<'_> {
-    fn place(&mut self, t: f64, _head: &HeadState) {
-        if self.placed == Some(t) {
-            return;
-        }
-        let s = (t - self.t0) / self.h;
-        for (f, (_, carrier)) in self.frames.iter_mut().zip(&self.colliders.items) {
-            if let Carrier::Pose(p) = carrier {
-                *f = p.state(s, self.h);
-            }
-        }
-        self.placed = Some(t);
-    }
-    fn moves_relative(&self, _t0: f64, _t1: f64, head0: &HeadState, head1: &HeadState) -> bool {
-        let moves = |h: &HeadState| h.velocity != V3::zeros() || h.omega != V3::zeros();
-        let head_moves = moves(head0) || moves(head1);
-        self.colliders.items.iter().any(|(shape, carrier)| {
-            let own = matches!(shape, Shape::Callback { moves: true, .. });
-            own || match carrier {
-                Carrier::Head => false,
-                Carrier::World => head_moves,
-                Carrier::Pose(p) => {
-                    head_moves
-                        || p.start_position != p.end_position
-                        || p.start_rotation != p.end_rotation
-                }
-            }
-        })
-    }
-}
+/// The colliders of a batch placed in time for one strand's step
+/// (`superhelix_kernels::fixed::PosedColliders`: those on a pose of their own at the pose
+/// of the time asked, over the step, in a worker's frames).
+pub(crate) type StepSet<'a> = PosedColliders<'a, Shape>;

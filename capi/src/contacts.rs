@@ -479,7 +479,10 @@ pub(crate) fn deepest<const N: usize, const D: usize, const B: usize>(
     scratch.fit(N, contacts.samples.len(), colliders.items.len());
     let (frames, mut parts) = scratch.parts();
     let t = contacts.time;
-    let mut set = StepSet::at_end(colliders, frames, t);
+    let Some(mut set) = StepSet::at_end(&colliders.items, frames, t) else {
+        // (the scratch is fitted to the colliders above: never reached)
+        return 0.0;
+    };
     let lengths = strand.params.lengths;
     let mut hooks = contacts.hooks(&strand.params, &lengths, &mut set, &mut parts);
     ContactHooks::<f64, D>::deepest(&mut hooks, &strand.q, t, head)
