@@ -15,6 +15,15 @@
 //!   concurrently with [`sh_batch_step_range`].
 //! - Results: [`sh_batch_centreline`] (world positions of the N + 1 element ends),
 //!   [`sh_batch_state`] (q and q̇).
+//! - Colliders: [`sh_batch_set_contacts`] (the contact law of a scene's `[contacts]`),
+//!   [`sh_batch_set_colliders`] (shapes, grids of signed distances on the caller's
+//!   memory, callbacks; each on the head, in the world or on a pose of its own,
+//!   [`colliders`]), [`sh_batch_set_collider_pose`] (a moving collider's poses at the
+//!   step's two ends) and [`sh_batch_contacts`] (per strand after a step: its deepest
+//!   point inside a collider and its contact points touching). A batch with contacts
+//!   steps each strand by the checked step with its contacts
+//!   (`superhelix_kernels::fixed::step_with_contacts`), as the runtime's embedded engine
+//!   steps a scene with bodies ([`contacts`]).
 //!
 //! Every function returns a [`ShStatus`] (`SH_STATUS_OK` = 0 on success;
 //! [`sh_status_message`] names it), checks every pointer for NULL and every count, and
