@@ -367,9 +367,12 @@ typedef struct ShCylinder {
 // nodes, its normal the interpolant's normalised gradient; beyond the box it is
 // `f(p) + |x − p|` with p the box's nearest point (an upper bound of a true distance).
 //
-// The batch keeps the pointer, not a copy: the values must stay valid, finite and
-// unchanged while the batch may step (until the colliders are set again or the batch is
-// freed); they may be rewritten between two steps.
+// The batch keeps the pointer, not a copy: the values must stay valid and finite while
+// the batch may step (until the colliders are set again or the batch is freed), and
+// unchanged during a step. They may be rewritten between two steps provided no node of
+// the grid's boundary gets a value below the least boundary value when the colliders
+// were set (from it the batch computes the ball beyond which the grid is not queried);
+// otherwise set the colliders again.
 typedef struct ShGrid {
     // dims[0] · dims[1] · dims[2] values, m, all finite.
     const double *values;
@@ -409,7 +412,8 @@ typedef struct ShCallbackCollider {
     void *user_data;
     // Nonzero when the surface moves within the collider's coordinates (the callback
     // answers nonzero velocities): the work of its motion on the strands then enters
-    // their energy balance, as a collider on its own pose's.
+    // their energy balance, as a collider on its own pose's. Zero: the velocities
+    // answered are not read (a rigid collider, moving with its mount only).
     int moves;
 } ShCallbackCollider;
 

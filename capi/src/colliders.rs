@@ -123,9 +123,12 @@ pub struct ShCylinder {
 /// nodes, its normal the interpolant's normalised gradient; beyond the box it is
 /// `f(p) + |x − p|` with p the box's nearest point (an upper bound of a true distance).
 ///
-/// The batch keeps the pointer, not a copy: the values must stay valid, finite and
-/// unchanged while the batch may step (until the colliders are set again or the batch is
-/// freed); they may be rewritten between two steps.
+/// The batch keeps the pointer, not a copy: the values must stay valid and finite while
+/// the batch may step (until the colliders are set again or the batch is freed), and
+/// unchanged during a step. They may be rewritten between two steps provided no node of
+/// the grid's boundary gets a value below the least boundary value when the colliders
+/// were set (from it the batch computes the ball beyond which the grid is not queried);
+/// otherwise set the colliders again.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ShGrid {
@@ -177,7 +180,8 @@ pub struct ShCallbackCollider {
     pub user_data: *mut c_void,
     /// Nonzero when the surface moves within the collider's coordinates (the callback
     /// answers nonzero velocities): the work of its motion on the strands then enters
-    /// their energy balance, as a collider on its own pose's.
+    /// their energy balance, as a collider on its own pose's. Zero: the velocities
+    /// answered are not read (a rigid collider, moving with its mount only).
     pub moves: c_int,
 }
 
