@@ -239,8 +239,8 @@ pub(crate) enum Shape {
     Ellipsoid(Ellipsoid),
     Plane(Plane),
     Cylinder(Cylinder),
-    /// The grid and the radius of a ball about `center` beyond which a point is farther
-    /// than the distance to that ball from the surface.
+    /// The grid and its bounding ball (`GridView::bounding_ball`: beyond it a point is
+    /// farther from the surface than from the ball).
     Grid {
         sdf: SdfGrid<'static>,
         center: V3,
@@ -339,35 +339,12 @@ unsafe fn grid(g: &ShGrid, at: &str) -> Result<Shape, Refusal> {
     }
     let view = GridView::new(origin, spacing, g.dims, values)
         .ok_or_else(|| format!("{at}: not a grid of its dims and spacing"))?;
-    let (center, reach) = grid_ball(&view);
+    let (center, reach) = view.bounding_ball();
     Ok(Shape::Grid {
         sdf: SdfGrid { grid: view },
         center,
         reach,
     })
-}
-
-/// A ball about the grid's centre beyond which a point's distance exceeds its distance
-/// to the ball: beyond the box the field is `f(p) + |x − p|` with p on the box's
-/// boundary, where f is at least the least boundary node value m (trilinear), and
-/// `|x − p| ≥ |x − c| − R` (R the box's half-diagonal); so f(x) > r when
-/// `|x − c| > R + max(0, −m) + r`.
-pub(crate) fn grid_ball(view: &GridView<'_>) -> (V3, f64) {
-    let (lo, hi) = (view.origin(), view.corner());
-    let [nx, ny, nz] = view.dims();
-    let mut least = f64::INFINITY;
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                let boundary =
-                    i == 0 || j == 0 || k == 0 || i + 1 == nx || j + 1 == ny || k + 1 == nz;
-                if boundary {
-                    least = least.min(view.node([i, j, k]));
-                }
-            }
-        }
-    }
-    (0.5 * (lo + hi), 0.5 * (hi - lo).norm() + (-least).max(0.0))
 }
 
 /// The collider of `c`, checked (`at`: its name in messages, e.g. `colliders[2]`).

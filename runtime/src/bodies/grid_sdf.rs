@@ -75,7 +75,7 @@ impl GridSdf {
             return None;
         }
         let grid = Grid::new(origin, cell, dims, values)?;
-        let ball = bounding_ball(&grid);
+        let ball = grid.view().bounding_ball();
         Some(Self { grid, ball })
     }
 
@@ -85,10 +85,7 @@ impl GridSdf {
     }
 
     /// A ball (centre, radius) such that a point farther than `radius + r` from its centre
-    /// is farther than r from the surface: beyond the box the field is `f(p) + |x − p|`
-    /// with p on the box's boundary, where f is at least the least boundary node value m
-    /// (trilinear), and `|x − p| ≥ |x − c| − R` (c, R: the box's centre and
-    /// half-diagonal); so the radius is `R + max(0, −m)`.
+    /// is farther than r from the surface (the kernels' `GridView::bounding_ball`, kept).
     pub fn bounding_ball(&self) -> (Vector3<f64>, f64) {
         self.ball
     }
@@ -121,23 +118,4 @@ impl GridSdf {
         }
         (lo.x <= hi.x).then_some((lo, hi))
     }
-}
-
-/// See [`GridSdf::bounding_ball`].
-fn bounding_ball(grid: &Grid) -> (Vector3<f64>, f64) {
-    let [nx, ny, nz] = grid.dims();
-    let mut least = f64::INFINITY;
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                let boundary =
-                    i == 0 || j == 0 || k == 0 || i + 1 == nx || j + 1 == ny || k + 1 == nz;
-                if boundary {
-                    least = least.min(grid.node([i, j, k]));
-                }
-            }
-        }
-    }
-    let (lo, hi) = (grid.origin(), grid.corner());
-    (0.5 * (lo + hi), 0.5 * (hi - lo).norm() + (-least).max(0.0))
 }
