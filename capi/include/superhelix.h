@@ -15,6 +15,66 @@
 // Largest number of strands in one batch.
 #define SH_MAX_STRANDS 1073741824
 
+// [`ShCollider::kind`]: a ball ([`ShShape::sphere`]).
+#define SH_COLLIDER_SPHERE 0
+
+// [`ShCollider::kind`]: a capsule ([`ShShape::capsule`]).
+#define SH_COLLIDER_CAPSULE 1
+
+// [`ShCollider::kind`]: an ellipsoid ([`ShShape::ellipsoid`]).
+#define SH_COLLIDER_ELLIPSOID 2
+
+// [`ShCollider::kind`]: a half-space ([`ShShape::plane`]).
+#define SH_COLLIDER_PLANE 3
+
+// [`ShCollider::kind`]: a cylinder with flat caps ([`ShShape::cylinder`]).
+#define SH_COLLIDER_CYLINDER 4
+
+// [`ShCollider::kind`]: a grid of signed distances on the caller's memory
+// ([`ShShape::grid`]).
+#define SH_COLLIDER_GRID 5
+
+// [`ShCollider::kind`]: the caller's callback ([`ShShape::callback`]).
+#define SH_COLLIDER_CALLBACK 6
+
+// [`ShCollider::mount`]: fixed in the head's frame (its coordinates are head
+// coordinates; it moves with the head).
+#define SH_MOUNT_HEAD 0
+
+// [`ShCollider::mount`]: fixed in the world (its coordinates are world coordinates).
+#define SH_MOUNT_WORLD 1
+
+// [`ShCollider::mount`]: on a pose of its own, set before each step by
+// `sh_batch_set_collider_pose` (the identity at the origin until then).
+#define SH_MOUNT_POSE 2
+
+// Most colliders of one batch.
+#define SH_MAX_COLLIDERS 4096
+
+// Most nodes of one grid collider (2²⁸: 2 GB of doubles).
+#define SH_MAX_GRID_NODES (1 << 28)
+
+// Largest radius, half-axis or coordinate of a collider's size, m (as a scene's
+// bodies).
+#define SH_MAX_COLLIDER_SIZE 1000.0
+
+// [`ShContactParams::friction`]: no friction.
+#define SH_FRICTION_NONE 0
+
+// [`ShContactParams::friction`]: the paper's viscous friction (section 4.2), scaled by
+// the normal force: `f_t = −μ(θ) f_n v_t / v_s`.
+#define SH_FRICTION_VISCOUS 1
+
+// [`ShContactParams::friction`]: Coulomb friction with sticking: each contact point is
+// held to an anchor on the collider by a tangential spring while `|f_t| ≤ μ_s(θ) f_n`,
+// and slides with `|f_t| = μ_k(θ) f_n` beyond.
+#define SH_FRICTION_COULOMB 2
+
+// Default penalty stiffness over a strand's weight per length and the contact radius
+// (`k = 1e4 ρS g₀ / r` when [`ShContactParams::stiffness`] is 0), as a scene's
+// `[contacts]`.
+#define SH_DEFAULT_STIFFNESS_FACTOR 1e4
+
 // Status of a call: `SH_STATUS_OK` (0) on success, else why it failed.
 // [`sh_status_message`] gives each a static message.
 enum ShStatus
@@ -72,6 +132,12 @@ enum ShStatus
     // The tolerance of the error-controlled step is neither 0 (fixed steps) nor within
     // [1e-8, 0.5].
     SH_STATUS_INVALID_TOLERANCE = 23,
+    // A contact parameter is out of range, or contacts were asked with a step that does
+    // not take them (the plain step, the error-controlled step) or read without them.
+    SH_STATUS_INVALID_CONTACTS = 24,
+    // A collider's description is out of range (its kind, mount, shape, grid or pose),
+    // or a pose was given to a collider not on a pose of its own.
+    SH_STATUS_INVALID_COLLIDER = 25,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -198,6 +264,198 @@ typedef struct ShStepReport {
     // Error-controlled step: the largest step any strand took, s.
     double largest_step;
 } ShStepReport;
+
+// The contacts of a batch's strands with its colliders: a scene's `[contacts]` table
+// (docs/scene-format.md), field for field. `sh_contact_params_default` fills the
+// scene's defaults.
+typedef struct ShContactParams {
+    // Contact radius r of a strand, m, in (0, 0.1]: a centreline point touches a
+    // collider closer than this to its surface.
+    double radius;
+    // Normal penalty stiffness k, N/m² (force per metre of strand per metre of depth),
+    // in (0, 1e9]; 0: `SH_DEFAULT_STIFFNESS_FACTOR · ρS g₀ / r` for each strand (ρS its
+    // mass per length, g₀ = 9.80665 m/s²).
+    double stiffness;
+    // Damping ratio ζ of the normal response, in [0, 10]: `c = 2 ζ √(k ρS)` per metre.
+    double damping_ratio;
+    // `SH_FRICTION_NONE`, `SH_FRICTION_VISCOUS` or `SH_FRICTION_COULOMB`.
+    int friction;
+    // μ (viscous) or μ_s (Coulomb), in [0, 10].
+    double friction_coefficient;
+    // Coulomb: μ_k, in [0, friction_coefficient].
+    double kinetic_friction_coefficient;
+    // Viscous: the slip speed v_s at which the force is Coulomb's, m/s, in (0, 100].
+    double slip_speed;
+    // Coulomb: the tangential spring's stiffness over k, in (0, 100].
+    double tangential_stiffness_ratio;
+    // Anisotropy α of the friction, in [0, 0.99]: `μ(θ) = μ (1 + α cos θ)`, θ between
+    // the fibre's root-to-tip tangent and its sliding direction.
+    double anisotropy;
+    // Contact points per element, 1 to 64.
+    size_t samples_per_element;
+    // Nonzero: a contact point at the tip (the last part takes the two-point rule that
+    // includes the tip instead of its midpoint), as a scene's default.
+    int tip_sample;
+    // Nonzero: the contacts that start within a step are predicted from the step's own
+    // solution and resolved in it (a scene's `predict = true`); zero: caught by the
+    // step's depth check alone (a step taking a point deeper than `split_depth` is
+    // split).
+    int predict;
+    // Depth beyond which the normal force stops growing, m, in (0, 1]; 0: the radius.
+    double max_depth;
+    // A step taking a contact point deeper than this beyond its depth at the step's
+    // start is split, m, in (0, 1]; 0: the radius.
+    double split_depth;
+    // Speed at which a point that starts inside a collider is let out, m/s, in
+    // (0, 100].
+    double depenetration_speed;
+} ShContactParams;
+
+// A ball: the points within `radius` of `center`.
+typedef struct ShSphere {
+    // Centre, m (the collider's coordinates).
+    double center[3];
+    // Radius, m, in (0, 1000].
+    double radius;
+} ShSphere;
+
+// A capsule: the points within `radius` of the segment from `start` to `end` (a ball
+// when they coincide).
+typedef struct ShCapsule {
+    // One end of the axis, m.
+    double start[3];
+    // The other end, m.
+    double end[3];
+    // Radius, m, in (0, 1000].
+    double radius;
+} ShCapsule;
+
+// A solid ellipsoid `|(Rᵀ(y − c))ᵢ / aᵢ|² ≤ 1`.
+typedef struct ShEllipsoid {
+    // Centre c, m.
+    double center[3];
+    // Half-axes a, m, each in (0, 1000].
+    double radii[3];
+    // R, column-major: the ellipsoid's axes (its columns) in the collider's coordinates;
+    // a rotation within 1e-9.
+    double rotation[9];
+} ShEllipsoid;
+
+// The half-space behind a plane: `(y − point) · normal ≤ 0`.
+typedef struct ShPlane {
+    // A point of the plane, m.
+    double point[3];
+    // Unit outward normal (length 1 within 1e-9).
+    double normal[3];
+} ShPlane;
+
+// A solid cylinder with flat caps: the points within `radius` of the axis from `start`
+// to `end`, between the caps through the two ends.
+typedef struct ShCylinder {
+    // Centre of one cap, m.
+    double start[3];
+    // Centre of the other cap, m (not `start`).
+    double end[3];
+    // Radius, m, in (0, 1000].
+    double radius;
+} ShCylinder;
+
+// A signed distance sampled on a regular grid (negative inside), on the caller's
+// memory: node (i, j, k) at `origin + spacing · (i, j, k)` holds
+// `values[i + dims[0] (j + dims[1] k)]` (x fastest: a C array `values[nz][ny][nx]`).
+// Inside the grid's box the distance is the trilinear interpolant of the cell's eight
+// nodes, its normal the interpolant's normalised gradient; beyond the box it is
+// `f(p) + |x − p|` with p the box's nearest point (an upper bound of a true distance).
+//
+// The batch keeps the pointer, not a copy: the values must stay valid and finite while
+// the batch may step (until the colliders are set again or the batch is freed), and
+// unchanged during a step. They may be rewritten between two steps provided no node of
+// the grid's boundary gets a value below the least boundary value when the colliders
+// were set (from it the batch computes the ball beyond which the grid is not queried);
+// otherwise set the colliders again.
+typedef struct ShGrid {
+    // dims[0] · dims[1] · dims[2] values, m, all finite.
+    const double *values;
+    // Nodes along x, y, z, each ≥ 2; at most `SH_MAX_GRID_NODES` in all.
+    size_t dims[3];
+    // Position of node (0, 0, 0), m (the collider's coordinates).
+    double origin[3];
+    // Distance between neighbouring nodes along every axis, m, in (0, 1000].
+    double spacing;
+} ShGrid;
+
+// What a collider callback answers for a point.
+typedef struct ShProximity {
+    // Signed distance to the surface, m (negative inside; +infinity: far away).
+    double distance;
+    // Unit outward normal at the nearest surface point (the distance's gradient).
+    double normal[3];
+    // Velocity of the surface's material point there, m/s, in the collider's
+    // coordinates and relative to them (0 for a rigid collider: its mount's motion is
+    // added by the library).
+    double velocity[3];
+} ShProximity;
+
+// A collider callback: answers for the point `point` (3 values, the collider's
+// coordinates) into `*answer`, which the library fills with `distance` = +infinity,
+// normal +z and zero velocity before the call. A distance that is not a number counts
+// as +infinity; a normal that is not finite and nonzero as +z; it is normalised. It may
+// be called from every thread that steps a range of the batch at once. NULL is no
+// function.
+typedef void (*ShColliderCallback)(void *user_data, const double *point, struct ShProximity *answer);
+
+// A collider answered by the caller's function.
+typedef struct ShCallbackCollider {
+    // The function (not NULL).
+    ShColliderCallback query;
+    // Handed to every call of `query` unchanged.
+    void *user_data;
+    // Nonzero when the surface moves within the collider's coordinates (the callback
+    // answers nonzero velocities): the work of its motion on the strands then enters
+    // their energy balance, as a collider on its own pose's. Zero: the velocities
+    // answered are not read (a rigid collider, moving with its mount only).
+    int moves;
+} ShCallbackCollider;
+
+// The shape of an [`ShCollider`], read as its `kind` says.
+typedef union ShShape {
+    // `SH_COLLIDER_SPHERE`.
+    struct ShSphere sphere;
+    // `SH_COLLIDER_CAPSULE`.
+    struct ShCapsule capsule;
+    // `SH_COLLIDER_ELLIPSOID`.
+    struct ShEllipsoid ellipsoid;
+    // `SH_COLLIDER_PLANE`.
+    struct ShPlane plane;
+    // `SH_COLLIDER_CYLINDER`.
+    struct ShCylinder cylinder;
+    // `SH_COLLIDER_GRID`.
+    struct ShGrid grid;
+    // `SH_COLLIDER_CALLBACK`.
+    struct ShCallbackCollider callback;
+} ShShape;
+
+// One collider: its shape (in its own coordinates) and where those coordinates are.
+typedef struct ShCollider {
+    // Which member of `shape` is read: one of `SH_COLLIDER_SPHERE`, `SH_COLLIDER_CAPSULE`,
+    // `SH_COLLIDER_ELLIPSOID`, `SH_COLLIDER_PLANE`, `SH_COLLIDER_CYLINDER`,
+    // `SH_COLLIDER_GRID`, `SH_COLLIDER_CALLBACK`.
+    int kind;
+    // Where the collider's coordinates are: `SH_MOUNT_HEAD`, `SH_MOUNT_WORLD` or
+    // `SH_MOUNT_POSE`.
+    int mount;
+    // The shape.
+    union ShShape shape;
+} ShCollider;
+
+// A rigid pose: a point y of the collider's coordinates is at `position + rotation · y`
+// in the world.
+typedef struct ShPose {
+    // Position, world coordinates, m.
+    double position[3];
+    // Rotation, column-major (within 1e-6 of a rotation).
+    double rotation[9];
+} ShPose;
 
 #ifdef __cplusplus
 extern "C" {
@@ -446,6 +704,107 @@ ShStatus sh_batch_set_state(struct ShBatch *batch,
                             const double *q,
                             const double *qdot,
                             size_t count);
+
+// Fills `*params` with the defaults of a scene's `[contacts]` table: radius 1 mm, the
+// default stiffness (0: 10⁴ ρS g₀ / r), damping ratio 0.5, viscous friction μ = 0.3 at
+// a slip speed of 0.05 m/s, anisotropy 0.3, 4 contact points per element and one at
+// the tip, predicted contacts, depths (maximum and split) of the radius, a
+// depenetration speed of 0.05 m/s.
+//
+// # Safety
+// `params` is NULL or valid for writing one [`ShContactParams`].
+ShStatus sh_contact_params_default(struct ShContactParams *params);
+
+// Sets the contacts of the batch's strands with its colliders
+// ([`sh_batch_set_colliders`]) for the next steps; NULL: no contacts (the state a batch
+// starts in). Every strand then keeps its contact points (`samples_per_element` per
+// element, one at the tip with `tip_sample`), per point its Coulomb anchor and its
+// allowance (a depth it started with, let out at the depenetration speed), and its own
+// clock; each workspace keeps the contacts' scratch (sized at its first step with
+// contacts, then reused: the steps allocate nothing). The contacts start afresh at each
+// strand's next step (its root zone, allowances and anchors from its state then).
+//
+// With contacts a step is the checked step with them (`fixed::step_with_contacts`, as
+// the runtime's embedded engine steps a scene with bodies): the penalty, friction and
+// damping of the points within `radius` of a collider in every solve, their energy in
+// the balance, a step split when a point goes deeper than `split_depth`. Contacts need
+// the checked step without a tolerance: `SH_STATUS_INVALID_CONTACTS` after
+// `sh_batch_set_checked(batch, 0)` or a tolerance, and those calls refuse while contacts
+// are set. A value out of range is `SH_STATUS_INVALID_CONTACTS` (the last error names
+// the field and its range) and changes nothing.
+//
+// # Safety
+// `batch` is NULL or a live pointer from `sh_batch_new` used by no other thread during
+// the call; `params` is NULL or valid for reading one [`ShContactParams`].
+ShStatus sh_batch_set_contacts(struct ShBatch *batch, const struct ShContactParams *params);
+
+// Sets the colliders the batch's strands touch (once contacts are set): `count`
+// descriptions from `colliders` (NULL when `count` is 0: none), copied. Collider `i`
+// keeps index `i` for [`sh_batch_set_collider_pose`]. A grid's values and a callback's
+// user data are not copied: they stay the caller's (see `ShGrid`, `ShCallbackCollider`).
+// A collider mounted with `SH_MOUNT_POSE` stands at the identity pose at the origin until
+// its pose is set. The strands' anchors refer to colliders by index: they let go of a
+// collider whose index is taken by another (the contacts start afresh at each strand's
+// next step).
+//
+// A description out of range is `SH_STATUS_INVALID_COLLIDER` (the last error names it,
+// e.g. `colliders[2].shape.sphere.radius: -1 must be in (0, 1000] m`), more than
+// `SH_MAX_COLLIDERS` is `SH_STATUS_INVALID_COUNT`; either changes nothing.
+//
+// # Safety
+// `batch` is NULL or a live pointer from `sh_batch_new` used by no other thread during
+// the call; `colliders` is valid for reading `count` values (or `count` is 0); each
+// grid's values are valid for reading its nodes for as long as the batch may step with
+// them, and each callback may be called with its user data from any thread that steps
+// the batch.
+ShStatus sh_batch_set_colliders(struct ShBatch *batch,
+                                const struct ShCollider *colliders,
+                                size_t count);
+
+// Sets the poses of collider `index` (mounted with `SH_MOUNT_POSE`) at the start and the
+// end of the next step (world coordinates; `end` NULL: the same as `start`, a collider
+// at rest). Over the step the collider moves uniformly from one to the other and turns
+// at a constant rate about one axis, the shorter way (`collider::PoseOverStep`), and its
+// velocity enters the contacts' damping and friction. The poses stay until set again:
+// set them before every step of a moving collider (the end of one step is the start of
+// the next). After the step, [`sh_batch_contacts`] measures the strands against the end
+// pose.
+//
+// `SH_STATUS_INDEX_OUT_OF_RANGE` for an index beyond the colliders,
+// `SH_STATUS_INVALID_COLLIDER` for a collider not on a pose of its own or a pose that is
+// not finite or not a rotation (within 1e-6); either changes nothing.
+//
+// # Safety
+// `batch` is NULL or a live pointer from `sh_batch_new` used by no other thread during
+// the call; `start` is NULL or valid for reading one [`ShPose`], `end` likewise.
+ShStatus sh_batch_set_collider_pose(struct ShBatch *batch,
+                                    size_t index,
+                                    const struct ShPose *start,
+                                    const struct ShPose *end);
+
+// What strands `first .. first + count` found at the end of their last step (with
+// contacts set): into `deepest[k]` (may be NULL) the deepest point of strand
+// `first + k`'s centreline inside a collider, m (0: none inside), from a dense sweep
+// along the centreline (a point every 0.5 mm of arc length, the root zone not counted
+// against the collider its strand grows from), and into `touching[k]` (may be NULL) the
+// number of its contact points touching a collider (within the contact radius, beyond
+// their allowance) at the last evaluation of its contact terms. The colliders are taken
+// where the step ended (a collider on a pose of its own at its end pose), the head as
+// last set.
+//
+// The sweep queries the colliders (grids, callbacks) on the batch's own workspace, so
+// the call takes the batch mutably; it is not timed in the step.
+// `SH_STATUS_INVALID_CONTACTS` without contacts, `SH_STATUS_INDEX_OUT_OF_RANGE` for a
+// range outside the batch.
+//
+// # Safety
+// `batch` is NULL or a live pointer from `sh_batch_new` used by no other thread during
+// the call; `deepest` and `touching` are NULL or valid for writing `count` values each.
+ShStatus sh_batch_contacts(struct ShBatch *batch,
+                           size_t first,
+                           size_t count,
+                           double *deepest,
+                           size_t *touching);
 
 #ifdef __cplusplus
 }  // extern "C"

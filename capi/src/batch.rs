@@ -1,6 +1,8 @@
 //! The strands of a batch at one N behind an object-safe trait, and the workspace of
 //! one step, so that the C functions need not know N.
 
+use crate::colliders::{Colliders, StepSet};
+use crate::contacts::{ContactScratch, ContactSettings, StrandContacts};
 use crate::sizes::{visit_size, SizeVisitor};
 use core::any::Any;
 use core::cell::UnsafeCell;
@@ -44,6 +46,19 @@ pub(crate) struct StepSettings {
     pub tolerance: Option<f64>,
 }
 
+/// The head state of a step and whether it moves: the state as set is the head's at the
+/// end of the step; a still head's rates are taken as zero.
+fn head_at_end(input: &StepInput) -> HeadState {
+    let mut state = input.head;
+    if !input.head_moves {
+        state.velocity = Vector3::zeros();
+        state.acceleration = Vector3::zeros();
+        state.omega = Vector3::zeros();
+        state.alpha = Vector3::zeros();
+    }
+    state
+}
+
 /// What stepping a range of strands found.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct RangeOutcome {
@@ -82,14 +97,10 @@ pub(crate) fn step_strand<const N: usize, const D: usize, const E: usize, const 
     }
     // the head as set is its state at the end of the step; the substeps follow the
     // motion extrapolated back from it (a still head: its pose throughout)
-    let mut state = input.head;
-    if !input.head_moves {
-        state.velocity = Vector3::zeros();
-        state.acceleration = Vector3::zeros();
-        state.omega = Vector3::zeros();
-        state.alpha = Vector3::zeros();
-    }
-    let head = ExtrapolatedHead { t0: dt, state };
+    let head = ExtrapolatedHead {
+        t0: dt,
+        state: head_at_end(input),
+    };
     let effects = Effects {
         gravity: input.gravity,
         head_moves: input.head_moves,
@@ -119,6 +130,82 @@ pub(crate) fn step_strand<const N: usize, const D: usize, const E: usize, const 
         .inspect_err(|_| strand.set_state(&q, &v))
 }
 
+/// One checked step of `strand` by `dt` with its contacts with `colliders`
+/// (`fixed::step_with_contacts`, as the runtime's embedded engine steps a strand), on the
+/// strand's own clock (`contacts.time`, the step's start): the head as `settings` say at
+/// the step's end, a collider on a pose of its own moving from its start pose to its end
+/// pose over the step. On failure the strand and its contacts are back in the state they
+/// had.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn step_strand_with_contacts<
+    const N: usize,
+    const D: usize,
+    const E: usize,
+    const B: usize,
+>(
+    strand: &mut FixedStrand<N, D, B>,
+    contacts: &mut StrandContacts,
+    colliders: &Colliders,
+    settings: &StepSettings,
+    dt: f64,
+    ws: &mut FixedWorkspace<N, D, E>,
+    scratch: &mut ContactScratch,
+    counts: &mut StepCounts,
+) -> Result<f64, StepError> {
+    let input = &settings.input;
+    let t = contacts.time;
+    let head = ExtrapolatedHead {
+        t0: t + dt,
+        state: head_at_end(input),
+    };
+    let effects = Effects {
+        gravity: input.gravity,
+        head_moves: input.head_moves,
+    };
+    let m = contacts.samples.len();
+    scratch.fit(N, m, colliders.items.len());
+    let (q, v) = (strand.q, strand.v);
+    scratch.kept_anchors[..m].copy_from_slice(&contacts.anchors);
+    scratch.kept_allowance[..m].copy_from_slice(&contacts.allowance);
+    let scalars = contacts.scalars;
+    let outcome = {
+        let (frames, mut parts) = scratch.parts();
+        let lengths = strand.params.lengths;
+        let params = strand.params;
+        let Some(mut set) = StepSet::new(&colliders.items, frames, t, dt) else {
+            // (the scratch is fitted to the colliders above: never reached)
+            return Err(StepError::SingularMatrix);
+        };
+        let mut hooks = contacts.hooks(&params, &lengths, &mut set, &mut parts);
+        fixed::step_with_contacts(
+            &ClosedForm,
+            strand,
+            &head,
+            &effects,
+            t,
+            dt,
+            ws,
+            counts,
+            Some(&mut hooks),
+        )
+    };
+    match outcome {
+        Ok(r) => {
+            contacts.time = t + dt;
+            Ok(r.max_element_rotation)
+        }
+        Err(e) => {
+            strand.set_state(&q, &v);
+            contacts.anchors.copy_from_slice(&scratch.kept_anchors[..m]);
+            contacts
+                .allowance
+                .copy_from_slice(&scratch.kept_allowance[..m]);
+            contacts.scalars = scalars;
+            Err(e)
+        }
+    }
+}
+
 /// The strands of one batch, all with the same N.
 pub(crate) trait Group: Send + Sync {
     /// N.
@@ -135,6 +222,9 @@ pub(crate) trait Group: Send + Sync {
     /// # Safety
     /// No other reference to those strands may be in use during the call: the caller
     /// steps disjoint ranges from different threads, and nothing else meanwhile.
+    ///
+    /// With contacts set ([`Self::set_contacts`]) and `colliders` given, each strand
+    /// takes the checked step with its contacts ([`step_strand_with_contacts`]).
     unsafe fn step_range(
         &self,
         first: usize,
@@ -142,7 +232,25 @@ pub(crate) trait Group: Send + Sync {
         settings: &StepSettings,
         dt: f64,
         ws: &mut Workspace,
+        colliders: Option<&Colliders>,
     ) -> Option<RangeOutcome>;
+    /// Give every strand contacts under `settings` (`None`: none), not started: the next
+    /// step of each starts them. An error when there is no memory for them.
+    fn set_contacts(&mut self, settings: Option<&ContactSettings>) -> Result<(), BuildError>;
+    /// Whether the strands have contacts.
+    fn has_contacts(&self) -> bool;
+    /// Strand `i`'s deepest centreline point inside a collider at the end of its last
+    /// step, m (the dense sweep; 0: none), and its samples touching a collider at the
+    /// last evaluation of its contact terms; `None` without contacts.
+    fn contact_report(
+        &mut self,
+        i: usize,
+        colliders: &Colliders,
+        head: &HeadState,
+        scratch: &mut ContactScratch,
+    ) -> Option<(f64, usize)>;
+    /// Bytes the strands' contacts keep (0 without contacts).
+    fn contact_bytes(&self) -> usize;
     /// Forget the energy each strand kept of its state (after a change of the world
     /// that changes it: gravity, whether the head moves).
     fn forget_energy(&mut self);
@@ -165,6 +273,8 @@ pub(crate) struct Workspace {
     /// Bytes of the fixed-N workspace.
     pub bytes: usize,
     inner: Box<dyn Any + Send>,
+    /// The contacts' scratch (empty until the first step with contacts).
+    pub contacts: ContactScratch,
 }
 
 /// The strands of a batch at N elements.
@@ -172,6 +282,8 @@ struct Strands<const N: usize, const D: usize, const E: usize, const B: usize> {
     strands: Box<[UnsafeCell<FixedStrand<N, D, B>>]>,
     /// Per strand, the error-controlled step's history (empty until a tolerance is set).
     histories: Box<[UnsafeCell<StepHistory<D>>]>,
+    /// Per strand, its contacts (empty without contacts).
+    contacts: Box<[UnsafeCell<StrandContacts>]>,
 }
 
 // SAFETY: the strands are plain numbers (no pointers, no interior state besides the
@@ -217,11 +329,14 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for S
         settings: &StepSettings,
         dt: f64,
         ws: &mut Workspace,
+        colliders: Option<&Colliders>,
     ) -> Option<RangeOutcome> {
+        let scratch = &mut ws.contacts;
         let ws = ws.inner.downcast_mut::<FixedWorkspace<N, D, E>>()?;
         let range = first..first.checked_add(count)?;
         let cells = self.strands.get(range.clone())?;
-        let histories = self.histories.get(range);
+        let histories = self.histories.get(range.clone());
+        let contacts = colliders.and_then(|c| Some((c, self.contacts.get(range)?)));
         let mut outcome = RangeOutcome {
             failed: 0,
             first: None,
@@ -240,15 +355,31 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for S
                 .and_then(|h| h.get(k))
                 .map(|h| unsafe { &mut *h.get() });
             let mut report = ToleranceReport::default();
-            let stepped = step_strand(
-                strand,
-                history,
-                settings,
-                dt,
-                ws,
-                &mut outcome.counts,
-                &mut report,
-            );
+            let stepped = match contacts {
+                Some((colliders, cells)) => {
+                    // SAFETY: as for the strand: its contacts are used by this call alone.
+                    let c = unsafe { &mut *cells[k].get() };
+                    step_strand_with_contacts(
+                        strand,
+                        c,
+                        colliders,
+                        settings,
+                        dt,
+                        ws,
+                        scratch,
+                        &mut outcome.counts,
+                    )
+                }
+                None => step_strand(
+                    strand,
+                    history,
+                    settings,
+                    dt,
+                    ws,
+                    &mut outcome.counts,
+                    &mut report,
+                ),
+            };
             outcome.tolerance.add(&report);
             match stepped {
                 Ok(rotation) => {
@@ -261,6 +392,63 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for S
             }
         }
         Some(outcome)
+    }
+
+    fn set_contacts(&mut self, settings: Option<&ContactSettings>) -> Result<(), BuildError> {
+        let Some(settings) = settings else {
+            self.contacts = Box::new([]);
+            return Ok(());
+        };
+        let mut contacts = Vec::new();
+        contacts
+            .try_reserve_exact(self.strands.len())
+            .map_err(|_| BuildError::OutOfMemory)?;
+        for s in self.strands.iter_mut() {
+            let p = &s.get_mut().params;
+            contacts.push(UnsafeCell::new(StrandContacts::new(
+                settings,
+                &p.lengths,
+                p.mass_per_length,
+            )));
+        }
+        self.contacts = contacts.into_boxed_slice();
+        // the energies kept were measured without the contacts
+        self.forget_energy();
+        Ok(())
+    }
+
+    fn has_contacts(&self) -> bool {
+        !self.contacts.is_empty()
+    }
+
+    fn contact_report(
+        &mut self,
+        i: usize,
+        colliders: &Colliders,
+        head: &HeadState,
+        scratch: &mut ContactScratch,
+    ) -> Option<(f64, usize)> {
+        let strand = self.strands.get_mut(i)?.get_mut();
+        let contacts = self.contacts.get_mut(i)?.get_mut();
+        let deepest = crate::contacts::deepest(strand, contacts, colliders, head, scratch);
+        Some((deepest, contacts.scalars.summary.contacts))
+    }
+
+    fn contact_bytes(&self) -> usize {
+        use core::mem::size_of;
+        self.contacts
+            .iter()
+            .map(|c| {
+                // SAFETY: read only, outside any step (the C API's contract for the
+                // read functions).
+                let c = unsafe { &*c.get() };
+                size_of::<StrandContacts>()
+                    + c.samples.capacity() * size_of::<(f64, f64)>()
+                    + c.anchors.capacity()
+                        * size_of::<Option<superhelix_kernels::contact::Anchor>>()
+                    + c.allowance.capacity() * size_of::<f64>()
+            })
+            .sum()
     }
 
     fn forget_energy(&mut self) {
@@ -313,6 +501,9 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for S
         if let Some(h) = self.histories.get_mut(i) {
             h.get_mut().forget();
         }
+        if let Some(c) = self.contacts.get_mut(i) {
+            c.get_mut().restart();
+        }
     }
 }
 
@@ -322,6 +513,7 @@ fn workspace<const N: usize, const D: usize, const E: usize>() -> Workspace {
         elements: N,
         bytes: FixedWorkspace::<N, D, E>::BYTES,
         inner: Box::new(FixedWorkspace::<N, D, E>::new()),
+        contacts: ContactScratch::default(),
     }
 }
 
@@ -358,6 +550,7 @@ impl SizeVisitor for Build<'_, '_> {
         Ok(Box::new(Strands::<N, D, E, B> {
             strands: strands.into_boxed_slice(),
             histories: Box::new([]),
+            contacts: Box::new([]),
         }))
     }
 }

@@ -15,6 +15,15 @@
 //!   concurrently with [`sh_batch_step_range`].
 //! - Results: [`sh_batch_centreline`] (world positions of the N + 1 element ends),
 //!   [`sh_batch_state`] (q and q̇).
+//! - Colliders: [`sh_batch_set_contacts`] (the contact law of a scene's `[contacts]`),
+//!   [`sh_batch_set_colliders`] (shapes, grids of signed distances on the caller's
+//!   memory, callbacks; each on the head, in the world or on a pose of its own,
+//!   [`colliders`]), [`sh_batch_set_collider_pose`] (a moving collider's poses at the
+//!   step's two ends) and [`sh_batch_contacts`] (per strand after a step: its deepest
+//!   point inside a collider and its contact points touching). A batch with contacts
+//!   steps each strand by the checked step with its contacts
+//!   (`superhelix_kernels::fixed::step_with_contacts`), as the runtime's embedded engine
+//!   steps a scene with bodies ([`contacts`]).
 //!
 //! Every function returns a [`ShStatus`] (`SH_STATUS_OK` = 0 on success;
 //! [`sh_status_message`] names it), checks every pointer for NULL and every count, and
@@ -35,7 +44,15 @@
 #![deny(unsafe_op_in_unsafe_fn)]
 
 mod batch;
+pub mod colliders;
+pub mod contacts;
+mod contacts_api;
 pub mod sizes;
+
+pub use contacts_api::{
+    sh_batch_contacts, sh_batch_set_collider_pose, sh_batch_set_colliders, sh_batch_set_contacts,
+    sh_contact_params_default,
+};
 
 use batch::{BuildError, Group, RangeOutcome, StepSettings, StrandSpec, Workspace};
 use core::ffi::{c_char, c_int, CStr};
@@ -101,10 +118,16 @@ pub enum ShStatus {
     /// The tolerance of the error-controlled step is neither 0 (fixed steps) nor within
     /// [1e-8, 0.5].
     InvalidTolerance = 23,
+    /// A contact parameter is out of range, or contacts were asked with a step that does
+    /// not take them (the plain step, the error-controlled step) or read without them.
+    InvalidContacts = 24,
+    /// A collider's description is out of range (its kind, mount, shape, grid or pose),
+    /// or a pose was given to a collider not on a pose of its own.
+    InvalidCollider = 25,
 }
 
 /// Every status, in the order of its value (`ALL_STATUSES[s as usize] == s`).
-const ALL_STATUSES: [ShStatus; 24] = [
+const ALL_STATUSES: [ShStatus; 26] = [
     ShStatus::Ok,
     ShStatus::NullPointer,
     ShStatus::InvalidCount,
@@ -129,6 +152,8 @@ const ALL_STATUSES: [ShStatus; 24] = [
     ShStatus::OutOfMemory,
     ShStatus::Panic,
     ShStatus::InvalidTolerance,
+    ShStatus::InvalidContacts,
+    ShStatus::InvalidCollider,
 ];
 
 impl ShStatus {
@@ -187,6 +212,12 @@ impl ShStatus {
             ShStatus::Panic => c"internal error (a panic was caught at the C boundary)",
             ShStatus::InvalidTolerance => {
                 c"the tolerance must be 0 (fixed steps) or within [1e-8, 0.5]"
+            }
+            ShStatus::InvalidContacts => {
+                c"contact parameter out of range, or contacts with a step that does not take them"
+            }
+            ShStatus::InvalidCollider => {
+                c"collider description out of range (kind, mount, shape, grid or pose)"
             }
         }
     }
@@ -445,6 +476,17 @@ pub struct ShBatch {
     settings: StepSettings,
     last_error: ShError,
     last_step: ShStepReport,
+    /// The contact law (`None`: no contacts).
+    contacts: Option<contacts::ContactSettings>,
+    /// The colliders the strands touch when contacts are set.
+    colliders: colliders::Colliders,
+}
+
+impl ShBatch {
+    /// The colliders a step hands the strands: those of the batch when contacts are set.
+    fn step_colliders(&self) -> Option<&colliders::Colliders> {
+        self.contacts.is_some().then_some(&self.colliders)
+    }
 }
 
 /// The scratch of one step at one number of elements, for one thread (opaque).
@@ -751,6 +793,8 @@ unsafe fn new_batch(params: *const ShStrandParams, count: usize) -> Result<Box<S
         settings: batch::initial_settings(),
         last_error: ShError::NONE,
         last_step: ShStepReport::NONE,
+        contacts: None,
+        colliders: colliders::Colliders::default(),
     }))
 }
 
@@ -784,18 +828,21 @@ unsafe fn with_batch(
     }
     // SAFETY: non-NULL, live and not shared during the call (caller).
     let b = unsafe { &mut *batch };
-    let mut result = Err(Failure::plain(ShStatus::Panic));
+    // (nothing allocated on the way of a success: the step's path allocates nothing)
+    let mut result = None;
     let status = guard(|| {
-        result = f(b);
-        match &result {
+        let r = f(b);
+        let status = match &r {
             Ok(()) => ShStatus::Ok,
             Err(e) => e.status,
-        }
+        };
+        result = Some(r);
+        status
     });
     b.last_error = match result {
-        Ok(()) if status == ShStatus::Ok => ShError::NONE,
-        Ok(()) => Failure::plain(status).to_error(),
-        Err(e) => e.to_error(),
+        Some(Ok(())) if status == ShStatus::Ok => ShError::NONE,
+        Some(Err(e)) => e.to_error(),
+        _ => Failure::plain(status).to_error(),
     };
     status
 }
@@ -876,7 +923,13 @@ pub unsafe extern "C" fn sh_batch_bytes(
 ) -> ShStatus {
     let f = |b: &ShBatch| {
         let s = b.strands.strand_bytes();
-        let all = s * b.strands.len() + b.workspace.bytes + core::mem::size_of::<ShBatch>();
+        let all = s * b.strands.len()
+            + b.workspace.bytes
+            + b.workspace.contacts.bytes()
+            + b.strands.contact_bytes()
+            + b.colliders.items.capacity()
+                * core::mem::size_of::<(colliders::Shape, colliders::Carrier)>()
+            + core::mem::size_of::<ShBatch>();
         // SAFETY: NULL or valid for one write each (caller).
         unsafe {
             write_opt(per_strand, s);
@@ -1029,6 +1082,13 @@ pub unsafe extern "C" fn sh_batch_set_gravity(
 #[no_mangle]
 pub unsafe extern "C" fn sh_batch_set_checked(batch: *mut ShBatch, checked: c_int) -> ShStatus {
     let f = |b: &mut ShBatch| {
+        if checked == 0 && b.contacts.is_some() {
+            return Err(Failure::new(
+                ShStatus::InvalidContacts,
+                None,
+                "checked: the plain step takes no contacts (sh_batch_set_contacts(batch, NULL) first)",
+            ));
+        }
         b.settings.checked = checked != 0;
         Ok(())
     };
@@ -1061,6 +1121,13 @@ pub unsafe extern "C" fn sh_batch_set_tolerance(batch: *mut ShBatch, tolerance: 
         if tolerance == 0.0 {
             b.settings.tolerance = None;
             return Ok(());
+        }
+        if b.contacts.is_some() {
+            return Err(Failure::new(
+                ShStatus::InvalidContacts,
+                None,
+                "tolerance: the error-controlled step takes no contacts yet (sh_batch_set_contacts(batch, NULL) first)",
+            ));
         }
         let range =
             superhelix_kernels::fixed::MIN_TOLERANCE..=superhelix_kernels::fixed::MAX_TOLERANCE;
@@ -1123,9 +1190,10 @@ pub unsafe extern "C" fn sh_batch_step(batch: *mut ShBatch, dt: f64) -> ShStatus
         check_dt(dt)?;
         let n = b.strands.len();
         // SAFETY: `b` is borrowed exclusively, so nothing else uses its strands.
+        let colliders = b.contacts.is_some().then_some(&b.colliders);
         let outcome = unsafe {
             b.strands
-                .step_range(0, n, &b.settings, dt, &mut b.workspace)
+                .step_range(0, n, &b.settings, dt, &mut b.workspace, colliders)
                 .ok_or_else(|| Failure::plain(ShStatus::WorkspaceMismatch))?
         };
         b.last_step = step_report(n, &outcome);
@@ -1277,7 +1345,7 @@ pub unsafe extern "C" fn sh_batch_step_range(
             // no other reference to these strands is in use.
             let outcome = unsafe {
                 b.strands
-                    .step_range(first, count, &b.settings, dt, ws)
+                    .step_range(first, count, &b.settings, dt, ws, b.step_colliders())
                     .ok_or_else(|| Failure::plain(ShStatus::WorkspaceMismatch))?
             };
             step = step_report(count, &outcome);

@@ -10,7 +10,8 @@
 //! the head coordinates a strand's step works in; [`Collider`] is what anything that
 //! answers a signed distance implements (a closure `Fn(&Vector3<f64>) -> Proximity`
 //! among them, the form a callback takes); [`PoseOverStep`] gives a frame's state within
-//! a step from its poses at the step's two ends, as an engine hands them.
+//! a step from its poses at the step's two ends, as an engine hands them
+//! (`crate::fixed::PosedColliders` places colliders so over a step).
 //!
 //! The runtime places them in a scene (attached to the head, fixed in the world or on
 //! their own motion) and adds the sampled signed distance of a triangle mesh beside them
@@ -48,6 +49,21 @@ pub trait Collider {
     /// false: every point is queried.
     fn farther_than(&self, y: &nalgebra::Vector3<f64>, r: f64) -> bool {
         let _ = (y, r);
+        false
+    }
+
+    /// The velocity of the surface's material point at `y` relative to the collider's
+    /// coordinates (a deforming body, a conveyor belt; added to its mount's motion): by
+    /// default zero, a rigid collider.
+    fn surface_velocity(&self, y: &nalgebra::Vector3<f64>) -> nalgebra::Vector3<f64> {
+        let _ = y;
+        nalgebra::Vector3::zeros()
+    }
+
+    /// Whether the surface moves within the collider's coordinates
+    /// ([`Self::surface_velocity`] may be nonzero): the work of its motion then enters a
+    /// strand's energy balance as a collider's on its own motion. By default false.
+    fn surface_moves(&self) -> bool {
         false
     }
 }
@@ -99,6 +115,12 @@ impl Collider for &dyn Collider {
     }
     fn farther_than(&self, y: &nalgebra::Vector3<f64>, r: f64) -> bool {
         (**self).farther_than(y, r)
+    }
+    fn surface_velocity(&self, y: &nalgebra::Vector3<f64>) -> nalgebra::Vector3<f64> {
+        (**self).surface_velocity(y)
+    }
+    fn surface_moves(&self) -> bool {
+        (**self).surface_moves()
     }
 }
 

@@ -15,7 +15,7 @@
 //!   a [`StepColliders`] such as a slice of (collider, mount) pairs): their penalty,
 //!   friction and damping in every solve, their energy in the balance, a step split where
 //!   a sample goes deeper than the split depth, the anchors and allowances kept between
-//!   steps;
+//!   steps; colliders on poses of their own placed over the step by [`PosedColliders`];
 //! - [`step_to_tolerance`]: the error-controlled step instead (variable-step BDF2,
 //!   [`bdf2`], with its own steps chosen to keep the estimated local error below a
 //!   tolerance), whose history a strand keeps in a [`StepHistory`] beside it.
@@ -38,6 +38,7 @@ mod contacts;
 mod dense;
 mod error_control;
 mod params;
+mod posed_colliders;
 mod step;
 mod workspace;
 
@@ -56,6 +57,7 @@ pub use error_control::{
     MIN_TOLERANCE,
 };
 pub use params::{FixedParams, ParamsError};
+pub use posed_colliders::{Carrier, PosedColliders};
 pub use step::{
     centreline, evaluate, linearly_implicit, linearly_implicit_with, StepError, StepInput,
     StepReport,

@@ -12,7 +12,8 @@
 //! closed triangle mesh read from OBJ ([`obj`], checked by [`triangle_mesh`]) is
 //! sampled exactly ([`mesh_distance`]: closest points through a [`bvh`], signs by the
 //! angle-weighted pseudonormal) on a regular [`grid`] and evaluated by trilinear
-//! interpolation ([`mesh_sdf`]).
+//! interpolation ([`mesh_sdf`]); a signed distance given on a grid (a `.npy` file) is
+//! evaluated the same way ([`grid_sdf`]).
 //!
 //! [`Bodies::build`] turns the scene's [`BodySetup`]s into [`Bodies`];
 //! [`Bodies::at`] places them at a time and head state for queries ([`PlacedBodies`]).
@@ -21,6 +22,7 @@ pub mod body;
 pub mod bvh;
 pub mod collection;
 pub mod grid;
+pub mod grid_sdf;
 pub mod mesh_distance;
 pub mod mesh_sdf;
 pub mod motion;

@@ -83,6 +83,28 @@ impl<'a> GridView<'a> {
         self.values[n[0] + self.dims[0] * (n[1] + self.dims[1] * n[2])]
     }
 
+    /// A ball (centre, radius) beyond which the field exceeds the distance to the ball:
+    /// a point farther than `radius + r` from the centre has a value above r. Beyond the
+    /// box the field is `f(p) + |x − p|` with p on the box's boundary, where f is at least
+    /// the least boundary node value m (trilinear), and `|x − p| ≥ |x − c| − R` (c, R: the
+    /// box's centre and half-diagonal); so the radius is `R + max(0, −m)`. One pass over
+    /// the boundary nodes: a caller keeps the answer.
+    pub fn bounding_ball(&self) -> (Vector3<f64>, f64) {
+        let [nx, ny, nz] = self.dims;
+        let mut least = f64::INFINITY;
+        for k in 0..nz {
+            for j in 0..ny {
+                let whole_row = j == 0 || k == 0 || j + 1 == ny || k + 1 == nz;
+                let row = (0..nx).filter(|&i| whole_row || i == 0 || i + 1 == nx);
+                for i in row {
+                    least = least.min(self.node([i, j, k]));
+                }
+            }
+        }
+        let (lo, hi) = (self.origin, self.corner());
+        (0.5 * (lo + hi), 0.5 * (hi - lo).norm() + (-least).max(0.0))
+    }
+
     /// Value and gradient at `x`: trilinear inside the box, extended outside (module
     /// documentation).
     pub fn sample(&self, x: &Vector3<f64>) -> (f64, Vector3<f64>) {

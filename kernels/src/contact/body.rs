@@ -44,6 +44,13 @@ pub trait ColliderSet {
     fn on_own_motion(&self, b: usize) -> bool {
         matches!(self.mount(b), Mount::Frame(_))
     }
+    /// The velocity, head coordinates, of collider `b`'s material point at the head-frame
+    /// point `y`, the head in `head`: by default its mount's ([`Mount::velocity`]); a
+    /// collider whose surface moves within its own coordinates (a deforming body, a
+    /// callback that reports a velocity) adds that motion.
+    fn velocity(&self, b: usize, head: &HeadState, y: &V3) -> V3 {
+        self.mount(b).velocity(head, y)
+    }
 }
 
 /// One sample's contact with a collider.
@@ -301,7 +308,7 @@ impl<C: ColliderSet> BodyContacts<'_, C> {
             let curvature = (asked.stiffness && asked.curvature).then_some(elastic);
             sink.point(s, jac, curvature);
             let n = hit.normal;
-            let vel = point_velocity(jac, v) - self.colliders.mount(hit.body).velocity(head, &y);
+            let vel = point_velocity(jac, v) - self.colliders.velocity(hit.body, head, &y);
             let (force, damping) =
                 body_damping(self.params, w, &n, &t, normal.norm(), &vel, elastic);
             if asked.force {
@@ -334,7 +341,7 @@ impl<C: ColliderSet> BodyContacts<'_, C> {
             let (penalty, held) = body_potential(self.params, w, depth, &spring);
             potential += penalty;
             potential += held;
-            let u = self.colliders.mount(hit.body).velocity(head, &y);
+            let u = self.colliders.velocity(hit.body, head, &y);
             rate += (normal + spring).dot(&u);
         }
         (potential, rate)
@@ -360,7 +367,7 @@ impl<C: ColliderSet> BodyContacts<'_, C> {
             if !self.colliders.on_own_motion(hit.body) {
                 continue;
             }
-            let u = self.colliders.mount(hit.body).velocity(head, &y);
+            let u = self.colliders.velocity(hit.body, head, &y);
             if u == V3::zeros() {
                 continue;
             }
@@ -538,6 +545,9 @@ impl<S: ColliderSet + ?Sized> ColliderSet for &S {
     }
     fn on_own_motion(&self, b: usize) -> bool {
         (**self).on_own_motion(b)
+    }
+    fn velocity(&self, b: usize, head: &HeadState, y: &V3) -> V3 {
+        (**self).velocity(b, head, y)
     }
 }
 

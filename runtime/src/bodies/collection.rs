@@ -2,6 +2,7 @@
 //! and head state for queries in world coordinates.
 
 use super::body::{Body, Placement};
+use super::grid_sdf::GridSdf;
 use super::mesh_sdf::MeshSdf;
 use super::obj::read_obj;
 use super::proximity::Proximity;
@@ -206,6 +207,9 @@ fn build_shape(setup: &ShapeSetup) -> std::result::Result<Shape, FieldError> {
                 )
             })?;
             Shape::Mesh(Arc::new(sdf))
+        }
+        ShapeSetup::Grid { path, origin, cell } => {
+            Shape::Grid(Arc::new(GridSdf::read(path, *origin, *cell)?))
         }
     })
 }

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 pub const MAX_BODY_SIZE: f64 = 1000.0;
 /// Largest `scale` of a mesh.
 pub const MAX_MESH_SCALE: f64 = 1e6;
-/// Most nodes of the grid of a mesh body (256³, 134 MB of f64).
+/// Most nodes of the grid of a mesh or grid body (256³, 134 MB of f64).
 pub const MAX_GRID_NODES: usize = 1 << 24;
 /// The default grid cell of a mesh is the longest side of the mesh's box over this.
 pub const DEFAULT_CELLS_PER_SIDE: f64 = 64.0;
@@ -111,6 +111,19 @@ pub enum ShapeSetup {
         /// Translation applied last, m.
         translation: Vector3<f64>,
     },
+    /// A signed distance sampled on a regular grid (negative inside), read from a `.npy`
+    /// file of float64 values in C order of shape `(nz, ny, nx)`: node (i, j, k) at
+    /// `origin + cell · (i, j, k)` holds `values[k, j, i]`; evaluated by trilinear
+    /// interpolation inside the grid's box and `f(p) + |x − p|` beyond it (the form a
+    /// game engine builds for hair, and what the C ABI's `SH_COLLIDER_GRID` reads).
+    Grid {
+        /// The `.npy` file (a scene resolves it against the scene file's folder).
+        path: PathBuf,
+        /// Position of node (0, 0, 0), m.
+        origin: Vector3<f64>,
+        /// Distance between neighbouring nodes, m, in (0, [`MAX_BODY_SIZE`]].
+        cell: f64,
+    },
 }
 
 impl ShapeSetup {
@@ -123,6 +136,7 @@ impl ShapeSetup {
             ShapeSetup::Cylinder { .. } => "cylinder",
             ShapeSetup::Plane { .. } => "plane",
             ShapeSetup::Mesh { .. } => "mesh",
+            ShapeSetup::Grid { .. } => "grid",
         }
     }
 }
@@ -220,6 +234,13 @@ impl BodySetup {
                 }
                 check_rotation(&mut errors, &at("rotation_axis_angle_deg"), rotation);
                 finite(&mut errors, "translation", translation.as_slice());
+            }
+            ShapeSetup::Grid { path, origin, cell } => {
+                if path.as_os_str().is_empty() {
+                    errors.push(FieldError::new(at("path"), "must name a .npy file"));
+                }
+                finite(&mut errors, "origin", origin.as_slice());
+                size(&mut errors, "cell", *cell);
             }
         }
         errors

@@ -1,6 +1,7 @@
 //! The geometry of a body, built: the analytic shapes and the sampled mesh field, each
 //! answering [`Proximity`] queries in the body's own coordinates.
 
+use super::grid_sdf::GridSdf;
 use super::mesh_sdf::MeshSdf;
 use super::proximity::Proximity;
 use super::shape_capsule::Capsule;
@@ -27,6 +28,8 @@ pub enum Shape {
     Plane(Plane),
     /// A closed mesh's signed distance on a grid (trilinear), shared between copies.
     Mesh(Arc<MeshSdf>),
+    /// A signed distance given on a grid (trilinear), shared between copies.
+    Grid(Arc<GridSdf>),
 }
 
 impl Shape {
@@ -61,6 +64,7 @@ impl Shape {
                 let (lo, hi) = (m.grid().origin(), m.grid().corner());
                 Some((0.5 * (lo + hi), 0.5 * (hi - lo).norm()))
             }
+            Shape::Grid(g) => Some(g.bounding_ball()),
         }
     }
 
@@ -73,6 +77,7 @@ impl Shape {
             Shape::Cylinder(s) => s.query(y),
             Shape::Plane(s) => s.query(y),
             Shape::Mesh(s) => s.query(y),
+            Shape::Grid(s) => s.query(y),
         }
     }
 }

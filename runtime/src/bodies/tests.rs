@@ -2,6 +2,7 @@ use super::*;
 use nalgebra::{Rotation3, Vector3};
 use std::path::PathBuf;
 
+mod grids;
 mod meshes;
 mod placement;
 mod shapes;

@@ -120,6 +120,13 @@ impl Surface {
                         .into(),
                 )
             }
+            ShapeSetup::Grid { .. } => {
+                return Err(
+                    "hair is not rooted on grid bodies (their surface is not a mesh); use a \
+                     sphere, an ellipsoid, a capsule or a mesh"
+                        .into(),
+                )
+            }
             ShapeSetup::Mesh {
                 path,
                 scale,

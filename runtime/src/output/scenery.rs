@@ -128,6 +128,13 @@ impl PreviewBody {
                     triangles: Arc::new(triangles),
                 }
             }
+            // a grid is drawn as the box of its nodes inside the body
+            ShapeSetup::Grid { path, origin, cell } => {
+                let sdf = crate::bodies::grid_sdf::GridSdf::read(path, *origin, *cell)
+                    .map_err(|e| e.message)?;
+                let (lo, hi) = sdf.inside_box().unwrap_or((*origin, *origin));
+                box_mesh(&lo, &hi)
+            }
         };
         Ok(Self {
             attached: setup.attached.clone(),
@@ -287,5 +294,34 @@ impl Scenery {
         } else {
             HeadState::rest()
         }
+    }
+}
+
+/// The box `[lo, hi]` as a closed mesh of 12 triangles, each turned outwards.
+fn box_mesh(lo: &Vector3<f64>, hi: &Vector3<f64>) -> PreviewShape {
+    let corner = |i: usize| {
+        Vector3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        )
+    };
+    let vertices = (0..8).map(corner).collect();
+    // each face as two triangles, counter-clockwise seen from outside
+    let faces: [[usize; 4]; 6] = [
+        [0, 2, 3, 1], // z = lo
+        [4, 5, 7, 6], // z = hi
+        [0, 1, 5, 4], // y = lo
+        [2, 6, 7, 3], // y = hi
+        [0, 4, 6, 2], // x = lo
+        [1, 3, 7, 5], // x = hi
+    ];
+    let triangles = faces
+        .iter()
+        .flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]])
+        .collect();
+    PreviewShape::Mesh {
+        vertices: Arc::new(vertices),
+        triangles: Arc::new(triangles),
     }
 }

@@ -218,10 +218,10 @@ impl<'a, L: Lanes> Placed<'a, L> {
         }
     }
 
-    /// Whether the body is asked again right after it pushed a point out: only a mesh,
-    /// whose distance is interpolated (its push may leave the point still within).
+    /// Whether the body is asked again right after it pushed a point out: only a mesh or
+    /// a grid, whose distance is interpolated (its push may leave the point still within).
     pub(super) fn asked_again(&self) -> bool {
-        matches!(self, Placed::Queried(q) if matches!(q.shape, Shape::Mesh(_)))
+        matches!(self, Placed::Queried(q) if matches!(q.shape, Shape::Mesh(_) | Shape::Grid(_)))
     }
 
     /// The body's answer about the eight world points `x` (one per lane) where `asked`:

@@ -1,6 +1,6 @@
 //! The `[[bodies]]` tables: the head and obstacles as shapes, attached to the head, fixed
 //! in the world, or on their own rigid motion (a `[bodies.motion]` table, read as the
-//! head's `[head.motion]`). A mesh's `path` is taken relative to the scene file's folder; the
+//! head's `[head.motion]`). A mesh's or a grid's `path` is taken relative to the scene file's folder; the
 //! file itself is read when the simulation is built ([`crate::bodies::Bodies::build`]).
 
 use super::head::read_motion;
@@ -12,13 +12,14 @@ use std::collections::HashMap;
 use std::path::Path;
 
 /// Shapes as written in scenes.
-const SHAPES: [&str; 6] = [
+const SHAPES: [&str; 7] = [
     "sphere",
     "ellipsoid",
     "capsule",
     "plane",
     "mesh",
     "cylinder",
+    "grid",
 ];
 
 /// Radii, half-axes and cells, m.
@@ -47,6 +48,7 @@ pub(super) fn read_bodies(root: &mut Node<'_>, scene_dir: &Path) -> Vec<BodySetu
             Some(3) => plane(&mut n),
             Some(4) => mesh(&mut n, scene_dir),
             Some(5) => cylinder(&mut n),
+            Some(6) => grid(&mut n, scene_dir),
             _ => None,
         };
         if let Some(name) = &name {
@@ -220,5 +222,31 @@ fn mesh(n: &mut Node<'_>, scene_dir: &Path) -> Option<ShapeSetup> {
         scale: scale?,
         rotation: rotation?,
         translation: translation?,
+    })
+}
+
+fn grid(n: &mut Node<'_>, scene_dir: &Path) -> Option<ShapeSetup> {
+    let path = n.required(
+        "path",
+        "the .npy file of signed distances (float64, shape (nz, ny, nx)), relative to the scene file",
+        |n, k| {
+            let path = n.string(k)?;
+            if path.is_empty() {
+                n.error(k, "must name a .npy file");
+                return None;
+            }
+            Some(scene_dir.join(path))
+        },
+    );
+    let origin = n.required(
+        "origin",
+        "[x, y, z] in m, the position of node (0, 0, 0)",
+        Node::position,
+    );
+    let cell = n.required_f64("cell", "the distance between neighbouring nodes in m", SIZE);
+    Some(ShapeSetup::Grid {
+        path: path?,
+        origin: origin?,
+        cell: cell?,
     })
 }
