@@ -7,6 +7,8 @@
 use std::io::Read;
 use std::path::Path;
 
+pub mod npy;
+
 /// Largest scene file (TOML), groom or polyline file read whole: 256 MiB.
 pub const TEXT_FILE_LIMIT: u64 = 256 << 20;
 

@@ -27,7 +27,7 @@ impl GridSdf {
     /// node (0, 0, 0) at `origin` and spacing `cell` (finite, > 0). An error names the
     /// field relative to the body (`path`, `cell`) and what is wrong.
     pub fn read(path: &Path, origin: Vector3<f64>, cell: f64) -> Result<Self, FieldError> {
-        let (shape, values) = crate::output::npy::read_f64(path)
+        let (shape, values) = crate::input::npy::read_f64(path)
             .map_err(|e| FieldError::new("path", format!("'{}': {e}", path.display())))?;
         let bad = |m: String| FieldError::new("path", format!("'{}': {m}", path.display()));
         let [nz, ny, nx] = match shape.as_slice() {

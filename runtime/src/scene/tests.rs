@@ -896,3 +896,29 @@ translation = [0.0, 0.0, 0.1]
         }
     );
 }
+
+/// `shape = "grid"` reads its path (against the scene's folder), origin and cell, and
+/// names a missing field.
+#[test]
+fn a_scene_grid_body_reads_its_fields() {
+    let s = parse_scene_at(
+        "[[strands]]\nlength = 0.1\n[[bodies]]\nshape = \"grid\"\npath = \"sdf/head.npy\"\n\
+         origin = [-0.1, -0.1, 0.0]\ncell = 0.005\nattached = \"world\"\n",
+        std::path::Path::new("/scenes"),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        s.bodies[0].shape,
+        crate::bodies::ShapeSetup::Grid {
+            path: "/scenes/sdf/head.npy".into(),
+            origin: Vector3::new(-0.1, -0.1, 0.0),
+            cell: 0.005,
+        }
+    );
+    let e = parse_scene_at(
+        "[[strands]]\nlength = 0.1\n[[bodies]]\nshape = \"grid\"\npath = \"a.npy\"\ncell = 0.005\n",
+        std::path::Path::new("/scenes"),
+    )
+    .expect_err("no origin");
+    assert!(e.to_string().contains("bodies[0].origin"), "{e}");
+}
