@@ -308,11 +308,15 @@ impl StrandContacts {
     ) -> FixedContacts<'a, StepSet<'a>, ClosedForm> {
         let m = self.samples.len();
         *scratch.chain_valid = 0;
+        // the poses in the scratch were another strand's
+        *scratch.poses_valid = false;
         let store = ContactStore {
             anchors: &mut self.anchors,
             allowance: &mut self.allowance,
             start_depth: &mut scratch.start_depth[..m],
             poses: &mut scratch.poses[..m],
+            poses_q: &mut scratch.poses_q[..D],
+            poses_valid: scratch.poses_valid,
             jac: &mut scratch.jac[..D],
             aj: &mut scratch.aj[..D],
             ends: &mut scratch.ends[..N + 1],
@@ -357,6 +361,9 @@ impl StrandContacts {
 pub(crate) struct ContactScratch {
     start_depth: Vec<f64>,
     poses: Vec<(V3, V3)>,
+    /// The q of `poses` and whether they are current (cleared for each strand).
+    poses_q: Vec<f64>,
+    poses_valid: bool,
     jac: Vec<V3>,
     aj: Vec<V3>,
     ends: Vec<Pose>,
@@ -381,6 +388,8 @@ pub(crate) struct ContactScratch {
 pub(crate) struct ContactScratchParts<'a> {
     start_depth: &'a mut [f64],
     poses: &'a mut [(V3, V3)],
+    poses_q: &'a mut [f64],
+    poses_valid: &'a mut bool,
     jac: &'a mut [V3],
     aj: &'a mut [V3],
     ends: &'a mut [Pose],
@@ -409,6 +418,7 @@ impl ContactScratch {
         let zero = V3::zeros();
         grow(&mut self.start_depth, samples, 0.0);
         grow(&mut self.poses, samples, (zero, zero));
+        grow(&mut self.poses_q, dofs, 0.0);
         grow(&mut self.jac, dofs, zero);
         grow(&mut self.aj, dofs, zero);
         grow(&mut self.ends, elements + 1, Pose::default());
@@ -432,6 +442,8 @@ impl ContactScratch {
             ContactScratchParts {
                 start_depth: &mut self.start_depth,
                 poses: &mut self.poses,
+                poses_q: &mut self.poses_q,
+                poses_valid: &mut self.poses_valid,
                 jac: &mut self.jac,
                 aj: &mut self.aj,
                 ends: &mut self.ends,
@@ -456,7 +468,10 @@ impl ContactScratch {
             + (self.jac.capacity() + self.aj.capacity() + self.points.capacity()) * size_of::<V3>()
             + self.ends.capacity() * size_of::<Pose>()
             + self.end_derivs.capacity() * size_of::<EndDerivatives>()
-            + (self.chain_q.capacity() + self.floats.capacity() + self.kept_allowance.capacity())
+            + (self.chain_q.capacity()
+                + self.poses_q.capacity()
+                + self.floats.capacity()
+                + self.kept_allowance.capacity())
                 * size_of::<f64>()
             + self.flags.capacity()
             + self.indices.capacity() * size_of::<usize>()

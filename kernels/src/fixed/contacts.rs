@@ -188,6 +188,15 @@ pub struct ContactStore<'a> {
     pub jac: &'a mut [V3],
     /// Scratch: A J(s), 3N columns.
     pub aj: &'a mut [V3],
+    /// The q (3N) the samples' poses in `poses` were last computed at, when
+    /// `poses_valid`: asked again at the same q (bit for bit), they are not computed
+    /// again. A strand that keeps `poses`, `poses_q` and `poses_valid` as its own from one
+    /// step to the next (rather than a worker's scratch shared by its strands, whose
+    /// `poses_valid` is then cleared for each strand) also skips them at the next step's
+    /// start, which is its last step's end.
+    pub poses_q: &'a mut [f64],
+    /// Whether `poses` hold the samples' poses at `poses_q`.
+    pub poses_valid: &'a mut bool,
     /// Scratch: element end poses, N + 1.
     pub ends: &'a mut [Pose],
     /// Scratch: element end derivatives, N.
@@ -515,9 +524,18 @@ impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, 
         tip
     }
 
-    /// The samples' poses at q into the storage.
+    /// The samples' poses at q into the storage (kept when they are there already).
     fn pose(&mut self, q: &[f64]) {
-        sample_poses(&self.root, self.lengths, q, self.samples, self.store.poses);
+        let s = &mut self.store;
+        let same = |a: &[f64]| a.iter().zip(q).all(|(x, y)| x.to_bits() == y.to_bits());
+        if *s.poses_valid && s.poses_q.len() == q.len() && same(s.poses_q) {
+            return;
+        }
+        sample_poses(&self.root, self.lengths, q, self.samples, s.poses);
+        *s.poses_valid = s.poses_q.len() == q.len();
+        if *s.poses_valid {
+            s.poses_q.copy_from_slice(q);
+        }
     }
 
     /// Re-anchor every sample (Coulomb friction only), the poses current.
@@ -1128,6 +1146,7 @@ mod tests {
             let (mut anchors, mut allowance, mut start_depth) =
                 (vec![None; m], vec![0.0; m], vec![0.0; m]);
             let mut poses = vec![(V3::zeros(), V3::zeros()); m];
+            let (mut poses_q, mut poses_valid) = (vec![0.0; D], false);
             let (mut jac, mut aj) = (vec![V3::zeros(); D], vec![V3::zeros(); D]);
             let mut ends = vec![Pose::default(); N + 1];
             let mut derivs = vec![EndDerivatives::default(); N];
@@ -1153,6 +1172,8 @@ mod tests {
                         allowance: &mut allowance,
                         start_depth: &mut start_depth,
                         poses: &mut poses,
+                        poses_q: &mut poses_q,
+                        poses_valid: &mut poses_valid,
                         jac: &mut jac,
                         aj: &mut aj,
                         ends: &mut ends,

@@ -508,6 +508,22 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
             .par_iter()
             .zip(buffers.par_iter())
             .map(|(s, b)| {
+                // the poses the last step left, when they are those of the strand's state
+                let same = b.poses_valid
+                    && b.poses_q.len() == s.q.len()
+                    && b.poses_q
+                        .iter()
+                        .zip(&s.q)
+                        .all(|(x, y)| x.to_bits() == y.to_bits());
+                let place = |poses: &[(nalgebra::Vector3<f64>, nalgebra::Vector3<f64>)]| {
+                    poses
+                        .iter()
+                        .map(|(y, _)| head.position + head.rotation * y)
+                        .collect()
+                };
+                if same {
+                    return place(&b.poses);
+                }
                 let root = Pose {
                     position: s.params.root_position,
                     frame: s.params.root_frame,
@@ -521,10 +537,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                     &b.samples,
                     &mut poses,
                 );
-                poses
-                    .iter()
-                    .map(|(y, _)| head.position + head.rotation * y)
-                    .collect()
+                place(&poses)
             })
             .collect()
     }
@@ -602,13 +615,19 @@ pub struct StrandContactBuffers {
     /// step, in arc-length order.
     hair: Option<HairHairParams>,
     partners: Vec<PartnerPoint>,
+    /// The samples' poses (head coordinates) at `poses_q` when `poses_valid`: the last
+    /// ones the strand's step computed, which are those of its state after the step (the
+    /// hair–hair pairs' search and the next step's start take them rather than compute
+    /// them again).
+    poses: Vec<(nalgebra::Vector3<f64>, nalgebra::Vector3<f64>)>,
+    poses_q: Vec<f64>,
+    poses_valid: bool,
 }
 
 /// The scratch of the contacts of a worker's strands (one per chunk of strands, sized
 /// for the most samples among them).
 pub struct ContactScratch {
     start_depth: Vec<f64>,
-    poses: Vec<(nalgebra::Vector3<f64>, nalgebra::Vector3<f64>)>,
     jac: Vec<nalgebra::Vector3<f64>>,
     aj: Vec<nalgebra::Vector3<f64>>,
     ends: Vec<Pose>,
@@ -635,7 +654,6 @@ impl ContactScratch {
         let dofs = 3 * elements;
         ContactScratch {
             start_depth: vec![0.0; samples],
-            poses: vec![(zero, zero); samples],
             jac: vec![zero; dofs],
             aj: vec![zero; dofs],
             ends: vec![Pose::default(); elements + 1],
@@ -680,6 +698,9 @@ impl StrandContactBuffers {
                 .as_ref()
                 .map(|h| h.params(g.mass_per_length)),
             partners: Vec::new(),
+            poses: vec![(nalgebra::Vector3::zeros(), nalgebra::Vector3::zeros()); n],
+            poses_q: vec![0.0; 3 * g.elements()],
+            poses_valid: false,
             samples,
         }
     }
@@ -754,7 +775,9 @@ impl StrandContactBuffers {
             anchors: &mut self.anchors,
             allowance: &mut self.allowance,
             start_depth: &mut scratch.start_depth[..m],
-            poses: &mut scratch.poses[..m],
+            poses: &mut self.poses,
+            poses_q: &mut self.poses_q,
+            poses_valid: &mut self.poses_valid,
             jac: &mut scratch.jac,
             aj: &mut scratch.aj,
             ends: &mut scratch.ends,
