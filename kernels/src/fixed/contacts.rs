@@ -264,12 +264,13 @@ impl PartnerStore<'_> {
     /// of two parts of the strand, `dofs` columns.
     fn fits(&self, samples: usize, dofs: usize) -> bool {
         let m = self.partners.len();
-        let own = self.partners.iter().any(|p| p.partner_s.is_some());
+        // (the partners looked through only when the columns are missing)
+        let columns = self.other.len() == dofs && self.diff.len() == dofs;
         self.near.len() >= m
             && self.near_y.len() >= m
             && self.near_y0.len() >= m
             && self.sample_y0.len() >= samples
-            && (!own || (self.other.len() == dofs && self.diff.len() == dofs))
+            && (columns || !self.partners.iter().any(|p| p.partner_s.is_some()))
     }
 }
 

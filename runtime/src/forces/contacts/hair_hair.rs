@@ -1074,7 +1074,15 @@ fn broad_phase(
             // each sample keeps the `cap` nearest of the pairs it took (a pair among the
             // `cap` nearest of both its samples is among them; `keep_nearest` caps each
             // sample's pairs again after the merge with the tracked ones)
-            if taken.len() > cap {
+            // (ranked only when a sample took more than `cap`)
+            let over = taken.len() > cap && {
+                let mut count = vec![0usize; own.len()];
+                taken.iter().any(|x| {
+                    count[x.0 as usize] += 1;
+                    count[x.0 as usize] > cap
+                })
+            };
+            if over {
                 taken.sort_unstable_by(|x, y| {
                     x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)).then(x.2.cmp(&y.2))
                 });
