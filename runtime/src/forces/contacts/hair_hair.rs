@@ -746,17 +746,6 @@ impl HairHair {
             }
         }
     }
-
-    /// Every strand's partner points ([`Self::fill_partners`] for each).
-    pub fn partners(&self, points: &[Vec<Vector3<f64>>]) -> Vec<Vec<PartnerPoint>> {
-        (0..points.len())
-            .map(|s| {
-                let mut out = Vec::new();
-                self.fill_partners(s, points, &mut out);
-                out
-            })
-            .collect()
-    }
 }
 
 /// Whether samples `a` and `b` may form a pair: of two strands, or of one strand more than

@@ -933,7 +933,7 @@ impl StrandContacts {
 /// `partners` in arc-length order (`s` increasing; equal arc lengths keep their order, as
 /// a stable sort), each moved once: the order is sorted on the arc lengths alone (a
 /// partner point is some 200 bytes), and a list already in order is taken as it is.
-pub fn in_arc_order(partners: Vec<PartnerPoint>) -> Vec<PartnerPoint> {
+fn in_arc_order(partners: Vec<PartnerPoint>) -> Vec<PartnerPoint> {
     if partners
         .windows(2)
         .all(|w| w[0].s.total_cmp(&w[1].s).is_le())
