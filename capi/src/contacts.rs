@@ -500,5 +500,5 @@ pub(crate) fn deepest<const N: usize, const D: usize, const B: usize>(
     };
     let lengths = strand.params.lengths;
     let mut hooks = contacts.hooks(&strand.params, &lengths, &mut set, &mut parts);
-    ContactHooks::<f64, D>::deepest(&mut hooks, &strand.q, t, head)
+    ContactHooks::<f64>::deepest(&mut hooks, &strand.q, t, head)
 }

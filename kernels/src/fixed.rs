@@ -66,6 +66,7 @@ pub use workspace::{Assembly, FixedWorkspace};
 
 use crate::energy::StateEnergy;
 use crate::float::Float;
+use crate::storage::StrandView;
 use crate::strand_terms::MomentSource;
 
 /// What a fixed-N strand keeps between steps: its parameters, its state and the basis
@@ -118,6 +119,20 @@ impl<const N: usize, const D: usize, const B: usize, T: Float> FixedStrand<N, D,
         s.q = self.q.each_ref().map(c);
         s.v = self.v.each_ref().map(c);
         s
+    }
+
+    /// The step's view of this strand.
+    pub fn view(&mut self) -> StrandView<'_, T> {
+        StrandView {
+            params: self.params.view(),
+            q: &mut self.q,
+            v: &mut self.v,
+            basis: self.basis.as_flattened_mut(),
+            basis_k: &mut self.basis_k,
+            basis_negative: &mut self.basis_negative,
+            split_hint: &mut self.split_hint,
+            last_energy: &mut self.last_energy,
+        }
     }
 
     /// Set the state (q, q̇), forgetting the kept basis.

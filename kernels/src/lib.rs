@@ -50,6 +50,7 @@ pub mod moments;
 pub mod pose;
 pub mod projection;
 pub mod quadrature;
+pub mod storage;
 pub mod strand_point;
 pub mod strand_terms;
 

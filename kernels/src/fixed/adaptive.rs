@@ -21,7 +21,8 @@
 use super::contacts::ContactHooks;
 use super::dense::Projection;
 use super::step::{
-    linearly_implicit_with, non_finite, solve_factored_f64, StepError, StepInput, StepReport,
+    max_element_rotation, non_finite, solve_factored_f64, solve_step, StepError, StepInput,
+    StepReport,
 };
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
@@ -33,6 +34,7 @@ use crate::energy::{
 use crate::field_split::FieldRule;
 use crate::float::Float;
 use crate::head::{body_field, HeadState};
+use crate::storage::{ParamsView, StrandView, WorkView};
 use crate::strand_terms::MomentSource;
 use nalgebra::{Matrix3, Vector3};
 
@@ -194,13 +196,9 @@ impl StepCounts {
 
 /// Scale the step from `saved_q` to the strand's state to the trusted rotation: the change
 /// of q and the velocities by `TRUSTED_ELEMENT_ROTATION / rotation`.
-fn limit_rotation<const N: usize, const D: usize, const B: usize, T: Float>(
-    strand: &mut FixedStrand<N, D, B, T>,
-    saved_q: &[T; D],
-    rotation: f64,
-) {
+fn limit_rotation<T: Float>(strand: &mut StrandView<'_, T>, saved_q: &[T], rotation: f64) {
     let lambda = T::of(TRUSTED_ELEMENT_ROTATION / rotation);
-    for i in 0..D {
+    for i in 0..strand.dofs() {
         strand.q[i] = saved_q[i] + lambda * (strand.q[i] - saved_q[i]);
         strand.v[i] *= lambda;
     }
@@ -267,27 +265,19 @@ impl Interval {
 /// `ws` is left prepared for q (a solve from this state follows: it reuses the element
 /// moments, see [`crate::strand_terms::evaluate_energy`]).
 #[allow(clippy::too_many_arguments)]
-pub(super) fn measure<
-    'c,
-    S: MomentSource<T>,
-    const N: usize,
-    const D: usize,
-    const E: usize,
-    const B: usize,
-    T: Float,
->(
+pub(crate) fn measure<'c, S: MomentSource<T>, T: Float>(
     source: &S,
-    strand: &FixedStrand<N, D, B, T>,
+    p: &ParamsView<'_, T>,
     effects: &Effects,
     head: &HeadState,
     t: f64,
-    q: &[T; D],
-    v: &[T; D],
-    ws: &mut FixedWorkspace<N, D, E, T>,
+    q: &[T],
+    v: &[T],
+    ws: &mut WorkView<'_, T>,
     prepare_terms: bool,
-    contacts: Option<&mut (dyn ContactHooks<T, D> + 'c)>,
+    contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
 ) -> StateEnergy<T> {
-    let p = &strand.params;
+    let n = p.dofs();
     let rho_s = p.mass_per_length;
     let full = body_field(effects.gravity, effects.head_moves, head, rho_s, p.air_drag);
     // ½ q̇ᵀ M q̇, ∫ρS y ds and the power of C1 (a rotating head) in O(N), from the
@@ -296,7 +286,7 @@ pub(super) fn measure<
     let measured = crate::strand_terms::evaluate_energy(
         source,
         &shape,
-        &mut ws.assembly.buffers(),
+        &mut ws.assembly,
         q,
         v,
         full.has_linear().then_some(&full.linear),
@@ -304,7 +294,7 @@ pub(super) fn measure<
     );
     let half = T::of(0.5);
     let kinetic = measured.kinetic;
-    let elastic: T = (0..D)
+    let elastic: T = (0..n)
         .map(|i| {
             let x = q[i] - p.natural[i];
             half * p.stiffness[i] * (x * x)
@@ -312,7 +302,7 @@ pub(super) fn measure<
         .sum();
     let power = measured.power;
     let moment = measured.first_moment / rho_s;
-    let dissipation = (0..D).map(|i| p.friction[i] * v[i] * v[i]).sum::<T>()
+    let dissipation = (0..n).map(|i| p.friction[i] * v[i] * v[i]).sum::<T>()
         + T::of(2.0) * p.air_drag / rho_s * kinetic;
     let length = p.length();
     // the contact potential joins V (as the runtime's point loads' part), its rate at
@@ -360,9 +350,12 @@ pub fn energy<
     t: f64,
     ws: &mut FixedWorkspace<N, D, E, T>,
 ) -> StateEnergy<T> {
+    let mut ws = ws.view();
     ws.forget();
-    let (q, v) = (strand.q, strand.v);
-    let e = measure(source, strand, effects, head, t, &q, &v, ws, false, None);
+    let p = strand.params.view();
+    let e = measure(
+        source, &p, effects, head, t, &strand.q, &strand.v, &mut ws, false, None,
+    );
     ws.forget();
     e
 }
@@ -371,11 +364,11 @@ pub fn energy<
 /// measured again: what changes between two pieces of a step without the strand moving
 /// when the contacts have a history (anchors slid, allowances shrank). The runtime's
 /// `energy_balance::remeasure_contacts`.
-fn remeasure_contacts<T: Float, const D: usize>(
-    c: &mut dyn ContactHooks<T, D>,
+fn remeasure_contacts<T: Float>(
+    c: &mut dyn ContactHooks<T>,
     head: &HeadState,
-    q: &[T; D],
-    v: &[T; D],
+    q: &[T],
+    v: &[T],
     energy: &StateEnergy<T>,
 ) -> StateEnergy<T> {
     let mut e = *energy;
@@ -443,17 +436,50 @@ pub fn step_with_contacts<
     h: f64,
     ws: &mut FixedWorkspace<N, D, E, T>,
     counts: &mut StepCounts,
-    mut contacts: Option<&mut (dyn ContactHooks<T, D> + 'c)>,
+    contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
+) -> Result<StepReport, StepError> {
+    let mut ws = ws.view();
+    let stack = ws.take_stack();
+    let mut strand = strand.view();
+    checked_step(
+        source,
+        &mut strand,
+        head,
+        effects,
+        t,
+        h,
+        &mut ws,
+        stack,
+        counts,
+        contacts,
+    )
+}
+
+/// [`step_with_contacts`] on any storage (`stack`: [`crate::storage::STACK_VECTORS`]
+/// vectors of n).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn checked_step<'c, S: MomentSource<T>, T: Float>(
+    source: &S,
+    strand: &mut StrandView<'_, T>,
+    head: &dyn HeadTrajectory,
+    effects: &Effects,
+    t: f64,
+    h: f64,
+    ws: &mut WorkView<'_, T>,
+    stack: &mut [T],
+    counts: &mut StepCounts,
+    mut contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
 ) -> Result<StepReport, StepError> {
     if !(h.is_finite() && h > 0.0 && t.is_finite()) {
         return Err(StepError::TimeStep);
     }
     if let Some(c) = contacts.as_deref_mut() {
         if !c.started() {
-            c.start(&strand.q, t, &head.state(t));
+            c.start(strand.q, t, &head.state(t));
         }
     }
-    let q0 = strand.q;
+    let (q0, stack) = stack.split_at_mut(strand.dofs());
+    q0.copy_from_slice(strand.q);
     let end = t + h;
     let mut now = t;
     loop {
@@ -466,10 +492,11 @@ pub fn step_with_contacts<
             now,
             cut.unwrap_or(end) - now,
             ws,
+            stack,
             counts,
             contacts.as_deref_mut(),
         )?;
-        if let Some(e) = non_finite(&strand.q, &strand.v) {
+        if let Some(e) = non_finite(strand.q, strand.v) {
             return Err(e);
         }
         match cut {
@@ -479,9 +506,9 @@ pub fn step_with_contacts<
     }
     if let Some(c) = contacts {
         // the step's end: anchors stick, slide or let go; allowances shrink
-        c.after_step(&strand.q, end, &head.state(end), h);
+        c.after_step(strand.q, end, &head.state(end), h);
     }
-    let rotation = max_element_rotation(&strand.params.lengths, &strand.q, &q0);
+    let rotation = max_element_rotation(strand.params.lengths, strand.q, q0);
     Ok(StepReport {
         max_element_rotation: rotation.as_f64(),
         projection: None,
@@ -492,24 +519,17 @@ pub fn step_with_contacts<
 
 /// One checked step from `t` by `h` within which the head keeps its motion phase.
 #[allow(clippy::too_many_arguments)]
-fn step_piece<
-    'c,
-    S: MomentSource<T>,
-    const N: usize,
-    const D: usize,
-    const E: usize,
-    const B: usize,
-    T: Float,
->(
+fn step_piece<'c, S: MomentSource<T>, T: Float>(
     source: &S,
-    strand: &mut FixedStrand<N, D, B, T>,
+    strand: &mut StrandView<'_, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
     t: f64,
     h: f64,
-    ws: &mut FixedWorkspace<N, D, E, T>,
+    ws: &mut WorkView<'_, T>,
+    stack: &mut [T],
     counts: &mut StepCounts,
-    mut contacts: Option<&mut (dyn ContactHooks<T, D> + 'c)>,
+    mut contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
 ) -> Result<(), StepError> {
     ws.forget();
     let interval = Interval::new(head, t, h);
@@ -524,9 +544,9 @@ fn step_piece<
     let hint = if contacts.is_some() {
         0
     } else {
-        usize::from(strand.split_hint).min(ws.max_split_depth)
+        usize::from(*strand.split_hint).min(ws.max_split_depth)
     };
-    let (start, levels) = match strand.last_energy {
+    let (start, levels) = match *strand.last_energy {
         // without the energy balance no energy is measured: the start's stands empty
         _ if !ws.energy_balance => {
             let start = StateEnergy {
@@ -540,23 +560,24 @@ fn step_piece<
         // measure to round-off, at a fraction of its cost); a history of anchors or
         // allowances alone is measured afresh
         Some(e) if continued && contacts.as_deref().is_some_and(|c| c.has_partners()) => {
-            let (q, v) = (strand.q, strand.v);
             match contacts.as_deref_mut() {
-                Some(c) => (remeasure_contacts(c, &interval.start, &q, &v, &e), hint),
+                Some(c) => (
+                    remeasure_contacts(c, &interval.start, strand.q, strand.v, &e),
+                    hint,
+                ),
                 None => (e, hint),
             }
         }
         _ => {
-            let (q, v) = (strand.q, strand.v);
             // the step's first solve starts from this state
             let e = measure(
                 source,
-                strand,
+                &strand.params,
                 effects,
                 &interval.start,
                 t,
-                &q,
-                &v,
+                strand.q,
+                strand.v,
                 ws,
                 true,
                 contacts.as_deref_mut(),
@@ -564,57 +585,37 @@ fn step_piece<
             (e, 0)
         }
     };
-    ws.rotation_estimate = 0.0;
-    ws.loss_estimate = 0.0;
+    *ws.rotation_estimate = 0.0;
+    *ws.loss_estimate = 0.0;
     let end = split(
-        source, strand, head, effects, &interval, &start, ws, counts, levels, contacts,
+        source, strand, head, effects, &interval, &start, ws, stack, counts, levels, contacts,
     )?;
-    strand.last_energy = Some(end);
-    strand.split_hint = predicted_split_levels(ws.rotation_estimate, ws.loss_estimate) as u8;
+    *strand.last_energy = Some(end);
+    *strand.split_hint = predicted_split_levels(*ws.rotation_estimate, *ws.loss_estimate) as u8;
     Ok(())
 }
 
-/// Largest l_Q |Δd_Q| between two states.
-pub(super) fn max_element_rotation<const N: usize, const D: usize, T: Float>(
-    lengths: &[T; N],
-    q: &[T; D],
-    q0: &[T; D],
-) -> T {
-    lengths
-        .iter()
-        .enumerate()
-        .map(|(k, &l)| {
-            let d: T = (0..3)
-                .map(|i| (q[3 * k + i] - q0[3 * k + i]) * (q[3 * k + i] - q0[3 * k + i]))
-                .sum();
-            l * d.sqrt()
-        })
-        .fold(T::zero(), T::max)
-}
-
-/// The runtime's `implicit_adaptive` for the linearly implicit Euler step.
+/// The runtime's `implicit_adaptive` for the linearly implicit Euler step (`stack`: two
+/// vectors of n for its start, the rest for its pieces).
 #[allow(clippy::too_many_arguments)]
-fn adaptive<
-    'c,
-    S: MomentSource<T>,
-    const N: usize,
-    const D: usize,
-    const E: usize,
-    const B: usize,
-    T: Float,
->(
+fn adaptive<'c, S: MomentSource<T>, T: Float>(
     source: &S,
-    strand: &mut FixedStrand<N, D, B, T>,
+    strand: &mut StrandView<'_, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
     interval: &Interval,
     start: &StateEnergy<T>,
-    ws: &mut FixedWorkspace<N, D, E, T>,
+    ws: &mut WorkView<'_, T>,
+    stack: &mut [T],
     counts: &mut StepCounts,
-    mut contacts: Option<&mut (dyn ContactHooks<T, D> + 'c)>,
+    mut contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
 ) -> Result<StateEnergy<T>, StepError> {
     let h = interval.h;
-    let (saved_q, saved_v) = (strand.q, strand.v);
+    let n = strand.dofs();
+    let (saved, stack) = stack.split_at_mut(2 * n);
+    let (saved_q, saved_v) = saved.split_at_mut(n);
+    saved_q.copy_from_slice(strand.q);
+    saved_v.copy_from_slice(strand.v);
     let max_depth = ws.max_split_depth;
     let deepest = interval.depth >= max_depth;
     let input = StepInput {
@@ -627,12 +628,13 @@ fn adaptive<
         // no contacts predicted for this solve yet
         c.forget();
     }
-    let outcome = linearly_implicit_with(
+    let outcome = solve_step(
         source,
         strand,
         &input,
         h,
         ws,
+        stack,
         contacts.as_deref_mut().map(|c| (c, t_end)),
     );
     counts.attempts += 1;
@@ -644,7 +646,7 @@ fn adaptive<
             // the split's rule keeps the projection for a strand that does not dissipate
             // and for one that touches
             Some(_)
-                if ws.field_rule() == FieldRule::Split
+                if *ws.field_rule == FieldRule::Split
                     && (!strand.params.dissipative() || report.touching) =>
             {
                 counts.field_undamped += 1
@@ -655,7 +657,7 @@ fn adaptive<
     }
     let finite = outcome.is_ok();
     let mut rotation = if finite {
-        max_element_rotation(&strand.params.lengths, &strand.q, &saved_q).as_f64()
+        max_element_rotation(strand.params.lengths, strand.q, saved_q).as_f64()
     } else {
         f64::INFINITY
     };
@@ -671,8 +673,8 @@ fn adaptive<
         && (deepest
             || contacts.as_deref_mut().is_none_or(|c| {
                 c.acceptable(
-                    &saved_q,
-                    &strand.q,
+                    saved_q,
+                    strand.q,
                     interval.t,
                     &interval.start,
                     t_end,
@@ -690,32 +692,25 @@ fn adaptive<
             // step may: the change of q and the velocities are scaled to that limit (a
             // strand rooted on the head: what the limit takes is energy, which the
             // balance allows)
-            limit_rotation(strand, &saved_q, rotation);
+            limit_rotation(strand, saved_q, rotation);
             counts.rotation_limited += 1;
             // the scaled end is checked for the contacts that start within the step again
             // (its shape is not on the line from the start to the solve's end: q → y(q)
             // is not linear); what that adds is limited too
             if let Some(c) = contacts.as_deref_mut() {
-                let (a, pivots) = (&ws.matrix_a, &ws.pivots);
-                let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, x);
-                c.resolve(
-                    &mut strand.q,
-                    &mut strand.v,
-                    None,
-                    t_end,
-                    &interval.end,
-                    &mut solve,
-                )
-                .map_err(|_| StepError::SingularMatrix)?;
-                let again =
-                    max_element_rotation(&strand.params.lengths, &strand.q, &saved_q).as_f64();
+                let (a, pivots) = (&ws.matrix_a, &*ws.pivots);
+                let scratch = &mut *stack;
+                let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, x, scratch);
+                c.resolve(strand.q, strand.v, None, t_end, &interval.end, &mut solve)
+                    .map_err(|_| StepError::SingularMatrix)?;
+                let again = max_element_rotation(strand.params.lengths, strand.q, saved_q).as_f64();
                 if again > TRUSTED_ELEMENT_ROTATION {
-                    limit_rotation(strand, &saved_q, again);
+                    limit_rotation(strand, saved_q, again);
                 }
             }
             rotation = TRUSTED_ELEMENT_ROTATION;
         }
-        ws.rotation_estimate = ws
+        *ws.rotation_estimate = ws
             .rotation_estimate
             .max(rotation * (1u64 << interval.depth) as f64);
         if !ws.energy_balance {
@@ -725,15 +720,14 @@ fn adaptive<
                 ..StateEnergy::default()
             });
         }
-        let (q, v) = (strand.q, strand.v);
         let mut end = measure(
             source,
-            strand,
+            &strand.params,
             effects,
             &interval.end,
             interval.t + h,
-            &q,
-            &v,
+            strand.q,
+            strand.v,
             ws,
             // a later piece of the step starts from this state
             !interval.last,
@@ -750,7 +744,7 @@ fn adaptive<
         // beyond the trusted rotation the energy asks for pieces too; the loss of the
         // pieces predicts the next step
         let splits = energy_splits(&balance, start, &end, rotation, interval.depth, deepest);
-        ws.loss_estimate = ws
+        *ws.loss_estimate = ws
             .loss_estimate
             .max(splits.loss * (1u64 << (2 * interval.depth)) as f64);
         energy_levels = splits
@@ -777,8 +771,9 @@ fn adaptive<
                 effects,
                 interval,
                 start,
-                &saved_q,
+                saved_q,
                 ws,
+                stack,
                 (contacts.as_deref_mut(), !bodies_work),
             ) {
                 (end, balance) = (e, b);
@@ -805,8 +800,8 @@ fn adaptive<
         }
         counts.energy_rejected += 1;
     }
-    strand.q = saved_q;
-    strand.v = saved_v;
+    strand.q.copy_from_slice(saved_q);
+    strand.v.copy_from_slice(saved_v);
     // with contacts, level by level (a contact starts or ends within the step: the
     // quiet pieces pass coarse)
     let levels =
@@ -816,20 +811,20 @@ fn adaptive<
         } else {
             energy_levels.max(1)
         };
-    if ws.field_rule == FieldRule::Explicit {
+    if *ws.field_rule == FieldRule::Explicit {
         // with the field stiffness explicit, a step that must be split is one the
         // explicit stiffness may not resolve at any substep (energy created by the
         // contact forces' curvature on the twist; a strand thrown into a body): its
         // pieces take the projected stiffness
-        ws.field_rule = FieldRule::Projected;
+        *ws.field_rule = FieldRule::Projected;
         let end = split(
-            source, strand, head, effects, interval, start, ws, counts, levels, contacts,
+            source, strand, head, effects, interval, start, ws, stack, counts, levels, contacts,
         );
-        ws.field_rule = FieldRule::Explicit;
+        *ws.field_rule = FieldRule::Explicit;
         return end;
     }
     split(
-        source, strand, head, effects, interval, start, ws, counts, levels, contacts,
+        source, strand, head, effects, interval, start, ws, stack, counts, levels, contacts,
     )
 }
 
@@ -840,53 +835,46 @@ const PULL_BACK_BISECTIONS: usize = 10;
 /// allows: the largest fraction λ of its change of q from `q0` whose end the velocities
 /// can bring down to the bound (bisection), with its energy and balance, the strand set
 /// to it; `None` (the strand as it was) when not even `q0` balances. The runtime's
-/// `solver::adaptive::pull_back`.
+/// `solver::adaptive::pull_back`. `stack`: one vector of n.
 #[allow(clippy::too_many_arguments)]
-fn pull_back<
-    'c,
-    S: MomentSource<T>,
-    const N: usize,
-    const D: usize,
-    const E: usize,
-    const B: usize,
-    T: Float,
->(
+fn pull_back<'c, S: MomentSource<T>, T: Float>(
     source: &S,
-    strand: &mut FixedStrand<N, D, B, T>,
+    strand: &mut StrandView<'_, T>,
     effects: &Effects,
     interval: &Interval,
     start: &StateEnergy<T>,
-    q0: &[T; D],
-    ws: &mut FixedWorkspace<N, D, E, T>,
-    (mut contacts, to_bound): (Option<&mut (dyn ContactHooks<T, D> + 'c)>, bool),
+    q0: &[T],
+    ws: &mut WorkView<'_, T>,
+    stack: &mut [T],
+    (mut contacts, to_bound): (Option<&mut (dyn ContactHooks<T> + 'c)>, bool),
 ) -> Option<(StateEnergy<T>, Balance<T>)> {
-    let end_q = strand.q;
+    let n = strand.dofs();
+    let end_q = &mut stack[..n];
+    end_q.copy_from_slice(strand.q);
+    let end_q = &*end_q;
     let time = interval.t + interval.h;
-    let mut eval = |strand: &mut FixedStrand<N, D, B, T>,
-                    ws: &mut FixedWorkspace<N, D, E, T>,
-                    lambda: f64,
-                    prepare: bool| {
-        for i in 0..D {
-            strand.q[i] = q0[i] + T::of(lambda) * (end_q[i] - q0[i]);
-        }
-        let (q, v) = (strand.q, strand.v);
-        let end = measure(
-            source,
-            strand,
-            effects,
-            &interval.end,
-            time,
-            &q,
-            &v,
-            ws,
-            prepare,
-            contacts.as_deref_mut(),
-        );
-        let b = balance(start, &end, interval.uniform && to_bound);
-        (b.limited_kinetic(&end, to_bound).is_some(), end, b)
-    };
+    let mut eval =
+        |strand: &mut StrandView<'_, T>, ws: &mut WorkView<'_, T>, lambda: f64, prepare: bool| {
+            for i in 0..n {
+                strand.q[i] = q0[i] + T::of(lambda) * (end_q[i] - q0[i]);
+            }
+            let end = measure(
+                source,
+                &strand.params,
+                effects,
+                &interval.end,
+                time,
+                strand.q,
+                strand.v,
+                ws,
+                prepare,
+                contacts.as_deref_mut(),
+            );
+            let b = balance(start, &end, interval.uniform && to_bound);
+            (b.limited_kinetic(&end, to_bound).is_some(), end, b)
+        };
     if !eval(strand, ws, 0.0, false).0 {
-        strand.q = end_q;
+        strand.q.copy_from_slice(end_q);
         return None;
     }
     let (mut lo, mut hi) = (0.0, 1.0);
@@ -906,29 +894,22 @@ fn pull_back<
 /// `interval` halved `levels` times (each halving counted in [`StepCounts::substeps`]),
 /// its pieces stepped in order by [`adaptive`]: the runtime's `split`.
 #[allow(clippy::too_many_arguments)]
-fn split<
-    'c,
-    S: MomentSource<T>,
-    const N: usize,
-    const D: usize,
-    const E: usize,
-    const B: usize,
-    T: Float,
->(
+fn split<'c, S: MomentSource<T>, T: Float>(
     source: &S,
-    strand: &mut FixedStrand<N, D, B, T>,
+    strand: &mut StrandView<'_, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
     interval: &Interval,
     start: &StateEnergy<T>,
-    ws: &mut FixedWorkspace<N, D, E, T>,
+    ws: &mut WorkView<'_, T>,
+    stack: &mut [T],
     counts: &mut StepCounts,
     levels: usize,
-    mut contacts: Option<&mut (dyn ContactHooks<T, D> + 'c)>,
+    mut contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
 ) -> Result<StateEnergy<T>, StepError> {
     if levels == 0 {
         return adaptive(
-            source, strand, head, effects, interval, start, ws, counts, contacts,
+            source, strand, head, effects, interval, start, ws, stack, counts, contacts,
         );
     }
     counts.substeps += 1;
@@ -941,6 +922,7 @@ fn split<
         &first,
         start,
         ws,
+        stack,
         counts,
         levels - 1,
         contacts.as_deref_mut(),
@@ -949,9 +931,9 @@ fn split<
         // between two accepted pieces, the contacts' bookkeeping of the first's end (the
         // runtime's `between_steps`), its energy measured again where the anchors moved
         let t = first.t + first.h;
-        c.after_step(&strand.q, t, &first.end, first.h);
+        c.after_step(strand.q, t, &first.end, first.h);
         if ws.energy_balance && c.has_history() {
-            middle = remeasure_contacts(c, &first.end, &strand.q, &strand.v, &middle);
+            middle = remeasure_contacts(c, &first.end, strand.q, strand.v, &middle);
         }
     }
     let second = interval.second_half(&first, head);
@@ -963,6 +945,7 @@ fn split<
         &second,
         &middle,
         ws,
+        stack,
         counts,
         levels - 1,
         contacts,

@@ -2,22 +2,24 @@
 //! (`runtime/src/solver/bdf2.rs`) for a strand without contacts or point loads, on the
 //! linearly implicit Euler step's matrix.
 
-use super::adaptive::max_element_rotation;
 use super::dense::lu_solve;
-use super::step::{assemble, non_finite, step_matrix, StepError, StepInput, StepReport};
+use super::step::{
+    assemble, max_element_rotation, non_finite, step_matrix, StepError, StepInput, StepReport,
+};
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::float::Float;
+use crate::storage::{StrandView, WorkView};
 use crate::strand_terms::MomentSource;
 
 /// The state a BDF2 step continues from besides the strand's: the state one step
 /// earlier and the length of the step between the two.
 #[derive(Debug, Clone, Copy)]
-pub struct Bdf2History<'a, const D: usize, T: Float = f64> {
-    /// q one step before the strand's present state.
-    pub q: &'a [T; D],
-    /// q̇ one step before the strand's present state.
-    pub v: &'a [T; D],
+pub struct Bdf2History<'a, T: Float = f64> {
+    /// q one step before the strand's present state (3N).
+    pub q: &'a [T],
+    /// q̇ one step before the strand's present state (3N).
+    pub v: &'a [T],
     /// The length of that step, s (> 0).
     pub h: f64,
 }
@@ -55,12 +57,39 @@ pub fn bdf2<
 >(
     source: &S,
     strand: &mut FixedStrand<N, D, B, T>,
-    previous: &Bdf2History<'_, D, T>,
+    previous: &Bdf2History<'_, T>,
     input: &StepInput,
     h: f64,
     ws: &mut FixedWorkspace<N, D, E, T>,
 ) -> Result<StepReport, StepError> {
+    let mut ws = ws.view();
+    let stack = ws.take_stack();
+    bdf2_step(
+        source,
+        &mut strand.view(),
+        previous,
+        input,
+        h,
+        &mut ws,
+        stack,
+    )
+}
+
+/// [`bdf2`] on any storage (`stack`: six vectors of n).
+pub(crate) fn bdf2_step<S: MomentSource<T>, T: Float>(
+    source: &S,
+    strand: &mut StrandView<'_, T>,
+    previous: &Bdf2History<'_, T>,
+    input: &StepInput,
+    h: f64,
+    ws: &mut WorkView<'_, T>,
+    stack: &mut [T],
+) -> Result<StepReport, StepError> {
     if !(h.is_finite() && h > 0.0 && previous.h.is_finite() && previous.h > 0.0) {
+        return Err(StepError::TimeStep);
+    }
+    let n = strand.dofs();
+    if previous.q.len() != n || previous.v.len() != n {
         return Err(StepError::TimeStep);
     }
     let w = h / previous.h;
@@ -69,54 +98,59 @@ pub fn bdf2<
     let a2 = T::of(w * w / (1.0 + 2.0 * w));
     let bh = T::of(beta * h);
     let w = T::of(w);
-    let (q, v) = (strand.q, strand.v);
-    let mut qt = [T::zero(); D];
-    let mut vt = [T::zero(); D];
-    let mut qh = [T::zero(); D];
-    let mut vh = [T::zero(); D];
-    for i in 0..D {
-        qt[i] = q[i] + w * (q[i] - previous.q[i]);
-        vt[i] = v[i] + w * (v[i] - previous.v[i]);
-        qh[i] = a1 * q[i] - a2 * previous.q[i];
-        vh[i] = a1 * v[i] - a2 * previous.v[i];
+    let (qt, stack) = stack.split_at_mut(n);
+    let (vt, stack) = stack.split_at_mut(n);
+    let (qh, stack) = stack.split_at_mut(n);
+    let (vh, stack) = stack.split_at_mut(n);
+    let (dq, stack) = stack.split_at_mut(n);
+    {
+        let (q, v) = (&*strand.q, &*strand.v);
+        for i in 0..n {
+            qt[i] = q[i] + w * (q[i] - previous.q[i]);
+            vt[i] = v[i] + w * (v[i] - previous.v[i]);
+            qh[i] = a1 * q[i] - a2 * previous.q[i];
+            vh[i] = a1 * v[i] - a2 * previous.v[i];
+        }
     }
-    let (field_stiffness, _) = assemble(source, strand, &qt, &vt, input, ws, None);
-    let (projection, use_h) = step_matrix(strand, field_stiffness, false, bh, ws);
+    let (field_stiffness, _) = assemble(source, &strand.params, qt, vt, input, ws, None);
+    let (projection, use_h) = step_matrix(strand, field_stiffness, false, bh, ws, stack);
     let p = &strand.params;
     // D_q (q̂ − q̃), D_q = H⁻ − K
-    let mut dq = [T::zero(); D];
-    for i in 0..D {
+    for i in 0..n {
         dq[i] = -p.stiffness[i] * (qh[i] - qt[i]);
     }
     if use_h {
-        for j in 0..D {
+        for j in 0..n {
             let xj = qh[j] - qt[j];
-            for i in 0..D {
-                dq[i] += ws.stiffness[j][i] * xj;
+            let col = &ws.stiffness[j];
+            for i in 0..n {
+                dq[i] += col[i] * xj;
             }
         }
     }
-    for i in 0..D {
+    for i in 0..n {
         ws.rhs[i] = bh * (ws.force[i] + ws.velocity_term[i] + dq[i]);
     }
-    for j in 0..D {
-        for i in 0..D {
-            ws.rhs[i] += ws.assembly.mass[j][i] * vh[j] - bh * ws.damping[j][i] * vt[j];
+    let mass = &*ws.assembly.mass;
+    for j in 0..n {
+        let (m, d) = (&mass[j * n..j * n + n], &ws.damping[j]);
+        for i in 0..n {
+            ws.rhs[i] += m[i] * vh[j] - bh * d[i] * vt[j];
         }
     }
-    if !lu_solve(&mut ws.matrix_a, &mut ws.rhs, &mut ws.pivots) {
+    if !lu_solve(&mut ws.matrix_a, ws.rhs, ws.pivots) {
         return Err(StepError::SingularMatrix);
     }
-    let mut q_new = qh;
-    for i in 0..D {
+    let q_new = qh;
+    for i in 0..n {
         q_new[i] += bh * ws.rhs[i];
     }
-    if let Some(e) = non_finite(&q_new, &ws.rhs) {
+    if let Some(e) = non_finite(q_new, ws.rhs) {
         return Err(e);
     }
-    let rotation = max_element_rotation(&p.lengths, &q_new, &q);
-    strand.q = q_new;
-    strand.v = ws.rhs;
+    let rotation = max_element_rotation(p.lengths, q_new, strand.q);
+    strand.q.copy_from_slice(q_new);
+    strand.v.copy_from_slice(ws.rhs);
     Ok(StepReport {
         max_element_rotation: rotation.as_f64(),
         projection,

@@ -29,6 +29,7 @@ use crate::float::Float;
 use crate::head::HeadState;
 use crate::moments::EndDerivatives;
 use crate::pose::Pose;
+use crate::storage::Square;
 use crate::strand_point::{strand_point, PointChain};
 use crate::strand_terms::MomentSource;
 use nalgebra::Vector3;
@@ -63,12 +64,12 @@ impl<T: crate::collider::Collider> StepColliders for [(T, crate::collider::Mount
     }
 }
 
-/// What the checked fixed-N step asks of a strand's contacts. q and q̇ are the step's
-/// (`T`), the contacts work in `f64`.
-pub trait ContactHooks<T: Float, const D: usize> {
+/// What the checked step asks of a strand's contacts. q and q̇ are the step's (`T`, 3N
+/// long), its matrices [`Square`]s of 3N; [`FixedContacts`] works in `f64`.
+pub trait ContactHooks<T: Float> {
     /// Before the strand's first step, at state q, time t: the root zone, the depths
     /// allowed at the start, the first anchors.
-    fn start(&mut self, q: &[T; D], t: f64, head: &HeadState);
+    fn start(&mut self, q: &[T], t: f64, head: &HeadState);
     /// Whether [`Self::start`] was done.
     fn started(&self) -> bool;
     /// Add the contact terms at (q, q̇), time t (the colliders placed there) to the step's
@@ -77,25 +78,25 @@ pub trait ContactHooks<T: Float, const D: usize> {
     #[allow(clippy::too_many_arguments)]
     fn add_terms(
         &mut self,
-        q: &[T; D],
-        v: &[T; D],
+        q: &[T],
+        v: &[T],
         t: f64,
         head: &HeadState,
         curvature: bool,
-        force: &mut [T; D],
-        stiffness: &mut [[T; D]; D],
-        damping: &mut [[T; D]; D],
+        force: &mut [T],
+        stiffness: &mut Square<'_, T>,
+        damping: &mut Square<'_, T>,
     ) -> bool;
     /// The energy the contacts store at (q, q̇), time t, and its rate at fixed q through
     /// the colliders' motion (with the work of moving colliders' damping).
-    fn energy(&mut self, q: &[T; D], v: &[T; D], t: f64, head: &HeadState) -> (f64, f64);
+    fn energy(&mut self, q: &[T], v: &[T], t: f64, head: &HeadState) -> (f64, f64);
     /// Whether a step from q0 (time t0) to q1 (time t1) is acceptable for the contacts:
     /// no sample went deeper than the split depth beyond its depth at the start.
     #[allow(clippy::too_many_arguments)]
     fn acceptable(
         &mut self,
-        q0: &[T; D],
-        q1: &[T; D],
+        q0: &[T],
+        q1: &[T],
         t0: f64,
         head0: &HeadState,
         t1: f64,
@@ -103,7 +104,7 @@ pub trait ContactHooks<T: Float, const D: usize> {
     ) -> bool;
     /// After an accepted step of `h` seconds ending at (q, t): the allowances shrink, the
     /// anchors stick, slide or let go.
-    fn after_step(&mut self, q: &[T; D], t: f64, head: &HeadState, h: f64);
+    fn after_step(&mut self, q: &[T], t: f64, head: &HeadState, h: f64);
     /// Whether the contacts carry a history from step to step (anchors, allowances): the
     /// start energy of a step is then measured afresh.
     fn has_history(&self) -> bool;
@@ -117,7 +118,7 @@ pub trait ContactHooks<T: Float, const D: usize> {
         false
     }
     /// The deepest point of the centreline inside a collider at q, time t, m (0: none).
-    fn deepest(&mut self, q: &[T; D], t: f64, head: &HeadState) -> f64;
+    fn deepest(&mut self, q: &[T], t: f64, head: &HeadState) -> f64;
     /// What the last [`Self::add_terms`] found.
     fn summary(&self) -> BodySummary;
     /// The contact energy and rate of the last measure of the energy balance (kept by
@@ -131,7 +132,7 @@ pub trait ContactHooks<T: Float, const D: usize> {
     /// its solution without them `q_pred`, the colliders placed at `t` (the step's end,
     /// head `head`). Whether there is any candidate; false for contacts that do not
     /// predict.
-    fn predict(&mut self, q_lin: &[T; D], q_pred: &[T; D], t: f64, head: &HeadState) -> bool {
+    fn predict(&mut self, q_lin: &[T], q_pred: &[T], t: f64, head: &HeadState) -> bool {
         let _ = (q_lin, q_pred, t, head);
         false
     }
@@ -143,8 +144,8 @@ pub trait ContactHooks<T: Float, const D: usize> {
     #[allow(clippy::too_many_arguments)]
     fn resolve(
         &mut self,
-        q: &mut [T; D],
-        v: &mut [T; D],
+        q: &mut [T],
+        v: &mut [T],
         map: Option<(f64, f64)>,
         t: f64,
         head: &HeadState,
@@ -343,15 +344,15 @@ impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, 
     /// [`Self::place_near_partners`]) at (q, q̇ = `v`) to the step's arrays; the partners
     /// within reach and whether one added stiffness.
     #[allow(clippy::too_many_arguments)]
-    fn add_partner_terms<T: Float, const D: usize>(
+    fn add_partner_terms(
         &mut self,
         m: usize,
         head: &HeadState,
-        q: &[f64; D],
-        v: &[f64; D],
-        force: &mut [T; D],
-        stiffness: &mut [[T; D]; D],
-        damping: &mut [[T; D]; D],
+        q: &[f64],
+        v: &[f64],
+        force: &mut [f64],
+        stiffness: &mut Square<'_, f64>,
+        damping: &mut Square<'_, f64>,
     ) -> (usize, bool) {
         let FixedContacts {
             source,
@@ -376,8 +377,8 @@ impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, 
             q,
             aj: store.aj,
             force,
-            stiffness,
-            damping,
+            stiffness: stiffness.reborrow(),
+            damping: damping.reborrow(),
         };
         // a partner's force acts along the strand's Jacobian only: no curvature
         let asked = TermsAsked {
@@ -666,13 +667,8 @@ fn split<'b, C: StepColliders + ?Sized, P: MomentSource + ?Sized>(
     (view, parts)
 }
 
-/// q in f64.
-fn wide<T: Float, const D: usize>(q: &[T; D]) -> [f64; D] {
-    core::array::from_fn(|i| q[i].as_f64())
-}
-
 /// The fixed step's arrays as the sink of the contact terms.
-struct ArraySink<'s, T: Float, const D: usize, P: MomentSource + ?Sized> {
+struct ArraySink<'s, 'm, P: MomentSource + ?Sized> {
     source: &'s P,
     root: &'s Pose,
     lengths: &'s [f64],
@@ -680,17 +676,17 @@ struct ArraySink<'s, T: Float, const D: usize, P: MomentSource + ?Sized> {
     end_derivs: &'s mut [EndDerivatives],
     chain_q: &'s mut [f64],
     chain_valid: &'s mut usize,
-    q: &'s [f64; D],
+    q: &'s [f64],
     aj: &'s mut [V3],
-    force: &'s mut [T; D],
-    stiffness: &'s mut [[T; D]; D],
-    damping: &'s mut [[T; D]; D],
+    force: &'s mut [f64],
+    stiffness: Square<'m, f64>,
+    damping: Square<'m, f64>,
 }
 
-impl<T: Float, const D: usize, P: MomentSource + ?Sized> ContactSink for ArraySink<'_, T, D, P> {
+impl<P: MomentSource + ?Sized> ContactSink for ArraySink<'_, '_, P> {
     fn point(&mut self, s: f64, jac: &mut [V3], curvature: Option<V3>) -> V3 {
-        let st = &mut *self.stiffness;
-        let mut add = |k: usize, l: usize, v: f64| st[k][l] += T::of(v);
+        let st = &mut self.stiffness;
+        let mut add = |k: usize, l: usize, v: f64| st[k][l] += v;
         let chain = Some(PointChain {
             q: &mut *self.chain_q,
             valid: &mut *self.chain_valid,
@@ -710,16 +706,16 @@ impl<T: Float, const D: usize, P: MomentSource + ?Sized> ContactSink for ArraySi
     }
     fn add_force(&mut self, jac: &[V3], f: &V3) {
         for (i, c) in jac.iter().enumerate() {
-            self.force[i] += T::of(c.dot(f));
+            self.force[i] += c.dot(f);
         }
     }
     fn add_stiffness(&mut self, jac: &[V3], a: &nalgebra::Matrix3<f64>) {
-        let m = &mut *self.stiffness;
-        crate::contact::body::add_projected(jac, a, self.aj, |i, j, x| m[i][j] += T::of(x));
+        let m = &mut self.stiffness;
+        crate::contact::body::add_projected(jac, a, self.aj, |i, j, x| m[i][j] += x);
     }
     fn add_damping(&mut self, jac: &[V3], a: &nalgebra::Matrix3<f64>) {
-        let m = &mut *self.damping;
-        crate::contact::body::add_projected(jac, a, self.aj, |i, j, x| m[i][j] += T::of(x));
+        let m = &mut self.damping;
+        crate::contact::body::add_projected(jac, a, self.aj, |i, j, x| m[i][j] += x);
     }
 }
 
@@ -770,8 +766,8 @@ impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> PredictionHost<Pre
     }
 }
 
-impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Sized>
-    ContactHooks<T, D> for FixedContacts<'_, C, P>
+impl<C: StepColliders + ?Sized, P: MomentSource + ?Sized> ContactHooks<f64>
+    for FixedContacts<'_, C, P>
 {
     fn forget(&mut self) {
         if let Some(p) = self.predicted.as_mut() {
@@ -779,7 +775,7 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
         }
     }
 
-    fn predict(&mut self, q_lin: &[T; D], q_pred: &[T; D], t: f64, head: &HeadState) -> bool {
+    fn predict(&mut self, q_lin: &[f64], q_pred: &[f64], t: f64, head: &HeadState) -> bool {
         let Some(mut pc) = self.predicted.take() else {
             return false;
         };
@@ -788,28 +784,21 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
             self.predicted = Some(pc);
             return false;
         }
-        let (q_lin, q_pred) = (wide(q_lin), wide(q_pred));
         self.colliders.place(t, head);
-        self.pose(&q_lin);
-        let lin_tip = self.tip(&q_lin);
-        predicted::begin(
-            &mut pc,
-            &view(self),
-            head,
-            &q_lin,
-            self.store.poses,
-            lin_tip,
-        );
-        self.pose(&q_pred);
-        let any = predicted::list(&mut pc, &view(self), head, D, self.store.poses);
+        self.pose(q_lin);
+        let lin_tip = self.tip(q_lin);
+        predicted::begin(&mut pc, &view(self), head, q_lin, self.store.poses, lin_tip);
+        self.pose(q_pred);
+        let dofs = q_pred.len();
+        let any = predicted::list(&mut pc, &view(self), head, dofs, self.store.poses);
         self.predicted = Some(pc);
         any
     }
 
     fn resolve(
         &mut self,
-        q: &mut [T; D],
-        v: &mut [T; D],
+        q: &mut [f64],
+        v: &mut [f64],
         map: Option<(f64, f64)>,
         t: f64,
         head: &HeadState,
@@ -824,30 +813,24 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
         }
         self.colliders.place(t, head);
         let tolerance = predicted::GAP_TOLERANCE * self.params.radius;
-        let (mut qw, mut vw) = (wide(q), wide(v));
         let mut host = FixedHost {
             contacts: self,
             solve,
             head,
-            dofs: D,
+            dofs: q.len(),
         };
         let result = match map {
-            Some(map) => predicted::resolve(&mut pc, &mut host, map, tolerance, &mut qw, &mut vw),
-            None => predicted::resolve_again(&mut pc, &mut host, tolerance, &mut qw, &mut vw),
+            Some(map) => predicted::resolve(&mut pc, &mut host, map, tolerance, q, v),
+            None => predicted::resolve_again(&mut pc, &mut host, tolerance, q, v),
         };
         self.predicted = Some(pc);
-        for i in 0..D {
-            q[i] = T::of(qw[i]);
-            v[i] = T::of(vw[i]);
-        }
         result
     }
 
-    fn start(&mut self, q: &[T; D], t: f64, head: &HeadState) {
-        let q = wide(q);
+    fn start(&mut self, q: &[f64], t: f64, head: &HeadState) {
         self.store.scalars.updated = Some(t);
         self.colliders.place(t, head);
-        self.pose(&q);
+        self.pose(q);
         let length: f64 = self.lengths.iter().sum();
         self.store.scalars.root_zone = (0, 0);
         let root = self.root.position;
@@ -870,18 +853,17 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
 
     fn add_terms(
         &mut self,
-        q: &[T; D],
-        v: &[T; D],
+        q: &[f64],
+        v: &[f64],
         t: f64,
         head: &HeadState,
         curvature: bool,
-        force: &mut [T; D],
-        stiffness: &mut [[T; D]; D],
-        damping: &mut [[T; D]; D],
+        force: &mut [f64],
+        stiffness: &mut Square<'_, f64>,
+        damping: &mut Square<'_, f64>,
     ) -> bool {
-        let (q, v) = (wide(q), wide(v));
         self.colliders.place(t, head);
-        self.pose(&q);
+        self.pose(q);
         let (contacts, p) = split(self);
         let mut sink = ArraySink {
             source: p.source,
@@ -891,11 +873,11 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
             end_derivs: p.end_derivs,
             chain_q: p.chain_q,
             chain_valid: p.chain_valid,
-            q: &q,
+            q,
             aj: p.aj,
             force,
-            stiffness,
-            damping,
+            stiffness: stiffness.reborrow(),
+            damping: damping.reborrow(),
         };
         let asked = TermsAsked {
             force: true,
@@ -904,28 +886,27 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
             damping: true,
         };
         let (summary, mut stiffened) =
-            contacts.add_terms(head, p.poses, &v, asked, p.jac, &mut sink);
+            contacts.add_terms(head, p.poses, v, asked, p.jac, &mut sink);
         *p.summary = summary;
         if self.partners.is_some() {
             // the partners the samples do not rule out are placed on the strand first
             // (one pass); J is computed only for those within reach
-            let m = self.place_near_partners(head, &q);
+            let m = self.place_near_partners(head, q);
             let (touching, partner_stiffness) =
-                self.add_partner_terms(m, head, &q, &v, force, stiffness, damping);
+                self.add_partner_terms(m, head, q, v, force, stiffness, damping);
             self.store.scalars.partners_touching = touching;
             stiffened |= partner_stiffness;
         }
         stiffened
     }
 
-    fn energy(&mut self, q: &[T; D], v: &[T; D], t: f64, head: &HeadState) -> (f64, f64) {
-        let (q, v) = (wide(q), wide(v));
+    fn energy(&mut self, q: &[f64], v: &[f64], t: f64, head: &HeadState) -> (f64, f64) {
         self.colliders.place(t, head);
-        self.pose(&q);
+        self.pose(q);
         let (mut potential, mut rate) = view(self).energy(head, self.store.poses);
         // only the partners the samples do not rule out (most of those the search keeps
         // are beyond reach, and contribute nothing) are placed on the strand
-        let m = self.place_near_partners(head, &q);
+        let m = self.place_near_partners(head, q);
         if let Some(ps) = self.partners.as_ref() {
             let view = PartnerContacts {
                 params: ps.params,
@@ -942,7 +923,7 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
             // the pairs of two parts of this strand (internal: no work through motion)
             let (root, lengths) = (&self.root, self.lengths);
             potential += view.self_energy(self.store.poses, |lo, hi| {
-                Some(two_points(root, lengths, &q, lo, hi))
+                Some(two_points(root, lengths, q, lo, hi))
             });
         }
         let moving = (0..self.colliders.count()).any(|b| self.colliders.on_own_motion(b));
@@ -950,7 +931,7 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
             if self.partners.is_none() {
                 return (potential, rate);
             }
-            let power = self.partner_drag_power(m, head, &q, &v);
+            let power = self.partner_drag_power(m, head, q, v);
             return (potential, rate + power);
         }
         let (contacts, p) = split(self);
@@ -963,28 +944,27 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
             chain_q: p.chain_q,
             chain_valid: p.chain_valid,
         };
-        let power = contacts.drag_power(head, p.poses, &v, p.jac, |s, jac| {
-            points.point(&q, s, jac);
+        let power = contacts.drag_power(head, p.poses, v, p.jac, |s, jac| {
+            points.point(q, s, jac);
         });
-        let power = power + self.partner_drag_power(m, head, &q, &v);
+        let power = power + self.partner_drag_power(m, head, q, v);
         (potential, rate + power)
     }
 
     fn acceptable(
         &mut self,
-        q0: &[T; D],
-        q1: &[T; D],
+        q0: &[f64],
+        q1: &[f64],
         t0: f64,
         head0: &HeadState,
         t1: f64,
         head1: &HeadState,
     ) -> bool {
-        let (q0, q1) = (wide(q0), wide(q1));
         // how deep the samples are at the start: for a collider on the head or in the
         // world, as the step's matrix has them (q0 with the head at the end); for one on
         // its own motion, where it is at the start, so that a collider sweeping into the
         // strand within the step makes new, checked contacts
-        self.pose(&q0);
+        self.pose(q0);
         let n = self.samples.len();
         let moving = (0..self.colliders.count()).any(|b| self.colliders.on_own_motion(b));
         if moving {
@@ -1011,15 +991,14 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
                 *y0 = pose.0;
             }
         }
-        self.pose(&q1);
+        self.pose(q1);
         if view(self).too_deep(head1, self.store.poses, self.store.start_depth) {
             return false;
         }
-        self.partners_acceptable(head1, &q0, &q1)
+        self.partners_acceptable(head1, q0, q1)
     }
 
-    fn after_step(&mut self, q: &[T; D], t: f64, head: &HeadState, h: f64) {
-        let q = wide(q);
+    fn after_step(&mut self, q: &[f64], t: f64, head: &HeadState, h: f64) {
         let h = self
             .store
             .scalars
@@ -1027,7 +1006,7 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
             .map_or(h, |t0| (t - t0).clamp(0.0, h));
         self.store.scalars.updated = Some(t);
         self.colliders.place(t, head);
-        self.pose(&q);
+        self.pose(q);
         if self.store.allowance.iter().any(|a| *a > 0.0) {
             for k in 0..self.samples.len() {
                 let y = self.store.poses[k].0;
@@ -1058,10 +1037,9 @@ impl<T: Float, const D: usize, C: StepColliders + ?Sized, P: MomentSource + ?Siz
             .is_some_and(|p| !p.partners.is_empty())
     }
 
-    fn deepest(&mut self, q: &[T; D], t: f64, head: &HeadState) -> f64 {
-        let q = wide(q);
+    fn deepest(&mut self, q: &[f64], t: f64, head: &HeadState) -> f64 {
         self.colliders.place(t, head);
-        view(self).deepest_inside(head, &self.root, self.lengths, &q)
+        view(self).deepest_inside(head, &self.root, self.lengths, q)
     }
 
     fn summary(&self) -> BodySummary {
@@ -1198,7 +1176,7 @@ mod tests {
                     .expect("pools of PoolSizes::of");
                     contacts = contacts.with_prediction(arrays);
                 }
-                let hooks: Option<&mut dyn ContactHooks<f64, D>> =
+                let hooks: Option<&mut dyn ContactHooks<f64>> =
                     if with_ball { Some(&mut contacts) } else { None };
                 step_with_contacts(
                     &Jets,

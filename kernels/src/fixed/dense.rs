@@ -1,22 +1,23 @@
-//! Dense linear algebra of the fixed-N step on column-major `[[T; D]; D]` arrays
-//! (`a[c][r]` is row r of column c, T = f64 or f32): LU with partial pivoting, and the
-//! negative semidefinite part of a symmetric matrix.
+//! Dense linear algebra of the step on column-major n × n matrices ([`Square`]: `a[c][r]`
+//! is row r of column c, T = f64 or f32): LU with partial pivoting, and the negative
+//! semidefinite part of a symmetric matrix.
 
 use crate::float::Float;
+use crate::storage::Square;
 
 /// LU-factor `a` with partial pivoting (Golub & Van Loan, algorithm 3.4.1) and solve
-/// `a x = b` in place (`b` becomes x). Returns false, with `a` and `b` overwritten, when
-/// a pivot is zero or the solution is not finite.
-pub fn lu_solve<T: Float, const D: usize>(
-    a: &mut [[T; D]; D],
-    b: &mut [T; D],
-    pivots: &mut [usize; D],
-) -> bool {
-    for k in 0..D {
+/// `a x = b` in place (`b`, n long, becomes x; `pivots` n long). Returns false, with `a`
+/// and `b` overwritten, when a pivot is zero or the solution is not finite.
+pub fn lu_solve<T: Float>(a: &mut Square<'_, T>, b: &mut [T], pivots: &mut [usize]) -> bool {
+    let n = a.n();
+    if b.len() != n || pivots.len() != n {
+        return false;
+    }
+    for k in 0..n {
         // pivot: the largest entry of column k at or below the diagonal
         let mut p = k;
         let mut best = a[k][k].abs();
-        for r in k + 1..D {
+        for r in k + 1..n {
             let x = a[k][r].abs();
             if x > best {
                 best = x;
@@ -28,21 +29,17 @@ pub fn lu_solve<T: Float, const D: usize>(
             return false;
         }
         if p != k {
-            for col in a.iter_mut() {
-                col.swap(k, p);
-            }
+            a.swap_rows(k, p);
         }
         let inv = T::one() / a[k][k];
-        for r in k + 1..D {
+        for r in k + 1..n {
             a[k][r] *= inv;
         }
-        for c in k + 1..D {
+        for c in k + 1..n {
             let akc = a[c][k];
             if akc != T::zero() {
-                let (left, right) = a.split_at_mut(c);
-                let lk = &left[k];
-                let col = &mut right[0];
-                for r in k + 1..D {
+                let (lk, col) = a.column_pair(k, c);
+                for r in k + 1..n {
                     col[r] -= lk[r] * akc;
                 }
             }
@@ -51,33 +48,32 @@ pub fn lu_solve<T: Float, const D: usize>(
     lu_solve_factored(a, pivots, b)
 }
 
-/// Solve `a x = b` in place (`b`, D long, becomes x) with the factors [`lu_solve`] left
+/// Solve `a x = b` in place (`b`, n long, becomes x) with the factors [`lu_solve`] left
 /// in `a` and `pivots`: another right-hand side of the same matrix (the columns of the
 /// contacts that start within a step, on the step's matrix) for two triangular solves.
 /// Returns false when the solution is not finite.
-pub fn lu_solve_factored<T: Float, const D: usize>(
-    a: &[[T; D]; D],
-    pivots: &[usize; D],
-    b: &mut [T],
-) -> bool {
-    if b.len() != D {
+pub fn lu_solve_factored<T: Float>(a: &Square<'_, T>, pivots: &[usize], b: &mut [T]) -> bool {
+    let n = a.n();
+    if b.len() != n || pivots.len() != n {
         return false;
     }
     // P b, then L y = P b (unit lower), then U x = y
-    for k in 0..D {
+    for k in 0..n {
         b.swap(k, pivots[k]);
     }
-    for c in 0..D {
+    for c in 0..n {
         let bc = b[c];
-        for r in c + 1..D {
-            b[r] -= a[c][r] * bc;
+        let col = &a[c];
+        for r in c + 1..n {
+            b[r] -= col[r] * bc;
         }
     }
-    for c in (0..D).rev() {
-        b[c] /= a[c][c];
+    for c in (0..n).rev() {
+        let col = &a[c];
+        b[c] /= col[c];
         let bc = b[c];
         for r in 0..c {
-            b[r] -= a[c][r] * bc;
+            b[r] -= col[r] * bc;
         }
     }
     b.iter().all(|x| x.is_finite())
@@ -112,8 +108,9 @@ pub enum Projection {
 
 /// Cholesky factorisation of the symmetric `a` (lower triangle read; the factor
 /// overwrites it). False when `a` is not numerically positive definite.
-fn cholesky<T: Float, const D: usize>(a: &mut [[T; D]; D]) -> bool {
-    for j in 0..D {
+fn cholesky<T: Float>(a: &mut Square<'_, T>) -> bool {
+    let n = a.n();
+    for j in 0..n {
         let mut d = a[j][j];
         for k in 0..j {
             d -= a[k][j] * a[k][j];
@@ -123,7 +120,7 @@ fn cholesky<T: Float, const D: usize>(a: &mut [[T; D]; D]) -> bool {
         }
         let d = d.sqrt();
         a[j][j] = d;
-        for i in j + 1..D {
+        for i in j + 1..n {
             let mut s = a[j][i];
             for k in 0..j {
                 s -= a[k][i] * a[k][j];
@@ -138,35 +135,36 @@ fn cholesky<T: Float, const D: usize>(a: &mut [[T; D]; D]) -> bool {
 /// `U min(Λ, 0) Uᵀ`: itself when −h is positive definite (one Cholesky factorisation
 /// says so), else from the cyclic Jacobi eigendecomposition (Golub & Van Loan,
 /// algorithm 8.5.3) in `vectors`, `values`.
-pub fn negative_semidefinite_part<T: Float, const D: usize>(
-    h: &mut [[T; D]; D],
-    vectors: &mut [[T; D]; D],
-    values: &mut [T; D],
+pub fn negative_semidefinite_part<T: Float>(
+    h: &mut Square<'_, T>,
+    vectors: &mut Square<'_, T>,
+    values: &mut [T],
 ) -> Projection {
-    if !h.iter().flatten().all(|x| x.is_finite()) {
+    let n = h.n();
+    if !h.as_slice().iter().all(|x| x.is_finite()) {
         return Projection::Failed;
     }
-    for c in 0..D {
-        for r in 0..D {
+    for c in 0..n {
+        for r in 0..n {
             vectors[c][r] = -h[c][r];
         }
     }
     if cholesky(vectors) {
         return Projection::Definite;
     }
-    // Jacobi on a copy in `vectors`' place: a = h, v = I
-    let mut a = *h;
-    for c in 0..D {
-        for r in 0..D {
+    // Jacobi on h itself (its values are not needed after), v = I
+    let scale: T = h.as_slice().iter().map(|&x| x * x).sum();
+    let a = &mut *h;
+    for c in 0..n {
+        for r in 0..n {
             vectors[c][r] = if r == c { T::one() } else { T::zero() };
         }
     }
-    let scale: T = h.iter().flatten().map(|&x| x * x).sum();
     // the off-diagonal part below (ε²-level, 1e-32 in f64) of the whole: converged
     let converged = T::of(1e-32 * T::EPSILON_RATIO * T::EPSILON_RATIO);
     for _sweep in 0..60 {
         let mut off = T::zero();
-        for c in 0..D {
+        for c in 0..n {
             for r in 0..c {
                 off += a[c][r] * a[c][r];
             }
@@ -174,8 +172,8 @@ pub fn negative_semidefinite_part<T: Float, const D: usize>(
         if off <= converged * scale {
             break;
         }
-        for p in 0..D {
-            for q in p + 1..D {
+        for p in 0..n {
+            for q in p + 1..n {
                 let apq = a[q][p];
                 if apq == T::zero() {
                     continue;
@@ -186,17 +184,17 @@ pub fn negative_semidefinite_part<T: Float, const D: usize>(
                 let cs = T::one() / (t * t + T::one()).sqrt();
                 let sn = t * cs;
                 // A ← Jᵀ A J on rows and columns p, q
-                for k in 0..D {
+                for k in 0..n {
                     let (akp, akq) = (a[p][k], a[q][k]);
                     a[p][k] = cs * akp - sn * akq;
                     a[q][k] = sn * akp + cs * akq;
                 }
-                for k in 0..D {
+                for k in 0..n {
                     let (apk, aqk) = (a[k][p], a[k][q]);
                     a[k][p] = cs * apk - sn * aqk;
                     a[k][q] = sn * apk + cs * aqk;
                 }
-                for k in 0..D {
+                for k in 0..n {
                     let (vkp, vkq) = (vectors[p][k], vectors[q][k]);
                     vectors[p][k] = cs * vkp - sn * vkq;
                     vectors[q][k] = sn * vkp + cs * vkq;
@@ -204,13 +202,13 @@ pub fn negative_semidefinite_part<T: Float, const D: usize>(
             }
         }
     }
-    for i in 0..D {
-        values[i] = a[i][i].min(T::zero());
+    for i in 0..n {
+        values[i] = h[i][i].min(T::zero());
     }
-    for c in 0..D {
+    for c in 0..n {
         for r in 0..=c {
             let mut s = T::zero();
-            for k in 0..D {
+            for k in 0..n {
                 s += vectors[k][r] * values[k] * vectors[k][c];
             }
             h[c][r] = s;
@@ -242,7 +240,7 @@ mod tests {
         let a: [[f64; D]; D] = core::array::from_fn(|_| core::array::from_fn(|_| next()));
         let b: [f64; D] = core::array::from_fn(|_| next());
         let (mut lu, mut x, mut piv) = (a, b, [0; D]);
-        assert!(lu_solve(&mut lu, &mut x, &mut piv));
+        assert!(lu_solve(&mut Square::of_array(&mut lu), &mut x, &mut piv));
         for r in 0..D {
             let ax: f64 = (0..D).map(|c| a[c][r] * x[c]).sum();
             assert!((ax - b[r]).abs() < 1e-12, "row {r}: {ax} vs {}", b[r]);
@@ -250,13 +248,24 @@ mod tests {
         // another right-hand side on the factors: the bits of a fresh solve
         let c: [f64; D] = core::array::from_fn(|_| next());
         let (mut fresh, mut again) = ((a, c), c);
-        assert!(lu_solve(&mut fresh.0, &mut fresh.1, &mut [0; D]));
-        assert!(lu_solve_factored(&lu, &piv, &mut again));
+        assert!(lu_solve(
+            &mut Square::of_array(&mut fresh.0),
+            &mut fresh.1,
+            &mut [0; D]
+        ));
+        assert!(lu_solve_factored(
+            &Square::of_array(&mut lu),
+            &piv,
+            &mut again
+        ));
         assert_eq!(fresh.1, again);
         let mut singular = a;
         singular[3] = singular[5];
         let (mut x, mut piv) = (b, [0; D]);
-        assert!(!lu_solve(&mut singular, &mut x, &mut piv) || x.iter().any(|v| v.abs() > 1e12));
+        assert!(
+            !lu_solve(&mut Square::of_array(&mut singular), &mut x, &mut piv)
+                || x.iter().any(|v| v.abs() > 1e12)
+        );
     }
 
     #[test]
@@ -294,7 +303,11 @@ mod tests {
         let expected = build(&lambda.map(|l: f64| l.min(0.0)));
         let (mut v, mut w) = ([[0.0; D]; D], [0.0; D]);
         assert_eq!(
-            negative_semidefinite_part(&mut h, &mut v, &mut w),
+            negative_semidefinite_part(
+                &mut Square::of_array(&mut h),
+                &mut Square::of_array(&mut v),
+                &mut w
+            ),
             Projection::Decomposed
         );
         for c in 0..D {
@@ -306,7 +319,11 @@ mod tests {
         let mut nd = build(&[-1.0, -2.0, -3.0, -0.5, -4.0, -1e-2]);
         let copy = nd;
         assert_eq!(
-            negative_semidefinite_part(&mut nd, &mut v, &mut w),
+            negative_semidefinite_part(
+                &mut Square::of_array(&mut nd),
+                &mut Square::of_array(&mut v),
+                &mut w
+            ),
             Projection::Definite
         );
         assert_eq!(nd, copy);
@@ -314,7 +331,11 @@ mod tests {
         let mut bad = copy;
         bad[2][1] = f64::NAN;
         assert_eq!(
-            negative_semidefinite_part(&mut bad, &mut v, &mut w),
+            negative_semidefinite_part(
+                &mut Square::of_array(&mut bad),
+                &mut Square::of_array(&mut v),
+                &mut w
+            ),
             Projection::Failed
         );
     }

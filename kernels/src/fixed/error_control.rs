@@ -27,14 +27,15 @@
 //!
 //! `runtime/tests/fixed_step.rs` compares it with the runtime's error-controlled step.
 
-use super::adaptive::{max_element_rotation, measure, phase_cut, Effects, HeadTrajectory};
-use super::bdf2::{bdf2, Bdf2History};
-use super::step::{linearly_implicit, non_finite, StepError, StepInput, StepReport};
+use super::adaptive::{measure, phase_cut, Effects, HeadTrajectory};
+use super::bdf2::{bdf2_step, Bdf2History};
+use super::step::{max_element_rotation, non_finite, solve_step, StepError, StepInput, StepReport};
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::energy::{balance, end_ceiling};
 use crate::float::Float;
 use crate::pose::Pose;
+use crate::storage::{StrandView, WorkView};
 use crate::strand_terms::{element_ends, MomentSource};
 
 /// Smallest tolerance of the error-controlled step (in `f64`; `f32` strands take at
@@ -178,6 +179,51 @@ pub fn step_to_tolerance<
     ws: &mut FixedWorkspace<N, D, E, T>,
     report: &mut ToleranceReport,
 ) -> Result<StepReport, StepError> {
+    let mut ws = ws.view();
+    let stack = ws.take_stack();
+    let mut history = HistoryView {
+        q: &mut history.q,
+        v: &mut history.v,
+        h: &mut history.h,
+        next_h: &mut history.next_h,
+    };
+    tolerance_step(
+        source,
+        &mut strand.view(),
+        &mut history,
+        head,
+        effects,
+        (t, h),
+        tolerance,
+        &mut ws,
+        stack,
+        report,
+    )
+}
+
+/// A [`StepHistory`] on any storage.
+pub(crate) struct HistoryView<'a, T: Float> {
+    pub(crate) q: &'a mut [T],
+    pub(crate) v: &'a mut [T],
+    pub(crate) h: &'a mut f64,
+    pub(crate) next_h: &'a mut f64,
+}
+
+/// [`step_to_tolerance`] on any storage (`stack`: [`crate::storage::STACK_VECTORS`]
+/// vectors of n).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn tolerance_step<S: MomentSource<T>, T: Float>(
+    source: &S,
+    strand: &mut StrandView<'_, T>,
+    history: &mut HistoryView<'_, T>,
+    head: &dyn HeadTrajectory,
+    effects: &Effects,
+    (t, h): (f64, f64),
+    tolerance: f64,
+    ws: &mut WorkView<'_, T>,
+    stack: &mut [T],
+    report: &mut ToleranceReport,
+) -> Result<StepReport, StepError> {
     if !(h.is_finite() && h > 0.0 && t.is_finite()) {
         return Err(StepError::TimeStep);
     }
@@ -185,38 +231,39 @@ pub fn step_to_tolerance<
         return Err(StepError::Tolerance);
     }
     ws.forget();
+    let n = strand.dofs();
     let end = t + h;
-    let q0 = strand.q;
-    let mut energy = match strand.last_energy {
+    let (q0, stack) = stack.split_at_mut(n);
+    let (start_q, stack) = stack.split_at_mut(n);
+    let (start_v, stack) = stack.split_at_mut(n);
+    let (other_q, stack) = stack.split_at_mut(n);
+    let (other_v, stack) = stack.split_at_mut(n);
+    q0.copy_from_slice(strand.q);
+    let mut energy = match *strand.last_energy {
         Some(e) if (e.time - t).abs() <= 1e-12 * t.abs().max(1.0) => e,
-        _ => {
-            let (q, v) = (strand.q, strand.v);
-            measure(
-                source,
-                strand,
-                effects,
-                &head.state(t),
-                t,
-                &q,
-                &v,
-                ws,
-                false,
-                None,
-            )
-        }
+        _ => measure(
+            source,
+            &strand.params,
+            effects,
+            &head.state(t),
+            t,
+            strand.q,
+            strand.v,
+            ws,
+            false,
+            None,
+        ),
     };
     let length = strand.params.length().as_f64();
-    let mut ends_other = [Pose::<T>::default(); E];
-    let mut ends_kept = [Pose::<T>::default(); E];
-    let mut next = if history.next_h > 0.0 {
-        history.next_h
+    let mut next = if *history.next_h > 0.0 {
+        *history.next_h
     } else {
         h
     };
     let mut now = t;
     while end - now > 1e-12 * end.abs().max(1.0) {
-        if history.h > 0.0 {
-            next = next.min(MAX_RATIO * history.h);
+        if *history.h > 0.0 {
+            next = next.min(MAX_RATIO * *history.h);
         }
         // the steps land on the head's phase changes as on the interval's end
         let target = phase_cut(head, now, end).unwrap_or(end);
@@ -232,48 +279,53 @@ pub fn step_to_tolerance<
             next
         };
         let t1 = if last { target } else { now + hh };
-        let (start_q, start_v) = (strand.q, strand.v);
+        start_q.copy_from_slice(strand.q);
+        start_v.copy_from_slice(strand.v);
         let input = StepInput {
             head: head.state(t1),
             gravity: effects.gravity,
             head_moves: effects.head_moves,
         };
-        let multistep = history.h > 0.0;
-        let (other_q, other_v, solved) = if multistep {
-            let w = T::of(hh / history.h);
-            let mut oq = [T::zero(); D];
-            let mut ov = [T::zero(); D];
-            for i in 0..D {
-                oq[i] = start_q[i] + w * (start_q[i] - history.q[i]);
-                ov[i] = start_v[i] + w * (start_v[i] - history.v[i]);
+        let multistep = *history.h > 0.0;
+        let solved = if multistep {
+            let w = T::of(hh / *history.h);
+            for i in 0..n {
+                other_q[i] = start_q[i] + w * (start_q[i] - history.q[i]);
+                other_v[i] = start_v[i] + w * (start_v[i] - history.v[i]);
             }
             let previous = Bdf2History {
-                q: &history.q,
-                v: &history.v,
-                h: history.h,
+                q: history.q,
+                v: history.v,
+                h: *history.h,
             };
             report.solves += 1;
-            let r = bdf2(source, strand, &previous, &input, hh, ws).map(|_| ());
-            (oq, ov, r)
+            bdf2_step(source, strand, &previous, &input, hh, ws, stack).map(|_| ())
         } else {
             report.solves += 3;
-            let r = start_step(source, strand, head, effects, now, hh, &input, ws);
-            match r {
-                Ok((oq, ov)) => (oq, ov, Ok(())),
-                Err(e) => ([T::zero(); D], [T::zero(); D], Err(e)),
-            }
-        };
-        let error = match solved {
-            Ok(()) => estimate(
+            let r = start_step(
                 source,
                 strand,
-                &other_q,
-                &other_v,
-                hh,
-                length,
-                &mut ends_other,
-                &mut ends_kept,
-            ),
+                head,
+                effects,
+                (now, hh),
+                &input,
+                ws,
+                (other_q, other_v),
+                stack,
+            );
+            if r.is_err() {
+                other_q.fill(T::zero());
+                other_v.fill(T::zero());
+            }
+            r
+        };
+        let error = match solved {
+            Ok(()) => {
+                let (ends_other, ends_kept) = ws.ends.split_at_mut(ws.ends.len() / 2);
+                estimate(
+                    source, strand, other_q, other_v, hh, length, ends_other, ends_kept,
+                )
+            }
             Err(_) => f64::INFINITY,
         };
         if error <= tolerance || (hh <= MIN_STEP && error.is_finite()) {
@@ -282,19 +334,18 @@ pub fn step_to_tolerance<
             } else {
                 GROW
             };
-            history.q = start_q;
-            history.v = start_v;
-            history.h = hh;
+            history.q.copy_from_slice(start_q);
+            history.v.copy_from_slice(start_v);
+            *history.h = hh;
             // the energy balance of the checked step
-            let (q, v) = (strand.q, strand.v);
             let mut e = measure(
                 source,
-                strand,
+                &strand.params,
                 effects,
                 &input.head,
                 t1,
-                &q,
-                &v,
+                strand.q,
+                strand.v,
                 ws,
                 false,
                 None,
@@ -324,19 +375,19 @@ pub fn step_to_tolerance<
             if hh <= MIN_STEP {
                 // the shortest step fails: say why, the strand back at its last accepted step
                 let failure = solved.err().unwrap_or_else(|| {
-                    non_finite(&strand.q, &strand.v).unwrap_or(StepError::NonFinite {
+                    non_finite(strand.q, strand.v).unwrap_or(StepError::NonFinite {
                         index: 0,
                         velocity: false,
                     })
                 });
-                strand.q = start_q;
-                strand.v = start_v;
-                strand.last_energy = None;
+                strand.q.copy_from_slice(start_q);
+                strand.v.copy_from_slice(start_v);
+                *strand.last_energy = None;
                 report.rejected += 1;
                 return Err(failure);
             }
-            strand.q = start_q;
-            strand.v = start_v;
+            strand.q.copy_from_slice(start_q);
+            strand.v.copy_from_slice(start_v);
             report.rejected += 1;
             next = if error.is_finite() && error > 0.0 {
                 hh * (SAFETY * crate::math::sqrt(tolerance / error)).clamp(SHRINK, GROW)
@@ -346,9 +397,9 @@ pub fn step_to_tolerance<
             next = next.max(MIN_STEP);
         }
     }
-    history.next_h = next;
-    strand.last_energy = Some(energy);
-    let rotation = max_element_rotation(&strand.params.lengths, &strand.q, &q0);
+    *history.next_h = next;
+    *strand.last_energy = Some(energy);
+    let rotation = max_element_rotation(strand.params.lengths, strand.q, q0);
     Ok(StepReport {
         max_element_rotation: rotation.as_f64(),
         projection: None,
@@ -359,69 +410,64 @@ pub fn step_to_tolerance<
 
 /// The start of the scheme over [t, t + h]: y₁ from one linearly implicit Euler step of
 /// h, y₂ from two of h/2. The strand ends in 2 y₂ − y₁; y₂, which differs from it by
-/// y₂ − y₁ (the estimate), is returned.
+/// y₂ − y₁ (the estimate), into `(q2, v2)` (`stack`: four vectors of n).
 #[allow(clippy::too_many_arguments)]
-fn start_step<
-    S: MomentSource<T>,
-    const N: usize,
-    const D: usize,
-    const E: usize,
-    const B: usize,
-    T: Float,
->(
+fn start_step<S: MomentSource<T>, T: Float>(
     source: &S,
-    strand: &mut FixedStrand<N, D, B, T>,
+    strand: &mut StrandView<'_, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
-    t: f64,
-    h: f64,
+    (t, h): (f64, f64),
     input: &StepInput,
-    ws: &mut FixedWorkspace<N, D, E, T>,
-) -> Result<([T; D], [T; D]), StepError> {
-    let (q, v) = (strand.q, strand.v);
-    linearly_implicit(source, strand, input, h, ws)?;
-    let (q1, v1) = (strand.q, strand.v);
-    strand.q = q;
-    strand.v = v;
+    ws: &mut WorkView<'_, T>,
+    (q2, v2): (&mut [T], &mut [T]),
+    stack: &mut [T],
+) -> Result<(), StepError> {
+    let n = strand.dofs();
+    let (q, stack) = stack.split_at_mut(n);
+    let (v, stack) = stack.split_at_mut(n);
+    let (q1, stack) = stack.split_at_mut(n);
+    let (v1, stack) = stack.split_at_mut(n);
+    q.copy_from_slice(strand.q);
+    v.copy_from_slice(strand.v);
+    solve_step(source, strand, input, h, ws, stack, None)?;
+    q1.copy_from_slice(strand.q);
+    v1.copy_from_slice(strand.v);
+    strand.q.copy_from_slice(q);
+    strand.v.copy_from_slice(v);
     let middle = StepInput {
         head: head.state(t + 0.5 * h),
         gravity: effects.gravity,
         head_moves: effects.head_moves,
     };
-    linearly_implicit(source, strand, &middle, 0.5 * h, ws)?;
-    linearly_implicit(source, strand, input, 0.5 * h, ws)?;
+    solve_step(source, strand, &middle, 0.5 * h, ws, stack, None)?;
+    solve_step(source, strand, input, 0.5 * h, ws, stack, None)?;
     // keep 2 y₂ − y₁; the estimate compares it with y₂, which it differs from by y₂ − y₁
-    let (q2, v2) = (strand.q, strand.v);
+    q2.copy_from_slice(strand.q);
+    v2.copy_from_slice(strand.v);
     let two = T::of(2.0);
-    for i in 0..D {
+    for i in 0..n {
         strand.q[i] = two * q2[i] - q1[i];
         strand.v[i] = two * v2[i] - v1[i];
     }
-    Ok((q2, v2))
+    Ok(())
 }
 
 /// The error norm (module page) between the strand's state and (`q`, `v`).
 #[allow(clippy::too_many_arguments)]
-fn estimate<
-    S: MomentSource<T>,
-    const N: usize,
-    const D: usize,
-    const E: usize,
-    const B: usize,
-    T: Float,
->(
+fn estimate<S: MomentSource<T>, T: Float>(
     source: &S,
-    strand: &FixedStrand<N, D, B, T>,
-    q: &[T; D],
-    v: &[T; D],
+    strand: &StrandView<'_, T>,
+    q: &[T],
+    v: &[T],
     h: f64,
     length: f64,
-    ends_other: &mut [Pose<T>; E],
-    ends_kept: &mut [Pose<T>; E],
+    ends_other: &mut [Pose<T>],
+    ends_kept: &mut [Pose<T>],
 ) -> f64 {
     let shape = strand.params.shape();
     element_ends(source, &shape, q, ends_other);
-    element_ends(source, &shape, &strand.q, ends_kept);
+    element_ends(source, &shape, strand.q, ends_kept);
     let centreline = ends_other
         .iter()
         .zip(ends_kept.iter())

@@ -2,6 +2,7 @@
 
 use crate::float::Float;
 use crate::material::SectionTerms;
+use crate::storage::ParamsView;
 use crate::strand_terms::StrandShape;
 use nalgebra::{Matrix3, Vector3};
 
@@ -57,7 +58,7 @@ impl<const N: usize, const D: usize, T: Float> FixedParams<N, D, T> {
     /// air drag): only such a strand's solves take the dissipative split of the field
     /// stiffness ([`crate::field_split`]).
     pub fn dissipative(&self) -> bool {
-        self.air_drag > T::zero() || self.friction.iter().any(|&g| g > T::zero())
+        self.view().dissipative()
     }
 
     /// The parameters of a strand rooted at `root_position` with frame `root_frame`
@@ -154,11 +155,20 @@ impl<const N: usize, const D: usize, T: Float> FixedParams<N, D, T> {
 
     /// The shape the moment assembly reads.
     pub fn shape(&self) -> StrandShape<'_, T> {
-        StrandShape {
+        self.view().shape()
+    }
+
+    /// The step's view of these parameters.
+    pub fn view(&self) -> ParamsView<'_, T> {
+        ParamsView {
             root_position: self.root_position,
             root_frame: self.root_frame,
             lengths: &self.lengths,
+            natural: &self.natural,
+            stiffness: &self.stiffness,
+            friction: &self.friction,
             mass_per_length: self.mass_per_length,
+            air_drag: self.air_drag,
             rotary_inertia: self.rotary_inertia,
         }
     }
@@ -182,7 +192,7 @@ impl<const N: usize, const D: usize, T: Float> FixedParams<N, D, T> {
 
     /// Total length L, metres.
     pub fn length(&self) -> T {
-        self.lengths.iter().copied().sum()
+        self.view().length()
     }
 }
 

@@ -3,7 +3,7 @@
 
 use super::contacts::ContactHooks;
 use super::dense::{lu_solve, lu_solve_factored, negative_semidefinite_part, Projection};
-use super::workspace::{FixedWorkspace, ProjectionArrays};
+use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::body_field::BodyField;
 use crate::field_split::{dissipative_split, FieldRule, SplitOutcome};
@@ -13,6 +13,7 @@ use crate::pose::Pose;
 use crate::projection::{
     cholesky, ProjectionBasis, ProjectionOutcome, ProjectionScratch, SpectralProjection,
 };
+use crate::storage::{ParamsView, ProjectionView, Square, StrandView, WorkView};
 use crate::strand_terms::{
     element_ends, evaluate_terms, MomentSource, TermMatrix, TermVectors, Terms,
 };
@@ -49,13 +50,14 @@ pub struct StepReport {
 }
 
 /// The first non-finite entry of (q, q̇) as a [`StepError::NonFinite`], if any.
-pub(super) fn non_finite<T: Float, const D: usize>(q: &[T; D], v: &[T; D]) -> Option<StepError> {
+pub(crate) fn non_finite<T: Float>(q: &[T], v: &[T]) -> Option<StepError> {
+    let n = q.len();
     q.iter()
         .chain(v.iter())
         .position(|x| !x.is_finite())
         .map(|i| StepError::NonFinite {
-            index: i % D,
-            velocity: i >= D,
+            index: i % n,
+            velocity: i >= n,
         })
 }
 
@@ -102,24 +104,16 @@ impl core::fmt::Display for StepError {
 /// The kernel terms `terms` at (q, q̇) in `field` into `ws` (M in the assembly's
 /// buffers, the force ∫JᵀF − b, b and ∫ρS y, and the requested matrices), reusing
 /// the element moments when q is the one `ws` was prepared for.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn evaluate_at<
-    S: MomentSource<T>,
-    const N: usize,
-    const D: usize,
-    const E: usize,
-    const B: usize,
-    T: Float,
->(
+pub(crate) fn evaluate_at<S: MomentSource<T>, T: Float>(
     source: &S,
-    strand: &FixedStrand<N, D, B, T>,
-    q: &[T; D],
-    v: &[T; D],
+    params: &ParamsView<'_, T>,
+    q: &[T],
+    v: &[T],
     field: &BodyField<T>,
     terms: Terms,
-    ws: &mut FixedWorkspace<N, D, E, T>,
+    ws: &mut WorkView<'_, T>,
 ) {
-    let FixedWorkspace {
+    let WorkView {
         assembly,
         stiffness,
         damping,
@@ -141,12 +135,12 @@ pub(super) fn evaluate_at<
             TermMatrix::Damping => &mut *damping,
             TermMatrix::VelocityTermJacobian => &mut *velocity_jacobian,
         };
-        target.as_flattened_mut().copy_from_slice(m);
+        target.as_mut_slice().copy_from_slice(m);
     };
     evaluate_terms(
         source,
-        &strand.params.shape(),
-        &mut assembly.buffers(),
+        &params.shape(),
+        assembly,
         q,
         v,
         field,
@@ -172,29 +166,23 @@ pub fn evaluate<
     input: &StepInput,
     ws: &mut FixedWorkspace<N, D, E, T>,
 ) -> bool {
+    let mut ws = ws.view();
     ws.forget();
-    assemble(source, strand, &strand.q, &strand.v, input, ws, None).0
+    let params = strand.params.view();
+    assemble(source, &params, &strand.q, &strand.v, input, &mut ws, None).0
 }
 
 /// [`evaluate`] at (q, q̇) without forgetting what `ws` was prepared for.
-pub(super) fn assemble<
-    'c,
-    S: MomentSource<T>,
-    const N: usize,
-    const D: usize,
-    const E: usize,
-    const B: usize,
-    T: Float,
->(
+pub(crate) fn assemble<'c, S: MomentSource<T>, T: Float>(
     source: &S,
-    strand: &FixedStrand<N, D, B, T>,
-    q: &[T; D],
-    v: &[T; D],
+    p: &ParamsView<'_, T>,
+    q: &[T],
+    v: &[T],
     input: &StepInput,
-    ws: &mut FixedWorkspace<N, D, E, T>,
-    contacts: Option<(&mut (dyn ContactHooks<T, D> + 'c), f64)>,
+    ws: &mut WorkView<'_, T>,
+    contacts: Option<(&mut (dyn ContactHooks<T> + 'c), f64)>,
 ) -> (bool, bool) {
-    let p = &strand.params;
+    let n = p.dofs();
     let field = body_field(
         input.gravity,
         input.head_moves,
@@ -204,7 +192,7 @@ pub(super) fn assemble<
     );
     let position_field = field.uniform != Vector3::zeros() || field.has_linear();
     let velocity_field = field.velocity != nalgebra::Matrix3::zeros();
-    let explicit = ws.field_rule == FieldRule::Explicit;
+    let explicit = *ws.field_rule == FieldRule::Explicit;
     let terms = Terms {
         mass: true,
         force: true,
@@ -216,14 +204,14 @@ pub(super) fn assemble<
         symmetric_stiffness: true,
         split_damping: true,
     };
-    evaluate_at(source, strand, q, v, &field, terms, ws);
+    evaluate_at(source, p, q, v, &field, terms, ws);
     if !terms.stiffness {
-        ws.stiffness = [[T::zero(); D]; D];
+        ws.stiffness.fill(T::zero());
     }
     if !velocity_field {
-        ws.damping = [[T::zero(); D]; D];
+        ws.damping.fill(T::zero());
     }
-    for i in 0..D {
+    for i in 0..n {
         ws.force[i] -= p.stiffness[i] * (q[i] - p.natural[i]) + p.friction[i] * v[i];
         ws.stiffness[i][i] -= p.stiffness[i];
         ws.damping[i][i] -= p.friction[i];
@@ -236,7 +224,7 @@ pub(super) fn assemble<
             t,
             &input.head,
             !explicit,
-            &mut ws.force,
+            ws.force,
             &mut ws.stiffness,
             &mut ws.damping,
         ),
@@ -299,54 +287,80 @@ pub fn linearly_implicit_with<
     input: &StepInput,
     h: f64,
     ws: &mut FixedWorkspace<N, D, E, T>,
-    contacts: Option<(&mut (dyn ContactHooks<T, D> + 'c), f64)>,
+    contacts: Option<(&mut (dyn ContactHooks<T> + 'c), f64)>,
+) -> Result<StepReport, StepError> {
+    let mut ws = ws.view();
+    let stack = ws.take_stack();
+    solve_step(
+        source,
+        &mut strand.view(),
+        input,
+        h,
+        &mut ws,
+        stack,
+        contacts,
+    )
+}
+
+/// The linearly implicit Euler step of [`linearly_implicit_with`] on any storage (`stack`:
+/// at least two vectors of n).
+pub(crate) fn solve_step<'c, S: MomentSource<T>, T: Float>(
+    source: &S,
+    strand: &mut StrandView<'_, T>,
+    input: &StepInput,
+    h: f64,
+    ws: &mut WorkView<'_, T>,
+    stack: &mut [T],
+    contacts: Option<(&mut (dyn ContactHooks<T> + 'c), f64)>,
 ) -> Result<StepReport, StepError> {
     if !(h.is_finite() && h > 0.0) {
         return Err(StepError::TimeStep);
     }
+    let n = strand.dofs();
     let h_f64 = h;
     let h = T::of(h);
-    let (q0, v0) = (strand.q, strand.v);
     let mut contacts = contacts;
     let (field_stiffness, touching) = assemble(
         source,
-        strand,
-        &q0,
-        &v0,
+        &strand.params,
+        strand.q,
+        strand.v,
         input,
         ws,
         contacts.as_mut().map(|(c, t)| (&mut **c, *t)),
     );
-    let (projection, _) = step_matrix(strand, field_stiffness, touching, h, ws);
+    let (q_new, stack) = stack.split_at_mut(n);
+    let (projection, _) = step_matrix(strand, field_stiffness, touching, h, ws, stack);
     let p = &strand.params;
-    let (q, v) = (&mut strand.q, &mut strand.v);
-    for i in 0..D {
+    let (q, v) = (&mut *strand.q, &mut *strand.v);
+    for i in 0..n {
         ws.rhs[i] = h * (ws.force[i] + ws.velocity_term[i]);
     }
-    for j in 0..D {
+    let mass = &*ws.assembly.mass;
+    for j in 0..n {
         let vj = v[j];
-        for i in 0..D {
-            ws.rhs[i] += (ws.assembly.mass[j][i] - h * ws.damping[j][i]) * vj;
+        let (mass_j, damping_j) = (&mass[j * n..j * n + n], &ws.damping[j]);
+        for i in 0..n {
+            ws.rhs[i] += (mass_j[i] - h * damping_j[i]) * vj;
         }
     }
-    if !lu_solve(&mut ws.matrix_a, &mut ws.rhs, &mut ws.pivots) {
+    if !lu_solve(&mut ws.matrix_a, ws.rhs, ws.pivots) {
         return Err(StepError::SingularMatrix);
     }
-    let mut q_new = *q;
-    let mut v_new = ws.rhs;
-    for i in 0..D {
-        q_new[i] += h * v_new[i];
+    q_new.copy_from_slice(q);
+    for i in 0..n {
+        q_new[i] += h * ws.rhs[i];
     }
     let mut contacts_predicted = 0;
     if let Some((c, t)) = contacts {
         // the contacts that start within the step, predicted along the solution and
         // resolved on the step's factors
-        c.predict(q, &q_new, t, &input.head);
-        let (a, pivots) = (&ws.matrix_a, &ws.pivots);
-        let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, x);
+        c.predict(q, q_new, t, &input.head);
+        let (a, pivots, v_new) = (&ws.matrix_a, &*ws.pivots, &mut *ws.rhs);
+        let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, x, stack);
         let map = Some((h_f64, h_f64));
         contacts_predicted = c
-            .resolve(&mut q_new, &mut v_new, map, t, &input.head, &mut solve)
+            .resolve(q_new, v_new, map, t, &input.head, &mut solve)
             .map_err(|_| StepError::SingularMatrix)?;
     }
     if let Some(i) = q_new.iter().position(|x| !x.is_finite()) {
@@ -355,15 +369,9 @@ pub fn linearly_implicit_with<
             velocity: false,
         });
     }
-    let mut rotation = T::zero();
-    for (k, &l) in p.lengths.iter().enumerate() {
-        let d: T = (0..3)
-            .map(|i| (q_new[3 * k + i] - q[3 * k + i]) * (q_new[3 * k + i] - q[3 * k + i]))
-            .sum();
-        rotation = rotation.max(l * d.sqrt());
-    }
-    *q = q_new;
-    *v = v_new;
+    let rotation = max_element_rotation(p.lengths, q_new, q);
+    q.copy_from_slice(q_new);
+    v.copy_from_slice(ws.rhs);
     Ok(StepReport {
         max_element_rotation: rotation.as_f64(),
         projection,
@@ -372,18 +380,33 @@ pub fn linearly_implicit_with<
     })
 }
 
-/// `A x = b` in place for an f64 `b` (D long) with the step's factors in `T` (the
-/// columns of the contacts that start within a step).
-pub(super) fn solve_factored_f64<T: Float, const D: usize>(
-    a: &[[T; D]; D],
-    pivots: &[usize; D],
+/// Largest l_Q |Δd_Q| between two states.
+pub(crate) fn max_element_rotation<T: Float>(lengths: &[T], q: &[T], q0: &[T]) -> T {
+    lengths
+        .iter()
+        .enumerate()
+        .map(|(k, &l)| {
+            let d: T = (0..3)
+                .map(|i| (q[3 * k + i] - q0[3 * k + i]) * (q[3 * k + i] - q0[3 * k + i]))
+                .sum();
+            l * d.sqrt()
+        })
+        .fold(T::zero(), T::max)
+}
+
+/// `A x = b` in place for an f64 `b` (n long) with the step's factors in `T` (the
+/// columns of the contacts that start within a step); `scratch` at least n long.
+pub(crate) fn solve_factored_f64<T: Float>(
+    a: &Square<'_, T>,
+    pivots: &[usize],
     x: &mut [f64],
+    scratch: &mut [T],
 ) -> bool {
-    let mut b = [T::zero(); D];
+    let b = &mut scratch[..x.len()];
     for (bi, xi) in b.iter_mut().zip(x.iter()) {
         *bi = T::of(*xi);
     }
-    let ok = lu_solve_factored(a, pivots, &mut b);
+    let ok = lu_solve_factored(a, pivots, b);
     for (xi, bi) in x.iter_mut().zip(b.iter()) {
         *xi = bi.as_f64();
     }
@@ -394,28 +417,24 @@ pub(super) fn solve_factored_f64<T: Float, const D: usize>(
 /// into `ws.matrix_a` (D_q = H⁻ − K, H⁻ the negative semidefinite part of the
 /// symmetrised field stiffness when `field_stiffness`, by the dissipative split of
 /// [`crate::field_split`] or the spectral projection, `ws.field_rule`; `ws.stiffness`
-/// then holds that part).
+/// then holds that part; `stack` at least one vector of n).
 /// Returns how H⁻ was found and whether it is in the matrix (not when the projection
 /// failed).
-pub(super) fn step_matrix<
-    const N: usize,
-    const D: usize,
-    const E: usize,
-    const B: usize,
-    T: Float,
->(
-    strand: &mut FixedStrand<N, D, B, T>,
+pub(crate) fn step_matrix<T: Float>(
+    strand: &mut StrandView<'_, T>,
     field_stiffness: bool,
     touching: bool,
     h: T,
-    ws: &mut FixedWorkspace<N, D, E, T>,
+    ws: &mut WorkView<'_, T>,
+    stack: &mut [T],
 ) -> (Option<Projection>, bool) {
+    let n = strand.dofs();
     let half = T::of(0.5);
     let p = &strand.params;
     let projection = if field_stiffness {
         // H = sym(stiffness) + K, projected onto its negative semidefinite part
         let st = &mut ws.stiffness;
-        for j in 0..D {
+        for j in 0..n {
             for i in 0..j {
                 let m = half * (st[i][j] + st[j][i]);
                 st[i][j] = m;
@@ -423,21 +442,23 @@ pub(super) fn step_matrix<
             }
             st[j][j] += p.stiffness[j];
         }
-        let explicit = ws.field_rule == FieldRule::Explicit;
+        let explicit = *ws.field_rule == FieldRule::Explicit;
         // a strand without internal friction or drag keeps the projection, and so does one
         // that touches (see crate::field_split)
         let split = if ws.field_rule.splits(p.dissipative()) && !touching {
             // the metric of the step matrix's diagonal, M_jj/h² + K_j
             let inv_h2 = T::one() / (h * h);
-            let metric: [T; D] =
-                core::array::from_fn(|j| ws.assembly.mass[j][j] * inv_h2 + p.stiffness[j]);
+            let metric = &mut stack[..n];
+            for j in 0..n {
+                metric[j] = ws.assembly.mass[j * n + j] * inv_h2 + p.stiffness[j];
+            }
             dissipative_split(
-                D,
-                ws.stiffness.as_flattened_mut(),
-                &metric,
-                ws.split_work.as_flattened_mut(),
-                &mut ws.split_scale,
-                &mut ws.split_order,
+                n,
+                ws.stiffness.as_mut_slice(),
+                metric,
+                ws.split_work.as_mut_slice(),
+                ws.split_scale,
+                ws.split_order,
             )
         } else {
             SplitOutcome::Beyond
@@ -450,9 +471,9 @@ pub(super) fn step_matrix<
             SplitOutcome::Shifted => Projection::Shifted,
             SplitOutcome::Beyond => project(
                 &mut ws.stiffness,
-                &mut strand.basis,
-                &mut strand.basis_k,
-                &mut strand.basis_negative,
+                strand.basis,
+                strand.basis_k,
+                strand.basis_negative,
                 &mut ws.projection,
             ),
         })
@@ -460,15 +481,21 @@ pub(super) fn step_matrix<
         None
     };
     let use_h = matches!(projection, Some(p) if p != Projection::Failed);
-    for j in 0..D {
-        for i in 0..D {
-            let mut dq = if use_h { ws.stiffness[j][i] } else { T::zero() };
+    let mass = &*ws.assembly.mass;
+    for j in 0..n {
+        let (a, st, d, b) = (
+            &mut ws.matrix_a[j],
+            &ws.stiffness[j],
+            &ws.damping[j],
+            &ws.velocity_jacobian[j],
+        );
+        let m = &mass[j * n..j * n + n];
+        for i in 0..n {
+            let mut dq = if use_h { st[i] } else { T::zero() };
             if i == j {
                 dq -= p.stiffness[i];
             }
-            ws.matrix_a[j][i] = ws.assembly.mass[j][i] - h * ws.damping[j][i]
-                + half * h * ws.velocity_jacobian[j][i]
-                - h * h * dq;
+            a[i] = m[i] - h * d[i] + half * h * b[i] - h * h * dq;
         }
     }
     (projection, use_h)
@@ -496,67 +523,73 @@ pub fn centreline<
 /// definite leaves H; otherwise the shared partial eigendecomposition
 /// ([`crate::projection`]), reusing the strand's kept basis while it splits H, and the
 /// full Jacobi decomposition when that fails its checks.
-fn project<const D: usize, const B: usize, T: Float>(
-    h: &mut [[T; D]; D],
-    basis: &mut [[T; D]; B],
+fn project<T: Float>(
+    h: &mut Square<'_, T>,
+    basis: &mut [T],
     basis_k: &mut usize,
     basis_negative: &mut bool,
-    p: &mut ProjectionArrays<D, T>,
+    p: &mut ProjectionView<'_, T>,
 ) -> Projection {
-    let repeated = p.last_valid
-        && (0..D).all(|j| {
+    let n = h.n();
+    let repeated = *p.last_valid
+        && (0..n).all(|j| {
             h[j][j..]
                 .iter()
                 .zip(&p.last_input[j][j..])
                 .all(|(a, b)| a.same_bits(*b))
         });
     if repeated {
-        *h = p.last_output;
+        h.copy_from(&p.last_output);
         return Projection::Repeated;
     }
-    for j in 0..D {
+    for j in 0..n {
         p.last_input[j][j..].copy_from_slice(&h[j][j..]);
     }
     let outcome = project_uncached(h, basis, basis_k, basis_negative, p);
-    p.last_valid = outcome != Projection::Failed;
-    if p.last_valid {
-        p.last_output = *h;
+    *p.last_valid = outcome != Projection::Failed;
+    if *p.last_valid {
+        p.last_output.copy_from(h);
     }
     outcome
 }
 
 /// [`project`] without the repeat check.
-fn project_uncached<const D: usize, const B: usize, T: Float>(
-    h: &mut [[T; D]; D],
-    basis: &mut [[T; D]; B],
+fn project_uncached<T: Float>(
+    h: &mut Square<'_, T>,
+    basis: &mut [T],
     basis_k: &mut usize,
     basis_negative: &mut bool,
-    p: &mut ProjectionArrays<D, T>,
+    p: &mut ProjectionView<'_, T>,
 ) -> Projection {
-    for j in 0..D {
-        for i in j..D {
+    let n = h.n();
+    for j in 0..n {
+        for i in j..n {
             p.dense[j][i] = -h[j][i];
         }
     }
-    if cholesky(p.dense.as_flattened_mut(), D) {
+    if cholesky(p.dense.as_mut_slice(), n) {
         return Projection::Definite;
     }
-    for j in 0..D {
-        for i in j..D {
+    for j in 0..n {
+        for i in j..n {
             p.dense[j][i] = h[j][i];
             p.dense[i][j] = h[j][i];
         }
     }
-    let [tau, diag, off, eigenvalues, selected, scratch, u0, u1, u2, mult, x] = &mut p.vectors;
-    let spectral = SpectralProjection::<T, D>::new(
-        D,
+    let mut vectors = p.vectors.chunks_exact_mut(n);
+    let mut next = || vectors.next().unwrap_or_default();
+    let (tau, diag, off, eigenvalues, selected, scratch) =
+        (next(), next(), next(), next(), next(), next());
+    let (u0, u1, u2, mult, x) = (next(), next(), next(), next(), next());
+    let spectral = SpectralProjection::<T>::new(
+        n,
         ProjectionBasis {
-            vectors: basis.as_flattened_mut(),
+            vectors: basis,
             k: basis_k,
             negative: basis_negative,
         },
         ProjectionScratch {
-            a: p.a.as_flattened_mut(),
+            a: p.a.as_mut_slice(),
             tau,
             diag,
             off,
@@ -567,18 +600,18 @@ fn project_uncached<const D: usize, const B: usize, T: Float>(
             u1,
             u2,
             mult,
-            pivot: &mut p.pivot,
+            pivot: p.pivot,
             x,
-            hu: p.hu.as_flattened_mut(),
-            coupling: p.coupling.as_flattened_mut(),
-            rotated: p.rotated.as_flattened_mut().as_flattened_mut(),
+            hu: p.hu.as_mut_slice(),
+            coupling: p.coupling.as_mut_slice(),
+            rotated: p.rotated,
         },
     );
     if let Some(mut spectral) = spectral {
-        match spectral.negative_part(p.dense.as_flattened_mut()) {
+        match spectral.negative_part(p.dense.as_mut_slice()) {
             ProjectionOutcome::Failed => spectral.forget_basis(),
             outcome => {
-                *h = p.dense;
+                h.copy_from(&p.dense);
                 return if outcome == ProjectionOutcome::Reused {
                     Projection::Reused
                 } else {
@@ -587,5 +620,5 @@ fn project_uncached<const D: usize, const B: usize, T: Float>(
             }
         }
     }
-    negative_semidefinite_part(h, &mut p.eigen, &mut p.eigenvalues)
+    negative_semidefinite_part(h, &mut p.eigen, p.eigenvalues)
 }

@@ -7,6 +7,7 @@ use crate::moments::jacobians::VelocityRow;
 use crate::moments::rotary::RotaryElement;
 use crate::moments::{ElementMoments, EndDerivatives, FrameMotion, SuffixBody};
 use crate::pose::Pose;
+use crate::storage::{ProjectionView, Square, WorkView, STACK_VECTORS};
 use crate::strand_terms::MomentBuffers;
 use nalgebra::{Matrix3, Vector3};
 
@@ -50,6 +51,10 @@ pub struct FixedWorkspace<const N: usize, const D: usize, const E: usize, T: Flo
     /// The checked step's largest `4^depth ℓ` over its pieces so far, ℓ their
     /// [`crate::energy::loss_ratio`] (see [`crate::energy::predicted_split_levels`]).
     pub(super) loss_estimate: f64,
+    /// What the step saves: [`STACK_VECTORS`] vectors of D.
+    pub(super) stack: [[T; D]; STACK_VECTORS],
+    /// The error estimate's two centrelines.
+    pub(super) ends: [[Pose<T>; E]; 2],
 }
 
 /// The projection's scratch and the step's cache of its last input and output.
@@ -140,6 +145,49 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
             split_order: [0; D],
             rotation_estimate: 0.0,
             loss_estimate: 0.0,
+            stack: [[T::zero(); D]; STACK_VECTORS],
+            ends: [[Pose::default(); E]; 2],
+        }
+    }
+
+    /// The step's view of this workspace.
+    pub(crate) fn view(&mut self) -> WorkView<'_, T> {
+        let p = &mut self.projection;
+        WorkView {
+            assembly: self.assembly.buffers(),
+            stiffness: Square::of_array(&mut self.stiffness),
+            damping: Square::of_array(&mut self.damping),
+            velocity_jacobian: Square::of_array(&mut self.velocity_jacobian),
+            matrix_a: Square::of_array(&mut self.matrix_a),
+            force: &mut self.force,
+            velocity_term: &mut self.velocity_term,
+            first_moment: &mut self.first_moment,
+            rhs: &mut self.rhs,
+            pivots: &mut self.pivots,
+            projection: ProjectionView {
+                a: Square::of_array(&mut p.a),
+                vectors: p.vectors.as_flattened_mut(),
+                pivot: &mut p.pivot,
+                hu: Square::of_array(&mut p.hu),
+                coupling: Square::of_array(&mut p.coupling),
+                rotated: p.rotated.as_flattened_mut().as_flattened_mut(),
+                dense: Square::of_array(&mut p.dense),
+                last_input: Square::of_array(&mut p.last_input),
+                last_output: Square::of_array(&mut p.last_output),
+                last_valid: &mut p.last_valid,
+                eigen: Square::of_array(&mut p.eigen),
+                eigenvalues: &mut p.eigenvalues,
+            },
+            field_rule: &mut self.field_rule,
+            max_split_depth: self.max_split_depth,
+            energy_balance: self.energy_balance,
+            split_work: Square::of_array(&mut self.split_work),
+            split_scale: &mut self.split_scale,
+            split_order: &mut self.split_order,
+            rotation_estimate: &mut self.rotation_estimate,
+            loss_estimate: &mut self.loss_estimate,
+            stack: self.stack.as_flattened_mut(),
+            ends: self.ends.as_flattened_mut(),
         }
     }
 
@@ -182,10 +230,7 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
     /// Forget the element moments of the last strand (the next evaluation computes
     /// them afresh).
     pub fn forget(&mut self) {
-        self.assembly.prepared[0] = T::nan();
-        self.assembly.mass_prepared[0] = T::nan();
-        self.assembly.mass_valid = false;
-        self.projection.last_valid = false;
+        self.view().forget();
     }
 }
 
