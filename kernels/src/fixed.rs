@@ -32,14 +32,14 @@
 //! `h`), the head's motion and gravity stay `f64` in both (an engine's clock and head
 //! pose; they are rounded to `T` where the step uses them).
 
-mod adaptive;
+pub(crate) mod adaptive;
 mod bdf2;
 mod contacts;
 mod dense;
-mod error_control;
-mod params;
+pub(crate) mod error_control;
+pub(crate) mod params;
 mod posed_colliders;
-mod step;
+pub(crate) mod step;
 mod workspace;
 
 pub use adaptive::{

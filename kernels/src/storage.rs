@@ -3,8 +3,10 @@
 //! [`StrandView`] and [`WorkView`], its matrices as [`Square`]s. A fixed-N strand lends
 //! them from arrays of literal size (`crate::fixed::FixedStrand`,
 //! `crate::fixed::FixedWorkspace`: on the stack, no allocation, the sizes constants the
-//! compiler sees); a runtime-N strand from vectors of its size.
+//! compiler sees); a runtime-N strand from vectors of its size ([`heap`], feature `alloc`).
 
+#[cfg(feature = "alloc")]
+pub mod heap;
 mod square;
 mod views;
 

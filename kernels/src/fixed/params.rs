@@ -77,79 +77,47 @@ impl<const N: usize, const D: usize, T: Float> FixedParams<N, D, T> {
         internal_friction: f64,
         air_drag: f64,
     ) -> Result<Self, ParamsError> {
-        let err = |field, expected| Err(ParamsError { field, expected });
         if D != 3 * N || N == 0 {
-            return err("elements", "N ≥ 1 with D = 3N coordinates");
+            return Err(ParamsError {
+                field: "elements",
+                expected: "N ≥ 1 with D = 3N coordinates",
+            });
         }
-        if !root_position.iter().all(|x| x.is_finite()) {
-            return err("root_position", "finite");
-        }
-        let frame = Matrix3::from_fn(|r, c| root_frame[c][r]);
-        let orthonormal = (frame.transpose() * frame - Matrix3::identity()).amax() <= 1e-9
-            && frame.determinant() > 0.0;
-        if !frame.iter().all(|x| x.is_finite()) || !orthonormal {
-            return err(
-                "root_frame",
-                "a rotation (orthonormal columns n0, n1, n2 within 1e-9, det > 0)",
-            );
-        }
-        if !lengths.iter().all(|&l| positive(l) && l <= 100.0) {
-            return err("lengths", "finite, > 0 and ≤ 100 m");
-        }
-        if !positive(section.mass_per_length) {
-            return err("mass_per_length", "finite and > 0");
-        }
-        if !section.stiffness.iter().all(|&k| positive(k)) {
-            return err("stiffness", "finite and > 0");
-        }
-        if !section.rotary_inertia.iter().all(|&i| non_negative(i)) {
-            return err("rotary_inertia", "finite and ≥ 0");
-        }
-        if !natural.iter().all(|&x| x.is_finite() && x.abs() <= 1e6) {
-            return err("natural", "finite, |x| ≤ 1e6 rad/m");
-        }
-        if !non_negative(internal_friction) {
-            return err("internal_friction", "finite and ≥ 0");
-        }
-        if !non_negative(air_drag) {
-            return err("air_drag", "finite and ≥ 0");
-        }
-        let mut stiffness = [0.0; D];
-        let mut friction = [0.0; D];
-        for (p, &l) in lengths.iter().enumerate() {
-            for i in 0..3 {
-                stiffness[3 * p + i] = l * section.stiffness[i];
-                friction[3 * p + i] = l * internal_friction;
-            }
-        }
-        let p = FixedParams {
-            root_position: Vector3::from(root_position).map(T::of),
-            root_frame: frame.map(T::of),
-            lengths: lengths.map(T::of),
-            natural: natural.map(T::of),
-            stiffness: stiffness.map(T::of),
-            friction: friction.map(T::of),
-            mass_per_length: T::of(section.mass_per_length),
-            air_drag: T::of(air_drag),
-            rotary_inertia: section.rotary_inertia.map(T::of),
+        let mut p = FixedParams {
+            root_position: Vector3::zeros(),
+            root_frame: Matrix3::zeros(),
+            lengths: [T::zero(); N],
+            natural: [T::zero(); D],
+            stiffness: [T::zero(); D],
+            friction: [T::zero(); D],
+            mass_per_length: T::zero(),
+            air_drag: T::zero(),
+            rotary_inertia: [T::zero(); 3],
         };
-        // what f64 holds may overflow, or round to zero, in f32
-        let finite = |x: &[T]| x.iter().all(|x| x.is_finite());
-        let positive = |x: &[T]| x.iter().all(|&x| x.is_finite() && x > T::zero());
-        let representable = "representable in the step's float type (finite, and > 0 where > 0)";
-        let fields: [(&'static str, bool); 8] = [
-            ("root_position", finite(p.root_position.as_slice())),
-            ("lengths", positive(&p.lengths)),
-            ("natural", finite(&p.natural)),
-            ("stiffness", positive(&p.stiffness)),
-            ("internal_friction", finite(&p.friction)),
-            ("mass_per_length", positive(&[p.mass_per_length])),
-            ("air_drag", finite(&[p.air_drag])),
-            ("rotary_inertia", finite(&p.rotary_inertia)),
-        ];
-        if let Some((field, _)) = fields.iter().find(|(_, ok)| !ok) {
-            return err(field, representable);
-        }
+        let scalars = checked_params(
+            &ParamsInput {
+                root_position,
+                root_frame,
+                lengths: &lengths,
+                section,
+                natural: &natural,
+                internal_friction,
+                air_drag,
+            },
+            ParamsOut {
+                lengths: &mut p.lengths,
+                natural: &mut p.natural,
+                stiffness: &mut p.stiffness,
+                friction: &mut p.friction,
+            },
+        )?;
+        (
+            p.root_position,
+            p.root_frame,
+            p.mass_per_length,
+            p.air_drag,
+            p.rotary_inertia,
+        ) = scalars;
         Ok(p)
     }
 
@@ -194,6 +162,120 @@ impl<const N: usize, const D: usize, T: Float> FixedParams<N, D, T> {
     pub fn length(&self) -> T {
         self.view().length()
     }
+}
+
+/// A strand's parameters as given (see [`FixedParams::new`]): N lengths, 3N natural
+/// values.
+pub(crate) struct ParamsInput<'a> {
+    pub(crate) root_position: [f64; 3],
+    pub(crate) root_frame: [[f64; 3]; 3],
+    pub(crate) lengths: &'a [f64],
+    pub(crate) section: &'a SectionTerms,
+    pub(crate) natural: &'a [f64],
+    pub(crate) internal_friction: f64,
+    pub(crate) air_drag: f64,
+}
+
+/// Where [`checked_params`] writes the per-element and per-coordinate parameters (N and
+/// 3N long).
+pub(crate) struct ParamsOut<'a, T> {
+    pub(crate) lengths: &'a mut [T],
+    pub(crate) natural: &'a mut [T],
+    pub(crate) stiffness: &'a mut [T],
+    pub(crate) friction: &'a mut [T],
+}
+
+/// The root position and frame, ρS, ν and the rotary inertia in `T`.
+pub(crate) type ParamScalars<T> = (Vector3<T>, Matrix3<T>, T, T, [T; 3]);
+
+/// Check `input` and write its parameters in `T` into `out` (the products formed in
+/// `f64` and rounded to `T` once), or name the first value outside its range.
+pub(crate) fn checked_params<T: Float>(
+    input: &ParamsInput<'_>,
+    out: ParamsOut<'_, T>,
+) -> Result<ParamScalars<T>, ParamsError> {
+    let err = |field, expected| Err(ParamsError { field, expected });
+    let n = input.lengths.len();
+    if n == 0
+        || input.natural.len() != 3 * n
+        || out.lengths.len() != n
+        || [out.natural.len(), out.stiffness.len(), out.friction.len()] != [3 * n; 3]
+    {
+        return err("elements", "N ≥ 1 with D = 3N coordinates");
+    }
+    let section = input.section;
+    if !input.root_position.iter().all(|x| x.is_finite()) {
+        return err("root_position", "finite");
+    }
+    let frame = Matrix3::from_fn(|r, c| input.root_frame[c][r]);
+    let orthonormal = (frame.transpose() * frame - Matrix3::identity()).amax() <= 1e-9
+        && frame.determinant() > 0.0;
+    if !frame.iter().all(|x| x.is_finite()) || !orthonormal {
+        return err(
+            "root_frame",
+            "a rotation (orthonormal columns n0, n1, n2 within 1e-9, det > 0)",
+        );
+    }
+    if !input.lengths.iter().all(|&l| positive(l) && l <= 100.0) {
+        return err("lengths", "finite, > 0 and ≤ 100 m");
+    }
+    if !positive(section.mass_per_length) {
+        return err("mass_per_length", "finite and > 0");
+    }
+    if !section.stiffness.iter().all(|&k| positive(k)) {
+        return err("stiffness", "finite and > 0");
+    }
+    if !section.rotary_inertia.iter().all(|&i| non_negative(i)) {
+        return err("rotary_inertia", "finite and ≥ 0");
+    }
+    if !input
+        .natural
+        .iter()
+        .all(|&x| x.is_finite() && x.abs() <= 1e6)
+    {
+        return err("natural", "finite, |x| ≤ 1e6 rad/m");
+    }
+    if !non_negative(input.internal_friction) {
+        return err("internal_friction", "finite and ≥ 0");
+    }
+    if !non_negative(input.air_drag) {
+        return err("air_drag", "finite and ≥ 0");
+    }
+    for (p, &l) in input.lengths.iter().enumerate() {
+        out.lengths[p] = T::of(l);
+        for i in 0..3 {
+            out.stiffness[3 * p + i] = T::of(l * section.stiffness[i]);
+            out.friction[3 * p + i] = T::of(l * input.internal_friction);
+        }
+    }
+    for (o, &x) in out.natural.iter_mut().zip(input.natural) {
+        *o = T::of(x);
+    }
+    let scalars: ParamScalars<T> = (
+        Vector3::from(input.root_position).map(T::of),
+        frame.map(T::of),
+        T::of(section.mass_per_length),
+        T::of(input.air_drag),
+        section.rotary_inertia.map(T::of),
+    );
+    // what f64 holds may overflow, or round to zero, in f32
+    let finite = |x: &[T]| x.iter().all(|x| x.is_finite());
+    let positive = |x: &[T]| x.iter().all(|&x| x.is_finite() && x > T::zero());
+    let representable = "representable in the step's float type (finite, and > 0 where > 0)";
+    let fields: [(&'static str, bool); 8] = [
+        ("root_position", finite(scalars.0.as_slice())),
+        ("lengths", positive(out.lengths)),
+        ("natural", finite(out.natural)),
+        ("stiffness", positive(out.stiffness)),
+        ("internal_friction", finite(out.friction)),
+        ("mass_per_length", positive(&[scalars.2])),
+        ("air_drag", finite(&[scalars.3])),
+        ("rotary_inertia", finite(&scalars.4)),
+    ];
+    if let Some((field, _)) = fields.iter().find(|(_, ok)| !ok) {
+        return err(field, representable);
+    }
+    Ok(scalars)
 }
 
 #[cfg(test)]

@@ -18,6 +18,14 @@ impl<'a, T: Copy> Square<'a, T> {
         Some(Square { data, n })
     }
 
+    /// The 0 × 0 matrix.
+    pub fn empty() -> Self {
+        Square {
+            data: &mut [],
+            n: 0,
+        }
+    }
+
     /// The D × D array `a` (`a[c][r]` as here).
     #[inline(always)]
     pub fn of_array<const D: usize>(a: &'a mut [[T; D]; D]) -> Self {

@@ -217,6 +217,30 @@ pub fn fixed_params<const N: usize, const D: usize>(s: &Strand) -> Option<FixedP
     })
 }
 
+/// The runtime-N storage of the step (`superhelix_kernels::storage::heap`) for a
+/// runtime strand of any N, at rest in its natural shape, with the parameters
+/// [`fixed_params`] gives a fixed-N strand.
+pub fn heap_strand(s: &Strand) -> superhelix_kernels::storage::heap::HeapStrand {
+    let g = &s.geometry;
+    let stiffness = s.stiffness_diagonal();
+    let friction: Vec<f64> = (0..s.natural.len())
+        .map(|i| g.lengths[i / 3] * s.internal_friction)
+        .collect();
+    superhelix_kernels::storage::heap::HeapStrand::from_params(
+        &superhelix_kernels::storage::ParamsView {
+            root_position: g.root_position,
+            root_frame: g.root_frame,
+            lengths: &g.lengths,
+            natural: &s.natural,
+            stiffness: &stiffness,
+            friction: &friction,
+            mass_per_length: g.mass_per_length,
+            air_drag: s.air_drag,
+            rotary_inertia: g.rotary_inertia,
+        },
+    )
+}
+
 impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGroup
     for Group<N, D, E, B>
 {

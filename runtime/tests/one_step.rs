@@ -1,0 +1,262 @@
+//! One step, two storages: the checked step of `superhelix-kernels` on a fixed-N strand
+//! (arrays of literal size, what the generated modules and the embedded engine step)
+//! and on a runtime-N strand (`storage::heap`, vectors of any N) is one function. The
+//! same strand steps to the same bits on both; a strand of an N without a generated
+//! module steps as the runtime engine steps it; and with the moments by quadrature (the
+//! generic reference kernel) instead of the closed forms the centrelines agree to far
+//! below 1e-9 L over a second.
+
+mod common;
+
+use common::preset_strand;
+use nalgebra::Vector3;
+use superhelix_generated::ClosedForm;
+use superhelix_kernels::fixed::{self, Effects, FixedStrand, FixedWorkspace, StepCounts};
+use superhelix_kernels::pose::Pose;
+use superhelix_kernels::storage::heap::{self, HeapStrand, HeapWorkspace};
+use superhelix_kernels::strand_terms::{element_ends, MomentSource};
+use superhelix_runtime::config::SimulationConfig;
+use superhelix_runtime::kernels::moments::kernel::QuadratureMoments;
+use superhelix_runtime::model::material::Preset;
+use superhelix_runtime::solver::embedded::{fixed_params, heap_strand};
+use superhelix_runtime::{HeadMotion, Simulation};
+
+const N: usize = 5;
+const D: usize = 15;
+const E: usize = 6;
+const B: usize = 7;
+const DT: f64 = 1.0 / 30.0;
+
+/// The head shaking about the vertical by ±30° at 2 Hz.
+fn shaking_head() -> HeadMotion {
+    HeadMotion::Oscillate {
+        axis: Vector3::z(),
+        amplitude: 30f64.to_radians(),
+        frequency_hz: 2.0,
+        center: Vector3::zeros(),
+    }
+}
+
+fn gravity() -> Option<Vector3<f64>> {
+    Some(Vector3::new(0.0, 0.0, -9.81))
+}
+
+/// The centreline of a strand (its element ends) from `source`.
+fn centreline<S: MomentSource>(source: &S, strand: &HeapStrand) -> Vec<Vector3<f64>> {
+    let mut ends = vec![Pose::default(); strand.elements() + 1];
+    element_ends(source, &strand.params().shape(), &strand.q, &mut ends);
+    ends.iter().map(|p| p.position).collect()
+}
+
+#[test]
+fn a_strand_steps_to_the_same_bits_on_fixed_and_runtime_n_storage() {
+    // a fuzzy strand released from straight on a shaking head under gravity for one
+    // second: projections, split steps and energy checks happen on both
+    let strand = preset_strand(Preset::Fuzzy, N, 0.25, Vector3::new(1.0, 0.0, -1.0));
+    let mut fixed: FixedStrand<N, D, B> =
+        FixedStrand::at_rest(fixed_params::<N, D>(&strand).expect("N elements"));
+    fixed.set_state(&[0.0; D], &[0.0; D]);
+    let mut heap = HeapStrand::from_params(&fixed.params.view());
+    assert!(heap.set_state(&[0.0; D], &[0.0; D]));
+    let head = shaking_head();
+    let effects = Effects {
+        gravity: gravity(),
+        head_moves: true,
+    };
+    let mut fws = Box::new(FixedWorkspace::<N, D, E>::new());
+    let mut hws = HeapWorkspace::new();
+    let (mut fc, mut hc) = (StepCounts::default(), StepCounts::default());
+    for k in 0..30 {
+        let t = k as f64 * DT;
+        let a = fixed::step(
+            &ClosedForm,
+            &mut fixed,
+            &head,
+            &effects,
+            t,
+            DT,
+            &mut fws,
+            &mut fc,
+        )
+        .expect("fixed-N step");
+        let b = heap::step(
+            &ClosedForm,
+            &mut heap,
+            &head,
+            &effects,
+            t,
+            DT,
+            &mut hws,
+            &mut hc,
+            None,
+        )
+        .expect("runtime-N step");
+        assert_eq!(a, b, "step {k}");
+        assert_eq!(&fixed.q[..], &heap.q[..], "q after step {k}");
+        assert_eq!(&fixed.v[..], &heap.v[..], "q̇ after step {k}");
+    }
+    assert_eq!(fc, hc);
+    // the run exercised the checks (not a quiet strand that any two steps agree on)
+    assert!(
+        fc.substeps > 0 && fc.field_projected + fc.field_split > 0,
+        "{fc:?}"
+    );
+    // the error-controlled step too
+    let mut fh = fixed::StepHistory::<D>::default();
+    let mut hh = heap::HeapHistory::default();
+    let (mut fr, mut hr) = (
+        fixed::ToleranceReport::default(),
+        fixed::ToleranceReport::default(),
+    );
+    for k in 30..45 {
+        let t = k as f64 * DT;
+        fixed::step_to_tolerance(
+            &ClosedForm,
+            &mut fixed,
+            &mut fh,
+            &head,
+            &effects,
+            t,
+            DT,
+            1e-4,
+            &mut fws,
+            &mut fr,
+        )
+        .expect("fixed-N step to tolerance");
+        heap::step_to_tolerance(
+            &ClosedForm,
+            &mut heap,
+            &mut hh,
+            &head,
+            &effects,
+            t,
+            DT,
+            1e-4,
+            &mut hws,
+            &mut hr,
+        )
+        .expect("runtime-N step to tolerance");
+        assert_eq!(&fixed.q[..], &heap.q[..], "q after step {k}");
+    }
+    assert_eq!(fr, hr);
+    assert!(fr.steps > 15, "{fr:?}");
+}
+
+#[test]
+fn a_strand_of_any_n_steps_on_runtime_n_storage_as_the_runtime_engine_steps_it() {
+    // N = 7 has no generated module: the runtime-N storage steps it, with the closed forms
+    // at any N, as the runtime engine (the yardstick) does
+    const M: usize = 7;
+    assert!(!superhelix_generated::fixed::SIZES.contains(&M));
+    let strand = preset_strand(Preset::Curly, M, 0.25, Vector3::new(1.0, 0.0, -1.0));
+    let mut heap = heap_strand(&strand);
+    // released from straight: its first steps are split
+    let straight = vec![0.0; 3 * M];
+    assert!(heap.set_state(&straight, &straight));
+    let head = shaking_head();
+    let config = SimulationConfig {
+        dt: DT,
+        duration: 1.0,
+        ..Default::default()
+    };
+    let mut s = common::setup(vec![strand], config, gravity(), head.clone());
+    s.strands[0].q0 = heap.q.clone();
+    let factory = superhelix_runtime::kernels::closed_form::kernel_factory();
+    let mut sim = Simulation::new(s, Some(factory)).expect("valid setup");
+    let effects = Effects {
+        gravity: gravity(),
+        head_moves: true,
+    };
+    let mut ws = HeapWorkspace::new();
+    let mut counts = StepCounts::default();
+    let mut worst: f64 = 0.0;
+    for k in 0..30 {
+        sim.step().expect("runtime step");
+        let t = k as f64 * DT;
+        heap::step(
+            &ClosedForm,
+            &mut heap,
+            &head,
+            &effects,
+            t,
+            DT,
+            &mut ws,
+            &mut counts,
+            None,
+        )
+        .expect("runtime-N step");
+        let q = sim.q(0);
+        let scale = q.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(1.0);
+        for (a, b) in q.iter().zip(&heap.q) {
+            worst = worst.max((a - b).abs() / scale);
+        }
+    }
+    eprintln!("N = 7: {worst:.3e}; {counts:?}; runtime {:?}", sim.stats());
+    // the same operations in the same order as the fixed-N step, which the runtime's
+    // step matches to 1e-12 (runtime/tests/fixed_step.rs)
+    assert!(worst <= 1e-12, "largest relative |Δq| {worst:.3e}");
+    assert!(counts.substeps > 0, "{counts:?}");
+}
+
+#[test]
+fn the_fixed_n_step_and_the_runtime_n_path_with_generic_moments_agree_over_a_second() {
+    // the same scene: the fixed-N step with the generated closed forms against the
+    // runtime-N storage with the element moments by Gauss–Legendre quadrature (the
+    // generic reference kernel, no generated code), one second on a shaking head
+    let strand = preset_strand(Preset::Wavy, N, 0.25, Vector3::new(1.0, 0.0, -1.0));
+    let length = 0.25;
+    let mut fixed: FixedStrand<N, D, B> =
+        FixedStrand::at_rest(fixed_params::<N, D>(&strand).expect("N elements"));
+    let mut heap = heap_strand(&strand);
+    let head = shaking_head();
+    let effects = Effects {
+        gravity: gravity(),
+        head_moves: true,
+    };
+    let mut fws = Box::new(FixedWorkspace::<N, D, E>::new());
+    let mut hws = HeapWorkspace::new();
+    let (mut fc, mut hc) = (StepCounts::default(), StepCounts::default());
+    let quadrature = QuadratureMoments::default();
+    let mut worst: f64 = 0.0;
+    let mut travel: f64 = 0.0;
+    let start = centreline(&ClosedForm, &heap);
+    for k in 0..30 {
+        let t = k as f64 * DT;
+        fixed::step(
+            &ClosedForm,
+            &mut fixed,
+            &head,
+            &effects,
+            t,
+            DT,
+            &mut fws,
+            &mut fc,
+        )
+        .expect("fixed-N step");
+        heap::step(
+            &quadrature,
+            &mut heap,
+            &head,
+            &effects,
+            t,
+            DT,
+            &mut hws,
+            &mut hc,
+            None,
+        )
+        .expect("runtime-N step");
+        let mut as_heap = HeapStrand::from_params(&fixed.params.view());
+        as_heap.q.copy_from_slice(&fixed.q);
+        let (a, b) = (
+            centreline(&ClosedForm, &as_heap),
+            centreline(&quadrature, &heap),
+        );
+        for ((x, y), s) in a.iter().zip(&b).zip(&start) {
+            worst = worst.max((x - y).norm() / length);
+            travel = travel.max((x - s).norm() / length);
+        }
+    }
+    eprintln!("closed forms vs quadrature over 1 s: {worst:.3e} L (the tip moved {travel:.2} L); fixed {fc:?}; runtime-N {hc:?}");
+    assert!(travel > 0.05, "the strand moved {travel:.3} L");
+    assert!(worst <= 1e-9, "centrelines {worst:.3e} L apart");
+}
