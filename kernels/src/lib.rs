@@ -21,10 +21,14 @@
 //! - [`float`]: the float type of the step ([`Float`]: `f64`, the default, or `f32`):
 //!   the fixed-N step ([`fixed`]), the assembly, the projection and the energy balance
 //!   are written once over it; in f64 they give the bits they always gave.
+//! - [`storage`]: what one strand's step reads and writes, as views of its owner's memory;
+//!   the step ([`fixed`]) is written once on them. A fixed-N strand lends arrays of literal
+//!   size; with the `alloc` feature, [`storage::heap`] lends vectors of any N.
 //!
 //! Without features the crate is `no_std` and takes its elementary functions from
-//! `libm`; the `std` feature (the runtime's) takes them from std, caches the
-//! Gauss–Legendre rules and picks AVX2 code at run time.
+//! `libm`; `alloc` adds the runtime-N storage; the `std` feature (the runtime's, with
+//! `alloc`) takes them from std, caches the Gauss–Legendre rules and picks AVX2 code at
+//! run time.
 #![no_std]
 #![warn(missing_docs)]
 #![allow(clippy::needless_range_loop, clippy::too_many_arguments)]
