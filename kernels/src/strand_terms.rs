@@ -96,6 +96,75 @@ pub trait MomentSource<T: Float = f64> {
     fn is_generated(&self) -> bool;
 }
 
+/// The mechanics of one strand as its step asks for them: the terms of the equation of
+/// motion (paper eq. 4–6) at (q, q̇), the energy measure of the balance, and the
+/// centreline at the element ends. Every [`MomentSource`] is one, through the moment
+/// assembly ([`evaluate_terms`], [`evaluate_energy`], [`element_ends`]: a reference
+/// `&S` to the source is the `StepTerms`); a runtime's own kernels (a quadrature over the
+/// strand, a free root's) are others, writing the same outputs.
+pub trait StepTerms<T: Float = f64> {
+    /// The terms `terms` at (q, q̇) in `field`, as [`evaluate_terms`] gives them: M
+    /// (when asked) into `buffers.mass`, the vectors into `out`, the matrices through
+    /// `sink` (n² column-major each).
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate(
+        &mut self,
+        shape: &StrandShape<'_, T>,
+        buffers: &mut MomentBuffers<'_, T>,
+        q: &[T],
+        v: &[T],
+        field: &BodyField<T>,
+        terms: Terms,
+        out: &mut TermVectors<'_, T>,
+        sink: &mut dyn FnMut(TermMatrix, &[T]),
+    );
+    /// The kinetic energy, ∫ρS y ds and the power of the linear field `linear` at
+    /// (q, q̇), as [`evaluate_energy`] gives them (`prepare_terms`: a terms evaluation at
+    /// this q follows).
+    #[allow(clippy::too_many_arguments)]
+    fn energy(
+        &mut self,
+        shape: &StrandShape<'_, T>,
+        buffers: &mut MomentBuffers<'_, T>,
+        q: &[T],
+        v: &[T],
+        linear: Option<&Matrix3<T>>,
+        prepare_terms: bool,
+    ) -> StrandEnergy<T>;
+    /// The poses at the N + 1 element ends at q ([`element_ends`]).
+    fn ends(&mut self, shape: &StrandShape<'_, T>, q: &[T], ends: &mut [Pose<T>]);
+}
+
+impl<T: Float, S: MomentSource<T> + ?Sized> StepTerms<T> for &S {
+    fn evaluate(
+        &mut self,
+        shape: &StrandShape<'_, T>,
+        buffers: &mut MomentBuffers<'_, T>,
+        q: &[T],
+        v: &[T],
+        field: &BodyField<T>,
+        terms: Terms,
+        out: &mut TermVectors<'_, T>,
+        sink: &mut dyn FnMut(TermMatrix, &[T]),
+    ) {
+        evaluate_terms(*self, shape, buffers, q, v, field, terms, out, sink);
+    }
+    fn energy(
+        &mut self,
+        shape: &StrandShape<'_, T>,
+        buffers: &mut MomentBuffers<'_, T>,
+        q: &[T],
+        v: &[T],
+        linear: Option<&Matrix3<T>>,
+        prepare_terms: bool,
+    ) -> StrandEnergy<T> {
+        evaluate_energy(*self, shape, buffers, q, v, linear, prepare_terms)
+    }
+    fn ends(&mut self, shape: &StrandShape<'_, T>, q: &[T], ends: &mut [Pose<T>]) {
+        element_ends(*self, shape, q, ends);
+    }
+}
+
 /// Which outputs [`evaluate_terms`] must fill. What is not asked is not computed (and
 /// its buffer is left untouched).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

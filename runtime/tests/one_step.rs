@@ -80,7 +80,7 @@ fn a_strand_steps_to_the_same_bits_on_fixed_and_runtime_n_storage() {
         )
         .expect("fixed-N step");
         let b = heap::step(
-            &ClosedForm,
+            &mut &ClosedForm,
             &mut heap,
             &head,
             &effects,
@@ -124,7 +124,7 @@ fn a_strand_steps_to_the_same_bits_on_fixed_and_runtime_n_storage() {
         )
         .expect("fixed-N step to tolerance");
         heap::step_to_tolerance(
-            &ClosedForm,
+            &mut &ClosedForm,
             &mut heap,
             &mut hh,
             &head,
@@ -174,7 +174,7 @@ fn a_strand_of_any_n_steps_on_runtime_n_storage_as_the_runtime_engine_steps_it()
         sim.step().expect("runtime step");
         let t = k as f64 * DT;
         heap::step(
-            &ClosedForm,
+            &mut &ClosedForm,
             &mut heap,
             &head,
             &effects,
@@ -234,7 +234,7 @@ fn the_fixed_n_step_and_the_runtime_n_path_with_generic_moments_agree_over_a_sec
         )
         .expect("fixed-N step");
         heap::step(
-            &quadrature,
+            &mut &quadrature,
             &mut heap,
             &head,
             &effects,

@@ -35,7 +35,7 @@ use crate::field_split::FieldRule;
 use crate::float::Float;
 use crate::head::{body_field, HeadState};
 use crate::storage::{ParamsView, StrandView, WorkView};
-use crate::strand_terms::MomentSource;
+use crate::strand_terms::{MomentSource, StepTerms};
 use nalgebra::{Matrix3, Vector3};
 
 /// The head's motion as the checked step sees it: its state at any time of the step
@@ -265,8 +265,8 @@ impl Interval {
 /// `ws` is left prepared for q (a solve from this state follows: it reuses the element
 /// moments, see [`crate::strand_terms::evaluate_energy`]).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn measure<'c, S: MomentSource<T>, T: Float>(
-    source: &S,
+pub(crate) fn measure<'c, S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     p: &ParamsView<'_, T>,
     effects: &Effects,
     head: &HeadState,
@@ -283,8 +283,7 @@ pub(crate) fn measure<'c, S: MomentSource<T>, T: Float>(
     // ½ q̇ᵀ M q̇, ∫ρS y ds and the power of C1 (a rotating head) in O(N), from the
     // moments of M alone
     let shape = p.shape();
-    let measured = crate::strand_terms::evaluate_energy(
-        source,
+    let measured = source.energy(
         &shape,
         &mut ws.assembly,
         q,
@@ -354,7 +353,16 @@ pub fn energy<
     ws.forget();
     let p = strand.params.view();
     let e = measure(
-        source, &p, effects, head, t, &strand.q, &strand.v, &mut ws, false, None,
+        &mut &*source,
+        &p,
+        effects,
+        head,
+        t,
+        &strand.q,
+        &strand.v,
+        &mut ws,
+        false,
+        None,
     );
     ws.forget();
     e
@@ -441,8 +449,9 @@ pub fn step_with_contacts<
     let mut ws = ws.view();
     let stack = ws.take_stack();
     let mut strand = strand.view();
+    let mut source = source;
     checked_step(
-        source,
+        &mut source,
         &mut strand,
         head,
         effects,
@@ -458,8 +467,8 @@ pub fn step_with_contacts<
 /// [`step_with_contacts`] on any storage (`stack`: [`crate::storage::STACK_VECTORS`]
 /// vectors of n).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn checked_step<'c, S: MomentSource<T>, T: Float>(
-    source: &S,
+pub(crate) fn checked_step<'c, S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     strand: &mut StrandView<'_, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
@@ -519,8 +528,8 @@ pub(crate) fn checked_step<'c, S: MomentSource<T>, T: Float>(
 
 /// One checked step from `t` by `h` within which the head keeps its motion phase.
 #[allow(clippy::too_many_arguments)]
-fn step_piece<'c, S: MomentSource<T>, T: Float>(
-    source: &S,
+fn step_piece<'c, S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     strand: &mut StrandView<'_, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
@@ -598,8 +607,8 @@ fn step_piece<'c, S: MomentSource<T>, T: Float>(
 /// The runtime's `implicit_adaptive` for the linearly implicit Euler step (`stack`: two
 /// vectors of n for its start, the rest for its pieces).
 #[allow(clippy::too_many_arguments)]
-fn adaptive<'c, S: MomentSource<T>, T: Float>(
-    source: &S,
+fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     strand: &mut StrandView<'_, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
@@ -837,8 +846,8 @@ const PULL_BACK_BISECTIONS: usize = 10;
 /// to it; `None` (the strand as it was) when not even `q0` balances. The runtime's
 /// `solver::adaptive::pull_back`. `stack`: one vector of n.
 #[allow(clippy::too_many_arguments)]
-fn pull_back<'c, S: MomentSource<T>, T: Float>(
-    source: &S,
+fn pull_back<'c, S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     strand: &mut StrandView<'_, T>,
     effects: &Effects,
     interval: &Interval,
@@ -894,8 +903,8 @@ fn pull_back<'c, S: MomentSource<T>, T: Float>(
 /// `interval` halved `levels` times (each halving counted in [`StepCounts::substeps`]),
 /// its pieces stepped in order by [`adaptive`]: the runtime's `split`.
 #[allow(clippy::too_many_arguments)]
-fn split<'c, S: MomentSource<T>, T: Float>(
-    source: &S,
+fn split<'c, S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     strand: &mut StrandView<'_, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,

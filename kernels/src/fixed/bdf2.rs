@@ -10,7 +10,7 @@ use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::float::Float;
 use crate::storage::{StrandView, WorkView};
-use crate::strand_terms::MomentSource;
+use crate::strand_terms::{MomentSource, StepTerms};
 
 /// The state a BDF2 step continues from besides the strand's: the state one step
 /// earlier and the length of the step between the two.
@@ -65,7 +65,7 @@ pub fn bdf2<
     let mut ws = ws.view();
     let stack = ws.take_stack();
     bdf2_step(
-        source,
+        &mut &*source,
         &mut strand.view(),
         previous,
         input,
@@ -76,8 +76,8 @@ pub fn bdf2<
 }
 
 /// [`bdf2`] on any storage (`stack`: six vectors of n).
-pub(crate) fn bdf2_step<S: MomentSource<T>, T: Float>(
-    source: &S,
+pub(crate) fn bdf2_step<S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     strand: &mut StrandView<'_, T>,
     previous: &Bdf2History<'_, T>,
     input: &StepInput,

@@ -36,7 +36,7 @@ use crate::energy::{balance, end_ceiling};
 use crate::float::Float;
 use crate::pose::Pose;
 use crate::storage::{StrandView, WorkView};
-use crate::strand_terms::{element_ends, MomentSource};
+use crate::strand_terms::{MomentSource, StepTerms};
 
 /// Smallest tolerance of the error-controlled step (in `f64`; `f32` strands take at
 /// least [`min_tolerance`]).
@@ -187,8 +187,9 @@ pub fn step_to_tolerance<
         h: &mut history.h,
         next_h: &mut history.next_h,
     };
+    let mut source = source;
     tolerance_step(
-        source,
+        &mut source,
         &mut strand.view(),
         &mut history,
         head,
@@ -212,8 +213,8 @@ pub(crate) struct HistoryView<'a, T: Float> {
 /// [`step_to_tolerance`] on any storage (`stack`: [`crate::storage::STACK_VECTORS`]
 /// vectors of n).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn tolerance_step<S: MomentSource<T>, T: Float>(
-    source: &S,
+pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     strand: &mut StrandView<'_, T>,
     history: &mut HistoryView<'_, T>,
     head: &dyn HeadTrajectory,
@@ -412,8 +413,8 @@ pub(crate) fn tolerance_step<S: MomentSource<T>, T: Float>(
 /// h, y₂ from two of h/2. The strand ends in 2 y₂ − y₁; y₂, which differs from it by
 /// y₂ − y₁ (the estimate), into `(q2, v2)` (`stack`: four vectors of n).
 #[allow(clippy::too_many_arguments)]
-fn start_step<S: MomentSource<T>, T: Float>(
-    source: &S,
+fn start_step<S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     strand: &mut StrandView<'_, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
@@ -455,8 +456,8 @@ fn start_step<S: MomentSource<T>, T: Float>(
 
 /// The error norm (module page) between the strand's state and (`q`, `v`).
 #[allow(clippy::too_many_arguments)]
-fn estimate<S: MomentSource<T>, T: Float>(
-    source: &S,
+fn estimate<S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     strand: &StrandView<'_, T>,
     q: &[T],
     v: &[T],
@@ -466,8 +467,8 @@ fn estimate<S: MomentSource<T>, T: Float>(
     ends_kept: &mut [Pose<T>],
 ) -> f64 {
     let shape = strand.params.shape();
-    element_ends(source, &shape, q, ends_other);
-    element_ends(source, &shape, strand.q, ends_kept);
+    source.ends(&shape, q, ends_other);
+    source.ends(&shape, strand.q, ends_kept);
     let centreline = ends_other
         .iter()
         .zip(ends_kept.iter())

@@ -14,9 +14,7 @@ use crate::projection::{
     cholesky, ProjectionBasis, ProjectionOutcome, ProjectionScratch, SpectralProjection,
 };
 use crate::storage::{ParamsView, ProjectionView, Square, StrandView, WorkView};
-use crate::strand_terms::{
-    element_ends, evaluate_terms, MomentSource, TermMatrix, TermVectors, Terms,
-};
+use crate::strand_terms::{element_ends, MomentSource, StepTerms, TermMatrix, TermVectors, Terms};
 use nalgebra::Vector3;
 
 /// What one step of a strand needs besides the strand: the head at the end of the step
@@ -104,8 +102,8 @@ impl core::fmt::Display for StepError {
 /// The kernel terms `terms` at (q, q̇) in `field` into `ws` (M in the assembly's
 /// buffers, the force ∫JᵀF − b, b and ∫ρS y, and the requested matrices), reusing
 /// the element moments when q is the one `ws` was prepared for.
-pub(crate) fn evaluate_at<S: MomentSource<T>, T: Float>(
-    source: &S,
+pub(crate) fn evaluate_at<S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     params: &ParamsView<'_, T>,
     q: &[T],
     v: &[T],
@@ -137,8 +135,7 @@ pub(crate) fn evaluate_at<S: MomentSource<T>, T: Float>(
         };
         target.as_mut_slice().copy_from_slice(m);
     };
-    evaluate_terms(
-        source,
+    source.evaluate(
         &params.shape(),
         assembly,
         q,
@@ -169,12 +166,22 @@ pub fn evaluate<
     let mut ws = ws.view();
     ws.forget();
     let params = strand.params.view();
-    assemble(source, &params, &strand.q, &strand.v, input, &mut ws, None).0
+    let mut source = source;
+    assemble(
+        &mut source,
+        &params,
+        &strand.q,
+        &strand.v,
+        input,
+        &mut ws,
+        None,
+    )
+    .0
 }
 
 /// [`evaluate`] at (q, q̇) without forgetting what `ws` was prepared for.
-pub(crate) fn assemble<'c, S: MomentSource<T>, T: Float>(
-    source: &S,
+pub(crate) fn assemble<'c, S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     p: &ParamsView<'_, T>,
     q: &[T],
     v: &[T],
@@ -292,7 +299,7 @@ pub fn linearly_implicit_with<
     let mut ws = ws.view();
     let stack = ws.take_stack();
     solve_step(
-        source,
+        &mut &*source,
         &mut strand.view(),
         input,
         h,
@@ -304,8 +311,8 @@ pub fn linearly_implicit_with<
 
 /// The linearly implicit Euler step of [`linearly_implicit_with`] on any storage (`stack`:
 /// at least two vectors of n).
-pub(crate) fn solve_step<'c, S: MomentSource<T>, T: Float>(
-    source: &S,
+pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     strand: &mut StrandView<'_, T>,
     input: &StepInput,
     h: f64,

@@ -1,6 +1,7 @@
 //! The runtime-N storage (feature `alloc`): a strand and a step's scratch in vectors of
 //! the strand's size, for any number of elements N, stepped by the same functions as a
-//! fixed-N strand ([`step`], [`linearly_implicit`], [`step_to_tolerance`], [`energy`]).
+//! fixed-N strand ([`step`], [`linearly_implicit`], [`step_to_tolerance`], [`energy`]),
+//! whose terms come from any [`StepTerms`] (for a `MomentSource` `m`, pass `&mut &m`).
 //! What a caller that learns N at run time (the runtime's generic path, a tool reading
 //! grooms) holds; an engine with N known when it builds takes the fixed-N storage of
 //! `crate::fixed` and the generated modules instead.
@@ -23,7 +24,7 @@ use crate::moments::jacobians::VelocityRow;
 use crate::moments::rotary::RotaryElement;
 use crate::moments::{ElementMoments, EndDerivatives, FrameMotion, SuffixBody};
 use crate::pose::Pose;
-use crate::strand_terms::{MomentBuffers, MomentSource};
+use crate::strand_terms::{MomentBuffers, StepTerms};
 use alloc::vec;
 use alloc::vec::Vec;
 use nalgebra::{Matrix3, Vector3};
@@ -401,8 +402,8 @@ fn square<T: Copy>(v: &mut [T], n: usize) -> Square<'_, T> {
 
 /// [`crate::fixed::step_with_contacts`] for a strand of any N.
 #[allow(clippy::too_many_arguments)]
-pub fn step<'c, S: MomentSource<T>, T: Float>(
-    source: &S,
+pub fn step<'c, S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     strand: &mut HeapStrand<T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
@@ -429,8 +430,8 @@ pub fn step<'c, S: MomentSource<T>, T: Float>(
 }
 
 /// [`crate::fixed::linearly_implicit`] for a strand of any N.
-pub fn linearly_implicit<S: MomentSource<T>, T: Float>(
-    source: &S,
+pub fn linearly_implicit<S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     strand: &mut HeapStrand<T>,
     input: &StepInput,
     h: f64,
@@ -444,8 +445,8 @@ pub fn linearly_implicit<S: MomentSource<T>, T: Float>(
 /// [`crate::fixed::step_to_tolerance`] for a strand of any N, its history in `history`
 /// (q and q̇ one step back, 3N each; that step's length and the next's, s).
 #[allow(clippy::too_many_arguments)]
-pub fn step_to_tolerance<S: MomentSource<T>, T: Float>(
-    source: &S,
+pub fn step_to_tolerance<S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     strand: &mut HeapStrand<T>,
     history: &mut HeapHistory<T>,
     head: &dyn HeadTrajectory,
@@ -499,8 +500,8 @@ pub struct HeapHistory<T: Float = f64> {
 }
 
 /// [`crate::fixed::energy`] for a strand of any N.
-pub fn energy<S: MomentSource<T>, T: Float>(
-    source: &S,
+pub fn energy<S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
     strand: &HeapStrand<T>,
     effects: &Effects,
     head: &HeadState,
