@@ -199,64 +199,141 @@ fn a_strand_of_any_n_steps_on_runtime_n_storage_as_the_runtime_engine_steps_it()
 }
 
 #[test]
-fn the_fixed_n_step_and_the_runtime_n_path_with_generic_moments_agree_over_a_second() {
+fn the_fixed_n_step_and_the_runtime_n_path_with_generic_kernels_agree_over_a_second() {
     // the same scene: the fixed-N step with the generated closed forms against the
-    // runtime-N storage with the element moments by Gauss–Legendre quadrature (the
-    // generic reference kernel, no generated code), one second on a shaking head
+    // runtime-N storage of the same step with a generic kernel (no generated code): the
+    // element moments by Gauss–Legendre quadrature, and the runtime's generic kernel
+    // (quadrature over the whole strand), one second on a shaking head
+    use superhelix_runtime::kernels::kernel::StrandTerms;
+    use superhelix_runtime::kernels::step_terms::KernelTerms;
+    use superhelix_runtime::kernels::{GenericKernel, QuadratureRule};
     let strand = preset_strand(Preset::Wavy, N, 0.25, Vector3::new(1.0, 0.0, -1.0));
     let length = 0.25;
     let mut fixed: FixedStrand<N, D, B> =
         FixedStrand::at_rest(fixed_params::<N, D>(&strand).expect("N elements"));
-    let mut heap = heap_strand(&strand);
+    let (mut by_moments, mut by_kernel) = (heap_strand(&strand), heap_strand(&strand));
+    let mut kernel = GenericKernel::new(strand.geometry.clone(), QuadratureRule::default());
+    let (mut terms, mut flat) = (StrandTerms::new(D), Vec::new());
     let head = shaking_head();
     let effects = Effects {
         gravity: gravity(),
         head_moves: true,
     };
     let mut fws = Box::new(FixedWorkspace::<N, D, E>::new());
-    let mut hws = HeapWorkspace::new();
-    let (mut fc, mut hc) = (StepCounts::default(), StepCounts::default());
+    let (mut mws, mut kws) = (HeapWorkspace::new(), HeapWorkspace::new());
+    let mut counts = [StepCounts::default(); 3];
     let quadrature = QuadratureMoments::default();
-    let mut worst: f64 = 0.0;
-    let mut travel: f64 = 0.0;
-    let start = centreline(&ClosedForm, &heap);
+    let (mut worst_moments, mut worst_kernel, mut travel): (f64, f64, f64) = (0.0, 0.0, 0.0);
+    let start = centreline(&ClosedForm, &by_moments);
     for k in 0..30 {
         let t = k as f64 * DT;
-        fixed::step(
-            &ClosedForm,
-            &mut fixed,
+        let [fc, mc, kc] = &mut counts;
+        fixed::step(&ClosedForm, &mut fixed, &head, &effects, t, DT, &mut fws, fc)
+            .expect("fixed-N step");
+        heap::step(
+            &mut &quadrature,
+            &mut by_moments,
             &head,
             &effects,
             t,
             DT,
-            &mut fws,
-            &mut fc,
+            &mut mws,
+            mc,
+            None,
         )
-        .expect("fixed-N step");
+        .expect("runtime-N step, moments by quadrature");
+        let mut source = KernelTerms::new(&mut kernel, &mut terms, &mut flat);
         heap::step(
-            &mut &quadrature,
+            &mut source,
+            &mut by_kernel,
+            &head,
+            &effects,
+            t,
+            DT,
+            &mut kws,
+            kc,
+            None,
+        )
+        .expect("runtime-N step, generic kernel");
+        let mut as_heap = HeapStrand::from_params(&fixed.params.view());
+        as_heap.q.copy_from_slice(&fixed.q);
+        let a = centreline(&ClosedForm, &as_heap);
+        let (b, c) = (
+            centreline(&quadrature, &by_moments),
+            centreline(&quadrature, &by_kernel),
+        );
+        for (((x, y), z), s) in a.iter().zip(&b).zip(&c).zip(&start) {
+            worst_moments = worst_moments.max((x - y).norm() / length);
+            worst_kernel = worst_kernel.max((x - z).norm() / length);
+            travel = travel.max((x - s).norm() / length);
+        }
+    }
+    eprintln!(
+        "fixed-N closed forms vs runtime-N over 1 s: quadrature moments {worst_moments:.3e} L, \
+         generic kernel {worst_kernel:.3e} L (the tip moved {travel:.2} L); {counts:?}"
+    );
+    assert!(travel > 0.05, "the strand moved {travel:.3} L");
+    assert!(worst_moments <= 1e-9, "moments: {worst_moments:.3e} L apart");
+    assert!(worst_kernel <= 1e-9, "generic kernel: {worst_kernel:.3e} L apart");
+}
+
+#[test]
+fn the_generic_kernel_steps_on_the_one_step_as_the_runtime_engine_steps_it() {
+    // the runtime's generic kernel (Gauss–Legendre quadrature over the strand, no moment
+    // assembly) handed to the one step through `KernelTerms`, against the runtime engine
+    // with kernels = "generic": the same terms, the same step rules
+    use superhelix_runtime::config::KernelChoice;
+    use superhelix_runtime::kernels::kernel::StrandTerms;
+    use superhelix_runtime::kernels::step_terms::KernelTerms;
+    use superhelix_runtime::kernels::{GenericKernel, QuadratureRule};
+    const M: usize = 6;
+    let strand = preset_strand(Preset::Wavy, M, 0.25, Vector3::new(1.0, 0.0, -1.0));
+    let mut kernel = GenericKernel::new(strand.geometry.clone(), QuadratureRule::default());
+    let mut terms = StrandTerms::new(3 * M);
+    let mut flat = Vec::new();
+    let mut heap = heap_strand(&strand);
+    let straight = vec![0.0; 3 * M];
+    assert!(heap.set_state(&straight, &straight));
+    let head = shaking_head();
+    let config = SimulationConfig {
+        dt: DT,
+        duration: 1.0,
+        kernels: KernelChoice::Generic,
+        ..Default::default()
+    };
+    let mut s = common::setup(vec![strand], config, gravity(), head.clone());
+    s.strands[0].q0 = heap.q.clone();
+    let mut sim = Simulation::new(s, None).expect("valid setup");
+    let effects = Effects {
+        gravity: gravity(),
+        head_moves: true,
+    };
+    let mut ws = HeapWorkspace::new();
+    let mut counts = StepCounts::default();
+    let mut worst: f64 = 0.0;
+    for k in 0..30 {
+        sim.step().expect("runtime step");
+        let t = k as f64 * DT;
+        let mut source = KernelTerms::new(&mut kernel, &mut terms, &mut flat);
+        heap::step(
+            &mut source,
             &mut heap,
             &head,
             &effects,
             t,
             DT,
-            &mut hws,
-            &mut hc,
+            &mut ws,
+            &mut counts,
             None,
         )
-        .expect("runtime-N step");
-        let mut as_heap = HeapStrand::from_params(&fixed.params.view());
-        as_heap.q.copy_from_slice(&fixed.q);
-        let (a, b) = (
-            centreline(&ClosedForm, &as_heap),
-            centreline(&quadrature, &heap),
-        );
-        for ((x, y), s) in a.iter().zip(&b).zip(&start) {
-            worst = worst.max((x - y).norm() / length);
-            travel = travel.max((x - s).norm() / length);
+        .expect("one step, generic kernel");
+        let q = sim.q(0);
+        let scale = q.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(1.0);
+        for (a, b) in q.iter().zip(&heap.q) {
+            worst = worst.max((a - b).abs() / scale);
         }
     }
-    eprintln!("closed forms vs quadrature over 1 s: {worst:.3e} L (the tip moved {travel:.2} L); fixed {fc:?}; runtime-N {hc:?}");
-    assert!(travel > 0.05, "the strand moved {travel:.3} L");
-    assert!(worst <= 1e-9, "centrelines {worst:.3e} L apart");
+    eprintln!("generic kernel: {worst:.3e}; {counts:?}; runtime {:?}", sim.stats());
+    assert!(worst <= 1e-12, "largest relative |Δq| {worst:.3e}");
+    assert!(counts.substeps > 0, "{counts:?}");
 }
