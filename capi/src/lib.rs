@@ -230,6 +230,8 @@ impl From<StepError> for ShStatus {
             StepError::NonFinite { .. } => ShStatus::NonFinite,
             StepError::TimeStep => ShStatus::InvalidTimeStep,
             StepError::Tolerance => ShStatus::InvalidTolerance,
+            // (the batch sizes its workspaces for its strands: not reached)
+            StepError::Sizes => ShStatus::MixedElements,
         }
     }
 }

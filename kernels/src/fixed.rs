@@ -43,8 +43,8 @@ pub(crate) mod step;
 mod workspace;
 
 pub use adaptive::{
-    energy, phase_cut, step, step_with_contacts, Effects, ExtrapolatedHead, HeadTrajectory,
-    StepCounts, StillHead, PHASE_CUT_MARGIN,
+    energy, phase_cut, step, step_views, step_with_contacts, Effects, ExtrapolatedHead,
+    HeadTrajectory, StepCounts, StillHead, PHASE_CUT_MARGIN,
 };
 pub use bdf2::{bdf2, Bdf2History};
 pub use contacts::{
@@ -53,8 +53,8 @@ pub use contacts::{
 };
 pub use dense::{lu_solve, lu_solve_factored, negative_semidefinite_part, Projection};
 pub use error_control::{
-    min_tolerance, step_to_tolerance, StepHistory, ToleranceReport, MAX_TOLERANCE, MIN_STEP,
-    MIN_TOLERANCE,
+    min_tolerance, step_to_tolerance, step_to_tolerance_views, HistoryView, StepHistory,
+    ToleranceReport, MAX_TOLERANCE, MIN_STEP, MIN_TOLERANCE,
 };
 pub use params::{FixedParams, ParamsError};
 pub use posed_colliders::{Carrier, PosedColliders};

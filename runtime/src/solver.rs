@@ -18,6 +18,7 @@ pub mod held_end;
 pub mod initial_state;
 pub mod linearly_implicit;
 pub mod newton;
+pub mod one_step;
 pub mod pair_coupling;
 mod predicted_contacts;
 pub mod rk4;

@@ -228,8 +228,17 @@ fn the_fixed_n_step_and_the_runtime_n_path_with_generic_kernels_agree_over_a_sec
     for k in 0..30 {
         let t = k as f64 * DT;
         let [fc, mc, kc] = &mut counts;
-        fixed::step(&ClosedForm, &mut fixed, &head, &effects, t, DT, &mut fws, fc)
-            .expect("fixed-N step");
+        fixed::step(
+            &ClosedForm,
+            &mut fixed,
+            &head,
+            &effects,
+            t,
+            DT,
+            &mut fws,
+            fc,
+        )
+        .expect("fixed-N step");
         heap::step(
             &mut &quadrature,
             &mut by_moments,
@@ -273,8 +282,14 @@ fn the_fixed_n_step_and_the_runtime_n_path_with_generic_kernels_agree_over_a_sec
          generic kernel {worst_kernel:.3e} L (the tip moved {travel:.2} L); {counts:?}"
     );
     assert!(travel > 0.05, "the strand moved {travel:.3} L");
-    assert!(worst_moments <= 1e-9, "moments: {worst_moments:.3e} L apart");
-    assert!(worst_kernel <= 1e-9, "generic kernel: {worst_kernel:.3e} L apart");
+    assert!(
+        worst_moments <= 1e-9,
+        "moments: {worst_moments:.3e} L apart"
+    );
+    assert!(
+        worst_kernel <= 1e-9,
+        "generic kernel: {worst_kernel:.3e} L apart"
+    );
 }
 
 #[test]
@@ -333,7 +348,10 @@ fn the_generic_kernel_steps_on_the_one_step_as_the_runtime_engine_steps_it() {
             worst = worst.max((a - b).abs() / scale);
         }
     }
-    eprintln!("generic kernel: {worst:.3e}; {counts:?}; runtime {:?}", sim.stats());
+    eprintln!(
+        "generic kernel: {worst:.3e}; {counts:?}; runtime {:?}",
+        sim.stats()
+    );
     assert!(worst <= 1e-12, "largest relative |Δq| {worst:.3e}");
     assert!(counts.substeps > 0, "{counts:?}");
 }

@@ -464,6 +464,40 @@ pub fn step_with_contacts<
     )
 }
 
+/// [`step_with_contacts`] on views of any storage: a strand's and a workspace's of the
+/// same n (a caller that keeps its strands' state in its own memory and lends it, as the
+/// runtime engine does; `storage::heap::step` for a strand in vectors).
+#[allow(clippy::too_many_arguments)]
+pub fn step_views<'c, S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
+    strand: &mut StrandView<'_, T>,
+    head: &dyn HeadTrajectory,
+    effects: &Effects,
+    t: f64,
+    h: f64,
+    mut ws: WorkView<'_, T>,
+    counts: &mut StepCounts,
+    contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
+) -> Result<StepReport, StepError> {
+    let n = strand.dofs();
+    let sized = ws.force.len() == n
+        && ws.matrix_a.n() == n
+        && ws.stack.len() >= crate::storage::STACK_VECTORS * n
+        && strand.v.len() == n
+        && strand.params.natural.len() == n
+        && strand.params.stiffness.len() == n
+        && strand.params.friction.len() == n
+        && 3 * strand.params.lengths.len() == n
+        && strand.basis.len() >= n * (n / 2);
+    if !sized {
+        return Err(StepError::Sizes);
+    }
+    let stack = ws.take_stack();
+    checked_step(
+        source, strand, head, effects, t, h, &mut ws, stack, counts, contacts,
+    )
+}
+
 /// [`step_with_contacts`] on any storage (`stack`: [`crate::storage::STACK_VECTORS`]
 /// vectors of n).
 #[allow(clippy::too_many_arguments)]

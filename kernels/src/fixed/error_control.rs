@@ -202,12 +202,56 @@ pub fn step_to_tolerance<
     )
 }
 
-/// A [`StepHistory`] on any storage.
-pub(crate) struct HistoryView<'a, T: Float> {
-    pub(crate) q: &'a mut [T],
-    pub(crate) v: &'a mut [T],
-    pub(crate) h: &'a mut f64,
-    pub(crate) next_h: &'a mut f64,
+/// A [`StepHistory`] on any storage: q and q̇ one step back (n each), that step's
+/// length (0: no history) and the step size to try next (0: the caller's step).
+#[derive(Debug)]
+pub struct HistoryView<'a, T: Float = f64> {
+    /// q one step back.
+    pub q: &'a mut [T],
+    /// q̇ one step back.
+    pub v: &'a mut [T],
+    /// The length of that step, s.
+    pub h: &'a mut f64,
+    /// The step size to try next, s.
+    pub next_h: &'a mut f64,
+}
+
+/// [`step_to_tolerance`] on views of any storage (a strand's, its history's and a
+/// workspace's, of the same n; `fixed::step_views` for the checked step).
+#[allow(clippy::too_many_arguments)]
+pub fn step_to_tolerance_views<S: StepTerms<T> + ?Sized, T: Float>(
+    source: &mut S,
+    strand: &mut StrandView<'_, T>,
+    history: &mut HistoryView<'_, T>,
+    head: &dyn HeadTrajectory,
+    effects: &Effects,
+    (t, h): (f64, f64),
+    tolerance: f64,
+    mut ws: WorkView<'_, T>,
+    report: &mut ToleranceReport,
+) -> Result<StepReport, StepError> {
+    let n = strand.dofs();
+    if history.q.len() != n
+        || history.v.len() != n
+        || ws.force.len() != n
+        || ws.stack.len() < crate::storage::STACK_VECTORS * n
+        || 2 * (n / 3 + 1) > ws.ends.len()
+    {
+        return Err(StepError::Sizes);
+    }
+    let stack = ws.take_stack();
+    tolerance_step(
+        source,
+        strand,
+        history,
+        head,
+        effects,
+        (t, h),
+        tolerance,
+        &mut ws,
+        stack,
+        report,
+    )
 }
 
 /// [`step_to_tolerance`] on any storage (`stack`: [`crate::storage::STACK_VECTORS`]

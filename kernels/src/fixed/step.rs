@@ -76,6 +76,8 @@ pub enum StepError {
     /// The tolerance of the error-controlled step is outside its range
     /// ([`super::min_tolerance`] to [`super::MAX_TOLERANCE`]).
     Tolerance,
+    /// A strand and a workspace of different sizes handed to [`super::step_views`].
+    Sizes,
 }
 
 impl core::fmt::Display for StepError {
@@ -88,6 +90,7 @@ impl core::fmt::Display for StepError {
                 if *velocity { "q̇" } else { "q" }
             ),
             StepError::TimeStep => write!(f, "dt: must be finite and > 0"),
+            StepError::Sizes => write!(f, "a strand and a step workspace of different sizes"),
             StepError::Tolerance => write!(
                 f,
                 "tolerance: must lie in [{:e}, {}] ({:e} in f32)",

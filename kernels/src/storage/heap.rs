@@ -280,6 +280,11 @@ impl<T: Float> HeapWorkspace<T> {
         }
     }
 
+    /// The number of elements the buffers are sized for (0: none yet).
+    pub fn elements(&self) -> usize {
+        self.elements
+    }
+
     /// Size the buffers for strands of `elements` elements (nothing when they are).
     pub fn fit(&mut self, elements: usize) {
         if self.elements == elements && !self.prepared.is_empty() {

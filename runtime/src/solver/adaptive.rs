@@ -34,6 +34,9 @@ pub fn step(
     state: &mut StrandState,
     stats: &mut StepStats,
 ) -> Result<(), String> {
+    if super::one_step::covers(system) {
+        return super::one_step::step(system, interval, state, stats);
+    }
     system.workspace.solver.forget_repeat();
     // a tolerance selects the error-controlled step (validation refuses it with the
     // other integrators)

@@ -162,6 +162,12 @@ impl DenseSolver {
         self.spectral.basis()
     }
 
+    /// The spectral projection's kept basis, lent to the one step
+    /// ([`SpectralProjection::basis_parts`](super::spectral_projection::SpectralProjection::basis_parts)).
+    pub fn projection_basis_parts(&mut self) -> (&mut [f64], &mut usize, &mut bool) {
+        self.spectral.basis_parts()
+    }
+
     /// Keep `vectors` as the spectral projection's basis (see
     /// [`SpectralProjection::set_basis`](super::spectral_projection::SpectralProjection::set_basis)).
     pub fn set_projection_basis(&mut self, vectors: &[f64], negative: bool) -> bool {

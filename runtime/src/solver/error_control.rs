@@ -155,6 +155,27 @@ impl StepWindow {
 }
 
 impl ErrorControl {
+    /// Add what the one step's error-controlled steps did over one call (`report`, of
+    /// that call alone) to the sizes and errors so far and to the window.
+    pub(super) fn record(&mut self, report: &superhelix_kernels::fixed::ToleranceReport) {
+        if report.steps == 0 {
+            return;
+        }
+        let window = StepWindow {
+            largest_error: report.largest_error,
+            smallest_h: report.smallest_step,
+            largest_h: report.largest_step,
+        };
+        self.window = self.window.merge(&window);
+        self.largest_error = self.largest_error.max(report.largest_error);
+        self.largest_h = self.largest_h.max(report.largest_step);
+        self.smallest_h = if self.smallest_h > 0.0 {
+            self.smallest_h.min(report.smallest_step)
+        } else {
+            report.smallest_step
+        };
+    }
+
     /// What the accepted steps did since the last call (or the start), and start anew.
     pub fn take_window(&mut self) -> StepWindow {
         std::mem::take(&mut self.window)

@@ -67,6 +67,17 @@ impl SpectralProjection {
         true
     }
 
+    /// The kept basis as the one step of `superhelix-kernels` keeps it: its columns (n
+    /// each, n of room), how many are in use, and whether it spans the negative
+    /// eigenvalues (what a strand's step lends as its `StrandView`).
+    pub fn basis_parts(&mut self) -> (&mut [f64], &mut usize, &mut bool) {
+        (
+            &mut self.vectors,
+            &mut self.basis_k,
+            &mut self.basis_negative,
+        )
+    }
+
     /// Forget the basis of the last decomposition: the next call decomposes.
     pub fn forget_basis(&mut self) {
         self.basis_k = 0;

@@ -66,6 +66,8 @@ pub struct StrandWorkspace {
     /// (n each), the pivot order.
     split: [Vec<f64>; 4],
     split_order: Vec<usize>,
+    /// Scratch of the one step's terms ([`crate::kernels::step_terms::KernelTerms`]).
+    pub(super) flat: Vec<f64>,
 }
 
 impl StrandWorkspace {
@@ -101,6 +103,7 @@ impl StrandWorkspace {
                 vec![0.0; n],
             ],
             split_order: vec![0; n],
+            flat: Vec::new(),
         }
     }
 

@@ -1,0 +1,180 @@
+//! The runtime engine's strands on the one step of `superhelix-kernels`
+//! (`superhelix_kernels::fixed::step_views`, `step_to_tolerance_views`): the checked
+//! linearly implicit Euler step — the split rule, the energy balance, the pull-back, the
+//! field stiffness's split or projection — and the error-controlled step, written once
+//! for every engine, here on the runtime's own storage (the
+//! strand's q and q̇, its parameters and kept state lent as a `StrandView`, a workspace
+//! per thread and N as the `WorkView`) with the strand's kernel as its terms
+//! ([`KernelTerms`]). It takes the strands whose step holds nothing the one step does not
+//! have yet ([`covers`]); the others step on the runtime's own path
+//! (`super::adaptive`) until the one step takes what they need (docs/architecture.md,
+//! "The one step and its colliders").
+
+use super::stats::StepStats;
+use super::system::{HeadInterval, StrandState, StrandSystem};
+use crate::config::IntegratorKind;
+use crate::kernels::step_terms::KernelTerms;
+use crate::model::ends::RootEnd;
+use std::cell::RefCell;
+use superhelix_kernels::field_split::FieldRule;
+use superhelix_kernels::fixed::{
+    step_to_tolerance_views, step_views, Effects, HistoryView, StepCounts, ToleranceReport,
+};
+use superhelix_kernels::storage::heap::HeapWorkspace;
+use superhelix_kernels::storage::{ParamsView, StrandView};
+
+thread_local! {
+    /// The step's scratch, one per thread and number of elements (it holds nothing from
+    /// one step to the next).
+    static WORKSPACES: RefCell<Vec<HeapWorkspace>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Whether the one step takes this strand's steps: the linearly implicit Euler step with
+/// fixed steps, or the error-controlled step (with the energy balance), for a strand
+/// with a clamped root and a free tip, without contacts or point loads (electrostatic
+/// loads are point loads).
+pub fn covers(system: &StrandSystem) -> bool {
+    let ctx = &system.context;
+    let integrator = match ctx.tolerance {
+        None => ctx.integrator == IntegratorKind::LinearlyImplicitEuler,
+        Some(_) => {
+            matches!(
+                ctx.integrator,
+                IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
+            ) && ctx.energy_balance
+        }
+    };
+    integrator
+        && system.contacts.is_none()
+        && system.held.is_none()
+        && system.strand.point_loads.is_empty()
+        && system.strand.ends.root == RootEnd::Clamped
+        && !system.strand.geometry.floating
+}
+
+/// Advance a strand that [`covers`] takes over `interval` (the head's phase changes cut
+/// within: the one step lands on them), its counts added to `stats`.
+pub fn step(
+    system: &mut StrandSystem,
+    interval: &HeadInterval,
+    state: &mut StrandState,
+    stats: &mut StepStats,
+) -> Result<(), String> {
+    let StrandSystem {
+        strand,
+        kernel,
+        workspace: ws,
+        context: ctx,
+        ..
+    } = system;
+    let n = state.q.len();
+    // the state the last step ended in, or one set from outside (its energy measured
+    // afresh)
+    if ws.last_q != state.q || ws.last_v != state.v {
+        ws.last_energy = None;
+    }
+    let mut split_hint = u8::try_from(ws.split_hint).unwrap_or(u8::MAX);
+    let g = &strand.geometry;
+    let params = ParamsView {
+        root_position: g.root_position,
+        root_frame: g.root_frame,
+        lengths: &g.lengths,
+        natural: &strand.natural,
+        stiffness: &ws.stiffness,
+        friction: &ws.friction,
+        mass_per_length: g.mass_per_length,
+        air_drag: strand.air_drag,
+        rotary_inertia: g.rotary_inertia,
+    };
+    let (basis, basis_k, basis_negative) = ws.solver.projection_basis_parts();
+    let mut view = StrandView {
+        params,
+        q: &mut state.q,
+        v: &mut state.v,
+        basis,
+        basis_k,
+        basis_negative,
+        split_hint: &mut split_hint,
+        last_energy: &mut ws.last_energy,
+    };
+    let effects = Effects {
+        gravity: ctx.effects.gravity,
+        head_moves: ctx.effects.head_moves,
+    };
+    let rule = if ctx.explicit_field_stiffness {
+        FieldRule::Explicit
+    } else if ctx.field_split {
+        FieldRule::Split
+    } else {
+        FieldRule::Projected
+    };
+    let mut counts = StepCounts::default();
+    let mut report = ToleranceReport::default();
+    let mut source = KernelTerms::new(kernel.as_mut(), &mut ws.terms, &mut ws.flat);
+    let mut history = HistoryView {
+        q: &mut ws.prev_q,
+        v: &mut ws.prev_v,
+        h: &mut ws.prev_h,
+        next_h: &mut ws.error_control.next_h,
+    };
+    let outcome = WORKSPACES.with(|cell| {
+        let mut pool = cell.borrow_mut();
+        let elements = n / 3;
+        let k = match pool.iter().position(|w| w.elements() == elements) {
+            Some(k) => k,
+            None => {
+                pool.push(HeapWorkspace::new());
+                pool.len() - 1
+            }
+        };
+        let work = &mut pool[k];
+        work.set_field_rule(rule);
+        work.set_max_split_depth(ctx.max_split_depth);
+        work.set_energy_balance(ctx.energy_balance);
+        match ctx.tolerance {
+            None => step_views(
+                &mut source,
+                &mut view,
+                interval.motion,
+                &effects,
+                interval.t,
+                interval.h,
+                work.view(elements),
+                &mut counts,
+                None,
+            ),
+            Some(tolerance) => step_to_tolerance_views(
+                &mut source,
+                &mut view,
+                &mut history,
+                interval.motion,
+                &effects,
+                (interval.t, interval.h),
+                tolerance,
+                work.view(elements),
+                &mut report,
+            ),
+        }
+    });
+    ws.error_control.record(&report);
+    stats.error_steps += report.steps;
+    stats.error_rejected += report.rejected;
+    stats.attempts += report.solves;
+    stats.energy_limited += report.energy_limited;
+    ws.split_hint = usize::from(split_hint);
+    stats.substeps += counts.substeps;
+    stats.attempts += counts.attempts;
+    stats.energy_rejected += counts.energy_rejected;
+    stats.energy_limited += counts.energy_limited;
+    stats.energy_unbalanced += counts.energy_unbalanced;
+    stats.energy_pulled_back += counts.energy_pulled_back;
+    stats.field_split += counts.field_split;
+    stats.field_projected += counts.field_projected;
+    stats.field_undamped += counts.field_undamped;
+    stats.contacts_predicted += counts.contacts_predicted;
+    stats.rotation_limited += counts.rotation_limited;
+    outcome.map_err(|e| e.to_string())?;
+    ws.last_q.copy_from_slice(&state.q);
+    ws.last_v.copy_from_slice(&state.v);
+    Ok(())
+}
