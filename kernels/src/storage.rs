@@ -11,4 +11,5 @@ mod square;
 mod views;
 
 pub use square::Square;
+pub(crate) use views::sized;
 pub use views::{ParamsView, ProjectionView, StrandView, WorkView, STACK_VECTORS};

@@ -265,7 +265,7 @@ impl Interval {
 /// `ws` is left prepared for q (a solve from this state follows: it reuses the element
 /// moments, see [`crate::strand_terms::evaluate_energy`]).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn measure<'c, S: StepTerms<T> + ?Sized, T: Float>(
+pub(crate) fn measure<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     p: &ParamsView<'_, T>,
     effects: &Effects,
@@ -273,11 +273,11 @@ pub(crate) fn measure<'c, S: StepTerms<T> + ?Sized, T: Float>(
     t: f64,
     q: &[T],
     v: &[T],
-    ws: &mut WorkView<'_, T>,
+    ws: &mut WorkView<'_, T, NC>,
     prepare_terms: bool,
     contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
 ) -> StateEnergy<T> {
-    let n = p.dofs();
+    let n = crate::storage::sized::<NC>(p.dofs());
     let rho_s = p.mass_per_length;
     let full = body_field(effects.gravity, effects.head_moves, head, rho_s, p.air_drag);
     // ½ q̇ᵀ M q̇, ∫ρS y ds and the power of C1 (a rotating head) in O(N), from the
@@ -468,21 +468,22 @@ pub fn step_with_contacts<
 /// same n (a caller that keeps its strands' state in its own memory and lends it, as the
 /// runtime engine does; `storage::heap::step` for a strand in vectors).
 #[allow(clippy::too_many_arguments)]
-pub fn step_views<'c, S: StepTerms<T> + ?Sized, T: Float>(
+pub fn step_views<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     strand: &mut StrandView<'_, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
     t: f64,
     h: f64,
-    mut ws: WorkView<'_, T>,
+    mut ws: WorkView<'_, T, NC>,
     counts: &mut StepCounts,
     contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
 ) -> Result<StepReport, StepError> {
-    let n = strand.dofs();
+    let n = crate::storage::sized::<NC>(strand.dofs());
     let sized = ws.force.len() == n
         && ws.matrix_a.n() == n
         && ws.stack.len() >= crate::storage::STACK_VECTORS * n
+        && strand.q.len() == n
         && strand.v.len() == n
         && strand.params.natural.len() == n
         && strand.params.stiffness.len() == n
@@ -501,14 +502,14 @@ pub fn step_views<'c, S: StepTerms<T> + ?Sized, T: Float>(
 /// [`step_with_contacts`] on any storage (`stack`: [`crate::storage::STACK_VECTORS`]
 /// vectors of n).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn checked_step<'c, S: StepTerms<T> + ?Sized, T: Float>(
+pub(crate) fn checked_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     strand: &mut StrandView<'_, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
     t: f64,
     h: f64,
-    ws: &mut WorkView<'_, T>,
+    ws: &mut WorkView<'_, T, NC>,
     stack: &mut [T],
     counts: &mut StepCounts,
     mut contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
@@ -562,14 +563,14 @@ pub(crate) fn checked_step<'c, S: StepTerms<T> + ?Sized, T: Float>(
 
 /// One checked step from `t` by `h` within which the head keeps its motion phase.
 #[allow(clippy::too_many_arguments)]
-fn step_piece<'c, S: StepTerms<T> + ?Sized, T: Float>(
+fn step_piece<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     strand: &mut StrandView<'_, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
     t: f64,
     h: f64,
-    ws: &mut WorkView<'_, T>,
+    ws: &mut WorkView<'_, T, NC>,
     stack: &mut [T],
     counts: &mut StepCounts,
     mut contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
@@ -641,20 +642,20 @@ fn step_piece<'c, S: StepTerms<T> + ?Sized, T: Float>(
 /// The runtime's `implicit_adaptive` for the linearly implicit Euler step (`stack`: two
 /// vectors of n for its start, the rest for its pieces).
 #[allow(clippy::too_many_arguments)]
-fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float>(
+fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     strand: &mut StrandView<'_, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
     interval: &Interval,
     start: &StateEnergy<T>,
-    ws: &mut WorkView<'_, T>,
+    ws: &mut WorkView<'_, T, NC>,
     stack: &mut [T],
     counts: &mut StepCounts,
     mut contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
 ) -> Result<StateEnergy<T>, StepError> {
     let h = interval.h;
-    let n = strand.dofs();
+    let n = crate::storage::sized::<NC>(strand.dofs());
     let (saved, stack) = stack.split_at_mut(2 * n);
     let (saved_q, saved_v) = saved.split_at_mut(n);
     saved_q.copy_from_slice(strand.q);
@@ -880,42 +881,44 @@ const PULL_BACK_BISECTIONS: usize = 10;
 /// to it; `None` (the strand as it was) when not even `q0` balances. The runtime's
 /// `solver::adaptive::pull_back`. `stack`: one vector of n.
 #[allow(clippy::too_many_arguments)]
-fn pull_back<'c, S: StepTerms<T> + ?Sized, T: Float>(
+fn pull_back<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     strand: &mut StrandView<'_, T>,
     effects: &Effects,
     interval: &Interval,
     start: &StateEnergy<T>,
     q0: &[T],
-    ws: &mut WorkView<'_, T>,
+    ws: &mut WorkView<'_, T, NC>,
     stack: &mut [T],
     (mut contacts, to_bound): (Option<&mut (dyn ContactHooks<T> + 'c)>, bool),
 ) -> Option<(StateEnergy<T>, Balance<T>)> {
-    let n = strand.dofs();
+    let n = crate::storage::sized::<NC>(strand.dofs());
     let end_q = &mut stack[..n];
     end_q.copy_from_slice(strand.q);
     let end_q = &*end_q;
     let time = interval.t + interval.h;
-    let mut eval =
-        |strand: &mut StrandView<'_, T>, ws: &mut WorkView<'_, T>, lambda: f64, prepare: bool| {
-            for i in 0..n {
-                strand.q[i] = q0[i] + T::of(lambda) * (end_q[i] - q0[i]);
-            }
-            let end = measure(
-                source,
-                &strand.params,
-                effects,
-                &interval.end,
-                time,
-                strand.q,
-                strand.v,
-                ws,
-                prepare,
-                contacts.as_deref_mut(),
-            );
-            let b = balance(start, &end, interval.uniform && to_bound);
-            (b.limited_kinetic(&end, to_bound).is_some(), end, b)
-        };
+    let mut eval = |strand: &mut StrandView<'_, T>,
+                    ws: &mut WorkView<'_, T, NC>,
+                    lambda: f64,
+                    prepare: bool| {
+        for i in 0..n {
+            strand.q[i] = q0[i] + T::of(lambda) * (end_q[i] - q0[i]);
+        }
+        let end = measure(
+            source,
+            &strand.params,
+            effects,
+            &interval.end,
+            time,
+            strand.q,
+            strand.v,
+            ws,
+            prepare,
+            contacts.as_deref_mut(),
+        );
+        let b = balance(start, &end, interval.uniform && to_bound);
+        (b.limited_kinetic(&end, to_bound).is_some(), end, b)
+    };
     if !eval(strand, ws, 0.0, false).0 {
         strand.q.copy_from_slice(end_q);
         return None;
@@ -937,14 +940,14 @@ fn pull_back<'c, S: StepTerms<T> + ?Sized, T: Float>(
 /// `interval` halved `levels` times (each halving counted in [`StepCounts::substeps`]),
 /// its pieces stepped in order by [`adaptive`]: the runtime's `split`.
 #[allow(clippy::too_many_arguments)]
-fn split<'c, S: StepTerms<T> + ?Sized, T: Float>(
+fn split<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     strand: &mut StrandView<'_, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
     interval: &Interval,
     start: &StateEnergy<T>,
-    ws: &mut WorkView<'_, T>,
+    ws: &mut WorkView<'_, T, NC>,
     stack: &mut [T],
     counts: &mut StepCounts,
     levels: usize,

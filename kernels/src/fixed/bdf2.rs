@@ -2,7 +2,7 @@
 //! (`runtime/src/solver/bdf2.rs`) for a strand without contacts or point loads, on the
 //! linearly implicit Euler step's matrix.
 
-use super::dense::lu_solve;
+use super::dense::lu_solve_sized;
 use super::step::{
     assemble, max_element_rotation, non_finite, step_matrix, StepError, StepInput, StepReport,
 };
@@ -76,19 +76,19 @@ pub fn bdf2<
 }
 
 /// [`bdf2`] on any storage (`stack`: six vectors of n).
-pub(crate) fn bdf2_step<S: StepTerms<T> + ?Sized, T: Float>(
+pub(crate) fn bdf2_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     strand: &mut StrandView<'_, T>,
     previous: &Bdf2History<'_, T>,
     input: &StepInput,
     h: f64,
-    ws: &mut WorkView<'_, T>,
+    ws: &mut WorkView<'_, T, NC>,
     stack: &mut [T],
 ) -> Result<StepReport, StepError> {
     if !(h.is_finite() && h > 0.0 && previous.h.is_finite() && previous.h > 0.0) {
         return Err(StepError::TimeStep);
     }
-    let n = strand.dofs();
+    let n = crate::storage::sized::<NC>(strand.dofs());
     if previous.q.len() != n || previous.v.len() != n {
         return Err(StepError::TimeStep);
     }
@@ -138,7 +138,7 @@ pub(crate) fn bdf2_step<S: StepTerms<T> + ?Sized, T: Float>(
             ws.rhs[i] += m[i] * vh[j] - bh * d[i] * vt[j];
         }
     }
-    if !lu_solve(&mut ws.matrix_a, ws.rhs, ws.pivots) {
+    if !lu_solve_sized::<T, NC>(&mut ws.matrix_a, ws.rhs, ws.pivots) {
         return Err(StepError::SingularMatrix);
     }
     let q_new = qh;

@@ -9,8 +9,18 @@ use crate::storage::Square;
 /// `a x = b` in place (`b`, n long, becomes x; `pivots` n long). Returns false, with `a`
 /// and `b` overwritten, when a pivot is zero or the solution is not finite.
 pub fn lu_solve<T: Float>(a: &mut Square<'_, T>, b: &mut [T], pivots: &mut [usize]) -> bool {
-    let n = a.n();
-    if b.len() != n || pivots.len() != n {
+    lu_solve_sized::<T, 0>(a, b, pivots)
+}
+
+/// [`lu_solve`] with the matrices' size `NC` known at compile time (0: not known; false
+/// when `a` is of another size).
+pub(crate) fn lu_solve_sized<T: Float, const NC: usize>(
+    a: &mut Square<'_, T>,
+    b: &mut [T],
+    pivots: &mut [usize],
+) -> bool {
+    let n = if NC != 0 { NC } else { a.n() };
+    if a.n() != n || b.len() != n || pivots.len() != n {
         return false;
     }
     for k in 0..n {

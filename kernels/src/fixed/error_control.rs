@@ -219,7 +219,7 @@ pub struct HistoryView<'a, T: Float = f64> {
 /// [`step_to_tolerance`] on views of any storage (a strand's, its history's and a
 /// workspace's, of the same n; `fixed::step_views` for the checked step).
 #[allow(clippy::too_many_arguments)]
-pub fn step_to_tolerance_views<S: StepTerms<T> + ?Sized, T: Float>(
+pub fn step_to_tolerance_views<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     strand: &mut StrandView<'_, T>,
     history: &mut HistoryView<'_, T>,
@@ -227,7 +227,7 @@ pub fn step_to_tolerance_views<S: StepTerms<T> + ?Sized, T: Float>(
     effects: &Effects,
     (t, h): (f64, f64),
     tolerance: f64,
-    mut ws: WorkView<'_, T>,
+    mut ws: WorkView<'_, T, NC>,
     report: &mut ToleranceReport,
 ) -> Result<StepReport, StepError> {
     let n = strand.dofs();
@@ -257,7 +257,7 @@ pub fn step_to_tolerance_views<S: StepTerms<T> + ?Sized, T: Float>(
 /// [`step_to_tolerance`] on any storage (`stack`: [`crate::storage::STACK_VECTORS`]
 /// vectors of n).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float>(
+pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     strand: &mut StrandView<'_, T>,
     history: &mut HistoryView<'_, T>,
@@ -265,7 +265,7 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float>(
     effects: &Effects,
     (t, h): (f64, f64),
     tolerance: f64,
-    ws: &mut WorkView<'_, T>,
+    ws: &mut WorkView<'_, T, NC>,
     stack: &mut [T],
     report: &mut ToleranceReport,
 ) -> Result<StepReport, StepError> {
@@ -457,14 +457,14 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float>(
 /// h, y₂ from two of h/2. The strand ends in 2 y₂ − y₁; y₂, which differs from it by
 /// y₂ − y₁ (the estimate), into `(q2, v2)` (`stack`: four vectors of n).
 #[allow(clippy::too_many_arguments)]
-fn start_step<S: StepTerms<T> + ?Sized, T: Float>(
+fn start_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     strand: &mut StrandView<'_, T>,
     head: &dyn HeadTrajectory,
     effects: &Effects,
     (t, h): (f64, f64),
     input: &StepInput,
-    ws: &mut WorkView<'_, T>,
+    ws: &mut WorkView<'_, T, NC>,
     (q2, v2): (&mut [T], &mut [T]),
     stack: &mut [T],
 ) -> Result<(), StepError> {

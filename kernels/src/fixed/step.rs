@@ -2,7 +2,7 @@
 //! step, and the centreline.
 
 use super::contacts::ContactHooks;
-use super::dense::{lu_solve, lu_solve_factored, negative_semidefinite_part, Projection};
+use super::dense::{lu_solve_factored, lu_solve_sized, negative_semidefinite_part, Projection};
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::body_field::BodyField;
@@ -105,14 +105,14 @@ impl core::fmt::Display for StepError {
 /// The kernel terms `terms` at (q, q̇) in `field` into `ws` (M in the assembly's
 /// buffers, the force ∫JᵀF − b, b and ∫ρS y, and the requested matrices), reusing
 /// the element moments when q is the one `ws` was prepared for.
-pub(crate) fn evaluate_at<S: StepTerms<T> + ?Sized, T: Float>(
+pub(crate) fn evaluate_at<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     params: &ParamsView<'_, T>,
     q: &[T],
     v: &[T],
     field: &BodyField<T>,
     terms: Terms,
-    ws: &mut WorkView<'_, T>,
+    ws: &mut WorkView<'_, T, NC>,
 ) {
     let WorkView {
         assembly,
@@ -183,16 +183,16 @@ pub fn evaluate<
 }
 
 /// [`evaluate`] at (q, q̇) without forgetting what `ws` was prepared for.
-pub(crate) fn assemble<'c, S: StepTerms<T> + ?Sized, T: Float>(
+pub(crate) fn assemble<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     p: &ParamsView<'_, T>,
     q: &[T],
     v: &[T],
     input: &StepInput,
-    ws: &mut WorkView<'_, T>,
+    ws: &mut WorkView<'_, T, NC>,
     contacts: Option<(&mut (dyn ContactHooks<T> + 'c), f64)>,
 ) -> (bool, bool) {
-    let n = p.dofs();
+    let n = crate::storage::sized::<NC>(p.dofs());
     let field = body_field(
         input.gravity,
         input.head_moves,
@@ -314,19 +314,19 @@ pub fn linearly_implicit_with<
 
 /// The linearly implicit Euler step of [`linearly_implicit_with`] on any storage (`stack`:
 /// at least two vectors of n).
-pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float>(
+pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     strand: &mut StrandView<'_, T>,
     input: &StepInput,
     h: f64,
-    ws: &mut WorkView<'_, T>,
+    ws: &mut WorkView<'_, T, NC>,
     stack: &mut [T],
     contacts: Option<(&mut (dyn ContactHooks<T> + 'c), f64)>,
 ) -> Result<StepReport, StepError> {
     if !(h.is_finite() && h > 0.0) {
         return Err(StepError::TimeStep);
     }
-    let n = strand.dofs();
+    let n = crate::storage::sized::<NC>(strand.dofs());
     let h_f64 = h;
     let h = T::of(h);
     let mut contacts = contacts;
@@ -354,7 +354,7 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float>(
             ws.rhs[i] += (mass_j[i] - h * damping_j[i]) * vj;
         }
     }
-    if !lu_solve(&mut ws.matrix_a, ws.rhs, ws.pivots) {
+    if !lu_solve_sized::<T, NC>(&mut ws.matrix_a, ws.rhs, ws.pivots) {
         return Err(StepError::SingularMatrix);
     }
     q_new.copy_from_slice(q);
@@ -430,15 +430,15 @@ pub(crate) fn solve_factored_f64<T: Float>(
 /// then holds that part; `stack` at least one vector of n).
 /// Returns how H⁻ was found and whether it is in the matrix (not when the projection
 /// failed).
-pub(crate) fn step_matrix<T: Float>(
+pub(crate) fn step_matrix<T: Float, const NC: usize>(
     strand: &mut StrandView<'_, T>,
     field_stiffness: bool,
     touching: bool,
     h: T,
-    ws: &mut WorkView<'_, T>,
+    ws: &mut WorkView<'_, T, NC>,
     stack: &mut [T],
 ) -> (Option<Projection>, bool) {
-    let n = strand.dofs();
+    let n = crate::storage::sized::<NC>(strand.dofs());
     let half = T::of(0.5);
     let p = &strand.params;
     let projection = if field_stiffness {
@@ -479,7 +479,7 @@ pub(crate) fn step_matrix<T: Float>(
             _ if explicit => Projection::Unprojected,
             SplitOutcome::Whole => Projection::Whole,
             SplitOutcome::Shifted => Projection::Shifted,
-            SplitOutcome::Beyond => project(
+            SplitOutcome::Beyond => project::<T, NC>(
                 &mut ws.stiffness,
                 strand.basis,
                 strand.basis_k,
@@ -533,7 +533,7 @@ pub fn centreline<
 /// definite leaves H; otherwise the shared partial eigendecomposition
 /// ([`crate::projection`]), reusing the strand's kept basis while it splits H, and the
 /// full Jacobi decomposition when that fails its checks.
-fn project<T: Float>(
+fn project<T: Float, const NC: usize>(
     h: &mut Square<'_, T>,
     basis: &mut [T],
     basis_k: &mut usize,
@@ -555,7 +555,7 @@ fn project<T: Float>(
     for j in 0..n {
         p.last_input[j][j..].copy_from_slice(&h[j][j..]);
     }
-    let outcome = project_uncached(h, basis, basis_k, basis_negative, p);
+    let outcome = project_uncached::<T, NC>(h, basis, basis_k, basis_negative, p);
     *p.last_valid = outcome != Projection::Failed;
     if *p.last_valid {
         p.last_output.copy_from(h);
@@ -564,7 +564,7 @@ fn project<T: Float>(
 }
 
 /// [`project`] without the repeat check.
-fn project_uncached<T: Float>(
+fn project_uncached<T: Float, const NC: usize>(
     h: &mut Square<'_, T>,
     basis: &mut [T],
     basis_k: &mut usize,
@@ -591,7 +591,7 @@ fn project_uncached<T: Float>(
     let (tau, diag, off, eigenvalues, selected, scratch) =
         (next(), next(), next(), next(), next(), next());
     let (u0, u1, u2, mult, x) = (next(), next(), next(), next(), next());
-    let spectral = SpectralProjection::<T>::new(
+    let spectral = SpectralProjection::<T, NC>::new(
         n,
         ProjectionBasis {
             vectors: basis,

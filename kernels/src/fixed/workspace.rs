@@ -151,7 +151,7 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
     }
 
     /// The step's view of this workspace.
-    pub(crate) fn view(&mut self) -> WorkView<'_, T> {
+    pub(crate) fn view(&mut self) -> WorkView<'_, T, D> {
         let p = &mut self.projection;
         WorkView {
             assembly: self.assembly.buffers(),

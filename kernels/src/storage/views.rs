@@ -19,6 +19,17 @@ use nalgebra::{Matrix3, Vector3};
 /// extrapolations).
 pub const STACK_VECTORS: usize = 2 * (crate::energy::MAX_SUBSTEP_DEPTH + 1) + 8;
 
+/// n as the step's loops take it: `NC` when the storage knows it at compile time (its
+/// arrays are NC long, so `n` is NC), else `n`.
+#[inline(always)]
+pub(crate) fn sized<const NC: usize>(n: usize) -> usize {
+    if NC != 0 {
+        NC
+    } else {
+        n
+    }
+}
+
 /// A strand's parameters (see `crate::fixed::FixedParams` for each field's meaning and
 /// unit): slices N long (`lengths`) and 3N long (the others).
 #[derive(Debug, Clone, Copy)]
@@ -125,10 +136,11 @@ pub struct ProjectionView<'a, T: Float = f64> {
 }
 
 /// The scratch of one step of a strand of n = 3N coordinates (see
-/// `crate::fixed::FixedWorkspace`): the moment assembly's buffers, the terms, the step's
+/// `crate::fixed::FixedWorkspace`; `NC`: n when the storage knows it at compile time, as
+/// the fixed-N arrays do, else 0): the moment assembly's buffers, the terms, the step's
 /// matrix and its factors, the projection's and the dissipative split's scratch, the
 /// step's rules, and [`STACK_VECTORS`] vectors of n for what the step saves.
-pub struct WorkView<'a, T: Float = f64> {
+pub struct WorkView<'a, T: Float = f64, const NC: usize = 0> {
     pub(crate) assembly: MomentBuffers<'a, T>,
     /// ∂F/∂q less ∂b/∂q (then H, then H⁻).
     pub(crate) stiffness: Square<'a, T>,
@@ -158,7 +170,7 @@ pub struct WorkView<'a, T: Float = f64> {
     pub(crate) ends: &'a mut [Pose<T>],
 }
 
-impl<'a, T: Float> WorkView<'a, T> {
+impl<'a, T: Float, const NC: usize> WorkView<'a, T, NC> {
     /// Forget the element moments of the last strand (the next evaluation computes them
     /// afresh).
     pub fn forget(&mut self) {
