@@ -43,8 +43,8 @@ pub(crate) mod step;
 mod workspace;
 
 pub use adaptive::{
-    energy, phase_cut, step, step_views, step_with_contacts, Effects, ExtrapolatedHead,
-    HeadTrajectory, StepCounts, StillHead, PHASE_CUT_MARGIN,
+    energy, energy_views, phase_cut, step, step_views, step_with_contacts, Effects,
+    ExtrapolatedHead, HeadTrajectory, StepCounts, StillHead, PHASE_CUT_MARGIN,
 };
 pub use bdf2::{bdf2, Bdf2History};
 pub use contacts::{

@@ -349,21 +349,31 @@ pub fn energy<
     t: f64,
     ws: &mut FixedWorkspace<N, D, E, T>,
 ) -> StateEnergy<T> {
-    let mut ws = ws.view();
-    ws.forget();
     let p = strand.params.view();
-    let e = measure(
+    energy_views(
         &mut &*source,
         &p,
+        (&strand.q, &strand.v),
         effects,
         head,
         t,
-        &strand.q,
-        &strand.v,
-        &mut ws,
-        false,
-        None,
-    );
+        ws.view(),
+    )
+}
+
+/// [`energy`] on views of any storage: the state (q, q̇) of a strand of parameters
+/// `params`, measured on the workspace `ws`.
+pub fn energy_views<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
+    source: &mut S,
+    params: &ParamsView<'_, T>,
+    (q, v): (&[T], &[T]),
+    effects: &Effects,
+    head: &HeadState,
+    t: f64,
+    mut ws: WorkView<'_, T, NC>,
+) -> StateEnergy<T> {
+    ws.forget();
+    let e = measure(source, params, effects, head, t, q, v, &mut ws, false, None);
     ws.forget();
     e
 }
@@ -446,19 +456,15 @@ pub fn step_with_contacts<
     counts: &mut StepCounts,
     contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
 ) -> Result<StepReport, StepError> {
-    let mut ws = ws.view();
-    let stack = ws.take_stack();
-    let mut strand = strand.view();
     let mut source = source;
-    checked_step(
+    step_views(
         &mut source,
-        &mut strand,
+        &mut strand.view(),
         head,
         effects,
         t,
         h,
-        &mut ws,
-        stack,
+        ws.view(),
         counts,
         contacts,
     )

@@ -179,8 +179,6 @@ pub fn step_to_tolerance<
     ws: &mut FixedWorkspace<N, D, E, T>,
     report: &mut ToleranceReport,
 ) -> Result<StepReport, StepError> {
-    let mut ws = ws.view();
-    let stack = ws.take_stack();
     let mut history = HistoryView {
         q: &mut history.q,
         v: &mut history.v,
@@ -188,7 +186,7 @@ pub fn step_to_tolerance<
         next_h: &mut history.next_h,
     };
     let mut source = source;
-    tolerance_step(
+    step_to_tolerance_views(
         &mut source,
         &mut strand.view(),
         &mut history,
@@ -196,8 +194,7 @@ pub fn step_to_tolerance<
         effects,
         (t, h),
         tolerance,
-        &mut ws,
-        stack,
+        ws.view(),
         report,
     )
 }

@@ -418,17 +418,15 @@ pub fn step<'c, S: StepTerms<T> + ?Sized, T: Float>(
     counts: &mut StepCounts,
     contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
 ) -> Result<StepReport, StepError> {
-    let mut ws = ws.view(strand.elements());
-    let stack = ws.take_stack();
-    crate::fixed::adaptive::checked_step(
+    let elements = strand.elements();
+    crate::fixed::step_views(
         source,
         &mut strand.view(),
         head,
         effects,
         t,
         h,
-        &mut ws,
-        stack,
+        ws.view(elements),
         counts,
         contacts,
     )
@@ -469,15 +467,14 @@ pub fn step_to_tolerance<S: StepTerms<T> + ?Sized, T: Float>(
         history.h = 0.0;
         history.next_h = 0.0;
     }
-    let mut ws = ws.view(strand.elements());
-    let stack = ws.take_stack();
-    let mut hv = crate::fixed::error_control::HistoryView {
+    let elements = strand.elements();
+    let mut hv = crate::fixed::HistoryView {
         q: &mut history.q,
         v: &mut history.v,
         h: &mut history.h,
         next_h: &mut history.next_h,
     };
-    crate::fixed::error_control::tolerance_step(
+    crate::fixed::step_to_tolerance_views(
         source,
         &mut strand.view(),
         &mut hv,
@@ -485,8 +482,7 @@ pub fn step_to_tolerance<S: StepTerms<T> + ?Sized, T: Float>(
         effects,
         (t, h),
         tolerance,
-        &mut ws,
-        stack,
+        ws.view(elements),
         report,
     )
 }
@@ -513,20 +509,14 @@ pub fn energy<S: StepTerms<T> + ?Sized, T: Float>(
     t: f64,
     ws: &mut HeapWorkspace<T>,
 ) -> StateEnergy<T> {
-    let mut ws = ws.view(strand.elements());
-    ws.forget();
-    let e = crate::fixed::adaptive::measure(
+    let elements = strand.elements();
+    crate::fixed::energy_views(
         source,
         &strand.params(),
+        (&strand.q, &strand.v),
         effects,
         head,
         t,
-        &strand.q,
-        &strand.v,
-        &mut ws,
-        false,
-        None,
-    );
-    ws.forget();
-    e
+        ws.view(elements),
+    )
 }
