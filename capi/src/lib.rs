@@ -232,6 +232,9 @@ impl From<StepError> for ShStatus {
             StepError::Tolerance => ShStatus::InvalidTolerance,
             // (the batch sizes its workspaces for its strands: not reached)
             StepError::Sizes => ShStatus::MixedElements,
+            // (only point loads stop a step so, and the batch's strands carry none: not
+            // reached; an internal error if it were)
+            StepError::UnresolvedMotion { .. } => ShStatus::Panic,
         }
     }
 }

@@ -51,6 +51,7 @@ pub mod lanes;
 pub mod material;
 pub mod math;
 pub mod moments;
+pub mod point_load;
 pub mod pose;
 pub mod projection;
 pub mod quadrature;

@@ -5,6 +5,7 @@
 //! that element's local functions at s ([`MomentSource::point`]); no allocation.
 
 use crate::element::ElementPoint;
+use crate::float::Float;
 use crate::moments::{end_derivatives_from, EndDerivatives};
 use crate::pose::{darboux, Pose};
 use crate::strand_terms::MomentSource;
@@ -12,16 +13,16 @@ use nalgebra::{Matrix3, Vector3};
 
 /// The element holding arc length `s` of a strand of element lengths `lengths`, and
 /// s's abscissa in it (clamped to the element; beyond the tip, the last element's).
-pub fn locate(lengths: &[f64], s: f64) -> (usize, f64) {
-    let mut start = 0.0;
+pub fn locate<T: Float>(lengths: &[T], s: T) -> (usize, T) {
+    let mut start = T::zero();
     let n = lengths.len();
     for (q, &l) in lengths.iter().enumerate() {
         if s <= start + l || q + 1 == n {
-            return (q, (s - start).clamp(0.0, l));
+            return (q, (s - start).max(T::zero()).min(l));
         }
         start += l;
     }
-    (0, 0.0)
+    (0, T::zero())
 }
 
 /// What [`strand_point`] may keep between calls: the q its scratch ends were computed
@@ -29,9 +30,9 @@ pub fn locate(lengths: &[f64], s: f64) -> (usize, f64) {
 /// hold (`valid`). Points asked in a row at the same q (a strand's contact samples and
 /// partners, in arc-length order, at every solve) then chain each element once, not once
 /// per point.
-pub struct PointChain<'a> {
+pub struct PointChain<'a, T: Float = f64> {
     /// The q the chain was computed for (NaN at first: no q).
-    pub q: &'a mut [f64],
+    pub q: &'a mut [T],
     /// Elements of the chain computed for `q`.
     pub valid: &'a mut usize,
 }
@@ -50,18 +51,38 @@ pub const NO_HESSIAN: Option<(Vector3<f64>, &mut HessianSink)> = None;
 /// afterwards; with `chain`, the elements it records for this q are not chained again
 /// (the scratch must then be left alone between calls).
 #[allow(clippy::too_many_arguments)]
-pub fn strand_point<S: MomentSource + ?Sized, F: FnMut(usize, usize, f64)>(
+pub fn strand_point<T: Float, S: MomentSource<T> + ?Sized, F: FnMut(usize, usize, T)>(
     source: &S,
-    root: &Pose,
-    lengths: &[f64],
-    ends: &mut [Pose],
-    end_derivs: &mut [EndDerivatives],
-    chain: Option<PointChain<'_>>,
-    q: &[f64],
-    s: f64,
-    jac: &mut [Vector3<f64>],
-    hessian: Option<(Vector3<f64>, &mut F)>,
-) -> Vector3<f64> {
+    root: &Pose<T>,
+    lengths: &[T],
+    ends: &mut [Pose<T>],
+    end_derivs: &mut [EndDerivatives<T>],
+    chain: Option<PointChain<'_, T>>,
+    q: &[T],
+    s: T,
+    jac: &mut [Vector3<T>],
+    hessian: Option<(Vector3<T>, &mut F)>,
+) -> Vector3<T> {
+    strand_point_pose(
+        source, root, lengths, ends, end_derivs, chain, q, s, jac, hessian,
+    )
+    .position
+}
+
+/// [`strand_point`] with the material frame at s: the pose (y(s), F(s)).
+#[allow(clippy::too_many_arguments)]
+pub fn strand_point_pose<T: Float, S: MomentSource<T> + ?Sized, F: FnMut(usize, usize, T)>(
+    source: &S,
+    root: &Pose<T>,
+    lengths: &[T],
+    ends: &mut [Pose<T>],
+    end_derivs: &mut [EndDerivatives<T>],
+    chain: Option<PointChain<'_, T>>,
+    q: &[T],
+    s: T,
+    jac: &mut [Vector3<T>],
+    hessian: Option<(Vector3<T>, &mut F)>,
+) -> Pose<T> {
     let (e, u) = locate(lengths, s);
     // ends and end derivatives of the elements up to e (those the chain holds for this q
     // are kept)
@@ -92,7 +113,7 @@ pub fn strand_point<S: MomentSource + ?Sized, F: FnMut(usize, usize, f64)>(
         end_derivs[p] = end_derivatives_from(&start.frame, &pt);
     }
     source.point(&darboux(q, e), u, &mut pt);
-    let f: Matrix3<f64> = ends[e].frame;
+    let f: Matrix3<T> = ends[e].frame;
     let y = ends[e].position + f * pt.p;
     for col in jac.iter_mut() {
         *col = Vector3::zeros();
@@ -137,7 +158,10 @@ pub fn strand_point<S: MomentSource + ?Sized, F: FnMut(usize, usize, f64)>(
             }
         }
     }
-    y
+    Pose {
+        position: y,
+        frame: f * pt.frame,
+    }
 }
 
 #[cfg(test)]

@@ -21,6 +21,8 @@ use crate::moments::{
     EndDerivatives, FrameMotion, SuffixBody,
 };
 use crate::pose::{darboux, Pose};
+use crate::storage::Square;
+use crate::strand_point::strand_point_pose;
 use nalgebra::{Matrix3, Vector3};
 
 /// Where the moment assembly gets its per-element integrals, in the float type `T`
@@ -133,6 +135,82 @@ pub trait StepTerms<T: Float = f64> {
     ) -> StrandEnergy<T>;
     /// The poses at the N + 1 element ends at q ([`element_ends`]).
     fn ends(&mut self, shape: &StrandShape<'_, T>, q: &[T], ends: &mut [Pose<T>]);
+    /// The point y(s) at q, with J(s) = ∂y(s)/∂q into `scratch.jac` (3N columns) and,
+    /// when `hessian` is (c, H), c · ∂²y(s)/∂q∂q added to H: what a point load acts
+    /// through ([`crate::strand_point::strand_point`] for a moment source).
+    fn point(
+        &mut self,
+        shape: &StrandShape<'_, T>,
+        q: &[T],
+        s: T,
+        scratch: &mut PointScratch<'_, T>,
+        hessian: Option<(Vector3<T>, &mut Square<'_, T>)>,
+    ) -> Vector3<T>;
+    /// The material frame F(s) at q (columns n0 — the tangent —, n1, n2): the axes of
+    /// a follower load. `scratch.jac` is unspecified afterwards.
+    fn frame(
+        &mut self,
+        shape: &StrandShape<'_, T>,
+        q: &[T],
+        s: T,
+        scratch: &mut PointScratch<'_, T>,
+    ) -> Matrix3<T>;
+}
+
+/// The scratch of a strand's points ([`StepTerms::point`]): J(s) and the chain of
+/// element ends up to s.
+pub struct PointScratch<'a, T: Float = f64> {
+    /// J(s), 3N columns.
+    pub jac: &'a mut [Vector3<T>],
+    /// The poses at the element ends, N + 1.
+    pub ends: &'a mut [Pose<T>],
+    /// The element ends' derivatives, N.
+    pub derivs: &'a mut [EndDerivatives<T>],
+}
+
+/// [`StepTerms::point`] of a moment source.
+fn source_point<T: Float, S: MomentSource<T> + ?Sized>(
+    source: &S,
+    shape: &StrandShape<'_, T>,
+    q: &[T],
+    s: T,
+    scratch: &mut PointScratch<'_, T>,
+    hessian: Option<(Vector3<T>, &mut Square<'_, T>)>,
+) -> Pose<T> {
+    let root = Pose {
+        position: shape.root_position,
+        frame: shape.root_frame,
+    };
+    let PointScratch { jac, ends, derivs } = scratch;
+    match hessian {
+        Some((c, h)) => {
+            let mut add = |k: usize, l: usize, value: T| h[l][k] += value;
+            strand_point_pose(
+                source,
+                &root,
+                shape.lengths,
+                ends,
+                derivs,
+                None,
+                q,
+                s,
+                jac,
+                Some((c, &mut add)),
+            )
+        }
+        None => strand_point_pose(
+            source,
+            &root,
+            shape.lengths,
+            ends,
+            derivs,
+            None,
+            q,
+            s,
+            jac,
+            None::<(Vector3<T>, &mut fn(usize, usize, T))>,
+        ),
+    }
 }
 
 impl<T: Float, S: MomentSource<T> + ?Sized> StepTerms<T> for &S {
@@ -162,6 +240,25 @@ impl<T: Float, S: MomentSource<T> + ?Sized> StepTerms<T> for &S {
     }
     fn ends(&mut self, shape: &StrandShape<'_, T>, q: &[T], ends: &mut [Pose<T>]) {
         element_ends(*self, shape, q, ends);
+    }
+    fn point(
+        &mut self,
+        shape: &StrandShape<'_, T>,
+        q: &[T],
+        s: T,
+        scratch: &mut PointScratch<'_, T>,
+        hessian: Option<(Vector3<T>, &mut Square<'_, T>)>,
+    ) -> Vector3<T> {
+        source_point(*self, shape, q, s, scratch, hessian).position
+    }
+    fn frame(
+        &mut self,
+        shape: &StrandShape<'_, T>,
+        q: &[T],
+        s: T,
+        scratch: &mut PointScratch<'_, T>,
+    ) -> Matrix3<T> {
+        source_point(*self, shape, q, s, scratch, None).frame
     }
 }
 

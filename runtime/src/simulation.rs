@@ -233,11 +233,6 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
                 format!("strands[{index}].ends"),
                 "the embedded engine holds roots clamped and tips free; use engine = \"runtime\"",
             ));
-        } else if !s.strand.point_loads.is_empty() {
-            errors.push(FieldError::new(
-                format!("strands[{index}].point_loads"),
-                "the embedded engine has no point loads; use engine = \"runtime\"",
-            ));
         } else if !superhelix_generated::fixed::SIZES.contains(&n) {
             errors.push(FieldError::new(
                 "simulation.engine",

@@ -28,12 +28,13 @@ use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::energy::{
     balance, end_ceiling, energy_splits, predicted_split_levels, rotation_split_levels, Balance,
-    StateEnergy, ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION, TRUSTED_ELEMENT_ROTATION,
-    WORK_SPLIT_FRACTION,
+    StateEnergy, ENERGY_SPLIT_FRACTION, MAX_ELEMENT_ROTATION, MAX_SUBSTEP_DEPTH,
+    TRUSTED_ELEMENT_ROTATION, WORK_SPLIT_FRACTION,
 };
 use crate::field_split::FieldRule;
 use crate::float::Float;
 use crate::head::{body_field, HeadState};
+use crate::point_load::{self, any_follows};
 use crate::storage::{ParamsView, StrandView, WorkView};
 use crate::strand_terms::{MomentSource, StepTerms};
 use nalgebra::{Matrix3, Vector3};
@@ -261,7 +262,7 @@ impl Interval {
 }
 
 /// The energy of the state (q, q̇) at time t with the head in `head` (the runtime's
-/// `energy_balance::measure` for a strand without point loads). With `prepare_terms`,
+/// `energy_balance::measure`): with the strand's point loads and its contacts. With `prepare_terms`,
 /// `ws` is left prepared for q (a solve from this state follows: it reuses the element
 /// moments, see [`crate::strand_terms::evaluate_energy`]).
 #[allow(clippy::too_many_arguments)]
@@ -299,7 +300,7 @@ pub(crate) fn measure<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
             half * p.stiffness[i] * (x * x)
         })
         .sum();
-    let power = measured.power;
+    let mut power = measured.power;
     let moment = measured.first_moment / rho_s;
     let dissipation = (0..n).map(|i| p.friction[i] * v[i] * v[i]).sum::<T>()
         + T::of(2.0) * p.air_drag / rho_s * kinetic;
@@ -307,6 +308,14 @@ pub(crate) fn measure<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     // the contact potential joins V (as the runtime's point loads' part), its rate at
     // fixed q (with the work of moving colliders' damping) the loads' rate
     let (mut load_moment, mut load_rate) = (T::zero(), T::zero());
+    if !p.loads.is_empty() {
+        // the dead loads' −V and its rate through the head's turning; the follower
+        // loads' power joins the work
+        let loads = point_load::energy(p.loads, source, &shape, head, q, v, &mut ws.points);
+        load_moment += loads.moment;
+        load_rate += loads.rate;
+        power += loads.power;
+    }
     if let Some(c) = contacts {
         let (potential, rate) = c.energy(q, v, t, head);
         load_moment -= T::of(potential);
@@ -563,7 +572,7 @@ pub(crate) fn checked_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usi
         max_element_rotation: rotation.as_f64(),
         projection: None,
         contacts_predicted: 0,
-        touching: false,
+        loaded: false,
     })
 }
 
@@ -697,7 +706,7 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
             // and for one that touches
             Some(_)
                 if *ws.field_rule == FieldRule::Split
-                    && (!strand.params.dissipative() || report.touching) =>
+                    && (!strand.params.dissipative() || report.loaded) =>
             {
                 counts.field_undamped += 1
             }
@@ -736,6 +745,23 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         outcome?;
         if !finite {
             return Err(StepError::SingularMatrix);
+        }
+        if deepest
+            && rotation > rotation_limit
+            && contacts.is_none()
+            && !strand.params.loads.is_empty()
+            && max_depth >= MAX_SUBSTEP_DEPTH
+        {
+            // the shortest piece the step splits into still turns an element beyond any
+            // limit a step may take, with nothing pushing the strand out of a body: the
+            // loads accelerate it faster than the steps resolve. Limiting the rotation
+            // would take momentum away silently (the strand would no longer follow
+            // F = ma): the step fails, naming the cause
+            return Err(StepError::UnresolvedMotion {
+                rotation,
+                h,
+                t: interval.t,
+            });
         }
         if deepest && rotation > rotation_limit {
             // the deepest split allowed still rotates an element beyond what an unchecked
@@ -788,7 +814,8 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         let bodies_work = contacts
             .as_deref()
             .is_some_and(|c| c.moves_relative(interval.t, t_end, &interval.start, &interval.end));
-        let inertial = interval.uniform && !bodies_work;
+        // follower loads work without a potential
+        let inertial = interval.uniform && !bodies_work && !any_follows(strand.params.loads);
         let balance = balance(start, &end, inertial);
         let excess = balance.excess;
         // beyond the trusted rotation the energy asks for pieces too; the loss of the

@@ -112,8 +112,8 @@ pub(crate) fn bdf2_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
             vh[i] = a1 * v[i] - a2 * previous.v[i];
         }
     }
-    let (field_stiffness, _) = assemble(source, &strand.params, qt, vt, input, ws, None);
-    let (projection, use_h) = step_matrix(strand, field_stiffness, false, bh, ws, stack);
+    let (field_stiffness, loaded) = assemble(source, &strand.params, qt, vt, input, ws, None);
+    let (projection, use_h) = step_matrix(strand, field_stiffness, loaded, bh, ws, stack);
     let p = &strand.params;
     // D_q (q̂ − q̃), D_q = H⁻ − K
     for i in 0..n {
@@ -155,6 +155,6 @@ pub(crate) fn bdf2_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         max_element_rotation: rotation.as_f64(),
         projection,
         contacts_predicted: 0,
-        touching: false,
+        loaded,
     })
 }

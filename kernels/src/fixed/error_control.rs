@@ -78,6 +78,18 @@ pub struct StepHistory<const D: usize, T: Float = f64> {
     pub next_h: f64,
 }
 
+impl<const D: usize, T: Float> StepHistory<D, T> {
+    /// The history as [`step_to_tolerance_views`] takes it.
+    pub fn view(&mut self) -> HistoryView<'_, T> {
+        HistoryView {
+            q: &mut self.q,
+            v: &mut self.v,
+            h: &mut self.h,
+            next_h: &mut self.next_h,
+        }
+    }
+}
+
 impl<const D: usize, T: Float> Default for StepHistory<D, T> {
     fn default() -> Self {
         StepHistory {
@@ -179,12 +191,7 @@ pub fn step_to_tolerance<
     ws: &mut FixedWorkspace<N, D, E, T>,
     report: &mut ToleranceReport,
 ) -> Result<StepReport, StepError> {
-    let mut history = HistoryView {
-        q: &mut history.q,
-        v: &mut history.v,
-        h: &mut history.h,
-        next_h: &mut history.next_h,
-    };
+    let mut history = history.view();
     let mut source = source;
     step_to_tolerance_views(
         &mut source,
@@ -392,7 +399,9 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
                 false,
                 None,
             );
-            let inertial = head.uniform_over(now, t1);
+            // follower loads work without a potential
+            let inertial =
+                head.uniform_over(now, t1) && !crate::point_load::any_follows(strand.params.loads);
             let balance = balance(&energy, &e, inertial);
             if balance.excess > T::zero() && e.kinetic > T::zero() {
                 let kinetic = balance.limited_kinetic(&e, true).unwrap_or(T::zero());
@@ -446,7 +455,7 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
         max_element_rotation: rotation.as_f64(),
         projection: None,
         contacts_predicted: 0,
-        touching: false,
+        loaded: false,
     })
 }
 

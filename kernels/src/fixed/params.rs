@@ -138,6 +138,7 @@ impl<const N: usize, const D: usize, T: Float> FixedParams<N, D, T> {
             mass_per_length: self.mass_per_length,
             air_drag: self.air_drag,
             rotary_inertia: self.rotary_inertia,
+            loads: &[],
         }
     }
 

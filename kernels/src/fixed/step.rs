@@ -9,6 +9,7 @@ use crate::body_field::BodyField;
 use crate::field_split::{dissipative_split, FieldRule, SplitOutcome};
 use crate::float::Float;
 use crate::head::{body_field, HeadState};
+use crate::point_load;
 use crate::pose::Pose;
 use crate::projection::{
     cholesky, ProjectionBasis, ProjectionOutcome, ProjectionScratch, SpectralProjection,
@@ -42,9 +43,10 @@ pub struct StepReport {
     /// Contacts that started within the step and pushed
     /// ([`crate::contact::predicted`]; 0 without predicted contacts).
     pub contacts_predicted: usize,
-    /// Whether a contact added stiffness to the step's matrix (the dissipative split's
-    /// rule then keeps the spectral projection, [`crate::field_split`]).
-    pub touching: bool,
+    /// Whether a contact or a point load added stiffness to the step's matrix (the
+    /// dissipative split's rule then keeps the spectral projection,
+    /// [`crate::field_split`]).
+    pub loaded: bool,
 }
 
 /// The first non-finite entry of (q, q̇) as a [`StepError::NonFinite`], if any.
@@ -60,7 +62,7 @@ pub(crate) fn non_finite<T: Float>(q: &[T], v: &[T]) -> Option<StepError> {
 }
 
 /// Why a step failed; the strand keeps the state it had before the step.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum StepError {
     /// The step matrix is singular (a zero pivot or a non-finite solution).
     SingularMatrix,
@@ -78,6 +80,19 @@ pub enum StepError {
     Tolerance,
     /// A strand and a workspace of different sizes handed to [`super::step_views`].
     Sizes,
+    /// The shortest piece a checked step splits into (`dt / 2^MAX_SUBSTEP_DEPTH`) still
+    /// turns an element by `rotation` rad, beyond the
+    /// [`crate::energy::MAX_ELEMENT_ROTATION`] a step can follow, under point loads:
+    /// they accelerate the strand faster than the steps resolve, and limiting the step
+    /// would take momentum away.
+    UnresolvedMotion {
+        /// The largest l_Q |Δd_Q| of the piece, rad.
+        rotation: f64,
+        /// The piece's length, s.
+        h: f64,
+        /// Its start, s.
+        t: f64,
+    },
 }
 
 impl core::fmt::Display for StepError {
@@ -91,6 +106,12 @@ impl core::fmt::Display for StepError {
             ),
             StepError::TimeStep => write!(f, "dt: must be finite and > 0"),
             StepError::Sizes => write!(f, "a strand and a step workspace of different sizes"),
+            StepError::UnresolvedMotion { rotation, h, t } => write!(
+                f,
+                "an element turns by {rotation:.2} rad within {h:.3e} s (from t = {t:.6} s), the shortest piece a step splits into ([simulation] dt / 2^{}), beyond the {} rad a step can follow: the loads or the head accelerate the strand faster than the steps resolve, and limiting the step would take momentum away (the strand would no longer follow F = ma); lower [simulation] dt, or the loads",
+                crate::energy::MAX_SUBSTEP_DEPTH,
+                crate::energy::MAX_ELEMENT_ROTATION
+            ),
             StepError::Tolerance => write!(
                 f,
                 "tolerance: must lie in [{:e}, {}] ({:e} in f32)",
@@ -182,7 +203,11 @@ pub fn evaluate<
     .0
 }
 
-/// [`evaluate`] at (q, q̇) without forgetting what `ws` was prepared for.
+/// [`evaluate`] at (q, q̇) without forgetting what `ws` was prepared for, with the
+/// strand's point loads and its contacts (their terms at time t). Returns whether the
+/// stiffness holds terms beyond −K (in the matrix, projected) and whether the strand
+/// touches or carries point loads (the dissipative split's rule then keeps the
+/// projection, [`crate::field_split`]).
 pub(crate) fn assemble<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     p: &ParamsView<'_, T>,
@@ -226,6 +251,27 @@ pub(crate) fn assemble<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         ws.stiffness[i][i] -= p.stiffness[i];
         ws.damping[i][i] -= p.friction[i];
     }
+    // the point loads' force and (unless the field stiffness is explicit) stiffness
+    let loaded = !p.loads.is_empty();
+    if loaded {
+        let shape = p.shape();
+        let WorkView {
+            force,
+            stiffness,
+            points,
+            ..
+        } = &mut *ws;
+        point_load::add_terms(
+            p.loads,
+            source,
+            &shape,
+            &input.head.rotation,
+            q,
+            points,
+            force,
+            (!explicit).then_some(stiffness),
+        );
+    }
     // the contacts' force, stiffness and damping at the step's end (time t)
     let touching = match contacts {
         Some((c, t)) => c.add_terms(
@@ -244,9 +290,9 @@ pub(crate) fn assemble<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     let field_stiffness = if explicit {
         touching
     } else {
-        position_field || touching
+        position_field || touching || loaded
     };
-    (field_stiffness, touching)
+    (field_stiffness, touching || loaded)
 }
 
 /// Advance `strand` by `h` seconds: one linearly implicit Euler step (paper section
@@ -330,7 +376,7 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize
     let h_f64 = h;
     let h = T::of(h);
     let mut contacts = contacts;
-    let (field_stiffness, touching) = assemble(
+    let (field_stiffness, loaded) = assemble(
         source,
         &strand.params,
         strand.q,
@@ -340,7 +386,7 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize
         contacts.as_mut().map(|(c, t)| (&mut **c, *t)),
     );
     let (q_new, stack) = stack.split_at_mut(n);
-    let (projection, _) = step_matrix(strand, field_stiffness, touching, h, ws, stack);
+    let (projection, _) = step_matrix(strand, field_stiffness, loaded, h, ws, stack);
     let p = &strand.params;
     let (q, v) = (&mut *strand.q, &mut *strand.v);
     for i in 0..n {
@@ -386,7 +432,7 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize
         max_element_rotation: rotation.as_f64(),
         projection,
         contacts_predicted,
-        touching,
+        loaded,
     })
 }
 
@@ -433,7 +479,7 @@ pub(crate) fn solve_factored_f64<T: Float>(
 pub(crate) fn step_matrix<T: Float, const NC: usize>(
     strand: &mut StrandView<'_, T>,
     field_stiffness: bool,
-    touching: bool,
+    loaded: bool,
     h: T,
     ws: &mut WorkView<'_, T, NC>,
     stack: &mut [T],
@@ -454,8 +500,8 @@ pub(crate) fn step_matrix<T: Float, const NC: usize>(
         }
         let explicit = *ws.field_rule == FieldRule::Explicit;
         // a strand without internal friction or drag keeps the projection, and so does one
-        // that touches (see crate::field_split)
-        let split = if ws.field_rule.splits(p.dissipative()) && !touching {
+        // that touches or carries point loads (see crate::field_split)
+        let split = if ws.field_rule.splits(p.dissipative()) && !loaded {
             // the metric of the step matrix's diagonal, M_jj/h² + K_j
             let inv_h2 = T::one() / (h * h);
             let metric = &mut stack[..n];

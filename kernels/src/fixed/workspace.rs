@@ -8,7 +8,7 @@ use crate::moments::rotary::RotaryElement;
 use crate::moments::{ElementMoments, EndDerivatives, FrameMotion, SuffixBody};
 use crate::pose::Pose;
 use crate::storage::{ProjectionView, Square, WorkView, STACK_VECTORS};
-use crate::strand_terms::MomentBuffers;
+use crate::strand_terms::{MomentBuffers, PointScratch};
 use nalgebra::{Matrix3, Vector3};
 
 /// Everything a step computes and does not keep: element moments, the assembled terms,
@@ -55,6 +55,10 @@ pub struct FixedWorkspace<const N: usize, const D: usize, const E: usize, T: Flo
     pub(super) stack: [[T; D]; STACK_VECTORS],
     /// The error estimate's two centrelines.
     pub(super) ends: [[Pose<T>; E]; 2],
+    /// The point loads' scratch: J(s), the chain's ends and their derivatives.
+    pub(super) point_jac: [Vector3<T>; D],
+    pub(super) point_ends: [Pose<T>; E],
+    pub(super) point_derivs: [EndDerivatives<T>; N],
 }
 
 /// The projection's scratch and the step's cache of its last input and output.
@@ -147,11 +151,16 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
             loss_estimate: 0.0,
             stack: [[T::zero(); D]; STACK_VECTORS],
             ends: [[Pose::default(); E]; 2],
+            point_jac: [Vector3::zeros(); D],
+            point_ends: [Pose::default(); E],
+            point_derivs: [EndDerivatives::default(); N],
         }
     }
 
-    /// The step's view of this workspace.
-    pub(crate) fn view(&mut self) -> WorkView<'_, T, D> {
+    /// The step's view of this workspace (for [`super::step_views`] and
+    /// [`super::step_to_tolerance_views`], e.g. with a strand's view whose parameters
+    /// carry point loads).
+    pub fn view(&mut self) -> WorkView<'_, T, D> {
         let p = &mut self.projection;
         WorkView {
             assembly: self.assembly.buffers(),
@@ -188,6 +197,11 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
             loss_estimate: &mut self.loss_estimate,
             stack: self.stack.as_flattened_mut(),
             ends: self.ends.as_flattened_mut(),
+            points: PointScratch {
+                jac: &mut self.point_jac,
+                ends: &mut self.point_ends,
+                derivs: &mut self.point_derivs,
+            },
         }
     }
 

@@ -24,7 +24,7 @@ use crate::moments::jacobians::VelocityRow;
 use crate::moments::rotary::RotaryElement;
 use crate::moments::{ElementMoments, EndDerivatives, FrameMotion, SuffixBody};
 use crate::pose::Pose;
-use crate::strand_terms::{MomentBuffers, StepTerms};
+use crate::strand_terms::{MomentBuffers, PointScratch, StepTerms};
 use alloc::vec;
 use alloc::vec::Vec;
 use nalgebra::{Matrix3, Vector3};
@@ -193,6 +193,7 @@ impl<T: Float> HeapParams<T> {
             mass_per_length: self.mass_per_length,
             air_drag: self.air_drag,
             rotary_inertia: self.rotary_inertia,
+            loads: &[],
         }
     }
 }
@@ -236,6 +237,9 @@ pub struct HeapWorkspace<T: Float = f64> {
     loss_estimate: f64,
     stack: Vec<T>,
     end_pairs: Vec<Pose<T>>,
+    point_jac: Vec<Vector3<T>>,
+    point_ends: Vec<Pose<T>>,
+    point_derivs: Vec<EndDerivatives<T>>,
 }
 
 impl<T: Float> Default for HeapWorkspace<T> {
@@ -277,6 +281,9 @@ impl<T: Float> HeapWorkspace<T> {
             loss_estimate: 0.0,
             stack: Vec::new(),
             end_pairs: Vec::new(),
+            point_jac: Vec::new(),
+            point_ends: Vec::new(),
+            point_derivs: Vec::new(),
         }
     }
 
@@ -318,6 +325,9 @@ impl<T: Float> HeapWorkspace<T> {
         self.last_valid = false;
         self.stack = vec![T::zero(); STACK_VECTORS * n];
         self.end_pairs = vec![Pose::default(); 2 * (m + 1)];
+        self.point_jac = vec![Vector3::zeros(); n];
+        self.point_ends = vec![Pose::default(); m + 1];
+        self.point_derivs = vec![EndDerivatives::default(); m];
     }
 
     /// Find the field stiffness's part in the step's matrix by `rule`
@@ -396,6 +406,11 @@ impl<T: Float> HeapWorkspace<T> {
             loss_estimate: &mut self.loss_estimate,
             stack: &mut self.stack,
             ends: &mut self.end_pairs,
+            points: PointScratch {
+                jac: &mut self.point_jac,
+                ends: &mut self.point_ends,
+                derivs: &mut self.point_derivs,
+            },
         }
     }
 }

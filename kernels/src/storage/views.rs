@@ -9,8 +9,9 @@ use super::square::Square;
 use crate::energy::StateEnergy;
 use crate::field_split::FieldRule;
 use crate::float::Float;
+use crate::point_load::PointLoad;
 use crate::pose::Pose;
-use crate::strand_terms::{MomentBuffers, StrandShape};
+use crate::strand_terms::{MomentBuffers, PointScratch, StrandShape};
 use nalgebra::{Matrix3, Vector3};
 
 /// The vectors of n values a step takes from its scratch at most at once (the checked
@@ -52,6 +53,9 @@ pub struct ParamsView<'a, T: Float = f64> {
     pub air_drag: T,
     /// Rotary inertia per unit length (ρ(I1 + I2), ρI1, ρI2), kg·m.
     pub rotary_inertia: [T; 3],
+    /// Point loads ([`crate::point_load`]; the charges' forces of electrostatics among
+    /// them), constant over a step: empty for none.
+    pub loads: &'a [PointLoad],
 }
 
 impl<'a, T: Float> ParamsView<'a, T> {
@@ -168,6 +172,9 @@ pub struct WorkView<'a, T: Float = f64, const NC: usize = 0> {
     pub(crate) stack: &'a mut [T],
     /// 2(N + 1) poses (the error estimate's two centrelines).
     pub(crate) ends: &'a mut [Pose<T>],
+    /// The point loads' scratch: J(s) (3N), the chain's ends (N + 1) and their
+    /// derivatives (N).
+    pub(crate) points: PointScratch<'a, T>,
 }
 
 impl<'a, T: Float, const NC: usize> WorkView<'a, T, NC> {

@@ -5,11 +5,12 @@
 //! costs beyond the kernel's own work is these copies).
 
 use super::kernel::{BodyField, EvalInput, StrandKernel, StrandTerms, Terms};
-use crate::model::reconstruction::Pose;
+use crate::model::reconstruction::{pose_at, Pose};
 use faer::Mat;
 use nalgebra::{Matrix3, Vector3};
+use superhelix_kernels::storage::Square;
 use superhelix_kernels::strand_terms::{
-    MomentBuffers, StepTerms, StrandEnergy, StrandShape, TermMatrix, TermVectors,
+    MomentBuffers, PointScratch, StepTerms, StrandEnergy, StrandShape, TermMatrix, TermVectors,
 };
 
 /// A kernel with the buffers it writes to: the step's terms.
@@ -148,5 +149,43 @@ impl StepTerms<f64> for KernelTerms<'_> {
 
     fn ends(&mut self, _shape: &StrandShape<'_, f64>, q: &[f64], ends: &mut [Pose]) {
         self.kernel.element_ends(q, ends);
+    }
+
+    fn point(
+        &mut self,
+        _shape: &StrandShape<'_, f64>,
+        q: &[f64],
+        s: f64,
+        scratch: &mut PointScratch<'_, f64>,
+        hessian: Option<(Vector3<f64>, &mut Square<'_, f64>)>,
+    ) -> Vector3<f64> {
+        match hessian {
+            None => self.kernel.point(q, s, scratch.jac, None),
+            Some((c, h)) => {
+                // c · ∂²y/∂q² into the kernel's stiffness (free once the step has its
+                // copy), then added to the step's
+                let n = q.len();
+                let m = &mut self.terms.stiffness;
+                m.fill(0.0);
+                let y = self.kernel.point(q, s, scratch.jac, Some((c, m)));
+                for j in 0..n {
+                    let col = &m.col_as_slice(j)[..n];
+                    for (hij, mij) in h[j].iter_mut().zip(col) {
+                        *hij += mij;
+                    }
+                }
+                y
+            }
+        }
+    }
+
+    fn frame(
+        &mut self,
+        _shape: &StrandShape<'_, f64>,
+        q: &[f64],
+        s: f64,
+        _scratch: &mut PointScratch<'_, f64>,
+    ) -> Matrix3<f64> {
+        pose_at(self.kernel.geometry(), q, s).frame
     }
 }

@@ -92,20 +92,9 @@ impl StrandGeometry {
     }
 }
 
-/// A constant force applied at one point of a strand.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PointLoad {
-    /// Arc length of the point, metres, in [0, L].
-    pub s: f64,
-    /// Force, newtons: in world coordinates (rotated into head coordinates each step), or,
-    /// for a follower load, its components along the material frame at s (n0 the tangent,
-    /// n1, n2).
-    pub force: Vector3<f64>,
-    /// A follower load: the force turns with the material frame at s (the terminal
-    /// follower load of figure 3 of Sobottka & Weber 2006). It has no potential: its work
-    /// enters the energy balance as a power, and the static solve refuses it.
-    pub follows: bool,
-}
+/// A constant force applied at one point of a strand (`superhelix_kernels::point_load`:
+/// the one step's terms and energy of it).
+pub use superhelix_kernels::point_load::PointLoad;
 
 /// Everything that defines one strand's mechanics.
 #[derive(Debug, Clone, PartialEq)]

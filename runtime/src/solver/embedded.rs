@@ -14,7 +14,7 @@ use crate::forces::contacts::predicted::PredictedContacts;
 use crate::forces::contacts::strand_contacts::{sample_points, BodyColliders};
 use crate::forces::contacts::ContactConfig;
 use crate::forces::head_motion::HeadState;
-use crate::model::strand::Strand;
+use crate::model::strand::{PointLoad, Strand};
 use rayon::prelude::*;
 use std::sync::Arc;
 use superhelix_generated::ClosedForm;
@@ -58,6 +58,9 @@ pub trait EmbeddedGroup: Send + Sync {
     ) -> Option<(usize, String)>;
     /// What the error-controlled steps of strand `i` did so far (`None`: none taken).
     fn strand_report(&self, i: usize) -> Option<&ToleranceReport>;
+    /// Set strand `i`'s point loads (the scene's and the charges' forces), constant over
+    /// the next steps.
+    fn set_loads(&mut self, i: usize, loads: &[PointLoad]);
     /// q of strand `i`.
     fn q(&self, i: usize) -> &[f64];
     /// q̇ of strand `i`.
@@ -106,6 +109,8 @@ pub trait EmbeddedGroup: Send + Sync {
 /// eigenbasis of B = D/2 columns).
 pub struct Group<const N: usize, const D: usize, const E: usize, const B: usize> {
     strands: Vec<FixedStrand<N, D, B>>,
+    /// Per strand, its point loads (empty: none).
+    loads: Vec<Vec<PointLoad>>,
     /// The bodies the strands touch and, per strand, its contacts' storage (`None`: no
     /// contacts).
     contacts: Option<(Arc<[Body]>, Vec<StrandContactBuffers>)>,
@@ -165,6 +170,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Default for
     fn default() -> Self {
         Group {
             strands: Vec::new(),
+            loads: Vec::new(),
             contacts: None,
             histories: Vec::new(),
             rules: StepRules::default(),
@@ -237,6 +243,7 @@ pub fn heap_strand(s: &Strand) -> superhelix_kernels::storage::heap::HeapStrand 
             mass_per_length: g.mass_per_length,
             air_drag: s.air_drag,
             rotary_inertia: g.rotary_inertia,
+            loads: &[],
         },
     )
 }
@@ -257,6 +264,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         let mut s = FixedStrand::at_rest(params);
         s.q.copy_from_slice(q0);
         self.strands.push(s);
+        self.loads.push(strand.point_loads.clone());
         // (their contact scratch is sized for the strands they had)
         self.workers.clear();
         if let Some(c) = contacts {
@@ -294,9 +302,10 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 .strands
                 .par_chunks_mut(chunk)
                 .zip(buffers.par_chunks_mut(chunk))
+                .zip(self.loads.par_chunks(chunk))
                 .zip(self.workers.par_iter_mut())
                 .enumerate()
-                .map(|(c, ((strands, buffers), worker))| {
+                .map(|(c, (((strands, buffers), loads), worker))| {
                     let ws = &mut worker.ws;
                     let Some((colliders, scratch)) = worker.contacts.as_mut() else {
                         return (
@@ -307,17 +316,24 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                     };
                     let mut first = None;
                     let mut counts = StepCounts::default();
-                    for (k, (s, b)) in strands.iter_mut().zip(buffers.iter_mut()).enumerate() {
+                    for (k, ((s, b), loads)) in strands
+                        .iter_mut()
+                        .zip(buffers.iter_mut())
+                        .zip(loads)
+                        .enumerate()
+                    {
                         let lengths = s.params.lengths;
                         let mut contacts = b.contacts(&s.params, &lengths, colliders, scratch);
-                        let r = fixed::step_with_contacts(
-                            &ClosedForm,
-                            s,
+                        let mut view = s.view();
+                        view.params.loads = loads;
+                        let r = fixed::step_views(
+                            &mut &ClosedForm,
+                            &mut view,
                             head,
                             effects,
                             t,
                             h,
-                            ws,
+                            ws.view(),
                             &mut counts,
                             Some(&mut contacts),
                         );
@@ -331,14 +347,27 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
             (None, None) => self
                 .strands
                 .par_chunks_mut(chunk)
+                .zip(self.loads.par_chunks(chunk))
                 .zip(self.workers.par_iter_mut())
                 .enumerate()
-                .map(|(c, (strands, worker))| {
+                .map(|(c, ((strands, loads), worker))| {
                     let ws = &mut worker.ws;
                     let mut first = None;
                     let mut counts = StepCounts::default();
-                    for (k, s) in strands.iter_mut().enumerate() {
-                        let r = fixed::step(&ClosedForm, s, head, effects, t, h, ws, &mut counts);
+                    for (k, (s, loads)) in strands.iter_mut().zip(loads).enumerate() {
+                        let mut view = s.view();
+                        view.params.loads = loads;
+                        let r = fixed::step_views(
+                            &mut &ClosedForm,
+                            &mut view,
+                            head,
+                            effects,
+                            t,
+                            h,
+                            ws.view(),
+                            &mut counts,
+                            None,
+                        );
                         if let Err(e) = r {
                             first.get_or_insert((c * chunk + k, e.to_string()));
                         }
@@ -352,26 +381,31 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 self.strands
                     .par_chunks_mut(chunk)
                     .zip(self.histories.par_chunks_mut(chunk))
+                    .zip(self.loads.par_chunks(chunk))
                     .zip(self.workers.par_iter_mut())
                     .enumerate()
-                    .map(|(c, ((strands, histories), worker))| {
+                    .map(|(c, (((strands, histories), loads), worker))| {
                         let ws = &mut worker.ws;
                         let mut first = None;
                         let mut total = ToleranceReport::default();
-                        for (k, (s, (history, done))) in
-                            strands.iter_mut().zip(histories.iter_mut()).enumerate()
+                        for (k, ((s, (history, done)), loads)) in strands
+                            .iter_mut()
+                            .zip(histories.iter_mut())
+                            .zip(loads)
+                            .enumerate()
                         {
                             let mut r = ToleranceReport::default();
-                            let outcome = fixed::step_to_tolerance(
-                                &ClosedForm,
-                                s,
-                                history,
+                            let mut view = s.view();
+                            view.params.loads = loads;
+                            let outcome = fixed::step_to_tolerance_views(
+                                &mut &ClosedForm,
+                                &mut view,
+                                &mut history.view(),
                                 head,
                                 effects,
-                                t,
-                                h,
+                                (t, h),
                                 tolerance,
-                                ws,
+                                ws.view(),
                                 &mut r,
                             );
                             done.add(&r);
@@ -391,6 +425,12 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
     }
     fn strand_report(&self, i: usize) -> Option<&ToleranceReport> {
         self.histories.get(i).map(|(_, r)| r)
+    }
+    fn set_loads(&mut self, i: usize, loads: &[PointLoad]) {
+        if let Some(l) = self.loads.get_mut(i) {
+            l.clear();
+            l.extend_from_slice(loads);
+        }
     }
     fn q(&self, i: usize) -> &[f64] {
         &self.strands[i].q

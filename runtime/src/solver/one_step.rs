@@ -31,8 +31,8 @@ thread_local! {
 
 /// Whether the one step takes this strand's steps: the linearly implicit Euler step with
 /// fixed steps, or the error-controlled step (with the energy balance), for a strand
-/// with a clamped root and a free tip, without contacts or point loads (electrostatic
-/// loads are point loads).
+/// with a clamped root and a free tip, without contacts (point loads, and the charges'
+/// forces of electrostatics with them, are the one step's).
 pub fn covers(system: &StrandSystem) -> bool {
     let ctx = &system.context;
     let integrator = match ctx.tolerance {
@@ -47,7 +47,6 @@ pub fn covers(system: &StrandSystem) -> bool {
     integrator
         && system.contacts.is_none()
         && system.held.is_none()
-        && system.strand.point_loads.is_empty()
         && system.strand.ends.root == RootEnd::Clamped
         && !system.strand.geometry.floating
 }
@@ -85,6 +84,7 @@ pub fn step(
         mass_per_length: g.mass_per_length,
         air_drag: strand.air_drag,
         rotary_inertia: g.rotary_inertia,
+        loads: &strand.point_loads,
     };
     let (basis, basis_k, basis_negative) = ws.solver.projection_basis_parts();
     let mut view = StrandView {
