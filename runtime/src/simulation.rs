@@ -47,6 +47,8 @@ struct StrandSim {
 /// and where its state lives (a group of its N, a position in it).
 struct EmbeddedStrands {
     strands: Vec<(Strand, String, usize, usize)>,
+    /// Per strand, how many of its point loads are the scene's (the charges' follow).
+    scene_loads: Vec<usize>,
     groups: Vec<(usize, Box<dyn EmbeddedGroup>)>,
     gravity: Option<nalgebra::Vector3<f64>>,
     head_moves: bool,
@@ -204,12 +206,6 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
             ),
         ));
     }
-    if setup.electrostatics.is_some() {
-        errors.push(FieldError::new(
-            "electrostatics",
-            "the embedded engine has no electrostatics; use engine = \"runtime\"",
-        ));
-    }
     if let Some(c) = &setup.contacts {
         if let Some(h) = &c.hair_hair {
             if h.coupling == crate::forces::contacts::Coupling::Pair {
@@ -343,6 +339,16 @@ fn embedded_strands(
     if !errors.is_empty() {
         return Err(Error::Invalid(errors));
     }
+    let electrostatics = match setup.electrostatics {
+        Some(config) => {
+            let list: Vec<&Strand> = strands.iter().map(|s| &s.0).collect();
+            match Electrostatics::new(config, &list) {
+                Ok(e) => Some(e),
+                Err(e) => return Err(Error::Invalid(vec![FieldError::new("electrostatics", e)])),
+            }
+        }
+        None => None,
+    };
     let head_moves = setup.head != HeadMotion::Still;
     let hair_hair = setup.contacts.as_ref().and_then(hair_hair_of);
     // contact points inside a body at the start are let out slowly; Coulomb anchors
@@ -350,10 +356,12 @@ fn embedded_strands(
     for (_, group) in groups.iter_mut() {
         group.start_contacts(0.0, &head0);
     }
+    let scene_loads = strands.iter().map(|s| s.0.point_loads.len()).collect();
     Ok((
         Simulation {
             embedded: Some(EmbeddedStrands {
                 strands,
+                scene_loads,
                 groups,
                 gravity: setup.environment.gravity,
                 head_moves,
@@ -366,7 +374,7 @@ fn embedded_strands(
             bodies,
             samples_per_element: setup.samples_per_element,
             strands: Vec::new(),
-            electrostatics: None,
+            electrostatics,
             hair_hair,
             time: 0.0,
             steps: 0,
@@ -680,7 +688,19 @@ impl Simulation {
             Err(e) => return Err(e),
         };
         if engine_for(&setup).0 == Engine::Embedded {
-            return embedded_strands(setup, bodies, errors).map(|(sim, ())| sim);
+            let (mut sim, ()) = embedded_strands(setup, bodies, errors)?;
+            if sim.electrostatics.is_some() && sim.config.mode == Mode::Dynamic {
+                // the Coulomb loads of t = 0
+                let head = sim.head.state(0.0);
+                sim.update_electrostatics(&head)
+                    .map_err(|cause| Error::Diverged {
+                        strand: "(electrostatics)".into(),
+                        index: 0,
+                        time: 0.0,
+                        cause,
+                    })?;
+            }
+            return Ok(sim);
         }
         let head_moves = setup.head != HeadMotion::Still;
         let context = StepContext {
@@ -943,11 +963,18 @@ impl Simulation {
         let Some(e) = &mut self.electrostatics else {
             return Ok(FieldSummary::default());
         };
-        let strands: Vec<(&StrandGeometry, &[f64])> = self
-            .strands
-            .iter()
-            .map(|s| (&s.system.strand.geometry, &s.state.q[..]))
-            .collect();
+        let strands: Vec<(&StrandGeometry, &[f64])> = match &self.embedded {
+            Some(em) => em
+                .strands
+                .iter()
+                .map(|(strand, _, g, p)| (&strand.geometry, em.groups[*g].1.q(*p)))
+                .collect(),
+            None => self
+                .strands
+                .iter()
+                .map(|s| (&s.system.strand.geometry, &s.state.q[..]))
+                .collect(),
+        };
         let scalp = e
             .config()
             .scalp
@@ -962,12 +989,29 @@ impl Simulation {
             scalp,
         )?;
         drop(strands);
+        self.apply_charge_loads();
+        Ok(summary)
+    }
+
+    /// Make the Coulomb forces of the last electrostatic update each strand's point loads
+    /// after the scene's own, on either engine.
+    pub(crate) fn apply_charge_loads(&mut self) {
+        let Some(e) = &self.electrostatics else {
+            return;
+        };
+        if let Some(em) = &mut self.embedded {
+            for (i, (strand, _, g, p)) in em.strands.iter_mut().enumerate() {
+                let loads = &mut strand.point_loads;
+                loads.truncate(em.scene_loads[i]);
+                loads.extend(e.loads(i));
+                em.groups[*g].1.set_loads(*p, loads);
+            }
+        }
         for (i, sim) in self.strands.iter_mut().enumerate() {
             let loads = &mut sim.system.strand.point_loads;
             loads.truncate(sim.scene_loads);
             loads.extend(e.loads(i));
         }
-        Ok(summary)
     }
 
     /// Advance every strand by one time step `dt` (in parallel over strands). On failure
@@ -998,6 +1042,20 @@ impl Simulation {
                 self.update_hair_pairs(t, h);
             }
             self.hair_pair_seconds += start.elapsed().as_secs_f64();
+        }
+        // the Coulomb forces, every update_every steps, as point loads (either engine)
+        if let Some(e) = &self.electrostatics {
+            let every = e.config().update_every.max(1);
+            if self.steps % every == 0 && self.steps > 0 {
+                let head = self.head.state(t);
+                self.update_electrostatics(&head)
+                    .map_err(|cause| Error::Diverged {
+                        strand: "(electrostatics)".into(),
+                        index: 0,
+                        time: t,
+                        cause,
+                    })?;
+            }
         }
         if let Some(e) = &mut self.embedded {
             let effects = superhelix_kernels::fixed::Effects {
@@ -1035,19 +1093,6 @@ impl Simulation {
             self.time = t + h;
             self.steps += 1;
             return Ok(());
-        }
-        if let Some(e) = &self.electrostatics {
-            let every = e.config().update_every.max(1);
-            if self.steps % every == 0 && self.steps > 0 {
-                let head = self.head.state(t);
-                self.update_electrostatics(&head)
-                    .map_err(|cause| Error::Diverged {
-                        strand: "(electrostatics)".into(),
-                        index: 0,
-                        time: t,
-                        cause,
-                    })?;
-            }
         }
         let interval = HeadInterval::new(&self.head, t, h);
         // the coupled hair–hair pairs are solved after every strand's step, before the
@@ -1469,6 +1514,15 @@ impl Simulation {
     /// The largest generalized force `‖F(q)‖∞` of each strand at rest (elasticity, gravity
     /// and the current point loads), head at rest.
     fn static_forces(&mut self) -> Vec<f64> {
+        if self.embedded.is_some() {
+            return (0..self.strand_count())
+                .map(|i| {
+                    self.static_force(i)
+                        .iter()
+                        .fold(0.0, |m: f64, f| m.max(f.abs()))
+                })
+                .collect();
+        }
         let rest = Placement::at_rest(0.0);
         let terms = crate::kernels::kernel::Terms {
             force: true,
@@ -1549,11 +1603,7 @@ impl Simulation {
                 if iteration == c.max_iterations {
                     break;
                 }
-                let x: Vec<f64> = self
-                    .strands
-                    .iter()
-                    .flat_map(|s| s.state.q.iter().copied())
-                    .collect();
+                let x = self.all_q();
                 // a strand whose static solve fails under the charge: name what to change
                 report.strands = self.solve_static_strands().map_err(|e| match e {
                     Error::Diverged {
@@ -1573,22 +1623,32 @@ impl Simulation {
                     },
                     other => other,
                 })?;
-                let g: Vec<f64> = self
-                    .strands
-                    .iter()
-                    .flat_map(|s| s.state.q.iter().copied())
-                    .collect();
+                let g = self.all_q();
                 let next = anderson.next(&x, &g);
                 let mut at = 0;
-                for s in &mut self.strands {
-                    let n = s.state.q.len();
-                    s.state.q.copy_from_slice(&next[at..at + n]);
+                for i in 0..self.strand_count() {
+                    let n = self.q(i).len();
+                    let q = &next[at..at + n];
+                    match &mut self.embedded {
+                        Some(_) => {
+                            let v = self.v(i).to_vec();
+                            self.set_state(i, q, &v);
+                        }
+                        None => self.strands[i].state.q.copy_from_slice(q),
+                    }
                     at += n;
                 }
             }
             report.stages.push(stage);
         }
         Ok(report)
+    }
+
+    /// Every strand's q, one after the other.
+    fn all_q(&self) -> Vec<f64> {
+        (0..self.strand_count())
+            .flat_map(|i| self.q(i).iter().copied())
+            .collect()
     }
 
     /// Every strand's equilibrium with its current loads.

@@ -69,6 +69,11 @@ fn embedded_engine_takes_the_runtime_engines_steps() {
     assert_eq!(runtime.stats().substeps, embedded.stats().substeps);
 }
 
+/// `text` with its last strand's root pinned.
+fn pinned(text: &str) -> String {
+    format!("{text}[strands.ends]\nroot = \"pinned\"\n")
+}
+
 /// `text` with its strands charged (`[electrostatics]`).
 fn charged(text: &str) -> String {
     format!("{text}\n[electrostatics]\ncharge_per_length = -1e-9\nmethod = \"direct\"\n")
@@ -141,6 +146,55 @@ fn point_loads_on_the_embedded_engine_are_the_runtime_engines() {
 }
 
 #[test]
+fn charged_strands_on_the_embedded_engine_are_the_runtime_engines_and_resume_exactly() {
+    // the Coulomb forces reach both engines' strands as point loads, refreshed every
+    // step; a run restored from a state saved halfway ends where the whole run does
+    let text = |engine: &str| charged(&loaded(engine, ""));
+    let mut runtime = simulation(&text("runtime")).expect("valid scene");
+    let mut embedded = simulation(&text("auto")).expect("valid scene");
+    assert_eq!(
+        embedded.engine(),
+        superhelix_runtime::config::Engine::Embedded
+    );
+    let mut uncharged = simulation(&loaded("auto", "")).expect("valid scene");
+    let mut saved = None;
+    let (mut worst, mut moved): (f64, f64) = (0.0, 0.0);
+    for k in 0..15 {
+        if k == 7 {
+            saved = Some(embedded.state());
+        }
+        runtime.step().expect("runtime step");
+        embedded.step().expect("embedded step");
+        uncharged.step().expect("uncharged step");
+        for i in 0..2 {
+            let (a, b) = (runtime.q(i), embedded.q(i));
+            let scale = a.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+            for ((x, y), z) in a.iter().zip(b).zip(uncharged.q(i)) {
+                worst = worst.max((x - y).abs() / scale);
+                moved = moved.max((x - z).abs() / scale);
+            }
+        }
+    }
+    eprintln!("charged: engines {worst:.3e} apart, the charges moved q by {moved:.3e}");
+    // as under the scene's loads alone (point_loads_on_the_embedded_engine_are_the_
+    // runtime_engines, 5.5e-13): the same terms to round-off, and the charges' forces
+    // follow the strands' positions, round-off and all (measured 1.1e-12)
+    assert!(worst <= 1e-11, "largest relative |Δq| {worst:.3e}");
+    assert!(moved > 1e-6, "the charges moved q by {moved:.3e}");
+    let mut resumed = simulation(&text("auto")).expect("valid scene");
+    resumed
+        .restore(saved.expect("saved at step 7"))
+        .expect("restore");
+    for _ in 7..15 {
+        resumed.step().expect("resumed step");
+    }
+    for i in 0..2 {
+        assert_eq!(resumed.q(i), embedded.q(i), "strand {i}");
+        assert_eq!(resumed.v(i), embedded.v(i), "strand {i}");
+    }
+}
+
+#[test]
 fn embedded_engine_refuses_what_it_does_not_do() {
     let refused = |text: &str, field: &str| match simulation(text) {
         Err(Error::Invalid(errors)) => assert!(
@@ -159,7 +213,7 @@ fn embedded_engine_refuses_what_it_does_not_do() {
         "simulation.kernels",
     );
     refused(&scene("embedded", "mode = \"static\""), "simulation.engine");
-    refused(&charged(&scene("embedded", "")), "electrostatics");
+    refused(&pinned(&scene("embedded", "")), "strands[1].ends");
     let odd_n = scene("embedded", "").replace("elements = 8", "elements = 7");
     refused(&odd_n, "SUPERHELIX_N=7");
 }
@@ -182,7 +236,7 @@ fn auto_takes_the_embedded_engine_exactly_where_it_can_run_the_scene() {
     for (text, field) in [
         (scene("auto", "integrator = \"bdf2\""), "simulation.engine"),
         (scene("auto", "kernels = \"generic\""), "simulation.kernels"),
-        (charged(&scene("auto", "")), "electrostatics"),
+        (pinned(&scene("auto", "")), "strands[1].ends"),
         (odd_n, "SUPERHELIX_N=7"),
     ] {
         let sim = simulation(&text).expect("valid scene");

@@ -226,13 +226,7 @@ impl Simulation {
             _ => return Err(mismatch("electrostatics in one and not in the other")),
         }
         // the Coulomb loads of the last update, after each strand's own
-        if let Some(e) = &self.electrostatics {
-            for (i, sim) in self.strands.iter_mut().enumerate() {
-                let loads = &mut sim.system.strand.point_loads;
-                loads.truncate(sim.scene_loads);
-                loads.extend(e.loads(i));
-            }
-        }
+        self.apply_charge_loads();
         match (&mut self.hair_hair, state.hair_hair) {
             (Some(h), Some(saved)) => h.restore(saved),
             (None, None) => {}
