@@ -932,12 +932,15 @@ pub fn with_tolerance(cases: Vec<Case>, tolerance: f64) -> Vec<Case> {
 pub fn with_engine(cases: Vec<Case>, engine: Engine) -> Vec<Case> {
     cases
         .into_iter()
-        // the embedded engine holds roots clamped and tips free, without point loads, and
-        // steps with linearly implicit Euler only
+        // the embedded engine holds roots clamped and tips free, and steps with linearly
+        // implicit Euler or BDF2
         .filter(|c| {
             engine != Engine::Embedded
                 || (c.group != "ends"
-                    && c.setup.config.integrator == IntegratorKind::LinearlyImplicitEuler)
+                    && matches!(
+                        c.setup.config.integrator,
+                        IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
+                    ))
         })
         .map(|mut c| {
             c.setup.config.engine = engine;

@@ -46,7 +46,7 @@ pub use adaptive::{
     energy, energy_views, phase_cut, step, step_views, step_with_contacts, Effects,
     ExtrapolatedHead, HeadTrajectory, StepCounts, StillHead, PHASE_CUT_MARGIN,
 };
-pub use bdf2::{bdf2, Bdf2History};
+pub use bdf2::{bdf2, Bdf2History, BDF2_MAX_RATIO};
 pub use contacts::{
     ContactHooks, ContactScalars, ContactStore, FixedContacts, PartnerStore, StepColliders,
     STANDARD_GRAVITY,
@@ -132,6 +132,7 @@ impl<const N: usize, const D: usize, const B: usize, T: Float> FixedStrand<N, D,
             basis_negative: &mut self.basis_negative,
             split_hint: &mut self.split_hint,
             last_energy: &mut self.last_energy,
+            history: None,
         }
     }
 

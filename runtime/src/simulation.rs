@@ -181,12 +181,15 @@ pub struct Simulation {
 fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
     let mut errors = Vec::new();
     let c = &setup.config;
-    if c.integrator != IntegratorKind::LinearlyImplicitEuler {
+    if !matches!(
+        c.integrator,
+        IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
+    ) {
         errors.push(FieldError::new(
             "simulation.engine",
             format!(
-                "the embedded engine steps with linearly-implicit-euler only (integrator = \"{}\"); \
-                 use engine = \"runtime\" for other integrators",
+                "the embedded engine steps with linearly-implicit-euler or bdf2 (integrator = \"{}\"); \
+                 use engine = \"runtime\" for the other integrators",
                 c.integrator.name()
             ),
         ));
@@ -312,6 +315,7 @@ fn embedded_strands(
                         },
                         max_split_depth: setup.config.max_split_depth,
                         energy_balance: setup.config.energy_balance,
+                        bdf2: setup.config.integrator == IntegratorKind::Bdf2,
                     });
                     groups.push((n, group));
                     groups.len() - 1

@@ -195,6 +195,63 @@ fn charged_strands_on_the_embedded_engine_are_the_runtime_engines_and_resume_exa
 }
 
 #[test]
+fn bdf2_on_the_embedded_engine_is_the_runtime_engines_and_resumes_exactly() {
+    // BDF2 with fixed steps on the shaking head (its first steps split: the history is
+    // the last accepted piece's, and BDF2 resumes after a split once), with and without
+    // point loads
+    for text in [
+        scene("", "integrator = \"bdf2\""),
+        loaded("", "integrator = \"bdf2\""),
+    ] {
+        let with = |engine: &str| text.replace("engine = \"\"", &format!("engine = \"{engine}\""));
+        let mut runtime = simulation(&with("runtime")).expect("valid scene");
+        let mut embedded = simulation(&with("auto")).expect("valid scene");
+        assert_eq!(
+            embedded.engine(),
+            superhelix_runtime::config::Engine::Embedded
+        );
+        let mut euler =
+            simulation(&with("auto").replace("integrator = \"bdf2\"", "")).expect("valid scene");
+        let mut saved = None;
+        let (mut worst, mut apart): (f64, f64) = (0.0, 0.0);
+        for k in 0..15 {
+            if k == 6 {
+                saved = Some(embedded.state());
+            }
+            runtime.step().expect("runtime step");
+            embedded.step().expect("embedded step");
+            euler.step().expect("euler step");
+            for i in 0..2 {
+                let (a, b) = (runtime.q(i), embedded.q(i));
+                let scale = a.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+                for ((x, y), z) in a.iter().zip(b).zip(euler.q(i)) {
+                    worst = worst.max((x - y).abs() / scale);
+                    apart = apart.max((x - z).abs() / scale);
+                }
+            }
+        }
+        eprintln!("BDF2: engines {worst:.3e} apart, {apart:.3e} from linearly implicit Euler");
+        // the same steps and splits; the loads' terms to round-off as in
+        // point_loads_on_the_embedded_engine_are_the_runtime_engines
+        assert!(worst <= 1e-12, "largest relative |Δq| {worst:.3e}");
+        assert_eq!(runtime.stats().substeps, embedded.stats().substeps);
+        // BDF2 was taken: not the first-order steps
+        assert!(apart > 1e-3, "{apart:.3e} from linearly implicit Euler");
+        let mut resumed = simulation(&with("auto")).expect("valid scene");
+        resumed
+            .restore(saved.expect("saved at step 6"))
+            .expect("restore");
+        for _ in 6..15 {
+            resumed.step().expect("resumed step");
+        }
+        for i in 0..2 {
+            assert_eq!(resumed.q(i), embedded.q(i), "strand {i}");
+            assert_eq!(resumed.v(i), embedded.v(i), "strand {i}");
+        }
+    }
+}
+
+#[test]
 fn embedded_engine_refuses_what_it_does_not_do() {
     let refused = |text: &str, field: &str| match simulation(text) {
         Err(Error::Invalid(errors)) => assert!(
@@ -205,7 +262,7 @@ fn embedded_engine_refuses_what_it_does_not_do() {
         Ok(_) => panic!("expected {field} to be refused"),
     };
     refused(
-        &scene("embedded", "integrator = \"bdf2\""),
+        &scene("embedded", "integrator = \"newton-implicit-euler\""),
         "simulation.engine",
     );
     refused(
@@ -234,7 +291,10 @@ fn auto_takes_the_embedded_engine_exactly_where_it_can_run_the_scene() {
     // engine_for names it
     let odd_n = scene("auto", "").replace("elements = 8", "elements = 7");
     for (text, field) in [
-        (scene("auto", "integrator = \"bdf2\""), "simulation.engine"),
+        (
+            scene("auto", "integrator = \"newton-implicit-euler\""),
+            "simulation.engine",
+        ),
         (scene("auto", "kernels = \"generic\""), "simulation.kernels"),
         (pinned(&scene("auto", "")), "strands[1].ends"),
         (odd_n, "SUPERHELIX_N=7"),

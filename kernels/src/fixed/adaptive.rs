@@ -18,6 +18,7 @@
 //! Without these checks a strand on a head shaking at 2 Hz by ±30° overflows within a
 //! second at dt = 1/30 and 1/60 s (the demo scene); with them it does not.
 
+use super::bdf2::{bdf2_step, Bdf2History, BDF2_MAX_RATIO};
 use super::contacts::ContactHooks;
 use super::dense::Projection;
 use super::step::{
@@ -543,13 +544,14 @@ pub(crate) fn checked_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usi
     let mut now = t;
     loop {
         let cut = phase_cut(head, now, end);
+        let piece = cut.unwrap_or(end) - now;
         step_piece(
             source,
             strand,
             head,
             effects,
             now,
-            cut.unwrap_or(end) - now,
+            piece,
             ws,
             stack,
             counts,
@@ -598,9 +600,9 @@ fn step_piece<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     let continued = strand
         .last_energy
         .is_some_and(|e| (e.time - t).abs() <= 1e-12 * t.abs().max(1.0));
-    // the step starts as finely as its last step ended; a strand with contacts tries its
-    // whole step first
-    let hint = if contacts.is_some() {
+    // the step starts as finely as its last step ended; a strand with contacts, and
+    // BDF2, try their whole step first
+    let hint = if contacts.is_some() || strand.history.is_some() {
         0
     } else {
         usize::from(*strand.split_hint).min(ws.max_split_depth)
@@ -687,15 +689,50 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         // no contacts predicted for this solve yet
         c.forget();
     }
-    let outcome = solve_step(
-        source,
-        strand,
-        &input,
-        h,
-        ws,
-        stack,
-        contacts.as_deref_mut().map(|c| (c, t_end)),
-    );
+    // BDF2 takes whole steps, not longer than BDF2_MAX_RATIO times the last accepted
+    // piece (to a few ulps: a step's length is end − start, which may differ from twice
+    // its half in the last bit); a step split for rotating too much is taken as linearly
+    // implicit Euler pieces
+    let bdf2 = interval.depth == 0
+        && strand
+            .history
+            .as_ref()
+            .is_some_and(|p| *p.h > 0.0 && h <= BDF2_MAX_RATIO * *p.h * (1.0 + 4.0 * f64::EPSILON));
+    let outcome = if bdf2 {
+        let history = strand.history.take();
+        let outcome = match &history {
+            Some(p) => {
+                let previous = Bdf2History {
+                    q: p.q,
+                    v: p.v,
+                    h: *p.h,
+                };
+                bdf2_step(
+                    source,
+                    strand,
+                    &previous,
+                    &input,
+                    h,
+                    ws,
+                    stack,
+                    contacts.as_deref_mut().map(|c| (c, t_end)),
+                )
+            }
+            None => Err(StepError::TimeStep),
+        };
+        strand.history = history;
+        outcome
+    } else {
+        solve_step(
+            source,
+            strand,
+            &input,
+            h,
+            ws,
+            stack,
+            contacts.as_deref_mut().map(|c| (c, t_end)),
+        )
+    };
     counts.attempts += 1;
     if let Ok(report) = &outcome {
         counts.contacts_predicted += report.contacts_predicted;
@@ -720,8 +757,9 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     } else {
         f64::INFINITY
     };
-    // a strand with contacts keeps the tighter limit (its numerical loss is not checked)
-    let rotation_limit = if contacts.is_some() {
+    // a strand with contacts, and BDF2 (its pieces included), keep the tighter limit
+    // (their numerical loss is not checked)
+    let rotation_limit = if contacts.is_some() || strand.history.is_some() {
         TRUSTED_ELEMENT_ROTATION
     } else {
         MAX_ELEMENT_ROTATION
@@ -790,6 +828,7 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
             .rotation_estimate
             .max(rotation * (1u64 << interval.depth) as f64);
         if !ws.energy_balance {
+            record_history(strand, saved_q, saved_v, h);
             // nothing measured: the end stands as empty as the start
             return Ok(StateEnergy {
                 time: t_end,
@@ -829,6 +868,7 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
             .min(max_depth.saturating_sub(interval.depth));
         if energy_levels == 0 && excess <= T::zero() {
             end.ceiling = end_ceiling(start, &end, inertial);
+            record_history(strand, saved_q, saved_v, h);
             return Ok(end);
         }
         let fraction = if inertial {
@@ -867,11 +907,13 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
                 end.scale_velocities(lambda);
                 counts.energy_limited += 1;
                 end.ceiling = end_ceiling(start, &end, inertial);
+                record_history(strand, saved_q, saved_v, h);
                 return Ok(end);
             }
             if deepest {
                 counts.energy_unbalanced += 1;
                 end.ceiling = end_ceiling(start, &end, inertial);
+                record_history(strand, saved_q, saved_v, h);
                 return Ok(end);
             }
         }
@@ -903,6 +945,16 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     split(
         source, strand, head, effects, interval, start, ws, stack, counts, levels, contacts,
     )
+}
+
+/// After an accepted piece of `h` seconds from (`saved_q`, `saved_v`): that start state
+/// is BDF2's history (when the strand lends one).
+fn record_history<T: Float>(strand: &mut StrandView<'_, T>, saved_q: &[T], saved_v: &[T], h: f64) {
+    if let Some(p) = strand.history.as_mut() {
+        p.q.copy_from_slice(saved_q);
+        p.v.copy_from_slice(saved_v);
+        *p.h = h;
+    }
 }
 
 /// Steps of the bisection of [`pull_back`].

@@ -2,15 +2,24 @@
 //! (`runtime/src/solver/bdf2.rs`) for a strand without contacts or point loads, on the
 //! linearly implicit Euler step's matrix.
 
+use super::contacts::ContactHooks;
 use super::dense::lu_solve_sized;
 use super::step::{
-    assemble, max_element_rotation, non_finite, step_matrix, StepError, StepInput, StepReport,
+    assemble, max_element_rotation, non_finite, solve_factored_f64, step_matrix, StepError,
+    StepInput, StepReport,
 };
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::float::Float;
 use crate::storage::{StrandView, WorkView};
 use crate::strand_terms::{MomentSource, StepTerms};
+
+/// Largest ratio of a BDF2 step to the step before it (the runtime's
+/// `solver::bdf2::BDF2_MAX_RATIO`): variable-step BDF2 is zero-stable only for ratios
+/// below 1 + √2 (Grigorieff 1983; Hairer, Nørsett & Wanner, *Solving ODEs I*, III.5); a
+/// step split once and then resumed has ratio 2. Beyond it a linearly implicit Euler step
+/// restarts the scheme.
+pub const BDF2_MAX_RATIO: f64 = 2.0;
 
 /// The state a BDF2 step continues from besides the strand's: the state one step
 /// earlier and the length of the step between the two.
@@ -72,11 +81,16 @@ pub fn bdf2<
         h,
         &mut ws,
         stack,
+        None,
     )
 }
 
-/// [`bdf2`] on any storage (`stack`: six vectors of n).
-pub(crate) fn bdf2_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
+/// [`bdf2`] on any storage (`stack`: six vectors of n), with contacts: their terms at
+/// the extrapolated state with the colliders placed at the step's end, time `t`
+/// (`contacts = Some((hooks, t))`), and the contacts that start within the step
+/// predicted along the solution and resolved on the step's factors (at the step βh).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn bdf2_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     strand: &mut StrandView<'_, T>,
     previous: &Bdf2History<'_, T>,
@@ -84,6 +98,7 @@ pub(crate) fn bdf2_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     h: f64,
     ws: &mut WorkView<'_, T, NC>,
     stack: &mut [T],
+    contacts: Option<(&mut (dyn ContactHooks<T> + 'c), f64)>,
 ) -> Result<StepReport, StepError> {
     if !(h.is_finite() && h > 0.0 && previous.h.is_finite() && previous.h > 0.0) {
         return Err(StepError::TimeStep);
@@ -112,7 +127,16 @@ pub(crate) fn bdf2_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
             vh[i] = a1 * v[i] - a2 * previous.v[i];
         }
     }
-    let (field_stiffness, loaded) = assemble(source, &strand.params, qt, vt, input, ws, None);
+    let mut contacts = contacts;
+    let (field_stiffness, loaded) = assemble(
+        source,
+        &strand.params,
+        qt,
+        vt,
+        input,
+        ws,
+        contacts.as_mut().map(|(c, t)| (&mut **c, *t)),
+    );
     let (projection, use_h) = step_matrix(strand, field_stiffness, loaded, bh, ws, stack);
     let p = &strand.params;
     // D_q (q̂ − q̃), D_q = H⁻ − K
@@ -145,6 +169,18 @@ pub(crate) fn bdf2_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     for i in 0..n {
         q_new[i] += bh * ws.rhs[i];
     }
+    let mut contacts_predicted = 0;
+    if let Some((c, t)) = contacts {
+        // the contacts that start within the step, predicted along the solution from
+        // the extrapolation and resolved on the step's factors
+        c.predict(qt, q_new, t, &input.head);
+        let (a, pivots, v_new) = (&ws.matrix_a, &*ws.pivots, &mut *ws.rhs);
+        let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, x, stack);
+        let bh = bh.as_f64();
+        contacts_predicted = c
+            .resolve(q_new, v_new, Some((bh, bh)), t, &input.head, &mut solve)
+            .map_err(|_| StepError::SingularMatrix)?;
+    }
     if let Some(e) = non_finite(q_new, ws.rhs) {
         return Err(e);
     }
@@ -154,7 +190,7 @@ pub(crate) fn bdf2_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     Ok(StepReport {
         max_element_rotation: rotation.as_f64(),
         projection,
-        contacts_predicted: 0,
+        contacts_predicted,
         loaded,
     })
 }

@@ -28,7 +28,7 @@
 //! `runtime/tests/fixed_step.rs` compares it with the runtime's error-controlled step.
 
 use super::adaptive::{measure, phase_cut, Effects, HeadTrajectory};
-use super::bdf2::{bdf2_step, Bdf2History};
+use super::bdf2::{bdf2_step, Bdf2History, BDF2_MAX_RATIO};
 use super::step::{max_element_rotation, non_finite, solve_step, StepError, StepInput, StepReport};
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
@@ -49,8 +49,6 @@ const SHRINK: f64 = 0.2;
 const GROW: f64 = 2.0;
 /// Safety factor of the controller.
 const SAFETY: f64 = 0.9;
-/// Largest ratio of a BDF2 step to the one before it.
-const MAX_RATIO: f64 = 2.0;
 /// A step shorter than this, s, is accepted whatever its error.
 pub const MIN_STEP: f64 = 1e-9;
 /// Relative margin of the decisions on the time left in the caller's step.
@@ -312,7 +310,7 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
     let mut now = t;
     while end - now > 1e-12 * end.abs().max(1.0) {
         if *history.h > 0.0 {
-            next = next.min(MAX_RATIO * *history.h);
+            next = next.min(BDF2_MAX_RATIO * *history.h);
         }
         // the steps land on the head's phase changes as on the interval's end
         let target = phase_cut(head, now, end).unwrap_or(end);
@@ -348,7 +346,7 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
                 h: *history.h,
             };
             report.solves += 1;
-            bdf2_step(source, strand, &previous, &input, hh, ws, stack).map(|_| ())
+            bdf2_step(source, strand, &previous, &input, hh, ws, stack, None).map(|_| ())
         } else {
             report.solves += 3;
             let r = start_step(

@@ -150,6 +150,7 @@ impl<T: Float> HeapStrand<T> {
             basis_negative: &mut self.basis_negative,
             split_hint: &mut self.split_hint,
             last_energy: &mut self.last_energy,
+            history: None,
         }
     }
 

@@ -8,6 +8,7 @@
 use super::square::Square;
 use crate::energy::StateEnergy;
 use crate::field_split::FieldRule;
+use crate::fixed::HistoryView;
 use crate::float::Float;
 use crate::point_load::PointLoad;
 use crate::pose::Pose;
@@ -109,6 +110,11 @@ pub struct StrandView<'a, T: Float = f64> {
     pub split_hint: &'a mut u8,
     /// The energy of the state the last checked step ended in.
     pub last_energy: &'a mut Option<StateEnergy<T>>,
+    /// BDF2's history: lent, the checked step takes BDF2 where the history allows (a
+    /// whole step, not longer than [`crate::fixed::BDF2_MAX_RATIO`] times the last
+    /// accepted piece) and linearly implicit Euler pieces elsewhere, each accepted piece
+    /// recorded as the history of the next; `None`, linearly implicit Euler throughout.
+    pub history: Option<HistoryView<'a, T>>,
 }
 
 impl<T: Float> StrandView<'_, T> {

@@ -141,6 +141,10 @@ pub struct StepRules {
     pub max_split_depth: usize,
     /// Whether the step keeps its energy balance.
     pub energy_balance: bool,
+    /// BDF2 with fixed steps (each strand's history kept, and checkpointed, with it);
+    /// else linearly implicit Euler. A tolerance takes the error-controlled step either
+    /// way.
+    pub bdf2: bool,
 }
 
 impl Default for StepRules {
@@ -149,6 +153,7 @@ impl Default for StepRules {
             field_rule: FieldRule::default(),
             max_split_depth: superhelix_kernels::energy::MAX_SUBSTEP_DEPTH,
             energy_balance: true,
+            bdf2: false,
         }
     }
 }
@@ -297,15 +302,29 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
             (first, ca, ra)
         };
         let empty = || (None, StepCounts::default(), ToleranceReport::default());
+        // BDF2 with fixed steps: each strand's history lent with it
+        let bdf2 = tolerance.is_none() && self.rules.bdf2;
+        if bdf2 {
+            self.histories
+                .resize(self.strands.len(), Default::default());
+        }
+        let mut history_chunks: Vec<Option<&mut [(StepHistory<D>, ToleranceReport)]>> = if bdf2 {
+            self.histories.chunks_mut(chunk).map(Some).collect()
+        } else {
+            (0..self.strands.len().div_ceil(chunk))
+                .map(|_| None)
+                .collect()
+        };
         let (failure, total, steps) = match (tolerance, self.contacts.as_mut()) {
             (None, Some((_, buffers))) => self
                 .strands
                 .par_chunks_mut(chunk)
                 .zip(buffers.par_chunks_mut(chunk))
                 .zip(self.loads.par_chunks(chunk))
+                .zip(history_chunks.par_iter_mut())
                 .zip(self.workers.par_iter_mut())
                 .enumerate()
-                .map(|(c, (((strands, buffers), loads), worker))| {
+                .map(|(c, ((((strands, buffers), loads), histories), worker))| {
                     let ws = &mut worker.ws;
                     let Some((colliders, scratch)) = worker.contacts.as_mut() else {
                         return (
@@ -326,6 +345,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                         let mut contacts = b.contacts(&s.params, &lengths, colliders, scratch);
                         let mut view = s.view();
                         view.params.loads = loads;
+                        view.history = histories.as_deref_mut().map(|h| h[k].0.view());
                         let r = fixed::step_views(
                             &mut &ClosedForm,
                             &mut view,
@@ -348,15 +368,17 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 .strands
                 .par_chunks_mut(chunk)
                 .zip(self.loads.par_chunks(chunk))
+                .zip(history_chunks.par_iter_mut())
                 .zip(self.workers.par_iter_mut())
                 .enumerate()
-                .map(|(c, ((strands, loads), worker))| {
+                .map(|(c, (((strands, loads), histories), worker))| {
                     let ws = &mut worker.ws;
                     let mut first = None;
                     let mut counts = StepCounts::default();
                     for (k, (s, loads)) in strands.iter_mut().zip(loads).enumerate() {
                         let mut view = s.view();
                         view.params.loads = loads;
+                        view.history = histories.as_deref_mut().map(|h| h[k].0.view());
                         let r = fixed::step_views(
                             &mut &ClosedForm,
                             &mut view,

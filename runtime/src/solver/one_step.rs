@@ -1,6 +1,6 @@
 //! The runtime engine's strands on the one step of `superhelix-kernels`
 //! (`superhelix_kernels::fixed::step_views`, `step_to_tolerance_views`): the checked
-//! linearly implicit Euler step — the split rule, the energy balance, the pull-back, the
+//! linearly implicit Euler step and BDF2 — the split rule, the energy balance, the pull-back, the
 //! field stiffness's split or projection — and the error-controlled step, written once
 //! for every engine, here on the runtime's own storage (the
 //! strand's q and q̇, its parameters and kept state lent as a `StrandView`, a workspace
@@ -29,14 +29,17 @@ thread_local! {
     static WORKSPACES: RefCell<Vec<HeapWorkspace>> = const { RefCell::new(Vec::new()) };
 }
 
-/// Whether the one step takes this strand's steps: the linearly implicit Euler step with
-/// fixed steps, or the error-controlled step (with the energy balance), for a strand
+/// Whether the one step takes this strand's steps: the linearly implicit Euler step or
+/// BDF2 with fixed steps, or the error-controlled step (with the energy balance), for a strand
 /// with a clamped root and a free tip, without contacts (point loads, and the charges'
 /// forces of electrostatics with them, are the one step's).
 pub fn covers(system: &StrandSystem) -> bool {
     let ctx = &system.context;
     let integrator = match ctx.tolerance {
-        None => ctx.integrator == IntegratorKind::LinearlyImplicitEuler,
+        None => matches!(
+            ctx.integrator,
+            IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
+        ),
         Some(_) => {
             matches!(
                 ctx.integrator,
@@ -96,6 +99,7 @@ pub fn step(
         basis_negative,
         split_hint: &mut split_hint,
         last_energy: &mut ws.last_energy,
+        history: None,
     };
     let effects = Effects {
         gravity: ctx.effects.gravity,
@@ -132,17 +136,23 @@ pub fn step(
         work.set_max_split_depth(ctx.max_split_depth);
         work.set_energy_balance(ctx.energy_balance);
         match ctx.tolerance {
-            None => step_views(
-                &mut source,
-                &mut view,
-                interval.motion,
-                &effects,
-                interval.t,
-                interval.h,
-                work.view(elements),
-                &mut counts,
-                None,
-            ),
+            None => {
+                // BDF2 with fixed steps: its history lent with the strand
+                if ctx.integrator == IntegratorKind::Bdf2 {
+                    view.history = Some(history);
+                }
+                step_views(
+                    &mut source,
+                    &mut view,
+                    interval.motion,
+                    &effects,
+                    interval.t,
+                    interval.h,
+                    work.view(elements),
+                    &mut counts,
+                    None,
+                )
+            }
             Some(tolerance) => step_to_tolerance_views(
                 &mut source,
                 &mut view,
