@@ -142,6 +142,13 @@ fn point_loads_on_the_embedded_engine_are_the_runtime_engines() {
             embedded.stats().substeps,
             "{extra:?}"
         );
+        // every solve has gravity's and the loads' stiffness in its matrix, by the
+        // projection: counted on both engines, the error-controlled step's solves too
+        for sim in [&runtime, &embedded] {
+            let s = sim.stats();
+            assert!(s.attempts > 0, "{extra:?}: {s:?}");
+            assert_eq!(s.field_projected, s.attempts, "{extra:?}: {s:?}");
+        }
     }
 }
 

@@ -736,18 +736,10 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     counts.attempts += 1;
     if let Ok(report) = &outcome {
         counts.contacts_predicted += report.contacts_predicted;
-        match report.projection {
-            Some(Projection::Whole | Projection::Shifted) => counts.field_split += 1,
-            Some(Projection::Unprojected) => {}
-            // the split's rule keeps the projection for a strand that does not dissipate
-            // and for one that touches
-            Some(_)
-                if *ws.field_rule == FieldRule::Split
-                    && (!strand.params.dissipative() || report.loaded) =>
-            {
-                counts.field_undamped += 1
-            }
-            Some(_) => counts.field_projected += 1,
+        match field_counter(report, *ws.field_rule, strand.params.dissipative()) {
+            Some(FieldCounter::Split) => counts.field_split += 1,
+            Some(FieldCounter::Projected) => counts.field_projected += 1,
+            Some(FieldCounter::Undamped) => counts.field_undamped += 1,
             None => {}
         }
     }
@@ -945,6 +937,38 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     split(
         source, strand, head, effects, interval, start, ws, stack, counts, levels, contacts,
     )
+}
+
+/// How a solve's field stiffness went into its matrix, as the counters of
+/// [`StepCounts`] and [`super::ToleranceReport`] take it.
+pub(crate) enum FieldCounter {
+    /// By the dissipative split.
+    Split,
+    /// By the spectral projection.
+    Projected,
+    /// By the projection the split's rule keeps (a strand that does not dissipate,
+    /// touches or carries point loads).
+    Undamped,
+}
+
+/// The counter a solve of `report` adds to under `rule` (`dissipative`: the strand has
+/// internal friction or drag); `None` for a solve without field stiffness or with it
+/// unprojected.
+pub(crate) fn field_counter(
+    report: &StepReport,
+    rule: FieldRule,
+    dissipative: bool,
+) -> Option<FieldCounter> {
+    match report.projection {
+        Some(Projection::Whole | Projection::Shifted) => Some(FieldCounter::Split),
+        Some(Projection::Unprojected) | None => None,
+        // the split's rule keeps the projection for a strand that does not dissipate
+        // and for one that touches or is loaded
+        Some(_) if rule == FieldRule::Split && (!dissipative || report.loaded) => {
+            Some(FieldCounter::Undamped)
+        }
+        Some(_) => Some(FieldCounter::Projected),
+    }
 }
 
 /// After an accepted piece of `h` seconds from (`saved_q`, `saved_v`): that start state

@@ -27,12 +27,13 @@
 //!
 //! `runtime/tests/fixed_step.rs` compares it with the runtime's error-controlled step.
 
-use super::adaptive::{measure, phase_cut, Effects, HeadTrajectory};
+use super::adaptive::{field_counter, measure, phase_cut, Effects, FieldCounter, HeadTrajectory};
 use super::bdf2::{bdf2_step, Bdf2History, BDF2_MAX_RATIO};
 use super::step::{max_element_rotation, non_finite, solve_step, StepError, StepInput, StepReport};
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::energy::{balance, end_ceiling};
+use crate::field_split::FieldRule;
 use crate::float::Float;
 use crate::pose::Pose;
 use crate::storage::{StrandView, WorkView};
@@ -129,9 +130,27 @@ pub struct ToleranceReport {
     pub smallest_step: f64,
     /// The largest accepted step, s.
     pub largest_step: f64,
+    /// Solves whose field stiffness went in by the dissipative split, by the spectral
+    /// projection, and by the projection the split's rule keeps (the checked step's
+    /// `StepCounts::field_split`, `field_projected`, `field_undamped`).
+    pub field_split: usize,
+    /// See [`Self::field_split`].
+    pub field_projected: usize,
+    /// See [`Self::field_split`].
+    pub field_undamped: usize,
 }
 
 impl ToleranceReport {
+    /// Count how a solve's field stiffness went into its matrix.
+    fn count_field(&mut self, report: &StepReport, rule: FieldRule, dissipative: bool) {
+        match field_counter(report, rule, dissipative) {
+            Some(FieldCounter::Split) => self.field_split += 1,
+            Some(FieldCounter::Projected) => self.field_projected += 1,
+            Some(FieldCounter::Undamped) => self.field_undamped += 1,
+            None => {}
+        }
+    }
+
     fn accept(&mut self, error: f64, h: f64) {
         self.steps += 1;
         self.largest_error = self.largest_error.max(error);
@@ -149,6 +168,9 @@ impl ToleranceReport {
         self.rejected += other.rejected;
         self.solves += other.solves;
         self.energy_limited += other.energy_limited;
+        self.field_split += other.field_split;
+        self.field_projected += other.field_projected;
+        self.field_undamped += other.field_undamped;
         self.largest_error = self.largest_error.max(other.largest_error);
         if other.smallest_step > 0.0 {
             self.smallest_step = if self.smallest_step > 0.0 {
@@ -346,7 +368,10 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
                 h: *history.h,
             };
             report.solves += 1;
-            bdf2_step(source, strand, &previous, &input, hh, ws, stack, None).map(|_| ())
+            let rule = *ws.field_rule;
+            let dissipative = strand.params.dissipative();
+            bdf2_step(source, strand, &previous, &input, hh, ws, stack, None)
+                .map(|r| report.count_field(&r, rule, dissipative))
         } else {
             report.solves += 3;
             let r = start_step(
@@ -359,6 +384,7 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
                 ws,
                 (other_q, other_v),
                 stack,
+                report,
             );
             if r.is_err() {
                 other_q.fill(T::zero());
@@ -471,15 +497,18 @@ fn start_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     ws: &mut WorkView<'_, T, NC>,
     (q2, v2): (&mut [T], &mut [T]),
     stack: &mut [T],
+    report: &mut ToleranceReport,
 ) -> Result<(), StepError> {
     let n = strand.dofs();
+    let (rule, dissipative) = (*ws.field_rule, strand.params.dissipative());
     let (q, stack) = stack.split_at_mut(n);
     let (v, stack) = stack.split_at_mut(n);
     let (q1, stack) = stack.split_at_mut(n);
     let (v1, stack) = stack.split_at_mut(n);
     q.copy_from_slice(strand.q);
     v.copy_from_slice(strand.v);
-    solve_step(source, strand, input, h, ws, stack, None)?;
+    let r = solve_step(source, strand, input, h, ws, stack, None)?;
+    report.count_field(&r, rule, dissipative);
     q1.copy_from_slice(strand.q);
     v1.copy_from_slice(strand.v);
     strand.q.copy_from_slice(q);
@@ -489,8 +518,10 @@ fn start_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         gravity: effects.gravity,
         head_moves: effects.head_moves,
     };
-    solve_step(source, strand, &middle, 0.5 * h, ws, stack, None)?;
-    solve_step(source, strand, input, 0.5 * h, ws, stack, None)?;
+    for (at, h) in [(&middle, 0.5 * h), (input, 0.5 * h)] {
+        let r = solve_step(source, strand, at, h, ws, stack, None)?;
+        report.count_field(&r, rule, dissipative);
+    }
     // keep 2 y₂ − y₁; the estimate compares it with y₂, which it differs from by y₂ − y₁
     q2.copy_from_slice(strand.q);
     v2.copy_from_slice(strand.v);

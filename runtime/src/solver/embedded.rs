@@ -436,7 +436,14 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                                 first.get_or_insert((c * chunk + k, e.to_string()));
                             }
                         }
-                        (first, StepCounts::default(), total)
+                        // the solves' field stiffness, counted as the checked step's
+                        let counts = StepCounts {
+                            field_split: total.field_split,
+                            field_projected: total.field_projected,
+                            field_undamped: total.field_undamped,
+                            ..StepCounts::default()
+                        };
+                        (first, counts, total)
                     })
                     .reduce(empty, merge)
             }
@@ -983,6 +990,8 @@ impl ReportState {
             largest_error: self.largest_error,
             smallest_step: self.smallest_step,
             largest_step: self.largest_step,
+            // (the engine's counts keep the solves' field stiffness)
+            ..ToleranceReport::default()
         }
     }
 }

@@ -171,6 +171,9 @@ pub fn step(
     stats.error_rejected += report.rejected;
     stats.attempts += report.solves;
     stats.energy_limited += report.energy_limited;
+    stats.field_split += report.field_split;
+    stats.field_projected += report.field_projected;
+    stats.field_undamped += report.field_undamped;
     ws.split_hint = usize::from(split_hint);
     stats.substeps += counts.substeps;
     stats.attempts += counts.attempts;
