@@ -544,7 +544,15 @@ pub(crate) fn checked_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usi
     let mut now = t;
     loop {
         let cut = phase_cut(head, now, end);
-        let piece = cut.unwrap_or(end) - now;
+        // the caller's step as it is when no phase change cuts it: end − t differs from
+        // it in the last bits, more so the later t is, and a step would otherwise depend
+        // on the clock's origin (a run continued from a state set at t > 0 would not be
+        // the same run begun from it)
+        let piece = match cut {
+            Some(b) => b - now,
+            None if now == t => h,
+            None => end - now,
+        };
         step_piece(
             source,
             strand,
