@@ -111,14 +111,16 @@ preset = "smooth"
 """
 
 # Two strands resting on a sphere on a nodding head, with body and hair-hair contacts and
-# BDF2: the runtime engine (the embedded engine steps by linearly implicit Euler).
-# TOUCHING_EULER: the same scene by linearly implicit Euler, on the embedded engine.
+# BDF2, on the runtime engine (named).
+# TOUCHING_EULER: the same scene by linearly implicit Euler, on the engine `auto` gives it
+# (the embedded one).
 TOUCHING = """
 [simulation]
 dt = 0.03333333333333333
 duration = 0.5
 output_fps = 30
 integrator = "bdf2"
+engine = "runtime"
 
 [environment]
 gravity = [0.0, 0.0, -9.81]
@@ -154,4 +156,6 @@ elements = 6
 preset = "smooth"
 """
 
-TOUCHING_EULER = TOUCHING.replace('"bdf2"', '"linearly-implicit-euler"')
+TOUCHING_EULER = TOUCHING.replace(
+    'integrator = "bdf2"\nengine = "runtime"', 'integrator = "linearly-implicit-euler"'
+)
