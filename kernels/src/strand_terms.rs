@@ -182,35 +182,27 @@ fn source_point<T: Float, S: MomentSource<T> + ?Sized>(
         frame: shape.root_frame,
     };
     let PointScratch { jac, ends, derivs } = scratch;
-    match hessian {
-        Some((c, h)) => {
-            let mut add = |k: usize, l: usize, value: T| h[l][k] += value;
-            strand_point_pose(
-                source,
-                &root,
-                shape.lengths,
-                ends,
-                derivs,
-                None,
-                q,
-                s,
-                jac,
-                Some((c, &mut add)),
-            )
+    let (c, mut h) = match hessian {
+        Some((c, h)) => (Some(c), Some(h)),
+        None => (None, None),
+    };
+    let mut add = |k: usize, l: usize, value: T| {
+        if let Some(h) = h.as_deref_mut() {
+            h[l][k] += value;
         }
-        None => strand_point_pose(
-            source,
-            &root,
-            shape.lengths,
-            ends,
-            derivs,
-            None,
-            q,
-            s,
-            jac,
-            None::<(Vector3<T>, &mut fn(usize, usize, T))>,
-        ),
-    }
+    };
+    strand_point_pose(
+        source,
+        &root,
+        shape.lengths,
+        ends,
+        derivs,
+        None,
+        q,
+        s,
+        jac,
+        c.map(|c| (c, &mut add)),
+    )
 }
 
 impl<T: Float, S: MomentSource<T> + ?Sized> StepTerms<T> for &S {

@@ -695,14 +695,7 @@ impl Simulation {
             let (mut sim, ()) = embedded_strands(setup, bodies, errors)?;
             if sim.electrostatics.is_some() && sim.config.mode == Mode::Dynamic {
                 // the Coulomb loads of t = 0
-                let head = sim.head.state(0.0);
-                sim.update_electrostatics(&head)
-                    .map_err(|cause| Error::Diverged {
-                        strand: "(electrostatics)".into(),
-                        index: 0,
-                        time: 0.0,
-                        cause,
-                    })?;
+                sim.refresh_charges(0.0)?;
             }
             return Ok(sim);
         }
@@ -875,14 +868,7 @@ impl Simulation {
             }
         }
         if sim.electrostatics.is_some() && sim.config.mode == Mode::Dynamic {
-            let head = sim.head.state(0.0);
-            sim.update_electrostatics(&head)
-                .map_err(|cause| Error::Diverged {
-                    strand: "(electrostatics)".into(),
-                    index: 0,
-                    time: 0.0,
-                    cause,
-                })?;
+            sim.refresh_charges(0.0)?;
         }
         if sim.config.mode == Mode::Dynamic {
             // (with the Coulomb loads of t = 0)
@@ -997,6 +983,20 @@ impl Simulation {
         Ok(summary)
     }
 
+    /// [`Self::update_electrostatics`] with the head at time `t`, a failure as the run's
+    /// error at `t`.
+    fn refresh_charges(&mut self, t: f64) -> Result<()> {
+        let head = self.head.state(t);
+        self.update_electrostatics(&head)
+            .map(|_| ())
+            .map_err(|cause| Error::Diverged {
+                strand: "(electrostatics)".into(),
+                index: 0,
+                time: t,
+                cause,
+            })
+    }
+
     /// Make the Coulomb forces of the last electrostatic update each strand's point loads
     /// after the scene's own, on either engine.
     pub(crate) fn apply_charge_loads(&mut self) {
@@ -1051,14 +1051,7 @@ impl Simulation {
         if let Some(e) = &self.electrostatics {
             let every = e.config().update_every.max(1);
             if self.steps % every == 0 && self.steps > 0 {
-                let head = self.head.state(t);
-                self.update_electrostatics(&head)
-                    .map_err(|cause| Error::Diverged {
-                        strand: "(electrostatics)".into(),
-                        index: 0,
-                        time: t,
-                        cause,
-                    })?;
+                self.refresh_charges(t)?;
             }
         }
         if let Some(e) = &mut self.embedded {

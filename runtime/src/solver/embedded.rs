@@ -23,8 +23,9 @@ use superhelix_kernels::contact::predicted::PredictedBuffers;
 use superhelix_kernels::contact::{Anchor, BodySummary, ContactParams};
 use superhelix_kernels::field_split::FieldRule;
 use superhelix_kernels::fixed::{
-    self, ContactScalars, ContactStore, Effects, FixedContacts, FixedParams, FixedStrand,
-    FixedWorkspace, HeadTrajectory, PartnerStore, StepCounts, StepHistory, ToleranceReport,
+    self, ContactHooks, ContactScalars, ContactStore, Effects, FixedContacts, FixedParams,
+    FixedStrand, FixedWorkspace, HeadTrajectory, PartnerStore, StepCounts, StepError, StepHistory,
+    StepReport, ToleranceReport,
 };
 use superhelix_kernels::moments::EndDerivatives;
 use superhelix_kernels::pose::Pose;
@@ -343,17 +344,14 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                     {
                         let lengths = s.params.lengths;
                         let mut contacts = b.contacts(&s.params, &lengths, colliders, scratch);
-                        let mut view = s.view();
-                        view.params.loads = loads;
-                        view.history = histories.as_deref_mut().map(|h| h[k].0.view());
-                        let r = fixed::step_views(
-                            &mut &ClosedForm,
-                            &mut view,
+                        let history = histories.as_deref_mut().map(|h| &mut h[k].0);
+                        let r = step_strand(
+                            s,
+                            (loads, history),
                             head,
                             effects,
-                            t,
-                            h,
-                            ws.view(),
+                            (t, h),
+                            ws,
                             &mut counts,
                             Some(&mut contacts),
                         );
@@ -376,17 +374,14 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                     let mut first = None;
                     let mut counts = StepCounts::default();
                     for (k, (s, loads)) in strands.iter_mut().zip(loads).enumerate() {
-                        let mut view = s.view();
-                        view.params.loads = loads;
-                        view.history = histories.as_deref_mut().map(|h| h[k].0.view());
-                        let r = fixed::step_views(
-                            &mut &ClosedForm,
-                            &mut view,
+                        let history = histories.as_deref_mut().map(|h| &mut h[k].0);
+                        let r = step_strand(
+                            s,
+                            (loads, history),
                             head,
                             effects,
-                            t,
-                            h,
-                            ws.view(),
+                            (t, h),
+                            ws,
                             &mut counts,
                             None,
                         );
@@ -994,6 +989,35 @@ impl ReportState {
             ..ToleranceReport::default()
         }
     }
+}
+
+/// One strand's checked fixed-N step from `t` by `h`, its point loads and (BDF2) its
+/// history lent with it.
+#[allow(clippy::too_many_arguments)]
+fn step_strand<const N: usize, const D: usize, const E: usize, const B: usize>(
+    s: &mut FixedStrand<N, D, B>,
+    (loads, history): (&[PointLoad], Option<&mut StepHistory<D>>),
+    head: &dyn HeadTrajectory,
+    effects: &Effects,
+    (t, h): (f64, f64),
+    ws: &mut FixedWorkspace<N, D, E>,
+    counts: &mut StepCounts,
+    contacts: Option<&mut dyn ContactHooks<f64>>,
+) -> Result<StepReport, StepError> {
+    let mut view = s.view();
+    view.params.loads = loads;
+    view.history = history.map(|h| h.view());
+    fixed::step_views(
+        &mut &ClosedForm,
+        &mut view,
+        head,
+        effects,
+        t,
+        h,
+        ws.view(),
+        counts,
+        contacts,
+    )
 }
 
 /// Makes the empty [`Group`] of the visited size.
