@@ -355,3 +355,53 @@ fn the_generic_kernel_steps_on_the_one_step_as_the_runtime_engine_steps_it() {
     assert!(worst <= 1e-12, "largest relative |Δq| {worst:.3e}");
     assert!(counts.substeps > 0, "{counts:?}");
 }
+
+#[test]
+fn views_of_different_sizes_are_refused_not_stepped() {
+    // a workspace of another N, and a BDF2 history of another length lent with the
+    // strand: both steps on views answer StepError::Sizes and leave the strand as it was
+    let strand = preset_strand(Preset::Wavy, 5, 0.2, Vector3::new(1.0, 0.0, -1.0));
+    let mut heap = heap_strand(&strand);
+    let q0 = heap.q.clone();
+    let head = shaking_head();
+    let effects = Effects {
+        gravity: gravity(),
+        head_moves: true,
+    };
+    let mut ws = HeapWorkspace::new();
+    let mut counts = StepCounts::default();
+    let wrong_n = fixed::step_views(
+        &mut &ClosedForm,
+        &mut heap.view(),
+        &head,
+        &effects,
+        0.0,
+        DT,
+        ws.view(6),
+        &mut counts,
+        None,
+    );
+    assert_eq!(wrong_n.err(), Some(fixed::StepError::Sizes));
+    let (mut q, mut v, mut h, mut next_h) = (vec![0.0; 12], vec![0.0; 12], DT, 0.0);
+    let mut view = heap.view();
+    view.history = Some(fixed::HistoryView {
+        q: &mut q,
+        v: &mut v,
+        h: &mut h,
+        next_h: &mut next_h,
+    });
+    let wrong_history = fixed::step_views(
+        &mut &ClosedForm,
+        &mut view,
+        &head,
+        &effects,
+        0.0,
+        DT,
+        ws.view(5),
+        &mut counts,
+        None,
+    );
+    assert_eq!(wrong_history.err(), Some(fixed::StepError::Sizes));
+    assert_eq!(heap.q, q0);
+    assert_eq!(counts.attempts, 0);
+}

@@ -495,24 +495,37 @@ pub fn step_views<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     counts: &mut StepCounts,
     contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
 ) -> Result<StepReport, StepError> {
-    let n = crate::storage::sized::<NC>(strand.dofs());
-    let sized = ws.force.len() == n
-        && ws.matrix_a.n() == n
-        && ws.stack.len() >= crate::storage::STACK_VECTORS * n
-        && strand.q.len() == n
-        && strand.v.len() == n
-        && strand.params.natural.len() == n
-        && strand.params.stiffness.len() == n
-        && strand.params.friction.len() == n
-        && 3 * strand.params.lengths.len() == n
-        && strand.basis.len() >= n * (n / 2);
-    if !sized {
+    if !views_fit(strand, &ws) {
         return Err(StepError::Sizes);
     }
     let stack = ws.take_stack();
     checked_step(
         source, strand, head, effects, t, h, &mut ws, stack, counts, contacts,
     )
+}
+
+/// Whether a strand's view (its state, parameters, kept basis and any history it lends)
+/// and a workspace's are of one size n, as the steps on views need them.
+pub(crate) fn views_fit<T: Float, const NC: usize>(
+    strand: &StrandView<'_, T>,
+    ws: &WorkView<'_, T, NC>,
+) -> bool {
+    let n = crate::storage::sized::<NC>(strand.dofs());
+    ws.force.len() == n
+        && ws.matrix_a.n() == n
+        && ws.stack.len() >= crate::storage::STACK_VECTORS * n
+        && 2 * (n / 3 + 1) <= ws.ends.len()
+        && strand.q.len() == n
+        && strand.v.len() == n
+        && strand.params.natural.len() == n
+        && strand.params.stiffness.len() == n
+        && strand.params.friction.len() == n
+        && 3 * strand.params.lengths.len() == n
+        && strand.basis.len() >= n * (n / 2)
+        && strand
+            .history
+            .as_ref()
+            .is_none_or(|p| p.q.len() == n && p.v.len() == n)
 }
 
 /// [`step_with_contacts`] on any storage (`stack`: [`crate::storage::STACK_VECTORS`]
@@ -698,48 +711,39 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         c.forget();
     }
     // BDF2 takes whole steps, not longer than BDF2_MAX_RATIO times the last accepted
-    // piece (to a few ulps: a step's length is end − start, which may differ from twice
-    // its half in the last bit); a step split for rotating too much is taken as linearly
-    // implicit Euler pieces
-    let bdf2 = interval.depth == 0
-        && strand
-            .history
-            .as_ref()
-            .is_some_and(|p| *p.h > 0.0 && h <= BDF2_MAX_RATIO * *p.h * (1.0 + 4.0 * f64::EPSILON));
-    let outcome = if bdf2 {
-        let history = strand.history.take();
-        let outcome = match &history {
-            Some(p) => {
-                let previous = Bdf2History {
-                    q: p.q,
-                    v: p.v,
-                    h: *p.h,
-                };
-                bdf2_step(
-                    source,
-                    strand,
-                    &previous,
-                    &input,
-                    h,
-                    ws,
-                    stack,
-                    contacts.as_deref_mut().map(|c| (c, t_end)),
-                )
-            }
-            None => Err(StepError::TimeStep),
-        };
-        strand.history = history;
-        outcome
-    } else {
-        solve_step(
-            source,
-            strand,
-            &input,
-            h,
-            ws,
-            stack,
-            contacts.as_deref_mut().map(|c| (c, t_end)),
-        )
+    // piece; a step split for rotating too much is taken as linearly implicit Euler pieces
+    let outcome = match strand.history.take() {
+        Some(p) if interval.depth == 0 && *p.h > 0.0 && h <= BDF2_MAX_RATIO * *p.h => {
+            let previous = Bdf2History {
+                q: p.q,
+                v: p.v,
+                h: *p.h,
+            };
+            let outcome = bdf2_step(
+                source,
+                strand,
+                &previous,
+                &input,
+                h,
+                ws,
+                stack,
+                contacts.as_deref_mut().map(|c| (c, t_end)),
+            );
+            strand.history = Some(p);
+            outcome
+        }
+        history => {
+            strand.history = history;
+            solve_step(
+                source,
+                strand,
+                &input,
+                h,
+                ws,
+                stack,
+                contacts.as_deref_mut().map(|c| (c, t_end)),
+            )
+        }
     };
     counts.attempts += 1;
     if let Ok(report) = &outcome {

@@ -27,7 +27,9 @@
 //!
 //! `runtime/tests/fixed_step.rs` compares it with the runtime's error-controlled step.
 
-use super::adaptive::{field_counter, measure, phase_cut, Effects, FieldCounter, HeadTrajectory};
+use super::adaptive::{
+    field_counter, measure, phase_cut, views_fit, Effects, FieldCounter, HeadTrajectory,
+};
 use super::bdf2::{bdf2_step, Bdf2History, BDF2_MAX_RATIO};
 use super::step::{max_element_rotation, non_finite, solve_step, StepError, StepInput, StepReport};
 use super::workspace::FixedWorkspace;
@@ -255,12 +257,7 @@ pub fn step_to_tolerance_views<S: StepTerms<T> + ?Sized, T: Float, const NC: usi
     report: &mut ToleranceReport,
 ) -> Result<StepReport, StepError> {
     let n = strand.dofs();
-    if history.q.len() != n
-        || history.v.len() != n
-        || ws.force.len() != n
-        || ws.stack.len() < crate::storage::STACK_VECTORS * n
-        || 2 * (n / 3 + 1) > ws.ends.len()
-    {
+    if history.q.len() != n || history.v.len() != n || !views_fit(strand, &ws) {
         return Err(StepError::Sizes);
     }
     let stack = ws.take_stack();

@@ -35,18 +35,11 @@ thread_local! {
 /// forces of electrostatics with them, are the one step's).
 pub fn covers(system: &StrandSystem) -> bool {
     let ctx = &system.context;
-    let integrator = match ctx.tolerance {
-        None => matches!(
-            ctx.integrator,
-            IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
-        ),
-        Some(_) => {
-            matches!(
-                ctx.integrator,
-                IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
-            ) && ctx.energy_balance
-        }
-    };
+    // (the error-controlled step keeps the energy balance)
+    let integrator = matches!(
+        ctx.integrator,
+        IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
+    ) && (ctx.tolerance.is_none() || ctx.energy_balance);
     integrator
         && system.contacts.is_none()
         && system.held.is_none()
