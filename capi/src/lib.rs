@@ -235,6 +235,8 @@ impl From<StepError> for ShStatus {
             // (only point loads stop a step so, and the batch's strands carry none: not
             // reached; an internal error if it were)
             StepError::UnresolvedMotion { .. } => ShStatus::Panic,
+            // (the batch's strands have free tips: not reached)
+            StepError::Held(_) => ShStatus::Panic,
         }
     }
 }

@@ -36,6 +36,7 @@ pub(crate) mod adaptive;
 mod bdf2;
 mod contacts;
 mod dense;
+mod end_hooks;
 pub(crate) mod error_control;
 pub(crate) mod params;
 mod posed_colliders;
@@ -52,6 +53,7 @@ pub use contacts::{
     STANDARD_GRAVITY,
 };
 pub use dense::{lu_solve, lu_solve_factored, negative_semidefinite_part, Projection};
+pub use end_hooks::{EndHooks, HeldError, REACH_MARGIN};
 pub use error_control::{
     min_tolerance, step_to_tolerance, step_to_tolerance_views, HistoryView, StepHistory,
     ToleranceReport, MAX_TOLERANCE, MIN_STEP, MIN_TOLERANCE,
@@ -133,6 +135,7 @@ impl<const N: usize, const D: usize, const B: usize, T: Float> FixedStrand<N, D,
             split_hint: &mut self.split_hint,
             last_energy: &mut self.last_energy,
             history: None,
+            end: None,
         }
     }
 

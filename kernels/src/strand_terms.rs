@@ -168,6 +168,40 @@ pub struct PointScratch<'a, T: Float = f64> {
     pub derivs: &'a mut [EndDerivatives<T>],
 }
 
+/// A strand's points as a hook of the step sees them ([`crate::fixed::EndHooks`]): the
+/// point y(s) with its Jacobian and the poses at the element ends, from whatever gives
+/// the step its terms. Object safe, so that a hook is not generic over the step's source.
+pub trait StrandPoints<T: Float = f64> {
+    /// The point y(s) at q, head coordinates; J(s) = ∂y(s)/∂q into `jac` (3N columns).
+    fn point(&mut self, q: &[T], s: T, jac: &mut [Vector3<T>]) -> Vector3<T>;
+    /// The poses at the N + 1 element ends at q.
+    fn ends(&mut self, q: &[T], ends: &mut [Pose<T>]);
+}
+
+/// The points of the strand whose terms `source` gives ([`StepTerms::point`],
+/// [`StepTerms::ends`]), at `shape`, with the step's point scratch.
+pub struct PointsOf<'s, 'a, 'b, S: ?Sized, T: Float = f64> {
+    /// What gives the step its terms.
+    pub source: &'s mut S,
+    /// The strand's shape.
+    pub shape: &'s StrandShape<'a, T>,
+    /// The step's point scratch.
+    pub scratch: &'s mut PointScratch<'b, T>,
+}
+
+impl<S: StepTerms<T> + ?Sized, T: Float> StrandPoints<T> for PointsOf<'_, '_, '_, S, T> {
+    fn point(&mut self, q: &[T], s: T, jac: &mut [Vector3<T>]) -> Vector3<T> {
+        let y = self.source.point(self.shape, q, s, self.scratch, None);
+        let n = jac.len().min(self.scratch.jac.len());
+        jac[..n].copy_from_slice(&self.scratch.jac[..n]);
+        y
+    }
+
+    fn ends(&mut self, q: &[T], ends: &mut [Pose<T>]) {
+        self.source.ends(self.shape, q, ends);
+    }
+}
+
 /// [`StepTerms::point`] of a moment source.
 fn source_point<T: Float, S: MomentSource<T> + ?Sized>(
     source: &S,

@@ -15,6 +15,7 @@ use crate::forces::head_motion::HeadMotion;
 use crate::kernels::closed_form::moment_kernel;
 use crate::kernels::generic::{GenericKernel, QuadratureRule};
 use crate::kernels::kernel::{KernelFactory, StrandKernel};
+use crate::kernels::step_terms::KernelPoints;
 use crate::model::reconstruction::pose_at as strand_pose_at;
 use crate::model::reconstruction::{pose_at, sample_centreline};
 use crate::model::strand::{Strand, StrandGeometry};
@@ -794,7 +795,9 @@ impl Simulation {
                     ));
                     continue;
                 }
-                if let Err(e) = held.project(system.kernel.as_mut(), g, &mut q0, 0.0) {
+                if let Err(e) =
+                    held.project(&mut KernelPoints(system.kernel.as_mut()), g, &mut q0, 0.0)
+                {
                     let (p, frame, _) = held.target(0.0);
                     let off = (before.position - p).norm();
                     // the angle between the starting tip frame and the held one
@@ -907,7 +910,7 @@ impl Simulation {
             if let Some(held) = system.held.as_mut() {
                 let solver = &mut system.workspace.solver;
                 let _ = held.start_reaction(
-                    system.kernel.as_mut(),
+                    &mut KernelPoints(system.kernel.as_mut()),
                     &system.strand.geometry,
                     &mut |x| solver.solve_factored_spd(x),
                     &s.state.q,

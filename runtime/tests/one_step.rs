@@ -405,3 +405,107 @@ fn views_of_different_sizes_are_refused_not_stepped() {
     assert_eq!(heap.q, q0);
     assert_eq!(counts.attempts, 0);
 }
+
+#[test]
+fn a_held_tip_is_kept_by_the_checked_step_and_refused_by_bdf2_and_the_tolerance() {
+    // a wavy strand clamped at its root, its tip pinned where it starts, under gravity:
+    // the checked step keeps the tip on its holder (to the projection's 1e-13 L) while
+    // the strand sags; BDF2 and the error-controlled step refuse the held tip and leave
+    // the strand as it was
+    use superhelix_kernels::fixed::{HeldError, StepError, StillHead};
+    use superhelix_runtime::config::HeldEnd;
+    use superhelix_runtime::model::ends::HeldKind;
+    use superhelix_runtime::model::reconstruction::pose_at;
+    use superhelix_runtime::solver::held_end::{HeldHook, HeldTip};
+    let strand = preset_strand(Preset::Wavy, 5, 0.2, Vector3::new(1.0, 0.0, -1.0));
+    let geometry = strand.geometry.clone();
+    let length = geometry.length();
+    let mut heap = heap_strand(&strand);
+    let q0 = heap.q.clone();
+    let holder = pose_at(&geometry, &q0, length).position;
+    let end = HeldEnd {
+        kind: HeldKind::Pinned,
+        position: holder,
+        frame: nalgebra::Matrix3::identity(),
+        axis: Vector3::x(),
+        motion: HeadMotion::Still,
+    };
+    let mut tip = HeldTip::new(end, &geometry, None);
+    let effects = Effects {
+        gravity: gravity(),
+        head_moves: false,
+    };
+    let mut ws = HeapWorkspace::new();
+    let mut counts = StepCounts::default();
+    // BDF2's history lent with the held tip
+    let (mut hq, mut hv, mut h, mut next_h) = (q0.clone(), vec![0.0; 15], DT, 0.0);
+    let mut view = heap.view();
+    let mut hook = HeldHook {
+        tip: &mut tip,
+        geometry: &geometry,
+    };
+    view.end = Some(&mut hook);
+    view.history = Some(fixed::HistoryView {
+        q: &mut hq,
+        v: &mut hv,
+        h: &mut h,
+        next_h: &mut next_h,
+    });
+    let refused = fixed::step_views(
+        &mut &ClosedForm,
+        &mut view,
+        &StillHead,
+        &effects,
+        0.0,
+        DT,
+        ws.view(5),
+        &mut counts,
+        None,
+    );
+    assert_eq!(refused.err(), Some(StepError::Held(HeldError::Unsupported)));
+    let mut history = view.history.take().expect("history");
+    let mut report = fixed::ToleranceReport::default();
+    let refused = fixed::step_to_tolerance_views(
+        &mut &ClosedForm,
+        &mut view,
+        &mut history,
+        &StillHead,
+        &effects,
+        (0.0, DT),
+        1e-3,
+        ws.view(5),
+        &mut report,
+    );
+    assert_eq!(refused.err(), Some(StepError::Held(HeldError::Unsupported)));
+    assert_eq!(view.q, &q0[..]);
+    // the checked step keeps it
+    let mut t = 0.0;
+    let mut sag: f64 = 0.0;
+    for _ in 0..30 {
+        fixed::step_views(
+            &mut &ClosedForm,
+            &mut view,
+            &StillHead,
+            &effects,
+            t,
+            DT,
+            ws.view(5),
+            &mut counts,
+            None,
+        )
+        .expect("step");
+        t += DT;
+        let q = view.q.to_vec();
+        let off = (pose_at(&geometry, &q, length).position - holder).norm() / length;
+        assert!(
+            off <= 1e-12,
+            "the tip is {off:.3e} L off its holder at t = {t:.3}"
+        );
+        let middle = pose_at(&geometry, &q, 0.5 * length).position;
+        let middle0 = pose_at(&geometry, &q0, 0.5 * length).position;
+        sag = sag.max((middle - middle0).norm() / length);
+    }
+    // the holder pulls: a reaction, and the strand moved under gravity
+    assert!(tip.reaction_force().norm() > 0.0);
+    assert!(sag > 1e-3, "the middle moved {sag:.3e} L");
+}

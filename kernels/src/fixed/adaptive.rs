@@ -21,6 +21,7 @@
 use super::bdf2::{bdf2_step, Bdf2History, BDF2_MAX_RATIO};
 use super::contacts::ContactHooks;
 use super::dense::Projection;
+use super::end_hooks::{EndHooks, HeldError};
 use super::step::{
     max_element_rotation, non_finite, solve_factored_f64, solve_step, StepError, StepInput,
     StepReport,
@@ -267,7 +268,7 @@ impl Interval {
 /// `ws` is left prepared for q (a solve from this state follows: it reuses the element
 /// moments, see [`crate::strand_terms::evaluate_energy`]).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn measure<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
+pub(crate) fn measure<'c, 'e, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     p: &ParamsView<'_, T>,
     effects: &Effects,
@@ -278,6 +279,7 @@ pub(crate) fn measure<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     ws: &mut WorkView<'_, T, NC>,
     prepare_terms: bool,
     contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
+    end: Option<&(dyn EndHooks<T> + 'e)>,
 ) -> StateEnergy<T> {
     let n = crate::storage::sized::<NC>(p.dofs());
     let rho_s = p.mass_per_length;
@@ -316,6 +318,10 @@ pub(crate) fn measure<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         load_moment += loads.moment;
         load_rate += loads.rate;
         power += loads.power;
+    }
+    if let Some(end) = end {
+        // a driven holder works through its reaction
+        power += T::of(end.power(t));
     }
     if let Some(c) = contacts {
         let (potential, rate) = c.energy(q, v, t, head);
@@ -383,7 +389,9 @@ pub fn energy_views<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     mut ws: WorkView<'_, T, NC>,
 ) -> StateEnergy<T> {
     ws.forget();
-    let e = measure(source, params, effects, head, t, q, v, &mut ws, false, None);
+    let e = measure(
+        source, params, effects, head, t, q, v, &mut ws, false, None, None,
+    );
     ws.forget();
     e
 }
@@ -546,6 +554,10 @@ pub(crate) fn checked_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usi
     if !(h.is_finite() && h > 0.0 && t.is_finite()) {
         return Err(StepError::TimeStep);
     }
+    if strand.end.is_some() && strand.history.is_some() {
+        // a held tip is kept by linearly implicit Euler steps, not BDF2's
+        return Err(StepError::Held(HeldError::Unsupported));
+    }
     if let Some(c) = contacts.as_deref_mut() {
         if !c.started() {
             c.start(strand.q, t, &head.state(t));
@@ -663,6 +675,7 @@ fn step_piece<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
                 ws,
                 true,
                 contacts.as_deref_mut(),
+                strand.end.as_deref(),
             );
             (e, 0)
         }
@@ -738,7 +751,7 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
                 source,
                 strand,
                 &input,
-                h,
+                (h, t_end),
                 ws,
                 stack,
                 contacts.as_deref_mut().map(|c| (c, t_end)),
@@ -788,17 +801,26 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         if !finite {
             return Err(StepError::SingularMatrix);
         }
-        if deepest
+        let unresolved = deepest
             && rotation > rotation_limit
             && contacts.is_none()
-            && !strand.params.loads.is_empty()
-            && max_depth >= MAX_SUBSTEP_DEPTH
-        {
+            && max_depth >= MAX_SUBSTEP_DEPTH;
+        if unresolved {
             // the shortest piece the step splits into still turns an element beyond any
-            // limit a step may take, with nothing pushing the strand out of a body: the
-            // loads accelerate it faster than the steps resolve. Limiting the rotation
-            // would take momentum away silently (the strand would no longer follow
-            // F = ma): the step fails, naming the cause
+            // limit a step may take, with nothing pushing the strand out of a body: a
+            // holder pulled out of reach is named
+            if let Some(e) = strand
+                .end
+                .as_deref()
+                .and_then(|e| e.beyond_reach(strand.q, t_end))
+            {
+                return Err(StepError::Held(e));
+            }
+        }
+        if unresolved && !strand.params.loads.is_empty() {
+            // the loads accelerate the strand faster than the steps resolve. Limiting
+            // the rotation would take momentum away silently (the strand would no longer
+            // follow F = ma): the step fails, naming the cause
             return Err(StepError::UnresolvedMotion {
                 rotation,
                 h,
@@ -851,14 +873,18 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
             // a later piece of the step starts from this state
             !interval.last,
             contacts.as_deref_mut(),
+            strand.end.as_deref(),
         );
         // contacts with what moves relative to the head do work: the step is then
         // balanced against work
         let bodies_work = contacts
             .as_deref()
             .is_some_and(|c| c.moves_relative(interval.t, t_end, &interval.start, &interval.end));
-        // follower loads work without a potential
-        let inertial = interval.uniform && !bodies_work && !any_follows(strand.params.loads);
+        // follower loads work without a potential, and a driven holder works
+        let inertial = interval.uniform
+            && !bodies_work
+            && !any_follows(strand.params.loads)
+            && !strand.end.as_deref().is_some_and(|e| e.driven());
         let balance = balance(start, &end, inertial);
         let excess = balance.excess;
         // beyond the trusted rotation the energy asks for pieces too; the loss of the
@@ -1036,6 +1062,7 @@ fn pull_back<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
             ws,
             prepare,
             contacts.as_deref_mut(),
+            strand.end.as_deref(),
         );
         let b = balance(start, &end, interval.uniform && to_bound);
         (b.limited_kinetic(&end, to_bound).is_some(), end, b)

@@ -136,6 +136,7 @@ pub(crate) fn bdf2_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>
         input,
         ws,
         contacts.as_mut().map(|(c, t)| (&mut **c, *t)),
+        None,
     );
     let (projection, use_h) = step_matrix(strand, field_stiffness, loaded, bh, ws, stack);
     let p = &strand.params;

@@ -31,6 +31,7 @@ use super::adaptive::{
     field_counter, measure, phase_cut, views_fit, Effects, FieldCounter, HeadTrajectory,
 };
 use super::bdf2::{bdf2_step, Bdf2History, BDF2_MAX_RATIO};
+use super::end_hooks::HeldError;
 use super::step::{max_element_rotation, non_finite, solve_step, StepError, StepInput, StepReport};
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
@@ -260,6 +261,10 @@ pub fn step_to_tolerance_views<S: StepTerms<T> + ?Sized, T: Float, const NC: usi
     if history.q.len() != n || history.v.len() != n || !views_fit(strand, &ws) {
         return Err(StepError::Sizes);
     }
+    if strand.end.is_some() {
+        // a held tip is kept by the checked linearly implicit Euler step only
+        return Err(StepError::Held(HeldError::Unsupported));
+    }
     let stack = ws.take_stack();
     tolerance_step(
         source,
@@ -317,6 +322,7 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
             strand.v,
             ws,
             false,
+            None,
             None,
         ),
     };
@@ -419,6 +425,7 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
                 ws,
                 false,
                 None,
+                None,
             );
             // follower loads work without a potential
             let inertial =
@@ -504,7 +511,7 @@ fn start_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     let (v1, stack) = stack.split_at_mut(n);
     q.copy_from_slice(strand.q);
     v.copy_from_slice(strand.v);
-    let r = solve_step(source, strand, input, h, ws, stack, None)?;
+    let r = solve_step(source, strand, input, (h, t + h), ws, stack, None)?;
     report.count_field(&r, rule, dissipative);
     q1.copy_from_slice(strand.q);
     v1.copy_from_slice(strand.v);
@@ -515,8 +522,8 @@ fn start_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         gravity: effects.gravity,
         head_moves: effects.head_moves,
     };
-    for (at, h) in [(&middle, 0.5 * h), (input, 0.5 * h)] {
-        let r = solve_step(source, strand, at, h, ws, stack, None)?;
+    for (at, h, t_end) in [(&middle, 0.5 * h, t + 0.5 * h), (input, 0.5 * h, t + h)] {
+        let r = solve_step(source, strand, at, (h, t_end), ws, stack, None)?;
         report.count_field(&r, rule, dissipative);
     }
     // keep 2 y₂ − y₁; the estimate compares it with y₂, which it differs from by y₂ − y₁

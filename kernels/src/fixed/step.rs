@@ -3,6 +3,7 @@
 
 use super::contacts::ContactHooks;
 use super::dense::{lu_solve_factored, lu_solve_sized, negative_semidefinite_part, Projection};
+use super::end_hooks::{EndHooks, HeldError};
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::body_field::BodyField;
@@ -15,7 +16,9 @@ use crate::projection::{
     cholesky, ProjectionBasis, ProjectionOutcome, ProjectionScratch, SpectralProjection,
 };
 use crate::storage::{ParamsView, ProjectionView, Square, StrandView, WorkView};
-use crate::strand_terms::{element_ends, MomentSource, StepTerms, TermMatrix, TermVectors, Terms};
+use crate::strand_terms::{
+    element_ends, MomentSource, PointsOf, StepTerms, TermMatrix, TermVectors, Terms,
+};
 use nalgebra::Vector3;
 
 /// What one step of a strand needs besides the strand: the head at the end of the step
@@ -93,12 +96,15 @@ pub enum StepError {
         /// Its start, s.
         t: f64,
     },
+    /// The strand's held tip could not be kept ([`super::EndHooks`]).
+    Held(HeldError),
 }
 
 impl core::fmt::Display for StepError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             StepError::SingularMatrix => write!(f, "singular step matrix"),
+            StepError::Held(e) => write!(f, "{e}"),
             StepError::NonFinite { index, velocity } => write!(
                 f,
                 "non-finite {}[{index}] after the step",
@@ -199,6 +205,7 @@ pub fn evaluate<
         input,
         &mut ws,
         None,
+        None,
     )
     .0
 }
@@ -208,7 +215,7 @@ pub fn evaluate<
 /// stiffness holds terms beyond −K (in the matrix, projected) and whether the strand
 /// touches or carries point loads (the dissipative split's rule then keeps the
 /// projection, [`crate::field_split`]).
-pub(crate) fn assemble<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
+pub(crate) fn assemble<'c, 'e, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     p: &ParamsView<'_, T>,
     q: &[T],
@@ -216,6 +223,7 @@ pub(crate) fn assemble<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     input: &StepInput,
     ws: &mut WorkView<'_, T, NC>,
     contacts: Option<(&mut (dyn ContactHooks<T> + 'c), f64)>,
+    end: Option<&mut (dyn EndHooks<T> + 'e)>,
 ) -> (bool, bool) {
     let n = crate::storage::sized::<NC>(p.dofs());
     let field = body_field(
@@ -272,6 +280,31 @@ pub(crate) fn assemble<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
             (!explicit).then_some(stiffness),
         );
     }
+    // a held tip: the holder's reaction of the last step pulls on the tip as a point
+    // load at s = L would (its stiffness f · ∂²y(L)/∂q²), and a clamped tip's torque
+    // through the turning of its frame; its force is the multipliers'
+    let held = end.is_some();
+    let mut held_stiffness = false;
+    if let (Some(end), false) = (end, explicit) {
+        let shape = p.shape();
+        let f = end.tip_force(&input.head);
+        if f != Vector3::zeros() {
+            source.point(
+                &shape,
+                q,
+                p.length(),
+                &mut ws.points,
+                Some((f, &mut ws.stiffness)),
+            );
+            held_stiffness = true;
+        }
+        let mut points = PointsOf {
+            source: &mut *source,
+            shape: &shape,
+            scratch: &mut ws.points,
+        };
+        held_stiffness |= end.add_stiffness(&mut points, q, &mut ws.stiffness);
+    }
     // the contacts' force, stiffness and damping at the step's end (time t)
     let touching = match contacts {
         Some((c, t)) => c.add_terms(
@@ -290,9 +323,9 @@ pub(crate) fn assemble<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     let field_stiffness = if explicit {
         touching
     } else {
-        position_field || touching || loaded
+        position_field || touching || loaded || held_stiffness
     };
-    (field_stiffness, touching || loaded)
+    (field_stiffness, touching || loaded || held)
 }
 
 /// Advance `strand` by `h` seconds: one linearly implicit Euler step (paper section
@@ -347,11 +380,12 @@ pub fn linearly_implicit_with<
 ) -> Result<StepReport, StepError> {
     let mut ws = ws.view();
     let stack = ws.take_stack();
+    let t_end = contacts.as_ref().map_or(0.0, |(_, t)| *t);
     solve_step(
         &mut &*source,
         &mut strand.view(),
         input,
-        h,
+        (h, t_end),
         &mut ws,
         stack,
         contacts,
@@ -359,12 +393,13 @@ pub fn linearly_implicit_with<
 }
 
 /// The linearly implicit Euler step of [`linearly_implicit_with`] on any storage (`stack`:
-/// at least two vectors of n).
+/// at least two vectors of n), of `h` seconds ending at `t_end` (where a held tip's
+/// holder is, [`StrandView::end`]).
 pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     strand: &mut StrandView<'_, T>,
     input: &StepInput,
-    h: f64,
+    (h, t_end): (f64, f64),
     ws: &mut WorkView<'_, T, NC>,
     stack: &mut [T],
     contacts: Option<(&mut (dyn ContactHooks<T> + 'c), f64)>,
@@ -384,6 +419,7 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize
         input,
         ws,
         contacts.as_mut().map(|(c, t)| (&mut **c, *t)),
+        strand.end.as_deref_mut(),
     );
     let (q_new, stack) = stack.split_at_mut(n);
     let (projection, _) = step_matrix(strand, field_stiffness, loaded, h, ws, stack);
@@ -403,6 +439,19 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize
     if !lu_solve_sized::<T, NC>(&mut ws.matrix_a, ws.rhs, ws.pivots) {
         return Err(StepError::SingularMatrix);
     }
+    if let Some(end) = strand.end.as_deref_mut() {
+        // the held tip's multipliers on the same factors
+        let shape = p.shape();
+        let mut points = PointsOf {
+            source: &mut *source,
+            shape: &shape,
+            scratch: &mut ws.points,
+        };
+        let (a, pivots) = (&ws.matrix_a, &*ws.pivots);
+        let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, x, stack);
+        end.constrain(&mut points, &mut solve, q, ws.rhs, t_end, h_f64)
+            .map_err(StepError::Held)?;
+    }
     q_new.copy_from_slice(q);
     for i in 0..n {
         q_new[i] += h * ws.rhs[i];
@@ -418,6 +467,17 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize
         contacts_predicted = c
             .resolve(q_new, v_new, map, t, &input.head, &mut solve)
             .map_err(|_| StepError::SingularMatrix)?;
+    }
+    if let Some(end) = strand.end.as_deref_mut() {
+        // the drift the linearised constraint leaves, projected out
+        let shape = p.shape();
+        let mut points = PointsOf {
+            source: &mut *source,
+            shape: &shape,
+            scratch: &mut ws.points,
+        };
+        end.project(&mut points, q_new, t_end)
+            .map_err(StepError::Held)?;
     }
     if let Some(i) = q_new.iter().position(|x| !x.is_finite()) {
         return Err(StepError::NonFinite {

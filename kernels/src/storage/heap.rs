@@ -151,6 +151,7 @@ impl<T: Float> HeapStrand<T> {
             split_hint: &mut self.split_hint,
             last_energy: &mut self.last_energy,
             history: None,
+            end: None,
         }
     }
 
@@ -458,7 +459,15 @@ pub fn linearly_implicit<S: StepTerms<T> + ?Sized, T: Float>(
 ) -> Result<StepReport, StepError> {
     let mut ws = ws.view(strand.elements());
     let stack = ws.take_stack();
-    crate::fixed::step::solve_step(source, &mut strand.view(), input, h, &mut ws, stack, None)
+    crate::fixed::step::solve_step(
+        source,
+        &mut strand.view(),
+        input,
+        (h, 0.0),
+        &mut ws,
+        stack,
+        None,
+    )
 }
 
 /// [`crate::fixed::step_to_tolerance`] for a strand of any N, its history in `history`

@@ -8,7 +8,7 @@
 use super::square::Square;
 use crate::energy::StateEnergy;
 use crate::field_split::FieldRule;
-use crate::fixed::HistoryView;
+use crate::fixed::{EndHooks, HistoryView};
 use crate::float::Float;
 use crate::point_load::PointLoad;
 use crate::pose::Pose;
@@ -115,6 +115,9 @@ pub struct StrandView<'a, T: Float = f64> {
     /// accepted piece) and linearly implicit Euler pieces elsewhere, each accepted piece
     /// recorded as the history of the next; `None`, linearly implicit Euler throughout.
     pub history: Option<HistoryView<'a, T>>,
+    /// The strand's held tip: lent, the checked linearly implicit Euler step keeps it
+    /// ([`crate::fixed::EndHooks`]); `None`, a free tip.
+    pub end: Option<&'a mut (dyn EndHooks<T> + 'a)>,
 }
 
 impl<T: Float> StrandView<'_, T> {

@@ -10,7 +10,8 @@ use faer::Mat;
 use nalgebra::{Matrix3, Vector3};
 use superhelix_kernels::storage::Square;
 use superhelix_kernels::strand_terms::{
-    MomentBuffers, PointScratch, StepTerms, StrandEnergy, StrandShape, TermMatrix, TermVectors,
+    MomentBuffers, PointScratch, StepTerms, StrandEnergy, StrandPoints, StrandShape, TermMatrix,
+    TermVectors,
 };
 
 /// A kernel with the buffers it writes to: the step's terms.
@@ -187,5 +188,19 @@ impl StepTerms<f64> for KernelTerms<'_> {
         _scratch: &mut PointScratch<'_, f64>,
     ) -> Matrix3<f64> {
         pose_at(self.kernel.geometry(), q, s).frame
+    }
+}
+
+/// A kernel's points as a hook of the step sees them (a held tip's rows outside the one
+/// step: the static solve, the start's reaction, the pair solve).
+pub struct KernelPoints<'a>(pub &'a mut dyn StrandKernel);
+
+impl StrandPoints<f64> for KernelPoints<'_> {
+    fn point(&mut self, q: &[f64], s: f64, jac: &mut [Vector3<f64>]) -> Vector3<f64> {
+        self.0.point(q, s, jac, None)
+    }
+
+    fn ends(&mut self, q: &[f64], ends: &mut [Pose]) {
+        self.0.element_ends(q, ends);
     }
 }

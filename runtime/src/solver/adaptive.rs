@@ -382,7 +382,7 @@ fn implicit_adaptive(
             if let Some(reach) = system.held.as_ref().and_then(|held| {
                 held.beyond_reach(&system.strand.geometry, &state.q, interval.t + h)
             }) {
-                return Err(reach);
+                return Err(reach.to_string());
             }
             // a free rod, or one under point loads: limiting would break F = ma. A strand
             // held at its root and released from a violent shape (the stress cases'

@@ -20,10 +20,14 @@
 
 use crate::bodies::motion::so3;
 use crate::config::HeldEnd;
-use crate::kernels::kernel::StrandKernel;
+use crate::forces::head_motion::HeadState;
 use crate::model::reconstruction::Pose;
 use crate::model::strand::StrandGeometry;
 use nalgebra::{Matrix3, Matrix6, Rotation3, UnitQuaternion, Vector3, Vector6};
+pub use superhelix_kernels::fixed::REACH_MARGIN;
+use superhelix_kernels::fixed::{EndHooks, HeldError};
+use superhelix_kernels::storage::Square;
+use superhelix_kernels::strand_terms::StrandPoints;
 
 /// The drift a projection leaves, relative to the strand length (positions) or in
 /// radians (frames).
@@ -50,11 +54,6 @@ fn rotation_log(m: &Matrix3<f64>) -> Vector3<f64> {
     }
     v * (2.0 * n.atan2(w) / n)
 }
-
-/// The fraction of a rod's length within which a holder at that distance from the root
-/// counts as out of reach when the tip cannot be kept: the rod is then all but straight
-/// and its constraints all but dependent.
-pub const REACH_MARGIN: f64 = 1e-3;
 
 /// A held tip's constraint on one strand, with its buffers.
 #[derive(Debug, Clone)]
@@ -177,7 +176,7 @@ impl HeldTip {
     /// [`REACH_MARGIN`] of its length from the root or beyond it (from the root to the axis for a sliding
     /// holder), where the rod would be taut or torn (its constraints dependent); `None`
     /// when the holder is within reach.
-    pub fn beyond_reach(&self, geometry: &StrandGeometry, q: &[f64], t: f64) -> Option<String> {
+    pub fn beyond_reach(&self, geometry: &StrandGeometry, q: &[f64], t: f64) -> Option<HeldError> {
         if geometry.floating {
             return None;
         }
@@ -190,11 +189,11 @@ impl HeldTip {
             d.norm()
         };
         let length = geometry.length();
-        (distance >= (1.0 - REACH_MARGIN) * length).then(|| {
-            format!(
-                "the holder of the tip ({}) is {distance:.6} m from the root at t = {t:.4} s, at or beyond the rod's reach (its length, {length:.6} m, less {REACH_MARGIN:e} of it): a rod held taut or pulled beyond its length cannot be stepped; keep the holder within the length",
-                self.end.kind.name()
-            )
+        (distance >= (1.0 - REACH_MARGIN) * length).then_some(HeldError::BeyondReach {
+            kind: self.end.kind.name(),
+            distance,
+            length,
+            t,
         })
     }
 
@@ -202,7 +201,7 @@ impl HeldTip {
     /// `length` (positions) or in radians.
     fn evaluate(
         &mut self,
-        kernel: &mut dyn StrandKernel,
+        points: &mut dyn StrandPoints,
         geometry: &StrandGeometry,
         q: &[f64],
         t: f64,
@@ -210,7 +209,7 @@ impl HeldTip {
         let n = q.len();
         let length = geometry.length();
         let (p, frame, axis) = self.target(t);
-        let y = kernel.point(q, length, &mut self.jac, None);
+        let y = points.point(q, length, &mut self.jac);
         let d = y - p;
         let across = |a: &Vector3<f64>| {
             let b1 = crate::model::ends::perpendicular(a);
@@ -235,7 +234,7 @@ impl HeldTip {
         let p = self.end.kind.position_rows();
         let mut worst = (0..p).map(|r| self.residual[r].abs()).fold(0.0, f64::max) / length;
         if self.end.kind.holds_frame() {
-            kernel.element_ends(q, &mut self.ends);
+            points.ends(q, &mut self.ends);
             let tip = self.ends[geometry.elements()].frame;
             let phi = rotation_log(&(tip * frame.transpose()));
             for r in 0..3 {
@@ -261,13 +260,13 @@ impl HeldTip {
     #[cfg(test)]
     fn torque_force(
         &mut self,
-        kernel: &mut dyn StrandKernel,
+        points: &mut dyn StrandPoints,
         geometry: &StrandGeometry,
         q: &[f64],
         torque: &Vector3<f64>,
         out: &mut [f64],
     ) {
-        kernel.element_ends(q, &mut self.ends);
+        points.ends(q, &mut self.ends);
         for (e, &l) in geometry.lengths.iter().enumerate() {
             let dq = Vector3::new(q[3 * e], q[3 * e + 1], q[3 * e + 2]);
             let cols = self.ends[e + 1].frame * so3::right_jacobian(&(dq * l)) * l;
@@ -289,16 +288,16 @@ impl HeldTip {
     /// O(N²) 3 × 3 blocks from one chain of element frames.
     pub fn add_torque_stiffness(
         &mut self,
-        kernel: &mut dyn StrandKernel,
+        points: &mut dyn StrandPoints,
         geometry: &StrandGeometry,
         q: &[f64],
-        stiffness: &mut faer::Mat<f64>,
+        stiffness: &mut impl FnMut(usize, usize, f64),
     ) {
         let torque = Vector3::new(self.reaction[3], self.reaction[4], self.reaction[5]);
         if !self.end.kind.holds_frame() || torque == Vector3::zeros() {
             return;
         }
-        kernel.element_ends(q, &mut self.ends);
+        points.ends(q, &mut self.ends);
         let elements = geometry.elements();
         let tx = so3::hat(&torque);
         for e in 0..elements {
@@ -310,7 +309,7 @@ impl HeldTip {
         let mut add = |row: usize, col: usize, block: &Matrix3<f64>| {
             for a in 0..3 {
                 for b in 0..3 {
-                    stiffness[(3 * row + a, 3 * col + b)] += block[(a, b)];
+                    stiffness(3 * row + a, 3 * col + b, block[(a, b)]);
                 }
             }
         };
@@ -371,12 +370,12 @@ impl HeldTip {
     /// [`DRIFT_LIMIT`].
     pub fn project(
         &mut self,
-        kernel: &mut dyn StrandKernel,
+        points: &mut dyn StrandPoints,
         geometry: &StrandGeometry,
         q: &mut [f64],
         t: f64,
-    ) -> Result<f64, String> {
-        let mut worst = self.evaluate(kernel, geometry, q, t);
+    ) -> Result<f64, HeldError> {
+        let mut worst = self.evaluate(points, geometry, q, t);
         for _ in 0..PROJECTION_ITERATIONS {
             if worst <= PROJECTION_TOLERANCE {
                 break;
@@ -390,16 +389,16 @@ impl HeldTip {
                     *qk -= w * mu[r];
                 }
             }
-            worst = self.evaluate(kernel, geometry, q, t);
+            worst = self.evaluate(points, geometry, q, t);
         }
         if worst.is_nan() || worst > DRIFT_LIMIT {
             if let Some(cause) = self.beyond_reach(geometry, q, t) {
                 return Err(cause);
             }
-            return Err(format!(
-                "the held tip ({}) could not be kept: {worst:.3e} off after projection",
-                self.end.kind.name()
-            ));
+            return Err(HeldError::NotKept {
+                kind: self.end.kind.name(),
+                off: worst,
+            });
         }
         self.drift = self.drift.max(worst);
         Ok(worst)
@@ -411,25 +410,24 @@ impl HeldTip {
     /// the holder at the step's end, and records the reaction `−λ/h`.
     pub fn constrain_velocities(
         &mut self,
-        kernel: &mut dyn StrandKernel,
+        points: &mut dyn StrandPoints,
         geometry: &StrandGeometry,
         solve: &mut impl FnMut(&mut [f64]) -> bool,
         q: &[f64],
         v: &mut [f64],
         t_end: f64,
         h: f64,
-    ) -> Result<(), String> {
-        self.prepare_change(kernel, geometry, solve, q, t_end)
-            .ok_or("held tip: singular step matrix")?;
+    ) -> Result<(), HeldError> {
+        self.prepare_change(points, geometry, solve, q, t_end)
+            .ok_or(HeldError::SingularStep)?;
         let mut x = Vector6::zeros();
         for r in 0..self.rows {
             let gv: f64 = self.g_jac[r].iter().zip(v.iter()).map(|(g, v)| g * v).sum();
             x[r] = gv + self.residual[r] / h;
         }
         let lambda = self.solve_rows(&x).ok_or_else(|| {
-            self.beyond_reach(geometry, q, t_end).unwrap_or_else(|| {
-                "held tip: the constraints are dependent (singular G A⁻¹ Gᵀ)".into()
-            })
+            self.beyond_reach(geometry, q, t_end)
+                .unwrap_or(HeldError::Dependent)
         })?;
         for r in 0..self.rows {
             for (vk, w) in v.iter_mut().zip(&self.w[r]) {
@@ -446,14 +444,14 @@ impl HeldTip {
     /// `solve` solves with M (its factors), `force` is F at (q, 0).
     pub fn start_reaction(
         &mut self,
-        kernel: &mut dyn StrandKernel,
+        points: &mut dyn StrandPoints,
         geometry: &StrandGeometry,
         solve: &mut impl FnMut(&mut [f64]) -> bool,
         q: &[f64],
         force: &[f64],
         t: f64,
     ) -> Result<(), String> {
-        self.prepare_change(kernel, geometry, solve, q, t)
+        self.prepare_change(points, geometry, solve, q, t)
             .ok_or("held tip: singular mass matrix")?;
         let mut accel = force.to_vec();
         if !solve(&mut accel) {
@@ -481,13 +479,13 @@ impl HeldTip {
     /// [`super::pair_coupling`]).
     pub(crate) fn prepare_change(
         &mut self,
-        kernel: &mut dyn StrandKernel,
+        points: &mut dyn StrandPoints,
         geometry: &StrandGeometry,
         solve: &mut impl FnMut(&mut [f64]) -> bool,
         q: &[f64],
         t: f64,
     ) -> Option<()> {
-        self.evaluate(kernel, geometry, q, t);
+        self.evaluate(points, geometry, q, t);
         for r in 0..self.rows {
             self.w[r].copy_from_slice(&self.g_jac[r]);
             if !solve(&mut self.w[r]) {
@@ -554,13 +552,13 @@ impl HeldTip {
     /// reaction recorded. Returns the largest |g|.
     pub fn balance_static(
         &mut self,
-        kernel: &mut dyn StrandKernel,
+        points: &mut dyn StrandPoints,
         geometry: &StrandGeometry,
         q: &[f64],
         force: &mut [f64],
         t: f64,
     ) -> Option<f64> {
-        let worst = self.evaluate(kernel, geometry, q, t);
+        let worst = self.evaluate(points, geometry, q, t);
         self.metric_columns();
         let mut x = Vector6::zeros();
         for r in 0..self.rows {
@@ -653,6 +651,74 @@ impl HeldTip {
     }
 }
 
+/// A held tip as the one step's hook ([`EndHooks`]): the tip and the geometry of its
+/// strand (the root its reach is measured from).
+#[derive(Debug)]
+pub struct HeldHook<'a> {
+    /// The tip's constraint.
+    pub tip: &'a mut HeldTip,
+    /// Its strand's geometry.
+    pub geometry: &'a StrandGeometry,
+}
+
+impl EndHooks<f64> for HeldHook<'_> {
+    fn tip_force(&self, head: &HeadState) -> Vector3<f64> {
+        head.rotation.transpose() * self.tip.reaction_force()
+    }
+
+    fn add_stiffness(
+        &mut self,
+        points: &mut dyn StrandPoints,
+        q: &[f64],
+        stiffness: &mut Square<'_, f64>,
+    ) -> bool {
+        // a clamped tip's torque, through the turning of the tip's frame (the head is
+        // still under a held tip: head and world coordinates agree)
+        let tip = &mut *self.tip;
+        if !(tip.end.kind.holds_frame() && tip.reaction.fixed_rows::<3>(3).norm() > 0.0) {
+            return false;
+        }
+        tip.add_torque_stiffness(points, self.geometry, q, &mut |i, j, x| {
+            stiffness[j][i] += x
+        });
+        true
+    }
+
+    fn constrain(
+        &mut self,
+        points: &mut dyn StrandPoints,
+        solve: &mut dyn FnMut(&mut [f64]) -> bool,
+        q: &[f64],
+        v: &mut [f64],
+        t_end: f64,
+        h: f64,
+    ) -> Result<(), HeldError> {
+        self.tip
+            .constrain_velocities(points, self.geometry, &mut |x| solve(x), q, v, t_end, h)
+    }
+
+    fn project(
+        &mut self,
+        points: &mut dyn StrandPoints,
+        q: &mut [f64],
+        t: f64,
+    ) -> Result<(), HeldError> {
+        self.tip.project(points, self.geometry, q, t).map(|_| ())
+    }
+
+    fn beyond_reach(&self, q: &[f64], t: f64) -> Option<HeldError> {
+        self.tip.beyond_reach(self.geometry, q, t)
+    }
+
+    fn power(&self, t: f64) -> f64 {
+        self.tip.holder_power(t)
+    }
+
+    fn driven(&self) -> bool {
+        self.tip.is_driven()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -696,7 +762,10 @@ mod tests {
         tip.reaction = Vector6::new(0.0, 0.0, 0.0, 2e-6, -1e-6, 3e-6);
         let torque = Vector3::new(2e-6, -1e-6, 3e-6);
         let mut analytic = faer::Mat::<f64>::zeros(n, n);
-        tip.add_torque_stiffness(kernel.as_mut(), &geometry, &q, &mut analytic);
+        let mut points = crate::kernels::step_terms::KernelPoints(kernel.as_mut());
+        tip.add_torque_stiffness(&mut points, &geometry, &q, &mut |i, j, x| {
+            analytic[(i, j)] += x
+        });
         // central differences, a rotation of 1e-6 rad per element
         let mut x = q.clone();
         let (mut plus, mut minus) = (vec![0.0; n], vec![0.0; n]);
@@ -706,9 +775,9 @@ mod tests {
         for j in 0..n {
             let h = 1e-6 / geometry.lengths[j / 3];
             x[j] = q[j] + h;
-            tip.torque_force(kernel.as_mut(), &geometry, &x, &torque, &mut plus);
+            tip.torque_force(&mut points, &geometry, &x, &torque, &mut plus);
             x[j] = q[j] - h;
-            tip.torque_force(kernel.as_mut(), &geometry, &x, &torque, &mut minus);
+            tip.torque_force(&mut points, &geometry, &x, &torque, &mut minus);
             x[j] = q[j];
             for i in 0..n {
                 fd[i][j] = (plus[i] - minus[i]) / (2.0 * h);

@@ -5,6 +5,7 @@ use super::predicted_contacts::resolve;
 use super::stats::StepStats;
 use super::system::{HeadInterval, StrandState, StrandSystem};
 use crate::kernels::kernel::Terms;
+use crate::kernels::step_terms::KernelPoints;
 
 /// One Newton step of backward Euler (design page "Time stepping"), with the velocity
 /// term taken semi-implicitly:
@@ -69,14 +70,15 @@ pub fn linearly_implicit_euler(
         // the held tip's multipliers on the same factors
         let solver = &mut system.workspace.solver;
         held.constrain_velocities(
-            system.kernel.as_mut(),
+            &mut KernelPoints(system.kernel.as_mut()),
             &system.strand.geometry,
             &mut |x| solver.solve_factored(x),
             q,
             v,
             t_end,
             h,
-        )?;
+        )
+        .map_err(|e| e.to_string())?;
     }
     let has_contacts = system.contacts.is_some();
     if has_contacts {
@@ -102,7 +104,13 @@ pub fn linearly_implicit_euler(
     }
     if let Some(held) = system.held.as_mut() {
         // the drift the linearised constraint leaves, projected out
-        held.project(system.kernel.as_mut(), &system.strand.geometry, q, t_end)?;
+        held.project(
+            &mut KernelPoints(system.kernel.as_mut()),
+            &system.strand.geometry,
+            q,
+            t_end,
+        )
+        .map_err(|e| e.to_string())?;
     }
     Ok(())
 }

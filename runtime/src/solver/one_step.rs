@@ -10,6 +10,7 @@
 //! (`super::adaptive`) until the one step takes what they need (docs/architecture.md,
 //! "The one step and its colliders").
 
+use super::held_end::HeldHook;
 use super::stats::StepStats;
 use super::system::{HeadInterval, StrandState, StrandSystem};
 use crate::config::IntegratorKind;
@@ -31,8 +32,9 @@ thread_local! {
 
 /// Whether the one step takes this strand's steps: the linearly implicit Euler step or
 /// BDF2 with fixed steps, or the error-controlled step (with the energy balance), for a strand
-/// with a clamped root and a free tip, without contacts (point loads, and the charges'
-/// forces of electrostatics with them, are the one step's).
+/// with a clamped root, without contacts (point loads, and the charges' forces of
+/// electrostatics with them, are the one step's, and so is a held tip, through
+/// [`HeldHook`]: the scene allows it the linearly implicit Euler step with fixed steps).
 pub fn covers(system: &StrandSystem) -> bool {
     let ctx = &system.context;
     // (the error-controlled step keeps the energy balance)
@@ -42,7 +44,6 @@ pub fn covers(system: &StrandSystem) -> bool {
     ) && (ctx.tolerance.is_none() || ctx.energy_balance);
     integrator
         && system.contacts.is_none()
-        && system.held.is_none()
         && system.strand.ends.root == RootEnd::Clamped
         && !system.strand.geometry.floating
 }
@@ -60,6 +61,7 @@ pub fn step(
         kernel,
         workspace: ws,
         context: ctx,
+        held,
         ..
     } = system;
     let n = state.q.len();
@@ -93,7 +95,16 @@ pub fn step(
         split_hint: &mut split_hint,
         last_energy: &mut ws.last_energy,
         history: None,
+        end: None,
     };
+    // a held tip: the one step's hook on the runtime's constraint
+    let mut held = held.as_mut().map(|tip| HeldHook {
+        tip,
+        geometry: &strand.geometry,
+    });
+    if let Some(hook) = held.as_mut() {
+        view.end = Some(hook);
+    }
     let effects = Effects {
         gravity: ctx.effects.gravity,
         head_moves: ctx.effects.head_moves,

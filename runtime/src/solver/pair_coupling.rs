@@ -48,6 +48,7 @@ use super::stats::StepStats;
 use super::system::StrandSystem;
 use crate::bodies::Placement;
 use crate::kernels::kernel::Terms;
+use crate::kernels::step_terms::KernelPoints;
 use nalgebra::{Matrix3, Matrix6x3, Vector3, Vector6};
 
 /// Most Gauss–Seidel sweeps over the pairs of a step. The forces are equal and opposite
@@ -393,7 +394,7 @@ pub fn strand_responses(
     if let Some(held) = held.as_mut() {
         let solver = &mut ws.solver;
         held.prepare_change(
-            kernel.as_mut(),
+            &mut KernelPoints(kernel.as_mut()),
             &strand.geometry,
             &mut |x| solver.solve_factored(x),
             q,
@@ -649,7 +650,13 @@ pub fn apply(
             lambda += l * (f * sides.sigma);
         }
         held.add_impulse(&lambda, sides.sigma, t_end);
-        held.project(system.kernel.as_mut(), &system.strand.geometry, q, t_end)?;
+        held.project(
+            &mut KernelPoints(system.kernel.as_mut()),
+            &system.strand.geometry,
+            q,
+            t_end,
+        )
+        .map_err(|e| e.to_string())?;
     }
     Ok(())
 }

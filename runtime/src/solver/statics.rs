@@ -4,6 +4,7 @@
 use super::system::StrandSystem;
 use crate::bodies::Placement;
 use crate::kernels::kernel::Terms;
+use crate::kernels::step_terms::KernelPoints;
 
 /// How a static solve went.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -81,13 +82,19 @@ fn newton_static(system: &mut StrandSystem, q: &mut [f64]) -> Result<StaticRepor
             ..Default::default()
         };
         if let Some(held) = system.held.as_mut() {
-            held.project(system.kernel.as_mut(), &system.strand.geometry, q, 0.0)?;
+            held.project(
+                &mut KernelPoints(system.kernel.as_mut()),
+                &system.strand.geometry,
+                q,
+                0.0,
+            )
+            .map_err(|e| e.to_string())?;
         }
         system.assemble(&at, q, &zero, force_only);
         force.copy_from_slice(&system.workspace.terms.force);
         if let Some(held) = system.held.as_mut() {
             held.balance_static(
-                system.kernel.as_mut(),
+                &mut KernelPoints(system.kernel.as_mut()),
                 &system.strand.geometry,
                 q,
                 &mut force,
@@ -106,7 +113,7 @@ fn newton_static(system: &mut StrandSystem, q: &mut [f64]) -> Result<StaticRepor
             // the force the holder leaves unbalanced
             let worst = held
                 .balance_static(
-                    system.kernel.as_mut(),
+                    &mut KernelPoints(system.kernel.as_mut()),
                     &system.strand.geometry,
                     q,
                     &mut balanced,
@@ -231,7 +238,12 @@ fn newton_static(system: &mut StrandSystem, q: &mut [f64]) -> Result<StaticRepor
                     // the trial point back on the constraint (a failure: no decrease)
                     let kernel = system.kernel.as_mut();
                     if held
-                        .project(kernel, &system.strand.geometry, &mut trial, 0.0)
+                        .project(
+                            &mut KernelPoints(kernel),
+                            &system.strand.geometry,
+                            &mut trial,
+                            0.0,
+                        )
                         .is_err()
                     {
                         return f64::INFINITY;
@@ -247,7 +259,13 @@ fn newton_static(system: &mut StrandSystem, q: &mut [f64]) -> Result<StaticRepor
             q[i] += alpha * step[i];
         }
         if let Some(held) = system.held.as_mut() {
-            held.project(system.kernel.as_mut(), &system.strand.geometry, q, 0.0)?;
+            held.project(
+                &mut KernelPoints(system.kernel.as_mut()),
+                &system.strand.geometry,
+                q,
+                0.0,
+            )
+            .map_err(|e| e.to_string())?;
         }
     }
     Ok(report)

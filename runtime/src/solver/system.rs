@@ -16,6 +16,7 @@ use crate::forces::effects::{body_field, GlobalEffects};
 use crate::forces::head_motion::{HeadMotion, HeadState};
 use crate::forces::point_loads::{add_point_loads, point_load_potential};
 use crate::kernels::kernel::{EvalInput, StrandKernel, StrandTerms, Terms};
+use crate::kernels::step_terms::KernelPoints;
 use crate::model::strand::Strand;
 use nalgebra::Vector3;
 use superhelix_kernels::field_split::{dissipative_split, SplitOutcome};
@@ -423,7 +424,12 @@ impl StrandSystem {
             // and a clamped tip's torque, through the turning of the tip's frame (the head
             // is still under a held tip: head and world coordinates agree)
             if held.end.kind.holds_frame() && held.reaction.fixed_rows::<3>(3).norm() > 0.0 {
-                held.add_torque_stiffness(kernel, &strand.geometry, q, &mut t.stiffness);
+                held.add_torque_stiffness(
+                    &mut KernelPoints(kernel),
+                    &strand.geometry,
+                    q,
+                    &mut |i, j, x| t.stiffness[(i, j)] += x,
+                );
                 held_stiffness = true;
             }
         }
