@@ -840,7 +840,8 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
             if let Some(c) = contacts.as_deref_mut() {
                 let (a, pivots) = (&ws.matrix_a, &*ws.pivots);
                 let scratch = &mut *stack;
-                let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, x, scratch);
+                let mut solve =
+                    |x: &mut [f64]| solve_factored_f64(a, pivots, strand.params.scale, x, scratch);
                 c.resolve(strand.q, strand.v, None, t_end, &interval.end, &mut solve)
                     .map_err(|_| StepError::SingularMatrix)?;
                 let again = max_element_rotation(strand.params.lengths, strand.q, saved_q).as_f64();

@@ -3,10 +3,9 @@
 //! linearly implicit Euler step's matrix.
 
 use super::contacts::ContactHooks;
-use super::dense::lu_solve_sized;
 use super::step::{
-    assemble, max_element_rotation, non_finite, solve_factored_f64, step_matrix, StepError,
-    StepInput, StepReport,
+    assemble, max_element_rotation, non_finite, scaled_lu_solve, solve_factored_f64, step_matrix,
+    StepError, StepInput, StepReport,
 };
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
@@ -163,7 +162,7 @@ pub(crate) fn bdf2_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>
             ws.rhs[i] += m[i] * vh[j] - bh * d[i] * vt[j];
         }
     }
-    if !lu_solve_sized::<T, NC>(&mut ws.matrix_a, ws.rhs, ws.pivots) {
+    if !scaled_lu_solve::<T, NC>(&mut ws.matrix_a, ws.rhs, ws.pivots, p.scale) {
         return Err(StepError::SingularMatrix);
     }
     let q_new = qh;
@@ -176,7 +175,7 @@ pub(crate) fn bdf2_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>
         // the extrapolation and resolved on the step's factors
         c.predict(qt, q_new, t, &input.head);
         let (a, pivots, v_new) = (&ws.matrix_a, &*ws.pivots, &mut *ws.rhs);
-        let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, x, stack);
+        let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, p.scale, x, stack);
         let bh = bh.as_f64();
         contacts_predicted = c
             .resolve(q_new, v_new, Some((bh, bh)), t, &input.head, &mut solve)

@@ -139,6 +139,7 @@ impl<const N: usize, const D: usize, T: Float> FixedParams<N, D, T> {
             air_drag: self.air_drag,
             rotary_inertia: self.rotary_inertia,
             loads: &[],
+            scale: &[],
         }
     }
 

@@ -436,7 +436,7 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize
             ws.rhs[i] += (mass_j[i] - h * damping_j[i]) * vj;
         }
     }
-    if !lu_solve_sized::<T, NC>(&mut ws.matrix_a, ws.rhs, ws.pivots) {
+    if !scaled_lu_solve::<T, NC>(&mut ws.matrix_a, ws.rhs, ws.pivots, p.scale) {
         return Err(StepError::SingularMatrix);
     }
     if let Some(end) = strand.end.as_deref_mut() {
@@ -448,7 +448,7 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize
             scratch: &mut ws.points,
         };
         let (a, pivots) = (&ws.matrix_a, &*ws.pivots);
-        let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, x, stack);
+        let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, p.scale, x, stack);
         end.constrain(&mut points, &mut solve, q, ws.rhs, t_end, h_f64)
             .map_err(StepError::Held)?;
     }
@@ -462,7 +462,7 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize
         // resolved on the step's factors
         c.predict(q, q_new, t, &input.head);
         let (a, pivots, v_new) = (&ws.matrix_a, &*ws.pivots, &mut *ws.rhs);
-        let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, x, stack);
+        let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, p.scale, x, stack);
         let map = Some((h_f64, h_f64));
         contacts_predicted = c
             .resolve(q_new, v_new, map, t, &input.head, &mut solve)
@@ -511,10 +511,13 @@ pub(crate) fn max_element_rotation<T: Float>(lengths: &[T], q: &[T], q0: &[T]) -
 }
 
 /// `A x = b` in place for an f64 `b` (n long) with the step's factors in `T` (the
-/// columns of the contacts that start within a step); `scratch` at least n long.
+/// columns of the contacts that start within a step, a held tip's multipliers), the
+/// factors those of `S A S` for a coordinate scale S (`scale`, empty: none, see
+/// [`ParamsView::scale`]); `scratch` at least n long.
 pub(crate) fn solve_factored_f64<T: Float>(
     a: &Square<'_, T>,
     pivots: &[usize],
+    scale: &[T],
     x: &mut [f64],
     scratch: &mut [T],
 ) -> bool {
@@ -522,11 +525,50 @@ pub(crate) fn solve_factored_f64<T: Float>(
     for (bi, xi) in b.iter_mut().zip(x.iter()) {
         *bi = T::of(*xi);
     }
-    let ok = lu_solve_factored(a, pivots, b);
+    let ok = scaled_solve_factored(a, pivots, scale, b);
     for (xi, bi) in x.iter_mut().zip(b.iter()) {
         *xi = bi.as_f64();
     }
     ok
+}
+
+/// `A x = b` in place with the LU factors of `S A S` (`scale` S, empty: none): `b ← S b`,
+/// the solve, `x ← S y`.
+fn scaled_solve_factored<T: Float>(
+    a: &Square<'_, T>,
+    pivots: &[usize],
+    scale: &[T],
+    b: &mut [T],
+) -> bool {
+    scale_vector(b, scale);
+    let ok = lu_solve_factored(a, pivots, b);
+    scale_vector(b, scale);
+    ok && b.iter().all(|x| x.is_finite())
+}
+
+/// `b ← S b` (nothing for an empty `scale`).
+fn scale_vector<T: Float>(b: &mut [T], scale: &[T]) {
+    for (x, s) in b.iter_mut().zip(scale) {
+        *x *= *s;
+    }
+}
+
+/// Factor the step matrix `S A S` that [`step_matrix`] left in `a` (`scale` S, empty:
+/// none) and solve `A x = b` in place: `b ← S b`, the LU solve, `x ← S y`. False when the
+/// matrix is singular or the solution not finite.
+pub(crate) fn scaled_lu_solve<T: Float, const NC: usize>(
+    a: &mut Square<'_, T>,
+    b: &mut [T],
+    pivots: &mut [usize],
+    scale: &[T],
+) -> bool {
+    if scale.is_empty() {
+        return lu_solve_sized::<T, NC>(a, b, pivots);
+    }
+    scale_vector(b, scale);
+    let ok = lu_solve_sized::<T, NC>(a, b, pivots);
+    scale_vector(b, scale);
+    ok && b.iter().all(|x| x.is_finite())
 }
 
 /// The step matrix `M − h D_v + (h/2) B − h² D_q` of the terms `assemble` left in `ws`
@@ -585,13 +627,19 @@ pub(crate) fn step_matrix<T: Float, const NC: usize>(
             _ if explicit => Projection::Unprojected,
             SplitOutcome::Whole => Projection::Whole,
             SplitOutcome::Shifted => Projection::Shifted,
-            SplitOutcome::Beyond => project::<T, NC>(
-                &mut ws.stiffness,
-                strand.basis,
-                strand.basis_k,
-                strand.basis_negative,
-                &mut ws.projection,
-            ),
+            SplitOutcome::Beyond => {
+                // projected in the coordinates' scale: S H S
+                scale_square(&mut ws.stiffness, p.scale, false);
+                let outcome = project::<T, NC>(
+                    &mut ws.stiffness,
+                    strand.basis,
+                    strand.basis_k,
+                    strand.basis_negative,
+                    &mut ws.projection,
+                );
+                scale_square(&mut ws.stiffness, p.scale, true);
+                outcome
+            }
         })
     } else {
         None
@@ -614,7 +662,19 @@ pub(crate) fn step_matrix<T: Float, const NC: usize>(
             a[i] = m[i] - h * d[i] + half * h * b[i] - h * h * dq;
         }
     }
+    // solved in the coordinates' scale: S A S ([`scaled_lu_solve`])
+    scale_square(&mut ws.matrix_a, p.scale, false);
     (projection, use_h)
+}
+
+/// `m_ij ← m_ij · s_i s_j`, or `/` with `inverse` (nothing for an empty `scale`).
+fn scale_square<T: Float>(m: &mut Square<'_, T>, scale: &[T], inverse: bool) {
+    for (j, &sj) in scale.iter().enumerate() {
+        for (x, &si) in m[j].iter_mut().zip(scale) {
+            let f = si * sj;
+            *x = if inverse { *x / f } else { *x * f };
+        }
+    }
 }
 
 /// The centreline at the N + 1 element ends, root first, in head coordinates (metres),

@@ -196,6 +196,7 @@ impl<T: Float> HeapParams<T> {
             air_drag: self.air_drag,
             rotary_inertia: self.rotary_inertia,
             loads: &[],
+            scale: &[],
         }
     }
 }

@@ -57,6 +57,11 @@ pub struct ParamsView<'a, T: Float = f64> {
     /// Point loads ([`crate::point_load`]; the charges' forces of electrostatics among
     /// them), constant over a step: empty for none.
     pub loads: &'a [PointLoad],
+    /// A scale S of the coordinates (3N; empty: 1 throughout): the step solves
+    /// `(S A S) y = S b`, `x = S y`, and projects `S H S`, so that coordinates of very
+    /// different units keep their digits (a pinned root's joint, an element of a sliver's
+    /// length whose coordinates are scaled by its inverse length).
+    pub scale: &'a [T],
 }
 
 impl<'a, T: Float> ParamsView<'a, T> {

@@ -163,9 +163,13 @@ impl DenseSolver {
     }
 
     /// The spectral projection's kept basis, lent to the one step
-    /// ([`SpectralProjection::basis_parts`](super::spectral_projection::SpectralProjection::basis_parts)).
-    pub fn projection_basis_parts(&mut self) -> (&mut [f64], &mut usize, &mut bool) {
-        self.spectral.basis_parts()
+    /// ([`SpectralProjection::basis_parts`](super::spectral_projection::SpectralProjection::basis_parts)),
+    /// and the coordinates' scale (empty: none, [`Self::with_scale`]).
+    pub fn projection_basis_parts(&mut self) -> ((&mut [f64], &mut usize, &mut bool), &[f64]) {
+        (
+            self.spectral.basis_parts(),
+            self.scale.as_deref().unwrap_or(&[]),
+        )
     }
 
     /// Keep `vectors` as the spectral projection's basis (see

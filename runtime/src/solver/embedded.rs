@@ -250,6 +250,7 @@ pub fn heap_strand(s: &Strand) -> superhelix_kernels::storage::heap::HeapStrand 
             air_drag: s.air_drag,
             rotary_inertia: g.rotary_inertia,
             loads: &[],
+            scale: &[],
         },
     )
 }

@@ -32,8 +32,9 @@ thread_local! {
 
 /// Whether the one step takes this strand's steps: the linearly implicit Euler step or
 /// BDF2 with fixed steps, or the error-controlled step (with the energy balance), for a strand
-/// with a clamped root, without contacts (point loads, and the charges' forces of
-/// electrostatics with them, are the one step's, and so is a held tip, through
+/// with a clamped or pinned root (the joint's coordinates scaled as the runtime's solver
+/// scales them, `ParamsView::scale`), without contacts (point loads, and the charges'
+/// forces of electrostatics with them, are the one step's, and so is a held tip, through
 /// [`HeldHook`]: the scene allows it the linearly implicit Euler step with fixed steps).
 pub fn covers(system: &StrandSystem) -> bool {
     let ctx = &system.context;
@@ -44,7 +45,7 @@ pub fn covers(system: &StrandSystem) -> bool {
     ) && (ctx.tolerance.is_none() || ctx.energy_balance);
     integrator
         && system.contacts.is_none()
-        && system.strand.ends.root == RootEnd::Clamped
+        && system.strand.ends.root != RootEnd::Free
         && !system.strand.geometry.floating
 }
 
@@ -72,6 +73,7 @@ pub fn step(
     }
     let mut split_hint = u8::try_from(ws.split_hint).unwrap_or(u8::MAX);
     let g = &strand.geometry;
+    let ((basis, basis_k, basis_negative), scale) = ws.solver.projection_basis_parts();
     let params = ParamsView {
         root_position: g.root_position,
         root_frame: g.root_frame,
@@ -83,8 +85,9 @@ pub fn step(
         air_drag: strand.air_drag,
         rotary_inertia: g.rotary_inertia,
         loads: &strand.point_loads,
+        // a pinned root's joint: its coordinates in the solver's units (θ = l₀ d₀)
+        scale,
     };
-    let (basis, basis_k, basis_negative) = ws.solver.projection_basis_parts();
     let mut view = StrandView {
         params,
         q: &mut state.q,
