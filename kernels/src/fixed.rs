@@ -38,6 +38,7 @@ mod contacts;
 mod dense;
 mod end_hooks;
 pub(crate) mod error_control;
+mod free_root;
 pub(crate) mod params;
 mod posed_colliders;
 pub(crate) mod step;

@@ -22,6 +22,7 @@ use super::bdf2::{bdf2_step, Bdf2History, BDF2_MAX_RATIO};
 use super::contacts::ContactHooks;
 use super::dense::Projection;
 use super::end_hooks::{EndHooks, HeldError};
+use super::free_root;
 use super::step::{
     max_element_rotation, non_finite, solve_factored_f64, solve_step, StepError, StepInput,
     StepReport,
@@ -528,7 +529,7 @@ pub(crate) fn views_fit<T: Float, const NC: usize>(
         && strand.params.natural.len() == n
         && strand.params.stiffness.len() == n
         && strand.params.friction.len() == n
-        && 3 * strand.params.lengths.len() == n
+        && (3 * strand.params.lengths.len() == n || strand.params.free_root())
         && strand.basis.len() >= n * (n / 2)
         && strand
             .history
@@ -817,10 +818,11 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
                 return Err(StepError::Held(e));
             }
         }
-        if unresolved && !strand.params.loads.is_empty() {
-            // the loads accelerate the strand faster than the steps resolve. Limiting
-            // the rotation would take momentum away silently (the strand would no longer
-            // follow F = ma): the step fails, naming the cause
+        if unresolved && (!strand.params.loads.is_empty() || strand.params.free_root()) {
+            // a free rod, or one under point loads: the loads (or the head) accelerate
+            // the strand faster than the steps resolve. Limiting the rotation would take
+            // momentum away silently (the strand would no longer follow F = ma): the
+            // step fails, naming the cause
             return Err(StepError::UnresolvedMotion {
                 rotation,
                 h,
@@ -931,10 +933,24 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         if !split {
             // the kinetic energy that brings E down to the bound
             if let Some(kinetic) = balance.limited_kinetic(&end, !bodies_work) {
-                let lambda = (kinetic / end.kinetic).sqrt();
-                for x in strand.v.iter_mut() {
-                    *x *= lambda;
-                }
+                let lambda = if strand.params.free_root() && strand.end.is_none() {
+                    // a free strand keeps its momentum: its motion about the centre of
+                    // mass is scaled
+                    free_root::scale_to_kinetic(
+                        source,
+                        &strand.params,
+                        strand.q,
+                        strand.v,
+                        (end.kinetic, kinetic),
+                        ws,
+                    )
+                } else {
+                    let lambda = (kinetic / end.kinetic).sqrt();
+                    for x in strand.v.iter_mut() {
+                        *x *= lambda;
+                    }
+                    lambda
+                };
                 end.scale_velocities(lambda);
                 counts.energy_limited += 1;
                 end.ceiling = end_ceiling(start, &end, inertial);

@@ -4,6 +4,7 @@
 use super::contacts::ContactHooks;
 use super::dense::{lu_solve_factored, lu_solve_sized, negative_semidefinite_part, Projection};
 use super::end_hooks::{EndHooks, HeldError};
+use super::free_root;
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::body_field::BodyField;
@@ -467,6 +468,15 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize
         contacts_predicted = c
             .resolve(q_new, v_new, map, t, &input.head, &mut solve)
             .map_err(|_| StepError::SingularMatrix)?;
+    }
+    if p.free_root() && strand.end.is_none() {
+        // a free root's momentum changes by the step's impulse, the contacts that start
+        // within the step included
+        let target = free_root::momentum_target(&*ws, &*ws.rhs, h);
+        let v_new = &mut stack[..n];
+        v_new.copy_from_slice(ws.rhs);
+        free_root::correct_momentum(source, p, q_new, v_new, target, ws);
+        ws.rhs.copy_from_slice(v_new);
     }
     if let Some(end) = strand.end.as_deref_mut() {
         // the drift the linearised constraint leaves, projected out

@@ -71,6 +71,14 @@ impl<'a, T: Float> ParamsView<'a, T> {
         self.natural.len()
     }
 
+    /// Whether the strand's root is free: its translation X (3 coordinates, m) follows
+    /// the chain's 3N coordinates, so that `natural`, `stiffness` and `friction` are
+    /// 3N + 3 long (X without stiffness nor friction) and the step keeps the strand's
+    /// linear momentum ([`crate::fixed`]'s `free_root`).
+    pub fn free_root(&self) -> bool {
+        self.natural.len() == 3 * self.lengths.len() + 3
+    }
+
     /// Whether the strand dissipates at first order in the step (internal friction or
     /// air drag): only such a strand's solves take the dissipative split of the field
     /// stiffness ([`crate::field_split`]).

@@ -15,7 +15,6 @@ use super::stats::StepStats;
 use super::system::{HeadInterval, StrandState, StrandSystem};
 use crate::config::IntegratorKind;
 use crate::kernels::step_terms::KernelTerms;
-use crate::model::ends::RootEnd;
 use std::cell::RefCell;
 use superhelix_kernels::field_split::FieldRule;
 use superhelix_kernels::fixed::{
@@ -31,11 +30,13 @@ thread_local! {
 }
 
 /// Whether the one step takes this strand's steps: the linearly implicit Euler step or
-/// BDF2 with fixed steps, or the error-controlled step (with the energy balance), for a strand
-/// with a clamped or pinned root (the joint's coordinates scaled as the runtime's solver
-/// scales them, `ParamsView::scale`), without contacts (point loads, and the charges'
-/// forces of electrostatics with them, are the one step's, and so is a held tip, through
-/// [`HeldHook`]: the scene allows it the linearly implicit Euler step with fixed steps).
+/// BDF2 with fixed steps, or the error-controlled step (with the energy balance), for a
+/// strand without contacts, its root clamped, pinned (the joint's coordinates scaled as
+/// the runtime's solver scales them, `ParamsView::scale`) or free (the root's
+/// translation after the chain's coordinates, its momentum kept by the step). Point
+/// loads, and the charges' forces of electrostatics with them, are the one step's, and
+/// so is a held tip, through [`HeldHook`] (the scene allows it the linearly implicit
+/// Euler step with fixed steps).
 pub fn covers(system: &StrandSystem) -> bool {
     let ctx = &system.context;
     // (the error-controlled step keeps the energy balance)
@@ -43,10 +44,7 @@ pub fn covers(system: &StrandSystem) -> bool {
         ctx.integrator,
         IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
     ) && (ctx.tolerance.is_none() || ctx.energy_balance);
-    integrator
-        && system.contacts.is_none()
-        && system.strand.ends.root != RootEnd::Free
-        && !system.strand.geometry.floating
+    integrator && system.contacts.is_none()
 }
 
 /// Advance a strand that [`covers`] takes over `interval` (the head's phase changes cut
