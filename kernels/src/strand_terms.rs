@@ -174,6 +174,16 @@ pub struct PointScratch<'a, T: Float = f64> {
 pub trait StrandPoints<T: Float = f64> {
     /// The point y(s) at q, head coordinates; J(s) = ∂y(s)/∂q into `jac` (3N columns).
     fn point(&mut self, q: &[T], s: T, jac: &mut [Vector3<T>]) -> Vector3<T>;
+    /// [`Self::point`], with `c · ∂²y(s)/∂q∂q` added to `hessian` (the curvature of the
+    /// strand under a force c at s).
+    fn point_curvature(
+        &mut self,
+        q: &[T],
+        s: T,
+        jac: &mut [Vector3<T>],
+        c: Vector3<T>,
+        hessian: &mut Square<'_, T>,
+    ) -> Vector3<T>;
     /// The poses at the N + 1 element ends at q.
     fn ends(&mut self, q: &[T], ends: &mut [Pose<T>]);
 }
@@ -192,6 +202,22 @@ pub struct PointsOf<'s, 'a, 'b, S: ?Sized, T: Float = f64> {
 impl<S: StepTerms<T> + ?Sized, T: Float> StrandPoints<T> for PointsOf<'_, '_, '_, S, T> {
     fn point(&mut self, q: &[T], s: T, jac: &mut [Vector3<T>]) -> Vector3<T> {
         let y = self.source.point(self.shape, q, s, self.scratch, None);
+        let n = jac.len().min(self.scratch.jac.len());
+        jac[..n].copy_from_slice(&self.scratch.jac[..n]);
+        y
+    }
+
+    fn point_curvature(
+        &mut self,
+        q: &[T],
+        s: T,
+        jac: &mut [Vector3<T>],
+        c: Vector3<T>,
+        hessian: &mut Square<'_, T>,
+    ) -> Vector3<T> {
+        let y = self
+            .source
+            .point(self.shape, q, s, self.scratch, Some((c, hessian)));
         let n = jac.len().min(self.scratch.jac.len());
         jac[..n].copy_from_slice(&self.scratch.jac[..n]);
         y

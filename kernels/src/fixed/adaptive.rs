@@ -39,7 +39,7 @@ use crate::float::Float;
 use crate::head::{body_field, HeadState};
 use crate::point_load::{self, any_follows};
 use crate::storage::{ParamsView, StrandView, WorkView};
-use crate::strand_terms::{MomentSource, StepTerms};
+use crate::strand_terms::{MomentSource, PointsOf, StepTerms, StrandPoints};
 use nalgebra::{Matrix3, Vector3};
 
 /// The head's motion as the checked step sees it: its state at any time of the step
@@ -325,7 +325,12 @@ pub(crate) fn measure<'c, 'e, S: StepTerms<T> + ?Sized, T: Float, const NC: usiz
         power += T::of(end.power(t));
     }
     if let Some(c) = contacts {
-        let (potential, rate) = c.energy(q, v, t, head);
+        let mut points = PointsOf {
+            source: &mut *source,
+            shape: &shape,
+            scratch: &mut ws.points,
+        };
+        let (potential, rate) = c.energy(&mut points, q, v, t, head);
         load_moment -= T::of(potential);
         load_rate += T::of(rate);
         *c.last_contact() = (potential, rate);
@@ -403,13 +408,14 @@ pub fn energy_views<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
 /// `energy_balance::remeasure_contacts`.
 fn remeasure_contacts<T: Float>(
     c: &mut dyn ContactHooks<T>,
+    points: &mut dyn StrandPoints<T>,
     head: &HeadState,
     q: &[T],
     v: &[T],
     energy: &StateEnergy<T>,
 ) -> StateEnergy<T> {
     let mut e = *energy;
-    let (potential, rate) = c.energy(q, v, energy.time, head);
+    let (potential, rate) = c.energy(points, q, v, energy.time, head);
     let (old_potential, old_rate) = *c.last_contact();
     e.load_moment += T::of(old_potential - potential);
     e.potential += T::of(potential - old_potential);
@@ -657,7 +663,18 @@ fn step_piece<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         Some(e) if continued && contacts.as_deref().is_some_and(|c| c.has_partners()) => {
             match contacts.as_deref_mut() {
                 Some(c) => (
-                    remeasure_contacts(c, &interval.start, strand.q, strand.v, &e),
+                    remeasure_contacts(
+                        c,
+                        &mut PointsOf {
+                            source: &mut *source,
+                            shape: &strand.params.shape(),
+                            scratch: &mut ws.points,
+                        },
+                        &interval.start,
+                        strand.q,
+                        strand.v,
+                        &e,
+                    ),
                     hint,
                 ),
                 None => (e, hint),
@@ -844,8 +861,21 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
                 let scratch = &mut *stack;
                 let mut solve =
                     |x: &mut [f64]| solve_factored_f64(a, pivots, strand.params.scale, x, scratch);
-                c.resolve(strand.q, strand.v, None, t_end, &interval.end, &mut solve)
-                    .map_err(|_| StepError::SingularMatrix)?;
+                let mut points = PointsOf {
+                    source: &mut *source,
+                    shape: &strand.params.shape(),
+                    scratch: &mut ws.points,
+                };
+                c.resolve(
+                    &mut points,
+                    strand.q,
+                    strand.v,
+                    None,
+                    t_end,
+                    &interval.end,
+                    &mut solve,
+                )
+                .map_err(|_| StepError::SingularMatrix)?;
                 let again = max_element_rotation(strand.params.lengths, strand.q, saved_q).as_f64();
                 if again > TRUSTED_ELEMENT_ROTATION {
                     limit_rotation(strand, saved_q, again);
@@ -1144,7 +1174,12 @@ fn split<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         let t = first.t + first.h;
         c.after_step(strand.q, t, &first.end, first.h);
         if ws.energy_balance && c.has_history() {
-            middle = remeasure_contacts(c, &first.end, strand.q, strand.v, &middle);
+            let mut points = PointsOf {
+                source: &mut *source,
+                shape: &strand.params.shape(),
+                scratch: &mut ws.points,
+            };
+            middle = remeasure_contacts(c, &mut points, &first.end, strand.q, strand.v, &middle);
         }
     }
     let second = interval.second_half(&first, head);

@@ -11,7 +11,7 @@ use super::workspace::FixedWorkspace;
 use super::FixedStrand;
 use crate::float::Float;
 use crate::storage::{StrandView, WorkView};
-use crate::strand_terms::{MomentSource, StepTerms};
+use crate::strand_terms::{MomentSource, PointsOf, StepTerms};
 
 /// Largest ratio of a BDF2 step to the step before it (the runtime's
 /// `solver::bdf2::BDF2_MAX_RATIO`): variable-step BDF2 is zero-stable only for ratios
@@ -177,8 +177,21 @@ pub(crate) fn bdf2_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>
         let (a, pivots, v_new) = (&ws.matrix_a, &*ws.pivots, &mut *ws.rhs);
         let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, p.scale, x, stack);
         let bh = bh.as_f64();
+        let mut points = PointsOf {
+            source: &mut *source,
+            shape: &p.shape(),
+            scratch: &mut ws.points,
+        };
         contacts_predicted = c
-            .resolve(q_new, v_new, Some((bh, bh)), t, &input.head, &mut solve)
+            .resolve(
+                &mut points,
+                q_new,
+                v_new,
+                Some((bh, bh)),
+                t,
+                &input.head,
+                &mut solve,
+            )
             .map_err(|_| StepError::SingularMatrix)?;
     }
     if let Some(e) = non_finite(q_new, ws.rhs) {

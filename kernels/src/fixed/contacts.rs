@@ -31,7 +31,7 @@ use crate::moments::EndDerivatives;
 use crate::pose::Pose;
 use crate::storage::Square;
 use crate::strand_point::{strand_point, PointChain};
-use crate::strand_terms::MomentSource;
+use crate::strand_terms::{MomentSource, StrandPoints};
 use nalgebra::Vector3;
 
 type V3 = Vector3<f64>;
@@ -74,10 +74,12 @@ pub trait ContactHooks<T: Float> {
     fn started(&self) -> bool;
     /// Add the contact terms at (q, q̇), time t (the colliders placed there) to the step's
     /// force, stiffness (with the strand's curvature under the forces when `curvature`)
-    /// and damping; whether a contact added stiffness.
+    /// and damping; whether a contact added stiffness. `points` are the strand's, from
+    /// the step's own terms (contacts that keep a source of their own need not ask).
     #[allow(clippy::too_many_arguments)]
     fn add_terms(
         &mut self,
+        points: &mut dyn StrandPoints<T>,
         q: &[T],
         v: &[T],
         t: f64,
@@ -88,8 +90,16 @@ pub trait ContactHooks<T: Float> {
         damping: &mut Square<'_, T>,
     ) -> bool;
     /// The energy the contacts store at (q, q̇), time t, and its rate at fixed q through
-    /// the colliders' motion (with the work of moving colliders' damping).
-    fn energy(&mut self, q: &[T], v: &[T], t: f64, head: &HeadState) -> (f64, f64);
+    /// the colliders' motion (with the work of moving colliders' damping; `points` as
+    /// [`Self::add_terms`] gets them).
+    fn energy(
+        &mut self,
+        points: &mut dyn StrandPoints<T>,
+        q: &[T],
+        v: &[T],
+        t: f64,
+        head: &HeadState,
+    ) -> (f64, f64);
     /// Whether a step from q0 (time t0) to q1 (time t1) is acceptable for the contacts:
     /// no sample went deeper than the split depth beyond its depth at the start.
     #[allow(clippy::too_many_arguments)]
@@ -140,10 +150,12 @@ pub trait ContactHooks<T: Float> {
     /// ([`crate::contact::predicted::resolve`], `map = Some((c, σ))`), or again on an end
     /// changed since (`None`: [`crate::contact::predicted::resolve_again`]), with the
     /// step's factors in `solve` (A x = b in place, f64). The colliders are placed at
-    /// `t`. Returns the number of candidates that push.
+    /// `t`. Returns the number of candidates that push. `points` as [`Self::add_terms`]
+    /// gets them.
     #[allow(clippy::too_many_arguments)]
     fn resolve(
         &mut self,
+        points: &mut dyn StrandPoints<T>,
         q: &mut [T],
         v: &mut [T],
         map: Option<(f64, f64)>,
@@ -151,7 +163,7 @@ pub trait ContactHooks<T: Float> {
         head: &HeadState,
         solve: &mut dyn FnMut(&mut [f64]) -> bool,
     ) -> Result<usize, SingularStep> {
-        let _ = (q, v, map, t, head, solve);
+        let _ = (points, q, v, map, t, head, solve);
         Ok(0)
     }
 }
@@ -797,6 +809,7 @@ impl<C: StepColliders + ?Sized, P: MomentSource + ?Sized> ContactHooks<f64>
 
     fn resolve(
         &mut self,
+        _points: &mut dyn StrandPoints<f64>,
         q: &mut [f64],
         v: &mut [f64],
         map: Option<(f64, f64)>,
@@ -853,6 +866,7 @@ impl<C: StepColliders + ?Sized, P: MomentSource + ?Sized> ContactHooks<f64>
 
     fn add_terms(
         &mut self,
+        _points: &mut dyn StrandPoints<f64>,
         q: &[f64],
         v: &[f64],
         t: f64,
@@ -900,7 +914,14 @@ impl<C: StepColliders + ?Sized, P: MomentSource + ?Sized> ContactHooks<f64>
         stiffened
     }
 
-    fn energy(&mut self, q: &[f64], v: &[f64], t: f64, head: &HeadState) -> (f64, f64) {
+    fn energy(
+        &mut self,
+        _points: &mut dyn StrandPoints<f64>,
+        q: &[f64],
+        v: &[f64],
+        t: f64,
+        head: &HeadState,
+    ) -> (f64, f64) {
         self.colliders.place(t, head);
         self.pose(q);
         let (mut potential, mut rate) = view(self).energy(head, self.store.poses);

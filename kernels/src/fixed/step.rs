@@ -309,6 +309,11 @@ pub(crate) fn assemble<'c, 'e, S: StepTerms<T> + ?Sized, T: Float, const NC: usi
     // the contacts' force, stiffness and damping at the step's end (time t)
     let touching = match contacts {
         Some((c, t)) => c.add_terms(
+            &mut PointsOf {
+                source: &mut *source,
+                shape: &p.shape(),
+                scratch: &mut ws.points,
+            },
             q,
             v,
             t,
@@ -465,8 +470,13 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize
         let (a, pivots, v_new) = (&ws.matrix_a, &*ws.pivots, &mut *ws.rhs);
         let mut solve = |x: &mut [f64]| solve_factored_f64(a, pivots, p.scale, x, stack);
         let map = Some((h_f64, h_f64));
+        let mut points = PointsOf {
+            source: &mut *source,
+            shape: &p.shape(),
+            scratch: &mut ws.points,
+        };
         contacts_predicted = c
-            .resolve(q_new, v_new, map, t, &input.head, &mut solve)
+            .resolve(&mut points, q_new, v_new, map, t, &input.head, &mut solve)
             .map_err(|_| StepError::SingularMatrix)?;
     }
     if p.free_root() && strand.end.is_none() {

@@ -200,6 +200,26 @@ impl StrandPoints<f64> for KernelPoints<'_> {
         self.0.point(q, s, jac, None)
     }
 
+    /// (Allocates an n × n matrix for the kernel's curvature: outside the step only.)
+    fn point_curvature(
+        &mut self,
+        q: &[f64],
+        s: f64,
+        jac: &mut [Vector3<f64>],
+        c: Vector3<f64>,
+        hessian: &mut Square<'_, f64>,
+    ) -> Vector3<f64> {
+        let n = q.len();
+        let mut m = Mat::<f64>::zeros(n, n);
+        let y = self.0.point(q, s, jac, Some((c, &mut m)));
+        for j in 0..n {
+            for (hij, mij) in hessian[j].iter_mut().zip(&m.col_as_slice(j)[..n]) {
+                *hij += mij;
+            }
+        }
+        y
+    }
+
     fn ends(&mut self, q: &[f64], ends: &mut [Pose]) {
         self.0.element_ends(q, ends);
     }
