@@ -1121,7 +1121,8 @@ impl Simulation {
                         &mut s.sides,
                     );
                 }
-                if !coupled && outcome.is_ok() {
+                // (the one step does the contacts' bookkeeping of its end itself)
+                if !coupled && outcome.is_ok() && !crate::solver::one_step::covers(&s.system) {
                     if let Some(c) = &mut s.system.contacts {
                         c.after_step(&at_end, &s.system.strand.geometry, &s.state.q, h);
                     }

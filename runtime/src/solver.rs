@@ -9,6 +9,7 @@
 
 pub mod adaptive;
 pub mod bdf2;
+pub mod contact_hook;
 pub mod dense_solve;
 pub mod embedded;
 pub mod energy_balance;

@@ -603,7 +603,9 @@ fn the_balance_counts_the_power_of_the_partners_damping() {
                 force: true,
                 ..Default::default()
             };
-            contacts.add_to_terms(&at, kernel, &q, &zero, terms, true, &mut jac, &mut out);
+            contacts.add_to_terms(
+                &at, kernel, &geom, &q, &zero, terms, true, &mut jac, &mut out,
+            );
             assert_eq!(
                 contacts.summary().hair_contacts,
                 3,
@@ -615,7 +617,7 @@ fn the_balance_counts_the_power_of_the_partners_damping() {
     let moving = force(true, &mut contacts, &mut kernel);
     let expected: f64 = (0..3 * n).map(|i| v[i] * (moving[i] - still[i])).sum();
     let mut jac = vec![Vector3::zeros(); 3 * n];
-    let power = contacts.drag_power(&at, &mut kernel, &q, &v, &mut jac);
+    let power = contacts.drag_power(&at, &mut kernel, &geom, &q, &v, &mut jac);
     assert!(
         expected.abs() > 1e-9,
         "the partners' damping does work: {expected:e}"
@@ -794,6 +796,7 @@ fn contact_forces_are_minus_the_gradient_of_the_contact_energy() {
         contacts.add_to_terms(
             &at,
             &mut kernel,
+            &geom,
             &q,
             &zero,
             terms,

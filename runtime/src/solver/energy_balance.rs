@@ -101,7 +101,7 @@ pub fn measure(
         // and so does the work of the drag of the bodies on their own motion
         let at = Placement::new(*head, t);
         let (potential, rate) = c.energy(&at, &strand.geometry, q);
-        let rate = rate + c.drag_power(&at, kernel, q, v, jac);
+        let rate = rate + c.drag_power(&at, kernel, &strand.geometry, q, v, jac);
         load_moment -= potential;
         load_rate += rate;
         workspace.last_contact = (potential, rate);
@@ -151,7 +151,15 @@ pub fn remeasure_contacts(
     };
     let at = Placement::new(*head, energy.time);
     let (potential, rate) = c.energy(&at, &strand.geometry, q);
-    let rate = rate + c.drag_power(&at, kernel.as_mut(), q, v, &mut workspace.jac);
+    let rate = rate
+        + c.drag_power(
+            &at,
+            kernel.as_mut(),
+            &strand.geometry,
+            q,
+            v,
+            &mut workspace.jac,
+        );
     let (old_potential, old_rate) = workspace.last_contact;
     e.load_moment += old_potential - potential;
     e.potential += potential - old_potential;

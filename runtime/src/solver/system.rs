@@ -434,7 +434,17 @@ impl StrandSystem {
             }
         }
         let touching = match contacts {
-            Some(c) => c.add_to_terms(at, kernel, q, v, terms, !explicit, &mut ws.jac, t),
+            Some(c) => c.add_to_terms(
+                at,
+                kernel,
+                &strand.geometry,
+                q,
+                v,
+                terms,
+                !explicit,
+                &mut ws.jac,
+                t,
+            ),
             None => false,
         };
         // a strand without internal friction or drag keeps the projection, and so does one

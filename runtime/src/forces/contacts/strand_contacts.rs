@@ -48,6 +48,8 @@ use superhelix_kernels::contact::body::{
 };
 use superhelix_kernels::contact::predicted;
 pub use superhelix_kernels::contact::ContactParams;
+use superhelix_kernels::storage::Square;
+use superhelix_kernels::strand_terms::StrandPoints;
 
 use superhelix_kernels::contact::partners;
 pub use superhelix_kernels::contact::partners::{
@@ -439,6 +441,7 @@ impl StrandContacts {
         &mut self,
         at: &Placement,
         kernel: &mut dyn StrandKernel,
+        geom: &StrandGeometry,
         q: &[f64],
         v: &[f64],
         terms: Terms,
@@ -446,9 +449,6 @@ impl StrandContacts {
         jac: &mut [Vector3<f64>],
         out: &mut StrandTerms,
     ) -> bool {
-        self.place(at);
-        let head = &at.head;
-        self.sample_poses(kernel.geometry(), q);
         let asked = TermsAsked {
             force: terms.force,
             stiffness: terms.stiffness,
@@ -462,9 +462,65 @@ impl StrandContacts {
             out: &mut *out,
             aj: &mut aj,
         };
-        let (body, mut stiffened) =
-            self.view()
-                .add_terms(head, &self.poses, v, asked, jac, &mut sink);
+        let stiffened = self.add_terms_to(at, geom, q, v, asked, jac, &mut sink);
+        self.aj = aj;
+        stiffened
+    }
+
+    /// [`Self::add_to_terms`] into the one step's arrays (force, stiffness, damping),
+    /// the strand's points from the step's own terms.
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_step_terms(
+        &mut self,
+        at: &Placement,
+        geom: &StrandGeometry,
+        points: &mut dyn StrandPoints<f64>,
+        (q, v): (&[f64], &[f64]),
+        curvature: bool,
+        jac: &mut [Vector3<f64>],
+        force: &mut [f64],
+        stiffness: &mut Square<'_, f64>,
+        damping: &mut Square<'_, f64>,
+    ) -> bool {
+        let asked = TermsAsked {
+            force: true,
+            stiffness: true,
+            curvature,
+            damping: true,
+        };
+        let mut aj = std::mem::take(&mut self.aj);
+        let mut sink = SquareSink {
+            points,
+            q,
+            force,
+            stiffness: stiffness.reborrow(),
+            damping: damping.reborrow(),
+            aj: &mut aj,
+        };
+        let stiffened = self.add_terms_to(at, geom, q, v, asked, jac, &mut sink);
+        self.aj = aj;
+        stiffened
+    }
+
+    /// [`Self::add_to_terms`] into any sink of the contact terms (the runtime's terms,
+    /// or the one step's arrays), the strand's geometry `geom`.
+    #[allow(clippy::too_many_arguments)]
+    fn add_terms_to(
+        &mut self,
+        at: &Placement,
+        geom: &StrandGeometry,
+        q: &[f64],
+        v: &[f64],
+        asked: TermsAsked,
+        jac: &mut [Vector3<f64>],
+        sink: &mut impl ContactSink,
+    ) -> bool {
+        self.place(at);
+        let head = &at.head;
+        self.sample_poses(geom, q);
+        let (body, mut stiffened) = self
+            .view()
+            .add_terms(head, &self.poses, v, asked, jac, sink);
         let mut summary = ContactSummary {
             body_contacts: body.contacts,
             max_penetration: body.max_penetration,
@@ -476,7 +532,7 @@ impl StrandContacts {
             // pass); J is computed only for those within reach (a partner's force acts
             // along the Jacobian only: no curvature). A coupled pair's penalty and damping
             // are the pair solve's, after the step (`crate::solver::pair_coupling`)
-            self.place_near_partners(head, sink.kernel.geometry(), q);
+            self.place_near_partners(head, geom, q);
             let (touching, partner_stiffness) = self.partner_view(&hh).add_terms(
                 head,
                 &self.partner_near,
@@ -487,7 +543,7 @@ impl StrandContacts {
                     ..asked
                 },
                 jac,
-                &mut sink,
+                &mut *sink,
             );
             summary.hair_contacts += touching;
             stiffened |= partner_stiffness;
@@ -509,7 +565,7 @@ impl StrandContacts {
                     jac,
                     &mut other,
                     &mut diff,
-                    &mut sink,
+                    &mut *sink,
                 );
                 self.self_touching = touching;
                 stiffened |= self_stiffness;
@@ -517,7 +573,6 @@ impl StrandContacts {
             }
             summary.hair_contacts += self.self_touching;
         }
-        self.aj = aj;
         self.summary = summary;
         stiffened
     }
@@ -572,20 +627,37 @@ impl StrandContacts {
         &mut self,
         at: &Placement,
         kernel: &mut dyn StrandKernel,
+        geom: &StrandGeometry,
         q: &[f64],
         v: &[f64],
         jac: &mut [Vector3<f64>],
     ) -> f64 {
+        self.drag_power_with(at, geom, q, v, jac, &mut |s, jac| {
+            kernel.point(q, s, jac, None)
+        })
+    }
+
+    /// [`Self::drag_power`] with the strand's points from `point` (y(s) at q, J(s) into
+    /// the columns given), the strand's geometry `geom`.
+    pub fn drag_power_with(
+        &mut self,
+        at: &Placement,
+        geom: &StrandGeometry,
+        q: &[f64],
+        v: &[f64],
+        jac: &mut [Vector3<f64>],
+        point: &mut StrandPointFn<'_>,
+    ) -> f64 {
         if !self.moving {
-            return self.partner_drag_power(&at.head, kernel, q, v, jac);
+            return self.partner_drag_power(&at.head, geom, q, v, jac, point);
         }
         self.place(at);
         let head = &at.head;
-        self.sample_poses(kernel.geometry(), q);
+        self.sample_poses(geom, q);
         let power = self.view().drag_power(head, &self.poses, v, jac, |s, jac| {
-            kernel.point(q, s, jac, None);
+            point(s, jac);
         });
-        power + self.partner_drag_power(head, kernel, q, v, jac)
+        power + self.partner_drag_power(head, geom, q, v, jac, point)
     }
 
     /// The power `c_h w v_p · ẏ` of the hair–hair damping of the partners within reach
@@ -593,26 +665,21 @@ impl StrandContacts {
     fn partner_drag_power(
         &mut self,
         head: &HeadState,
-        kernel: &mut dyn StrandKernel,
+        geom: &StrandGeometry,
         q: &[f64],
         v: &[f64],
         jac: &mut [Vector3<f64>],
+        point: &mut StrandPointFn<'_>,
     ) -> f64 {
         let Some(hh) = self.hair else { return 0.0 };
         // a coupled pair's damping is not the step's (see `add_to_terms`)
         if self.partners.is_empty() || hh.coupled {
             return 0.0;
         }
-        self.sample_poses(kernel.geometry(), q);
-        self.place_near_partners(head, kernel.geometry(), q);
-        self.partner_view(&hh).drag_power(
-            head,
-            &self.partner_near,
-            &self.partner_y,
-            v,
-            jac,
-            |s, jac| kernel.point(q, s, jac, None),
-        )
+        self.sample_poses(geom, q);
+        self.place_near_partners(head, geom, q);
+        self.partner_view(&hh)
+            .drag_power(head, &self.partner_near, &self.partner_y, v, jac, point)
     }
 
     /// Whether the strand may touch a body.
@@ -1115,6 +1182,47 @@ impl ContactSink for TermsSink<'_> {
     }
     fn add_damping(&mut self, jac: &[Vector3<f64>], a: &Matrix3<f64>) {
         add_projected(jac, a, self.aj, &mut self.out.damping);
+    }
+}
+
+/// The strand's point y(s) at the state in question, J(s) into the columns given.
+pub type StrandPointFn<'a> = dyn FnMut(f64, &mut [Vector3<f64>]) -> Vector3<f64> + 'a;
+
+/// The one step's arrays as the sink of the contact terms, the strand's points from the
+/// step's own terms.
+struct SquareSink<'a, 'm> {
+    points: &'a mut dyn StrandPoints<f64>,
+    q: &'a [f64],
+    force: &'a mut [f64],
+    stiffness: Square<'m, f64>,
+    damping: Square<'m, f64>,
+    aj: &'a mut [Vector3<f64>],
+}
+
+impl ContactSink for SquareSink<'_, '_> {
+    fn point(
+        &mut self,
+        s: f64,
+        jac: &mut [Vector3<f64>],
+        curvature: Option<Vector3<f64>>,
+    ) -> Vector3<f64> {
+        match curvature {
+            Some(c) => self
+                .points
+                .point_curvature(self.q, s, jac, c, &mut self.stiffness),
+            None => self.points.point(self.q, s, jac),
+        }
+    }
+    fn add_force(&mut self, jac: &[Vector3<f64>], f: &Vector3<f64>) {
+        add_force(jac, f, self.force);
+    }
+    fn add_stiffness(&mut self, jac: &[Vector3<f64>], a: &Matrix3<f64>) {
+        let m = &mut self.stiffness;
+        body::add_projected(jac, a, self.aj, |i, j, x| m[j][i] += x);
+    }
+    fn add_damping(&mut self, jac: &[Vector3<f64>], a: &Matrix3<f64>) {
+        let m = &mut self.damping;
+        body::add_projected(jac, a, self.aj, |i, j, x| m[j][i] += x);
     }
 }
 
