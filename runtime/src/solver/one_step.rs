@@ -35,7 +35,8 @@ thread_local! {
 /// BDF2 with fixed steps, or the error-controlled step (with the energy balance), for a
 /// strand without contacts, its root clamped, pinned (the joint's coordinates scaled as
 /// the runtime's solver scales them, `ParamsView::scale`) or free (the root's
-/// translation after the chain's coordinates, its momentum kept by the step). Point
+/// translation after the chain's coordinates, its momentum kept by the step; with fixed
+/// steps). Point
 /// loads, and the charges' forces of electrostatics with them, are the one step's, and
 /// so is a held tip, through [`HeldHook`] (the scene allows it the linearly implicit
 /// Euler step with fixed steps).
@@ -47,8 +48,9 @@ pub fn covers(system: &StrandSystem) -> bool {
         IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
     ) && (ctx.tolerance.is_none() || ctx.energy_balance);
     // (the runtime's contacts reach the one step through `ContactHook`, which it does
-    // not take yet: docs/architecture.md)
-    integrator && system.contacts.is_none()
+    // not take yet, nor a free root under a tolerance: docs/architecture.md)
+    let free_under_tolerance = ctx.tolerance.is_some() && system.strand.geometry.floating;
+    integrator && system.contacts.is_none() && !free_under_tolerance
 }
 
 /// Advance a strand that [`covers`] takes over `interval` (the head's phase changes cut
