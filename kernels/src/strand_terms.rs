@@ -194,17 +194,30 @@ pub struct PointsOf<'s, 'a, 'b, S: ?Sized, T: Float = f64> {
     /// What gives the step its terms.
     pub source: &'s mut S,
     /// The strand's shape.
-    pub shape: &'s StrandShape<'a, T>,
+    pub shape: StrandShape<'a, T>,
     /// The step's point scratch.
     pub scratch: &'s mut PointScratch<'b, T>,
 }
 
-impl<S: StepTerms<T> + ?Sized, T: Float> StrandPoints<T> for PointsOf<'_, '_, '_, S, T> {
-    fn point(&mut self, q: &[T], s: T, jac: &mut [Vector3<T>]) -> Vector3<T> {
-        let y = self.source.point(self.shape, q, s, self.scratch, None);
+impl<S: StepTerms<T> + ?Sized, T: Float> PointsOf<'_, '_, '_, S, T> {
+    /// [`StepTerms::point`], J(s) copied into `jac`.
+    fn point_into(
+        &mut self,
+        q: &[T],
+        s: T,
+        jac: &mut [Vector3<T>],
+        hessian: Option<(Vector3<T>, &mut Square<'_, T>)>,
+    ) -> Vector3<T> {
+        let y = self.source.point(&self.shape, q, s, self.scratch, hessian);
         let n = jac.len().min(self.scratch.jac.len());
         jac[..n].copy_from_slice(&self.scratch.jac[..n]);
         y
+    }
+}
+
+impl<S: StepTerms<T> + ?Sized, T: Float> StrandPoints<T> for PointsOf<'_, '_, '_, S, T> {
+    fn point(&mut self, q: &[T], s: T, jac: &mut [Vector3<T>]) -> Vector3<T> {
+        self.point_into(q, s, jac, None)
     }
 
     fn point_curvature(
@@ -215,16 +228,11 @@ impl<S: StepTerms<T> + ?Sized, T: Float> StrandPoints<T> for PointsOf<'_, '_, '_
         c: Vector3<T>,
         hessian: &mut Square<'_, T>,
     ) -> Vector3<T> {
-        let y = self
-            .source
-            .point(self.shape, q, s, self.scratch, Some((c, hessian)));
-        let n = jac.len().min(self.scratch.jac.len());
-        jac[..n].copy_from_slice(&self.scratch.jac[..n]);
-        y
+        self.point_into(q, s, jac, Some((c, hessian)))
     }
 
     fn ends(&mut self, q: &[T], ends: &mut [Pose<T>]) {
-        self.source.ends(self.shape, q, ends);
+        self.source.ends(&self.shape, q, ends);
     }
 }
 

@@ -327,7 +327,7 @@ pub(crate) fn measure<'c, 'e, S: StepTerms<T> + ?Sized, T: Float, const NC: usiz
     if let Some(c) = contacts {
         let mut points = PointsOf {
             source: &mut *source,
-            shape: &shape,
+            shape,
             scratch: &mut ws.points,
         };
         let (potential, rate) = c.energy(&mut points, q, v, t, head);
@@ -667,7 +667,7 @@ fn step_piece<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
                         c,
                         &mut PointsOf {
                             source: &mut *source,
-                            shape: &strand.params.shape(),
+                            shape: strand.params.shape(),
                             scratch: &mut ws.points,
                         },
                         &interval.start,
@@ -863,7 +863,7 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
                     |x: &mut [f64]| solve_factored_f64(a, pivots, strand.params.scale, x, scratch);
                 let mut points = PointsOf {
                     source: &mut *source,
-                    shape: &strand.params.shape(),
+                    shape: strand.params.shape(),
                     scratch: &mut ws.points,
                 };
                 c.resolve(
@@ -1176,7 +1176,7 @@ fn split<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         if ws.energy_balance && c.has_history() {
             let mut points = PointsOf {
                 source: &mut *source,
-                shape: &strand.params.shape(),
+                shape: strand.params.shape(),
                 scratch: &mut ws.points,
             };
             middle = remeasure_contacts(c, &mut points, &first.end, strand.q, strand.v, &middle);

@@ -179,7 +179,7 @@ pub(crate) fn bdf2_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>
         let bh = bh.as_f64();
         let mut points = PointsOf {
             source: &mut *source,
-            shape: &p.shape(),
+            shape: p.shape(),
             scratch: &mut ws.points,
         };
         contacts_predicted = c

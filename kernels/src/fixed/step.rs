@@ -301,7 +301,7 @@ pub(crate) fn assemble<'c, 'e, S: StepTerms<T> + ?Sized, T: Float, const NC: usi
         }
         let mut points = PointsOf {
             source: &mut *source,
-            shape: &shape,
+            shape,
             scratch: &mut ws.points,
         };
         held_stiffness |= end.add_stiffness(&mut points, q, &mut ws.stiffness);
@@ -311,7 +311,7 @@ pub(crate) fn assemble<'c, 'e, S: StepTerms<T> + ?Sized, T: Float, const NC: usi
         Some((c, t)) => c.add_terms(
             &mut PointsOf {
                 source: &mut *source,
-                shape: &p.shape(),
+                shape: p.shape(),
                 scratch: &mut ws.points,
             },
             q,
@@ -447,10 +447,9 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize
     }
     if let Some(end) = strand.end.as_deref_mut() {
         // the held tip's multipliers on the same factors
-        let shape = p.shape();
         let mut points = PointsOf {
             source: &mut *source,
-            shape: &shape,
+            shape: p.shape(),
             scratch: &mut ws.points,
         };
         let (a, pivots) = (&ws.matrix_a, &*ws.pivots);
@@ -472,7 +471,7 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize
         let map = Some((h_f64, h_f64));
         let mut points = PointsOf {
             source: &mut *source,
-            shape: &p.shape(),
+            shape: p.shape(),
             scratch: &mut ws.points,
         };
         contacts_predicted = c
@@ -490,10 +489,9 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize
     }
     if let Some(end) = strand.end.as_deref_mut() {
         // the drift the linearised constraint leaves, projected out
-        let shape = p.shape();
         let mut points = PointsOf {
             source: &mut *source,
-            shape: &shape,
+            shape: p.shape(),
             scratch: &mut ws.points,
         };
         end.project(&mut points, q_new, t_end)
