@@ -1707,7 +1707,9 @@ fn a_rope_wrapped_by_three_quarter_turns_holds_up_to_the_capstan_ratio() {
 }
 
 /// The closest distance between two points of strand 0 more than `apart` (m) apart along
-/// it, over its centreline sampled at `samples` + 1 points (the root joint left out).
+/// it, over its centreline sampled at `samples` + 1 points from its first contact sample
+/// on (the root joint and the half part before that sample left out: a held root's hair
+/// volume begins at its first sample, docs/contacts.md).
 struct SelfGap {
     geometry: superhelix_runtime::model::strand::StrandGeometry,
     arcs: Vec<f64>,
@@ -1716,9 +1718,10 @@ struct SelfGap {
 }
 
 impl SelfGap {
-    fn new(sim: &Simulation, samples: usize, apart: f64) -> Self {
+    /// `per`: the scene's contact samples per element.
+    fn new(sim: &Simulation, samples: usize, apart: f64, per: usize) -> Self {
         let geometry = sim.strand(0).geometry.clone();
-        let joint = geometry.lengths[0];
+        let joint = geometry.lengths[0] + geometry.lengths[1] / (2 * per) as f64;
         let own = geometry.length() - joint;
         SelfGap {
             arcs: (0..=samples)
@@ -1749,7 +1752,7 @@ impl SelfGap {
 }
 
 /// A rope of 30 cm (radius 1 mm, E = 1 MPa, N = 30) hanging from a pinned root, lowered
-/// 26 cm in 1.8 s ([`piled_rope_to`] lowers it `lowering`, with `per` samples an element
+/// 28 cm in 1.8 s ([`piled_rope_to`] lowers it `lowering`, with `per` samples an element
 /// and the hair–hair penalty `stiffness`) into a square well 2.4 cm wide (four walls and a floor, Coulomb
 /// friction; self-contact with a hair–hair split depth of 10 µm): it buckles and piles
 /// up on itself. After every step, the closest distance
@@ -1757,7 +1760,7 @@ impl SelfGap {
 /// centreline, 20 points per element) and how many steps it came within 2.2 mm of
 /// itself: (closest distance over the run, steps in contact).
 fn piled_rope(self_contact: bool) -> (f64, usize) {
-    piled_rope_to(self_contact, 0.26, 16, 3e7)
+    piled_rope_to(self_contact, 0.28, 16, 3e7)
 }
 
 fn piled_rope_to(self_contact: bool, lowering: f64, per: usize, stiffness: f64) -> (f64, usize) {
@@ -1818,7 +1821,7 @@ root = "pinned"
     );
     let setup = parse_scene(&text).expect("scene");
     let mut sim = Simulation::new(setup, None).expect("simulation");
-    let mut gap = SelfGap::new(&sim, 600, 6e-3);
+    let mut gap = SelfGap::new(&sim, 600, 6e-3, per);
     let (mut closest, mut touching) = (f64::INFINITY, 0);
     for _ in 0..2000 {
         sim.step().expect("step");
@@ -1834,10 +1837,15 @@ root = "pinned"
 #[test]
 fn a_rope_lowered_into_a_well_piles_up_without_passing_through_itself() {
     // with self-contact the rope's volume (radius 1 mm) keeps its parts 2 mm apart, less
-    // the penalty's give where two coils cross (a point contact carries the rope's
-    // push over one sample's weight: about 10 µm at the penalty 3·10⁷ N/m²); the same
-    // rope without it passes through itself. Measured 1.9905 mm, 0.48 % short of 2 R
-    // (0.30 % in the deeper pile of the ignored test below); bound 1 %, the issue's
+    // the penalty's give where two coils cross: a crossing's penalty meets the push of the
+    // rope the root drives down into the jammed pile at one sample. The pile is chaotic
+    // (a change of 1e-13 in the rope's curvature, or of the rounding of its step, makes
+    // another pile), so the bound is on what every pile measured: 18 runs (lowered 26,
+    // 27 and 28 cm, the curvature as written and ±1e-13, on the one step and on the
+    // runtime's earlier step) came 0.1 to 1.3 % short of 2R, the six lowered 28 cm 0.45
+    // to 0.54 % (and all six piled: lowered 26 cm, three of six did not come within
+    // 2.2 mm of themselves in 2 s). Bound 2 %: 40 µm, 1.5 times the deepest of the 18
+    // and a twenty-fifth of the radius
     let (closest, touching) = piled_rope(true);
     let (closest_without, _) = piled_rope(false);
     println!(
@@ -1849,11 +1857,11 @@ fn a_rope_lowered_into_a_well_piles_up_without_passing_through_itself() {
         touching > 100,
         "the rope did not pile up on itself ({touching} steps)"
     );
-    assert!(closest >= 0.99 * 2e-3, "closest {closest}");
+    assert!(closest >= 0.98 * 2e-3, "closest {closest}");
     // the control: without self-contact the coils overlap by far more than the
-    // penalty's give (10 µm). How deep depends on where the chaotic pile happens to
-    // cross itself, which a change of rounding moves (1.34 mm measured), so the bound
-    // is an overlap of a fifth of the diameter, 40 times the give
+    // penalty's give. How deep depends on where the chaotic pile happens to cross
+    // itself (0.07 to 0.47 mm apart measured on the variants above), so the bound is an
+    // overlap of a fifth of the diameter, 40 times the give
     assert!(
         closest_without < 0.8 * 2e-3,
         "without self-contact: {closest_without}"
@@ -2222,8 +2230,7 @@ fn rod_friction_fields_out_of_range_are_refused_and_named() {
 }
 
 /// The deeper pile (lowered 29 cm, the root 1 cm over the floor's level): more coils
-/// crossing. Measured 1.9941 mm (0.30 % short of 2R); with 24 samples an element and the
-/// penalty 3·10⁸ N/m², 1.9895 mm. About 3 minutes: `cargo test --release -p
+/// crossing. Bound as the well's (2 % short of 2R at most). About 3 minutes: `cargo test --release -p
 /// superhelix-runtime --test rods -- --ignored deeper_pile`.
 #[test]
 #[ignore]
@@ -2234,7 +2241,7 @@ fn a_rope_lowered_deeper_piles_up_without_passing_through_itself() {
         closest * 1e3
     );
     assert!(touching > 100, "{touching}");
-    assert!(closest >= 0.99 * 2e-3, "closest {closest}");
+    assert!(closest >= 0.98 * 2e-3, "closest {closest}");
 }
 
 /// A soft free rope (0.2 m, 30 elements, E = 1 MPa, no gravity, no drag) lying along x,
@@ -2881,8 +2888,13 @@ fn rope_pile(duration: f64, replace: &[(&str, &str)]) -> PileRun {
     }
     let setup = parse_scene(&text).expect("scene");
     let dt = setup.config.dt;
+    let per = setup
+        .contacts
+        .as_ref()
+        .expect("contacts")
+        .samples_per_element;
     let mut sim = Simulation::new(setup, None).expect("simulation");
-    let mut gap = SelfGap::new(&sim, 2000, 6e-3);
+    let mut gap = SelfGap::new(&sim, 2000, 6e-3, per);
     let (mut closest, mut when) = (f64::INFINITY, 0.0);
     let mut landed = None;
     let (mut highest, mut landing, mut lying) = (0.0f64, 0.0f64, 0.0f64);

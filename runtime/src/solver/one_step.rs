@@ -32,14 +32,14 @@ thread_local! {
 }
 
 /// Whether the one step takes this strand's steps: the linearly implicit Euler step or
-/// BDF2 with fixed steps, or the error-controlled step (with the energy balance), for a
-/// strand without contacts, its root clamped, pinned (the joint's coordinates scaled as
-/// the runtime's solver scales them, `ParamsView::scale`) or free (the root's
-/// translation after the chain's coordinates, its momentum kept by the step; with fixed
-/// steps). Point
-/// loads, and the charges' forces of electrostatics with them, are the one step's, and
-/// so is a held tip, through [`HeldHook`] (the scene allows it the linearly implicit
-/// Euler step with fixed steps).
+/// BDF2 with fixed steps, or the error-controlled step (with the energy balance), its
+/// root clamped, pinned (the joint's coordinates scaled as the runtime's solver scales
+/// them, `ParamsView::scale`) or free (the root's translation after the chain's
+/// coordinates, its momentum kept by the step; with fixed steps). Point loads, and the
+/// charges' forces of electrostatics with them, are the one step's, and so is a held tip,
+/// through [`HeldHook`] (the scene allows it the linearly implicit Euler step with fixed
+/// steps), and so are contacts with bodies and hair–hair contacts with `coupling =
+/// "ball"`, through [`ContactHook`], with fixed steps.
 pub fn covers(system: &StrandSystem) -> bool {
     let ctx = &system.context;
     // (the error-controlled step keeps the energy balance)
@@ -47,10 +47,15 @@ pub fn covers(system: &StrandSystem) -> bool {
         ctx.integrator,
         IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
     ) && (ctx.tolerance.is_none() || ctx.energy_balance);
-    // (the runtime's contacts reach the one step through `ContactHook`, which it does
-    // not take yet, nor a free root under a tolerance: docs/architecture.md)
+    // (not yet the one step's: contacts under a tolerance, the pair solve of `coupling =
+    // "pair"`, a free root under a tolerance: docs/architecture.md)
     let free_under_tolerance = ctx.tolerance.is_some() && system.strand.geometry.floating;
-    integrator && system.contacts.is_none() && !free_under_tolerance
+    integrator
+        && system
+            .contacts
+            .as_ref()
+            .is_none_or(|c| ctx.tolerance.is_none() && !c.hair_params().is_some_and(|p| p.coupled))
+        && !free_under_tolerance
 }
 
 /// Advance a strand that [`covers`] takes over `interval` (the head's phase changes cut
