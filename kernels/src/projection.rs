@@ -360,9 +360,10 @@ impl<'a, T: Float, const NC: usize> SpectralProjection<'a, T, NC> {
                 false,
                 T::one(),
                 false,
+                false,
             );
             let b = &mut self.rotated[j * k..(j + 1) * k];
-            gemm(b, k, 1, n, u, true, w, false, T::one(), false);
+            gemm(b, k, 1, n, u, true, w, false, T::one(), false, false);
             let ww: T = w.iter().map(|&x| x * x).sum();
             let bb: T = b.iter().map(|&x| x * x).sum();
             partial += ww - bb;
@@ -383,6 +384,7 @@ impl<'a, T: Float, const NC: usize> SpectralProjection<'a, T, NC> {
             false,
             -T::one(),
             true,
+            false,
         );
         let coupling: T = self.coupling[..n * k].iter().map(|&x| x * x).sum();
         if coupling.not_a_number() || coupling > bound {
@@ -424,6 +426,7 @@ impl<'a, T: Float, const NC: usize> SpectralProjection<'a, T, NC> {
             true,
             -T::one(),
             true,
+            true,
         );
         gemm(
             g_all,
@@ -435,6 +438,7 @@ impl<'a, T: Float, const NC: usize> SpectralProjection<'a, T, NC> {
             u,
             true,
             -T::one(),
+            true,
             true,
         );
         gemm(
@@ -448,6 +452,7 @@ impl<'a, T: Float, const NC: usize> SpectralProjection<'a, T, NC> {
             true,
             norm,
             false,
+            true,
         );
         for c in 0..n {
             let m = &mut self.a[c * n + c..(c + 1) * n];
@@ -475,6 +480,7 @@ impl<'a, T: Float, const NC: usize> SpectralProjection<'a, T, NC> {
                 false,
                 T::one(),
                 false,
+                false,
             );
             gemm(
                 h,
@@ -487,6 +493,7 @@ impl<'a, T: Float, const NC: usize> SpectralProjection<'a, T, NC> {
                 true,
                 T::one(),
                 false,
+                true,
             );
             // exactly symmetric
             mirror_lower(h, n);
@@ -751,27 +758,54 @@ fn mirror_lower<T: Float>(a: &mut [T], n: usize) {
 /// Cholesky factorisation in place of the m × m matrix at the start of `a`
 /// (column-major, stride m, lower triangle read and overwritten by the factor): whether
 /// it is numerically positive definite (every pivot finite and > 0).
+///
+/// Compiled twice, for the baseline target and with AVX2 (the same bits), as [`gemm`].
 pub fn cholesky<T: Float>(a: &mut [T], m: usize) -> bool {
+    #[cfg(all(target_arch = "x86_64", feature = "std", not(target_feature = "avx2")))]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, checked just above.
+            return unsafe { cholesky_avx2(a, m) };
+        }
+    }
+    cholesky_body(a, m)
+}
+
+/// [`cholesky`] compiled with AVX2.
+#[cfg(all(target_arch = "x86_64", feature = "std", not(target_feature = "avx2")))]
+#[target_feature(enable = "avx2")]
+fn cholesky_avx2<T: Float>(a: &mut [T], m: usize) -> bool {
+    cholesky_body(a, m)
+}
+
+/// The body of [`cholesky`].
+#[inline(always)]
+fn cholesky_body<T: Float>(a: &mut [T], m: usize) -> bool {
     if a.len() < m * m {
         return false;
     }
+    // column j less the products of the columns before it, in their order (each entry
+    // as the textbook's inner loop sums it), down the columns: contiguous, in vector
+    // registers
     for j in 0..m {
-        let mut d = a[j * m + j];
+        let (done, rest) = a.split_at_mut(j * m);
+        let col = &mut rest[j..m];
         for p in 0..j {
-            d -= a[p * m + j] * a[p * m + j];
+            let before = &done[p * m + j..(p + 1) * m];
+            let apj = before[0];
+            for (x, &y) in col.iter_mut().zip(before) {
+                *x -= y * apj;
+            }
         }
+        let d = col[0];
         if d.not_a_number() || d <= T::zero() || !d.is_finite() {
             return false;
         }
         let d = d.sqrt();
-        a[j * m + j] = d;
+        col[0] = d;
         let inverse = T::one() / d;
-        for i in j + 1..m {
-            let mut s = a[j * m + i];
-            for p in 0..j {
-                s -= a[p * m + i] * a[p * m + j];
-            }
-            a[j * m + i] = s * inverse;
+        for x in &mut col[1..] {
+            *x *= inverse;
         }
     }
     true
@@ -779,7 +813,18 @@ pub fn cholesky<T: Float>(a: &mut [T], m: usize) -> bool {
 
 /// `c = α op(a) op(b)` (or `c += …` when `accumulate`), c m × n column-major, op(a)
 /// m × inner (`a` stored inner × m when `a_t`), op(b) inner × n (`b` stored n × inner
-/// when `b_t`).
+/// when `b_t`). With `lower`, only the lower triangle of c (m = n) is asked for: the
+/// blocks of rows wholly above the diagonal are left as they were (the entries of a
+/// block computed above it are correct too).
+///
+/// Each entry is `α s` with `s` summed over the inner index in order (`c + α s` when
+/// accumulating), whichever loop order computes it: with `a` as stored (not `a_t`) the
+/// sums of a block of rows are carried together down the columns of `a` (contiguous, so
+/// the inner loop runs in vector registers), with `a_t` one entry at a time along a row
+/// of `a`.
+///
+/// Compiled twice, for the baseline target and with AVX2, as [`crate::moments::rotary`]
+/// is: the AVX2 copy runs when the CPU has it, with the same bits.
 #[allow(clippy::too_many_arguments)]
 fn gemm<T: Float>(
     c: &mut [T],
@@ -792,22 +837,165 @@ fn gemm<T: Float>(
     b_t: bool,
     alpha: T,
     accumulate: bool,
+    lower: bool,
 ) {
-    for j in 0..n {
-        for i in 0..m {
-            let mut s = T::zero();
-            for p in 0..inner {
-                let aip = if a_t { a[i * inner + p] } else { a[p * m + i] };
-                let bpj = if b_t { b[p * n + j] } else { b[j * inner + p] };
-                s += aip * bpj;
+    #[cfg(all(target_arch = "x86_64", feature = "std", not(target_feature = "avx2")))]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, checked just above.
+            return unsafe { gemm_avx2(c, m, n, inner, a, a_t, b, b_t, alpha, accumulate, lower) };
+        }
+    }
+    gemm_body(c, m, n, inner, a, a_t, b, b_t, alpha, accumulate, lower)
+}
+
+/// [`gemm`] compiled with AVX2.
+#[cfg(all(target_arch = "x86_64", feature = "std", not(target_feature = "avx2")))]
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+fn gemm_avx2<T: Float>(
+    c: &mut [T],
+    m: usize,
+    n: usize,
+    inner: usize,
+    a: &[T],
+    a_t: bool,
+    b: &[T],
+    b_t: bool,
+    alpha: T,
+    accumulate: bool,
+    lower: bool,
+) {
+    gemm_body(c, m, n, inner, a, a_t, b, b_t, alpha, accumulate, lower)
+}
+
+/// The body of [`gemm`].
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn gemm_body<T: Float>(
+    c: &mut [T],
+    m: usize,
+    n: usize,
+    inner: usize,
+    a: &[T],
+    a_t: bool,
+    b: &[T],
+    b_t: bool,
+    alpha: T,
+    accumulate: bool,
+    lower: bool,
+) {
+    let b_at = |p: usize, j: usize| if b_t { b[p * n + j] } else { b[j * inner + p] };
+    let put = |c: &mut [T], at: usize, s: T| {
+        if accumulate {
+            c[at] += alpha * s;
+        } else {
+            c[at] = alpha * s;
+        }
+    };
+    if a_t {
+        // four sums at a time, each its own chain of additions (in order)
+        for j in 0..n {
+            let mut i = 0;
+            while i + 4 <= m {
+                let rows = [0, 1, 2, 3].map(|r| &a[(i + r) * inner..(i + r + 1) * inner]);
+                let mut s = [T::zero(); 4];
+                for p in 0..inner {
+                    let bpj = b_at(p, j);
+                    for (sr, row) in s.iter_mut().zip(&rows) {
+                        *sr += row[p] * bpj;
+                    }
+                }
+                for (r, &sr) in s.iter().enumerate() {
+                    put(c, j * m + i + r, sr);
+                }
+                i += 4;
             }
-            let x = alpha * s;
-            if accumulate {
-                c[j * m + i] += x;
-            } else {
-                c[j * m + i] = x;
+            for i in i..m {
+                let row = &a[i * inner..(i + 1) * inner];
+                let mut s = T::zero();
+                for (p, &aip) in row.iter().enumerate() {
+                    s += aip * b_at(p, j);
+                }
+                put(c, j * m + i, s);
             }
         }
+        return;
+    }
+    // eight rows of two columns at a time in registers (each column of `a` loaded once
+    // for both), then the last rows by four, two and one
+    let store = |out: &mut [T], s: &[T]| {
+        if accumulate {
+            for (ci, &si) in out.iter_mut().zip(s) {
+                *ci += alpha * si;
+            }
+        } else {
+            for (ci, &si) in out.iter_mut().zip(s) {
+                *ci = alpha * si;
+            }
+        }
+    };
+    let mut start = 0;
+    while start + 8 <= m {
+        gemm_rows::<T, 8>(c, m, n, inner, a, &b_at, start, &store, lower);
+        start += 8;
+    }
+    if start + 4 <= m {
+        gemm_rows::<T, 4>(c, m, n, inner, a, &b_at, start, &store, lower);
+        start += 4;
+    }
+    if start + 2 <= m {
+        gemm_rows::<T, 2>(c, m, n, inner, a, &b_at, start, &store, lower);
+        start += 2;
+    }
+    if start < m {
+        gemm_rows::<T, 1>(c, m, n, inner, a, &b_at, start, &store, lower);
+    }
+}
+
+/// Rows `start .. start + W` of every column of [`gemm`]'s product (`a` as stored), two
+/// columns at a time, the sums in registers; `store` writes a column's W sums.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn gemm_rows<T: Float, const W: usize>(
+    c: &mut [T],
+    m: usize,
+    n: usize,
+    inner: usize,
+    a: &[T],
+    b_at: &impl Fn(usize, usize) -> T,
+    start: usize,
+    store: &impl Fn(&mut [T], &[T]),
+    lower: bool,
+) {
+    let mut j = 0;
+    while j < n {
+        let pair = j + 1 < n;
+        if lower && start + W <= j {
+            // every row of the block above the diagonal of both columns, and of every
+            // column after them
+            break;
+        }
+        let mut s0 = [T::zero(); W];
+        let mut s1 = [T::zero(); W];
+        for p in 0..inner {
+            let col = &a[p * m + start..p * m + start + W];
+            let b0 = b_at(p, j);
+            for (si, &aip) in s0.iter_mut().zip(col) {
+                *si += aip * b0;
+            }
+            if pair {
+                let b1 = b_at(p, j + 1);
+                for (si, &aip) in s1.iter_mut().zip(col) {
+                    *si += aip * b1;
+                }
+            }
+        }
+        store(&mut c[j * m + start..j * m + start + W], &s0);
+        if pair {
+            store(&mut c[(j + 1) * m + start..(j + 1) * m + start + W], &s1);
+        }
+        j += if pair { 2 } else { 1 };
     }
 }
 

@@ -14,7 +14,38 @@ pub fn lu_solve<T: Float>(a: &mut Square<'_, T>, b: &mut [T], pivots: &mut [usiz
 
 /// [`lu_solve`] with the matrices' size `NC` known at compile time (0: not known; false
 /// when `a` is of another size).
+///
+/// Compiled twice, for the baseline target and with AVX2 (the same bits), as the
+/// spectral projection's products are.
 pub(crate) fn lu_solve_sized<T: Float, const NC: usize>(
+    a: &mut Square<'_, T>,
+    b: &mut [T],
+    pivots: &mut [usize],
+) -> bool {
+    #[cfg(all(target_arch = "x86_64", feature = "std", not(target_feature = "avx2")))]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, checked just above.
+            return unsafe { lu_solve_avx2::<T, NC>(a, b, pivots) };
+        }
+    }
+    lu_solve_body::<T, NC>(a, b, pivots)
+}
+
+/// [`lu_solve_sized`] compiled with AVX2.
+#[cfg(all(target_arch = "x86_64", feature = "std", not(target_feature = "avx2")))]
+#[target_feature(enable = "avx2")]
+fn lu_solve_avx2<T: Float, const NC: usize>(
+    a: &mut Square<'_, T>,
+    b: &mut [T],
+    pivots: &mut [usize],
+) -> bool {
+    lu_solve_body::<T, NC>(a, b, pivots)
+}
+
+/// The body of [`lu_solve_sized`].
+#[inline(always)]
+fn lu_solve_body<T: Float, const NC: usize>(
     a: &mut Square<'_, T>,
     b: &mut [T],
     pivots: &mut [usize],
