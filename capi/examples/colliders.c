@@ -13,6 +13,10 @@
  *                             (float64, shape (nz, ny, nx)) when given
  *   colliders shrug           the shoulders rise by 2 cm over the second half second and
  *                             come back, their poses set before every step
+ *   colliders tolerance TOL   error-controlled steps with the contacts (each strand's
+ *                             local error below TOL of its length)
+ *   colliders samples K       K contact points per element (4 by default); options
+ *                             combine
  *
  * It prints, one value per line:
  *
@@ -120,9 +124,18 @@ int main(int argc, char **argv) {
     double *grid = NULL;
     const char *npy = NULL;
     int shrugs = 0;
+    double tolerance = 0.0;
+    size_t samples = 0;
     for (int i = 1; i < argc; i++) {
         if (strcmp(argv[i], "shrug") == 0) {
             shrugs = 1;
+        } else if (strcmp(argv[i], "tolerance") == 0 && i + 1 < argc) {
+            /* error-controlled steps with the contacts: each strand's local error below
+               this, relative to its length */
+            tolerance = strtod(argv[++i], NULL);
+        } else if (strcmp(argv[i], "samples") == 0 && i + 1 < argc) {
+            /* contact points per element (4 by default) */
+            samples = (size_t)strtoul(argv[++i], NULL, 10);
         } else {
             npy = argv[i];
         }
@@ -199,7 +212,9 @@ int main(int argc, char **argv) {
     contact.friction = SH_FRICTION_COULOMB;
     contact.friction_coefficient = 0.3;
     contact.kinetic_friction_coefficient = 0.2;
+    if (samples > 0) contact.samples_per_element = samples;
     CHECK(sh_batch_set_contacts(batch, &contact));
+    if (tolerance > 0.0) CHECK(sh_batch_set_tolerance(batch, tolerance));
 
     /* the colliders: the head sphere, two shoulder capsules on poses of their own, the
        box's grid in the world (its values stay ours: they live until the batch is freed) */
@@ -225,8 +240,8 @@ int main(int argc, char **argv) {
     colliders[3].shape.grid.spacing = CELL;
     CHECK(sh_batch_set_colliders(batch, colliders, 4));
 
-    printf("# %d strands, N = %d, %d steps of 1/60 s, shoulders %s\n", STRANDS, N, FRAMES,
-           shrugs ? "shrugging" : "still");
+    printf("# %d strands, N = %d, %d steps of 1/60 s, shoulders %s, tolerance %g\n", STRANDS,
+           N, FRAMES, shrugs ? "shrugging" : "still", tolerance);
     printf("grid %d %d %d %.17g %.17g %.17g %.17g\n", NX, NY, NZ, origin[0], origin[1],
            origin[2], CELL);
     for (int s = 0; s < STRANDS; s++) {

@@ -133,11 +133,14 @@ enum ShStatus
     // [1e-8, 0.5].
     SH_STATUS_INVALID_TOLERANCE = 23,
     // A contact parameter is out of range, or contacts were asked with a step that does
-    // not take them (the plain step, the error-controlled step) or read without them.
+    // not take them (the plain step) or read without them.
     SH_STATUS_INVALID_CONTACTS = 24,
     // A collider's description is out of range (its kind, mount, shape, grid or pose),
     // or a pose was given to a collider not on a pose of its own.
     SH_STATUS_INVALID_COLLIDER = 25,
+    // A strand's error-controlled step could not meet its tolerance even at its shortest
+    // step (its estimate does not shrink with the step); the strand stopped there.
+    SH_STATUS_TOLERANCE_UNMET = 26,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -588,7 +591,11 @@ ShStatus sh_batch_set_checked(struct ShBatch *batch, int checked);
 // 2·3N + 2 more numbers for it (allocated here, once). [`ShStepReport`] counts the
 // steps taken and rejected and gives the largest estimated error and the step sizes.
 // `tolerance` = 0 returns to fixed steps (as [`sh_batch_set_checked`] chose); anything
-// else out of range is `SH_STATUS_INVALID_TOLERANCE` and changes nothing.
+// else out of range is `SH_STATUS_INVALID_TOLERANCE` and changes nothing. With contacts
+// ([`sh_batch_set_contacts`]) every solve of the error-controlled step takes them (their
+// terms and the contacts that start within a step; their energy in the balance, their
+// anchors and allowances after every accepted step); a step in which a contact acts is
+// not extrapolated.
 //
 // The head given by [`sh_batch_set_head`] is its state at the end of each `dt`; the
 // strands' own steps follow the motion extrapolated back from it (its velocity,
@@ -727,11 +734,12 @@ ShStatus sh_contact_params_default(struct ShContactParams *params);
 // With contacts a step is the checked step with them (`fixed::step_with_contacts`, as
 // the runtime's embedded engine steps a scene with bodies): the penalty, friction and
 // damping of the points within `radius` of a collider in every solve, their energy in
-// the balance, a step split when a point goes deeper than `split_depth`. Contacts need
-// the checked step without a tolerance: `SH_STATUS_INVALID_CONTACTS` after
-// `sh_batch_set_checked(batch, 0)` or a tolerance, and those calls refuse while contacts
-// are set. A value out of range is `SH_STATUS_INVALID_CONTACTS` (the last error names
-// the field and its range) and changes nothing.
+// the balance, a step split when a point goes deeper than `split_depth`; with a
+// tolerance ([`crate::sh_batch_set_tolerance`]) the error-controlled step with them.
+// Contacts need the checked step: `SH_STATUS_INVALID_CONTACTS` after
+// `sh_batch_set_checked(batch, 0)`, and that call refuses while contacts are set. A value
+// out of range is `SH_STATUS_INVALID_CONTACTS` (the last error names the field and its
+// range) and changes nothing.
 //
 // # Safety
 // `batch` is NULL or a live pointer from `sh_batch_new` used by no other thread during

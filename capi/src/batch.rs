@@ -131,11 +131,12 @@ pub(crate) fn step_strand<const N: usize, const D: usize, const E: usize, const 
 }
 
 /// One checked step of `strand` by `dt` with its contacts with `colliders`
-/// (`fixed::step_with_contacts`, as the runtime's embedded engine steps a strand), on the
-/// strand's own clock (`contacts.time`, the step's start): the head as `settings` say at
-/// the step's end, a collider on a pose of its own moving from its start pose to its end
-/// pose over the step. On failure the strand and its contacts are back in the state they
-/// had.
+/// (`fixed::step_with_contacts`, as the runtime's embedded engine steps a strand), or
+/// with a tolerance the error-controlled step with them (`fixed::step_to_tolerance_views`,
+/// the strand's `history`), on the strand's own clock (`contacts.time`, the step's
+/// start): the head as `settings` say at the step's end, a collider on a pose of its own
+/// moving from its start pose to its end pose over the step. On failure the strand, its
+/// history and its contacts are back in the state they had.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn step_strand_with_contacts<
     const N: usize,
@@ -144,6 +145,7 @@ pub(crate) fn step_strand_with_contacts<
     const B: usize,
 >(
     strand: &mut FixedStrand<N, D, B>,
+    history: Option<&mut StepHistory<D>>,
     contacts: &mut StrandContacts,
     colliders: &Colliders,
     settings: &StepSettings,
@@ -151,6 +153,7 @@ pub(crate) fn step_strand_with_contacts<
     ws: &mut FixedWorkspace<N, D, E>,
     scratch: &mut ContactScratch,
     counts: &mut StepCounts,
+    report: &mut ToleranceReport,
 ) -> Result<f64, StepError> {
     let input = &settings.input;
     let t = contacts.time;
@@ -177,17 +180,35 @@ pub(crate) fn step_strand_with_contacts<
             return Err(StepError::SingularMatrix);
         };
         let mut hooks = contacts.hooks(&params, &lengths, &mut set, &mut parts);
-        fixed::step_with_contacts(
-            &ClosedForm,
-            strand,
-            &head,
-            &effects,
-            t,
-            dt,
-            ws,
-            counts,
-            Some(&mut hooks),
-        )
+        match (settings.tolerance, history) {
+            (Some(tolerance), Some(history)) => {
+                let kept = history.clone();
+                fixed::step_to_tolerance_views(
+                    &mut &ClosedForm,
+                    &mut strand.view(),
+                    &mut history.view(),
+                    &head,
+                    &effects,
+                    (t, dt),
+                    tolerance,
+                    ws.view(),
+                    report,
+                    Some(&mut hooks),
+                )
+                .inspect_err(|_| *history = kept)
+            }
+            _ => fixed::step_with_contacts(
+                &ClosedForm,
+                strand,
+                &head,
+                &effects,
+                t,
+                dt,
+                ws,
+                counts,
+                Some(&mut hooks),
+            ),
+        }
     };
     match outcome {
         Ok(r) => {
@@ -361,6 +382,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for S
                     let c = unsafe { &mut *cells[k].get() };
                     step_strand_with_contacts(
                         strand,
+                        history,
                         c,
                         colliders,
                         settings,
@@ -368,6 +390,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for S
                         ws,
                         scratch,
                         &mut outcome.counts,
+                        &mut report,
                     )
                 }
                 None => step_strand(

@@ -39,11 +39,12 @@ pub unsafe extern "C" fn sh_contact_params_default(params: *mut ShContactParams)
 /// With contacts a step is the checked step with them (`fixed::step_with_contacts`, as
 /// the runtime's embedded engine steps a scene with bodies): the penalty, friction and
 /// damping of the points within `radius` of a collider in every solve, their energy in
-/// the balance, a step split when a point goes deeper than `split_depth`. Contacts need
-/// the checked step without a tolerance: `SH_STATUS_INVALID_CONTACTS` after
-/// `sh_batch_set_checked(batch, 0)` or a tolerance, and those calls refuse while contacts
-/// are set. A value out of range is `SH_STATUS_INVALID_CONTACTS` (the last error names
-/// the field and its range) and changes nothing.
+/// the balance, a step split when a point goes deeper than `split_depth`; with a
+/// tolerance ([`crate::sh_batch_set_tolerance`]) the error-controlled step with them.
+/// Contacts need the checked step: `SH_STATUS_INVALID_CONTACTS` after
+/// `sh_batch_set_checked(batch, 0)`, and that call refuses while contacts are set. A value
+/// out of range is `SH_STATUS_INVALID_CONTACTS` (the last error names the field and its
+/// range) and changes nothing.
 ///
 /// # Safety
 /// `batch` is NULL or a live pointer from `sh_batch_new` used by no other thread during
@@ -65,13 +66,6 @@ pub unsafe extern "C" fn sh_batch_set_contacts(
         let p = unsafe { params.read() };
         let settings = ContactSettings::new(&p)
             .map_err(|m| Failure::new(ShStatus::InvalidContacts, None, &m))?;
-        if b.settings.tolerance.is_some() {
-            return Err(Failure::new(
-                ShStatus::InvalidContacts,
-                None,
-                "contacts: the error-controlled step takes no contacts yet (sh_batch_set_tolerance(batch, 0) first)",
-            ));
-        }
         if !b.settings.checked {
             return Err(Failure::new(
                 ShStatus::InvalidContacts,

@@ -119,15 +119,18 @@ pub enum ShStatus {
     /// [1e-8, 0.5].
     InvalidTolerance = 23,
     /// A contact parameter is out of range, or contacts were asked with a step that does
-    /// not take them (the plain step, the error-controlled step) or read without them.
+    /// not take them (the plain step) or read without them.
     InvalidContacts = 24,
     /// A collider's description is out of range (its kind, mount, shape, grid or pose),
     /// or a pose was given to a collider not on a pose of its own.
     InvalidCollider = 25,
+    /// A strand's error-controlled step could not meet its tolerance even at its shortest
+    /// step (its estimate does not shrink with the step); the strand stopped there.
+    ToleranceUnmet = 26,
 }
 
 /// Every status, in the order of its value (`ALL_STATUSES[s as usize] == s`).
-const ALL_STATUSES: [ShStatus; 26] = [
+const ALL_STATUSES: [ShStatus; 27] = [
     ShStatus::Ok,
     ShStatus::NullPointer,
     ShStatus::InvalidCount,
@@ -154,6 +157,7 @@ const ALL_STATUSES: [ShStatus; 26] = [
     ShStatus::InvalidTolerance,
     ShStatus::InvalidContacts,
     ShStatus::InvalidCollider,
+    ShStatus::ToleranceUnmet,
 ];
 
 impl ShStatus {
@@ -219,6 +223,9 @@ impl ShStatus {
             ShStatus::InvalidCollider => {
                 c"collider description out of range (kind, mount, shape, grid or pose)"
             }
+            ShStatus::ToleranceUnmet => {
+                c"the error-controlled step could not meet its tolerance at its shortest step"
+            }
         }
     }
 }
@@ -237,6 +244,7 @@ impl From<StepError> for ShStatus {
             StepError::UnresolvedMotion { .. } => ShStatus::Panic,
             // (the batch's strands have free tips: not reached)
             StepError::Held(_) => ShStatus::Panic,
+            StepError::ToleranceUnmet { .. } => ShStatus::ToleranceUnmet,
         }
     }
 }
@@ -1113,7 +1121,11 @@ pub unsafe extern "C" fn sh_batch_set_checked(batch: *mut ShBatch, checked: c_in
 /// 2·3N + 2 more numbers for it (allocated here, once). [`ShStepReport`] counts the
 /// steps taken and rejected and gives the largest estimated error and the step sizes.
 /// `tolerance` = 0 returns to fixed steps (as [`sh_batch_set_checked`] chose); anything
-/// else out of range is `SH_STATUS_INVALID_TOLERANCE` and changes nothing.
+/// else out of range is `SH_STATUS_INVALID_TOLERANCE` and changes nothing. With contacts
+/// ([`sh_batch_set_contacts`]) every solve of the error-controlled step takes them (their
+/// terms and the contacts that start within a step; their energy in the balance, their
+/// anchors and allowances after every accepted step); a step in which a contact acts is
+/// not extrapolated.
 ///
 /// The head given by [`sh_batch_set_head`] is its state at the end of each `dt`; the
 /// strands' own steps follow the motion extrapolated back from it (its velocity,
@@ -1128,13 +1140,6 @@ pub unsafe extern "C" fn sh_batch_set_tolerance(batch: *mut ShBatch, tolerance: 
         if tolerance == 0.0 {
             b.settings.tolerance = None;
             return Ok(());
-        }
-        if b.contacts.is_some() {
-            return Err(Failure::new(
-                ShStatus::InvalidContacts,
-                None,
-                "tolerance: the error-controlled step takes no contacts yet (sh_batch_set_contacts(batch, NULL) first)",
-            ));
         }
         let range =
             superhelix_kernels::fixed::MIN_TOLERANCE..=superhelix_kernels::fixed::MAX_TOLERANCE;

@@ -57,7 +57,7 @@ pub use dense::{lu_solve, lu_solve_factored, negative_semidefinite_part, Project
 pub use end_hooks::{EndHooks, HeldError, REACH_MARGIN};
 pub use error_control::{
     min_tolerance, step_to_tolerance, step_to_tolerance_views, HistoryView, StepHistory,
-    ToleranceReport, MAX_TOLERANCE, MIN_STEP, MIN_TOLERANCE,
+    ToleranceReport, MAX_FORCED_STEPS, MAX_TOLERANCE, MIN_STEP, MIN_TOLERANCE,
 };
 pub use params::{FixedParams, ParamsError};
 pub use posed_colliders::{Carrier, PosedColliders};

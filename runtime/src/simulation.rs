@@ -219,12 +219,6 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
                 ));
             }
         }
-        if setup.config.tolerance.is_some() {
-            errors.push(FieldError::new(
-                "simulation.tolerance",
-                "the embedded engine's error-controlled step has no contacts; use engine = \"runtime\" or leave tolerance unset",
-            ));
-        }
     }
     for (index, s) in setup.strands.iter().enumerate() {
         let n = s.strand.geometry.elements();

@@ -475,6 +475,7 @@ fn a_held_tip_is_kept_by_the_checked_step_and_refused_by_bdf2_and_the_tolerance(
         1e-3,
         ws.view(5),
         &mut report,
+        None,
     );
     assert_eq!(refused.err(), Some(StepError::Held(HeldError::Unsupported)));
     assert_eq!(view.q, &q0[..]);

@@ -406,7 +406,7 @@ pub fn energy_views<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
 /// measured again: what changes between two pieces of a step without the strand moving
 /// when the contacts have a history (anchors slid, allowances shrank). The runtime's
 /// `energy_balance::remeasure_contacts`.
-fn remeasure_contacts<T: Float>(
+pub(super) fn remeasure_contacts<T: Float>(
     c: &mut dyn ContactHooks<T>,
     points: &mut dyn StrandPoints<T>,
     head: &HeadState,

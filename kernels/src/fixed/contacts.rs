@@ -131,6 +131,11 @@ pub trait ContactHooks<T: Float> {
     fn deepest(&mut self, q: &[T], t: f64, head: &HeadState) -> f64;
     /// What the last [`Self::add_terms`] found.
     fn summary(&self) -> BodySummary;
+    /// Whether a contact acted in the last [`Self::add_terms`] (a sample touched a
+    /// collider or a partner): the error-controlled step does not extrapolate across it.
+    fn touching(&self) -> bool {
+        self.summary().contacts > 0
+    }
     /// The contact energy and rate of the last measure of the energy balance (kept by
     /// the caller of [`Self::energy`]).
     fn last_contact(&mut self) -> &mut (f64, f64);
@@ -1065,6 +1070,10 @@ impl<C: StepColliders + ?Sized, P: MomentSource + ?Sized> ContactHooks<f64>
 
     fn summary(&self) -> BodySummary {
         self.store.scalars.summary
+    }
+
+    fn touching(&self) -> bool {
+        self.store.scalars.summary.contacts + self.store.scalars.partners_touching > 0
     }
 
     fn last_contact(&mut self) -> &mut (f64, f64) {

@@ -1,6 +1,5 @@
-//! The error-controlled fixed-N step: the runtime's `[simulation] tolerance` step
-//! (`runtime/src/solver/error_control.rs`) for a strand without contacts or point
-//! loads, allocation-free, for an engine that asks for an accuracy rather than a step.
+//! The error-controlled step (`[simulation] tolerance`), allocation-free, on any storage,
+//! for an engine that asks for an accuracy rather than a step.
 //!
 //! Within the caller's step [t, t + h] the strand takes steps of its own so that the
 //! estimated local error of each stays below the tolerance τ:
@@ -23,24 +22,35 @@
 //!   step size and the history this one left ([`StepHistory`]);
 //! - **the energy balance** of the checked step acts on each accepted step: energy above
 //!   the bound of [`crate::energy::balance`] is taken from the velocities (neither BDF2
-//!   nor the extrapolated start is strictly dissipative).
+//!   nor the extrapolated start is strictly dissipative), unless the workspace has it
+//!   off (`FixedWorkspace::set_energy_balance`): then nothing is measured;
+//! - **contacts** ([`ContactHooks`], when given): their terms and the contacts that start
+//!   within a step in every solve, their energy in the balance (with the work of
+//!   colliders that move relative to the head), their anchors and allowances updated
+//!   after every accepted step; a start step in which a contact acts keeps y₂ (an
+//!   extrapolation across a contact's onset overshoots), and a step in which a sample
+//!   goes deeper than the contacts' split depth beyond its start's depth is rejected and
+//!   retried at half its size, as the checked step splits it (the two solutions the
+//!   estimate compares go into a collider alike, so the estimate does not see it).
 //!
 //! `runtime/tests/fixed_step.rs` compares it with the runtime's error-controlled step.
 
 use super::adaptive::{
-    field_counter, measure, phase_cut, views_fit, Effects, FieldCounter, HeadTrajectory,
+    field_counter, measure, phase_cut, remeasure_contacts, views_fit, Effects, FieldCounter,
+    HeadTrajectory,
 };
 use super::bdf2::{bdf2_step, Bdf2History, BDF2_MAX_RATIO};
+use super::contacts::ContactHooks;
 use super::end_hooks::HeldError;
 use super::step::{max_element_rotation, non_finite, solve_step, StepError, StepInput, StepReport};
 use super::workspace::FixedWorkspace;
 use super::FixedStrand;
-use crate::energy::{balance, end_ceiling};
+use crate::energy::{balance, end_ceiling, StateEnergy};
 use crate::field_split::FieldRule;
 use crate::float::Float;
 use crate::pose::Pose;
 use crate::storage::{StrandView, WorkView};
-use crate::strand_terms::{MomentSource, StepTerms};
+use crate::strand_terms::{MomentSource, PointsOf, StepTerms};
 
 /// Smallest tolerance of the error-controlled step (in `f64`; `f32` strands take at
 /// least [`min_tolerance`]).
@@ -55,6 +65,9 @@ const GROW: f64 = 2.0;
 const SAFETY: f64 = 0.9;
 /// A step shorter than this, s, is accepted whatever its error.
 pub const MIN_STEP: f64 = 1e-9;
+/// Steps in a row the error-controlled step accepts at [`MIN_STEP`] above its tolerance
+/// before it stops with [`StepError::ToleranceUnmet`].
+pub const MAX_FORCED_STEPS: usize = 8;
 /// Relative margin of the decisions on the time left in the caller's step.
 const SLACK: f64 = 1e-9;
 
@@ -141,6 +154,8 @@ pub struct ToleranceReport {
     pub field_projected: usize,
     /// See [`Self::field_split`].
     pub field_undamped: usize,
+    /// Solves in which contacts that start within the step were predicted and resolved.
+    pub contacts_predicted: usize,
 }
 
 impl ToleranceReport {
@@ -174,6 +189,7 @@ impl ToleranceReport {
         self.field_split += other.field_split;
         self.field_projected += other.field_projected;
         self.field_undamped += other.field_undamped;
+        self.contacts_predicted += other.contacts_predicted;
         self.largest_error = self.largest_error.max(other.largest_error);
         if other.smallest_step > 0.0 {
             self.smallest_step = if self.smallest_step > 0.0 {
@@ -226,6 +242,7 @@ pub fn step_to_tolerance<
         tolerance,
         ws.view(),
         report,
+        None,
     )
 }
 
@@ -244,9 +261,14 @@ pub struct HistoryView<'a, T: Float = f64> {
 }
 
 /// [`step_to_tolerance`] on views of any storage (a strand's, its history's and a
-/// workspace's, of the same n; `fixed::step_views` for the checked step).
+/// workspace's, of the same n; `fixed::step_views` for the checked step), with the
+/// strand's contacts when given ([`ContactHooks`]): their terms and the contacts that
+/// start within a step in every solve, their energy in the balance (the work of moving
+/// colliders with it), their bookkeeping after every accepted step; a start step in
+/// which a contact acts keeps its two half steps' end, not the extrapolation (which
+/// overshoots across a contact's onset).
 #[allow(clippy::too_many_arguments)]
-pub fn step_to_tolerance_views<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
+pub fn step_to_tolerance_views<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     strand: &mut StrandView<'_, T>,
     history: &mut HistoryView<'_, T>,
@@ -256,6 +278,7 @@ pub fn step_to_tolerance_views<S: StepTerms<T> + ?Sized, T: Float, const NC: usi
     tolerance: f64,
     mut ws: WorkView<'_, T, NC>,
     report: &mut ToleranceReport,
+    contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
 ) -> Result<StepReport, StepError> {
     let n = strand.dofs();
     if history.q.len() != n || history.v.len() != n || !views_fit(strand, &ws) {
@@ -277,13 +300,14 @@ pub fn step_to_tolerance_views<S: StepTerms<T> + ?Sized, T: Float, const NC: usi
         &mut ws,
         stack,
         report,
+        contacts,
     )
 }
 
-/// [`step_to_tolerance`] on any storage (`stack`: [`crate::storage::STACK_VECTORS`]
+/// [`step_to_tolerance_views`] on any storage (`stack`: [`crate::storage::STACK_VECTORS`]
 /// vectors of n).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
+pub(crate) fn tolerance_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     strand: &mut StrandView<'_, T>,
     history: &mut HistoryView<'_, T>,
@@ -294,6 +318,7 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
     ws: &mut WorkView<'_, T, NC>,
     stack: &mut [T],
     report: &mut ToleranceReport,
+    mut contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
 ) -> Result<StepReport, StepError> {
     if !(h.is_finite() && h > 0.0 && t.is_finite()) {
         return Err(StepError::TimeStep);
@@ -310,9 +335,42 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
     let (other_q, stack) = stack.split_at_mut(n);
     let (other_v, stack) = stack.split_at_mut(n);
     q0.copy_from_slice(strand.q);
-    let mut energy = match *strand.last_energy {
-        Some(e) if (e.time - t).abs() <= 1e-12 * t.abs().max(1.0) => e,
-        _ => measure(
+    if let Some(c) = contacts.as_deref_mut() {
+        if !c.started() {
+            c.start(strand.q, t, &head.state(t));
+        }
+    }
+    // contacts with a history (anchors, allowances) are measured afresh, their partners'
+    // part again when they have partners (which moved since)
+    let contact_history = contacts.as_deref().is_some_and(|c| c.has_history());
+    // without the energy balance no energy is measured: the start's stands empty
+    let balanced = ws.energy_balance;
+    let mut energy = match (*strand.last_energy, contacts.as_deref_mut()) {
+        _ if !balanced => StateEnergy {
+            time: t,
+            ..StateEnergy::default()
+        },
+        (Some(e), c) if (e.time - t).abs() <= 1e-12 * t.abs().max(1.0) && !contact_history => {
+            let _ = c;
+            e
+        }
+        (Some(e), Some(c))
+            if (e.time - t).abs() <= 1e-12 * t.abs().max(1.0) && c.has_partners() =>
+        {
+            remeasure_contacts(
+                c,
+                &mut PointsOf {
+                    source: &mut *source,
+                    shape: strand.params.shape(),
+                    scratch: &mut ws.points,
+                },
+                &head.state(t),
+                strand.q,
+                strand.v,
+                &e,
+            )
+        }
+        (_, c) => measure(
             source,
             &strand.params,
             effects,
@@ -322,7 +380,7 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
             strand.v,
             ws,
             false,
-            None,
+            c,
             None,
         ),
     };
@@ -333,6 +391,7 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
         h
     };
     let mut now = t;
+    let mut forced = 0;
     while end - now > 1e-12 * end.abs().max(1.0) {
         if *history.h > 0.0 {
             next = next.min(BDF2_MAX_RATIO * *history.h);
@@ -359,6 +418,8 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
             head_moves: effects.head_moves,
         };
         let multistep = *history.h > 0.0;
+        // whether a contact acted in the start step's solves
+        let mut touched = false;
         let solved = if multistep {
             let w = T::of(hh / *history.h);
             for i in 0..n {
@@ -373,8 +434,23 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
             report.solves += 1;
             let rule = *ws.field_rule;
             let dissipative = strand.params.dissipative();
-            bdf2_step(source, strand, &previous, &input, hh, ws, stack, None)
-                .map(|r| report.count_field(&r, rule, dissipative))
+            if let Some(c) = contacts.as_deref_mut() {
+                c.forget();
+            }
+            bdf2_step(
+                source,
+                strand,
+                &previous,
+                &input,
+                hh,
+                ws,
+                stack,
+                contacts.as_deref_mut().map(|c| (c, t1)),
+            )
+            .map(|r| {
+                report.count_field(&r, rule, dissipative);
+                report.contacts_predicted += r.contacts_predicted;
+            })
         } else {
             report.solves += 3;
             let r = start_step(
@@ -388,7 +464,9 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
                 (other_q, other_v),
                 stack,
                 report,
-            );
+                contacts.as_deref_mut(),
+            )
+            .map(|t| touched = t);
             if r.is_err() {
                 other_q.fill(T::zero());
                 other_v.fill(T::zero());
@@ -404,7 +482,15 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
             }
             Err(_) => f64::INFINITY,
         };
-        if error <= tolerance || (hh <= MIN_STEP && error.is_finite()) {
+        // the contacts' depth check of the checked step: a sample that went deeper than
+        // the split depth beyond its start's depth rejects the step, whatever its
+        // estimate (the penetration is alike in the two solutions the estimate compares)
+        let deep = error.is_finite()
+            && hh > MIN_STEP
+            && contacts.as_deref_mut().is_some_and(|c| {
+                !c.acceptable(start_q, strand.q, now, &head.state(now), t1, &input.head)
+            });
+        if !deep && (error <= tolerance || (hh <= MIN_STEP && error.is_finite())) {
             let factor = if error > 0.0 {
                 (SAFETY * crate::math::sqrt(tolerance / error)).clamp(SHRINK, GROW)
             } else {
@@ -414,42 +500,92 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
             history.v.copy_from_slice(start_v);
             *history.h = hh;
             // the energy balance of the checked step
-            let mut e = measure(
-                source,
-                &strand.params,
-                effects,
-                &input.head,
-                t1,
-                strand.q,
-                strand.v,
-                ws,
-                false,
-                None,
-                None,
-            );
-            // follower loads work without a potential
-            let inertial =
-                head.uniform_over(now, t1) && !crate::point_load::any_follows(strand.params.loads);
-            let balance = balance(&energy, &e, inertial);
-            if balance.excess > T::zero() && e.kinetic > T::zero() {
-                let kinetic = balance.limited_kinetic(&e, true).unwrap_or(T::zero());
-                let lambda = (kinetic / e.kinetic).sqrt();
-                for x in strand.v.iter_mut() {
-                    *x *= lambda;
+            if !balanced {
+                energy.time = t1;
+            } else {
+                let mut e = measure(
+                    source,
+                    &strand.params,
+                    effects,
+                    &input.head,
+                    t1,
+                    strand.q,
+                    strand.v,
+                    ws,
+                    false,
+                    contacts.as_deref_mut(),
+                    None,
+                );
+                if touched {
+                    // a start step with contacts is implicit Euler's (it dissipates); its end
+                    // starts the next balance
+                    energy = e;
+                } else {
+                    // contacts with what moves relative to the head work on the strand
+                    let bodies_work = contacts
+                        .as_deref()
+                        .is_some_and(|c| c.moves_relative(now, t1, &head.state(now), &input.head));
+                    // follower loads work without a potential
+                    let inertial = head.uniform_over(now, t1)
+                        && !bodies_work
+                        && !crate::point_load::any_follows(strand.params.loads);
+                    let balance = balance(&energy, &e, inertial);
+                    if balance.excess > T::zero() && e.kinetic > T::zero() {
+                        let kinetic = balance
+                            .limited_kinetic(&e, !bodies_work)
+                            .unwrap_or(T::zero());
+                        let lambda = (kinetic / e.kinetic).sqrt();
+                        for x in strand.v.iter_mut() {
+                            *x *= lambda;
+                        }
+                        e.scale_velocities(lambda);
+                        report.energy_limited += 1;
+                    }
+                    e.ceiling = end_ceiling(&energy, &e, inertial);
+                    energy = e;
                 }
-                e.scale_velocities(lambda);
-                report.energy_limited += 1;
             }
-            e.ceiling = end_ceiling(&energy, &e, inertial);
-            energy = e;
             report.accept(error, hh);
+            if !last {
+                if let Some(c) = contacts.as_deref_mut() {
+                    // the contacts' bookkeeping at every accepted step within the
+                    // caller's (the last one's after the loop)
+                    c.after_step(strand.q, t1, &input.head, hh);
+                    if ws.energy_balance && c.has_history() {
+                        energy = remeasure_contacts(
+                            c,
+                            &mut PointsOf {
+                                source: &mut *source,
+                                shape: strand.params.shape(),
+                                scratch: &mut ws.points,
+                            },
+                            &input.head,
+                            strand.q,
+                            strand.v,
+                            &energy,
+                        );
+                    }
+                }
+            }
             now = t1;
             // a step cut short to end on the interval does not shrink the next
             next = if last {
                 next.max(hh * factor)
             } else {
                 hh * factor
-            };
+            }
+            .max(MIN_STEP);
+            // an estimate that does not shrink with the step: the step would crawl at its
+            // shortest for ever
+            forced = if error > tolerance { forced + 1 } else { 0 };
+            if forced >= MAX_FORCED_STEPS {
+                *strand.last_energy = None;
+                return Err(StepError::ToleranceUnmet {
+                    error,
+                    tolerance,
+                    t: now,
+                });
+            }
         } else {
             if hh <= MIN_STEP {
                 // the shortest step fails: say why, the strand back at its last accepted step
@@ -468,7 +604,10 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
             strand.q.copy_from_slice(start_q);
             strand.v.copy_from_slice(start_v);
             report.rejected += 1;
-            next = if error.is_finite() && error > 0.0 {
+            next = if deep {
+                // as the checked step splits it
+                0.5 * hh
+            } else if error.is_finite() && error > 0.0 {
                 hh * (SAFETY * crate::math::sqrt(tolerance / error)).clamp(SHRINK, GROW)
             } else {
                 hh * SHRINK
@@ -478,6 +617,10 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
     }
     *history.next_h = next;
     *strand.last_energy = Some(energy);
+    if let Some(c) = contacts {
+        // the caller's step's end: anchors stick, slide or let go; allowances shrink
+        c.after_step(strand.q, end, &head.state(end), h);
+    }
     let rotation = max_element_rotation(strand.params.lengths, strand.q, q0);
     Ok(StepReport {
         max_element_rotation: rotation.as_f64(),
@@ -489,9 +632,11 @@ pub(crate) fn tolerance_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize
 
 /// The start of the scheme over [t, t + h]: y₁ from one linearly implicit Euler step of
 /// h, y₂ from two of h/2. The strand ends in 2 y₂ − y₁; y₂, which differs from it by
-/// y₂ − y₁ (the estimate), into `(q2, v2)` (`stack`: four vectors of n).
+/// y₂ − y₁ (the estimate), into `(q2, v2)` (`stack`: four vectors of n). With a
+/// contact acting in a solve (or predicted within one) the strand ends in y₂ and y₁
+/// goes into `(q2, v2)`; returns whether one did.
 #[allow(clippy::too_many_arguments)]
-fn start_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
+fn start_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     source: &mut S,
     strand: &mut StrandView<'_, T>,
     head: &dyn HeadTrajectory,
@@ -502,7 +647,8 @@ fn start_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     (q2, v2): (&mut [T], &mut [T]),
     stack: &mut [T],
     report: &mut ToleranceReport,
-) -> Result<(), StepError> {
+    mut contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
+) -> Result<bool, StepError> {
     let n = strand.dofs();
     let (rule, dissipative) = (*ws.field_rule, strand.params.dissipative());
     let (q, stack) = stack.split_at_mut(n);
@@ -511,8 +657,32 @@ fn start_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
     let (v1, stack) = stack.split_at_mut(n);
     q.copy_from_slice(strand.q);
     v.copy_from_slice(strand.v);
-    let r = solve_step(source, strand, input, (h, t + h), ws, stack, None)?;
-    report.count_field(&r, rule, dissipative);
+    let mut touched = false;
+    let mut solve = |strand: &mut StrandView<'_, T>,
+                     at: &StepInput,
+                     (h, t_end): (f64, f64),
+                     ws: &mut WorkView<'_, T, NC>,
+                     stack: &mut [T],
+                     report: &mut ToleranceReport|
+     -> Result<(), StepError> {
+        if let Some(c) = contacts.as_deref_mut() {
+            c.forget();
+        }
+        let r = solve_step(
+            source,
+            strand,
+            at,
+            (h, t_end),
+            ws,
+            stack,
+            contacts.as_deref_mut().map(|c| (c, t_end)),
+        )?;
+        report.count_field(&r, rule, dissipative);
+        report.contacts_predicted += r.contacts_predicted;
+        touched |= r.contacts_predicted > 0 || contacts.as_deref().is_some_and(|c| c.touching());
+        Ok(())
+    };
+    solve(strand, input, (h, t + h), ws, stack, report)?;
     q1.copy_from_slice(strand.q);
     v1.copy_from_slice(strand.v);
     strand.q.copy_from_slice(q);
@@ -523,8 +693,14 @@ fn start_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         head_moves: effects.head_moves,
     };
     for (at, h, t_end) in [(&middle, 0.5 * h, t + 0.5 * h), (input, 0.5 * h, t + h)] {
-        let r = solve_step(source, strand, at, (h, t_end), ws, stack, None)?;
-        report.count_field(&r, rule, dissipative);
+        solve(strand, at, (h, t_end), ws, stack, report)?;
+    }
+    if touched {
+        // a contact acted: keep y₂ (extrapolating across a contact's onset overshoots);
+        // the estimate compares it with y₁
+        q2.copy_from_slice(q1);
+        v2.copy_from_slice(v1);
+        return Ok(true);
     }
     // keep 2 y₂ − y₁; the estimate compares it with y₂, which it differs from by y₂ − y₁
     q2.copy_from_slice(strand.q);
@@ -534,7 +710,7 @@ fn start_step<S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         strand.q[i] = two * q2[i] - q1[i];
         strand.v[i] = two * v2[i] - v1[i];
     }
-    Ok(())
+    Ok(false)
 }
 
 /// The error norm (module page) between the strand's state and (`q`, `v`).
@@ -550,6 +726,10 @@ fn estimate<S: StepTerms<T> + ?Sized, T: Float>(
     ends_kept: &mut [Pose<T>],
 ) -> f64 {
     let shape = strand.params.shape();
+    // the element ends the strand has (the workspace may hold more: a free root's
+    // translation counts among the coordinates, not among the elements)
+    let m = strand.params.lengths.len() + 1;
+    let (ends_other, ends_kept) = (&mut ends_other[..m], &mut ends_kept[..m]);
     source.ends(&shape, q, ends_other);
     source.ends(&shape, strand.q, ends_kept);
     let centreline = ends_other

@@ -99,6 +99,18 @@ pub enum StepError {
     },
     /// The strand's held tip could not be kept ([`super::EndHooks`]).
     Held(HeldError),
+    /// The error-controlled step's estimate stayed above its tolerance down to the
+    /// shortest step ([`super::error_control::MIN_STEP`]) for
+    /// [`super::error_control::MAX_FORCED_STEPS`] steps in a row: an error that does not
+    /// shrink with the step is not one the step can control.
+    ToleranceUnmet {
+        /// The last estimate, relative to the strand's length.
+        error: f64,
+        /// The tolerance.
+        tolerance: f64,
+        /// Where the strand stopped (the end of the last of those steps), s.
+        t: f64,
+    },
 }
 
 impl core::fmt::Display for StepError {
@@ -118,6 +130,12 @@ impl core::fmt::Display for StepError {
                 "an element turns by {rotation:.2} rad within {h:.3e} s (from t = {t:.6} s), the shortest piece a step splits into ([simulation] dt / 2^{}), beyond the {} rad a step can follow: the loads or the head accelerate the strand faster than the steps resolve, and limiting the step would take momentum away (the strand would no longer follow F = ma); lower [simulation] dt, or the loads",
                 crate::energy::MAX_SUBSTEP_DEPTH,
                 crate::energy::MAX_ELEMENT_ROTATION
+            ),
+            StepError::ToleranceUnmet { error, tolerance, t } => write!(
+                f,
+                "the error-controlled step could not meet its tolerance {tolerance:e}: its estimate stayed at {error:.2e} of the strand's length down to its shortest step ({:e} s) for {} steps in a row, up to t = {t:.9} s, where the strand stopped",
+                super::error_control::MIN_STEP,
+                super::error_control::MAX_FORCED_STEPS
             ),
             StepError::Tolerance => write!(
                 f,

@@ -510,6 +510,7 @@ pub fn step_to_tolerance<S: StepTerms<T> + ?Sized, T: Float>(
         tolerance,
         ws.view(elements),
         report,
+        None,
     )
 }
 

@@ -136,6 +136,11 @@ impl ContactHooks<f64> for ContactHook<'_> {
         }
     }
 
+    fn touching(&self) -> bool {
+        let s = self.contacts.summary();
+        s.body_contacts + s.hair_contacts > 0
+    }
+
     fn last_contact(&mut self) -> &mut (f64, f64) {
         self.last_contact
     }

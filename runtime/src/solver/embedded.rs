@@ -393,16 +393,24 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                     (first, counts, ToleranceReport::default())
                 })
                 .reduce(empty, merge),
-            (Some(tolerance), _) => {
+            (Some(tolerance), contacts) => {
                 self.histories
                     .resize(self.strands.len(), Default::default());
+                // each strand's contacts, when the scene has them
+                let mut buffer_chunks: Vec<Option<&mut [StrandContactBuffers]>> = match contacts {
+                    Some((_, buffers)) => buffers.chunks_mut(chunk).map(Some).collect(),
+                    None => (0..self.strands.len().div_ceil(chunk))
+                        .map(|_| None)
+                        .collect(),
+                };
                 self.strands
                     .par_chunks_mut(chunk)
                     .zip(self.histories.par_chunks_mut(chunk))
                     .zip(self.loads.par_chunks(chunk))
+                    .zip(buffer_chunks.par_iter_mut())
                     .zip(self.workers.par_iter_mut())
                     .enumerate()
-                    .map(|(c, (((strands, histories), loads), worker))| {
+                    .map(|(c, ((((strands, histories), loads), buffers), worker))| {
                         let ws = &mut worker.ws;
                         let mut first = None;
                         let mut total = ToleranceReport::default();
@@ -413,6 +421,21 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                             .enumerate()
                         {
                             let mut r = ToleranceReport::default();
+                            let lengths = s.params.lengths;
+                            let mut contacts =
+                                match (buffers.as_deref_mut(), worker.contacts.as_mut()) {
+                                    (Some(b), Some((colliders, scratch))) => {
+                                        Some(b[k].contacts(&s.params, &lengths, colliders, scratch))
+                                    }
+                                    (Some(_), None) => {
+                                        first.get_or_insert((
+                                            c * chunk + k,
+                                            "a worker without contact scratch".into(),
+                                        ));
+                                        continue;
+                                    }
+                                    (None, _) => None,
+                                };
                             let mut view = s.view();
                             view.params.loads = loads;
                             let outcome = fixed::step_to_tolerance_views(
@@ -425,6 +448,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                                 tolerance,
                                 ws.view(),
                                 &mut r,
+                                contacts.as_mut().map(|c| c as &mut dyn ContactHooks<f64>),
                             );
                             done.add(&r);
                             total.add(&r);
@@ -432,11 +456,13 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                                 first.get_or_insert((c * chunk + k, e.to_string()));
                             }
                         }
-                        // the solves' field stiffness, counted as the checked step's
+                        // the solves' field stiffness and predicted contacts, counted as
+                        // the checked step's
                         let counts = StepCounts {
                             field_split: total.field_split,
                             field_projected: total.field_projected,
                             field_undamped: total.field_undamped,
+                            contacts_predicted: total.contacts_predicted,
                             ..StepCounts::default()
                         };
                         (first, counts, total)

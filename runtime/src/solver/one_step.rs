@@ -32,30 +32,27 @@ thread_local! {
 }
 
 /// Whether the one step takes this strand's steps: the linearly implicit Euler step or
-/// BDF2 with fixed steps, or the error-controlled step (with the energy balance), its
-/// root clamped, pinned (the joint's coordinates scaled as the runtime's solver scales
-/// them, `ParamsView::scale`) or free (the root's translation after the chain's
-/// coordinates, its momentum kept by the step; with fixed steps). Point loads, and the
-/// charges' forces of electrostatics with them, are the one step's, and so is a held tip,
-/// through [`HeldHook`] (the scene allows it the linearly implicit Euler step with fixed
-/// steps), and so are contacts with bodies and hair–hair contacts with `coupling =
-/// "ball"`, through [`ContactHook`], with fixed steps.
+/// BDF2 with fixed steps, or the error-controlled step (with or without the energy
+/// balance), its root clamped, pinned (the joint's coordinates scaled as the runtime's
+/// solver scales them, `ParamsView::scale`) or free (the root's translation after the
+/// chain's coordinates, its momentum kept by the step). Point loads, and the charges'
+/// forces of electrostatics with them, are the one step's, and so is a held tip, through
+/// [`HeldHook`] (the scene allows it the linearly implicit Euler step with fixed steps),
+/// and so are contacts with bodies and hair–hair contacts with `coupling = "ball"`,
+/// through [`ContactHook`].
 pub fn covers(system: &StrandSystem) -> bool {
     let ctx = &system.context;
-    // (the error-controlled step keeps the energy balance)
     let integrator = matches!(
         ctx.integrator,
         IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
-    ) && (ctx.tolerance.is_none() || ctx.energy_balance);
-    // (not yet the one step's: contacts under a tolerance, the pair solve of `coupling =
-    // "pair"`, a free root under a tolerance: docs/architecture.md)
-    let free_under_tolerance = ctx.tolerance.is_some() && system.strand.geometry.floating;
+    );
+    // (not yet the one step's: the pair solve of `coupling = "pair"`:
+    // docs/architecture.md)
     integrator
         && system
             .contacts
             .as_ref()
-            .is_none_or(|c| ctx.tolerance.is_none() && !c.hair_params().is_some_and(|p| p.coupled))
-        && !free_under_tolerance
+            .is_none_or(|c| !c.hair_params().is_some_and(|p| p.coupled))
 }
 
 /// Advance a strand that [`covers`] takes over `interval` (the head's phase changes cut
@@ -186,6 +183,7 @@ pub fn step(
                 tolerance,
                 work.view(elements),
                 &mut report,
+                contacts.as_mut().map(|c| c as &mut dyn ContactHooks<f64>),
             ),
         }
     });
@@ -197,6 +195,7 @@ pub fn step(
     stats.field_split += report.field_split;
     stats.field_projected += report.field_projected;
     stats.field_undamped += report.field_undamped;
+    stats.contacts_predicted += report.contacts_predicted;
     ws.split_hint = usize::from(split_hint);
     stats.substeps += counts.substeps;
     stats.attempts += counts.attempts;
