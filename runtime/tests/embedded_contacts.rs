@@ -5,7 +5,7 @@
 //! by the depth check alone (`predict = false`).
 
 use superhelix_runtime::config::Engine;
-use superhelix_runtime::{engine_for, parse_scene, Simulation};
+use superhelix_runtime::{engine_for, parse_scene, Simulation, SimulationSetup};
 
 /// Ball radius and strand length, m.
 const BALL: f64 = 0.1;
@@ -61,6 +61,21 @@ fn apart(a: &mut Simulation, b: &mut Simulation) -> f64 {
         .zip(&b)
         .map(|(p, q)| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt())
         .fold(0.0, f64::max)
+}
+
+/// The scene `setup` gives for an engine on the embedded engine, on the runtime engine,
+/// and on the runtime engine again from q0 changed by 1e-15 (relative): the scene's own
+/// sensitivity to round-off.
+fn engines_and_spread(setup: impl Fn(&str) -> SimulationSetup) -> [Simulation; 3] {
+    let embedded = Simulation::new(setup("embedded"), None).expect("embedded");
+    let runtime = Simulation::new(setup("runtime"), None).expect("runtime");
+    let mut perturbed = Simulation::new(setup("runtime"), None).expect("runtime");
+    for i in 0..perturbed.strand_count() {
+        let q: Vec<f64> = perturbed.q(i).iter().map(|x| x * (1.0 + 1e-15)).collect();
+        let v = perturbed.v(i).to_vec();
+        perturbed.set_state(i, &q, &v);
+    }
+    [embedded, runtime, perturbed]
 }
 
 /// Each friction model, with the contacts that start within a step predicted and not,
@@ -167,17 +182,10 @@ fn the_embedded_engine_steps_hair_against_hair_as_the_runtime_does() {
     // the pairs after the first step, per case
     let mut first_pairs = Vec::new();
     for (friction, hair_hair) in cases {
-        let setup = |engine| {
+        let setup = |engine: &str| {
             parse_scene(&hair_scene(engine, friction, hair_hair, 1.0)).expect("hair scene")
         };
-        let mut embedded = Simulation::new(setup("embedded"), None).expect("embedded");
-        let mut runtime = Simulation::new(setup("runtime"), None).expect("runtime");
-        let mut perturbed = Simulation::new(setup("runtime"), None).expect("runtime");
-        for i in 0..4 {
-            let q: Vec<f64> = perturbed.q(i).iter().map(|x| x * (1.0 + 1e-15)).collect();
-            let v = perturbed.v(i).to_vec();
-            perturbed.set_state(i, &q, &v);
-        }
+        let [mut embedded, mut runtime, mut perturbed] = engines_and_spread(setup);
         assert_eq!(embedded.engine(), Engine::Embedded);
         let (mut early, mut worst, mut spread) = (0.0f64, 0.0f64, 0.0f64);
         let mut early_spread = 0.0f64;
@@ -372,20 +380,13 @@ fn the_step_budgets_rules_agree_on_both_engines() {
 #[test]
 fn under_the_error_control_the_embedded_engine_lands_strands_as_the_runtime_does() {
     for friction in ["none", "viscous", "coulomb"] {
-        let setup = |engine| {
+        let setup = |engine: &str| {
             let text = scene(engine, friction, None, 1.0)
                 .replace("[simulation]\n", "[simulation]\ntolerance = 1e-3\n");
             parse_scene(&text).expect("scene")
         };
         assert_eq!(engine_for(&setup("auto")), (Engine::Embedded, None));
-        let mut embedded = Simulation::new(setup("embedded"), None).expect("embedded");
-        let mut runtime = Simulation::new(setup("runtime"), None).expect("runtime");
-        let mut perturbed = Simulation::new(setup("runtime"), None).expect("runtime");
-        for i in 0..4 {
-            let q: Vec<f64> = perturbed.q(i).iter().map(|x| x * (1.0 + 1e-15)).collect();
-            let v = perturbed.v(i).to_vec();
-            perturbed.set_state(i, &q, &v);
-        }
+        let [mut embedded, mut runtime, mut perturbed] = engines_and_spread(setup);
         let (mut early, mut worst, mut spread, mut early_spread) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         let mut deepest = 0.0f64;
         let mut counts_agree = true;
