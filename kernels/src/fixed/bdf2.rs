@@ -162,6 +162,7 @@ pub(crate) fn bdf2_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>
             ws.rhs[i] += m[i] * vh[j] - bh * d[i] * vt[j];
         }
     }
+    *ws.factors_piece = 0.0;
     if !scaled_lu_solve::<T, NC>(&mut ws.matrix_a, ws.rhs, ws.pivots, p.scale) {
         return Err(StepError::SingularMatrix);
     }

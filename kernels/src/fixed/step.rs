@@ -460,7 +460,9 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize
             ws.rhs[i] += (mass_j[i] - h * damping_j[i]) * vj;
         }
     }
-    if !scaled_lu_solve::<T, NC>(&mut ws.matrix_a, ws.rhs, ws.pivots, p.scale) {
+    let factored = scaled_lu_solve::<T, NC>(&mut ws.matrix_a, ws.rhs, ws.pivots, p.scale);
+    *ws.factors_piece = if factored { h_f64 } else { 0.0 };
+    if !factored {
         return Err(StepError::SingularMatrix);
     }
     if let Some(end) = strand.end.as_deref_mut() {

@@ -40,6 +40,8 @@ pub struct FixedWorkspace<const N: usize, const D: usize, const E: usize, T: Flo
     pub(super) max_split_depth: usize,
     /// Whether the checked step keeps its energy balance.
     pub(super) energy_balance: bool,
+    /// See `WorkView::factors_piece`.
+    pub(super) factors_piece: f64,
     /// Scratch of the dissipative split ([`crate::field_split`]): its factor, the
     /// metric's scales and the pivot order.
     pub(super) split_work: [[T; D]; D],
@@ -144,6 +146,7 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
             field_rule: FieldRule::default(),
             max_split_depth: MAX_SUBSTEP_DEPTH,
             energy_balance: true,
+            factors_piece: 0.0,
             split_work: [[T::zero(); D]; D],
             split_scale: [T::zero(); D],
             split_order: [0; D],
@@ -168,6 +171,7 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
             damping: Square::of_array(&mut self.damping),
             velocity_jacobian: Square::of_array(&mut self.velocity_jacobian),
             matrix_a: Square::of_array(&mut self.matrix_a),
+            factors_piece: &mut self.factors_piece,
             force: &mut self.force,
             velocity_term: &mut self.velocity_term,
             first_moment: &mut self.first_moment,

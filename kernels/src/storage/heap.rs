@@ -236,6 +236,7 @@ pub struct HeapWorkspace<T: Float = f64> {
     field_rule: FieldRule,
     max_split_depth: usize,
     energy_balance: bool,
+    factors_piece: f64,
     rotation_estimate: f64,
     loss_estimate: f64,
     stack: Vec<T>,
@@ -280,6 +281,7 @@ impl<T: Float> HeapWorkspace<T> {
             field_rule: FieldRule::default(),
             max_split_depth: MAX_SUBSTEP_DEPTH,
             energy_balance: true,
+            factors_piece: 0.0,
             rotation_estimate: 0.0,
             loss_estimate: 0.0,
             stack: Vec::new(),
@@ -350,6 +352,23 @@ impl<T: Float> HeapWorkspace<T> {
         self.energy_balance = on;
     }
 
+    /// The factors the last step on this workspace left, when its last factorisation was
+    /// a linearly implicit Euler piece's: the piece's length, the LU factors of its
+    /// matrix `S A S` (n × n column-major, S the coordinates' scale the strand's
+    /// parameters lent, `ParamsView::scale`) and their pivots. What a caller that solves
+    /// more on the step's own matrix after the step keeps (the pair solve of hair–hair
+    /// contacts); `fixed::lu_solve_factored` solves with them.
+    pub fn last_factors(&self) -> Option<(f64, &[T], &[usize])> {
+        let n = 3 * self.elements;
+        (self.factors_piece > 0.0 && self.pivots.len() == n).then(|| {
+            (
+                self.factors_piece,
+                &self.squares[6][..n * n],
+                &self.pivots[..n],
+            )
+        })
+    }
+
     /// The step's view of this workspace, sized for strands of `elements` elements.
     pub fn view(&mut self, elements: usize) -> WorkView<'_, T> {
         self.fit(elements);
@@ -380,6 +399,7 @@ impl<T: Float> HeapWorkspace<T> {
             damping: square(damping, n),
             velocity_jacobian: square(velocity_jacobian, n),
             matrix_a: square(matrix_a, n),
+            factors_piece: &mut self.factors_piece,
             force,
             velocity_term,
             first_moment: &mut self.first_moment,

@@ -176,6 +176,9 @@ pub struct WorkView<'a, T: Float = f64, const NC: usize = 0> {
     pub(crate) velocity_jacobian: Square<'a, T>,
     /// The step matrix and its LU factors.
     pub(crate) matrix_a: Square<'a, T>,
+    /// The length of the linearly implicit Euler piece whose factors `matrix_a` holds
+    /// (0: the last factorisation was BDF2's).
+    pub(crate) factors_piece: &'a mut f64,
     pub(crate) force: &'a mut [T],
     pub(crate) velocity_term: &'a mut [T],
     pub(crate) first_moment: &'a mut Vector3<T>,

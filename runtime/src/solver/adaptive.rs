@@ -411,6 +411,7 @@ fn implicit_adaptive(
                     &mut state.q,
                     &mut state.v,
                     stats,
+                    false,
                 )?;
                 let again = max_element_rotation(
                     &system.strand.geometry.lengths,

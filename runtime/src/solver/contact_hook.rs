@@ -29,6 +29,10 @@ pub struct ContactHook<'a> {
     pub jac: &'a mut [Vector3<f64>],
     /// The contact energy and rate of the last measure of the energy balance.
     pub last_contact: &'a mut (f64, f64),
+    /// The end of the step whose bookkeeping the caller does itself (after the pair solve
+    /// of `coupling = "pair"`, which moves the strand after its step): the step's own call
+    /// at that time is left out.
+    pub end_deferred: Option<f64>,
 }
 
 impl ContactHooks<f64> for ContactHook<'_> {
@@ -105,6 +109,9 @@ impl ContactHooks<f64> for ContactHook<'_> {
     }
 
     fn after_step(&mut self, q: &[f64], t: f64, head: &HeadState, h: f64) {
+        if self.end_deferred == Some(t) {
+            return;
+        }
         self.contacts
             .after_step(&Placement::new(*head, t), self.geometry, q, h);
     }

@@ -46,13 +46,7 @@ pub fn covers(system: &StrandSystem) -> bool {
         ctx.integrator,
         IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
     );
-    // (not yet the one step's: the pair solve of `coupling = "pair"`:
-    // docs/architecture.md)
     integrator
-        && system
-            .contacts
-            .as_ref()
-            .is_none_or(|c| !c.hair_params().is_some_and(|p| p.coupled))
 }
 
 /// Advance a strand that [`covers`] takes over `interval` (the head's phase changes cut
@@ -128,12 +122,20 @@ pub fn step(
     let mut counts = StepCounts::default();
     let mut report = ToleranceReport::default();
     // contacts: the one step's hooks on the runtime's storage
+    // a strand in pairs of `coupling = "pair"`: the simulation solves the pairs after
+    // the steps on the factors of each one's last piece, and does the contacts'
+    // bookkeeping of the step's end after that
+    let coupled = contacts
+        .as_ref()
+        .is_some_and(|c| c.hair_params().is_some_and(|p| p.coupled));
     let mut contacts = contacts.as_mut().map(|contacts| ContactHook {
         contacts,
         geometry: &strand.geometry,
         jac: &mut ws.jac,
         last_contact: &mut ws.last_contact,
+        end_deferred: coupled.then_some(interval.t + interval.h),
     });
+    let kept_factors = &mut ws.one_step_factors;
     let mut source = KernelTerms::new(kernel.as_mut(), &mut ws.terms, &mut ws.flat);
     let mut history = HistoryView {
         q: &mut ws.prev_q,
@@ -155,7 +157,7 @@ pub fn step(
         work.set_field_rule(rule);
         work.set_max_split_depth(ctx.max_split_depth);
         work.set_energy_balance(ctx.energy_balance);
-        match ctx.tolerance {
+        let outcome = match ctx.tolerance {
             None => {
                 // BDF2 with fixed steps: its history lent with the strand
                 if ctx.integrator == IntegratorKind::Bdf2 {
@@ -185,7 +187,11 @@ pub fn step(
                 &mut report,
                 contacts.as_mut().map(|c| c as &mut dyn ContactHooks<f64>),
             ),
+        };
+        if coupled {
+            kept_factors.keep(work.last_factors(), view.params.scale);
         }
+        outcome
     });
     ws.error_control.record(&report);
     stats.error_steps += report.steps;

@@ -129,6 +129,9 @@ pub struct StrandSides {
     /// The factors are those the step's own solve left (its contacts with bodies that
     /// started within it can be resolved again on them).
     own_factors: bool,
+    /// Those factors are the one step's (kept in `StrandWorkspace::one_step_factors`),
+    /// not the runtime solver's.
+    one_step: bool,
     /// The strand's compliance at one of its pairs is indefinite: its pairs are left
     /// out of this step's solve.
     excluded: bool,
@@ -362,10 +365,17 @@ pub fn strand_responses(
     if sides.response_of.iter().all(|&r| r == NONE) {
         return Ok(());
     }
-    // the step matrix's factors
+    // the step matrix's factors: those of the one step's last linearly implicit piece,
+    // or of the runtime's own step
     let ws = &system.workspace;
     sides.own_factors = false;
+    sides.one_step = false;
     let c = match ws.implicit_factors {
+        _ if ws.one_step_factors.piece > 0.0 => {
+            sides.own_factors = true;
+            sides.one_step = true;
+            ws.one_step_factors.piece
+        }
         Some((count, piece)) if count == ws.solver.factorizations() => {
             sides.own_factors = true;
             piece
@@ -391,12 +401,19 @@ pub fn strand_responses(
         contacts,
         ..
     } = system;
+    let one_step = sides.one_step;
     if let Some(held) = held.as_mut() {
-        let solver = &mut ws.solver;
+        let (solver, factors) = (&mut ws.solver, &mut ws.one_step_factors);
         held.prepare_change(
             &mut KernelPoints(kernel.as_mut()),
             &strand.geometry,
-            &mut |x| solver.solve_factored(x),
+            &mut |x| {
+                if one_step {
+                    factors.solve(x)
+                } else {
+                    solver.solve_factored(x)
+                }
+            },
             q,
             at.time,
         )
@@ -439,7 +456,12 @@ pub fn strand_responses(
                 for (x, j) in column.iter_mut().zip(&ws.jac[..dofs]) {
                     *x = j[axis];
                 }
-                if !ws.solver.solve_factored(&mut column) {
+                let solved = if one_step {
+                    ws.one_step_factors.solve(&mut column)
+                } else {
+                    ws.solver.solve_factored(&mut column)
+                };
+                if !solved {
                     return Err("hair–hair pairs: singular step matrix".into());
                 }
                 if let Some(held) = held.as_ref() {
@@ -639,7 +661,7 @@ pub fn apply(
     // the contacts with bodies that started within the step, resolved again from the
     // moved end on the same factors (the pairs may have pushed a point into a body)
     if sides.own_factors {
-        resolve_again(system, at, q, v, stats)?;
+        resolve_again(system, at, q, v, stats, sides.one_step)?;
     }
     if let Some(target) = target {
         free_root_momentum::correct(system, q, v, target);

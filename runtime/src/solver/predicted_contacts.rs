@@ -8,7 +8,7 @@
 
 use super::dense_solve::DenseSolver;
 use super::stats::StepStats;
-use super::system::StrandSystem;
+use super::system::{OneStepFactors, StrandSystem};
 use crate::bodies::Placement;
 use crate::forces::contacts::predicted::PredictedContacts;
 use crate::forces::contacts::StrandContacts;
@@ -30,20 +30,22 @@ pub(super) fn resolve(
     v: &mut [f64],
     stats: &mut StepStats,
 ) -> Result<(), String> {
-    correct(system, at, Some(map), q, v, stats)
+    correct(system, at, Some(map), q, v, stats, false)
 }
 
 /// [`resolve`] again on a step whose end (q, q̇) was changed since (scaled to the
-/// rotation limit), with its matrix's factors still in the solver: keeps the candidates
-/// and their corrections, and corrects from that end.
+/// rotation limit, or moved by the pair solve), with its matrix's factors still in the
+/// solver (`one_step`: those the one step left, `StrandWorkspace::one_step_factors`):
+/// keeps the candidates and their corrections, and corrects from that end.
 pub(super) fn resolve_again(
     system: &mut StrandSystem,
     at: &Placement,
     q: &mut [f64],
     v: &mut [f64],
     stats: &mut StepStats,
+    one_step: bool,
 ) -> Result<(), String> {
-    correct(system, at, None, q, v, stats)
+    correct(system, at, None, q, v, stats, one_step)
 }
 
 /// The runtime's step as the resolution's host.
@@ -51,6 +53,8 @@ struct Host<'s> {
     contacts: &'s mut StrandContacts,
     kernel: &'s mut dyn StrandKernel,
     solver: &'s mut DenseSolver,
+    /// The one step's factors, when the step was the one step's.
+    one_step: Option<&'s mut OneStepFactors>,
     jac: &'s mut [Vector3<f64>],
     geom: &'s StrandGeometry,
     at: &'s Placement,
@@ -59,7 +63,10 @@ struct Host<'s> {
 
 impl PredictionHost<PredictedContacts> for Host<'_> {
     fn solve_factored(&mut self, x: &mut [f64]) -> bool {
-        self.solver.solve_factored(x)
+        match self.one_step.as_deref_mut() {
+            Some(f) => f.solve(x),
+            None => self.solver.solve_factored(x),
+        }
     }
     fn linearize(&mut self, buffers: &mut PredictedContacts, from: usize) {
         let kernel = &mut *self.kernel;
@@ -80,6 +87,7 @@ fn correct(
     q: &mut [f64],
     v: &mut [f64],
     stats: &mut StepStats,
+    one_step: bool,
 ) -> Result<(), String> {
     let StrandSystem {
         strand,
@@ -100,6 +108,7 @@ fn correct(
         contacts,
         kernel: kernel.as_mut(),
         solver: &mut ws.solver,
+        one_step: one_step.then_some(&mut ws.one_step_factors),
         jac: &mut ws.jac,
         geom: &strand.geometry,
         at,

@@ -62,6 +62,9 @@ pub struct StrandWorkspace {
     /// piece's length h (its factors are the step matrix `M − h D + …` the pair solve of
     /// two strands needs, [`super::pair_coupling`], while the number is unchanged).
     pub(super) implicit_factors: Option<(u64, f64)>,
+    /// The one step's factors of its last linearly implicit piece, kept for the pair solve
+    /// of a strand in pairs of `coupling = "pair"` ([`super::one_step`]).
+    pub(super) one_step_factors: OneStepFactors,
     /// The dissipative split's buffers ([`superhelix_kernels::field_split`]): H
     /// (n², contiguous; H̃ after the split), the factor (n²), the metric and its scales
     /// (n each), the pivot order.
@@ -69,6 +72,57 @@ pub struct StrandWorkspace {
     split_order: Vec<usize>,
     /// Scratch of the one step's terms ([`crate::kernels::step_terms::KernelTerms`]).
     pub(super) flat: Vec<f64>,
+}
+
+/// The LU factors of the step matrix `S A S` of a strand's last linearly implicit piece
+/// on the one step (`HeapWorkspace::last_factors`), with the piece's length and the
+/// coordinates' scale S (empty: none), copied out of the thread's workspace after the
+/// step for the pair solve ([`super::pair_coupling`]).
+#[derive(Debug, Clone, Default)]
+pub(super) struct OneStepFactors {
+    /// The piece's length, s (0: no factors kept).
+    pub piece: f64,
+    lu: Vec<f64>,
+    pivots: Vec<usize>,
+    scale: Vec<f64>,
+}
+
+impl OneStepFactors {
+    /// Keep `factors` (`HeapWorkspace::last_factors`; none: forget) with `scale`.
+    pub fn keep(&mut self, factors: Option<(f64, &[f64], &[usize])>, scale: &[f64]) {
+        match factors {
+            Some((piece, lu, pivots)) => {
+                self.piece = piece;
+                self.lu.clear();
+                self.lu.extend_from_slice(lu);
+                self.pivots.clear();
+                self.pivots.extend_from_slice(pivots);
+                self.scale.clear();
+                self.scale.extend_from_slice(scale);
+            }
+            None => self.piece = 0.0,
+        }
+    }
+
+    /// `A x = b` in place (`b` becomes x) with the factors of `S A S`: `b ← S b`, the
+    /// two triangular solves, `x ← S y`. False when none are kept or x is not finite.
+    pub fn solve(&mut self, b: &mut [f64]) -> bool {
+        let n = self.pivots.len();
+        if self.piece <= 0.0 || b.len() != n {
+            return false;
+        }
+        for (x, s) in b.iter_mut().zip(&self.scale) {
+            *x *= s;
+        }
+        let Some(a) = superhelix_kernels::storage::Square::new(&mut self.lu, n) else {
+            return false;
+        };
+        let ok = superhelix_kernels::fixed::lu_solve_factored(&a, &self.pivots, b);
+        for (x, s) in b.iter_mut().zip(&self.scale) {
+            *x *= s;
+        }
+        ok && b.iter().all(|x| x.is_finite())
+    }
 }
 
 impl StrandWorkspace {
@@ -97,6 +151,7 @@ impl StrandWorkspace {
             loss_estimate: 0.0,
             error_control: super::error_control::ErrorControl::default(),
             implicit_factors: None,
+            one_step_factors: OneStepFactors::default(),
             split: [
                 vec![0.0; n * n],
                 vec![0.0; n * n],
