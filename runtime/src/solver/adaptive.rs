@@ -38,14 +38,6 @@ pub fn step(
         return super::one_step::step(system, interval, state, stats);
     }
     system.workspace.solver.forget_repeat();
-    // a tolerance selects the error-controlled step (validation refuses it with the
-    // other integrators)
-    let tolerance = system.context.tolerance.filter(|_| {
-        matches!(
-            system.context.integrator,
-            IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
-        )
-    });
     if system.context.integrator == IntegratorKind::Rk4 {
         rk4(system, interval, state)?;
     } else {
@@ -58,7 +50,7 @@ pub fn step(
             if let Some(b) = cut {
                 piece = HeadInterval::new(interval.motion, piece.t, b - piece.t);
             }
-            implicit_step(system, &piece, state, stats, tolerance)?;
+            implicit_step(system, &piece, state, stats)?;
             match cut {
                 Some(b) => piece = HeadInterval::new(interval.motion, b, end - b),
                 None => break,
@@ -73,18 +65,15 @@ pub fn step(
     Ok(())
 }
 
-/// One implicit step over `interval` (within which the head keeps its motion phase):
-/// error-controlled at `tolerance`, or checked and split ([`split`]).
+/// One implicit step over `interval` (within which the head keeps its motion phase),
+/// checked and split ([`split`]). (A tolerance is the one step's: validation refuses it
+/// with the integrators this step serves.)
 fn implicit_step(
     system: &mut StrandSystem,
     interval: &HeadInterval,
     state: &mut StrandState,
     stats: &mut StepStats,
-    tolerance: Option<f64>,
 ) -> Result<(), String> {
-    if let Some(tolerance) = tolerance {
-        return super::error_control::step(system, interval, state, stats, tolerance);
-    }
     let kind = system.context.integrator;
     // without the energy balance no energy is measured: the start's stands empty
     let (start, continued) = if system.context.energy_balance {
