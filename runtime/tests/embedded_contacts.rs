@@ -78,6 +78,29 @@ fn engines_and_spread(setup: impl Fn(&str) -> SimulationSetup) -> [Simulation; 3
     [embedded, runtime, perturbed]
 }
 
+/// How far the embedded and the runtime engine part, over the first 0.2 s (`early`) and
+/// over the run (`worst`), and the scene's own spread (the runtime engine against itself
+/// from a perturbed q0) over the same stretches, m.
+#[derive(Default)]
+struct Parting {
+    early: f64,
+    worst: f64,
+    early_spread: f64,
+    spread: f64,
+}
+
+impl Parting {
+    /// After a step to time `t`: the engines `apart`, the perturbed run `spread` away.
+    fn record(&mut self, t: f64, apart: f64, spread: f64) {
+        self.worst = self.worst.max(apart);
+        self.spread = self.spread.max(spread);
+        if t <= 0.2 + 1e-9 {
+            self.early = self.early.max(apart);
+            self.early_spread = self.spread;
+        }
+    }
+}
+
 /// Each friction model, with the contacts that start within a step predicted and not,
 /// 1 s of falling onto the ball: the embedded engine's centrelines are the runtime
 /// engine's to 1e-12 L at every step (the same law, queries, prediction and checks on
@@ -187,8 +210,7 @@ fn the_embedded_engine_steps_hair_against_hair_as_the_runtime_does() {
         };
         let [mut embedded, mut runtime, mut perturbed] = engines_and_spread(setup);
         assert_eq!(embedded.engine(), Engine::Embedded);
-        let (mut early, mut worst, mut spread) = (0.0f64, 0.0f64, 0.0f64);
-        let mut early_spread = 0.0f64;
+        let mut parting = Parting::default();
         let (mut touching, mut deepest) = ([0usize; 2], 0.0f64);
         while runtime.time() < 1.0 - 1e-9 {
             for sim in [&mut embedded, &mut runtime, &mut perturbed] {
@@ -206,14 +228,8 @@ fn the_embedded_engine_steps_hair_against_hair_as_the_runtime_does() {
                     runtime.time()
                 );
             }
-            if runtime.time() <= 0.2 + 1e-9 {
-                early = early.max(apart_now);
-            }
-            worst = worst.max(apart_now);
-            spread = spread.max(apart(&mut runtime, &mut perturbed));
-            if runtime.time() <= 0.2 + 1e-9 {
-                early_spread = spread;
-            }
+            let spread_now = apart(&mut runtime, &mut perturbed);
+            parting.record(runtime.time(), apart_now, spread_now);
             for (sim, n) in [&embedded, &runtime].into_iter().zip(&mut touching) {
                 *n += (0..4)
                     .map(|i| sim.contact_summary(i).expect("contacts").hair_contacts)
@@ -223,6 +239,12 @@ fn the_embedded_engine_steps_hair_against_hair_as_the_runtime_does() {
                 deepest = deepest.max(sim.max_penetration().expect("contacts"));
             }
         }
+        let Parting {
+            early,
+            worst,
+            early_spread,
+            spread,
+        } = parting;
         assert!(
             touching.iter().all(|&n| n > 0),
             "{friction}: partners within reach over the run {touching:?} (embedded, runtime)"
@@ -387,7 +409,7 @@ fn under_the_error_control_the_embedded_engine_lands_strands_as_the_runtime_does
         };
         assert_eq!(engine_for(&setup("auto")), (Engine::Embedded, None));
         let [mut embedded, mut runtime, mut perturbed] = engines_and_spread(setup);
-        let (mut early, mut worst, mut spread, mut early_spread) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        let mut parting = Parting::default();
         let mut deepest = 0.0f64;
         let mut counts_agree = true;
         while runtime.time() < 1.0 - 1e-9 {
@@ -400,19 +422,19 @@ fn under_the_error_control_the_embedded_engine_lands_strands_as_the_runtime_does
                 counts_agree &= (e.error_steps, e.error_rejected, e.contacts_predicted)
                     == (r.error_steps, r.error_rejected, r.contacts_predicted);
             }
-            if runtime.time() <= 0.2 + 1e-9 {
-                early = early.max(apart_now);
-            }
-            worst = worst.max(apart_now);
-            spread = spread.max(apart(&mut runtime, &mut perturbed));
-            if runtime.time() <= 0.2 + 1e-9 {
-                early_spread = spread;
-            }
+            let spread_now = apart(&mut runtime, &mut perturbed);
+            parting.record(runtime.time(), apart_now, spread_now);
             for sim in [&mut embedded, &mut runtime] {
                 deepest = deepest.max(sim.max_penetration().expect("contacts"));
             }
         }
         let (e, r) = (embedded.stats(), runtime.stats());
+        let Parting {
+            early,
+            worst,
+            early_spread,
+            spread,
+        } = parting;
         println!(
             "{friction}: apart {early:.2e} m over 0.2 s (spread {early_spread:.2e}), {worst:.2e} m over 1 s (spread {spread:.2e}); steps {} / {}, rejected {} / {}, predicted {} / {}; deepest {deepest:.2e} m",
             e.error_steps, r.error_steps, e.error_rejected, r.error_rejected, e.contacts_predicted, r.contacts_predicted

@@ -33,7 +33,8 @@
 //!   retried at half its size, as the checked step splits it (the two solutions the
 //!   estimate compares go into a collider alike, so the estimate does not see it).
 //!
-//! `runtime/tests/fixed_step.rs` compares it with the runtime's error-controlled step.
+//! Both engines take it (`runtime/tests/error_control.rs` compares them on a swinging
+//! strand; `runtime/tests/embedded_contacts.rs` with contacts).
 
 use super::adaptive::{
     field_counter, measure, phase_cut, remeasure_contacts, views_fit, Effects, FieldCounter,
@@ -340,36 +341,33 @@ pub(crate) fn tolerance_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: u
             c.start(strand.q, t, &head.state(t));
         }
     }
-    // contacts with a history (anchors, allowances) are measured afresh, their partners'
-    // part again when they have partners (which moved since)
-    let contact_history = contacts.as_deref().is_some_and(|c| c.has_history());
-    // without the energy balance no energy is measured: the start's stands empty
+    // the energy the last step ended with, when it ended here; contacts with a history
+    // (anchors, allowances) are measured afresh, their partners' part again when they
+    // have partners (which moved since); without the energy balance no energy is
+    // measured: the start's stands empty
     let balanced = ws.energy_balance;
-    let mut energy = match (*strand.last_energy, contacts.as_deref_mut()) {
+    let continued = strand
+        .last_energy
+        .filter(|e| (e.time - t).abs() <= 1e-12 * t.abs().max(1.0));
+    let mut energy = match (continued, contacts.as_deref_mut()) {
         _ if !balanced => StateEnergy {
             time: t,
             ..StateEnergy::default()
         },
-        (Some(e), c) if (e.time - t).abs() <= 1e-12 * t.abs().max(1.0) && !contact_history => {
-            let _ = c;
-            e
-        }
-        (Some(e), Some(c))
-            if (e.time - t).abs() <= 1e-12 * t.abs().max(1.0) && c.has_partners() =>
-        {
-            remeasure_contacts(
-                c,
-                &mut PointsOf {
-                    source: &mut *source,
-                    shape: strand.params.shape(),
-                    scratch: &mut ws.points,
-                },
-                &head.state(t),
-                strand.q,
-                strand.v,
-                &e,
-            )
-        }
+        (Some(e), None) => e,
+        (Some(e), Some(c)) if !c.has_history() => e,
+        (Some(e), Some(c)) if c.has_partners() => remeasure_contacts(
+            c,
+            &mut PointsOf {
+                source: &mut *source,
+                shape: strand.params.shape(),
+                scratch: &mut ws.points,
+            },
+            &head.state(t),
+            strand.q,
+            strand.v,
+            &e,
+        ),
         (_, c) => measure(
             source,
             &strand.params,
@@ -551,7 +549,7 @@ pub(crate) fn tolerance_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: u
                     // the contacts' bookkeeping at every accepted step within the
                     // caller's (the last one's after the loop)
                     c.after_step(strand.q, t1, &input.head, hh);
-                    if ws.energy_balance && c.has_history() {
+                    if balanced && c.has_history() {
                         energy = remeasure_contacts(
                             c,
                             &mut PointsOf {

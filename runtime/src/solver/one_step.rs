@@ -38,8 +38,9 @@ thread_local! {
 /// chain's coordinates, its momentum kept by the step). Point loads, and the charges'
 /// forces of electrostatics with them, are the one step's, and so is a held tip, through
 /// [`HeldHook`] (the scene allows it the linearly implicit Euler step with fixed steps),
-/// and so are contacts with bodies and hair–hair contacts with `coupling = "ball"`,
-/// through [`ContactHook`].
+/// and so are contacts with bodies and hair–hair contacts, through [`ContactHook`]
+/// (with `coupling = "pair"` the factors of the step's last piece kept for the pair
+/// solve).
 pub fn covers(system: &StrandSystem) -> bool {
     let ctx = &system.context;
     let integrator = matches!(
