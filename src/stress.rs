@@ -928,19 +928,15 @@ pub fn with_tolerance(cases: Vec<Case>, tolerance: f64) -> Vec<Case> {
 
 /// `cases` on `engine` (`auto`, the scenes' default: the embedded engine wherever it can
 /// run a case), names unchanged; on the embedded engine without the cases it cannot run
-/// (held ends, other integrators).
+/// (held ends, RK4).
 pub fn with_engine(cases: Vec<Case>, engine: Engine) -> Vec<Case> {
     cases
         .into_iter()
-        // the embedded engine holds roots clamped and tips free, and steps with linearly
-        // implicit Euler or BDF2
+        // the embedded engine holds roots clamped and tips free, and steps with the
+        // implicit integrators
         .filter(|c| {
             engine != Engine::Embedded
-                || (c.group != "ends"
-                    && matches!(
-                        c.setup.config.integrator,
-                        IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
-                    ))
+                || (c.group != "ends" && c.setup.config.integrator != IntegratorKind::Rk4)
         })
         .map(|mut c| {
             c.setup.config.engine = engine;

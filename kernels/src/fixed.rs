@@ -39,6 +39,7 @@ mod dense;
 mod end_hooks;
 pub(crate) mod error_control;
 mod free_root;
+mod newton;
 pub(crate) mod params;
 mod posed_colliders;
 pub(crate) mod step;
@@ -59,6 +60,7 @@ pub use error_control::{
     min_tolerance, step_to_tolerance, step_to_tolerance_views, HistoryView, StepHistory,
     ToleranceReport, MAX_FORCED_STEPS, MAX_TOLERANCE, MIN_STEP, MIN_TOLERANCE,
 };
+pub use newton::{NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE};
 pub use params::{FixedParams, ParamsError};
 pub use posed_colliders::{Carrier, PosedColliders};
 pub use step::{

@@ -182,17 +182,11 @@ pub struct Simulation {
 fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
     let mut errors = Vec::new();
     let c = &setup.config;
-    if !matches!(
-        c.integrator,
-        IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
-    ) {
+    if c.integrator == IntegratorKind::Rk4 {
         errors.push(FieldError::new(
             "simulation.engine",
-            format!(
-                "the embedded engine steps with linearly-implicit-euler or bdf2 (integrator = \"{}\"); \
-                 use engine = \"runtime\" for the other integrators",
-                c.integrator.name()
-            ),
+            "the embedded engine steps with linearly-implicit-euler, newton-implicit-euler or bdf2 (integrator = \"rk4\"); \
+             use engine = \"runtime\" for rk4",
         ));
     }
     if c.mode == Mode::Static {
@@ -311,6 +305,7 @@ fn embedded_strands(
                         max_split_depth: setup.config.max_split_depth,
                         energy_balance: setup.config.energy_balance,
                         bdf2: setup.config.integrator == IntegratorKind::Bdf2,
+                        newton: setup.config.integrator == IntegratorKind::NewtonImplicitEuler,
                     });
                     groups.push((n, group));
                     groups.len() - 1
@@ -1822,6 +1817,8 @@ impl Simulation {
             total.field_undamped = e.counts.field_undamped;
             total.contacts_predicted = e.counts.contacts_predicted;
             total.rotation_limited = e.counts.rotation_limited;
+            total.newton_iterations = e.counts.newton_iterations;
+            total.newton_unconverged = e.counts.newton_unconverged;
             let r = &e.tolerance_total;
             total.attempts += r.solves;
             total.energy_limited += r.energy_limited;

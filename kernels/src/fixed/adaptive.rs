@@ -23,6 +23,7 @@ use super::contacts::ContactHooks;
 use super::dense::Projection;
 use super::end_hooks::{EndHooks, HeldError};
 use super::free_root;
+use super::newton::{newton_step, NewtonOutcome};
 use super::step::{
     max_element_rotation, non_finite, solve_factored_f64, solve_step, StepError, StepInput,
     StepReport,
@@ -179,6 +180,11 @@ pub struct StepCounts {
     /// Deepest substeps of a strand with contacts whose rotation was scaled to the
     /// trusted limit.
     pub rotation_limited: usize,
+    /// Newton iterations (each an evaluation of the terms; `set_newton`).
+    pub newton_iterations: usize,
+    /// Newton solves replaced by the linearly implicit solve of the same piece (not
+    /// converged, or a singular Jacobian).
+    pub newton_unconverged: usize,
 }
 
 impl StepCounts {
@@ -195,6 +201,8 @@ impl StepCounts {
         self.field_undamped += other.field_undamped;
         self.contacts_predicted += other.contacts_predicted;
         self.rotation_limited += other.rotation_limited;
+        self.newton_iterations += other.newton_iterations;
+        self.newton_unconverged += other.newton_unconverged;
     }
 }
 
@@ -642,7 +650,7 @@ fn step_piece<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         .is_some_and(|e| (e.time - t).abs() <= 1e-12 * t.abs().max(1.0));
     // the step starts as finely as its last step ended; a strand with contacts, and
     // BDF2, try their whole step first
-    let hint = if contacts.is_some() || strand.history.is_some() {
+    let hint = if contacts.is_some() || strand.history.is_some() || ws.newton {
         0
     } else {
         usize::from(*strand.split_hint).min(ws.max_split_depth)
@@ -765,15 +773,41 @@ fn adaptive<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
         }
         history => {
             strand.history = history;
-            solve_step(
-                source,
-                strand,
-                &input,
-                (h, t_end),
-                ws,
-                stack,
-                contacts.as_deref_mut().map(|c| (c, t_end)),
-            )
+            // Newton's solve where the workspace asks for it; never an unconverged one:
+            // the linearly implicit solve of the same piece instead, under the same checks
+            let newton = if ws.newton && strand.history.is_none() {
+                let outcome = newton_step(
+                    source,
+                    strand,
+                    &input,
+                    (h, t_end),
+                    ws,
+                    stack,
+                    contacts.as_deref_mut(),
+                    &mut counts.newton_iterations,
+                );
+                match outcome {
+                    NewtonOutcome::Converged(report) => Some(report),
+                    NewtonOutcome::Unconverged => {
+                        counts.newton_unconverged += 1;
+                        None
+                    }
+                }
+            } else {
+                None
+            };
+            match newton {
+                Some(report) => Ok(report),
+                None => solve_step(
+                    source,
+                    strand,
+                    &input,
+                    (h, t_end),
+                    ws,
+                    stack,
+                    contacts.as_deref_mut().map(|c| (c, t_end)),
+                ),
+            }
         }
     };
     counts.attempts += 1;

@@ -244,6 +244,24 @@ pub(crate) fn assemble<'c, 'e, S: StepTerms<T> + ?Sized, T: Float, const NC: usi
     contacts: Option<(&mut (dyn ContactHooks<T> + 'c), f64)>,
     end: Option<&mut (dyn EndHooks<T> + 'e)>,
 ) -> (bool, bool) {
+    assemble_terms(source, p, q, v, input, ws, contacts, end, false)
+}
+
+/// [`assemble`], with the whole stiffness and damping as Newton's Jacobian needs them
+/// when `full` (the field stiffness unsymmetrised, the damping in its general form;
+/// the linearly implicit step keeps sym(stiffness) only and its damping split).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn assemble_terms<'c, 'e, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
+    source: &mut S,
+    p: &ParamsView<'_, T>,
+    q: &[T],
+    v: &[T],
+    input: &StepInput,
+    ws: &mut WorkView<'_, T, NC>,
+    contacts: Option<(&mut (dyn ContactHooks<T> + 'c), f64)>,
+    end: Option<&mut (dyn EndHooks<T> + 'e)>,
+    full: bool,
+) -> (bool, bool) {
     let n = crate::storage::sized::<NC>(p.dofs());
     let field = body_field(
         input.gravity,
@@ -262,9 +280,9 @@ pub(crate) fn assemble<'c, 'e, S: StepTerms<T> + ?Sized, T: Float, const NC: usi
         damping: velocity_field,
         velocity_term_jacobian: true,
         field_force: false,
-        // the step keeps sym(stiffness) only (`step_matrix`)
-        symmetric_stiffness: true,
-        split_damping: true,
+        // the step keeps sym(stiffness) only (`step_matrix`); Newton's Jacobian the whole
+        symmetric_stiffness: !full,
+        split_damping: !full,
     };
     evaluate_at(source, p, q, v, &field, terms, ws);
     if !terms.stiffness {

@@ -40,6 +40,8 @@ pub struct FixedWorkspace<const N: usize, const D: usize, const E: usize, T: Flo
     pub(super) max_split_depth: usize,
     /// Whether the checked step keeps its energy balance.
     pub(super) energy_balance: bool,
+    /// Newton-iterated implicit Euler solves in the checked step.
+    pub(super) newton: bool,
     /// See `WorkView::factors_piece`.
     pub(super) factors_piece: f64,
     /// Scratch of the dissipative split ([`crate::field_split`]): its factor, the
@@ -146,6 +148,7 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
             field_rule: FieldRule::default(),
             max_split_depth: MAX_SUBSTEP_DEPTH,
             energy_balance: true,
+            newton: false,
             factors_piece: 0.0,
             split_work: [[T::zero(); D]; D],
             split_scale: [T::zero(); D],
@@ -194,6 +197,7 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
             field_rule: &mut self.field_rule,
             max_split_depth: self.max_split_depth,
             energy_balance: self.energy_balance,
+            newton: self.newton,
             split_work: Square::of_array(&mut self.split_work),
             split_scale: &mut self.split_scale,
             split_order: &mut self.split_order,
@@ -243,6 +247,22 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
     /// Whether the checked step keeps its energy balance.
     pub fn energy_balance(&self) -> bool {
         self.energy_balance
+    }
+
+    /// Solve the checked step's pieces by Newton-iterated implicit Euler (the reference
+    /// integrator `newton-implicit-euler`: backward Euler to a residual of
+    /// [`super::NEWTON_TOLERANCE`], the linearly implicit solve of the same piece where
+    /// it does not converge) instead of the linearly implicit Euler step (the default).
+    /// The split rule, the energy balance and the contacts are the same; BDF2's history,
+    /// a held tip and a free root keep the linearly implicit solve, and so does the
+    /// error-controlled step.
+    pub fn set_newton(&mut self, on: bool) {
+        self.newton = on;
+    }
+
+    /// Whether the checked step solves by Newton iterations.
+    pub fn newton(&self) -> bool {
+        self.newton
     }
 
     /// Forget the element moments of the last strand (the next evaluation computes

@@ -236,6 +236,7 @@ pub struct HeapWorkspace<T: Float = f64> {
     field_rule: FieldRule,
     max_split_depth: usize,
     energy_balance: bool,
+    newton: bool,
     factors_piece: f64,
     rotation_estimate: f64,
     loss_estimate: f64,
@@ -281,6 +282,7 @@ impl<T: Float> HeapWorkspace<T> {
             field_rule: FieldRule::default(),
             max_split_depth: MAX_SUBSTEP_DEPTH,
             energy_balance: true,
+            newton: false,
             factors_piece: 0.0,
             rotation_estimate: 0.0,
             loss_estimate: 0.0,
@@ -350,6 +352,12 @@ impl<T: Float> HeapWorkspace<T> {
     /// Keep the energy balance of the checked step (the default) or not.
     pub fn set_energy_balance(&mut self, on: bool) {
         self.energy_balance = on;
+    }
+
+    /// Newton-iterated implicit Euler solves in the checked step
+    /// (`crate::fixed::FixedWorkspace::set_newton`).
+    pub fn set_newton(&mut self, on: bool) {
+        self.newton = on;
     }
 
     /// The factors the last step on this workspace left, when its last factorisation was
@@ -422,6 +430,7 @@ impl<T: Float> HeapWorkspace<T> {
             field_rule: &mut self.field_rule,
             max_split_depth: self.max_split_depth,
             energy_balance: self.energy_balance,
+            newton: self.newton,
             split_work: square(split_work, n),
             split_scale,
             split_order: &mut self.split_order,

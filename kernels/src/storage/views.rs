@@ -188,6 +188,9 @@ pub struct WorkView<'a, T: Float = f64, const NC: usize = 0> {
     pub(crate) field_rule: &'a mut FieldRule,
     pub(crate) max_split_depth: usize,
     pub(crate) energy_balance: bool,
+    /// The checked step's solves are Newton-iterated implicit Euler's
+    /// (`crate::fixed::newton`), the linearly implicit one where they do not converge.
+    pub(crate) newton: bool,
     pub(crate) split_work: Square<'a, T>,
     pub(crate) split_scale: &'a mut [T],
     pub(crate) split_order: &'a mut [usize],

@@ -92,6 +92,9 @@ struct EmbeddedState {
     /// whose rotation was limited.
     #[serde(default)]
     contact_counts: [usize; 2],
+    /// The Newton iterations, and the Newton solves replaced by linearly implicit ones.
+    #[serde(default)]
+    newton_counts: [usize; 2],
     total: ReportState,
     window: ReportState,
 }
@@ -150,6 +153,7 @@ impl Simulation {
                 pulled_back: e.counts.energy_pulled_back,
                 undamped: e.counts.field_undamped,
                 contact_counts: [e.counts.contacts_predicted, e.counts.rotation_limited],
+                newton_counts: [e.counts.newton_iterations, e.counts.newton_unconverged],
                 total: ReportState::of(&e.tolerance_total),
                 window: ReportState::of(&e.tolerance_window),
             }),
@@ -214,6 +218,7 @@ impl Simulation {
                 e.counts.energy_pulled_back = saved.pulled_back;
                 e.counts.field_undamped = saved.undamped;
                 [e.counts.contacts_predicted, e.counts.rotation_limited] = saved.contact_counts;
+                [e.counts.newton_iterations, e.counts.newton_unconverged] = saved.newton_counts;
                 e.tolerance_total = saved.total.report();
                 e.tolerance_window = saved.window.report();
             }

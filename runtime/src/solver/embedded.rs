@@ -146,6 +146,10 @@ pub struct StepRules {
     /// else linearly implicit Euler. A tolerance takes the error-controlled step either
     /// way.
     pub bdf2: bool,
+    /// Newton-iterated implicit Euler (`newton-implicit-euler`): the checked step's
+    /// solves by Newton iterations, the linearly implicit solve where they do not
+    /// converge.
+    pub newton: bool,
 }
 
 impl Default for StepRules {
@@ -155,6 +159,7 @@ impl Default for StepRules {
             max_split_depth: superhelix_kernels::energy::MAX_SUBSTEP_DEPTH,
             energy_balance: true,
             bdf2: false,
+            newton: false,
         }
     }
 }
@@ -168,6 +173,7 @@ impl StepRules {
         ws.set_field_rule(self.field_rule);
         ws.set_max_split_depth(self.max_split_depth);
         ws.set_energy_balance(self.energy_balance);
+        ws.set_newton(self.newton);
         ws
     }
 }

@@ -43,11 +43,12 @@ thread_local! {
 /// solve).
 pub fn covers(system: &StrandSystem) -> bool {
     let ctx = &system.context;
-    let integrator = matches!(
+    matches!(
         ctx.integrator,
-        IntegratorKind::LinearlyImplicitEuler | IntegratorKind::Bdf2
-    );
-    integrator
+        IntegratorKind::LinearlyImplicitEuler
+            | IntegratorKind::Bdf2
+            | IntegratorKind::NewtonImplicitEuler
+    )
 }
 
 /// Advance a strand that [`covers`] takes over `interval` (the head's phase changes cut
@@ -158,6 +159,7 @@ pub fn step(
         work.set_field_rule(rule);
         work.set_max_split_depth(ctx.max_split_depth);
         work.set_energy_balance(ctx.energy_balance);
+        work.set_newton(ctx.integrator == IntegratorKind::NewtonImplicitEuler);
         let outcome = match ctx.tolerance {
             None => {
                 // BDF2 with fixed steps: its history lent with the strand
@@ -215,6 +217,8 @@ pub fn step(
     stats.field_undamped += counts.field_undamped;
     stats.contacts_predicted += counts.contacts_predicted;
     stats.rotation_limited += counts.rotation_limited;
+    stats.newton_iterations += counts.newton_iterations;
+    stats.newton_unconverged += counts.newton_unconverged;
     outcome.map_err(|e| e.to_string())?;
     ws.last_q.copy_from_slice(&state.q);
     ws.last_v.copy_from_slice(&state.v);
