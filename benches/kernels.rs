@@ -104,10 +104,10 @@ fn full_step(c: &mut Criterion) {
 
 /// The stiffness projection H ↦ H⁻ of the step at 3N = 15, 30, 60, on a matrix with
 /// half its eigenvalues negative (as on the bench strand): the partial decomposition of
-/// `spectral_projection.rs` (basis reuse off) against faer's full one.
+/// `superhelix_kernels::projection` (basis reuse off) against faer's full one.
 fn stiffness_projection(c: &mut Criterion) {
     use faer::Mat;
-    use superhelix::runtime::solver::spectral_projection::SpectralProjection;
+    use superhelix_kernels::storage::heap::HeapProjection;
     let mut group = c.benchmark_group("stiffness_projection");
     for n in [15usize, 30, 60] {
         let mut state = 7u64;
@@ -130,7 +130,7 @@ fn stiffness_projection(c: &mut Criterion) {
                 h[r * n + c] = x;
             }
         }
-        let mut projection = SpectralProjection::new(n);
+        let mut projection = HeapProjection::<f64>::new(n);
         let mut work = h.clone();
         group.bench_with_input(BenchmarkId::new("partial", n), &n, |b, _| {
             b.iter(|| {

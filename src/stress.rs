@@ -508,8 +508,8 @@ fn case(
 /// `tests/stability.rs` fails on any *other* failure, and on a case of this list that
 /// passes ([`render`] prints `PASS (known failure)` for it), so that the list stays exact.
 ///
-/// Empty since the energy-balance test of implicit steps (`superhelix_runtime::
-/// solver::energy_balance`, `solver::step`). Before it, 81 of the 848 cases failed, all
+/// Empty since the energy-balance test of implicit steps (`superhelix_kernels::energy`,
+/// the checked step of `superhelix_kernels::fixed`). Before it, 81 of the 848 cases failed, all
 /// of the integrator: straight strands gained 1.6e-4 to 1.1 S in the first steps after a
 /// jolt or a sudden stop (13 cases: the linearly implicit step created it); 1 m and
 /// frictionless strands exploded or kept gaining on the 5 Hz shake and the nods (12: the

@@ -64,8 +64,8 @@ pub use newton::{NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE};
 pub use params::{FixedParams, ParamsError};
 pub use posed_colliders::{Carrier, PosedColliders};
 pub use step::{
-    centreline, evaluate, linearly_implicit, linearly_implicit_with, StepError, StepInput,
-    StepReport,
+    centreline, evaluate, factor_step_views, linearly_implicit, linearly_implicit_with, StepError,
+    StepInput, StepReport,
 };
 pub use workspace::{Assembly, FixedWorkspace};
 

@@ -203,7 +203,7 @@ pub struct SimulationConfig {
     pub field_stiffness: FieldStiffness,
     /// Whether every implicit step is checked against the energy balance
     /// (`[simulation] energy_balance`, default true): split, or its velocities scaled,
-    /// when it creates energy (see [`crate::solver::energy_balance`]). Off, no energy is
+    /// when it creates energy (see [`superhelix_kernels::energy`]). Off, no energy is
     /// measured and only the rotation check (and the contacts' approach check) splits or
     /// limits a step.
     pub energy_balance: bool,

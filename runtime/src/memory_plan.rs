@@ -10,9 +10,10 @@
 //!
 //! ```text
 //! bytes = 10 MB (the process)
-//!       + Σ strands: runtime engine  950 N² + 12,500 N      (ten dense 3N × 3N matrices
-//!                                                          and their factorisations,
-//!                                                          per-element caches)
+//!       + Σ strands: runtime engine  660 N² + 8,800 N       (nine dense 3N × 3N matrices:
+//!                                                          the kernel's terms, the SPD
+//!                                                          solver, the projection's
+//!                                                          basis; per-element caches)
 //!                    embedded engine 40 N² + 420 N + 1,800  (the fixed-N state)
 //!                    + 2,000 N with body contacts         (contact samples, anchors)
 //!       + 400 per tracer particle of [electrostatics]     (particles, multipole tree)
@@ -21,8 +22,8 @@
 //!                                                          partner point per side)
 //! ```
 //!
-//! (Runtime engine, bytes per strand measured: 27 k at N = 2, 77 k at 5, 213 k at 10,
-//! 662 k at 20, 1.40 M at 30, 2.91 M at 50; embedded: 2.7 k, 5.0 k, 9.5 k, 24.6 k at N = 2,
+//! (Runtime engine, bytes per strand measured: 22 k at N = 2, 57 k at 5, 145 k at 10,
+//! 440 k at 20, 876 k at 30, 2.12 M at 50; embedded: 2.7 k, 5.0 k, 9.5 k, 24.6 k at N = 2,
 //! 5, 10, 20.) The hair–hair pairs are counted at the scene's start
 //! ([`hair_pairs_at_start`]); a sample keeps at most `max_pairs_per_sample` of them, so
 //! they stay linear in the samples however the strands crowd later.
@@ -31,9 +32,9 @@ use crate::config::{Engine, SimulationSetup};
 use crate::error::{Error, Result};
 
 /// Bytes per strand of the runtime engine, per N².
-pub const RUNTIME_BYTES_PER_N2: f64 = 950.0;
+pub const RUNTIME_BYTES_PER_N2: f64 = 660.0;
 /// Bytes per strand of the runtime engine, per element.
-pub const RUNTIME_BYTES_PER_ELEMENT: f64 = 12_500.0;
+pub const RUNTIME_BYTES_PER_ELEMENT: f64 = 8_800.0;
 /// Bytes per strand of the embedded engine, per N².
 pub const EMBEDDED_BYTES_PER_N2: f64 = 40.0;
 /// Bytes per strand of the embedded engine, per element.

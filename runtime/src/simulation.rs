@@ -434,6 +434,16 @@ fn check_setup(setup: &SimulationSetup) -> Result<()> {
         if cc.hair_hair.is_some() && c.mode == Mode::Static {
             errors.push(FieldError::new("contacts.hair_hair", STATIC_HAIR_HAIR));
         }
+        let paired = cc
+            .hair_hair
+            .as_ref()
+            .is_some_and(|h| h.coupling == crate::forces::contacts::config::Coupling::Pair);
+        if paired && c.integrator == IntegratorKind::Rk4 && c.mode == Mode::Dynamic {
+            errors.push(FieldError::new(
+                "contacts.hair_hair.coupling",
+                "\"pair\" solves the pairs on each strand's implicit step matrix, which rk4 does not have: use an implicit integrator (linearly-implicit-euler, newton-implicit-euler, bdf2) or coupling = \"ball\"",
+            ));
+        }
     }
     for (i, s) in setup.strands.iter().enumerate() {
         let g = &s.strand.geometry;
@@ -1020,7 +1030,7 @@ impl Simulation {
     /// Advance every strand by a step of `h` seconds (> 0, finite) instead of `dt`: what
     /// `[output] times` uses to end a step on a frame's time. The integrators take variable
     /// steps (BDF2 restarts from a linearly implicit Euler step after a step ratio above
-    /// [`crate::solver::bdf2::BDF2_MAX_RATIO`]); errors as [`Self::step`].
+    /// [`superhelix_kernels::fixed::BDF2_MAX_RATIO`]); errors as [`Self::step`].
     pub fn step_by(&mut self, h: f64) -> Result<()> {
         if !(h.is_finite() && h > 0.0) {
             return Err(Error::invalid(
@@ -1159,7 +1169,6 @@ impl Simulation {
                     at_end,
                     h,
                     &s.state.q,
-                    &s.state.v,
                     &mut s.stats,
                     sides,
                 )
@@ -1824,6 +1833,7 @@ impl Simulation {
             total.energy_limited += r.energy_limited;
             total.error_steps = r.steps;
             total.error_rejected = r.rejected;
+            total.error_rejected_deep = r.rejected_deep;
         }
         for s in &self.strands {
             total.add(&s.stats);

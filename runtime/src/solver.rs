@@ -8,17 +8,13 @@
 //! strand's state over one [`HeadInterval`].
 
 pub mod adaptive;
-pub mod bdf2;
 pub mod contact_hook;
 pub mod dense_solve;
 pub mod embedded;
-pub mod energy_balance;
 pub mod error_control;
 mod free_root_momentum;
 pub mod held_end;
 pub mod initial_state;
-pub mod linearly_implicit;
-pub mod newton;
 pub mod one_step;
 pub mod pair_coupling;
 mod predicted_contacts;

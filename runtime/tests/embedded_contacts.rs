@@ -465,3 +465,57 @@ fn under_the_error_control_the_embedded_engine_lands_strands_as_the_runtime_does
         parse_scene(&text).expect("scene")
     });
 }
+
+/// Under a tolerance without the prediction of contacts that start within a step
+/// (`predict = false`), what keeps a strand's centreline out of the ball at the loosest
+/// tolerance (0.5) is the contacts' depth check: a step in which a sample goes deeper
+/// than `split_depth` (here 0.02 mm) beyond its start's depth is rejected, whatever its
+/// error estimate (which compares two solutions that both go in), and retried at half
+/// its size. Both engines reject such steps (`StepStats::error_rejected_deep`, the same
+/// ones while they agree), and no centreline point ends deeper in the ball than
+/// `split_depth` (measured: none inside; without the check, 0.10 mm).
+#[test]
+fn under_a_loose_tolerance_the_depth_check_keeps_strands_out_of_the_ball() {
+    const SPLIT_DEPTH: f64 = 2e-5;
+    let setup = |engine: &str| {
+        let text = scene(engine, "none", Some(false), 0.5)
+            .replace("[simulation]\n", "[simulation]\ntolerance = 0.5\n")
+            .replace(
+                "radius = 1e-3\n",
+                &format!("radius = 1e-3\nsplit_depth = {SPLIT_DEPTH}\n"),
+            );
+        parse_scene(&text).expect("scene")
+    };
+    let mut embedded = Simulation::new(setup("auto"), None).expect("embedded");
+    assert_eq!(embedded.engine(), Engine::Embedded);
+    let mut runtime = Simulation::new(setup("runtime"), None).expect("runtime");
+    let mut deepest = 0.0f64;
+    let mut agree = true;
+    while runtime.time() < 0.5 - 1e-9 {
+        for sim in [&mut embedded, &mut runtime] {
+            sim.step().expect("step");
+            deepest = deepest.max(sim.max_penetration().expect("contacts"));
+        }
+        if apart(&mut embedded, &mut runtime) <= 1e-12 * LENGTH {
+            agree &= embedded.stats().error_rejected_deep == runtime.stats().error_rejected_deep;
+        }
+    }
+    let (e, r) = (embedded.stats(), runtime.stats());
+    println!(
+        "rejected by depth {} / {} of {} / {} rejected, {} / {} steps; deepest {deepest:.2e} m",
+        e.error_rejected_deep,
+        r.error_rejected_deep,
+        e.error_rejected,
+        r.error_rejected,
+        e.error_steps,
+        r.error_steps
+    );
+    assert!(agree, "the depth rejections differ while the engines agree");
+    assert!(
+        e.error_rejected_deep > 0 && r.error_rejected_deep > 0,
+        "{e:?} / {r:?}"
+    );
+    assert!(e.error_rejected_deep <= e.error_rejected);
+    assert_eq!(e.contacts_predicted + r.contacts_predicted, 0);
+    assert!(deepest <= SPLIT_DEPTH, "deepest point {deepest:e} m");
+}

@@ -1,16 +1,19 @@
-//! The energy balance of `energy_balance` (issue #4): the head's work it estimates is
-//! what an accurate integration of the model exchanges with the head, and the implicit
-//! integrators' steps stay within it.
+//! The energy balance of the one step (`superhelix_kernels::energy`, issue #4): the
+//! head's work it estimates is what an accurate integration of the model exchanges with
+//! the head, and the implicit integrators' steps stay within it.
 
 mod common;
 use common::*;
 use nalgebra::Vector3;
+use superhelix_kernels::energy::{balance, StateEnergy};
+use superhelix_kernels::fixed::{energy_views, Effects};
+use superhelix_kernels::storage::heap::HeapWorkspace;
+use superhelix_kernels::storage::ParamsView;
 use superhelix_runtime::config::{IntegratorKind, KernelChoice, SimulationConfig};
-use superhelix_runtime::forces::effects::GlobalEffects;
+use superhelix_runtime::kernels::kernel::StrandTerms;
+use superhelix_runtime::kernels::step_terms::KernelTerms;
 use superhelix_runtime::model::material::Preset;
 use superhelix_runtime::model::strand::{PointLoad, Strand};
-use superhelix_runtime::solver::energy_balance::{balance, measure, StateEnergy};
-use superhelix_runtime::solver::{StepContext, StrandSystem};
 use superhelix_runtime::{GenericKernel, HeadMotion, QuadratureRule, Simulation};
 
 const GRAVITY: Vector3<f64> = Vector3::new(0.0, 0.0, -9.81);
@@ -41,27 +44,47 @@ fn strand(drag: bool) -> Strand {
     s
 }
 
-/// Run `sim` for `steps`, measuring the energy after each step on a kernel of its own;
+/// Run `sim` for `steps`, measuring the energy after each step by the one step's measure
+/// (`fixed::energy_views`, on runtime-N storage) on a quadrature kernel of its own;
 /// returns (Σ ΔE − W over the steps, Σ |W|, Σ estimated dissipation).
 fn balance_sums(sim: &mut Simulation, head: &HeadMotion, steps: usize) -> (f64, f64, f64) {
     let strand = sim.strand(0).clone();
-    let kernel = GenericKernel::new(strand.geometry.clone(), QuadratureRule::default());
-    let context = StepContext {
-        effects: GlobalEffects {
-            gravity: Some(GRAVITY),
-            head_moves: true,
-        },
-        integrator: IntegratorKind::default(),
-        max_split_depth: superhelix_kernels::energy::MAX_SUBSTEP_DEPTH,
-        explicit_field_stiffness: false,
-        field_split: false,
-        energy_balance: true,
-        tolerance: None,
+    let g = &strand.geometry;
+    let (stiffness, friction) = (strand.stiffness_diagonal(), strand.friction_diagonal());
+    let params = ParamsView {
+        root_position: g.root_position,
+        root_frame: g.root_frame,
+        lengths: &g.lengths,
+        natural: &strand.natural,
+        stiffness: &stiffness,
+        friction: &friction,
+        mass_per_length: g.mass_per_length,
+        air_drag: strand.air_drag,
+        rotary_inertia: g.rotary_inertia,
+        loads: &strand.point_loads,
+        scale: &[],
     };
-    let mut system = StrandSystem::new(strand, Box::new(kernel), context);
+    let mut kernel = GenericKernel::new(g.clone(), QuadratureRule::default());
+    let mut terms = StrandTerms::new(g.dofs());
+    let mut flat = Vec::new();
+    let mut ws = HeapWorkspace::new();
+    let effects = Effects {
+        gravity: Some(GRAVITY),
+        head_moves: true,
+    };
     let mut at = |sim: &Simulation| -> StateEnergy {
         let t = sim.time();
-        measure(&mut system, &head.state(t), t, sim.q(0), sim.v(0))
+        let mut source = KernelTerms::new(&mut kernel, &mut terms, &mut flat);
+        let elements = g.lengths.len();
+        energy_views(
+            &mut source,
+            &params,
+            (sim.q(0), sim.v(0)),
+            &effects,
+            &head.state(t),
+            t,
+            ws.view(elements),
+        )
     };
     let mut previous = at(sim);
     let (mut unbalanced, mut work, mut dissipated) = (0.0, 0.0, 0.0);

@@ -853,6 +853,28 @@ fn a_static_solve_with_rod_contact_is_refused_and_named() {
     );
 }
 
+/// The pair solve of `coupling = "pair"` solves on each strand's implicit step matrix:
+/// with RK4, which has none, `validate` refuses it, naming the field; with an implicit
+/// integrator, or with `coupling = "ball"`, it passes.
+#[test]
+fn a_pair_solve_without_an_implicit_step_is_refused_and_named() {
+    let rope =
+        rope_scene(1.0, 0.8, 20, 1e7).replace("mode = \"static\"", "dt = 0.001\nduration = 0.01");
+    let paired = format!(
+        "{rope}[contacts]\nbodies = []\n[contacts.hair_hair]\nradius = 0.001\ncoupling = \"pair\"\n"
+    );
+    let named = |text: &str| {
+        validate_scene(text)
+            .iter()
+            .any(|p| p.field == "contacts.hair_hair.coupling")
+    };
+    assert!(!named(&paired), "{:?}", validate_scene(&paired));
+    let rk4 = paired.replace("[simulation]\n", "[simulation]\nintegrator = \"rk4\"\n");
+    assert!(rk4.contains("rk4"));
+    assert!(named(&rk4), "{:?}", validate_scene(&rk4));
+    assert!(!named(&rk4.replace("\"pair\"", "\"ball\"")));
+}
+
 #[test]
 fn a_driven_holder_works_on_the_rope_and_the_balance_counts_it() {
     // the frictionless rope of the catenary test (E = 1e7 Pa, N = 20) at rest on its
@@ -2401,9 +2423,15 @@ fn a_free_rod_thrown_onto_a_frictionless_floor_keeps_its_horizontal_momentum() {
 /// Two free rods crossing at right angles, 4 mm apart along z, the upper one thrown down
 /// onto the other at `speed` m/s (no gravity, frictionless hair–hair contact of radius
 /// 1 mm): the total momentum's largest departure from its start over `steps` steps of
-/// `dt`, relative to the start's, and the lower rod's momentum at the end (how much
-/// the collision passed on).
-fn colliding_free_rods(speed: f64, dt: f64, steps: usize, coupling: &str) -> (f64, f64, f64) {
+/// `dt` with `integrator`, relative to the start's, and the lower rod's momentum at the
+/// end (how much the collision passed on).
+fn colliding_free_rods(
+    speed: f64,
+    dt: f64,
+    steps: usize,
+    coupling: &str,
+    integrator: &str,
+) -> (f64, f64, f64) {
     let rod = |name: &str, root: [f64; 3], direction: [f64; 3]| {
         format!(
             r#"
@@ -2431,6 +2459,7 @@ root = "free"
 dt = {dt}
 duration = 1.0
 engine = "runtime"
+integrator = "{integrator}"
 [environment]
 gravity = "none"
 [contacts]
@@ -2479,16 +2508,30 @@ fn two_free_rods_colliding_keep_their_total_momentum() {
     // assembly), and the lower rod carries 0.51 and 0.47 of the momentum after the
     // collision. With each strand seeing the other as a ball where it was at the step's
     // start (`coupling = "ball"`, the control) the drift is 0.89 at 1 ms
-    for dt in [1e-3, 2e-4] {
-        let (drift, lower, t) = colliding_free_rods(0.1, dt, (0.1 / dt) as usize, "pair");
-        println!("dt {dt}: total momentum drift {drift:.3e} of |P(0)|, the lower rod's {lower:.3} at t = {t:.2}");
-        assert!(drift < 1e-6, "dt {dt}: {drift:e}");
+    for (dt, integrator) in [
+        (1e-3, "linearly-implicit-euler"),
+        (2e-4, "linearly-implicit-euler"),
+    ] {
+        let (drift, lower, t) =
+            colliding_free_rods(0.1, dt, (0.1 / dt) as usize, "pair", integrator);
+        println!("{integrator} dt {dt}: total momentum drift {drift:.3e} of |P(0)|, the lower rod's {lower:.3} at t = {t:.2}");
+        assert!(drift < 1e-6, "{integrator} dt {dt}: {drift:e}");
         // the collision passes momentum on (an inelastic collision of two equal rods
         // shares it half and half; the contact's damping and the rods' bending keep it
         // from exactly that)
-        assert!((0.3..0.7).contains(&lower), "dt {dt}: {lower}");
+        assert!((0.3..0.7).contains(&lower), "{integrator} dt {dt}: {lower}");
     }
-    let (drift, _, _) = colliding_free_rods(0.1, 1e-3, 100, "ball");
+    // After BDF2 steps the pairs are solved on the linearly implicit matrix at the step's
+    // end (`superhelix_kernels::fixed::factor_step_views`): the collision passes momentum
+    // on as well (measured 0.375 of it). BDF2 does not keep a free rod's momentum
+    // through its own steps (measured: a drift of 0.16 of |P(0)|, with the runtime's
+    // earlier fresh assembly for the pairs too): its momentum is not asserted
+    let (drift, lower, _) = colliding_free_rods(0.1, 1e-3, 100, "pair", "bdf2");
+    println!(
+        "bdf2 dt 0.001: total momentum drift {drift:.3e} of |P(0)|, the lower rod's {lower:.3}"
+    );
+    assert!((0.3..0.7).contains(&lower), "bdf2: {lower}");
+    let (drift, _, _) = colliding_free_rods(0.1, 1e-3, 100, "ball", "linearly-implicit-euler");
     println!("control, coupling = \"ball\": drift {drift:.3e} of |P(0)|");
     assert!(drift > 0.1, "the control should lose momentum: {drift:e}");
 }

@@ -1,6 +1,7 @@
-//! The variable-step two-step BDF (BDF2) at a fixed N: the runtime's `bdf2` step
-//! (`runtime/src/solver/bdf2.rs`) for a strand without contacts or point loads, on the
-//! linearly implicit Euler step's matrix.
+//! The variable-step two-step BDF (BDF2) on the linearly implicit Euler step's matrix,
+//! the `bdf2` integrator of both engines (its history lent with the strand,
+//! `StrandView::history`; contacts and point loads in its solve as in the linearly
+//! implicit one's).
 
 use super::contacts::ContactHooks;
 use super::step::{
@@ -13,8 +14,7 @@ use crate::float::Float;
 use crate::storage::{StrandView, WorkView};
 use crate::strand_terms::{MomentSource, PointsOf, StepTerms};
 
-/// Largest ratio of a BDF2 step to the step before it (the runtime's
-/// `solver::bdf2::BDF2_MAX_RATIO`): variable-step BDF2 is zero-stable only for ratios
+/// Largest ratio of a BDF2 step to the step before it: variable-step BDF2 is zero-stable only for ratios
 /// below 1 + √2 (Grigorieff 1983; Hairer, Nørsett & Wanner, *Solving ODEs I*, III.5); a
 /// step split once and then resumed has ratio 2. Beyond it a linearly implicit Euler step
 /// restarts the scheme.

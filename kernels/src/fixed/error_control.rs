@@ -137,6 +137,10 @@ pub struct ToleranceReport {
     pub steps: usize,
     /// Steps rejected (their error above the tolerance, or their solve failed) and retried.
     pub rejected: usize,
+    /// Of those, steps rejected by the contacts' depth check (a sample that went deeper
+    /// than the contacts' split depth beyond its start's depth, whatever the estimate)
+    /// and retried at half their size.
+    pub rejected_deep: usize,
     /// Linear solves, accepted or not.
     pub solves: usize,
     /// Accepted steps whose excess energy was removed from the velocities.
@@ -185,6 +189,7 @@ impl ToleranceReport {
     pub fn add(&mut self, other: &ToleranceReport) {
         self.steps += other.steps;
         self.rejected += other.rejected;
+        self.rejected_deep += other.rejected_deep;
         self.solves += other.solves;
         self.energy_limited += other.energy_limited;
         self.field_split += other.field_split;
@@ -602,6 +607,7 @@ pub(crate) fn tolerance_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: u
             strand.q.copy_from_slice(start_q);
             strand.v.copy_from_slice(start_v);
             report.rejected += 1;
+            report.rejected_deep += usize::from(deep);
             next = if deep {
                 // as the checked step splits it
                 0.5 * hh

@@ -552,6 +552,47 @@ pub(crate) fn solve_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize
     })
 }
 
+/// The matrix of a linearly implicit Euler step of `h` seconds from the strand's state
+/// (its terms with the head in `input.head`, the contacts' at `t_end`), factored in
+/// `ws` as a linearly implicit piece's (`WorkView::factors_piece` = h, what
+/// `HeapWorkspace::last_factors` lends): what a caller that solves on the step's matrix
+/// after a step whose own solve left other factors (BDF2's, Newton's Jacobian) needs —
+/// the pair solve of hair–hair contacts. The strand's q and q̇ are not changed (its
+/// projection basis may be). False when the matrix is singular.
+pub fn factor_step_views<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: usize>(
+    source: &mut S,
+    strand: &mut StrandView<'_, T>,
+    input: &StepInput,
+    (h, t_end): (f64, f64),
+    mut ws: WorkView<'_, T, NC>,
+    contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
+) -> bool {
+    *ws.factors_piece = 0.0;
+    if !(h.is_finite() && h > 0.0) {
+        return false;
+    }
+    let n = crate::storage::sized::<NC>(strand.dofs());
+    let stack = ws.take_stack();
+    let (field_stiffness, loaded) = assemble(
+        source,
+        &strand.params,
+        strand.q,
+        strand.v,
+        input,
+        &mut ws,
+        contacts.map(|c| (c, t_end)),
+        strand.end.as_deref_mut(),
+    );
+    step_matrix(strand, field_stiffness, loaded, T::of(h), &mut ws, stack);
+    ws.rhs[..n].fill(T::zero());
+    let factored =
+        scaled_lu_solve::<T, NC>(&mut ws.matrix_a, ws.rhs, ws.pivots, strand.params.scale);
+    if factored {
+        *ws.factors_piece = h;
+    }
+    factored
+}
+
 /// Largest l_Q |Δd_Q| between two states.
 pub(crate) fn max_element_rotation<T: Float>(lengths: &[T], q: &[T], q0: &[T]) -> T {
     lengths

@@ -576,3 +576,89 @@ pub fn energy<S: StepTerms<T> + ?Sized, T: Float>(
         ws.view(elements),
     )
 }
+
+/// The step's stiffness projection ([`crate::projection::SpectralProjection`]: the
+/// negative semidefinite part of a symmetric matrix from a partial eigendecomposition,
+/// reusing the kept basis while it still splits the matrix) on vectors of any n, its
+/// basis kept from one call to the next: what a caller that projects outside a step
+/// (a benchmark, a test against known spectra) holds.
+pub struct HeapProjection<T: Float = f64> {
+    n: usize,
+    vectors: Vec<T>,
+    basis_k: usize,
+    basis_negative: bool,
+    a: Vec<T>,
+    vectors_n: [Vec<T>; 11],
+    pivot: Vec<bool>,
+    hu: Vec<T>,
+    coupling: Vec<T>,
+    rotated: Vec<T>,
+}
+
+impl<T: Float> HeapProjection<T> {
+    /// Storage for n × n matrices, no basis kept.
+    pub fn new(n: usize) -> Self {
+        HeapProjection {
+            n,
+            vectors: vec![T::zero(); n * n],
+            basis_k: 0,
+            basis_negative: true,
+            a: vec![T::zero(); n * n],
+            vectors_n: core::array::from_fn(|_| vec![T::zero(); n]),
+            pivot: vec![false; n],
+            hu: vec![T::zero(); n * n],
+            coupling: vec![T::zero(); n * n],
+            rotated: vec![T::zero(); 2 * n * n],
+        }
+    }
+
+    /// Forget the kept basis: the next call decomposes.
+    pub fn forget_basis(&mut self) {
+        self.basis_k = 0;
+    }
+
+    /// The kept basis: how many columns, and whether they span the negative
+    /// eigenvalues (the smaller side of the spectrum is kept).
+    pub fn basis(&self) -> (usize, bool) {
+        (self.basis_k, self.basis_negative)
+    }
+
+    /// Replace the symmetric matrix `h` (n × n, column-major, both triangles filled) by
+    /// its negative semidefinite part, saying how; `Failed` leaves `h` unchanged (a value
+    /// that is not finite, an eigenpair that fails its residual check).
+    pub fn negative_part(&mut self, h: &mut [T]) -> crate::projection::ProjectionOutcome {
+        use crate::projection::{ProjectionBasis, ProjectionOutcome, ProjectionScratch};
+        let [tau, diag, off, eigenvalues, selected, scratch, u0, u1, u2, mult, x] =
+            &mut self.vectors_n;
+        let projection = crate::projection::SpectralProjection::<T>::new(
+            self.n,
+            ProjectionBasis {
+                vectors: &mut self.vectors,
+                k: &mut self.basis_k,
+                negative: &mut self.basis_negative,
+            },
+            ProjectionScratch {
+                a: &mut self.a,
+                tau,
+                diag,
+                off,
+                eigenvalues,
+                selected,
+                scratch,
+                u0,
+                u1,
+                u2,
+                mult,
+                pivot: &mut self.pivot,
+                x,
+                hu: &mut self.hu,
+                coupling: &mut self.coupling,
+                rotated: &mut self.rotated,
+            },
+        );
+        match projection {
+            Some(mut p) => p.negative_part(h),
+            None => ProjectionOutcome::Failed,
+        }
+    }
+}

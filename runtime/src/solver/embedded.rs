@@ -987,6 +987,7 @@ struct HistoryState {
 pub struct ReportState {
     steps: usize,
     rejected: usize,
+    rejected_deep: usize,
     solves: usize,
     energy_limited: usize,
     largest_error: f64,
@@ -1000,6 +1001,7 @@ impl ReportState {
         ReportState {
             steps: r.steps,
             rejected: r.rejected,
+            rejected_deep: r.rejected_deep,
             solves: r.solves,
             energy_limited: r.energy_limited,
             largest_error: r.largest_error,
@@ -1013,6 +1015,7 @@ impl ReportState {
         ToleranceReport {
             steps: self.steps,
             rejected: self.rejected,
+            rejected_deep: self.rejected_deep,
             solves: self.solves,
             energy_limited: self.energy_limited,
             largest_error: self.largest_error,

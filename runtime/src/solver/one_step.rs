@@ -1,14 +1,13 @@
 //! The runtime engine's strands on the one step of `superhelix-kernels`
 //! (`superhelix_kernels::fixed::step_views`, `step_to_tolerance_views`): the checked
-//! linearly implicit Euler step and BDF2 — the split rule, the energy balance, the pull-back, the
-//! field stiffness's split or projection — and the error-controlled step, written once
-//! for every engine, here on the runtime's own storage (the
-//! strand's q and q̇, its parameters and kept state lent as a `StrandView`, a workspace
-//! per thread and N as the `WorkView`) with the strand's kernel as its terms
-//! ([`KernelTerms`]). It takes the strands whose step holds nothing the one step does not
-//! have yet ([`covers`]); the others step on the runtime's own path
-//! (`super::adaptive`) until the one step takes what they need (docs/architecture.md,
-//! "The one step and its colliders").
+//! step of every implicit integrator — linearly implicit Euler, Newton-iterated implicit
+//! Euler, BDF2 — with the split rule, the energy balance, the pull-back, the field
+//! stiffness's split or projection, and the error-controlled step, written once for
+//! every engine, here on the runtime's own storage (the strand's q and q̇, its
+//! parameters and kept state lent as a `StrandView`, a workspace per thread and N as the
+//! `WorkView`) with the strand's kernel as its terms ([`KernelTerms`]), its contacts and
+//! held tip as the step's hooks ([`ContactHook`], [`HeldHook`]). RK4 is the runtime's
+//! own (`super::rk4`).
 
 use super::contact_hook::ContactHook;
 use super::held_end::HeldHook;
@@ -19,8 +18,8 @@ use crate::kernels::step_terms::KernelTerms;
 use std::cell::RefCell;
 use superhelix_kernels::field_split::FieldRule;
 use superhelix_kernels::fixed::{
-    step_to_tolerance_views, step_views, ContactHooks, Effects, HistoryView, StepCounts,
-    ToleranceReport,
+    factor_step_views, step_to_tolerance_views, step_views, ContactHooks, Effects, HistoryView,
+    StepCounts, StepInput, ToleranceReport,
 };
 use superhelix_kernels::storage::heap::HeapWorkspace;
 use superhelix_kernels::storage::{ParamsView, StrandView};
@@ -31,9 +30,9 @@ thread_local! {
     static WORKSPACES: RefCell<Vec<HeapWorkspace>> = const { RefCell::new(Vec::new()) };
 }
 
-/// Whether the one step takes this strand's steps: the linearly implicit Euler step or
-/// BDF2 with fixed steps, or the error-controlled step (with or without the energy
-/// balance), its root clamped, pinned (the joint's coordinates scaled as the runtime's
+/// Whether the one step takes this strand's steps: every implicit integrator (linearly
+/// implicit Euler, Newton-iterated implicit Euler, BDF2) with fixed steps, or the
+/// error-controlled step (with or without the energy balance), its root clamped, pinned (the joint's coordinates scaled as the runtime's
 /// solver scales them, `ParamsView::scale`) or free (the root's translation after the
 /// chain's coordinates, its momentum kept by the step). Point loads, and the charges'
 /// forces of electrostatics with them, are the one step's, and so is a held tip, through
@@ -191,14 +190,33 @@ pub fn step(
                 contacts.as_mut().map(|c| c as &mut dyn ContactHooks<f64>),
             ),
         };
-        if coupled {
-            kept_factors.keep(work.last_factors(), view.params.scale);
+        if coupled && outcome.is_ok() {
+            let own = work.last_factors().is_some();
+            if !own {
+                // the step's last solve was BDF2's or Newton's: the linearly implicit
+                // step's matrix at its end, factored for the pair solve
+                let input = StepInput {
+                    head: interval.end,
+                    gravity: effects.gravity,
+                    head_moves: effects.head_moves,
+                };
+                factor_step_views(
+                    &mut source,
+                    &mut view,
+                    &input,
+                    (interval.h, interval.t + interval.h),
+                    work.view(elements),
+                    contacts.as_mut().map(|c| c as &mut dyn ContactHooks<f64>),
+                );
+            }
+            kept_factors.keep(work.last_factors(), view.params.scale, own);
         }
         outcome
     });
     ws.error_control.record(&report);
     stats.error_steps += report.steps;
     stats.error_rejected += report.rejected;
+    stats.error_rejected_deep += report.rejected_deep;
     stats.attempts += report.solves;
     stats.energy_limited += report.energy_limited;
     stats.field_split += report.field_split;

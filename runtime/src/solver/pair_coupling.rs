@@ -15,8 +15,8 @@
 //! q̇⁺ = q̇_free + σ A⁻¹ Jᵀ F,   q⁺ = q_free + c (q̇⁺ − q̇_free)
 //! ```
 //!
-//! with A the strand's step matrix (the factors its linearly implicit solve left, or a
-//! fresh assembly at the end for another integrator), σ = h the step (F's impulse is
+//! with A the strand's step matrix (the factors its linearly implicit solve left, or the
+//! linearly implicit matrix at the end after a BDF2 or Newton solve), σ = h the step (F's impulse is
 //! σ F) and c the length of the piece the factors are for (the step's, or its last
 //! piece's when it was split), J the Jacobian at the pair's point. The relative
 //! velocity and the separation of the pair's two points are then linear in F, through
@@ -47,7 +47,6 @@ use super::predicted_contacts::resolve_again;
 use super::stats::StepStats;
 use super::system::StrandSystem;
 use crate::bodies::Placement;
-use crate::kernels::kernel::Terms;
 use crate::kernels::step_terms::KernelPoints;
 use nalgebra::{Matrix3, Matrix6x3, Vector3, Vector6};
 
@@ -129,9 +128,6 @@ pub struct StrandSides {
     /// The factors are those the step's own solve left (its contacts with bodies that
     /// started within it can be resolved again on them).
     own_factors: bool,
-    /// Those factors are the one step's (kept in `StrandWorkspace::one_step_factors`),
-    /// not the runtime solver's.
-    one_step: bool,
     /// The strand's compliance at one of its pairs is indefinite: its pairs are left
     /// out of this step's solve.
     excluded: bool,
@@ -348,16 +344,16 @@ pub fn select(sides: &mut [StrandSides], pairs: usize) -> Vec<Chosen> {
 }
 
 /// The responses of the sides [`select`] marked: J and the compliance rows `A⁻¹ Jᵀ` at
-/// the end (q, q̇) of the free step of `h` (the head and bodies at `at`) at the contact
-/// samples around each side's point (interpolated there), on the step matrix's factors
-/// (assembled afresh at the end when the step's solve did not leave them: another
-/// integrator), constrained by a held tip.
+/// the end q of the free step of `h` (the head and bodies at `at`) at the contact
+/// samples around each side's point (interpolated there), on the factors of the step
+/// matrix the one step kept (its last linearly implicit piece's, or after BDF2 or Newton
+/// the linearly implicit matrix at the step's end, `superhelix_kernels::fixed::factor_step_views`),
+/// constrained by a held tip.
 pub fn strand_responses(
     system: &mut StrandSystem,
     at: &Placement,
     h: f64,
     q: &[f64],
-    v: &[f64],
     stats: &mut StepStats,
     sides: &mut StrandSides,
 ) -> Result<(), String> {
@@ -365,32 +361,16 @@ pub fn strand_responses(
     if sides.response_of.iter().all(|&r| r == NONE) {
         return Ok(());
     }
-    // the step matrix's factors: those of the one step's last linearly implicit piece,
-    // or of the runtime's own step
-    let ws = &system.workspace;
-    sides.own_factors = false;
-    sides.one_step = false;
-    let c = match ws.implicit_factors {
-        _ if ws.one_step_factors.piece > 0.0 => {
-            sides.own_factors = true;
-            sides.one_step = true;
-            ws.one_step_factors.piece
-        }
-        Some((count, piece)) if count == ws.solver.factorizations() => {
-            sides.own_factors = true;
-            piece
-        }
-        _ => {
-            let assembled = system.assemble(at, q, v, Terms::all());
-            let ws = &mut system.workspace;
-            ws.step_matrix(assembled, h, stats);
-            ws.solver.rhs_mut()[..dofs].fill(0.0);
-            if !ws.solver.solve_general() {
-                return Err("hair–hair pairs: singular step matrix".into());
-            }
-            h
-        }
-    };
+    // the step matrix's factors the one step kept: its last linearly implicit piece's,
+    // or the linearly implicit matrix at its end (after BDF2 or Newton)
+    let factors = &system.workspace.one_step_factors;
+    if factors.piece <= 0.0 {
+        return Err(
+            "hair–hair pairs: the strand's step left no step matrix (a singular one)".into(),
+        );
+    }
+    sides.own_factors = factors.own;
+    let c = factors.piece;
     sides.sigma = h;
     sides.c = c;
     let StrandSystem {
@@ -401,19 +381,12 @@ pub fn strand_responses(
         contacts,
         ..
     } = system;
-    let one_step = sides.one_step;
     if let Some(held) = held.as_mut() {
-        let (solver, factors) = (&mut ws.solver, &mut ws.one_step_factors);
+        let factors = &mut ws.one_step_factors;
         held.prepare_change(
             &mut KernelPoints(kernel.as_mut()),
             &strand.geometry,
-            &mut |x| {
-                if one_step {
-                    factors.solve(x)
-                } else {
-                    solver.solve_factored(x)
-                }
-            },
+            &mut |x| factors.solve(x),
             q,
             at.time,
         )
@@ -456,12 +429,7 @@ pub fn strand_responses(
                 for (x, j) in column.iter_mut().zip(&ws.jac[..dofs]) {
                     *x = j[axis];
                 }
-                let solved = if one_step {
-                    ws.one_step_factors.solve(&mut column)
-                } else {
-                    ws.solver.solve_factored(&mut column)
-                };
-                if !solved {
+                if !ws.one_step_factors.solve(&mut column) {
                     return Err("hair–hair pairs: singular step matrix".into());
                 }
                 if let Some(held) = held.as_ref() {
@@ -661,7 +629,7 @@ pub fn apply(
     // the contacts with bodies that started within the step, resolved again from the
     // moved end on the same factors (the pairs may have pushed a point into a body)
     if sides.own_factors {
-        resolve_again(system, at, q, v, stats, sides.one_step)?;
+        resolve_again(system, at, q, v, stats)?;
     }
     if let Some(target) = target {
         free_root_momentum::correct(system, q, v, target);

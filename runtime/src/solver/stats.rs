@@ -17,24 +17,24 @@ pub struct StepStats {
     /// Implicit (sub)steps attempted, accepted or not: the linear solves of the step
     /// (a Newton step's iterations count once).
     pub attempts: usize,
-    /// Of the splits, those for the energy balance ([`crate::solver::energy_balance`]):
+    /// Of the splits, those for the energy balance ([`superhelix_kernels::energy`]):
     /// energy created, or, with the head moving uniformly, too much lost numerically
-    /// ([`crate::solver::adaptive::loss_ratio`]).
+    /// ([`superhelix_kernels::energy::loss_ratio`]).
     pub energy_rejected: usize,
     /// Steps whose velocities were scaled down so that the energy does not exceed the
-    /// start's plus the head's work (see [`crate::solver::adaptive`]).
+    /// start's plus the head's work (see [`superhelix_kernels::fixed::step_views`]).
     pub energy_limited: usize,
     /// Steps accepted at the deepest substep although their energy exceeds the balance
     /// (the potential energy alone above the bound, so that no velocity scaling can help).
     pub energy_unbalanced: usize,
     /// Steps taken at the deepest split allowed (`[simulation] max_split_depth`) that
     /// would have rotated an element by more than
-    /// [`TRUSTED_ELEMENT_ROTATION`](crate::solver::adaptive::TRUSTED_ELEMENT_ROTATION): their
+    /// [`TRUSTED_ELEMENT_ROTATION`](superhelix_kernels::energy::TRUSTED_ELEMENT_ROTATION): their
     /// change of q and their velocities were scaled down to that rotation.
     pub rotation_limited: usize,
     /// Steps taken at the deepest split allowed whose end had more potential energy than
     /// the energy balance allows: their change of q was pulled back towards the start
-    /// (no solve; [`crate::solver::adaptive`]).
+    /// (no solve; [`superhelix_kernels::fixed::step_views`]).
     #[serde(default)]
     pub energy_pulled_back: usize,
     /// Contacts that started within a step and pushed in it (a sample that touched
@@ -47,6 +47,10 @@ pub struct StepStats {
     pub error_steps: usize,
     /// Steps the error-controlled step rejected and retried shorter.
     pub error_rejected: usize,
+    /// Of those, steps rejected by the contacts' depth check (a sample deeper than
+    /// `[contacts] split_depth` beyond its start's depth, whatever the error estimate).
+    #[serde(default)]
+    pub error_rejected_deep: usize,
     /// Sides of hair–hair pairs left without force in a step because their strand's
     /// step matrix made its compliance at one of its pairs indefinite (a whipping
     /// strand's gyroscopic terms outweighing its mass there;
@@ -89,6 +93,7 @@ impl StepStats {
         self.contacts_predicted += o.contacts_predicted;
         self.error_steps += o.error_steps;
         self.error_rejected += o.error_rejected;
+        self.error_rejected_deep += o.error_rejected_deep;
         self.pairs_indefinite += o.pairs_indefinite;
         self.pairs_unresolved += o.pairs_unresolved;
         self.field_split += o.field_split;

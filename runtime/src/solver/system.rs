@@ -7,8 +7,6 @@
 //! Each strand owns a [`StrandWorkspace`] sized once: a step allocates nothing.
 
 use super::dense_solve::DenseSolver;
-use super::energy_balance::StateEnergy;
-use super::stats::StepStats;
 use crate::bodies::Placement;
 use crate::config::IntegratorKind;
 use crate::forces::contacts::StrandContacts;
@@ -19,7 +17,7 @@ use crate::kernels::kernel::{EvalInput, StrandKernel, StrandTerms, Terms};
 use crate::kernels::step_terms::KernelPoints;
 use crate::model::strand::Strand;
 use nalgebra::Vector3;
-use superhelix_kernels::field_split::{dissipative_split, SplitOutcome};
+use superhelix_kernels::energy::StateEnergy;
 
 /// Per-strand buffers of the integrators.
 pub struct StrandWorkspace {
@@ -33,8 +31,6 @@ pub struct StrandWorkspace {
     /// Diagonal of the internal friction matrix γ l_Q.
     pub friction: Vec<f64>,
     pub(super) scratch: [Vec<f64>; 6],
-    pub(super) saved_q: Vec<f64>,
-    pub(super) saved_v: Vec<f64>,
     /// BDF2 history: the state one step back and that step's length (0: none).
     pub(super) prev_q: Vec<f64>,
     pub(super) prev_v: Vec<f64>,
@@ -43,7 +39,8 @@ pub struct StrandWorkspace {
     pub(super) last_energy: Option<StateEnergy>,
     /// The contact part of the last energy measured: the contact potential and its rate
     /// (with the drag power of bodies on their own motion) as
-    /// [`crate::solver::energy_balance::measure`] counted them.
+    /// the one step's energy measure counted them (`superhelix_kernels::fixed`'s
+    /// contact hooks, [`super::contact_hook`]).
     pub(super) last_contact: (f64, f64),
     pub(super) last_q: Vec<f64>,
     pub(super) last_v: Vec<f64>,
@@ -51,25 +48,11 @@ pub struct StrandWorkspace {
     /// ([`superhelix_kernels::energy::predicted_split_levels`] of the last step; used
     /// only when the next step continues from its end, `last_energy`).
     pub(super) split_hint: usize,
-    /// The step's largest `2^depth r` over its accepted pieces so far.
-    pub(super) rotation_estimate: f64,
-    /// The step's largest `4^depth ℓ` over its pieces so far, ℓ their
-    /// [`superhelix_kernels::energy::loss_ratio`].
-    pub(super) loss_estimate: f64,
     /// The error-controlled step's state ([`super::error_control`]).
     pub(super) error_control: super::error_control::ErrorControl,
-    /// The last linearly implicit solve: the solver's factorisation number then and the
-    /// piece's length h (its factors are the step matrix `M − h D + …` the pair solve of
-    /// two strands needs, [`super::pair_coupling`], while the number is unchanged).
-    pub(super) implicit_factors: Option<(u64, f64)>,
     /// The one step's factors of its last linearly implicit piece, kept for the pair solve
     /// of a strand in pairs of `coupling = "pair"` ([`super::one_step`]).
     pub(super) one_step_factors: OneStepFactors,
-    /// The dissipative split's buffers ([`superhelix_kernels::field_split`]): H
-    /// (n², contiguous; H̃ after the split), the factor (n²), the metric and its scales
-    /// (n each), the pivot order.
-    split: [Vec<f64>; 4],
-    split_order: Vec<usize>,
     /// Scratch of the one step's terms ([`crate::kernels::step_terms::KernelTerms`]).
     pub(super) flat: Vec<f64>,
 }
@@ -82,6 +65,9 @@ pub struct StrandWorkspace {
 pub(super) struct OneStepFactors {
     /// The piece's length, s (0: no factors kept).
     pub piece: f64,
+    /// The factors are those of the step's own last solve (not the linearly implicit
+    /// matrix at its end, factored after a BDF2 or Newton solve).
+    pub own: bool,
     lu: Vec<f64>,
     pivots: Vec<usize>,
     scale: Vec<f64>,
@@ -89,10 +75,11 @@ pub(super) struct OneStepFactors {
 
 impl OneStepFactors {
     /// Keep `factors` (`HeapWorkspace::last_factors`; none: forget) with `scale`.
-    pub fn keep(&mut self, factors: Option<(f64, &[f64], &[usize])>, scale: &[f64]) {
+    pub fn keep(&mut self, factors: Option<(f64, &[f64], &[usize])>, scale: &[f64], own: bool) {
         match factors {
             Some((piece, lu, pivots)) => {
                 self.piece = piece;
+                self.own = own;
                 self.lu.clear();
                 self.lu.extend_from_slice(lu);
                 self.pivots.clear();
@@ -137,8 +124,6 @@ impl StrandWorkspace {
             stiffness: strand.stiffness_diagonal(),
             friction,
             scratch: std::array::from_fn(|_| vec![0.0; n]),
-            saved_q: vec![0.0; n],
-            saved_v: vec![0.0; n],
             prev_q: vec![0.0; n],
             prev_v: vec![0.0; n],
             prev_h: 0.0,
@@ -147,18 +132,8 @@ impl StrandWorkspace {
             last_q: vec![0.0; n],
             last_v: vec![0.0; n],
             split_hint: 0,
-            rotation_estimate: 0.0,
-            loss_estimate: 0.0,
             error_control: super::error_control::ErrorControl::default(),
-            implicit_factors: None,
             one_step_factors: OneStepFactors::default(),
-            split: [
-                vec![0.0; n * n],
-                vec![0.0; n * n],
-                vec![0.0; n],
-                vec![0.0; n],
-            ],
-            split_order: vec![0; n],
             flat: Vec::new(),
         }
     }
@@ -192,7 +167,6 @@ impl StrandWorkspace {
             last_q: self.last_q.clone(),
             last_v: self.last_v.clone(),
             split_hint: self.split_hint,
-            rotation_estimate: self.rotation_estimate,
             error_control: self.error_control.state(),
             basis,
             basis_negative,
@@ -231,16 +205,14 @@ impl StrandWorkspace {
         self.last_q = state.last_q;
         self.last_v = state.last_v;
         self.split_hint = state.split_hint;
-        self.rotation_estimate = state.rotation_estimate;
         self.error_control.restore(state.error_control);
-        self.solver.forget_repeat();
         Ok(())
     }
 }
 
 /// What a strand's step buffers carry from one step to the next (a checkpoint's part):
 /// the two-step integrator's previous state and step, the last step's end (its energy,
-/// contact energy, state), the split hint and rotation estimate, the error-controlled
+/// contact energy, state), the split hint, the error-controlled
 /// step's sizes and the stiffness projection's kept basis. The other buffers are
 /// overwritten before they are read within each step.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -253,7 +225,6 @@ pub struct WorkspaceState {
     last_q: Vec<f64>,
     last_v: Vec<f64>,
     split_hint: usize,
-    rotation_estimate: f64,
     error_control: super::error_control::ErrorControlState,
     basis: Vec<f64>,
     basis_negative: bool,
@@ -659,120 +630,6 @@ impl<'a> HeadInterval<'a> {
             },
             uniform: self.motion.uniform_over(t, end_time),
             depth: first.depth,
-        }
-    }
-}
-
-impl StrandWorkspace {
-    /// The matrix of the linearly implicit step, `M − h D_v + (h/2) B − h² D_q` (see
-    /// [`super::linearly_implicit`]), into `solver.matrix`, from a full assembly in
-    /// `terms`. Leaves H⁻ (the negative semidefinite part of the symmetrised field
-    /// stiffness) in `terms.stiffness`; returns whether D_q holds it (false: no field
-    /// stiffness, or its eigendecomposition failed and it stays explicit, counted in
-    /// [`StepStats::stiffness_dropped`]), for [`StrandWorkspace::apply_dq`].
-    pub(super) fn step_matrix(
-        &mut self,
-        assembled: Assembled,
-        h: f64,
-        stats: &mut StepStats,
-    ) -> bool {
-        let ws = self;
-        let n = ws.stiffness.len();
-        let field_stiffness = assembled.field_stiffness && {
-            // H = sym(stiffness) + K
-            let st = &mut ws.terms.stiffness;
-            for j in 0..n {
-                for i in 0..j {
-                    let m = 0.5 * (st[(i, j)] + st[(j, i)]);
-                    st[(i, j)] = m;
-                    st[(j, i)] = m;
-                }
-                st[(j, j)] += ws.stiffness[j];
-            }
-            if assembled.unprojected {
-                // the contacts' stiffness along the Jacobian alone: negative semidefinite
-                // as it is
-                true
-            } else {
-                let split = if assembled.split {
-                    let [hh, work, metric, scale] = &mut ws.split;
-                    let inv_h2 = 1.0 / (h * h);
-                    for j in 0..n {
-                        hh[j * n..(j + 1) * n].copy_from_slice(&st.col_as_slice(j)[..n]);
-                        metric[j] = ws.terms.mass[(j, j)] * inv_h2 + ws.stiffness[j];
-                    }
-                    let order = &mut ws.split_order;
-                    dissipative_split(n, hh, metric, work, scale, order)
-                } else {
-                    SplitOutcome::Beyond
-                };
-                match split {
-                    SplitOutcome::Whole => {
-                        stats.field_split += 1;
-                        true
-                    }
-                    SplitOutcome::Shifted => {
-                        // H̃ = H − E
-                        stats.field_split += 1;
-                        let hh = &ws.split[0];
-                        for j in 0..n {
-                            ws.terms.stiffness.col_as_slice_mut(j)[..n]
-                                .copy_from_slice(&hh[j * n..(j + 1) * n]);
-                        }
-                        true
-                    }
-                    SplitOutcome::Beyond => {
-                        // projected
-                        if assembled.undamped {
-                            stats.field_undamped += 1;
-                        } else {
-                            stats.field_projected += 1;
-                        }
-                        let ok = ws
-                            .solver
-                            .project_negative_semidefinite(&mut ws.terms.stiffness);
-                        if !ok {
-                            stats.stiffness_dropped += 1;
-                        }
-                        ok
-                    }
-                }
-            }
-        };
-        let t = &ws.terms;
-        // column by column on slices (the same arithmetic as entry by entry)
-        for j in 0..n {
-            let mass = &t.mass.col_as_slice(j)[..n];
-            let damping = &t.damping.col_as_slice(j)[..n];
-            let jacobian = &t.velocity_term_jacobian.col_as_slice(j)[..n];
-            let stiffness = &t.stiffness.col_as_slice(j)[..n];
-            let out = &mut ws.solver.matrix.col_as_slice_mut(j)[..n];
-            for i in 0..n {
-                let mut dq = if field_stiffness { stiffness[i] } else { 0.0 };
-                if i == j {
-                    dq -= ws.stiffness[i];
-                }
-                out[i] = mass[i] - h * damping[i] + 0.5 * h * jacobian[i] - h * h * dq;
-            }
-        }
-        field_stiffness
-    }
-
-    /// `out = (H⁻ − K) x` with H⁻ as left by [`StrandWorkspace::step_matrix`] (in
-    /// `terms.stiffness` when `field_stiffness`).
-    pub(super) fn apply_dq(&self, field_stiffness: bool, x: &[f64], out: &mut [f64]) {
-        let n = x.len();
-        for i in 0..n {
-            out[i] = -self.stiffness[i] * x[i];
-        }
-        if field_stiffness {
-            let h = &self.terms.stiffness;
-            for j in 0..n {
-                let xj = x[j];
-                for i in 0..n {
-                    out[i] += h[(i, j)] * xj;
-                }
-            }
         }
     }
 }
