@@ -928,15 +928,16 @@ pub fn with_tolerance(cases: Vec<Case>, tolerance: f64) -> Vec<Case> {
 
 /// `cases` on `engine` (`auto`, the scenes' default: the embedded engine wherever it can
 /// run a case), names unchanged; on the embedded engine without the cases it cannot run
-/// (held ends, RK4).
+/// (held tips, free roots, RK4: what `engine = "auto"` sends to the runtime engine).
 pub fn with_engine(cases: Vec<Case>, engine: Engine) -> Vec<Case> {
     cases
         .into_iter()
-        // the embedded engine holds roots clamped and tips free, and steps with the
-        // implicit integrators
         .filter(|c| {
-            engine != Engine::Embedded
-                || (c.group != "ends" && c.setup.config.integrator != IntegratorKind::Rk4)
+            engine != Engine::Embedded || {
+                let mut auto = c.setup.clone();
+                auto.config.engine = Engine::Auto;
+                superhelix_runtime::engine_for(&auto).0 == Engine::Embedded
+            }
         })
         .map(|mut c| {
             c.setup.config.engine = engine;

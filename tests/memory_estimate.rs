@@ -93,8 +93,8 @@ fn the_estimate_is_within_a_quarter_of_the_measured_peak() {
             "npy",
         ),
         (
-            "runtime, N = 5, hair–hair, 100 strands on 1 dm²",
-            over(patch("runtime", [10, 10], 5, &hair_hair)),
+            "runtime, N = 5, hair–hair, 144 strands on 1 dm²",
+            over(patch("runtime", [12, 12], 5, &hair_hair)),
             "npy",
         ),
         (

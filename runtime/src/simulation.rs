@@ -216,10 +216,10 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
     }
     for (index, s) in setup.strands.iter().enumerate() {
         let n = s.strand.geometry.elements();
-        if s.tip.is_some() || s.strand.ends.root != crate::model::ends::RootEnd::Clamped {
+        if s.tip.is_some() || s.strand.ends.root == crate::model::ends::RootEnd::Free {
             errors.push(FieldError::new(
                 format!("strands[{index}].ends"),
-                "the embedded engine holds roots clamped and tips free; use engine = \"runtime\"",
+                "the embedded engine holds roots clamped or pinned and tips free; use engine = \"runtime\"",
             ));
         } else if !superhelix_generated::fixed::SIZES.contains(&n) {
             errors.push(FieldError::new(

@@ -110,8 +110,8 @@ pub trait EmbeddedGroup: Send + Sync {
 /// eigenbasis of B = D/2 columns).
 pub struct Group<const N: usize, const D: usize, const E: usize, const B: usize> {
     strands: Vec<FixedStrand<N, D, B>>,
-    /// Per strand, its point loads (empty: none).
-    loads: Vec<Vec<PointLoad>>,
+    /// Per strand, its point loads and coordinates' scale.
+    loads: Vec<StrandExtras>,
     /// The bodies the strands touch and, per strand, its contacts' storage (`None`: no
     /// contacts).
     contacts: Option<(Arc<[Body]>, Vec<StrandContactBuffers>)>,
@@ -222,13 +222,14 @@ pub fn fixed_params<const N: usize, const D: usize>(s: &Strand) -> Option<FixedP
         return None;
     }
     let stiffness = s.stiffness_diagonal();
+    let friction = s.friction_diagonal();
     Some(FixedParams {
         root_position: g.root_position,
         root_frame: g.root_frame,
         lengths: core::array::from_fn(|k| g.lengths[k]),
         natural: core::array::from_fn(|i| s.natural[i]),
         stiffness: core::array::from_fn(|i| stiffness[i]),
-        friction: core::array::from_fn(|i| g.lengths[i / 3] * s.internal_friction),
+        friction: core::array::from_fn(|i| friction[i]),
         mass_per_length: g.mass_per_length,
         air_drag: s.air_drag,
         rotary_inertia: g.rotary_inertia,
@@ -277,7 +278,10 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         let mut s = FixedStrand::at_rest(params);
         s.q.copy_from_slice(q0);
         self.strands.push(s);
-        self.loads.push(strand.point_loads.clone());
+        self.loads.push(StrandExtras {
+            loads: strand.point_loads.clone(),
+            scale: strand.solver_scale().unwrap_or_default(),
+        });
         // (their contact scratch is sized for the strands they had)
         self.workers.clear();
         if let Some(c) = contacts {
@@ -443,7 +447,8 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                                     (None, _) => None,
                                 };
                             let mut view = s.view();
-                            view.params.loads = loads;
+                            view.params.loads = &loads.loads;
+                            view.params.scale = &loads.scale;
                             let outcome = fixed::step_to_tolerance_views(
                                 &mut &ClosedForm,
                                 &mut view,
@@ -484,7 +489,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         self.histories.get(i).map(|(_, r)| r)
     }
     fn set_loads(&mut self, i: usize, loads: &[PointLoad]) {
-        if let Some(l) = self.loads.get_mut(i) {
+        if let Some(l) = self.loads.get_mut(i).map(|e| &mut e.loads) {
             l.clear();
             l.extend_from_slice(loads);
         }
@@ -1027,12 +1032,21 @@ impl ReportState {
     }
 }
 
-/// One strand's checked fixed-N step from `t` by `h`, its point loads and (BDF2) its
-/// history lent with it.
+/// What a strand of a [`Group`] lends its step besides its fixed-N arrays: its point
+/// loads (empty: none) and a pinned root's coordinate scale (empty: none; the joint's
+/// θ/l₀ as the runtime engine scales them, `Strand::solver_scale`).
+#[derive(Debug, Clone, Default)]
+struct StrandExtras {
+    loads: Vec<PointLoad>,
+    scale: Vec<f64>,
+}
+
+/// One strand's checked fixed-N step from `t` by `h`, its point loads, scale and (BDF2)
+/// its history lent with it.
 #[allow(clippy::too_many_arguments)]
 fn step_strand<const N: usize, const D: usize, const E: usize, const B: usize>(
     s: &mut FixedStrand<N, D, B>,
-    (loads, history): (&[PointLoad], Option<&mut StepHistory<D>>),
+    (extras, history): (&StrandExtras, Option<&mut StepHistory<D>>),
     head: &dyn HeadTrajectory,
     effects: &Effects,
     (t, h): (f64, f64),
@@ -1041,7 +1055,8 @@ fn step_strand<const N: usize, const D: usize, const E: usize, const B: usize>(
     contacts: Option<&mut dyn ContactHooks<f64>>,
 ) -> Result<StepReport, StepError> {
     let mut view = s.view();
-    view.params.loads = loads;
+    view.params.loads = &extras.loads;
+    view.params.scale = &extras.scale;
     view.history = history.map(|h| h.view());
     fixed::step_views(
         &mut &ClosedForm,
