@@ -108,6 +108,45 @@ pub struct ProjectionScratch<'a, T: Float = f64> {
     pub rotated: &'a mut [T],
 }
 
+impl<'a, T: Float> ProjectionScratch<'a, T> {
+    /// The scratch for n × n matrices on a caller's buffers: `a`, `hu` and `coupling`
+    /// n², `rotated` 2n², `pivot` n, and `vectors` the eleven vectors of n (tau, diag,
+    /// off, eigenvalues, selected, scratch, u0, u1, u2, mult, x) one after the other
+    /// (a short `vectors` leaves the last ones empty: [`SpectralProjection::new`] then
+    /// refuses).
+    pub fn on(
+        n: usize,
+        a: &'a mut [T],
+        vectors: &'a mut [T],
+        pivot: &'a mut [bool],
+        (hu, coupling, rotated): (&'a mut [T], &'a mut [T], &'a mut [T]),
+    ) -> Self {
+        let mut vectors = vectors.chunks_exact_mut(n.max(1));
+        let mut next = || vectors.next().unwrap_or_default();
+        let (tau, diag, off, eigenvalues, selected, scratch) =
+            (next(), next(), next(), next(), next(), next());
+        let (u0, u1, u2, mult, x) = (next(), next(), next(), next(), next());
+        ProjectionScratch {
+            a,
+            tau,
+            diag,
+            off,
+            eigenvalues,
+            selected,
+            scratch,
+            u0,
+            u1,
+            u2,
+            mult,
+            pivot,
+            x,
+            hu,
+            coupling,
+            rotated,
+        }
+    }
+}
+
 /// How [`SpectralProjection::negative_part`] went.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ProjectionOutcome {

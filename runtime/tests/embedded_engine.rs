@@ -47,6 +47,43 @@ fn simulation(text: &str) -> superhelix_runtime::Result<Simulation> {
     )
 }
 
+/// The largest |Δq| between two simulations of the scene's two strands, each relative to
+/// the larger of 1 and the strand's largest |q| in `a`.
+fn q_apart(a: &Simulation, b: &Simulation) -> f64 {
+    (0..2)
+        .map(|i| {
+            let scale = a.q(i).iter().fold(1.0f64, |m, x| m.max(x.abs()));
+            a.q(i)
+                .iter()
+                .zip(b.q(i))
+                .fold(0.0f64, |m, (x, y)| m.max((x - y).abs() / scale))
+        })
+        .fold(0.0, f64::max)
+}
+
+/// A simulation of `text` restored to `saved` (the state before step `from`) and
+/// stepped to step `to` ends where `whole`, the run that was not stopped, ends: q and q̇
+/// to the bit. Returns it for further comparison.
+fn resumes_exactly(
+    text: &str,
+    saved: Option<superhelix_runtime::simulation::state::SimulationState>,
+    (from, to): (usize, usize),
+    whole: &Simulation,
+) -> Simulation {
+    let mut resumed = simulation(text).expect("valid scene");
+    resumed
+        .restore(saved.expect("a saved state"))
+        .expect("restore");
+    for _ in from..to {
+        resumed.step().expect("resumed step");
+    }
+    for i in 0..2 {
+        assert_eq!(resumed.q(i), whole.q(i), "strand {i}");
+        assert_eq!(resumed.v(i), whole.v(i), "strand {i}");
+    }
+    resumed
+}
+
 #[test]
 fn embedded_engine_takes_the_runtime_engines_steps() {
     let mut runtime = simulation(&scene("runtime", "")).expect("valid scene");
@@ -111,14 +148,8 @@ fn a_pinned_root_on_the_embedded_engine_is_the_runtime_engines_and_resumes_exact
             runtime.step().expect("runtime step");
             embedded.step().expect("embedded step");
             perturbed.step().expect("perturbed step");
-            for i in 0..2 {
-                let (a, b, c) = (runtime.q(i), embedded.q(i), perturbed.q(i));
-                let scale = a.iter().fold(1.0f64, |m, x| m.max(x.abs()));
-                for ((x, y), z) in a.iter().zip(b).zip(c) {
-                    worst = worst.max((x - y).abs() / scale);
-                    spread = spread.max((x - z).abs() / scale);
-                }
-            }
+            worst = worst.max(q_apart(&runtime, &embedded));
+            spread = spread.max(q_apart(&runtime, &perturbed));
         }
         eprintln!(
             "pinned: engines {worst:.3e} apart, the scene from itself {spread:.3e}; {:?}",
@@ -138,17 +169,7 @@ fn a_pinned_root_on_the_embedded_engine_is_the_runtime_engines_and_resumes_exact
             .iter()
             .fold(0.0f64, |m, x| m.max(x.abs()));
         assert!(joint > 1e-3, "the joint's coordinates {joint:e}");
-        let mut resumed = simulation(&with("auto")).expect("valid scene");
-        resumed
-            .restore(saved.expect("saved at step 6"))
-            .expect("restore");
-        for _ in 6..15 {
-            resumed.step().expect("resumed step");
-        }
-        for i in 0..2 {
-            assert_eq!(resumed.q(i), embedded.q(i), "strand {i}");
-            assert_eq!(resumed.v(i), embedded.v(i), "strand {i}");
-        }
+        resumes_exactly(&with("auto"), saved, (6, 15), &embedded);
     }
 }
 
@@ -251,14 +272,8 @@ fn charged_strands_on_the_embedded_engine_are_the_runtime_engines_and_resume_exa
         runtime.step().expect("runtime step");
         embedded.step().expect("embedded step");
         uncharged.step().expect("uncharged step");
-        for i in 0..2 {
-            let (a, b) = (runtime.q(i), embedded.q(i));
-            let scale = a.iter().fold(1.0f64, |m, x| m.max(x.abs()));
-            for ((x, y), z) in a.iter().zip(b).zip(uncharged.q(i)) {
-                worst = worst.max((x - y).abs() / scale);
-                moved = moved.max((x - z).abs() / scale);
-            }
-        }
+        worst = worst.max(q_apart(&runtime, &embedded));
+        moved = moved.max(q_apart(&runtime, &uncharged));
     }
     eprintln!("charged: engines {worst:.3e} apart, the charges moved q by {moved:.3e}");
     // as under the scene's loads alone (point_loads_on_the_embedded_engine_are_the_
@@ -266,17 +281,7 @@ fn charged_strands_on_the_embedded_engine_are_the_runtime_engines_and_resume_exa
     // follow the strands' positions, round-off and all (measured 1.1e-12)
     assert!(worst <= 1e-11, "largest relative |Δq| {worst:.3e}");
     assert!(moved > 1e-6, "the charges moved q by {moved:.3e}");
-    let mut resumed = simulation(&text("auto")).expect("valid scene");
-    resumed
-        .restore(saved.expect("saved at step 7"))
-        .expect("restore");
-    for _ in 7..15 {
-        resumed.step().expect("resumed step");
-    }
-    for i in 0..2 {
-        assert_eq!(resumed.q(i), embedded.q(i), "strand {i}");
-        assert_eq!(resumed.v(i), embedded.v(i), "strand {i}");
-    }
+    resumes_exactly(&text("auto"), saved, (7, 15), &embedded);
 }
 
 /// `integrator` on the shaking head of [`scene`], with and without the point loads of
@@ -303,14 +308,8 @@ fn engines_agree_under(integrator: &str) {
             runtime.step().expect("runtime step");
             embedded.step().expect("embedded step");
             euler.step().expect("euler step");
-            for i in 0..2 {
-                let (a, b) = (runtime.q(i), embedded.q(i));
-                let scale = a.iter().fold(1.0f64, |m, x| m.max(x.abs()));
-                for ((x, y), z) in a.iter().zip(b).zip(euler.q(i)) {
-                    worst = worst.max((x - y).abs() / scale);
-                    apart = apart.max((x - z).abs() / scale);
-                }
-            }
+            worst = worst.max(q_apart(&runtime, &embedded));
+            apart = apart.max(q_apart(&runtime, &euler));
         }
         let (r, e) = (runtime.stats(), embedded.stats());
         eprintln!(
@@ -336,17 +335,7 @@ fn engines_agree_under(integrator: &str) {
         }
         // the integrator was taken: not the linearly implicit Euler steps
         assert!(apart > 1e-3, "{apart:.3e} from linearly implicit Euler");
-        let mut resumed = simulation(&with("auto")).expect("valid scene");
-        resumed
-            .restore(saved.expect("saved at step 6"))
-            .expect("restore");
-        for _ in 6..15 {
-            resumed.step().expect("resumed step");
-        }
-        for i in 0..2 {
-            assert_eq!(resumed.q(i), embedded.q(i), "strand {i}");
-            assert_eq!(resumed.v(i), embedded.v(i), "strand {i}");
-        }
+        let resumed = resumes_exactly(&with("auto"), saved, (6, 15), &embedded);
         assert_eq!(resumed.stats().newton_iterations, e.newton_iterations);
     }
 }

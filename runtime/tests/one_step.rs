@@ -516,7 +516,7 @@ fn the_step_matrix_factored_after_a_step_is_the_linearly_implicit_steps() {
     // what the pair solve of `coupling = "pair"` takes after a BDF2 or Newton step: the
     // linearly implicit step's matrix at the strand's state, factored
     // (`fixed::factor_step_views`), the very factors a linearly implicit step from that
-    // state solves on, to the bit
+    // state solves on
     const M: usize = 7;
     let strand = preset_strand(Preset::Wavy, M, 0.25, Vector3::new(1.0, 0.0, -1.0));
     let mut heap = heap_strand(&strand);

@@ -849,11 +849,6 @@ fn project_uncached<T: Float, const NC: usize>(
             p.dense[i][j] = h[j][i];
         }
     }
-    let mut vectors = p.vectors.chunks_exact_mut(n);
-    let mut next = || vectors.next().unwrap_or_default();
-    let (tau, diag, off, eigenvalues, selected, scratch) =
-        (next(), next(), next(), next(), next(), next());
-    let (u0, u1, u2, mult, x) = (next(), next(), next(), next(), next());
     let spectral = SpectralProjection::<T, NC>::new(
         n,
         ProjectionBasis {
@@ -861,24 +856,13 @@ fn project_uncached<T: Float, const NC: usize>(
             k: basis_k,
             negative: basis_negative,
         },
-        ProjectionScratch {
-            a: p.a.as_mut_slice(),
-            tau,
-            diag,
-            off,
-            eigenvalues,
-            selected,
-            scratch,
-            u0,
-            u1,
-            u2,
-            mult,
-            pivot: p.pivot,
-            x,
-            hu: p.hu.as_mut_slice(),
-            coupling: p.coupling.as_mut_slice(),
-            rotated: p.rotated,
-        },
+        ProjectionScratch::on(
+            n,
+            p.a.as_mut_slice(),
+            p.vectors,
+            p.pivot,
+            (p.hu.as_mut_slice(), p.coupling.as_mut_slice(), p.rotated),
+        ),
     );
     if let Some(mut spectral) = spectral {
         match spectral.negative_part(p.dense.as_mut_slice()) {

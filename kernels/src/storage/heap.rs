@@ -584,11 +584,12 @@ pub fn energy<S: StepTerms<T> + ?Sized, T: Float>(
 /// (a benchmark, a test against known spectra) holds.
 pub struct HeapProjection<T: Float = f64> {
     n: usize,
-    vectors: Vec<T>,
+    basis: Vec<T>,
     basis_k: usize,
     basis_negative: bool,
     a: Vec<T>,
-    vectors_n: [Vec<T>; 11],
+    /// The scratch's eleven vectors of n.
+    vectors: Vec<T>,
     pivot: Vec<bool>,
     hu: Vec<T>,
     coupling: Vec<T>,
@@ -600,11 +601,11 @@ impl<T: Float> HeapProjection<T> {
     pub fn new(n: usize) -> Self {
         HeapProjection {
             n,
-            vectors: vec![T::zero(); n * n],
+            basis: vec![T::zero(); n * n],
             basis_k: 0,
             basis_negative: true,
             a: vec![T::zero(); n * n],
-            vectors_n: core::array::from_fn(|_| vec![T::zero(); n]),
+            vectors: vec![T::zero(); 11 * n],
             pivot: vec![false; n],
             hu: vec![T::zero(); n * n],
             coupling: vec![T::zero(); n * n],
@@ -628,33 +629,20 @@ impl<T: Float> HeapProjection<T> {
     /// that is not finite, an eigenpair that fails its residual check).
     pub fn negative_part(&mut self, h: &mut [T]) -> crate::projection::ProjectionOutcome {
         use crate::projection::{ProjectionBasis, ProjectionOutcome, ProjectionScratch};
-        let [tau, diag, off, eigenvalues, selected, scratch, u0, u1, u2, mult, x] =
-            &mut self.vectors_n;
         let projection = crate::projection::SpectralProjection::<T>::new(
             self.n,
             ProjectionBasis {
-                vectors: &mut self.vectors,
+                vectors: &mut self.basis,
                 k: &mut self.basis_k,
                 negative: &mut self.basis_negative,
             },
-            ProjectionScratch {
-                a: &mut self.a,
-                tau,
-                diag,
-                off,
-                eigenvalues,
-                selected,
-                scratch,
-                u0,
-                u1,
-                u2,
-                mult,
-                pivot: &mut self.pivot,
-                x,
-                hu: &mut self.hu,
-                coupling: &mut self.coupling,
-                rotated: &mut self.rotated,
-            },
+            ProjectionScratch::on(
+                self.n,
+                &mut self.a,
+                &mut self.vectors,
+                &mut self.pivot,
+                (&mut self.hu, &mut self.coupling, &mut self.rotated),
+            ),
         );
         match projection {
             Some(mut p) => p.negative_part(h),

@@ -111,7 +111,7 @@ pub trait EmbeddedGroup: Send + Sync {
 pub struct Group<const N: usize, const D: usize, const E: usize, const B: usize> {
     strands: Vec<FixedStrand<N, D, B>>,
     /// Per strand, its point loads and coordinates' scale.
-    loads: Vec<StrandExtras>,
+    extras: Vec<StrandExtras>,
     /// The bodies the strands touch and, per strand, its contacts' storage (`None`: no
     /// contacts).
     contacts: Option<(Arc<[Body]>, Vec<StrandContactBuffers>)>,
@@ -182,7 +182,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Default for
     fn default() -> Self {
         Group {
             strands: Vec::new(),
-            loads: Vec::new(),
+            extras: Vec::new(),
             contacts: None,
             histories: Vec::new(),
             rules: StepRules::default(),
@@ -278,7 +278,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         let mut s = FixedStrand::at_rest(params);
         s.q.copy_from_slice(q0);
         self.strands.push(s);
-        self.loads.push(StrandExtras {
+        self.extras.push(StrandExtras {
             loads: strand.point_loads.clone(),
             scale: strand.solver_scale().unwrap_or_default(),
         });
@@ -332,11 +332,11 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 .strands
                 .par_chunks_mut(chunk)
                 .zip(buffers.par_chunks_mut(chunk))
-                .zip(self.loads.par_chunks(chunk))
+                .zip(self.extras.par_chunks(chunk))
                 .zip(history_chunks.par_iter_mut())
                 .zip(self.workers.par_iter_mut())
                 .enumerate()
-                .map(|(c, ((((strands, buffers), loads), histories), worker))| {
+                .map(|(c, ((((strands, buffers), extras), histories), worker))| {
                     let ws = &mut worker.ws;
                     let Some((colliders, scratch)) = worker.contacts.as_mut() else {
                         return (
@@ -347,10 +347,10 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                     };
                     let mut first = None;
                     let mut counts = StepCounts::default();
-                    for (k, ((s, b), loads)) in strands
+                    for (k, ((s, b), extras)) in strands
                         .iter_mut()
                         .zip(buffers.iter_mut())
-                        .zip(loads)
+                        .zip(extras)
                         .enumerate()
                     {
                         let lengths = s.params.lengths;
@@ -358,7 +358,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                         let history = histories.as_deref_mut().map(|h| &mut h[k].0);
                         let r = step_strand(
                             s,
-                            (loads, history),
+                            (extras, history),
                             head,
                             effects,
                             (t, h),
@@ -376,19 +376,19 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
             (None, None) => self
                 .strands
                 .par_chunks_mut(chunk)
-                .zip(self.loads.par_chunks(chunk))
+                .zip(self.extras.par_chunks(chunk))
                 .zip(history_chunks.par_iter_mut())
                 .zip(self.workers.par_iter_mut())
                 .enumerate()
-                .map(|(c, (((strands, loads), histories), worker))| {
+                .map(|(c, (((strands, extras), histories), worker))| {
                     let ws = &mut worker.ws;
                     let mut first = None;
                     let mut counts = StepCounts::default();
-                    for (k, (s, loads)) in strands.iter_mut().zip(loads).enumerate() {
+                    for (k, (s, extras)) in strands.iter_mut().zip(extras).enumerate() {
                         let history = histories.as_deref_mut().map(|h| &mut h[k].0);
                         let r = step_strand(
                             s,
-                            (loads, history),
+                            (extras, history),
                             head,
                             effects,
                             (t, h),
@@ -416,18 +416,18 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 self.strands
                     .par_chunks_mut(chunk)
                     .zip(self.histories.par_chunks_mut(chunk))
-                    .zip(self.loads.par_chunks(chunk))
+                    .zip(self.extras.par_chunks(chunk))
                     .zip(buffer_chunks.par_iter_mut())
                     .zip(self.workers.par_iter_mut())
                     .enumerate()
-                    .map(|(c, ((((strands, histories), loads), buffers), worker))| {
+                    .map(|(c, ((((strands, histories), extras), buffers), worker))| {
                         let ws = &mut worker.ws;
                         let mut first = None;
                         let mut total = ToleranceReport::default();
-                        for (k, ((s, (history, done)), loads)) in strands
+                        for (k, ((s, (history, done)), extras)) in strands
                             .iter_mut()
                             .zip(histories.iter_mut())
-                            .zip(loads)
+                            .zip(extras)
                             .enumerate()
                         {
                             let mut r = ToleranceReport::default();
@@ -447,8 +447,8 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                                     (None, _) => None,
                                 };
                             let mut view = s.view();
-                            view.params.loads = &loads.loads;
-                            view.params.scale = &loads.scale;
+                            view.params.loads = &extras.loads;
+                            view.params.scale = &extras.scale;
                             let outcome = fixed::step_to_tolerance_views(
                                 &mut &ClosedForm,
                                 &mut view,
@@ -489,7 +489,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         self.histories.get(i).map(|(_, r)| r)
     }
     fn set_loads(&mut self, i: usize, loads: &[PointLoad]) {
-        if let Some(l) = self.loads.get_mut(i).map(|e| &mut e.loads) {
+        if let Some(l) = self.extras.get_mut(i).map(|e| &mut e.loads) {
             l.clear();
             l.extend_from_slice(loads);
         }

@@ -324,25 +324,6 @@ pub struct StrandSystem {
     pub held: Option<super::held_end::HeldTip>,
 }
 
-/// What an assembly contained beyond elasticity and friction.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Assembled {
-    /// The stiffness holds field or point-load terms (not only −K).
-    pub field_stiffness: bool,
-    /// The damping holds a skew (gyroscopic, Coriolis) part.
-    pub gyroscopic: bool,
-    /// The stiffness holds only the contacts' terms along the Jacobian, negative
-    /// semidefinite as they are: no projection
-    /// ([`crate::config::FieldStiffness::Explicit`]).
-    pub unprojected: bool,
-    /// The field stiffness goes in by the dissipative split first
-    /// ([`StepContext::field_split`]).
-    pub split: bool,
-    /// The split's rule keeps the projection for this strand: it has neither internal
-    /// friction nor air drag, or it touches, is held or carries point loads.
-    pub undamped: bool,
-}
-
 impl StrandSystem {
     /// The system of `strand` on `kernel`, its buffers sized once.
     pub fn new(strand: Strand, kernel: Box<dyn StrandKernel>, context: StepContext) -> Self {
@@ -361,7 +342,7 @@ impl StrandSystem {
     /// placed at `at`, and the requested Jacobians, into `workspace.terms`: `stiffness` =
     /// ∂F/∂q (less ∂b/∂q), `damping` = ∂F/∂q̇ (less ∂b/∂q̇, which is in
     /// `velocity_term_jacobian`).
-    pub fn assemble(&mut self, at: &Placement, q: &[f64], v: &[f64], terms: Terms) -> Assembled {
+    pub fn assemble(&mut self, at: &Placement, q: &[f64], v: &[f64], terms: Terms) {
         let head = &at.head;
         let StrandSystem {
             strand,
@@ -419,7 +400,6 @@ impl StrandSystem {
                 t.damping[(i, i)] -= ws.friction[i];
             }
         }
-        let mut held_stiffness = false;
         add_point_loads(
             &strand.point_loads,
             &head.rotation,
@@ -445,7 +425,6 @@ impl StrandSystem {
                     &mut ws.jac,
                     Some((f, &mut t.stiffness)),
                 );
-                held_stiffness = true;
             }
             // and a clamped tip's torque, through the turning of the tip's frame (the head
             // is still under a held tip: head and world coordinates agree)
@@ -456,11 +435,10 @@ impl StrandSystem {
                     q,
                     &mut |i, j, x| t.stiffness[(i, j)] += x,
                 );
-                held_stiffness = true;
             }
         }
-        let touching = match contacts {
-            Some(c) => c.add_to_terms(
+        if let Some(c) = contacts {
+            c.add_to_terms(
                 at,
                 kernel,
                 &strand.geometry,
@@ -470,23 +448,7 @@ impl StrandSystem {
                 !explicit,
                 &mut ws.jac,
                 t,
-            ),
-            None => false,
-        };
-        // a strand without internal friction or drag keeps the projection, and so does one
-        // that touches, is held or carries point loads (see superhelix_kernels::field_split)
-        let dissipative = strand.internal_friction > 0.0 || strand.air_drag > 0.0;
-        let loaded = touching || held.is_some() || !strand.point_loads.is_empty();
-        Assembled {
-            field_stiffness: if explicit {
-                touching
-            } else {
-                position_field || !strand.point_loads.is_empty() || touching || held_stiffness
-            },
-            gyroscopic: ctx.effects.head_moves && head.omega != Vector3::zeros() && terms.damping,
-            unprojected: explicit,
-            split: ctx.field_split && dissipative && !loaded,
-            undamped: ctx.field_split && (!dissipative || loaded),
+            );
         }
     }
 
