@@ -216,10 +216,10 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
     }
     for (index, s) in setup.strands.iter().enumerate() {
         let n = s.strand.geometry.elements();
-        if s.tip.is_some() || s.strand.ends.root == crate::model::ends::RootEnd::Free {
+        if s.strand.ends.root == crate::model::ends::RootEnd::Free {
             errors.push(FieldError::new(
                 format!("strands[{index}].ends"),
-                "the embedded engine holds roots clamped or pinned and tips free; use engine = \"runtime\"",
+                "the embedded engine holds roots clamped or pinned (root = \"free\"); use engine = \"runtime\"",
             ));
         } else if !superhelix_generated::fixed::SIZES.contains(&n) {
             errors.push(FieldError::new(
@@ -233,6 +233,104 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
         }
     }
     errors
+}
+
+/// Bring strand `index`'s held tip onto its constraint at t = 0: q0 projected
+/// ([`crate::solver::held_end::HeldTip::project`]) through the points of `kernel`, or the
+/// problem that keeps it from it, named for `strands[index].ends.tip` (a taut rod held at
+/// its whole length, a start the projection cannot bring to the holder). Both engines
+/// start a held tip here.
+fn hold_at_start(
+    index: usize,
+    held: &mut crate::solver::held_end::HeldTip,
+    kernel: &mut dyn crate::kernels::kernel::StrandKernel,
+    g: &crate::model::strand::StrandGeometry,
+    root_free: bool,
+    q0: &mut [f64],
+) -> std::result::Result<(), FieldError> {
+    let before = pose_at(g, q0, g.length());
+    // a tip held at the strand's whole length from a held root: the rod is taut, its
+    // held ends' constraints are dependent (the step's G A⁻¹ Gᵀ is singular) and the run
+    // would stop at its first step
+    let (p, _, _) = held.target(0.0);
+    let span = (p - pose_at(g, q0, 0.0).position).norm();
+    let length = g.length();
+    if !root_free && !held.end.kind.slides() && span >= (1.0 - 1e-6) * length {
+        return Err(FieldError::new(
+            format!("strands[{index}].ends.tip"),
+            format!(
+                "the tip is held {span:.6} m from the root, the strand's whole length ({length:.6} m): a taut rod's held ends are dependent constraints and the run would stop at its first step; hold the tip closer to the root (ends.tip.position), start from a bent shape (q0 or natural curvatures), or let it slide along the strand (kind = \"sliding\")"
+            ),
+        ));
+    }
+    held.project(&mut KernelPoints(kernel), g, q0, 0.0)
+        .map(|_| ())
+        .map_err(|e| {
+            let (p, frame, _) = held.target(0.0);
+            let off = (before.position - p).norm();
+            // the angle between the starting tip frame and the held one
+            let turn = frame.transpose() * before.frame;
+            let cos = (0.5 * (turn.trace() - 1.0)).clamp(-1.0, 1.0);
+            let angle = cos.acos().to_degrees();
+            let message = if held.end.kind.holds_frame() && angle > 1e-3 {
+                format!(
+                    "the initial shape's tip is {off:.4e} m from the held position and its frame is turned {angle:.1}° from the held frame (ends.tip.direction, ends.tip.normal), and could not be brought there ({e}): leave out direction and normal to hold the tip in the frame it starts in, or start from a shape whose tip has that frame (q0, or natural curvatures)"
+                )
+            } else {
+                format!(
+                    "the initial shape's tip is {off:.4e} m from the held position and could not be brought there ({e}); start from a shape that reaches it (q0, or natural curvatures)"
+                )
+            };
+            FieldError::new(format!("strands[{index}].ends.tip"), message)
+        })
+}
+
+/// What adds forces to a strand's generalized force F.
+type AddForce<'a> = dyn FnMut(&mut [f64]) + 'a;
+
+/// The reaction of `system`'s held tip with the strand at rest in (q, q̇) at `at`
+/// ([`crate::solver::held_end::HeldTip::start_reaction`] with M and F there); a strand
+/// whose M does not factor keeps its reaction. `contacts` adds the contacts' forces to F
+/// when the system does not hold them (the embedded engine's).
+fn start_reaction(
+    system: &mut StrandSystem,
+    at: &Placement,
+    q: &[f64],
+    v: &[f64],
+    contacts: Option<&mut AddForce<'_>>,
+) {
+    let terms = crate::kernels::kernel::Terms {
+        mass: true,
+        force: true,
+        ..Default::default()
+    };
+    let n = q.len();
+    system.assemble(at, q, v, terms);
+    let ws = &mut system.workspace;
+    let mut force = ws.terms.force[..n].to_vec();
+    if let Some(add) = contacts {
+        add(&mut force);
+    }
+    for j in 0..n {
+        for i in 0..n {
+            ws.solver.matrix[(i, j)] = ws.terms.mass[(i, j)];
+        }
+    }
+    ws.solver.rhs_mut().fill(0.0);
+    if !ws.solver.solve_spd() {
+        return;
+    }
+    if let Some(held) = system.held.as_mut() {
+        let solver = &mut system.workspace.solver;
+        let _ = held.start_reaction(
+            &mut KernelPoints(system.kernel.as_mut()),
+            &system.strand.geometry,
+            &mut |x| solver.solve_factored_spd(x),
+            q,
+            &force,
+            at.time,
+        );
+    }
 }
 
 /// The engine [`Simulation::new`] steps `setup` with ([`Engine::Embedded`] or
@@ -319,9 +417,33 @@ fn embedded_strands(
                 }
             },
         };
+        // a held tip starts on its constraint, through the points of the same closed forms
+        let mut q0 = s.q0;
+        let held = match s.tip {
+            Some(end) => {
+                let g = &s.strand.geometry;
+                let mut tip =
+                    crate::solver::held_end::HeldTip::new(end, g, s.strand.solver_scale());
+                let mut kernel = crate::kernels::moments::kernel::MomentKernel::new(
+                    g.clone(),
+                    superhelix_generated::ClosedForm,
+                );
+                let root_free = s.strand.ends.root == crate::model::ends::RootEnd::Free;
+                if q0.len() == g.dofs() {
+                    if let Err(e) =
+                        hold_at_start(index, &mut tip, &mut kernel, g, root_free, &mut q0)
+                    {
+                        errors.push(e);
+                        continue;
+                    }
+                }
+                Some(tip)
+            }
+            None => None,
+        };
         let group = &mut groups[g].1;
         let position = group.len();
-        if !group.push(&s.strand, &s.q0, contacts.as_ref()) {
+        if !group.push(&s.strand, &q0, contacts.as_ref(), held) {
             errors.push(FieldError::new(
                 format!("strands[{index}].q0"),
                 format!("must have 3N = {} values", 3 * n),
@@ -697,6 +819,9 @@ impl Simulation {
                 // the Coulomb loads of t = 0
                 sim.refresh_charges(0.0)?;
             }
+            if sim.config.mode == Mode::Dynamic {
+                sim.start_held_reactions();
+            }
             return Ok(sim);
         }
         let head_moves = setup.head != HeadMotion::Still;
@@ -775,47 +900,17 @@ impl Simulation {
             }
             let mut q0 = s.q0;
             if let Some(held) = system.held.as_mut() {
-                // start on the constraint
-                let g = &system.strand.geometry;
-                let before = pose_at(g, &q0, g.length());
-                // a tip held at the strand's whole length from a held root: the rod is
-                // taut, its held ends' constraints are dependent (the step's G A⁻¹ Gᵀ is
-                // singular) and the run would stop at its first step
-                let (p, _, _) = held.target(0.0);
-                let span = (p - pose_at(g, &q0, 0.0).position).norm();
-                let length = g.length();
-                let root_held = system.strand.ends.root != crate::model::ends::RootEnd::Free;
-                if root_held && !held.end.kind.slides() && span >= (1.0 - 1e-6) * length {
-                    errors.push(FieldError::new(
-                        format!("strands[{index}].ends.tip"),
-                        format!(
-                            "the tip is held {span:.6} m from the root, the strand's whole length ({length:.6} m): a taut rod's held ends are dependent constraints and the run would stop at its first step; hold the tip closer to the root (ends.tip.position), start from a bent shape (q0 or natural curvatures), or let it slide along the strand (kind = \"sliding\")"
-                        ),
-                    ));
+                let root_free = system.strand.ends.root == crate::model::ends::RootEnd::Free;
+                if let Err(e) = hold_at_start(
+                    index,
+                    held,
+                    system.kernel.as_mut(),
+                    &system.strand.geometry,
+                    root_free,
+                    &mut q0,
+                ) {
+                    errors.push(e);
                     continue;
-                }
-                if let Err(e) =
-                    held.project(&mut KernelPoints(system.kernel.as_mut()), g, &mut q0, 0.0)
-                {
-                    let (p, frame, _) = held.target(0.0);
-                    let off = (before.position - p).norm();
-                    // the angle between the starting tip frame and the held one
-                    let turn = frame.transpose() * before.frame;
-                    let cos = (0.5 * (turn.trace() - 1.0)).clamp(-1.0, 1.0);
-                    let angle = cos.acos().to_degrees();
-                    let message = if held.end.kind.holds_frame() && angle > 1e-3 {
-                        format!(
-                            "the initial shape's tip is {off:.4e} m from the held position and its frame is turned {angle:.1}° from the held frame (ends.tip.direction, ends.tip.normal), and could not be brought there ({e}): leave out direction and normal to hold the tip in the frame it starts in, or start from a shape whose tip has that frame (q0, or natural curvatures)"
-                        )
-                    } else {
-                        format!(
-                            "the initial shape's tip is {off:.4e} m from the held position and could not be brought there ({e}); start from a shape that reaches it (q0, or natural curvatures)"
-                        )
-                    };
-                    errors.push(FieldError::new(
-                        format!("strands[{index}].ends.tip"),
-                        message,
-                    ));
                 }
             }
             errors.extend(check_initial_state(index, &mut system, &head0, &q0, rk4_dt));
@@ -886,37 +981,43 @@ impl Simulation {
     /// reaction.
     pub fn start_held_reactions(&mut self) {
         let at = Placement::new(self.head.state(self.time), self.time);
-        let terms = crate::kernels::kernel::Terms {
-            mass: true,
-            force: true,
-            ..Default::default()
-        };
-        for s in self.strands.iter_mut().filter(|s| s.system.held.is_some()) {
-            let n = s.state.q.len();
-            s.system.assemble(&at, &s.state.q, &s.state.v, terms);
-            let system = &mut s.system;
-            let ws = &mut system.workspace;
-            let force = ws.terms.force[..n].to_vec();
-            for j in 0..n {
-                for i in 0..n {
-                    ws.solver.matrix[(i, j)] = ws.terms.mass[(i, j)];
+        if self.embedded.is_some() {
+            // each held strand measured on a system of its own (the same closed forms),
+            // its tip lent to it and taken back
+            for i in 0..self.strand_count() {
+                let Some(e) = &self.embedded else { return };
+                let (_, _, g, p) = e.strands[i];
+                let Some(tip) = e.groups[g].1.held(p).cloned() else {
+                    continue;
+                };
+                let mut system = self.measuring_system(i);
+                system.held = Some(tip);
+                let (q, v) = (self.q(i).to_vec(), self.v(i).to_vec());
+                let Some(e) = &mut self.embedded else { return };
+                let group = &mut e.groups[g].1;
+                // the contacts' forces at rest, as the runtime engine's assembly adds them
+                let mut points = crate::kernels::moments::kernel::MomentKernel::new(
+                    system.strand.geometry.clone(),
+                    superhelix_generated::ClosedForm,
+                );
+                let mut contacts = |force: &mut [f64]| {
+                    group.add_contact_force(
+                        p,
+                        at.time,
+                        &at.head,
+                        &mut KernelPoints(&mut points),
+                        force,
+                    )
+                };
+                start_reaction(&mut system, &at, &q, &v, Some(&mut contacts));
+                if let (Some(tip), Some(slot)) = (system.held, group.held_mut(p)) {
+                    *slot = tip;
                 }
             }
-            ws.solver.rhs_mut().fill(0.0);
-            if !ws.solver.solve_spd() {
-                continue;
-            }
-            if let Some(held) = system.held.as_mut() {
-                let solver = &mut system.workspace.solver;
-                let _ = held.start_reaction(
-                    &mut KernelPoints(system.kernel.as_mut()),
-                    &system.strand.geometry,
-                    &mut |x| solver.solve_factored_spd(x),
-                    &s.state.q,
-                    &force,
-                    at.time,
-                );
-            }
+            return;
+        }
+        for s in self.strands.iter_mut().filter(|s| s.system.held.is_some()) {
+            start_reaction(&mut s.system, &at, &s.state.q, &s.state.v, None);
         }
     }
 
@@ -924,6 +1025,10 @@ impl Simulation {
     /// solve: force (N) then torque (N·m, clamped tips), world coordinates; `None` for a
     /// free tip.
     pub fn held_reaction(&self, i: usize) -> Option<nalgebra::Vector6<f64>> {
+        if let Some(e) = &self.embedded {
+            let (_, _, g, p) = e.strands.get(i)?;
+            return e.groups[*g].1.held(*p).map(|h| h.reaction);
+        }
         let s = self.strands.get(i)?;
         s.system.held.as_ref().map(|h| h.reaction)
     }
@@ -932,6 +1037,11 @@ impl Simulation {
     /// (position off relative to the strand's length, frame off in radians), reset;
     /// `None` for a free tip.
     pub fn take_held_drift(&mut self, i: usize) -> Option<f64> {
+        if let Some(e) = &mut self.embedded {
+            let (_, _, g, p) = e.strands.get(i)?;
+            let (g, p) = (*g, *p);
+            return e.groups[g].1.held_mut(p).map(|h| h.take_drift());
+        }
         let s = self.strands.get_mut(i)?;
         s.system.held.as_mut().map(|h| h.take_drift())
     }
@@ -1992,11 +2102,11 @@ impl FrameSource for Simulation {
             .sqrt()
     }
     fn has_held_tip(&self, i: usize) -> bool {
-        self.strands.get(i).is_some_and(|s| s.system.held.is_some())
+        self.held_reaction(i).is_some()
     }
     fn held_ends(&mut self, out: &mut Vec<crate::output::HeldEndFrame>) {
         out.clear();
-        for i in 0..self.strands.len() {
+        for i in 0..self.strand_count() {
             let reaction = self.held_reaction(i);
             if let (Some(drift), Some(r)) = (self.take_held_drift(i), reaction) {
                 out.push(crate::output::HeldEndFrame {

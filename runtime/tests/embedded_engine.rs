@@ -629,3 +629,147 @@ fn a_swinging_strand_splits_the_steps_that_lose_too_much_energy() {
         "{runtime:e} against {unchecked:e}"
     );
 }
+
+/// A scene file of `scenes/` with `engine` set and `duration`.
+fn scene_file(text: &str, engine: &str, duration: &str) -> String {
+    text.replacen(
+        "[simulation]\n",
+        &format!("[simulation]\nengine = \"{engine}\"\n"),
+        1,
+    )
+    .replacen("duration = 2.0", &format!("duration = {duration}"), 1)
+}
+
+#[test]
+fn a_held_tip_on_the_embedded_engine_is_the_runtime_engines_and_resumes_exactly() {
+    use superhelix_runtime::config::Engine;
+    // the buckling column (tip sliding on its axis, under a dead load) and Greenhill's
+    // shaft (tip clamped on a slider, twisted): the held tip the one step's hook on both
+    // engines, the same constraint rows, reactions and drift to the bit. The driven rope
+    // (root pinned, its joint an element: 9 + 1 elements; tip pinned to a holder moving
+    // up and down) resting on a ball (its tip's samples left to the holder, the ball's
+    // force in the reaction at rest): the same steps to round-off, as far apart as the
+    // same rope with a free tip (the two engines' contacts find a pinned strand's sample
+    // points by different chains of the same closed forms: 1.2e-10 m apart over 0.2 s,
+    // `superhelix run` of either scene)
+    let rope = scene_file(
+        include_str!("../../scenes/rod-driven.toml"),
+        "ENGINE",
+        "0.2",
+    )
+    .replace("elements = 30", "elements = 9")
+        + "\n[[bodies]]\nname = \"ball\"\nshape = \"sphere\"\ncenter = [0.2, 0.0, -0.1645]\n\
+           radius = 0.04\n\n[contacts]\nradius = 2e-4\nfriction = \"none\"\n\
+           friction_coefficient = 0.3\n";
+    for (name, text, steps) in [
+        (
+            "buckling",
+            scene_file(
+                include_str!("../../scenes/rod-buckling.toml"),
+                "ENGINE",
+                "0.2",
+            ),
+            60,
+        ),
+        (
+            "greenhill",
+            scene_file(
+                include_str!("../../scenes/rod-greenhill.toml"),
+                "ENGINE",
+                "0.2",
+            ),
+            60,
+        ),
+        ("driven rope on a ball", rope, 90),
+    ] {
+        let with = |engine: &str| text.replace("ENGINE", engine);
+        let mut runtime = simulation(&with("runtime")).expect("valid scene");
+        let mut embedded = simulation(&with("auto")).expect("valid scene");
+        assert_eq!(embedded.engine(), Engine::Embedded, "{name}");
+        // the reaction at rest (frame 0) is the same
+        assert_eq!(
+            runtime.held_reaction(0),
+            embedded.held_reaction(0),
+            "{name}"
+        );
+        let on_ball = name.contains("ball");
+        let length = embedded.strand(0).geometry.length();
+        let mut saved = None;
+        let (mut drift, mut touched, mut worst): (f64, usize, f64) = (0.0, 0, 0.0);
+        for k in 0..steps {
+            if k == steps / 2 {
+                saved = Some(embedded.state());
+            }
+            runtime.step().expect("runtime step");
+            embedded.step().expect("embedded step");
+            let (a, b) = (runtime.take_held_drift(0), embedded.take_held_drift(0));
+            if on_ball {
+                let (p, r) = (
+                    runtime.centreline_world(0, 4),
+                    embedded.centreline_world(0, 4),
+                );
+                let apart = p
+                    .iter()
+                    .zip(&r)
+                    .map(|(x, y)| {
+                        let d: Vec<f64> = x.iter().zip(y).map(|(u, w)| u - w).collect();
+                        (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+                    })
+                    .fold(0.0, f64::max);
+                worst = worst.max(apart / length);
+            } else {
+                assert_eq!(runtime.q(0), embedded.q(0), "{name}: step {k}");
+                assert_eq!(runtime.v(0), embedded.v(0), "{name}: step {k}");
+                assert_eq!(
+                    runtime.held_reaction(0),
+                    embedded.held_reaction(0),
+                    "{name}"
+                );
+                assert_eq!(a, b, "{name}: drift at step {k}");
+            }
+            drift = drift.max(b.expect("a held tip"));
+            if let Some(c) = embedded.contact_summary(0) {
+                touched = touched.max(c.body_contacts);
+            }
+        }
+        if on_ball {
+            // (the rope does rest on the ball)
+            assert!(touched > 0, "{name}: no sample touched the ball");
+            assert!(worst <= 1e-9, "{name}: the engines {worst:.3e} L apart");
+        }
+        assert_eq!(
+            runtime.stats().substeps,
+            embedded.stats().substeps,
+            "{name}"
+        );
+        if on_ball {
+            eprintln!("{name}: the engines {worst:.3e} L apart");
+        }
+        // the holder pulls (a reaction of the order of the loads), the tip stays on it
+        let reaction = embedded.held_reaction(0).expect("a held tip");
+        assert!(reaction.norm() > 1e-6, "{name}: reaction {reaction:?}");
+        assert!(drift <= 1e-9, "{name}: drift {drift:e} L");
+        // a checkpoint halfway resumes to the bit, the holder's reaction with it
+        let mut resumed = simulation(&with("auto")).expect("valid scene");
+        resumed
+            .restore(saved.expect("a saved state"))
+            .expect("restore");
+        for _ in steps / 2..steps {
+            resumed.step().expect("resumed step");
+        }
+        assert_eq!(resumed.q(0), embedded.q(0), "{name}");
+        assert_eq!(resumed.v(0), embedded.v(0), "{name}");
+        assert_eq!(
+            resumed.held_reaction(0),
+            embedded.held_reaction(0),
+            "{name}"
+        );
+        eprintln!(
+            "{name}: {} steps, {} substeps, reaction {:.3e} N, drift {drift:.1e} L, \
+             {touched} samples on the ball at most",
+            steps,
+            embedded.stats().substeps,
+            reaction.fixed_rows::<3>(0).norm()
+        );
+    }
+}

@@ -15,6 +15,7 @@ use crate::forces::contacts::strand_contacts::{sample_points, BodyColliders};
 use crate::forces::contacts::ContactConfig;
 use crate::forces::head_motion::HeadState;
 use crate::model::strand::{PointLoad, Strand};
+use crate::solver::held_end::{HeldHook, HeldTip, HeldTipState};
 use rayon::prelude::*;
 use std::sync::Arc;
 use superhelix_generated::ClosedForm;
@@ -29,6 +30,7 @@ use superhelix_kernels::fixed::{
 };
 use superhelix_kernels::moments::EndDerivatives;
 use superhelix_kernels::pose::Pose;
+use superhelix_kernels::storage::Square;
 
 /// Strands of one N stepped by the fixed-N step.
 pub trait EmbeddedGroup: Send + Sync {
@@ -41,7 +43,29 @@ pub trait EmbeddedGroup: Send + Sync {
     /// Add a strand at state (q, q̇ = 0), touching `contacts` (the bodies and the
     /// contact settings; the same for every strand of a scene); false when its N is not
     /// this group's.
-    fn push(&mut self, strand: &Strand, q0: &[f64], contacts: Option<&EmbeddedContacts>) -> bool;
+    /// `held`: its held tip, on the constraint at q0 (`None`: a free tip).
+    fn push(
+        &mut self,
+        strand: &Strand,
+        q0: &[f64],
+        contacts: Option<&EmbeddedContacts>,
+        held: Option<HeldTip>,
+    ) -> bool;
+    /// Strand `i`'s held tip (`None`: a free tip).
+    fn held(&self, i: usize) -> Option<&HeldTip>;
+    /// Add strand `i`'s contact forces at its state (q, q̇ = 0), time `t`, the head in
+    /// `head`, to `force` (3N), as the runtime engine's assembly adds them; nothing
+    /// without contacts. `points`: the strand's points.
+    fn add_contact_force(
+        &mut self,
+        i: usize,
+        t: f64,
+        head: &HeadState,
+        points: &mut dyn superhelix_kernels::strand_terms::StrandPoints<f64>,
+        force: &mut [f64],
+    );
+    /// Strand `i`'s held tip, to change (`None`: a free tip).
+    fn held_mut(&mut self, i: usize) -> Option<&mut HeldTip>;
     /// Step every strand from `t` by `h` in parallel, one workspace per chunk of strands:
     /// the checked fixed-N step, adding the checks' counters to `counts`, or with a
     /// `tolerance` the error-controlled one (`fixed::step_to_tolerance`), adding what it
@@ -268,7 +292,13 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
     fn len(&self) -> usize {
         self.strands.len()
     }
-    fn push(&mut self, strand: &Strand, q0: &[f64], contacts: Option<&EmbeddedContacts>) -> bool {
+    fn push(
+        &mut self,
+        strand: &Strand,
+        q0: &[f64],
+        contacts: Option<&EmbeddedContacts>,
+        held: Option<HeldTip>,
+    ) -> bool {
         let Some(params) = fixed_params::<N, D>(strand) else {
             return false;
         };
@@ -278,9 +308,16 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         let mut s = FixedStrand::at_rest(params);
         s.q.copy_from_slice(q0);
         self.strands.push(s);
+        let tip_free = held.is_none();
         self.extras.push(StrandExtras {
             loads: strand.point_loads.clone(),
             scale: strand.solver_scale().unwrap_or_default(),
+            held: held.map(|tip| {
+                Box::new(HeldSlot {
+                    tip,
+                    geometry: strand.geometry.clone(),
+                })
+            }),
         });
         // (their contact scratch is sized for the strands they had)
         self.workers.clear();
@@ -288,9 +325,51 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
             let (_, buffers) = self
                 .contacts
                 .get_or_insert_with(|| (c.bodies.clone(), Vec::new()));
-            buffers.push(StrandContactBuffers::new(strand, &c.config));
+            buffers.push(StrandContactBuffers::new(strand, &c.config, tip_free));
         }
         true
+    }
+    fn held(&self, i: usize) -> Option<&HeldTip> {
+        self.extras.get(i)?.held.as_ref().map(|h| &h.tip)
+    }
+    fn held_mut(&mut self, i: usize) -> Option<&mut HeldTip> {
+        self.extras.get_mut(i)?.held.as_mut().map(|h| &mut h.tip)
+    }
+    fn add_contact_force(
+        &mut self,
+        i: usize,
+        t: f64,
+        head: &HeadState,
+        points: &mut dyn superhelix_kernels::strand_terms::StrandPoints<f64>,
+        force: &mut [f64],
+    ) {
+        let (Some((bodies, buffers)), Some(s)) = (self.contacts.as_mut(), self.strands.get(i))
+        else {
+            return;
+        };
+        let Some(b) = buffers.get_mut(i) else { return };
+        let mut colliders = BodyColliders::new(bodies.clone());
+        let mut scratch = ContactScratch::new(b.samples.len(), N);
+        let lengths = s.params.lengths;
+        let (mut stiffness, mut damping) = (vec![0.0; D * D], vec![0.0; D * D]);
+        let (Some(mut stiffness), Some(mut damping)) =
+            (Square::new(&mut stiffness, D), Square::new(&mut damping, D))
+        else {
+            return;
+        };
+        let zero = [0.0; D];
+        b.contacts(&s.params, &lengths, &mut colliders, &mut scratch)
+            .add_terms(
+                points,
+                &s.q,
+                &zero,
+                t,
+                head,
+                false,
+                force,
+                &mut stiffness,
+                &mut damping,
+            );
     }
     fn step(
         &mut self,
@@ -332,7 +411,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 .strands
                 .par_chunks_mut(chunk)
                 .zip(buffers.par_chunks_mut(chunk))
-                .zip(self.extras.par_chunks(chunk))
+                .zip(self.extras.par_chunks_mut(chunk))
                 .zip(history_chunks.par_iter_mut())
                 .zip(self.workers.par_iter_mut())
                 .enumerate()
@@ -376,7 +455,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
             (None, None) => self
                 .strands
                 .par_chunks_mut(chunk)
-                .zip(self.extras.par_chunks(chunk))
+                .zip(self.extras.par_chunks_mut(chunk))
                 .zip(history_chunks.par_iter_mut())
                 .zip(self.workers.par_iter_mut())
                 .enumerate()
@@ -416,7 +495,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 self.strands
                     .par_chunks_mut(chunk)
                     .zip(self.histories.par_chunks_mut(chunk))
-                    .zip(self.extras.par_chunks(chunk))
+                    .zip(self.extras.par_chunks_mut(chunk))
                     .zip(buffer_chunks.par_iter_mut())
                     .zip(self.workers.par_iter_mut())
                     .enumerate()
@@ -446,9 +525,18 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                                     }
                                     (None, _) => None,
                                 };
+                            let StrandExtras { loads, scale, held } = extras;
                             let mut view = s.view();
-                            view.params.loads = &extras.loads;
-                            view.params.scale = &extras.scale;
+                            view.params.loads = loads;
+                            view.params.scale = scale;
+                            // (a held tip is lent as on fixed steps: this step refuses it)
+                            let mut hook = held.as_mut().map(|h| HeldHook {
+                                tip: &mut h.tip,
+                                geometry: &h.geometry,
+                            });
+                            if let Some(hook) = hook.as_mut() {
+                                view.end = Some(hook);
+                            }
                             let outcome = fixed::step_to_tolerance_views(
                                 &mut &ClosedForm,
                                 &mut view,
@@ -533,6 +621,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                     .as_ref()
                     .and_then(|(_, b)| b.get(i))
                     .map(StrandContactBuffers::state),
+                held: self.held(i).map(HeldTip::state),
             })
             .collect()
     }
@@ -580,6 +669,19 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 }
                 (Some(_), None) => return Err("the scene has contacts, the checkpoint none".into()),
                 (None, Some(_)) => return Err("the checkpoint has contacts, the scene none".into()),
+            }
+            match (
+                self.extras.get_mut(position).and_then(|e| e.held.as_mut()),
+                state.held,
+            ) {
+                (None, None) => {}
+                (Some(slot), Some(h)) => slot.tip.restore(h),
+                (Some(_), None) => {
+                    return Err("the scene holds a strand's tip, the checkpoint does not".into())
+                }
+                (None, Some(_)) => {
+                    return Err("the checkpoint holds a strand's tip, the scene does not".into())
+                }
             }
             if let Some(h) = state.history {
                 if !size(h.q.len()) || !size(h.v.len()) {
@@ -804,13 +906,15 @@ impl ContactScratch {
 }
 
 impl StrandContactBuffers {
-    /// The buffers of `strand`'s contacts under `config` (a clamped root, a free tip).
-    pub fn new(strand: &Strand, config: &ContactConfig) -> Self {
+    /// The buffers of `strand`'s contacts under `config` (a root clamped or pinned, the
+    /// tip free when `tip_free`, else held: its last samples left to the holder as the
+    /// runtime engine leaves them).
+    pub fn new(strand: &Strand, config: &ContactConfig, tip_free: bool) -> Self {
         let g = &strand.geometry;
         let samples = sample_points(
             g,
             config.samples_per_element.max(1),
-            config.free_ends(false, true),
+            config.free_ends(false, tip_free),
         );
         let n = samples.len();
         StrandContactBuffers {
@@ -957,6 +1061,8 @@ pub struct FixedStrandState {
     history: Option<HistoryState>,
     /// With contacts, what they carry from step to step.
     contacts: Option<ContactState>,
+    /// A held tip's reaction, drift and last residual.
+    held: Option<HeldTipState>,
 }
 
 /// What a strand's contacts carry from one step to the next in the embedded engine (see
@@ -1033,12 +1139,22 @@ impl ReportState {
 }
 
 /// What a strand of a [`Group`] lends its step besides its fixed-N arrays: its point
-/// loads (empty: none) and a pinned root's coordinate scale (empty: none; the joint's
-/// θ/l₀ as the runtime engine scales them, `Strand::solver_scale`).
+/// loads (empty: none), a pinned root's coordinate scale (empty: none; the joint's
+/// θ/l₀ as the runtime engine scales them, `Strand::solver_scale`) and its held tip
+/// (`None`: free), the step's end hook as on the runtime engine ([`HeldHook`]).
 #[derive(Debug, Clone, Default)]
 struct StrandExtras {
     loads: Vec<PointLoad>,
     scale: Vec<f64>,
+    held: Option<Box<HeldSlot>>,
+}
+
+/// A held tip of the embedded engine: the constraint and the geometry its rows are
+/// written for.
+#[derive(Debug, Clone)]
+struct HeldSlot {
+    tip: HeldTip,
+    geometry: crate::model::strand::StrandGeometry,
 }
 
 /// One strand's checked fixed-N step from `t` by `h`, its point loads, scale and (BDF2)
@@ -1046,7 +1162,7 @@ struct StrandExtras {
 #[allow(clippy::too_many_arguments)]
 fn step_strand<const N: usize, const D: usize, const E: usize, const B: usize>(
     s: &mut FixedStrand<N, D, B>,
-    (extras, history): (&StrandExtras, Option<&mut StepHistory<D>>),
+    (extras, history): (&mut StrandExtras, Option<&mut StepHistory<D>>),
     head: &dyn HeadTrajectory,
     effects: &Effects,
     (t, h): (f64, f64),
@@ -1054,10 +1170,19 @@ fn step_strand<const N: usize, const D: usize, const E: usize, const B: usize>(
     counts: &mut StepCounts,
     contacts: Option<&mut dyn ContactHooks<f64>>,
 ) -> Result<StepReport, StepError> {
+    let StrandExtras { loads, scale, held } = extras;
     let mut view = s.view();
-    view.params.loads = &extras.loads;
-    view.params.scale = &extras.scale;
+    view.params.loads = loads;
+    view.params.scale = scale;
     view.history = history.map(|h| h.view());
+    // a held tip: the one step's hook on the runtime's constraint, as on the runtime engine
+    let mut hook = held.as_mut().map(|h| HeldHook {
+        tip: &mut h.tip,
+        geometry: &h.geometry,
+    });
+    if let Some(hook) = hook.as_mut() {
+        view.end = Some(hook);
+    }
     fixed::step_views(
         &mut &ClosedForm,
         &mut view,
