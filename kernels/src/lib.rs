@@ -44,6 +44,7 @@ pub mod energy;
 pub mod field_split;
 pub mod fixed;
 pub mod float;
+pub mod floating;
 pub mod head;
 pub mod helix_functions;
 pub mod jet;

@@ -134,6 +134,12 @@ impl<T: Float> HeapStrand<T> {
         self.params.lengths.len()
     }
 
+    /// The elements a workspace is sized for to step this strand: N, or N + 1 with a free
+    /// root's translation (3N + 3 coordinates, [`ParamsView::free_root`]).
+    pub fn work_elements(&self) -> usize {
+        self.q.len().div_ceil(3)
+    }
+
     /// The step's view of the parameters.
     pub fn params(&self) -> ParamsView<'_, T> {
         self.params.view()
@@ -465,7 +471,7 @@ pub fn step<'c, S: StepTerms<T> + ?Sized, T: Float>(
     counts: &mut StepCounts,
     contacts: Option<&mut (dyn ContactHooks<T> + 'c)>,
 ) -> Result<StepReport, StepError> {
-    let elements = strand.elements();
+    let elements = strand.work_elements();
     crate::fixed::step_views(
         source,
         &mut strand.view(),
@@ -487,7 +493,7 @@ pub fn linearly_implicit<S: StepTerms<T> + ?Sized, T: Float>(
     h: f64,
     ws: &mut HeapWorkspace<T>,
 ) -> Result<StepReport, StepError> {
-    let mut ws = ws.view(strand.elements());
+    let mut ws = ws.view(strand.work_elements());
     let stack = ws.take_stack();
     crate::fixed::step::solve_step(
         source,
@@ -515,14 +521,14 @@ pub fn step_to_tolerance<S: StepTerms<T> + ?Sized, T: Float>(
     ws: &mut HeapWorkspace<T>,
     report: &mut ToleranceReport,
 ) -> Result<StepReport, StepError> {
-    let n = 3 * strand.elements();
+    let n = strand.q.len();
     if history.q.len() != n || history.v.len() != n {
         history.q = vec![T::zero(); n];
         history.v = vec![T::zero(); n];
         history.h = 0.0;
         history.next_h = 0.0;
     }
-    let elements = strand.elements();
+    let elements = strand.work_elements();
     let mut hv = crate::fixed::HistoryView {
         q: &mut history.q,
         v: &mut history.v,
@@ -565,7 +571,7 @@ pub fn energy<S: StepTerms<T> + ?Sized, T: Float>(
     t: f64,
     ws: &mut HeapWorkspace<T>,
 ) -> StateEnergy<T> {
-    let elements = strand.elements();
+    let elements = strand.work_elements();
     crate::fixed::energy_views(
         source,
         &strand.params(),

@@ -1,30 +1,23 @@
 //! The kernel of a rod with a free root ([`crate::model::ends`]): any kernel of its
 //! chain, wrapped to add the root's translation X as three coordinates after the
-//! chain's 3N.
-//!
-//! With `y(s) = X + y_c(s, q)` the Jacobian is `J = [J_c | I₃]`, and the terms of the
-//! equation of motion (paper eq. 4–7, written for the coordinates (q, X)) are the
-//! chain's plus what the three new columns bring:
-//!
-//! - mass: `M = [[M_c, Σᵀ], [Σ, m I₃]]` with `Σ = ∫ρS J_c ds` (3 × 3N) and `m = ρS L`
-//!   (the cross-sections' rotary inertia does not see a translation);
-//! - velocity term: `b = [b_c; b_X]`, `b_X,k = q̇ᵀ H_k q̇` with `H_k = ∫ρS ∂²y_k/∂q² ds`;
-//! - force: the chain's force with the field taken at `X + y_c`, and `∫F ds − b_X` on X;
-//! - the Jacobians of the force (stiffness, damping, ∂b/∂q̇) with their X rows and
-//!   columns.
-//!
-//! `Σ` and `H_k` are the chain kernel's own field force and field stiffness for the
-//! uniform field `ρS e_k` (`∫J_cᵀ c0 ds` and the Hessian of the first moment
-//! contracted with c0, [`Terms::stiffness`]): three more evaluations of the chain
-//! kernel, with its quadrature or closed forms, so that the translation's terms are as
-//! exact as the chain's.
+//! chain's 3N. The translation's terms (paper eq. 4–7 written for (q, X): M's Σ rows and
+//! m I corner, b_X, ∫F ds on X, the Jacobians' X rows and columns) are the kernels'
+//! [`superhelix_kernels::floating::Floating`], written once for every engine, over the
+//! chain kernel's terms ([`KernelTerms`]); this kernel hands them to the runtime's
+//! consumers of [`StrandKernel`] (RK4, the statics, the one step through
+//! [`KernelTerms`]).
 
-use super::kernel::{EvalInput, StrandKernel, StrandTerms, Terms};
+use super::kernel::{EvalInput, StrandKernel, StrandTerms};
+use super::step_terms::KernelTerms;
 use crate::model::reconstruction::Pose;
 use crate::model::strand::StrandGeometry;
 use faer::Mat;
 use nalgebra::Vector3;
-use superhelix_kernels::body_field::BodyField;
+use superhelix_kernels::floating::{Floating, FloatingScratch};
+use superhelix_kernels::storage::Square;
+use superhelix_kernels::strand_terms::{
+    MomentBuffers, PointScratch, StepTerms, StrandShape, TermMatrix, TermVectors,
+};
 
 /// A free-root rod's kernel: the chain's kernel and the translation's terms.
 pub struct FloatingKernel {
@@ -32,14 +25,14 @@ pub struct FloatingKernel {
     geometry: StrandGeometry,
     /// The chain's kernel (3N coordinates).
     chain: Box<dyn StrandKernel>,
-    /// The chain's terms at (q, q̇).
+    /// The chain's terms (3N), as [`KernelTerms`] evaluates them.
     terms: StrandTerms,
-    /// The chain's terms for the uniform fields ρS e_k: Σ row k and H_k.
-    unit: [StrandTerms; 3],
-    /// Zero chain velocities (the unit fields' evaluations carry no b).
-    zero_v: Vec<f64>,
-    /// The chain's Hessian of a point (for [`StrandKernel::point`]).
-    hessian: Mat<f64>,
+    /// [`KernelTerms`]' matrix buffer.
+    flat: Vec<f64>,
+    /// The scratch of [`Floating`] ([`FloatingScratch::len`] of 3N).
+    scratch: Vec<f64>,
+    /// M, (3N + 3)², column-major.
+    mass: Vec<f64>,
 }
 
 impl FloatingKernel {
@@ -50,9 +43,9 @@ impl FloatingKernel {
             geometry,
             chain,
             terms: StrandTerms::new(n),
-            unit: std::array::from_fn(|_| StrandTerms::new(n)),
-            zero_v: vec![0.0; n],
-            hessian: Mat::zeros(n, n),
+            flat: vec![0.0; n * n],
+            scratch: vec![0.0; FloatingScratch::<f64>::len(n)],
+            mass: vec![0.0; (n + 3) * (n + 3)],
         }
     }
 
@@ -65,8 +58,25 @@ impl FloatingKernel {
     }
 }
 
-fn translation(q: &[f64], n: usize) -> Vector3<f64> {
-    Vector3::new(q[n], q[n + 1], q[n + 2])
+/// The shape of `g` as the kernels' terms take it.
+fn shape(g: &StrandGeometry) -> StrandShape<'_, f64> {
+    StrandShape {
+        root_position: g.root_position,
+        root_frame: g.root_frame,
+        lengths: &g.lengths,
+        mass_per_length: g.mass_per_length,
+        rotary_inertia: g.rotary_inertia,
+    }
+}
+
+/// `flat` (n × n, column-major) into `m`.
+fn to_mat(flat: &[f64], m: &mut Mat<f64>) {
+    let n = m.nrows();
+    for (j, col) in flat.chunks_exact(n).enumerate().take(m.ncols()) {
+        for (i, &x) in col.iter().enumerate() {
+            m[(i, j)] = x;
+        }
+    }
 }
 
 impl StrandKernel for FloatingKernel {
@@ -84,140 +94,71 @@ impl StrandKernel for FloatingKernel {
 
     fn evaluate(&mut self, input: &EvalInput<'_>, out: &mut StrandTerms) {
         let n = self.geometry.chain_dofs();
-        let t = input.terms;
-        let (q, v) = (&input.q[..n], &input.v[..n]);
-        let x = translation(input.q, n);
-        let xdot = translation(input.v, n);
-        let f = input.field;
-        let rho_s = self.geometry.mass_per_length;
-        let length = self.geometry.length();
-        // the field at X + y_c with velocity Ẋ + J_c q̇
-        let shifted = BodyField {
-            uniform: f.uniform + f.linear * x + f.velocity * xdot,
-            ..f
+        let FloatingKernel {
+            geometry,
+            chain,
+            terms,
+            flat,
+            scratch,
+            mass,
+        } = self;
+        let Some(scratch) = FloatingScratch::on(scratch, n) else {
+            return;
         };
-        self.chain.evaluate(
-            &EvalInput {
-                q,
-                v,
-                field: shifted,
-                terms: t,
+        let mut floating = Floating {
+            chain: KernelTerms::new(chain.as_mut(), terms, flat),
+            scratch,
+        };
+        // (the chain kernel keeps its own moments: the buffers carry only M)
+        let mut mass_valid = false;
+        let mut buffers = MomentBuffers {
+            ends: &mut [],
+            darboux: &mut [],
+            end_derivs: &mut [],
+            moments: &mut [],
+            motions: &mut [],
+            bodies: &mut [],
+            rotary: &mut [],
+            beyond: &mut [],
+            velocity_rows: &mut [],
+            mass,
+            gram: &mut [],
+            mass_valid: &mut mass_valid,
+            matrix: &mut [],
+            vector: &mut [],
+            prepared: &mut [],
+            mass_prepared: &mut [],
+        };
+        let StrandTerms {
+            mass: out_mass,
+            force,
+            velocity_term,
+            stiffness,
+            damping,
+            velocity_term_jacobian,
+            first_moment,
+        } = out;
+        floating.evaluate(
+            &shape(geometry),
+            &mut buffers,
+            input.q,
+            input.v,
+            &input.field,
+            input.terms,
+            &mut TermVectors {
+                force,
+                velocity_term,
+                first_moment,
             },
-            &mut self.terms,
+            &mut |which, m| match which {
+                TermMatrix::Stiffness => to_mat(m, stiffness),
+                TermMatrix::Damping => to_mat(m, damping),
+                TermMatrix::VelocityTermJacobian => to_mat(m, velocity_term_jacobian),
+                TermMatrix::Mass => to_mat(m, out_mass),
+            },
         );
-        let any_force = t.force || t.field_force;
-        let need_sigma = t.mass || any_force || t.stiffness || t.damping;
-        let need_hessian = t.force || t.velocity_term_jacobian;
-        if need_sigma || need_hessian {
-            for (k, unit) in self.unit.iter_mut().enumerate() {
-                let mut uniform = Vector3::zeros();
-                uniform[k] = rho_s;
-                self.chain.evaluate(
-                    &EvalInput {
-                        q,
-                        v: &self.zero_v,
-                        field: BodyField {
-                            uniform,
-                            ..BodyField::zero()
-                        },
-                        terms: Terms {
-                            mass: false,
-                            force: false,
-                            stiffness: need_hessian,
-                            damping: false,
-                            velocity_term_jacobian: false,
-                            field_force: true,
-                            symmetric_stiffness: false,
-                            split_damping: false,
-                        },
-                    },
-                    unit,
-                );
-            }
-        }
-        // Σ row k, column j: ∫ρS (J_c)_kj ds
-        let sigma = |k: usize, j: usize, unit: &[StrandTerms; 3]| unit[k].force[j];
-        // (H_k q̇)_j
-        let hv = |k: usize, j: usize, unit: &[StrandTerms; 3]| {
-            let h = &unit[k].stiffness;
-            (0..n).map(|i| h[(j, i)] * v[i]).sum::<f64>()
-        };
-        let c = &self.terms;
-        if t.mass {
-            copy_block(&mut out.mass, &c.mass, n);
-            for k in 0..3 {
-                for j in 0..n {
-                    let s = sigma(k, j, &self.unit);
-                    out.mass[(n + k, j)] = s;
-                    out.mass[(j, n + k)] = s;
-                }
-                for l in 0..3 {
-                    out.mass[(n + k, n + l)] = if k == l { rho_s * length } else { 0.0 };
-                }
-            }
-        }
-        if t.mass || any_force {
-            out.first_moment = c.first_moment + x * (rho_s * length);
-        }
-        if any_force {
-            out.force[..n].copy_from_slice(&c.force[..n]);
-            out.velocity_term[..n].copy_from_slice(&c.velocity_term[..n]);
-            // ∫F ds = L c0' + C1 ∫y_c ds + C2 ∫J_c q̇ ds
-            let sigma_v = Vector3::from_fn(|k, _| {
-                (0..n).map(|j| sigma(k, j, &self.unit) * v[j]).sum::<f64>()
-            });
-            let total = shifted.uniform * length
-                + f.linear * (c.first_moment / rho_s)
-                + f.velocity * (sigma_v / rho_s);
-            for k in 0..3 {
-                let b = if t.force {
-                    (0..n).map(|j| v[j] * hv(k, j, &self.unit)).sum::<f64>()
-                } else {
-                    0.0
-                };
-                out.velocity_term[n + k] = b;
-                out.force[n + k] = total[k] - b;
-            }
-        }
-        // the X rows and columns of ∫Jᵀ C J ds for C = C1 (stiffness) or C2 (damping)
-        let border = |m: &mut Mat<f64>, inner: &Mat<f64>, cm: &nalgebra::Matrix3<f64>| {
-            copy_block(m, inner, n);
-            for j in 0..n {
-                let s = Vector3::from_fn(|k, _| sigma(k, j, &self.unit) / rho_s);
-                let row = cm * s; // ∂(∫F ds)/∂q_j part: C Σ/ρS
-                let col = cm.transpose() * s; // ∫J_cᵀ C ds: (Σᵀ C / ρS)_j
-                for k in 0..3 {
-                    m[(n + k, j)] = row[k];
-                    m[(j, n + k)] = col[k];
-                }
-            }
-            for k in 0..3 {
-                for l in 0..3 {
-                    m[(n + k, n + l)] = length * cm[(k, l)];
-                }
-            }
-        };
-        if t.stiffness {
-            border(&mut out.stiffness, &c.stiffness, &f.linear);
-        }
-        if t.damping {
-            border(&mut out.damping, &c.damping, &f.velocity);
-        }
-        if t.velocity_term_jacobian {
-            copy_block(
-                &mut out.velocity_term_jacobian,
-                &c.velocity_term_jacobian,
-                n,
-            );
-            for k in 0..3 {
-                for j in 0..n {
-                    out.velocity_term_jacobian[(n + k, j)] = 2.0 * hv(k, j, &self.unit);
-                    out.velocity_term_jacobian[(j, n + k)] = 0.0;
-                }
-                for l in 0..3 {
-                    out.velocity_term_jacobian[(n + k, n + l)] = 0.0;
-                }
-            }
+        if input.terms.mass {
+            to_mat(buffers.mass, out_mass);
         }
     }
 
@@ -229,44 +170,62 @@ impl StrandKernel for FloatingKernel {
         hessian: Option<(Vector3<f64>, &mut Mat<f64>)>,
     ) -> Vector3<f64> {
         let n = self.geometry.chain_dofs();
-        let x = translation(q, n);
-        let (chain_jac, own) = jac.split_at_mut(n);
-        let y = match hessian {
+        let FloatingKernel {
+            geometry,
+            chain,
+            terms,
+            flat,
+            scratch,
+            mass,
+        } = self;
+        let Some(scratch) = FloatingScratch::on(scratch, n) else {
+            return Vector3::zeros();
+        };
+        let mut floating = Floating {
+            chain: KernelTerms::new(chain.as_mut(), terms, flat),
+            scratch,
+        };
+        let mut points = PointScratch {
+            jac,
+            ends: &mut [],
+            derivs: &mut [],
+        };
+        match hessian {
+            None => floating.point(&shape(geometry), q, s, &mut points, None),
             Some((c, h)) => {
-                self.hessian.fill(0.0);
-                let y = self
-                    .chain
-                    .point(&q[..n], s, chain_jac, Some((c, &mut self.hessian)));
-                for j in 0..n {
-                    for i in 0..n {
-                        h[(i, j)] += self.hessian[(i, j)];
+                // c · ∂²y/∂q² into M's buffer (free between evaluations), added to `h`
+                let n3 = n + 3;
+                mass.fill(0.0);
+                let Some(mut square) = Square::new(mass, n3) else {
+                    return Vector3::zeros();
+                };
+                let y = floating.point(&shape(geometry), q, s, &mut points, Some((c, &mut square)));
+                for j in 0..n3 {
+                    for i in 0..n3 {
+                        h[(i, j)] += mass[j * n3 + i];
                     }
                 }
                 y
             }
-            None => self.chain.point(&q[..n], s, chain_jac, None),
-        };
-        for (k, col) in own.iter_mut().take(3).enumerate() {
-            *col = Vector3::ith(k, 1.0);
         }
-        y + x
     }
 
     fn element_ends(&mut self, q: &[f64], ends: &mut [Pose]) {
         let n = self.geometry.chain_dofs();
-        let x = translation(q, n);
-        self.chain.element_ends(&q[..n], ends);
-        for e in ends.iter_mut() {
-            e.position += x;
-        }
-    }
-}
-
-/// Copy the n × n top-left block of `src` into that of `dst`.
-fn copy_block(dst: &mut Mat<f64>, src: &Mat<f64>, n: usize) {
-    for j in 0..n {
-        for i in 0..n {
-            dst[(i, j)] = src[(i, j)];
+        let FloatingKernel {
+            geometry,
+            chain,
+            terms,
+            flat,
+            scratch,
+            ..
+        } = self;
+        if let Some(scratch) = FloatingScratch::on(scratch, n) {
+            Floating {
+                chain: KernelTerms::new(chain.as_mut(), terms, flat),
+                scratch,
+            }
+            .ends(&shape(geometry), q, ends);
         }
     }
 }
@@ -275,6 +234,7 @@ fn copy_block(dst: &mut Mat<f64>, src: &Mat<f64>, n: usize) {
 mod tests {
     use super::*;
     use crate::kernels::generic::{GenericKernel, QuadratureRule};
+    use crate::kernels::kernel::{BodyField, Terms};
     use crate::kernels::moments::kernel::MomentKernel;
     use crate::model::material::Material;
     use nalgebra::Rotation3;
