@@ -20,7 +20,9 @@ use crate::model::reconstruction::pose_at as strand_pose_at;
 use crate::model::reconstruction::{pose_at, sample_centreline};
 use crate::model::strand::{Strand, StrandGeometry};
 use crate::output::FrameSource;
-use crate::solver::embedded::{group_for, EmbeddedContacts, EmbeddedGroup, StepRules};
+use crate::solver::embedded::{
+    floating_group_for, group_for, EmbeddedContacts, EmbeddedGroup, StepRules,
+};
 use crate::solver::initial_state::check_initial_state;
 use crate::solver::pair_coupling;
 use crate::solver::{
@@ -50,7 +52,8 @@ struct EmbeddedStrands {
     strands: Vec<(Strand, String, usize, usize)>,
     /// Per strand, how many of its point loads are the scene's (the charges' follow).
     scene_loads: Vec<usize>,
-    groups: Vec<(usize, Box<dyn EmbeddedGroup>)>,
+    /// The groups by (N, whether their roots are free).
+    groups: Vec<((usize, bool), Box<dyn EmbeddedGroup>)>,
     gravity: Option<nalgebra::Vector3<f64>>,
     head_moves: bool,
     counts: superhelix_kernels::fixed::StepCounts,
@@ -217,10 +220,23 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
     for (index, s) in setup.strands.iter().enumerate() {
         let n = s.strand.geometry.elements();
         if s.strand.ends.root == crate::model::ends::RootEnd::Free {
-            errors.push(FieldError::new(
-                format!("strands[{index}].ends"),
-                "the embedded engine holds roots clamped or pinned (root = \"free\"); use engine = \"runtime\"",
-            ));
+            // the chain's N (its joint counted) with the translation's terms of the
+            // kernels, for the checked-in sizes; contacts need the translation in their
+            // points, which the embedded engine's do not add yet
+            if setup.contacts.is_some() {
+                errors.push(FieldError::new(
+                    format!("strands[{index}].ends"),
+                    "the embedded engine steps a free root without [contacts]; use engine = \"runtime\"",
+                ));
+            } else if crate::solver::embedded::floating_group_for(n).is_none() {
+                errors.push(FieldError::new(
+                    format!("strands[{index}].ends"),
+                    format!(
+                        "the embedded engine steps a free root whose chain (N = {n}, its joint counted) has a checked-in size ({:?}); use engine = \"runtime\"",
+                        superhelix_generated::sizes::CHECKED_IN_SIZES
+                    ),
+                ));
+            }
         } else if !superhelix_generated::fixed::SIZES.contains(&n) {
             errors.push(FieldError::new(
                 "simulation.engine",
@@ -283,6 +299,28 @@ fn hold_at_start(
             };
             FieldError::new(format!("strands[{index}].ends.tip"), message)
         })
+}
+
+/// The moment kernel on the generated closed forms of a strand of `g` (with a free root,
+/// wrapped with the translation's terms): the embedded engine's terms as a runtime
+/// kernel, for what the runtime measures on a system of its own.
+fn closed_form_kernel(
+    g: &crate::model::strand::StrandGeometry,
+) -> Box<dyn crate::kernels::kernel::StrandKernel> {
+    use crate::kernels::floating::FloatingKernel;
+    use crate::kernels::moments::kernel::MomentKernel;
+    if g.floating {
+        let chain = FloatingKernel::chain_geometry(g);
+        Box::new(FloatingKernel::new(
+            g.clone(),
+            Box::new(MomentKernel::new(chain, superhelix_generated::ClosedForm)),
+        ))
+    } else {
+        Box::new(MomentKernel::new(
+            g.clone(),
+            superhelix_generated::ClosedForm,
+        ))
+    }
 }
 
 /// What adds forces to a strand's generalized force F.
@@ -376,7 +414,7 @@ fn embedded_strands(
     if !errors.is_empty() {
         return Err(Error::Invalid(errors));
     }
-    let mut groups: Vec<(usize, Box<dyn EmbeddedGroup>)> = Vec::new();
+    let mut groups: Vec<((usize, bool), Box<dyn EmbeddedGroup>)> = Vec::new();
     let mut strands = Vec::with_capacity(setup.strands.len());
     // the bodies the strands touch (those `[contacts] bodies` names)
     let contacts = setup.contacts.as_ref().map(|c| EmbeddedContacts {
@@ -390,9 +428,14 @@ fn embedded_strands(
     });
     for (index, s) in setup.strands.into_iter().enumerate() {
         let n = s.strand.geometry.elements();
-        let g = match groups.iter().position(|(m, _)| *m == n) {
+        let free = s.strand.ends.root == crate::model::ends::RootEnd::Free;
+        let g = match groups.iter().position(|(key, _)| *key == (n, free)) {
             Some(g) => g,
-            None => match group_for(n) {
+            None => match if free {
+                floating_group_for(n)
+            } else {
+                group_for(n)
+            } {
                 Some(mut group) => {
                     group.set_rules(StepRules {
                         field_rule: match setup.config.field_stiffness {
@@ -405,7 +448,7 @@ fn embedded_strands(
                         bdf2: setup.config.integrator == IntegratorKind::Bdf2,
                         newton: setup.config.integrator == IntegratorKind::NewtonImplicitEuler,
                     });
-                    groups.push((n, group));
+                    groups.push(((n, free), group));
                     groups.len() - 1
                 }
                 None => {
@@ -424,14 +467,11 @@ fn embedded_strands(
                 let g = &s.strand.geometry;
                 let mut tip =
                     crate::solver::held_end::HeldTip::new(end, g, s.strand.solver_scale());
-                let mut kernel = crate::kernels::moments::kernel::MomentKernel::new(
-                    g.clone(),
-                    superhelix_generated::ClosedForm,
-                );
+                let mut kernel = closed_form_kernel(g);
                 let root_free = s.strand.ends.root == crate::model::ends::RootEnd::Free;
                 if q0.len() == g.dofs() {
                     if let Err(e) =
-                        hold_at_start(index, &mut tip, &mut kernel, g, root_free, &mut q0)
+                        hold_at_start(index, &mut tip, kernel.as_mut(), g, root_free, &mut q0)
                     {
                         errors.push(e);
                         continue;
@@ -446,7 +486,7 @@ fn embedded_strands(
         if !group.push(&s.strand, &q0, contacts.as_ref(), held) {
             errors.push(FieldError::new(
                 format!("strands[{index}].q0"),
-                format!("must have 3N = {} values", 3 * n),
+                format!("must have {} values", s.strand.geometry.dofs()),
             ));
             continue;
         }
@@ -996,16 +1036,13 @@ impl Simulation {
                 let Some(e) = &mut self.embedded else { return };
                 let group = &mut e.groups[g].1;
                 // the contacts' forces at rest, as the runtime engine's assembly adds them
-                let mut points = crate::kernels::moments::kernel::MomentKernel::new(
-                    system.strand.geometry.clone(),
-                    superhelix_generated::ClosedForm,
-                );
+                let mut points = closed_form_kernel(&system.strand.geometry);
                 let mut contacts = |force: &mut [f64]| {
                     group.add_contact_force(
                         p,
                         at.time,
                         &at.head,
-                        &mut KernelPoints(&mut points),
+                        &mut KernelPoints(points.as_mut()),
                         force,
                     )
                 };
@@ -2001,10 +2038,7 @@ impl Simulation {
     /// A runtime system of strand i of the embedded engine, for measurements (energy).
     fn measuring_system(&self, i: usize) -> StrandSystem {
         let strand = self.strand(i).clone();
-        let kernel = Box::new(crate::kernels::moments::kernel::MomentKernel::new(
-            strand.geometry.clone(),
-            superhelix_generated::ClosedForm,
-        ));
+        let kernel = closed_form_kernel(&strand.geometry);
         let (gravity, head_moves) = self
             .embedded
             .as_ref()

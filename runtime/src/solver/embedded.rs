@@ -28,6 +28,7 @@ use superhelix_kernels::fixed::{
     FixedStrand, FixedWorkspace, HeadTrajectory, PartnerStore, StepCounts, StepError, StepHistory,
     StepReport, ToleranceReport,
 };
+use superhelix_kernels::floating::{Floating, FloatingScratch};
 use superhelix_kernels::moments::EndDerivatives;
 use superhelix_kernels::pose::Pose;
 use superhelix_kernels::storage::Square;
@@ -154,6 +155,9 @@ pub struct Group<const N: usize, const D: usize, const E: usize, const B: usize>
 struct Worker<const N: usize, const D: usize, const E: usize> {
     ws: Box<FixedWorkspace<N, D, E>>,
     contacts: Option<(BodyColliders, ContactScratch)>,
+    /// A free root's scratch of the translation's terms (`superhelix_kernels::floating`;
+    /// empty for strands of 3N coordinates).
+    floating: Vec<f64>,
 }
 
 /// The scene's rules for the fixed-N step (`[simulation] field_stiffness`,
@@ -232,6 +236,11 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group<N, D,
             self.workers.push(Worker {
                 ws: self.rules.workspace::<N, D, E>(),
                 contacts,
+                floating: if free_root::<N, D>() {
+                    vec![0.0; FloatingScratch::<f64>::len(3 * N)]
+                } else {
+                    Vec::new()
+                },
             });
         }
         chunk
@@ -416,8 +425,12 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 .zip(self.workers.par_iter_mut())
                 .enumerate()
                 .map(|(c, ((((strands, buffers), extras), histories), worker))| {
-                    let ws = &mut worker.ws;
-                    let Some((colliders, scratch)) = worker.contacts.as_mut() else {
+                    let Worker {
+                        ws,
+                        contacts,
+                        floating,
+                    } = worker;
+                    let Some((colliders, scratch)) = contacts.as_mut() else {
                         return (
                             Some((c * chunk, "a worker without contact scratch".into())),
                             StepCounts::default(),
@@ -441,7 +454,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                             head,
                             effects,
                             (t, h),
-                            ws,
+                            (ws, floating),
                             &mut counts,
                             Some(&mut contacts),
                         );
@@ -460,7 +473,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 .zip(self.workers.par_iter_mut())
                 .enumerate()
                 .map(|(c, (((strands, extras), histories), worker))| {
-                    let ws = &mut worker.ws;
+                    let Worker { ws, floating, .. } = worker;
                     let mut first = None;
                     let mut counts = StepCounts::default();
                     for (k, (s, extras)) in strands.iter_mut().zip(extras).enumerate() {
@@ -471,7 +484,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                             head,
                             effects,
                             (t, h),
-                            ws,
+                            (ws, floating),
                             &mut counts,
                             None,
                         );
@@ -500,7 +513,11 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                     .zip(self.workers.par_iter_mut())
                     .enumerate()
                     .map(|(c, ((((strands, histories), extras), buffers), worker))| {
-                        let ws = &mut worker.ws;
+                        let Worker {
+                            ws,
+                            contacts: worker_contacts,
+                            floating,
+                        } = worker;
                         let mut first = None;
                         let mut total = ToleranceReport::default();
                         for (k, ((s, (history, done)), extras)) in strands
@@ -512,7 +529,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                             let mut r = ToleranceReport::default();
                             let lengths = s.params.lengths;
                             let mut contacts =
-                                match (buffers.as_deref_mut(), worker.contacts.as_mut()) {
+                                match (buffers.as_deref_mut(), worker_contacts.as_mut()) {
                                     (Some(b), Some((colliders, scratch))) => {
                                         Some(b[k].contacts(&s.params, &lengths, colliders, scratch))
                                     }
@@ -537,18 +554,42 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                             if let Some(hook) = hook.as_mut() {
                                 view.end = Some(hook);
                             }
-                            let outcome = fixed::step_to_tolerance_views(
-                                &mut &ClosedForm,
-                                &mut view,
-                                &mut history.view(),
-                                head,
-                                effects,
-                                (t, h),
-                                tolerance,
-                                ws.view(),
-                                &mut r,
-                                contacts.as_mut().map(|c| c as &mut dyn ContactHooks<f64>),
-                            );
+                            let contacts =
+                                contacts.as_mut().map(|c| c as &mut dyn ContactHooks<f64>);
+                            let outcome = if free_root::<N, D>() {
+                                // a free root: the translation's terms over the closed forms
+                                match FloatingScratch::on(floating, 3 * N) {
+                                    Some(scratch) => fixed::step_to_tolerance_views(
+                                        &mut Floating {
+                                            chain: &ClosedForm,
+                                            scratch,
+                                        },
+                                        &mut view,
+                                        &mut history.view(),
+                                        head,
+                                        effects,
+                                        (t, h),
+                                        tolerance,
+                                        ws.view(),
+                                        &mut r,
+                                        contacts,
+                                    ),
+                                    None => Err(StepError::Sizes),
+                                }
+                            } else {
+                                fixed::step_to_tolerance_views(
+                                    &mut &ClosedForm,
+                                    &mut view,
+                                    &mut history.view(),
+                                    head,
+                                    effects,
+                                    (t, h),
+                                    tolerance,
+                                    ws.view(),
+                                    &mut r,
+                                    contacts,
+                                )
+                            };
                             done.add(&r);
                             total.add(&r);
                             if let Err(e) = outcome {
@@ -1166,7 +1207,7 @@ fn step_strand<const N: usize, const D: usize, const E: usize, const B: usize>(
     head: &dyn HeadTrajectory,
     effects: &Effects,
     (t, h): (f64, f64),
-    ws: &mut FixedWorkspace<N, D, E>,
+    (ws, floating): (&mut FixedWorkspace<N, D, E>, &mut [f64]),
     counts: &mut StepCounts,
     contacts: Option<&mut dyn ContactHooks<f64>>,
 ) -> Result<StepReport, StepError> {
@@ -1183,6 +1224,27 @@ fn step_strand<const N: usize, const D: usize, const E: usize, const B: usize>(
     if let Some(hook) = hook.as_mut() {
         view.end = Some(hook);
     }
+    if free_root::<N, D>() {
+        // a free root: the translation's terms over the chain's closed forms
+        let Some(scratch) = FloatingScratch::on(floating, 3 * N) else {
+            return Err(StepError::Sizes);
+        };
+        let mut source = Floating {
+            chain: &ClosedForm,
+            scratch,
+        };
+        return fixed::step_views(
+            &mut source,
+            &mut view,
+            head,
+            effects,
+            t,
+            h,
+            ws.view(),
+            counts,
+            contacts,
+        );
+    }
     fixed::step_views(
         &mut &ClosedForm,
         &mut view,
@@ -1194,6 +1256,12 @@ fn step_strand<const N: usize, const D: usize, const E: usize, const B: usize>(
         counts,
         contacts,
     )
+}
+
+/// Whether a group of N elements and D coordinates holds free-root strands (D = 3N + 3:
+/// the root's translation after the chain's coordinates).
+const fn free_root<const N: usize, const D: usize>() -> bool {
+    D == 3 * N + 3
 }
 
 /// Makes the empty [`Group`] of the visited size.
@@ -1211,4 +1279,34 @@ impl superhelix_generated::SizeVisitor for MakeGroup {
 /// `SUPERHELIX_N`).
 pub fn group_for(n: usize) -> Option<Box<dyn EmbeddedGroup>> {
     superhelix_generated::visit_size(n, MakeGroup)
+}
+
+/// An empty [`Group`] for free-root strands whose chain has `n` elements (3n + 3
+/// coordinates: the root's translation after the chain's; the translation's terms
+/// `superhelix_kernels::floating`'s over the closed forms), for the checked-in sizes
+/// (`superhelix_generated::sizes::CHECKED_IN_SIZES`; not those of `SUPERHELIX_N`).
+pub fn floating_group_for(n: usize) -> Option<Box<dyn EmbeddedGroup>> {
+    /// `Group<N, 3N + 3, N + 2, (3N + 3) / 2>` of each size (the step's end poses sized
+    /// for the coordinates' N + 1, as a runtime-N workspace of 3N + 3 is).
+    macro_rules! floating {
+        ($($n:literal => $d:literal, $e:literal, $b:literal;)*) => {
+            match n {
+                $($n => Some(Box::new(Group::<$n, $d, $e, $b>::default())),)*
+                _ => None,
+            }
+        };
+    }
+    floating! {
+        1 => 6, 3, 3;
+        2 => 9, 4, 4;
+        3 => 12, 5, 6;
+        4 => 15, 6, 7;
+        5 => 18, 7, 9;
+        6 => 21, 8, 10;
+        8 => 27, 10, 13;
+        10 => 33, 12, 16;
+        12 => 39, 14, 19;
+        15 => 48, 17, 24;
+        20 => 63, 22, 31;
+    }
 }
