@@ -221,14 +221,8 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
         let n = s.strand.geometry.elements();
         if s.strand.ends.root == crate::model::ends::RootEnd::Free {
             // the chain's N (its joint counted) with the translation's terms of the
-            // kernels, for the checked-in sizes; contacts need the translation in their
-            // points, which the embedded engine's do not add yet
-            if setup.contacts.is_some() {
-                errors.push(FieldError::new(
-                    format!("strands[{index}].ends"),
-                    "the embedded engine steps a free root without [contacts]; use engine = \"runtime\"",
-                ));
-            } else if crate::solver::embedded::floating_group_for(n).is_none() {
+            // kernels, for the checked-in sizes
+            if crate::solver::embedded::floating_group_for(n).is_none() {
                 errors.push(FieldError::new(
                     format!("strands[{index}].ends"),
                     format!(

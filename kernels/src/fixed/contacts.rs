@@ -350,7 +350,8 @@ impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, 
         let (list, y) = (&ps.near[..m], &mut *ps.near_y);
         let arcs = list.iter().map(|&i| ps.partners[i].s);
         let mut j = 0;
-        positions_along(&self.root, self.lengths, q, arcs, |_, p| {
+        let (root, chain) = chain_at(&self.root, self.lengths, q);
+        positions_along(&root, self.lengths, chain, arcs, |_, p| {
             y[j] = p;
             j += 1;
         });
@@ -505,12 +506,14 @@ impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, 
         let arcs = || ps.near[..m].iter().map(|&i| ps.partners[i].s);
         let (y0, y1) = (&mut *ps.near_y0, &mut *ps.near_y);
         let mut j = 0;
-        positions_along(root, lengths, q0, arcs(), |_, p| {
+        let (root0, chain0) = chain_at(root, lengths, q0);
+        positions_along(&root0, lengths, chain0, arcs(), |_, p| {
             y0[j] = p;
             j += 1;
         });
         j = 0;
-        positions_along(root, lengths, q1, arcs(), |_, p| {
+        let (root1, chain1) = chain_at(root, lengths, q1);
+        positions_along(&root1, lengths, chain1, arcs(), |_, p| {
             y1[j] = p;
             j += 1;
         });
@@ -539,7 +542,8 @@ impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, 
     fn tip(&self, q: &[f64]) -> Option<V3> {
         let length: f64 = self.lengths.iter().sum();
         let mut tip = None;
-        positions_along(&self.root, self.lengths, q, [length], |_, y| tip = Some(y));
+        let (root, chain) = chain_at(&self.root, self.lengths, q);
+        positions_along(&root, self.lengths, chain, [length], |_, y| tip = Some(y));
         tip
     }
 
@@ -550,7 +554,8 @@ impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, 
         if *s.poses_valid && s.poses_q.len() == q.len() && same(s.poses_q) {
             return;
         }
-        sample_poses(&self.root, self.lengths, q, self.samples, s.poses);
+        let (root, chain) = chain_at(&self.root, self.lengths, q);
+        sample_poses(&root, self.lengths, chain, self.samples, s.poses);
         *s.poses_valid = s.poses_q.len() == q.len();
         if *s.poses_valid {
             s.poses_q.copy_from_slice(q);
@@ -590,23 +595,63 @@ impl<P: MomentSource + ?Sized> ChainedPoints<'_, P> {
             q: &mut *self.chain_q,
             valid: &mut *self.chain_valid,
         });
-        strand_point(
+        // (the chain from the root as it is, its ends kept for the chain's q; a free
+        // root's translation added after)
+        let n = (3 * self.lengths.len()).min(q.len());
+        let y = strand_point(
             self.source,
             self.root,
             self.lengths,
             self.ends,
             self.derivs,
             chain,
-            q,
+            &q[..n],
             s,
-            jac,
+            &mut jac[..n],
             crate::strand_point::NO_HESSIAN,
-        )
+        );
+        translation_columns(jac, n);
+        y + translation(self.lengths, q)
+    }
+}
+
+/// The root's translation X at q: a free root's three coordinates after the chain's 3N
+/// ([`crate::storage::ParamsView::free_root`]), zero for a held root.
+fn translation(lengths: &[f64], q: &[f64]) -> V3 {
+    let n = 3 * lengths.len();
+    match q.get(n..n + 3) {
+        Some(x) => V3::new(x[0], x[1], x[2]),
+        None => V3::zeros(),
+    }
+}
+
+/// The chain of a strand at q: its root pose moved by the root's translation (a free
+/// root's), and the chain's 3N coordinates. Points taken along it are the strand's.
+fn chain_at<'q>(root: &Pose, lengths: &[f64], q: &'q [f64]) -> (Pose, &'q [f64]) {
+    let n = (3 * lengths.len()).min(q.len());
+    (
+        Pose {
+            position: root.position + translation(lengths, q),
+            frame: root.frame,
+        },
+        &q[..n],
+    )
+}
+
+/// A point's Jacobian columns of a free root's translation (the identity) after the
+/// chain's 3N, when `jac` has them.
+fn translation_columns(jac: &mut [V3], chain: usize) {
+    if let Some(cols) = jac.get_mut(chain..chain + 3) {
+        for (k, c) in cols.iter_mut().enumerate() {
+            *c = V3::ith(k, 1.0);
+        }
     }
 }
 
 /// The strand's points at the arc lengths lo ≤ hi at q (one pass along it).
 fn two_points(root: &Pose, lengths: &[f64], q: &[f64], lo: f64, hi: f64) -> (V3, V3) {
+    let (root, q) = chain_at(root, lengths, q);
+    let root = &root;
     let mut ends = [V3::zeros(); 2];
     let mut j = 0;
     positions_along(root, lengths, q, [lo, hi], |_, p| {
@@ -708,18 +753,23 @@ impl<P: MomentSource + ?Sized> ContactSink for ArraySink<'_, '_, P> {
             q: &mut *self.chain_q,
             valid: &mut *self.chain_valid,
         });
-        strand_point(
+        // (a free root's translation enters y linearly: its columns the identity, no
+        // curvature)
+        let n = (3 * self.lengths.len()).min(self.q.len());
+        let y = strand_point(
             self.source,
             self.root,
             self.lengths,
             self.ends,
             self.end_derivs,
             chain,
-            self.q,
+            &self.q[..n],
             s,
-            jac,
+            &mut jac[..n],
             curvature.map(|c| (c, &mut add)),
-        )
+        );
+        translation_columns(jac, n);
+        y + translation(self.lengths, self.q)
     }
     fn add_force(&mut self, jac: &[V3], f: &V3) {
         for (i, c) in jac.iter().enumerate() {
@@ -1065,7 +1115,8 @@ impl<C: StepColliders + ?Sized, P: MomentSource + ?Sized> ContactHooks<f64>
 
     fn deepest(&mut self, q: &[f64], t: f64, head: &HeadState) -> f64 {
         self.colliders.place(t, head);
-        view(self).deepest_inside(head, &self.root, self.lengths, q)
+        let (root, chain) = chain_at(&self.root, self.lengths, q);
+        view(self).deepest_inside(head, &root, self.lengths, chain)
     }
 
     fn summary(&self) -> BodySummary {

@@ -230,7 +230,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group<N, D,
             let contacts = self.contacts.as_ref().map(|(bodies, buffers)| {
                 (
                     BodyColliders::new(bodies.clone()),
-                    ContactScratch::for_strands(buffers, N),
+                    ContactScratch::for_strands(buffers, N, D),
                 )
             });
             self.workers.push(Worker {
@@ -358,7 +358,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         };
         let Some(b) = buffers.get_mut(i) else { return };
         let mut colliders = BodyColliders::new(bodies.clone());
-        let mut scratch = ContactScratch::new(b.samples.len(), N);
+        let mut scratch = ContactScratch::new(b.samples.len(), N, D);
         let lengths = s.params.lengths;
         let (mut stiffness, mut damping) = (vec![0.0; D * D], vec![0.0; D * D]);
         let (Some(mut stiffness), Some(mut damping)) =
@@ -793,8 +793,14 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 if same {
                     return place(&b.poses);
                 }
+                // (a free root's translation moves the chain's root)
+                let x = if free_root::<N, D>() {
+                    nalgebra::Vector3::new(s.q[3 * N], s.q[3 * N + 1], s.q[3 * N + 2])
+                } else {
+                    nalgebra::Vector3::zeros()
+                };
                 let root = Pose {
-                    position: s.params.root_position,
+                    position: s.params.root_position + x,
                     frame: s.params.root_frame,
                 };
                 let zero = nalgebra::Vector3::zeros();
@@ -802,7 +808,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                 superhelix_kernels::contact::sample_poses(
                     &root,
                     &s.params.lengths,
-                    &s.q,
+                    &s.q[..3 * N],
                     &b.samples,
                     &mut poses,
                 );
@@ -825,7 +831,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
             return;
         };
         let mut colliders = BodyColliders::new(bodies.clone());
-        let mut scratch = ContactScratch::for_strands(buffers, N);
+        let mut scratch = ContactScratch::for_strands(buffers, N, D);
         for (s, b) in self.strands.iter().zip(buffers.iter_mut()) {
             let lengths = s.params.lengths;
             b.contacts(&s.params, &lengths, &mut colliders, &mut scratch)
@@ -917,17 +923,18 @@ pub struct ContactScratch {
 }
 
 impl ContactScratch {
-    /// Scratch for strands of `elements` elements and at most `samples` samples.
-    pub fn new(samples: usize, elements: usize) -> Self {
+    /// Scratch for strands of `elements` elements (their chain's) and `dofs` coordinates
+    /// (3 · `elements`, 3 more with a free root's translation), and at most `samples`
+    /// samples.
+    pub fn new(samples: usize, elements: usize, dofs: usize) -> Self {
         let zero = nalgebra::Vector3::zeros();
-        let dofs = 3 * elements;
         ContactScratch {
             start_depth: vec![0.0; samples],
             jac: vec![zero; dofs],
             aj: vec![zero; dofs],
             ends: vec![Pose::default(); elements + 1],
             end_derivs: vec![EndDerivatives::default(); elements],
-            chain_q: vec![f64::NAN; dofs],
+            chain_q: vec![f64::NAN; 3 * elements],
             chain_valid: 0,
             predicted: PredictedContacts::new(samples),
             near: Vec::new(),
@@ -939,23 +946,27 @@ impl ContactScratch {
         }
     }
 
-    /// Scratch for the strands of `buffers`, of `elements` elements.
-    fn for_strands(buffers: &[StrandContactBuffers], elements: usize) -> Self {
+    /// Scratch for the strands of `buffers`, of `elements` elements and `dofs`
+    /// coordinates.
+    fn for_strands(buffers: &[StrandContactBuffers], elements: usize, dofs: usize) -> Self {
         let samples = buffers.iter().map(|b| b.samples.len()).max().unwrap_or(0);
-        ContactScratch::new(samples, elements)
+        ContactScratch::new(samples, elements, dofs)
     }
 }
 
 impl StrandContactBuffers {
-    /// The buffers of `strand`'s contacts under `config` (a root clamped or pinned, the
-    /// tip free when `tip_free`, else held: its last samples left to the holder as the
-    /// runtime engine leaves them).
+    /// The buffers of `strand`'s contacts under `config` (the tip free when `tip_free`,
+    /// else held: its last samples left to the holder as the runtime engine leaves them;
+    /// a free root's first samples are the strand's too).
     pub fn new(strand: &Strand, config: &ContactConfig, tip_free: bool) -> Self {
         let g = &strand.geometry;
         let samples = sample_points(
             g,
             config.samples_per_element.max(1),
-            config.free_ends(false, tip_free),
+            config.free_ends(
+                strand.ends.root == crate::model::ends::RootEnd::Free,
+                tip_free,
+            ),
         );
         let n = samples.len();
         StrandContactBuffers {
@@ -970,7 +981,7 @@ impl StrandContactBuffers {
                 .map(|h| h.params(g.mass_per_length)),
             partners: Vec::new(),
             poses: vec![(nalgebra::Vector3::zeros(), nalgebra::Vector3::zeros()); n],
-            poses_q: vec![0.0; 3 * g.elements()],
+            poses_q: vec![0.0; g.dofs()],
             poses_valid: false,
             samples,
         }
