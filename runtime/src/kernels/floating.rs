@@ -58,6 +58,37 @@ impl FloatingKernel {
     }
 }
 
+/// The kernels' free-root terms over the chain kernel of `k`, with the geometry and M's
+/// buffer (`None`: the scratch does not fit, which [`FloatingKernel::new`] rules out).
+type Parts<'a> = (
+    Floating<'a, KernelTerms<'a>>,
+    &'a StrandGeometry,
+    &'a mut Vec<f64>,
+);
+
+impl FloatingKernel {
+    fn parts(&mut self) -> Option<Parts<'_>> {
+        let n = self.geometry.chain_dofs();
+        let FloatingKernel {
+            geometry,
+            chain,
+            terms,
+            flat,
+            scratch,
+            mass,
+        } = self;
+        let scratch = FloatingScratch::on(scratch, n)?;
+        Some((
+            Floating {
+                chain: KernelTerms::new(chain.as_mut(), terms, flat),
+                scratch,
+            },
+            geometry,
+            mass,
+        ))
+    }
+}
+
 /// The shape of `g` as the kernels' terms take it.
 fn shape(g: &StrandGeometry) -> StrandShape<'_, f64> {
     StrandShape {
@@ -93,21 +124,8 @@ impl StrandKernel for FloatingKernel {
     }
 
     fn evaluate(&mut self, input: &EvalInput<'_>, out: &mut StrandTerms) {
-        let n = self.geometry.chain_dofs();
-        let FloatingKernel {
-            geometry,
-            chain,
-            terms,
-            flat,
-            scratch,
-            mass,
-        } = self;
-        let Some(scratch) = FloatingScratch::on(scratch, n) else {
+        let Some((mut floating, geometry, mass)) = self.parts() else {
             return;
-        };
-        let mut floating = Floating {
-            chain: KernelTerms::new(chain.as_mut(), terms, flat),
-            scratch,
         };
         // (the chain kernel keeps its own moments: the buffers carry only M)
         let mut mass_valid = false;
@@ -170,20 +188,8 @@ impl StrandKernel for FloatingKernel {
         hessian: Option<(Vector3<f64>, &mut Mat<f64>)>,
     ) -> Vector3<f64> {
         let n = self.geometry.chain_dofs();
-        let FloatingKernel {
-            geometry,
-            chain,
-            terms,
-            flat,
-            scratch,
-            mass,
-        } = self;
-        let Some(scratch) = FloatingScratch::on(scratch, n) else {
+        let Some((mut floating, geometry, mass)) = self.parts() else {
             return Vector3::zeros();
-        };
-        let mut floating = Floating {
-            chain: KernelTerms::new(chain.as_mut(), terms, flat),
-            scratch,
         };
         let mut points = PointScratch {
             jac,
@@ -211,21 +217,8 @@ impl StrandKernel for FloatingKernel {
     }
 
     fn element_ends(&mut self, q: &[f64], ends: &mut [Pose]) {
-        let n = self.geometry.chain_dofs();
-        let FloatingKernel {
-            geometry,
-            chain,
-            terms,
-            flat,
-            scratch,
-            ..
-        } = self;
-        if let Some(scratch) = FloatingScratch::on(scratch, n) {
-            Floating {
-                chain: KernelTerms::new(chain.as_mut(), terms, flat),
-                scratch,
-            }
-            .ends(&shape(geometry), q, ends);
+        if let Some((mut floating, geometry, _)) = self.parts() {
+            floating.ends(&shape(geometry), q, ends);
         }
     }
 }

@@ -33,6 +33,30 @@ use superhelix_kernels::moments::EndDerivatives;
 use superhelix_kernels::pose::Pose;
 use superhelix_kernels::storage::Square;
 
+/// `$body` with `$source` the terms of a strand: the closed forms, or with a free root
+/// (`$free`) the translation's terms over them on the scratch `$floating` (a chain of
+/// `$n` coordinates; `Err(StepError::Sizes)` when it is too short). A macro, so that each
+/// source's step is its own monomorphized code.
+macro_rules! with_terms {
+    ($free:expr, $floating:expr, $n:expr, |$source:ident| $body:expr) => {
+        if $free {
+            match FloatingScratch::on($floating, $n) {
+                Some(scratch) => {
+                    let $source = &mut Floating {
+                        chain: &ClosedForm,
+                        scratch,
+                    };
+                    $body
+                }
+                None => Err(StepError::Sizes),
+            }
+        } else {
+            let $source = &mut &ClosedForm;
+            $body
+        }
+    };
+}
+
 /// Strands of one N stepped by the fixed-N step.
 pub trait EmbeddedGroup: Send + Sync {
     /// Number of strands.
@@ -556,14 +580,10 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                             }
                             let contacts =
                                 contacts.as_mut().map(|c| c as &mut dyn ContactHooks<f64>);
-                            let outcome = if free_root::<N, D>() {
-                                // a free root: the translation's terms over the closed forms
-                                match FloatingScratch::on(floating, 3 * N) {
-                                    Some(scratch) => fixed::step_to_tolerance_views(
-                                        &mut Floating {
-                                            chain: &ClosedForm,
-                                            scratch,
-                                        },
+                            let outcome =
+                                with_terms!(free_root::<N, D>(), floating, 3 * N, |source| {
+                                    fixed::step_to_tolerance_views(
+                                        source,
                                         &mut view,
                                         &mut history.view(),
                                         head,
@@ -573,23 +593,8 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                                         ws.view(),
                                         &mut r,
                                         contacts,
-                                    ),
-                                    None => Err(StepError::Sizes),
-                                }
-                            } else {
-                                fixed::step_to_tolerance_views(
-                                    &mut &ClosedForm,
-                                    &mut view,
-                                    &mut history.view(),
-                                    head,
-                                    effects,
-                                    (t, h),
-                                    tolerance,
-                                    ws.view(),
-                                    &mut r,
-                                    contacts,
-                                )
-                            };
+                                    )
+                                });
                             done.add(&r);
                             total.add(&r);
                             if let Err(e) = outcome {
@@ -1235,17 +1240,9 @@ fn step_strand<const N: usize, const D: usize, const E: usize, const B: usize>(
     if let Some(hook) = hook.as_mut() {
         view.end = Some(hook);
     }
-    if free_root::<N, D>() {
-        // a free root: the translation's terms over the chain's closed forms
-        let Some(scratch) = FloatingScratch::on(floating, 3 * N) else {
-            return Err(StepError::Sizes);
-        };
-        let mut source = Floating {
-            chain: &ClosedForm,
-            scratch,
-        };
-        return fixed::step_views(
-            &mut source,
+    with_terms!(free_root::<N, D>(), floating, 3 * N, |source| {
+        fixed::step_views(
+            source,
             &mut view,
             head,
             effects,
@@ -1254,19 +1251,8 @@ fn step_strand<const N: usize, const D: usize, const E: usize, const B: usize>(
             ws.view(),
             counts,
             contacts,
-        );
-    }
-    fixed::step_views(
-        &mut &ClosedForm,
-        &mut view,
-        head,
-        effects,
-        t,
-        h,
-        ws.view(),
-        counts,
-        contacts,
-    )
+        )
+    })
 }
 
 /// Whether a group of N elements and D coordinates holds free-root strands (D = 3N + 3:
