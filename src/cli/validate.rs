@@ -90,18 +90,35 @@ fn engine_line(setup: &superhelix::SimulationSetup) -> String {
     let (engine, reason) = superhelix::runtime::engine_for(setup);
     match engine {
         Engine::Embedded => {
-            let mut sizes: Vec<usize> = setup
+            // (N, whether the root is free): a free root's group keeps 3N + 3 coordinates
+            let mut sizes: Vec<(usize, bool)> = setup
                 .strands
                 .iter()
-                .map(|s| s.strand.geometry.elements())
+                .map(|s| {
+                    (
+                        s.strand.geometry.elements(),
+                        s.strand.ends.root == superhelix::runtime::model::ends::RootEnd::Free,
+                    )
+                })
                 .collect();
             sizes.sort_unstable();
             sizes.dedup();
             let kept: Vec<String> = sizes
                 .iter()
-                .filter_map(|&n| {
-                    superhelix::runtime::solver::embedded::group_for(n)
-                        .map(|g| format!("{} B per strand at N = {n}", g.strand_bytes()))
+                .filter_map(|&(n, free)| {
+                    use superhelix::runtime::solver::embedded::{floating_group_for, group_for};
+                    let group = if free {
+                        floating_group_for(n)
+                    } else {
+                        group_for(n)
+                    };
+                    group.map(|g| {
+                        format!(
+                            "{} B per strand at N = {n}{}",
+                            g.strand_bytes(),
+                            if free { " with a free root" } else { "" }
+                        )
+                    })
                 })
                 .collect();
             format!(
