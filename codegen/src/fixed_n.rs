@@ -600,6 +600,30 @@ pub fn declaring_text_in(sizes: &[usize], floats: &[Float]) -> String {
         }
         s.push_str("        _ => None,\n    }\n}\n");
     }
+    s.push_str(
+        "\n/// Calls `visitor.visit::<N, 3N + 3, N + 2, ⌊(3N + 3)/2⌋>()` for `n` = N when there is\n\
+         /// a module for it here ([`SIZES`]): the sizes of a free root's strand, its chain of\n\
+         /// N elements and the root's translation after the chain's 3N coordinates (the step's\n\
+         /// end poses sized for the coordinates' N + 1); `None` for any other `n`.\n\
+         pub fn visit_free_root_size<V: ::superhelix_generated::SizeVisitor>(\n    \
+             n: usize,\n    \
+             visitor: V,\n\
+         ) -> Option<V::Output> {\n",
+    );
+    if sizes.is_empty() {
+        s.push_str("    let _ = (n, visitor);\n    None\n}\n");
+    } else {
+        s.push_str("    match n {\n");
+        for &n in sizes {
+            s.push_str(&format!(
+                "        {n} => Some(visitor.visit::<{n}, {d}, {e}, {b}>()),\n",
+                d = 3 * n + 3,
+                e = n + 2,
+                b = (3 * n + 3) / 2,
+            ));
+        }
+        s.push_str("        _ => None,\n    }\n}\n");
+    }
     s
 }
 

@@ -138,9 +138,20 @@ pub mod fixed {
             built::visit_size(n, visitor)
         }
     }
+
+    /// Calls `visitor.visit::<N, 3N + 3, N + 2, ⌊(3N + 3)/2⌋>()` (a free root's strand:
+    /// its chain of N elements and the root's translation) when there is a module for
+    /// `n` = N (checked in or built); `None` for any other `n`.
+    pub fn visit_free_root_size<V: crate::SizeVisitor>(n: usize, visitor: V) -> Option<V::Output> {
+        if CHECKED_IN.contains(&n) {
+            checked_in::visit_free_root_size(n, visitor)
+        } else {
+            built::visit_free_root_size(n, visitor)
+        }
+    }
 }
 
-pub use fixed::visit_size;
+pub use fixed::{visit_free_root_size, visit_size};
 
 use nalgebra::{Matrix3, Vector3};
 use superhelix_kernels::element::{ElementPoint, RotaryPoints};

@@ -221,13 +221,13 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
         let n = s.strand.geometry.elements();
         if s.strand.ends.root == crate::model::ends::RootEnd::Free {
             // the chain's N (its joint counted) with the translation's terms of the
-            // kernels, for the checked-in sizes
+            // kernels, for the sizes with fixed-N code
             if crate::solver::embedded::floating_group_for(n).is_none() {
                 errors.push(FieldError::new(
                     format!("strands[{index}].ends"),
                     format!(
-                        "the embedded engine steps a free root whose chain (N = {n}, its joint counted) has a checked-in size ({:?}); use engine = \"runtime\"",
-                        superhelix_generated::sizes::CHECKED_IN_SIZES
+                        "the embedded engine steps a free root whose chain (N = {n}, its joint counted) has fixed-N code in this build (N = {:?}; build with SUPERHELIX_N={n} to add it); use engine = \"runtime\"",
+                        superhelix_generated::fixed::SIZES
                     ),
                 ));
             }

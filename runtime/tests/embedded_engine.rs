@@ -884,7 +884,7 @@ fn a_free_root_on_the_embedded_engine_is_the_runtime_engines_and_resumes_exactly
     }
     assert_eq!(resumed.q(0), embedded.q(0));
     assert_eq!(resumed.v(0), embedded.v(0));
-    // a free root whose chain (12 + 1) is not a checked-in size: auto names it
+    // a free root whose chain (12 + 1) has no fixed-N code in this build: auto names it
     let setup = parse_scene(include_str!("../../scenes/rod-free.toml")).expect("valid scene");
     let (engine, why) = superhelix_runtime::engine_for(&setup);
     assert_eq!(engine, Engine::Runtime);
@@ -892,12 +892,19 @@ fn a_free_root_on_the_embedded_engine_is_the_runtime_engines_and_resumes_exactly
 }
 
 #[test]
-fn the_free_root_groups_are_the_checked_in_sizes() {
+fn the_free_root_groups_are_the_sizes_with_fixed_n_code() {
     for n in 0..=64 {
+        let group = superhelix_runtime::solver::embedded::floating_group_for(n);
         assert_eq!(
-            superhelix_runtime::solver::embedded::floating_group_for(n).is_some(),
-            superhelix_generated::sizes::CHECKED_IN_SIZES.contains(&n),
+            group.is_some(),
+            superhelix_generated::fixed::SIZES.contains(&n),
             "N = {n}"
         );
+        if let (Some(free), Some(held)) =
+            (group, superhelix_runtime::solver::embedded::group_for(n))
+        {
+            // 3N + 3 coordinates against 3N: a larger strand
+            assert!(free.strand_bytes() > held.strand_bytes(), "N = {n}");
+        }
     }
 }

@@ -158,3 +158,27 @@ pub fn visit_size<V: ::superhelix_generated::SizeVisitor>(
         _ => None,
     }
 }
+
+/// Calls `visitor.visit::<N, 3N + 3, N + 2, ⌊(3N + 3)/2⌋>()` for `n` = N when there is
+/// a module for it here ([`SIZES`]): the sizes of a free root's strand, its chain of
+/// N elements and the root's translation after the chain's 3N coordinates (the step's
+/// end poses sized for the coordinates' N + 1); `None` for any other `n`.
+pub fn visit_free_root_size<V: ::superhelix_generated::SizeVisitor>(
+    n: usize,
+    visitor: V,
+) -> Option<V::Output> {
+    match n {
+        1 => Some(visitor.visit::<1, 6, 3, 3>()),
+        2 => Some(visitor.visit::<2, 9, 4, 4>()),
+        3 => Some(visitor.visit::<3, 12, 5, 6>()),
+        4 => Some(visitor.visit::<4, 15, 6, 7>()),
+        5 => Some(visitor.visit::<5, 18, 7, 9>()),
+        6 => Some(visitor.visit::<6, 21, 8, 10>()),
+        8 => Some(visitor.visit::<8, 27, 10, 13>()),
+        10 => Some(visitor.visit::<10, 33, 12, 16>()),
+        12 => Some(visitor.visit::<12, 39, 14, 19>()),
+        15 => Some(visitor.visit::<15, 48, 17, 24>()),
+        20 => Some(visitor.visit::<20, 63, 22, 31>()),
+        _ => None,
+    }
+}

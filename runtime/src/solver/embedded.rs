@@ -1280,30 +1280,9 @@ pub fn group_for(n: usize) -> Option<Box<dyn EmbeddedGroup>> {
 
 /// An empty [`Group`] for free-root strands whose chain has `n` elements (3n + 3
 /// coordinates: the root's translation after the chain's; the translation's terms
-/// `superhelix_kernels::floating`'s over the closed forms), for the checked-in sizes
-/// (`superhelix_generated::sizes::CHECKED_IN_SIZES`; not those of `SUPERHELIX_N`).
+/// `superhelix_kernels::floating`'s over the closed forms), when this build has the
+/// fixed-N code for that N (`superhelix_generated::visit_free_root_size`: the checked-in
+/// sizes and those of `SUPERHELIX_N`).
 pub fn floating_group_for(n: usize) -> Option<Box<dyn EmbeddedGroup>> {
-    /// `Group<N, 3N + 3, N + 2, (3N + 3) / 2>` of each size (the step's end poses sized
-    /// for the coordinates' N + 1, as a runtime-N workspace of 3N + 3 is).
-    macro_rules! floating {
-        ($($n:literal => $d:literal, $e:literal, $b:literal;)*) => {
-            match n {
-                $($n => Some(Box::new(Group::<$n, $d, $e, $b>::default())),)*
-                _ => None,
-            }
-        };
-    }
-    floating! {
-        1 => 6, 3, 3;
-        2 => 9, 4, 4;
-        3 => 12, 5, 6;
-        4 => 15, 6, 7;
-        5 => 18, 7, 9;
-        6 => 21, 8, 10;
-        8 => 27, 10, 13;
-        10 => 33, 12, 16;
-        12 => 39, 14, 19;
-        15 => 48, 17, 24;
-        20 => 63, 22, 31;
-    }
+    superhelix_generated::visit_free_root_size(n, MakeGroup)
 }
