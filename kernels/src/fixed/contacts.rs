@@ -202,12 +202,12 @@ pub struct ContactStore<'a> {
     pub start_depth: &'a mut [f64],
     /// Scratch: position and unit tangent, one per sample.
     pub poses: &'a mut [(V3, V3)],
-    /// Scratch: J(s), 3N columns.
+    /// Scratch: J(s), a column per coordinate (3N; 3N + 3 with a free root).
     pub jac: &'a mut [V3],
-    /// Scratch: A J(s), 3N columns.
+    /// Scratch: A J(s), as many columns as `jac`.
     pub aj: &'a mut [V3],
-    /// The q (3N) the samples' poses in `poses` were last computed at, when
-    /// `poses_valid`: asked again at the same q (bit for bit), they are not computed
+    /// The q (every coordinate of the strand) the samples' poses in `poses` were last
+    /// computed at, when `poses_valid`: asked again at the same q (bit for bit), they are not computed
     /// again. A strand that keeps `poses`, `poses_q` and `poses_valid` as its own from one
     /// step to the next (rather than a worker's scratch shared by its strands, whose
     /// `poses_valid` is then cleared for each strand) also skips them at the next step's
