@@ -208,10 +208,10 @@ pub struct ContactStore<'a> {
     pub aj: &'a mut [V3],
     /// The q (every coordinate of the strand) the samples' poses in `poses` were last
     /// computed at, when `poses_valid`: asked again at the same q (bit for bit), they are
-    /// not computed again. A strand that keeps `poses`, `poses_q` and `poses_valid` as its own from one
-    /// step to the next (rather than a worker's scratch shared by its strands, whose
-    /// `poses_valid` is then cleared for each strand) also skips them at the next step's
-    /// start, which is its last step's end.
+    /// not computed again. A strand that keeps `poses`, `poses_q` and `poses_valid` as its
+    /// own from one step to the next (rather than a worker's scratch shared by its
+    /// strands, whose `poses_valid` is then cleared for each strand) also skips them at
+    /// the next step's start, which is its last step's end.
     pub poses_q: &'a mut [f64],
     /// Whether `poses` hold the samples' poses at `poses_q`.
     pub poses_valid: &'a mut bool,
