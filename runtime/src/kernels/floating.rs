@@ -332,4 +332,80 @@ mod tests {
             }
         }
     }
+
+    #[test]
+    fn the_translations_stiffness_and_damping_are_the_derivatives_of_the_force() {
+        // a field with every part (c0, C1 with an antisymmetric part, C2): at q̇ = 0 the
+        // force is ∫Jᵀ(c0 + C1 y) ds, whose derivative in q is the stiffness and in q̇
+        // the damping (b is quadratic in q̇); the X rows and columns by central
+        // differences, the chain's block as the chain kernel gives it
+        let g = geometry();
+        let n = g.dofs();
+        let q: Vec<f64> = (0..n).map(|i| 15.0 * ((i as f64) * 1.3).sin()).collect();
+        let zero = vec![0.0; n];
+        let field = BodyField {
+            uniform: Vector3::new(0.3, -1.1, 0.7),
+            linear: nalgebra::Matrix3::new(0.4, -0.9, 0.2, 0.5, -0.3, 0.8, -0.6, 0.1, 0.2),
+            velocity: nalgebra::Matrix3::new(-0.2, 0.7, 0.0, -0.7, -0.2, 0.3, 0.0, -0.3, -0.2),
+        };
+        for mut k in kernels(&g) {
+            let mut out = StrandTerms::new(n);
+            k.evaluate(
+                &EvalInput {
+                    q: &q,
+                    v: &zero,
+                    field,
+                    terms: Terms::all(),
+                },
+                &mut out,
+            );
+            let mut force_at = |q: &[f64], v: &[f64]| {
+                let mut t = StrandTerms::new(n);
+                k.evaluate(
+                    &EvalInput {
+                        q,
+                        v,
+                        field,
+                        terms: Terms {
+                            force: true,
+                            ..Terms::default()
+                        },
+                    },
+                    &mut t,
+                );
+                t.force
+            };
+            let eps = 1e-6;
+            let (mut worst, mut scale): (f64, f64) = (0.0, 0.0);
+            for j in 0..n {
+                for (v_side, matrix) in [(false, &out.stiffness), (true, &out.damping)] {
+                    let (mut qp, mut qm) = (q.clone(), q.clone());
+                    let (mut vp, mut vm) = (zero.clone(), zero.clone());
+                    if v_side {
+                        vp[j] += eps;
+                        vm[j] -= eps;
+                    } else {
+                        qp[j] += eps;
+                        qm[j] -= eps;
+                    }
+                    let (fp, fm) = (force_at(&qp, &vp), force_at(&qm, &vm));
+                    for i in 0..n {
+                        // the X rows and columns
+                        if i < n - 3 && j < n - 3 {
+                            continue;
+                        }
+                        let d = (fp[i] - fm[i]) / (2.0 * eps);
+                        worst = worst.max((matrix[(i, j)] - d).abs());
+                        scale = scale.max(d.abs());
+                    }
+                }
+            }
+            assert!(scale > 1e-4, "{}: nothing to compare", k.description());
+            assert!(
+                worst < 1e-6 * scale,
+                "{}: X rows and columns off by {worst:e} (scale {scale:e})",
+                k.description()
+            );
+        }
+    }
 }
