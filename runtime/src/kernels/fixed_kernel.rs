@@ -16,9 +16,7 @@ use faer::Mat;
 use nalgebra::Vector3;
 use superhelix_generated::{ClosedForm, SizeVisitor};
 use superhelix_kernels::fixed::Assembly;
-use superhelix_kernels::strand_terms::{
-    self, evaluate_terms, StrandShape, TermMatrix, TermVectors,
-};
+use superhelix_kernels::strand_terms::{self, evaluate_terms, TermMatrix, TermVectors};
 
 /// What a fixed-N kernel keeps besides its geometry: the assembly's buffers and the
 /// scratch of [`StrandKernel::point`] (apart, so that a point at another q leaves the
@@ -54,17 +52,6 @@ impl<const N: usize, const D: usize, const E: usize> FixedKernel<N, D, E> {
             }),
         })
     }
-
-    /// The shape the shared assembly needs.
-    fn shape(geom: &StrandGeometry) -> StrandShape<'_> {
-        StrandShape {
-            root_position: geom.root_position,
-            root_frame: geom.root_frame,
-            lengths: &geom.lengths,
-            mass_per_length: geom.mass_per_length,
-            rotary_inertia: geom.rotary_inertia,
-        }
-    }
 }
 
 impl<const N: usize, const D: usize, const E: usize> StrandKernel for FixedKernel<N, D, E> {
@@ -97,7 +84,7 @@ impl<const N: usize, const D: usize, const E: usize> StrandKernel for FixedKerne
         };
         evaluate_terms(
             &ClosedForm,
-            &Self::shape(&self.geom),
+            &StrandGeometry::shape(&self.geom),
             &mut self.buffers.assembly.buffers(),
             input.q,
             input.v,
@@ -138,7 +125,7 @@ impl<const N: usize, const D: usize, const E: usize> StrandKernel for FixedKerne
     }
 
     fn element_ends(&mut self, q: &[f64], ends: &mut [Pose]) {
-        strand_terms::element_ends(&ClosedForm, &Self::shape(&self.geom), q, ends);
+        strand_terms::element_ends(&ClosedForm, &StrandGeometry::shape(&self.geom), q, ends);
     }
 }
 

@@ -8,6 +8,7 @@
 //! [`KernelTerms`]).
 
 use super::kernel::{EvalInput, StrandKernel, StrandTerms};
+use super::moments::kernel::store;
 use super::step_terms::KernelTerms;
 use crate::model::reconstruction::Pose;
 use crate::model::strand::StrandGeometry;
@@ -16,7 +17,7 @@ use nalgebra::Vector3;
 use superhelix_kernels::floating::{Floating, FloatingScratch};
 use superhelix_kernels::storage::Square;
 use superhelix_kernels::strand_terms::{
-    MomentBuffers, PointScratch, StepTerms, StrandShape, TermMatrix, TermVectors,
+    MomentBuffers, PointScratch, StepTerms, TermMatrix, TermVectors,
 };
 
 /// A free-root rod's kernel: the chain's kernel and the translation's terms.
@@ -89,27 +90,6 @@ impl FloatingKernel {
     }
 }
 
-/// The shape of `g` as the kernels' terms take it.
-fn shape(g: &StrandGeometry) -> StrandShape<'_, f64> {
-    StrandShape {
-        root_position: g.root_position,
-        root_frame: g.root_frame,
-        lengths: &g.lengths,
-        mass_per_length: g.mass_per_length,
-        rotary_inertia: g.rotary_inertia,
-    }
-}
-
-/// `flat` (n × n, column-major) into `m`.
-fn to_mat(flat: &[f64], m: &mut Mat<f64>) {
-    let n = m.nrows();
-    for (j, col) in flat.chunks_exact(n).enumerate().take(m.ncols()) {
-        for (i, &x) in col.iter().enumerate() {
-            m[(i, j)] = x;
-        }
-    }
-}
-
 impl StrandKernel for FloatingKernel {
     fn geometry(&self) -> &StrandGeometry {
         &self.geometry
@@ -157,7 +137,7 @@ impl StrandKernel for FloatingKernel {
             first_moment,
         } = out;
         floating.evaluate(
-            &shape(geometry),
+            &geometry.shape(),
             &mut buffers,
             input.q,
             input.v,
@@ -169,14 +149,14 @@ impl StrandKernel for FloatingKernel {
                 first_moment,
             },
             &mut |which, m| match which {
-                TermMatrix::Stiffness => to_mat(m, stiffness),
-                TermMatrix::Damping => to_mat(m, damping),
-                TermMatrix::VelocityTermJacobian => to_mat(m, velocity_term_jacobian),
-                TermMatrix::Mass => to_mat(m, out_mass),
+                TermMatrix::Stiffness => store(m, stiffness),
+                TermMatrix::Damping => store(m, damping),
+                TermMatrix::VelocityTermJacobian => store(m, velocity_term_jacobian),
+                TermMatrix::Mass => store(m, out_mass),
             },
         );
         if input.terms.mass {
-            to_mat(buffers.mass, out_mass);
+            store(buffers.mass, out_mass);
         }
     }
 
@@ -197,7 +177,7 @@ impl StrandKernel for FloatingKernel {
             derivs: &mut [],
         };
         match hessian {
-            None => floating.point(&shape(geometry), q, s, &mut points, None),
+            None => floating.point(&geometry.shape(), q, s, &mut points, None),
             Some((c, h)) => {
                 // c · ∂²y/∂q² into M's buffer (free between evaluations), added to `h`
                 let n3 = n + 3;
@@ -205,7 +185,8 @@ impl StrandKernel for FloatingKernel {
                 let Some(mut square) = Square::new(mass, n3) else {
                     return Vector3::zeros();
                 };
-                let y = floating.point(&shape(geometry), q, s, &mut points, Some((c, &mut square)));
+                let y =
+                    floating.point(&geometry.shape(), q, s, &mut points, Some((c, &mut square)));
                 for j in 0..n3 {
                     for i in 0..n3 {
                         h[(i, j)] += mass[j * n3 + i];
@@ -218,7 +199,7 @@ impl StrandKernel for FloatingKernel {
 
     fn element_ends(&mut self, q: &[f64], ends: &mut [Pose]) {
         if let Some((mut floating, geometry, _)) = self.parts() {
-            floating.ends(&shape(geometry), q, ends);
+            floating.ends(&geometry.shape(), q, ends);
         }
     }
 }

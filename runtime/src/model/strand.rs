@@ -30,6 +30,17 @@ pub struct StrandGeometry {
 }
 
 impl StrandGeometry {
+    /// The shape the kernels' terms take (root, lengths, ρS, rotary inertia).
+    pub fn shape(&self) -> superhelix_kernels::strand_terms::StrandShape<'_, f64> {
+        superhelix_kernels::strand_terms::StrandShape {
+            root_position: self.root_position,
+            root_frame: self.root_frame,
+            lengths: &self.lengths,
+            mass_per_length: self.mass_per_length,
+            rotary_inertia: self.rotary_inertia,
+        }
+    }
+
     /// A geometry with rotary inertia taken from `material`.
     pub fn new(
         root_position: Vector3<f64>,

@@ -19,7 +19,7 @@ use nalgebra::{Matrix3, Vector3};
 use superhelix_kernels::strand_point;
 pub use superhelix_kernels::strand_terms::MomentSource;
 use superhelix_kernels::strand_terms::{
-    self, evaluate_terms, MomentBuffers, StrandShape, TermMatrix, TermVectors,
+    self, evaluate_terms, MomentBuffers, TermMatrix, TermVectors,
 };
 
 /// Element moments by Gauss–Legendre quadrature with `16 + 2⌈W·l⌉` points (or a fixed
@@ -108,17 +108,6 @@ impl<S: MomentSource + Send> MomentKernel<S> {
             geom,
         }
     }
-
-    /// The shape the shared assembly needs.
-    fn shape(geom: &StrandGeometry) -> StrandShape<'_> {
-        StrandShape {
-            root_position: geom.root_position,
-            root_frame: geom.root_frame,
-            lengths: &geom.lengths,
-            mass_per_length: geom.mass_per_length,
-            rotary_inertia: geom.rotary_inertia,
-        }
-    }
 }
 
 /// Copy a column-major n × n `src` into `mat` (overwrite).
@@ -203,7 +192,7 @@ impl<S: MomentSource + Send> StrandKernel for MomentKernel<S> {
         };
         evaluate_terms(
             &*source,
-            &Self::shape(geom),
+            &StrandGeometry::shape(geom),
             &mut buffers,
             input.q,
             input.v,
@@ -223,7 +212,7 @@ impl<S: MomentSource + Send> StrandKernel for MomentKernel<S> {
     }
 
     fn element_ends(&mut self, q: &[f64], ends: &mut [Pose]) {
-        strand_terms::element_ends(&self.source, &Self::shape(&self.geom), q, ends);
+        strand_terms::element_ends(&self.source, &StrandGeometry::shape(&self.geom), q, ends);
     }
 
     fn point(
