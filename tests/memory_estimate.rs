@@ -2,7 +2,7 @@
 //! resident memory (Linux's VmHWM) that `superhelix run` measures of itself and prints
 //! beside the estimate, on a table of scenes: both engines, N = 2 to 50, body contacts,
 //! hair–hair contact (a dense patch on a sphere, its pairs capped per sample, and a sparse
-//! one), electrostatics, render strands written to USD. Each must be within 25 % of its
+//! one; the dense one with the pair solve on both engines), electrostatics, render strands written to USD. Each must be within 25 % of its
 //! peak.
 
 mod support;
@@ -48,6 +48,7 @@ fn the_estimate_is_within_a_quarter_of_the_measured_peak() {
         "[electrostatics]\nmethod = \"fmm\"\nparticle_density = 50000\ncharge_per_length = -1e-9\n";
     let render = "[render]\nstrands = 200000\n";
     let hair_hair = format!("{sphere}[contacts.hair_hair]\n");
+    let coupled = format!("{hair_hair}coupling = \"pair\"\n");
     // a patch of strands standing up over the sphere's top (roots 15 mm above it), which
     // fall onto each other and the sphere
     let over = |scene: String| {
@@ -56,7 +57,7 @@ fn the_estimate_is_within_a_quarter_of_the_measured_peak() {
             .replace("center = [0.0, 0.0, 0.101]", "center = [0.0, 0.0, 0.115]")
             .replace("0.0333333", "0.1")
     };
-    let table: [(&str, String, &str); 11] = [
+    let table: [(&str, String, &str); 13] = [
         ("runtime, N = 5", patch("runtime", [25, 40], 5, ""), "npy"),
         ("runtime, N = 20", patch("runtime", [10, 20], 20, ""), "npy"),
         ("runtime, N = 50", patch("runtime", [5, 10], 50, ""), "npy"),
@@ -90,6 +91,16 @@ fn the_estimate_is_within_a_quarter_of_the_measured_peak() {
             // 0.1 s: the pairs' lists reach their size once the strands have met (the
             // peak of one frame is about a fifth lower)
             over(patch("runtime", [20, 25], 8, &hair_hair)),
+            "npy",
+        ),
+        (
+            "runtime, N = 8, hair–hair coupled (pair), 500 strands on 1 dm²",
+            over(patch("runtime", [20, 25], 8, &coupled)),
+            "npy",
+        ),
+        (
+            "embedded, N = 8, hair–hair coupled (pair), 500 strands on 1 dm²",
+            over(patch("embedded", [20, 25], 8, &coupled)),
             "npy",
         ),
         (

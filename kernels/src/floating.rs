@@ -144,6 +144,30 @@ impl<S: StepTerms<T>, T: Float> Floating<'_, S, T> {
     }
 }
 
+impl<S: StepTerms<T>, T: Float> Floating<'_, S, T> {
+    /// The strand's linear momentum `P = M_X(q) q̇ = Σ q̇_c + ρS L Ẋ` at (q, q̇), M_X the
+    /// mass matrix's X rows (the rows [`StepTerms::evaluate`] gives M: Σ from the chain
+    /// in the uniform fields ρS e_k, then ρS L I), summed in the order of those rows.
+    pub fn momentum(
+        &mut self,
+        shape: &StrandShape<'_, T>,
+        buffers: &mut MomentBuffers<'_, T>,
+        q: &[T],
+        v: &[T],
+    ) -> Vector3<T> {
+        let n = q.len() - 3;
+        self.unit_fields(shape, buffers, &q[..n], false);
+        let (_, m) = mass(shape);
+        let sigma = &*self.scratch.sigma;
+        Vector3::from_fn(|k, _| {
+            let chain = (0..n)
+                .map(|j| sigma[k * n + j] * v[j])
+                .fold(T::zero(), |a, b| a + b);
+            chain + m * v[n + k]
+        })
+    }
+}
+
 /// The first values of `s`, at most `len`.
 fn cut<X>(s: &mut [X], len: usize) -> &mut [X] {
     let len = len.min(s.len());

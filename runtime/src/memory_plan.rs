@@ -20,6 +20,9 @@
 //!       + 20 per render-strand point when hair.usda is written
 //!       + 1,250 per hair–hair pair of the scene's start     (the pair, its anchor, a
 //!                                                          partner point per side)
+//!       +   950 more per pair with coupling = "pair"       (the pair solve's sides:
+//!                                                          points, compliances, the
+//!                                                          samples' compliance rows)
 //! ```
 //!
 //! (Runtime engine, bytes per strand measured: 22 k at N = 2, 57 k at 5, 145 k at 10,
@@ -57,6 +60,12 @@ pub const BYTES_PER_RENDER_POINT: f64 = 20.0;
 /// its two strands, with the allocator's slack). Measured: 1,050 with 100 strands of
 /// N = 5 on 1 dm², 1,400 with 500 strands of N = 8 (more pairs per sample, longer lists).
 pub const BYTES_PER_HAIR_PAIR: f64 = 1_250.0;
+/// Bytes per hair–hair pair more with `coupling = "pair"` (the pair solve's sides of
+/// both strands: the points, velocities and compliances of each side, the compliance
+/// rows at the samples around them, the factors kept per strand). Measured on 500
+/// strands of N = 8 falling onto a sphere (1 dm²): 860 on the runtime engine, 1,040 on
+/// the embedded engine.
+pub const BYTES_PER_COUPLED_PAIR: f64 = 950.0;
 /// The process itself (code, tables, thread stacks, buffers).
 pub const BASE_BYTES: f64 = 10e6;
 
@@ -153,11 +162,17 @@ pub fn estimate_with(setup: &SimulationSetup, engine: Engine, usd: bool) -> Memo
         _ => 0.0,
     };
     let pairs = hair_pairs_at_start(setup) as f64;
+    let coupled = setup
+        .contacts
+        .as_ref()
+        .and_then(|c| c.hair_hair.as_ref())
+        .is_some_and(|h| h.coupling == crate::forces::contacts::Coupling::Pair);
+    let per_pair = BYTES_PER_HAIR_PAIR + if coupled { BYTES_PER_COUPLED_PAIR } else { 0.0 };
     let bytes = BASE_BYTES
         + strands
         + particles * BYTES_PER_PARTICLE
         + render * BYTES_PER_RENDER_POINT
-        + pairs * BYTES_PER_HAIR_PAIR;
+        + pairs * per_pair;
     MemoryEstimate {
         bytes: bytes as u64,
         engine,

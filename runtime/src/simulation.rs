@@ -24,7 +24,7 @@ use crate::solver::embedded::{
     floating_group_for, group_for, EmbeddedContacts, EmbeddedGroup, StepRules,
 };
 use crate::solver::initial_state::check_initial_state;
-use crate::solver::pair_coupling;
+use crate::solver::pair_coupling::{self, CoupledStrand};
 use crate::solver::{
     solve_static, step, HeadInterval, StaticReport, StepContext, StepStats, StrandState,
     StrandSystem,
@@ -60,6 +60,94 @@ struct EmbeddedStrands {
     /// What the error-controlled steps did so far, and since the last frame.
     tolerance_total: superhelix_kernels::fixed::ToleranceReport,
     tolerance_window: superhelix_kernels::fixed::ToleranceReport,
+    /// Whether the hair–hair pairs are coupled (`coupling = "pair"`): solved after the
+    /// groups' steps ([`pair_coupling`]).
+    coupled: bool,
+    /// Per strand (the scene's order), its sides of the coupled pairs.
+    sides: Vec<pair_coupling::StrandSides>,
+    /// The pair solve's sides left out for an indefinite compliance, and its pairs left
+    /// unresolved.
+    pair_counts: [usize; 2],
+}
+
+impl EmbeddedStrands {
+    /// Run `pass` on every coupled strand (each group's in parallel) with its sides; the
+    /// first failure (strand in the scene's order, cause).
+    fn coupled_pass(
+        &mut self,
+        pass: &crate::solver::embedded::CoupledPass<'_>,
+    ) -> Option<(usize, String)> {
+        let mut first: Option<(usize, String)> = None;
+        for (g, (_, group)) in self.groups.iter_mut().enumerate() {
+            // the group's strands in its order
+            let mut members = vec![usize::MAX; group.len()];
+            for (i, s) in self.strands.iter().enumerate() {
+                if s.2 == g {
+                    if let Some(m) = members.get_mut(s.3) {
+                        *m = i;
+                    }
+                }
+            }
+            let mut sides: Vec<pair_coupling::StrandSides> = members
+                .iter()
+                .map(|&i| {
+                    self.sides
+                        .get_mut(i)
+                        .map(std::mem::take)
+                        .unwrap_or_default()
+                })
+                .collect();
+            let (failure, stats) = group.each_coupled(&mut sides, pass);
+            for (&i, side) in members.iter().zip(sides) {
+                if let Some(slot) = self.sides.get_mut(i) {
+                    *slot = side;
+                }
+            }
+            self.counts.contacts_predicted += stats.contacts_predicted;
+            self.pair_counts[0] += stats.pairs_indefinite;
+            if let Some((p, cause)) = failure {
+                let i = members.get(p).copied().unwrap_or(0);
+                if first.as_ref().is_none_or(|f| i < f.0) {
+                    first = Some((i, cause));
+                }
+            }
+        }
+        first
+    }
+
+    /// The coupled hair–hair pairs (`pairs`: the step's pair count) of a step of `h`
+    /// ending at `at_end`, every group's strands having stepped: their ends, the pairs
+    /// that touch, each strand's responses, the pairs' forces, applied to every strand,
+    /// then the contacts' bookkeeping of the step's end — the runtime engine's pair
+    /// solve ([`Simulation::step_by`]), on the groups' strands. The first failure:
+    /// (strand, cause).
+    fn solve_coupled_pairs(
+        &mut self,
+        pairs: usize,
+        at_end: &Placement,
+        h: f64,
+    ) -> Option<(usize, String)> {
+        if let Some(f) = self.coupled_pass(&|strand, side, _| {
+            pair_coupling::strand_ends(strand, at_end, side);
+            Ok(())
+        }) {
+            return Some(f);
+        }
+        let chosen = pair_coupling::select(&mut self.sides, pairs);
+        if let Some(f) = self.coupled_pass(&|strand, side, stats| {
+            pair_coupling::strand_responses(strand, at_end, h, stats, side)
+        }) {
+            return Some(f);
+        }
+        if pair_coupling::solve(&mut self.sides, &chosen).is_none() {
+            self.pair_counts[1] += self.sides.iter().map(|s| s.responses()).sum::<usize>();
+        }
+        self.coupled_pass(&|strand, side, stats| {
+            pair_coupling::apply(strand, side, at_end, stats)?;
+            strand.end_contacts(at_end, h);
+            Ok(())
+        })
+    }
 }
 
 /// Depth of the Anderson acceleration of the charged static solve's outer iteration.
@@ -206,16 +294,6 @@ fn embedded_refusals(setup: &SimulationSetup) -> Vec<FieldError> {
                 c.kernels.name()
             ),
         ));
-    }
-    if let Some(c) = &setup.contacts {
-        if let Some(h) = &c.hair_hair {
-            if h.coupling == crate::forces::contacts::Coupling::Pair {
-                errors.push(FieldError::new(
-                    "contacts.hair_hair.coupling",
-                    "the embedded engine steps each strand against its partners (coupling = \"ball\"); coupling = \"pair\" needs engine = \"runtime\"",
-                ));
-            }
-        }
     }
     for (index, s) in setup.strands.iter().enumerate() {
         let n = s.strand.geometry.elements();
@@ -410,6 +488,12 @@ fn embedded_strands(
     }
     let mut groups: Vec<((usize, bool), Box<dyn EmbeddedGroup>)> = Vec::new();
     let mut strands = Vec::with_capacity(setup.strands.len());
+    let strand_count = setup.strands.len();
+    let coupled = setup
+        .contacts
+        .as_ref()
+        .and_then(|c| c.hair_hair.as_ref())
+        .is_some_and(|h| h.coupling == crate::forces::contacts::Coupling::Pair);
     // the bodies the strands touch (those `[contacts] bodies` names)
     let contacts = setup.contacts.as_ref().map(|c| EmbeddedContacts {
         bodies: bodies
@@ -518,6 +602,11 @@ fn embedded_strands(
                 counts: Default::default(),
                 tolerance_total: Default::default(),
                 tolerance_window: Default::default(),
+                coupled,
+                sides: (0..strand_count)
+                    .map(|_| pair_coupling::StrandSides::default())
+                    .collect(),
+                pair_counts: [0; 2],
             }),
             config: setup.config,
             head: setup.head,
@@ -1230,6 +1319,18 @@ impl Simulation {
                     });
                 }
             }
+            if e.coupled {
+                let pairs = self.hair_hair.as_ref().map_or(0, |hh| hh.pairs().len());
+                let at_end = Placement::new(self.head.state(t + h), t + h);
+                if let Some((index, cause)) = e.solve_coupled_pairs(pairs, &at_end, h) {
+                    return Err(Error::Diverged {
+                        strand: e.strands[index].0.name.clone(),
+                        index,
+                        time: t + h,
+                        cause,
+                    });
+                }
+            }
             self.time = t + h;
             self.steps += 1;
             return Ok(());
@@ -1253,13 +1354,11 @@ impl Simulation {
             .map(|(i, s)| {
                 let outcome = step(&mut s.system, &interval, &mut s.state, &mut s.stats);
                 if coupled && outcome.is_ok() {
-                    pair_coupling::strand_ends(
-                        &mut s.system,
-                        &at_end,
-                        &s.state.q,
-                        &s.state.v,
-                        &mut s.sides,
-                    );
+                    let mut strand = pair_coupling::RuntimeStrand {
+                        system: &mut s.system,
+                        state: &mut s.state,
+                    };
+                    pair_coupling::strand_ends(&mut strand, &at_end, &mut s.sides);
                 }
                 // (the one step does the contacts' bookkeeping of its end itself)
                 if !coupled && outcome.is_ok() && !crate::solver::one_step::covers(&s.system) {
@@ -1305,16 +1404,13 @@ impl Simulation {
             .zip(sides.par_iter_mut())
             .enumerate()
             .map(|(i, (s, sides))| {
-                pair_coupling::strand_responses(
-                    &mut s.system,
-                    at_end,
-                    h,
-                    &s.state.q,
-                    &mut s.stats,
-                    sides,
-                )
-                .err()
-                .map(|cause| (i, cause))
+                let mut strand = pair_coupling::RuntimeStrand {
+                    system: &mut s.system,
+                    state: &mut s.state,
+                };
+                pair_coupling::strand_responses(&mut strand, at_end, h, &mut s.stats, sides)
+                    .err()
+                    .map(|cause| (i, cause))
             })
             .flatten()
             .min_by_key(|(i, _)| *i);
@@ -1331,20 +1427,15 @@ impl Simulation {
             .zip(sides)
             .enumerate()
             .map(|(i, (s, sides))| {
-                let outcome = pair_coupling::apply(
-                    &mut s.system,
-                    &sides,
-                    at_end,
-                    &mut s.state.q,
-                    &mut s.state.v,
-                    &mut s.stats,
-                );
-                s.sides = sides;
+                let mut strand = pair_coupling::RuntimeStrand {
+                    system: &mut s.system,
+                    state: &mut s.state,
+                };
+                let outcome = pair_coupling::apply(&mut strand, &sides, at_end, &mut s.stats);
                 if outcome.is_ok() {
-                    if let Some(c) = &mut s.system.contacts {
-                        c.after_step(at_end, &s.system.strand.geometry, &s.state.q, h);
-                    }
+                    strand.end_contacts(at_end, h);
                 }
+                s.sides = sides;
                 outcome.err().map(|cause| (i, cause))
             })
             .flatten()
@@ -1969,6 +2060,7 @@ impl Simulation {
             total.rotation_limited = e.counts.rotation_limited;
             total.newton_iterations = e.counts.newton_iterations;
             total.newton_unconverged = e.counts.newton_unconverged;
+            [total.pairs_indefinite, total.pairs_unresolved] = e.pair_counts;
             let r = &e.tolerance_total;
             total.attempts += r.solves;
             total.energy_limited += r.energy_limited;

@@ -269,8 +269,7 @@ fn the_embedded_engine_steps_hair_against_hair_as_the_runtime_does() {
 
 /// `engine = "auto"` runs a scene with bodies on the embedded engine, with the contacts
 /// that start within a step predicted (the default) or not, and with hair–hair contacts
-/// (self-contact included); on the runtime engine, naming the field, with
-/// `coupling = "pair"`.
+/// (self-contact included), with `coupling = "ball"` or `"pair"`.
 #[test]
 fn auto_takes_the_embedded_engine_for_contacts_with_bodies() {
     let setup = |predict| parse_scene(&scene("auto", "viscous", predict, 0.1)).expect("scene");
@@ -283,10 +282,10 @@ fn auto_takes_the_embedded_engine_for_contacts_with_bodies() {
         engine_for(&hair("self_contact = true")),
         (Engine::Embedded, None)
     );
-    let (engine, reason) = engine_for(&hair("coupling = \"pair\""));
-    assert_eq!(engine, Engine::Runtime);
-    let reason = reason.expect("a reason");
-    assert_eq!(reason.field, "contacts.hair_hair.coupling", "{reason:?}");
+    assert_eq!(
+        engine_for(&hair("coupling = \"pair\"")),
+        (Engine::Embedded, None)
+    );
 }
 
 /// A run of the embedded engine with Coulomb contacts stopped halfway, its state taken

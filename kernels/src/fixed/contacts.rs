@@ -252,6 +252,10 @@ pub struct FixedContacts<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized
     /// Hair–hair: the strand's partners and their scratch (`None`: no hair–hair
     /// contact): [`Self::with_partners`].
     pub partners: Option<PartnerStore<'a>>,
+    /// The time of the step's end whose bookkeeping ([`ContactHooks::after_step`]) the
+    /// caller does itself, after it has moved the strand's end (the pair solve of
+    /// coupled hair–hair pairs): [`Self::with_end_deferred`].
+    pub end_deferred: Option<f64>,
 }
 
 /// A strand's hair–hair partners for the coming step and their scratch, the caller's.
@@ -318,7 +322,17 @@ impl<'a, C: StepColliders + ?Sized, P: MomentSource + ?Sized> FixedContacts<'a, 
             store,
             predicted: None,
             partners: None,
+            end_deferred: None,
         }
+    }
+
+    /// The same contacts leaving the bookkeeping of a step ending at `t`
+    /// ([`ContactHooks::after_step`]) to the caller: the step's own call at `t` does
+    /// nothing, the caller's after it (with the store's `updated` still the step's start)
+    /// does it.
+    pub fn with_end_deferred(mut self, t: Option<f64>) -> Self {
+        self.end_deferred = t;
+        self
     }
 
     /// The same contacts touching the partners of `store` too (hair–hair, the runtime's
@@ -1075,6 +1089,9 @@ impl<C: StepColliders + ?Sized, P: MomentSource + ?Sized> ContactHooks<f64>
     }
 
     fn after_step(&mut self, q: &[f64], t: f64, head: &HeadState, h: f64) {
+        if self.end_deferred == Some(t) {
+            return;
+        }
         let h = self
             .store
             .scalars

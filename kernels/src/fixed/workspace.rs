@@ -270,6 +270,37 @@ impl<const N: usize, const D: usize, const E: usize, T: Float> FixedWorkspace<N,
     pub fn forget(&mut self) {
         self.view().forget();
     }
+
+    /// The factors of the last step's solve when it was a linearly implicit Euler
+    /// piece's: the piece's length, the LU factors of its matrix `S A S` (D × D
+    /// column-major, S the coordinates' scale of the strand's parameters,
+    /// `ParamsView::scale`) and their pivots, as `storage::heap::HeapWorkspace::last_factors`
+    /// lends them. What a caller that solves more on the step's own matrix after the
+    /// step keeps (the pair solve of hair–hair contacts); [`super::lu_solve_factored`]
+    /// solves with them.
+    pub fn last_factors(&self) -> Option<(f64, &[T], &[usize])> {
+        (self.factors_piece > 0.0).then(|| {
+            (
+                self.factors_piece,
+                self.matrix_a.as_flattened(),
+                &self.pivots[..],
+            )
+        })
+    }
+
+    /// The scratch of a strand's points ([`crate::strand_terms::StepTerms::point`]) and
+    /// the moment assembly's buffers, for evaluations outside a step (the points and the
+    /// free root's momentum a pair solve asks for after it).
+    pub fn point_scratch(&mut self) -> (PointScratch<'_, T>, MomentBuffers<'_, T>) {
+        (
+            PointScratch {
+                jac: &mut self.point_jac,
+                ends: &mut self.point_ends,
+                derivs: &mut self.point_derivs,
+            },
+            self.assembly.buffers(),
+        )
+    }
 }
 
 impl<const N: usize, const D: usize, const E: usize, T: Float> Default for Assembly<N, D, E, T> {

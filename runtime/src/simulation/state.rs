@@ -95,6 +95,10 @@ struct EmbeddedState {
     /// The Newton iterations, and the Newton solves replaced by linearly implicit ones.
     #[serde(default)]
     newton_counts: [usize; 2],
+    /// The pair solve's sides left out for an indefinite compliance, and its pairs left
+    /// unresolved (`coupling = "pair"`).
+    #[serde(default)]
+    pair_counts: [usize; 2],
     total: ReportState,
     window: ReportState,
 }
@@ -154,6 +158,7 @@ impl Simulation {
                 undamped: e.counts.field_undamped,
                 contact_counts: [e.counts.contacts_predicted, e.counts.rotation_limited],
                 newton_counts: [e.counts.newton_iterations, e.counts.newton_unconverged],
+                pair_counts: e.pair_counts,
                 total: ReportState::of(&e.tolerance_total),
                 window: ReportState::of(&e.tolerance_window),
             }),
@@ -219,6 +224,7 @@ impl Simulation {
                 e.counts.field_undamped = saved.undamped;
                 [e.counts.contacts_predicted, e.counts.rotation_limited] = saved.contact_counts;
                 [e.counts.newton_iterations, e.counts.newton_unconverged] = saved.newton_counts;
+                e.pair_counts = saved.pair_counts;
                 e.tolerance_total = saved.total.report();
                 e.tolerance_window = saved.window.report();
             }

@@ -10,12 +10,16 @@
 //! too far), the same steps to round-off (`runtime/tests/fixed_step.rs`).
 
 use crate::bodies::Body;
+use crate::bodies::Placement;
 use crate::forces::contacts::predicted::PredictedContacts;
 use crate::forces::contacts::strand_contacts::{sample_points, BodyColliders};
 use crate::forces::contacts::ContactConfig;
 use crate::forces::head_motion::HeadState;
 use crate::model::strand::{PointLoad, Strand};
 use crate::solver::held_end::{HeldHook, HeldTip, HeldTipState};
+use crate::solver::pair_coupling::{self, CoupledStrand, StrandSides};
+use crate::solver::stats::StepStats;
+use crate::solver::system::OneStepFactors;
 use rayon::prelude::*;
 use std::sync::Arc;
 use superhelix_generated::ClosedForm;
@@ -26,12 +30,14 @@ use superhelix_kernels::field_split::FieldRule;
 use superhelix_kernels::fixed::{
     self, ContactHooks, ContactScalars, ContactStore, Effects, FixedContacts, FixedParams,
     FixedStrand, FixedWorkspace, HeadTrajectory, PartnerStore, StepCounts, StepError, StepHistory,
-    StepReport, ToleranceReport,
+    StepInput, StepReport, ToleranceReport,
 };
 use superhelix_kernels::floating::{Floating, FloatingScratch};
 use superhelix_kernels::moments::EndDerivatives;
 use superhelix_kernels::pose::Pose;
 use superhelix_kernels::storage::Square;
+use superhelix_kernels::storage::StrandView;
+use superhelix_kernels::strand_terms::{PointsOf, StepTerms};
 
 /// `$body` with `$source` the terms of a strand: the closed forms, or with a free root
 /// (`$free`) the translation's terms over them on the scratch `$floating` (a chain of
@@ -153,7 +159,21 @@ pub trait EmbeddedGroup: Send + Sync {
     /// (the root zones, the depths allowed at the start, the first anchors), as the
     /// runtime engine does when it is built; nothing without contacts.
     fn start_contacts(&mut self, t: f64, head: &HeadState);
+    /// Run `pass` on each strand of the group whose hair–hair pairs are coupled
+    /// (`coupling = "pair"`), in parallel, as a coupled strand of the pair solve
+    /// ([`pair_coupling`]) with `sides[i]` its sides (`sides`: one per strand of the
+    /// group, in its order). The first failure (position, cause) and the counts.
+    fn each_coupled(
+        &mut self,
+        sides: &mut [StrandSides],
+        pass: &CoupledPass<'_>,
+    ) -> (Option<(usize, String)>, StepStats);
 }
+
+/// What [`EmbeddedGroup::each_coupled`] runs on a strand.
+pub type CoupledPass<'p> = dyn Fn(&mut dyn CoupledStrand, &mut StrandSides, &mut StepStats) -> Result<(), String>
+    + Sync
+    + 'p;
 
 /// [`EmbeddedGroup`] for N elements (D = 3N coordinates, E = N + 1 ends, a kept
 /// eigenbasis of B = D/2 columns).
@@ -182,6 +202,32 @@ struct Worker<const N: usize, const D: usize, const E: usize> {
     /// A free root's scratch of the translation's terms (`superhelix_kernels::floating`;
     /// empty for strands of 3N coordinates).
     floating: Vec<f64>,
+    /// The pair solve's points of a strand ([`EmbeddedStrand`]).
+    pair_points: PairPoints,
+}
+
+/// The chain of element ends the pair solve's points of one strand are placed along,
+/// kept while its q is the same (`superhelix_kernels::strand_point::PointChain`: a
+/// strand's partners and samples, in arc-length order, chain each element once), as the
+/// runtime's kernels keep theirs.
+#[derive(Default)]
+struct PairPoints {
+    ends: Vec<Pose>,
+    derivs: Vec<EndDerivatives>,
+    chain_q: Vec<f64>,
+    valid: usize,
+}
+
+impl PairPoints {
+    /// For a chain of `elements` elements, nothing kept.
+    fn new(elements: usize) -> Self {
+        PairPoints {
+            ends: vec![Pose::default(); elements + 1],
+            derivs: vec![EndDerivatives::default(); elements],
+            chain_q: vec![f64::NAN; 3 * elements],
+            valid: 0,
+        }
+    }
 }
 
 /// The scene's rules for the fixed-N step (`[simulation] field_stiffness`,
@@ -265,6 +311,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group<N, D,
                 } else {
                     Vec::new()
                 },
+                pair_points: PairPoints::new(N),
             });
         }
         chunk
@@ -342,6 +389,9 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         s.q.copy_from_slice(q0);
         self.strands.push(s);
         let tip_free = held.is_none();
+        let coupled = contacts
+            .and_then(|c| c.config.hair_hair.as_ref())
+            .is_some_and(|h| h.coupling == crate::forces::contacts::Coupling::Pair);
         self.extras.push(StrandExtras {
             loads: strand.point_loads.clone(),
             scale: strand.solver_scale().unwrap_or_default(),
@@ -351,6 +401,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                     geometry: strand.geometry.clone(),
                 })
             }),
+            coupled: coupled.then(Box::default),
         });
         // (their contact scratch is sized for the strands they had)
         self.workers.clear();
@@ -453,6 +504,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                         ws,
                         contacts,
                         floating,
+                        ..
                     } = worker;
                     let Some((colliders, scratch)) = contacts.as_mut() else {
                         return (
@@ -470,7 +522,11 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                         .enumerate()
                     {
                         let lengths = s.params.lengths;
-                        let mut contacts = b.contacts(&s.params, &lengths, colliders, scratch);
+                        // a coupled strand's end is the pair solve's: its bookkeeping after
+                        let deferred = b.coupled().then_some(t + h);
+                        let mut contacts = b
+                            .contacts(&s.params, &lengths, colliders, scratch)
+                            .with_end_deferred(deferred);
                         let history = histories.as_deref_mut().map(|h| &mut h[k].0);
                         let r = step_strand(
                             s,
@@ -541,6 +597,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                             ws,
                             contacts: worker_contacts,
                             floating,
+                            ..
                         } = worker;
                         let mut first = None;
                         let mut total = ToleranceReport::default();
@@ -555,7 +612,11 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                             let mut contacts =
                                 match (buffers.as_deref_mut(), worker_contacts.as_mut()) {
                                     (Some(b), Some((colliders, scratch))) => {
-                                        Some(b[k].contacts(&s.params, &lengths, colliders, scratch))
+                                        let deferred = b[k].coupled().then_some(t + h);
+                                        Some(
+                                            b[k].contacts(&s.params, &lengths, colliders, scratch)
+                                                .with_end_deferred(deferred),
+                                        )
                                     }
                                     (Some(_), None) => {
                                         first.get_or_insert((
@@ -566,7 +627,12 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                                     }
                                     (None, _) => None,
                                 };
-                            let StrandExtras { loads, scale, held } = extras;
+                            let StrandExtras {
+                                loads,
+                                scale,
+                                held,
+                                coupled,
+                            } = extras;
                             let mut view = s.view();
                             view.params.loads = loads;
                             view.params.scale = scale;
@@ -578,11 +644,11 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                             if let Some(hook) = hook.as_mut() {
                                 view.end = Some(hook);
                             }
-                            let contacts =
+                            let mut contacts =
                                 contacts.as_mut().map(|c| c as &mut dyn ContactHooks<f64>);
                             let outcome =
                                 with_terms!(free_root::<N, D>(), floating, 3 * N, |source| {
-                                    fixed::step_to_tolerance_views(
+                                    let outcome = fixed::step_to_tolerance_views(
                                         source,
                                         &mut view,
                                         &mut history.view(),
@@ -592,8 +658,22 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
                                         tolerance,
                                         ws.view(),
                                         &mut r,
-                                        contacts,
-                                    )
+                                        contacts.as_deref_mut(),
+                                    );
+                                    if let (Ok(_), Some(slot)) = (&outcome, coupled.as_deref_mut())
+                                    {
+                                        keep_factors(
+                                            slot,
+                                            source,
+                                            &mut view,
+                                            ws,
+                                            head,
+                                            effects,
+                                            (t, h),
+                                            contacts,
+                                        );
+                                    }
+                                    outcome
                                 });
                             done.add(&r);
                             total.add(&r);
@@ -869,6 +949,314 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
             })
             .reduce_with(f64::max)
     }
+    fn each_coupled(
+        &mut self,
+        sides: &mut [StrandSides],
+        pass: &CoupledPass<'_>,
+    ) -> (Option<(usize, String)>, StepStats) {
+        let chunk = self.chunk_workers();
+        let Some((_, buffers)) = self.contacts.as_mut() else {
+            return (None, StepStats::default());
+        };
+        if sides.len() != self.strands.len() {
+            return (
+                Some((0, "pair solve: one side per strand is needed".into())),
+                StepStats::default(),
+            );
+        }
+        type Partial = (Option<(usize, String)>, StepStats);
+        self.strands
+            .par_chunks_mut(chunk)
+            .zip(self.extras.par_chunks_mut(chunk))
+            .zip(buffers.par_chunks_mut(chunk))
+            .zip(sides.par_chunks_mut(chunk))
+            .zip(self.workers.par_iter_mut())
+            .enumerate()
+            .map(|(c, ((((strands, extras), buffers), sides), worker))| {
+                let Worker {
+                    ws,
+                    contacts,
+                    floating: floating_scratch,
+                    pair_points,
+                } = worker;
+                let mut stats = StepStats::default();
+                let Some((colliders, scratch)) = contacts.as_mut() else {
+                    return (
+                        Some((c * chunk, "a worker without contact scratch".into())),
+                        stats,
+                    );
+                };
+                let mut first = None;
+                for (k, (((s, x), b), side)) in strands
+                    .iter_mut()
+                    .zip(extras.iter_mut())
+                    .zip(buffers.iter_mut())
+                    .zip(sides.iter_mut())
+                    .enumerate()
+                {
+                    if x.coupled.is_none() {
+                        continue;
+                    }
+                    let floating = if free_root::<N, D>() {
+                        match FloatingScratch::on(floating_scratch, 3 * N) {
+                            Some(scratch) => Some(Floating {
+                                chain: &ClosedForm,
+                                scratch,
+                            }),
+                            None => {
+                                first.get_or_insert((
+                                    c * chunk + k,
+                                    "a free root's scratch is too short".into(),
+                                ));
+                                continue;
+                            }
+                        }
+                    } else {
+                        None
+                    };
+                    // (the chain kept was another strand's)
+                    pair_points.valid = 0;
+                    let mut strand = EmbeddedStrand {
+                        strand: s,
+                        extras: x,
+                        buffers: b,
+                        colliders,
+                        scratch,
+                        ws,
+                        floating,
+                        points: pair_points,
+                    };
+                    if let Err(e) = pass(&mut strand, side, &mut stats) {
+                        first.get_or_insert((c * chunk + k, e));
+                    }
+                }
+                (first, stats)
+            })
+            .reduce(
+                || (None, StepStats::default()),
+                |(a, mut sa): Partial, (b, sb): Partial| {
+                    sa.add(&sb);
+                    let first = match (a, b) {
+                        (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
+                        (a, b) => a.or(b),
+                    };
+                    (first, sa)
+                },
+            )
+    }
+}
+
+/// A strand of a [`Group`] after its step, as the pair solve sees it
+/// ([`CoupledStrand`]): its arrays, extras and contacts, with a worker's workspace,
+/// colliders and scratch for its points, its free root's momentum and its contacts'
+/// bookkeeping.
+struct EmbeddedStrand<'a, const N: usize, const D: usize, const E: usize, const B: usize> {
+    strand: &'a mut FixedStrand<N, D, B>,
+    extras: &'a mut StrandExtras,
+    buffers: &'a mut StrandContactBuffers,
+    colliders: &'a mut BodyColliders,
+    scratch: &'a mut ContactScratch,
+    ws: &'a mut FixedWorkspace<N, D, E>,
+    /// A free root's terms over the closed forms (`None`: a chain of 3N coordinates).
+    floating: Option<Floating<'a, &'static ClosedForm>>,
+    /// The chain its points are placed along.
+    points: &'a mut PairPoints,
+}
+
+/// `$points`, the strand's points ([`StrandPoints`]) on the closed forms or a free
+/// root's terms `$floating`, at the parameters `$params`, with the workspace `$ws`'s
+/// point scratch.
+macro_rules! strand_points {
+    ($points:ident, $ws:expr, $floating:expr, $params:expr) => {
+        let (mut point_scratch, _) = $ws.point_scratch();
+        let mut chain = &ClosedForm;
+        let source: &mut dyn StepTerms<f64> = match $floating.as_mut() {
+            Some(f) => f,
+            None => &mut chain,
+        };
+        let mut $points = PointsOf {
+            source,
+            shape: $params.shape(),
+            scratch: &mut point_scratch,
+        };
+    };
+}
+
+impl<const N: usize, const D: usize, const E: usize, const B: usize>
+    EmbeddedStrand<'_, N, D, E, B>
+{
+    /// The strand's linear momentum at its end (a free root's; zero otherwise).
+    fn linear_momentum(&mut self) -> nalgebra::Vector3<f64> {
+        let Some(f) = self.floating.as_mut() else {
+            return nalgebra::Vector3::zeros();
+        };
+        // (the workspace's moments were another strand's)
+        self.ws.forget();
+        let (_, mut buffers) = self.ws.point_scratch();
+        f.momentum(
+            &self.strand.params.shape(),
+            &mut buffers,
+            &self.strand.q,
+            &self.strand.v,
+        )
+    }
+}
+
+impl<const N: usize, const D: usize, const E: usize, const B: usize> CoupledStrand
+    for EmbeddedStrand<'_, N, D, E, B>
+{
+    fn coupled_law(&self) -> Option<HairHairParams> {
+        self.buffers.hair.filter(|h| h.coupled)
+    }
+    fn partners(&self) -> &[PartnerPoint] {
+        &self.buffers.partners
+    }
+    fn samples(&self) -> &[(f64, f64)] {
+        &self.buffers.samples
+    }
+    fn end(&self) -> (&[f64], &[f64]) {
+        (&self.strand.q, &self.strand.v)
+    }
+    /// The closed forms' point through the chain kept ([`PairPoints`]); with a free root
+    /// the chain's point moved by the translation, its last three columns the identity
+    /// (as `superhelix_kernels::floating::Floating` places it).
+    fn point(&mut self, s: f64, jac: &mut [nalgebra::Vector3<f64>]) -> nalgebra::Vector3<f64> {
+        let n = 3 * N;
+        let params = &self.strand.params;
+        let root = Pose {
+            position: params.root_position,
+            frame: params.root_frame,
+        };
+        let p = &mut *self.points;
+        let y = superhelix_kernels::strand_point::strand_point(
+            &ClosedForm,
+            &root,
+            &params.lengths,
+            &mut p.ends,
+            &mut p.derivs,
+            Some(superhelix_kernels::strand_point::PointChain {
+                q: &mut p.chain_q[..n],
+                valid: &mut p.valid,
+            }),
+            &self.strand.q[..n],
+            s,
+            &mut jac[..n],
+            superhelix_kernels::strand_point::NO_HESSIAN,
+        );
+        if !free_root::<N, D>() {
+            return y;
+        }
+        for (k, col) in jac[n..n + 3].iter_mut().enumerate() {
+            let mut e = nalgebra::Vector3::zeros();
+            e[k] = 1.0;
+            *col = e;
+        }
+        let q = &self.strand.q;
+        y + nalgebra::Vector3::new(q[n], q[n + 1], q[n + 2])
+    }
+    fn factors(&self) -> (f64, bool) {
+        self.extras
+            .coupled
+            .as_ref()
+            .map_or((0.0, false), |f| (f.piece, f.own))
+    }
+    fn solve(&mut self, x: &mut [f64]) -> bool {
+        self.extras.coupled.as_mut().is_some_and(|f| f.solve(x))
+    }
+    fn holds_tip(&self) -> bool {
+        self.extras.held.is_some()
+    }
+    fn prepare_held(&mut self, t: f64) -> Result<(), String> {
+        let StrandExtras { held, coupled, .. } = &mut *self.extras;
+        let Some(held) = held.as_mut() else {
+            return Ok(());
+        };
+        let Some(factors) = coupled.as_mut() else {
+            return Err("held tip: no step matrix kept".into());
+        };
+        let HeldSlot { tip, geometry } = &mut **held;
+        strand_points!(points, self.ws, self.floating, self.strand.params);
+        tip.prepare_change(
+            &mut points,
+            geometry,
+            &mut |x| factors.solve(x),
+            &self.strand.q,
+            t,
+        )
+        .ok_or_else(|| "held tip: singular step matrix".to_string())
+    }
+    fn constrain_held(&mut self, u: &mut [f64]) -> Result<nalgebra::Vector6<f64>, String> {
+        pair_coupling::constrain(self.extras.held.as_deref().map(|h| &h.tip), u)
+    }
+    fn keeps_momentum(&self) -> bool {
+        free_root::<N, D>() && self.extras.held.is_none()
+    }
+    fn momentum(&mut self) -> [f64; 3] {
+        self.linear_momentum().into()
+    }
+    fn move_end(&mut self, dv: &[f64], c: f64) {
+        pair_coupling::move_by(&mut self.strand.q, &mut self.strand.v, dv, c);
+        // the end the step measured is not the strand's any more: the next step measures
+        // its start's energy afresh (as the runtime engine does for a state it did not
+        // end in)
+        self.strand.last_energy = None;
+    }
+    fn resolve_again(&mut self, at: &Placement, stats: &mut StepStats) -> Result<(), String> {
+        let Some(factors) = self.extras.coupled.as_mut() else {
+            return Ok(());
+        };
+        let FixedStrand { params, q, v, .. } = &mut *self.strand;
+        let lengths = params.lengths;
+        let mut contacts = self
+            .buffers
+            .contacts(params, &lengths, self.colliders, self.scratch);
+        strand_points!(points, self.ws, self.floating, params);
+        let pushed = contacts
+            .resolve(&mut points, q, v, None, at.time, &at.head, &mut |x| {
+                factors.solve(x)
+            })
+            .map_err(|_| "contacts within the step: singular step matrix".to_string())?;
+        stats.contacts_predicted += pushed;
+        Ok(())
+    }
+    fn correct_momentum(&mut self, target: [f64; 3]) {
+        if self.floating.is_none() {
+            return;
+        }
+        let p = self.linear_momentum();
+        // ρS L, as the free root's mass matrix has it
+        let shape = self.strand.params.shape();
+        let length: f64 = shape.lengths.iter().copied().sum();
+        let mass = shape.mass_per_length * length;
+        let x = D - 3;
+        for k in 0..3 {
+            self.strand.v[x + k] += (target[k] - p[k]) / mass;
+        }
+    }
+    fn finish_held(
+        &mut self,
+        lambda: &nalgebra::Vector6<f64>,
+        sigma: f64,
+        t: f64,
+    ) -> Result<(), String> {
+        let Some(held) = self.extras.held.as_mut() else {
+            return Ok(());
+        };
+        let HeldSlot { tip, geometry } = &mut **held;
+        tip.add_impulse(lambda, sigma, t);
+        let FixedStrand { params, q, .. } = &mut *self.strand;
+        strand_points!(points, self.ws, self.floating, params);
+        tip.project(&mut points, geometry, q, t)
+            .map(|_| ())
+            .map_err(|e| e.to_string())
+    }
+    fn end_contacts(&mut self, at: &Placement, h: f64) {
+        let lengths = self.strand.params.lengths;
+        let mut contacts =
+            self.buffers
+                .contacts(&self.strand.params, &lengths, self.colliders, self.scratch);
+        contacts.after_step(&self.strand.q, at.time, &at.head, h);
+    }
 }
 
 /// What the embedded engine's strands touch: the bodies and the contact settings.
@@ -895,6 +1283,10 @@ pub struct StrandContactBuffers {
     /// step, in arc-length order.
     hair: Option<HairHairParams>,
     partners: Vec<PartnerPoint>,
+    /// A coupled strand's arrays of the contacts that start within a step, its own (the
+    /// pair solve resolves them again after every strand has stepped; `None`: the
+    /// worker's).
+    predicted: Option<PredictedContacts>,
     /// The samples' poses (head coordinates) at `poses_q` when `poses_valid`: the last
     /// ones the strand's step computed, which are those of its state after the step (the
     /// hair–hair pairs' search and the next step's start take them rather than compute
@@ -974,22 +1366,30 @@ impl StrandContactBuffers {
             ),
         );
         let n = samples.len();
+        let hair = config
+            .hair_hair
+            .as_ref()
+            .map(|h| h.params(g.mass_per_length));
+        let coupled = hair.is_some_and(|h| h.coupled);
         StrandContactBuffers {
             params: config.params(g.mass_per_length),
             anchors: vec![None; n],
             allowance: vec![0.0; n],
             scalars: ContactScalars::default(),
             predict: config.predict,
-            hair: config
-                .hair_hair
-                .as_ref()
-                .map(|h| h.params(g.mass_per_length)),
+            hair,
             partners: Vec::new(),
+            predicted: (coupled && config.predict).then(|| PredictedContacts::new(n)),
             poses: vec![(nalgebra::Vector3::zeros(), nalgebra::Vector3::zeros()); n],
             poses_q: vec![0.0; g.dofs()],
             poses_valid: false,
             samples,
         }
+    }
+
+    /// Whether the strand's hair–hair pairs are coupled (`coupling = "pair"`).
+    fn coupled(&self) -> bool {
+        self.hair.is_some_and(|h| h.coupled)
     }
 
     /// What the strand's contacts carry from step to step.
@@ -1082,10 +1482,10 @@ impl StrandContactBuffers {
             &self.samples,
             store,
         );
-        let contacts = if self.predict {
-            contacts.with_prediction(scratch.predicted.arrays(m + 1, D))
-        } else {
-            contacts
+        let contacts = match (self.predict, self.predicted.as_mut()) {
+            (true, Some(own)) => contacts.with_prediction(own.arrays(m + 1, D)),
+            (true, None) => contacts.with_prediction(scratch.predicted.arrays(m + 1, D)),
+            (false, _) => contacts,
         };
         match &self.hair {
             Some(params) => contacts.with_partners(PartnerStore {
@@ -1204,6 +1604,9 @@ struct StrandExtras {
     loads: Vec<PointLoad>,
     scale: Vec<f64>,
     held: Option<Box<HeldSlot>>,
+    /// In pairs of `coupling = "pair"`: the factors of its step's matrix kept after its
+    /// step for the pair solve (`None`: not coupled).
+    coupled: Option<Box<OneStepFactors>>,
 }
 
 /// A held tip of the embedded engine: the constraint and the geometry its rows are
@@ -1227,7 +1630,12 @@ fn step_strand<const N: usize, const D: usize, const E: usize, const B: usize>(
     counts: &mut StepCounts,
     contacts: Option<&mut dyn ContactHooks<f64>>,
 ) -> Result<StepReport, StepError> {
-    let StrandExtras { loads, scale, held } = extras;
+    let StrandExtras {
+        loads,
+        scale,
+        held,
+        coupled,
+    } = extras;
     let mut view = s.view();
     view.params.loads = loads;
     view.params.scale = scale;
@@ -1240,8 +1648,9 @@ fn step_strand<const N: usize, const D: usize, const E: usize, const B: usize>(
     if let Some(hook) = hook.as_mut() {
         view.end = Some(hook);
     }
+    let mut contacts = contacts;
     with_terms!(free_root::<N, D>(), floating, 3 * N, |source| {
-        fixed::step_views(
+        let outcome = fixed::step_views(
             source,
             &mut view,
             head,
@@ -1250,9 +1659,40 @@ fn step_strand<const N: usize, const D: usize, const E: usize, const B: usize>(
             h,
             ws.view(),
             counts,
-            contacts,
-        )
+            contacts.as_deref_mut(),
+        );
+        if let (Ok(_), Some(slot)) = (&outcome, coupled.as_deref_mut()) {
+            keep_factors(slot, source, &mut view, ws, head, effects, (t, h), contacts);
+        }
+        outcome
     })
+}
+
+/// After a coupled strand's step of `h` from `t`: the factors of its step's matrix kept
+/// for the pair solve (`slot`), as the runtime engine keeps them — its last linearly
+/// implicit piece's, or after a BDF2 or Newton solve the linearly implicit matrix at the
+/// step's end, factored.
+#[allow(clippy::too_many_arguments)]
+fn keep_factors<S: StepTerms<f64> + ?Sized, const N: usize, const D: usize, const E: usize>(
+    slot: &mut OneStepFactors,
+    source: &mut S,
+    view: &mut StrandView<'_, f64>,
+    ws: &mut FixedWorkspace<N, D, E>,
+    head: &dyn HeadTrajectory,
+    effects: &Effects,
+    (t, h): (f64, f64),
+    contacts: Option<&mut dyn ContactHooks<f64>>,
+) {
+    let own = ws.last_factors().is_some();
+    if !own {
+        let input = StepInput {
+            head: head.state(t + h),
+            gravity: effects.gravity,
+            head_moves: effects.head_moves,
+        };
+        fixed::factor_step_views(source, view, &input, (h, t + h), ws.view(), contacts);
+    }
+    slot.keep(ws.last_factors(), view.params.scale, own);
 }
 
 /// Whether a group of N elements and D coordinates holds free-root strands (D = 3N + 3:

@@ -43,12 +43,15 @@
 //! colliding is kept to round-off.
 
 use super::free_root_momentum;
+use super::held_end::HeldTip;
 use super::predicted_contacts::resolve_again;
 use super::stats::StepStats;
 use super::system::StrandSystem;
+use super::StrandState;
 use crate::bodies::Placement;
 use crate::kernels::step_terms::KernelPoints;
 use nalgebra::{Matrix3, Matrix6x3, Vector3, Vector6};
+use superhelix_kernels::contact::partners::{HairHairParams, PartnerPoint};
 
 /// Most Gauss–Seidel sweeps over the pairs of a step. The forces are equal and opposite
 /// after any number of sweeps (the momentum is kept whatever the count); the sweeps
@@ -122,6 +125,8 @@ pub struct StrandSides {
     dv: Vec<f64>,
     /// A back-substitution's buffer.
     column: Vec<f64>,
+    /// J at a point (`dofs` columns).
+    point_jac: Vec<Vector3<f64>>,
     /// σ (the impulse's duration) and c (the end moves by c times the velocity change).
     sigma: f64,
     c: f64,
@@ -228,28 +233,191 @@ fn velocity_of(jac: &[Vector3<f64>], v: &[f64]) -> Vector3<f64> {
     jac.iter().zip(v).map(|(j, v)| j * *v).sum()
 }
 
-/// The sides of `system`'s coupled pairs at the end (q, q̇) of its free step of `h`
-/// (the head at `at`), into `sides`: each side's point y and velocity ẏ there (the
-/// pairs that may touch are then selected from both sides' ends, [`select`]).
-pub fn strand_ends(
-    system: &mut StrandSystem,
+/// What the pair solve asks of a strand after its step: its coupled law, partners and
+/// samples, its end (q, q̇), its points there, the factors of its step's matrix, its held
+/// tip and free root, its contacts with bodies. The runtime engine's strands
+/// ([`RuntimeStrand`]) and the embedded engine's (`super::embedded`) are both, on their
+/// own storage: the solve itself ([`strand_ends`], [`select`], [`strand_responses`],
+/// [`solve`], [`apply`]) is written once.
+pub trait CoupledStrand {
+    /// The hair–hair law of its pairs when they are coupled (`None`: not).
+    fn coupled_law(&self) -> Option<HairHairParams>;
+    /// Its partners of the step, in arc-length order.
+    fn partners(&self) -> &[PartnerPoint];
+    /// Its contact samples (arc length, weight).
+    fn samples(&self) -> &[(f64, f64)];
+    /// q and q̇ at the end of its step.
+    fn end(&self) -> (&[f64], &[f64]);
+    /// The point y(s) at its q (head frame), J(s) = ∂y/∂q into `jac`.
+    fn point(&mut self, s: f64, jac: &mut [Vector3<f64>]) -> Vector3<f64>;
+    /// The length of the piece the kept factors of its step's matrix are for (0: none)
+    /// and whether they are its step's own (not the linearly implicit matrix at the end,
+    /// factored after a BDF2 or Newton solve).
+    fn factors(&self) -> (f64, bool);
+    /// `A x = b` in place on the kept factors; false when singular.
+    fn solve(&mut self, x: &mut [f64]) -> bool;
+    /// Whether its tip is held.
+    fn holds_tip(&self) -> bool;
+    /// A held tip's rows for a change of its end on the kept factors (`t` the end's
+    /// time); nothing without one.
+    fn prepare_held(&mut self, t: f64) -> Result<(), String>;
+    /// A change `u` of q̇ constrained by the held tip, and the holder's multipliers
+    /// (zero without one).
+    fn constrain_held(&mut self, u: &mut [f64]) -> Result<Vector6<f64>, String>;
+    /// Whether its momentum is kept through the pairs' impulses (a free root, no held
+    /// tip: [`super::free_root_momentum`]).
+    fn keeps_momentum(&self) -> bool;
+    /// Its linear momentum `M_X q̇` at its end.
+    fn momentum(&mut self) -> [f64; 3];
+    /// Move its end by a change of q̇: q̇ += dv, q += c dv.
+    fn move_end(&mut self, dv: &[f64], c: f64);
+    /// Resolve its contacts with bodies that started within the step again from its
+    /// moved end, on the kept factors (`at`: the end's placement).
+    fn resolve_again(&mut self, at: &Placement, stats: &mut StepStats) -> Result<(), String>;
+    /// Move Ẋ so that its momentum is `target`.
+    fn correct_momentum(&mut self, target: [f64; 3]);
+    /// The holder's impulse `λ σ` added to its reaction and the held tip's drift
+    /// projected out (nothing without a held tip).
+    fn finish_held(&mut self, lambda: &Vector6<f64>, sigma: f64, t: f64) -> Result<(), String>;
+    /// The contacts' bookkeeping of the step's end (`at`), after the pair solve moved
+    /// it; `h` the step.
+    fn end_contacts(&mut self, at: &Placement, h: f64);
+}
+
+/// A strand of the runtime engine with its state, as the pair solve sees it.
+pub struct RuntimeStrand<'a> {
+    /// The strand's system.
+    pub system: &'a mut StrandSystem,
+    /// Its state at the end of its step.
+    pub state: &'a mut StrandState,
+}
+
+impl CoupledStrand for RuntimeStrand<'_> {
+    fn coupled_law(&self) -> Option<HairHairParams> {
+        let contacts = self.system.contacts.as_ref()?;
+        contacts.hair_params().filter(|p| p.coupled).copied()
+    }
+    fn partners(&self) -> &[PartnerPoint] {
+        self.system.contacts.as_ref().map_or(&[], |c| c.partners())
+    }
+    fn samples(&self) -> &[(f64, f64)] {
+        self.system.contacts.as_ref().map_or(&[], |c| c.samples())
+    }
+    fn end(&self) -> (&[f64], &[f64]) {
+        (&self.state.q, &self.state.v)
+    }
+    fn point(&mut self, s: f64, jac: &mut [Vector3<f64>]) -> Vector3<f64> {
+        let ws = &mut self.system.workspace;
+        let y = self
+            .system
+            .kernel
+            .point(&self.state.q, s, &mut ws.jac, None);
+        jac.copy_from_slice(&ws.jac[..jac.len()]);
+        y
+    }
+    fn factors(&self) -> (f64, bool) {
+        let f = &self.system.workspace.one_step_factors;
+        (f.piece, f.own)
+    }
+    fn solve(&mut self, x: &mut [f64]) -> bool {
+        self.system.workspace.one_step_factors.solve(x)
+    }
+    fn holds_tip(&self) -> bool {
+        self.system.held.is_some()
+    }
+    fn prepare_held(&mut self, t: f64) -> Result<(), String> {
+        let StrandSystem {
+            strand,
+            kernel,
+            workspace: ws,
+            held,
+            ..
+        } = &mut *self.system;
+        let Some(held) = held.as_mut() else {
+            return Ok(());
+        };
+        let factors = &mut ws.one_step_factors;
+        held.prepare_change(
+            &mut KernelPoints(kernel.as_mut()),
+            &strand.geometry,
+            &mut |x| factors.solve(x),
+            &self.state.q,
+            t,
+        )
+        .ok_or_else(|| "held tip: singular step matrix".to_string())
+    }
+    fn constrain_held(&mut self, u: &mut [f64]) -> Result<Vector6<f64>, String> {
+        constrain(self.system.held.as_ref(), u)
+    }
+    fn keeps_momentum(&self) -> bool {
+        free_root_momentum::applies(self.system)
+    }
+    fn momentum(&mut self) -> [f64; 3] {
+        free_root_momentum::momentum_at(self.system, &self.state.q, &self.state.v)
+    }
+    fn move_end(&mut self, dv: &[f64], c: f64) {
+        move_by(&mut self.state.q, &mut self.state.v, dv, c);
+    }
+    fn resolve_again(&mut self, at: &Placement, stats: &mut StepStats) -> Result<(), String> {
+        let StrandState { q, v, .. } = &mut *self.state;
+        resolve_again(self.system, at, q, v, stats)
+    }
+    fn correct_momentum(&mut self, target: [f64; 3]) {
+        let StrandState { q, v, .. } = &mut *self.state;
+        free_root_momentum::correct(self.system, q, v, target);
+    }
+    fn finish_held(&mut self, lambda: &Vector6<f64>, sigma: f64, t: f64) -> Result<(), String> {
+        let system = &mut *self.system;
+        let Some(held) = system.held.as_mut() else {
+            return Ok(());
+        };
+        held.add_impulse(lambda, sigma, t);
+        held.project(
+            &mut KernelPoints(system.kernel.as_mut()),
+            &system.strand.geometry,
+            &mut self.state.q,
+            t,
+        )
+        .map(|_| ())
+        .map_err(|e| e.to_string())
+    }
+    fn end_contacts(&mut self, at: &Placement, h: f64) {
+        if let Some(c) = &mut self.system.contacts {
+            c.after_step(at, &self.system.strand.geometry, &self.state.q, h);
+        }
+    }
+}
+
+/// A change `u` of q̇ constrained by `held` ([`HeldTip::constrain_change`]), and the
+/// holder's multipliers (zero without a held tip).
+pub(super) fn constrain(held: Option<&HeldTip>, u: &mut [f64]) -> Result<Vector6<f64>, String> {
+    match held {
+        Some(held) => held.constrain_change(u).ok_or_else(|| {
+            "held tip: the constraints are dependent (singular G A⁻¹ Gᵀ)".to_string()
+        }),
+        None => Ok(Vector6::zeros()),
+    }
+}
+
+/// q̇ += dv, q += c dv.
+pub(super) fn move_by(q: &mut [f64], v: &mut [f64], dv: &[f64], c: f64) {
+    for j in 0..v.len() {
+        v[j] += dv[j];
+        q[j] += c * dv[j];
+    }
+}
+
+/// The sides of `strand`'s coupled pairs at the end (q, q̇) of its free step (the head
+/// at `at`), into `sides`: each side's point y and velocity ẏ there (the pairs that may
+/// touch are then selected from both sides' ends, [`select`]).
+pub fn strand_ends<S: CoupledStrand + ?Sized>(
+    strand: &mut S,
     at: &Placement,
-    q: &[f64],
-    v: &[f64],
     sides: &mut StrandSides,
 ) {
-    let dofs = q.len();
+    let dofs = strand.end().0.len();
     sides.clear(dofs);
-    let StrandSystem {
-        kernel,
-        workspace: ws,
-        contacts,
-        ..
-    } = system;
-    let Some(contacts) = contacts.as_ref() else {
-        return;
-    };
-    let Some(hh) = contacts.hair_params().filter(|p| p.coupled).copied() else {
+    let Some(hh) = strand.coupled_law() else {
         return;
     };
     sides.stiffness = hh.stiffness;
@@ -260,20 +428,24 @@ pub fn strand_ends(
         hh.damping
     };
     let rt = at.head.rotation.transpose();
-    for partner in contacts.partners() {
+    let mut jac = std::mem::take(&mut sides.point_jac);
+    jac.resize(dofs, Vector3::zeros());
+    for k in 0..strand.partners().len() {
+        let partner = strand.partners()[k];
         if partner.partner_s.is_some() || partner.normal == Vector3::zeros() {
             continue;
         }
-        let y = kernel.point(q, partner.s, &mut ws.jac, None);
+        let y = strand.point(partner.s, &mut jac);
         sides.pair.push(partner.pair);
         sides.point.push(y);
-        sides.velocity.push(velocity_of(&ws.jac[..dofs], v));
+        sides.velocity.push(velocity_of(&jac, strand.end().1));
         sides.arc.push(partner.s);
         sides.normal.push(rt * partner.normal);
         sides.weight.push(partner.weight);
         sides.reach.push(partner.reach);
         sides.response_of.push(NONE);
     }
+    sides.point_jac = jac;
 }
 
 /// A pair the step's solve takes: its two sides (strand, side; the first side's first)
@@ -349,53 +521,36 @@ pub fn select(sides: &mut [StrandSides], pairs: usize) -> Vec<Chosen> {
 /// matrix the one step kept (its last linearly implicit piece's, or after BDF2 or Newton
 /// the linearly implicit matrix at the step's end, `superhelix_kernels::fixed::factor_step_views`),
 /// constrained by a held tip.
-pub fn strand_responses(
-    system: &mut StrandSystem,
+pub fn strand_responses<S: CoupledStrand + ?Sized>(
+    strand: &mut S,
     at: &Placement,
     h: f64,
-    q: &[f64],
     stats: &mut StepStats,
     sides: &mut StrandSides,
 ) -> Result<(), String> {
-    let dofs = q.len();
+    let dofs = strand.end().0.len();
     if sides.response_of.iter().all(|&r| r == NONE) {
         return Ok(());
     }
     // the step matrix's factors the one step kept: its last linearly implicit piece's,
     // or the linearly implicit matrix at its end (after BDF2 or Newton)
-    let factors = &system.workspace.one_step_factors;
-    if factors.piece <= 0.0 {
+    let (piece, own) = strand.factors();
+    if piece <= 0.0 {
         return Err(
             "hair–hair pairs: the strand's step left no step matrix (a singular one)".into(),
         );
     }
-    sides.own_factors = factors.own;
-    let c = factors.piece;
+    sides.own_factors = own;
     sides.sigma = h;
-    sides.c = c;
-    let StrandSystem {
-        strand,
-        kernel,
-        workspace: ws,
-        held,
-        contacts,
-        ..
-    } = system;
-    if let Some(held) = held.as_mut() {
-        let factors = &mut ws.one_step_factors;
-        held.prepare_change(
-            &mut KernelPoints(kernel.as_mut()),
-            &strand.geometry,
-            &mut |x| factors.solve(x),
-            q,
-            at.time,
-        )
-        .ok_or("held tip: singular step matrix")?;
-    }
-    let samples = contacts.as_ref().map_or(&[][..], |c| c.samples());
-    sides.node_of.resize(samples.len(), NONE);
+    sides.c = piece;
+    strand.prepare_held(at.time)?;
+    let held = strand.holds_tip();
+    let samples_len = strand.samples().len();
+    sides.node_of.resize(samples_len, NONE);
     let mut column = std::mem::take(&mut sides.column);
     column.resize(dofs, 0.0);
+    let mut jac = std::mem::take(&mut sides.point_jac);
+    jac.resize(dofs, Vector3::zeros());
     let mut indefinite_anywhere = false;
     for k in 0..sides.pair.len() {
         if sides.response_of[k] == NONE {
@@ -404,6 +559,7 @@ pub fn strand_responses(
         sides.response_of[k] = sides.compliance.len();
         // the two samples around the pair's point (the nearest one beyond the ends)
         let s = sides.arc[k];
+        let samples = strand.samples();
         let above = samples.partition_point(|x| x.0 < s);
         let (lo, hi, t) = if samples.is_empty() {
             return Err("hair–hair pairs: a strand without contact samples".into());
@@ -420,22 +576,21 @@ pub fn strand_responses(
                 continue;
             }
             sides.node_of[sample] = sides.node_held.len();
-            kernel.point(q, samples[sample].0, &mut ws.jac, None);
+            let arc = strand.samples()[sample].0;
+            strand.point(arc, &mut jac);
             let start = sides.jac.len();
-            sides.jac.extend_from_slice(&ws.jac[..dofs]);
+            sides.jac.extend_from_slice(&jac);
             sides.response.resize(start + dofs, Vector3::zeros());
             let mut held_impulse = Matrix6x3::zeros();
             for axis in 0..3 {
-                for (x, j) in column.iter_mut().zip(&ws.jac[..dofs]) {
+                for (x, j) in column.iter_mut().zip(&jac) {
                     *x = j[axis];
                 }
-                if !ws.one_step_factors.solve(&mut column) {
+                if !strand.solve(&mut column) {
                     return Err("hair–hair pairs: singular step matrix".into());
                 }
-                if let Some(held) = held.as_ref() {
-                    let lambda = held.constrain_change(&mut column).ok_or_else(|| {
-                        "held tip: the constraints are dependent (singular G A⁻¹ Gᵀ)".to_string()
-                    })?;
+                if held {
+                    let lambda = strand.constrain_held(&mut column)?;
                     held_impulse.set_column(axis, &lambda);
                 }
                 for (r, x) in sides.response[start..].iter_mut().zip(&column) {
@@ -475,6 +630,7 @@ pub fn strand_responses(
         stats.pairs_indefinite += sides.compliance.len();
     }
     sides.column = column;
+    sides.point_jac = jac;
     Ok(())
 }
 
@@ -600,21 +756,18 @@ pub fn solve(sides: &mut [StrandSides], chosen: &[Chosen]) -> Option<usize> {
 /// Apply the velocity change [`solve`] accumulated for this strand to its end (q, q̇)
 /// (time `t_end`), with the holder's reaction and a free root's momentum updated; the
 /// held tip's drift projected out.
-pub fn apply(
-    system: &mut StrandSystem,
+pub fn apply<S: CoupledStrand + ?Sized>(
+    strand: &mut S,
     sides: &StrandSides,
     at: &Placement,
-    q: &mut [f64],
-    v: &mut [f64],
     stats: &mut StepStats,
 ) -> Result<(), String> {
     let t_end = at.time;
     if sides.is_empty() || sides.dv.iter().all(|&x| x == 0.0) {
         return Ok(());
     }
-    let keep_momentum = free_root_momentum::applies(system);
-    let target = keep_momentum.then(|| {
-        let mut p = free_root_momentum::momentum_at(system, q, v);
+    let target = strand.keeps_momentum().then(|| {
+        let mut p = strand.momentum();
         for f in &sides.force {
             for k in 0..3 {
                 p[k] += sides.sigma * f[k];
@@ -622,31 +775,21 @@ pub fn apply(
         }
         p
     });
-    for j in 0..v.len() {
-        v[j] += sides.dv[j];
-        q[j] += sides.c * sides.dv[j];
-    }
+    strand.move_end(&sides.dv, sides.c);
     // the contacts with bodies that started within the step, resolved again from the
     // moved end on the same factors (the pairs may have pushed a point into a body)
     if sides.own_factors {
-        resolve_again(system, at, q, v, stats)?;
+        strand.resolve_again(at, stats)?;
     }
     if let Some(target) = target {
-        free_root_momentum::correct(system, q, v, target);
+        strand.correct_momentum(target);
     }
-    if let Some(held) = system.held.as_mut() {
+    if strand.holds_tip() {
         let mut lambda = Vector6::zeros();
         for (l, f) in sides.held.iter().zip(&sides.force) {
             lambda += l * (f * sides.sigma);
         }
-        held.add_impulse(&lambda, sides.sigma, t_end);
-        held.project(
-            &mut KernelPoints(system.kernel.as_mut()),
-            &system.strand.geometry,
-            q,
-            t_end,
-        )
-        .map_err(|e| e.to_string())?;
+        strand.finish_held(&lambda, sides.sigma, t_end)?;
     }
     Ok(())
 }
