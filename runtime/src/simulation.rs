@@ -603,9 +603,14 @@ fn embedded_strands(
                 tolerance_total: Default::default(),
                 tolerance_window: Default::default(),
                 coupled,
-                sides: (0..strand_count)
-                    .map(|_| pair_coupling::StrandSides::default())
-                    .collect(),
+                // (only coupled strands have sides)
+                sides: if coupled {
+                    (0..strand_count)
+                        .map(|_| pair_coupling::StrandSides::default())
+                        .collect()
+                } else {
+                    Vec::new()
+                },
                 pair_counts: [0; 2],
             }),
             config: setup.config,

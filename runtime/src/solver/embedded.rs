@@ -995,7 +995,7 @@ pub struct StrandContactBuffers {
     /// A coupled strand's arrays of the contacts that start within a step, its own (the
     /// pair solve resolves them again after every strand has stepped; `None`: the
     /// worker's).
-    predicted: Option<PredictedContacts>,
+    predicted: Option<Box<PredictedContacts>>,
     /// The samples' poses (head coordinates) at `poses_q` when `poses_valid`: the last
     /// ones the strand's step computed, which are those of its state after the step (the
     /// hair–hair pairs' search and the next step's start take them rather than compute
@@ -1088,7 +1088,7 @@ impl StrandContactBuffers {
             predict: config.predict,
             hair,
             partners: Vec::new(),
-            predicted: (coupled && config.predict).then(|| PredictedContacts::new(n)),
+            predicted: (coupled && config.predict).then(|| Box::new(PredictedContacts::new(n))),
             poses: vec![(nalgebra::Vector3::zeros(), nalgebra::Vector3::zeros()); n],
             poses_q: vec![0.0; g.dofs()],
             poses_valid: false,
