@@ -928,7 +928,8 @@ pub fn with_tolerance(cases: Vec<Case>, tolerance: f64) -> Vec<Case> {
 
 /// `cases` on `engine` (`auto`, the scenes' default: the embedded engine wherever it can
 /// run a case), names unchanged; on the embedded engine without the cases it cannot run
-/// (held tips, free roots, RK4: what `engine = "auto"` sends to the runtime engine).
+/// (what `engine = "auto"` sends to the runtime engine: RK4, a strand whose N, or a free
+/// or pinned root's chain, has no fixed-N code).
 pub fn with_engine(cases: Vec<Case>, engine: Engine) -> Vec<Case> {
     cases
         .into_iter()

@@ -33,7 +33,7 @@ pub struct StressArgs {
     /// Run every case on this engine: auto (the default: the embedded fixed-N step
     /// wherever it can run the case, else the runtime's), runtime or embedded (a case it
     /// cannot run is then an error; on embedded, the cases it cannot run are left out:
-    /// held tips, free roots, RK4).
+    /// RK4, and an N without fixed-N code).
     #[arg(long)]
     engine: Option<String>,
     /// Run every case with this deepest split of a step, 0 to 8 (`[simulation]
