@@ -48,6 +48,7 @@ pub mod floating;
 pub mod head;
 pub mod helix_functions;
 pub mod jet;
+pub mod lane;
 pub mod lanes;
 pub mod material;
 pub mod math;
