@@ -586,20 +586,7 @@ pub fn declaring_text_in(sizes: &[usize], floats: &[Float]) -> String {
         count = sizes.len(),
         list = list(sizes),
     ));
-    if sizes.is_empty() {
-        s.push_str("    let _ = (n, visitor);\n    None\n}\n");
-    } else {
-        s.push_str("    match n {\n");
-        for &n in sizes {
-            s.push_str(&format!(
-                "        {n} => Some(visitor.visit::<{n}, {d}, {e}, {b}>()),\n",
-                d = 3 * n,
-                e = n + 1,
-                b = basis(n),
-            ));
-        }
-        s.push_str("        _ => None,\n    }\n}\n");
-    }
+    push_size_match(&mut s, sizes, |n| (3 * n, n + 1, basis(n)));
     s.push_str(
         "\n/// Calls `visitor.visit::<N, 3N + 3, N + 2, ⌊(3N + 3)/2⌋>()` for `n` = N when there is\n\
          /// a module for it here ([`SIZES`]): the sizes of a free root's strand, its chain of\n\
@@ -610,20 +597,7 @@ pub fn declaring_text_in(sizes: &[usize], floats: &[Float]) -> String {
              visitor: V,\n\
          ) -> Option<V::Output> {\n",
     );
-    if sizes.is_empty() {
-        s.push_str("    let _ = (n, visitor);\n    None\n}\n");
-    } else {
-        s.push_str("    match n {\n");
-        for &n in sizes {
-            s.push_str(&format!(
-                "        {n} => Some(visitor.visit::<{n}, {d}, {e}, {b}>()),\n",
-                d = 3 * n + 3,
-                e = n + 2,
-                b = (3 * n + 3) / 2,
-            ));
-        }
-        s.push_str("        _ => None,\n    }\n}\n");
-    }
+    push_size_match(&mut s, sizes, |n| (3 * n + 3, n + 2, (3 * n + 3) / 2));
     s
 }
 
@@ -693,4 +667,21 @@ mod tests {
         assert!(b.lu > 7 * a.lu);
         assert!(a.total().0 < a.total().1);
     }
+}
+
+/// The body of a size dispatch for `sizes`: `visitor.visit::<N, D, E, B>()` for each N,
+/// with (D, E, B) = `dims(N)`, `None` for any other n.
+fn push_size_match(s: &mut String, sizes: &[usize], dims: impl Fn(usize) -> (usize, usize, usize)) {
+    if sizes.is_empty() {
+        s.push_str("    let _ = (n, visitor);\n    None\n}\n");
+        return;
+    }
+    s.push_str("    match n {\n");
+    for &n in sizes {
+        let (d, e, b) = dims(n);
+        s.push_str(&format!(
+            "        {n} => Some(visitor.visit::<{n}, {d}, {e}, {b}>()),\n"
+        ));
+    }
+    s.push_str("        _ => None,\n    }\n}\n");
 }
