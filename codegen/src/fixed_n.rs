@@ -601,6 +601,23 @@ pub fn declaring_text_in(sizes: &[usize], floats: &[Float]) -> String {
     s
 }
 
+/// The body of a size dispatch for `sizes`: `visitor.visit::<N, D, E, B>()` for each N,
+/// with (D, E, B) = `dims(N)`, `None` for any other n.
+fn push_size_match(s: &mut String, sizes: &[usize], dims: impl Fn(usize) -> (usize, usize, usize)) {
+    if sizes.is_empty() {
+        s.push_str("    let _ = (n, visitor);\n    None\n}\n");
+        return;
+    }
+    s.push_str("    match n {\n");
+    for &n in sizes {
+        let (d, e, b) = dims(n);
+        s.push_str(&format!(
+            "        {n} => Some(visitor.visit::<{n}, {d}, {e}, {b}>()),\n"
+        ));
+    }
+    s.push_str("        _ => None,\n    }\n}\n");
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -667,21 +684,4 @@ mod tests {
         assert!(b.lu > 7 * a.lu);
         assert!(a.total().0 < a.total().1);
     }
-}
-
-/// The body of a size dispatch for `sizes`: `visitor.visit::<N, D, E, B>()` for each N,
-/// with (D, E, B) = `dims(N)`, `None` for any other n.
-fn push_size_match(s: &mut String, sizes: &[usize], dims: impl Fn(usize) -> (usize, usize, usize)) {
-    if sizes.is_empty() {
-        s.push_str("    let _ = (n, visitor);\n    None\n}\n");
-        return;
-    }
-    s.push_str("    match n {\n");
-    for &n in sizes {
-        let (d, e, b) = dims(n);
-        s.push_str(&format!(
-            "        {n} => Some(visitor.visit::<{n}, {d}, {e}, {b}>()),\n"
-        ));
-    }
-    s.push_str("        _ => None,\n    }\n}\n");
 }
