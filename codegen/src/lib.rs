@@ -342,11 +342,11 @@ pub fn generate_function(
     es.run_scheduled(&series, store);
     let mut ec = emit::Emitter::new(g, &closed, &symbols, "c").with_float(float);
     ec.run_scheduled(&closed, store);
-    // the closed branch again for four elements at once (F4 lanes; a constant output
-    // becomes all lanes)
+    // the closed branch again for W elements at once (`Lanes<f64, W>`, one element per
+    // lane; a constant output becomes all lanes)
     let store_x4 = |k: usize, e: proc_macro2::TokenStream| {
         let k = proc_macro2::Literal::usize_unsuffixed(k);
-        quote!(out[#k] = F4::from(#e);)
+        quote!(out[#k] = Lanes::<f64, W>::from(#e);)
     };
     let mut ec4 = emit::Emitter::new(g, &closed, &symbols, "c");
     if float == Float::F64 {
@@ -479,17 +479,44 @@ pub fn generate_function(
                  `W l ≥` [`{switch_const}`] (below, the closed form loses digits to cancellation: \
                  callers take [`{name}`] there)."
             );
+            let lanes_fn = ident(&format!("{name}_closed_lanes"));
             let function_x4 = emit::multiversioned(
                 &ident(&format!("{name}_closed_x4")),
                 &doc_x4,
                 quote!(d: &[F4; 3], l: F4, out: &mut [F4; #k_lit]),
                 quote!(d, l, out),
                 quote! {
-                    #prologue
-                    #(#cs4)*
+                    let d = [Lanes(d[0].0), Lanes(d[1].0), Lanes(d[2].0)];
+                    let mut lanes = [Lanes([0.0; 4]); #k_lit];
+                    #lanes_fn::<4>(&d, Lanes(l.0), &mut lanes);
+                    for (o, x) in out.iter_mut().zip(&lanes) {
+                        *o = F4(x.0);
+                    }
                 },
             );
+            let doc_lanes = format!(
+                " The closed-form branch of [`{name}`] for W elements at once, one per lane: \
+                 lane k of `out` is, bit for bit, [`{name}`] of lane k of `d` and `l` when its \
+                 `W l ≥` [`{switch_const}`] (below, the closed form loses digits to cancellation: \
+                 callers take [`{name}`] there). Inlined into its caller, which chooses the \
+                 vector width by compiling it inside a `#[target_feature]` function."
+            );
+            let attrs = emit::generated_attrs();
+            let function_lanes = quote! {
+                #[doc = #doc_lanes]
+                #attrs
+                #[inline(always)]
+                pub fn #lanes_fn<const W: usize>(
+                    d: &[Lanes<f64, W>; 3],
+                    l: Lanes<f64, W>,
+                    out: &mut [Lanes<f64, W>; #k_lit],
+                ) {
+                    #prologue
+                    #(#cs4)*
+                }
+            };
             quote! {
+                use superhelix_kernels::lane::{Lane as _, Lanes};
                 use superhelix_kernels::lanes::F4;
                 #[allow(unused_imports)]
                 use superhelix_kernels::math::Elementary as _;
@@ -500,6 +527,7 @@ pub fn generate_function(
                 #low_const
                 #function
                 #function_x4
+                #function_lanes
             }
         }
         Float::F32 => {

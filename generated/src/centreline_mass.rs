@@ -6,6 +6,7 @@
 //   low-degree Taylor branch (W*l < 0.25, degree 10, agreement with the Taylor branch 2.78e-16, truncation 1.39e-16): 390 adds, 874 muls, 0 divs, 0 trig, 0 sqrt (1264 total) (before CSE: 5755 total)
 //   Taylor branch: 552 adds, 1036 muls, 0 divs, 0 trig, 0 sqrt (1588 total) (before CSE: 10939 total)
 //   closed branch: 312 adds, 719 muls, 1 divs, 1 trig, 0 sqrt (1033 total) (before CSE: 15407 total)
+use superhelix_kernels::lane::{Lane as _, Lanes};
 use superhelix_kernels::lanes::F4;
 #[allow(unused_imports)]
 use superhelix_kernels::math::Elementary as _;
@@ -1423,6 +1424,27 @@ fn centreline_mass_closed_x4_avx2(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
 )]
 #[inline(always)]
 fn centreline_mass_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
+    let d = [Lanes(d[0].0), Lanes(d[1].0), Lanes(d[2].0)];
+    let mut lanes = [Lanes([0.0; 4]); 51];
+    centreline_mass_closed_lanes::<4>(&d, Lanes(l.0), &mut lanes);
+    for (o, x) in out.iter_mut().zip(&lanes) {
+        *o = F4(x.0);
+    }
+}
+#[doc = " The closed-form branch of [`centreline_mass`] for W elements at once, one per lane: lane k of `out` is, bit for bit, [`centreline_mass`] of lane k of `d` and `l` when its `W l ≥` [`CENTRELINE_MASS_SWITCH`] (below, the closed form loses digits to cancellation: callers take [`centreline_mass`] there). Inlined into its caller, which chooses the vector width by compiling it inside a `#[target_feature]` function."]
+#[allow(
+    unused_variables,
+    clippy::all,
+    clippy::pedantic,
+    clippy::excessive_precision,
+    clippy::unreadable_literal
+)]
+#[inline(always)]
+pub fn centreline_mass_closed_lanes<const W: usize>(
+    d: &[Lanes<f64, W>; 3],
+    l: Lanes<f64, W>,
+    out: &mut [Lanes<f64, W>; 51],
+) {
     let d0 = d[0];
     let d1 = d[1];
     let d2 = d[2];
@@ -1441,11 +1463,11 @@ fn centreline_mass_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
     let c9 = dl2 * dl2;
     let c10 = dl1 * dl1;
     let c11 = l * l;
-    out[0] = F4::from(0.5 * (1.0 + 2.0 * c8 * c9 + 2.0 * c8 * c10) * c11);
+    out[0] = Lanes::<f64, W>::from(0.5 * (1.0 + 2.0 * c8 * c9 + 2.0 * c8 * c10) * c11);
     let c12 = c2 * c1;
     let c13 = c4 * c12 - c2;
-    out[1] = F4::from(-c11 * (dl2 * c13 + dl0 * dl1 * c8));
-    out[2] = F4::from(-c11 * (dl0 * dl2 * c8 - dl1 * c13));
+    out[1] = Lanes::<f64, W>::from(-c11 * (dl2 * c13 + dl0 * dl1 * c8));
+    out[2] = Lanes::<f64, W>::from(-c11 * (dl0 * dl2 * c8 - dl1 * c13));
     let c14 = c6 * c1;
     let c15 = c4 * c14;
     let c16 = c7 - 0.3333333333333333 * c2 + c15;
@@ -1459,7 +1481,7 @@ fn centreline_mass_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
     let c24 = -0.5 * c16;
     let c25 = c23 + c24;
     let c26 = c11 * l;
-    out[3] = F4::from(
+    out[3] = Lanes::<f64, W>::from(
         0.3333333333333333
             * (1.0 + c9 * (6.0 * c16 - 6.0 * c9 * c22) + c10 * (-12.0 * c25 - 6.0 * c10 * c22))
             * c26,
@@ -1474,33 +1496,43 @@ fn centreline_mass_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
     let c34 = c28 + c33;
     let c35 = c10 * c22;
     let c36 = c23 + c24 + c35;
-    out[4] = F4::from(2.0 * c26 * (dl0 * dl1 * c36 - 0.125 * (dl2 * c34 + dl2 * c10 * c32)));
+    out[4] = Lanes::<f64, W>::from(
+        2.0 * c26 * (dl0 * dl1 * c36 - 0.125 * (dl2 * c34 + dl2 * c10 * c32)),
+    );
     let c37 = c10 * c32;
     let c38 = dl2 * c25 + dl2 * c10 * c22;
-    out[5] = F4::from(2.0 * c26 * (0.125 * dl1 * (c28 + c33 + c37) + dl0 * c38));
+    out[5] = Lanes::<f64, W>::from(2.0 * c26 * (0.125 * dl1 * (c28 + c33 + c37) + dl0 * c38));
     let c39 = c15 - 0.125 * (6.0 * c6 + 2.0 * c5 * c4 * c14);
-    out[6] = F4::from(-2.0 * c26 * (c9 * c39 + dl0 * (dl0 * c10 * c22 - 0.25 * dl1 * dl2 * c32)));
+    out[6] = Lanes::<f64, W>::from(
+        -2.0 * c26 * (c9 * c39 + dl0 * (dl0 * c10 * c22 - 0.25 * dl1 * dl2 * c32)),
+    );
     let c40 = dl0 * (0.125 * (c37 - c9 * c32) + dl0 * dl1 * dl2 * c22) - dl1 * dl2 * c39;
-    out[7] = F4::from(-2.0 * c26 * c40);
-    out[8] = F4::from(-2.0 * c26 * (c10 * c39 + dl0 * (0.25 * dl1 * dl2 * c32 + dl0 * c9 * c22)));
+    out[7] = Lanes::<f64, W>::from(-2.0 * c26 * c40);
+    out[8] = Lanes::<f64, W>::from(
+        -2.0 * c26 * (c10 * c39 + dl0 * (0.25 * dl1 * dl2 * c32 + dl0 * c9 * c22)),
+    );
     let c41 = c2 - 0.25;
     let c42 = c21 + c6 * c41 - 0.25 * c4 * c14;
     let c43 = c9 * c42;
     let c44 = c10 * c42;
-    out[9] = F4::from(-4.0 * dl0 * c26 * (c43 + c44));
+    out[9] = Lanes::<f64, W>::from(-4.0 * dl0 * c26 * (c43 + c44));
     let c45 = c15 - 0.6666666666666666 * c6 - 0.3333333333333333 * c5 * c6;
-    out[10] = F4::from(4.0 * c26 * (dl0 * (0.75 * dl2 * c45 + dl0 * dl1 * c42) - 0.25 * dl1 * c8));
-    out[11] = F4::from(4.0 * c26 * (dl0 * (dl0 * dl2 * c42 - 0.75 * dl1 * c45) - 0.25 * dl2 * c8));
+    out[10] = Lanes::<f64, W>::from(
+        4.0 * c26 * (dl0 * (0.75 * dl2 * c45 + dl0 * dl1 * c42) - 0.25 * dl1 * c8),
+    );
+    out[11] = Lanes::<f64, W>::from(
+        4.0 * c26 * (dl0 * (dl0 * dl2 * c42 - 0.75 * dl1 * c45) - 0.25 * dl2 * c8),
+    );
     let c46 = -0.5 * c8;
-    out[12] = F4::from(-4.0 * dl1 * c26 * (c43 + c44 + c46));
+    out[12] = Lanes::<f64, W>::from(-4.0 * dl1 * c26 * (c43 + c44 + c46));
     let c47 = -0.25 * c8;
-    out[13] = F4::from(4.0 * c26 * (0.75 * dl1 * dl2 * c45 + dl0 * (c44 + c47)));
+    out[13] = Lanes::<f64, W>::from(4.0 * c26 * (0.75 * dl1 * dl2 * c45 + dl0 * (c44 + c47)));
     let c48 = -0.3333333333333333 * c13;
     let c49 = dl0 * dl1 * dl2 * c42;
-    out[14] = F4::from(4.0 * c26 * (c49 - 0.75 * (c48 + c10 * c45)));
-    out[15] = F4::from(-4.0 * c26 * (dl2 * (c43 + c46) + dl2 * c10 * c42));
-    out[16] = F4::from(4.0 * c26 * (c49 + 0.75 * (c48 + c9 * c45)));
-    out[17] = F4::from(4.0 * c26 * (dl0 * (c43 + c47) - 0.75 * dl1 * dl2 * c45));
+    out[14] = Lanes::<f64, W>::from(4.0 * c26 * (c49 - 0.75 * (c48 + c10 * c45)));
+    out[15] = Lanes::<f64, W>::from(-4.0 * c26 * (dl2 * (c43 + c46) + dl2 * c10 * c42));
+    out[16] = Lanes::<f64, W>::from(4.0 * c26 * (c49 + 0.75 * (c48 + c9 * c45)));
+    out[17] = Lanes::<f64, W>::from(4.0 * c26 * (dl0 * (c43 + c47) - 0.75 * dl1 * dl2 * c45));
     let c50 = c2 - 0.2;
     let c51 = c21 - 0.13333333333333333 * c6 + c4 * c14 * c50;
     let c52 = -0.7142857142857143 * c51;
@@ -1514,7 +1546,7 @@ fn centreline_mass_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
     let c57 = c9 * c56;
     let c58 = c52 + c57;
     let c59 = c11 * c11;
-    out[18] = F4::from(
+    out[18] = Lanes::<f64, W>::from(
         14.0 * dl0
             * (0.5 * c9 * c58 + c10 * (c57 - 0.35714285714285715 * c51 + 0.5 * c10 * c56))
             * c59,
@@ -1529,7 +1561,7 @@ fn centreline_mass_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
     let c63 = dl2 * c10 * c61;
     let c64 = dl2 * (c60 + c62) + c63;
     let c65 = c10 * c56;
-    out[19] = F4::from(
+    out[19] = Lanes::<f64, W>::from(
         -7.0 * c59
             * (dl0 * (dl0 * dl1 * (c52 + c57 + c65) - 0.375 * c64)
                 - 0.2857142857142857 * dl1 * c36),
@@ -1537,7 +1569,7 @@ fn centreline_mass_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
     let c66 = c10 * c61;
     let c67 = dl2 * c10 * c56;
     let c68 = dl2 * c58 + c67;
-    out[20] = F4::from(
+    out[20] = Lanes::<f64, W>::from(
         -7.0 * c59
             * (dl0 * (0.375 * dl1 * (c60 + c62 + c66) + dl0 * c68) - 0.2857142857142857 * c38),
     );
@@ -1547,30 +1579,31 @@ fn centreline_mass_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
         c21 + 0.05555555555555555 * (c19 - 2.0 * c6 * c70) + c4 * c14 * (c2 - 0.1111111111111111);
     let c72 = c9 * (c57 - 1.2857142857142858 * c71);
     let c73 = c57 - 0.6428571428571429 * c71;
-    out[21] = F4::from(7.0 * dl1 * c59 * (c69 + c72 + c10 * (c65 + 2.0 * c73)));
+    out[21] = Lanes::<f64, W>::from(7.0 * dl1 * c59 * (c69 + c72 + c10 * (c65 + 2.0 * c73)));
     let c74 = c57 + c65 - (c21 + 0.03571428571428571 * (c19 - 2.0 * c6 * c29) + c4 * c14 * c53);
-    out[22] =
-        F4::from(-7.0 * c59 * (dl0 * (c10 * c74 - 0.2857142857142857 * c25) - 0.375 * dl1 * c64));
+    out[22] = Lanes::<f64, W>::from(
+        -7.0 * c59 * (dl0 * (c10 * c74 - 0.2857142857142857 * c25) - 0.375 * dl1 * c64),
+    );
     let c75 = -1.619047619047619
         * (c6 * (c2 + 0.35294117647058826)
             - 1.1764705882352942 * c4 * c14
             - 0.058823529411764705 * c17 * c31
             - 0.9411764705882353 * c5 * c6 * c41);
     let c76 = dl0 * dl1 * c68;
-    out[23] = F4::from(
+    out[23] = Lanes::<f64, W>::from(
         -7.0 * c59 * (0.375 * (c10 * (c62 + c66 + c75) - 0.09523809523809523 * c34) + c76),
     );
-    out[24] = F4::from(
+    out[24] = Lanes::<f64, W>::from(
         14.0 * c59 * (0.5 * dl2 * (c69 + c72) + c10 * (dl2 * c73 + 0.5 * dl2 * c10 * c56)),
     );
     let c77 = c62 - 0.09523809523809523 * c32;
-    out[25] = F4::from(
+    out[25] = Lanes::<f64, W>::from(
         -7.0 * c59 * (c76 - 0.375 * (0.38095238095238093 * c27 + c9 * (c62 + c75) + c10 * c77)),
     );
     let c78 = c57 - (c21 + 0.03571428571428571 * (c19 - 2.0 * c6 * c29) + c4 * c14 * c53);
     let c79 = -0.2857142857142857 * c22;
     let c80 = c57 + c79;
-    out[26] = F4::from(
+    out[26] = Lanes::<f64, W>::from(
         -7.0 * c59 * (0.375 * dl1 * c64 + dl0 * (0.14285714285714285 * c16 + c9 * c78 + c10 * c80)),
     );
     let c81 = c17 * (c2 - 0.6666666666666666)
@@ -1580,7 +1613,7 @@ fn centreline_mass_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
         - 1.7777777777777777 * c5 * c54;
     let c82 = dl2 * c10 * c81;
     let c83 = c9 * dl2;
-    out[27] = F4::from(
+    out[27] = Lanes::<f64, W>::from(
         -7.0 * dl0 * c59 * (0.16071428571428573 * (c81 * c83 + c82) + dl0 * dl1 * (c57 + c65)),
     );
     let c84 = c20 - 0.125 * (c19 + 4.8 * c17) + 0.05 * c17 * c31 - 0.2 * c5 * c17;
@@ -1591,7 +1624,7 @@ fn centreline_mass_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
         + dl0
             * (dl0 * (dl0 * c10 * c56 - 0.21428571428571427 * dl1 * dl2 * c85)
                 - 0.2857142857142857 * (c35 - 2.5 * c9 * c84));
-    out[28] = F4::from(7.0 * c59 * c86);
+    out[28] = Lanes::<f64, W>::from(7.0 * c59 * c86);
     let c87 = -dl1
         * dl2
         * (c20 - 0.05357142857142857 * (c19 + 9.333333333333334 * c6 * (c2 + 0.09523809523809523))
@@ -1599,16 +1632,17 @@ fn centreline_mass_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
             - 0.42857142857142855 * c5 * c17);
     let c88 = dl0 * dl1 * dl2 * c56;
     let c89 = c87 + dl0 * (0.375 * (c66 + 0.42857142857142855 * c9 * c81) + c88);
-    out[29] = F4::from(7.0 * c59 * (0.03571428571428571 * c9 * c32 + dl0 * c89));
+    out[29] = Lanes::<f64, W>::from(7.0 * c59 * (0.03571428571428571 * c9 * c32 + dl0 * c89));
     let c90 = c9 * c81;
     let c91 = 0.4444444444444444 * c32;
     let c92 = c90 + c91;
     let c93 = c82 + dl2 * c92;
     let c94 = -0.5714285714285714 * c22;
-    out[30] =
-        F4::from(-7.0 * c59 * (0.16071428571428573 * dl1 * c93 + dl0 * c10 * (c57 + c65 + c94)));
+    out[30] = Lanes::<f64, W>::from(
+        -7.0 * c59 * (0.16071428571428573 * dl1 * c93 + dl0 * c10 * (c57 + c65 + c94)),
+    );
     let c95 = dl2 * c10 * c85 - 0.16666666666666666 * dl2 * c32;
-    out[31] = F4::from(
+    out[31] = Lanes::<f64, W>::from(
         7.0 * c59
             * (0.7142857142857143 * dl1 * c9 * c84
                 + dl0 * (dl0 * dl1 * (c65 + c79) - 0.21428571428571427 * c95)),
@@ -1620,53 +1654,56 @@ fn centreline_mass_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
             * (c90 - 0.2222222222222222 * c32 + 2.3333333333333335 * c10 * c61)
             + c96)
         - 0.7142857142857143 * (dl2 * c10 * c84 - 0.4 * dl2 * c39);
-    out[32] = F4::from(7.0 * c59 * c97);
+    out[32] = Lanes::<f64, W>::from(7.0 * c59 * c97);
     let c98 = c57 + c94;
     let c99 = dl0 * dl1 * (c67 + dl2 * c98);
-    out[33] = F4::from(-7.0 * c59 * (0.16071428571428573 * (c9 * c92 + c9 * c10 * c81) + c99));
+    out[33] = Lanes::<f64, W>::from(
+        -7.0 * c59 * (0.16071428571428573 * (c9 * c92 + c9 * c10 * c81) + c99),
+    );
     let c100 = -0.4 * c39;
     let c101 = c9 * c84 + c100;
     let c102 = c9 * c85 - 0.16666666666666666 * c32;
-    out[34] = F4::from(
+    out[34] = Lanes::<f64, W>::from(
         7.0 * c59
             * (0.7142857142857143 * dl2 * c101 + dl0 * (c96 - 0.21428571428571427 * dl1 * c102)),
     );
     let c103 = dl0
         * (0.375 * (c63 + 0.42857142857142855 * dl2 * (c90 + 0.2222222222222222 * c32))
             + dl0 * dl1 * c80);
-    out[35] = F4::from(7.0 * c59 * (c103 - 0.7142857142857143 * dl1 * c9 * c84));
+    out[35] = Lanes::<f64, W>::from(7.0 * c59 * (c103 - 0.7142857142857143 * dl1 * c9 * c84));
     let c104 = c10 * c81;
-    out[36] = F4::from(
+    out[36] = Lanes::<f64, W>::from(
         -7.0 * dl0 * c59 * (dl0 * (c67 + c56 * c83) - 0.16071428571428573 * dl1 * (c90 + c104)),
     );
     let c105 = c87 + dl0 * (c88 - 0.16071428571428573 * (c104 + 2.3333333333333335 * c9 * c61));
-    out[37] = F4::from(7.0 * c59 * (dl0 * c105 - 0.03571428571428571 * c10 * c32));
+    out[37] = Lanes::<f64, W>::from(7.0 * c59 * (dl0 * c105 - 0.03571428571428571 * c10 * c32));
     let c106 = c10 * c84;
     let c107 = dl0
         * (0.7142857142857143 * (c106 - 0.4 * c9 * c22)
             + dl0 * (0.21428571428571427 * dl1 * dl2 * c85 + dl0 * c9 * c56))
         - 0.03571428571428571 * dl1 * dl2 * c32;
-    out[38] = F4::from(7.0 * c59 * c107);
-    out[39] = F4::from(-7.0 * c59 * (c99 - 0.16071428571428573 * c10 * (c90 + c91 + c104)));
+    out[38] = Lanes::<f64, W>::from(7.0 * c59 * c107);
+    out[39] =
+        Lanes::<f64, W>::from(-7.0 * c59 * (c99 - 0.16071428571428573 * c10 * (c90 + c91 + c104)));
     let c108 = dl0
         * (dl0 * (c67 - 0.2857142857142857 * dl2 * c22)
             - 0.375 * dl1 * (c62 + 0.09523809523809523 * c32 + 0.42857142857142855 * c10 * c81))
         - 0.7142857142857143 * dl2 * c10 * c84;
-    out[40] = F4::from(7.0 * c59 * c108);
+    out[40] = Lanes::<f64, W>::from(7.0 * c59 * c108);
     let c109 = dl0 * dl1 * c9 * c56;
-    out[41] = F4::from(
+    out[41] = Lanes::<f64, W>::from(
         7.0 * c59
             * (0.7142857142857143 * dl1 * (c100 + c106) + dl0 * (0.21428571428571427 * c95 + c109)),
     );
-    out[42] = F4::from(
+    out[42] = Lanes::<f64, W>::from(
         -7.0 * c59 * (dl0 * (c9 * c98 + c9 * c10 * c56) - 0.16071428571428573 * dl1 * c93),
     );
     let c110 = 7.0
         * c59
         * (dl0 * (c109 - 0.16071428571428573 * (c82 + 2.3333333333333335 * dl2 * c77))
             - 0.7142857142857143 * dl1 * c101);
-    out[43] = F4::from(c110);
-    out[44] = F4::from(
+    out[43] = Lanes::<f64, W>::from(c110);
+    out[44] = Lanes::<f64, W>::from(
         7.0 * c59
             * (0.7142857142857143 * dl2 * c10 * c84
                 + dl0 * (0.21428571428571427 * dl1 * c102 + dl0 * dl2 * c80)),
@@ -1692,7 +1729,7 @@ fn centreline_mass_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
                 + c10 * (c114 - 0.05 * c111 + 0.5 * c10 * c113)
                 + 0.5 * (c114 + c115) * c116);
     let c118 = c59 * l;
-    out[45] = F4::from(-40.0 * c117 * c118);
+    out[45] = Lanes::<f64, W>::from(-40.0 * c117 * c118);
     let c119 = -0.15
         * (c20 - 0.2916666666666667 * (c19 + 2.857142857142857 * c6 * (c2 - 0.13333333333333333))
             + 0.08333333333333333 * c17 * c31
@@ -1712,12 +1749,12 @@ fn centreline_mass_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
     let c126 = dl0
         * (dl1 * (c119 + c122 + c10 * (c115 + 2.0 * c123))
             + dl0 * (0.1875 * dl2 * c124 + dl0 * dl1 * (c114 + c115 + c125)));
-    out[46] = F4::from(-20.0 * c118 * (0.0125 * dl2 * c32 + c126));
+    out[46] = Lanes::<f64, W>::from(-20.0 * c118 * (0.0125 * dl2 * c32 + c126));
     let c127 = dl2 * c10 * c113;
     let c128 = 0.5 * dl2 * (c119 + c122)
         + c10 * (dl2 * c123 + 0.5 * dl2 * c10 * c113)
         + dl0 * (0.5 * dl0 * (c127 + dl2 * (c114 + c125)) - 0.09375 * dl1 * c124);
-    out[47] = F4::from(-40.0 * c118 * (dl0 * c128 - 0.00625 * dl1 * c32));
+    out[47] = Lanes::<f64, W>::from(-40.0 * c118 * (dl0 * c128 - 0.00625 * dl1 * c32));
     let c129 = 0.1 * c39;
     let c130 = -0.1
         * (c20 - 1.125 * (c19 + 1.7777777777777777 * c6 * c120)
@@ -1735,13 +1772,13 @@ fn centreline_mass_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 51]) {
     let c136 = c129
         + c10 * (c130 + c132 + c10 * (c115 + 2.0 * c133))
         + dl0 * (0.375 * dl1 * dl2 * c124 + dl0 * (c134 + c10 * (c114 + c115 + c135)));
-    out[48] = F4::from(-20.0 * c118 * c136);
+    out[48] = Lanes::<f64, W>::from(-20.0 * c118 * c136);
     let c137 = c130 + c132;
     let c138 = c114 + c135;
     let c139 = dl1 * (dl2 * c137 + c10 * (c127 + 2.0 * dl2 * c133))
         + dl0 * (dl0 * dl1 * (c127 + dl2 * c138) - 0.1875 * (c10 * c124 - c9 * c124));
-    out[49] = F4::from(-20.0 * c118 * c139);
+    out[49] = Lanes::<f64, W>::from(-20.0 * c118 * c139);
     let c140 = 2.0 * (0.5 * (c129 + c9 * c137) + c10 * (c9 * c133 + 0.5 * c9 * c10 * c113))
         + dl0 * (dl0 * (c134 + c9 * c10 * c113 + c9 * c138) - 0.375 * dl1 * dl2 * c124);
-    out[50] = F4::from(-20.0 * c118 * c140);
+    out[50] = Lanes::<f64, W>::from(-20.0 * c118 * c140);
 }

@@ -54,6 +54,9 @@ pub mod centreline_mass;
 #[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]
 pub mod centreline_force;
 
+/// The closed-form element moments of W elements at once, one per lane.
+pub mod lane_moments;
+
 /// Generated: the rotary-inertia basis (see the file's header for op counts).
 #[rustfmt::skip]
 #[allow(clippy::all, clippy::pedantic, missing_docs, unused_parens, non_snake_case)]
@@ -227,7 +230,7 @@ fn cross_of<T: Float>(n: impl Fn(usize, usize) -> T) -> Vector3<T> {
 }
 
 /// The fields of M's centreline moments from the output of [`centreline_mass`].
-fn fill_mass<T: Float>(o: &[T; 51], m: &mut ElementMoments<T>) {
+pub(crate) fn fill_mass<T: Float>(o: &[T; 51], m: &mut ElementMoments<T>) {
     let sym3 = |base: usize| Matrix3::from_fn(|r, c| o[base + SYM[r][c]]);
     m.first = Vector3::new(o[0], o[1], o[2]);
     m.second = sym3(3);
@@ -242,7 +245,7 @@ fn fill_mass<T: Float>(o: &[T; 51], m: &mut ElementMoments<T>) {
 }
 
 /// The force-only fields from the output of [`centreline_force`].
-fn fill_force<T: Float>(o: &[T; 135], m: &mut ElementMoments<T>) {
+pub(crate) fn fill_force<T: Float>(o: &[T; 135], m: &mut ElementMoments<T>) {
     for i in 0..3 {
         for j in 0..3 {
             let pij = SYM[i][j];
@@ -270,7 +273,7 @@ fn fill_force<T: Float>(o: &[T; 135], m: &mut ElementMoments<T>) {
 }
 
 /// The rotary fields for D = diag(`rotary`) from the output of [`rotary_basis`].
-fn fill_rotary<T: Float>(o: &[T; 63], rotary: &[T; 3], m: &mut ElementMoments<T>) {
+pub(crate) fn fill_rotary<T: Float>(o: &[T; 63], rotary: &[T; 3], m: &mut ElementMoments<T>) {
     m.rot = Matrix3::zeros();
     m.rot_w = [Vector3::zeros(); 3];
     m.rot_ww = Matrix3::zeros();
@@ -291,7 +294,7 @@ fn fill_rotary<T: Float>(o: &[T; 63], rotary: &[T; 3], m: &mut ElementMoments<T>
 }
 
 /// The rotary fields of an element without rotary inertia.
-fn clear_rotary<T: Float>(m: &mut ElementMoments<T>) {
+pub(crate) fn clear_rotary<T: Float>(m: &mut ElementMoments<T>) {
     m.rot = Matrix3::zeros();
     m.rot_w = [Vector3::zeros(); 3];
     m.rot_ww = Matrix3::zeros();
@@ -412,7 +415,7 @@ fn moments_batch(
 }
 
 /// `W l` exactly as the generated functions' prologue computes it (their branch test).
-fn element_wl(d: &[f64; 3], l: f64) -> f64 {
+pub(crate) fn element_wl(d: &[f64; 3], l: f64) -> f64 {
     superhelix_kernels::math::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) * l
 }
 

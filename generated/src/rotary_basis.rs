@@ -6,6 +6,7 @@
 //   low-degree Taylor branch (W*l < 0.5, degree 14, agreement with the Taylor branch 5.00e-16, truncation 3.36e-16): 1087 adds, 2072 muls, 0 divs, 0 trig, 0 sqrt (3159 total) (before CSE: 26599 total)
 //   Taylor branch: 2834 adds, 2770 muls, 0 divs, 0 trig, 0 sqrt (5604 total) (before CSE: 56551 total)
 //   closed branch: 875 adds, 1684 muls, 1 divs, 1 trig, 0 sqrt (2561 total) (before CSE: 92981 total)
+use superhelix_kernels::lane::{Lane as _, Lanes};
 use superhelix_kernels::lanes::F4;
 #[allow(unused_imports)]
 use superhelix_kernels::math::Elementary as _;
@@ -4001,6 +4002,27 @@ fn rotary_basis_closed_x4_avx2(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
 )]
 #[inline(always)]
 fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
+    let d = [Lanes(d[0].0), Lanes(d[1].0), Lanes(d[2].0)];
+    let mut lanes = [Lanes([0.0; 4]); 63];
+    rotary_basis_closed_lanes::<4>(&d, Lanes(l.0), &mut lanes);
+    for (o, x) in out.iter_mut().zip(&lanes) {
+        *o = F4(x.0);
+    }
+}
+#[doc = " The closed-form branch of [`rotary_basis`] for W elements at once, one per lane: lane k of `out` is, bit for bit, [`rotary_basis`] of lane k of `d` and `l` when its `W l ≥` [`ROTARY_BASIS_SWITCH`] (below, the closed form loses digits to cancellation: callers take [`rotary_basis`] there). Inlined into its caller, which chooses the vector width by compiling it inside a `#[target_feature]` function."]
+#[allow(
+    unused_variables,
+    clippy::all,
+    clippy::pedantic,
+    clippy::excessive_precision,
+    clippy::unreadable_literal
+)]
+#[inline(always)]
+pub fn rotary_basis_closed_lanes<const W: usize>(
+    d: &[Lanes<f64, W>; 3],
+    l: Lanes<f64, W>,
+    out: &mut [Lanes<f64, W>; 63],
+) {
     let d0 = d[0];
     let d1 = d[1];
     let d2 = d[2];
@@ -4029,7 +4051,7 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     let c19 = -4.0 * c18;
     let c20 = dl1 * dl1;
     let c21 = -2.0 * c13 * c20;
-    out[0] = F4::from(l * (1.0 + c15 + c20 * (c19 + c21)));
+    out[0] = Lanes::<f64, W>::from(l * (1.0 + c15 + c20 * (c19 + c21)));
     let c22 = -c2 * c4;
     let c23 = -1.3333333333333333 * (c4 + c22);
     let c24 = c2 * c2;
@@ -4040,22 +4062,25 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     let c29 = c14 * c28;
     let c30 = c23 + c29;
     let c31 = c13 * c20;
-    out[1] =
-        F4::from(2.0 * l * (dl0 * dl1 * (c16 + c17 + c31) - 0.375 * (dl2 * c30 + dl2 * c20 * c28)));
+    out[1] = Lanes::<f64, W>::from(
+        2.0 * l * (dl0 * dl1 * (c16 + c17 + c31) - 0.375 * (dl2 * c30 + dl2 * c20 * c28)),
+    );
     let c32 = c20 * c28;
     let c33 = dl2 * c13 * c20;
-    out[2] = F4::from(2.0 * l * (0.375 * dl1 * (c23 + c29 + c32) + dl0 * (dl2 * c18 + c33)));
+    out[2] = Lanes::<f64, W>::from(
+        2.0 * l * (0.375 * dl1 * (c23 + c29 + c32) + dl0 * (dl2 * c18 + c33)),
+    );
     let c34 = 2.0 * c1 * c2 * c5 - 2.0 * c4;
     let c35 = 0.125 * c14 * c34;
     let c36 = -0.75 * dl1 * dl2 * c28;
     let c37 = dl0 * c13 * c20;
-    out[3] = F4::from(-2.0 * l * (c35 + dl0 * (c36 + c37)));
+    out[3] = Lanes::<f64, W>::from(-2.0 * l * (c35 + dl0 * (c36 + c37)));
     let c38 = dl0 * (0.375 * (c32 - c14 * c28) + dl0 * dl1 * dl2 * c13) - 0.125 * dl1 * dl2 * c34;
-    out[4] = F4::from(-2.0 * l * c38);
+    out[4] = Lanes::<f64, W>::from(-2.0 * l * c38);
     let c39 = 0.125 * c20 * c34;
     let c40 = 0.75 * dl1 * dl2 * c28;
     let c41 = dl0 * c13 * c14;
-    out[5] = F4::from(-2.0 * l * (c39 + dl0 * (c40 + c41)));
+    out[5] = Lanes::<f64, W>::from(-2.0 * l * (c39 + dl0 * (c40 + c41)));
     let c42 = -8.0 * c1 * c5;
     let c43 = c4 * (c4 + 6.0) + c42 - c9 * c25;
     let c44 = 2.0 * c2 * c25 - c2;
@@ -4087,7 +4112,7 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
         * (1.0 + c50 + c20 * (c20 * (c54 - 6.25 * c53) - 6.25 * c52)
             - 4.166666666666667 * (0.5 * c14 * c58 + c20 * (c51 + c59 + c60)) * c61)
         * c62;
-    out[6] = F4::from(c63);
+    out[6] = Lanes::<f64, W>::from(c63);
     let c64 = 0.8 * (c6 + c22);
     let c65 = 4.0 * c1 * c24 - c1;
     let c66 = c10 * c65;
@@ -4125,7 +4150,7 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     let c90 = dl1 * (c80 + c84 + c20 * (c85 + 2.0 * c87))
         + dl0 * (1.2 * (c88 + c72 * c89) + dl0 * dl1 * (c51 + c85));
     let c91 = 2.4 * (0.5 * dl2 * c76 + c20 * (dl2 * c77 + 0.5 * dl2 * c20 * c72)) + dl0 * c90;
-    out[7] = F4::from(1.0416666666666667 * c62 * c91);
+    out[7] = Lanes::<f64, W>::from(1.0416666666666667 * c62 * c91);
     let c92 = c20 * c72;
     let c93 = 2.0 * c77 + c92;
     let c94 = c80 + c84;
@@ -4135,7 +4160,9 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     let c98 = 0.5 * dl2 * c94
         + c20 * c96
         + dl0 * (0.5 * dl0 * (c97 + c49 * c89) - 0.6 * dl1 * (c73 + c92));
-    out[8] = F4::from(2.0833333333333335 * c62 * (dl0 * c98 - 0.6 * dl1 * (c64 + c75 + c20 * c93)));
+    out[8] = Lanes::<f64, W>::from(
+        2.0833333333333335 * c62 * (dl0 * c98 - 0.6 * dl1 * (c64 + c75 + c20 * c93)),
+    );
     let c99 = c6 - 0.5 * c4 - 0.5 * c2 * c4;
     let c100 = 0.4 * c99;
     let c101 = -0.3333333333333333 * c2 * c9;
@@ -4163,7 +4190,7 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
         * (dl1 * (c111 + c114 + c20 * (c85 + 2.0 * c116))
             + dl0 * (4.8 * (c117 + dl2 * c120) + dl0 * dl1 * (c51 + c85 + c57)));
     let c122 = 9.6 * (0.5 * dl2 * c108 + c20 * (dl2 * c109 + 0.5 * dl2 * c20 * c104)) + c121;
-    out[9] = F4::from(1.0416666666666667 * c62 * c122);
+    out[9] = Lanes::<f64, W>::from(1.0416666666666667 * c62 * c122);
     let c123 = c4 - 0.4;
     let c124 = c4 * c123 + 0.8 * c1 * c2 * c5 + 0.6 * c9 * c25 - 1.6 * c2 * c9;
     let c125 = -0.45454545454545453 * c124;
@@ -4187,7 +4214,7 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     let c136 = 6.0 * dl1 * dl2 * c130;
     let c137 = dl0 * c20 * c49;
     let c138 = c129 + dl0 * (c133 + dl0 * (c134 + c135 + dl0 * (c136 + c137)));
-    out[10] = F4::from(-1.0416666666666667 * c62 * c138);
+    out[10] = Lanes::<f64, W>::from(-1.0416666666666667 * c62 * c138);
     let c139 = 1.32 * dl1 * (dl2 * c128 + dl2 * c20 * c126);
     let c140 = c12 + c101 - 0.125 * (c11 + 4.0 * c9) + 0.08333333333333333 * c9 * c25;
     let c141 = c105 - 0.6 * c140;
@@ -4202,7 +4229,7 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     let c148 = dl0 * dl1 * dl2 * c49;
     let c149 = c147 + dl0 * (c148 - 1.2 * (c92 - 4.0 * c14 * c104));
     let c150 = c139 + dl0 * (3.6 * (1.3333333333333333 * c14 * c141 + c20 * c144) + dl0 * c149);
-    out[11] = F4::from(-1.0416666666666667 * c62 * c150);
+    out[11] = Lanes::<f64, W>::from(-1.0416666666666667 * c62 * c150);
     let c151 = c20 * c104;
     let c152 = 2.0 * c109 + c151;
     let c153 = c111 + c114;
@@ -4211,18 +4238,20 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
         * (0.5 * dl2 * c153
             + c20 * c154
             + dl0 * (0.5 * dl0 * (c97 + dl2 * c58) - 2.4 * dl1 * (c105 + c119 + c151)));
-    out[12] = F4::from(2.0833333333333335 * c62 * (c155 - 2.4 * dl1 * (c100 + c107 + c20 * c152)));
+    out[12] = Lanes::<f64, W>::from(
+        2.0833333333333335 * c62 * (c155 - 2.4 * dl1 * (c100 + c107 + c20 * c152)),
+    );
     let c156 = c143 - 0.8 * c140 + 1.3333333333333333 * c20 * c104;
     let c157 = c147 + dl0 * (c148 - 4.8 * (c151 - 0.25 * c14 * c72));
     let c158 = c139 + dl0 * (dl0 * c157 - 3.6 * (c20 * c156 - 0.3333333333333333 * c14 * c74));
-    out[13] = F4::from(-1.0416666666666667 * c62 * c158);
+    out[13] = Lanes::<f64, W>::from(-1.0416666666666667 * c62 * c158);
     let c159 = -1.32 * c20 * (c125 + c127 + c20 * c126);
     let c160 = -6.0 * dl1 * c132;
     let c161 = c20 * (c51 - 1.32 * c126);
     let c162 = -6.0 * dl1 * dl2 * c130;
     let c163 = dl0 * c14 * c49;
     let c164 = c159 + dl0 * (c160 + dl0 * (c84 + c161 + dl0 * (c162 + c163)));
-    out[14] = F4::from(-1.0416666666666667 * c62 * c164);
+    out[14] = Lanes::<f64, W>::from(-1.0416666666666667 * c62 * c164);
     let c165 = c11 + c42 + 5.333333333333333 * c4 - 2.0 * c9 * c25;
     let c166 = 2.0 * c2 * c65 - 2.0 * c1 * c2;
     let c167 = c47 * c166;
@@ -4280,7 +4309,7 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
         * (0.3333333333333333 * c14 * c195 + c20 * (c197 + c200 + c20 * (c182 + c201 + c202)))
         + 6.0 * c61 * (0.5 * c179 * c203 + c20 * (c182 + 0.5 * c20 * c179));
     let c205 = c62 * l;
-    out[15] = F4::from(0.3333333333333333 * (1.0 + c181 + c190 + c61 * c204) * c205);
+    out[15] = Lanes::<f64, W>::from(0.3333333333333333 * (1.0 + c181 + c190 + c61 * c204) * c205);
     let c206 = c4 - 0.3333333333333333;
     let c207 = c78 + c4 * (c4 + 0.16666666666666666) - c2 * c4 * c206;
     let c208 = -0.6967741935483871 * c207;
@@ -4346,7 +4375,8 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
         + dl0 * (dl0 * dl1 * (c182 + c233) - 4.305555555555555 * (c247 + c89 * c214));
     let c249 =
         dl0 * c248 - 17.22222222222222 * (0.5 * dl2 * c241 + c20 * (c244 + 0.5 * dl2 * c20 * c214));
-    out[16] = F4::from(-c205 * (dl0 * (c234 + dl0 * c249) - 12.916666666666666 * c223));
+    out[16] =
+        Lanes::<f64, W>::from(-c205 * (dl0 * (c234 + dl0 * c249) - 12.916666666666666 * c223));
     let c250 = c20 * c214;
     let c251 =
         1.4351851851851851 * dl1 * (c208 + c219 + c20 * (3.0 * c221 + c20 * (3.0 * c222 + c250)));
@@ -4365,7 +4395,7 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
         dl0 * (2.8703703703703702 * dl1 * (c237 + c240 + c20 * (c250 + 2.0 * c243)) + dl0 * c258);
     let c260 =
         c251 + dl0 * (0.3333333333333333 * dl2 * c252 + c20 * (c253 + c20 * (c254 + c255)) + c259);
-    out[17] = F4::from(-3.0 * c205 * c260);
+    out[17] = Lanes::<f64, W>::from(-3.0 * c205 * c260);
     let c261 = c12 - 0.15625 * (2.4 * c4 * (c4 + 0.1111111111111111) + 2.0 * c1 * c2 * c5 * c123)
         + 0.1875 * c9 * c25
         - 0.5 * c2 * c9;
@@ -4417,7 +4447,7 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     let c284 = dl0
         * (dl0 * (c282 + dl0 * (c283 - 8.61111111111111 * dl1 * dl2 * c214))
             - 17.22222222222222 * dl1 * c280);
-    out[18] = F4::from(
+    out[18] = Lanes::<f64, W>::from(
         c205 * (c269 + dl0 * (dl0 * (c274 + c279 + c284) - 8.61111111111111 * dl1 * c273)),
     );
     let c285 = c14 * c271;
@@ -4456,7 +4486,7 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
         + dl0 * (8.61111111111111 * (c20 * (c238 + c250) - c14 * c239) + dl0 * c299);
     let c301 = 12.0 * dl1 * (dl2 * c267 + c20 * (2.0 * dl2 * c268 + dl2 * c20 * c264))
         + dl0 * (c289 + dl0 * c300);
-    out[19] = F4::from(c205 * c301);
+    out[19] = Lanes::<f64, W>::from(c205 * c301);
     let c302 = -6.0 * c20 * (c262 + c266 + c20 * (2.0 * c268 + c20 * c264));
     let c303 = 4.305555555555555 * dl1 * c273;
     let c304 = c227 + c276;
@@ -4470,45 +4500,46 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     let c312 = 4.305555555555555 * dl1 * dl2 * c214;
     let c313 = 0.5 * dl0 * c14 * c179;
     let c314 = c305 + c309 + dl0 * (c310 + dl0 * (c187 + c311 + dl0 * (c312 + c313)));
-    out[20] = F4::from(2.0 * c205 * (c302 + dl0 * (c303 + dl0 * c314)));
-    out[21] = F4::from(-2.0 * l * (c35 + dl0 * (c37 + c40)));
+    out[20] = Lanes::<f64, W>::from(2.0 * c205 * (c302 + dl0 * (c303 + dl0 * c314)));
+    out[21] = Lanes::<f64, W>::from(-2.0 * l * (c35 + dl0 * (c37 + c40)));
     let c315 = 2.0
         * l
         * (0.375 * dl2 * c30 + dl0 * (dl1 * c18 + dl0 * (0.375 * dl2 * c28 + dl0 * dl1 * c13)));
-    out[22] = F4::from(c315);
-    out[23] = F4::from(
+    out[22] = Lanes::<f64, W>::from(c315);
+    out[23] = Lanes::<f64, W>::from(
         -2.0 * l
             * (0.375 * dl1 * c14 * c28 + dl0 * (c33 - 0.125 * dl2 * c34 - 0.375 * dl0 * dl1 * c28)),
     );
     let c316 = -2.0 * c13 * c61;
-    out[24] = F4::from(l * (1.0 + c15 + c61 * (c19 + c316)));
+    out[24] = Lanes::<f64, W>::from(l * (1.0 + c15 + c61 * (c19 + c316)));
     let c317 = dl1 * dl2 * c13;
     let c318 = 2.0 * l * (dl1 * dl2 * c18 + dl0 * (dl0 * (c317 - 0.375 * dl0 * c28) - 0.375 * c30));
-    out[25] = F4::from(c318);
+    out[25] = Lanes::<f64, W>::from(c318);
     let c319 = c13 * c14 * c20;
     let c320 = 0.125 * dl0 * c34;
-    out[26] = F4::from(-2.0 * l * (c319 + dl0 * (c36 + c320)));
+    out[26] = Lanes::<f64, W>::from(-2.0 * l * (c319 + dl0 * (c36 + c320)));
     let c321 = c129 + dl0 * (c160 + dl0 * (c134 + c135 + dl0 * (c137 + c162)));
-    out[27] = F4::from(-1.0416666666666667 * c62 * c321);
+    out[27] = Lanes::<f64, W>::from(-1.0416666666666667 * c62 * c321);
     let c322 = dl0 * dl1 * c49;
     let c323 = dl0
         * (dl0 * (2.0 * dl1 * (c51 + c60 + c115) + dl0 * (c322 - 4.8 * dl2 * c104))
             - 4.8 * (c117 + 2.0 * dl2 * c109));
     let c324 =
         dl0 * (dl1 * (c111 + c114 + c20 * c58) + c323) - 4.8 * (dl2 * c108 + dl2 * c20 * c120);
-    out[28] = F4::from(1.0416666666666667 * c62 * c324);
+    out[28] = Lanes::<f64, W>::from(1.0416666666666667 * c62 * c324);
     let c325 = 1.32 * dl2 * c128;
     let c326 = c20 * c146;
     let c327 = 1.32 * dl2 * c126;
     let c328 =
         dl0 * (c325 + c326 + dl0 * (dl0 * (c97 + c327 + 1.2 * dl0 * dl1 * c72) - 3.6 * dl1 * c144));
-    out[29] =
-        F4::from(-1.0416666666666667 * c62 * (c328 - 4.8 * dl1 * (c14 * c141 + c14 * c20 * c104)));
+    out[29] = Lanes::<f64, W>::from(
+        -1.0416666666666667 * c62 * (c328 - 4.8 * dl1 * (c14 * c141 + c14 * c20 * c104)),
+    );
     let c329 = c14 * c20 * c49;
     let c330 = dl0
         * (dl0 * (2.0 * dl1 * (c51 + c60 + c86) + dl0 * (c322 - 1.2 * dl2 * c72))
             - 1.2 * (c88 + 2.0 * dl2 * c77));
-    out[30] = F4::from(
+    out[30] = Lanes::<f64, W>::from(
         1.0416666666666667
             * c62
             * (dl0 * (dl1 * (c80 + c84 + c329) + c330) - 1.2 * (dl2 * c76 + c20 * c72 * c89)),
@@ -4517,31 +4548,33 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     let c332 = c61
         * (c61 * (c331 - 2.0833333333333335 * (c85 + 3.0 * c53))
             - 4.166666666666667 * (1.5 * c52 + c20 * (c51 + c59)));
-    out[31] = F4::from(0.5 * c62 * (1.0 + c50 - 2.0833333333333335 * c14 * c20 * c58 + c332));
+    out[31] = Lanes::<f64, W>::from(
+        0.5 * c62 * (1.0 + c50 - 2.0833333333333335 * c14 * c20 * c58 + c332),
+    );
     let c333 = c14 * c20 * c72;
     let c334 = 0.5 * dl1 * dl2 * c49;
     let c335 = dl0 * (dl1 * c96 + dl0 * (0.6 * c93 + dl0 * (c334 + 0.6 * dl0 * c72)));
-    out[32] = F4::from(
+    out[32] = Lanes::<f64, W>::from(
         2.0833333333333335
             * c62
             * (0.5 * dl1 * (dl2 * c94 + c20 * c49 * c89) + dl0 * (0.6 * (c64 + c75 + c333) + c335)),
     );
     let c336 = dl0
         * (c325 + c326 + dl0 * (3.6 * dl1 * c156 + dl0 * (c97 + c327 + 4.8 * dl0 * dl1 * c104)));
-    out[33] = F4::from(-1.0416666666666667 * c62 * (c336 - 1.2 * dl1 * (c75 + c333)));
+    out[33] = Lanes::<f64, W>::from(-1.0416666666666667 * c62 * (c336 - 1.2 * dl1 * (c75 + c333)));
     let c337 = dl0 * (dl1 * c154 + dl0 * (2.4 * c152 + dl0 * (c334 + 2.4 * dl0 * c104)));
     let c338 = 0.5 * dl1 * (dl2 * c153 + dl2 * c20 * c58)
         + dl0 * (2.4 * (c100 + c107 + c20 * c120) + c337);
-    out[34] = F4::from(2.0833333333333335 * c62 * c338);
+    out[34] = Lanes::<f64, W>::from(2.0833333333333335 * c62 * c338);
     let c339 = c20 * (c84 + c329);
     let c340 = -1.32 * c128;
     let c341 = -1.32 * dl0 * c126;
     let c342 = c339 + dl0 * (c133 + dl0 * (c161 + c340 + dl0 * (c136 + c341)));
-    out[35] = F4::from(-1.0416666666666667 * c62 * c342);
+    out[35] = Lanes::<f64, W>::from(-1.0416666666666667 * c62 * c342);
     let c343 = dl0
         * (17.22222222222222 * dl1 * c280
             + dl0 * (c282 + dl0 * (c283 + 8.61111111111111 * dl1 * dl2 * c214)));
-    out[36] = F4::from(
+    out[36] = Lanes::<f64, W>::from(
         c205 * (c269 + dl0 * (8.61111111111111 * dl1 * c273 + dl0 * (c274 + c279 + c343))),
     );
     let c344 = c14 * c20 * c179;
@@ -4556,7 +4589,7 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     let c348 = dl0 * (dl1 * (c224 + c229 + c20 * (2.0 * c256 + c344)) + dl0 * c347);
     let c349 =
         8.61111111111111 * (0.5 * dl2 * c220 + c20 * (dl2 * c241 + 0.5 * c20 * c89 * c214)) + c348;
-    out[37] = F4::from(-c205 * c349);
+    out[37] = Lanes::<f64, W>::from(-c205 * c349);
     let c350 = 2.0 * (12.0 * dl2 * c268 + c20 * (c257 + dl2 * c295))
         + dl0
             * (dl0 * (c257 + 12.0 * dl2 * c264 - 4.305555555555555 * dl0 * dl1 * c214)
@@ -4567,14 +4600,14 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     let c352 = dl0 * (12.0 * dl2 * c267 + c20 * (c294 + c20 * (c257 + 2.0 * dl2 * c298)) + c351);
     let c353 =
         4.305555555555555 * dl1 * (c285 + c20 * (2.0 * c14 * c239 + c14 * c20 * c214)) + c352;
-    out[38] = F4::from(c205 * c353);
+    out[38] = Lanes::<f64, W>::from(c205 * c353);
     let c354 = 3.0 * c61 * c179;
     let c355 = 18.0 * (c184 + c187 + c20 * (c182 + c201 + 0.16666666666666666 * c20 * c179))
         + c61 * (6.0 * c246 + c354);
     let c356 = 18.0
         * (0.6666666666666666 * c183 + c20 * (c197 + c200 + 0.3333333333333333 * c14 * c20 * c179))
         + c61 * c355;
-    out[39] = F4::from(
+    out[39] = Lanes::<f64, W>::from(
         0.3333333333333333
             * c205
             * (1.0 + c181 + c20 * (6.0 * c14 * c195 + 3.0 * c20 * c179 * c203) + c61 * c356),
@@ -4592,7 +4625,7 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     let c361 =
         0.3333333333333333 * dl1 * (dl2 * c252 + c20 * (2.0 * dl2 * c256 + c20 * c89 * c179))
             + dl0 * c360;
-    out[40] = F4::from(-3.0 * c205 * c361);
+    out[40] = Lanes::<f64, W>::from(-3.0 * c205 * c361);
     let c362 = 0.5 * c20 * (c14 * c304 + c20 * (c344 + 2.0 * c14 * c186));
     let c363 = -4.305555555555555 * dl1 * c273;
     let c364 = -6.0 * c267;
@@ -4602,25 +4635,26 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     let c368 = -4.305555555555555 * dl1 * dl2 * c214;
     let c369 = -6.0 * dl0 * c264;
     let c370 = c364 + c365 + dl0 * (c366 + dl0 * (c367 + dl0 * (c368 + c369)));
-    out[41] = F4::from(2.0 * c205 * (c362 + dl0 * (c363 + dl0 * c370)));
-    out[42] = F4::from(-2.0 * l * (c39 + dl0 * (c36 + c41)));
+    out[41] = Lanes::<f64, W>::from(2.0 * c205 * (c362 + dl0 * (c363 + dl0 * c370)));
+    out[42] = Lanes::<f64, W>::from(-2.0 * l * (c39 + dl0 * (c36 + c41)));
     let c371 = -2.0
         * l
         * (dl0 * (dl1 * (c16 - 0.125 * c34) + 0.375 * dl0 * dl2 * c28) - 0.375 * dl2 * c20 * c28);
-    out[43] = F4::from(c371);
+    out[43] = Lanes::<f64, W>::from(c371);
     let c372 = c23 + c32;
     let c373 = -0.5 * dl2 * c7;
     let c374 = 2.0
         * l
         * (dl0 * (c33 + c373 + dl0 * (dl0 * dl2 * c13 - 0.375 * dl1 * c28)) - 0.375 * dl1 * c372);
-    out[44] = F4::from(c374);
-    out[45] = F4::from(-2.0 * l * (c319 + dl0 * (c40 + c320)));
+    out[44] = Lanes::<f64, W>::from(c374);
+    out[45] = Lanes::<f64, W>::from(-2.0 * l * (c319 + dl0 * (c40 + c320)));
     let c375 =
         2.0 * l * (dl1 * (c33 + c373) + dl0 * (0.375 * c372 + dl0 * (c317 + 0.375 * dl0 * c28)));
-    out[46] = F4::from(c375);
-    out[47] = F4::from(l * (1.0 + c20 * (c8 + c21) + c61 * (c316 - 4.0 * (c17 + c31))));
+    out[46] = Lanes::<f64, W>::from(c375);
+    out[47] =
+        Lanes::<f64, W>::from(l * (1.0 + c20 * (c8 + c21) + c61 * (c316 - 4.0 * (c17 + c31))));
     let c376 = c159 + dl0 * (c133 + dl0 * (c84 + c161 + dl0 * (c136 + c163)));
-    out[48] = F4::from(-1.0416666666666667 * c62 * c376);
+    out[48] = Lanes::<f64, W>::from(-1.0416666666666667 * c62 * c376);
     let c377 = c51 + 1.32 * c126;
     let c378 = dl1 * (c14 * c145 - 0.6 * c124 + c20 * c377);
     let c379 = dl2 * c20 * c142;
@@ -4630,7 +4664,8 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
             + dl0
                 * (3.6 * (c379 - 0.3333333333333333 * dl2 * c74)
                     + dl0 * (c380 - 1.2 * dl0 * dl2 * c72)));
-    out[49] = F4::from(-1.0416666666666667 * c62 * (4.8 * c20 * (c117 + dl2 * c141) + c381));
+    out[49] =
+        Lanes::<f64, W>::from(-1.0416666666666667 * c62 * (4.8 * c20 * (c117 + dl2 * c141) + c381));
     let c382 = c20 * (c103 + c105 + c151) - 0.6 * (c14 * c118 - 0.6666666666666666 * c99);
     let c383 = c14 * c56;
     let c384 = -0.24 * dl2 * (3.0 * c110 + c383);
@@ -4640,22 +4675,26 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     let c388 = dl0
         * (4.8 * dl1 * (c103 + c105 + 2.0 * c20 * c104)
             + dl0 * (2.0 * (c97 + 0.5 * dl2 * c113) + dl0 * (4.8 * dl1 * c104 + c387)));
-    out[50] = F4::from(1.0416666666666667 * c62 * (4.8 * dl1 * c382 + dl0 * (c384 + c386 + c388)));
+    out[50] = Lanes::<f64, W>::from(
+        1.0416666666666667 * c62 * (4.8 * dl1 * c382 + dl0 * (c384 + c386 + c388)),
+    );
     let c389 = dl0
         * (c378
             + dl0
                 * (dl0 * (c380 - 4.8 * dl0 * dl2 * c104)
                     - 3.6 * (c379 + 1.3333333333333333 * dl2 * c141)));
-    out[51] = F4::from(-1.0416666666666667 * c62 * (1.2 * c20 * (c88 + dl2 * c74) + c389));
+    out[51] =
+        Lanes::<f64, W>::from(-1.0416666666666667 * c62 * (1.2 * c20 * (c88 + dl2 * c74) + c389));
     let c390 = c339 + dl0 * (c160 + dl0 * (c161 + c340 + dl0 * (c162 + c341)));
-    out[52] = F4::from(-1.0416666666666667 * c62 * c390);
+    out[52] = Lanes::<f64, W>::from(-1.0416666666666667 * c62 * c390);
     let c391 = 2.0 * dl2 * c20 * c49;
     let c392 = dl1 * dl2 * c49;
     let c393 = dl0
         * (dl1 * (c385 + c391)
             + dl0 * (dl0 * (c392 - 4.8 * dl0 * c104) - 9.6 * (c151 + 0.5 * c106)));
-    out[53] =
-        F4::from(1.0416666666666667 * c62 * (dl1 * (c384 + c386) + dl0 * (c393 - 4.8 * c382)));
+    out[53] = Lanes::<f64, W>::from(
+        1.0416666666666667 * c62 * (dl1 * (c384 + c386) + dl0 * (c393 - 4.8 * c382)),
+    );
     let c394 = c64 + c20 * (c68 + c73 + c92);
     let c395 = 0.96 * dl2 * c79;
     let c396 = dl2 * c83;
@@ -4663,20 +4702,23 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     let c398 = dl0
         * (1.2 * dl1 * (c68 + c73 + 2.0 * c20 * c72)
             + dl0 * (2.0 * (c97 + 0.5 * dl2 * c83) + dl0 * (1.2 * dl1 * c72 + c387)));
-    out[54] = F4::from(1.0416666666666667 * c62 * (1.2 * dl1 * c394 + dl0 * (c395 + c397 + c398)));
+    out[54] = Lanes::<f64, W>::from(
+        1.0416666666666667 * c62 * (1.2 * dl1 * c394 + dl0 * (c395 + c397 + c398)),
+    );
     let c399 = dl0
         * (dl1 * (c391 + c396) + dl0 * (dl0 * (c392 - 1.2 * dl0 * c72) - 2.4 * (c92 + 0.5 * c74)));
-    out[55] =
-        F4::from(1.0416666666666667 * c62 * (dl1 * (c395 + c397) + dl0 * (c399 - 1.2 * c394)));
+    out[55] = Lanes::<f64, W>::from(
+        1.0416666666666667 * c62 * (dl1 * (c395 + c397) + dl0 * (c399 - 1.2 * c394)),
+    );
     let c400 = c383 - c43;
     let c401 = c61 * (c331 - 6.25 * (c85 + 0.3333333333333333 * c113))
         - 4.166666666666667 * (c20 * (c51 + c112 + 1.5 * c20 * c49) - 0.12 * c400);
     let c402 = 0.5
         * c62
         * (1.0 + c20 * (0.5 * c400 + c20 * (c54 - 2.0833333333333335 * c113)) + c61 * c401);
-    out[56] = F4::from(c402);
+    out[56] = Lanes::<f64, W>::from(c402);
     let c403 = c305 + c309 + dl0 * (c366 + dl0 * (c187 + c311 + dl0 * (c313 + c368)));
-    out[57] = F4::from(2.0 * c205 * (c302 + dl0 * (c363 + dl0 * c403)));
+    out[57] = Lanes::<f64, W>::from(2.0 * c205 * (c302 + dl0 * (c363 + dl0 * c403)));
     let c404 = -7.0 * c263;
     let c405 = c14 * c295;
     let c406 = c182 + 12.0 * c264;
@@ -4692,7 +4734,7 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
                     + dl0 * (dl1 * c406 + 4.305555555555555 * dl0 * dl2 * c214)));
     let c410 = c20 * c20;
     let c411 = c408 + dl0 * (c409 - 4.305555555555555 * (dl2 * c214 * c410 - dl2 * c271));
-    out[58] = F4::from(c205 * (dl0 * c411 - 4.305555555555555 * c20 * c273));
+    out[58] = Lanes::<f64, W>::from(c205 * (dl0 * c411 - 4.305555555555555 * c20 * c273));
     let c412 = 0.9290322580645162 * (c14 * c236 - 0.75 * c207)
         + c20 * (c211 + c217 + c20 * (c250 + 2.0 * c239));
     let c413 = c14 * c196;
@@ -4709,9 +4751,11 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
     let c420 = 4.0 * (0.25 * dl2 * c228 + c20 * (c418 + 0.75 * dl2 * c20 * c179)) + c419;
     let c421 = dl0 * c420
         - 4.305555555555555 * dl1 * (c211 + c217 + c20 * (4.0 * c239 + 3.0 * c20 * c214));
-    out[59] = F4::from(-c205 * (dl0 * (c415 + c417 + dl0 * c421) - 4.305555555555555 * dl1 * c412));
+    out[59] = Lanes::<f64, W>::from(
+        -c205 * (dl0 * (c415 + c417 + dl0 * c421) - 4.305555555555555 * dl1 * c412),
+    );
     let c422 = c364 + c365 + dl0 * (c310 + dl0 * (c367 + dl0 * (c312 + c369)));
-    out[60] = F4::from(2.0 * c205 * (c362 + dl0 * (c303 + dl0 * c422)));
+    out[60] = Lanes::<f64, W>::from(2.0 * c205 * (c362 + dl0 * (c303 + dl0 * c422)));
     let c423 = dl0
         * (2.0 * dl1 * (c418 + 1.5 * dl2 * c20 * c179)
             + dl0
@@ -4719,13 +4763,15 @@ fn rotary_basis_closed_x4_body(d: &[F4; 3], l: F4, out: &mut [F4; 63]) {
                     + dl0 * (dl1 * dl2 * c179 + 4.305555555555555 * dl0 * c214)));
     let c424 = 17.22222222222222 * (0.25 * c218 + c20 * (c215 + c238 + 0.75 * c20 * c214)) + c423;
     let c425 = dl1 * (c416 + c20 * (4.0 * dl2 * c186 + 3.0 * dl2 * c20 * c179)) + dl0 * c424;
-    out[61] =
-        F4::from(-c205 * (dl1 * (c415 + c417) + dl0 * (4.305555555555555 * c412 + dl0 * c425)));
+    out[61] = Lanes::<f64, W>::from(
+        -c205 * (dl1 * (c415 + c417) + dl0 * (4.305555555555555 * c412 + dl0 * c425)),
+    );
     let c426 = 0.5 * c169;
     let c427 = c227 + c426;
     let c428 = c20 * (6.0 * c414 + c20 * (3.0 * c427 + c20 * (c189 + 6.0 * c186)));
     let c429 = c224 + c413 + c20 * (c227 + c426 + c20 * (3.0 * c186 + 2.0 * c20 * c179));
     let c430 = c61
         * (18.0 * (c281 + 0.16666666666666666 * c427) + c61 * (c354 + 12.0 * (c233 + 0.5 * c186)));
-    out[62] = F4::from(0.3333333333333333 * c205 * (1.0 + c428 + c61 * (6.0 * c429 + c430)));
+    out[62] =
+        Lanes::<f64, W>::from(0.3333333333333333 * c205 * (1.0 + c428 + c61 * (6.0 * c429 + c430)));
 }

@@ -12,9 +12,14 @@
 //!
 //! A branch of the scalar step becomes a [`Lane::select`] of both sides (both computed)
 //! where they are cheap, or a test of [`Mask::any`] around the rare side. This is the
-//! first part of the plan; the step does not compute in lanes yet.
+//! first part of the plan; the step does not compute in lanes yet. An `f64` or `f32` on
+//! either side of an operation with lanes of its type acts on every lane, so that code
+//! written for one element runs on lanes unchanged (the generated closed forms' `*_lanes`
+//! copies).
 
 use crate::float::Float;
+
+pub mod lu;
 use core::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
 /// Which lanes a comparison held for.
@@ -125,6 +130,38 @@ macro_rules! lane_wise {
 }
 
 lane_wise!(Add add +, Sub sub -, Mul mul *, Div div /);
+
+// a scalar on either side acts on every lane, its operand order kept (`2.0 * x` is
+// `[2.0 * x₀, …]`): the generated closed forms run on lanes as written for one element
+macro_rules! scalar_wise {
+    ($scalar:ty: $($trait:ident $method:ident $op:tt),*) => {$(
+        impl<const W: usize> $trait<$scalar> for Lanes<$scalar, W> {
+            type Output = Self;
+            #[inline(always)]
+            fn $method(self, rhs: $scalar) -> Self {
+                Lanes(self.0.map(|x| x $op rhs))
+            }
+        }
+        impl<const W: usize> $trait<Lanes<$scalar, W>> for $scalar {
+            type Output = Lanes<$scalar, W>;
+            #[inline(always)]
+            fn $method(self, rhs: Lanes<$scalar, W>) -> Lanes<$scalar, W> {
+                Lanes(rhs.0.map(|x| self $op x))
+            }
+        }
+    )*
+        impl<const W: usize> From<$scalar> for Lanes<$scalar, W> {
+            /// `x` in every lane.
+            #[inline(always)]
+            fn from(x: $scalar) -> Self {
+                Lanes([x; W])
+            }
+        }
+    };
+}
+
+scalar_wise!(f64: Add add +, Sub sub -, Mul mul *, Div div /);
+scalar_wise!(f32: Add add +, Sub sub -, Mul mul *, Div div /);
 
 impl<T: Float, const W: usize> Neg for Lanes<T, W> {
     type Output = Self;
@@ -257,6 +294,26 @@ mod tests {
                 assert!(same(chosen, if x < y { x } else { y }));
             }
         }
+    }
+
+    /// A scalar on either side of an operation acts on every lane in its order.
+    #[test]
+    fn scalars_act_on_every_lane_in_order() {
+        for &y in &VALUES {
+            let a = Lanes::<f64, 8>::from_fn(|k| VALUES[k]);
+            for k in 0..8 {
+                let x = VALUES[k];
+                assert!(same((a + y).lane(k), x + y));
+                assert!(same((y - a).lane(k), y - x));
+                assert!(same((a - y).lane(k), x - y));
+                assert!(same((y * a).lane(k), y * x));
+                assert!(same((y / a).lane(k), y / x));
+                assert!(same((a / y).lane(k), x / y));
+                assert!(same(Lanes::<f64, 8>::from(y).lane(k), y));
+            }
+        }
+        let b = Lanes::<f32, 16>::from_fn(|k| k as f32 - 3.5);
+        assert_eq!((1.5f32 - b).lane(2).to_bits(), (1.5f32 - -1.5).to_bits());
     }
 
     /// A comparison with a NaN holds in no lane; the mask operations are lane-wise.
