@@ -4,7 +4,9 @@
 //! the step without its checks (`fixed::linearly_implicit`), the terms (`fixed::evaluate`)
 //! and the element moments alone; and the same strand's step, step without checks and
 //! element moments in f32 (`*_f32`: the f32 strand, workspace and step on the generated
-//! f32 closed forms).
+//! f32 closed forms). Group `lu_15`: the step's LU of 8 matrices of 15 × 15 (N = 5),
+//! one after the other (`fixed::lu_solve`) against 8 lanes at once
+//! (`lane::lu::lu_solve_lanes`, W = 4 and 8).
 //! `cargo bench -p superhelix-runtime --bench fixed_step`.
 
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -174,5 +176,78 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench);
+/// The LU of 8 step matrices of N = 5 (diagonally weighted, as M/h² + K makes them),
+/// one at a time against in lanes.
+fn lu(c: &mut Criterion) {
+    use superhelix_kernels::lane::lu::lu_solve_lanes;
+    use superhelix_kernels::lane::Lanes;
+    use superhelix_kernels::storage::Square;
+    let mut group = c.benchmark_group("lu_15");
+    group
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2))
+        .sample_size(40);
+    let mut s = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    };
+    let mats: Vec<[[f64; D]; D]> = (0..8)
+        .map(|_| {
+            let mut m: [[f64; D]; D] = core::array::from_fn(|_| core::array::from_fn(|_| next()));
+            for (i, col) in m.iter_mut().enumerate() {
+                col[i] += 4.0;
+            }
+            m
+        })
+        .collect();
+    let rhs: Vec<[f64; D]> = (0..8).map(|_| core::array::from_fn(|_| next())).collect();
+    group.bench_function("scalar_x8", |b| {
+        b.iter(|| {
+            let mut sum = 0.0;
+            for (m, r) in mats.iter().zip(&rhs) {
+                let (mut a, mut x, mut piv) = (*m, *r, [0usize; D]);
+                fixed::lu_solve(&mut Square::of_array(&mut a), &mut x, &mut piv);
+                sum += x[0];
+            }
+            black_box(sum)
+        })
+    });
+    macro_rules! width {
+        ($w:literal) => {{
+            let lanes: Vec<([[Lanes<f64, $w>; D]; D], [Lanes<f64, $w>; D])> = mats
+                .chunks($w)
+                .zip(rhs.chunks($w))
+                .map(|(m, r)| {
+                    (
+                        core::array::from_fn(|c| {
+                            core::array::from_fn(|row| {
+                                Lanes(core::array::from_fn(|k| m[k][c][row]))
+                            })
+                        }),
+                        core::array::from_fn(|row| Lanes(core::array::from_fn(|k| r[k][row]))),
+                    )
+                })
+                .collect();
+            group.bench_function(concat!("lanes_", $w), |b| {
+                b.iter(|| {
+                    let mut sum = 0.0;
+                    for (m, r) in &lanes {
+                        let (mut a, mut x, mut piv) = (*m, *r, [[0u8; $w]; D]);
+                        lu_solve_lanes(&mut a, &mut x, &mut piv);
+                        sum += x[0].0[0];
+                    }
+                    black_box(sum)
+                })
+            });
+        }};
+    }
+    width!(4);
+    width!(8);
+    group.finish();
+}
+
+criterion_group!(benches, bench, lu);
 criterion_main!(benches);
