@@ -627,11 +627,14 @@ fn rotary_points_function(code: &PointCode) -> TokenStream {
     let nr = lit(radial.len());
     let (radial_body, shared_body) = (&code.radial_body, &code.shared_body);
     let mut stores: Vec<TokenStream> = Vec::new();
+    // the same stores for W lanes (`element_rotary_points_lanes`)
+    let mut lane_stores: Vec<TokenStream> = Vec::new();
     for c in 0..3 {
         for r in 0..3 {
             let v = ident(&format!("frame_{r}{c}"));
             let (c, r) = (lit(c), lit(r));
             stores.push(quote!(out.frame[#c][#r] = F4::from(#v);));
+            lane_stores.push(quote!(out.frame[#c][#r] = Lanes::<f64, W>::from(#v);));
         }
     }
     // w_0 = p and ∂w_0/∂d_j = ∂p/∂d_j are generated once, under p's names
@@ -644,6 +647,7 @@ fn rotary_points_function(code: &PointCode) -> TokenStream {
             };
             let (i, m) = (lit(i), lit(m));
             stores.push(quote!(out.w[#i][#m] = F4::from(#v);));
+            lane_stores.push(quote!(out.w[#i][#m] = Lanes::<f64, W>::from(#v);));
         }
     }
     for i in 0..3 {
@@ -656,6 +660,7 @@ fn rotary_points_function(code: &PointCode) -> TokenStream {
                 };
                 let (i, j, m) = (lit(i), lit(j), lit(m));
                 stores.push(quote!(out.dw[#i][#j][#m] = F4::from(#v);));
+                lane_stores.push(quote!(out.dw[#i][#j][#m] = Lanes::<f64, W>::from(#v);));
             }
         }
     }
@@ -684,11 +689,49 @@ fn rotary_points_function(code: &PointCode) -> TokenStream {
             #(#stores)*
         },
     );
+    // the same at one abscissa of each of W elements (element k of W strands): each
+    // lane's radial functions on their own, the polynomial part once on the W lanes with
+    // d as lanes too
+    let doc_lanes =
+        " [`element_rotary_point_into`] of W elements at once, lane k at Darboux vector \
+                     `(d[0], d[1], d[2])` and abscissa `u` of lane k (element k of W strands), \
+                     into lane k of `out`: the same bits, lane by lane, as the one-point \
+                     function. Each lane's radial functions are taken on their own (the switch \
+                     is per lane); the polynomial part runs once on the W lanes. Inlined into \
+                     its caller, which chooses the vector width by compiling it inside a \
+                     `#[target_feature]` function. Allocation-free and panic-free.";
+    let attrs = crate::emit::generated_attrs();
     quote! {
-        use superhelix_kernels::element::RotaryPoints;
+        use superhelix_kernels::element::{LaneRotaryPoints, RotaryPoints};
+        use superhelix_kernels::lane::Lanes;
         use superhelix_kernels::lanes::F4;
 
         #function
+
+        #[doc = #doc_lanes]
+        #attrs
+        #[inline(always)]
+        pub fn element_rotary_points_lanes<const W: usize>(
+            d: &[Lanes<f64, W>; 3],
+            u: Lanes<f64, W>,
+            out: &mut LaneRotaryPoints<W>,
+        ) {
+            let mut lanes = [[0.0f64; W]; #nr];
+            for k in 0..W {
+                let d0 = d[0].0[k];
+                let d1 = d[1].0[k];
+                let d2 = d[2].0[k];
+                let u = u.0[k];
+                #radial_body
+                #(lanes[#slots][k] = #radial;)*
+            }
+            let d0 = d[0];
+            let d1 = d[1];
+            let d2 = d[2];
+            #(let #radial = Lanes(lanes[#slots]);)*
+            #shared_body
+            #(#lane_stores)*
+        }
     }
 }
 

@@ -229,7 +229,8 @@ fn element_rotary_point_into_body(d: &Vector3<f64>, u: f64, out: &mut ElementPoi
         ],
     ];
 }
-use superhelix_kernels::element::RotaryPoints;
+use superhelix_kernels::element::{LaneRotaryPoints, RotaryPoints};
+use superhelix_kernels::lane::Lanes;
 use superhelix_kernels::lanes::F4;
 #[doc = " [`element_rotary_point_into`] at up to four abscissae `u[k]` of one element (any beyond the fourth are ignored), into lane k of `out`: the same bits, lane by lane, as the one-point function. Each lane's radial functions are taken on their own (the switch is per abscissa); the polynomial part runs once on four lanes. The lanes beyond `u.len()` hold finite values of no meaning. Allocation-free and panic-free."]
 #[allow(
@@ -473,4 +474,228 @@ fn element_rotary_points_into_body(d: &Vector3<f64>, u: &[f64], out: &mut Rotary
     out.dw[2][2][0] = F4::from(dw_2_2_0);
     out.dw[2][2][1] = F4::from(dw_2_2_1);
     out.dw[2][2][2] = F4::from(dw_2_2_2);
+}
+#[doc = " [`element_rotary_point_into`] of W elements at once, lane k at Darboux vector `(d[0], d[1], d[2])` and abscissa `u` of lane k (element k of W strands), into lane k of `out`: the same bits, lane by lane, as the one-point function. Each lane's radial functions are taken on their own (the switch is per lane); the polynomial part runs once on the W lanes. Inlined into its caller, which chooses the vector width by compiling it inside a `#[target_feature]` function. Allocation-free and panic-free."]
+#[allow(
+    unused_variables,
+    clippy::all,
+    clippy::pedantic,
+    clippy::excessive_precision,
+    clippy::unreadable_literal
+)]
+#[inline(always)]
+pub fn element_rotary_points_lanes<const W: usize>(
+    d: &[Lanes<f64, W>; 3],
+    u: Lanes<f64, W>,
+    out: &mut LaneRotaryPoints<W>,
+) {
+    let mut lanes = [[0.0f64; W]; 5];
+    for k in 0..W {
+        let d0 = d[0].0[k];
+        let d1 = d[1].0[k];
+        let d2 = d[2].0[k];
+        let u = u.0[k];
+        let z = u * u * (d0 * d0 + d1 * d1 + d2 * d2);
+        let (a0, b0, b1, c0, c1) = if z < ELEMENT_ROTARY_POINT_SWITCH * ELEMENT_ROTARY_POINT_SWITCH
+        {
+            let s1 = z
+                * (z * (9.635426302092969e-8
+                    + z * (2.3616240936502374e-12 * z - 5.505957886910268e-10))
+                    - 0.000012025012025012024);
+            let s2 = z
+                * (5.511463844797178e-7
+                    + z * (z * (2.294149119545945e-11 - 9.55895466477477e-14 * z)
+                        - 4.17535139757362e-9));
+            let s3 = 1.0
+                + z * (z * (0.002777777777777778 + z * (s2 - 0.0000496031746031746))
+                    - 0.08333333333333333);
+            let s4 = z
+                * (2.505210838544172e-7
+                    + z * (z * (8.029521918410807e-12 - 2.998887737968556e-14 * z)
+                        - 1.6517873660730804e-9));
+            let s5 = 1.0
+                + z * (z * (0.0017857142857142857 + z * (s4 - 0.000026455026455026456))
+                    - 0.06666666666666667);
+            let s6 = z
+                * (1.5031265031265032e-7
+                    + z * (z * (4.58829823909189e-12 - 1.6868743526073125e-14 * z)
+                        - 9.635426302092969e-10));
+            let s7 =
+                1.0 + z * (z * (0.0011904761904761906 + z * (s6 - 0.000016534391534391536)) - 0.05);
+            let s8 = z
+                * (z * (1.6059043836821613e-10
+                    + z * (2.8114572543455206e-15 * z - 7.647163731819816e-13))
+                    - 2.505210838544172e-8);
+            let s9 = z
+                * (0.008333333333333333
+                    + z * (z * (2.7557319223985893e-6 + s8) - 0.0001984126984126984))
+                - 0.16666666666666666;
+            let s10 = u * u;
+            let s11 = s10 * s10;
+            let s12 = s10 * u;
+            let s13 = s11 * u;
+            (
+                u * (1.0 + z * s9),
+                0.5 * s10 * s3,
+                -0.08333333333333333 * s11 * s5,
+                0.16666666666666666 * s12 * s7,
+                -0.016666666666666666
+                    * s13
+                    * (1.0 + z * (z * (0.000992063492063492 + s1) - 0.047619047619047616)),
+            )
+        } else {
+            let x = z.sqrt();
+            let (q1, q2) = x.sin_cos();
+            let q3 = 1.0 / x;
+            let q4 = q3 * q3;
+            let q5 = u * u;
+            let q6 = q4 * q4;
+            let q7 = q4 * q3;
+            let q8 = q5 * q5;
+            let q9 = q5 * u;
+            let q10 = q6 * q3;
+            let q11 = q8 * u;
+            (
+                u * q1 * q3,
+                (q4 - q2 * q4) * q5,
+                -2.0 * (q6 - 0.5 * q1 * q7 - q2 * q6) * q8,
+                -(q1 * q7 - q4) * q9,
+                3.0 * (q1 * q10 - 0.6666666666666666 * q6 - 0.3333333333333333 * q2 * q6) * q11,
+            )
+        };
+        lanes[0][k] = a0;
+        lanes[1][k] = b0;
+        lanes[2][k] = b1;
+        lanes[3][k] = c0;
+        lanes[4][k] = c1;
+    }
+    let d0 = d[0];
+    let d1 = d[1];
+    let d2 = d[2];
+    let a0 = Lanes(lanes[0]);
+    let b0 = Lanes(lanes[1]);
+    let b1 = Lanes(lanes[2]);
+    let c0 = Lanes(lanes[3]);
+    let c1 = Lanes(lanes[4]);
+    let t1 = d1 * d1;
+    let t2 = d2 * d2;
+    let t3 = -t1 - t2;
+    let t4 = d0 * d1 * b0;
+    let t5 = d0 * d2 * b0;
+    let t6 = d0 * d0;
+    let t7 = -t2 - t6;
+    let t8 = d1 * d2 * b0;
+    let t9 = -t1 - t6;
+    let t10 = d0 * d1 * c0;
+    let t11 = d0 * d2 * c0;
+    let t12 = d1 * d2 * c0;
+    let t13 = d0 * d2 * b1;
+    let t14 = d1 * c0;
+    let t15 = d1 * c1 * t6;
+    let t16 = -d0 * d1 * b1;
+    let t17 = d0 * d1 * b1;
+    let t18 = d2 * c0;
+    let t19 = d2 * c1 * t6;
+    let t20 = -2.0 * d1 * c0;
+    let t21 = d1 * d2 * b1;
+    let t22 = d0 * c0;
+    let t23 = d0 * c1 * t1;
+    let t24 = d0 * d1 * d2 * c1;
+    let t25 = -2.0 * d2 * c0;
+    let t26 = -d1 * d2 * b1;
+    let t27 = d0 * c1 * t2;
+    let t28 = -d0 * d2 * b1;
+    let t29 = -2.0 * d0 * c0;
+    let t30 = d2 * c1 * t1;
+    let t31 = d1 * c1 * t2;
+    let frame_00 = 1.0 + b0 * t3;
+    let frame_01 = t4 - d2 * a0;
+    let frame_02 = t5 + d1 * a0;
+    let frame_10 = d2 * a0 + t4;
+    let frame_11 = 1.0 + b0 * t7;
+    let frame_12 = t8 - d0 * a0;
+    let frame_20 = t5 - d1 * a0;
+    let frame_21 = d0 * a0 + t8;
+    let frame_22 = 1.0 + b0 * t9;
+    let p_0 = a0 + c0 * t6;
+    let p_1 = d2 * b0 + t10;
+    let p_2 = t11 - d1 * b0;
+    let dp_0_0 = d0 * c1 * t3;
+    let dp_0_1 = t13 + t14 + t15;
+    let dp_0_2 = t16 + t18 + t19;
+    let dp_1_0 = d1 * c1 * t3 + t20;
+    let dp_1_1 = t21 + t22 + t23;
+    let dp_1_2 = t24 - b1 * t1 - b0;
+    let dp_2_0 = d2 * c1 * t3 + t25;
+    let dp_2_1 = b0 + t24 + b1 * t2;
+    let dp_2_2 = t22 + t26 + t27;
+    let w_1_0 = t10 - d2 * b0;
+    let w_1_1 = a0 + c0 * t1;
+    let w_1_2 = d0 * b0 + t12;
+    let w_2_0 = t11 + d1 * b0;
+    let w_2_1 = t12 - d0 * b0;
+    let w_2_2 = a0 + c0 * t2;
+    let dw_1_0_0 = t14 + t15 + t28;
+    let dw_1_0_1 = d0 * c1 * t7 + t29;
+    let dw_1_0_2 = b0 + t24 + b1 * t6;
+    let dw_1_1_0 = t22 + t23 + t26;
+    let dw_1_1_1 = d1 * c1 * t7;
+    let dw_1_1_2 = t17 + t18 + t30;
+    let dw_1_2_0 = t24 - b0 - b1 * t2;
+    let dw_1_2_1 = t25 + d2 * c1 * t7;
+    let dw_1_2_2 = t13 + t14 + t31;
+    let dw_2_0_0 = t17 + t18 + t19;
+    let dw_2_0_1 = t24 - b0 - b1 * t6;
+    let dw_2_0_2 = t29 + d0 * c1 * t9;
+    let dw_2_1_0 = b0 + b1 * t1 + t24;
+    let dw_2_1_1 = t16 + t18 + t30;
+    let dw_2_1_2 = t20 + d1 * c1 * t9;
+    let dw_2_2_0 = t21 + t22 + t27;
+    let dw_2_2_1 = t14 + t28 + t31;
+    let dw_2_2_2 = d2 * c1 * t9;
+    out.frame[0][0] = Lanes::<f64, W>::from(frame_00);
+    out.frame[0][1] = Lanes::<f64, W>::from(frame_10);
+    out.frame[0][2] = Lanes::<f64, W>::from(frame_20);
+    out.frame[1][0] = Lanes::<f64, W>::from(frame_01);
+    out.frame[1][1] = Lanes::<f64, W>::from(frame_11);
+    out.frame[1][2] = Lanes::<f64, W>::from(frame_21);
+    out.frame[2][0] = Lanes::<f64, W>::from(frame_02);
+    out.frame[2][1] = Lanes::<f64, W>::from(frame_12);
+    out.frame[2][2] = Lanes::<f64, W>::from(frame_22);
+    out.w[0][0] = Lanes::<f64, W>::from(p_0);
+    out.w[0][1] = Lanes::<f64, W>::from(p_1);
+    out.w[0][2] = Lanes::<f64, W>::from(p_2);
+    out.w[1][0] = Lanes::<f64, W>::from(w_1_0);
+    out.w[1][1] = Lanes::<f64, W>::from(w_1_1);
+    out.w[1][2] = Lanes::<f64, W>::from(w_1_2);
+    out.w[2][0] = Lanes::<f64, W>::from(w_2_0);
+    out.w[2][1] = Lanes::<f64, W>::from(w_2_1);
+    out.w[2][2] = Lanes::<f64, W>::from(w_2_2);
+    out.dw[0][0][0] = Lanes::<f64, W>::from(dp_0_0);
+    out.dw[0][0][1] = Lanes::<f64, W>::from(dp_0_1);
+    out.dw[0][0][2] = Lanes::<f64, W>::from(dp_0_2);
+    out.dw[0][1][0] = Lanes::<f64, W>::from(dp_1_0);
+    out.dw[0][1][1] = Lanes::<f64, W>::from(dp_1_1);
+    out.dw[0][1][2] = Lanes::<f64, W>::from(dp_1_2);
+    out.dw[0][2][0] = Lanes::<f64, W>::from(dp_2_0);
+    out.dw[0][2][1] = Lanes::<f64, W>::from(dp_2_1);
+    out.dw[0][2][2] = Lanes::<f64, W>::from(dp_2_2);
+    out.dw[1][0][0] = Lanes::<f64, W>::from(dw_1_0_0);
+    out.dw[1][0][1] = Lanes::<f64, W>::from(dw_1_0_1);
+    out.dw[1][0][2] = Lanes::<f64, W>::from(dw_1_0_2);
+    out.dw[1][1][0] = Lanes::<f64, W>::from(dw_1_1_0);
+    out.dw[1][1][1] = Lanes::<f64, W>::from(dw_1_1_1);
+    out.dw[1][1][2] = Lanes::<f64, W>::from(dw_1_1_2);
+    out.dw[1][2][0] = Lanes::<f64, W>::from(dw_1_2_0);
+    out.dw[1][2][1] = Lanes::<f64, W>::from(dw_1_2_1);
+    out.dw[1][2][2] = Lanes::<f64, W>::from(dw_1_2_2);
+    out.dw[2][0][0] = Lanes::<f64, W>::from(dw_2_0_0);
+    out.dw[2][0][1] = Lanes::<f64, W>::from(dw_2_0_1);
+    out.dw[2][0][2] = Lanes::<f64, W>::from(dw_2_0_2);
+    out.dw[2][1][0] = Lanes::<f64, W>::from(dw_2_1_0);
+    out.dw[2][1][1] = Lanes::<f64, W>::from(dw_2_1_1);
+    out.dw[2][1][2] = Lanes::<f64, W>::from(dw_2_1_2);
+    out.dw[2][2][0] = Lanes::<f64, W>::from(dw_2_2_0);
+    out.dw[2][2][1] = Lanes::<f64, W>::from(dw_2_2_1);
+    out.dw[2][2][2] = Lanes::<f64, W>::from(dw_2_2_2);
 }

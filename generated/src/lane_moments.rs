@@ -89,8 +89,7 @@ fn lane_of<const W: usize, const K: usize>(o: &[Lanes<f64, W>; K], k: usize) -> 
 
 /// The element moments of W elements, lane k for Darboux vector `(d[0], d[1], d[2])`
 /// and length `l` of lane k: the parts `parts` into `out` (the others left as they
-/// were). Compiled at run time for AVX-512 from 16 lanes and AVX2 below, when the CPU
-/// has them; the same bits on every path.
+/// were). Compiled with AVX2, taken when the CPU has it; the same bits on every path.
 pub fn element_moments_lanes_into<const W: usize>(
     d: &[Lanes<f64, W>; 3],
     l: Lanes<f64, W>,
@@ -99,38 +98,23 @@ pub fn element_moments_lanes_into<const W: usize>(
 ) {
     #[cfg(all(target_arch = "x86_64", feature = "std"))]
     {
-        // AVX-512 only from 16 lanes: at 8 the AVX2 code is faster on a Xeon with
-        // AVX-512 (16 elements' moments at W l = 30: 8.9 µs against 14.0; at 16 lanes
-        // 23.3 against 21.7; `benches/element_moments.rs`, group moments_16_elements)
-        if W >= 16 && std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports AVX-512F, checked just above.
-            unsafe { lanes_avx512(d, l, parts, out) };
-            return;
-        }
+        // AVX2, not AVX-512: on a Xeon with AVX-512, 16 elements' moments at W l = 30 took
+        // 8.9 µs at 8 lanes with AVX2 against 14.0 with AVX-512, and 4 lanes with AVX2
+        // were the fastest of all (7.0 µs; docs/performance.md, "Strands in lanes")
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
             unsafe { lanes_avx2(d, l, parts, out) };
             return;
         }
     }
-    lanes_body(d, l, parts, out);
+    element_moments_lanes_into_portable(d, l, parts, out);
 }
 
-/// [`element_moments_lanes_into`] compiled for the baseline target only; for the test
-/// that every path gives the same bits.
+/// [`element_moments_lanes_into`] compiled for the baseline target only (what it runs on
+/// a CPU without AVX2); for the test that every path gives the same bits.
 #[doc(hidden)]
+#[inline(never)]
 pub fn element_moments_lanes_into_portable<const W: usize>(
-    d: &[Lanes<f64, W>; 3],
-    l: Lanes<f64, W>,
-    parts: LaneParts,
-    out: &mut LaneMoments<W>,
-) {
-    lanes_body(d, l, parts, out);
-}
-
-#[cfg(all(target_arch = "x86_64", feature = "std"))]
-#[target_feature(enable = "avx512f")]
-fn lanes_avx512<const W: usize>(
     d: &[Lanes<f64, W>; 3],
     l: Lanes<f64, W>,
     parts: LaneParts,

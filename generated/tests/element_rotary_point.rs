@@ -107,3 +107,77 @@ fn rotary_point_matches_element_point_without_d2p() {
         println!("  {name:6} {e:.2e}");
     }
 }
+
+/// Lane k of `element_rotary_points_lanes` (one abscissa of each of W elements, element k
+/// of W strands) is `element_rotary_point_into` at lane k's (d, u), bit for bit, with
+/// lanes on both sides of the switch in the same call, at W = 1, 4, 8 and 16.
+#[test]
+fn rotary_points_in_lanes_are_one_point_each_bit_for_bit() {
+    use superhelix_generated::element_rotary_point::element_rotary_points_lanes;
+    use superhelix_generated::kernels::element::LaneRotaryPoints;
+    use superhelix_generated::kernels::lane::Lanes;
+    fn check<const W: usize>(rng: &mut Rng) -> usize {
+        let xs = ELEMENT_ROTARY_POINT_SWITCH;
+        let wus = [
+            0.0,
+            1e-6,
+            0.3,
+            xs * (1.0 - 1e-9),
+            xs,
+            xs * (1.0 + 1e-9),
+            2.0,
+            30.0,
+        ];
+        let mut checked = 0;
+        for case in 0..40 {
+            let mut d = [Lanes([0.0; W]); 3];
+            let mut u = Lanes([0.0; W]);
+            let mut inputs = Vec::new();
+            for k in 0..W {
+                let uk = [1.0, 0.01, 3.0, 0.2][(case + k) % 4] * (1.0 + 0.5 * rng.next());
+                let wu = wus[(case + 3 * k) % wus.len()];
+                let dk = direction(rng, (case + k) % 5) * (wu / uk);
+                for i in 0..3 {
+                    d[i].0[k] = dk[i];
+                }
+                u.0[k] = uk;
+                inputs.push((dk, uk));
+            }
+            let mut out = LaneRotaryPoints::<W>::default();
+            element_rotary_points_lanes(&d, u, &mut out);
+            for (k, (dk, uk)) in inputs.iter().enumerate() {
+                let mut one = ElementPoint::default();
+                element_rotary_point_into(dk, *uk, &mut one);
+                let same = |a: f64, b: f64| a.to_bits() == b.to_bits();
+                for c in 0..3 {
+                    for r in 0..3 {
+                        assert!(
+                            same(out.frame[c][r].0[k], one.frame[(r, c)]),
+                            "W = {W}, case {case}, lane {k}: frame"
+                        );
+                    }
+                }
+                for i in 0..3 {
+                    for m in 0..3 {
+                        assert!(
+                            same(out.w[i][m].0[k], one.w[i][m]),
+                            "W = {W}, case {case}, lane {k}: w"
+                        );
+                        for j in 0..3 {
+                            assert!(
+                                same(out.dw[i][j][m].0[k], one.dw[i][j][m]),
+                                "W = {W}, case {case}, lane {k}: dw"
+                            );
+                        }
+                    }
+                }
+                checked += 1;
+            }
+        }
+        checked
+    }
+    let mut rng = Rng(0x1a4e_9017);
+    let checked =
+        check::<1>(&mut rng) + check::<4>(&mut rng) + check::<8>(&mut rng) + check::<16>(&mut rng);
+    assert_eq!(checked, 40 * (1 + 4 + 8 + 16));
+}

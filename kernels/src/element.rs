@@ -13,6 +13,7 @@
 use crate::float::Float;
 use crate::helix_functions::{abc, abc_values};
 use crate::jet::{cross, Jet};
+use crate::lane::Lanes;
 use crate::lanes::{M, V};
 use nalgebra::{Matrix3, Vector3};
 
@@ -93,6 +94,30 @@ pub struct RotaryPoints<T: Float = f64> {
     pub w: [V<T::Lanes>; 3],
     /// `dw[i][j]` = ∂w_i/∂d_j.
     pub dw: [[V<T::Lanes>; 3]; 3],
+}
+
+/// The fields of [`ElementPoint`] the rotary-inertia quadrature reads, for W elements at
+/// one abscissa each, one per lane (element k of W strands: what a step that advances W
+/// strands per call evaluates its rotary integrands in).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LaneRotaryPoints<const W: usize> {
+    /// E(u) by columns: `frame[c][r]` = E(u)`[(r, c)]`.
+    pub frame: M<Lanes<f64, W>>,
+    /// `w[i]` = P(u) e_i (`w[0]` = p).
+    pub w: [V<Lanes<f64, W>>; 3],
+    /// `dw[i][j]` = ∂w_i/∂d_j.
+    pub dw: [[V<Lanes<f64, W>>; 3]; 3],
+}
+
+impl<const W: usize> Default for LaneRotaryPoints<W> {
+    fn default() -> Self {
+        let zero = Lanes([0.0; W]);
+        LaneRotaryPoints {
+            frame: [[zero; 3]; 3],
+            w: [[zero; 3]; 3],
+            dw: [[[zero; 3]; 3]; 3],
+        }
+    }
 }
 
 impl<T: Float> RotaryPoints<T> {
