@@ -122,24 +122,15 @@ fn check_width<const W: usize>(cases: usize, seed: u64) -> (usize, usize) {
     (mixed, closed_only)
 }
 
-/// Each lane is its element's one-element moments, bit for bit, at widths 4 and 8 (the
-/// widths of f64 vectors with AVX2 and AVX-512), on the dispatched path (AVX2 where the
-/// CPU has it) and the portable one, with
+/// Each lane is its element's one-element moments, bit for bit, at four lanes (the width
+/// the lanes run at; every width is the same generated text, and each width compiled is
+/// two more copies of ~50 kB of straight-line code, so the suite compiles one), on the
+/// dispatched path (AVX2 where the CPU has it) and the portable one, with
 /// lanes on every branch of every function in the same call and with all lanes closed.
 #[test]
 fn every_lane_is_its_element_bit_for_bit() {
-    for (i, (mixed, closed)) in [
-        check_width::<4>(120, 0x1a4e_0004),
-        check_width::<8>(120, 0x1a4e_0008),
-    ]
-    .into_iter()
-    .enumerate()
-    {
-        assert!(
-            mixed > 0 && closed > 0,
-            "width #{i}: {mixed} mixed, {closed} closed"
-        );
-    }
+    let (mixed, closed) = check_width::<4>(200, 0x1a4e_0004);
+    assert!(mixed > 0 && closed > 0, "{mixed} mixed, {closed} closed");
 }
 
 /// The parts not asked for are left as they were.

@@ -35,7 +35,7 @@
 pub(crate) mod adaptive;
 mod bdf2;
 mod contacts;
-mod dense;
+pub(crate) mod dense;
 mod end_hooks;
 pub(crate) mod error_control;
 mod free_root;

@@ -123,7 +123,13 @@ macro_rules! lane_wise {
             type Output = Self;
             #[inline(always)]
             fn $method(self, rhs: Self) -> Self {
-                Lanes(core::array::from_fn(|k| self.0[k] $op rhs.0[k]))
+                // a plain loop, not `array::from_fn`: the generated closed forms make
+                // thousands of these, and the loop compiles several times faster
+                let mut out = self;
+                for k in 0..W {
+                    out.0[k] = self.0[k] $op rhs.0[k];
+                }
+                out
             }
         }
     )*};
@@ -139,14 +145,22 @@ macro_rules! scalar_wise {
             type Output = Self;
             #[inline(always)]
             fn $method(self, rhs: $scalar) -> Self {
-                Lanes(self.0.map(|x| x $op rhs))
+                let mut out = self;
+                for k in 0..W {
+                    out.0[k] = self.0[k] $op rhs;
+                }
+                out
             }
         }
         impl<const W: usize> $trait<Lanes<$scalar, W>> for $scalar {
             type Output = Lanes<$scalar, W>;
             #[inline(always)]
             fn $method(self, rhs: Lanes<$scalar, W>) -> Lanes<$scalar, W> {
-                Lanes(rhs.0.map(|x| self $op x))
+                let mut out = rhs;
+                for k in 0..W {
+                    out.0[k] = self $op rhs.0[k];
+                }
+                out
             }
         }
     )*
@@ -167,7 +181,11 @@ impl<T: Float, const W: usize> Neg for Lanes<T, W> {
     type Output = Self;
     #[inline(always)]
     fn neg(self) -> Self {
-        Lanes(self.0.map(|x| -x))
+        let mut out = self;
+        for k in 0..W {
+            out.0[k] = -self.0[k];
+        }
+        out
     }
 }
 
@@ -193,7 +211,11 @@ impl<T: Float, const W: usize> Lane for Lanes<T, W> {
     }
     #[inline(always)]
     fn sqrt(self) -> Self {
-        Lanes(self.0.map(|x| x.sqrt()))
+        let mut out = self;
+        for k in 0..W {
+            out.0[k] = self.0[k].sqrt();
+        }
+        out
     }
     #[inline(always)]
     fn abs(self) -> Self {

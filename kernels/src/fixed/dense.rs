@@ -260,11 +260,11 @@ pub fn negative_semidefinite_part<T: Float>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    /// Deterministic values in [-1, 1].
-    fn values(seed: u64) -> impl FnMut() -> f64 {
+    /// Deterministic values in [-1, 1] (also the lane LU's test values).
+    pub(crate) fn values(seed: u64) -> impl FnMut() -> f64 {
         let mut s = seed;
         move || {
             s ^= s << 13;

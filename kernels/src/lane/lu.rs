@@ -151,18 +151,9 @@ pub fn lu_solve_factored_lanes<T: Float, const W: usize, const D: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fixed::dense::tests::values;
     use crate::fixed::lu_solve;
     use crate::storage::Square;
-
-    fn values(seed: u64) -> impl FnMut() -> f64 {
-        let mut s = seed;
-        move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        }
-    }
 
     /// W matrices: random, pivoting on every column, with ties, zeros and −0 entries,
     /// one singular; each lane's solution and factors are the scalar LU's bits.
