@@ -123,13 +123,7 @@ macro_rules! lane_wise {
             type Output = Self;
             #[inline(always)]
             fn $method(self, rhs: Self) -> Self {
-                // a plain loop, not `array::from_fn`: the generated closed forms make
-                // thousands of these, and the loop compiles several times faster
-                let mut out = self;
-                for k in 0..W {
-                    out.0[k] = self.0[k] $op rhs.0[k];
-                }
-                out
+                Lanes(core::array::from_fn(|k| self.0[k] $op rhs.0[k]))
             }
         }
     )*};
@@ -145,22 +139,14 @@ macro_rules! scalar_wise {
             type Output = Self;
             #[inline(always)]
             fn $method(self, rhs: $scalar) -> Self {
-                let mut out = self;
-                for k in 0..W {
-                    out.0[k] = self.0[k] $op rhs;
-                }
-                out
+                Lanes(self.0.map(|x| x $op rhs))
             }
         }
         impl<const W: usize> $trait<Lanes<$scalar, W>> for $scalar {
             type Output = Lanes<$scalar, W>;
             #[inline(always)]
             fn $method(self, rhs: Lanes<$scalar, W>) -> Lanes<$scalar, W> {
-                let mut out = rhs;
-                for k in 0..W {
-                    out.0[k] = self $op rhs.0[k];
-                }
-                out
+                Lanes(rhs.0.map(|x| self $op x))
             }
         }
     )*
@@ -181,11 +167,7 @@ impl<T: Float, const W: usize> Neg for Lanes<T, W> {
     type Output = Self;
     #[inline(always)]
     fn neg(self) -> Self {
-        let mut out = self;
-        for k in 0..W {
-            out.0[k] = -self.0[k];
-        }
-        out
+        Lanes(self.0.map(|x| -x))
     }
 }
 
@@ -211,11 +193,7 @@ impl<T: Float, const W: usize> Lane for Lanes<T, W> {
     }
     #[inline(always)]
     fn sqrt(self) -> Self {
-        let mut out = self;
-        for k in 0..W {
-            out.0[k] = self.0[k].sqrt();
-        }
-        out
+        Lanes(self.0.map(|x| x.sqrt()))
     }
     #[inline(always)]
     fn abs(self) -> Self {
