@@ -22,9 +22,46 @@ use crate::lanes::{F32x4, Real, F4};
 use core::cmp::Ordering;
 use nalgebra::RealField;
 
+/// What the step's small algebra (nalgebra's fixed-size vectors and matrices, the
+/// element moments, the suffix bodies) needs of its scalar: the arithmetic of one
+/// strand's [`Float`], or of W strands' [`crate::lane::Lanes`], one per lane. Code
+/// written over it is the same operations in the same order for one strand and for W,
+/// so each lane gives the one strand's bits (docs/architecture.md, "Strands in lanes").
+pub trait Arith:
+    nalgebra::Scalar
+    + Copy
+    + Default
+    + Send
+    + Sync
+    + num_traits::Zero
+    + num_traits::One
+    + nalgebra::ClosedAddAssign
+    + nalgebra::ClosedSubAssign
+    + nalgebra::ClosedMulAssign
+    + nalgebra::ClosedDivAssign
+    + core::ops::Neg<Output = Self>
+{
+}
+
+impl<T> Arith for T where
+    T: nalgebra::Scalar
+        + Copy
+        + Default
+        + Send
+        + Sync
+        + num_traits::Zero
+        + num_traits::One
+        + nalgebra::ClosedAddAssign
+        + nalgebra::ClosedSubAssign
+        + nalgebra::ClosedMulAssign
+        + nalgebra::ClosedDivAssign
+        + core::ops::Neg<Output = T>
+{
+}
+
 /// A scalar type of the step: `f64` or `f32`.
 pub trait Float:
-    RealField + Copy + Default + core::iter::Sum + core::fmt::Debug + Send + Sync + 'static
+    Arith + RealField + Copy + Default + core::iter::Sum + core::fmt::Debug + Send + Sync + 'static
 {
     /// Four lanes of the type (the rotary-inertia quadrature evaluates four points at
     /// once): [`F4`] for `f64`, [`F32x4`] for `f32`.

@@ -20,6 +20,7 @@
 use crate::float::Float;
 
 pub mod lu;
+pub mod soa;
 use core::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
 /// Which lanes a comparison held for.
@@ -130,6 +131,56 @@ macro_rules! lane_wise {
 }
 
 lane_wise!(Add add +, Sub sub -, Mul mul *, Div div /);
+
+macro_rules! lane_wise_assign {
+    ($($trait:ident $method:ident $op:tt),*) => {$(
+        impl<T: Float, const W: usize> core::ops::$trait for Lanes<T, W> {
+            #[inline(always)]
+            fn $method(&mut self, rhs: Self) {
+                *self = *self $op rhs;
+            }
+        }
+    )*};
+}
+
+// what nalgebra's matrices of lanes need (`Matrix3<Lanes<f64, 4>>`: the step's small
+// algebra written once for one strand and for W)
+lane_wise_assign!(AddAssign add_assign +, SubAssign sub_assign -, MulAssign mul_assign *, DivAssign div_assign /);
+
+impl<T: Float, const W: usize> Default for Lanes<T, W> {
+    /// Zero in every lane.
+    #[inline(always)]
+    fn default() -> Self {
+        Lanes([T::zero(); W])
+    }
+}
+
+impl<T: Float, const W: usize> crate::lanes::Real for Lanes<T, W> {
+    type Scalar = T;
+    #[inline(always)]
+    fn splat(x: T) -> Self {
+        Lanes([x; W])
+    }
+}
+
+impl<T: Float, const W: usize> num_traits::Zero for Lanes<T, W> {
+    #[inline(always)]
+    fn zero() -> Self {
+        Lanes([T::zero(); W])
+    }
+    /// Whether every lane is zero (nalgebra skips a term only when all lanes may).
+    #[inline(always)]
+    fn is_zero(&self) -> bool {
+        self.0.iter().all(|x| x.is_zero())
+    }
+}
+
+impl<T: Float, const W: usize> num_traits::One for Lanes<T, W> {
+    #[inline(always)]
+    fn one() -> Self {
+        Lanes([T::one(); W])
+    }
+}
 
 // a scalar on either side acts on every lane, its operand order kept (`2.0 * x` is
 // `[2.0 * x₀, …]`): the generated closed forms run on lanes as written for one element

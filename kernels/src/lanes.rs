@@ -14,24 +14,41 @@
 
 use core::ops::{Add, Div, Mul, Neg, Sub};
 
-/// A scalar of the lane algebra: `f64`, `f32`, [`F4`] or [`F32x4`].
-pub trait Real:
-    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
+/// What the small algebra below needs of its scalar: a ring's operations with zero
+/// and one. Every scalar of the step is one (`f64`, `f32`, [`F4`], [`F32x4`], and the
+/// lanes of [`crate::lane::Lanes`]).
+pub trait Ring:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Neg<Output = Self>
+    + num_traits::Zero
+    + num_traits::One
 {
+}
+
+impl<T> Ring for T where
+    T: Copy
+        + Add<Output = T>
+        + Sub<Output = T>
+        + Mul<Output = T>
+        + Neg<Output = T>
+        + num_traits::Zero
+        + num_traits::One
+{
+}
+
+/// A scalar of the lane algebra: `f64`, `f32`, [`F4`] or [`F32x4`].
+pub trait Real: Ring {
     /// The type of one lane.
     type Scalar;
-    /// All lanes zero.
-    fn zero() -> Self;
     /// All lanes `x`.
     fn splat(x: Self::Scalar) -> Self;
 }
 
 impl Real for f64 {
     type Scalar = f64;
-    #[inline(always)]
-    fn zero() -> Self {
-        0.0
-    }
     #[inline(always)]
     fn splat(x: f64) -> Self {
         x
@@ -40,10 +57,6 @@ impl Real for f64 {
 
 impl Real for f32 {
     type Scalar = f32;
-    #[inline(always)]
-    fn zero() -> Self {
-        0.0
-    }
     #[inline(always)]
     fn splat(x: f32) -> Self {
         x
@@ -92,12 +105,31 @@ impl Neg for F32x4 {
     }
 }
 
+macro_rules! zero_one {
+    ($lanes:ident, $t:ty) => {
+        impl num_traits::Zero for $lanes {
+            #[inline(always)]
+            fn zero() -> Self {
+                $lanes([0.0; 4])
+            }
+            #[inline(always)]
+            fn is_zero(&self) -> bool {
+                self.0.iter().all(|&x| x == 0.0)
+            }
+        }
+        impl num_traits::One for $lanes {
+            #[inline(always)]
+            fn one() -> Self {
+                $lanes([1.0; 4])
+            }
+        }
+    };
+}
+zero_one!(F4, f64);
+zero_one!(F32x4, f32);
+
 impl Real for F32x4 {
     type Scalar = f32;
-    #[inline(always)]
-    fn zero() -> Self {
-        F32x4([0.0; 4])
-    }
     #[inline(always)]
     fn splat(x: f32) -> Self {
         F32x4([x; 4])
@@ -164,10 +196,6 @@ impl Neg for F4 {
 impl Real for F4 {
     type Scalar = f64;
     #[inline(always)]
-    fn zero() -> Self {
-        F4([0.0; 4])
-    }
-    #[inline(always)]
     fn splat(x: f64) -> Self {
         F4([x; 4])
     }
@@ -180,25 +208,25 @@ pub type M<T> = [[T; 3]; 3];
 
 /// `a + b`.
 #[inline(always)]
-pub fn add<T: Real>(a: &V<T>, b: &V<T>) -> V<T> {
+pub fn add<T: Ring>(a: &V<T>, b: &V<T>) -> V<T> {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
 
 /// `a · s`.
 #[inline(always)]
-pub fn scale<T: Real>(a: &V<T>, s: T) -> V<T> {
+pub fn scale<T: Ring>(a: &V<T>, s: T) -> V<T> {
     [a[0] * s, a[1] * s, a[2] * s]
 }
 
 /// `a · b`, as `(a₀b₀ + a₁b₁) + a₂b₂`.
 #[inline(always)]
-pub fn dot<T: Real>(a: &V<T>, b: &V<T>) -> T {
+pub fn dot<T: Ring>(a: &V<T>, b: &V<T>) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// `a × b`.
 #[inline(always)]
-pub fn cross<T: Real>(a: &V<T>, b: &V<T>) -> V<T> {
+pub fn cross<T: Ring>(a: &V<T>, b: &V<T>) -> V<T> {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -208,27 +236,27 @@ pub fn cross<T: Real>(a: &V<T>, b: &V<T>) -> V<T> {
 
 /// `[a]×`, the matrix of `x ↦ a × x`.
 #[inline(always)]
-pub fn cross_matrix<T: Real>(a: &V<T>) -> M<T> {
+pub fn cross_matrix<T: Ring>(a: &V<T>) -> M<T> {
     let z = T::zero();
     [[z, a[2], -a[1]], [-a[2], z, a[0]], [a[1], -a[0], z]]
 }
 
 /// `m x`: the columns times x's entries, summed left to right.
 #[inline(always)]
-pub fn mat_vec<T: Real>(m: &M<T>, x: &V<T>) -> V<T> {
+pub fn mat_vec<T: Ring>(m: &M<T>, x: &V<T>) -> V<T> {
     let row = |r: usize| m[0][r] * x[0] + m[1][r] * x[1] + m[2][r] * x[2];
     [row(0), row(1), row(2)]
 }
 
 /// `a b`.
 #[inline(always)]
-pub fn mat_mul<T: Real>(a: &M<T>, b: &M<T>) -> M<T> {
+pub fn mat_mul<T: Ring>(a: &M<T>, b: &M<T>) -> M<T> {
     [mat_vec(a, &b[0]), mat_vec(a, &b[1]), mat_vec(a, &b[2])]
 }
 
 /// `aᵀ`.
 #[inline(always)]
-pub fn transpose<T: Real>(a: &M<T>) -> M<T> {
+pub fn transpose<T: Ring>(a: &M<T>) -> M<T> {
     [
         [a[0][0], a[1][0], a[2][0]],
         [a[0][1], a[1][1], a[2][1]],
@@ -238,7 +266,7 @@ pub fn transpose<T: Real>(a: &M<T>) -> M<T> {
 
 /// `a − b` when `subtract`, else `a + b`, entry by entry.
 #[inline(always)]
-pub fn mat_add<T: Real>(a: &M<T>, b: &M<T>, subtract: bool) -> M<T> {
+pub fn mat_add<T: Ring>(a: &M<T>, b: &M<T>, subtract: bool) -> M<T> {
     let mut out = *a;
     for c in 0..3 {
         for r in 0..3 {
@@ -254,8 +282,59 @@ pub fn mat_add<T: Real>(a: &M<T>, b: &M<T>, subtract: bool) -> M<T> {
 
 /// `a s`, entry by entry.
 #[inline(always)]
-pub fn mat_scale<T: Real>(a: &M<T>, s: T) -> M<T> {
+pub fn mat_scale<T: Ring>(a: &M<T>, s: T) -> M<T> {
     [scale(&a[0], s), scale(&a[1], s), scale(&a[2], s)]
+}
+
+/// `a − b`.
+#[inline(always)]
+pub fn sub<T: Ring>(a: &V<T>, b: &V<T>) -> V<T> {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// `a bᵀ`, entry (r, c) = a_r b_c (nalgebra's product of a column and a row).
+#[inline(always)]
+pub fn outer<T: Ring>(a: &V<T>, b: &V<T>) -> M<T> {
+    [scale(a, b[0]), scale(a, b[1]), scale(a, b[2])]
+}
+
+/// nalgebra's `Matrix3::identity() * t − a`: the identity's entries times t (1·t and
+/// 0·t), less a.
+#[inline(always)]
+pub fn identity_times_minus<T: Ring>(t: T, a: &M<T>) -> M<T> {
+    let (one, zero) = (T::one() * t, T::zero() * t);
+    let id = [[one, zero, zero], [zero, one, zero], [zero, zero, one]];
+    mat_add(&id, a, true)
+}
+
+/// nalgebra's `trace()`: `((0 + a₀₀) + a₁₁) + a₂₂`.
+#[inline(always)]
+pub fn trace<T: Ring>(a: &M<T>) -> T {
+    T::zero() + a[0][0] + a[1][1] + a[2][2]
+}
+
+/// nalgebra's 3-vector as [`V`] (its storage).
+#[inline(always)]
+pub fn v3<T: nalgebra::Scalar>(a: &nalgebra::Vector3<T>) -> &V<T> {
+    &a.data.0[0]
+}
+
+/// nalgebra's 3 × 3 matrix as [`M`] (its storage, by columns).
+#[inline(always)]
+pub fn m3<T: nalgebra::Scalar>(a: &nalgebra::Matrix3<T>) -> &M<T> {
+    &a.data.0
+}
+
+/// [`V`] as nalgebra's 3-vector.
+#[inline(always)]
+pub fn vector<T: nalgebra::Scalar>(a: V<T>) -> nalgebra::Vector3<T> {
+    nalgebra::Vector3::from_array_storage(nalgebra::ArrayStorage([a]))
+}
+
+/// [`M`] as nalgebra's 3 × 3 matrix.
+#[inline(always)]
+pub fn matrix<T: nalgebra::Scalar>(a: M<T>) -> nalgebra::Matrix3<T> {
+    nalgebra::Matrix3::from_array_storage(nalgebra::ArrayStorage(a))
 }
 
 #[cfg(test)]

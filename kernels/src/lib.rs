@@ -62,5 +62,5 @@ pub mod strand_point;
 pub mod strand_terms;
 
 pub use body_field::BodyField;
-pub use float::Float;
+pub use float::{Arith, Float};
 pub use pose::{darboux, Pose};

@@ -17,16 +17,15 @@ pub mod rotary;
 
 use crate::body_field::BodyField;
 use crate::element::{element_jets, local_pose};
-use crate::float::Float;
+use crate::float::{Arith, Float};
+use crate::lanes::{self as la, m3, matrix, v3, vector, Ring, M, V};
 use crate::pose::Pose;
 use crate::quadrature::gauss_legendre;
 use nalgebra::{Matrix3, Vector3};
 
-type V3<T> = Vector3<T>;
-
 /// Integrals over one element, u ∈ [0, l], in the element's start frame.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct ElementMoments<T: Float = f64> {
+pub struct ElementMoments<T: Arith = f64> {
     /// ∫ p du.
     pub first: Vector3<T>,
     /// ∫ p pᵀ du.
@@ -106,7 +105,7 @@ impl ElementMoments<f64> {
 /// `dtheta[i]` = F_Q w_i(l), and the second derivatives the velocity recursions of
 /// [`assemble_force`] need.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct EndDerivatives<T: Float = f64> {
+pub struct EndDerivatives<T: Arith = f64> {
     /// Derivative of the end position.
     pub dp: [Vector3<T>; 3],
     /// Angular derivative of the end frame.
@@ -122,7 +121,7 @@ pub struct EndDerivatives<T: Float = f64> {
 /// the strand. (About r_P rather than the head origin, so that curls far from the root
 /// keep their digits.)
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct SuffixBody<T: Float = f64> {
+pub struct SuffixBody<T: Arith = f64> {
     /// Length ∫ ds.
     pub mass: T,
     /// ∫ x.
@@ -137,35 +136,70 @@ pub struct SuffixBody<T: Float = f64> {
     pub rot: Matrix3<T>,
 }
 
-impl<T: Float> SuffixBody<T> {
+impl<T: Arith> SuffixBody<T> {
     /// The same body about a reference point `delta` behind the current one
     /// (x' = x + delta).
+    #[inline(always)]
     fn shifted(&self, delta: &Vector3<T>) -> SuffixBody<T> {
+        let (d, first) = (v3(delta), v3(&self.first));
+        // second + first δᵀ + δ firstᵀ + (δ δᵀ) mass, summed left to right
+        let second = la::mat_add(m3(&self.second), &la::outer(first, d), false);
+        let second = la::mat_add(&second, &la::outer(d, first), false);
+        let second = la::mat_add(&second, &la::mat_scale(&la::outer(d, d), self.mass), false);
+        let moment_velocity = la::outer(d, v3(&self.velocity));
         SuffixBody {
             mass: self.mass,
-            first: self.first + delta * self.mass,
-            second: self.second
-                + self.first * delta.transpose()
-                + delta * self.first.transpose()
-                + delta * delta.transpose() * self.mass,
+            first: vector(la::add(first, &la::scale(d, self.mass))),
+            second: matrix(second),
             velocity: self.velocity,
-            moment_velocity: self.moment_velocity + delta * self.velocity.transpose(),
+            moment_velocity: matrix(la::mat_add(
+                m3(&self.moment_velocity),
+                &moment_velocity,
+                false,
+            )),
             rot: self.rot,
         }
     }
 
     /// Linear and angular "momentum" of the rigid velocity field v + ω × x over the body
     /// (per unit ρS): `∫ (v + ω × x)` and `∫ x × (v + ω × x)`.
-    fn momentum(&self, v: &Vector3<T>, w: &Vector3<T>) -> (Vector3<T>, Vector3<T>) {
-        let lin = v * self.mass + w.cross(&self.first);
-        let ang =
-            self.first.cross(v) + (Matrix3::identity() * self.second.trace() - self.second) * w;
+    #[inline(always)]
+    fn momentum(&self, v: &V<T>, w: &V<T>) -> (V<T>, V<T>) {
+        let first = v3(&self.first);
+        let lin = la::add(&la::scale(v, self.mass), &la::cross(w, first));
+        let second = m3(&self.second);
+        let spread = la::identity_times_minus(la::trace(second), second);
+        let ang = la::add(&la::cross(first, v), &la::mat_vec(&spread, w));
         (lin, ang)
     }
 }
 
+/// `[a]ₓ`, the matrix of `x ↦ a × x`: nalgebra's `cross_matrix`, its entries in its
+/// order, for any [`Arith`] (nalgebra asks a field of it).
+#[inline(always)]
+pub fn cross_matrix<T: Arith>(a: &Vector3<T>) -> Matrix3<T> {
+    Matrix3::new(
+        T::zero(),
+        -a[2],
+        a[1],
+        a[2],
+        T::zero(),
+        -a[0],
+        -a[1],
+        a[0],
+        T::zero(),
+    )
+}
+
+/// `f a fᵀ`.
+#[inline(always)]
+fn rotated<T: Ring>(f: &M<T>, a: &M<T>) -> M<T> {
+    la::mat_mul(&la::mat_mul(f, a), &la::transpose(f))
+}
+
 /// One element's contribution to [`SuffixBody`] (with or without the velocity parts).
-fn element_body<T: Float>(
+#[inline(always)]
+fn element_body<T: Arith>(
     pose: &Pose<T>,
     l: T,
     m: &ElementMoments<T>,
@@ -173,34 +207,48 @@ fn element_body<T: Float>(
     qd: &[T],
     with_velocity: bool,
 ) -> SuffixBody<T> {
-    let f = pose.frame;
-    let a = f * m.first;
-    let fs = f * m.second * f.transpose();
-    let (mut velocity, mut moment_velocity) = (Vector3::zeros(), Matrix3::zeros());
+    let f = m3(&pose.frame);
+    let a = la::mat_vec(f, v3(&m.first));
+    let fs = rotated(f, m3(&m.second));
+    let zero = T::zero();
+    let (mut velocity, mut moment_velocity) = ([zero; 3], [[zero; 3]; 3]);
     if with_velocity {
-        let mut pi = Vector3::zeros();
-        let mut n_pi = Matrix3::zeros();
+        let mut pi = [zero; 3];
+        let mut n_pi = [[zero; 3]; 3];
         for j in 0..3 {
-            pi += m.dfirst[j] * qd[j];
-            n_pi += m.pdp[j] * qd[j];
+            pi = la::add(&pi, &la::scale(v3(&m.dfirst[j]), qd[j]));
+            n_pi = la::mat_add(&n_pi, &la::mat_scale(m3(&m.pdp[j]), qd[j]), false);
         }
-        velocity = motion.velocity * l + motion.omega.cross(&a) + f * pi;
-        moment_velocity = a * motion.velocity.transpose() - fs * motion.omega.cross_matrix()
-            + f * n_pi * f.transpose();
+        let (omega, vel) = (v3(&motion.omega), v3(&motion.velocity));
+        velocity = la::add(
+            &la::add(&la::scale(vel, l), &la::cross(omega, &a)),
+            &la::mat_vec(f, &pi),
+        );
+        moment_velocity = la::mat_add(
+            &la::mat_add(
+                &la::outer(&a, vel),
+                &la::mat_mul(&fs, &la::cross_matrix(omega)),
+                true,
+            ),
+            &rotated(f, &n_pi),
+            false,
+        );
     }
     SuffixBody {
         mass: l,
-        first: a,
-        second: fs,
-        velocity,
-        moment_velocity,
-        rot: f * m.rot * f.transpose(),
+        first: vector(a),
+        second: matrix(fs),
+        velocity: vector(velocity),
+        moment_velocity: matrix(moment_velocity),
+        rot: matrix(rotated(f, m3(&m.rot))),
     }
 }
 
 /// `bodies[P]` = elements P..N−1 about r_P, `bodies[N]` empty. The velocity parts are filled
-/// when `with_velocity` (they need `motions` and q̇).
-pub fn suffix_bodies<T: Float>(
+/// when `with_velocity` (they need `motions` and q̇). Generic over [`Arith`]: one strand,
+/// or W strands in lanes with the same bits per lane.
+#[inline(always)]
+pub fn suffix_bodies<T: Arith>(
     ends: &[Pose<T>],
     lengths: &[T],
     moments: &[ElementMoments<T>],
@@ -220,14 +268,16 @@ pub fn suffix_bodies<T: Float>(
             &velocities[3 * p..3 * p + 3],
             with_velocity,
         );
-        let next = bodies[p + 1].shifted(&(ends[p + 1].position - ends[p].position));
+        let delta = la::sub(v3(&ends[p + 1].position), v3(&ends[p].position));
+        let next = bodies[p + 1].shifted(&vector(delta));
+        let sum = |a: &Matrix3<T>, b: &Matrix3<T>| matrix(la::mat_add(m3(a), m3(b), false));
         bodies[p] = SuffixBody {
             mass: next.mass + e.mass,
-            first: next.first + e.first,
-            second: next.second + e.second,
-            velocity: next.velocity + e.velocity,
-            moment_velocity: next.moment_velocity + e.moment_velocity,
-            rot: next.rot + e.rot,
+            first: vector(la::add(v3(&next.first), v3(&e.first))),
+            second: sum(&next.second, &e.second),
+            velocity: vector(la::add(v3(&next.velocity), v3(&e.velocity))),
+            moment_velocity: sum(&next.moment_velocity, &e.moment_velocity),
+            rot: sum(&next.rot, &e.rot),
         };
     }
 }
@@ -258,7 +308,7 @@ pub fn bodies_at_rest(
 /// per length `c0` (`force`), from element ends, end derivatives, element moments and
 /// the suffix bodies ([`suffix_bodies`], positions part). `rho_s` is the mass per length.
 #[allow(clippy::too_many_arguments)]
-pub fn assemble_mass_and_gravity<T: Float>(
+pub fn assemble_mass_and_gravity<T: Arith>(
     bodies: &[SuffixBody<T>],
     rho_s: T,
     lengths: &[T],
@@ -289,7 +339,8 @@ pub fn assemble_mass_and_gravity<T: Float>(
 /// Gram matrix `∫ J_kᵀ J_l ds` (column-major, 3N × 3N): M without ρS and the rotary
 /// inertia, which is all the damping of an isotropic drag needs (`−ν ∫ JᵀJ ds`).
 #[allow(clippy::too_many_arguments)]
-pub fn assemble_mass_gram_and_gravity<T: Float>(
+#[inline(always)]
+pub fn assemble_mass_gram_and_gravity<T: Arith>(
     bodies: &[SuffixBody<T>],
     rho_s: T,
     lengths: &[T],
@@ -304,7 +355,12 @@ pub fn assemble_mass_gram_and_gravity<T: Float>(
 ) {
     let n = lengths.len();
     let dofs = 3 * n;
-    *first_moment = (bodies[0].first + ends[0].position * bodies[0].mass) * rho_s;
+    let first = la::add(
+        v3(&bodies[0].first),
+        &la::scale(v3(&ends[0].position), bodies[0].mass),
+    );
+    *first_moment = vector(la::scale(&first, rho_s));
+    let c0 = v3(c0);
     mass.iter_mut().for_each(|x| *x = T::zero());
     // entry (k, l) and its mirror of M (and of the Gram matrix, centreline part only)
     let mut put = |k: usize, l: usize, val: T, centreline: T| {
@@ -317,23 +373,27 @@ pub fn assemble_mass_gram_and_gravity<T: Float>(
     };
     for q in 0..n {
         let e = &end_derivs[q];
-        let fq = ends[q].frame;
+        let fq = m3(&ends[q].frame);
         let mq = &moments[q];
+        let beyond = &bodies[q + 1];
+        let rot_beyond = m3(&beyond.rot);
         for i in 0..3 {
             let k = 3 * q + i;
             // J_k = v + w × (y − r_{Q+1}) beyond Q
-            let w = e.dtheta[i];
-            let v = e.dp[i];
+            let w = v3(&e.dtheta[i]);
+            let v = v3(&e.dp[i]);
             // force: rigid part beyond Q plus own part
-            let (lin, _) = bodies[q + 1].momentum(&v, &w);
-            force[k] = c0.dot(&(lin + fq * mq.dfirst[i]));
+            let (lin, _) = beyond.momentum(v, w);
+            force[k] = la::dot(c0, &la::add(&lin, &la::mat_vec(fq, v3(&mq.dfirst[i]))));
             // same element (both own in Q): rigid beyond + gram + rotary
             for j in i..3 {
-                let wl = e.dtheta[j];
-                let vl = e.dp[j];
-                let (lin, ang) = bodies[q + 1].momentum(&vl, &wl);
-                let centreline = v.dot(&lin) + w.dot(&ang) + mq.gram[(i, j)];
-                let val = rho_s * centreline + w.dot(&(bodies[q + 1].rot * wl)) + mq.rot_ww[(i, j)];
+                let wl = v3(&e.dtheta[j]);
+                let vl = v3(&e.dp[j]);
+                let (lin, ang) = beyond.momentum(vl, wl);
+                let centreline = la::dot(v, &lin) + la::dot(w, &ang) + m3(&mq.gram)[j][i];
+                let val = rho_s * centreline
+                    + la::dot(w, &la::mat_vec(rot_beyond, wl))
+                    + m3(&mq.rot_ww)[j][i];
                 put(k, 3 * q + j, val, centreline);
             }
         }
@@ -342,33 +402,37 @@ pub fn assemble_mass_gram_and_gravity<T: Float>(
     // by column, so that the column's own products are formed once for all rows upstream
     for q2 in 1..n {
         let e2 = &end_derivs[q2];
-        let f2 = ends[q2].frame;
+        let f2 = m3(&ends[q2].frame);
         let m2 = &moments[q2];
         let beyond = &bodies[q2 + 1];
         // per column j: F ∂_j∫p, F ∫p × ∂_j p, ∫I beyond · θ_j and F ∫I w_j
-        let columns: [[V3<T>; 4]; 3] = core::array::from_fn(|j| {
+        let columns: [[V<T>; 4]; 3] = core::array::from_fn(|j| {
             [
-                f2 * m2.dfirst[j],
-                f2 * m2.cross[j],
-                beyond.rot * e2.dtheta[j],
-                f2 * m2.rot_w[j],
+                la::mat_vec(f2, v3(&m2.dfirst[j])),
+                la::mat_vec(f2, v3(&m2.cross[j])),
+                la::mat_vec(m3(&beyond.rot), v3(&e2.dtheta[j])),
+                la::mat_vec(f2, v3(&m2.rot_w[j])),
             ]
         });
         for q in 0..q2 {
             let e = &end_derivs[q];
-            let r_end = ends[q + 1].position;
+            let r_end = v3(&ends[q + 1].position);
             for i in 0..3 {
                 let k = 3 * q + i;
-                let w = e.dtheta[i];
-                let v = e.dp[i];
+                let w = v3(&e.dtheta[i]);
+                let v = v3(&e.dp[i]);
                 // J_k at r_{Q'} and at r_{Q'+1}
-                let base = v + w.cross(&(ends[q2].position - r_end));
-                let at_end = v + w.cross(&(ends[q2 + 1].position - r_end));
-                let (lin, ang) = beyond.momentum(&at_end, &w);
+                let base = la::add(v, &la::cross(w, &la::sub(v3(&ends[q2].position), r_end)));
+                let at_end = la::add(
+                    v,
+                    &la::cross(w, &la::sub(v3(&ends[q2 + 1].position), r_end)),
+                );
+                let (lin, ang) = beyond.momentum(&at_end, w);
                 for (j, [dfirst, cross, rot_beyond, rot_own]) in columns.iter().enumerate() {
-                    let rigid = e2.dp[j].dot(&lin) + e2.dtheta[j].dot(&ang);
-                    let mixed = base.dot(dfirst) + w.dot(cross);
-                    let val = rho_s * (rigid + mixed) + w.dot(rot_beyond) + w.dot(rot_own);
+                    let rigid = la::dot(v3(&e2.dp[j]), &lin) + la::dot(v3(&e2.dtheta[j]), &ang);
+                    let mixed = la::dot(&base, dfirst) + la::dot(w, cross);
+                    let val =
+                        rho_s * (rigid + mixed) + la::dot(w, rot_beyond) + la::dot(w, rot_own);
                     put(k, 3 * q2 + j, val, rigid + mixed);
                 }
             }
@@ -420,7 +484,7 @@ pub fn cross_moment<T: Float>(a: &Matrix3<T>, n: &Matrix3<T>) -> Vector3<T> {
 
 /// Motion of an element's start frame at velocities q̇ and q̈ = 0 (head coordinates).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct FrameMotion<T: Float = f64> {
+pub struct FrameMotion<T: Arith = f64> {
     /// Angular velocity Ω of the frame.
     pub omega: Vector3<T>,
     /// Angular acceleration Ω̇ (q̈ = 0).
@@ -718,4 +782,144 @@ fn element_force<T: Float>(
     let delta = ends[p + 1].position - ends[p].position;
     beyond.torque += delta.cross(&beyond.force) + f * mom;
     beyond.force += f * res;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lane::soa::Soa;
+    use crate::lane::Lanes;
+    use std::vec::Vec;
+
+    /// Four strands' inputs of N = 5, arbitrary values over many magnitudes with signed
+    /// zeros (the assembly is arithmetic without branches: every input is one it takes).
+    struct Input<T: Arith> {
+        ends: [Pose<T>; 6],
+        derivs: [EndDerivatives<T>; 5],
+        moments: [ElementMoments<T>; 5],
+        motions: [FrameMotion<T>; 6],
+        velocities: [T; 15],
+        lengths: [T; 5],
+    }
+
+    fn input(seed: u64) -> Input<f64> {
+        let mut s = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+        let mut next = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            let u = (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0;
+            if s % 19 == 0 {
+                -0.0
+            } else {
+                u * 10f64.powi((s % 7) as i32 - 3)
+            }
+        };
+        let mut v = || Vector3::new(next(), next(), next());
+        let mut m = || Matrix3::from_columns(&[v(), v(), v()]);
+        let ends = core::array::from_fn(|_| Pose {
+            position: m().column(0).into(),
+            frame: m(),
+        });
+        let derivs = core::array::from_fn(|_| EndDerivatives {
+            dp: core::array::from_fn(|_| m().column(1).into()),
+            dtheta: core::array::from_fn(|_| m().column(2).into()),
+            ..Default::default()
+        });
+        let moments = core::array::from_fn(|_| ElementMoments {
+            first: m().column(0).into(),
+            second: m(),
+            dfirst: core::array::from_fn(|_| m().column(0).into()),
+            cross: core::array::from_fn(|_| m().column(1).into()),
+            gram: m(),
+            rot: m(),
+            rot_w: core::array::from_fn(|_| m().column(2).into()),
+            rot_ww: m(),
+            pdp: core::array::from_fn(|_| m()),
+            ..Default::default()
+        });
+        let motions = core::array::from_fn(|_| FrameMotion {
+            omega: m().column(0).into(),
+            velocity: m().column(1).into(),
+            ..Default::default()
+        });
+        Input {
+            ends,
+            derivs,
+            moments,
+            motions,
+            velocities: core::array::from_fn(|i| m()[(i % 3, 1)]),
+            lengths: core::array::from_fn(|_| m()[(0, 0)].abs()),
+        }
+    }
+
+    /// The suffix bodies and M, the Gram matrix, the gravity force and the first moment,
+    /// in a flat list of bits (NaN-free inputs: bits compare).
+    fn assembled<T: Arith>(x: &Input<T>, with_velocity: bool, out: impl Fn(&T) -> u64) -> Vec<u64> {
+        let mut bodies = [SuffixBody::default(); 6];
+        suffix_bodies(
+            &x.ends,
+            &x.lengths,
+            &x.moments,
+            &x.motions,
+            &x.velocities,
+            with_velocity,
+            &mut bodies,
+        );
+        let (mut mass, mut gram, mut force) = ([T::zero(); 225], [T::zero(); 225], [T::zero(); 15]);
+        let mut first = Vector3::zeros();
+        let c0 = Vector3::new(x.lengths[0], -x.lengths[1], x.lengths[2]);
+        assemble_mass_gram_and_gravity(
+            &bodies,
+            x.lengths[3],
+            &x.lengths,
+            &x.ends,
+            &x.derivs,
+            &x.moments,
+            &c0,
+            &mut mass,
+            Some(&mut gram),
+            &mut force,
+            &mut first,
+        );
+        let mut bits = Vec::new();
+        for b in &bodies {
+            bits.push(out(&b.mass));
+            for m in [&b.second, &b.moment_velocity, &b.rot] {
+                bits.extend(m.iter().map(&out));
+            }
+            for v in [&b.first, &b.velocity] {
+                bits.extend(v.iter().map(&out));
+            }
+        }
+        for list in [&mass[..], &gram[..], &force[..], first.as_slice()] {
+            bits.extend(list.iter().map(&out));
+        }
+        bits
+    }
+
+    /// The assembly written once over `Arith` gives, in each of four lanes, the bits it
+    /// gives for that lane's strand alone.
+    #[test]
+    fn the_assembly_on_lanes_gives_each_strands_bits() {
+        for round in 0..8 {
+            let inputs: [Input<f64>; 4] = core::array::from_fn(|k| input(4 * round + k as u64 + 1));
+            let r = inputs.each_ref();
+            let lanes = Input::<Lanes<f64, 4>> {
+                ends: Soa::load(r.map(|x| &x.ends)),
+                derivs: Soa::load(r.map(|x| &x.derivs)),
+                moments: Soa::load(r.map(|x| &x.moments)),
+                motions: Soa::load(r.map(|x| &x.motions)),
+                velocities: Soa::load(r.map(|x| &x.velocities)),
+                lengths: Soa::load(r.map(|x| &x.lengths)),
+            };
+            for with_velocity in [false, true] {
+                for (k, x) in inputs.iter().enumerate() {
+                    let one = assembled(x, with_velocity, |v| v.to_bits());
+                    let lane = assembled(&lanes, with_velocity, |v| v.0[k].to_bits());
+                    assert_eq!(one, lane, "lane {k}, with_velocity {with_velocity}");
+                }
+            }
+        }
+    }
 }

@@ -1,19 +1,19 @@
 //! The pose (position and frame) of a point of the strand, and the Darboux vector of an
 //! element read from q.
 
-use crate::float::Float;
+use crate::float::{Arith, Float};
 use nalgebra::{Matrix3, Vector3};
 
 /// A point of the centreline with its material frame (columns n0, n1, n2).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Pose<T: Float = f64> {
+pub struct Pose<T: Arith = f64> {
     /// Position.
     pub position: Vector3<T>,
     /// Material frame; column 0 is the tangent.
     pub frame: Matrix3<T>,
 }
 
-impl<T: Float> Default for Pose<T> {
+impl<T: Arith> Default for Pose<T> {
     fn default() -> Self {
         Pose {
             position: Vector3::zeros(),

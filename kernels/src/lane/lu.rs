@@ -87,7 +87,7 @@ fn lu_solve_lanes_body<T: Float, const W: usize, const D: usize>(
         pivots[k] = p;
         let inv = Lanes::splat(T::one()) / a[k][k];
         for r in k + 1..D {
-            a[k][r] = a[k][r] * inv;
+            a[k][r] *= inv;
         }
         for c in k + 1..D {
             let akc = a[c][k];
@@ -101,7 +101,7 @@ fn lu_solve_lanes_body<T: Float, const W: usize, const D: usize>(
                 }
             } else {
                 for r in k + 1..D {
-                    col[r] = col[r] - lk[r] * akc;
+                    col[r] -= lk[r] * akc;
                 }
             }
         }
@@ -132,15 +132,15 @@ pub fn lu_solve_factored_lanes<T: Float, const W: usize, const D: usize>(
         let bc = b[c];
         let col = &a[c];
         for r in c + 1..D {
-            b[r] = b[r] - col[r] * bc;
+            b[r] -= col[r] * bc;
         }
     }
     for c in (0..D).rev() {
         let col = &a[c];
-        b[c] = b[c] / col[c];
+        b[c] /= col[c];
         let bc = b[c];
         for r in 0..c {
-            b[r] = b[r] - col[r] * bc;
+            b[r] -= col[r] * bc;
         }
     }
     Mask(core::array::from_fn(|lane| {

@@ -281,7 +281,7 @@ fn rotary_element_body<T: Float>(
     let (half, one) = (T::of(0.5), T::one());
     for (nodes, wgl) in rule.nodes().chunks(LANES).zip(rule.weights().chunks(LANES)) {
         let used = nodes.len();
-        let mut weights = T::Lanes::zero();
+        let mut weights = <T::Lanes as num_traits::Zero>::zero();
         for k in 0..used {
             u[k] = half * l * (T::of(nodes[k]) + one);
             T::set_lane(&mut weights, k, half * l * T::of(wgl[k]));
