@@ -1,5 +1,5 @@
-//! The O(N²) assembly of the step on lanes: the suffix bodies and M, the Gram matrix and
-//! the gravity force (`moments::suffix_bodies`, `moments::assemble_mass_gram_and_gravity`)
+//! The step's O(N²) assembly on lanes (everything `strand_terms::evaluate_terms` does for
+//! a strand in gravity and drag on a still head but the rotary inertia: see `assemble`)
 //! of 4 strands of N = 5, one at a time against once on `Lanes<f64, 4>` (the same code
 //! over `Arith`, compiled with AVX2), on four moving helical strands.
 //! `cargo bench -p superhelix-generated --bench lane_assembly`.
@@ -13,13 +13,15 @@ use superhelix_kernels::lane::soa::Soa;
 use superhelix_kernels::lane::Lanes;
 use superhelix_kernels::material::helix_curvature;
 use superhelix_kernels::moments::jacobians::VelocityRow;
+use superhelix_kernels::moments::jacobians::{add_field_hessian, add_velocity_jacobian};
 use superhelix_kernels::moments::rotary::RotaryElement;
 use superhelix_kernels::moments::{
-    assemble_mass_gram_and_gravity, frame_motions, suffix_bodies, ElementMoments, EndDerivatives,
-    FrameMotion, SuffixBody,
+    assemble_inertial_and_field_force, assemble_mass_gram_and_gravity, frame_motions,
+    suffix_bodies, ElementMoments, EndDerivatives, FrameMotion, SuffixBody,
 };
 use superhelix_kernels::strand_terms::{prepare, MomentBuffers, StrandShape};
 use superhelix_kernels::Arith;
+use superhelix_kernels::BodyField;
 use superhelix_kernels::Pose;
 
 const N: usize = 5;
@@ -93,42 +95,107 @@ fn strand_input(k: usize) -> Input<f64> {
     }
 }
 
-/// The assembly of one strand's (or W strands') input into `mass`, `gram` and `force`.
+/// Outputs of the assembly.
+struct Output<T: Arith> {
+    motions: [FrameMotion<T>; N + 1],
+    bodies: [SuffixBody<T>; N + 1],
+    rows: [VelocityRow<T>; D],
+    mass: [T; D * D],
+    gram: [T; D * D],
+    stiffness: [T; D * D],
+    velocity_jacobian: [T; D * D],
+    gravity: [T; D],
+    inertial: [T; D],
+    field_force: [T; D],
+}
+
+impl<T: Arith> Output<T> {
+    fn new() -> Box<Self> {
+        Box::new(Output {
+            motions: [FrameMotion::default(); N + 1],
+            bodies: [SuffixBody::default(); N + 1],
+            rows: [VelocityRow::default(); D],
+            mass: [T::zero(); D * D],
+            gram: [T::zero(); D * D],
+            stiffness: [T::zero(); D * D],
+            velocity_jacobian: [T::zero(); D * D],
+            gravity: [T::zero(); D],
+            inertial: [T::zero(); D],
+            field_force: [T::zero(); D],
+        })
+    }
+}
+
+/// The step's assembly of one strand (or W strands in lanes) in gravity and air drag
+/// with the head still, as `strand_terms::evaluate_terms` runs it for the linearly
+/// implicit step, less the rotary inertia: the frame motions, the suffix bodies, M and
+/// the Gram matrix, the inertial and field forces, the field's Hessian and ∂b/∂q̇.
 #[inline(always)]
-fn assemble<T: Arith>(
-    x: &Input<T>,
-    c0: &Vector3<T>,
-    rho_s: T,
-    bodies: &mut [SuffixBody<T>; N + 1],
-    mass: &mut [T; D * D],
-    gram: &mut [T; D * D],
-    force: &mut [T; D],
-) -> Vector3<T> {
+fn assemble<T: Arith>(x: &Input<T>, field: &BodyField<T>, rho_s: T, o: &mut Output<T>) {
+    frame_motions(&x.ends, &x.derivs, &x.velocities, &mut o.motions);
+    let (ends, derivs, moments) = (&x.ends, &x.derivs, &x.moments);
     suffix_bodies(
-        &x.ends,
+        ends,
         &x.lengths,
-        &x.moments,
-        &x.motions,
+        moments,
+        &o.motions,
         &x.velocities,
         true,
-        bodies,
+        &mut o.bodies,
     );
     let mut first = Vector3::zeros();
     assemble_mass_gram_and_gravity(
-        bodies,
+        &o.bodies,
         rho_s,
         &x.lengths,
-        &x.ends,
-        &x.derivs,
-        &x.moments,
-        c0,
-        mass,
-        Some(gram),
-        force,
+        ends,
+        derivs,
+        moments,
+        &field.uniform,
+        &mut o.mass,
+        Some(&mut o.gram),
+        &mut o.gravity,
         &mut first,
     );
-    first
+    assemble_inertial_and_field_force(
+        rho_s,
+        &x.lengths,
+        ends,
+        derivs,
+        moments,
+        &o.motions,
+        &x.velocities,
+        field,
+        &mut o.inertial,
+        &mut o.field_force,
+    );
+    o.stiffness.fill(T::zero());
+    let (c0, c1) = (&field.uniform, &field.linear);
+    add_field_hessian(c0, c1, ends, derivs, moments, &o.bodies, &mut o.stiffness);
+    o.velocity_jacobian.fill(T::zero());
+    add_velocity_jacobian(
+        rho_s + rho_s,
+        ends,
+        derivs,
+        moments,
+        &o.motions,
+        &o.bodies,
+        &x.velocities,
+        &mut o.rows,
+        &mut o.velocity_jacobian,
+    );
 }
+
+/// The field of gravity and an isotropic air drag (ν = 5e-6 N s/m²).
+fn field() -> BodyField<f64> {
+    BodyField {
+        uniform: Vector3::new(0.0, 0.0, -9.81 * RHO_S),
+        linear: Matrix3::zeros(),
+        velocity: Matrix3::identity() * -5e-6,
+    }
+}
+
+const RHO_S: f64 = 2.4e-5;
 
 fn load(inputs: &[Input<f64>; 4]) -> Input<Lanes<f64, 4>> {
     let r = inputs.each_ref();
@@ -145,78 +212,62 @@ fn load(inputs: &[Input<f64>; 4]) -> Input<Lanes<f64, 4>> {
 #[target_feature(enable = "avx2")]
 fn assemble_lanes_avx2(
     x: &Input<Lanes<f64, 4>>,
-    bodies: &mut [SuffixBody<Lanes<f64, 4>>; N + 1],
-    mass: &mut [Lanes<f64, 4>; D * D],
-    gram: &mut [Lanes<f64, 4>; D * D],
-    force: &mut [Lanes<f64, 4>; D],
-) -> Vector3<Lanes<f64, 4>> {
-    let c0 = Vector3::new(0.0, 0.0, -9.81).map(Lanes::from);
-    assemble(x, &c0, Lanes::from(1e-5), bodies, mass, gram, force)
+    field: &BodyField<Lanes<f64, 4>>,
+    o: &mut Output<Lanes<f64, 4>>,
+) {
+    assemble(x, field, Lanes::from(RHO_S), o)
 }
 
 #[target_feature(enable = "avx2")]
-fn assemble_scalar_avx2(
-    x: &Input<f64>,
-    bodies: &mut [SuffixBody<f64>; N + 1],
-    mass: &mut [f64; D * D],
-    gram: &mut [f64; D * D],
-    force: &mut [f64; D],
-) -> Vector3<f64> {
-    let c0 = Vector3::new(0.0, 0.0, -9.81);
-    assemble(x, &c0, 1e-5, bodies, mass, gram, force)
+fn assemble_scalar_avx2(x: &Input<f64>, field: &BodyField<f64>, o: &mut Output<f64>) {
+    assemble(x, field, RHO_S, o)
 }
 
 fn bench(c: &mut Criterion) {
+    assert!(
+        std::arch::is_x86_feature_detected!("avx2"),
+        "the benchmark runs AVX2 code"
+    );
     let mut group = c.benchmark_group("assembly_5");
     group
         .warm_up_time(Duration::from_millis(500))
         .measurement_time(Duration::from_secs(2))
         .sample_size(40);
-    let inputs: [Input<f64>; 4] = core::array::from_fn(|k| strand_input(k));
+    let inputs: [Input<f64>; 4] = core::array::from_fn(strand_input);
     let lanes = load(&inputs);
-    let c0 = Vector3::new(0.0, 0.0, -9.81);
-    // the lanes give each strand's bits
-    let mut lb = [SuffixBody::default(); N + 1];
-    let (mut lm, mut lg, mut lf) = (
-        [Lanes::from(0.0); D * D],
-        [Lanes::from(0.0); D * D],
-        [Lanes::from(0.0); D],
-    );
-    // SAFETY: checked for AVX2 by the caller of the benchmark (this machine has it)
-    let lfirst = unsafe { assemble_lanes_avx2(&lanes, &mut lb, &mut lm, &mut lg, &mut lf) };
+    let field = field();
+    let field_lanes: BodyField<Lanes<f64, 4>> = Soa::load([&field; 4]);
+    // the lanes give each strand's bits (the equality test is kernels' moments::tests)
+    let mut lo = Output::new();
+    // SAFETY: the CPU has AVX2 (asserted above)
+    unsafe { assemble_lanes_avx2(&lanes, &field_lanes, &mut lo) };
     for (k, x) in inputs.iter().enumerate() {
-        let mut b = [SuffixBody::default(); N + 1];
-        let (mut m, mut g, mut f) = ([0.0; D * D], [0.0; D * D], [0.0; D]);
-        let first = assemble(x, &c0, 1e-5, &mut b, &mut m, &mut g, &mut f);
-        for i in 0..D * D {
-            assert_eq!(m[i].to_bits(), lm[i].0[k].to_bits());
-            assert_eq!(g[i].to_bits(), lg[i].0[k].to_bits());
+        let mut o = Output::new();
+        assemble(x, &field, RHO_S, &mut o);
+        for (a, b) in o.velocity_jacobian.iter().zip(&lo.velocity_jacobian) {
+            assert_eq!(a.to_bits(), b.0[k].to_bits());
         }
-        for i in 0..D {
-            assert_eq!(f[i].to_bits(), lf[i].0[k].to_bits());
+        for (a, b) in o.field_force.iter().zip(&lo.field_force) {
+            assert_eq!(a.to_bits(), b.0[k].to_bits());
         }
-        assert_eq!(first, lfirst.map(|x| x.0[k]));
     }
     group.bench_function("scalar_x4", |b| {
-        let mut bodies = [SuffixBody::default(); N + 1];
-        let (mut m, mut g, mut f) = ([0.0; D * D], [0.0; D * D], [0.0; D]);
+        let mut o = Output::new();
         b.iter(|| {
             let mut sum = 0.0;
             for x in &inputs {
                 // SAFETY: as above
-                let first = unsafe { assemble_scalar_avx2(x, &mut bodies, &mut m, &mut g, &mut f) };
-                sum += first[0] + m[7] + g[9] + f[3];
+                unsafe { assemble_scalar_avx2(x, &field, &mut o) };
+                sum += o.mass[7] + o.velocity_jacobian[9] + o.inertial[3];
             }
             black_box(sum)
         })
     });
     group.bench_function("lanes_4", |b| {
-        let mut bodies = [SuffixBody::default(); N + 1];
         b.iter(|| {
             // SAFETY: as above
-            let first =
-                unsafe { assemble_lanes_avx2(&lanes, &mut bodies, &mut lm, &mut lg, &mut lf) };
-            black_box(first[0].0[0] + lm[7].0[1] + lg[9].0[2] + lf[3].0[3])
+            unsafe { assemble_lanes_avx2(&lanes, &field_lanes, &mut lo) };
+            black_box(lo.mass[7].0[0] + lo.velocity_jacobian[9].0[1] + lo.inertial[3].0[3])
         })
     });
     group.finish();

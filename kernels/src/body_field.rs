@@ -2,13 +2,13 @@
 //! gravity, the fictitious forces of head motion and air drag (paper eq. 5a, written in
 //! the head frame).
 
-use crate::float::Float;
+use crate::float::Arith;
 use nalgebra::{Matrix3, Vector3};
 
 /// An external force per unit length affine in position and velocity:
 /// `F = uniform + linear · y + velocity · ẏ` (N/m), head coordinates.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BodyField<T: Float = f64> {
+pub struct BodyField<T: Arith = f64> {
     /// c0, N/m: gravity ρS Rᵀ(g − Ẍ) and the drag of the head's translation −ν RᵀẊ.
     pub uniform: Vector3<T>,
     /// C1, N/m²: `−ρS([α]× + [ω]×²) − ν[ω]×` (Euler, centrifugal, drag of rotation).
@@ -17,7 +17,7 @@ pub struct BodyField<T: Float = f64> {
     pub velocity: Matrix3<T>,
 }
 
-impl<T: Float> BodyField<T> {
+impl<T: Arith> BodyField<T> {
     /// No force.
     pub fn zero() -> Self {
         BodyField {

@@ -307,6 +307,37 @@ pub fn identity_times_minus<T: Ring>(t: T, a: &M<T>) -> M<T> {
     mat_add(&id, a, true)
 }
 
+/// nalgebra's `dot` of two 3 × 3 matrices (entry by entry, column by column): its sum
+/// from zero with, per column, the four (here zero) partial sums of its unrolled loop
+/// added first, then the column's three products.
+#[inline(always)]
+pub fn mat_dot<T: Ring>(a: &M<T>, b: &M<T>) -> T {
+    let zero = T::zero();
+    let mut res = zero;
+    for c in 0..3 {
+        for _ in 0..4 {
+            res = res + (zero + zero);
+        }
+        for r in 0..3 {
+            res = res + a[c][r] * b[c][r];
+        }
+    }
+    res
+}
+
+/// nalgebra's `a.component_mul(b).sum()`: the entries' products summed from zero,
+/// column by column.
+#[inline(always)]
+pub fn sum_of_products<T: Ring>(a: &M<T>, b: &M<T>) -> T {
+    let mut res = T::zero();
+    for c in 0..3 {
+        for r in 0..3 {
+            res = res + a[c][r] * b[c][r];
+        }
+    }
+    res
+}
+
 /// nalgebra's `trace()`: `((0 + a₀₀) + a₁₁) + a₂₂`.
 #[inline(always)]
 pub fn trace<T: Ring>(a: &M<T>) -> T {

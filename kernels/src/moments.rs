@@ -461,7 +461,7 @@ pub fn end_derivatives_from<T: Float>(
 /// Force and torque (about the element's start) that the force per length exerts on one
 /// element.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Wrench<T: Float = f64> {
+pub struct Wrench<T: Arith = f64> {
     /// Resultant ∫ f du.
     pub force: Vector3<T>,
     /// Moment about the element's start r_P: ∫ (y − r_P) × f du.
@@ -469,17 +469,16 @@ pub struct Wrench<T: Float = f64> {
 }
 
 /// `∫ x × z` from `k` = ∫ x zᵀ.
-pub fn axial<T: Float>(k: &Matrix3<T>) -> Vector3<T> {
-    Vector3::new(
-        k[(1, 2)] - k[(2, 1)],
-        k[(2, 0)] - k[(0, 2)],
-        k[(0, 1)] - k[(1, 0)],
-    )
+#[inline(always)]
+pub fn axial<T: Arith>(k: &Matrix3<T>) -> Vector3<T> {
+    let k = m3(k);
+    vector([k[2][1] - k[1][2], k[0][2] - k[2][0], k[1][0] - k[0][1]])
 }
 
 /// `∫ x × (A z)` from `n` = ∫ x zᵀ.
-pub fn cross_moment<T: Float>(a: &Matrix3<T>, n: &Matrix3<T>) -> Vector3<T> {
-    axial(&(n * a.transpose()))
+#[inline(always)]
+pub fn cross_moment<T: Arith>(a: &Matrix3<T>, n: &Matrix3<T>) -> Vector3<T> {
+    axial(&matrix(la::mat_mul(m3(n), &la::transpose(m3(a)))))
 }
 
 /// Motion of an element's start frame at velocities q̇ and q̈ = 0 (head coordinates).
@@ -498,7 +497,8 @@ pub struct FrameMotion<T: Arith = f64> {
 /// The velocity parts of [`frame_motions`] alone (Ω and ṙ, the same values; `alpha` and
 /// `acceleration` zero), from `dp` and `dtheta` of the end derivatives: what a kinetic
 /// energy needs, and the first pass of [`frame_motions`].
-pub fn frame_velocities<T: Float>(
+#[inline(always)]
+pub fn frame_velocities<T: Arith>(
     ends: &[Pose<T>],
     end_derivs: &[EndDerivatives<T>],
     velocities: &[T],
@@ -509,12 +509,13 @@ pub fn frame_velocities<T: Float>(
     for p in 0..n {
         let m = motions[p];
         let e = &end_derivs[p];
-        let span = ends[p + 1].position - ends[p].position;
+        let span = la::sub(v3(&ends[p + 1].position), v3(&ends[p].position));
         let (w_hat, pi_l) = first_order(e, &velocities[3 * p..3 * p + 3]);
+        let (omega, velocity) = (v3(&m.omega), v3(&m.velocity));
         motions[p + 1] = FrameMotion {
-            omega: m.omega + w_hat,
+            omega: vector(la::add(omega, &w_hat)),
             alpha: Vector3::zeros(),
-            velocity: m.velocity + m.omega.cross(&span) + pi_l,
+            velocity: vector(la::add(&la::add(velocity, &la::cross(omega, &span)), &pi_l)),
             acceleration: Vector3::zeros(),
         };
     }
@@ -522,19 +523,20 @@ pub fn frame_velocities<T: Float>(
 
 /// `(Σ dθ_i q̇_i, Σ dp_i q̇_i)` of one element's end derivatives.
 #[inline(always)]
-fn first_order<T: Float>(e: &EndDerivatives<T>, qd: &[T]) -> (Vector3<T>, Vector3<T>) {
-    let mut w_hat = Vector3::zeros();
-    let mut pi_l = Vector3::zeros();
+fn first_order<T: Arith>(e: &EndDerivatives<T>, qd: &[T]) -> (V<T>, V<T>) {
+    let mut w_hat = [T::zero(); 3];
+    let mut pi_l = [T::zero(); 3];
     for i in 0..3 {
-        w_hat += e.dtheta[i] * qd[i];
-        pi_l += e.dp[i] * qd[i];
+        w_hat = la::add(&w_hat, &la::scale(v3(&e.dtheta[i]), qd[i]));
+        pi_l = la::add(&pi_l, &la::scale(v3(&e.dp[i]), qd[i]));
     }
     (w_hat, pi_l)
 }
 
 /// The recursion of docs/moment-assembly.md ("Velocity and acceleration of the base
 /// frame"): `motions[P]` for P = 0..=N (the root is fixed in head coordinates).
-pub fn frame_motions<T: Float>(
+#[inline(always)]
+pub fn frame_motions<T: Arith>(
     ends: &[Pose<T>],
     end_derivs: &[EndDerivatives<T>],
     velocities: &[T],
@@ -544,25 +546,26 @@ pub fn frame_motions<T: Float>(
     for p in 0..end_derivs.len() {
         let m = motions[p];
         let e = &end_derivs[p];
-        let span = ends[p + 1].position - ends[p].position;
+        let span = la::sub(v3(&ends[p + 1].position), v3(&ends[p].position));
         let qd = &velocities[3 * p..3 * p + 3];
         let (w_hat, pi_l) = first_order(e, qd);
-        let mut w_dot = Vector3::zeros();
-        let mut pidot_l = Vector3::zeros();
+        let mut w_dot = [T::zero(); 3];
+        let mut pidot_l = [T::zero(); 3];
         for i in 0..3 {
             for j in 0..3 {
                 let qq = qd[i] * qd[j];
-                w_dot += e.dw[i][j] * qq;
-                pidot_l += e.d2p[i][j] * qq;
+                w_dot = la::add(&w_dot, &la::scale(v3(&e.dw[i][j]), qq));
+                pidot_l = la::add(&pidot_l, &la::scale(v3(&e.d2p[i][j]), qq));
             }
         }
+        let (omega, alpha) = (v3(&m.omega), v3(&m.alpha));
         let next = &mut motions[p + 1];
-        next.alpha = m.alpha + m.omega.cross(&w_hat) + w_dot;
-        next.acceleration = m.acceleration
-            + m.alpha.cross(&span)
-            + m.omega.cross(&m.omega.cross(&span))
-            + m.omega.cross(&pi_l) * T::of(2.0)
-            + pidot_l;
+        next.alpha = vector(la::add(&la::add(alpha, &la::cross(omega, &w_hat)), &w_dot));
+        let two = T::one() + T::one();
+        let acceleration = la::add(v3(&m.acceleration), &la::cross(alpha, &span));
+        let acceleration = la::add(&acceleration, &la::cross(omega, &la::cross(omega, &span)));
+        let acceleration = la::add(&acceleration, &la::scale(&la::cross(omega, &pi_l), two));
+        next.acceleration = vector(la::add(&acceleration, &pidot_l));
     }
 }
 
@@ -577,7 +580,8 @@ pub fn frame_motions<T: Float>(
 /// The elements are taken from the tip: each adds the wrenches summed beyond it to its
 /// columns.
 #[allow(clippy::too_many_arguments)]
-pub fn assemble_force<T: Float>(
+#[inline(always)]
+pub fn assemble_force<T: Arith>(
     rho_s: T,
     lengths: &[T],
     ends: &[Pose<T>],
@@ -611,7 +615,8 @@ pub fn assemble_force<T: Float>(
 /// of (ρS = 0, `field`), ∫ Jᵀ(c0 + C1 y + C2 ẏ) ds; the same bits as the two calls, for
 /// one set of the moment contractions with q̇.
 #[allow(clippy::too_many_arguments)]
-pub fn assemble_inertial_and_field_force<T: Float>(
+#[inline(always)]
+pub fn assemble_inertial_and_field_force<T: Arith>(
     rho_s: T,
     lengths: &[T],
     ends: &[Pose<T>],
@@ -656,22 +661,22 @@ pub fn assemble_inertial_and_field_force<T: Float>(
 
 /// The element moments of [`assemble_force`] contracted with the element's q̇ (they do
 /// not depend on the field or on ρS).
-struct ForceContractions<T: Float> {
+struct ForceContractions<T: Arith> {
     /// ∫ π.
-    pi1: Vector3<T>,
+    pi1: V<T>,
     /// ∫ p πᵀ.
-    n_pi: Matrix3<T>,
+    n_pi: M<T>,
     /// ∫ π̇.
-    pi2: Vector3<T>,
+    pi2: V<T>,
     /// ∫ p × π̇.
-    c_pi2: Vector3<T>,
+    c_pi2: V<T>,
     /// ∫ ∂_i p πᵀ.
-    g_pi: [Matrix3<T>; 3],
+    g_pi: [M<T>; 3],
     /// ∫ ∂_i p · π̇.
     t: [T; 3],
 }
 
-impl<T: Float> ForceContractions<T> {
+impl<T: Arith> ForceContractions<T> {
     #[inline(always)]
     fn of(m: &ElementMoments<T>, velocities: &[T], p: usize) -> Self {
         let qd = [
@@ -679,24 +684,25 @@ impl<T: Float> ForceContractions<T> {
             velocities[3 * p + 1],
             velocities[3 * p + 2],
         ];
-        let mut pi1 = Vector3::zeros();
-        let mut n_pi = Matrix3::zeros();
-        let mut pi2 = Vector3::zeros();
-        let mut c_pi2 = Vector3::zeros();
+        let zero = T::zero();
+        let mut pi1 = [zero; 3];
+        let mut n_pi = [[zero; 3]; 3];
+        let mut pi2 = [zero; 3];
+        let mut c_pi2 = [zero; 3];
         for j in 0..3 {
-            pi1 += m.dfirst[j] * qd[j];
-            n_pi += m.pdp[j] * qd[j];
+            pi1 = la::add(&pi1, &la::scale(v3(&m.dfirst[j]), qd[j]));
+            n_pi = la::mat_add(&n_pi, &la::mat_scale(m3(&m.pdp[j]), qd[j]), false);
             for k in 0..3 {
                 let qq = qd[j] * qd[k];
-                pi2 += m.d2first[j][k] * qq;
-                c_pi2 += m.cross2[j][k] * qq;
+                pi2 = la::add(&pi2, &la::scale(v3(&m.d2first[j][k]), qq));
+                c_pi2 = la::add(&c_pi2, &la::scale(v3(&m.cross2[j][k]), qq));
             }
         }
-        let mut g_pi = [Matrix3::zeros(); 3];
-        let mut t = [T::zero(); 3];
+        let mut g_pi = [[[zero; 3]; 3]; 3];
+        let mut t = [zero; 3];
         for i in 0..3 {
             for j in 0..3 {
-                g_pi[i] += m.dpdp[i][j] * qd[j];
+                g_pi[i] = la::mat_add(&g_pi[i], &la::mat_scale(m3(&m.dpdp[i][j]), qd[j]), false);
                 for k in 0..3 {
                     t[i] += m.dpd2p[i][j][k] * qd[j] * qd[k];
                 }
@@ -715,34 +721,35 @@ impl<T: Float> ForceContractions<T> {
 
 /// The force per length on one element in its frame, `a0 + A p + B π − ρS π̇`.
 #[derive(Clone, Copy)]
-struct ForceSetup<T: Float> {
+struct ForceSetup<T: Arith> {
     rho_s: T,
-    a0: Vector3<T>,
-    a: Matrix3<T>,
-    b: Matrix3<T>,
+    a0: V<T>,
+    a: M<T>,
+    b: M<T>,
 }
 
-impl<T: Float> ForceSetup<T> {
+impl<T: Arith> ForceSetup<T> {
     #[inline(always)]
     fn of(field: &BodyField<T>, rho_s: T, start: &Pose<T>, motion: &FrameMotion<T>) -> Self {
-        let (c0, c1, c2) = (&field.uniform, &field.linear, &field.velocity);
-        let f = start.frame;
-        let FrameMotion {
-            omega,
-            alpha,
-            velocity: vel,
-            acceleration: acc,
-        } = *motion;
+        let (c0, c1, c2) = (v3(&field.uniform), m3(&field.linear), m3(&field.velocity));
+        let f = m3(&start.frame);
+        let (omega, alpha) = (v3(&motion.omega), v3(&motion.alpha));
+        let (vel, acc) = (v3(&motion.velocity), v3(&motion.acceleration));
         // f(u) = g0 + G1 F p + H2 F π − ρS F π̇, in the element frame: a0 + A p + B π − ρS π̇
-        let wx = omega.cross_matrix();
-        let g0 = c0 + c1 * start.position + c2 * vel - acc * rho_s;
-        let g1 = c1 + c2 * wx - (alpha.cross_matrix() + wx * wx) * rho_s;
-        let h2 = c2 - wx * (T::of(2.0) * rho_s);
+        let wx = la::cross_matrix(omega);
+        let g0 = la::add(c0, &la::mat_vec(c1, v3(&start.position)));
+        let g0 = la::sub(&la::add(&g0, &la::mat_vec(c2, vel)), &la::scale(acc, rho_s));
+        let spin = la::mat_add(&la::cross_matrix(alpha), &la::mat_mul(&wx, &wx), false);
+        let g1 = la::mat_add(c1, &la::mat_mul(c2, &wx), false);
+        let g1 = la::mat_add(&g1, &la::mat_scale(&spin, rho_s), true);
+        let two = T::one() + T::one();
+        let h2 = la::mat_add(c2, &la::mat_scale(&wx, two * rho_s), true);
+        let ft = la::transpose(f);
         ForceSetup {
             rho_s,
-            a0: f.transpose() * g0,
-            a: f.transpose() * g1 * f,
-            b: f.transpose() * h2 * f,
+            a0: la::mat_vec(&ft, &g0),
+            a: la::mat_mul(&la::mat_mul(&ft, &g1), f),
+            b: la::mat_mul(&la::mat_mul(&ft, &h2), f),
         }
     }
 }
@@ -751,7 +758,7 @@ impl<T: Float> ForceSetup<T> {
 /// it, about r_{p+1}), then its own wrench added to `beyond`, moved to r_p.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn element_force<T: Float>(
+fn element_force<T: Arith>(
     s: ForceSetup<T>,
     c: &ForceContractions<T>,
     p: usize,
@@ -763,126 +770,195 @@ fn element_force<T: Float>(
     force: &mut [T],
 ) {
     let m = &moments[p];
-    let f = ends[p].frame;
+    let f = m3(&ends[p].frame);
     // own columns: ∫ ∂_i p · Fᵀf
     for i in 0..3 {
-        force[3 * p + i] = m.dfirst[i].dot(&s.a0) + (s.a * m.pdp[i]).trace() + s.b.dot(&c.g_pi[i])
-            - s.rho_s * c.t[i];
+        let own = la::dot(v3(&m.dfirst[i]), &s.a0) + la::trace(&la::mat_mul(&s.a, m3(&m.pdp[i])));
+        force[3 * p + i] = own + la::mat_dot(&s.b, &c.g_pi[i]) - s.rho_s * c.t[i];
     }
     // upstream columns: dp_k · ΣR + ω_k · Στ over the elements beyond, torques about
     // r_{p+1} (moved along the chain element by element, never through the origin)
     let e = &end_derivs[p];
+    let (beyond_force, beyond_torque) = (*v3(&beyond.force), *v3(&beyond.torque));
     for i in 0..3 {
-        force[3 * p + i] += e.dp[i].dot(&beyond.force) + e.dtheta[i].dot(&beyond.torque);
+        force[3 * p + i] +=
+            la::dot(v3(&e.dp[i]), &beyond_force) + la::dot(v3(&e.dtheta[i]), &beyond_torque);
     }
     // wrench of element p about the origin of its frame, then about its start r_p
-    let res = s.a0 * lengths[p] + s.a * m.first + s.b * c.pi1 - c.pi2 * s.rho_s;
-    let mom = m.first.cross(&s.a0) + cross_moment(&s.a, &m.second) + cross_moment(&s.b, &c.n_pi)
-        - c.c_pi2 * s.rho_s;
-    let delta = ends[p + 1].position - ends[p].position;
-    beyond.torque += delta.cross(&beyond.force) + f * mom;
-    beyond.force += f * res;
+    let first = v3(&m.first);
+    let res = la::add(&la::scale(&s.a0, lengths[p]), &la::mat_vec(&s.a, first));
+    let res = la::sub(
+        &la::add(&res, &la::mat_vec(&s.b, &c.pi1)),
+        &la::scale(&c.pi2, s.rho_s),
+    );
+    let mom = la::add(
+        &la::cross(first, &s.a0),
+        v3(&cross_moment(&matrix(s.a), &m.second)),
+    );
+    let mom = la::add(&mom, v3(&cross_moment(&matrix(s.b), &matrix(c.n_pi))));
+    let mom = la::sub(&mom, &la::scale(&c.c_pi2, s.rho_s));
+    let delta = la::sub(v3(&ends[p + 1].position), v3(&ends[p].position));
+    let turn = la::add(&la::cross(&delta, &beyond_force), &la::mat_vec(f, &mom));
+    beyond.torque = vector(la::add(&beyond_torque, &turn));
+    beyond.force = vector(la::add(&beyond_force, &la::mat_vec(f, &res)));
 }
 
 #[cfg(test)]
 mod tests {
+    use super::jacobians::{
+        add_field_hessian, add_velocity_jacobian, add_weighted_gram, VelocityRow,
+    };
     use super::*;
     use crate::lane::soa::Soa;
     use crate::lane::Lanes;
     use std::vec::Vec;
 
-    /// Four strands' inputs of N = 5, arbitrary values over many magnitudes with signed
-    /// zeros (the assembly is arithmetic without branches: every input is one it takes).
+    /// A strand's inputs of N = 5: arbitrary values over many magnitudes with signed
+    /// zeros (the assembly is arithmetic without branches on values, so every input is
+    /// one it takes), and a body field with all three parts.
     struct Input<T: Arith> {
         ends: [Pose<T>; 6],
         derivs: [EndDerivatives<T>; 5],
         moments: [ElementMoments<T>; 5],
-        motions: [FrameMotion<T>; 6],
         velocities: [T; 15],
         lengths: [T; 5],
+        field: BodyField<T>,
+    }
+
+    /// Pseudo-random values over many magnitudes, with signed zeros.
+    struct Values(u64);
+
+    impl Values {
+        fn x(&mut self) -> f64 {
+            let s = &mut self.0;
+            *s ^= *s << 13;
+            *s ^= *s >> 7;
+            *s ^= *s << 17;
+            let u = (*s >> 11) as f64 / (1u64 << 52) as f64 - 1.0;
+            if *s % 19 == 0 {
+                -0.0
+            } else {
+                u * 10f64.powi((*s % 7) as i32 - 3)
+            }
+        }
+        fn v(&mut self) -> Vector3<f64> {
+            Vector3::new(self.x(), self.x(), self.x())
+        }
+        fn m(&mut self) -> Matrix3<f64> {
+            Matrix3::from_columns(&[self.v(), self.v(), self.v()])
+        }
+        fn vs(&mut self) -> [Vector3<f64>; 3] {
+            core::array::from_fn(|_| self.v())
+        }
+        fn ms(&mut self) -> [Matrix3<f64>; 3] {
+            core::array::from_fn(|_| self.m())
+        }
     }
 
     fn input(seed: u64) -> Input<f64> {
-        let mut s = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
-        let mut next = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            let u = (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0;
-            if s % 19 == 0 {
-                -0.0
-            } else {
-                u * 10f64.powi((s % 7) as i32 - 3)
-            }
-        };
-        let mut v = || Vector3::new(next(), next(), next());
-        let mut m = || Matrix3::from_columns(&[v(), v(), v()]);
+        let mut r = Values(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1);
         let ends = core::array::from_fn(|_| Pose {
-            position: m().column(0).into(),
-            frame: m(),
+            position: r.v(),
+            frame: r.m(),
         });
         let derivs = core::array::from_fn(|_| EndDerivatives {
-            dp: core::array::from_fn(|_| m().column(1).into()),
-            dtheta: core::array::from_fn(|_| m().column(2).into()),
-            ..Default::default()
+            dp: r.vs(),
+            dtheta: r.vs(),
+            d2p: core::array::from_fn(|_| r.vs()),
+            dw: core::array::from_fn(|_| r.vs()),
         });
         let moments = core::array::from_fn(|_| ElementMoments {
-            first: m().column(0).into(),
-            second: m(),
-            dfirst: core::array::from_fn(|_| m().column(0).into()),
-            cross: core::array::from_fn(|_| m().column(1).into()),
-            gram: m(),
-            rot: m(),
-            rot_w: core::array::from_fn(|_| m().column(2).into()),
-            rot_ww: m(),
-            pdp: core::array::from_fn(|_| m()),
-            ..Default::default()
-        });
-        let motions = core::array::from_fn(|_| FrameMotion {
-            omega: m().column(0).into(),
-            velocity: m().column(1).into(),
-            ..Default::default()
+            first: r.v(),
+            second: r.m(),
+            dfirst: r.vs(),
+            cross: r.vs(),
+            gram: r.m(),
+            rot: r.m(),
+            rot_w: r.vs(),
+            rot_ww: r.m(),
+            pdp: r.ms(),
+            d2first: core::array::from_fn(|_| r.vs()),
+            cross2: core::array::from_fn(|_| r.vs()),
+            pd2p: core::array::from_fn(|_| r.ms()),
+            dpdp: core::array::from_fn(|_| r.ms()),
+            dpd2p: core::array::from_fn(|_| core::array::from_fn(|_| r.v().into())),
         });
         Input {
             ends,
             derivs,
             moments,
-            motions,
-            velocities: core::array::from_fn(|i| m()[(i % 3, 1)]),
-            lengths: core::array::from_fn(|_| m()[(0, 0)].abs()),
+            velocities: core::array::from_fn(|_| r.x()),
+            lengths: core::array::from_fn(|_| r.x().abs()),
+            field: BodyField {
+                uniform: r.v(),
+                linear: r.m(),
+                velocity: r.m(),
+            },
         }
     }
 
-    /// The suffix bodies and M, the Gram matrix, the gravity force and the first moment,
-    /// in a flat list of bits (NaN-free inputs: bits compare).
+    /// Every output of the step's assembly (frame motions, suffix bodies, M, the Gram
+    /// matrix, gravity, the inertial and field forces, the field's Hessian, the weighted
+    /// Gram matrix of the field's velocity part and ∂b/∂q̇) as a flat list of bits.
     fn assembled<T: Arith>(x: &Input<T>, with_velocity: bool, out: impl Fn(&T) -> u64) -> Vec<u64> {
+        let mut motions = [FrameMotion::default(); 6];
+        frame_motions(&x.ends, &x.derivs, &x.velocities, &mut motions);
         let mut bodies = [SuffixBody::default(); 6];
         suffix_bodies(
             &x.ends,
             &x.lengths,
             &x.moments,
-            &x.motions,
+            &motions,
             &x.velocities,
             with_velocity,
             &mut bodies,
         );
-        let (mut mass, mut gram, mut force) = ([T::zero(); 225], [T::zero(); 225], [T::zero(); 15]);
+        let mut vectors = [[T::zero(); 15]; 4];
+        let [force, inertial, field_force, _] = &mut vectors;
+        let mut matrices = [[T::zero(); 225]; 5];
+        let [mass, gram, hessian, weighted, velocity] = &mut matrices;
         let mut first = Vector3::zeros();
-        let c0 = Vector3::new(x.lengths[0], -x.lengths[1], x.lengths[2]);
+        let rho_s = x.lengths[3];
         assemble_mass_gram_and_gravity(
             &bodies,
-            x.lengths[3],
+            rho_s,
             &x.lengths,
             &x.ends,
             &x.derivs,
             &x.moments,
-            &c0,
-            &mut mass,
-            Some(&mut gram),
-            &mut force,
+            &x.field.uniform,
+            mass,
+            Some(gram),
+            force,
             &mut first,
         );
+        let (ends, derivs, moments) = (&x.ends, &x.derivs, &x.moments);
+        assemble_inertial_and_field_force(
+            rho_s,
+            &x.lengths,
+            ends,
+            derivs,
+            moments,
+            &motions,
+            &x.velocities,
+            &x.field,
+            inertial,
+            field_force,
+        );
+        let (c0, c1, c2) = (&x.field.uniform, &x.field.linear, &x.field.velocity);
+        add_field_hessian(c0, c1, ends, derivs, moments, &bodies, hessian);
+        add_weighted_gram(c2, rho_s, ends, derivs, moments, &bodies, weighted);
+        let mut rows = [VelocityRow::default(); 15];
+        let v = &x.velocities;
+        add_velocity_jacobian(
+            rho_s, ends, derivs, moments, &motions, &bodies, v, &mut rows, velocity,
+        );
         let mut bits = Vec::new();
+        for m in &motions {
+            for v in [&m.omega, &m.alpha, &m.velocity, &m.acceleration] {
+                bits.extend(v.iter().map(&out));
+            }
+        }
         for b in &bodies {
             bits.push(out(&b.mass));
             for m in [&b.second, &b.moment_velocity, &b.rot] {
@@ -892,7 +968,14 @@ mod tests {
                 bits.extend(v.iter().map(&out));
             }
         }
-        for list in [&mass[..], &gram[..], &force[..], first.as_slice()] {
+        for list in vectors.iter().chain(&[first.data.0[0]; 1].map(|f| {
+            let mut padded = [T::zero(); 15];
+            padded[..3].copy_from_slice(&f);
+            padded
+        })) {
+            bits.extend(list.iter().map(&out));
+        }
+        for list in &matrices {
             bits.extend(list.iter().map(&out));
         }
         bits
@@ -909,9 +992,9 @@ mod tests {
                 ends: Soa::load(r.map(|x| &x.ends)),
                 derivs: Soa::load(r.map(|x| &x.derivs)),
                 moments: Soa::load(r.map(|x| &x.moments)),
-                motions: Soa::load(r.map(|x| &x.motions)),
                 velocities: Soa::load(r.map(|x| &x.velocities)),
                 lengths: Soa::load(r.map(|x| &x.lengths)),
+                field: Soa::load(r.map(|x| &x.field)),
             };
             for with_velocity in [false, true] {
                 for (k, x) in inputs.iter().enumerate() {

@@ -10,6 +10,7 @@
 //! over [`crate::float::Arith`] runs on W strands with the same types.
 
 use super::Lanes;
+use crate::body_field::BodyField;
 use crate::moments::{ElementMoments, EndDerivatives, FrameMotion, SuffixBody};
 use crate::pose::Pose;
 use crate::Float;
@@ -89,6 +90,11 @@ macro_rules! struct_soa {
 }
 
 struct_soa!(Pose { position, frame });
+struct_soa!(BodyField {
+    uniform,
+    linear,
+    velocity
+});
 struct_soa!(ElementMoments {
     first,
     second,

@@ -11,42 +11,53 @@
 //!
 //! The rotary-inertia parts of b and ∂b/∂q̇ are in [`crate::moments::rotary`].
 
-use crate::float::Float;
+use crate::float::Arith;
+use crate::lanes::{self as la, m3, matrix, v3, Ring, M, V};
 use crate::moments::{
     axial, cross_moment, ElementMoments, EndDerivatives, FrameMotion, SuffixBody,
 };
 use crate::pose::Pose;
 use nalgebra::{Matrix3, Vector3};
 
-type V3<T> = Vector3<T>;
-type M3<T> = Matrix3<T>;
-
 /// Twist (v, ω) of upstream column i of element Q about the point `at`:
 /// J(y) = v + ω × (y − at), given `lever` = at − r_{Q+1}.
-fn twist<T: Float>(e: &EndDerivatives<T>, lever: &V3<T>, i: usize) -> (V3<T>, V3<T>) {
-    let w = e.dtheta[i];
-    (e.dp[i] + w.cross(lever), w)
+#[inline(always)]
+fn twist<T: Arith>(e: &EndDerivatives<T>, lever: &V<T>, i: usize) -> (V<T>, V<T>) {
+    let w = *v3(&e.dtheta[i]);
+    (la::add(v3(&e.dp[i]), &la::cross(&w, lever)), w)
 }
 
 /// `∫ g` and `∫ x × g` over a body for g = W (v + ω × x), x relative to its reference.
-fn weighted_rigid<T: Float>(
-    w: &M3<T>,
-    body: &SuffixBody<T>,
-    v: &V3<T>,
-    om: &V3<T>,
-) -> (V3<T>, V3<T>) {
-    let wv = w * v;
-    let lin = wv * body.mass + w * om.cross(&body.first);
-    let ang = body.first.cross(&wv) + cross_moment(&(w * om.cross_matrix()), &body.second);
+#[inline(always)]
+fn weighted_rigid<T: Arith>(w: &M<T>, body: &SuffixBody<T>, v: &V<T>, om: &V<T>) -> (V<T>, V<T>) {
+    let first = v3(&body.first);
+    let wv = la::mat_vec(w, v);
+    let lin = la::add(
+        &la::scale(&wv, body.mass),
+        &la::mat_vec(w, &la::cross(om, first)),
+    );
+    let spin = matrix(la::mat_mul(w, &la::cross_matrix(om)));
+    let ang = la::add(
+        &la::cross(first, &wv),
+        v3(&cross_moment(&spin, &body.second)),
+    );
     (lin, ang)
+}
+
+/// `-a`, entry by entry.
+#[inline(always)]
+fn negated<T: Ring>(a: &M<T>) -> M<T> {
+    a.map(|column| column.map(|x| -x))
 }
 
 /// Adds `scale · ∫ J_k · W J_l ds` to `out(k, l)` for all k, l (`out` column-major,
 /// 3N × 3N), for any 3 × 3 W: the damping (W = C2) and the linear-field part of the
 /// stiffness (W = C1). `bodies` from [`crate::moments::suffix_bodies`] (positions only
-/// needed).
-pub fn add_weighted_gram<T: Float>(
-    w: &M3<T>,
+/// needed). On lanes, W is taken as symmetric (or antisymmetric) when it is in every
+/// lane.
+#[inline(always)]
+pub fn add_weighted_gram<T: Arith>(
+    w: &Matrix3<T>,
     scale: T,
     ends: &[Pose<T>],
     end_derivs: &[EndDerivatives<T>],
@@ -56,11 +67,12 @@ pub fn add_weighted_gram<T: Float>(
 ) {
     let n = end_derivs.len();
     let dofs = 3 * n;
-    let wt = w.transpose();
-    let symmetric = w == &wt;
+    let w = m3(w);
+    let wt = la::transpose(w);
+    let symmetric = *w == wt;
     // an antisymmetric W gives an antisymmetric result: (l, k) = −(k, l), one pass
-    let antisymmetric = !symmetric && *w == -wt;
-    let zero = V3::<T>::zeros();
+    let antisymmetric = !symmetric && *w == negated(&wt);
+    let zero = [T::zero(); 3];
     // pass 0: W, entries (k, l) with k in elements ≤ that of l;
     // pass 1: Wᵀ, entries (l, k) with k in elements < that of l
     for (pass, weight) in [w, &wt].into_iter().enumerate() {
@@ -68,11 +80,11 @@ pub fn add_weighted_gram<T: Float>(
             break;
         }
         for q2 in 0..n {
-            let f = ends[q2].frame;
-            let r = ends[q2].position;
-            let r_end = ends[q2 + 1].position;
+            let f = m3(&ends[q2].frame);
+            let r = v3(&ends[q2].position);
+            let r_end = v3(&ends[q2 + 1].position);
             let m2 = &moments[q2];
-            let a_w = f.transpose() * weight * f;
+            let a_w = la::mat_mul(&la::mat_mul(&la::transpose(f), weight), f);
             for j in 0..3 {
                 let l = 3 * q2 + j;
                 // twists about r_{q2+1}, the reference of the body beyond q2
@@ -83,22 +95,24 @@ pub fn add_weighted_gram<T: Float>(
                     for i in 0..3 {
                         let k = 3 * q2 + i;
                         let (vk, wk) = twist(&end_derivs[q2], &zero, i);
-                        let own = a_w.component_mul(&m2.dpdp[i][j]).sum();
-                        out[l * dofs + k] += scale * (own + vk.dot(&lin) + wk.dot(&ang));
+                        let own = la::sum_of_products(&a_w, m3(&m2.dpdp[i][j]));
+                        out[l * dofs + k] +=
+                            scale * (own + la::dot(&vk, &lin) + la::dot(&wk, &ang));
                     }
                 }
                 // rows upstream: own part of l on element q2 plus the rigid part beyond
                 // (about r_{q2})
-                let lin_own = weight * (f * m2.dfirst[j]);
-                let ang_own = f * cross_moment(&a_w, &m2.pdp[j]);
-                let ang = ang + (r_end - r).cross(&lin) + ang_own;
-                let lin = lin + lin_own;
+                let lin_own = la::mat_vec(weight, &la::mat_vec(f, v3(&m2.dfirst[j])));
+                let ang_own = la::mat_vec(f, v3(&cross_moment(&matrix(a_w), &m2.pdp[j])));
+                let ang = la::add(&ang, &la::cross(&la::sub(r_end, r), &lin));
+                let ang = la::add(&ang, &ang_own);
+                let lin = la::add(&lin, &lin_own);
                 for q in 0..q2 {
-                    let lever = r - ends[q + 1].position;
+                    let lever = la::sub(r, v3(&ends[q + 1].position));
                     for i in 0..3 {
                         let k = 3 * q + i;
                         let (vk, wk) = twist(&end_derivs[q], &lever, i);
-                        let val = scale * (vk.dot(&lin) + wk.dot(&ang));
+                        let val = scale * (la::dot(&vk, &lin) + la::dot(&wk, &ang));
                         if pass == 0 {
                             out[l * dofs + k] += val;
                             if symmetric {
@@ -118,9 +132,10 @@ pub fn add_weighted_gram<T: Float>(
 
 /// Adds `∫ f · ∂²y/∂q_k∂q_l ds` for f = c0 + C1 y to `out(k, l)` (symmetric): the
 /// Hessian part of the field stiffness (the rest is [`add_weighted_gram`] with C1).
-pub fn add_field_hessian<T: Float>(
-    c0: &V3<T>,
-    c1: &M3<T>,
+#[inline(always)]
+pub fn add_field_hessian<T: Arith>(
+    c0: &Vector3<T>,
+    c1: &Matrix3<T>,
     ends: &[Pose<T>],
     end_derivs: &[EndDerivatives<T>],
     moments: &[ElementMoments<T>],
@@ -129,29 +144,43 @@ pub fn add_field_hessian<T: Float>(
 ) {
     let n = end_derivs.len();
     let dofs = 3 * n;
+    let (c0, c1_matrix) = (v3(c0), c1);
+    let c1 = m3(c1);
     for q2 in 0..n {
-        let f = ends[q2].frame;
-        let r = ends[q2].position;
-        let r_end = ends[q2 + 1].position;
+        let f = m3(&ends[q2].frame);
+        let r = v3(&ends[q2].position);
+        let r_end = v3(&ends[q2 + 1].position);
         let m2 = &moments[q2];
         let e2 = &end_derivs[q2];
         let body = &bodies[q2 + 1];
+        let (first, second) = (v3(&body.first), m3(&body.second));
         // the field over the body beyond q2 (x = y − r_end, f = c_end + C1 x):
         // ∫f, ∫ x fᵀ, ∫ x × f
-        let c_end = c0 + c1 * r_end;
-        let res = c_end * body.mass + c1 * body.first;
-        let y_rho = body.first * c_end.transpose() + body.second * c1.transpose();
-        let t_rho = body.first.cross(&c_end) + cross_moment(c1, &body.second);
-        let a0 = f.transpose() * (c0 + c1 * r);
-        let a = f.transpose() * c1 * f;
+        let c_end = la::add(c0, &la::mat_vec(c1, r_end));
+        let res = la::add(&la::scale(&c_end, body.mass), &la::mat_vec(c1, first));
+        let y_rho = la::mat_add(
+            &la::outer(first, &c_end),
+            &la::mat_mul(second, &la::transpose(c1)),
+            false,
+        );
+        let t_rho = la::add(
+            &la::cross(first, &c_end),
+            v3(&cross_moment(c1_matrix, &body.second)),
+        );
+        let ft = la::transpose(f);
+        let a0 = la::mat_vec(&ft, &la::add(c0, &la::mat_vec(c1, r)));
+        let a = la::mat_mul(&la::mat_mul(&ft, c1), f);
+        let tr_y = la::trace(&y_rho);
         // same element: own part and rigid part beyond (ρ = y − r_end)
         for i in 0..3 {
             for j in i..3 {
-                let own = a0.dot(&m2.d2first[i][j]) + (a * m2.pd2p[i][j]).trace();
-                let (ti, tj) = (e2.dtheta[i], e2.dtheta[j]);
-                let rigid =
-                    e2.d2p[i][j].dot(&res) + e2.dw[i][j].dot(&t_rho) + ti.dot(&(y_rho * tj))
-                        - ti.dot(&tj) * y_rho.trace();
+                let own = la::dot(&a0, v3(&m2.d2first[i][j]))
+                    + la::trace(&la::mat_mul(&a, m3(&m2.pd2p[i][j])));
+                let (ti, tj) = (v3(&e2.dtheta[i]), v3(&e2.dtheta[j]));
+                let rigid = la::dot(v3(&e2.d2p[i][j]), &res)
+                    + la::dot(v3(&e2.dw[i][j]), &t_rho)
+                    + la::dot(ti, &la::mat_vec(&y_rho, tj))
+                    - la::dot(ti, tj) * tr_y;
                 let (k, l) = (3 * q2 + i, 3 * q2 + j);
                 out[l * dofs + k] += own + rigid;
                 if i != j {
@@ -162,13 +191,22 @@ pub fn add_field_hessian<T: Float>(
         // pairs k upstream of l: ω_k · ∫ J_l × f
         for j in 0..3 {
             let l = 3 * q2 + j;
-            let (vl, wl) = twist(e2, &V3::<T>::zeros(), j);
-            let own = f * (m2.dfirst[j].cross(&a0) + cross_moment(&a, &m2.pdp[j].transpose()));
-            let u = own + vl.cross(&res) + y_rho * wl - wl * y_rho.trace();
+            let (vl, wl) = twist(e2, &[T::zero(); 3], j);
+            let pdp_t = matrix(la::transpose(m3(&m2.pdp[j])));
+            let own = la::add(
+                &la::cross(v3(&m2.dfirst[j]), &a0),
+                v3(&cross_moment(&matrix(a), &pdp_t)),
+            );
+            let own = la::mat_vec(f, &own);
+            let u = la::add(
+                &la::add(&own, &la::cross(&vl, &res)),
+                &la::mat_vec(&y_rho, &wl),
+            );
+            let u = la::sub(&u, &la::scale(&wl, tr_y));
             for q in 0..q2 {
                 for i in 0..3 {
                     let k = 3 * q + i;
-                    let val = end_derivs[q].dtheta[i].dot(&u);
+                    let val = la::dot(v3(&end_derivs[q].dtheta[i]), &u);
                     out[l * dofs + k] += val;
                     out[k * dofs + l] += val;
                 }
@@ -179,28 +217,27 @@ pub fn add_field_hessian<T: Float>(
 
 /// `∫ g` and `∫ x × g` over a body for g = A + γ × x + t × ẏ, x relative to the body's
 /// reference point.
-fn jdot_rigid<T: Float>(
-    body: &SuffixBody<T>,
-    a: &V3<T>,
-    gamma: &V3<T>,
-    t: &V3<T>,
-) -> (V3<T>, V3<T>) {
-    let x = &body.moment_velocity;
-    let lin = a * body.mass + gamma.cross(&body.first) + t.cross(&body.velocity);
-    let ang = body.first.cross(a) + gamma * body.second.trace() - body.second * gamma
-        + t * x.trace()
-        - x.transpose() * t;
+#[inline(always)]
+fn jdot_rigid<T: Arith>(body: &SuffixBody<T>, a: &V<T>, gamma: &V<T>, t: &V<T>) -> (V<T>, V<T>) {
+    let x = m3(&body.moment_velocity);
+    let (first, second) = (v3(&body.first), m3(&body.second));
+    let lin = la::add(&la::scale(a, body.mass), &la::cross(gamma, first));
+    let lin = la::add(&lin, &la::cross(t, v3(&body.velocity)));
+    let ang = la::add(&la::cross(first, a), &la::scale(gamma, la::trace(second)));
+    let ang = la::sub(&ang, &la::mat_vec(second, gamma));
+    let ang = la::add(&ang, &la::scale(t, la::trace(x)));
+    let ang = la::sub(&ang, &la::mat_vec(&la::transpose(x), t));
     (lin, ang)
 }
 
 /// Coefficients of one row of [`add_velocity_jacobian`] downstream of the column.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct VelocityRow<T: Float = f64> {
-    a: V3<T>,
-    beyond: V3<T>,
-    own: V3<T>,
-    gamma: V3<T>,
-    t: V3<T>,
+pub struct VelocityRow<T: Arith = f64> {
+    a: V<T>,
+    beyond: V<T>,
+    own: V<T>,
+    gamma: V<T>,
+    t: V<T>,
 }
 
 /// Adds `scale · ∫ J_k · J̇_l ds` to `out(k, l)` for all k, l: with scale = 2ρS this is
@@ -214,7 +251,8 @@ pub struct VelocityRow<T: Float = f64> {
 /// A, γ and t ([`VelocityRow`]) are formed once per row, so each such entry costs a few
 /// dot products.
 #[allow(clippy::too_many_arguments)]
-pub fn add_velocity_jacobian<T: Float>(
+#[inline(always)]
+pub fn add_velocity_jacobian<T: Arith>(
     scale: T,
     ends: &[Pose<T>],
     end_derivs: &[EndDerivatives<T>],
@@ -230,98 +268,107 @@ pub fn add_velocity_jacobian<T: Float>(
     // per row k = (q, i): the entry for a column with (a, γ, t) and r_m upstream of q is
     // a·(R_a + D) + (γ × (r_{Q+1} − r_m))·R_a + (γ × (r_Q − r_m))·D + γ·X_γ + t·X_t
     for q in 1..n {
-        let f = ends[q].frame;
+        let f = m3(&ends[q].frame);
         let mq = &moments[q];
-        let mo = &motions[q];
+        let (omega, velocity) = (v3(&motions[q].omega), v3(&motions[q].velocity));
         let body = &bodies[q + 1];
         let qd = &velocities[3 * q..3 * q + 3];
-        let x = &body.moment_velocity;
-        let (tr_s, tr_x) = (body.second.trace(), x.trace());
+        let x = m3(&body.moment_velocity);
+        let (first, second) = (v3(&body.first), m3(&body.second));
+        let (tr_s, tr_x) = (la::trace(second), la::trace(x));
         for i in 0..3 {
-            let (vk, wk) = (end_derivs[q].dp[i], end_derivs[q].dtheta[i]);
+            let (vk, wk) = (v3(&end_derivs[q].dp[i]), v3(&end_derivs[q].dtheta[i]));
             // rigid part beyond q: vk·lin + wk·ang of `jdot_rigid`
-            let r_a = vk * body.mass + wk.cross(&body.first);
-            let r_g = body.first.cross(&vk) + wk * tr_s - body.second * wk;
-            let r_t = body.velocity.cross(&vk) + wk * tr_x - x * wk;
+            let r_a = la::add(&la::scale(vk, body.mass), &la::cross(wk, first));
+            let r_g = la::add(&la::cross(first, vk), &la::scale(wk, tr_s));
+            let r_g = la::sub(&r_g, &la::mat_vec(second, wk));
+            let r_t = la::add(&la::cross(v3(&body.velocity), vk), &la::scale(wk, tr_x));
+            let r_t = la::sub(&r_t, &la::mat_vec(x, wk));
             // own part on q: D·(A + γ × (r_Q − r_m) + t × ṙ_Q) + C·γ + P·t
-            let d = f * mq.dfirst[i];
-            let c = f * mq.cross[i];
-            let mut own_t = mq.pdp[i] * (f.transpose() * mo.omega);
+            let d = la::mat_vec(f, v3(&mq.dfirst[i]));
+            let c = la::mat_vec(f, v3(&mq.cross[i]));
+            let pdp = m3(&mq.pdp[i]);
+            let mut own_t = la::mat_vec(pdp, &la::mat_vec(&la::transpose(f), omega));
             for cc in 0..3 {
-                own_t += axial(&mq.dpdp[cc][i]) * qd[cc];
+                own_t = la::add(&own_t, &la::scale(v3(&axial(&mq.dpdp[cc][i])), qd[cc]));
             }
-            let p = f * own_t - mo.omega * mq.pdp[i].trace();
+            let p = la::sub(&la::mat_vec(f, &own_t), &la::scale(omega, la::trace(pdp)));
             rows[3 * q + i] = VelocityRow {
-                a: r_a + d,
+                a: la::add(&r_a, &d),
                 beyond: r_a,
                 own: d,
-                gamma: r_g + c,
-                t: r_t + mo.velocity.cross(&d) + p,
+                gamma: la::add(&r_g, &c),
+                t: la::add(&la::add(&r_t, &la::cross(velocity, &d)), &p),
             };
         }
     }
     for q2 in 0..n {
-        let f2 = ends[q2].frame;
-        let r2 = ends[q2].position;
-        let r_m = ends[q2 + 1].position;
+        let f2 = m3(&ends[q2].frame);
+        let r2 = v3(&ends[q2].position);
+        let r_m = v3(&ends[q2 + 1].position);
         let m2 = &moments[q2];
         let e2 = &end_derivs[q2];
-        let om2 = motions[q2].omega;
-        let om2_local = f2.transpose() * om2;
+        let om2 = v3(&motions[q2].omega);
+        let om2_local = la::mat_vec(&la::transpose(f2), om2);
         let qd2 = &velocities[3 * q2..3 * q2 + 3];
-        let vel_end = motions[q2 + 1].velocity;
+        let vel_end = v3(&motions[q2 + 1].velocity);
         for j in 0..3 {
             let l = 3 * q2 + j;
-            let t = e2.dtheta[j];
+            let t = *v3(&e2.dtheta[j]);
             // J̇_l beyond q2 = A + γ × (y − r_m) + t × ẏ
-            let mut a = om2.cross(&e2.dp[j]) - t.cross(&vel_end);
-            let mut gamma = om2.cross(&t);
+            let mut a = la::sub(&la::cross(om2, v3(&e2.dp[j])), &la::cross(&t, vel_end));
+            let mut gamma = la::cross(om2, &t);
             for i in 0..3 {
-                a += e2.d2p[j][i] * qd2[i];
-                gamma += e2.dw[j][i] * qd2[i];
+                a = la::add(&a, &la::scale(v3(&e2.d2p[j][i]), qd2[i]));
+                gamma = la::add(&gamma, &la::scale(v3(&e2.dw[j][i]), qd2[i]));
             }
             // own part of J̇_l on q2: F h, h = Ω × ∂_j p + Σ_i q̇_i ∂²_ji p (element frame)
-            let mut h1 = om2_local.cross(&m2.dfirst[j]);
-            let mut hx = om2_local * m2.pdp[j].trace() - m2.pdp[j].transpose() * om2_local;
+            let pdp = m3(&m2.pdp[j]);
+            let mut h1 = la::cross(&om2_local, v3(&m2.dfirst[j]));
+            let mut hx = la::sub(
+                &la::scale(&om2_local, la::trace(pdp)),
+                &la::mat_vec(&la::transpose(pdp), &om2_local),
+            );
             for i in 0..3 {
-                h1 += m2.d2first[j][i] * qd2[i];
-                hx += m2.cross2[j][i] * qd2[i];
+                h1 = la::add(&h1, &la::scale(v3(&m2.d2first[j][i]), qd2[i]));
+                hx = la::add(&hx, &la::scale(v3(&m2.cross2[j][i]), qd2[i]));
             }
-            let zero = V3::<T>::zeros();
+            let zero = [T::zero(); 3];
             let (lin_b, ang_b) = jdot_rigid(&bodies[q2 + 1], &a, &gamma, &t);
             // rows of element q2 itself (twists about r_m)
             for i in 0..3 {
                 let k = 3 * q2 + i;
                 let (vk, wk) = twist(e2, &zero, i);
-                let mut own = om2_local.dot(&axial(&m2.dpdp[j][i]));
+                let mut own = la::dot(&om2_local, v3(&axial(&m2.dpdp[j][i])));
                 for c in 0..3 {
                     own += m2.dpd2p[i][j][c] * qd2[c];
                 }
-                out[l * dofs + k] += scale * (own + vk.dot(&lin_b) + wk.dot(&ang_b));
+                out[l * dofs + k] += scale * (own + la::dot(&vk, &lin_b) + la::dot(&wk, &ang_b));
             }
             // rows upstream (about r2)
-            let lin_own = f2 * h1;
-            let ang = ang_b + (r_m - r2).cross(&lin_b) + f2 * hx;
-            let lin = lin_b + lin_own;
+            let lin_own = la::mat_vec(f2, &h1);
+            let ang = la::add(&ang_b, &la::cross(&la::sub(r_m, r2), &lin_b));
+            let ang = la::add(&ang, &la::mat_vec(f2, &hx));
+            let lin = la::add(&lin_b, &lin_own);
             for q in 0..q2 {
-                let lever = r2 - ends[q + 1].position;
+                let lever = la::sub(r2, v3(&ends[q + 1].position));
                 for i in 0..3 {
                     let (vk, wk) = twist(&end_derivs[q], &lever, i);
-                    out[l * dofs + 3 * q + i] += scale * (vk.dot(&lin) + wk.dot(&ang));
+                    out[l * dofs + 3 * q + i] += scale * (la::dot(&vk, &lin) + la::dot(&wk, &ang));
                 }
             }
             // rows downstream: element q's own part, then the rigid part beyond q
             for q in q2 + 1..n {
-                let g_own = gamma.cross(&(ends[q].position - r_m));
-                let g_beyond = gamma.cross(&(ends[q + 1].position - r_m));
+                let g_own = la::cross(&gamma, &la::sub(v3(&ends[q].position), r_m));
+                let g_beyond = la::cross(&gamma, &la::sub(v3(&ends[q + 1].position), r_m));
                 for i in 0..3 {
                     let row = &rows[3 * q + i];
                     out[l * dofs + 3 * q + i] += scale
-                        * (row.a.dot(&a)
-                            + row.beyond.dot(&g_beyond)
-                            + row.own.dot(&g_own)
-                            + row.gamma.dot(&gamma)
-                            + row.t.dot(&t));
+                        * (la::dot(&row.a, &a)
+                            + la::dot(&row.beyond, &g_beyond)
+                            + la::dot(&row.own, &g_own)
+                            + la::dot(&row.gamma, &gamma)
+                            + la::dot(&row.t, &t));
                 }
             }
         }
