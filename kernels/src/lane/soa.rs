@@ -11,6 +11,7 @@
 
 use super::Lanes;
 use crate::body_field::BodyField;
+use crate::moments::rotary::RotaryElement;
 use crate::moments::{ElementMoments, EndDerivatives, FrameMotion, SuffixBody};
 use crate::pose::Pose;
 use crate::Float;
@@ -116,6 +117,16 @@ struct_soa!(EndDerivatives {
     dtheta,
     d2p,
     dw
+});
+struct_soa!(RotaryElement {
+    torque,
+    b_own,
+    lambda,
+    lambda_w,
+    psi,
+    own,
+    rot,
+    rot_w
 });
 struct_soa!(SuffixBody {
     mass,

@@ -11,12 +11,15 @@
 //! element's frequencies keeps them far below the kernels' 1e-10 agreement); M's rotary
 //! part uses the closed-form moments `rot`, `rot_w`, `rot_ww`.
 
+use crate::element::LaneRotaryPoints;
 use crate::element::RotaryPoints;
-use crate::float::Float;
+use crate::float::{Arith, Float};
+use crate::lane::{Lane, Lanes};
 use crate::lanes::{
     add, cross, cross_matrix, dot, mat_add, mat_mul, mat_scale, mat_vec, scale, transpose, Real, M,
     V,
 };
+use crate::lanes::{m3, matrix, sub, v3, vector};
 use crate::moments::{ElementMoments, EndDerivatives, FrameMotion};
 use crate::pose::Pose;
 use crate::quadrature::gauss_legendre;
@@ -41,7 +44,7 @@ pub fn rotary_points(wl: f64) -> usize {
 
 /// Per-element rotary integrals, head coordinates.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct RotaryElement<T: Float = f64> {
+pub struct RotaryElement<T: Arith = f64> {
     /// ∫ τ, τ = I α + Ωs × I Ωs.
     pub torque: V3<T>,
     /// ∫ w_i · τ (element frame w_i, τ in the element frame).
@@ -319,10 +322,90 @@ fn rotary_element_body<T: Float>(
     out
 }
 
+/// The rotary integrals of [`rotary_element`] for element k of W strands at once, one
+/// strand per lane (docs/architecture.md, "Strands in lanes"): lane k gives, bit for
+/// bit, what [`rotary_element`] gives for its strand with `points[k]` points. The lanes'
+/// abscissae are taken one at a time (`eval(u, out)` fills the W elements' frames and
+/// angular derivatives at the lanes' abscissae `u`, as
+/// `superhelix_generated::element_rotary_points_lanes` does); a lane with fewer points
+/// than another stops adding once its own are summed.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn rotary_element_lanes<const W: usize>(
+    eval: &mut impl FnMut(Lanes<f64, W>, &mut LaneRotaryPoints<W>),
+    l: Lanes<f64, W>,
+    rotary: &[Lanes<f64, W>; 3],
+    moments: &ElementMoments<Lanes<f64, W>>,
+    pose: &Pose<Lanes<f64, W>>,
+    motion: &FrameMotion<Lanes<f64, W>>,
+    qd: &[Lanes<f64, W>],
+    points: [usize; W],
+    jacobian: bool,
+) -> RotaryElement<Lanes<f64, W>> {
+    type L<const W: usize> = Lanes<f64, W>;
+    let f = m3(&pose.frame);
+    let ft = transpose(f);
+    let om = mat_vec(&ft, v3(&motion.omega));
+    let al = mat_vec(&ft, v3(&motion.alpha));
+    let motion = ElementMotion {
+        om,
+        al,
+        qd: [qd[0], qd[1], qd[2]],
+        qq: core::array::from_fn(|i| core::array::from_fn(|j| qd[i] * qd[j])),
+        rotary: *rotary,
+    };
+    let rules = points.map(gauss_legendre);
+    let most = points.iter().copied().max().unwrap_or(0);
+    let zero = Lanes([0.0; W]);
+    let (mut torque, mut b_own, mut lambda) = ([zero; 3], [zero; 3], [[zero; 3]; 3]);
+    let (mut own, mut lw, mut psi) = ([[zero; 3]; 3], [[zero; 3]; 3], [[zero; 3]; 3]);
+    let mut at = LaneRotaryPoints::default();
+    for m in 0..most {
+        // lane k's abscissa m of its own rule (its last one again once past its count,
+        // never summed)
+        let node = |k: usize| {
+            let rule = &rules[k];
+            let m = m.min(rule.nodes().len() - 1);
+            (rule.nodes()[m], rule.weights()[m])
+        };
+        let u = L::<W>::from_fn(|k| 0.5 * l.0[k] * (node(k).0 + 1.0));
+        let weights = L::<W>::from_fn(|k| 0.5 * l.0[k] * node(k).1);
+        let summed = crate::lane::Mask(core::array::from_fn(|k| m < points[k]));
+        eval(u, &mut at);
+        let terms = point_terms(&motion, &at.frame, &at.w, &at.dw, weights, jacobian);
+        let sum = |a: L<W>, b: L<W>| L::<W>::select(summed, a + b, a);
+        let sum_v =
+            |a: &V<L<W>>, b: &V<L<W>>| -> V<L<W>> { core::array::from_fn(|r| sum(a[r], b[r])) };
+        torque = sum_v(&torque, &terms.torque);
+        b_own = sum_v(&b_own, &terms.b_own);
+        if jacobian {
+            for c in 0..3 {
+                lambda[c] = sum_v(&lambda[c], &terms.lambda[c]);
+                own[c] = sum_v(&own[c], &terms.own[c]);
+            }
+            for i in 0..3 {
+                lw[i] = sum_v(&lw[i], &terms.lambda_w[i]);
+                psi[i] = sum_v(&psi[i], &terms.psi[i]);
+            }
+        }
+    }
+    RotaryElement {
+        torque: vector(mat_vec(f, &torque)),
+        b_own,
+        lambda: matrix(mat_mul(&mat_mul(f, &lambda), &ft)),
+        lambda_w: lw.map(|x| vector(mat_vec(f, &x))),
+        psi: psi.map(|x| vector(mat_vec(f, &x))),
+        own: matrix(own),
+        rot: matrix(mat_mul(&mat_mul(f, m3(&moments.rot)), &ft)),
+        rot_w: moments.rot_w.map(|x| vector(mat_vec(f, v3(&x)))),
+    }
+}
+
 /// Adds the rotary-inertia part of b to `b` when given, and of ∂b/∂q̇ to `jac` (column-major 3N × 3N) when given. `elements` from
 /// [`rotary_element`]; `motions` from `moments::frame_motions`;
 /// `beyond_scratch` of length N.
-pub fn add_rotary_terms<T: Float>(
+#[inline(always)]
+pub fn add_rotary_terms<T: Arith>(
     end_derivs: &[EndDerivatives<T>],
     elements: &[RotaryElement<T>],
     motions: &[FrameMotion<T>],
@@ -335,12 +418,12 @@ pub fn add_rotary_terms<T: Float>(
     let dofs = 3 * n;
     // b: own part plus dθ_k · (torque beyond)
     if let Some(b) = b {
-        let mut beyond = V3::<T>::zeros();
+        let mut beyond = [T::zero(); 3];
         for q in (0..n).rev() {
             for i in 0..3 {
-                b[3 * q + i] += elements[q].b_own[i] + end_derivs[q].dtheta[i].dot(&beyond);
+                b[3 * q + i] += elements[q].b_own[i] + dot(v3(&end_derivs[q].dtheta[i]), &beyond);
             }
-            beyond += elements[q].torque;
+            beyond = add(&beyond, v3(&elements[q].torque));
         }
     }
     let Some(jac) = jac else { return };
@@ -349,45 +432,53 @@ pub fn add_rotary_terms<T: Float>(
     beyond[n - 1] = (M3::<T>::zeros(), M3::<T>::zeros());
     for p in (0..n - 1).rev() {
         let e = &elements[p + 1];
-        beyond[p] = (beyond[p + 1].0 + e.rot, beyond[p + 1].1 + e.lambda);
+        beyond[p] = (
+            matrix(mat_add(m3(&beyond[p + 1].0), m3(&e.rot), false)),
+            matrix(mat_add(m3(&beyond[p + 1].1), m3(&e.lambda), false)),
+        );
     }
     for q2 in 0..n {
         let e2 = &end_derivs[q2];
         let qd2 = &velocities[3 * q2..3 * q2 + 3];
-        let om_start = motions[q2].omega;
-        let om_end = motions[q2 + 1].omega;
+        let om_start = v3(&motions[q2].omega);
+        let om_end = v3(&motions[q2 + 1].omega);
         for j in 0..3 {
             let col = 3 * q2 + j;
-            let t = e2.dtheta[j];
-            let mut e_m = om_start.cross(&t) - t.cross(&om_end);
+            let t = v3(&e2.dtheta[j]);
+            let mut e_m = sub(&cross(om_start, t), &cross(t, om_end));
             for i in 0..3 {
-                e_m += (e2.dw[j][i] + e2.dw[i][j]) * qd2[i];
+                e_m = add(
+                    &e_m,
+                    &scale(&add(v3(&e2.dw[j][i]), v3(&e2.dw[i][j])), qd2[i]),
+                );
             }
             // rows in elements ≤ q2, elements beyond q2
-            let g = beyond[q2].0 * e_m + beyond[q2].1 * t;
+            let (rot, lambda) = (m3(&beyond[q2].0), m3(&beyond[q2].1));
+            let g = add(&mat_vec(rot, &e_m), &mat_vec(lambda, t));
             for q in 0..=q2 {
                 for i in 0..3 {
-                    jac[col * dofs + 3 * q + i] += end_derivs[q].dtheta[i].dot(&g);
+                    jac[col * dofs + 3 * q + i] += dot(v3(&end_derivs[q].dtheta[i]), &g);
                 }
             }
             // rows upstream of q2 on element q2 itself, and own rows of q2
             for q in 0..q2 {
                 for i in 0..3 {
                     jac[col * dofs + 3 * q + i] +=
-                        end_derivs[q].dtheta[i].dot(&elements[q2].psi[j]);
+                        dot(v3(&end_derivs[q].dtheta[i]), v3(&elements[q2].psi[j]));
                 }
             }
             for i in 0..3 {
-                jac[col * dofs + 3 * q2 + i] += elements[q2].own[(i, j)];
+                jac[col * dofs + 3 * q2 + i] += m3(&elements[q2].own)[j][i];
             }
             // rows downstream: own part on their element, then beyond
             for q in q2 + 1..n {
                 let el = &elements[q];
-                let g = beyond[q].0 * e_m + beyond[q].1 * t;
+                let (rot, lambda) = (m3(&beyond[q].0), m3(&beyond[q].1));
+                let g = add(&mat_vec(rot, &e_m), &mat_vec(lambda, t));
                 for i in 0..3 {
-                    jac[col * dofs + 3 * q + i] += e_m.dot(&el.rot_w[i])
-                        + t.dot(&el.lambda_w[i])
-                        + end_derivs[q].dtheta[i].dot(&g);
+                    jac[col * dofs + 3 * q + i] += dot(&e_m, v3(&el.rot_w[i]))
+                        + dot(t, v3(&el.lambda_w[i]))
+                        + dot(v3(&end_derivs[q].dtheta[i]), &g);
                 }
             }
         }
@@ -584,5 +675,153 @@ mod tests {
             }
         }
         assert_eq!(checked, 240);
+    }
+
+    /// Element k of four strands in lanes, each with its own element, motion and point
+    /// count (1 to 13, different within a call): every lane gives [`rotary_element`]'s
+    /// bits for its strand; and [`add_rotary_terms`] on those lanes gives each strand's
+    /// b and ∂b/∂q̇ bits.
+    #[test]
+    fn strands_in_lanes_match_each_strand_bit_for_bit() {
+        use crate::lane::soa::Soa;
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        struct Case {
+            d: V3,
+            l: f64,
+            rotary: [f64; 3],
+            pose: Pose,
+            motion: FrameMotion,
+            qd: [f64; 3],
+            moments: ElementMoments,
+            points: usize,
+        }
+        for round in 0..30 {
+            let cases: [Case; 4] = core::array::from_fn(|k| {
+                let l = 0.01 + 0.05 * (next() + 1.0);
+                let scale = [0.0, 1e-3, 1.0, 100.0, 400.0][(round + k) % 5];
+                let d = V3::new(next(), next(), next()) * scale;
+                let rotary = [
+                    1e-9 * (1.5 + next()),
+                    5e-10 * (1.5 + next()),
+                    5e-10 * (1.5 + next()),
+                ];
+                let (frame, position) = local_pose(&V3::new(next(), next(), next()), 1.0);
+                Case {
+                    d,
+                    l,
+                    rotary,
+                    pose: Pose { position, frame },
+                    motion: FrameMotion {
+                        omega: V3::new(next(), next(), next()) * 30.0,
+                        alpha: V3::new(next(), next(), next()) * 300.0,
+                        ..Default::default()
+                    },
+                    qd: [30.0 * next(), 30.0 * next(), 30.0 * next()],
+                    moments: ElementMoments::by_quadrature(&d, l, &rotary, 8),
+                    points: 1 + (round * 4 + k * 3) % 13,
+                }
+            });
+            let c = cases.each_ref();
+            let mut eval = |u: Lanes<f64, 4>, out: &mut LaneRotaryPoints<4>| {
+                for (k, case) in cases.iter().enumerate() {
+                    let p = ElementPoint::by_jets(&case.d, u.0[k]);
+                    for col in 0..3 {
+                        for r in 0..3 {
+                            out.frame[col][r].0[k] = p.frame[(r, col)];
+                        }
+                    }
+                    for i in 0..3 {
+                        for m in 0..3 {
+                            out.w[i][m].0[k] = p.w[i][m];
+                            for j in 0..3 {
+                                out.dw[i][j][m].0[k] = p.dw[i][j][m];
+                            }
+                        }
+                    }
+                }
+            };
+            let qd: [Lanes<f64, 4>; 3] = Soa::load(c.map(|x| &x.qd));
+            for jacobian in [false, true] {
+                let lanes = rotary_element_lanes(
+                    &mut eval,
+                    Soa::load(c.map(|x| &x.l)),
+                    &Soa::load(c.map(|x| &x.rotary)),
+                    &Soa::load(c.map(|x| &x.moments)),
+                    &Soa::load(c.map(|x| &x.pose)),
+                    &Soa::load(c.map(|x| &x.motion)),
+                    &qd,
+                    c.map(|x| x.points),
+                    jacobian,
+                );
+                let mut one_by_one = [RotaryElement::default(); 4];
+                for (k, x) in cases.iter().enumerate() {
+                    let eval_one = |u: &[f64], out: &mut RotaryPoints| {
+                        for (i, &u) in u.iter().enumerate() {
+                            out.set_lane(i, &ElementPoint::by_jets(&x.d, u));
+                        }
+                    };
+                    one_by_one[k] = rotary_element(
+                        &eval_one, x.l, &x.rotary, &x.moments, &x.pose, &x.motion, &x.qd, x.points,
+                        jacobian,
+                    );
+                    let lane = Soa::store(&lanes, k);
+                    assert_eq!(bits(&lane), bits(&one_by_one[k]), "round {round}, lane {k}");
+                }
+                // the strand's rotary b and ∂b/∂q̇ from these elements (a strand of one
+                // element per lane, and of the four as one strand)
+                let derivs: [EndDerivatives; 4] = core::array::from_fn(|_| EndDerivatives {
+                    dtheta: core::array::from_fn(|_| V3::new(next(), next(), next())),
+                    dw: core::array::from_fn(|_| {
+                        core::array::from_fn(|_| V3::new(next(), next(), next()))
+                    }),
+                    ..Default::default()
+                });
+                let motions: [FrameMotion; 5] = core::array::from_fn(|_| FrameMotion {
+                    omega: V3::new(next(), next(), next()),
+                    ..Default::default()
+                });
+                let v: [f64; 12] = core::array::from_fn(|_| next());
+                let (mut b, mut jac) = ([0.5; 12], [0.25; 144]);
+                let mut scratch = [(M3::zeros(), M3::zeros()); 4];
+                add_rotary_terms(
+                    &derivs,
+                    &one_by_one,
+                    &motions,
+                    &v,
+                    Some(&mut b),
+                    Some(&mut jac),
+                    &mut scratch,
+                );
+                let lane_elements: [RotaryElement<Lanes<f64, 4>>; 4] =
+                    core::array::from_fn(|p| Soa::load([&one_by_one[p]; 4]));
+                let (mut lb, mut ljac) = ([Lanes([0.5; 4]); 12], [Lanes([0.25; 4]); 144]);
+                let mut lane_scratch = [(M3::zeros(), M3::zeros()); 4];
+                add_rotary_terms(
+                    &Soa::load([&derivs; 4]),
+                    &lane_elements,
+                    &Soa::load([&motions; 4]),
+                    &Soa::load([&v; 4]),
+                    Some(&mut lb),
+                    Some(&mut ljac),
+                    &mut lane_scratch,
+                );
+                for k in 0..4 {
+                    assert!(b
+                        .iter()
+                        .zip(&lb)
+                        .all(|(x, y)| x.to_bits() == y.0[k].to_bits()));
+                    assert!(jac
+                        .iter()
+                        .zip(&ljac)
+                        .all(|(x, y)| x.to_bits() == y.0[k].to_bits()));
+                }
+            }
+        }
     }
 }
