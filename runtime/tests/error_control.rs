@@ -5,11 +5,12 @@
 //! 20 cm strand of the smooth preset released horizontal under gravity, N = 5), 0.5 s,
 //! the tip compared at every 1/30 s, on the embedded engine (the fixed-N
 //! `step_to_tolerance`, which `engine = "auto"` takes) and the runtime engine; the same
-//! on a nodding head. With a body contact: the swing down a frictionless plane inclined
+//! on a nodding head; frictionless N = 3 helices of three presets, 1 s ([`HELICES`]).
+//! With a body contact: the swing down a frictionless plane inclined
 //! at 45° that the strand lies on from the start ([`incline`]), on the runtime engine
 //! (which `auto` takes with contacts: the embedded engine has none). There the promise
 //! (at most 3 τ) fails, with and without the strand's friction (issue #51): those tests
-//! are ignored, with the measured figures.
+//! are ignored, with the measured figures, as is the helices' (one cell below the band).
 //!
 //! With contacts the references hold only where no contact starts with a speed: the swing
 //! falling onto a floor 10 cm below its root (its tip landing at about 1.4 m/s, the
@@ -26,35 +27,83 @@ use superhelix_runtime::{engine_for, parse_scene, validate_scene, Simulation};
 
 const LENGTH: f64 = 0.2;
 
+/// A strand the tests follow: its `[[strands]]` entry (the last table of the scene) and
+/// how many frames of 1/30 s they compare.
+#[derive(Clone, Copy, Debug)]
+enum Problem {
+    /// The study's `swing`: a straight 20 cm strand of the smooth preset released
+    /// horizontal under gravity, N = 5, 0.5 s.
+    Swing,
+    /// A 20 cm strand of N = 3 released from rest in its natural shape under gravity,
+    /// 1 s (the independent check of issue #51): [`HELICES`]`[k]`.
+    Helix(usize),
+}
+
+/// cos 45°.
+const S: f64 = std::f64::consts::FRAC_1_SQRT_2;
+
+/// The helices of [`Problem::Helix`]: preset, root direction, initial shape (at rest in
+/// its helix). A helix released straight, springing into its shape with nothing to damp
+/// it, has no reference: RK4's tips at 1/240000 and 1/480000 s still differ by 0.7 L after
+/// the second (curly, horizontal; wavy, hanging), so no scheme's error over the second
+/// can track a tolerance there.
+const HELICES: [(&str, [f64; 3], &str); 8] = [
+    ("curly", [1.0, 0.0, 0.0], "natural"),
+    ("curly", [0.0, 0.0, -1.0], "natural"),
+    ("curly", [S, 0.0, -S], "natural"),
+    ("wavy", [1.0, 0.0, 0.0], "natural"),
+    ("wavy", [0.0, 0.0, -1.0], "natural"),
+    ("wavy", [S, 0.0, S], "natural"),
+    ("fuzzy", [1.0, 0.0, 0.0], "natural"),
+    ("fuzzy", [0.0, 0.0, -1.0], "natural"),
+];
+
+impl Problem {
+    fn frames(self) -> usize {
+        match self {
+            Problem::Swing => 15,
+            Problem::Helix(_) => 30,
+        }
+    }
+    fn strand(self) -> String {
+        let (shape, direction) = match self {
+            Problem::Swing => (
+                "elements = 5\nnatural = [0.0, 0.0, 0.0]\ninitial = \"straight\"".to_string(),
+                [1.0, 0.0, 0.0],
+            ),
+            Problem::Helix(k) => (
+                format!(
+                    "elements = 3\npreset = \"{}\"\ninitial = \"{}\"",
+                    HELICES[k].0, HELICES[k].2
+                ),
+                HELICES[k].1,
+            ),
+        };
+        format!(
+            "[[strands]]\nroot = [0.0, 0.0, 0.0]\ndirection = {direction:?}\nnormal = [0.0, 1.0, 0.0]\nlength = {LENGTH}\n{shape}\n"
+        )
+    }
+}
+
 fn swing(tolerance: f64, extra: &str) -> String {
+    scene(Problem::Swing, tolerance, extra)
+}
+
+fn scene(problem: Problem, tolerance: f64, extra: &str) -> String {
+    let duration = problem.frames() as f64 / 30.0;
     format!(
-        r#"
-[simulation]
-dt = 0.03333333333333333
-duration = 0.5
-tolerance = {tolerance:e}
-{extra}
-[[strands]]
-root = [0.0, 0.0, 0.0]
-direction = [1.0, 0.0, 0.0]
-normal = [0.0, 1.0, 0.0]
-length = {LENGTH}
-elements = 5
-natural = [0.0, 0.0, 0.0]
-initial = "straight"
-"#
+        "\n[simulation]\ndt = 0.03333333333333333\nduration = {duration}\ntolerance = {tolerance:e}\n{extra}\n{}",
+        problem.strand()
     )
 }
 
-/// `scene` with no internal friction and no air drag on its strand when `frictionless`.
+/// `scene` with no internal friction and no air drag on its strand when `frictionless`
+/// (keys of its last table, the strand's).
 fn without_friction(scene: String, frictionless: bool) -> String {
     if !frictionless {
         return scene;
     }
-    scene.replace(
-        "initial = \"straight\"\n",
-        "initial = \"straight\"\ninternal_friction = 0.0\nair_drag = 0.0\n",
-    )
+    format!("{scene}internal_friction = 0.0\nair_drag = 0.0\n")
 }
 
 /// The samples of strand 0 touching a body at the last evaluation (0 without contacts).
@@ -72,12 +121,23 @@ fn tips_with(
     engine: Engine,
     head: &str,
 ) -> (Vec<nalgebra::Vector3<f64>>, usize, usize, usize) {
+    tips_of(Problem::Swing, tolerance, frictionless, engine, head)
+}
+
+/// [`tips_with`] for `problem`.
+fn tips_of(
+    problem: Problem,
+    tolerance: f64,
+    frictionless: bool,
+    engine: Engine,
+    head: &str,
+) -> (Vec<nalgebra::Vector3<f64>>, usize, usize, usize) {
     let name = match engine {
         Engine::Runtime => "runtime",
         _ => "auto",
     };
     let text = without_friction(
-        swing(tolerance, &format!("engine = \"{name}\"\n{head}")),
+        scene(problem, tolerance, &format!("engine = \"{name}\"\n{head}")),
         frictionless,
     );
     let setup = parse_scene(&text).unwrap_or_else(|e| panic!("{e}"));
@@ -89,7 +149,7 @@ fn tips_with(
     assert_eq!(sim.engine(), expected, "auto takes the embedded engine");
     let mut out = Vec::new();
     let mut fewest = usize::MAX;
-    for k in 1..=15 {
+    for k in 1..=problem.frames() {
         sim.step().unwrap_or_else(|e| panic!("{e}"));
         // the steps end on the scene's time steps
         assert!(
@@ -109,13 +169,15 @@ fn tips_with(
 /// [`tips_with`]. With `[contacts]` (the [`incline`]), asserts that every contact sample
 /// touches the body at every frame: the reference stays on it.
 fn fixed_tips(
+    problem: Problem,
     integrator: &str,
     substeps: usize,
     frictionless: bool,
     head: &str,
 ) -> Vec<nalgebra::Vector3<f64>> {
     let dt = 1.0 / (30.0 * substeps as f64);
-    let text = swing(
+    let text = scene(
+        problem,
         1e-3,
         &format!("engine = \"runtime\"\nintegrator = \"{integrator}\"\n{head}"),
     )
@@ -126,7 +188,7 @@ fn fixed_tips(
     let mut sim = Simulation::new(setup, None).unwrap_or_else(|e| panic!("{e}"));
     let samples = sim.samples_per_element() * sim.strand(0).geometry.elements();
     let mut out = Vec::new();
-    for _ in 1..=15 {
+    for _ in 1..=problem.frames() {
         for _ in 0..substeps {
             sim.step().unwrap_or_else(|e| panic!("{e}"));
         }
@@ -151,7 +213,7 @@ fn fixed_tips(
 ///
 /// Each reference's own error, estimated from the same scheme at twice the step, is
 /// asserted below 1e-7 L, 50 times below the error of the tightest tolerance tested.
-fn reference_tips(frictionless: bool, head: &str) -> Vec<nalgebra::Vector3<f64>> {
+fn reference_tips(problem: Problem, frictionless: bool, head: &str) -> Vec<nalgebra::Vector3<f64>> {
     let apart = |a: &[nalgebra::Vector3<f64>], b: &[nalgebra::Vector3<f64>]| {
         a.iter()
             .zip(b)
@@ -160,16 +222,24 @@ fn reference_tips(frictionless: bool, head: &str) -> Vec<nalgebra::Vector3<f64>>
             / LENGTH
     };
     if frictionless {
-        let (half, full) = (
-            fixed_tips("rk4", 1000, true, head),
-            fixed_tips("rk4", 2000, true, head),
-        );
-        // RK4's error falls 16-fold from one to the other: the finer one's is about
-        // their difference / 15
-        let own = apart(&half, &full) / 15.0;
-        eprintln!("reference (RK4): estimated error {own:.2e} L");
-        assert!(own < 1e-7, "{own:e}");
-        return full;
+        // RK4's error falls 16-fold from one step to its half: the finer one's is about
+        // their difference / 15; the steps are halved until it is below 1e-9 L (a strand
+        // released straight into its helix needs 1/240000 s)
+        let mut substeps = 1000;
+        let mut half = fixed_tips(problem, "rk4", substeps, true, head);
+        loop {
+            let full = fixed_tips(problem, "rk4", 2 * substeps, true, head);
+            let own = apart(&half, &full) / 15.0;
+            if own < 1e-9 || substeps >= 8000 {
+                eprintln!(
+                    "reference (RK4, 1/{} s): estimated error {own:.2e} L",
+                    60 * substeps
+                );
+                assert!(own < 1e-7, "{own:e}");
+                return full;
+            }
+            (half, substeps) = (full, 2 * substeps);
+        }
     }
     let richardson = |c: &[nalgebra::Vector3<f64>], f: &[nalgebra::Vector3<f64>]| {
         c.iter()
@@ -179,7 +249,7 @@ fn reference_tips(frictionless: bool, head: &str) -> Vec<nalgebra::Vector3<f64>>
     };
     let levels: Vec<_> = [256, 512, 1024]
         .iter()
-        .map(|&k| fixed_tips("bdf2", k, false, head))
+        .map(|&k| fixed_tips(problem, "bdf2", k, false, head))
         .collect();
     let (first, second) = (
         richardson(&levels[0], &levels[1]),
@@ -202,12 +272,23 @@ fn errors_with(
     engine: Engine,
     head: &str,
 ) -> Vec<(f64, usize, usize)> {
-    let reference = reference_tips(frictionless, head);
+    errors_of(Problem::Swing, frictionless, tolerances, engine, head)
+}
+
+/// [`errors_with`] for `problem`.
+fn errors_of(
+    problem: Problem,
+    frictionless: bool,
+    tolerances: &[f64],
+    engine: Engine,
+    head: &str,
+) -> Vec<(f64, usize, usize)> {
+    let reference = reference_tips(problem, frictionless, head);
     tolerances
         .iter()
         .map(|&tolerance| {
             let (run, solves, rejected, fewest) =
-                tips_with(tolerance, frictionless, engine, head);
+                tips_of(problem, tolerance, frictionless, engine, head);
             let error = run
                 .iter()
                 .zip(&reference)
@@ -220,7 +301,7 @@ fn errors_with(
                 String::new()
             };
             eprintln!(
-                "{engine:?}: frictionless {frictionless}, tolerance {tolerance:.0e}: largest tip error {error:.3e} L ({:.2} τ), {solves} solves, {rejected} steps rejected{contacts}",
+                "{problem:?}, {engine:?}: frictionless {frictionless}, tolerance {tolerance:.0e}: largest tip error {error:.3e} L ({:.2} τ), {solves} solves, {rejected} steps rejected{contacts}",
                 error / tolerance
             );
             (error, solves, fewest)
@@ -228,11 +309,11 @@ fn errors_with(
         .collect()
 }
 
-const TOLERANCES: [f64; 5] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5];
+const TOLERANCES: [f64; 6] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6];
 
-/// The largest error of the tip over the run is at most 3 τ, from τ = 1e-1 to 1e-5, and
-/// not below τ/10 (the tolerance is not spent on needless steps); a tighter tolerance
-/// costs more solves.
+/// The largest error of the tip over the run is within [0.2, 3] τ, from τ = 1e-1 to 1e-6
+/// (issue #51's band: at most 3 τ, and not below τ/5, the tolerance not spent on needless
+/// steps); a tighter tolerance costs more solves.
 fn as_accurate_as_asked(frictionless: bool, engine: Engine) {
     as_accurate_as_asked_with(frictionless, engine, "");
 }
@@ -247,7 +328,7 @@ fn as_accurate_as_asked_with(
     let measured = errors_with(frictionless, &TOLERANCES, engine, head);
     for (&tolerance, &(error, _, _)) in TOLERANCES.iter().zip(&measured) {
         assert!(
-            error <= 3.0 * tolerance && error >= tolerance / 10.0,
+            error <= 3.0 * tolerance && error >= 0.2 * tolerance,
             "tolerance {tolerance:e}: error {error:e}"
         );
     }
@@ -255,7 +336,8 @@ fn as_accurate_as_asked_with(
     measured
 }
 
-/// With the preset's friction and drag: measured 0.28 to 0.50 τ (both engines).
+/// With the preset's friction and drag: measured 0.28 to 0.50 τ, τ = 1e-1 to 1e-6 (both
+/// engines).
 #[test]
 fn the_swing_is_as_accurate_as_asked() {
     as_accurate_as_asked(false, Engine::Auto);
@@ -263,11 +345,55 @@ fn the_swing_is_as_accurate_as_asked() {
 }
 
 /// Without friction or drag nothing damps the local errors, and they add up over the
-/// run: measured 0.22 to 0.70 τ (both engines).
+/// run: measured 0.22 to 0.70 τ, τ = 1e-1 to 1e-6 (both engines).
 #[test]
 fn a_frictionless_swing_is_as_accurate_as_asked() {
     as_accurate_as_asked(true, Engine::Auto);
     as_accurate_as_asked(true, Engine::Runtime);
+}
+
+/// The frictionless [`HELICES`] against RK4 (its own error estimated below 1e-9 L), τ
+/// from 1e-1 to 1e-6, on the embedded engine: issue #51 asks the largest tip error over
+/// the second within [0.2, 3] τ. Measured, in τ (solves), τ = 1e-1 … 1e-6:
+///
+/// ```text
+/// 0 curly, horizontal   0.13 (42)   0.71 (511)  0.84 (2497)  0.46 (10856)  1.00 (36380)  1.01 (115005)
+/// 1 curly, hanging      0.33 (64)   0.63 (433)  1.02 (1894)  0.85 (7982)   1.34 (27827)  1.33 (87930)
+/// 2 curly, 45° down     0.29 (66)   0.90 (412)  1.04 (2145)  0.59 (11127)  1.22 (36509)  1.19 (114553)
+/// 3 wavy, horizontal    0.37 (38)   0.41 (456)  0.65 (1882)  0.65 (5704)   0.64 (17905)  0.59 (56547)
+/// 4 wavy, hanging       1.22 (98)   1.09 (442)  0.92 (1264)  0.94 (4075)   0.95 (12979)  0.96 (41022)
+/// 5 wavy, 45° up        0.28 (42)   0.54 (304)  0.86 (1585)  1.03 (5011)   1.04 (15805)  1.11 (49930)
+/// 6 fuzzy, horizontal   0.46 (138)  0.41 (525)  0.67 (3118)  0.51 (14410)  0.72 (46187)  0.64 (145945)
+/// 7 fuzzy, hanging      0.31 (135)  0.37 (758)  0.43 (3606)  0.29 (15636)  0.67 (46379)  0.71 (149138)
+/// ```
+///
+/// Every cell but one is within [0.2, 3] τ; the curly horizontal helix at τ = 1e-1 is
+/// more accurate than asked (0.13 τ). `cargo test -p superhelix-runtime --release --test
+/// error_control -- --ignored --nocapture frictionless_helices` (`HELIX=k` for one).
+#[test]
+#[ignore = "fails: 0.13 τ for the curly horizontal helix at τ = 1e-1 (asked: at least 0.2 τ); the 47 other cells 0.29 to 1.34 τ (issue #51)"]
+fn frictionless_helices_are_as_accurate_as_asked() {
+    let tolerances = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6];
+    let mut failed = Vec::new();
+    let only: Option<usize> = std::env::var("HELIX").ok().and_then(|k| k.parse().ok());
+    for k in (0..HELICES.len()).filter(|k| only.is_none_or(|o| o == *k)) {
+        let measured = errors_of(Problem::Helix(k), true, &tolerances, Engine::Auto, "");
+        let ratios: Vec<String> = tolerances
+            .iter()
+            .zip(&measured)
+            .map(|(t, m)| format!("{:.2} ({})", m.0 / t, m.1))
+            .collect();
+        eprintln!("helix {k} {:?}: {}", HELICES[k], ratios.join("  "));
+        for (&tolerance, &(error, _, _)) in tolerances.iter().zip(&measured) {
+            if !(0.2 * tolerance..=3.0 * tolerance).contains(&error) {
+                failed.push(format!(
+                    "helix {k} at {tolerance:e}: {:.2} τ",
+                    error / tolerance
+                ));
+            }
+        }
+    }
+    assert!(failed.is_empty(), "{failed:?}");
 }
 
 /// A plane inclined at 45° (its outward normal (0, 1, 1)/√2) one contact radius (1 mm)
@@ -369,7 +495,8 @@ fn a_frictionless_swing_down_an_incline_is_as_accurate_as_asked() {
 /// same tip to round-off (measured: at most 9.6e-14 L apart), with the head still and
 /// nodding (±20° at 1 Hz about a point 10 cm below the root).
 /// The head nodding (±20° at 1 Hz about a point 10 cm below the root), the strand
-/// frictionless: the tolerance holds against RK4 with the same head, on both engines.
+/// frictionless: the tolerance holds against RK4 with the same head, on both engines
+/// (measured 0.50 to 1.27 τ, τ = 1e-1 to 1e-6).
 #[test]
 fn a_swing_on_a_nodding_head_is_as_accurate_as_asked() {
     for engine in [Engine::Auto, Engine::Runtime] {
