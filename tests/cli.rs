@@ -691,7 +691,8 @@ fn run_takes_a_tolerance_and_reports_its_steps() {
     let stdout = String::from_utf8_lossy(&out.stdout).to_string();
     assert!(out.status.success(), "{}", text(&out));
     let last = stdout.lines().last().unwrap_or_default();
-    // "...; tolerance 1.0e-3: largest estimated error E L, S steps taken, R rejected, ..."
+    // "...; tolerance 1.0e-3: largest estimated error E L, S steps taken, R rejected (D by
+    // the contacts' depth check), ..."
     let after = |key: &str, end: &str| -> f64 {
         let from = last.find(key).map(|i| i + key.len()).unwrap_or(last.len());
         let rest = &last[from..];
@@ -703,6 +704,9 @@ fn run_takes_a_tolerance_and_reports_its_steps() {
     let largest = after("largest estimated error", " L");
     let taken = after(" L,", " steps taken");
     let rejected = after("steps taken,", " rejected");
+    // of those, the ones the contacts' depth check rejected
+    let deep = after("rejected (", " by the contacts' depth check");
+    assert!((0.0..=rejected).contains(&deep), "{stdout}");
     assert!(largest > 0.0 && largest <= 1e-3, "{stdout}");
     assert!(taken >= 6.0, "{stdout}");
     // every frame says what the steps since the previous frame did, and the frames add up

@@ -596,6 +596,7 @@ pub fn error_control_dict<'py>(
     d.set_item("smallest_step_strand", e.smallest_step_strand)?;
     d.set_item("steps", e.steps)?;
     d.set_item("rejected", e.rejected)?;
+    d.set_item("rejected_deep", e.rejected_deep)?;
     Ok(d)
 }
 

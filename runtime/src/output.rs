@@ -208,6 +208,10 @@ pub struct ErrorControlSummary {
     pub steps: usize,
     /// Steps rejected and retried shorter, all strands.
     pub rejected: usize,
+    /// Of those, the steps rejected by the contacts' depth check (a sample taken deeper
+    /// than the split depth beyond its depth at the step's start), whatever their
+    /// estimated error.
+    pub rejected_deep: usize,
 }
 
 /// Every frame of a run, strand-major (what [`run_to_frames`] returns).
@@ -304,8 +308,13 @@ impl fmt::Display for RunSummary {
                     Some(e) => {
                         write!(
                             f,
-                            "; tolerance {:.1e}: largest estimated error {:.2e} L, {} steps taken, {} rejected, smallest step {:.3e} s",
-                            e.tolerance, e.largest_error, e.steps, e.rejected, e.smallest_step
+                            "; tolerance {:.1e}: largest estimated error {:.2e} L, {} steps taken, {} rejected ({} by the contacts' depth check), smallest step {:.3e} s",
+                            e.tolerance,
+                            e.largest_error,
+                            e.steps,
+                            e.rejected,
+                            e.rejected_deep,
+                            e.smallest_step
                         )?;
                         match e.smallest_step_strand {
                             Some(i) => {

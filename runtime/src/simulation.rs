@@ -1616,6 +1616,7 @@ impl Simulation {
             smallest_step_strand: smallest.map(|(i, _)| i),
             steps: stats.error_steps,
             rejected: stats.error_rejected,
+            rejected_deep: stats.error_rejected_deep,
         })
     }
 
