@@ -203,8 +203,12 @@ def test_a_run_releases_the_gil():
 
 @pytest.mark.skipif(not hasattr(signal, "SIGINT") or os.name != "posix", reason="POSIX signals")
 def test_ctrl_c_stops_a_run_and_keeps_its_frames():
+    # a process started as a background job (`cmd &` in a script, as CI may run the tests)
+    # inherits SIGINT ignored, and Python then leaves it ignored: the child takes
+    # Python's own handler back, as an interactive session has it
     script = f"""
-import sys, superhelix
+import signal, sys, superhelix
+signal.signal(signal.SIGINT, signal.default_int_handler)
 scene = superhelix.Scene.from_toml({SHAKING!r})
 print("started", flush=True)
 try:
