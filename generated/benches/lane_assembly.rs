@@ -218,15 +218,22 @@ fn rotary_scalar(x: &Input<f64>, o: &mut Output<f64>) {
             true,
         );
     }
-    let (derivs, v) = (&x.derivs, &x.velocities);
+    rotary_terms(x, o);
+}
+
+/// The rotary elements' part of b and ∂b/∂q̇, one strand or W in lanes.
+#[inline(always)]
+fn rotary_terms<T: Arith>(x: &Input<T>, o: &mut Output<T>) {
+    let jacobian = Some(&mut o.velocity_jacobian[..]);
     let b = Some(&mut o.inertial[..]);
+    let (rotary, motions) = (&o.rotary, &o.motions);
     add_rotary_terms(
-        derivs,
-        &o.rotary,
-        &o.motions,
-        v,
+        &x.derivs,
+        rotary,
+        motions,
+        &x.velocities,
         b,
-        Some(&mut o.velocity_jacobian),
+        jacobian,
         &mut o.beyond,
     );
 }
@@ -254,17 +261,7 @@ fn rotary_lanes(x: &Input<L4>, o: &mut Output<L4>) {
             true,
         );
     }
-    let (derivs, v) = (&x.derivs, &x.velocities);
-    let b = Some(&mut o.inertial[..]);
-    add_rotary_terms(
-        derivs,
-        &o.rotary,
-        &o.motions,
-        v,
-        b,
-        Some(&mut o.velocity_jacobian),
-        &mut o.beyond,
-    );
+    rotary_terms(x, o);
 }
 
 type L4 = Lanes<f64, 4>;

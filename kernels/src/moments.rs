@@ -913,8 +913,8 @@ mod tests {
             with_velocity,
             &mut bodies,
         );
-        let mut vectors = [[T::zero(); 15]; 4];
-        let [force, inertial, field_force, _] = &mut vectors;
+        let mut vectors = [[T::zero(); 15]; 3];
+        let [force, inertial, field_force] = &mut vectors;
         let mut matrices = [[T::zero(); 225]; 5];
         let [mass, gram, hessian, weighted, velocity] = &mut matrices;
         let mut first = Vector3::zeros();
@@ -968,16 +968,9 @@ mod tests {
                 bits.extend(v.iter().map(&out));
             }
         }
-        for list in vectors.iter().chain(&[first.data.0[0]; 1].map(|f| {
-            let mut padded = [T::zero(); 15];
-            padded[..3].copy_from_slice(&f);
-            padded
-        })) {
-            bits.extend(list.iter().map(&out));
-        }
-        for list in &matrices {
-            bits.extend(list.iter().map(&out));
-        }
+        bits.extend(vectors.iter().flatten().map(&out));
+        bits.extend(first.iter().map(&out));
+        bits.extend(matrices.iter().flatten().map(&out));
         bits
     }
 

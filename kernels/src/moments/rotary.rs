@@ -601,22 +601,38 @@ mod tests {
         v.iter().map(|x| x.to_bits()).collect()
     }
 
-    /// Four points per lane batch, partial last batches (1 to 13 points), with and without
-    /// the Jacobian parts, over Darboux vectors from straight to W l = 40: the same bits as
-    /// the one-point nalgebra code, from the dispatched copy and the baseline one alike.
-    #[test]
-    fn lanes_match_one_point_at_a_time_bit_for_bit() {
-        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut next = || {
+    /// A linear congruential sequence of values in [−1, 1).
+    fn sequence(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
             state = state
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
             (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
-        let mut checked = 0;
-        for case in 0..120 {
+        }
+    }
+
+    /// The Darboux vectors' scales the tests draw: straight to W l = 40.
+    const SCALES: [f64; 5] = [0.0, 1e-3, 1.0, 100.0, 400.0];
+
+    /// One element of a strand in motion: its Darboux vector, length, rotary inertia,
+    /// start pose and frame motion, own velocities, moments and point count.
+    struct Case {
+        d: V3,
+        l: f64,
+        rotary: [f64; 3],
+        pose: Pose,
+        motion: FrameMotion,
+        qd: [f64; 3],
+        moments: ElementMoments,
+        points: usize,
+    }
+
+    impl Case {
+        /// An element from `next`, its Darboux vector of size up to `scale`, its
+        /// quadrature by `points` points.
+        fn random(next: &mut impl FnMut() -> f64, scale: f64, points: usize) -> Case {
             let l = 0.01 + 0.05 * (next() + 1.0);
-            let scale = [0.0, 1e-3, 1.0, 100.0, 400.0][case % 5];
             let d = V3::new(next(), next(), next()) * scale;
             let rotary = [
                 1e-9 * (1.5 + next()),
@@ -624,32 +640,50 @@ mod tests {
                 5e-10 * (1.5 + next()),
             ];
             let (frame, position) = local_pose(&V3::new(next(), next(), next()), 1.0);
-            let pose = Pose { position, frame };
-            let motion = FrameMotion {
-                omega: V3::new(next(), next(), next()) * 30.0,
-                alpha: V3::new(next(), next(), next()) * 300.0,
-                velocity: V3::zeros(),
-                acceleration: V3::zeros(),
-            };
-            let qd = [30.0 * next(), 30.0 * next(), 30.0 * next()];
-            let moments = ElementMoments::by_quadrature(&d, l, &rotary, 8);
-            let eval = |u: f64, out: &mut ElementPoint| *out = ElementPoint::by_jets(&d, u);
-            let eval_lanes = |u: &[f64], out: &mut RotaryPoints| {
-                for (k, &u) in u.iter().enumerate() {
-                    out.set_lane(k, &ElementPoint::by_jets(&d, u));
-                }
-            };
-            let points = 1 + case % 13;
+            Case {
+                d,
+                l,
+                rotary,
+                pose: Pose { position, frame },
+                motion: FrameMotion {
+                    omega: V3::new(next(), next(), next()) * 30.0,
+                    alpha: V3::new(next(), next(), next()) * 300.0,
+                    ..Default::default()
+                },
+                qd: [30.0 * next(), 30.0 * next(), 30.0 * next()],
+                moments: ElementMoments::by_quadrature(&d, l, &rotary, 8),
+                points,
+            }
+        }
+
+        /// The element's rotary points at the abscissae `u`, lane k for `u[k]`.
+        fn eval(&self, u: &[f64], out: &mut RotaryPoints) {
+            for (k, &u) in u.iter().enumerate() {
+                out.set_lane(k, &ElementPoint::by_jets(&self.d, u));
+            }
+        }
+    }
+
+    /// Four points per lane batch, partial last batches (1 to 13 points), with and without
+    /// the Jacobian parts, over Darboux vectors from straight to W l = 40: the same bits as
+    /// the one-point nalgebra code, from the dispatched copy and the baseline one alike.
+    #[test]
+    fn lanes_match_one_point_at_a_time_bit_for_bit() {
+        let mut next = sequence(0x9e37_79b9_7f4a_7c15);
+        let mut checked = 0;
+        for case in 0..120 {
+            let c = Case::random(&mut next, SCALES[case % 5], 1 + case % 13);
+            let eval = |u: f64, out: &mut ElementPoint| *out = ElementPoint::by_jets(&c.d, u);
             for jacobian in [false, true] {
                 let args = (
-                    &eval_lanes,
-                    l,
-                    &rotary,
-                    &moments,
-                    &pose,
-                    &motion,
-                    &qd[..],
-                    points,
+                    &|u: &[f64], out: &mut RotaryPoints| c.eval(u, out),
+                    c.l,
+                    &c.rotary,
+                    &c.moments,
+                    &c.pose,
+                    &c.motion,
+                    &c.qd[..],
+                    c.points,
                     jacobian,
                 );
                 let expected = bits(&reference(
@@ -684,48 +718,11 @@ mod tests {
     #[test]
     fn strands_in_lanes_match_each_strand_bit_for_bit() {
         use crate::lane::soa::Soa;
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
-        struct Case {
-            d: V3,
-            l: f64,
-            rotary: [f64; 3],
-            pose: Pose,
-            motion: FrameMotion,
-            qd: [f64; 3],
-            moments: ElementMoments,
-            points: usize,
-        }
+        let mut next = sequence(0x2545_f491_4f6c_dd1d);
         for round in 0..30 {
             let cases: [Case; 4] = core::array::from_fn(|k| {
-                let l = 0.01 + 0.05 * (next() + 1.0);
-                let scale = [0.0, 1e-3, 1.0, 100.0, 400.0][(round + k) % 5];
-                let d = V3::new(next(), next(), next()) * scale;
-                let rotary = [
-                    1e-9 * (1.5 + next()),
-                    5e-10 * (1.5 + next()),
-                    5e-10 * (1.5 + next()),
-                ];
-                let (frame, position) = local_pose(&V3::new(next(), next(), next()), 1.0);
-                Case {
-                    d,
-                    l,
-                    rotary,
-                    pose: Pose { position, frame },
-                    motion: FrameMotion {
-                        omega: V3::new(next(), next(), next()) * 30.0,
-                        alpha: V3::new(next(), next(), next()) * 300.0,
-                        ..Default::default()
-                    },
-                    qd: [30.0 * next(), 30.0 * next(), 30.0 * next()],
-                    moments: ElementMoments::by_quadrature(&d, l, &rotary, 8),
-                    points: 1 + (round * 4 + k * 3) % 13,
-                }
+                let scale = SCALES[(round + k) % 5];
+                Case::random(&mut next, scale, 1 + (round * 4 + k * 3) % 13)
             });
             let c = cases.each_ref();
             let mut eval = |u: Lanes<f64, 4>, out: &mut LaneRotaryPoints<4>| {
@@ -761,13 +758,15 @@ mod tests {
                 );
                 let mut one_by_one = [RotaryElement::default(); 4];
                 for (k, x) in cases.iter().enumerate() {
-                    let eval_one = |u: &[f64], out: &mut RotaryPoints| {
-                        for (i, &u) in u.iter().enumerate() {
-                            out.set_lane(i, &ElementPoint::by_jets(&x.d, u));
-                        }
-                    };
                     one_by_one[k] = rotary_element(
-                        &eval_one, x.l, &x.rotary, &x.moments, &x.pose, &x.motion, &x.qd, x.points,
+                        &|u: &[f64], out: &mut RotaryPoints| x.eval(u, out),
+                        x.l,
+                        &x.rotary,
+                        &x.moments,
+                        &x.pose,
+                        &x.motion,
+                        &x.qd,
+                        x.points,
                         jacobian,
                     );
                     let lane = Soa::store(&lanes, k);
