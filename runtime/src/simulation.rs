@@ -8,7 +8,9 @@ use crate::config::{
     Engine, IntegratorKind, KernelChoice, Mode, SimulationConfig, SimulationSetup,
 };
 use crate::error::{Error, FieldError, Result};
-use crate::forces::contacts::{ContactSummary, HairHair, PairCounts, StrandContacts};
+use crate::forces::contacts::{
+    ContactSummary, HairHair, PairCounts, SearchInterval, StrandContacts,
+};
 use crate::forces::effects::GlobalEffects;
 use crate::forces::electrostatics::{Electrostatics, FieldSummary};
 use crate::forces::head_motion::HeadMotion;
@@ -460,6 +462,10 @@ pub fn engine_for(setup: &SimulationSetup) -> (Engine, Option<FieldError>) {
 /// The hair–hair broad phase and pair tracking of the contacts `c` (`None`: no
 /// `[contacts.hair_hair]`). Strands that overlap at the start are let apart slowly, as
 /// points that start inside a body.
+/// The shortest interval between two searches of the hair–hair pairs under a tolerance,
+/// s ([`Simulation::step_by`]).
+pub const MIN_SEARCH_INTERVAL: f64 = 1e-6;
+
 fn hair_hair_of(c: &crate::forces::contacts::ContactConfig) -> Option<HairHair> {
     let h = c.hair_hair.as_ref()?;
     let mut hh = HairHair::new(h.search_every)
@@ -1265,7 +1271,9 @@ impl Simulation {
     /// Advance every strand by a step of `h` seconds (> 0, finite) instead of `dt`: what
     /// `[output] times` uses to end a step on a frame's time. The integrators take variable
     /// steps (BDF2 restarts from a linearly implicit Euler step after a step ratio above
-    /// [`superhelix_kernels::fixed::BDF2_MAX_RATIO`]); errors as [`Self::step`].
+    /// [`superhelix_kernels::fixed::BDF2_MAX_RATIO`]); errors as [`Self::step`]. The
+    /// hair–hair pairs are searched at the step's start, and under a tolerance again
+    /// within it as the strands move (`Self::advance_in_intervals`).
     pub fn step_by(&mut self, h: f64) -> Result<()> {
         if !(h.is_finite() && h > 0.0) {
             return Err(Error::invalid(
@@ -1274,22 +1282,153 @@ impl Simulation {
             ));
         }
         let t = self.time;
-        if self.hair_hair.is_some() {
-            // the pairs at the step's start, for either engine's strands
-            let start = std::time::Instant::now();
-            if self.embedded.is_some() {
-                self.update_embedded_hair_pairs(t, h);
-            } else {
-                self.update_hair_pairs(t, h);
-            }
-            self.hair_pair_seconds += start.elapsed().as_secs_f64();
-        }
         // the Coulomb forces, every update_every steps, as point loads (either engine)
         if let Some(e) = &self.electrostatics {
             let every = e.config().update_every.max(1);
             if self.steps % every == 0 && self.steps > 0 {
                 self.refresh_charges(t)?;
             }
+        }
+        match (self.config.tolerance, self.hair_hair.is_some()) {
+            (Some(tolerance), true) => self.advance_in_intervals(t, h, tolerance)?,
+            _ => {
+                let points = self.hair_hair.is_some().then(|| self.hair_points(t));
+                self.advance(t, h, h, points)?;
+            }
+        }
+        self.time = t + h;
+        self.steps += 1;
+        Ok(())
+    }
+
+    /// A step from `t` to `t + h` under `tolerance` with hair–hair contacts: in intervals
+    /// between two searches of the pairs, each strand taking its own error-controlled
+    /// steps within each. A strand steps against its partners' points where they were at
+    /// the interval's start, and a pair exists only once the search found it. So the
+    /// intervals follow the motion, as the error-controlled step's steps do: the next is
+    /// the last scaled so that over it
+    ///
+    /// - a paired sample moves at most 0.9 τ of the length of the strand on the pair's
+    ///   other side ([`HairHair::partner_motion`]: what that strand's step missed of it),
+    /// - and no sample moves more than half the contacts' reach (two samples closing in
+    ///   on each other were within the search's margin, at least the reach, at its start),
+    ///
+    /// at the rates of the last interval, between 0.2 and 2 times it, none shorter than
+    /// [`MIN_SEARCH_INTERVAL`]; the last ends on `t + h` (a remainder shorter than two
+    /// intervals is taken in two equal ones).
+    fn advance_in_intervals(&mut self, t: f64, h: f64, tolerance: f64) -> Result<()> {
+        const SAFETY: f64 = 0.9;
+        const SHRINK: f64 = 0.2;
+        const GROW: f64 = 2.0;
+        const SLACK: f64 = 1e-9;
+        let end = t + h;
+        let mut now = t;
+        while end - now > 1e-12 * end.abs().max(1.0) {
+            let start = std::time::Instant::now();
+            let points = self.hair_points(now);
+            let lengths = self.strand_lengths();
+            let reach = self.hair_reach();
+            let Some(hh) = &mut self.hair_hair else {
+                break;
+            };
+            let motion = hh.partner_motion(&points, &lengths);
+            let fastest = hh.fastest_motion(&points);
+            let SearchInterval { last, proposed } = hh.interval;
+            self.hair_pair_seconds += start.elapsed().as_secs_f64();
+            let next = if last > 0.0 {
+                // the motion over the last interval at the rate it had, within the growth
+                // of the interval it was chosen as (a last interval cut to end on a step
+                // moved less for being shorter)
+                let reference = last.max(proposed);
+                let mut wanted = f64::INFINITY;
+                if motion > 0.0 {
+                    wanted = SAFETY * tolerance * last / motion;
+                }
+                if fastest > 0.0 {
+                    // no sample moves more than half the reach: two that close in on
+                    // each other within an interval were within the search's margin
+                    // (at least the reach) at its start, and are paired
+                    wanted = wanted.min(0.5 * reach * last / fastest);
+                }
+                wanted.clamp(SHRINK * last, GROW * reference)
+            } else {
+                h
+            }
+            .max(MIN_SEARCH_INTERVAL);
+            let left = end - now;
+            let (step, landing) = if next >= left * (1.0 - SLACK) {
+                (left, true)
+            } else if 2.0 * next > left * (1.0 + SLACK) {
+                (0.5 * left, false)
+            } else {
+                (next, false)
+            };
+            let since = if last > 0.0 { last } else { step };
+            if let Some(hh) = &mut self.hair_hair {
+                hh.interval = SearchInterval {
+                    last: step,
+                    proposed: next,
+                };
+            }
+            self.advance(now, step, since, Some(points))?;
+            now = if landing { end } else { now + step };
+        }
+        Ok(())
+    }
+
+    /// The reach of the hair–hair contacts (twice the largest hair volume radius), m.
+    fn hair_reach(&self) -> f64 {
+        match &self.embedded {
+            Some(e) => e
+                .groups
+                .iter()
+                .filter_map(|(_, g)| g.hair_reach())
+                .fold(0.0, f64::max),
+            None => self
+                .strands
+                .iter()
+                .filter_map(|s| {
+                    s.system
+                        .contacts
+                        .as_ref()?
+                        .hair_params()
+                        .map(|p| 2.0 * p.radius)
+                })
+                .fold(0.0, f64::max),
+        }
+    }
+
+    /// The length of every strand, in the scene's order, m.
+    fn strand_lengths(&self) -> Vec<f64> {
+        match &self.embedded {
+            Some(e) => e.strands.iter().map(|s| s.0.geometry.length()).collect(),
+            None => self
+                .strands
+                .iter()
+                .map(|s| s.system.strand.geometry.length())
+                .collect(),
+        }
+    }
+
+    /// One step of every strand from `t` to `t + h`, the hair–hair pairs searched first at
+    /// `points` (the samples' positions at `t`, [`Self::hair_points`]), the last search
+    /// `since` seconds earlier.
+    fn advance(
+        &mut self,
+        t: f64,
+        h: f64,
+        since: f64,
+        points: Option<Vec<Vec<nalgebra::Vector3<f64>>>>,
+    ) -> Result<()> {
+        if let Some(points) = points {
+            // the pairs at the step's start, for either engine's strands
+            let start = std::time::Instant::now();
+            if self.embedded.is_some() {
+                self.update_embedded_hair_pairs(t, (h, since), points);
+            } else {
+                self.update_hair_pairs(t, (h, since), points);
+            }
+            self.hair_pair_seconds += start.elapsed().as_secs_f64();
         }
         if let Some(e) = &mut self.embedded {
             let effects = superhelix_kernels::fixed::Effects {
@@ -1336,8 +1475,6 @@ impl Simulation {
                     });
                 }
             }
-            self.time = t + h;
-            self.steps += 1;
             return Ok(());
         }
         let interval = HeadInterval::new(&self.head, t, h);
@@ -1386,8 +1523,6 @@ impl Simulation {
                 cause,
             });
         }
-        self.time = t + h;
-        self.steps += 1;
         Ok(())
     }
 
@@ -1447,12 +1582,23 @@ impl Simulation {
             .min_by_key(|(i, _)| *i)
     }
 
-    /// Track and search the hair–hair pairs at the state of time `t` (head there) and give
-    /// each strand its partner points for the step of length `h`.
-    fn update_hair_pairs(&mut self, t: f64, h: f64) {
+    /// Every strand's contact samples at the state of time `t` (the head there), world
+    /// coordinates, in the scene's order: what the hair–hair search pairs.
+    fn hair_points(&mut self, t: f64) -> Vec<Vec<nalgebra::Vector3<f64>>> {
         let head = self.head.state(t);
-        let points: Vec<Vec<nalgebra::Vector3<f64>>> = self
-            .strands
+        if let Some(e) = &mut self.embedded {
+            let mut by_group: Vec<Vec<Vec<nalgebra::Vector3<f64>>>> = e
+                .groups
+                .iter()
+                .map(|(_, g)| g.sample_positions(&head))
+                .collect();
+            return e
+                .strands
+                .iter()
+                .map(|s| std::mem::take(&mut by_group[s.2][s.3]))
+                .collect();
+        }
+        self.strands
             .par_iter_mut()
             .map(|s| match &mut s.system.contacts {
                 Some(c) => {
@@ -1463,7 +1609,18 @@ impl Simulation {
                 }
                 None => Vec::new(),
             })
-            .collect();
+            .collect()
+    }
+
+    /// Track and search the hair–hair pairs at the state of time `t` (head there) and give
+    /// each strand its partner points for the step of length `h`.
+    fn update_hair_pairs(
+        &mut self,
+        t: f64,
+        (h, since): (f64, f64),
+        points: Vec<Vec<nalgebra::Vector3<f64>>>,
+    ) {
+        let head = self.head.state(t);
         let reach = self
             .strands
             .iter()
@@ -1488,7 +1645,7 @@ impl Simulation {
             .iter()
             .map(|s| s.system.contacts.as_ref().map_or(&[][..], |c| c.samples()))
             .collect();
-        hh.update(&points, &arcs, reach, h, fall, &head.rotation);
+        hh.update(&points, &arcs, reach, (h, since), fall, &head.rotation);
         drop(arcs);
         // (each strand's list written in parallel, in arc-length order)
         let hh = &*hh;
@@ -1502,21 +1659,16 @@ impl Simulation {
     /// [`Self::update_hair_pairs`] on the embedded engine: the samples of every strand
     /// at the state of time `t` (the groups' order put back into the scene's), the pairs
     /// tracked and searched, each strand handed its partner points.
-    fn update_embedded_hair_pairs(&mut self, t: f64, h: f64) {
+    fn update_embedded_hair_pairs(
+        &mut self,
+        t: f64,
+        (h, since): (f64, f64),
+        points: Vec<Vec<nalgebra::Vector3<f64>>>,
+    ) {
         let (Some(e), Some(hh)) = (&mut self.embedded, &mut self.hair_hair) else {
             return;
         };
         let head = self.head.state(t);
-        let mut by_group: Vec<Vec<Vec<nalgebra::Vector3<f64>>>> = e
-            .groups
-            .iter()
-            .map(|(_, g)| g.sample_positions(&head))
-            .collect();
-        let points: Vec<Vec<nalgebra::Vector3<f64>>> = e
-            .strands
-            .iter()
-            .map(|s| std::mem::take(&mut by_group[s.2][s.3]))
-            .collect();
         let reach = e
             .groups
             .iter()
@@ -1528,7 +1680,7 @@ impl Simulation {
             .iter()
             .map(|s| e.groups[s.2].1.samples(s.3))
             .collect();
-        hh.update(&points, &arcs, reach, h, fall, &head.rotation);
+        hh.update(&points, &arcs, reach, (h, since), fall, &head.rotation);
         drop(arcs);
         // each group's strands' lists written in parallel, in arc-length order (a
         // group's strand p is the scene's strand scene[g][p])

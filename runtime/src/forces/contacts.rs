@@ -15,7 +15,7 @@ pub mod predicted;
 pub mod strand_contacts;
 
 pub use config::{ContactConfig, Coupling, Friction, HairHairConfig, RodFriction};
-pub use hair_hair::{HairHair, Pair, PairCounts};
+pub use hair_hair::{HairHair, Pair, PairCounts, SearchInterval};
 pub use strand_contacts::{
     ContactParams, ContactSummary, HairHairParams, PartnerAnchor, PartnerPoint, StrandContacts,
 };

@@ -126,6 +126,21 @@ pub struct HairHair {
     index_start: Vec<usize>,
     rotation: Matrix3<f64>,
     h: f64,
+    /// The intervals of the searches within a step under a tolerance.
+    pub interval: SearchInterval,
+}
+
+/// The intervals between two searches of the pairs within a step under a tolerance
+/// (`[simulation] tolerance`): a strand steps against its partners' points where they
+/// were at the last search, so the search follows the partners' motion
+/// (`Simulation::step_by`). Kept with the pairs (a checkpoint's part).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SearchInterval {
+    /// The length of the last interval (the time since the last search), s (0: none).
+    pub last: f64,
+    /// The interval the last one was chosen from, before it was cut to end on the step,
+    /// s (0: none).
+    pub proposed: f64,
 }
 
 /// What the last update did.
@@ -193,6 +208,7 @@ pub struct HairHairState {
     found_last: usize,
     /// The allowances sorted by pair of strands (a map has no order to write).
     allowance: Vec<((usize, usize), f64)>,
+    interval: SearchInterval,
 }
 
 impl HairHair {
@@ -208,6 +224,7 @@ impl HairHair {
             tracked_last: self.tracked_last,
             found_last: self.found_last,
             allowance,
+            interval: self.interval,
         }
     }
 
@@ -220,6 +237,36 @@ impl HairHair {
         self.tracked_last = state.tracked_last;
         self.found_last = state.found_last;
         self.allowance = state.allowance.into_iter().collect();
+        self.interval = state.interval;
+    }
+
+    /// The largest distance a sample of a pair moved since the last update (where the
+    /// strand on the pair's other side saw it over the interval), over the length of that
+    /// strand: `points` the samples' positions now (world, as [`Self::update`] takes
+    /// them), `lengths` the strands' lengths. 0 without pairs or before a first update.
+    pub fn partner_motion(&self, points: &[Vec<Vector3<f64>>], lengths: &[f64]) -> f64 {
+        let moved = |(s, k): (usize, usize)| match (self.previous.get(s), points.get(s)) {
+            (Some(prev), Some(now)) if prev.len() == now.len() && k < now.len() => {
+                (now[k] - prev[k]).norm()
+            }
+            _ => 0.0,
+        };
+        let length = |s: usize| lengths.get(s).copied().unwrap_or(f64::INFINITY);
+        self.pairs
+            .iter()
+            .map(|p| (moved(p.b) / length(p.a.0)).max(moved(p.a) / length(p.b.0)))
+            .fold(0.0, f64::max)
+    }
+
+    /// The largest distance any sample moved since the last update, m (0 before a first
+    /// update): `points` as [`Self::partner_motion`] takes them.
+    pub fn fastest_motion(&self, points: &[Vec<Vector3<f64>>]) -> f64 {
+        points
+            .iter()
+            .zip(&self.previous)
+            .filter(|(now, prev)| now.len() == prev.len())
+            .flat_map(|(now, prev)| now.iter().zip(prev).map(|(a, b)| (a - b).norm()))
+            .fold(0.0, f64::max)
     }
 
     /// An empty set of pairs; the broad phase runs every `search_every` steps.
@@ -288,17 +335,18 @@ impl HairHair {
     }
 
     /// Update the pairs for the sample positions `points` (world, per strand per sample;
-    /// `arcs` their arc lengths and weights) with interaction distance `reach`, and give each strand its partner points (the
-    /// velocities from the positions of the last update, `h` seconds ago; zero at the
-    /// first). `fall` is how far a point starting at rest may move in the coming step
-    /// (|g| h²: twice the free fall), the least margin of the search. `rotation` is the
+    /// `arcs` their arc lengths and weights) with interaction distance `reach`, and give
+    /// each strand its partner points for the coming step of `h` seconds (the velocities
+    /// from the positions of the last update, `since` seconds ago; zero at the first).
+    /// `fall` is how far a point starting at rest may move in the coming step (|g| h²:
+    /// twice the free fall), the least margin of the search. `rotation` is the
     /// head's orientation (friction anchors are kept in head coordinates).
     pub fn update(
         &mut self,
         points: &[Vec<Vector3<f64>>],
         arcs: &[&[(f64, f64)]],
         reach: f64,
-        h: f64,
+        (h, since): (f64, f64),
         fall: f64,
         rotation: &Matrix3<f64>,
     ) {
@@ -570,8 +618,8 @@ impl HairHair {
         velocity.par_iter_mut().enumerate().for_each(|(s, v)| {
             v.clear();
             match previous.get(s) {
-                Some(prev) if h > 0.0 && prev.len() == points[s].len() => {
-                    v.extend(points[s].iter().zip(prev).map(|(x, x0)| (x - x0) / h))
+                Some(prev) if since > 0.0 && prev.len() == points[s].len() => {
+                    v.extend(points[s].iter().zip(prev).map(|(x, x0)| (x - x0) / since))
                 }
                 _ => v.resize(points[s].len(), Vector3::zeros()),
             }
