@@ -1055,6 +1055,31 @@ pub(crate) fn floppy_strand(friction: bool) -> Strand {
     )
 }
 
+/// The frictionless helix of the `tolerance` problem: the curly preset's cross-section
+/// and natural helix (radius 6 mm, step 5 mm, the exact form), N = 3, 20 cm, hanging from
+/// its root, released at rest in its natural shape under gravity, no internal friction
+/// and no drag: nothing damps the errors its steps make.
+pub(crate) fn helix_strand() -> Strand {
+    let p = Preset::Curly.params();
+    strand(
+        p.cross_section,
+        HELIX_N,
+        HELIX_LENGTH,
+        Vector3::zeros(),
+        -Vector3::z(),
+        helix_curvature(p.helix_radius, p.helix_step, HelixForm::Exact),
+        0.0,
+        0.0,
+    )
+}
+
+/// The helix's elements, length (m) and duration (s).
+pub(crate) const HELIX_N: usize = 3;
+/// See [`HELIX_N`].
+pub(crate) const HELIX_LENGTH: f64 = 0.2;
+/// See [`HELIX_N`].
+pub(crate) const HELIX_DURATION: f64 = 1.0;
+
 fn floppy_run(
     friction: bool,
     integrator: IntegratorKind,

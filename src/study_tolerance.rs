@@ -12,6 +12,10 @@
 //!   reference.
 //! - `floppy`, frictionless and with friction: the study's floppy N = 3 strand against
 //!   its BDF2 references.
+//! - `helix` (frictionless): a curly N = 3 helix hanging at rest in its natural shape,
+//!   released under gravity with nothing to damp it, against explicit RK4 at
+//!   [`HELIX_REFERENCE_RATE`] steps a second (another scheme, no error control), its own
+//!   error estimated from the run at half that rate.
 //!
 //! Error: max over the frames (every 1/30 s) of |tip − tip_ref| / L. Cost: CPU time of
 //! the steps per simulated second, as for the other problems.
@@ -20,9 +24,9 @@ use crate::runtime::config::{IntegratorKind, SimulationSetup};
 use crate::runtime::kernels::kernel::KernelFactory;
 use crate::runtime::{HeadMotion, Result, Vector3};
 use crate::study::{
-    curly_setup, floppy_strand, max_distance, setup_of, swing_setup, tip_run, Grid, Kernels,
-    ProblemResult, Reference, Setting, CURLY_LENGTH, FLOPPY_DURATION, FLOPPY_LENGTH, FLOPPY_N,
-    REFERENCE_N, SWING_LENGTH,
+    curly_setup, floppy_strand, helix_strand, max_distance, setup_of, swing_setup, tip_run, Grid,
+    Kernels, ProblemResult, Reference, Setting, CURLY_LENGTH, FLOPPY_DURATION, FLOPPY_LENGTH,
+    FLOPPY_N, HELIX_DURATION, HELIX_LENGTH, HELIX_N, REFERENCE_N, SWING_LENGTH,
 };
 use crate::study_plot::{log_log_svg, Marker, Series, Style};
 use plotters::prelude::{RGBColor, SeriesLabelPosition};
@@ -34,6 +38,10 @@ pub const TOLERANCES: [f64; 5] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5];
 
 /// Frames per second of the runs (the scene's dt).
 const FRAME_RATE: u32 = 30;
+
+/// Steps per second of the helix's RK4 reference (its own error, estimated as a
+/// sixteenth of its distance from the run at half the rate, is in the report's notes).
+pub const HELIX_REFERENCE_RATE: u32 = 240_000;
 
 /// What one run at one tolerance measured.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -60,7 +68,7 @@ pub struct TolerancePoint {
 /// One case: a strand against its reference at every tolerance.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ToleranceCase {
-    /// `swing`, `curly`, `floppy`.
+    /// `swing`, `curly`, `floppy`, `helix`.
     pub problem: &'static str,
     /// With internal friction (and drag where the problem has it).
     pub friction: bool,
@@ -133,10 +141,15 @@ pub(crate) fn tolerance_problem(
     factory: Option<&dyn KernelFactory>,
     references: &References<'_>,
 ) -> ProblemResult {
-    let (swing_reference, swing_rate, notes) = match swing_reference(grid, factory) {
+    let (swing_reference, swing_rate, mut notes) = match swing_reference(grid, factory) {
         Ok(r) => r,
         Err(e) => (references.swing.tips.clone(), references.swing.rate, e),
     };
+    let helix = helix_reference(factory);
+    match &helix {
+        Ok((_, note)) => notes.push_str(&format!(" {note}")),
+        Err(e) => notes.push_str(&format!(" {e}")),
+    }
     let mut inputs = vec![
         CaseInput {
             problem: "swing",
@@ -179,6 +192,26 @@ pub(crate) fn tolerance_problem(
             duration: FLOPPY_DURATION,
         });
     }
+    if let Ok((reference, _)) = &helix {
+        inputs.push(CaseInput {
+            problem: "helix",
+            friction: false,
+            elements: HELIX_N,
+            make: Box::new(|| {
+                setup_of(
+                    helix_strand(),
+                    &frame_setting(HELIX_N),
+                    HELIX_DURATION,
+                    true,
+                    HeadMotion::Still,
+                )
+            }),
+            reference,
+            reference_rate: HELIX_REFERENCE_RATE,
+            length: HELIX_LENGTH,
+            duration: HELIX_DURATION,
+        });
+    }
     let jobs: Vec<(usize, f64)> = (0..inputs.len())
         .flat_map(|c| grid.tolerances.iter().map(move |&t| (c, t)))
         .collect();
@@ -206,7 +239,9 @@ pub(crate) fn tolerance_problem(
             "The error-controlled step (`[simulation] tolerance`) on the strands of `swing` and \
              `curly` at N = {REFERENCE_N} (the N of their references, so that the difference is \
              time error alone) and on the floppy N = {FLOPPY_N} strand of `floppy`, frictionless \
-             and with friction, frames every 1/{FRAME_RATE} s. Error: max over the frames of \
+             and with friction, and on a frictionless curly N = {HELIX_N} helix hanging at rest in \
+             its natural shape, released under gravity (against RK4 at 1/{HELIX_REFERENCE_RATE} \
+             s), frames every 1/{FRAME_RATE} s. Error: max over the frames of \
              |tip − tip_ref| / L against the problem's reference; the tolerance bounds each \
              step's estimated local error on the centreline, over L. Cost: CPU time of the \
              steps per simulated second."
@@ -263,6 +298,47 @@ fn swing_reference(
         2 * rate
     );
     Ok((reference, rate, notes))
+}
+
+/// The helix's reference: RK4 at [`HELIX_REFERENCE_RATE`] and at half that rate, its own
+/// error estimated as a sixteenth of their distance (fourth order), with the report's note.
+fn helix_reference(
+    factory: Option<&dyn KernelFactory>,
+) -> std::result::Result<(Vec<Vector3<f64>>, String), String> {
+    let runs: Vec<_> = [HELIX_REFERENCE_RATE / 2, HELIX_REFERENCE_RATE]
+        .par_iter()
+        .map(|&rate| {
+            let setting = Setting {
+                elements: HELIX_N,
+                rate: Some(rate),
+                integrator: Some(IntegratorKind::Rk4),
+                kernels: Kernels::Generated,
+            };
+            let steps = (HELIX_DURATION * rate as f64).round() as usize;
+            let setup = setup_of(
+                helix_strand(),
+                &setting,
+                HELIX_DURATION,
+                true,
+                HeadMotion::Still,
+            );
+            tip_run(setup, factory, steps).map(|r| r.0)
+        })
+        .collect();
+    let mut tips = Vec::new();
+    for run in runs {
+        tips.push(
+            run.map_err(|e| format!("The helix's reference run failed ({e}): no `helix` case."))?,
+        );
+    }
+    let own = max_distance(&tips[0], &tips[1], 2) / HELIX_LENGTH / 15.0;
+    let note = format!(
+        "Reference of `helix`: RK4 at dt = 1/{HELIX_REFERENCE_RATE} s, its error estimated as \
+         its distance from RK4 at 1/{} s over 15 (max over time, / L): {own:.2e}.",
+        HELIX_REFERENCE_RATE / 2
+    );
+    let fine = tips.pop().unwrap_or_default();
+    Ok((fine, note))
 }
 
 fn measure(
@@ -331,6 +407,7 @@ fn style(case: &ToleranceCase) -> Style {
     let (colour, marker) = match (case.problem, case.friction) {
         ("swing", _) => (RGBColor(31, 119, 180), Marker::Circle),
         ("curly", _) => (RGBColor(214, 39, 40), Marker::Triangle),
+        ("helix", _) => (RGBColor(148, 103, 189), Marker::Circle),
         (_, false) => (RGBColor(44, 160, 44), Marker::Cross),
         (_, true) => (RGBColor(22, 80, 22), Marker::Square),
     };

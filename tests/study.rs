@@ -262,7 +262,20 @@ fn quick_study_writes_report_plots_and_sound_figures() {
         .as_array()
         .expect("tolerance cases")
         .clone();
-    assert_eq!(cases.len(), 4);
+    assert_eq!(cases.len(), 5);
+    // the frictionless helix (against RK4, good to far below the tightest tolerance) is
+    // within issue #51's band [0.2, 3] τ at every tolerance
+    let helix = cases
+        .iter()
+        .find(|c| c["problem"] == "helix")
+        .expect("the helix case");
+    for p in helix["points"].as_array().expect("points") {
+        let (t, e) = (num(p, "tolerance"), num(p, "error"));
+        assert!(
+            (0.2 * t..=3.0 * t).contains(&e),
+            "tolerance, helix: error {e:e} at {t:e}"
+        );
+    }
     for case in cases.iter().filter(|c| c["problem"] == "floppy") {
         let points = case["points"].as_array().expect("points");
         assert_eq!(points.len(), 5);
