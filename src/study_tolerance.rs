@@ -267,23 +267,15 @@ fn swing_reference(
     factory: Option<&dyn KernelFactory>,
 ) -> std::result::Result<(Vec<Vector3<f64>>, u32, String), String> {
     let rate = 4 * grid.reference_rate;
-    let runs: Vec<_> = [rate, 2 * rate]
-        .par_iter()
-        .map(|&r| {
-            let setting = Setting {
-                elements: REFERENCE_N,
-                rate: Some(r),
-                integrator: Some(IntegratorKind::Bdf2),
-                kernels: Kernels::Generated,
-            };
-            let steps = (grid.swing_duration * r as f64).round() as usize;
-            tip_run(swing_setup(&setting, grid.swing_duration), factory, steps)
-        })
-        .collect();
-    let mut tips = Vec::new();
-    for run in runs {
-        tips.push(run.map_err(|e| format!("The swing's reference run failed ({e}); the `swing` problem's reference is used."))?.0);
-    }
+    let tips = runs_at(
+        [rate, 2 * rate],
+        (IntegratorKind::Bdf2, REFERENCE_N, grid.swing_duration),
+        &|setting| swing_setup(setting, grid.swing_duration),
+        factory,
+    )
+    .map_err(|e| {
+        format!("The swing's reference run failed ({e}); the `swing` problem's reference is used.")
+    })?;
     let reference: Vec<Vector3<f64>> = tips[0]
         .iter()
         .enumerate()
@@ -305,32 +297,21 @@ fn swing_reference(
 fn helix_reference(
     factory: Option<&dyn KernelFactory>,
 ) -> std::result::Result<(Vec<Vector3<f64>>, String), String> {
-    let runs: Vec<_> = [HELIX_REFERENCE_RATE / 2, HELIX_REFERENCE_RATE]
-        .par_iter()
-        .map(|&rate| {
-            let setting = Setting {
-                elements: HELIX_N,
-                rate: Some(rate),
-                integrator: Some(IntegratorKind::Rk4),
-                kernels: Kernels::Generated,
-            };
-            let steps = (HELIX_DURATION * rate as f64).round() as usize;
-            let setup = setup_of(
+    let mut tips = runs_at(
+        [HELIX_REFERENCE_RATE / 2, HELIX_REFERENCE_RATE],
+        (IntegratorKind::Rk4, HELIX_N, HELIX_DURATION),
+        &|setting| {
+            setup_of(
                 helix_strand(),
-                &setting,
+                setting,
                 HELIX_DURATION,
                 true,
                 HeadMotion::Still,
-            );
-            tip_run(setup, factory, steps).map(|r| r.0)
-        })
-        .collect();
-    let mut tips = Vec::new();
-    for run in runs {
-        tips.push(
-            run.map_err(|e| format!("The helix's reference run failed ({e}): no `helix` case."))?,
-        );
-    }
+            )
+        },
+        factory,
+    )
+    .map_err(|e| format!("The helix's reference run failed ({e}): no `helix` case."))?;
     let own = max_distance(&tips[0], &tips[1], 2) / HELIX_LENGTH / 15.0;
     let note = format!(
         "Reference of `helix`: RK4 at dt = 1/{HELIX_REFERENCE_RATE} s, its error estimated as \
@@ -339,6 +320,30 @@ fn helix_reference(
     );
     let fine = tips.pop().unwrap_or_default();
     Ok((fine, note))
+}
+
+/// The tips at every step of the runs of `setup` (given its setting) at each of `rates`
+/// steps a second, in parallel, with `integrator` and the generated kernels at `elements`
+/// over `duration` s; the first failure's message.
+fn runs_at(
+    rates: [u32; 2],
+    (integrator, elements, duration): (IntegratorKind, usize, f64),
+    setup: &(dyn Fn(&Setting) -> SimulationSetup + Sync),
+    factory: Option<&dyn KernelFactory>,
+) -> std::result::Result<Vec<Vec<Vector3<f64>>>, String> {
+    rates
+        .par_iter()
+        .map(|&rate| {
+            let setting = Setting {
+                elements,
+                rate: Some(rate),
+                integrator: Some(integrator),
+                kernels: Kernels::Generated,
+            };
+            let steps = (duration * rate as f64).round() as usize;
+            tip_run(setup(&setting), factory, steps).map(|r| r.0)
+        })
+        .collect()
 }
 
 fn measure(

@@ -1621,17 +1621,7 @@ impl Simulation {
         points: Vec<Vec<nalgebra::Vector3<f64>>>,
     ) {
         let head = self.head.state(t);
-        let reach = self
-            .strands
-            .iter()
-            .filter_map(|s| {
-                s.system
-                    .contacts
-                    .as_ref()?
-                    .hair_params()
-                    .map(|p| 2.0 * p.radius)
-            })
-            .fold(0.0, f64::max);
+        let reach = self.hair_reach();
         let Some(hh) = &mut self.hair_hair else {
             return;
         };
@@ -1665,15 +1655,11 @@ impl Simulation {
         (h, since): (f64, f64),
         points: Vec<Vec<nalgebra::Vector3<f64>>>,
     ) {
+        let reach = self.hair_reach();
         let (Some(e), Some(hh)) = (&mut self.embedded, &mut self.hair_hair) else {
             return;
         };
         let head = self.head.state(t);
-        let reach = e
-            .groups
-            .iter()
-            .filter_map(|(_, g)| g.hair_reach())
-            .fold(0.0, f64::max);
         let fall = e.gravity.map_or(0.0, |g| g.norm() * h * h);
         let arcs: Vec<&[(f64, f64)]> = e
             .strands

@@ -122,6 +122,15 @@ fn touching(sim: &Simulation) -> usize {
     sim.contact_summary(0).map_or(0, |c| c.body_contacts)
 }
 
+/// The largest distance between two lists of tips, relative to the length.
+fn largest_apart(a: &[nalgebra::Vector3<f64>], b: &[nalgebra::Vector3<f64>]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).norm())
+        .fold(0.0, f64::max)
+        / LENGTH
+}
+
 /// Every strand's tip at every frame, the solves taken and steps rejected on `engine`, and the
 /// fewest contact samples touching a body at a frame (0 without contacts);
 /// `frictionless`: no internal friction and no air drag; `head`: a `[head]` section, or
@@ -230,13 +239,6 @@ fn fixed_tips(
 /// Each reference's own error, estimated from the same scheme at twice the step, is
 /// asserted below 1e-7 L, 50 times below the error of the tightest tolerance tested.
 fn reference_tips(problem: Problem, frictionless: bool, head: &str) -> Vec<nalgebra::Vector3<f64>> {
-    let apart = |a: &[nalgebra::Vector3<f64>], b: &[nalgebra::Vector3<f64>]| {
-        a.iter()
-            .zip(b)
-            .map(|(x, y)| (x - y).norm())
-            .fold(0.0, f64::max)
-            / LENGTH
-    };
     if frictionless {
         // RK4's error falls 16-fold from one step to its half: the finer one's is about
         // their difference / 15; the steps are halved until it is below 1e-9 L (a strand
@@ -245,7 +247,7 @@ fn reference_tips(problem: Problem, frictionless: bool, head: &str) -> Vec<nalge
         let mut half = fixed_tips(problem, "rk4", substeps, true, head);
         loop {
             let full = fixed_tips(problem, "rk4", 2 * substeps, true, head);
-            let own = apart(&half, &full) / 15.0;
+            let own = largest_apart(&half, &full) / 15.0;
             if own < 1e-9 || substeps >= 8000 {
                 eprintln!(
                     "reference (RK4, 1/{} s): estimated error {own:.2e} L",
@@ -272,7 +274,7 @@ fn reference_tips(problem: Problem, frictionless: bool, head: &str) -> Vec<nalge
         richardson(&levels[1], &levels[2]),
     );
     // the two extrapolations' difference bounds the first's error, more than the second's
-    let own = apart(&first, &second);
+    let own = largest_apart(&first, &second);
     eprintln!("reference (BDF2, Richardson): estimated error {own:.2e} L");
     assert!(own < 1e-7, "{own:e}");
     second
@@ -305,12 +307,7 @@ fn errors_of(
         .map(|&tolerance| {
             let (run, solves, rejected, fewest) =
                 tips_of(problem, tolerance, frictionless, engine, head);
-            let error = run
-                .iter()
-                .zip(&reference)
-                .map(|(a, b)| (a - b).norm())
-                .fold(0.0, f64::max)
-                / LENGTH;
+            let error = largest_apart(&run, &reference);
             let contacts = if head.contains("[contacts]") {
                 format!(", at least {fewest} contact samples touching at each frame")
             } else {
@@ -438,12 +435,7 @@ fn incline(offset: f64) -> String {
 fn contact_reference(extra: &str, within: f64) -> (Vec<nalgebra::Vector3<f64>>, f64) {
     let coarse = fixed_tips(Problem::Landing, "bdf2", 4096, false, extra);
     let fine = fixed_tips(Problem::Landing, "bdf2", 8192, false, extra);
-    let own = coarse
-        .iter()
-        .zip(&fine)
-        .map(|(a, b)| (a - b).norm())
-        .fold(0.0, f64::max)
-        / LENGTH;
+    let own = largest_apart(&coarse, &fine);
     eprintln!("reference (BDF2, 1/245760 s): estimated error {own:.2e} L");
     assert!(own < within, "{own:e}");
     (fine, own)
@@ -459,12 +451,7 @@ fn contact_errors(extra: &str, reference: &[nalgebra::Vector3<f64>], tolerances:
             let (run, solves, rejected, _) =
                 tips_of(Problem::Landing, tolerance, false, engine, extra);
             assert_eq!(run.len(), reference.len());
-            let error = run
-                .iter()
-                .zip(reference)
-                .map(|(a, b)| (a - b).norm())
-                .fold(0.0, f64::max)
-                / LENGTH;
+            let error = largest_apart(&run, reference);
             eprintln!(
                 "{engine:?}, tolerance {tolerance:.0e}: largest tip error {error:.3e} L ({:.2} τ), {solves} solves, {rejected} steps rejected",
                 error / tolerance
@@ -617,12 +604,7 @@ fn the_embedded_error_controlled_step_is_the_runtimes() {
                 tips_with(tolerance, frictionless, Engine::Auto, head);
             let (b, solves_b, rejected_b, _) =
                 tips_with(tolerance, frictionless, Engine::Runtime, head);
-            let apart = a
-                .iter()
-                .zip(&b)
-                .map(|(x, y)| (x - y).norm())
-                .fold(0.0, f64::max)
-                / LENGTH;
+            let apart = largest_apart(&a, &b);
             eprintln!(
                 "head moving {}, frictionless {frictionless}, tolerance {tolerance:.0e}: tips {apart:.2e} L apart;",
                 !head.is_empty()
@@ -690,14 +672,7 @@ fn without_the_energy_balance_both_engines_take_the_same_steps() {
             Engine::Runtime,
             &head.replace("energy_balance = false", ""),
         );
-        let apart = |x: &[nalgebra::Vector3<f64>], y: &[nalgebra::Vector3<f64>]| {
-            x.iter()
-                .zip(y)
-                .map(|(p, q)| (p - q).norm())
-                .fold(0.0, f64::max)
-                / LENGTH
-        };
-        let (engines, balance) = (apart(&a, &b), apart(&b, &c));
+        let (engines, balance) = (largest_apart(&a, &b), largest_apart(&b, &c));
         eprintln!(
             "{head:?}: engines {engines:.2e} L apart, solves {solves_a} / {solves_b}, rejected {rejected_a} / {rejected_b}; with the balance {balance:.2e} L away"
         );
