@@ -57,8 +57,8 @@ pub use contacts::{
 pub use dense::{lu_solve, lu_solve_factored, negative_semidefinite_part, Projection};
 pub use end_hooks::{EndHooks, HeldError, REACH_MARGIN};
 pub use error_control::{
-    min_tolerance, step_to_tolerance, step_to_tolerance_views, HistoryView, StepHistory,
-    ToleranceReport, MAX_FORCED_STEPS, MAX_TOLERANCE, MIN_STEP, MIN_TOLERANCE,
+    min_tolerance, step_to_tolerance, step_to_tolerance_views, step_within, HistoryView,
+    StepHistory, ToleranceReport, MAX_FORCED_STEPS, MAX_TOLERANCE, MIN_STEP, MIN_TOLERANCE,
 };
 pub use newton::{NEWTON_MAX_ITERATIONS, NEWTON_TOLERANCE};
 pub use params::{FixedParams, ParamsError};

@@ -459,13 +459,13 @@ pub fn engine_for(setup: &SimulationSetup) -> (Engine, Option<FieldError>) {
     }
 }
 
-/// The hair–hair broad phase and pair tracking of the contacts `c` (`None`: no
-/// `[contacts.hair_hair]`). Strands that overlap at the start are let apart slowly, as
-/// points that start inside a body.
 /// The shortest interval between two searches of the hair–hair pairs under a tolerance,
 /// s ([`Simulation::step_by`]).
 pub const MIN_SEARCH_INTERVAL: f64 = 1e-6;
 
+/// The hair–hair broad phase and pair tracking of the contacts `c` (`None`: no
+/// `[contacts.hair_hair]`). Strands that overlap at the start are let apart slowly, as
+/// points that start inside a body.
 fn hair_hair_of(c: &crate::forces::contacts::ContactConfig) -> Option<HairHair> {
     let h = c.hair_hair.as_ref()?;
     let mut hh = HairHair::new(h.search_every)
@@ -1320,14 +1320,13 @@ impl Simulation {
         const SAFETY: f64 = 0.9;
         const SHRINK: f64 = 0.2;
         const GROW: f64 = 2.0;
-        const SLACK: f64 = 1e-9;
         let end = t + h;
         let mut now = t;
+        let lengths = self.strand_lengths();
+        let reach = self.hair_reach();
         while end - now > 1e-12 * end.abs().max(1.0) {
             let start = std::time::Instant::now();
             let points = self.hair_points(now);
-            let lengths = self.strand_lengths();
-            let reach = self.hair_reach();
             let Some(hh) = &mut self.hair_hair else {
                 break;
             };
@@ -1355,14 +1354,7 @@ impl Simulation {
                 h
             }
             .max(MIN_SEARCH_INTERVAL);
-            let left = end - now;
-            let (step, landing) = if next >= left * (1.0 - SLACK) {
-                (left, true)
-            } else if 2.0 * next > left * (1.0 + SLACK) {
-                (0.5 * left, false)
-            } else {
-                (next, false)
-            };
+            let (step, landing) = superhelix_kernels::fixed::step_within(next, end - now);
             let since = if last > 0.0 { last } else { step };
             if let Some(hh) = &mut self.hair_hair {
                 hh.interval = SearchInterval {

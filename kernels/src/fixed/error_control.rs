@@ -72,6 +72,21 @@ pub const MAX_FORCED_STEPS: usize = 8;
 /// Relative margin of the decisions on the time left in the caller's step.
 const SLACK: f64 = 1e-9;
 
+/// The step to take of a proposed `next` when `left` seconds remain to the next end the
+/// steps must land on, and whether it lands there: all of `left` when `next` reaches it
+/// (decided with a margin of round-off, so that the same steps are taken whatever the
+/// time's origin), half of it when `next` would leave a remainder shorter than itself
+/// (two steps rather than a long one and a short one), else `next`.
+pub fn step_within(next: f64, left: f64) -> (f64, bool) {
+    if next >= left * (1.0 - SLACK) {
+        (left, true)
+    } else if 2.0 * next > left * (1.0 + SLACK) {
+        (0.5 * left, false)
+    } else {
+        (next, false)
+    }
+}
+
 /// The smallest tolerance a strand of float type `T` takes: [`MIN_TOLERANCE`] in `f64`,
 /// 1000 ε (1.2e-4) in `f32`, whose round-off would otherwise be mistaken for the error.
 pub fn min_tolerance<T: Float>() -> f64 {
@@ -401,17 +416,7 @@ pub(crate) fn tolerance_step<'c, S: StepTerms<T> + ?Sized, T: Float, const NC: u
         }
         // the steps land on the head's phase changes as on the interval's end
         let target = phase_cut(head, now, end).unwrap_or(end);
-        // decided with a margin of round-off, so that the same steps are taken whatever
-        // the time's origin (an engine's clock from 0 or a scene's)
-        let last = next >= (target - now) * (1.0 - SLACK);
-        // two steps rather than a long one and a short one
-        let hh = if last {
-            target - now
-        } else if 2.0 * next > (target - now) * (1.0 + SLACK) {
-            0.5 * (target - now)
-        } else {
-            next
-        };
+        let (hh, last) = step_within(next, target - now);
         let t1 = if last { target } else { now + hh };
         start_q.copy_from_slice(strand.q);
         start_v.copy_from_slice(strand.v);
