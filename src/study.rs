@@ -28,8 +28,9 @@
 //!    kinetic energy (5b) without it: the twist, bending and centreline of two curved
 //!    N = 3 strands (one twisted, one planar) over 0.2 s.
 //!
-//! 7. `tolerance`: the error-controlled step at tolerances 1e-1 … 1e-5 on the strands
-//!    of `swing`, `curly` and `floppy` against their references
+//! 7. `tolerance`: the error-controlled step at tolerances 1e-1 … 1e-6 on the strands
+//!    of `swing`, `curly` and `floppy` and on a frictionless helix, against references
+//!    of other schemes, and its cost against the best fixed step's at the same error
 //!    ([`crate::study_tolerance`]).
 //!
 //! The reference of `swing` and `curly` is N = 20 with generated kernels and the
@@ -319,6 +320,14 @@ pub struct Grid {
     pub rotary_rate: u32,
     /// Tolerances of `tolerance`.
     pub tolerances: Vec<f64>,
+    /// Steps per second of `tolerance`'s fixed-step runs (each a multiple of the frame
+    /// rate, 30).
+    pub tolerance_fixed_rates: Vec<u32>,
+    /// The coarsest rate of the swing's reference in `tolerance` (BDF2 at twice and four
+    /// times it, Richardson-extrapolated).
+    pub tolerance_swing_reference_rate: u32,
+    /// The same for `curly`.
+    pub tolerance_curly_reference_rate: u32,
 }
 
 impl Grid {
@@ -348,6 +357,9 @@ impl Grid {
             floppy_reference_rate: 60000,
             rotary_rate: 100000,
             tolerances: crate::study_tolerance::TOLERANCES.to_vec(),
+            tolerance_fixed_rates: (0..=10).map(|k| 30 << k).collect(),
+            tolerance_swing_reference_rate: 48000,
+            tolerance_curly_reference_rate: 6000,
         }
     }
     /// The reduced grid of `--quick` (CI).
@@ -374,7 +386,10 @@ impl Grid {
             floppy_rates: vec![30, 100, 300, 1000],
             floppy_reference_rate: 30000,
             rotary_rate: 100000,
-            tolerances: crate::study_tolerance::TOLERANCES.to_vec(),
+            tolerances: crate::study_tolerance::QUICK_TOLERANCES.to_vec(),
+            tolerance_fixed_rates: (0..=6).map(|k| 30 << k).collect(),
+            tolerance_swing_reference_rate: 12000,
+            tolerance_curly_reference_rate: 1500,
         }
     }
 
@@ -447,6 +462,8 @@ impl Grid {
 pub struct StudyOptions {
     /// The reduced grid.
     pub quick: bool,
+    /// Only this problem (a key of [`PROBLEMS`]); all of them when `None`.
+    pub only: Option<String>,
     /// The command line, quoted in the report.
     pub command: String,
 }
@@ -1430,54 +1447,80 @@ pub fn run_study(options: &StudyOptions, factory: Option<&dyn KernelFactory>) ->
             ));
         }
     }
+    if let Some(only) = &options.only {
+        if !PROBLEMS.contains(&only.as_str()) {
+            return Err(Error::invalid(
+                "--only",
+                format!(
+                    "`{only}` is not a problem; the problems are {}",
+                    PROBLEMS.join(", ")
+                ),
+            ));
+        }
+    }
+    let wanted = |key: &str| options.only.as_deref().is_none_or(|o| o == key);
     let wall = Instant::now();
-    let (swing, swing_reference) = trajectory_problem(
-        "swing",
-        "Straight strand swinging under gravity",
-        format!(
-            "A straight {} cm strand of the smooth preset (r = 50 µm, E = 1 GPa), root clamped \
-             horizontal, released from rest under gravity, no drag, no internal friction, for \
-             {} s (the first swing down; later the tip whips and no reference converges). \
-             Error: max over the setting's time steps of |tip − tip_ref| / L.",
-            SWING_LENGTH * 100.0,
-            grid.swing_duration
-        ),
-        &swing_setup,
-        SWING_LENGTH,
-        &grid,
-        grid.swing_duration,
-        factory,
-    )?;
-    let (curly, curly_reference) = trajectory_problem(
-        "curly",
-        "Curly strand on a shaking head",
-        format!(
-            "A {} cm strand of the curly preset (helix radius 6 mm, step 5 mm, its drag and \
-             internal friction) leaving a 10 cm head horizontally, gravity, the head turning \
-             about the vertical at 2 Hz by ±30°, for {} s. Error: max over the setting's time \
-             steps of |tip − tip_ref| / L, world positions.",
-            CURLY_LENGTH * 100.0,
-            grid.duration
-        ),
-        &curly_setup,
-        CURLY_LENGTH,
-        &grid,
-        grid.duration,
-        factory,
-    )?;
-    let frequency = frequency_problem(&grid, factory);
-    let cantilever = cantilever_problem(&grid, factory);
-    let (floppy, floppy_references) = floppy_problem(&grid, factory)?;
-    let rotary = rotary_problem(&grid, factory)?;
-    let tolerance = crate::study_tolerance::tolerance_problem(
-        &grid,
-        factory,
-        &crate::study_tolerance::References {
-            swing: &swing_reference,
-            curly: &curly_reference,
-            floppy: &floppy_references,
-        },
-    );
+    let mut problems = Vec::new();
+    if wanted("swing") {
+        problems.push(
+            trajectory_problem(
+                "swing",
+                "Straight strand swinging under gravity",
+                format!(
+                    "A straight {} cm strand of the smooth preset (r = 50 µm, E = 1 GPa), root \
+                     clamped horizontal, released from rest under gravity, no drag, no internal \
+                     friction, for {} s (the first swing down; later the tip whips and no \
+                     reference converges). Error: max over the setting's time steps of \
+                     |tip − tip_ref| / L.",
+                    SWING_LENGTH * 100.0,
+                    grid.swing_duration
+                ),
+                &swing_setup,
+                SWING_LENGTH,
+                &grid,
+                grid.swing_duration,
+                factory,
+            )?
+            .0,
+        );
+    }
+    if wanted("curly") {
+        problems.push(
+            trajectory_problem(
+                "curly",
+                "Curly strand on a shaking head",
+                format!(
+                    "A {} cm strand of the curly preset (helix radius 6 mm, step 5 mm, its drag \
+                     and internal friction) leaving a 10 cm head horizontally, gravity, the head \
+                     turning about the vertical at 2 Hz by ±30°, for {} s. Error: max over the \
+                     setting's time steps of |tip − tip_ref| / L, world positions.",
+                    CURLY_LENGTH * 100.0,
+                    grid.duration
+                ),
+                &curly_setup,
+                CURLY_LENGTH,
+                &grid,
+                grid.duration,
+                factory,
+            )?
+            .0,
+        );
+    }
+    if wanted("frequency") {
+        problems.push(frequency_problem(&grid, factory));
+    }
+    if wanted("cantilever") {
+        problems.push(cantilever_problem(&grid, factory));
+    }
+    if wanted("floppy") {
+        problems.push(floppy_problem(&grid, factory)?.0);
+    }
+    if wanted("rotary") {
+        problems.push(rotary_problem(&grid, factory)?);
+    }
+    if wanted("tolerance") {
+        problems.push(crate::study_tolerance::tolerance_problem(&grid, factory));
+    }
     let cost = if options.quick {
         crate::study_cost::cost_by_elements(&[1, 5, 10], 10, 5)?
     } else {
@@ -1486,9 +1529,7 @@ pub fn run_study(options: &StudyOptions, factory: Option<&dyn KernelFactory>) ->
     Ok(Study {
         options: options.clone(),
         grid,
-        problems: vec![
-            swing, curly, frequency, cantilever, floppy, rotary, tolerance,
-        ],
+        problems,
         wall_seconds: wall.elapsed().as_secs_f64(),
         clock: Clock::current(),
         cost,
@@ -1591,6 +1632,11 @@ pub fn render_report(study: &Study, plots: &[Option<String>]) -> String {
         }
         if !problem.tolerance.is_empty() {
             crate::study_tolerance::render_table(&mut s, &problem.tolerance);
+            let _ = writeln!(
+                s,
+                "![Cost against error]({})\n",
+                crate::study_tolerance::COST_PLOT
+            );
             continue;
         }
         if !problem.rotary.is_empty() {
@@ -1784,6 +1830,12 @@ pub fn write_report(study: &Study, dir: &Path) -> Result<Vec<PathBuf>> {
             }
             None => plots.push(None),
         }
+    }
+    if let Some(problem) = study.problems.iter().find(|p| !p.tolerance.is_empty()) {
+        let path = dir.join(crate::study_tolerance::COST_PLOT);
+        std::fs::write(&path, crate::study_tolerance::cost_plot(problem)?)
+            .map_err(|e| io(&path, e))?;
+        files.push(path);
     }
     let cost_svg = crate::study_cost::cost_plot(&study.cost)?;
     let path = dir.join(COST_PLOT);

@@ -1,21 +1,29 @@
 //! The study's `tolerance` problem: what a tolerance (`[simulation] tolerance`, the
-//! error-controlled step) delivers and costs, measured against the study's own
-//! references.
+//! error-controlled step) delivers and costs, measured against references of other
+//! schemes, and set against the best fixed step at the same error.
 //!
-//! Four cases, each run at every tolerance of [`TOLERANCES`] with frames every 1/30 s
-//! (the error-controlled step chooses its own steps within them):
+//! Five cases, each run at every tolerance of the grid with frames every 1/30 s (the
+//! error-controlled step chooses its own steps within them):
 //!
-//! - `swing` (frictionless): the study's `swing` at the reference's N = 20, against its
-//!   reference (the Richardson-extrapolated N = 20 run): with the same N, the difference
-//!   is time error alone.
-//! - `curly` (friction, drag, a shaking head): the study's `curly` at N = 20, against its
-//!   reference.
-//! - `floppy`, frictionless and with friction: the study's floppy N = 3 strand against
-//!   its BDF2 references.
+//! - `swing` (frictionless): the study's `swing` strand at N = 20 (the N of the study's
+//!   reference: with the same N the difference is time error alone), 0.5 s.
+//! - `curly` (friction, drag, a shaking head): the study's `curly` strand at N = 20.
+//! - `floppy`, frictionless and with friction: the study's floppy N = 3 strand, 1 s.
 //! - `helix` (frictionless): a curly N = 3 helix hanging at rest in its natural shape,
-//!   released under gravity with nothing to damp it, against explicit RK4 at
-//!   [`HELIX_REFERENCE_RATE`] steps a second (another scheme, no error control), its own
-//!   error estimated from the run at half that rate.
+//!   released under gravity with nothing to damp it, 1 s.
+//!
+//! **References** ([`ReferenceScheme`]), each checked by its own refinement: the
+//! frictionless N = 3 strands against explicit RK4 (fourth order: its error is a
+//! fifteenth of its distance from the run at half the rate); the others against BDF2 at
+//! two small steps combined by second-order Richardson extrapolation (4 x(h/2) − x(h))/3,
+//! checked against the same extrapolation one halving coarser (their distance bounds the
+//! finer one's error: its leading term is third order, an eighth of the coarser one's).
+//!
+//! **Fixed steps**: each case is also run at fixed steps, linearly implicit Euler and
+//! BDF2 at 30 · 2^k steps a second, measured in the same way. At each tolerance's
+//! measured error, the cost of the best fixed step is read off the fixed runs' Pareto
+//! front (log–log interpolation between its two points that bracket the error), in
+//! implicit solves (exact) and in CPU time: [`ToleranceCase::fixed_cost_at`].
 //!
 //! Error: max over the frames (every 1/30 s) of |tip − tip_ref| / L. Cost: CPU time of
 //! the steps per simulated second, as for the other problems.
@@ -23,25 +31,66 @@
 use crate::runtime::config::{IntegratorKind, SimulationSetup};
 use crate::runtime::kernels::kernel::KernelFactory;
 use crate::runtime::{HeadMotion, Result, Vector3};
+use crate::study::integrator_label;
 use crate::study::{
-    curly_setup, floppy_strand, helix_strand, max_distance, setup_of, swing_setup, tip_run, Grid,
-    Kernels, ProblemResult, Reference, Setting, CURLY_LENGTH, FLOPPY_DURATION, FLOPPY_LENGTH,
-    FLOPPY_N, HELIX_DURATION, HELIX_LENGTH, HELIX_N, REFERENCE_N, SWING_LENGTH,
+    curly_setup, floppy_strand, helix_strand, setup_of, swing_setup, tip_run, Grid, Kernels,
+    ProblemResult, Setting, CURLY_LENGTH, FLOPPY_DURATION, FLOPPY_LENGTH, FLOPPY_N, HELIX_DURATION,
+    HELIX_LENGTH, HELIX_N, REFERENCE_N, SWING_LENGTH,
 };
 use crate::study_plot::{log_log_svg, Marker, Series, Style};
 use plotters::prelude::{RGBColor, SeriesLabelPosition};
 use rayon::prelude::*;
 use std::fmt::Write as _;
 
-/// The tolerances asked for.
-pub const TOLERANCES: [f64; 5] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5];
+/// The tolerances of the full study.
+pub const TOLERANCES: [f64; 6] = [1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6];
+
+/// The tolerances of `--quick`.
+pub const QUICK_TOLERANCES: [f64; 4] = [1e-1, 1e-2, 1e-3, 1e-4];
 
 /// Frames per second of the runs (the scene's dt).
-const FRAME_RATE: u32 = 30;
+pub const FRAME_RATE: u32 = 30;
 
-/// Steps per second of the helix's RK4 reference (its own error, estimated as a
-/// sixteenth of its distance from the run at half the rate, is in the report's notes).
-pub const HELIX_REFERENCE_RATE: u32 = 240_000;
+/// File name of the cost-against-error plot.
+pub const COST_PLOT: &str = "tolerance_cost.svg";
+
+/// How a case's reference is computed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReferenceScheme {
+    /// The integrator (fixed steps).
+    pub integrator: IntegratorKind,
+    /// The coarsest rate, steps a second: RK4 runs at it and twice it (the reference is
+    /// the finer run); BDF2 at it, twice and four times it (the reference is the
+    /// extrapolation of the two finer runs).
+    pub rate: u32,
+}
+
+impl ReferenceScheme {
+    /// True for a Richardson-extrapolated pair (any second-order integrator).
+    fn richardson(&self) -> bool {
+        self.integrator != IntegratorKind::Rk4
+    }
+    /// The rates run.
+    fn rates(&self) -> Vec<u32> {
+        if self.richardson() {
+            vec![self.rate, 2 * self.rate, 4 * self.rate]
+        } else {
+            vec![self.rate, 2 * self.rate]
+        }
+    }
+    /// What the report says of it.
+    fn describe(&self) -> String {
+        if self.richardson() {
+            format!(
+                "BDF2 at dt = 1/{} and 1/{} s, Richardson-extrapolated (4 x(dt/2) − x(dt))/3",
+                2 * self.rate,
+                4 * self.rate
+            )
+        } else {
+            format!("RK4 at dt = 1/{} s", 2 * self.rate)
+        }
+    }
+}
 
 /// What one run at one tolerance measured.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -54,6 +103,8 @@ pub struct ToleranceMeasured {
     pub steps: usize,
     /// Steps rejected.
     pub rejected: usize,
+    /// Implicit solves (accepted steps, rejected ones, and the first step's three).
+    pub solves: usize,
 }
 
 /// One tolerance's outcome.
@@ -65,7 +116,48 @@ pub struct TolerancePoint {
     pub outcome: std::result::Result<ToleranceMeasured, String>,
 }
 
-/// One case: a strand against its reference at every tolerance.
+/// One fixed-step run of a case.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FixedPoint {
+    /// Linearly implicit Euler or BDF2.
+    pub integrator: IntegratorKind,
+    /// Steps a second.
+    pub rate: u32,
+    /// What it measured, or why it failed.
+    pub outcome: std::result::Result<FixedMeasured, String>,
+}
+
+/// What one fixed-step run measured.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FixedMeasured {
+    /// Max over the frames of |tip − tip_ref| / L.
+    pub error: f64,
+    /// CPU seconds per simulated second.
+    pub cost: f64,
+    /// Implicit solves (the steps, and their splits).
+    pub solves: usize,
+}
+
+/// What the cost comparison counts: CPU time (noisy: two runs share the machine) or
+/// implicit solves (exact: a solve costs the same on either path, `superhelix bench`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CostMeasure {
+    /// CPU seconds per simulated second.
+    Cpu,
+    /// Implicit solves over the run.
+    Solves,
+}
+
+impl CostMeasure {
+    fn of_fixed(self, m: &FixedMeasured) -> f64 {
+        match self {
+            CostMeasure::Cpu => m.cost,
+            CostMeasure::Solves => m.solves as f64,
+        }
+    }
+}
+
+/// One case: a strand against its reference at every tolerance, and at fixed steps.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ToleranceCase {
     /// `swing`, `curly`, `floppy`, `helix`.
@@ -74,12 +166,18 @@ pub struct ToleranceCase {
     pub friction: bool,
     /// Elements N.
     pub elements: usize,
+    /// The reference.
+    pub reference: ReferenceScheme,
+    /// The reference's estimated error (max over frames, / L), from its refinement.
+    pub reference_error: f64,
     /// The points, in [`Grid::tolerances`] order.
     pub points: Vec<TolerancePoint>,
+    /// The fixed-step runs.
+    pub fixed: Vec<FixedPoint>,
 }
 
 impl ToleranceCase {
-    /// `swing, frictionless`.
+    /// `swing, N = 20, frictionless`.
     pub fn label(&self) -> String {
         format!(
             "{}, N = {}, {}",
@@ -93,7 +191,7 @@ impl ToleranceCase {
         )
     }
 
-    /// The largest error / tolerance over the successful points, and the smallest.
+    /// The smallest error / tolerance over the successful points, and the largest.
     pub fn ratio_range(&self) -> (f64, f64) {
         self.points
             .iter()
@@ -102,62 +200,170 @@ impl ToleranceCase {
                 (lo.min(r), hi.max(r))
             })
     }
+
+    /// The fixed runs' Pareto front as (cost, error), by increasing cost and decreasing
+    /// error: no fixed run is both cheaper and at least as accurate as a point of it.
+    pub fn fixed_front(&self, measure: CostMeasure) -> Vec<(f64, f64)> {
+        let mut points: Vec<(f64, f64)> = self
+            .fixed
+            .iter()
+            .filter_map(|f| {
+                f.outcome
+                    .as_ref()
+                    .ok()
+                    .map(|m| (measure.of_fixed(m), m.error))
+            })
+            .collect();
+        points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut front: Vec<(f64, f64)> = Vec::new();
+        for p in points {
+            if front.last().is_none_or(|l| p.1 < l.1) {
+                front.push(p);
+            }
+        }
+        front
+    }
+
+    /// The cost of the best fixed step whose error is `error`: on the fixed Pareto
+    /// front, log–log interpolated between the two points that bracket it. An error
+    /// larger than the cheapest fixed run's is that run's cost (no fixed step is longer
+    /// than a frame); `None` below the most accurate fixed run.
+    pub fn fixed_cost_at(&self, error: f64, measure: CostMeasure) -> Option<f64> {
+        let front = self.fixed_front(measure);
+        let first = front.first()?;
+        if error >= first.1 {
+            return Some(first.0);
+        }
+        front.windows(2).find_map(|w| {
+            let ((c0, e0), (c1, e1)) = (w[0], w[1]);
+            (error <= e0 && error >= e1).then(|| {
+                let s = (error.ln() - e0.ln()) / (e1.ln() - e0.ln());
+                (c0.ln() + s * (c1.ln() - c0.ln())).exp()
+            })
+        })
+    }
 }
 
-/// The references the cases are measured against (computed by the other problems).
-pub(crate) struct References<'a> {
-    /// `swing`'s.
-    pub swing: &'a Reference,
-    /// `curly`'s.
-    pub curly: &'a Reference,
-    /// `floppy`'s, frictionless and with friction, at `Grid::floppy_reference_rate`.
-    pub floppy: &'a [Vec<Vector3<f64>>],
-}
-
-/// One case's input: a set-up for a tolerance, the reference, its rate, L, duration.
+/// One case's input.
 struct CaseInput<'a> {
     problem: &'static str,
     friction: bool,
     elements: usize,
-    make: Box<dyn Fn() -> SimulationSetup + Sync + 'a>,
-    reference: &'a [Vector3<f64>],
-    reference_rate: u32,
+    make: Box<dyn Fn(&Setting) -> SimulationSetup + Sync + 'a>,
+    reference: ReferenceScheme,
     length: f64,
     duration: f64,
 }
 
-fn frame_setting(elements: usize) -> Setting {
-    Setting {
-        elements,
-        rate: Some(FRAME_RATE),
-        integrator: Some(IntegratorKind::LinearlyImplicitEuler),
+/// One run of the problem.
+#[derive(Clone, Copy)]
+enum Job {
+    /// Case, the reference's rate index.
+    Reference(usize, usize),
+    /// Case, tolerance.
+    Tolerance(usize, f64),
+    /// Case, integrator, rate.
+    Fixed(usize, IntegratorKind, u32),
+}
+
+/// A run's tips at every frame, CPU seconds per simulated second, steps accepted and
+/// rejected, implicit solves.
+type FrameRun = std::result::Result<(Vec<Vector3<f64>>, f64, usize, usize, usize), String>;
+
+fn run_job(inputs: &[CaseInput<'_>], job: Job, factory: Option<&dyn KernelFactory>) -> FrameRun {
+    let (c, integrator, rate, tolerance) = match job {
+        Job::Reference(c, k) => {
+            let r = inputs[c].reference;
+            (c, r.integrator, r.rates()[k], None)
+        }
+        Job::Tolerance(c, t) => (
+            c,
+            IntegratorKind::LinearlyImplicitEuler,
+            FRAME_RATE,
+            Some(t),
+        ),
+        Job::Fixed(c, integrator, rate) => (c, integrator, rate, None),
+    };
+    let input = &inputs[c];
+    let setting = Setting {
+        elements: input.elements,
+        rate: Some(rate),
+        integrator: Some(integrator),
         kernels: Kernels::Generated,
+    };
+    let mut setup = (input.make)(&setting);
+    setup.config.tolerance = tolerance;
+    let steps = (input.duration * rate as f64).round() as usize;
+    let (tips, cpu, stats) = tip_run(setup, factory, steps)?;
+    let stride = (rate / FRAME_RATE) as usize;
+    let frames = tips.iter().step_by(stride).copied().collect();
+    Ok((
+        frames,
+        cpu / input.duration,
+        stats.error_steps,
+        stats.error_rejected,
+        stats.attempts,
+    ))
+}
+
+/// A rough cost of a job, to start the longest first.
+fn job_weight(inputs: &[CaseInput<'_>], job: Job) -> f64 {
+    let per_step = |c: usize| (inputs[c].elements as f64) * inputs[c].duration;
+    match job {
+        Job::Reference(c, k) => per_step(c) * inputs[c].reference.rates()[k] as f64,
+        Job::Tolerance(c, t) => per_step(c) * 3.0 * t.powf(-0.5),
+        Job::Fixed(c, _, rate) => per_step(c) * rate as f64,
+    }
+}
+
+fn max_distance(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).norm())
+        .fold(0.0, f64::max)
+}
+
+/// The reference at every frame and its estimated error (/ L), from its runs.
+fn combine(
+    input: &CaseInput<'_>,
+    runs: &[Vec<Vector3<f64>>],
+) -> std::result::Result<(Vec<Vector3<f64>>, f64), String> {
+    if input.reference.richardson() {
+        let [r0, r1, r2] = runs else {
+            return Err("the reference needs three runs".into());
+        };
+        let rich = |a: &[Vector3<f64>], b: &[Vector3<f64>]| -> Vec<Vector3<f64>> {
+            a.iter().zip(b).map(|(x, y)| (4.0 * y - x) / 3.0).collect()
+        };
+        let (coarse, fine) = (rich(r0, r1), rich(r1, r2));
+        let own = max_distance(&coarse, &fine) / input.length;
+        Ok((fine, own))
+    } else {
+        let [r0, r1] = runs else {
+            return Err("the reference needs two runs".into());
+        };
+        let own = max_distance(r0, r1) / input.length / 15.0;
+        Ok((r1.clone(), own))
     }
 }
 
 /// Run the `tolerance` problem.
-pub(crate) fn tolerance_problem(
-    grid: &Grid,
-    factory: Option<&dyn KernelFactory>,
-    references: &References<'_>,
-) -> ProblemResult {
-    let (swing_reference, swing_rate, mut notes) = match swing_reference(grid, factory) {
-        Ok(r) => r,
-        Err(e) => (references.swing.tips.clone(), references.swing.rate, e),
+pub(crate) fn tolerance_problem(grid: &Grid, factory: Option<&dyn KernelFactory>) -> ProblemResult {
+    let bdf2 = |rate| ReferenceScheme {
+        integrator: IntegratorKind::Bdf2,
+        rate,
     };
-    let helix = helix_reference(factory);
-    match &helix {
-        Ok((_, note)) => notes.push_str(&format!(" {note}")),
-        Err(e) => notes.push_str(&format!(" {e}")),
-    }
+    let rk4 = |rate| ReferenceScheme {
+        integrator: IntegratorKind::Rk4,
+        rate,
+    };
     let mut inputs = vec![
         CaseInput {
             problem: "swing",
             friction: false,
             elements: REFERENCE_N,
-            make: Box::new(|| swing_setup(&frame_setting(REFERENCE_N), grid.swing_duration)),
-            reference: &swing_reference,
-            reference_rate: swing_rate,
+            make: Box::new(|s| swing_setup(s, grid.swing_duration)),
+            reference: bdf2(grid.tolerance_swing_reference_rate),
             length: SWING_LENGTH,
             duration: grid.swing_duration,
         },
@@ -165,90 +371,177 @@ pub(crate) fn tolerance_problem(
             problem: "curly",
             friction: true,
             elements: REFERENCE_N,
-            make: Box::new(|| curly_setup(&frame_setting(REFERENCE_N), grid.duration)),
-            reference: &references.curly.tips,
-            reference_rate: references.curly.rate,
+            make: Box::new(|s| curly_setup(s, grid.duration)),
+            reference: bdf2(grid.tolerance_curly_reference_rate),
             length: CURLY_LENGTH,
             duration: grid.duration,
         },
     ];
-    for (friction, reference) in [false, true].into_iter().zip(references.floppy) {
+    for friction in [false, true] {
         inputs.push(CaseInput {
             problem: "floppy",
             friction,
             elements: FLOPPY_N,
-            make: Box::new(move || {
+            make: Box::new(move |s| {
                 setup_of(
                     floppy_strand(friction),
-                    &frame_setting(FLOPPY_N),
+                    s,
                     FLOPPY_DURATION,
                     true,
                     HeadMotion::Still,
                 )
             }),
-            reference,
-            reference_rate: grid.floppy_reference_rate,
+            reference: if friction { bdf2(15000) } else { rk4(60000) },
             length: FLOPPY_LENGTH,
             duration: FLOPPY_DURATION,
         });
     }
-    if let Ok((reference, _)) = &helix {
-        inputs.push(CaseInput {
-            problem: "helix",
-            friction: false,
-            elements: HELIX_N,
-            make: Box::new(|| {
-                setup_of(
-                    helix_strand(),
-                    &frame_setting(HELIX_N),
-                    HELIX_DURATION,
-                    true,
-                    HeadMotion::Still,
-                )
-            }),
-            reference,
-            reference_rate: HELIX_REFERENCE_RATE,
-            length: HELIX_LENGTH,
-            duration: HELIX_DURATION,
-        });
+    inputs.push(CaseInput {
+        problem: "helix",
+        friction: false,
+        elements: HELIX_N,
+        make: Box::new(|s| setup_of(helix_strand(), s, HELIX_DURATION, true, HeadMotion::Still)),
+        reference: rk4(30000),
+        length: HELIX_LENGTH,
+        duration: HELIX_DURATION,
+    });
+
+    let mut jobs: Vec<Job> = Vec::new();
+    for (c, input) in inputs.iter().enumerate() {
+        jobs.extend((0..input.reference.rates().len()).map(|k| Job::Reference(c, k)));
+        jobs.extend(grid.tolerances.iter().map(|&t| Job::Tolerance(c, t)));
+        for integrator in [IntegratorKind::LinearlyImplicitEuler, IntegratorKind::Bdf2] {
+            jobs.extend(
+                grid.tolerance_fixed_rates
+                    .iter()
+                    .map(|&r| Job::Fixed(c, integrator, r)),
+            );
+        }
     }
-    let jobs: Vec<(usize, f64)> = (0..inputs.len())
-        .flat_map(|c| grid.tolerances.iter().map(move |&t| (c, t)))
-        .collect();
-    let outcomes: Vec<TolerancePoint> = jobs
+    let mut order: Vec<usize> = (0..jobs.len()).collect();
+    order.sort_by(|&a, &b| job_weight(&inputs, jobs[b]).total_cmp(&job_weight(&inputs, jobs[a])));
+    let mut runs: Vec<(usize, FrameRun)> = order
         .par_iter()
-        .map(|&(c, tolerance)| TolerancePoint {
-            tolerance,
-            outcome: measure(&inputs[c], tolerance, factory),
-        })
+        .map(|&j| (j, run_job(&inputs, jobs[j], factory)))
         .collect();
-    let mut outcomes = outcomes.into_iter();
+    runs.sort_by_key(|r| r.0);
+    let runs: Vec<FrameRun> = runs.into_iter().map(|r| r.1).collect();
+
+    let mut notes = String::new();
     let cases: Vec<ToleranceCase> = inputs
         .iter()
-        .map(|input| ToleranceCase {
-            problem: input.problem,
-            friction: input.friction,
-            elements: input.elements,
-            points: outcomes.by_ref().take(grid.tolerances.len()).collect(),
+        .enumerate()
+        .map(|(c, input)| {
+            let of = |f: &dyn Fn(&Job) -> bool| -> Vec<(Job, &FrameRun)> {
+                jobs.iter()
+                    .zip(&runs)
+                    .filter(|(j, _)| f(j))
+                    .map(|(j, r)| (*j, r))
+                    .collect()
+            };
+            let reference_runs: std::result::Result<Vec<Vec<Vector3<f64>>>, String> =
+                of(&|j| matches!(j, Job::Reference(k, _) if *k == c))
+                    .into_iter()
+                    .map(|(_, r)| r.as_ref().map(|r| r.0.clone()).map_err(Clone::clone))
+                    .collect();
+            let reference = reference_runs.and_then(|runs| combine(input, &runs));
+            let label = format!(
+                "{}, {}",
+                input.problem,
+                if input.friction {
+                    "friction"
+                } else {
+                    "frictionless"
+                }
+            );
+            let (reference_tips, reference_error) = match reference {
+                Ok((tips, own)) => {
+                    let _ = write!(
+                        notes,
+                        "Reference of `{label}`: {}; its error, estimated from its refinement (max \
+                         over frames, / L): {own:.1e}. ",
+                        input.reference.describe()
+                    );
+                    (Some(tips), own)
+                }
+                Err(e) => {
+                    let _ = write!(notes, "The reference of `{label}` failed: {e}. ");
+                    (None, f64::NAN)
+                }
+            };
+            let error_of = |tips: &[Vector3<f64>]| -> std::result::Result<f64, String> {
+                let reference = reference_tips
+                    .as_ref()
+                    .ok_or_else(|| "no reference".to_string())?;
+                Ok(max_distance(tips, reference) / input.length)
+            };
+            let points = of(&|j| matches!(j, Job::Tolerance(k, _) if *k == c))
+                .into_iter()
+                .filter_map(|(j, r)| match j {
+                    Job::Tolerance(_, tolerance) => Some(TolerancePoint {
+                        tolerance,
+                        outcome: r.clone().and_then(|(tips, cost, steps, rejected, solves)| {
+                            Ok(ToleranceMeasured {
+                                error: error_of(&tips)?,
+                                cost,
+                                steps,
+                                rejected,
+                                solves,
+                            })
+                        }),
+                    }),
+                    _ => None,
+                })
+                .collect();
+            let fixed = of(&|j| matches!(j, Job::Fixed(k, _, _) if *k == c))
+                .into_iter()
+                .filter_map(|(j, r)| match j {
+                    Job::Fixed(_, integrator, rate) => Some(FixedPoint {
+                        integrator,
+                        rate,
+                        outcome: r.clone().and_then(|(tips, cost, _, _, solves)| {
+                            Ok(FixedMeasured {
+                                error: error_of(&tips)?,
+                                cost,
+                                solves,
+                            })
+                        }),
+                    }),
+                    _ => None,
+                })
+                .collect();
+            ToleranceCase {
+                problem: input.problem,
+                friction: input.friction,
+                elements: input.elements,
+                reference: input.reference,
+                reference_error,
+                points,
+                fixed,
+            }
         })
         .collect();
+    let rates = &grid.tolerance_fixed_rates;
     ProblemResult {
         key: "tolerance",
         title: "What a tolerance delivers and costs".into(),
         description: format!(
             "The error-controlled step (`[simulation] tolerance`) on the strands of `swing` and \
-             `curly` at N = {REFERENCE_N} (the N of their references, so that the difference is \
-             time error alone) and on the floppy N = {FLOPPY_N} strand of `floppy`, frictionless \
-             and with friction, and on a frictionless curly N = {HELIX_N} helix hanging at rest in \
-             its natural shape, released under gravity (against RK4 at 1/{HELIX_REFERENCE_RATE} \
-             s), frames every 1/{FRAME_RATE} s. Error: max over the frames of \
-             |tip − tip_ref| / L against the problem's reference; the tolerance bounds each \
-             step's estimated local error on the centreline, over L. Cost: CPU time of the \
-             steps per simulated second."
+             `curly` at N = {REFERENCE_N} (so that the difference from their references is time \
+             error alone), on the floppy N = {FLOPPY_N} strand of `floppy`, frictionless and with \
+             friction, and on a frictionless curly N = {HELIX_N} helix hanging at rest in its \
+             natural shape, released under gravity; frames every 1/{FRAME_RATE} s. Error: max \
+             over the frames of |tip − tip_ref| / L; the tolerance bounds each step's estimated \
+             local error. Cost: CPU time of the steps per simulated second. Each case also runs \
+             at fixed steps (linearly implicit Euler and BDF2, {} to {} steps a second, doubling); \
+             the cost of the best fixed step at a tolerance's measured error is read off their \
+             Pareto front, log–log interpolated.",
+            rates.first().copied().unwrap_or(0),
+            rates.last().copied().unwrap_or(0),
         ),
         is_static: false,
         points: Vec::new(),
-        notes,
+        notes: notes.trim_end().to_string(),
         spatial: Vec::new(),
         error_title: "error: max over frames of |tip − tip_ref| / L".into(),
         convergence: Vec::new(),
@@ -257,142 +550,41 @@ pub(crate) fn tolerance_problem(
     }
 }
 
-/// `swing`'s reference for this problem, finer than the `swing` problem's (whose own
-/// error, about 3.6e-4 L, is what it measures at the smallest tolerances): BDF2 at N = 20
-/// at 4 and 8 times the study's reference rate, combined by second-order Richardson
-/// extrapolation (4 x(h/2) − x(h))/3; with the report's note on its distance from its
-/// finer ingredient.
-fn swing_reference(
-    grid: &Grid,
-    factory: Option<&dyn KernelFactory>,
-) -> std::result::Result<(Vec<Vector3<f64>>, u32, String), String> {
-    let rate = 4 * grid.reference_rate;
-    let tips = runs_at(
-        [rate, 2 * rate],
-        (IntegratorKind::Bdf2, REFERENCE_N, grid.swing_duration),
-        &|setting| swing_setup(setting, grid.swing_duration),
-        factory,
-    )
-    .map_err(|e| {
-        format!("The swing's reference run failed ({e}); the `swing` problem's reference is used.")
-    })?;
-    let reference: Vec<Vector3<f64>> = tips[0]
-        .iter()
-        .enumerate()
-        .map(|(j, c)| (4.0 * tips[1][2 * j] - c) / 3.0)
-        .collect();
-    let d_fine = max_distance(&reference, &tips[1], 2) / SWING_LENGTH;
-    let notes = format!(
-        "Reference of `swing` here: BDF2 at N = {REFERENCE_N}, dt = 1/{rate} and 1/{} s, combined by \
-         second-order Richardson extrapolation (4 x(dt/2) − x(dt))/3; its distance (max over time, \
-         / L) from BDF2 at 1/{}: {d_fine:.2e}. `curly` and `floppy` use their problems' references.",
-        2 * rate,
-        2 * rate
-    );
-    Ok((reference, rate, notes))
-}
-
-/// The helix's reference: RK4 at [`HELIX_REFERENCE_RATE`] and at half that rate, its own
-/// error estimated as a sixteenth of their distance (fourth order), with the report's note.
-fn helix_reference(
-    factory: Option<&dyn KernelFactory>,
-) -> std::result::Result<(Vec<Vector3<f64>>, String), String> {
-    let mut tips = runs_at(
-        [HELIX_REFERENCE_RATE / 2, HELIX_REFERENCE_RATE],
-        (IntegratorKind::Rk4, HELIX_N, HELIX_DURATION),
-        &|setting| {
-            setup_of(
-                helix_strand(),
-                setting,
-                HELIX_DURATION,
-                true,
-                HeadMotion::Still,
-            )
-        },
-        factory,
-    )
-    .map_err(|e| format!("The helix's reference run failed ({e}): no `helix` case."))?;
-    let own = max_distance(&tips[0], &tips[1], 2) / HELIX_LENGTH / 15.0;
-    let note = format!(
-        "Reference of `helix`: RK4 at dt = 1/{HELIX_REFERENCE_RATE} s, its error estimated as \
-         its distance from RK4 at 1/{} s over 15 (max over time, / L): {own:.2e}.",
-        HELIX_REFERENCE_RATE / 2
-    );
-    let fine = tips.pop().unwrap_or_default();
-    Ok((fine, note))
-}
-
-/// The tips at every step of the runs of `setup` (given its setting) at each of `rates`
-/// steps a second, in parallel, with `integrator` and the generated kernels at `elements`
-/// over `duration` s; the first failure's message.
-fn runs_at(
-    rates: [u32; 2],
-    (integrator, elements, duration): (IntegratorKind, usize, f64),
-    setup: &(dyn Fn(&Setting) -> SimulationSetup + Sync),
-    factory: Option<&dyn KernelFactory>,
-) -> std::result::Result<Vec<Vec<Vector3<f64>>>, String> {
-    rates
-        .par_iter()
-        .map(|&rate| {
-            let setting = Setting {
-                elements,
-                rate: Some(rate),
-                integrator: Some(integrator),
-                kernels: Kernels::Generated,
-            };
-            let steps = (duration * rate as f64).round() as usize;
-            tip_run(setup(&setting), factory, steps).map(|r| r.0)
-        })
-        .collect()
-}
-
-fn measure(
-    input: &CaseInput<'_>,
-    tolerance: f64,
-    factory: Option<&dyn KernelFactory>,
-) -> std::result::Result<ToleranceMeasured, String> {
-    let mut setup = (input.make)();
-    setup.config.tolerance = Some(tolerance);
-    let frames = (input.duration * FRAME_RATE as f64).round() as usize;
-    let (tips, cpu, stats) = tip_run(setup, factory, frames)?;
-    let stride = (input.reference_rate / FRAME_RATE) as usize;
-    Ok(ToleranceMeasured {
-        error: max_distance(&tips, input.reference, stride) / input.length,
-        cost: cpu / input.duration,
-        steps: stats.error_steps,
-        rejected: stats.error_rejected,
-    })
-}
-
-/// The report's table: per tolerance and case, the error (and error / tolerance), the
-/// cost and the steps.
-pub fn render_table(s: &mut String, cases: &[ToleranceCase]) {
+/// A table with a row per tolerance and a column per case, each cell `cell(case, point)`.
+fn table_by_tolerance(
+    s: &mut String,
+    cases: &[ToleranceCase],
+    cell: impl Fn(&ToleranceCase, &TolerancePoint) -> String,
+) {
     let names: Vec<String> = cases.iter().map(ToleranceCase::label).collect();
-    let _ = writeln!(s, "Error / L (error / tolerance) and cost (ms of CPU per simulated s, steps accepted / rejected):\n");
     let _ = writeln!(s, "| tolerance | {} |", names.join(" | "));
     let _ = writeln!(s, "|---|{}", "---|".repeat(names.len()));
     let rows = cases.first().map_or(0, |c| c.points.len());
     for i in 0..rows {
         let cells: Vec<String> = cases
             .iter()
-            .map(
-                |c| match c.points.get(i).map(|p| (p.tolerance, &p.outcome)) {
-                    Some((t, Ok(m))) => format!(
-                        "{:.2e} ({:.2}); {:.3} ms, {}/{}",
-                        m.error,
-                        m.error / t,
-                        m.cost * 1e3,
-                        m.steps,
-                        m.rejected
-                    ),
-                    Some((_, Err(e))) => format!("failed: {}", e.replace('|', "/")),
-                    None => "-".into(),
-                },
-            )
+            .map(|c| c.points.get(i).map_or("-".into(), |p| cell(c, p)))
             .collect();
         let t = cases[0].points[i].tolerance;
         let _ = writeln!(s, "| {t:.0e} | {} |", cells.join(" | "));
     }
+}
+
+/// The report's table: per tolerance and case, the error (and error / tolerance), the
+/// cost and the steps; then the cost comparison ([`render_cost_table`]).
+pub fn render_table(s: &mut String, cases: &[ToleranceCase]) {
+    let _ = writeln!(s, "Error / L (error / tolerance) and cost (ms of CPU per simulated s, steps accepted / rejected):\n");
+    table_by_tolerance(s, cases, |_, p| match &p.outcome {
+        Ok(m) => format!(
+            "{:.2e} ({:.2}); {:.3} ms, {}/{}",
+            m.error,
+            m.error / p.tolerance,
+            m.cost * 1e3,
+            m.steps,
+            m.rejected
+        ),
+        Err(e) => format!("failed: {}", e.replace('|', "/")),
+    });
     let ranges: Vec<String> = cases
         .iter()
         .map(|c| {
@@ -404,6 +596,65 @@ pub fn render_table(s: &mut String, cases: &[ToleranceCase]) {
         s,
         "\nError / tolerance over the range: {}.\n",
         ranges.join("; ")
+    );
+    render_cost_table(s, cases);
+}
+
+/// The cost-against-error table: per tolerance and case, the tolerance's solves and
+/// CPU time against the best fixed step's at the same measured error.
+pub fn render_cost_table(s: &mut String, cases: &[ToleranceCase]) {
+    let _ = writeln!(
+        s,
+        "Cost at equal error, the tolerance against the best fixed step at the error the \
+         tolerance measured: implicit solves (exact; a solve costs about the same on either path), \
+         then CPU time (two runs share the machine, so it spreads by some 15 %); each as \
+         tolerance / fixed = ratio. \"beyond\": no fixed run of the ladder is that accurate.\n"
+    );
+    table_by_tolerance(s, cases, |c, p| match &p.outcome {
+        Ok(m) => match (
+            c.fixed_cost_at(m.error, CostMeasure::Solves),
+            c.fixed_cost_at(m.error, CostMeasure::Cpu),
+        ) {
+            (Some(n), Some(f)) => format!(
+                "solves {} / {:.0} = **{:.2}**; CPU {:.3} / {:.3} ms = {:.2}",
+                m.solves,
+                n,
+                m.solves as f64 / n,
+                m.cost * 1e3,
+                f * 1e3,
+                m.cost / f
+            ),
+            _ => format!("beyond (solves {}, {:.3} ms)", m.solves, m.cost * 1e3),
+        },
+        Err(_) => "-".into(),
+    });
+    let fronts: Vec<String> = cases
+        .iter()
+        .map(|c| {
+            let front = c.fixed_front(CostMeasure::Solves);
+            let runs: Vec<String> = c
+                .fixed
+                .iter()
+                .filter_map(|f| {
+                    let m = f.outcome.as_ref().ok()?;
+                    front.contains(&(m.solves as f64, m.error)).then(|| {
+                        format!(
+                            "{} 1/{}: {:.1e}, {} solves",
+                            integrator_label(f.integrator),
+                            f.rate,
+                            m.error,
+                            m.solves
+                        )
+                    })
+                })
+                .collect();
+            format!("{}: {}", c.label(), runs.join("; "))
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "\nThe fixed steps' Pareto front in solves (integrator dt: error, solves): {}.\n",
+        fronts.join(". ")
     );
 }
 
@@ -453,6 +704,49 @@ pub fn plot(problem: &ProblemResult) -> Result<String> {
     )
 }
 
+/// Cost (implicit solves) against error: per case, the tolerances (joined, circles) and
+/// the fixed steps' Pareto front (joined, crosses), in the case's colour.
+pub fn cost_plot(problem: &ProblemResult) -> Result<String> {
+    let mut series: Vec<Series> = Vec::new();
+    for c in &problem.tolerance {
+        let colour = style(c).colour;
+        series.push(Series {
+            name: format!("{}: tolerance", c.label()),
+            style: Style {
+                colour,
+                marker: Marker::Circle,
+            },
+            points: c
+                .points
+                .iter()
+                .filter_map(|p| p.outcome.as_ref().ok().map(|m| (m.solves as f64, m.error)))
+                .collect(),
+            line: true,
+        });
+        series.push(Series {
+            name: format!("{}: best fixed step", c.label()),
+            style: Style {
+                colour,
+                marker: Marker::Cross,
+            },
+            points: c
+                .fixed_front(CostMeasure::Solves)
+                .iter()
+                .map(|&(solves, e)| (solves, e))
+                .collect(),
+            line: true,
+        });
+    }
+    log_log_svg(
+        "What a tolerance costs against the best fixed step",
+        "cost: implicit solves over the run",
+        &problem.error_title,
+        &series,
+        None,
+        SeriesLabelPosition::LowerLeft,
+    )
+}
+
 /// The cases as JSON (`study.json`).
 pub fn to_json(cases: &[ToleranceCase]) -> serde_json::Value {
     use serde_json::json;
@@ -463,9 +757,15 @@ pub fn to_json(cases: &[ToleranceCase]) -> serde_json::Value {
                 "problem": c.problem,
                 "friction": c.friction,
                 "elements": c.elements,
+                "reference": c.reference.describe(),
+                "reference_error": c.reference_error,
                 "points": c.points.iter().map(|p| match &p.outcome {
-                    Ok(m) => json!({"tolerance": p.tolerance, "error": m.error, "cost_seconds": m.cost, "steps": m.steps, "rejected": m.rejected}),
+                    Ok(m) => json!({"tolerance": p.tolerance, "error": m.error, "cost_seconds": m.cost, "steps": m.steps, "rejected": m.rejected, "solves": m.solves, "fixed_solves_at_error": c.fixed_cost_at(m.error, CostMeasure::Solves), "fixed_cost_seconds_at_error": c.fixed_cost_at(m.error, CostMeasure::Cpu)}),
                     Err(e) => json!({"tolerance": p.tolerance, "failed": e}),
+                }).collect::<Vec<_>>(),
+                "fixed": c.fixed.iter().map(|f| match &f.outcome {
+                    Ok(m) => json!({"integrator": f.integrator.name(), "rate": f.rate, "error": m.error, "cost_seconds": m.cost, "solves": m.solves}),
+                    Err(err) => json!({"integrator": f.integrator.name(), "rate": f.rate, "failed": err}),
                 }).collect::<Vec<_>>(),
             })
         })

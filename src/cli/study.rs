@@ -12,6 +12,9 @@ pub struct StudyArgs {
     /// Only a reduced grid of each problem (the one `cargo test` runs).
     #[arg(long)]
     quick: bool,
+    /// Only this problem (swing, curly, frequency, cantilever, floppy, rotary, tolerance).
+    #[arg(long, value_name = "PROBLEM")]
+    only: Option<String>,
     /// Output directory.
     #[arg(long, value_name = "DIR", default_value = "study")]
     out: PathBuf,
@@ -22,9 +25,13 @@ pub fn run(args: StudyArgs) -> Result<ExitCode, Error> {
     let out = &args.out;
     let options = StudyOptions {
         quick: args.quick,
+        only: args.only.clone(),
         command: format!(
-            "superhelix study{} --out {}",
+            "superhelix study{}{} --out {}",
             if args.quick { " --quick" } else { "" },
+            args.only
+                .as_ref()
+                .map_or(String::new(), |o| format!(" --only {o}")),
             out.display()
         ),
     };
