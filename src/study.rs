@@ -768,7 +768,7 @@ fn trajectory_problem(
     grid: &Grid,
     duration: f64,
     factory: Option<&dyn KernelFactory>,
-) -> Result<(ProblemResult, Reference)> {
+) -> Result<ProblemResult> {
     let reference = reference(make, grid, duration, length, factory)?;
     let settings = grid.dynamic_settings();
     let points: Vec<Point> = settings
@@ -793,22 +793,19 @@ fn trajectory_problem(
             }
         })
         .collect();
-    Ok((
-        finish(ProblemResult {
-            key,
-            title: title.into(),
-            description,
-            is_static: false,
-            points,
-            notes: reference.notes.clone(),
-            spatial: Vec::new(),
-            error_title: "error: max over time of |tip − tip_ref| / L".into(),
-            convergence: Vec::new(),
-            rotary: Vec::new(),
-            tolerance: Vec::new(),
-        }),
-        reference,
-    ))
+    Ok(finish(ProblemResult {
+        key,
+        title: title.into(),
+        description,
+        is_static: false,
+        points,
+        notes: reference.notes.clone(),
+        spatial: Vec::new(),
+        error_title: "error: max over time of |tip − tip_ref| / L".into(),
+        convergence: Vec::new(),
+        rotary: Vec::new(),
+        tolerance: Vec::new(),
+    }))
 }
 
 // ---------------------------------------------------------------- frequency
@@ -1133,14 +1130,9 @@ fn log_slope(points: &[(f64, f64)]) -> f64 {
     sxy / sxx
 }
 
-/// The floppy problem, and its two references (frictionless, with friction: the tip at
-/// every step of `grid.floppy_reference_rate`).
-fn floppy_problem(
-    grid: &Grid,
-    factory: Option<&dyn KernelFactory>,
-) -> Result<(ProblemResult, Vec<Vec<Vector3<f64>>>)> {
+/// The floppy problem.
+fn floppy_problem(grid: &Grid, factory: Option<&dyn KernelFactory>) -> Result<ProblemResult> {
     let r = grid.floppy_reference_rate;
-    let mut references = Vec::new();
     let mut notes = String::new();
     let mut convergence = Vec::new();
     for friction in [false, true] {
@@ -1169,7 +1161,6 @@ fn floppy_problem(
                 .collect()
         };
         let reference = richardson(&tips[0], &tips[1]);
-        references.push(reference.clone());
         let finer = richardson(&tips[1], &tips[2]);
         let d_fine = max_distance(&reference, &tips[1], 2) / FLOPPY_LENGTH;
         let d_next = max_distance(&reference, &finer, 2) / FLOPPY_LENGTH;
@@ -1217,12 +1208,11 @@ fn floppy_problem(
         }
     }
     let p = Preset::Curly.params();
-    Ok((
-        ProblemResult {
-            key: "floppy",
-            title: "Convergence in dt of a floppy strand, frictionless and with friction".into(),
-            description: format!(
-                "A floppy {} cm strand of the curly preset's cross-section and friction, natural \
+    Ok(ProblemResult {
+        key: "floppy",
+        title: "Convergence in dt of a floppy strand, frictionless and with friction".into(),
+        description: format!(
+            "A floppy {} cm strand of the curly preset's cross-section and friction, natural \
              (τ, κ1, κ2) = ({}, {}, {}) rad/m (nearly straight elements), N = {FLOPPY_N}, \
              generated kernels, root clamped horizontal, released from rest in its natural shape \
              under gravity, no drag, for {FLOPPY_DURATION} s: once frictionless, once with the \
@@ -1233,23 +1223,21 @@ fn floppy_problem(
              elements are not resolved by any of these steps: linearly implicit Euler damps \
              them, which changes the motion, and converges slowly; BDF2 converges at second \
              order. A user who needs accuracy picks BDF2.",
-                FLOPPY_LENGTH * 100.0,
-                FLOPPY_NATURAL[0],
-                FLOPPY_NATURAL[1],
-                FLOPPY_NATURAL[2],
-                p.internal_friction
-            ),
-            is_static: false,
-            points: Vec::new(),
-            notes,
-            spatial: Vec::new(),
-            error_title: "error: max over time of |tip − tip_ref| / L".into(),
-            convergence,
-            rotary: Vec::new(),
-            tolerance: Vec::new(),
-        },
-        references,
-    ))
+            FLOPPY_LENGTH * 100.0,
+            FLOPPY_NATURAL[0],
+            FLOPPY_NATURAL[1],
+            FLOPPY_NATURAL[2],
+            p.internal_friction
+        ),
+        is_static: false,
+        points: Vec::new(),
+        notes,
+        spatial: Vec::new(),
+        error_title: "error: max over time of |tip − tip_ref| / L".into(),
+        convergence,
+        rotary: Vec::new(),
+        tolerance: Vec::new(),
+    })
 }
 
 // ---------------------------------------------------------------- rotary
@@ -1462,49 +1450,43 @@ pub fn run_study(options: &StudyOptions, factory: Option<&dyn KernelFactory>) ->
     let wall = Instant::now();
     let mut problems = Vec::new();
     if wanted("swing") {
-        problems.push(
-            trajectory_problem(
-                "swing",
-                "Straight strand swinging under gravity",
-                format!(
-                    "A straight {} cm strand of the smooth preset (r = 50 µm, E = 1 GPa), root \
+        problems.push(trajectory_problem(
+            "swing",
+            "Straight strand swinging under gravity",
+            format!(
+                "A straight {} cm strand of the smooth preset (r = 50 µm, E = 1 GPa), root \
                      clamped horizontal, released from rest under gravity, no drag, no internal \
                      friction, for {} s (the first swing down; later the tip whips and no \
                      reference converges). Error: max over the setting's time steps of \
                      |tip − tip_ref| / L.",
-                    SWING_LENGTH * 100.0,
-                    grid.swing_duration
-                ),
-                &swing_setup,
-                SWING_LENGTH,
-                &grid,
-                grid.swing_duration,
-                factory,
-            )?
-            .0,
-        );
+                SWING_LENGTH * 100.0,
+                grid.swing_duration
+            ),
+            &swing_setup,
+            SWING_LENGTH,
+            &grid,
+            grid.swing_duration,
+            factory,
+        )?);
     }
     if wanted("curly") {
-        problems.push(
-            trajectory_problem(
-                "curly",
-                "Curly strand on a shaking head",
-                format!(
-                    "A {} cm strand of the curly preset (helix radius 6 mm, step 5 mm, its drag \
+        problems.push(trajectory_problem(
+            "curly",
+            "Curly strand on a shaking head",
+            format!(
+                "A {} cm strand of the curly preset (helix radius 6 mm, step 5 mm, its drag \
                      and internal friction) leaving a 10 cm head horizontally, gravity, the head \
                      turning about the vertical at 2 Hz by ±30°, for {} s. Error: max over the \
                      setting's time steps of |tip − tip_ref| / L, world positions.",
-                    CURLY_LENGTH * 100.0,
-                    grid.duration
-                ),
-                &curly_setup,
-                CURLY_LENGTH,
-                &grid,
-                grid.duration,
-                factory,
-            )?
-            .0,
-        );
+                CURLY_LENGTH * 100.0,
+                grid.duration
+            ),
+            &curly_setup,
+            CURLY_LENGTH,
+            &grid,
+            grid.duration,
+            factory,
+        )?);
     }
     if wanted("frequency") {
         problems.push(frequency_problem(&grid, factory));
@@ -1513,7 +1495,7 @@ pub fn run_study(options: &StudyOptions, factory: Option<&dyn KernelFactory>) ->
         problems.push(cantilever_problem(&grid, factory));
     }
     if wanted("floppy") {
-        problems.push(floppy_problem(&grid, factory)?.0);
+        problems.push(floppy_problem(&grid, factory)?);
     }
     if wanted("rotary") {
         problems.push(rotary_problem(&grid, factory)?);
@@ -1521,7 +1503,10 @@ pub fn run_study(options: &StudyOptions, factory: Option<&dyn KernelFactory>) ->
     if wanted("tolerance") {
         problems.push(crate::study_tolerance::tolerance_problem(&grid, factory));
     }
-    let cost = if options.quick {
+    // the cost against N belongs to the whole study, not to one problem
+    let cost = if options.only.is_some() {
+        Vec::new()
+    } else if options.quick {
         crate::study_cost::cost_by_elements(&[1, 5, 10], 10, 5)?
     } else {
         crate::study_cost::cost_by_elements(&crate::study_cost::ELEMENTS, 20, 30)?
@@ -1730,6 +1715,9 @@ pub fn render_report(study: &Study, plots: &[Option<String>]) -> String {
         }
         let _ = writeln!(s);
     }
+    if study.cost.is_empty() {
+        return s;
+    }
     let _ = writeln!(
         s,
         "## Cost of one strand-step against N (`cost`)\n\n\
@@ -1837,10 +1825,12 @@ pub fn write_report(study: &Study, dir: &Path) -> Result<Vec<PathBuf>> {
             .map_err(|e| io(&path, e))?;
         files.push(path);
     }
-    let cost_svg = crate::study_cost::cost_plot(&study.cost)?;
-    let path = dir.join(COST_PLOT);
-    std::fs::write(&path, cost_svg).map_err(|e| io(&path, e))?;
-    files.push(path);
+    if !study.cost.is_empty() {
+        let cost_svg = crate::study_cost::cost_plot(&study.cost)?;
+        let path = dir.join(COST_PLOT);
+        std::fs::write(&path, cost_svg).map_err(|e| io(&path, e))?;
+        files.push(path);
+    }
     let path = dir.join("report.md");
     std::fs::write(&path, render_report(study, &plots)).map_err(|e| io(&path, e))?;
     files.push(path);

@@ -33,9 +33,9 @@ use crate::runtime::kernels::kernel::KernelFactory;
 use crate::runtime::{HeadMotion, Result, Vector3};
 use crate::study::integrator_label;
 use crate::study::{
-    curly_setup, floppy_strand, helix_strand, setup_of, swing_setup, tip_run, Grid, Kernels,
-    ProblemResult, Setting, CURLY_LENGTH, FLOPPY_DURATION, FLOPPY_LENGTH, FLOPPY_N, HELIX_DURATION,
-    HELIX_LENGTH, HELIX_N, REFERENCE_N, SWING_LENGTH,
+    curly_setup, floppy_strand, helix_strand, max_distance, setup_of, swing_setup, tip_run, Grid,
+    Kernels, ProblemResult, Setting, CURLY_LENGTH, FLOPPY_DURATION, FLOPPY_LENGTH, FLOPPY_N,
+    HELIX_DURATION, HELIX_LENGTH, HELIX_N, REFERENCE_N, SWING_LENGTH,
 };
 use crate::study_plot::{log_log_svg, Marker, Series, Style};
 use plotters::prelude::{RGBColor, SeriesLabelPosition};
@@ -183,11 +183,7 @@ impl ToleranceCase {
             "{}, N = {}, {}",
             self.problem,
             self.elements,
-            if self.friction {
-                "friction"
-            } else {
-                "frictionless"
-            }
+            friction_label(self.friction)
         )
     }
 
@@ -244,6 +240,15 @@ impl ToleranceCase {
     }
 }
 
+/// `friction` or `frictionless`.
+fn friction_label(friction: bool) -> &'static str {
+    if friction {
+        "friction"
+    } else {
+        "frictionless"
+    }
+}
+
 /// One case's input.
 struct CaseInput<'a> {
     problem: &'static str,
@@ -266,9 +271,22 @@ enum Job {
     Fixed(usize, IntegratorKind, u32),
 }
 
-/// A run's tips at every frame, CPU seconds per simulated second, steps accepted and
-/// rejected, implicit solves.
-type FrameRun = std::result::Result<(Vec<Vector3<f64>>, f64, usize, usize, usize), String>;
+/// What one run gave.
+#[derive(Clone)]
+struct Run {
+    /// The tip at every frame, world coordinates.
+    tips: Vec<Vector3<f64>>,
+    /// CPU seconds per simulated second.
+    cost: f64,
+    /// Steps the error control accepted and rejected (0 at fixed steps).
+    steps: usize,
+    rejected: usize,
+    /// Implicit solves.
+    solves: usize,
+}
+
+/// A run, or why it failed.
+type FrameRun = std::result::Result<Run, String>;
 
 fn run_job(inputs: &[CaseInput<'_>], job: Job, factory: Option<&dyn KernelFactory>) -> FrameRun {
     let (c, integrator, rate, tolerance) = match job {
@@ -296,14 +314,13 @@ fn run_job(inputs: &[CaseInput<'_>], job: Job, factory: Option<&dyn KernelFactor
     let steps = (input.duration * rate as f64).round() as usize;
     let (tips, cpu, stats) = tip_run(setup, factory, steps)?;
     let stride = (rate / FRAME_RATE) as usize;
-    let frames = tips.iter().step_by(stride).copied().collect();
-    Ok((
-        frames,
-        cpu / input.duration,
-        stats.error_steps,
-        stats.error_rejected,
-        stats.attempts,
-    ))
+    Ok(Run {
+        tips: tips.iter().step_by(stride).copied().collect(),
+        cost: cpu / input.duration,
+        steps: stats.error_steps,
+        rejected: stats.error_rejected,
+        solves: stats.attempts,
+    })
 }
 
 /// A rough cost of a job, to start the longest first.
@@ -314,13 +331,6 @@ fn job_weight(inputs: &[CaseInput<'_>], job: Job) -> f64 {
         Job::Tolerance(c, t) => per_step(c) * 3.0 * t.powf(-0.5),
         Job::Fixed(c, _, rate) => per_step(c) * rate as f64,
     }
-}
-
-fn max_distance(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).norm())
-        .fold(0.0, f64::max)
 }
 
 /// The reference at every frame and its estimated error (/ L), from its runs.
@@ -336,13 +346,13 @@ fn combine(
             a.iter().zip(b).map(|(x, y)| (4.0 * y - x) / 3.0).collect()
         };
         let (coarse, fine) = (rich(r0, r1), rich(r1, r2));
-        let own = max_distance(&coarse, &fine) / input.length;
+        let own = max_distance(&coarse, &fine, 1) / input.length;
         Ok((fine, own))
     } else {
         let [r0, r1] = runs else {
             return Err("the reference needs two runs".into());
         };
-        let own = max_distance(r0, r1) / input.length / 15.0;
+        let own = max_distance(r0, r1, 1) / input.length / 15.0;
         Ok((r1.clone(), own))
     }
 }
@@ -425,35 +435,29 @@ pub(crate) fn tolerance_problem(grid: &Grid, factory: Option<&dyn KernelFactory>
         .map(|&j| (j, run_job(&inputs, jobs[j], factory)))
         .collect();
     runs.sort_by_key(|r| r.0);
-    let runs: Vec<FrameRun> = runs.into_iter().map(|r| r.1).collect();
+    // each case's runs, by kind
+    let mut references: Vec<Vec<FrameRun>> = vec![Vec::new(); inputs.len()];
+    let mut points: Vec<Vec<(f64, FrameRun)>> = vec![Vec::new(); inputs.len()];
+    let mut fixed: Vec<Vec<(IntegratorKind, u32, FrameRun)>> = vec![Vec::new(); inputs.len()];
+    for (job, (_, run)) in jobs.iter().zip(runs) {
+        match *job {
+            Job::Reference(c, _) => references[c].push(run),
+            Job::Tolerance(c, t) => points[c].push((t, run)),
+            Job::Fixed(c, integrator, rate) => fixed[c].push((integrator, rate, run)),
+        }
+    }
 
     let mut notes = String::new();
     let cases: Vec<ToleranceCase> = inputs
         .iter()
-        .enumerate()
-        .map(|(c, input)| {
-            let of = |f: &dyn Fn(&Job) -> bool| -> Vec<(Job, &FrameRun)> {
-                jobs.iter()
-                    .zip(&runs)
-                    .filter(|(j, _)| f(j))
-                    .map(|(j, r)| (*j, r))
-                    .collect()
-            };
-            let reference_runs: std::result::Result<Vec<Vec<Vector3<f64>>>, String> =
-                of(&|j| matches!(j, Job::Reference(k, _) if *k == c))
-                    .into_iter()
-                    .map(|(_, r)| r.as_ref().map(|r| r.0.clone()).map_err(Clone::clone))
-                    .collect();
-            let reference = reference_runs.and_then(|runs| combine(input, &runs));
-            let label = format!(
-                "{}, {}",
-                input.problem,
-                if input.friction {
-                    "friction"
-                } else {
-                    "frictionless"
-                }
-            );
+        .zip(references.into_iter().zip(points).zip(fixed))
+        .map(|(input, ((references, points), fixed))| {
+            let label = format!("{}, {}", input.problem, friction_label(input.friction));
+            let reference = references
+                .into_iter()
+                .map(|r| r.map(|r| r.tips))
+                .collect::<std::result::Result<Vec<_>, String>>()
+                .and_then(|runs| combine(input, &runs));
             let (reference_tips, reference_error) = match reference {
                 Ok((tips, own)) => {
                     let _ = write!(
@@ -469,55 +473,45 @@ pub(crate) fn tolerance_problem(grid: &Grid, factory: Option<&dyn KernelFactory>
                     (None, f64::NAN)
                 }
             };
-            let error_of = |tips: &[Vector3<f64>]| -> std::result::Result<f64, String> {
-                let reference = reference_tips
-                    .as_ref()
-                    .ok_or_else(|| "no reference".to_string())?;
-                Ok(max_distance(tips, reference) / input.length)
+            let error_of = |run: &Run| -> std::result::Result<f64, String> {
+                let reference = reference_tips.as_ref().ok_or("no reference")?;
+                Ok(max_distance(&run.tips, reference, 1) / input.length)
             };
-            let points = of(&|j| matches!(j, Job::Tolerance(k, _) if *k == c))
-                .into_iter()
-                .filter_map(|(j, r)| match j {
-                    Job::Tolerance(_, tolerance) => Some(TolerancePoint {
-                        tolerance,
-                        outcome: r.clone().and_then(|(tips, cost, steps, rejected, solves)| {
-                            Ok(ToleranceMeasured {
-                                error: error_of(&tips)?,
-                                cost,
-                                steps,
-                                rejected,
-                                solves,
-                            })
-                        }),
-                    }),
-                    _ => None,
-                })
-                .collect();
-            let fixed = of(&|j| matches!(j, Job::Fixed(k, _, _) if *k == c))
-                .into_iter()
-                .filter_map(|(j, r)| match j {
-                    Job::Fixed(_, integrator, rate) => Some(FixedPoint {
-                        integrator,
-                        rate,
-                        outcome: r.clone().and_then(|(tips, cost, _, _, solves)| {
-                            Ok(FixedMeasured {
-                                error: error_of(&tips)?,
-                                cost,
-                                solves,
-                            })
-                        }),
-                    }),
-                    _ => None,
-                })
-                .collect();
             ToleranceCase {
                 problem: input.problem,
                 friction: input.friction,
                 elements: input.elements,
                 reference: input.reference,
                 reference_error,
-                points,
-                fixed,
+                points: points
+                    .into_iter()
+                    .map(|(tolerance, run)| TolerancePoint {
+                        tolerance,
+                        outcome: run.and_then(|r| {
+                            Ok(ToleranceMeasured {
+                                error: error_of(&r)?,
+                                cost: r.cost,
+                                steps: r.steps,
+                                rejected: r.rejected,
+                                solves: r.solves,
+                            })
+                        }),
+                    })
+                    .collect(),
+                fixed: fixed
+                    .into_iter()
+                    .map(|(integrator, rate, run)| FixedPoint {
+                        integrator,
+                        rate,
+                        outcome: run.and_then(|r| {
+                            Ok(FixedMeasured {
+                                error: error_of(&r)?,
+                                cost: r.cost,
+                                solves: r.solves,
+                            })
+                        }),
+                    })
+                    .collect(),
             }
         })
         .collect();
@@ -532,7 +526,8 @@ pub(crate) fn tolerance_problem(grid: &Grid, factory: Option<&dyn KernelFactory>
              friction, and on a frictionless curly N = {HELIX_N} helix hanging at rest in its \
              natural shape, released under gravity; frames every 1/{FRAME_RATE} s. Error: max \
              over the frames of |tip − tip_ref| / L; the tolerance bounds each step's estimated \
-             local error. Cost: CPU time of the steps per simulated second. Each case also runs \
+             local error. Cost: implicit solves, and CPU time of the steps per simulated second. \
+             Each case also runs \
              at fixed steps (linearly implicit Euler and BDF2, {} to {} steps a second, doubling); \
              the cost of the best fixed step at a tolerance's measured error is read off their \
              Pareto front, log–log interpolated.",

@@ -31,15 +31,22 @@ fn num(v: &Value, field: &str) -> f64 {
         .unwrap_or_else(|| panic!("{field} of {v} is not a number"))
 }
 
+/// `superhelix study ARGS --out DIR`'s output.
+fn study_into(args: &[&str], dir: &std::path::Path) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_superhelix"))
+        .arg("study")
+        .args(args)
+        .arg("--out")
+        .arg(dir)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot start superhelix: {e}"))
+}
+
 #[test]
 fn quick_study_writes_report_plots_and_sound_figures() {
     let dir = scratch();
     let start = std::time::Instant::now();
-    let out = Command::new(env!("CARGO_BIN_EXE_superhelix"))
-        .args(["study", "--quick", "--out"])
-        .arg(&dir)
-        .output()
-        .unwrap_or_else(|e| panic!("cannot start superhelix: {e}"));
+    let out = study_into(&["--quick"], &dir);
     let seconds = start.elapsed().as_secs_f64();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
@@ -311,11 +318,7 @@ fn check_tolerance_cases(cases: &[Value], tolerances: usize) {
 #[ignore = "the full tolerance study, about 2 minutes; run with --ignored"]
 fn the_tolerance_holds_from_1e_1_to_1e_6_on_the_study_strands() {
     let dir = scratch().with_extension("tolerance");
-    let out = Command::new(env!("CARGO_BIN_EXE_superhelix"))
-        .args(["study", "--only", "tolerance", "--out"])
-        .arg(&dir)
-        .output()
-        .unwrap_or_else(|e| panic!("cannot start superhelix: {e}"));
+    let out = study_into(&["--only", "tolerance"], &dir);
     assert!(
         out.status.success(),
         "{}",
@@ -325,6 +328,9 @@ fn the_tolerance_holds_from_1e_1_to_1e_6_on_the_study_strands() {
     let study: Value = serde_json::from_str(&text).expect("study.json parses");
     let problems = study["problems"].as_array().expect("problems");
     assert_eq!(problems.len(), 1, "--only runs one problem");
+    assert!(study["cost_by_elements"]
+        .as_array()
+        .is_some_and(|c| c.is_empty()));
     let cases = problem(&study, "tolerance")["tolerance"]
         .as_array()
         .expect("tolerance cases")
@@ -335,11 +341,7 @@ fn the_tolerance_holds_from_1e_1_to_1e_6_on_the_study_strands() {
 
 #[test]
 fn only_names_a_problem() {
-    let out = Command::new(env!("CARGO_BIN_EXE_superhelix"))
-        .args(["study", "--only", "sing", "--out"])
-        .arg(scratch().with_extension("only"))
-        .output()
-        .unwrap_or_else(|e| panic!("cannot start superhelix: {e}"));
+    let out = study_into(&["--only", "sing"], &scratch().with_extension("only"));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(

@@ -1,9 +1,10 @@
 //! `superhelix study`: what accuracy costs.
 
+use clap::builder::PossibleValuesParser;
 use clap::Args;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use superhelix::study::{run_study, write_report, StudyOptions};
+use superhelix::study::{run_study, write_report, StudyOptions, PROBLEMS};
 use superhelix::Error;
 
 /// Arguments of `study`.
@@ -12,8 +13,8 @@ pub struct StudyArgs {
     /// Only a reduced grid of each problem (the one `cargo test` runs).
     #[arg(long)]
     quick: bool,
-    /// Only this problem (swing, curly, frequency, cantilever, floppy, rotary, tolerance).
-    #[arg(long, value_name = "PROBLEM")]
+    /// Only this problem (and not the cost against N, which is the whole study's).
+    #[arg(long, value_name = "PROBLEM", value_parser = PossibleValuesParser::new(PROBLEMS))]
     only: Option<String>,
     /// Output directory.
     #[arg(long, value_name = "DIR", default_value = "study")]
