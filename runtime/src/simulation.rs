@@ -463,6 +463,14 @@ pub fn engine_for(setup: &SimulationSetup) -> (Engine, Option<FieldError>) {
 /// s ([`Simulation::step_by`]).
 pub const MIN_SEARCH_INTERVAL: f64 = 1e-6;
 
+/// How far, in τ L, a charged particle may move between two updates of the Coulomb
+/// forces under a tolerance ([`Simulation::step_by`]). A charge that moved δ changes the
+/// forces on the others by about F δ / r, and a strand misses of that only what builds
+/// up within an interval: on the two charged strands of `runtime/tests/error_control.rs`
+/// an interval bounded by 0.9 τ L left the tips 0.16 to 0.34 τ off (τ = 1e-1 to 1e-3),
+/// by 3 τ L 0.38 to 0.56 τ.
+pub const CHARGE_MOTION: f64 = 3.0;
+
 /// The hair–hair broad phase and pair tracking of the contacts `c` (`None`: no
 /// `[contacts.hair_hair]`). Strands that overlap at the start are let apart slowly, as
 /// points that start inside a body.
@@ -1193,6 +1201,15 @@ impl Simulation {
         &mut self,
         head: &crate::forces::head_motion::HeadState,
     ) -> std::result::Result<FieldSummary, String> {
+        self.update_electrostatics_at(head, self.time)
+    }
+
+    /// [`Self::update_electrostatics`] at time `time` (the charged scalp's placement).
+    fn update_electrostatics_at(
+        &mut self,
+        head: &crate::forces::head_motion::HeadState,
+        time: f64,
+    ) -> std::result::Result<FieldSummary, String> {
         let Some(e) = &mut self.electrostatics else {
             return Ok(FieldSummary::default());
         };
@@ -1213,7 +1230,7 @@ impl Simulation {
             .scalp
             .as_ref()
             .and_then(|sc| self.bodies.as_slice().iter().find(|b| b.name == sc.body))
-            .map(|b| (b, b.frame(&Placement::new(*head, self.time))));
+            .map(|b| (b, b.frame(&Placement::new(*head, time))));
         let summary = e.update(
             |i, s| {
                 let y = strand_pose_at(strands[i].0, strands[i].1, s).position;
@@ -1230,7 +1247,7 @@ impl Simulation {
     /// error at `t`.
     fn refresh_charges(&mut self, t: f64) -> Result<()> {
         let head = self.head.state(t);
-        self.update_electrostatics(&head)
+        self.update_electrostatics_at(&head, t)
             .map(|_| ())
             .map_err(|cause| Error::Diverged {
                 strand: "(electrostatics)".into(),
@@ -1282,14 +1299,16 @@ impl Simulation {
             ));
         }
         let t = self.time;
+        // under a tolerance the pairs and the charges follow the strands within the step
+        let intervals = self.hair_hair.is_some() || self.electrostatics.is_some();
         // the Coulomb forces, every update_every steps, as point loads (either engine)
         if let Some(e) = &self.electrostatics {
             let every = e.config().update_every.max(1);
-            if self.steps % every == 0 && self.steps > 0 {
+            if self.steps % every == 0 && self.steps > 0 && self.config.tolerance.is_none() {
                 self.refresh_charges(t)?;
             }
         }
-        match (self.config.tolerance, self.hair_hair.is_some()) {
+        match (self.config.tolerance, intervals) {
             (Some(tolerance), true) => self.advance_in_intervals(t, h, tolerance)?,
             _ => {
                 let points = self.hair_hair.is_some().then(|| self.hair_points(t));
@@ -1301,17 +1320,20 @@ impl Simulation {
         Ok(())
     }
 
-    /// A step from `t` to `t + h` under `tolerance` with hair–hair contacts: in intervals
-    /// between two searches of the pairs, each strand taking its own error-controlled
-    /// steps within each. A strand steps against its partners' points where they were at
-    /// the interval's start, and a pair exists only once the search found it. So the
-    /// intervals follow the motion, as the error-controlled step's steps do: the next is
-    /// the last scaled so that over it
+    /// A step from `t` to `t + h` under `tolerance` with hair–hair contacts or
+    /// `[electrostatics]`: in intervals between two searches of the pairs and two updates
+    /// of the Coulomb forces, each strand taking its own error-controlled steps within
+    /// each. A strand steps against its partners' points and the charges' forces as they
+    /// were at the interval's start, and a pair exists only once the search found it. So
+    /// the intervals follow the motion, as the error-controlled step's steps do: the next
+    /// is the last scaled so that over it
     ///
     /// - a paired sample moves at most 0.9 τ of the length of the strand on the pair's
     ///   other side ([`HairHair::partner_motion`]: what that strand's step missed of it),
-    /// - and no sample moves more than half the contacts' reach (two samples closing in
+    /// - no sample moves more than half the contacts' reach (two samples closing in
     ///   on each other were within the search's margin, at least the reach, at its start),
+    /// - and no charged particle moves more than [`CHARGE_MOTION`] τ of its strand's
+    ///   length ([`Electrostatics::particle_motion`]; `update_every` is for fixed steps),
     ///
     /// at the rates of the last interval, between 0.2 and 2 times it, none shorter than
     /// [`MIN_SEARCH_INTERVAL`]; the last ends on `t + h` (a remainder shorter than two
@@ -1325,15 +1347,33 @@ impl Simulation {
         let lengths = self.strand_lengths();
         let reach = self.hair_reach();
         while end - now > 1e-12 * end.abs().max(1.0) {
+            // the Coulomb forces at the interval's start, and how far the charges moved
+            // over the last one
+            let mut motion: f64 = 0.0;
+            let mut interval = None;
+            if self.electrostatics.is_some() {
+                self.refresh_charges(now)?;
+                if let Some(e) = &self.electrostatics {
+                    motion = e.particle_motion(&lengths) / CHARGE_MOTION;
+                    interval = Some(e.interval);
+                }
+            }
             let start = std::time::Instant::now();
-            let points = self.hair_points(now);
-            let Some(hh) = &mut self.hair_hair else {
+            let mut fastest = 0.0;
+            let mut points = None;
+            if self.hair_hair.is_some() {
+                let at = self.hair_points(now);
+                if let Some(hh) = &self.hair_hair {
+                    motion = motion.max(hh.partner_motion(&at, &lengths));
+                    fastest = hh.fastest_motion(&at);
+                    interval = Some(hh.interval);
+                }
+                points = Some(at);
+            }
+            self.hair_pair_seconds += start.elapsed().as_secs_f64();
+            let Some(SearchInterval { last, proposed }) = interval else {
                 break;
             };
-            let motion = hh.partner_motion(&points, &lengths);
-            let fastest = hh.fastest_motion(&points);
-            let SearchInterval { last, proposed } = hh.interval;
-            self.hair_pair_seconds += start.elapsed().as_secs_f64();
             let next = if last > 0.0 {
                 // the motion over the last interval at the rate it had, within the growth
                 // of the interval it was chosen as (a last interval cut to end on a step
@@ -1356,13 +1396,17 @@ impl Simulation {
             .max(MIN_SEARCH_INTERVAL);
             let (step, landing) = superhelix_kernels::fixed::step_within(next, end - now);
             let since = if last > 0.0 { last } else { step };
+            let interval = SearchInterval {
+                last: step,
+                proposed: next,
+            };
             if let Some(hh) = &mut self.hair_hair {
-                hh.interval = SearchInterval {
-                    last: step,
-                    proposed: next,
-                };
+                hh.interval = interval;
             }
-            self.advance(now, step, since, Some(points))?;
+            if let Some(e) = &mut self.electrostatics {
+                e.interval = interval;
+            }
+            self.advance(now, step, since, points)?;
             now = if landing { end } else { now + step };
         }
         Ok(())

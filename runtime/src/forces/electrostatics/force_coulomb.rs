@@ -8,6 +8,7 @@
 use super::tracers::Tracers;
 use super::ElectrostaticsConfig;
 use crate::bodies::Body;
+use crate::forces::contacts::SearchInterval;
 use crate::forces::head_motion::HeadState;
 use crate::model::strand::{PointLoad, Strand};
 use nalgebra::Vector3;
@@ -100,6 +101,10 @@ pub struct ElectrostaticsState {
     forces: Vec<Vector3<f64>>,
     scale: f64,
     last: FieldSummary,
+    #[serde(default)]
+    previous: Vec<[f64; 3]>,
+    #[serde(default)]
+    interval: SearchInterval,
 }
 
 /// The electrostatic state of a simulation: the particles, the evaluator and the last
@@ -114,6 +119,11 @@ pub struct Electrostatics {
     forces: Vec<Vector3<f64>>,
     scale: f64,
     last: FieldSummary,
+    /// The particles' positions at the update before the last (empty: none).
+    previous: Vec<[f64; 3]>,
+    /// The intervals of the updates within a step under a tolerance
+    /// (`Simulation::step_by`), as the hair–hair searches take them.
+    pub interval: SearchInterval,
 }
 
 impl Electrostatics {
@@ -146,6 +156,8 @@ impl Electrostatics {
             forces: vec![Vector3::zeros(); n],
             scale: 1.0,
             last: FieldSummary::default(),
+            previous: Vec::new(),
+            interval: SearchInterval::default(),
         })
     }
 
@@ -159,6 +171,8 @@ impl Electrostatics {
             forces: self.forces.clone(),
             scale: self.scale,
             last: self.last,
+            previous: self.previous.clone(),
+            interval: self.interval,
         }
     }
 
@@ -178,6 +192,12 @@ impl Electrostatics {
         self.forces = state.forces;
         self.scale = state.scale;
         self.last = state.last;
+        self.previous = if state.previous.len() == self.points.len() {
+            state.previous
+        } else {
+            Vec::new()
+        };
+        self.interval = state.interval;
         Ok(())
     }
 
@@ -235,6 +255,12 @@ impl Electrostatics {
                         .collect()
                 })
                 .collect();
+            // the positions of the last update, if there was one (before it the
+            // particles stand at the origin)
+            std::mem::swap(&mut self.points, &mut self.previous);
+            if self.last.particles == 0 {
+                self.previous.clear();
+            }
             self.points.clear();
             for v in per_strand {
                 self.points.extend(v);
@@ -350,6 +376,32 @@ impl Electrostatics {
             .map(|e| (Vector3::from(*e) * COULOMB_CONSTANT).norm())
             .sum();
         Some(sum / field.len() as f64)
+    }
+
+    /// The largest distance a particle moved between the last two updates, relative to
+    /// the length of its strand (`lengths`, in the strands' order; 0 before a second
+    /// update): how far the charges a strand stepped against since the update before
+    /// the last moved meanwhile.
+    pub fn particle_motion(&self, lengths: &[f64]) -> f64 {
+        if self.previous.len() != self.points.len() {
+            return 0.0;
+        }
+        let strands = self.tracers.offsets.len().saturating_sub(1);
+        (0..strands)
+            .map(|i| {
+                let r = self.tracers.of(i);
+                let length = lengths.get(i).copied().unwrap_or(0.0);
+                if length <= 0.0 {
+                    return 0.0;
+                }
+                self.points[r.clone()]
+                    .iter()
+                    .zip(&self.previous[r])
+                    .map(|(a, b)| (Vector3::from(*a) - Vector3::from(*b)).norm())
+                    .fold(0.0, f64::max)
+                    / length
+            })
+            .fold(0.0, f64::max)
     }
 
     /// Positions (world, m) and forces (N) of every particle from the last update.
