@@ -1239,6 +1239,21 @@ impl Simulation {
             scalp,
         )?;
         drop(strands);
+        // the last steps' energies as the new forces count them (the balance's ceiling with
+        // them): the change of the loads is not work the strands did
+        if let Some(e) = &self.electrostatics {
+            let changes: Vec<f64> = (0..self.strand_count())
+                .map(|i| e.load_change(i, &head.position))
+                .collect();
+            if let Some(em) = &mut self.embedded {
+                for (i, (_, _, g, p)) in em.strands.iter().enumerate() {
+                    em.groups[*g].1.shift_load_energy(*p, changes[i]);
+                }
+            }
+            for (sim, &change) in self.strands.iter_mut().zip(&changes) {
+                sim.system.workspace.shift_load_energy(change);
+            }
+        }
         self.apply_charge_loads();
         Ok(summary)
     }

@@ -517,12 +517,13 @@ fn two_strands_in_hair_contact_are_as_accurate_as_asked() {
 /// A second strand hanging from a root 2 cm below the swing's line and 2 cm beside it, 10
 /// cm out, both charged alike (`[electrostatics]`, 4·10⁻⁹ C/m, direct sum): the swing
 /// comes down past it and the two repel (at 1 cm the force per length, 2 k λ²/d ≈ 2.9·10⁻⁵
-/// N/m, is about half the swing's weight per length). Strand 0 is the hanging one. Without
-/// the energy balance: with it, fixed steps converge at about half an order (1.9·10⁻⁴
-/// and 1.5·10⁻⁴ L between 1024, 2048 and 4096 steps a frame; without, 2.3·10⁻⁵ and
-/// 1.1·10⁻⁵ L): the balance takes from the velocities energy the Coulomb forces, changing
-/// at every update, put in.
-const CHARGED: &str = "energy_balance = false\n[electrostatics]\ncharge_per_length = 4e-9\nmethod = \"direct\"\n[[strands]]\nroot = [0.1, 0.02, -0.02]\ndirection = [0.0, 0.0, -1.0]\nnormal = [0.0, 1.0, 0.0]\nlength = 0.2\nelements = 5\nnatural = [0.0, 0.0, 0.0]\ninitial = \"straight\"";
+/// N/m, is about half the swing's weight per length). Strand 0 is the hanging one. With
+/// the energy balance, which counts an update's change of the forces as no work the
+/// strands did (`StrandWorkspace::shift_load_energy`): counted as work, the balance
+/// took it from the velocities and fixed steps converged at about half an order (1.9·10⁻⁴
+/// and 1.5·10⁻⁴ L between 1024, 2048 and 4096 steps a frame; now 2.3·10⁻⁵ and 1.1·10⁻⁵ L,
+/// as without the balance).
+const CHARGED: &str = "[electrostatics]\ncharge_per_length = 4e-9\nmethod = \"direct\"\n[[strands]]\nroot = [0.1, 0.02, -0.02]\ndirection = [0.0, 0.0, -1.0]\nnormal = [0.0, 1.0, 0.0]\nlength = 0.2\nelements = 5\nnatural = [0.0, 0.0, 0.0]\ninitial = \"straight\"";
 
 /// The tips every 1/30 s of the [`Problem::Landing`] with [`CHARGED`] by BDF2 with fixed
 /// steps, the Coulomb forces recomputed at the start of each and held over it (so the

@@ -120,6 +120,10 @@ pub trait EmbeddedGroup: Send + Sync {
     /// Set strand `i`'s point loads (the scene's and the charges' forces), constant over
     /// the next steps.
     fn set_loads(&mut self, i: usize, loads: &[PointLoad]);
+    /// Strand `i`'s loads' Σ f_l · y_l at its state grew by `change` (J) without the
+    /// strand moving: its last energy and ceiling as the new loads count them
+    /// ([`super::system::StrandWorkspace::shift_load_energy`]).
+    fn shift_load_energy(&mut self, i: usize, change: f64);
     /// q of strand `i`.
     fn q(&self, i: usize) -> &[f64];
     /// q̇ of strand `i`.
@@ -680,6 +684,11 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
     }
     fn strand_report(&self, i: usize) -> Option<&ToleranceReport> {
         self.histories.get(i).map(|(_, r)| r)
+    }
+    fn shift_load_energy(&mut self, i: usize, change: f64) {
+        if let Some(e) = self.strands.get_mut(i).and_then(|s| s.last_energy.as_mut()) {
+            super::system::shift_load_energy(e, change);
+        }
     }
     fn set_loads(&mut self, i: usize, loads: &[PointLoad]) {
         if let Some(l) = self.extras.get_mut(i).map(|e| &mut e.loads) {

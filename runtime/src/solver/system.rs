@@ -148,6 +148,15 @@ impl StrandWorkspace {
         &mut self.error_control
     }
 
+    /// The strand's loads' Σ f_l · y_l at its state grew by `change` (J) without it moving
+    /// (the Coulomb forces updated): the energy its last step ended with and that
+    /// energy's ceiling as the new loads count them ([`shift_load_energy`]).
+    pub fn shift_load_energy(&mut self, change: f64) {
+        if let Some(e) = &mut self.last_energy {
+            shift_load_energy(e, change);
+        }
+    }
+
     /// Forget the state history of the two-step integrator (BDF2): its next step starts
     /// afresh, with a linearly implicit Euler step. Call it whenever the state is set
     /// from outside the integrator.
@@ -228,6 +237,15 @@ pub struct WorkspaceState {
     error_control: super::error_control::ErrorControlState,
     basis: Vec<f64>,
     basis_negative: bool,
+}
+
+/// `e` as loads whose Σ f_l · y_l at its state is `change` (J) higher count it: V and the
+/// ceiling lower by `change` (V = −c0 · ∫ y ds − Σ f_l · y_l), so that the energy
+/// balance's bound of the next step moves with the loads (their change is not work).
+pub fn shift_load_energy(e: &mut StateEnergy, change: f64) {
+    e.potential -= change;
+    e.load_moment += change;
+    e.ceiling -= change;
 }
 
 /// Number of values of a [`StateEnergy`] as [`energy_words`] writes it.

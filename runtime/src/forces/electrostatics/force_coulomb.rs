@@ -121,6 +121,9 @@ pub struct Electrostatics {
     last: FieldSummary,
     /// The particles' positions at the update before the last (empty: none).
     previous: Vec<[f64; 3]>,
+    /// The particles' forces before the last update (empty: none; not kept by a
+    /// checkpoint: read only right after an update).
+    previous_forces: Vec<Vector3<f64>>,
     /// The intervals of the updates within a step under a tolerance
     /// (`Simulation::step_by`), as the hair–hair searches take them.
     pub interval: SearchInterval,
@@ -157,6 +160,7 @@ impl Electrostatics {
             scale: 1.0,
             last: FieldSummary::default(),
             previous: Vec::new(),
+            previous_forces: Vec::new(),
             interval: SearchInterval::default(),
         })
     }
@@ -297,6 +301,10 @@ impl Electrostatics {
                     }
                 });
         }
+        self.previous_forces.clear();
+        if !self.previous.is_empty() {
+            self.previous_forces.extend_from_slice(&self.forces);
+        }
         let mut sum = 0.0;
         let mut max_force: f64 = 0.0;
         for ((f, e), q) in self
@@ -402,6 +410,24 @@ impl Electrostatics {
                     / length
             })
             .fold(0.0, f64::max)
+    }
+
+    /// Σ (f − f₋) · (x − p) over strand `i`'s particles: how much the last update changed
+    /// Σ f_l · y_l of the strand's charge loads at the state it was made in (f₋ the
+    /// forces before it, x the particles' positions, p the head's position; 0 at the
+    /// first update). The energy the strand's last step ended with, measured under the
+    /// old forces, has its potential V = … − Σ f_l · y_l lower by this under the new ones.
+    pub fn load_change(&self, i: usize, head_position: &Vector3<f64>) -> f64 {
+        if self.previous_forces.len() != self.forces.len() {
+            return 0.0;
+        }
+        let r = self.tracers.of(i);
+        self.forces[r.clone()]
+            .iter()
+            .zip(&self.previous_forces[r.clone()])
+            .zip(&self.points[r])
+            .map(|((f, g), x)| (f - g).dot(&(Vector3::from(*x) - head_position)))
+            .sum()
     }
 
     /// Positions (world, m) and forces (N) of every particle from the last update.
