@@ -1239,6 +1239,9 @@ impl Simulation {
             scalp,
         )?;
         drop(strands);
+        if let Some(e) = &mut self.electrostatics {
+            e.set_frame(&head.position, &head.rotation);
+        }
         // the last steps' energies as the new forces count them (the balance's ceiling with
         // them): the change of the loads is not work the strands did
         if let Some(e) = &self.electrostatics {

@@ -105,6 +105,8 @@ pub struct ElectrostaticsState {
     previous: Vec<[f64; 3]>,
     #[serde(default)]
     interval: SearchInterval,
+    #[serde(default)]
+    frames: [Option<[f64; 12]>; 2],
 }
 
 /// The electrostatic state of a simulation: the particles, the evaluator and the last
@@ -127,6 +129,9 @@ pub struct Electrostatics {
     /// The intervals of the updates within a step under a tolerance
     /// (`Simulation::step_by`), as the hair–hair searches take them.
     pub interval: SearchInterval,
+    /// The head's frame (its position, then its rotation by columns) at the last update
+    /// and at the one before ([`Self::set_frame`]; `None`: not given).
+    frames: [Option<[f64; 12]>; 2],
 }
 
 impl Electrostatics {
@@ -162,6 +167,7 @@ impl Electrostatics {
             previous: Vec::new(),
             previous_forces: Vec::new(),
             interval: SearchInterval::default(),
+            frames: [None; 2],
         })
     }
 
@@ -177,6 +183,7 @@ impl Electrostatics {
             last: self.last,
             previous: self.previous.clone(),
             interval: self.interval,
+            frames: self.frames,
         }
     }
 
@@ -202,6 +209,7 @@ impl Electrostatics {
             Vec::new()
         };
         self.interval = state.interval;
+        self.frames = state.frames;
         Ok(())
     }
 
@@ -394,6 +402,17 @@ impl Electrostatics {
         if self.previous.len() != self.points.len() {
             return 0.0;
         }
+        // in the head's frame at each update when it was given: the head carrying the
+        // charges together changes no force between them
+        let local = |frame: &Option<[f64; 12]>, x: &[f64; 3]| match frame {
+            Some(f) => {
+                let p = Vector3::new(f[0], f[1], f[2]);
+                let r = nalgebra::Matrix3::from_column_slice(&f[3..]);
+                r.transpose() * (Vector3::from(*x) - p)
+            }
+            None => Vector3::from(*x),
+        };
+        let [now, before] = &self.frames;
         let strands = self.tracers.offsets.len().saturating_sub(1);
         (0..strands)
             .map(|i| {
@@ -405,11 +424,21 @@ impl Electrostatics {
                 self.points[r.clone()]
                     .iter()
                     .zip(&self.previous[r])
-                    .map(|(a, b)| (Vector3::from(*a) - Vector3::from(*b)).norm())
+                    .map(|(a, b)| (local(now, a) - local(before, b)).norm())
                     .fold(0.0, f64::max)
                     / length
             })
             .fold(0.0, f64::max)
+    }
+
+    /// The head's frame at the update just made (`position`, `rotation` head to world):
+    /// [`Self::particle_motion`] measures the particles' motion in it. The charged
+    /// scalp moves with the head, so it changes nothing between the particles either.
+    pub fn set_frame(&mut self, position: &Vector3<f64>, rotation: &nalgebra::Matrix3<f64>) {
+        let mut f = [0.0; 12];
+        f[..3].copy_from_slice(position.as_slice());
+        f[3..].copy_from_slice(rotation.as_slice());
+        self.frames = [Some(f), self.frames[0]];
     }
 
     /// Σ (f − f₋) · (x − p) over strand `i`'s particles: how much the last update changed
