@@ -267,6 +267,16 @@ fn static_electricity_resumes_between_two_updates() {
     resumed_equals_uninterrupted("charged", &charged(), "json,npy");
 }
 
+/// Under a tolerance the forces keep their own schedule (the time of the last update, the
+/// particles' positions and the head's frame then, how fast they moved): a resumed run
+/// takes it up where the checkpoint left it.
+#[test]
+fn static_electricity_under_a_tolerance_resumes_on_its_schedule() {
+    let scene = charged().replace("[simulation]\n", "[simulation]\ntolerance = 1e-2\n");
+    assert!(scene.contains("tolerance"));
+    resumed_equals_uninterrupted("charged-tolerance", &scene, "json,npy");
+}
+
 #[test]
 fn render_strands_and_a_driven_held_tip_with_nodes_resume_bit_for_bit() {
     let root = env!("CARGO_MANIFEST_DIR");

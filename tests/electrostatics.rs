@@ -260,3 +260,30 @@ fn tress_experiments_small() {
         assert!(dir.join(&c.name).join("preview.png").exists(), "{}", c.name);
     }
 }
+
+/// The summary line says how often the Coulomb forces were recomputed: with fixed steps,
+/// at the start and every `update_every`-th step (6 steps of 1/30 s, every second step:
+/// at steps 0, 2 and 4).
+#[test]
+fn the_run_reports_its_coulomb_updates() {
+    let dir = scratch("coulomb_updates");
+    let scene = support::write(
+        &dir,
+        "charged.toml",
+        &support::charged_tress(0.2, "update_every = 2", ""),
+    );
+    let out = superhelix(&[
+        "run",
+        &scene.to_string_lossy(),
+        "--out",
+        &dir.join("out").to_string_lossy(),
+        "--format",
+        "npy",
+    ]);
+    let text = support::text(&out);
+    assert!(out.status.success(), "{text}");
+    assert!(
+        text.contains("Coulomb forces recomputed 3 times in "),
+        "{text}"
+    );
+}

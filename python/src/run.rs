@@ -86,6 +86,9 @@ impl FrameSource for Recording<'_> {
     fn error_control(&self) -> Option<ErrorControlSummary> {
         FrameSource::error_control(&*self.sim)
     }
+    fn coulomb_updates(&self) -> Option<superhelix_runtime::output::CoulombUpdates> {
+        FrameSource::coulomb_updates(&*self.sim)
+    }
     fn frame_steps(&mut self) -> Option<FrameSteps> {
         for i in 0..FrameSource::strand_count(&*self.sim) {
             self.qdot.extend_from_slice(FrameSource::v(&*self.sim, i));
@@ -215,7 +218,8 @@ pub struct RunResult {
     /// planned_frames, wall_time (s, stepping only), strand_steps_per_second, max_speed,
     /// deepest_inside (m, None without contacts), time (s reached), engine, completed,
     /// error_control (with a tolerance: tolerance, largest_error, smallest_step,
-    /// smallest_step_strand, steps, rejected; else None).
+    /// smallest_step_strand, steps, rejected; else None), coulomb (with
+    /// `[electrostatics]`: updates, seconds of the Coulomb forces' evaluations; else None).
     summary: Py<PyAny>,
     /// The summary line `superhelix run` prints.
     summary_line: String,
@@ -628,6 +632,15 @@ fn summary_dict<'py>(
     match &s.error_control {
         Some(e) => d.set_item("error_control", error_control_dict(py, e)?)?,
         None => d.set_item("error_control", py.None())?,
+    }
+    match &s.coulomb {
+        Some(c) => {
+            let e = PyDict::new(py);
+            e.set_item("updates", c.updates)?;
+            e.set_item("seconds", c.seconds)?;
+            d.set_item("coulomb", e)?;
+        }
+        None => d.set_item("coulomb", py.None())?,
     }
     Ok(d)
 }

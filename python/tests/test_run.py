@@ -45,6 +45,7 @@ def test_a_run_returns_arrays_of_the_layout(shaking):
     s = r.summary
     assert (s["steps"], s["strands"], s["frames"], s["planned_frames"]) == (18, 3, 10, 10)
     assert s["error_control"] is None and r.frame_steps is None
+    assert s["coulomb"] is None  # no [electrostatics]
     assert r.stats["attempts"] >= 3 * 18  # at least one solve per strand and step
     assert r.summary_line.startswith("18 steps x 3 strands in ")
     # roots stay on the head: the root of each strand moves on its circle (|x_root| const)

@@ -110,6 +110,11 @@ pub trait FrameSource {
     fn error_control(&self) -> Option<ErrorControlSummary> {
         None
     }
+    /// How often the Coulomb forces were recomputed so far in this run (`None`: no
+    /// `[electrostatics]`, the default).
+    fn coulomb_updates(&self) -> Option<CoulombUpdates> {
+        None
+    }
     /// What the error-controlled step did since the last call (`None`: fixed steps, the
     /// default); called once per frame written.
     fn frame_steps(&mut self) -> Option<FrameSteps> {
@@ -193,6 +198,15 @@ pub struct FrameSteps {
     pub largest_step: f64,
 }
 
+/// How often the Coulomb forces of `[electrostatics]` were recomputed over a run.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct CoulombUpdates {
+    /// Updates (evaluations of the field at every charged particle).
+    pub updates: u64,
+    /// Wall-clock seconds of those evaluations, s.
+    pub seconds: f64,
+}
+
 /// What the error-controlled step (`[simulation] tolerance`) did over a run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ErrorControlSummary {
@@ -257,6 +271,8 @@ pub struct RunSummary {
     pub deepest_inside: Option<f64>,
     /// What the error-controlled step did (`None`: fixed steps).
     pub error_control: Option<ErrorControlSummary>,
+    /// How often the Coulomb forces were recomputed (`None`: no `[electrostatics]`).
+    pub coulomb: Option<CoulombUpdates>,
     /// The largest drift of a held tip from its holder over the frames written (see
     /// [`HeldEndFrame::drift`]; `None`: no strand has a held tip).
     pub held_drift: Option<f64>,
@@ -303,6 +319,17 @@ impl fmt::Display for RunSummary {
                 }
                 if let Some(d) = self.held_drift {
                     write!(f, ", held tips at most {d:.1e} L off their holders")?;
+                }
+                if let Some(c) = self.coulomb {
+                    let times = match c.updates {
+                        1 => "once".to_string(),
+                        n => format!("{n} times"),
+                    };
+                    write!(
+                        f,
+                        ", Coulomb forces recomputed {times} in {:.3} s",
+                        c.seconds
+                    )?;
                 }
                 match self.error_control {
                     Some(e) => {

@@ -18,7 +18,7 @@ use crate::kernels::closed_form::moment_kernel;
 use crate::kernels::generic::{GenericKernel, QuadratureRule};
 use crate::kernels::kernel::{KernelFactory, StrandKernel};
 use crate::kernels::step_terms::KernelPoints;
-use crate::model::reconstruction::pose_at as strand_pose_at;
+use crate::model::reconstruction::positions_at_sorted;
 use crate::model::reconstruction::{pose_at, sample_centreline};
 use crate::model::strand::{Strand, StrandGeometry};
 use crate::output::FrameSource;
@@ -1201,17 +1201,15 @@ impl Simulation {
         &mut self,
         head: &crate::forces::head_motion::HeadState,
     ) -> std::result::Result<FieldSummary, String> {
-        self.update_electrostatics_at(head, self.time)
+        let points = self.charge_positions(head);
+        self.update_electrostatics_with(head, self.time, points)
     }
 
-    /// [`Self::update_electrostatics`] at time `time` (the charged scalp's placement).
-    fn update_electrostatics_at(
-        &mut self,
-        head: &crate::forces::head_motion::HeadState,
-        time: f64,
-    ) -> std::result::Result<FieldSummary, String> {
-        let Some(e) = &mut self.electrostatics else {
-            return Ok(FieldSummary::default());
+    /// The charged particles' positions (world, m) with the head at `head`
+    /// ([`Electrostatics::positions`]; empty without `[electrostatics]`).
+    fn charge_positions(&self, head: &crate::forces::head_motion::HeadState) -> Vec<[f64; 3]> {
+        let Some(e) = &self.electrostatics else {
+            return Vec::new();
         };
         let strands: Vec<(&StrandGeometry, &[f64])> = match &self.embedded {
             Some(em) => em
@@ -1225,23 +1223,34 @@ impl Simulation {
                 .map(|s| (&s.system.strand.geometry, &s.state.q[..]))
                 .collect(),
         };
+        e.positions(|i, arcs, out| {
+            let (geometry, q) = strands[i];
+            positions_at_sorted(geometry, q, arcs.iter().copied(), out);
+            for y in out.iter_mut() {
+                *y = head.position + head.rotation * *y;
+            }
+        })
+    }
+
+    /// [`Self::update_electrostatics`] at time `time` (the charged scalp's placement)
+    /// with the particles at `points`
+    /// ([`Self::charge_positions`] at `head`).
+    fn update_electrostatics_with(
+        &mut self,
+        head: &crate::forces::head_motion::HeadState,
+        time: f64,
+        points: Vec<[f64; 3]>,
+    ) -> std::result::Result<FieldSummary, String> {
+        let Some(e) = &mut self.electrostatics else {
+            return Ok(FieldSummary::default());
+        };
         let scalp = e
             .config()
             .scalp
             .as_ref()
             .and_then(|sc| self.bodies.as_slice().iter().find(|b| b.name == sc.body))
             .map(|b| (b, b.frame(&Placement::new(*head, time))));
-        let summary = e.update(
-            |i, s| {
-                let y = strand_pose_at(strands[i].0, strands[i].1, s).position;
-                head.position + head.rotation * y
-            },
-            scalp,
-        )?;
-        drop(strands);
-        if let Some(e) = &mut self.electrostatics {
-            e.set_frame(&head.position, &head.rotation);
-        }
+        let summary = e.update(points, time, (&head.position, &head.rotation), scalp)?;
         // the last steps' energies as the new forces count them (the balance's ceiling with
         // them): the change of the loads is not work the strands did
         if let Some(e) = &self.electrostatics {
@@ -1265,7 +1274,19 @@ impl Simulation {
     /// error at `t`.
     fn refresh_charges(&mut self, t: f64) -> Result<()> {
         let head = self.head.state(t);
-        self.update_electrostatics_at(&head, t)
+        let points = self.charge_positions(&head);
+        self.refresh_charges_with(&head, t, points)
+    }
+
+    /// [`Self::refresh_charges`] with the particles at `points` ([`Self::charge_positions`]
+    /// at `head`, the head at time `t`).
+    fn refresh_charges_with(
+        &mut self,
+        head: &crate::forces::head_motion::HeadState,
+        t: f64,
+        points: Vec<[f64; 3]>,
+    ) -> Result<()> {
+        self.update_electrostatics_with(head, t, points)
             .map(|_| ())
             .map_err(|cause| Error::Diverged {
                 strand: "(electrostatics)".into(),
@@ -1339,23 +1360,30 @@ impl Simulation {
     }
 
     /// A step from `t` to `t + h` under `tolerance` with hair–hair contacts or
-    /// `[electrostatics]`: in intervals between two searches of the pairs and two updates
-    /// of the Coulomb forces, each strand taking its own error-controlled steps within
-    /// each. A strand steps against its partners' points and the charges' forces as they
-    /// were at the interval's start, and a pair exists only once the search found it. So
-    /// the intervals follow the motion, as the error-controlled step's steps do: the next
-    /// is the last scaled so that over it
+    /// `[electrostatics]`: in intervals, each strand taking its own error-controlled
+    /// steps within each. A strand steps against its partners' points as they were at
+    /// the last search and the charges' forces as they were at the last update, and a
+    /// pair exists only once the search found it. So the intervals follow the motion, as
+    /// the error-controlled step's steps do: the next is the last scaled so that over it
     ///
     /// - a paired sample moves at most 0.9 τ of the length of the strand on the pair's
     ///   other side ([`HairHair::partner_motion`]: what that strand's step missed of it),
     /// - no sample moves more than half the contacts' reach (two samples closing in
     ///   on each other were within the search's margin, at least the reach, at its start),
-    /// - and no charged particle moves more than [`CHARGE_MOTION`] τ of its strand's
-    ///   length ([`Electrostatics::particle_motion`]; `update_every` is for fixed steps),
     ///
     /// at the rates of the last interval, between 0.2 and 2 times it, none shorter than
     /// [`MIN_SEARCH_INTERVAL`]; the last ends on `t + h` (a remainder shorter than two
-    /// intervals is taken in two equal ones).
+    /// intervals is taken in two equal ones). The pairs are searched at every interval's
+    /// start.
+    ///
+    /// The Coulomb forces keep their own schedule (`update_every` is for fixed steps): at
+    /// an interval's start the particles are placed (cheap beside the sum over them) and
+    /// the forces recomputed only when, at the rate the particles moved since the last
+    /// update, some particle would stand more than 0.9 [`CHARGE_MOTION`] τ of its strand's
+    /// length from where that update had it before the interval ends
+    /// ([`Electrostatics::motion_since_update`], in the head's frame). After an update the
+    /// interval is also bounded so that it would not (at the rate between the last two
+    /// updates); without hair–hair contacts that bound alone sets the intervals.
     fn advance_in_intervals(&mut self, t: f64, h: f64, tolerance: f64) -> Result<()> {
         const SAFETY: f64 = 0.9;
         const SHRINK: f64 = 0.2;
@@ -1364,35 +1392,31 @@ impl Simulation {
         let mut now = t;
         let lengths = self.strand_lengths();
         let reach = self.hair_reach();
+        // the motion of the charges (in CHARGE_MOTION τ L) an update allows
+        let allowed = SAFETY * tolerance;
         while end - now > 1e-12 * end.abs().max(1.0) {
-            // the Coulomb forces at the interval's start, and how far the charges moved
-            // over the last one
-            let mut motion: f64 = 0.0;
-            let mut interval = None;
-            if self.electrostatics.is_some() {
-                self.refresh_charges(now)?;
-                if let Some(e) = &self.electrostatics {
-                    motion = e.particle_motion(&lengths) / CHARGE_MOTION;
-                    interval = Some(e.interval);
-                }
-            }
             let start = std::time::Instant::now();
+            let mut motion: f64 = 0.0;
             let mut fastest = 0.0;
             let mut points = None;
+            let mut interval = None;
             if self.hair_hair.is_some() {
                 let at = self.hair_points(now);
                 if let Some(hh) = &self.hair_hair {
-                    motion = motion.max(hh.partner_motion(&at, &lengths));
+                    motion = hh.partner_motion(&at, &lengths);
                     fastest = hh.fastest_motion(&at);
                     interval = Some(hh.interval);
                 }
                 points = Some(at);
             }
             self.hair_pair_seconds += start.elapsed().as_secs_f64();
+            if let (None, Some(e)) = (interval, &self.electrostatics) {
+                interval = Some(e.interval);
+            }
             let Some(SearchInterval { last, proposed }) = interval else {
                 break;
             };
-            let next = if last > 0.0 {
+            let mut next = if last > 0.0 {
                 // the motion over the last interval at the rate it had, within the growth
                 // of the interval it was chosen as (a last interval cut to end on a step
                 // moved less for being shorter)
@@ -1410,8 +1434,40 @@ impl Simulation {
                 wanted.clamp(SHRINK * last, GROW * reference)
             } else {
                 h
+            };
+            // the Coulomb forces: recomputed when the charges would move too far before
+            // the interval ends
+            if self.electrostatics.is_some() {
+                let head = self.head.state(now);
+                let at = self.charge_positions(&head);
+                let (due, rate) = match &self.electrostatics {
+                    Some(e) => {
+                        let moved = e.motion_since_update(&at, &head.position, &head.rotation)
+                            / CHARGE_MOTION;
+                        let rate = match e.updated_at() {
+                            Some(then) if now > then => moved / (now - then),
+                            _ => e.rate() / CHARGE_MOTION,
+                        };
+                        (
+                            e.updated_at().is_none() || moved + rate * next > allowed,
+                            rate,
+                        )
+                    }
+                    None => (false, 0.0),
+                };
+                if due {
+                    self.refresh_charges_with(&head, now, at)?;
+                    // the next update as far off as the rate between the last two allows
+                    let rate = match &self.electrostatics {
+                        Some(e) if e.rate() > 0.0 => e.rate() / CHARGE_MOTION,
+                        _ => rate,
+                    };
+                    if rate > 0.0 && last > 0.0 {
+                        next = next.min((allowed / rate).max(SHRINK * last));
+                    }
+                }
             }
-            .max(MIN_SEARCH_INTERVAL);
+            let next = next.max(MIN_SEARCH_INTERVAL);
             let (step, landing) = superhelix_kernels::fixed::step_within(next, end - now);
             let since = if last > 0.0 { last } else { step };
             let interval = SearchInterval {
@@ -2397,6 +2453,9 @@ impl FrameSource for Simulation {
     }
     fn error_control(&self) -> Option<crate::output::ErrorControlSummary> {
         Simulation::error_control(self)
+    }
+    fn coulomb_updates(&self) -> Option<crate::output::CoulombUpdates> {
+        self.electrostatics.as_ref().map(|e| e.updates())
     }
     fn frame_steps(&mut self) -> Option<crate::output::FrameSteps> {
         Simulation::frame_steps(self)

@@ -218,6 +218,7 @@ pub fn run_checkpointed<S: FrameSource + ?Sized>(
         max_speed,
         deepest_inside: deepest,
         error_control: source.error_control(),
+        coulomb: source.coulomb_updates(),
         held_drift: streamer.held_drift,
     };
     RunOutcome {

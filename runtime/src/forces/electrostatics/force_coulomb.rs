@@ -11,6 +11,7 @@ use crate::bodies::Body;
 use crate::forces::contacts::SearchInterval;
 use crate::forces::head_motion::HeadState;
 use crate::model::strand::{PointLoad, Strand};
+use crate::output::CoulombUpdates;
 use nalgebra::Vector3;
 use std::time::Instant;
 use superhelix_fmm::{direct_sum, Fmm, FmmOptions, Potentials, Softening};
@@ -83,7 +84,8 @@ pub struct FieldSummary {
     pub mean_field: f64,
     /// Largest |F| on a particle, N.
     pub max_force: f64,
-    /// Seconds of the evaluation (positions, sum, forces).
+    /// Seconds of the evaluation (the sum and the forces; the positions are placed
+    /// before, [`Electrostatics::positions`]).
     pub seconds: f64,
     /// Whether the multipole method was used.
     pub multipole: bool,
@@ -102,11 +104,13 @@ pub struct ElectrostaticsState {
     scale: f64,
     last: FieldSummary,
     #[serde(default)]
-    previous: Vec<[f64; 3]>,
-    #[serde(default)]
     interval: SearchInterval,
     #[serde(default)]
-    frames: [Option<[f64; 12]>; 2],
+    frame: Option<[f64; 12]>,
+    #[serde(default)]
+    updated_at: Option<f64>,
+    #[serde(default)]
+    rate: f64,
 }
 
 /// The electrostatic state of a simulation: the particles, the evaluator and the last
@@ -121,8 +125,9 @@ pub struct Electrostatics {
     forces: Vec<Vector3<f64>>,
     scale: f64,
     last: FieldSummary,
-    /// The particles' positions at the update before the last (empty: none).
-    previous: Vec<[f64; 3]>,
+    /// Each strand's length, m (in the strands' order): what the particles' motion is
+    /// measured against.
+    lengths: Vec<f64>,
     /// The particles' forces before the last update (empty: none; not kept by a
     /// checkpoint: read only right after an update).
     previous_forces: Vec<Vector3<f64>>,
@@ -130,8 +135,16 @@ pub struct Electrostatics {
     /// (`Simulation::step_by`), as the hair–hair searches take them.
     pub interval: SearchInterval,
     /// The head's frame (its position, then its rotation by columns) at the last update
-    /// and at the one before ([`Self::set_frame`]; `None`: not given).
-    frames: [Option<[f64; 12]>; 2],
+    /// (`None`: none yet).
+    frame: Option<[f64; 12]>,
+    /// The time of the last update, s (`None`: none yet).
+    updated_at: Option<f64>,
+    /// How fast the particles moved between the last two updates: the largest motion
+    /// of a particle relative to its strand's length, per second (0: not known).
+    rate: f64,
+    /// The updates since this state was made or restored (not kept by a checkpoint: a
+    /// resumed run counts its own).
+    updates: CoulombUpdates,
 }
 
 impl Electrostatics {
@@ -164,10 +177,13 @@ impl Electrostatics {
             forces: vec![Vector3::zeros(); n],
             scale: 1.0,
             last: FieldSummary::default(),
-            previous: Vec::new(),
+            lengths: strands.iter().map(|s| s.geometry.length()).collect(),
             previous_forces: Vec::new(),
             interval: SearchInterval::default(),
-            frames: [None; 2],
+            frame: None,
+            updated_at: None,
+            rate: 0.0,
+            updates: CoulombUpdates::default(),
         })
     }
 
@@ -181,9 +197,10 @@ impl Electrostatics {
             forces: self.forces.clone(),
             scale: self.scale,
             last: self.last,
-            previous: self.previous.clone(),
             interval: self.interval,
-            frames: self.frames,
+            frame: self.frame,
+            updated_at: self.updated_at,
+            rate: self.rate,
         }
     }
 
@@ -203,13 +220,11 @@ impl Electrostatics {
         self.forces = state.forces;
         self.scale = state.scale;
         self.last = state.last;
-        self.previous = if state.previous.len() == self.points.len() {
-            state.previous
-        } else {
-            Vec::new()
-        };
         self.interval = state.interval;
-        self.frames = state.frames;
+        self.frame = state.frame;
+        self.updated_at = state.updated_at;
+        self.rate = state.rate;
+        self.updates = CoulombUpdates::default();
         Ok(())
     }
 
@@ -243,41 +258,125 @@ impl Electrostatics {
         self.fmm.is_some()
     }
 
-    /// Recompute the forces with the particles at `position(i, s)` (world coordinates of
-    /// arc length s on strand i).
+    /// The particles' positions (world, m, in the order of [`Self::particles`]) with
+    /// `place(i, arcs, out)` writing strand i's points at the arc lengths `arcs`
+    /// (increasing) into `out`: what [`Self::update`] evaluates at and
+    /// [`Self::motion_since_update`] measures, without the sum over the particles.
+    pub fn positions(
+        &self,
+        place: impl Fn(usize, &[f64], &mut Vec<Vector3<f64>>) + Sync,
+    ) -> Vec<[f64; 3]> {
+        use rayon::prelude::*;
+        let strands = self.tracers.offsets.len() - 1;
+        let tracers = &self.tracers;
+        let per_strand: Vec<Vec<Vector3<f64>>> = (0..strands)
+            .into_par_iter()
+            .map(|i| {
+                let mut out = Vec::new();
+                let arcs = &tracers.s[tracers.of(i)];
+                if !arcs.is_empty() {
+                    place(i, arcs, &mut out);
+                }
+                out
+            })
+            .collect();
+        let mut points = Vec::with_capacity(self.tracers.len());
+        for v in per_strand {
+            points.extend(v.into_iter().map(<[f64; 3]>::from));
+        }
+        points
+    }
+
+    /// The largest distance a particle at `points` ([`Self::positions`]) stands from
+    /// where the last update had it, relative to its strand's length, both measured in
+    /// the head's frame (`position`, `rotation` head to world, now; the last update's
+    /// frame then): a head carrying the charges together changes no force between them,
+    /// and the charged scalp moves with it. 0 before the first update.
+    pub fn motion_since_update(
+        &self,
+        points: &[[f64; 3]],
+        position: &Vector3<f64>,
+        rotation: &nalgebra::Matrix3<f64>,
+    ) -> f64 {
+        if self.last.particles == 0 || points.len() != self.points.len() {
+            return 0.0;
+        }
+        let then = |x: &[f64; 3]| match &self.frame {
+            Some(f) => {
+                let p = Vector3::new(f[0], f[1], f[2]);
+                let r = nalgebra::Matrix3::from_column_slice(&f[3..]);
+                r.transpose() * (Vector3::from(*x) - p)
+            }
+            None => Vector3::from(*x),
+        };
+        let now = |x: &[f64; 3]| rotation.transpose() * (Vector3::from(*x) - position);
+        let strands = self.tracers.offsets.len().saturating_sub(1);
+        (0..strands)
+            .map(|i| {
+                let r = self.tracers.of(i);
+                let length = self.lengths.get(i).copied().unwrap_or(0.0);
+                if length <= 0.0 {
+                    return 0.0;
+                }
+                points[r.clone()]
+                    .iter()
+                    .zip(&self.points[r])
+                    .map(|(a, b)| (now(a) - then(b)).norm())
+                    .fold(0.0, f64::max)
+                    / length
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// The time of the last update, s (`None`: none yet).
+    pub fn updated_at(&self) -> Option<f64> {
+        self.updated_at
+    }
+
+    /// How fast the particles moved between the last two updates: the largest distance
+    /// a particle moved ([`Self::motion_since_update`]) over the time between them, in
+    /// strand lengths per second (0 before a second update, or when both were at the same
+    /// time).
+    pub fn rate(&self) -> f64 {
+        self.rate
+    }
+
+    /// The updates since this state was made or restored, and their seconds.
+    pub fn updates(&self) -> CoulombUpdates {
+        self.updates
+    }
+
+    /// Recompute the forces with the particles at `points` ([`Self::positions`]) at time
+    /// `time` with the head's frame at (`position`, `rotation`, head to world).
     ///
     /// `scalp`: the charged body ([`super::ScalpCharge`]) and the state of its frame
     /// ([`Body::frame`]).
     pub fn update(
         &mut self,
-        position: impl Fn(usize, f64) -> Vector3<f64> + Sync,
+        points: Vec<[f64; 3]>,
+        time: f64,
+        (position, rotation): (&Vector3<f64>, &nalgebra::Matrix3<f64>),
         scalp: Option<(&Body, Option<HeadState>)>,
     ) -> Result<FieldSummary, String> {
         let start = Instant::now();
-        let strands = self.tracers.offsets.len() - 1;
-        {
-            use rayon::prelude::*;
-            let tracers = &self.tracers;
-            let per_strand: Vec<Vec<[f64; 3]>> = (0..strands)
-                .into_par_iter()
-                .map(|i| {
-                    tracers.s[tracers.of(i)]
-                        .iter()
-                        .map(|&s| position(i, s).into())
-                        .collect()
-                })
-                .collect();
-            // the positions of the last update, if there was one (before it the
-            // particles stand at the origin)
-            std::mem::swap(&mut self.points, &mut self.previous);
-            if self.last.particles == 0 {
-                self.previous.clear();
-            }
-            self.points.clear();
-            for v in per_strand {
-                self.points.extend(v);
+        if points.len() != self.tracers.len() {
+            return Err(format!(
+                "{} positions for {} charged particles",
+                points.len(),
+                self.tracers.len()
+            ));
+        }
+        if let Some(before) = self.updated_at {
+            if time > before {
+                self.rate = self.motion_since_update(&points, position, rotation) / (time - before);
             }
         }
+        self.points = points;
+        let mut f = [0.0; 12];
+        f[..3].copy_from_slice(position.as_slice());
+        f[3..].copy_from_slice(rotation.as_slice());
+        self.frame = Some(f);
+        self.updated_at = Some(time);
         self.charges.clear();
         self.charges
             .extend(self.tracers.charge.iter().map(|q| q * self.scale));
@@ -310,7 +409,7 @@ impl Electrostatics {
                 });
         }
         self.previous_forces.clear();
-        if !self.previous.is_empty() {
+        if self.last.particles > 0 {
             self.previous_forces.extend_from_slice(&self.forces);
         }
         let mut sum = 0.0;
@@ -341,6 +440,8 @@ impl Electrostatics {
             seconds: start.elapsed().as_secs_f64(),
             multipole: self.fmm.is_some(),
         };
+        self.updates.updates += 1;
+        self.updates.seconds += self.last.seconds;
         Ok(self.last)
     }
 
@@ -392,53 +493,6 @@ impl Electrostatics {
             .map(|e| (Vector3::from(*e) * COULOMB_CONSTANT).norm())
             .sum();
         Some(sum / field.len() as f64)
-    }
-
-    /// The largest distance a particle moved between the last two updates, relative to
-    /// the length of its strand (`lengths`, in the strands' order; 0 before a second
-    /// update): how far the charges a strand stepped against since the update before
-    /// the last moved meanwhile.
-    pub fn particle_motion(&self, lengths: &[f64]) -> f64 {
-        if self.previous.len() != self.points.len() {
-            return 0.0;
-        }
-        // in the head's frame at each update when it was given: the head carrying the
-        // charges together changes no force between them
-        let local = |frame: &Option<[f64; 12]>, x: &[f64; 3]| match frame {
-            Some(f) => {
-                let p = Vector3::new(f[0], f[1], f[2]);
-                let r = nalgebra::Matrix3::from_column_slice(&f[3..]);
-                r.transpose() * (Vector3::from(*x) - p)
-            }
-            None => Vector3::from(*x),
-        };
-        let [now, before] = &self.frames;
-        let strands = self.tracers.offsets.len().saturating_sub(1);
-        (0..strands)
-            .map(|i| {
-                let r = self.tracers.of(i);
-                let length = lengths.get(i).copied().unwrap_or(0.0);
-                if length <= 0.0 {
-                    return 0.0;
-                }
-                self.points[r.clone()]
-                    .iter()
-                    .zip(&self.previous[r])
-                    .map(|(a, b)| (local(now, a) - local(before, b)).norm())
-                    .fold(0.0, f64::max)
-                    / length
-            })
-            .fold(0.0, f64::max)
-    }
-
-    /// The head's frame at the update just made (`position`, `rotation` head to world):
-    /// [`Self::particle_motion`] measures the particles' motion in it. The charged
-    /// scalp moves with the head, so it changes nothing between the particles either.
-    pub fn set_frame(&mut self, position: &Vector3<f64>, rotation: &nalgebra::Matrix3<f64>) {
-        let mut f = [0.0; 12];
-        f[..3].copy_from_slice(position.as_slice());
-        f[3..].copy_from_slice(rotation.as_slice());
-        self.frames = [Some(f), self.frames[0]];
     }
 
     /// Σ (f − f₋) · (x − p) over strand `i`'s particles: how much the last update changed
