@@ -198,14 +198,7 @@ pub struct FrameSteps {
     pub largest_step: f64,
 }
 
-/// How often the Coulomb forces of `[electrostatics]` were recomputed over a run.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct CoulombUpdates {
-    /// Updates (evaluations of the field at every charged particle).
-    pub updates: u64,
-    /// Wall-clock seconds of those evaluations, s.
-    pub seconds: f64,
-}
+pub use crate::forces::electrostatics::force_coulomb::CoulombUpdates;
 
 /// What the error-controlled step (`[simulation] tolerance`) did over a run.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -476,10 +476,30 @@ pub fn free_gaps(
 pub fn solve_forces(a: &mut PredictedArrays<'_>, m: usize, dofs: usize, cs: f64) -> usize {
     for j in 0..m {
         let wj = &a.w[j * dofs..(j + 1) * dofs];
-        for i in 0..m {
+        // four products g_i · w_j at once, each summed in its own order (the same
+        // result as one at a time, without waiting on one running sum)
+        let mut i = 0;
+        while i + 4 <= m {
+            let g = &a.g[i * dofs..(i + 4) * dofs];
+            let (g0, rest) = g.split_at(dofs);
+            let (g1, rest) = rest.split_at(dofs);
+            let (g2, g3) = rest.split_at(dofs);
+            let mut d = [-0.0f64; 4];
+            for k in 0..dofs {
+                let w = wj[k];
+                d[0] += g0[k] * w;
+                d[1] += g1[k] * w;
+                d[2] += g2[k] * w;
+                d[3] += g3[k] * w;
+            }
+            for (r, dot) in d.iter().enumerate() {
+                a.s[i + r + j * m] = cs * dot;
+            }
+            i += 4;
+        }
+        for i in i..m {
             let gi = &a.g[i * dofs..(i + 1) * dofs];
-            let dot: f64 = gi.iter().zip(wj).map(|(p, q)| p * q).sum();
-            a.s[i + j * m] = cs * dot;
+            a.s[i + j * m] = cs * dot(gi, wj);
         }
         a.s[j + j * m] += 1.0 / a.candidates[j].stiffness;
     }

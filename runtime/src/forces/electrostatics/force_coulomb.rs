@@ -11,7 +11,6 @@ use crate::bodies::Body;
 use crate::forces::contacts::SearchInterval;
 use crate::forces::head_motion::HeadState;
 use crate::model::strand::{PointLoad, Strand};
-use crate::output::CoulombUpdates;
 use nalgebra::Vector3;
 use std::time::Instant;
 use superhelix_fmm::{direct_sum, Fmm, FmmOptions, Potentials, Softening};
@@ -73,6 +72,15 @@ impl CoulombMethod {
         .into_iter()
         .find(|m| m.name() == name)
     }
+}
+
+/// How often the Coulomb forces of `[electrostatics]` were recomputed over a run.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct CoulombUpdates {
+    /// Updates (evaluations of the field at every charged particle).
+    pub updates: u64,
+    /// Wall-clock seconds of those evaluations, s.
+    pub seconds: f64,
 }
 
 /// What one evaluation found.
