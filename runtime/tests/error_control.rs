@@ -480,7 +480,7 @@ fn contact_runs(
             assert_eq!(run.len(), reference.len());
             let error = largest_apart(&run, reference);
             eprintln!(
-                "{engine:?}, tolerance {tolerance:.0e}: largest tip error {error:.3e} L ({:.2} τ), {solves} solves, {rejected} steps rejected, {coulomb} updates of the Coulomb forces",
+                "{engine:?}, tolerance {tolerance:.1e}: largest tip error {error:.3e} L ({:.2} τ), {solves} solves, {rejected} steps rejected, {coulomb} updates of the Coulomb forces",
                 error / tolerance
             );
             if !(lowest * tolerance..=3.0 * tolerance).contains(&error) {
@@ -510,6 +510,24 @@ const MOVING_BALL: &str = "[[bodies]]\nname = \"ball\"\nshape = \"sphere\"\ncent
 fn a_swing_onto_a_moving_ball_is_as_accurate_as_asked() {
     let (reference, _) = contact_reference(MOVING_BALL, 1e-4);
     contact_errors(MOVING_BALL, &reference, &[1e-1, 1e-2, 1e-3]);
+}
+
+/// [`MOVING_BALL`] between the tolerances its test asserts: the error is not monotone in
+/// τ there, and the band does not hold at every one. Measured, τ = 5e-2, 2e-2, 5e-3,
+/// 2e-3, 1.5e-3, 1.2e-3, 1.1e-3, 9e-4, 8e-4, 7e-4, 5e-4: 1.02, 0.80, 2.44, 1.79, 2.05,
+/// 1.83, 3.09, 1.10, 0.93, 1.43, 2.59 τ (both engines): where within a step the strand
+/// meets the ball decides, as on the ball moving up and down.
+#[test]
+#[ignore = "fails: 3.09 τ at τ = 1.1e-3 (issue #51)"]
+fn a_swing_onto_a_moving_ball_is_as_accurate_as_asked_between_its_tolerances() {
+    let (reference, _) = contact_reference(MOVING_BALL, 1e-4);
+    contact_errors(
+        MOVING_BALL,
+        &reference,
+        &[
+            5e-2, 2e-2, 5e-3, 2e-3, 1.5e-3, 1.2e-3, 1.1e-3, 9e-4, 8e-4, 7e-4, 5e-4,
+        ],
+    );
 }
 
 /// [`MOVING_BALL`] moving up and down instead (±5 mm at 1 Hz, its top reaching the
