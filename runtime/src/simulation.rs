@@ -1458,10 +1458,10 @@ impl Simulation {
                 if due {
                     self.refresh_charges_with(&head, now, at)?;
                     // the next update as far off as the rate between the last two allows
-                    let rate = match &self.electrostatics {
-                        Some(e) if e.rate() > 0.0 => e.rate() / CHARGE_MOTION,
-                        _ => rate,
-                    };
+                    let rate = self
+                        .electrostatics
+                        .as_ref()
+                        .map_or(rate, |e| e.rate() / CHARGE_MOTION);
                     if rate > 0.0 && last > 0.0 {
                         next = next.min((allowed / rate).max(SHRINK * last));
                     }

@@ -309,14 +309,15 @@ impl Electrostatics {
         if self.last.particles == 0 || points.len() != self.points.len() {
             return 0.0;
         }
-        let then = |x: &[f64; 3]| match &self.frame {
-            Some(f) => {
-                let p = Vector3::new(f[0], f[1], f[2]);
-                let r = nalgebra::Matrix3::from_column_slice(&f[3..]);
-                r.transpose() * (Vector3::from(*x) - p)
-            }
-            None => Vector3::from(*x),
+        // the last update's head frame (the world's when it was given none)
+        let (p, r) = match &self.frame {
+            Some(f) => (
+                Vector3::new(f[0], f[1], f[2]),
+                nalgebra::Matrix3::from_column_slice(&f[3..]),
+            ),
+            None => (Vector3::zeros(), nalgebra::Matrix3::identity()),
         };
+        let then = |x: &[f64; 3]| r.transpose() * (Vector3::from(*x) - p);
         let now = |x: &[f64; 3]| rotation.transpose() * (Vector3::from(*x) - position);
         let strands = self.tracers.offsets.len().saturating_sub(1);
         (0..strands)
