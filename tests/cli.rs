@@ -112,14 +112,22 @@ fn validate_accepts_the_example_scenes_and_the_default_scene() {
         .collect();
     assert!(scenes.len() >= 3, "{scenes:?}");
     scenes.push(repo("src/default_scene.toml"));
-    for scene in scenes {
-        let out = superhelix(&["validate", &scene]);
-        assert_eq!(out.status.code(), Some(0), "{scene}:\n{}", text(&out));
-        assert!(
-            String::from_utf8_lossy(&out.stdout).starts_with("ok: "),
-            "{scene}"
-        );
-    }
+    // two validations at a time (each is a process of its own)
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    std::thread::scope(|scope| {
+        for _ in 0..2 {
+            scope.spawn(|| loop {
+                let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(scene) = scenes.get(k) else { break };
+                let out = superhelix(&["validate", scene]);
+                assert_eq!(out.status.code(), Some(0), "{scene}:\n{}", text(&out));
+                assert!(
+                    String::from_utf8_lossy(&out.stdout).starts_with("ok: "),
+                    "{scene}"
+                );
+            });
+        }
+    });
     let out = superhelix(&["validate", &repo("src/default_scene.toml")]);
     assert_eq!(
         String::from_utf8_lossy(&out.stdout).lines().next(),

@@ -21,6 +21,7 @@ use crate::{
     CENTRELINE_MASS_SWITCH, ROTARY_BASIS_SWITCH,
 };
 use superhelix_kernels::lane::{Lane, Lanes, Mask};
+use superhelix_kernels::lanes::F4;
 use superhelix_kernels::moments::ElementMoments;
 
 /// The outputs of the three generated element functions for W elements, one per lane, in
@@ -107,7 +108,7 @@ pub fn element_moments_lanes_into<const W: usize>(
             return;
         }
     }
-    element_moments_lanes_into_portable(d, l, parts, out);
+    lanes_body(d, l, parts, out, true);
 }
 
 /// [`element_moments_lanes_into`] compiled for the baseline target only (what it runs on
@@ -120,7 +121,7 @@ pub fn element_moments_lanes_into_portable<const W: usize>(
     parts: LaneParts,
     out: &mut LaneMoments<W>,
 ) {
-    lanes_body(d, l, parts, out);
+    lanes_body(d, l, parts, out, true);
 }
 
 #[cfg(all(target_arch = "x86_64", feature = "std"))]
@@ -131,7 +132,33 @@ fn lanes_avx2<const W: usize>(
     parts: LaneParts,
     out: &mut LaneMoments<W>,
 ) {
-    lanes_body(d, l, parts, out);
+    lanes_body(d, l, parts, out, false);
+}
+
+/// The closed-form branch of one generated function on all W lanes: at four lanes the
+/// `*_closed_x4` batch this crate compiles once (its portable build where `portable`;
+/// the same generated text at W = 4, so the same bits), at any other width the
+/// `*_closed_lanes` text inlined here. (Four lanes through the `x4` batches keep a crate
+/// that calls this at four lanes from compiling the closed forms again: each width
+/// compiled is two more copies of ~50 kB of straight-line code.)
+macro_rules! closed {
+    ($w:ident, $d:expr, $l:expr, $out:expr, $portable:expr, $x4:path, $x4_portable:path, $lanes:path, $k:literal) => {
+        if const { $w == 4 } {
+            let d4 = [0, 1, 2].map(|i| F4(core::array::from_fn(|k| $d[i].0[k])));
+            let l4 = F4(core::array::from_fn(|k| $l.0[k]));
+            let mut o4 = [F4::default(); $k];
+            if $portable {
+                $x4_portable(&d4, l4, &mut o4);
+            } else {
+                $x4(&d4, l4, &mut o4);
+            }
+            for (o, x) in $out.iter_mut().zip(&o4) {
+                o.0 = core::array::from_fn(|k| x.0[k]);
+            }
+        } else {
+            $lanes($d, $l, $out);
+        }
+    };
 }
 
 #[inline(always)]
@@ -140,6 +167,7 @@ fn lanes_body<const W: usize>(
     l: Lanes<f64, W>,
     parts: LaneParts,
     out: &mut LaneMoments<W>,
+    portable: bool,
 ) {
     let element = |k: usize| [d[0].0[k], d[1].0[k], d[2].0[k]];
     // W l exactly as the functions' prologue computes it (their branch test)
@@ -147,21 +175,51 @@ fn lanes_body<const W: usize>(
     if parts.mass {
         let taylor = wl.lt(Lanes::splat(CENTRELINE_MASS_SWITCH));
         if !taylor.all() {
-            centreline_mass_closed_lanes(d, l, &mut out.mass);
+            closed!(
+                W,
+                d,
+                l,
+                &mut out.mass,
+                portable,
+                crate::centreline_mass::centreline_mass_closed_x4,
+                crate::centreline_mass::centreline_mass_closed_x4_portable,
+                centreline_mass_closed_lanes,
+                51
+            );
         }
         each_taylor_lane(taylor, &element, l, centreline_mass, &mut out.mass);
     }
     if parts.force {
         let taylor = wl.lt(Lanes::splat(CENTRELINE_FORCE_SWITCH));
         if !taylor.all() {
-            centreline_force_closed_lanes(d, l, &mut out.force);
+            closed!(
+                W,
+                d,
+                l,
+                &mut out.force,
+                portable,
+                crate::centreline_force::centreline_force_closed_x4,
+                crate::centreline_force::centreline_force_closed_x4_portable,
+                centreline_force_closed_lanes,
+                135
+            );
         }
         each_taylor_lane(taylor, &element, l, centreline_force, &mut out.force);
     }
     if parts.rotary {
         let taylor = wl.lt(Lanes::splat(ROTARY_BASIS_SWITCH));
         if !taylor.all() {
-            rotary_basis_closed_lanes(d, l, &mut out.rotary);
+            closed!(
+                W,
+                d,
+                l,
+                &mut out.rotary,
+                portable,
+                crate::rotary_basis::rotary_basis_closed_x4,
+                crate::rotary_basis::rotary_basis_closed_x4_portable,
+                rotary_basis_closed_lanes,
+                63
+            );
         }
         each_taylor_lane(taylor, &element, l, rotary_basis, &mut out.rotary);
     }

@@ -67,6 +67,13 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
     end_phase(reading);
     let (mut setup, grooms) = parsed?;
     superhelix::apply_tolerance(&mut setup, args.choices.tolerance)?;
+    // a scene beyond the machine's memory is refused on its estimate before anything
+    // scales with it (the digests below format every strand's numbers); a part is
+    // checked on its own strands when its simulation is built
+    if args.choices.part.is_none() {
+        let (engine, _) = superhelix::runtime::engine_for(&setup);
+        superhelix::runtime::memory_plan::estimate(&setup, engine).check()?;
+    }
     // the digest of the whole scene, which every part names
     let whole = superhelix::runtime::output::checkpoint::setup_digest(&setup);
     if args.choices.part.is_some() {
