@@ -108,7 +108,7 @@ pub fn element_moments_lanes_into<const W: usize>(
             return;
         }
     }
-    lanes_body(d, l, parts, out, true);
+    element_moments_lanes_into_portable(d, l, parts, out);
 }
 
 /// [`element_moments_lanes_into`] compiled for the baseline target only (what it runs on
