@@ -459,7 +459,8 @@ pub fn check_scene_reporting(
     // a scene beyond the machine's memory is refused on its estimate alone, before any
     // simulation is built (listing its other problems would build one)
     if let Ok((setup, _)) = &parsed {
-        if let Err(Error::Invalid(errors)) = runtime::memory_plan::check_fits(setup) {
+        let (engine, _) = runtime::engine_for(setup);
+        if let Err(Error::Invalid(errors)) = runtime::memory_plan::estimate(setup, engine).check() {
             return Err(errors);
         }
     }
@@ -475,7 +476,8 @@ pub fn check_scene_reporting(
 /// it: `--tolerance`, `--part`), to meet every problem `run` meets before its first
 /// step, within the memory [`check_scene_reporting`] allows itself.
 pub fn check_setup(setup: &SimulationSetup) -> Result<()> {
-    runtime::memory_plan::check_fits(setup)?;
+    let (engine, _) = runtime::engine_for(setup);
+    runtime::memory_plan::estimate(setup, engine).check()?;
     build_in_chunks(setup)
 }
 

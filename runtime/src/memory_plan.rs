@@ -104,12 +104,6 @@ fn human(bytes: u64) -> String {
 
 pub use crate::input::available_memory;
 
-/// Refuse `setup` when its estimate on the engine it gets ([`crate::engine_for`]) is
-/// beyond the available memory ([`MemoryEstimate::check`]).
-pub fn check_fits(setup: &SimulationSetup) -> Result<()> {
-    estimate(setup, crate::engine_for(setup).0).check()
-}
-
 /// What `setup` will hold when simulated by `engine` and written in the scene's formats
 /// ([`estimate_with`]).
 pub fn estimate(setup: &SimulationSetup, engine: Engine) -> MemoryEstimate {

@@ -949,7 +949,7 @@ impl Simulation {
     pub fn new(setup: SimulationSetup, generated: Option<&dyn KernelFactory>) -> Result<Self> {
         check_setup(&setup)?;
         // what will not fit in the machine's memory is refused before it is allocated
-        crate::memory_plan::check_fits(&setup)?;
+        crate::memory_plan::estimate(&setup, engine_for(&setup).0).check()?;
         let (bodies, mut errors) = match Bodies::build(&setup.bodies) {
             Ok(bodies) => (bodies, Vec::new()),
             Err(Error::Invalid(errors)) => (Bodies::default(), errors),

@@ -71,7 +71,8 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
     // scales with it (the digests below format every strand's numbers); a part is
     // checked on its own strands when its simulation is built
     if args.choices.part.is_none() {
-        superhelix::runtime::memory_plan::check_fits(&setup)?;
+        let (engine, _) = superhelix::runtime::engine_for(&setup);
+        superhelix::runtime::memory_plan::estimate(&setup, engine).check()?;
     }
     // the digest of the whole scene, which every part names
     let whole = superhelix::runtime::output::checkpoint::setup_digest(&setup);
