@@ -39,6 +39,16 @@ pub enum PreviewShape {
         /// Radius, m.
         radius: f64,
     },
+    /// The finite cylinder of `radius` about the segment from `start` to `end`, flat at
+    /// both ends.
+    Cylinder {
+        /// The centre of one end, m.
+        start: Vector3<f64>,
+        /// The centre of the other end, m.
+        end: Vector3<f64>,
+        /// Radius, m.
+        radius: f64,
+    },
     /// The half-space behind a plane.
     HalfSpace {
         /// A point of the plane, m.
@@ -100,9 +110,7 @@ impl PreviewBody {
                 end: *end,
                 radius: *radius,
             },
-            // a cylinder is drawn as the capsule around its axis (its outline with
-            // rounded caps)
-            ShapeSetup::Cylinder { start, end, radius } => PreviewShape::Capsule {
+            ShapeSetup::Cylinder { start, end, radius } => PreviewShape::Cylinder {
                 start: *start,
                 end: *end,
                 radius: *radius,
@@ -169,6 +177,11 @@ impl PreviewBody {
                 end: at(end),
                 radius: *radius,
             },
+            PreviewShape::Cylinder { start, end, radius } => PreviewShape::Cylinder {
+                start: at(start),
+                end: at(end),
+                radius: *radius,
+            },
             PreviewShape::HalfSpace { point, normal } => PreviewShape::HalfSpace {
                 point: at(point),
                 normal: r * normal,
@@ -205,6 +218,12 @@ impl PreviewShape {
             PreviewShape::Capsule { start, end, radius } => {
                 let r = Vector3::repeat(*radius);
                 (start.inf(end) - r, start.sup(end) + r)
+            }
+            PreviewShape::Cylinder { start, end, radius } => {
+                // an end disc reaches r sqrt(1 − a_c²) along world axis c (a the unit axis)
+                let a = (end - start).try_normalize(0.0).unwrap_or_else(Vector3::z);
+                let half = Vector3::from_fn(|c, _| radius * (1.0 - a[c] * a[c]).max(0.0).sqrt());
+                (start.inf(end) - half, start.sup(end) + half)
             }
             PreviewShape::HalfSpace { .. } => return None,
             PreviewShape::Mesh { vertices, .. } => {
