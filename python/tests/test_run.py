@@ -274,3 +274,17 @@ def test_a_held_rope_reports_its_holder_and_its_nodes():
     plain = superhelix.Scene.from_toml("[simulation]\nduration = 0.1\n[[strands]]\nlength = 0.1\n")
     r = plain.run(energies=False)
     assert r.held is None and r.arc_nodes is None and r.d1 is None and r.held_tips == []
+
+
+def test_a_pinned_roots_whole_q_continues_a_run():
+    # a pinned root's q has 3N + 3 entries (the root joint's first): fed back as q0 it
+    # starts the rod exactly where the run left it
+    d = hanging_strand()
+    d["strands"][0]["ends"] = {"root": "pinned"}
+    r = superhelix.Scene.from_dict(d).run(frames=5)
+    q = r.q[-1, 0]
+    assert q.shape == (3 * 5 + 3,)
+    d["strands"][0]["q0"] = [float(x) for x in q]
+    again = superhelix.Scene.from_dict(d).run(frames=1)
+    np.testing.assert_array_equal(again.q[0, 0], q)
+    np.testing.assert_allclose(again.points[0], r.points[-1], atol=1e-12)

@@ -908,3 +908,42 @@ fn the_free_root_groups_are_the_sizes_with_fixed_n_code() {
         }
     }
 }
+
+/// A run's whole q (a pinned root's joint first, a free root's translation last) fed back
+/// as a scene's `q0` starts the rod exactly where the run left it (continuation): the
+/// same q to the bit and the same centreline, on a pinned root after a third of a second
+/// on the shaking head, and on a free one.
+#[test]
+fn a_runs_whole_q_is_a_scenes_q0() {
+    for (name, held) in [("pinned", pinned as fn(&str) -> String), ("free", free)] {
+        let engine = if name == "free" {
+            "runtime"
+        } else {
+            "embedded"
+        };
+        // 7 + 1 elements with the joint: a fixed-N group of the embedded engine
+        let text = held(&scene(engine, "").replace("elements = 8", "elements = 7"));
+        let mut sim = simulation(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
+        for _ in 0..10 {
+            sim.step().unwrap_or_else(|e| panic!("{name}: {e}"));
+        }
+        let q = sim.q(1).to_vec();
+        assert_eq!(q.len(), 3 * 7 + if name == "free" { 6 } else { 3 });
+        let values: Vec<String> = q.iter().map(|x| format!("{x:?}")).collect();
+        let again = text.replace(
+            "preset = \"wavy\"\n",
+            &format!("preset = \"wavy\"\nq0 = [{}]\n", values.join(", ")),
+        );
+        let fresh = simulation(&again).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(fresh.q(1), q.as_slice(), "{name}");
+        let length = sim.strand(1).geometry.length();
+        for k in 0..=10 {
+            let s = length * k as f64 / 10.0;
+            let (a, b) = (sim.position_at(1, s), fresh.position_at(1, s));
+            assert!(
+                (a - b).norm() < 1e-12,
+                "{name} at s = {s}: {a:?} against {b:?}"
+            );
+        }
+    }
+}

@@ -178,9 +178,12 @@ impl Strand {
             return;
         }
         let joint = ROOT_JOINT_FRACTION * self.geometry.length();
+        // a q0 with the joint's coordinates already (a run's whole q) keeps them
+        if q0.len() == self.geometry.dofs() {
+            q0.splice(0..0, [0.0; 3]);
+        }
         self.geometry.lengths.insert(0, joint);
         self.natural.splice(0..0, [0.0; 3]);
-        q0.splice(0..0, [0.0; 3]);
         self.ends.root = RootEnd::Pinned;
     }
 
@@ -195,7 +198,10 @@ impl Strand {
         self.pin_root(q0);
         self.geometry.floating = true;
         self.natural.extend([0.0; 3]);
-        q0.extend([0.0; 3]);
+        // a q0 with the root's translation already (a run's whole q) keeps it
+        if q0.len() < self.geometry.dofs() {
+            q0.extend([0.0; 3]);
+        }
         self.ends.root = RootEnd::Free;
     }
 

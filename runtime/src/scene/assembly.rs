@@ -49,6 +49,7 @@ pub(super) fn read_strands(
             } else {
                 defaults
             },
+            true,
         );
         let ends = super::ends::read_ends(&mut n);
         if let (Some(name), Some(group), Some(polyline)) = (name, group, polyline) {
@@ -361,7 +362,7 @@ fn read_patch(
             (1, MAX_PATCH_SIDE, "the cap on strands along a patch side"),
         )
     });
-    let template = read_template(n, defaults);
+    let template = read_template(n, defaults, false);
     let steps = read_spacing(n, &template, count.as_deref());
     let (Some(name), Some(center), Some(count), Some((u, v))) = (name, center, count, steps) else {
         return;
@@ -412,7 +413,7 @@ fn read_tress(
     let axes = n.required("semi_axes", "[a, b] in m", |n, k| {
         n.fixed_list(k, 2, Range::new(Bound::Incl(0.0), Bound::Incl(10.0)))
     });
-    let template = read_template(n, defaults);
+    let template = read_template(n, defaults, false);
     let (Some(name), Some(center), Some(count), Some(axes), Some(frame)) =
         (name, center, count, axes, template.frame)
     else {
@@ -478,7 +479,7 @@ fn read_scalp_hair(
             n.error(key, "scalp hair leaves along the surface normal: remove it");
         }
     }
-    let template = read_template(n, defaults);
+    let template = read_template(n, defaults, false);
     let (Some(name), Some(body_name), Some(count), Some(axis), Some(angle), Some(comb)) =
         (name, body_name, count, axis, angle, comb)
     else {

@@ -3,7 +3,7 @@
 //! a `[strands.ends.tip]` table for a held tip), see [`crate::model::ends`].
 
 use super::head::read_motion;
-use super::reader::Node;
+use super::reader::{Bound, Node, Range};
 use crate::config::{HeldEnd, StrandSetup};
 use crate::forces::head_motion::HeadMotion;
 use crate::model::ends::{HeldKind, RootEnd};
@@ -105,11 +105,79 @@ fn read_tip(mut t: Node<'_>) -> Option<Option<TipSpec>> {
     }))
 }
 
+/// Largest rotation of a pinned or free root's frame from its starting orientation in a
+/// given `q0`, rad (the joint's coordinates times its length): many turns, far beyond a
+/// rod's.
+const MAX_ROOT_ROTATION: f64 = 1e3;
+
 impl EndsSpec {
+    /// A `q0` longer than the strand's 3N is the whole q of a run (a pinned root's joint
+    /// first, a free root's translation last): true when it fits this root and every value
+    /// is in range (each problem reported on `n`), or when `q0` has 3N values.
+    fn whole_q_fits(&self, n: &Node<'_>, setup: &StrandSetup) -> bool {
+        let chain = setup.strand.geometry.dofs();
+        let given = setup.q0.len();
+        if given == chain {
+            return true;
+        }
+        let (expected, root) = match self.root {
+            RootEnd::Clamped => (chain, "clamped"),
+            RootEnd::Pinned => (chain + 3, "pinned"),
+            RootEnd::Free => (chain + 6, "free"),
+        };
+        if given != expected {
+            n.error(
+                "q0",
+                format!(
+                    "has {given} values, the whole q of a {} root; this strand's root is {root}: give 3N = {chain}{}",
+                    if given == chain + 3 { "pinned" } else { "free" },
+                    if expected > chain {
+                        format!(" or its whole q, {expected}")
+                    } else {
+                        String::new()
+                    }
+                ),
+            );
+            return false;
+        }
+        let joint = crate::model::ends::ROOT_JOINT_FRACTION * setup.strand.geometry.length();
+        let rotation = Range::new(
+            Bound::Incl(-MAX_ROOT_ROTATION / joint),
+            Bound::Incl(MAX_ROOT_ROTATION / joint),
+        );
+        let ok = setup.q0.iter().enumerate().all(|(i, &x)| {
+            let range = if i < 3 {
+                rotation
+            } else if i < 3 + chain {
+                super::strands::CURVATURE_RANGE
+            } else {
+                Range::POSITION
+            };
+            n.check(&format!("q0[{i}]"), x, range).is_some()
+        });
+        if !ok {
+            n.error(
+                "q0",
+                format!(
+                    "the whole q of a {root} root: its first three values are the root joint's (rad/m: the root frame's rotation over the joint's length l₀ = 10⁻¹⁰ L, at most {MAX_ROOT_ROTATION} rad){}",
+                    if self.root == RootEnd::Free {
+                        ", its last three the root's translation (m)"
+                    } else {
+                        ""
+                    }
+                ),
+            );
+        }
+        ok
+    }
+
     /// Apply to a strand just built: pin its root (inserting the joint), hold its tip
     /// (defaults from the tip's pose at q0, in the holder's frame at t = 0). Errors
     /// are reported on `n`.
     pub(super) fn apply(&self, n: &Node<'_>, setup: &mut StrandSetup) {
+        if !self.whole_q_fits(n, setup) {
+            return;
+        }
         match self.root {
             RootEnd::Clamped => {}
             RootEnd::Pinned => setup.strand.pin_root(&mut setup.q0),

@@ -615,7 +615,7 @@ fn read_surface_groom(
         0.0,
         Range::new(Bound::Incl(0.0), Bound::Excl(1.0)),
     );
-    let template = read_template(n, defaults);
+    let template = read_template(n, defaults, false);
     if count_given == density_given {
         let message = if count_given {
             "give either count or density, not both"
@@ -725,7 +725,7 @@ fn read_curves_groom(
     } else {
         Some(None)
     };
-    let template = read_template(n, defaults);
+    let template = read_template(n, defaults, false);
     let (path, scale, rotation, translation, max_error, comb) =
         (path?, scale?, rotation?, translation?, max_error?, comb?);
     if path.is_empty() {

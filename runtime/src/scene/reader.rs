@@ -284,7 +284,8 @@ impl<'a> Node<'a> {
         self.check(key, x, range)
     }
 
-    fn check(&self, key: &str, x: f64, range: Range) -> Option<f64> {
+    /// `x` when within `range`, else a problem of `key` naming the range and `x`.
+    pub(super) fn check(&self, key: &str, x: f64, range: Range) -> Option<f64> {
         if range.contains(x) {
             Some(x)
         } else {

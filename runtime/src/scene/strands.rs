@@ -47,6 +47,10 @@ enum Initial {
     Straight,
     /// q0 given in the scene.
     Given(Vec<f64>),
+    /// The whole q of a strand whose root is pinned (the joint's three coordinates first,
+    /// 3N + 3) or free (and the root's translation last, 3N + 6), as a run gives it:
+    /// checked against the root once the ends are read ([`super::ends`]).
+    Whole(Vec<f64>),
 }
 
 /// What `[environment]` sets for every strand: the scene-wide air drag (strands that do
@@ -81,8 +85,13 @@ pub(super) struct Template {
 }
 
 /// Read the template fields of a strand or patch table, with the defaults of the
-/// scene's `[environment]`.
-pub(super) fn read_template(n: &mut Node<'_>, defaults: &StrandDefaults) -> Template {
+/// scene's `[environment]`; `whole_q`: a `q0` may be a run's whole q (a `[[strands]]`
+/// entry, whose root may be pinned or free).
+pub(super) fn read_template(
+    n: &mut Node<'_>,
+    defaults: &StrandDefaults,
+    whole_q: bool,
+) -> Template {
     let names: Vec<&str> = Preset::ALL.iter().map(|p| p.name()).collect();
     let preset = n.optional("preset", Preset::Smooth, |n, k| {
         n.choice(k, &names, Preset::from_name)
@@ -114,7 +123,7 @@ pub(super) fn read_template(n: &mut Node<'_>, defaults: &StrandDefaults) -> Temp
         defaults.air_drag.unwrap_or(params.air_drag),
         Range::AIR_DRAG,
     );
-    let initial = read_initial(n, lengths.as_ref().map(|l| 3 * l.len()));
+    let initial = read_initial(n, lengths.as_ref().map(|l| 3 * l.len()), whole_q);
     // (a strand from data has its length only once fitted: its loads are checked then)
     let point_loads = read_point_loads(n, length.filter(|_| !defaults.length_from_data));
     let charge_per_length = if n.has("charge_per_length") {
@@ -179,7 +188,7 @@ impl Template {
         let q0 = match self.initial.as_ref()? {
             Initial::Natural => natural.clone(),
             Initial::Straight => vec![0.0; natural.len()],
-            Initial::Given(q0) => q0.clone(),
+            Initial::Given(q0) | Initial::Whole(q0) => q0.clone(),
         };
         let geometry = StrandGeometry::new(root, self.frame?, lengths, &self.material);
         let strand = Strand {
@@ -497,7 +506,7 @@ fn profile_mean(profile: &[(f64, [f64; 3])], a: f64, b: f64) -> [f64; 3] {
     integral.map(|x| x / (b - a))
 }
 
-fn read_initial(n: &mut Node<'_>, dofs: Option<usize>) -> Option<Initial> {
+fn read_initial(n: &mut Node<'_>, dofs: Option<usize>, whole_q: bool) -> Option<Initial> {
     let kinds = ["natural", "straight"];
     let initial_given = n.has("initial");
     let initial = n.optional("initial", Initial::Natural, |n, k| {
@@ -510,28 +519,46 @@ fn read_initial(n: &mut Node<'_>, dofs: Option<usize>) -> Option<Initial> {
     if !n.has("q0") {
         return initial;
     }
-    let q0 = n.f64_list(
-        "q0",
-        Range::new(Bound::Incl(-MAX_CURVATURE), Bound::Incl(MAX_CURVATURE)),
-    );
+    let q0 = n.f64_list("q0", Range::ANY);
     if initial_given {
         n.error("q0", "give either initial or q0, not both");
         return None;
     }
     let (q0, dofs) = (q0?, dofs?);
+    if whole_q && (q0.len() == dofs + 3 || q0.len() == dofs + 6) {
+        // a pinned or free root's whole q: checked with the ends
+        return Some(Initial::Whole(q0));
+    }
     if q0.len() != dofs {
+        let whole = if whole_q {
+            format!(
+                ", or the whole q of a run: 3N + 3 = {} with a pinned root, 3N + 6 = {} with a free one",
+                dofs + 3,
+                dofs + 6
+            )
+        } else {
+            String::new()
+        };
         n.error(
             "q0",
             format!(
-                "must have 3N = {dofs} values (N = {} elements), got {}",
+                "must have 3N = {dofs} values (N = {} elements){whole}; got {}",
                 dofs / 3,
                 q0.len()
             ),
         );
         return None;
     }
-    Some(Initial::Given(q0))
+    let ok = q0
+        .iter()
+        .enumerate()
+        .all(|(i, &x)| n.check(&format!("q0[{i}]"), x, CURVATURE_RANGE).is_some());
+    ok.then_some(Initial::Given(q0))
 }
+
+/// The range of every curvature and twist of `q0`, rad/m.
+pub(super) const CURVATURE_RANGE: Range =
+    Range::new(Bound::Incl(-MAX_CURVATURE), Bound::Incl(MAX_CURVATURE));
 
 fn read_point_loads(n: &mut Node<'_>, length: Option<f64>) -> Option<Vec<PointLoad>> {
     let s_range = length.map_or(Range::NON_NEGATIVE, |l| {
