@@ -261,6 +261,81 @@ impl RunResult {
         self.times.bind(py).len()
     }
 
+    /// pickle: every field, by name (`RunResult._from_fields` builds it again).
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
+        let d = PyDict::new(py);
+        macro_rules! put {
+            ($($f:ident),*) => { $( d.set_item(stringify!($f), &self.$f)?; )* };
+        }
+        put!(
+            times,
+            state_times,
+            points,
+            offsets,
+            nodes,
+            q,
+            qdot,
+            kinetic_energy,
+            potential_energy,
+            energy,
+            strand_names,
+            groups,
+            radii,
+            stats,
+            summary,
+            summary_line,
+            frame_steps,
+            strand_steps,
+            held,
+            held_tips,
+            arc_nodes,
+            d1,
+            engine,
+            completed
+        );
+        let from_fields = py.get_type::<RunResult>().getattr("_from_fields")?;
+        Ok((from_fields, (d,)))
+    }
+
+    /// RunResult._from_fields(d): the result whose fields `d` holds (pickle's inverse of
+    /// `__reduce__`; a missing field raises KeyError naming it).
+    #[staticmethod]
+    fn _from_fields(d: &Bound<'_, PyDict>) -> PyResult<RunResult> {
+        let get = |key: &str| -> PyResult<Bound<'_, PyAny>> {
+            d.get_item(key)?
+                .ok_or_else(|| pyo3::exceptions::PyKeyError::new_err(key.to_string()))
+        };
+        Ok(RunResult {
+            times: get("times")?.unbind(),
+            state_times: get("state_times")?.unbind(),
+            points: get("points")?.unbind(),
+            offsets: get("offsets")?.unbind(),
+            nodes: get("nodes")?.unbind(),
+            q: get("q")?.unbind(),
+            qdot: get("qdot")?.unbind(),
+            kinetic_energy: get("kinetic_energy")?.unbind(),
+            potential_energy: get("potential_energy")?.unbind(),
+            energy: get("energy")?.unbind(),
+            strand_names: get("strand_names")?.extract()?,
+            groups: get("groups")?.extract()?,
+            radii: get("radii")?.unbind(),
+            stats: get("stats")?.unbind(),
+            summary: get("summary")?.unbind(),
+            summary_line: get("summary_line")?.extract()?,
+            frame_steps: get("frame_steps")?.unbind(),
+            strand_steps: get("strand_steps")?.unbind(),
+            held: get("held")?.unbind(),
+            held_tips: get("held_tips")?.extract()?,
+            arc_nodes: get("arc_nodes")?.unbind(),
+            d1: get("d1")?.unbind(),
+            engine: get("engine")?.extract()?,
+            completed: get("completed")?.extract()?,
+        })
+    }
+
     fn __repr__(&self, py: Python<'_>) -> String {
         let frames = self.times.bind(py).len().unwrap_or(0);
         format!(

@@ -198,6 +198,14 @@ impl Scene {
         &self.text
     }
 
+    /// pickle: a scene is its TOML text and the folder its relative paths are resolved
+    /// against; unpickling reads them again (`Scene.from_toml(text, base_dir)`), as a
+    /// process pool's worker would.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String, PathBuf))> {
+        let from_toml = py.get_type::<Scene>().getattr("from_toml")?;
+        Ok((from_toml, (self.text.clone(), self.dir.clone())))
+    }
+
     /// Folder relative file paths of the scene are resolved against.
     #[getter]
     fn base_dir(&self) -> PathBuf {

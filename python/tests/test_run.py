@@ -288,3 +288,23 @@ def test_a_pinned_roots_whole_q_continues_a_run():
     again = superhelix.Scene.from_dict(d).run(frames=1)
     np.testing.assert_array_equal(again.q[0, 0], q)
     np.testing.assert_allclose(again.points[0], r.points[-1], atol=1e-12)
+
+
+def test_scenes_and_results_pickle():
+    # a scene travels to a process pool's worker as its text; a result with its arrays
+    import pickle
+
+    scene = superhelix.Scene.from_dict(hanging_strand())
+    copy = pickle.loads(pickle.dumps(scene))
+    assert copy.toml == scene.toml
+    r = scene.run(frames=3)
+    back = pickle.loads(pickle.dumps(r))
+    for name in ["times", "state_times", "points", "offsets", "nodes", "q", "qdot",
+                 "kinetic_energy", "potential_energy", "energy", "radii"]:
+        np.testing.assert_array_equal(getattr(back, name), getattr(r, name), err_msg=name)
+    assert back.strand_names == r.strand_names and back.groups == r.groups
+    assert back.summary == r.summary and back.stats == r.stats
+    assert back.summary_line == r.summary_line and back.engine == r.engine
+    assert back.completed and back.frame_count == 3
+    # the unpickled scene runs to the same frames
+    np.testing.assert_array_equal(copy.run(frames=3).points, r.points)
