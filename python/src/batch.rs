@@ -552,6 +552,15 @@ fn supported(n: usize) -> bool {
     superhelix_generated::fixed::SIZES.contains(&n)
 }
 
+/// How to get the fixed-N code for `n` elements, for the message refusing it.
+fn how_to_add(n: usize) -> String {
+    if (1..=superhelix_runtime::scene::MAX_ELEMENTS).contains(&n) {
+        format!(": build the module with it (`SUPERHELIX_N={n} pip install ./python`), or step the scene with `Scene.simulation()`, which takes any N")
+    } else {
+        String::new()
+    }
+}
+
 #[pymethods]
 impl Batch {
     #[new]
@@ -583,8 +592,9 @@ impl Batch {
         let n = elements;
         if !supported(n) {
             return Err(PyValueError::new_err(format!(
-                "elements: no generated fixed-N code for N = {n} in this build (sizes: {:?})",
-                superhelix_generated::fixed::SIZES
+                "elements: no generated fixed-N code for N = {n} in this build (sizes: {:?}){}",
+                superhelix_generated::fixed::SIZES,
+                how_to_add(n)
             )));
         }
         if count == 0 || count > MAX_STRANDS {
@@ -659,7 +669,8 @@ impl Batch {
             Some(Ok(group)) => Ok(Batch::with_group(group, gravity, HeadState::rest())),
             Some(Err((i, e))) => Err(PyValueError::new_err(format!("strand {i}: {e}"))),
             None => Err(PyValueError::new_err(format!(
-                "elements: no generated fixed-N code for N = {n}"
+                "elements: no generated fixed-N code for N = {n}{}",
+                how_to_add(n)
             ))),
         }
     }
@@ -703,8 +714,9 @@ impl Batch {
         }
         if !supported(n) {
             return Err(PyValueError::new_err(format!(
-                "elements: no generated fixed-N code for N = {n} in this build (sizes: {:?})",
-                superhelix_generated::fixed::SIZES
+                "elements: no generated fixed-N code for N = {n} in this build (sizes: {:?}){}",
+                superhelix_generated::fixed::SIZES,
+                how_to_add(n)
             )));
         }
         let strands: Vec<(&Strand, &[f64])> = setup
@@ -995,8 +1007,9 @@ impl Batch {
     /// batch.energies() -> dict
     ///
     /// Each strand's energy in its state, J, arrays of shape (count,): kinetic (relative
-    /// to the head), elastic (½ Σ K (q − q_n)²), potential (gravity, with the head last
-    /// set) and total, as the checked step measures them.
+    /// to the head), elastic (½ Σ K (q − q_n)²), gravity (with the head last set),
+    /// potential (elastic plus gravity, as `Simulation.energies()` and a run's
+    /// `potential_energy` count it) and total, as the checked step measures them.
     fn energies<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let mut inner = self.lock()?;
         let settings = inner.settings;
@@ -1012,8 +1025,10 @@ impl Batch {
         let total: Vec<f64> = (0..c).map(|i| t[i] + u[i] + v[i]).collect();
         let d = PyDict::new(py);
         d.set_item("kinetic", f64_array(py, &[c], t)?)?;
+        let potential: Vec<f64> = (0..c).map(|i| u[i] + v[i]).collect();
         d.set_item("elastic", f64_array(py, &[c], u)?)?;
-        d.set_item("potential", f64_array(py, &[c], v)?)?;
+        d.set_item("gravity", f64_array(py, &[c], v)?)?;
+        d.set_item("potential", f64_array(py, &[c], potential)?)?;
         d.set_item("total", f64_array(py, &[c], total)?)?;
         Ok(d)
     }

@@ -236,32 +236,41 @@ impl Simulation {
     /// sim.energies() -> dict
     ///
     /// Each strand's energy in its current state, J, as arrays of shape (strands,):
-    /// kinetic (½ q̇ᵀ M q̇ relative to the head), potential (elastic plus gravity plus
-    /// point loads; contacts and electrostatics not counted) and total. The stepping
+    /// kinetic (½ q̇ᵀ M q̇ relative to the head), elastic (½ (q − q_n)ᵀ K (q − q_n)),
+    /// potential (elastic plus gravity plus point loads; contacts and electrostatics not
+    /// counted) and total: the names and meanings of `Batch.energies()` and of a run's
+    /// `potential_energy`. The stepping
     /// simulation is not changed: the runtime engine's strands are measured on a second
     /// simulation of the scene without contacts, set to this state (built on first use).
     fn energies<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let (kinetic, potential) = py.detach(|| -> PyResult<(Vec<f64>, Vec<f64>)> {
-            let mut guard = self.inner.lock().map_err(|_| {
-                PyRuntimeError::new_err("this simulation was poisoned by an earlier internal error")
+        let (kinetic, potential, elastic) =
+            py.detach(|| -> PyResult<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+                let mut guard = self.inner.lock().map_err(|_| {
+                    PyRuntimeError::new_err(
+                        "this simulation was poisoned by an earlier internal error",
+                    )
+                })?;
+                let inner = &mut *guard;
+                let n = inner.sim.strand_count();
+                let (mut kinetic, mut potential) = (Vec::with_capacity(n), Vec::with_capacity(n));
+                for i in 0..n {
+                    let (t, v) = inner
+                        .meter
+                        .measure(&mut inner.sim, i, None)
+                        .map_err(PyRuntimeError::new_err)?;
+                    kinetic.push(t);
+                    potential.push(v);
+                }
+                let elastic = (0..n)
+                    .map(|i| inner.sim.strand(i).elastic_energy(inner.sim.q(i)))
+                    .collect();
+                Ok((kinetic, potential, elastic))
             })?;
-            let inner = &mut *guard;
-            let n = inner.sim.strand_count();
-            let (mut kinetic, mut potential) = (Vec::with_capacity(n), Vec::with_capacity(n));
-            for i in 0..n {
-                let (t, v) = inner
-                    .meter
-                    .measure(&mut inner.sim, i, None)
-                    .map_err(PyRuntimeError::new_err)?;
-                kinetic.push(t);
-                potential.push(v);
-            }
-            Ok((kinetic, potential))
-        })?;
         let n = kinetic.len();
         let total: Vec<f64> = kinetic.iter().zip(&potential).map(|(a, b)| a + b).collect();
         let d = PyDict::new(py);
         d.set_item("kinetic", f64_array(py, &[n], kinetic)?)?;
+        d.set_item("elastic", f64_array(py, &[n], elastic)?)?;
         d.set_item("potential", f64_array(py, &[n], potential)?)?;
         d.set_item("total", f64_array(py, &[n], total)?)?;
         Ok(d)

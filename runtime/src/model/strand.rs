@@ -153,6 +153,17 @@ impl Strand {
         k
     }
 
+    /// The elastic energy ½ (q − q_n)ᵀ K (q − q_n) at `q` (eq. 5c's K), J: the elements'
+    /// twist and bending, none for a pinned root's joint or a free root's translation.
+    pub fn elastic_energy(&self, q: &[f64]) -> f64 {
+        self.stiffness_diagonal()
+            .iter()
+            .zip(q)
+            .zip(&self.natural)
+            .map(|((k, q), n)| 0.5 * k * (q - n) * (q - n))
+            .sum()
+    }
+
     /// Diagonal of the internal friction matrix γ l_Q (none on a pinned or free root's
     /// joint, nor on a free root's translation).
     pub fn friction_diagonal(&self) -> Vec<f64> {
