@@ -285,6 +285,66 @@ impl Simulation {
         stats_dict(py, &s)
     }
 
+    /// Gravity now, world coordinates, m/s²: shape (3,), or None without gravity.
+    #[getter]
+    fn gravity(&self, py: Python<'_>) -> PyResult<Option<Py<PyAny>>> {
+        let g = self.lock()?.sim.gravity();
+        g.map(|g| f64_array(py, &[3], g.iter().copied().collect()))
+            .transpose()
+    }
+
+    /// sim.set_gravity(g)
+    ///
+    /// Gravity from now on for every strand, world coordinates, m/s² (3 finite values,
+    /// each of magnitude at most 10⁴ m/s²), or None for none: a load turned or ramped
+    /// between steps, the clock and the head's phase kept. The steps and `solve_static()`
+    /// take it; the potential changes at once, so each strand's energy balance starts
+    /// afresh from its state (no work done). Costs nothing per step.
+    fn set_gravity(&self, g: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+        let g = match g {
+            None => None,
+            Some(v) if v.is_none() => None,
+            Some(v) => {
+                let g = vector(v, "gravity", 3)?;
+                if let Some(x) = g.iter().find(|x| !x.is_finite() || x.abs() > 1e4) {
+                    return Err(PyValueError::new_err(format!(
+                        "gravity: each component must be finite and within ±1e4 m/s², got {x}"
+                    )));
+                }
+                Some(nalgebra::Vector3::new(g[0], g[1], g[2]))
+            }
+        };
+        self.lock()?.sim.set_gravity(g);
+        Ok(())
+    }
+
+    /// sim.solve_static() -> list[dict]
+    ///
+    /// Every strand's static equilibrium under the present gravity and point loads (head
+    /// at rest), by Newton's method from its present q: set a strand's q first
+    /// (`set_state`, any `result.q` of the same strand) to start from a guess, or to
+    /// follow one branch by small changes of a load. Per strand: iterations, residual
+    /// (max |F|, N·m), force_scale and converged. The velocities are left as they were.
+    /// Raises SimulationError when a strand's solve fails (non-finite or diverged).
+    fn solve_static<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        let reports = py.detach(|| -> PyResult<_> {
+            let mut inner = self.inner.lock().map_err(|_| {
+                PyRuntimeError::new_err("this simulation was poisoned by an earlier internal error")
+            })?;
+            inner.sim.solve_static().map_err(run_error)
+        })?;
+        let list = PyList::empty(py);
+        for r in reports {
+            let d = PyDict::new(py);
+            d.set_item("iterations", r.iterations)?;
+            d.set_item("residual", r.residual)?;
+            d.set_item("force_scale", r.force_scale)?;
+            d.set_item("converged", r.converged)?;
+            list.append(d)?;
+        }
+        Ok(list)
+    }
+
     /// sim.error_control() -> dict | None
     ///
     /// With a tolerance, what the error-controlled steps did so far (tolerance,

@@ -2259,6 +2259,40 @@ impl Simulation {
             None => &self.strands[i].state.v,
         }
     }
+    /// Gravity now (world coordinates, m/s²; `None`: none).
+    pub fn gravity(&self) -> Option<nalgebra::Vector3<f64>> {
+        match &self.embedded {
+            Some(e) => e.gravity,
+            None => self
+                .strands
+                .first()
+                .and_then(|s| s.system.context.effects.gravity),
+        }
+    }
+
+    /// Change gravity from now on (world coordinates, m/s²; `None`: none) for every
+    /// strand, in the steps and the static solves alike: a load a study ramps or turns
+    /// between two steps. The potential changes at once, which is no work the strands did:
+    /// each strand's energy balance and step history start afresh from its state.
+    pub fn set_gravity(&mut self, gravity: Option<nalgebra::Vector3<f64>>) {
+        if let Some(e) = &mut self.embedded {
+            e.gravity = gravity;
+            for k in 0..e.strands.len() {
+                let (_, _, g, p) = e.strands[k];
+                let group = &mut e.groups[g].1;
+                let (q, v) = (group.q(p).to_vec(), group.v(p).to_vec());
+                // (the group forgets the strand's energy and history with it)
+                group.set_state(p, &q, &v);
+            }
+            return;
+        }
+        for s in &mut self.strands {
+            s.system.context.effects.gravity = gravity;
+            s.system.workspace.forget_history();
+            s.system.workspace.forget_energy();
+        }
+    }
+
     /// Set the state of strand i (lengths must be 3N).
     pub fn set_state(&mut self, i: usize, q: &[f64], v: &[f64]) {
         if let Some(e) = &mut self.embedded {

@@ -164,6 +164,12 @@ impl StrandWorkspace {
         self.prev_h = 0.0;
     }
 
+    /// Forget the energy the last step ended with: the next step measures it afresh
+    /// (a load changed between two steps, which is no work the strand did).
+    pub fn forget_energy(&mut self) {
+        self.last_energy = None;
+    }
+
     /// What the next step needs of these buffers (see [`WorkspaceState`]).
     pub fn state(&self) -> WorkspaceState {
         let (basis, basis_negative) = self.solver.projection_basis();
