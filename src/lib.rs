@@ -459,8 +459,7 @@ pub fn check_scene_reporting(
     // a scene beyond the machine's memory is refused on its estimate alone, before any
     // simulation is built (listing its other problems would build one)
     if let Ok((setup, _)) = &parsed {
-        let (engine, _) = runtime::engine_for(setup);
-        if let Err(Error::Invalid(errors)) = runtime::memory_plan::estimate(setup, engine).check() {
+        if let Err(Error::Invalid(errors)) = runtime::check_memory(setup) {
             return Err(errors);
         }
     }
@@ -476,8 +475,7 @@ pub fn check_scene_reporting(
 /// it: `--tolerance`, `--part`), to meet every problem `run` meets before its first
 /// step, within the memory [`check_scene_reporting`] allows itself.
 pub fn check_setup(setup: &SimulationSetup) -> Result<()> {
-    let (engine, _) = runtime::engine_for(setup);
-    runtime::memory_plan::estimate(setup, engine).check()?;
+    runtime::check_memory(setup)?;
     build_in_chunks(setup)
 }
 

@@ -64,7 +64,7 @@ pub use kernels::generic::{GenericKernel, GenericKernelFactory, QuadratureRule};
 pub use kernels::kernel::{EvalInput, KernelFactory, StrandKernel, StrandTerms, Terms};
 pub use model::material::{CrossSection, HelixForm, Material, Preset};
 pub use model::strand::{PointLoad, Strand, StrandGeometry};
-pub use simulation::{engine_for, Simulation};
+pub use simulation::{check_memory, engine_for, Simulation};
 pub use solver::StepStats;
 
 pub use forces::head_motion::{Keyframe, KeyframeTrack};

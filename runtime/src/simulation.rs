@@ -445,6 +445,13 @@ fn start_reaction(
     }
 }
 
+/// Refuse `setup` when what it holds on the engine it gets ([`engine_for`]) is beyond
+/// the machine's memory ([`crate::memory_plan::MemoryEstimate::check`]): the check
+/// `run`, `validate` and [`Simulation::new`] make before they allocate.
+pub fn check_memory(setup: &SimulationSetup) -> Result<()> {
+    crate::memory_plan::estimate(setup, engine_for(setup).0).check()
+}
+
 /// The engine [`Simulation::new`] steps `setup` with ([`Engine::Embedded`] or
 /// [`Engine::Runtime`], what `engine = "auto"` resolves to), and when `auto` takes the
 /// runtime engine the first thing in the scene the embedded engine lacks.
@@ -949,7 +956,7 @@ impl Simulation {
     pub fn new(setup: SimulationSetup, generated: Option<&dyn KernelFactory>) -> Result<Self> {
         check_setup(&setup)?;
         // what will not fit in the machine's memory is refused before it is allocated
-        crate::memory_plan::estimate(&setup, engine_for(&setup).0).check()?;
+        check_memory(&setup)?;
         let (bodies, mut errors) = match Bodies::build(&setup.bodies) {
             Ok(bodies) => (bodies, Vec::new()),
             Err(Error::Invalid(errors)) => (Bodies::default(), errors),

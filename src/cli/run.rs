@@ -71,8 +71,7 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
     // scales with it (the digests below format every strand's numbers); a part is
     // checked on its own strands when its simulation is built
     if args.choices.part.is_none() {
-        let (engine, _) = superhelix::runtime::engine_for(&setup);
-        superhelix::runtime::memory_plan::estimate(&setup, engine).check()?;
+        superhelix::runtime::check_memory(&setup)?;
     }
     // the digest of the whole scene, which every part names
     let whole = superhelix::runtime::output::checkpoint::setup_digest(&setup);
