@@ -155,6 +155,39 @@ struct Produced {
     engine: &'static str,
 }
 
+/// Hands every field of [`RunResult`] to the macro `$m` (pickle writes and reads them
+/// by these names).
+macro_rules! run_result_fields {
+    ($m:ident) => {
+        $m!(
+            times,
+            state_times,
+            points,
+            offsets,
+            nodes,
+            q,
+            qdot,
+            kinetic_energy,
+            potential_energy,
+            energy,
+            strand_names,
+            groups,
+            radii,
+            stats,
+            summary,
+            summary_line,
+            frame_steps,
+            strand_steps,
+            held,
+            held_tips,
+            arc_nodes,
+            d1,
+            engine,
+            completed
+        )
+    };
+}
+
 /// The result of `scene.run()`: every frame of the run as numpy arrays (SI units), and
 /// what the steps did.
 ///
@@ -270,32 +303,7 @@ impl RunResult {
         macro_rules! put {
             ($($f:ident),*) => { $( d.set_item(stringify!($f), &self.$f)?; )* };
         }
-        put!(
-            times,
-            state_times,
-            points,
-            offsets,
-            nodes,
-            q,
-            qdot,
-            kinetic_energy,
-            potential_energy,
-            energy,
-            strand_names,
-            groups,
-            radii,
-            stats,
-            summary,
-            summary_line,
-            frame_steps,
-            strand_steps,
-            held,
-            held_tips,
-            arc_nodes,
-            d1,
-            engine,
-            completed
-        );
+        run_result_fields!(put);
         let from_fields = py.get_type::<RunResult>().getattr("_from_fields")?;
         Ok((from_fields, (d,)))
     }
@@ -308,32 +316,10 @@ impl RunResult {
             d.get_item(key)?
                 .ok_or_else(|| pyo3::exceptions::PyKeyError::new_err(key.to_string()))
         };
-        Ok(RunResult {
-            times: get("times")?.unbind(),
-            state_times: get("state_times")?.unbind(),
-            points: get("points")?.unbind(),
-            offsets: get("offsets")?.unbind(),
-            nodes: get("nodes")?.unbind(),
-            q: get("q")?.unbind(),
-            qdot: get("qdot")?.unbind(),
-            kinetic_energy: get("kinetic_energy")?.unbind(),
-            potential_energy: get("potential_energy")?.unbind(),
-            energy: get("energy")?.unbind(),
-            strand_names: get("strand_names")?.extract()?,
-            groups: get("groups")?.extract()?,
-            radii: get("radii")?.unbind(),
-            stats: get("stats")?.unbind(),
-            summary: get("summary")?.unbind(),
-            summary_line: get("summary_line")?.extract()?,
-            frame_steps: get("frame_steps")?.unbind(),
-            strand_steps: get("strand_steps")?.unbind(),
-            held: get("held")?.unbind(),
-            held_tips: get("held_tips")?.extract()?,
-            arc_nodes: get("arc_nodes")?.unbind(),
-            d1: get("d1")?.unbind(),
-            engine: get("engine")?.extract()?,
-            completed: get("completed")?.extract()?,
-        })
+        macro_rules! build {
+            ($($f:ident),*) => { RunResult { $( $f: get(stringify!($f))?.extract()?, )* } };
+        }
+        Ok(run_result_fields!(build))
     }
 
     fn __repr__(&self, py: Python<'_>) -> String {

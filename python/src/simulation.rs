@@ -296,7 +296,7 @@ impl Simulation {
     /// sim.set_gravity(g)
     ///
     /// Gravity from now on for every strand, world coordinates, m/s² (3 finite values,
-    /// each of magnitude at most 10⁴ m/s²), or None for none: a load turned or ramped
+    /// each within ±1000 m/s², as the scene's), or None for none: a load turned or ramped
     /// between steps, the clock and the head's phase kept. The steps and `solve_static()`
     /// take it; the potential changes at once, so each strand's energy balance starts
     /// afresh from its state (no work done). Costs nothing per step.
@@ -306,9 +306,10 @@ impl Simulation {
             Some(v) if v.is_none() => None,
             Some(v) => {
                 let g = vector(v, "gravity", 3)?;
-                if let Some(x) = g.iter().find(|x| !x.is_finite() || x.abs() > 1e4) {
+                let max = superhelix_runtime::scene::MAX_GRAVITY;
+                if let Some(x) = g.iter().find(|x| !x.is_finite() || x.abs() > max) {
                     return Err(PyValueError::new_err(format!(
-                        "gravity: each component must be finite and within ±1e4 m/s², got {x}"
+                        "gravity: each component must be finite and within ±{max} m/s² (as [environment] gravity), got {x}"
                     )));
                 }
                 Some(nalgebra::Vector3::new(g[0], g[1], g[2]))

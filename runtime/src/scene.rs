@@ -22,7 +22,7 @@ mod render;
 mod strands;
 
 /// Gravity, m/s² per component: up to 100 g.
-const MAX_GRAVITY: f64 = 1e3;
+pub const MAX_GRAVITY: f64 = 1e3;
 
 use crate::config::total_steps;
 use crate::config::FieldStiffness;

@@ -513,14 +513,11 @@ fn convex_hull(points: &mut [(f32, f32)]) -> Vec<(f32, f32)> {
     let cross = |o: (f32, f32), a: (f32, f32), b: (f32, f32)| {
         (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0)
     };
+    // the lower chain left to right, then the upper one right to left; the last point of
+    // each starts the other
     let mut hull: Vec<(f32, f32)> = Vec::with_capacity(points.len() + 1);
-    for pass in 0..2 {
+    let chain = |hull: &mut Vec<(f32, f32)>, ordered: &mut dyn Iterator<Item = &(f32, f32)>| {
         let floor = hull.len();
-        let ordered: Box<dyn Iterator<Item = &(f32, f32)>> = if pass == 0 {
-            Box::new(points.iter())
-        } else {
-            Box::new(points.iter().rev())
-        };
         for &p in ordered {
             while hull.len() >= floor + 2
                 && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
@@ -529,9 +526,10 @@ fn convex_hull(points: &mut [(f32, f32)]) -> Vec<(f32, f32)> {
             }
             hull.push(p);
         }
-        // the last point of each chain starts the other
         hull.pop();
-    }
+    };
+    chain(&mut hull, &mut points.iter());
+    chain(&mut hull, &mut points.iter().rev());
     hull
 }
 
