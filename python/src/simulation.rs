@@ -10,6 +10,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::sync::{Mutex, MutexGuard};
 use std::time::Instant;
+use superhelix_runtime::forces::internal_loads::Momenta;
 use superhelix_runtime::{Simulation as Runtime, SimulationSetup};
 
 struct Inner {
@@ -17,6 +18,24 @@ struct Inner {
     setup: SimulationSetup,
     /// Measures energies without touching `sim` ([`EnergyMeter`]).
     meter: EnergyMeter,
+    /// Whether `step` keeps the momenta for the inertia of `internal_loads`.
+    track_inertia: bool,
+    /// Per strand, the momenta before the last two steps, oldest first.
+    earlier: Vec<Vec<Momenta>>,
+}
+
+impl Inner {
+    /// Keep every strand's momenta now, dropping all but the last two.
+    fn keep_momenta(&mut self) {
+        let n = self.sim.strand_count();
+        self.earlier.resize_with(n, Vec::new);
+        for (i, kept) in self.earlier.iter_mut().enumerate() {
+            kept.push(self.sim.momenta(i));
+            if kept.len() > 2 {
+                kept.remove(0);
+            }
+        }
+    }
 }
 
 /// A running simulation of a scene (`scene.simulation()`), advanced by `step()`.
@@ -38,6 +57,8 @@ impl Simulation {
                 sim,
                 meter: EnergyMeter::new(&setup),
                 setup,
+                track_inertia: false,
+                earlier: Vec::new(),
             }),
         })
     }
@@ -61,6 +82,41 @@ fn rows(py: Python<'_>, rows: Vec<Vec<f64>>) -> PyResult<Py<PyAny>> {
         for r in rows {
             let n = r.len();
             list.append(f64_array(py, &[n], r)?)?;
+        }
+        Ok(list.into_any().unbind())
+    }
+}
+
+/// `samples_per_element` of `nodes()` and its kin: the scene's `[output]
+/// samples_per_element` when None, else checked to be in [1, 64].
+fn node_samples(sim: &Runtime, samples_per_element: Option<usize>) -> PyResult<usize> {
+    let per = samples_per_element.unwrap_or(sim.samples_per_element());
+    if (1..=64).contains(&per) {
+        Ok(per)
+    } else {
+        Err(PyValueError::new_err(format!(
+            "samples_per_element: must be in [1, 64], got {per}"
+        )))
+    }
+}
+
+/// Per-strand values of `tail` shape per point as one (strands, points, *tail) array
+/// when every strand has as many points, else a list of (points_i, *tail) arrays.
+fn stacked(py: Python<'_>, per_strand: Vec<Vec<f64>>, tail: &[usize]) -> PyResult<Py<PyAny>> {
+    let width: usize = tail.iter().product();
+    let points = per_strand.first().map_or(0, |v| v.len() / width);
+    let shape_of =
+        |p: usize| -> Vec<usize> { std::iter::once(p).chain(tail.iter().copied()).collect() };
+    if per_strand.iter().all(|v| v.len() == points * width) {
+        let n = per_strand.len();
+        let mut shape = vec![n];
+        shape.extend(shape_of(points));
+        f64_array(py, &shape, per_strand.into_iter().flatten().collect())
+    } else {
+        let list = PyList::empty(py);
+        for v in per_strand {
+            let p = v.len() / width;
+            list.append(f64_array(py, &shape_of(p), v)?)?;
         }
         Ok(list.into_any().unbind())
     }
@@ -101,7 +157,10 @@ impl Simulation {
                 PyRuntimeError::new_err("this simulation was poisoned by an earlier internal error")
             })?;
             let mut checked = Instant::now();
-            for _ in 0..steps {
+            for k in 0..steps {
+                if inner.track_inertia && k + 2 >= steps {
+                    inner.keep_momenta();
+                }
                 inner.sim.step().map_err(run_error)?;
                 // Ctrl-C between two steps (the GIL taken for it at most every 0.1 s)
                 if checked.elapsed() >= SIGNAL_CHECK {
@@ -184,12 +243,7 @@ impl Simulation {
     #[pyo3(signature = (samples_per_element = None))]
     fn nodes(&self, py: Python<'_>, samples_per_element: Option<usize>) -> PyResult<Py<PyAny>> {
         let mut inner = self.lock()?;
-        let per = samples_per_element.unwrap_or(inner.sim.samples_per_element());
-        if !(1..=64).contains(&per) {
-            return Err(PyValueError::new_err(format!(
-                "samples_per_element: must be in [1, 64], got {per}"
-            )));
-        }
+        let per = node_samples(&inner.sim, samples_per_element)?;
         let n = inner.sim.strand_count();
         let lines: Vec<Vec<[f64; 3]>> =
             (0..n).map(|i| inner.sim.centreline_world(i, per)).collect();
@@ -206,6 +260,158 @@ impl Simulation {
             }
             Ok(list.into_any().unbind())
         }
+    }
+
+    /// sim.directors(samples_per_element=None) -> array
+    ///
+    /// The material frame at the points of `nodes()` (the same arguments), world
+    /// coordinates: shape (strands, points, 3, 3), `[i, p, j]` the director d_j, with d0
+    /// the tangent and d1, d2 the frame's normals (the axes of the κ1 and κ2 bending;
+    /// section 3.1 of the Super-Helix paper). Unit vectors, orthonormal, right-handed.
+    /// A list of (points_i, 3, 3) arrays when the strands have different point counts.
+    #[pyo3(signature = (samples_per_element = None))]
+    fn directors(&self, py: Python<'_>, samples_per_element: Option<usize>) -> PyResult<Py<PyAny>> {
+        let inner = self.lock()?;
+        let per = node_samples(&inner.sim, samples_per_element)?;
+        let per_strand: Vec<Vec<f64>> = (0..inner.sim.strand_count())
+            .map(|i| {
+                let arcs = inner.sim.centreline_arcs(i, per);
+                inner
+                    .sim
+                    .poses_world(i, &arcs)
+                    .iter()
+                    .flat_map(|p| p.frame.iter().copied().collect::<Vec<_>>())
+                    .collect()
+            })
+            .collect();
+        drop(inner);
+        stacked(py, per_strand, &[3, 3])
+    }
+
+    /// sim.velocities(samples_per_element=None) -> array
+    ///
+    /// The world velocity of the points of `nodes()` (the same arguments), m/s: the
+    /// strand's motion relative to the head (J(s) q̇) plus the head's own
+    /// (Ẋ + ω × (x − X)). Shape (strands, points, 3), or a list as `nodes()`.
+    #[pyo3(signature = (samples_per_element = None))]
+    fn velocities(
+        &self,
+        py: Python<'_>,
+        samples_per_element: Option<usize>,
+    ) -> PyResult<Py<PyAny>> {
+        let inner = self.lock()?;
+        let per = node_samples(&inner.sim, samples_per_element)?;
+        let per_strand: Vec<Vec<f64>> = (0..inner.sim.strand_count())
+            .map(|i| {
+                let arcs = inner.sim.centreline_arcs(i, per);
+                inner
+                    .sim
+                    .velocities_world(i, &arcs)
+                    .iter()
+                    .flat_map(|v| v.iter().copied().collect::<Vec<_>>())
+                    .collect()
+            })
+            .collect();
+        drop(inner);
+        stacked(py, per_strand, &[3])
+    }
+
+    /// Whether `step()` keeps the momenta `internal_loads()` needs for the inertia
+    /// (default False). Set it before the steps whose end you will measure: each
+    /// `step()` call then measures every strand's momenta before its last two steps
+    /// (about three reconstructions of the strand each, a fraction of one implicit
+    /// step's cost).
+    #[getter]
+    fn track_inertia(&self) -> PyResult<bool> {
+        Ok(self.lock()?.track_inertia)
+    }
+
+    #[setter]
+    fn set_track_inertia(&self, on: bool) -> PyResult<()> {
+        let mut inner = self.lock()?;
+        inner.track_inertia = on;
+        if !on {
+            inner.earlier.clear();
+        }
+        Ok(())
+    }
+
+    /// sim.internal_loads(inertia=None) -> list[dict]
+    ///
+    /// What each strand carries inside and what holds it, at the current state (world
+    /// coordinates; arc length from the root): a dict per strand with
+    ///
+    /// - `arc` (N+1,): the element ends, m; `position` (N+1, 3) there, m;
+    /// - `force` (N+1, 3), N, and `moment` (N+1, 3), N·m about the centreline point: what
+    ///   the part beyond each end exerts on the part before it, from the balance of that
+    ///   part (gravity, the head's motion, air drag, point loads, a held tip, inertia);
+    /// - `element_moment` (N, 3): each element's moment from its curvatures and twist,
+    ///   along its material frame (twist, bending about d1, about d2), N·m, with
+    ///   internal friction's; `element_moment_world` (N, 3) the same at the element's
+    ///   middle in world coordinates;
+    /// - `root_reaction`, `tip_reaction`: (6,) force then moment (about the end) the
+    ///   holder applies, or None (a free root, a tip not held);
+    /// - `inertia`: whether the momenta's change was counted.
+    ///
+    /// `inertia=None` counts the inertia from the momenta `step()` kept
+    /// (`track_inertia`), and raises ValueError when a strand moves and none were kept;
+    /// False leaves it out (a static state). Raises ValueError for a scene with contacts
+    /// or electrostatics, whose forces the balance cannot place along the strand.
+    #[pyo3(signature = (inertia = None))]
+    fn internal_loads<'py>(
+        &self,
+        py: Python<'py>,
+        inertia: Option<bool>,
+    ) -> PyResult<Bound<'py, PyList>> {
+        let inner = self.lock()?;
+        let n = inner.sim.strand_count();
+        let mut all = Vec::with_capacity(n);
+        for i in 0..n {
+            let earlier: &[Momenta] = match inertia {
+                Some(false) => &[],
+                _ => inner.earlier.get(i).map_or(&[], Vec::as_slice),
+            };
+            let loads = inner.sim.internal_loads(i, earlier).map_err(run_error)?;
+            if inertia.is_none() && !loads.inertia && inner.sim.v(i).iter().any(|&v| v != 0.0) {
+                return Err(PyValueError::new_err(format!(
+                    "internal_loads: strand {i} moves and no momenta were kept for its inertia: set sim.track_inertia = True before stepping (or pass inertia=False to leave the inertia out)"
+                )));
+            }
+            all.push(loads);
+        }
+        drop(inner);
+        let list = PyList::empty(py);
+        let flat3 = |v: &[nalgebra::Vector3<f64>]| -> Vec<f64> {
+            v.iter()
+                .flat_map(|x| x.iter().copied().collect::<Vec<_>>())
+                .collect()
+        };
+        for l in all {
+            let d = PyDict::new(py);
+            let ends = l.arcs.len();
+            let elements = l.element_moment.len();
+            d.set_item("arc", f64_array(py, &[ends], l.arcs)?)?;
+            d.set_item("position", f64_array(py, &[ends, 3], flat3(&l.positions))?)?;
+            d.set_item("force", f64_array(py, &[ends, 3], flat3(&l.force))?)?;
+            d.set_item("moment", f64_array(py, &[ends, 3], flat3(&l.moment))?)?;
+            d.set_item(
+                "element_moment",
+                f64_array(py, &[elements, 3], flat3(&l.element_moment))?,
+            )?;
+            d.set_item(
+                "element_moment_world",
+                f64_array(py, &[elements, 3], flat3(&l.element_moment_world))?,
+            )?;
+            let six = |r: Option<nalgebra::Vector6<f64>>| {
+                r.map(|r| f64_array(py, &[6], r.iter().copied().collect()))
+                    .transpose()
+            };
+            d.set_item("root_reaction", six(l.root_reaction)?)?;
+            d.set_item("tip_reaction", six(l.tip_reaction)?)?;
+            d.set_item("inertia", l.inertia)?;
+            list.append(d)?;
+        }
+        Ok(list)
     }
 
     /// sim.set_state(i, q, qdot=None) -> None
@@ -230,6 +436,9 @@ impl Simulation {
             return Err(PyValueError::new_err("q, qdot: every value must be finite"));
         }
         inner.sim.set_state(i, &q, &v);
+        if let Some(kept) = inner.earlier.get_mut(i) {
+            kept.clear();
+        }
         Ok(())
     }
 

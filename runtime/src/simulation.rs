@@ -2416,6 +2416,103 @@ impl Simulation {
         pose_at(&self.strand(i).geometry, self.q(i), s).position
     }
 
+    /// The arc lengths of [`Simulation::centreline_world`]'s points of strand i: the
+    /// root, then `per_element` equally spaced in each element (a pinned or free root's
+    /// joint included, as there).
+    pub fn centreline_arcs(&self, i: usize, per_element: usize) -> Vec<f64> {
+        let per = per_element.max(1);
+        let mut arcs = vec![0.0];
+        let mut start = 0.0;
+        for &l in &self.strand(i).geometry.lengths {
+            arcs.extend((1..=per).map(|j| start + l * j as f64 / per as f64));
+            start += l;
+        }
+        arcs
+    }
+
+    /// The material frames of strand i at the arc lengths `arcs` (increasing), world
+    /// coordinates: position and the directors n0 (the tangent), n1, n2 as columns.
+    pub fn poses_world(&self, i: usize, arcs: &[f64]) -> Vec<crate::model::reconstruction::Pose> {
+        let head = self.head.state(self.time);
+        crate::model::kinematics::world_poses(&self.strand(i).geometry, self.q(i), &head, arcs)
+    }
+
+    /// The world velocity of strand i's centreline at the arc lengths `arcs`
+    /// (increasing), the head's motion included, m/s ([`crate::model::kinematics`]).
+    pub fn velocities_world(&self, i: usize, arcs: &[f64]) -> Vec<nalgebra::Vector3<f64>> {
+        use crate::model::kinematics::{relative_velocities, world_velocities};
+        let head = self.head.state(self.time);
+        let geom = &self.strand(i).geometry;
+        let mut positions = Vec::with_capacity(arcs.len());
+        crate::model::reconstruction::positions_at_sorted(
+            geom,
+            self.q(i),
+            arcs.iter().copied(),
+            &mut positions,
+        );
+        let relative = relative_velocities(geom, self.q(i), self.v(i), arcs);
+        world_velocities(&head, &positions, &relative)
+    }
+
+    /// Gravity and the head's motion as strand i's steps see them.
+    fn effects(&self, i: usize) -> GlobalEffects {
+        match &self.embedded {
+            Some(e) => GlobalEffects {
+                gravity: e.gravity,
+                head_moves: e.head_moves,
+            },
+            None => self.strands[i].system.context.effects,
+        }
+    }
+
+    /// The momenta of the parts of strand i beyond its element ends at the present state
+    /// ([`crate::forces::internal_loads::momenta`]): what a caller keeps after a step for
+    /// the inertia of a later [`Simulation::internal_loads`].
+    pub fn momenta(&self, i: usize) -> crate::forces::internal_loads::Momenta {
+        crate::forces::internal_loads::momenta(self.strand(i), self.q(i), self.v(i), self.time)
+    }
+
+    /// The internal force and moment of strand i at its element ends, each element's
+    /// constitutive moment and the reactions of its holders, at the present state
+    /// ([`crate::forces::internal_loads`]). `earlier` holds up to two of its earlier
+    /// [`Simulation::momenta`], oldest first, for the inertia (none: counted as zero,
+    /// exact in a static equilibrium). Refused for a scene with contacts or
+    /// electrostatics, whose forces the balance cannot place along the strand.
+    pub fn internal_loads(
+        &self,
+        i: usize,
+        earlier: &[crate::forces::internal_loads::Momenta],
+    ) -> Result<crate::forces::internal_loads::InternalLoads> {
+        if self.contact_summary(i).is_some() {
+            return Err(Error::invalid(
+                "contacts",
+                "internal loads are not computed with [contacts]: the balance would leave \
+                 out the contact forces, which are not kept per point of the strand",
+            ));
+        }
+        if self.electrostatics.is_some() {
+            return Err(Error::invalid(
+                "electrostatics",
+                "internal loads are not computed with [electrostatics]: the balance would \
+                 leave out the Coulomb forces, which are not kept per point of the strand",
+            ));
+        }
+        let head = self.head.state(self.time);
+        let tip_reaction = self.held_reaction(i);
+        let state = crate::forces::internal_loads::LoadState {
+            strand: self.strand(i),
+            q: self.q(i),
+            v: self.v(i),
+            head: &head,
+            effects: self.effects(i),
+            tip_reaction,
+        };
+        let now = self.momenta(i);
+        Ok(crate::forces::internal_loads::internal_loads(
+            &state, &now, earlier,
+        ))
+    }
+
     /// A runtime system of strand i of the embedded engine, for measurements (energy).
     fn measuring_system(&self, i: usize) -> StrandSystem {
         let strand = self.strand(i).clone();

@@ -1,0 +1,117 @@
+"""What a rod-mechanics study reads inside a strand: internal loads, reactions, directors
+and velocities, against beam theory and rigid-body dynamics."""
+
+import numpy as np
+import pytest
+
+import superhelix
+from conftest import hanging_strand
+
+L, R, E, RHO, G = 0.2, 1e-3, 2e11, 7800.0, 9.81
+
+
+def steel_rod(root="clamped", elements=10, **simulation):
+    """A steel rod along +x from the origin under gravity -z (L = 0.2 m, r = 1 mm,
+    E = 200 GPa), no drag or friction."""
+    d = hanging_strand(simulation=simulation)
+    d["strands"][0].update({"direction": [1.0, 0.0, 0.0], "normal": [0.0, 0.0, 1.0],
+                            "elements": elements, "radius": R, "youngs_modulus": E,
+                            "poisson": 0.3, "density": RHO, "natural": [0.0, 0.0, 0.0],
+                            "initial": "straight", "internal_friction": 0.0,
+                            "air_drag": 0.0, "ends": {"root": root}})
+    return d
+
+
+def test_a_cantilevers_root_reaction_and_internal_moment_are_beam_theorys():
+    # clamped at x = 0 under its weight w per length: the root holds w L up and a moment
+    # w L^2 / 2; inside, the moment is w (L - s)^2 / 2 and the shear w (L - s). The sag
+    # is 0.15 % of L: the geometry changes these by ~(sag / L)^2 = 2e-6
+    sim = superhelix.Scene.from_dict(steel_rod()).simulation()
+    assert all(r["converged"] for r in sim.solve_static())
+    w = RHO * np.pi * R**2 * G
+    (loads,) = sim.internal_loads()
+    assert loads["inertia"] is False and loads["tip_reaction"] is None
+    root = loads["root_reaction"]
+    np.testing.assert_allclose(root[:3], [0.0, 0.0, w * L], rtol=0, atol=1e-5 * w * L)
+    assert abs(root[2] / (w * L) - 1) < 1e-12
+    np.testing.assert_allclose(root[3:], [0.0, -w * L**2 / 2, 0.0], rtol=0,
+                               atol=1e-5 * w * L**2 / 2)
+    s = loads["arc"]
+    np.testing.assert_allclose(s, np.linspace(0.0, L, 11), atol=1e-15)
+    np.testing.assert_allclose(loads["moment"][:, 1], w * (L - s) ** 2 / 2, rtol=0,
+                               atol=1e-5 * w * L**2 / 2)
+    np.testing.assert_allclose(loads["force"][:, 2], -w * (L - s), rtol=0, atol=1e-5 * w * L)
+    # each element's constitutive moment is the element's mean of w (L - s)^2 / 2
+    a, b = s[:-1], s[1:]
+    mean = w * ((L - a) ** 3 - (L - b) ** 3) / (6 * (b - a))
+    np.testing.assert_allclose(loads["element_moment_world"][:, 1], mean, rtol=0,
+                               atol=1e-4 * w * L**2 / 2)
+    np.testing.assert_allclose(np.abs(loads["element_moment"][:, 0]), 0.0, atol=1e-12)
+
+
+def test_directors_are_the_material_frame_and_velocities_the_nodes_rate():
+    # a curly fibre swinging from the horizontal: the directors are orthonormal and
+    # right-handed with d0 along the centreline; the velocities are the rate of the
+    # nodes (BDF2's three-point formula on the nodes of three steps, to O(h^2))
+    d = hanging_strand()
+    d["strands"][0].update({"direction": [1.0, 0.0, 0.0], "normal": [0.0, 0.0, 1.0]})
+    d["simulation"].update({"integrator": "bdf2"})
+    h = 1e-4
+    sim = superhelix.Scene.from_dict(d).simulation(dt=h)
+    np.testing.assert_array_equal(sim.velocities(), 0.0)
+    sim.step(steps=500)
+    frames = sim.directors(samples_per_element=64)[0]
+    assert frames.shape == (321, 3, 3)
+    np.testing.assert_allclose(np.einsum("pij,pkj->pik", frames, frames),
+                               np.broadcast_to(np.eye(3), (321, 3, 3)), atol=1e-13)
+    np.testing.assert_allclose(np.cross(frames[:, 0], frames[:, 1]), frames[:, 2], atol=1e-13)
+    # a chord of the curl (curvature 165 rad/m, 0.625 mm long) is along the mean of its
+    # ends' tangents to (kappa h)^2 / 24 = 4.4e-4
+    nodes = sim.nodes(samples_per_element=64)[0]
+    chord = np.diff(nodes, axis=0)
+    chord /= np.linalg.norm(chord, axis=1)[:, None]
+    mid = 0.5 * (frames[:-1, 0] + frames[1:, 0])
+    assert np.max(np.linalg.norm(chord - mid / np.linalg.norm(mid, axis=1)[:, None], axis=1)) < 1e-3
+    history = [sim.nodes(samples_per_element=8)[0]]
+    for _ in range(2):
+        sim.step()
+        history.append(sim.nodes(samples_per_element=8)[0])
+    rate = (3 * history[2] - 4 * history[1] + history[0]) / (2 * h)
+    v = sim.velocities(samples_per_element=8)[0]
+    speed = np.max(np.linalg.norm(v, axis=1))
+    assert speed > 0.1, speed
+    assert np.max(np.linalg.norm(v - rate, axis=1)) < 1e-4 * speed
+
+
+def test_a_pins_reaction_on_a_swinging_rod_counts_its_inertia():
+    # a steel rod pinned at one end and released from the horizontal swings as a rigid
+    # body (internal friction damps its own bending; the pin has none): the pin holds
+    # its centre of mass on the circle, R = m a_cm - m g, with a_cm = omega^2 L/2 towards
+    # the pin and alpha L/2 = 3 g cos(theta) / 4 along the motion (mg/4 across at release)
+    d = steel_rod(root="pinned", integrator="bdf2", dt=2e-4)
+    d["strands"][0]["internal_friction"] = 2e-3
+    sim = superhelix.Scene.from_dict(d).simulation()
+    with pytest.raises(ValueError, match="track_inertia"):
+        sim.step(steps=2)
+        sim.internal_loads()
+    m = RHO * np.pi * R**2 * L
+    sim.track_inertia = True
+    worst = 0.0
+    for _ in range(12):
+        sim.step(steps=100)
+        (loads,) = sim.internal_loads()
+        assert loads["inertia"]
+        root, tip = loads["position"][0], loads["position"][-1]
+        u = (tip - root) / np.linalg.norm(tip - root)
+        theta = np.arctan2(-u[2], u[0])  # below the horizontal, 0 to pi
+        omega = np.linalg.norm(sim.velocities(samples_per_element=1)[0, -1]) / L
+        along = np.array([u[2], 0.0, -u[0]])  # du/dtheta
+        a_cm = -u * omega**2 * L / 2 + along * 3 * G * np.cos(theta) / 4
+        expected = m * a_cm - m * np.array([0.0, 0.0, -G])
+        worst = max(worst, np.linalg.norm(loads["root_reaction"][:3] - expected) / (m * G))
+    assert theta > 0.55 * np.pi, theta  # past the vertical
+    assert worst < 5e-4, worst
+    # left out on request, the inertia is missing from the balance
+    (static,) = sim.internal_loads(inertia=False)
+    assert static["inertia"] is False
+    assert np.linalg.norm(static["root_reaction"][:3] - expected) > 0.1 * m * G
