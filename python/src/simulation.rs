@@ -63,6 +63,25 @@ impl Simulation {
         })
     }
 
+    /// Steps `range` of a call of `steps` steps, without the GIL: the momenta kept before
+    /// the call's last two steps when `track_inertia` is on, Ctrl-C checked every 0.1 s.
+    fn advance(&self, range: std::ops::Range<usize>, steps: usize) -> PyResult<()> {
+        let mut inner = self.lock()?;
+        let mut checked = Instant::now();
+        for k in range {
+            if inner.track_inertia && k + 2 >= steps {
+                inner.keep_momenta();
+            }
+            inner.sim.step().map_err(run_error)?;
+            // Ctrl-C between two steps (the GIL taken for it at most every 0.1 s)
+            if checked.elapsed() >= SIGNAL_CHECK {
+                checked = Instant::now();
+                Python::attach(|py| py.check_signals())?;
+            }
+        }
+        Ok(())
+    }
+
     fn lock(&self) -> PyResult<MutexGuard<'_, Inner>> {
         self.inner.lock().map_err(|_| {
             PyRuntimeError::new_err("this simulation was poisoned by an earlier internal error")
@@ -134,17 +153,33 @@ fn check_index(i: usize, count: usize) -> PyResult<()> {
 
 #[pymethods]
 impl Simulation {
-    /// sim.step(dt=None, steps=1) -> None
+    /// sim.step(dt=None, steps=1, callback=None, every=1) -> None
     ///
     /// Advance every strand by `steps` time steps of the simulation's dt, with the GIL
     /// released. The runtime steps by the dt the simulation was built with: a `dt` given
     /// here must equal it (build with `scene.simulation(dt=...)` for another). The head
-    /// follows the scene's motion (a head pose per step is the embedded Batch's). Raises
-    /// SimulationError when a strand fails (the others keep their last good state), and
-    /// KeyboardInterrupt on Ctrl-C (after the step under way).
-    #[pyo3(signature = (dt = None, steps = 1))]
-    fn step(&self, py: Python<'_>, dt: Option<f64>, steps: usize) -> PyResult<()> {
-        let h = self.lock()?.sim.config().dt;
+    /// follows the scene's motion (a head pose per step is the embedded Batch's).
+    ///
+    /// `callback(sim)` is called before every `every`-th step (steps 0, every, 2 every,
+    /// ...) with the simulation at that state: it may read it and change the loads
+    /// (`set_point_loads`, `set_gravity`) for the steps that follow, a user force
+    /// recomputed every step with `every=1`. Its cost is one Python call (with the GIL)
+    /// and what it reads, per call; without it the steps run without the GIL. An
+    /// exception it raises stops the steps and is raised here.
+    ///
+    /// Raises SimulationError when a strand fails (the others keep their last good
+    /// state), and KeyboardInterrupt on Ctrl-C (after the step under way).
+    #[pyo3(signature = (dt = None, steps = 1, callback = None, every = 1))]
+    fn step(
+        slf: &Bound<'_, Self>,
+        dt: Option<f64>,
+        steps: usize,
+        callback: Option<Bound<'_, PyAny>>,
+        every: usize,
+    ) -> PyResult<()> {
+        let py = slf.py();
+        let this = slf.get();
+        let h = this.lock()?.sim.config().dt;
         if let Some(dt) = dt {
             if dt != h {
                 return Err(PyValueError::new_err(format!(
@@ -152,24 +187,25 @@ impl Simulation {
                 )));
             }
         }
-        py.detach(|| {
-            let mut inner = self.inner.lock().map_err(|_| {
-                PyRuntimeError::new_err("this simulation was poisoned by an earlier internal error")
-            })?;
-            let mut checked = Instant::now();
-            for k in 0..steps {
-                if inner.track_inertia && k + 2 >= steps {
-                    inner.keep_momenta();
-                }
-                inner.sim.step().map_err(run_error)?;
-                // Ctrl-C between two steps (the GIL taken for it at most every 0.1 s)
-                if checked.elapsed() >= SIGNAL_CHECK {
-                    checked = Instant::now();
-                    Python::attach(|py| py.check_signals())?;
-                }
-            }
-            Ok(())
-        })
+        if every == 0 {
+            return Err(PyValueError::new_err("every: must be at least 1, got 0"));
+        }
+        let Some(callback) = callback else {
+            return py.detach(|| this.advance(0..steps, steps));
+        };
+        if !callback.is_callable() {
+            return Err(PyValueError::new_err(
+                "callback: must be callable (sim) -> None",
+            ));
+        }
+        let mut k = 0;
+        while k < steps {
+            callback.call1((slf,))?;
+            let end = (k + every).min(steps);
+            py.detach(|| this.advance(k..end, steps))?;
+            k = end;
+        }
+        Ok(())
     }
 
     /// Simulated time, s.
@@ -412,6 +448,86 @@ impl Simulation {
             list.append(d)?;
         }
         Ok(list)
+    }
+
+    /// sim.point_loads(i) -> list[dict]
+    ///
+    /// Strand i's own point loads now: dicts of `s` (arc length, m), `force` (N, world
+    /// coordinates, or along the material frame when `follows`) and `follows`.
+    fn point_loads<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyList>> {
+        let inner = self.lock()?;
+        check_index(i, inner.sim.strand_count())?;
+        let list = PyList::empty(py);
+        for l in inner.sim.point_loads(i) {
+            let d = PyDict::new(py);
+            d.set_item("s", l.s)?;
+            d.set_item(
+                "force",
+                f64_array(py, &[3], l.force.iter().copied().collect())?,
+            )?;
+            d.set_item("follows", l.follows)?;
+            list.append(d)?;
+        }
+        Ok(list)
+    }
+
+    /// sim.set_point_loads(i, loads) -> None
+    ///
+    /// Replace strand i's own point loads from the next step on (and for
+    /// `solve_static()`): an iterable of dicts with `s` (m, in [0, L]), `force` (3
+    /// values, N, at most 1e6 N) and optionally `follows` (False: the force is in world
+    /// coordinates; True: along the material frame at s, runtime engine only), as a
+    /// scene's `[[strands.point_loads]]`. The clock, the head's phase and the
+    /// integrator's history are kept: a load set before every step (`step(callback=...)`)
+    /// is stepped exactly as the same load given in the scene. Costs nothing per step.
+    fn set_point_loads(&self, i: usize, loads: &Bound<'_, PyAny>) -> PyResult<()> {
+        let mut parsed = Vec::new();
+        for (k, item) in loads.try_iter()?.enumerate() {
+            let item = item?;
+            let d = item.cast::<PyDict>().map_err(|_| {
+                PyValueError::new_err(format!(
+                    "point_loads[{k}]: must be a dict with s, force and optionally follows"
+                ))
+            })?;
+            for key in d.keys() {
+                let key: String = key.extract()?;
+                if !["s", "force", "follows"].contains(&key.as_str()) {
+                    return Err(PyValueError::new_err(format!(
+                        "point_loads[{k}].{key}: unknown key (s, force, follows)"
+                    )));
+                }
+            }
+            let s: f64 = d
+                .get_item("s")?
+                .ok_or_else(|| PyValueError::new_err(format!("point_loads[{k}].s: required")))?
+                .extract()
+                .map_err(|_| {
+                    PyValueError::new_err(format!("point_loads[{k}].s: must be a number"))
+                })?;
+            let force = d.get_item("force")?.ok_or_else(|| {
+                PyValueError::new_err(format!("point_loads[{k}].force: required"))
+            })?;
+            let force = vector(&force, &format!("point_loads[{k}].force"), 3)?;
+            let follows = match d.get_item("follows")? {
+                Some(f) => f.extract::<bool>().map_err(|_| {
+                    PyValueError::new_err(format!(
+                        "point_loads[{k}].follows: must be True or False"
+                    ))
+                })?,
+                None => false,
+            };
+            parsed.push(superhelix_runtime::model::strand::PointLoad {
+                s,
+                force: nalgebra::Vector3::new(force[0], force[1], force[2]),
+                follows,
+            });
+        }
+        let mut inner = self.lock()?;
+        check_index(i, inner.sim.strand_count())?;
+        inner
+            .sim
+            .set_point_loads(i, parsed)
+            .map_err(|e| PyValueError::new_err(e.to_string()))
     }
 
     /// sim.set_state(i, q, qdot=None) -> None

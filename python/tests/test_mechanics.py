@@ -115,3 +115,71 @@ def test_a_pins_reaction_on_a_swinging_rod_counts_its_inertia():
     (static,) = sim.internal_loads(inertia=False)
     assert static["inertia"] is False
     assert np.linalg.norm(static["root_reaction"][:3] - expected) > 0.1 * m * G
+
+
+def test_a_user_force_each_step_is_the_same_load_given_in_the_scene():
+    # the same tip load, once in the scene and once set by a callback before every step
+    # (here turning with time, so the callback's is recomputed): the steps are the same
+    # to the bit, on the embedded engine and on the runtime's
+    def scene(with_load, engine):
+        d = hanging_strand(simulation={"engine": engine})
+        if with_load:
+            d["strands"][0]["point_loads"] = [{"s": 0.2, "force": [2e-6, 0.0, 1e-6]}]
+        return superhelix.Scene.from_dict(d)
+
+    for engine in ["embedded", "runtime"]:
+        given = scene(True, engine).simulation()
+        given.step(steps=20)
+        by_hand = scene(False, engine).simulation()
+        calls = []
+
+        def push(sim):
+            calls.append(sim.time)
+            sim.set_point_loads(0, [{"s": 0.2, "force": [2e-6, 0.0, 1e-6]}])
+
+        by_hand.step(steps=20, callback=push)
+        assert len(calls) == 20
+        np.testing.assert_array_equal(by_hand.q, given.q)
+        np.testing.assert_array_equal(by_hand.qdot, given.qdot)
+        (load,) = by_hand.point_loads(0)
+        assert load["s"] == 0.2 and load["follows"] is False
+        np.testing.assert_array_equal(load["force"], [2e-6, 0.0, 1e-6])
+    # every k steps
+    sim = scene(False, "runtime").simulation()
+    seen = []
+    sim.step(steps=10, callback=lambda s: seen.append(s.steps_taken), every=4)
+    assert seen == [0, 4, 8]
+    with pytest.raises(ValueError, match=r"point_loads\[0\]\.s"):
+        sim.set_point_loads(0, [{"s": 0.3, "force": [0.0, 0.0, 1.0]}])
+    with pytest.raises(ValueError, match=r"point_loads\[0\]\.force"):
+        sim.set_point_loads(0, [{"s": 0.1, "force": [0.0, np.nan, 1.0]}])
+    with pytest.raises(ValueError, match=r"point_loads\[0\]\.push"):
+        sim.set_point_loads(0, [{"s": 0.1, "force": [0.0, 0.0, 1.0], "push": 1}])
+    with pytest.raises(ZeroDivisionError):
+        sim.step(steps=3, callback=lambda s: 1 / 0)
+
+
+def test_a_tip_load_set_between_static_solves_bends_a_cantilever_by_beam_theory():
+    # a tip force P across a clamped steel rod without gravity: the root holds -P and the
+    # moment P L, the moment inside falls linearly to zero at the tip, and the tip sinks
+    # by P L^3 / (3 EI) (Euler-Bernoulli) less the piecewise-constant curvature's
+    # 1 / (4 N^2)
+    d = steel_rod()
+    d["environment"] = {"gravity": "none"}
+    sim = superhelix.Scene.from_dict(d).simulation()
+    EI = E * np.pi * R**4 / 4
+    P = 0.01  # the sag is 0.17 % of L: its geometric nonlinearity ~(sag/L)^2 = 3e-6
+    sim.set_point_loads(0, [{"s": L, "force": [0.0, 0.0, -P]}])
+    assert all(r["converged"] for r in sim.solve_static())
+    (loads,) = sim.internal_loads()
+    np.testing.assert_allclose(loads["root_reaction"][:3], [0.0, 0.0, P], rtol=0, atol=1e-5 * P)
+    assert abs(loads["root_reaction"][4] + P * L) < 1e-5 * P * L
+    np.testing.assert_allclose(loads["moment"][:, 1], P * (L - loads["arc"]), rtol=0,
+                               atol=1e-5 * P * L)
+    sag = -sim.nodes()[0, -1, 2]
+    ratio = sag / (P * L**3 / (3 * EI))
+    assert abs(ratio - (1 - 1 / (4 * 10**2))) < 1e-4, ratio
+    sim.set_point_loads(0, [])
+    assert sim.point_loads(0) == []
+    sim.solve_static()
+    assert abs(sim.nodes()[0, -1, 2]) < 1e-12

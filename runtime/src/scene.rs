@@ -45,7 +45,7 @@ use superhelix_kernels::energy::MAX_SUBSTEP_DEPTH;
 use toml::{Table, Value};
 
 pub use assembly::MAX_STRANDS;
-pub use strands::{DEFAULT_ELEMENTS, MAX_ELEMENTS};
+pub use strands::{DEFAULT_ELEMENTS, MAX_ELEMENTS, MAX_POINT_LOAD};
 
 /// Largest time step, seconds: beyond it a run is meaningless.
 pub const MAX_DT: f64 = 1.0;

@@ -2300,6 +2300,105 @@ impl Simulation {
         }
     }
 
+    /// Strand i's own point loads (the scene's, or what [`Simulation::set_point_loads`]
+    /// set last; the Coulomb forces of electrostatics, kept after them, not included).
+    pub fn point_loads(&self, i: usize) -> &[crate::model::strand::PointLoad] {
+        match &self.embedded {
+            Some(e) => &e.strands[i].0.point_loads[..e.scene_loads[i]],
+            None => {
+                let s = &self.strands[i];
+                &s.system.strand.point_loads[..s.scene_loads]
+            }
+        }
+    }
+
+    /// Replace strand i's own point loads from now on (the steps and static solves take
+    /// them; the Coulomb forces stay): a load ramped, moved or computed by a caller
+    /// between two steps. Each load's s must be in [0, L] and its force finite, at most
+    /// [`crate::scene::MAX_POINT_LOAD`] N; the embedded engine takes no follower load.
+    /// The change is no work the strand did: its last energy is shifted by the loads'
+    /// potential at its state (as for electrostatics' updates), and the two-step
+    /// integrator keeps its history, so a load set before every step is stepped exactly
+    /// as the same load given in the scene.
+    pub fn set_point_loads(
+        &mut self,
+        i: usize,
+        loads: Vec<crate::model::strand::PointLoad>,
+    ) -> Result<()> {
+        let count = self.strand_count();
+        if i >= count {
+            return Err(Error::invalid(
+                "strand",
+                format!("{i}: the simulation has {count} strand(s)"),
+            ));
+        }
+        let length = self.strand(i).geometry.length();
+        let max = crate::scene::MAX_POINT_LOAD;
+        let mut loads = loads;
+        for (k, load) in loads.iter_mut().enumerate() {
+            // (the elements' lengths sum to L within rounding: a load at L is at the tip)
+            if load.s > length && load.s <= length * (1.0 + 1e-12) {
+                load.s = length;
+            }
+            if !(load.s.is_finite() && (0.0..=length).contains(&load.s)) {
+                return Err(Error::invalid(
+                    &format!("point_loads[{k}].s"),
+                    format!(
+                        "{}: must be in [0, {length}] m, the strand's length",
+                        load.s
+                    ),
+                ));
+            }
+            if !(load.force.iter().all(|f| f.is_finite()) && load.force.norm() <= max) {
+                return Err(Error::invalid(
+                    &format!("point_loads[{k}].force"),
+                    format!(
+                        "[{}, {}, {}]: must be finite with a magnitude <= {max:e} N",
+                        load.force[0], load.force[1], load.force[2]
+                    ),
+                ));
+            }
+            if load.follows && self.embedded.is_some() {
+                return Err(Error::invalid(
+                    &format!("point_loads[{k}].follows"),
+                    "the embedded engine takes no follower load: build the simulation with engine = \"runtime\"",
+                ));
+            }
+        }
+        // Σ f · (x − X) of the dead loads at the state, world: the change of the loads'
+        // potential −Σ f · y the strand's last energy is shifted by
+        let head = self.head.state(self.time);
+        let geometry = self.strand(i).geometry.clone();
+        let q = self.q(i).to_vec();
+        let dead_sum = |loads: &[crate::model::strand::PointLoad]| -> f64 {
+            loads
+                .iter()
+                .filter(|l| !l.follows)
+                .map(|l| {
+                    let y = pose_at(&geometry, &q, l.s).position;
+                    l.force.dot(&(head.rotation * y))
+                })
+                .sum()
+        };
+        let change = dead_sum(&loads) - dead_sum(self.point_loads(i));
+        let replace = |all: &mut Vec<crate::model::strand::PointLoad>, own: &mut usize| {
+            all.splice(..*own, loads.iter().copied());
+            *own = loads.len();
+        };
+        if let Some(e) = &mut self.embedded {
+            let (strand, _, g, p) = &mut e.strands[i];
+            replace(&mut strand.point_loads, &mut e.scene_loads[i]);
+            let group = &mut e.groups[*g].1;
+            group.set_loads(*p, &strand.point_loads);
+            group.shift_load_energy(*p, change);
+            return Ok(());
+        }
+        let s = &mut self.strands[i];
+        replace(&mut s.system.strand.point_loads, &mut s.scene_loads);
+        s.system.workspace.shift_load_energy(change);
+        Ok(())
+    }
+
     /// Set the state of strand i (lengths must be 3N).
     pub fn set_state(&mut self, i: usize, q: &[f64], v: &[f64]) {
         if let Some(e) = &mut self.embedded {
