@@ -2342,7 +2342,7 @@ impl Simulation {
             }
             if !(load.s.is_finite() && (0.0..=length).contains(&load.s)) {
                 return Err(Error::invalid(
-                    &format!("point_loads[{k}].s"),
+                    format!("point_loads[{k}].s"),
                     format!(
                         "{}: must be in [0, {length}] m, the strand's length",
                         load.s
@@ -2351,7 +2351,7 @@ impl Simulation {
             }
             if !(load.force.iter().all(|f| f.is_finite()) && load.force.norm() <= max) {
                 return Err(Error::invalid(
-                    &format!("point_loads[{k}].force"),
+                    format!("point_loads[{k}].force"),
                     format!(
                         "[{}, {}, {}]: must be finite with a magnitude <= {max:e} N",
                         load.force[0], load.force[1], load.force[2]
@@ -2360,7 +2360,7 @@ impl Simulation {
             }
             if load.follows && self.embedded.is_some() {
                 return Err(Error::invalid(
-                    &format!("point_loads[{k}].follows"),
+                    format!("point_loads[{k}].follows"),
                     "the embedded engine takes no follower load: build the simulation with engine = \"runtime\"",
                 ));
             }
