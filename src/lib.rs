@@ -171,6 +171,8 @@ impl RunCheckpoints {
             formats: plan.formats.names().iter().map(|s| s.to_string()).collect(),
             part,
             digest: output::checkpoint::setup_digest(setup),
+            dt: None,
+            folder: None,
         };
         let resume = match resume {
             true => output::checkpoint::read(&plan.dir)?,

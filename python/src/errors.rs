@@ -85,6 +85,22 @@ pub fn run_error(e: Error) -> PyErr {
 }
 
 /// An `OSError` of the kind of `source`, naming `path`.
+/// A file or value refused (`Simulation.load`, `save`): `ValueError` naming each field,
+/// an I/O error as [`io_error`].
+pub fn input_error(e: Error) -> PyErr {
+    match e {
+        Error::Io { path, source } => io_error(&path, &source),
+        Error::Invalid(errors) => PyValueError::new_err(
+            errors
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+                .join("\n"),
+        ),
+        other => SimulationError::new_err(other.to_string()),
+    }
+}
+
 pub fn io_error(path: &str, source: &std::io::Error) -> PyErr {
     let message = format!("{path}: {source}");
     match source.kind() {

@@ -45,7 +45,7 @@ pub struct Scene {
 impl Scene {
     /// Parse `text` with relative file paths resolved against `dir`; a refused scene
     /// lists every problem `superhelix validate` would (the same text).
-    fn parse(py: Python<'_>, text: String, dir: PathBuf) -> PyResult<Scene> {
+    pub(crate) fn parse(py: Python<'_>, text: String, dir: PathBuf) -> PyResult<Scene> {
         let parsed = py.detach(|| match parse_scene_reporting(&text, &dir) {
             Ok(parsed) => Ok(parsed),
             // the failure path lists every problem, as `superhelix validate` does
@@ -69,7 +69,7 @@ impl Scene {
     }
 
     /// The setup with the run's overrides applied and checked.
-    fn setup_with(&self, o: &Overrides) -> PyResult<SimulationSetup> {
+    pub(crate) fn setup_with(&self, o: &Overrides) -> PyResult<SimulationSetup> {
         let mut setup = self.setup.clone();
         let c = &mut setup.config;
         if let Some(dt) = o.dt {
@@ -399,7 +399,13 @@ impl Scene {
             tolerance,
             ..Default::default()
         })?;
-        PySimulation::new(py, setup)
+        let origin = crate::simulation::Origin {
+            text: self.text.clone(),
+            dir: self.dir.clone(),
+            dt,
+            tolerance,
+        };
+        PySimulation::new(py, setup, origin)
     }
 
     /// scene.head_pose(t) -> (position, rotation)

@@ -13,9 +13,20 @@ use std::time::Instant;
 use superhelix_runtime::forces::internal_loads::Momenta;
 use superhelix_runtime::{Simulation as Runtime, SimulationSetup};
 
+/// What a simulation was built from: the scene's text and folder and the overrides of
+/// `scene.simulation(...)` (what `save` writes and `load` builds again).
+#[derive(Clone)]
+pub struct Origin {
+    pub text: String,
+    pub dir: std::path::PathBuf,
+    pub dt: Option<f64>,
+    pub tolerance: Option<f64>,
+}
+
 struct Inner {
     sim: Runtime,
     setup: SimulationSetup,
+    origin: Origin,
     /// Measures energies without touching `sim` ([`EnergyMeter`]).
     meter: EnergyMeter,
     /// Whether `step` keeps the momenta for the inertia of `internal_loads`.
@@ -50,11 +61,12 @@ pub struct Simulation {
 }
 
 impl Simulation {
-    pub fn new(py: Python<'_>, setup: SimulationSetup) -> PyResult<Simulation> {
+    pub fn new(py: Python<'_>, setup: SimulationSetup, origin: Origin) -> PyResult<Simulation> {
         let sim = Scene::build(py, setup.clone())?;
         Ok(Simulation {
             inner: Mutex::new(Inner {
                 sim,
+                origin,
                 meter: EnergyMeter::new(&setup),
                 setup,
                 track_inertia: false,
@@ -528,6 +540,113 @@ impl Simulation {
             .sim
             .set_point_loads(i, parsed)
             .map_err(|e| PyValueError::new_err(e.to_string()))
+    }
+
+    /// sim.save(path) -> None
+    ///
+    /// Write the simulation to the file `path` in the checkpoint format of
+    /// `superhelix run` (`checkpoint.bin`: magic, length, CRC-32, body): the scene's
+    /// text and folder, the overrides of `scene.simulation(...)`, a digest of what the
+    /// scene builds, and the whole state (every strand's q, qdot and integrator history,
+    /// the contacts' anchors, held tips, the clock, gravity and point loads as
+    /// `set_gravity` and `set_point_loads` left them). Written atomically; an existing
+    /// file is replaced only when it is itself a saved simulation or checkpoint.
+    /// `Simulation.load(path)` goes on from it: the steps that follow are those this
+    /// simulation would take, to the bit. The momenta kept for `track_inertia` are not
+    /// saved.
+    fn save(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
+        use superhelix_runtime::output::checkpoint;
+        if path.exists() && !checkpoint::is_checkpoint(&path) {
+            return Err(PyValueError::new_err(format!(
+                "path: {} exists and is not a saved simulation: choose another path or remove it",
+                path.display()
+            )));
+        }
+        let inner = self.lock()?;
+        let state = inner.sim.state().encode().map_err(run_error)?;
+        let origin = &inner.origin;
+        let saved = checkpoint::Checkpoint {
+            version: checkpoint::VERSION,
+            identity: checkpoint::SceneIdentity {
+                scene: origin.text.clone(),
+                tolerance: origin.tolerance,
+                formats: Vec::new(),
+                part: None,
+                digest: checkpoint::setup_digest(&inner.setup),
+                dt: origin.dt,
+                folder: Some(origin.dir.to_string_lossy().into_owned()),
+            },
+            point: checkpoint::RunPoint {
+                step: inner.sim.steps(),
+                time: inner.sim.time(),
+                ..Default::default()
+            },
+            sinks: Vec::new(),
+            state,
+        };
+        drop(inner);
+        py.detach(|| checkpoint::write_file(&path, &saved))
+            .map_err(run_error)
+    }
+
+    /// Simulation.load(path, folder=None) -> Simulation
+    ///
+    /// The simulation `sim.save(path)` wrote, going on from where it was. The scene is
+    /// read again from the saved text, its relative paths from the saved folder (or
+    /// `folder`); a scene whose files changed since (a mesh, a groom's curves) is
+    /// refused, as `superhelix run --resume` refuses it.
+    #[staticmethod]
+    #[pyo3(signature = (path, folder = None))]
+    fn load(
+        py: Python<'_>,
+        path: std::path::PathBuf,
+        folder: Option<std::path::PathBuf>,
+    ) -> PyResult<Simulation> {
+        use superhelix_runtime::output::checkpoint;
+        let saved = py
+            .detach(|| checkpoint::read_file(&path, "path"))
+            .map_err(crate::errors::input_error)?
+            .ok_or_else(|| {
+                pyo3::exceptions::PyFileNotFoundError::new_err(format!(
+                    "path: {} does not exist",
+                    path.display()
+                ))
+            })?;
+        let identity = saved.identity;
+        let Some(saved_folder) = identity.folder.clone() else {
+            return Err(PyValueError::new_err(format!(
+                "path: {} is a run's checkpoint, not a saved simulation: continue it with `superhelix run SCENE --resume DIR`",
+                path.display()
+            )));
+        };
+        let dir = folder.unwrap_or_else(|| std::path::PathBuf::from(saved_folder));
+        let scene = Scene::parse(py, identity.scene.clone(), dir.clone())?;
+        let setup = scene.setup_with(&crate::scene::Overrides {
+            dt: identity.dt,
+            tolerance: identity.tolerance,
+            ..Default::default()
+        })?;
+        if checkpoint::setup_digest(&setup) != identity.digest {
+            return Err(PyValueError::new_err(format!(
+                "path: a file the scene reads (a mesh, a groom's curves) under {} has changed since {} was saved",
+                dir.display(),
+                path.display()
+            )));
+        }
+        let state = superhelix_runtime::simulation::SimulationState::decode(&saved.state)
+            .map_err(crate::errors::input_error)?;
+        let origin = Origin {
+            text: identity.scene,
+            dir,
+            dt: identity.dt,
+            tolerance: identity.tolerance,
+        };
+        let sim = Simulation::new(py, setup, origin)?;
+        sim.lock()?
+            .sim
+            .restore(state)
+            .map_err(crate::errors::input_error)?;
+        Ok(sim)
     }
 
     /// sim.set_state(i, q, qdot=None) -> None

@@ -183,3 +183,37 @@ def test_a_tip_load_set_between_static_solves_bends_a_cantilever_by_beam_theory(
     assert sim.point_loads(0) == []
     sim.solve_static()
     assert abs(sim.nodes()[0, -1, 2]) < 1e-12
+
+
+@pytest.mark.parametrize("engine", ["embedded", "runtime"])
+def test_a_saved_simulation_goes_on_to_the_bit_with_its_gravity_and_loads(tmp_path, engine):
+    d = hanging_strand(simulation={"engine": engine, "integrator": "bdf2"})
+    sim = superhelix.Scene.from_dict(d).simulation(dt=1e-3)
+    sim.step(steps=10)
+    sim.set_gravity([1.0, 0.0, -9.0])
+    sim.set_point_loads(0, [{"s": 0.1, "force": [0.0, 1e-6, 0.0]}])
+    sim.step(steps=5)
+    path = tmp_path / "sim.shx"
+    sim.save(path)
+    sim.step(steps=20)
+    back = superhelix.Simulation.load(path)
+    assert back.time == pytest.approx(0.015, abs=1e-15) and back.dt == 1e-3
+    np.testing.assert_array_equal(back.gravity, [1.0, 0.0, -9.0])
+    np.testing.assert_array_equal(back.point_loads(0)[0]["force"], [0.0, 1e-6, 0.0])
+    back.step(steps=20)
+    np.testing.assert_array_equal(back.q, sim.q)
+    np.testing.assert_array_equal(back.qdot, sim.qdot)
+    assert back.time == sim.time
+    # saved again over its own file; never over another
+    back.save(path)
+    other = tmp_path / "notes.txt"
+    other.write_text("mine")
+    with pytest.raises(ValueError, match="not a saved simulation"):
+        back.save(other)
+    assert other.read_text() == "mine"
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        superhelix.Simulation.load(tmp_path / "missing.shx")
+    damaged = tmp_path / "damaged.shx"
+    damaged.write_bytes(path.read_bytes()[:-3])
+    with pytest.raises(ValueError, match="damaged"):
+        superhelix.Simulation.load(damaged)

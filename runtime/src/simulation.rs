@@ -2282,8 +2282,8 @@ impl Simulation {
     /// between two steps. The potential changes at once, which is no work the strands did:
     /// each strand's energy balance and step history start afresh from its state.
     pub fn set_gravity(&mut self, gravity: Option<nalgebra::Vector3<f64>>) {
+        self.put_gravity(gravity);
         if let Some(e) = &mut self.embedded {
-            e.gravity = gravity;
             for k in 0..e.strands.len() {
                 let (_, _, g, p) = e.strands[k];
                 let group = &mut e.groups[g].1;
@@ -2294,10 +2294,40 @@ impl Simulation {
             return;
         }
         for s in &mut self.strands {
-            s.system.context.effects.gravity = gravity;
             s.system.workspace.forget_history();
             s.system.workspace.forget_energy();
         }
+    }
+
+    /// Gravity from now on, on either engine, the strands' histories left as they are
+    /// (a restored state, or [`Self::set_gravity`] before it forgets them).
+    pub(crate) fn put_gravity(&mut self, gravity: Option<nalgebra::Vector3<f64>>) {
+        if let Some(e) = &mut self.embedded {
+            e.gravity = gravity;
+        }
+        for s in &mut self.strands {
+            s.system.context.effects.gravity = gravity;
+        }
+    }
+
+    /// Make `loads` strand i's own point loads (before the Coulomb forces, which the next
+    /// [`Self::apply_charge_loads`] puts back after them), on either engine.
+    pub(crate) fn put_own_loads(&mut self, i: usize, loads: &[crate::model::strand::PointLoad]) {
+        if let Some(e) = &mut self.embedded {
+            let (strand, _, g, p) = &mut e.strands[i];
+            strand
+                .point_loads
+                .splice(..e.scene_loads[i], loads.iter().copied());
+            e.scene_loads[i] = loads.len();
+            e.groups[*g].1.set_loads(*p, &strand.point_loads);
+            return;
+        }
+        let s = &mut self.strands[i];
+        s.system
+            .strand
+            .point_loads
+            .splice(..s.scene_loads, loads.iter().copied());
+        s.scene_loads = loads.len();
     }
 
     /// Strand i's own point loads (the scene's, or what [`Simulation::set_point_loads`]
@@ -2381,21 +2411,13 @@ impl Simulation {
                 .sum()
         };
         let change = dead_sum(&loads) - dead_sum(self.point_loads(i));
-        let replace = |all: &mut Vec<crate::model::strand::PointLoad>, own: &mut usize| {
-            all.splice(..*own, loads.iter().copied());
-            *own = loads.len();
-        };
+        self.put_own_loads(i, &loads);
         if let Some(e) = &mut self.embedded {
-            let (strand, _, g, p) = &mut e.strands[i];
-            replace(&mut strand.point_loads, &mut e.scene_loads[i]);
-            let group = &mut e.groups[*g].1;
-            group.set_loads(*p, &strand.point_loads);
-            group.shift_load_energy(*p, change);
-            return Ok(());
+            let (_, _, g, p) = e.strands[i];
+            e.groups[g].1.shift_load_energy(p, change);
+        } else {
+            self.strands[i].system.workspace.shift_load_energy(change);
         }
-        let s = &mut self.strands[i];
-        replace(&mut s.system.strand.point_loads, &mut s.scene_loads);
-        s.system.workspace.shift_load_energy(change);
         Ok(())
     }
 

@@ -36,7 +36,7 @@ pub const DEFAULT_CHECKPOINT_EVERY: usize = 25;
 const MAGIC: &[u8; 8] = b"SHXCKPT1";
 
 /// Version of the body's layout (a checkpoint of another version is refused).
-pub const VERSION: u32 = 5;
+pub const VERSION: u32 = 6;
 
 /// What identifies the simulation a checkpoint belongs to.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -51,6 +51,12 @@ pub struct SceneIdentity {
     pub part: Option<(usize, usize)>,
     /// A digest of the simulation the scene builds ([`setup_digest`]).
     pub digest: u64,
+    /// The step length the simulation was built with, when it replaced the scene's
+    /// (`scene.simulation(dt=...)` in Python; `None` from the command line).
+    pub dt: Option<f64>,
+    /// The folder the scene's relative paths are read from, when the checkpoint is a
+    /// saved simulation (`Simulation.save` in Python; `None` from the command line).
+    pub folder: Option<String>,
 }
 
 impl SceneIdentity {
@@ -68,6 +74,13 @@ impl SceneIdentity {
             if let Some(d) = differs {
                 return Some(d);
             }
+        }
+        if self.dt != scene.dt {
+            return Some(format!(
+                "dt: {} in the checkpoint, {} now",
+                show_option(self.dt),
+                show_option(scene.dt)
+            ));
         }
         if self.tolerance != scene.tolerance {
             return Some(format!(
@@ -204,7 +217,12 @@ pub struct Checkpoint {
 
 /// Write `checkpoint` as `dir/checkpoint.bin`, atomically.
 pub fn write(dir: &Path, checkpoint: &Checkpoint) -> Result<()> {
-    let path = dir.join(CHECKPOINT_FILE);
+    write_file(&dir.join(CHECKPOINT_FILE), checkpoint)
+}
+
+/// Write `checkpoint` as the file `path`, atomically.
+pub fn write_file(path: &Path, checkpoint: &Checkpoint) -> Result<()> {
+    let path = path.to_path_buf();
     let body = postcard::to_stdvec(checkpoint).map_err(|e| {
         io_error(
             &path,
@@ -222,7 +240,25 @@ pub fn write(dir: &Path, checkpoint: &Checkpoint) -> Result<()> {
 /// The checkpoint in `dir` (`None`: there is none); a damaged one is an error naming the
 /// file and what is wrong with it.
 pub fn read(dir: &Path) -> Result<Option<Checkpoint>> {
-    let path = dir.join(CHECKPOINT_FILE);
+    read_file(&dir.join(CHECKPOINT_FILE), "--resume")
+}
+
+/// Whether the file `path` starts as a checkpoint does (a file [`write_file`] may
+/// replace).
+pub fn is_checkpoint(path: &Path) -> bool {
+    use std::io::Read;
+    let mut head = [0u8; 8];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok()
+        && &head == MAGIC
+}
+
+/// The checkpoint in the file `path` (`None`: there is none); a damaged one is an error
+/// naming `field`, the file and what is wrong with it.
+pub fn read_file(path: &Path, field: &str) -> Result<Option<Checkpoint>> {
+    let path = path.to_path_buf();
+    let resume = field == "--resume";
     match std::fs::metadata(&path) {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(e) => return Err(io_error(&path, e)),
@@ -230,13 +266,18 @@ pub fn read(dir: &Path) -> Result<Option<Checkpoint>> {
     }
     // not a device or a pipe, not longer than memory allows, before it is read
     let bytes = crate::input::read_bounded(&path, u64::MAX, "checkpoint written by a run")
-        .map_err(|why| Error::invalid("--resume", why))?;
+        .map_err(|why| Error::invalid(field, why))?;
     let damaged = |why: &str| {
         Error::invalid(
-            "--resume",
+            field,
             format!(
-                "{} is damaged ({why}): remove it to start the run again from t = 0",
-                path.display()
+                "{} is damaged ({why}){}",
+                path.display(),
+                if resume {
+                    ": remove it to start the run again from t = 0"
+                } else {
+                    ""
+                }
             ),
         )
     };
@@ -262,7 +303,7 @@ pub fn read(dir: &Path) -> Result<Option<Checkpoint>> {
         .map_err(|e| damaged(&format!("its content does not decode: {e}")))?;
     if checkpoint.version != VERSION {
         return Err(Error::invalid(
-            "--resume",
+            field,
             format!(
                 "{} is of layout version {}, this build reads version {VERSION}",
                 path.display(),
@@ -284,6 +325,8 @@ mod tests {
             formats: vec!["npy".into()],
             part: None,
             digest: 1,
+            dt: None,
+            folder: None,
         }
     }
 

@@ -34,6 +34,19 @@ pub struct SimulationState {
     embedded: Option<EmbeddedState>,
     electrostatics: Option<ElectrostaticsState>,
     hair_hair: Option<HairHairState>,
+    /// Gravity then (world, m/s²), as the scene or [`Simulation::set_gravity`] left it.
+    gravity: Option<[f64; 3]>,
+    /// Each strand's own point loads then, as the scene or
+    /// [`Simulation::set_point_loads`] left them.
+    point_loads: Vec<Vec<SavedLoad>>,
+}
+
+/// A point load as a state keeps it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+struct SavedLoad {
+    s: f64,
+    force: [f64; 3],
+    follows: bool,
 }
 
 impl SimulationState {
@@ -164,6 +177,19 @@ impl Simulation {
             }),
             electrostatics: self.electrostatics.as_ref().map(|e| e.state()),
             hair_hair: self.hair_hair.as_ref().map(|h| h.state()),
+            gravity: self.gravity().map(|g| [g[0], g[1], g[2]]),
+            point_loads: (0..self.strand_count())
+                .map(|i| {
+                    self.point_loads(i)
+                        .iter()
+                        .map(|l| SavedLoad {
+                            s: l.s,
+                            force: [l.force[0], l.force[1], l.force[2]],
+                            follows: l.follows,
+                        })
+                        .collect()
+                })
+                .collect(),
         }
     }
 
@@ -235,6 +261,25 @@ impl Simulation {
             (Some(e), Some(saved)) => e.restore(saved).map_err(mismatch)?,
             (None, None) => {}
             _ => return Err(mismatch("electrostatics in one and not in the other")),
+        }
+        if state.point_loads.len() != self.strand_count() {
+            return Err(mismatch(format!(
+                "{} strands' point loads in the checkpoint, {} strands in the scene",
+                state.point_loads.len(),
+                self.strand_count()
+            )));
+        }
+        self.put_gravity(state.gravity.map(nalgebra::Vector3::from));
+        for (i, loads) in state.point_loads.iter().enumerate() {
+            let loads: Vec<_> = loads
+                .iter()
+                .map(|l| crate::model::strand::PointLoad {
+                    s: l.s,
+                    force: l.force.into(),
+                    follows: l.follows,
+                })
+                .collect();
+            self.put_own_loads(i, &loads);
         }
         // the Coulomb loads of the last update, after each strand's own
         self.apply_charge_loads();
