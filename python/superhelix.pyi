@@ -2,7 +2,7 @@
 
 import pathlib
 from os import PathLike
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -39,6 +39,32 @@ class Scene:
     def from_dict(d: Mapping[str, Any], base_dir: Optional[Path] = None) -> "Scene": ...
     @staticmethod
     def default() -> "Scene": ...
+    @staticmethod
+    def rod(
+        *,
+        length: float,
+        radius: float,
+        youngs_modulus: float,
+        density: float,
+        poisson: float,
+        elements: int = 10,
+        ellipticity: float = 1.0,
+        root: Optional[ArrayLike] = None,
+        direction: Optional[ArrayLike] = None,
+        normal: Optional[ArrayLike] = None,
+        natural: Optional[ArrayLike] = None,
+        root_end: str = "clamped",
+        tip: Optional[Mapping[str, Any]] = None,
+        point_loads: Optional[List[Mapping[str, Any]]] = None,
+        gravity: Optional[ArrayLike] = None,
+        internal_friction: float = 0.0,
+        air_drag: float = 0.0,
+        dt: float = 1e-3,
+        duration: float = 1.0,
+        integrator: Optional[str] = None,
+        engine: Optional[str] = None,
+        name: str = "rod",
+    ) -> "Scene": ...
     @property
     def toml(self) -> str: ...
     @property
@@ -111,7 +137,16 @@ class RunResult:
     def frame_count(self) -> int: ...
 
 class Simulation:
-    def step(self, dt: Optional[float] = None, steps: int = 1) -> None: ...
+    def step(
+        self,
+        dt: Optional[float] = None,
+        steps: int = 1,
+        callback: Optional[Callable[["Simulation"], None]] = None,
+        every: int = 1,
+    ) -> None: ...
+    @staticmethod
+    def load(path: Union[str, Path], folder: Optional[Union[str, Path]] = None) -> "Simulation": ...
+    def save(self, path: Union[str, Path]) -> None: ...
     @property
     def time(self) -> float: ...
     @property
@@ -140,6 +175,20 @@ class Simulation:
     def gravity(self) -> Optional[FloatArray]: ...
     def set_gravity(self, g: Optional[ArrayLike]) -> None: ...
     def solve_static(self) -> List[Dict[str, Any]]: ...
+    def directors(
+        self, samples_per_element: Optional[int] = None
+    ) -> Union[FloatArray, List[FloatArray]]: ...
+    def velocities(
+        self, samples_per_element: Optional[int] = None
+    ) -> Union[FloatArray, List[FloatArray]]: ...
+    track_inertia: bool
+    def internal_loads(self, inertia: Optional[bool] = None) -> List[Dict[str, Any]]: ...
+    def point_loads(self, i: int) -> List[Dict[str, Any]]: ...
+    def set_point_loads(self, i: int, loads: Iterable[Mapping[str, Any]]) -> None: ...
+    def holder(self, i: int) -> Optional[Dict[str, FloatArray]]: ...
+    def set_holder(
+        self, i: int, position: ArrayLike, frame: Optional[ArrayLike] = None
+    ) -> None: ...
 
 class StepReport:
     stepped: int

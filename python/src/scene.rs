@@ -181,6 +181,112 @@ impl Scene {
         Scene::parse(py, text, folder(base_dir))
     }
 
+    /// Scene.rod(*, length, radius, youngs_modulus, density, poisson, elements=10, ...) -> Scene
+    ///
+    /// A scene of one rod with mechanical defaults, for rod-mechanics studies: the
+    /// material is given, never taken from a hair preset (length, radius, Young's
+    /// modulus, density and Poisson's ratio are required; the cross-section is round
+    /// unless `ellipticity` says otherwise); no internal friction, no air drag and no
+    /// gravity unless given; straight at rest unless `natural` gives a (τ, κ1, κ2) for
+    /// every element. The rod starts at `root` (default the origin) along `direction`
+    /// (default +x) with `normal` its first director (default: the world axis least
+    /// aligned with it); `root_end` is "clamped", "pinned" or "free", `tip` a dict as
+    /// the scene's `[strands.ends.tip]` (e.g. {"kind": "pinned"}), `point_loads` a list
+    /// of dicts as `[[strands.point_loads]]`. `dt`, `duration`, `integrator` and
+    /// `engine` are the `[simulation]`'s. The text it builds is `scene.toml`; every other setting is the
+    /// scene format's (docs/scene-format.md).
+    #[staticmethod]
+    #[pyo3(signature = (
+        *, length, radius, youngs_modulus, density, poisson, elements = 10,
+        ellipticity = 1.0, root = None, direction = None, normal = None, natural = None,
+        root_end = "clamped", tip = None, point_loads = None, gravity = None,
+        internal_friction = 0.0, air_drag = 0.0, dt = 1e-3, duration = 1.0,
+        integrator = None, engine = None, name = "rod"
+    ))]
+    #[allow(clippy::too_many_arguments)]
+    fn rod(
+        py: Python<'_>,
+        length: f64,
+        radius: f64,
+        youngs_modulus: f64,
+        density: f64,
+        poisson: f64,
+        elements: usize,
+        ellipticity: f64,
+        root: Option<Bound<'_, PyAny>>,
+        direction: Option<Bound<'_, PyAny>>,
+        normal: Option<Bound<'_, PyAny>>,
+        natural: Option<Bound<'_, PyAny>>,
+        root_end: &str,
+        tip: Option<Bound<'_, PyAny>>,
+        point_loads: Option<Bound<'_, PyAny>>,
+        gravity: Option<Bound<'_, PyAny>>,
+        internal_friction: f64,
+        air_drag: f64,
+        dt: f64,
+        duration: f64,
+        integrator: Option<&str>,
+        engine: Option<&str>,
+        name: &str,
+    ) -> PyResult<Scene> {
+        let strand = PyDict::new(py);
+        strand.set_item("name", name)?;
+        strand.set_item("length", length)?;
+        strand.set_item("elements", elements)?;
+        strand.set_item("radius", radius)?;
+        strand.set_item("ellipticity", ellipticity)?;
+        strand.set_item("youngs_modulus", youngs_modulus)?;
+        strand.set_item("density", density)?;
+        strand.set_item("poisson", poisson)?;
+        strand.set_item("internal_friction", internal_friction)?;
+        strand.set_item("air_drag", air_drag)?;
+        strand.set_item("initial", "natural")?;
+        match natural {
+            Some(n) => strand.set_item("natural", n)?,
+            None => strand.set_item("natural", [0.0, 0.0, 0.0])?,
+        }
+        match root {
+            Some(r) => strand.set_item("root", r)?,
+            None => strand.set_item("root", [0.0, 0.0, 0.0])?,
+        }
+        match direction {
+            Some(d) => strand.set_item("direction", d)?,
+            None => strand.set_item("direction", [1.0, 0.0, 0.0])?,
+        }
+        if let Some(n) = normal {
+            strand.set_item("normal", n)?;
+        }
+        if let Some(loads) = point_loads {
+            strand.set_item("point_loads", loads)?;
+        }
+        let ends = PyDict::new(py);
+        ends.set_item("root", root_end)?;
+        if let Some(tip) = tip {
+            ends.set_item("tip", tip)?;
+        }
+        strand.set_item("ends", ends)?;
+        let simulation = PyDict::new(py);
+        simulation.set_item("dt", dt)?;
+        simulation.set_item("duration", duration)?;
+        if let Some(integrator) = integrator {
+            simulation.set_item("integrator", integrator)?;
+        }
+        if let Some(engine) = engine {
+            simulation.set_item("engine", engine)?;
+        }
+        let environment = PyDict::new(py);
+        match gravity {
+            Some(g) if !g.is_none() => environment.set_item("gravity", g)?,
+            _ => environment.set_item("gravity", "none")?,
+        }
+        let scene = PyDict::new(py);
+        scene.set_item("simulation", simulation)?;
+        scene.set_item("environment", environment)?;
+        scene.set_item("strands", vec![strand])?;
+        let text = dict_to_toml(&scene)?;
+        Scene::parse(py, text, PathBuf::new())
+    }
+
     /// Scene.default() -> Scene
     ///
     /// The scene `superhelix run` simulates without a scene file: a full head of 100 wavy

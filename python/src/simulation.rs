@@ -542,6 +542,69 @@ impl Simulation {
             .map_err(|e| PyValueError::new_err(e.to_string()))
     }
 
+    /// sim.holder(i) -> dict | None
+    ///
+    /// Where strand i's held tip is held: `position` (3,) and `frame` (3, 3), rows the
+    /// held directors n0, n1, n2, in the holder's motion frame (the world for a still
+    /// holder); None when its tip is not held.
+    fn holder<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let inner = self.lock()?;
+        check_index(i, inner.sim.strand_count())?;
+        let Some((p, f)) = inner.sim.holder(i) else {
+            return Ok(None);
+        };
+        drop(inner);
+        let d = PyDict::new(py);
+        d.set_item(
+            "position",
+            f64_array(py, &[3], p.iter().copied().collect())?,
+        )?;
+        d.set_item(
+            "frame",
+            f64_array(py, &[3, 3], f.iter().copied().collect())?,
+        )?;
+        Ok(Some(d))
+    }
+
+    /// sim.set_holder(i, position, frame=None) -> None
+    ///
+    /// Hold strand i's tip at `position` (3 values, m) from now on, and a clamped tip in
+    /// `frame` (3×3, rows the directors n0, n1, n2: a rotation) when given, in the
+    /// holder's motion frame: a holder moved between steps or between static solves,
+    /// the parameter of a displacement-controlled study. Refused (ValueError, the holder
+    /// left where it was) for a strand without a held tip, a point out of the rod's
+    /// reach or a frame that is not a rotation. The strand's energy balance starts
+    /// afresh (the holder did work on it).
+    #[pyo3(signature = (i, position, frame = None))]
+    fn set_holder(
+        &self,
+        i: usize,
+        position: &Bound<'_, PyAny>,
+        frame: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let p = vector(position, "position", 3)?;
+        let frame = match frame {
+            Some(f) if !f.is_none() => {
+                let (shape, values) = crate::arrays::to_f64(f, "frame")?;
+                if shape != [3, 3] {
+                    return Err(PyValueError::new_err(format!(
+                        "frame: expected shape (3, 3), got {}",
+                        crate::arrays::shape_text(&shape)
+                    )));
+                }
+                // rows of the array are the directors: the columns of the frame
+                Some(nalgebra::Matrix3::from_column_slice(&values))
+            }
+            _ => None,
+        };
+        let mut inner = self.lock()?;
+        check_index(i, inner.sim.strand_count())?;
+        inner
+            .sim
+            .set_holder(i, nalgebra::Vector3::new(p[0], p[1], p[2]), frame)
+            .map_err(crate::errors::input_error)
+    }
+
     /// sim.save(path) -> None
     ///
     /// Write the simulation to the file `path` in the checkpoint format of

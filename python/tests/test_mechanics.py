@@ -217,3 +217,60 @@ def test_a_saved_simulation_goes_on_to_the_bit_with_its_gravity_and_loads(tmp_pa
     damaged.write_bytes(path.read_bytes()[:-3])
     with pytest.raises(ValueError, match="damaged"):
         superhelix.Simulation.load(damaged)
+
+
+def test_a_rod_built_for_mechanics_has_no_hair_defaults():
+    scene = superhelix.Scene.rod(length=L, radius=R, youngs_modulus=E, density=RHO, poisson=0.3)
+    text = scene.toml
+    for line in ["internal_friction = 0.0", "air_drag = 0.0", 'gravity = "none"',
+                 "youngs_modulus = 200000000000.0", "ellipticity = 1.0"]:
+        assert line in text, (line, text)
+    assert "preset" not in text
+    sim = scene.simulation()
+    assert sim.gravity is None
+    sim.step(steps=10)
+    np.testing.assert_array_equal(sim.q, 0.0)  # nothing acts on it: it stays straight
+    with pytest.raises(TypeError):
+        superhelix.Scene.rod(length=L, radius=R, youngs_modulus=E, density=RHO)  # no poisson
+
+
+@pytest.mark.parametrize("engine", ["embedded", "runtime"])
+def test_a_holder_moved_across_a_propped_cantilever_takes_beam_theorys_force(tmp_path, engine):
+    # a steel rod clamped at its root, its tip held across its axis (free to slide along
+    # it and to turn): moving the holder by delta across loads the tip with
+    # 3 EI delta / L^3 (Euler-Bernoulli), the discretisation adding 1 / (4 N^2), and
+    # the root holds the moment 3 EI delta / L^2
+    n, delta = 20, 1e-4
+    scene = superhelix.Scene.rod(length=L, radius=R, youngs_modulus=E, density=RHO,
+                                 poisson=0.3, elements=n, engine=engine,
+                                 tip={"kind": "sliding", "axis": [1.0, 0.0, 0.0]})
+    sim = scene.simulation()
+    assert sim.engine == engine
+    holder = sim.holder(0)
+    np.testing.assert_allclose(holder["position"], [L, 0.0, 0.0], atol=1e-15)
+    sim.set_holder(0, [L, 0.0, delta])
+    assert all(r["converged"] for r in sim.solve_static())
+    # held across the axis; along it the tip draws in by ~(6/5) delta^2 / (2 L) = 3e-8 m
+    tip = sim.nodes()[0, -1]
+    np.testing.assert_allclose(tip[1:], [0.0, delta], atol=1e-9 * delta)
+    assert 0 < L - tip[0] < 1e-7
+    EI = E * np.pi * R**4 / 4
+    (loads,) = sim.internal_loads()
+    force = loads["tip_reaction"][2]
+    ratio = force / (3 * EI * delta / L**3)
+    assert abs(ratio - 1 / (1 - 1 / (4 * n**2))) < 1e-5, ratio
+    assert abs(loads["root_reaction"][2] + force) < 1e-9 * force
+    assert abs(abs(loads["root_reaction"][4]) - force * L) < 1e-5 * force * L
+    # refused: out of reach, or a strand whose tip is not held
+    with pytest.raises(ValueError, match="position"):
+        sim.set_holder(0, [L, 0.0, 2 * L])
+    np.testing.assert_allclose(sim.holder(0)["position"], [L, 0.0, delta])
+    # a save keeps the holder where it was put
+    sim.save(tmp_path / "held.shx")
+    back = superhelix.Simulation.load(tmp_path / "held.shx")
+    np.testing.assert_array_equal(back.holder(0)["position"], [L, 0.0, delta])
+    free = superhelix.Scene.rod(length=L, radius=R, youngs_modulus=E, density=RHO,
+                                poisson=0.3).simulation()
+    assert free.holder(0) is None
+    with pytest.raises(ValueError, match="not held"):
+        free.set_holder(0, [L, 0.0, 0.0])

@@ -2183,6 +2183,15 @@ impl Simulation {
         let mut reports = Vec::with_capacity(self.strand_count());
         for i in 0..self.strand_count() {
             let mut system = self.measuring_system(i);
+            // the held tip as the group holds it (its holder where it is now)
+            let (group, place) = self
+                .embedded
+                .as_ref()
+                .map_or((0, 0), |e| (e.strands[i].2, e.strands[i].3));
+            system.held = self
+                .embedded
+                .as_ref()
+                .and_then(|e| e.groups[group].1.held(place).cloned());
             let mut q = self.q(i).to_vec();
             let r = solve_static(&mut system, &mut q);
             let outcome = match r {
@@ -2194,6 +2203,12 @@ impl Simulation {
                 Ok(rep) => {
                     let v = self.v(i).to_vec();
                     self.set_state(i, &q, &v);
+                    // the holder's reaction at the equilibrium
+                    if let (Some(solved), Some(e)) = (system.held.take(), &mut self.embedded) {
+                        if let Some(tip) = e.groups[group].1.held_mut(place) {
+                            *tip = solved;
+                        }
+                    }
                     reports.push(rep);
                 }
                 Err(cause) => {
@@ -2310,6 +2325,27 @@ impl Simulation {
         }
     }
 
+    /// Put strand i's holder at (position, frame) as a restored state had it, nothing
+    /// else changed (`Err`: the tip is not held).
+    pub(crate) fn put_holder(
+        &mut self,
+        i: usize,
+        position: nalgebra::Vector3<f64>,
+        frame: nalgebra::Matrix3<f64>,
+    ) -> std::result::Result<(), ()> {
+        let tip = match &mut self.embedded {
+            Some(e) => {
+                let (_, _, g, p) = e.strands[i];
+                e.groups[g].1.held_mut(p)
+            }
+            None => self.strands[i].system.held.as_mut(),
+        };
+        let tip = tip.ok_or(())?;
+        tip.end.position = position;
+        tip.end.frame = frame;
+        Ok(())
+    }
+
     /// Make `loads` strand i's own point loads (before the Coulomb forces, which the next
     /// [`Self::apply_charge_loads`] puts back after them), on either engine.
     pub(crate) fn put_own_loads(&mut self, i: usize, loads: &[crate::model::strand::PointLoad]) {
@@ -2417,6 +2453,97 @@ impl Simulation {
             e.groups[g].1.shift_load_energy(p, change);
         } else {
             self.strands[i].system.workspace.shift_load_energy(change);
+        }
+        Ok(())
+    }
+
+    /// Where strand i's held tip is held, in its holder's motion frame (the world for a
+    /// still holder): the point and the frame (columns n0, n1, n2); `None` without a
+    /// held tip.
+    pub fn holder(&self, i: usize) -> Option<(nalgebra::Vector3<f64>, nalgebra::Matrix3<f64>)> {
+        let tip = match &self.embedded {
+            Some(e) => {
+                let (_, _, g, p) = &e.strands[i];
+                e.groups[*g].1.held(*p)?
+            }
+            None => self.strands[i].system.held.as_ref()?,
+        };
+        Some((tip.end.position, tip.end.frame))
+    }
+
+    /// Hold strand i's tip at `position` (and, for a clamped tip, in `frame`: columns
+    /// n0, n1, n2, orthonormal and right-handed to 1e-9) from now on, in its holder's
+    /// motion frame: a holder moved between steps or between static solves (the
+    /// parameter of a displacement-controlled study). Refused, leaving the holder where
+    /// it was, without a held tip, for a position beyond ±10⁴ m or out of the rod's
+    /// reach, or a frame that is not a rotation. The holder's move is work the strand did
+    /// not do: its energy balance starts afresh (the embedded engine also restarts its
+    /// two-step history).
+    pub fn set_holder(
+        &mut self,
+        i: usize,
+        position: nalgebra::Vector3<f64>,
+        frame: Option<nalgebra::Matrix3<f64>>,
+    ) -> Result<()> {
+        let count = self.strand_count();
+        if i >= count {
+            return Err(Error::invalid(
+                "strand",
+                format!("{i}: the simulation has {count} strand(s)"),
+            ));
+        }
+        if !position.iter().all(|x| x.is_finite() && x.abs() <= 1e4) {
+            return Err(Error::invalid(
+                "position",
+                format!(
+                    "[{}, {}, {}]: each coordinate must be finite, within ±1e4 m",
+                    position[0], position[1], position[2]
+                ),
+            ));
+        }
+        if let Some(f) = &frame {
+            let off = (f.transpose() * f - nalgebra::Matrix3::identity())
+                .abs()
+                .max();
+            if !(off <= 1e-9 && (f.determinant() - 1.0).abs() <= 1e-9) {
+                return Err(Error::invalid(
+                    "frame",
+                    "must be a rotation: orthonormal columns n0, n1, n2 with n2 = n0 × n1 (to 1e-9)",
+                ));
+            }
+        }
+        let (t, q) = (self.time, self.q(i).to_vec());
+        let geometry = self.strand(i).geometry.clone();
+        let (group, tip) = match &mut self.embedded {
+            Some(e) => {
+                let (_, _, g, p) = e.strands[i];
+                (Some((g, p)), e.groups[g].1.held_mut(p))
+            }
+            None => (None, self.strands[i].system.held.as_mut()),
+        };
+        let Some(tip) = tip else {
+            return Err(Error::invalid(
+                "strand",
+                format!("{i}: its tip is not held ([strands.ends.tip])"),
+            ));
+        };
+        let before = (tip.end.position, tip.end.frame);
+        tip.end.position = position;
+        if let Some(f) = frame {
+            tip.end.frame = f;
+        }
+        if let Some(why) = tip.beyond_reach(&geometry, &q, t) {
+            (tip.end.position, tip.end.frame) = before;
+            return Err(Error::invalid("position", why.to_string()));
+        }
+        match group {
+            Some((g, p)) => {
+                if let Some(e) = &mut self.embedded {
+                    let v = e.groups[g].1.v(p).to_vec();
+                    e.groups[g].1.set_state(p, &q, &v);
+                }
+            }
+            None => self.strands[i].system.workspace.forget_energy(),
         }
         Ok(())
     }

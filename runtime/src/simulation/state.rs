@@ -39,6 +39,9 @@ pub struct SimulationState {
     /// Each strand's own point loads then, as the scene or
     /// [`Simulation::set_point_loads`] left them.
     point_loads: Vec<Vec<SavedLoad>>,
+    /// Each held tip's holder then (point, frame column-major), as the scene or
+    /// [`Simulation::set_holder`] left it; `None` for a tip not held.
+    holders: Vec<Option<([f64; 3], [f64; 9])>>,
 }
 
 /// A point load as a state keeps it.
@@ -190,6 +193,15 @@ impl Simulation {
                         .collect()
                 })
                 .collect(),
+            holders: (0..self.strand_count())
+                .map(|i| {
+                    self.holder(i).map(|(p, f)| {
+                        let mut frame = [0.0; 9];
+                        frame.copy_from_slice(f.as_slice());
+                        ([p[0], p[1], p[2]], frame)
+                    })
+                })
+                .collect(),
         }
     }
 
@@ -270,6 +282,19 @@ impl Simulation {
             )));
         }
         self.put_gravity(state.gravity.map(nalgebra::Vector3::from));
+        if state.holders.len() != self.strand_count() {
+            return Err(mismatch("the held tips differ"));
+        }
+        for (i, saved) in state.holders.iter().enumerate() {
+            if let Some((p, f)) = saved {
+                self.put_holder(i, (*p).into(), nalgebra::Matrix3::from_column_slice(f))
+                    .map_err(|()| {
+                        mismatch(format!(
+                            "strand {i} has a held tip in one and not in the other"
+                        ))
+                    })?;
+            }
+        }
         for (i, loads) in state.point_loads.iter().enumerate() {
             let loads: Vec<_> = loads
                 .iter()
