@@ -102,6 +102,7 @@ class Scene:
         tolerance: Optional[float] = None,
         energies: bool = True,
         max_bytes: float = 4e9,
+        mechanics: bool = False,
     ) -> "RunResult": ...
     def simulation(
         self, *, dt: Optional[float] = None, tolerance: Optional[float] = None
@@ -131,6 +132,7 @@ class RunResult:
     held_tips: List[int]
     arc_nodes: Optional[FloatArray]
     d1: Optional[FloatArray]
+    mechanics: Optional[List[Dict[str, Any]]]
     engine: str
     completed: bool
     @property

@@ -11,6 +11,7 @@ use pyo3::types::{PyDict, PyList};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
+use superhelix_runtime::forces::internal_loads::{InternalLoads, Momenta};
 use superhelix_runtime::output::nodes::NodeSampler;
 use superhelix_runtime::output::{
     frame_layout, run_streaming, ErrorControlSummary, FrameLayout, FrameSink, FrameSteps,
@@ -25,6 +26,55 @@ pub const SIGNAL_CHECK: Duration = Duration::from_millis(100);
 pub struct RunOptions {
     /// Measure each frame's energies after the run.
     pub energies: bool,
+    /// Record each frame's directors, velocities and internal loads.
+    pub mechanics: bool,
+}
+
+/// One strand at one frame: its directors and velocities at the frame's points (flat)
+/// and its internal loads.
+type StrandMechanics = (Vec<f64>, Vec<f64>, InternalLoads);
+
+/// What `scene.run(mechanics=True)` records per frame, and the momenta it keeps for the
+/// inertia of the internal loads.
+struct Mechanics {
+    /// Points per element (the frames' `samples_per_element`).
+    per: usize,
+    /// Per strand, the momenta before the last two steps.
+    earlier: Vec<Vec<Momenta>>,
+    /// Per frame: per strand its directors, velocities and internal loads.
+    frames: Vec<Vec<StrandMechanics>>,
+    /// The first refusal of the internal loads.
+    error: Option<superhelix_runtime::Error>,
+}
+
+impl Mechanics {
+    fn keep_momenta(&mut self, sim: &Simulation) {
+        let n = FrameSource::strand_count(sim);
+        self.earlier.resize_with(n, Vec::new);
+        for (i, kept) in self.earlier.iter_mut().enumerate() {
+            kept.push(sim.momenta(i));
+            if kept.len() > 2 {
+                kept.remove(0);
+            }
+        }
+    }
+
+    fn record(&mut self, sim: &Simulation) {
+        let mut frame = Vec::new();
+        for i in 0..FrameSource::strand_count(sim) {
+            let arcs = sim.centreline_arcs(i, self.per);
+            let (directors, velocities) = crate::simulation::frames_and_velocities(sim, i, &arcs);
+            let earlier = self.earlier.get(i).map_or(&[][..], Vec::as_slice);
+            match sim.internal_loads(i, earlier) {
+                Ok(loads) => frame.push((directors, velocities, loads)),
+                Err(e) => {
+                    self.error.get_or_insert(e);
+                    return;
+                }
+            }
+        }
+        self.frames.push(frame);
+    }
 }
 
 /// The simulation as the driver sees it, recording q̇ with every frame written.
@@ -35,6 +85,7 @@ pub struct RunOptions {
 struct Recording<'a> {
     sim: &'a mut Simulation,
     qdot: Vec<f64>,
+    mechanics: Option<Mechanics>,
 }
 
 impl FrameSource for Recording<'_> {
@@ -63,9 +114,15 @@ impl FrameSource for Recording<'_> {
         FrameSource::centreline_world(self.sim, i, samples_per_element)
     }
     fn step(&mut self) -> Result<()> {
+        if let Some(m) = self.mechanics.as_mut() {
+            m.keep_momenta(self.sim);
+        }
         FrameSource::step(self.sim)
     }
     fn step_by(&mut self, h: f64) -> Result<()> {
+        if let Some(m) = self.mechanics.as_mut() {
+            m.keep_momenta(self.sim);
+        }
         FrameSource::step_by(self.sim, h)
     }
     fn speed(&self, i: usize) -> f64 {
@@ -92,6 +149,9 @@ impl FrameSource for Recording<'_> {
     fn frame_steps(&mut self) -> Option<FrameSteps> {
         for i in 0..FrameSource::strand_count(&*self.sim) {
             self.qdot.extend_from_slice(FrameSource::v(&*self.sim, i));
+        }
+        if let Some(m) = self.mechanics.as_mut() {
+            m.record(self.sim);
         }
         FrameSource::frame_steps(self.sim)
     }
@@ -153,6 +213,7 @@ struct Produced {
     strand_steps: Option<Vec<StrandSteps>>,
     energies: Option<Measured>,
     engine: &'static str,
+    mechanics: Option<Mechanics>,
 }
 
 /// Hands every field of [`RunResult`] to the macro `$m` (pickle writes and reads them
@@ -182,6 +243,7 @@ macro_rules! run_result_fields {
             held_tips,
             arc_nodes,
             d1,
+            mechanics,
             engine,
             completed
         )
@@ -279,6 +341,12 @@ pub struct RunResult {
     /// K − 1 segments between its nodes, world coordinates: shape (frames, strands, K − 1,
     /// 3), as frames.d1.npy. None otherwise.
     d1: Py<PyAny>,
+    /// With `scene.run(mechanics=True)`: per frame, a dict of `directors` and
+    /// `velocities` at the points of `nodes` (as `Simulation.directors()` and
+    /// `velocities()` give them) and `internal_loads` (a dict per strand, as
+    /// `Simulation.internal_loads()`, the inertia counted from the steps before the
+    /// frame). None otherwise.
+    mechanics: Py<PyAny>,
     /// The engine that stepped the strands: "embedded" or "runtime".
     engine: String,
     /// Whether every planned frame was computed (False on the `result` of a
@@ -351,6 +419,11 @@ pub fn run_scene(
     let config = setup.config.clone();
     let samples = setup.samples_per_element;
     let mut sim = Scene::build(py, setup.clone())?;
+    if options.mechanics && FrameSource::strand_count(&sim) > 0 {
+        // refused before the run: a scene whose forces the balance cannot place
+        sim.internal_loads(0, &[])
+            .map_err(crate::errors::input_error)?;
+    }
     let stop = AtomicBool::new(false);
     let interrupt: Mutex<Option<PyErr>> = Mutex::new(None);
     let produced = py.detach(|| {
@@ -365,6 +438,12 @@ pub fn run_scene(
         let mut source = Recording {
             sim: &mut sim,
             qdot: Vec::new(),
+            mechanics: options.mechanics.then(|| Mechanics {
+                per: samples,
+                earlier: Vec::new(),
+                frames: Vec::new(),
+                error: None,
+            }),
         };
         let mut checked = Instant::now();
         let outcome = run_streaming(
@@ -389,6 +468,7 @@ pub fn run_scene(
             },
         );
         let qdot = std::mem::take(&mut source.qdot);
+        let mechanics = source.mechanics.take();
         let stats = sim.stats();
         let strand_steps = FrameSource::strand_steps(&sim);
         let energies = options.energies.then(|| {
@@ -407,6 +487,7 @@ pub fn run_scene(
             strand_steps,
             energies,
             engine,
+            mechanics,
         }
     });
     let mut produced = produced;
@@ -569,6 +650,36 @@ fn to_python(py: Python<'_>, p: Produced, completed: bool) -> PyResult<RunResult
         p.engine,
         completed,
     )?;
+    let mechanics = match p.mechanics {
+        None => py.None(),
+        Some(m) => {
+            if let Some(e) = m.error {
+                return Err(crate::errors::input_error(e));
+            }
+            let list = PyList::empty(py);
+            for frame in m.frames {
+                let (mut directors, mut velocities, loads) =
+                    (Vec::new(), Vec::new(), PyList::empty(py));
+                for (d, v, l) in frame {
+                    directors.push(d);
+                    velocities.push(v);
+                    loads.append(crate::simulation::loads_dict(py, &l)?)?;
+                }
+                let d = PyDict::new(py);
+                d.set_item(
+                    "directors",
+                    crate::simulation::stacked(py, directors, &[3, 3])?,
+                )?;
+                d.set_item(
+                    "velocities",
+                    crate::simulation::stacked(py, velocities, &[3])?,
+                )?;
+                d.set_item("internal_loads", loads)?;
+                list.append(d)?;
+            }
+            list.into_any().unbind()
+        }
+    };
     Ok(RunResult {
         times: f64_array(py, &[frames], p.frames.times)?,
         state_times: f64_array(py, &[frames], p.frames.state_times)?,
@@ -596,6 +707,7 @@ fn to_python(py: Python<'_>, p: Produced, completed: bool) -> PyResult<RunResult
         held_tips: layout.held_tips.clone(),
         arc_nodes,
         d1,
+        mechanics,
         engine: p.engine.to_string(),
         completed,
     })

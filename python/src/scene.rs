@@ -455,9 +455,18 @@ impl Scene {
     /// for fewer frames, or write files with `superhelix run`. Raises SceneError when the
     /// scene cannot be built and SimulationError when a step fails (its `result`
     /// attribute holds the frames computed before).
+    ///
+    /// With `mechanics=True` every frame also records each strand's directors and
+    /// velocities at the points of `nodes` and its internal loads and reactions
+    /// (`result.mechanics`, as `Simulation.directors()`, `velocities()` and
+    /// `internal_loads()` give them), the inertia from the momenta kept before each step
+    /// (about three reconstructions of each strand per step); refused (ValueError) for a
+    /// scene with contacts or electrostatics.
     #[pyo3(signature = (
-        *, duration = None, frames = None, tolerance = None, energies = true, max_bytes = 4e9
+        *, duration = None, frames = None, tolerance = None, energies = true,
+        max_bytes = 4e9, mechanics = false
     ))]
+    #[allow(clippy::too_many_arguments)]
     fn run(
         &self,
         py: Python<'_>,
@@ -466,6 +475,7 @@ impl Scene {
         tolerance: Option<f64>,
         energies: bool,
         max_bytes: f64,
+        mechanics: bool,
     ) -> PyResult<RunResult> {
         if duration.is_some() && frames.is_some() {
             return Err(PyValueError::new_err(
@@ -478,14 +488,21 @@ impl Scene {
             tolerance,
             ..Default::default()
         })?;
-        let bytes = memory_estimate(&setup, energies);
+        let bytes = memory_estimate(&setup, energies, mechanics);
         if max_bytes.is_nan() || bytes > max_bytes {
             return Err(PyValueError::new_err(format!(
                 "max_bytes: the run's arrays would take about {:.3e} bytes in memory, more than max_bytes = {max_bytes:.3e}; pass a larger max_bytes, fewer frames (frames=, duration=, [simulation] output_fps, [output] samples_per_element) or write files with `superhelix run`",
                 bytes
             )));
         }
-        run_scene(py, setup, &RunOptions { energies })
+        run_scene(
+            py,
+            setup,
+            &RunOptions {
+                energies,
+                mechanics,
+            },
+        )
     }
 
     /// scene.simulation(*, dt=None, tolerance=None) -> Simulation
@@ -545,17 +562,25 @@ impl Scene {
 
 /// Bytes the arrays of a run of `setup` take in memory (f64): every frame's points, q
 /// and q̇ (held twice while they become numpy arrays), and the energies.
-fn memory_estimate(setup: &SimulationSetup, energies: bool) -> f64 {
+fn memory_estimate(setup: &SimulationSetup, energies: bool, mechanics: bool) -> f64 {
     let frames = frame_times(&setup.config).len() as f64;
     let strands = setup.strands.len() as f64;
-    let (mut points, mut coordinates) = (0.0, 0.0);
+    let (mut points, mut coordinates, mut elements) = (0.0, 0.0, 0.0);
     for s in &setup.strands {
         let n = s.strand.geometry.elements() as f64;
         points += 1.0 + setup.samples_per_element as f64 * n;
         coordinates += 3.0 * n;
+        elements += n;
     }
     let per_frame = 3.0 * points + 2.0 * coordinates + if energies { 3.0 * strands } else { 0.0 };
-    2.0 * 8.0 * frames * per_frame
+    // with mechanics: 12 numbers per point (directors, velocity), and per strand 10 per
+    // element end (arc, position, force, moment), 6 per element and two reactions
+    let mechanics = if mechanics {
+        12.0 * points + 10.0 * (elements + strands) + 6.0 * elements + 12.0 * strands
+    } else {
+        0.0
+    };
+    2.0 * 8.0 * frames * (per_frame + mechanics)
 }
 
 /// The name of a resolved engine.

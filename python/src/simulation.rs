@@ -118,6 +118,57 @@ fn rows(py: Python<'_>, rows: Vec<Vec<f64>>) -> PyResult<Py<PyAny>> {
     }
 }
 
+/// One strand's internal loads as `sim.internal_loads()` gives them (a dict of arrays).
+pub fn loads_dict<'py>(
+    py: Python<'py>,
+    l: &superhelix_runtime::forces::internal_loads::InternalLoads,
+) -> PyResult<Bound<'py, PyDict>> {
+    let flat3 = |v: &[nalgebra::Vector3<f64>]| -> Vec<f64> {
+        v.iter()
+            .flat_map(|x| x.iter().copied().collect::<Vec<_>>())
+            .collect()
+    };
+    let d = PyDict::new(py);
+    let ends = l.arcs.len();
+    let elements = l.element_moment.len();
+    d.set_item("arc", f64_array(py, &[ends], l.arcs.clone())?)?;
+    d.set_item("position", f64_array(py, &[ends, 3], flat3(&l.positions))?)?;
+    d.set_item("force", f64_array(py, &[ends, 3], flat3(&l.force))?)?;
+    d.set_item("moment", f64_array(py, &[ends, 3], flat3(&l.moment))?)?;
+    d.set_item(
+        "element_moment",
+        f64_array(py, &[elements, 3], flat3(&l.element_moment))?,
+    )?;
+    d.set_item(
+        "element_moment_world",
+        f64_array(py, &[elements, 3], flat3(&l.element_moment_world))?,
+    )?;
+    let six = |r: Option<nalgebra::Vector6<f64>>| {
+        r.map(|r| f64_array(py, &[6], r.iter().copied().collect()))
+            .transpose()
+    };
+    d.set_item("root_reaction", six(l.root_reaction)?)?;
+    d.set_item("tip_reaction", six(l.tip_reaction)?)?;
+    d.set_item("inertia", l.inertia)?;
+    Ok(d)
+}
+
+/// Strand i's material frames at `arcs` as `directors()` lays them out (3 × 3 per point,
+/// row j the director d_j), and its world velocities there (3 per point).
+pub fn frames_and_velocities(sim: &Runtime, i: usize, arcs: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let directors = sim
+        .poses_world(i, arcs)
+        .iter()
+        .flat_map(|p| p.frame.iter().copied().collect::<Vec<_>>())
+        .collect();
+    let velocities = sim
+        .velocities_world(i, arcs)
+        .iter()
+        .flat_map(|v| v.iter().copied().collect::<Vec<_>>())
+        .collect();
+    (directors, velocities)
+}
+
 /// `samples_per_element` of `nodes()` and its kin: the scene's `[output]
 /// samples_per_element` when None, else checked to be in [1, 64].
 fn node_samples(sim: &Runtime, samples_per_element: Option<usize>) -> PyResult<usize> {
@@ -133,7 +184,7 @@ fn node_samples(sim: &Runtime, samples_per_element: Option<usize>) -> PyResult<u
 
 /// Per-strand values of `tail` shape per point as one (strands, points, *tail) array
 /// when every strand has as many points, else a list of (points_i, *tail) arrays.
-fn stacked(py: Python<'_>, per_strand: Vec<Vec<f64>>, tail: &[usize]) -> PyResult<Py<PyAny>> {
+pub fn stacked(py: Python<'_>, per_strand: Vec<Vec<f64>>, tail: &[usize]) -> PyResult<Py<PyAny>> {
     let width: usize = tail.iter().product();
     let points = per_strand.first().map_or(0, |v| v.len() / width);
     let shape_of =
@@ -419,7 +470,10 @@ impl Simulation {
                 Some(false) => &[],
                 _ => inner.earlier.get(i).map_or(&[], Vec::as_slice),
             };
-            let loads = inner.sim.internal_loads(i, earlier).map_err(run_error)?;
+            let loads = inner
+                .sim
+                .internal_loads(i, earlier)
+                .map_err(crate::errors::input_error)?;
             if inertia.is_none() && !loads.inertia && inner.sim.v(i).iter().any(|&v| v != 0.0) {
                 return Err(PyValueError::new_err(format!(
                     "internal_loads: strand {i} moves and no momenta were kept for its inertia: set sim.track_inertia = True before stepping (or pass inertia=False to leave the inertia out)"
@@ -429,35 +483,8 @@ impl Simulation {
         }
         drop(inner);
         let list = PyList::empty(py);
-        let flat3 = |v: &[nalgebra::Vector3<f64>]| -> Vec<f64> {
-            v.iter()
-                .flat_map(|x| x.iter().copied().collect::<Vec<_>>())
-                .collect()
-        };
-        for l in all {
-            let d = PyDict::new(py);
-            let ends = l.arcs.len();
-            let elements = l.element_moment.len();
-            d.set_item("arc", f64_array(py, &[ends], l.arcs)?)?;
-            d.set_item("position", f64_array(py, &[ends, 3], flat3(&l.positions))?)?;
-            d.set_item("force", f64_array(py, &[ends, 3], flat3(&l.force))?)?;
-            d.set_item("moment", f64_array(py, &[ends, 3], flat3(&l.moment))?)?;
-            d.set_item(
-                "element_moment",
-                f64_array(py, &[elements, 3], flat3(&l.element_moment))?,
-            )?;
-            d.set_item(
-                "element_moment_world",
-                f64_array(py, &[elements, 3], flat3(&l.element_moment_world))?,
-            )?;
-            let six = |r: Option<nalgebra::Vector6<f64>>| {
-                r.map(|r| f64_array(py, &[6], r.iter().copied().collect()))
-                    .transpose()
-            };
-            d.set_item("root_reaction", six(l.root_reaction)?)?;
-            d.set_item("tip_reaction", six(l.tip_reaction)?)?;
-            d.set_item("inertia", l.inertia)?;
-            list.append(d)?;
+        for l in &all {
+            list.append(loads_dict(py, l)?)?;
         }
         Ok(list)
     }

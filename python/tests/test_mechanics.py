@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import superhelix
-from conftest import hanging_strand
+from conftest import TOUCHING, hanging_strand
 
 L, R, E, RHO, G = 0.2, 1e-3, 2e11, 7800.0, 9.81
 
@@ -274,3 +274,34 @@ def test_a_holder_moved_across_a_propped_cantilever_takes_beam_theorys_force(tmp
     assert free.holder(0) is None
     with pytest.raises(ValueError, match="not held"):
         free.set_holder(0, [L, 0.0, 0.0])
+
+
+def test_a_run_records_the_mechanics_of_every_frame_as_stepping_by_hand_reads_it():
+    # the pinned rod swinging: each frame's directors, velocities and internal loads
+    # (inertia from the steps before the frame) are those of the same state stepped by
+    # hand with track_inertia, to the bit
+    d = steel_rod(root="pinned", integrator="bdf2", dt=1e-3, duration=0.05,
+                  output_fps=100.0)
+    d["strands"][0]["internal_friction"] = 2e-3
+    scene = superhelix.Scene.from_dict(d)
+    result = scene.run(mechanics=True)
+    assert len(result.mechanics) == result.frame_count == 6
+    sim = scene.simulation()
+    sim.track_inertia = True
+    for k, frame in enumerate(result.mechanics):
+        if k > 0:
+            sim.step(steps=10)
+        np.testing.assert_array_equal(frame["directors"], sim.directors())
+        np.testing.assert_array_equal(frame["velocities"], sim.velocities())
+        if k == 0:
+            (by_hand,) = sim.internal_loads(inertia=False)
+        else:
+            (by_hand,) = sim.internal_loads()
+        (loads,) = frame["internal_loads"]
+        assert loads["inertia"] == (k > 0)
+        for key in ["force", "moment", "element_moment", "root_reaction"]:
+            np.testing.assert_array_equal(loads[key], by_hand[key])
+    assert scene.run().mechanics is None
+    # a scene with contacts is refused before it runs
+    with pytest.raises(ValueError, match="contacts"):
+        superhelix.Scene.from_toml(TOUCHING).run(mechanics=True)
