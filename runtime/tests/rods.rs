@@ -1859,6 +1859,7 @@ root = "pinned"
 }
 
 #[test]
+#[ignore = "about 2 minutes; figures in docs/scene-format.md: cargo test --release -p superhelix-runtime --test rods -- --ignored a_rope_lowered_into_a_well --nocapture"]
 fn a_rope_lowered_into_a_well_piles_up_without_passing_through_itself() {
     // with self-contact the rope's volume (radius 1 mm) keeps its parts 2 mm apart, less
     // the penalty's give where two coils cross: a crossing's penalty meets the push of the
