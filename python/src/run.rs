@@ -63,7 +63,8 @@ impl Mechanics {
         let mut frame = Vec::new();
         for i in 0..FrameSource::strand_count(sim) {
             let arcs = sim.centreline_arcs(i, self.per);
-            let (directors, velocities) = crate::simulation::frames_and_velocities(sim, i, &arcs);
+            let directors = crate::simulation::directors_at(sim, i, &arcs);
+            let velocities = crate::simulation::velocities_at(sim, i, &arcs);
             let earlier = self.earlier.get(i).map_or(&[][..], Vec::as_slice);
             match sim.internal_loads(i, earlier) {
                 Ok(loads) => frame.push((directors, velocities, loads)),

@@ -154,19 +154,20 @@ pub fn loads_dict<'py>(
 }
 
 /// Strand i's material frames at `arcs` as `directors()` lays them out (3 × 3 per point,
-/// row j the director d_j), and its world velocities there (3 per point).
-pub fn frames_and_velocities(sim: &Runtime, i: usize, arcs: &[f64]) -> (Vec<f64>, Vec<f64>) {
-    let directors = sim
-        .poses_world(i, arcs)
+/// row j the director d_j).
+pub fn directors_at(sim: &Runtime, i: usize, arcs: &[f64]) -> Vec<f64> {
+    sim.poses_world(i, arcs)
         .iter()
         .flat_map(|p| p.frame.iter().copied().collect::<Vec<_>>())
-        .collect();
-    let velocities = sim
-        .velocities_world(i, arcs)
+        .collect()
+}
+
+/// Strand i's world velocities at `arcs` as `velocities()` lays them out (3 per point).
+pub fn velocities_at(sim: &Runtime, i: usize, arcs: &[f64]) -> Vec<f64> {
+    sim.velocities_world(i, arcs)
         .iter()
         .flat_map(|v| v.iter().copied().collect::<Vec<_>>())
-        .collect();
-    (directors, velocities)
+        .collect()
 }
 
 /// `samples_per_element` of `nodes()` and its kin: the scene's `[output]
@@ -373,15 +374,7 @@ impl Simulation {
         let inner = self.lock()?;
         let per = node_samples(&inner.sim, samples_per_element)?;
         let per_strand: Vec<Vec<f64>> = (0..inner.sim.strand_count())
-            .map(|i| {
-                let arcs = inner.sim.centreline_arcs(i, per);
-                inner
-                    .sim
-                    .poses_world(i, &arcs)
-                    .iter()
-                    .flat_map(|p| p.frame.iter().copied().collect::<Vec<_>>())
-                    .collect()
-            })
+            .map(|i| directors_at(&inner.sim, i, &inner.sim.centreline_arcs(i, per)))
             .collect();
         drop(inner);
         stacked(py, per_strand, &[3, 3])
@@ -401,15 +394,7 @@ impl Simulation {
         let inner = self.lock()?;
         let per = node_samples(&inner.sim, samples_per_element)?;
         let per_strand: Vec<Vec<f64>> = (0..inner.sim.strand_count())
-            .map(|i| {
-                let arcs = inner.sim.centreline_arcs(i, per);
-                inner
-                    .sim
-                    .velocities_world(i, &arcs)
-                    .iter()
-                    .flat_map(|v| v.iter().copied().collect::<Vec<_>>())
-                    .collect()
-            })
+            .map(|i| velocities_at(&inner.sim, i, &inner.sim.centreline_arcs(i, per)))
             .collect();
         drop(inner);
         stacked(py, per_strand, &[3])

@@ -2325,6 +2325,19 @@ impl Simulation {
         }
     }
 
+    /// `Ok` when strand `i` exists, else an error naming the strand count.
+    fn check_strand(&self, i: usize) -> Result<()> {
+        let count = self.strand_count();
+        if i < count {
+            Ok(())
+        } else {
+            Err(Error::invalid(
+                "strand",
+                format!("{i}: the simulation has {count} strand(s)"),
+            ))
+        }
+    }
+
     /// Put strand i's holder at (position, frame) as a restored state had it, nothing
     /// else changed (`Err`: the tip is not held).
     pub(crate) fn put_holder(
@@ -2391,13 +2404,7 @@ impl Simulation {
         i: usize,
         loads: Vec<crate::model::strand::PointLoad>,
     ) -> Result<()> {
-        let count = self.strand_count();
-        if i >= count {
-            return Err(Error::invalid(
-                "strand",
-                format!("{i}: the simulation has {count} strand(s)"),
-            ));
-        }
+        self.check_strand(i)?;
         let length = self.strand(i).geometry.length();
         let max = crate::scene::MAX_POINT_LOAD;
         let mut loads = loads;
@@ -2485,13 +2492,7 @@ impl Simulation {
         position: nalgebra::Vector3<f64>,
         frame: Option<nalgebra::Matrix3<f64>>,
     ) -> Result<()> {
-        let count = self.strand_count();
-        if i >= count {
-            return Err(Error::invalid(
-                "strand",
-                format!("{i}: the simulation has {count} strand(s)"),
-            ));
-        }
+        self.check_strand(i)?;
         if !position.iter().all(|x| x.is_finite() && x.abs() <= 1e4) {
             return Err(Error::invalid(
                 "position",
