@@ -2394,7 +2394,7 @@ impl Simulation {
     /// Replace strand i's own point loads from now on (the steps and static solves take
     /// them; the Coulomb forces stay): a load ramped, moved or computed by a caller
     /// between two steps. Each load's s must be in [0, L] and its force finite, at most
-    /// [`crate::scene::MAX_POINT_LOAD`] N; the embedded engine takes no follower load.
+    /// [`crate::model::strand::MAX_POINT_LOAD`] N; the embedded engine takes no follower load.
     /// The change is no work the strand did: its last energy is shifted by the loads'
     /// potential at its state (as for electrostatics' updates), and the two-step
     /// integrator keeps its history, so a load set before every step is stepped exactly
@@ -2406,7 +2406,7 @@ impl Simulation {
     ) -> Result<()> {
         self.check_strand(i)?;
         let length = self.strand(i).geometry.length();
-        let max = crate::scene::MAX_POINT_LOAD;
+        let max = crate::model::strand::MAX_POINT_LOAD;
         let mut loads = loads;
         for (k, load) in loads.iter_mut().enumerate() {
             // (the elements' lengths sum to L within rounding: a load at L is at the tip)

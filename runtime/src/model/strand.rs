@@ -103,6 +103,10 @@ impl StrandGeometry {
     }
 }
 
+/// Largest magnitude of a point load, newtons (the scene's and
+/// `Simulation::set_point_loads`' bound).
+pub const MAX_POINT_LOAD: f64 = 1e6;
+
 /// A constant force applied at one point of a strand (`superhelix_kernels::point_load`:
 /// the one step's terms and energy of it).
 pub use superhelix_kernels::point_load::PointLoad;

@@ -30,8 +30,7 @@ pub const MAX_RADIUS: f64 = 1.0;
 /// Largest |τ|, |κ1|, |κ2| of `q0` and of the natural curvatures, rad/m: a fibre bent
 /// to a radius of 1 µm; the trigonometric terms of the reconstruction stay accurate.
 pub const MAX_CURVATURE: f64 = 1e6;
-/// Largest magnitude of a point load, newtons.
-pub const MAX_POINT_LOAD: f64 = 1e6;
+pub use crate::model::strand::MAX_POINT_LOAD;
 /// Allowed charge per length, C/m: far beyond any charged fibre (the paper's is
 /// ~2.6·10⁻¹¹ C/m).
 pub const MAX_CHARGE_RANGE: Range = Range::new(Bound::Incl(-1e-3), Bound::Incl(1e-3));
