@@ -1,6 +1,6 @@
 //! The commands of the `superhelix` binary, one file each, and the plumbing they share.
-//! The library halves of the measuring commands (`bench`, `compare-kernels`,
-//! `quadrature-table`, `study`, `stress`, `render`) are modules of the `superhelix` crate.
+//! What each command computes is in the library `superhelix-studies`; these files only
+//! turn arguments into its calls and print or write what it returns.
 
 pub mod bench;
 pub mod common;

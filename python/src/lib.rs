@@ -2,9 +2,10 @@
 //!
 //! The Python module `superhelix`: Super-Helix scenes built from TOML text, a file or a
 //! dict, checked as `superhelix validate` checks them, run as `superhelix run` runs them
-//! with every frame returned as numpy arrays, or stepped by hand; and the embedded
-//! fixed-N strand step with the head pose given per step (the C ABI's batch). Built with
-//! maturin as an abi3 wheel (`pip install ./python`); documented in `docs/python.md`.
+//! with every frame returned as numpy arrays, or stepped by hand; the embedded fixed-N
+//! strand step with the head pose given per step (the C ABI's batch); and the studies of
+//! `superhelix study` and `superhelix stress`, their results as dicts. Built with maturin
+//! as an abi3 wheel (`pip install ./python`); documented in `docs/python.md`.
 //!
 //! | Python | Rust |
 //! |---|---|
@@ -12,6 +13,7 @@
 //! | `Scene.run` → `RunResult` ([`run`]) | `superhelix_runtime::output::run_streaming` |
 //! | `Simulation` ([`simulation`]) | `superhelix_runtime::Simulation` |
 //! | `Batch`, `StepReport` ([`batch`]) | `superhelix_kernels::fixed::{step, linearly_implicit, step_to_tolerance}` over `superhelix_generated`'s sizes |
+//! | `study`, `stress` ([`studies`]) | `superhelix_studies::study::run_study`, `superhelix_studies::stress::{select_cases, run_cases}` |
 //! | `SceneError`, `SimulationError`, `StepError` ([`errors`]) | `superhelix_runtime::Error`, `superhelix_kernels::fixed::StepError` |
 
 mod arrays;
@@ -22,6 +24,7 @@ mod errors;
 mod run;
 mod scene;
 mod simulation;
+mod studies;
 
 use pyo3::prelude::*;
 
@@ -29,7 +32,8 @@ use pyo3::prelude::*;
 ///
 /// Scene.from_toml / from_file / from_dict / default -> Scene; scene.validate();
 /// scene.run() -> RunResult (numpy arrays of every frame); scene.simulation() ->
-/// Simulation (step by hand); Batch (the embedded fixed-N step, the head pose per step).
+/// Simulation (step by hand); Batch (the embedded fixed-N step, the head pose per step);
+/// study(...) and stress(...) (the studies of `superhelix study` and `superhelix stress`).
 /// Errors: SceneError (ValueError), SimulationError and StepError (RuntimeError).
 /// docs/python.md in the repository describes it all.
 #[pymodule]
@@ -46,6 +50,8 @@ mod superhelix {
     use crate::scene::Scene;
     #[pymodule_export]
     use crate::simulation::Simulation;
+    #[pymodule_export]
+    use crate::studies::{stress, study};
 
     /// supported_elements() -> list[int]
     ///

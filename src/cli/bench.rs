@@ -4,11 +4,11 @@ use super::common::{integrator, kernels, preset, with_threads};
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use superhelix::bench::{
+use superhelix_studies::bench::{
     bench, bench_setup, restrict_effects, scene_effects, BenchOptions, BenchReport, EffectSet,
 };
-use superhelix::runtime::QuadratureRule;
-use superhelix::Error;
+use superhelix_studies::runtime::QuadratureRule;
+use superhelix_studies::Error;
 
 /// Arguments of `bench`.
 #[derive(Args)]
@@ -145,13 +145,14 @@ fn bench_generated(args: &BenchArgs) -> Result<ExitCode, Error> {
 
 /// `bench --scene`: time the scene's own strands, optionally restricted to some effects.
 fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
-    let text = superhelix::runtime::input::read_text_bounded(
+    let text = superhelix_studies::runtime::input::read_text_bounded(
         path,
-        superhelix::runtime::input::TEXT_FILE_LIMIT,
+        superhelix_studies::runtime::input::TEXT_FILE_LIMIT,
         "scene file",
     )
     .map_err(|e| Error::invalid("--scene", e))?;
-    let mut setup = superhelix::runtime::parse_scene_at(&text, super::common::scene_dir(path))?;
+    let mut setup =
+        superhelix_studies::runtime::parse_scene_at(&text, super::common::scene_dir(path))?;
     if let Some(list) = &args.effects {
         restrict_effects(&mut setup, EffectSet::parse(list)?)?;
     }
@@ -173,7 +174,7 @@ fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
     if let Some(on) = args.energy_balance {
         setup.config.energy_balance = on;
     }
-    superhelix::apply_tolerance(&mut setup, args.tolerance)?;
+    superhelix_studies::apply_tolerance(&mut setup, args.tolerance)?;
     let names = scene_effects(&setup).names().join(",");
     let integrator = setup.config.integrator.name();
     let budget = format!(
@@ -201,14 +202,16 @@ fn bench_scene(path: &Path, args: &BenchArgs) -> Result<ExitCode, Error> {
 }
 
 /// `--field-stiffness`, parsed.
-fn field_stiffness(name: &str) -> Result<superhelix::runtime::config::FieldStiffness, Error> {
-    superhelix::runtime::config::FieldStiffness::from_name(name)
+fn field_stiffness(
+    name: &str,
+) -> Result<superhelix_studies::runtime::config::FieldStiffness, Error> {
+    superhelix_studies::runtime::config::FieldStiffness::from_name(name)
         .ok_or_else(|| Error::invalid("--field-stiffness", "must be projected, split or explicit"))
 }
 
 /// The engine named by `--engine`.
-fn engine(name: &str) -> Result<superhelix::runtime::config::Engine, Error> {
-    superhelix::runtime::config::Engine::from_name(name)
+fn engine(name: &str) -> Result<superhelix_studies::runtime::config::Engine, Error> {
+    superhelix_studies::runtime::config::Engine::from_name(name)
         .ok_or_else(|| Error::invalid("--engine", "must be auto, runtime or embedded"))
 }
 
@@ -236,7 +239,7 @@ fn print_report(report: &BenchReport) {
     }
     println!(
         "{}",
-        superhelix::stress::field_stiffness_line(
+        superhelix_studies::stress::field_stiffness_line(
             report.field_split,
             report.field_projected,
             report.field_undamped

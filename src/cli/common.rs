@@ -4,9 +4,9 @@
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::Path;
-use superhelix::runtime::config::{IntegratorKind, KernelChoice};
-use superhelix::runtime::model::material::Preset;
-use superhelix::Error;
+use superhelix_studies::runtime::config::{IntegratorKind, KernelChoice};
+use superhelix_studies::runtime::model::material::Preset;
+use superhelix_studies::Error;
 
 /// The folder of the scene file at `path`: relative file paths in the scene (a mesh
 /// body's `path`) are resolved against it.
@@ -15,11 +15,11 @@ pub fn scene_dir(path: &Path) -> &Path {
 }
 
 /// The text of the scene file at `path` (a regular file of at most
-/// [`superhelix::runtime::input::TEXT_FILE_LIMIT`] bytes of UTF-8).
+/// [`superhelix_studies::runtime::input::TEXT_FILE_LIMIT`] bytes of UTF-8).
 pub fn read_scene(path: &Path) -> Result<String, Error> {
-    superhelix::runtime::input::read_text_bounded(
+    superhelix_studies::runtime::input::read_text_bounded(
         path,
-        superhelix::runtime::input::TEXT_FILE_LIMIT,
+        superhelix_studies::runtime::input::TEXT_FILE_LIMIT,
         "scene file (TOML)",
     )
     .map_err(|e| Error::invalid("SCENE", e))
@@ -162,22 +162,22 @@ pub struct RunChoices {
     /// Simulate part K of P of the strands (balanced by their expected cost), for
     /// `superhelix merge` to join (docs/output.md#a-head-split-across-machines).
     #[arg(long, value_name = "K/P")]
-    pub part: Option<superhelix::part::Part>,
+    pub part: Option<superhelix_studies::part::Part>,
 }
 
 impl RunChoices {
-    /// `--part K/P` applied to `setup` (refused as [`superhelix::part::part_setup`]
+    /// `--part K/P` applied to `setup` (refused as [`superhelix_studies::part::part_setup`]
     /// refuses), with the line that says so: the part, the whole scene's strand indices it
     /// holds and the whole scene's strand count; `None` without `--part`.
     pub fn take_part(
         &self,
-        setup: &mut superhelix::SimulationSetup,
-    ) -> Result<Option<(superhelix::part::Part, Vec<usize>, usize)>, Error> {
+        setup: &mut superhelix_studies::SimulationSetup,
+    ) -> Result<Option<(superhelix_studies::part::Part, Vec<usize>, usize)>, Error> {
         let Some(part) = self.part else {
             return Ok(None);
         };
         let total = setup.strands.len();
-        let (reduced, strands) = superhelix::part::part_setup(setup, part)?;
+        let (reduced, strands) = superhelix_studies::part::part_setup(setup, part)?;
         println!(
             "part {}/{}: {} of {total} strands",
             part.index,
@@ -189,11 +189,11 @@ impl RunChoices {
     }
 
     /// `--format` and `--allow-large-output` as the library takes them.
-    pub fn run_options(&self) -> Result<superhelix::RunOptions, Error> {
-        Ok(superhelix::RunOptions {
+    pub fn run_options(&self) -> Result<superhelix_studies::RunOptions, Error> {
+        Ok(superhelix_studies::RunOptions {
             formats: match self.format.is_empty() {
                 true => None,
-                false => Some(superhelix::Formats::from_cli(&self.format)?),
+                false => Some(superhelix_studies::Formats::from_cli(&self.format)?),
             },
             allow_large_output: self.allow_large_output,
         })
@@ -230,7 +230,7 @@ pub fn report(e: &Error) {
 
 /// The deepest split of a step named by `--max-split-depth`: 0 to the default (8).
 pub fn split_depth(d: usize) -> Result<usize, Error> {
-    let max = superhelix::runtime::config::SimulationConfig::default().max_split_depth;
+    let max = superhelix_studies::runtime::config::SimulationConfig::default().max_split_depth;
     if d > max {
         return Err(Error::invalid(
             "--max-split-depth",

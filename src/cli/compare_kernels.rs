@@ -2,8 +2,8 @@
 
 use clap::Args;
 use std::process::ExitCode;
-use superhelix::compare::{compare_kernels, Candidate, CompareOptions};
-use superhelix::Error;
+use superhelix_studies::compare::{compare_kernels, Candidate, CompareOptions};
+use superhelix_studies::Error;
 
 /// Arguments of `compare-kernels`.
 #[derive(Args)]
@@ -36,7 +36,7 @@ pub fn run(args: CompareKernelsArgs) -> Result<ExitCode, Error> {
             )
         })?,
     };
-    let report = compare_kernels(&options, superhelix::kernel_factory())?;
+    let report = compare_kernels(&options, superhelix_studies::kernel_factory())?;
     print!("{}", report.render());
     Ok(ExitCode::SUCCESS)
 }

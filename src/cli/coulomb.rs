@@ -4,9 +4,9 @@ use super::common::with_threads;
 use clap::Args;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use superhelix::coulomb::{coulomb_files, Method, COULOMB_CONSTANT};
-use superhelix::Error;
 use superhelix_fmm::{FmmOptions, Softening};
+use superhelix_studies::coulomb::{coulomb_files, Method, COULOMB_CONSTANT};
+use superhelix_studies::Error;
 
 /// Arguments of `coulomb`.
 #[derive(Args)]

@@ -4,8 +4,8 @@ use super::common::with_threads;
 use clap::Args;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use superhelix::coulomb_scaling::{measure, plot, render};
-use superhelix::Error;
+use superhelix_studies::coulomb_scaling::{measure, plot, render};
+use superhelix_studies::Error;
 
 /// Arguments of `coulomb-scaling`.
 #[derive(Args)]

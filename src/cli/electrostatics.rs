@@ -3,8 +3,8 @@
 use clap::Args;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use superhelix::electrostatics_study::{run_experiments, write_report, ExperimentOptions};
-use superhelix::Error;
+use superhelix_studies::electrostatics_study::{run_experiments, write_report, ExperimentOptions};
+use superhelix_studies::Error;
 
 /// Arguments of `electrostatics`.
 #[derive(Args)]
@@ -53,7 +53,7 @@ pub fn run(args: ElectrostaticsArgs) -> Result<ExitCode, Error> {
         } else {
             args.elements
         };
-        let h = superhelix::electrostatics_study::run_half_scalp(
+        let h = superhelix_studies::electrostatics_study::run_half_scalp(
             fibres,
             elements,
             args.accuracy,

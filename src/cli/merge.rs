@@ -1,10 +1,10 @@
 //! `superhelix merge PART_DIRS... --out DIR`: the parts of a split run joined
-//! ([`superhelix::merge`]).
+//! ([`superhelix_studies::merge`]).
 
 use clap::Args;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use superhelix::Error;
+use superhelix_studies::Error;
 
 /// Arguments of `merge`.
 #[derive(Args)]
@@ -19,7 +19,7 @@ pub struct MergeArgs {
 
 /// Run `merge`.
 pub fn run(args: MergeArgs) -> Result<ExitCode, Error> {
-    let files = superhelix::merge::merge(&args.parts, &args.out)?;
+    let files = superhelix_studies::merge::merge(&args.parts, &args.out)?;
     for file in &files {
         println!("wrote {}", file.display());
     }

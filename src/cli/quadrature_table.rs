@@ -4,8 +4,8 @@
 use super::common::preset;
 use clap::Args;
 use std::process::ExitCode;
-use superhelix::quadrature_table::{quadrature_table, TableOptions};
-use superhelix::Error;
+use superhelix_studies::quadrature_table::{quadrature_table, TableOptions};
+use superhelix_studies::Error;
 
 /// Arguments of `quadrature-table`.
 #[derive(Args)]
@@ -36,7 +36,7 @@ pub fn run(args: QuadratureTableArgs) -> Result<ExitCode, Error> {
         strands: args.strands,
         repeats: args.repeats,
     };
-    let table = quadrature_table(&options, superhelix::kernel_factory())?;
+    let table = quadrature_table(&options, superhelix_studies::kernel_factory())?;
     print!("{}", table.render());
     Ok(ExitCode::SUCCESS)
 }

@@ -3,8 +3,8 @@
 use clap::Args;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use superhelix::render::{render, RenderRequest};
-use superhelix::Error;
+use superhelix_studies::render::{render, RenderRequest};
+use superhelix_studies::Error;
 
 /// Arguments of `render`.
 #[derive(Args)]

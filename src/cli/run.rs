@@ -9,9 +9,9 @@ use clap::Args;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
-use superhelix::runtime::output::plan::prepare_out_dir;
-use superhelix::runtime::output::StopReason;
-use superhelix::Error;
+use superhelix_studies::runtime::output::plan::prepare_out_dir;
+use superhelix_studies::runtime::output::StopReason;
+use superhelix_studies::Error;
 
 /// Arguments of `run`.
 #[derive(Args)]
@@ -63,21 +63,21 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
         None => (superhelix::DEFAULT_SCENE.to_string(), Path::new("")),
     };
     let reading = phase("reading the scene (fitting its grooms, their rest shapes)");
-    let parsed = superhelix::runtime::parse_scene_reporting(&text, dir);
+    let parsed = superhelix_studies::runtime::parse_scene_reporting(&text, dir);
     end_phase(reading);
     let (mut setup, grooms) = parsed?;
-    superhelix::apply_tolerance(&mut setup, args.choices.tolerance)?;
+    superhelix_studies::apply_tolerance(&mut setup, args.choices.tolerance)?;
     // a scene beyond the machine's memory is refused on its estimate before anything
     // scales with it (the digests below format every strand's numbers); a part is
     // checked on its own strands when its simulation is built
     if args.choices.part.is_none() {
-        superhelix::runtime::check_memory(&setup)?;
+        superhelix_studies::runtime::check_memory(&setup)?;
     }
     // the digest of the whole scene, which every part names
-    let whole = superhelix::runtime::output::checkpoint::setup_digest(&setup);
+    let whole = superhelix_studies::runtime::output::checkpoint::setup_digest(&setup);
     if args.choices.part.is_some() {
         // (validate says it of every scene with hair–hair contacts)
-        if let Some(note) = superhelix::part::hair_hair_note(&setup) {
+        if let Some(note) = superhelix_studies::part::hair_hair_note(&setup) {
             println!("{note}");
         }
     }
@@ -86,13 +86,13 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
         println!("{groom}");
     }
     let options = args.choices.run_options()?;
-    let plan = superhelix::plan_output(&setup, out, &options);
+    let plan = superhelix_studies::plan_output(&setup, out, &options);
     println!("{plan}");
     if let Some(note) = &plan.note {
         println!("{note}");
     }
     plan.check_limit()?;
-    let checkpoints = superhelix::RunCheckpoints::new(
+    let checkpoints = superhelix_studies::RunCheckpoints::new(
         &text,
         &setup,
         &plan,
@@ -112,7 +112,7 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
         println!(
             "checkpoints: every {} frames ({})",
             plan.checkpoint_every,
-            out.join(superhelix::runtime::output::checkpoint::CHECKPOINT_FILE)
+            out.join(superhelix_studies::runtime::output::checkpoint::CHECKPOINT_FILE)
                 .display()
         );
     }
@@ -121,23 +121,23 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
     let stale = [
         (
             checkpoints.resume.is_none(),
-            superhelix::runtime::output::checkpoint::CHECKPOINT_FILE,
+            superhelix_studies::runtime::output::checkpoint::CHECKPOINT_FILE,
         ),
-        (part_strands.is_none(), superhelix::part::PART_FILE),
+        (part_strands.is_none(), superhelix_studies::part::PART_FILE),
     ];
     for (_, name) in stale.iter().filter(|(stale, _)| *stale) {
         let path = out.join(name);
         if path.exists() {
             std::fs::remove_file(&path)
-                .map_err(|e| superhelix::runtime::output::atomic::io_error(&path, e))?;
+                .map_err(|e| superhelix_studies::runtime::output::atomic::io_error(&path, e))?;
         }
     }
     // part.json without digests while the run goes on: merge refuses a part until its
     // run has written its last frame and recorded its frame files
     let mut part_info = None;
     if let Some((part, strands, total)) = part_strands {
-        let info = superhelix::part::PartInfo {
-            format: superhelix::part::PART_FORMAT.to_string(),
+        let info = superhelix_studies::part::PartInfo {
+            format: superhelix_studies::part::PART_FORMAT.to_string(),
             part,
             strands,
             total_strands: total,
@@ -150,7 +150,7 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
             formats: plan.formats.names().iter().map(|s| s.to_string()).collect(),
             files: Vec::new(),
         };
-        superhelix::part::write_info(out, &info)?;
+        superhelix_studies::part::write_info(out, &info)?;
         part_info = Some(info);
     }
     // A second Ctrl-C ends the process at once (the frames written stay readable).
@@ -163,13 +163,13 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
         eprintln!("warning: Ctrl-C will not stop the run cleanly: {e}");
     }
     let building = phase("building the simulation");
-    let source = superhelix::open_simulation(setup.clone());
+    let source = superhelix_studies::open_simulation(setup.clone());
     end_phase(building);
     let mut source = source?;
     let bar = progress_bar();
     let started = std::time::Instant::now();
     let frames = plan.frames;
-    let report = superhelix::run_planned_with(
+    let report = superhelix_studies::run_planned_with(
         &setup,
         source.as_mut(),
         &plan,
@@ -206,10 +206,13 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
         out.display()
     );
     // what the run held at its peak against what validate estimated for it
-    if let Some(peak) = superhelix::runtime::memory_plan::peak_memory() {
-        let (engine, _) = superhelix::runtime::engine_for(&setup);
-        let estimate =
-            superhelix::runtime::memory_plan::estimate_with(&setup, engine, plan.formats.usda);
+    if let Some(peak) = superhelix_studies::runtime::memory_plan::peak_memory() {
+        let (engine, _) = superhelix_studies::runtime::engine_for(&setup);
+        let estimate = superhelix_studies::runtime::memory_plan::estimate_with(
+            &setup,
+            engine,
+            plan.formats.usda,
+        );
         println!(
             "memory: {:.1} MB at peak (estimated {:.1} MB)",
             peak as f64 / 1e6,
@@ -219,7 +222,7 @@ pub fn run(args: RunArgs) -> Result<ExitCode, Error> {
     match &outcome.stop {
         StopReason::Completed => {
             if let Some(info) = &mut part_info {
-                superhelix::part::record_files(out, info)?;
+                superhelix_studies::part::record_files(out, info)?;
             }
             println!("{}", outcome.summary);
             Ok(match report.products_error {

@@ -1,10 +1,9 @@
 //! `superhelix stress`: the hard cases.
 
-use super::common::integrator;
 use clap::Args;
 use std::process::ExitCode;
-use superhelix::stress;
-use superhelix::Error;
+use superhelix_studies::stress;
+use superhelix_studies::Error;
 
 /// Arguments of `stress`.
 #[derive(Args)]
@@ -50,45 +49,15 @@ pub struct StressArgs {
 
 /// Run `stress`.
 pub fn run(args: StressArgs) -> Result<ExitCode, Error> {
-    let mut cases: Vec<stress::Case> = if args.quick {
-        stress::quick_cases()
-    } else {
-        stress::all_cases()
-    };
-    if let Some(name) = &args.integrator {
-        cases = stress::with_integrator(cases, integrator(name)?);
-    }
-    if let Some(name) = &args.field_stiffness {
-        let kind =
-            superhelix::runtime::config::FieldStiffness::from_name(name).ok_or_else(|| {
-                Error::invalid("--field-stiffness", "must be projected, split or explicit")
-            })?;
-        cases = stress::with_field_stiffness(cases, kind);
-    }
-    if let Some(name) = &args.engine {
-        let engine = superhelix::runtime::config::Engine::from_name(name)
-            .ok_or_else(|| Error::invalid("--engine", "must be auto, runtime or embedded"))?;
-        cases = stress::with_engine(cases, engine);
-    }
-    if let Some(d) = args.max_split_depth {
-        cases = stress::with_max_split_depth(cases, super::common::split_depth(d)?);
-    }
-    if let Some(t) = args.tolerance {
-        let range =
-            superhelix::runtime::config::MIN_TOLERANCE..=superhelix::runtime::config::MAX_TOLERANCE;
-        if !range.contains(&t) {
-            return Err(Error::invalid(
-                "--tolerance",
-                format!("must be in [{:e}, {}], got {t}", range.start(), range.end()),
-            ));
-        }
-        cases = stress::with_tolerance(cases, t);
-    }
-    let filter = args.filter.as_deref();
-    let cases: Vec<stress::Case> = cases
-        .into_iter()
-        .filter(|c| filter.is_none_or(|f| c.name.contains(f)))
-        .collect();
+    let cases = stress::select_cases(&stress::StressOptions {
+        quick: args.quick,
+        filter: args.filter,
+        integrator: args.integrator,
+        field_stiffness: args.field_stiffness,
+        engine: args.engine,
+        max_split_depth: args.max_split_depth,
+        tolerance: args.tolerance,
+    })?;
     let start = std::time::Instant::now();
     let results = if args.verbose {
         stress::run_cases_with(&cases, |r| println!("{}", stress::detail_line(r)))

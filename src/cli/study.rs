@@ -4,8 +4,8 @@ use clap::builder::PossibleValuesParser;
 use clap::Args;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use superhelix::study::{run_study, write_report, StudyOptions, PROBLEMS};
-use superhelix::Error;
+use superhelix_studies::study::{run_study, write_report, StudyOptions, PROBLEMS};
+use superhelix_studies::Error;
 
 /// Arguments of `study`.
 #[derive(Args)]
@@ -36,7 +36,7 @@ pub fn run(args: StudyArgs) -> Result<ExitCode, Error> {
             out.display()
         ),
     };
-    let study = run_study(&options, superhelix::kernel_factory())?;
+    let study = run_study(&options, superhelix_studies::kernel_factory())?;
     let files = write_report(&study, out)?;
     for problem in &study.problems {
         let best = problem

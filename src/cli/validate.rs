@@ -5,7 +5,7 @@ use super::common::{end_phase, phase, read_scene, scene_dir, RunChoices};
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use superhelix::Error;
+use superhelix_studies::Error;
 
 /// Arguments of `validate`: the scene and the options of `run` that change what it runs
 /// or writes, checked as `run` checks them.
@@ -24,15 +24,15 @@ pub fn run(args: ValidateArgs) -> Result<ExitCode, Error> {
     let text = read_scene(path)?;
     let options = args.choices.run_options()?;
     let checking = phase("reading the scene and building its simulation");
-    let checked = superhelix::check_scene_reporting(&text, scene_dir(path));
+    let checked = superhelix_studies::check_scene_reporting(&text, scene_dir(path));
     end_phase(checking);
     match checked {
         Ok((mut setup, grooms)) => {
             // run's options, refused as run refuses them
-            superhelix::apply_tolerance(&mut setup, args.choices.tolerance)?;
+            superhelix_studies::apply_tolerance(&mut setup, args.choices.tolerance)?;
             args.choices.take_part(&mut setup)?;
             if args.choices.tolerance.is_some() || args.choices.part.is_some() {
-                superhelix::check_setup(&setup)?;
+                superhelix_studies::check_setup(&setup)?;
             }
             report_valid(&setup, &grooms, &options)
         }
@@ -49,32 +49,32 @@ pub fn run(args: ValidateArgs) -> Result<ExitCode, Error> {
 /// The counts, what the grooms report (fit errors, root spacing, sag-free change) and the
 /// output plan of a valid scene; refused when the plan is too large.
 fn report_valid(
-    setup: &superhelix::SimulationSetup,
-    grooms: &[superhelix::runtime::groom::GroomReport],
-    options: &superhelix::RunOptions,
+    setup: &superhelix_studies::SimulationSetup,
+    grooms: &[superhelix_studies::runtime::groom::GroomReport],
+    options: &superhelix_studies::RunOptions,
 ) -> Result<ExitCode, Error> {
     let strands = setup.strands.len();
-    let steps = superhelix::runtime::scene::step_count(setup);
+    let steps = superhelix_studies::runtime::scene::step_count(setup);
     let plural = if strands == 1 { "" } else { "s" };
     println!("ok: {strands} strand{plural}, {steps} steps");
     for groom in grooms {
         println!("{groom}");
     }
     println!("{}", engine_line(setup));
-    if let Some(note) = superhelix::part::hair_hair_note(setup) {
+    if let Some(note) = superhelix_studies::part::hair_hair_note(setup) {
         println!("{note}");
     }
-    let (engine, _) = superhelix::runtime::engine_for(setup);
+    let (engine, _) = superhelix_studies::runtime::engine_for(setup);
     let usd = options
         .formats
         .or(setup.output.formats)
-        .unwrap_or(superhelix::Formats::DEFAULT)
+        .unwrap_or(superhelix_studies::Formats::DEFAULT)
         .usda;
     println!(
         "{}",
-        superhelix::runtime::memory_plan::estimate_with(setup, engine, usd)
+        superhelix_studies::runtime::memory_plan::estimate_with(setup, engine, usd)
     );
-    let plan = superhelix::plan_output(setup, Path::new("out"), options);
+    let plan = superhelix_studies::plan_output(setup, Path::new("out"), options);
     println!("{plan}");
     if let Some(note) = &plan.note {
         println!("{note}");
@@ -85,9 +85,9 @@ fn report_valid(
 
 /// The engine `run` will step the scene with, what it keeps per strand, and (under
 /// `engine = "auto"`) why the runtime engine when it is that.
-fn engine_line(setup: &superhelix::SimulationSetup) -> String {
-    use superhelix::runtime::config::Engine;
-    let (engine, reason) = superhelix::runtime::engine_for(setup);
+fn engine_line(setup: &superhelix_studies::SimulationSetup) -> String {
+    use superhelix_studies::runtime::config::Engine;
+    let (engine, reason) = superhelix_studies::runtime::engine_for(setup);
     match engine {
         Engine::Embedded => {
             // (N, whether the root is free): a free root's group keeps 3N + 3 coordinates
@@ -97,7 +97,8 @@ fn engine_line(setup: &superhelix::SimulationSetup) -> String {
                 .map(|s| {
                     (
                         s.strand.geometry.elements(),
-                        s.strand.ends.root == superhelix::runtime::model::ends::RootEnd::Free,
+                        s.strand.ends.root
+                            == superhelix_studies::runtime::model::ends::RootEnd::Free,
                     )
                 })
                 .collect();
@@ -106,7 +107,9 @@ fn engine_line(setup: &superhelix::SimulationSetup) -> String {
             let kept: Vec<String> = sizes
                 .iter()
                 .filter_map(|&(n, free)| {
-                    use superhelix::runtime::solver::embedded::{floating_group_for, group_for};
+                    use superhelix_studies::runtime::solver::embedded::{
+                        floating_group_for, group_for,
+                    };
                     let group = if free {
                         floating_group_for(n)
                     } else {

@@ -1370,6 +1370,91 @@ pub fn run_case_traced(case: &Case, trace: &mut dyn FnMut(&StepTrace)) -> CaseRe
     result
 }
 
+/// Which hard cases to run and how: the options of `superhelix stress` (and of
+/// `superhelix.stress` in Python). The default runs every case as [`all_cases`] builds it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StressOptions {
+    /// `--quick`: only the quick subset ([`quick_cases`]).
+    pub quick: bool,
+    /// `--filter`: only the cases whose name contains this text.
+    pub filter: Option<String>,
+    /// `--integrator`: every case run with this integrator ([`with_integrator`]), by
+    /// name: linearly-implicit-euler, newton-implicit-euler, bdf2 or rk4.
+    pub integrator: Option<String>,
+    /// `--field-stiffness`: every case run with this field stiffness
+    /// ([`with_field_stiffness`]): projected, split or explicit.
+    pub field_stiffness: Option<String>,
+    /// `--engine`: every case run on this engine ([`with_engine`]): auto, runtime or
+    /// embedded.
+    pub engine: Option<String>,
+    /// `--max-split-depth`: every case run with this deepest split of a step
+    /// ([`with_max_split_depth`]), at most the default `[simulation] max_split_depth`.
+    pub max_split_depth: Option<usize>,
+    /// `--tolerance`: every linearly implicit Euler case run by the error-controlled step
+    /// at this tolerance ([`with_tolerance`]), in
+    /// [[`MIN_TOLERANCE`](crate::runtime::config::MIN_TOLERANCE),
+    /// [`MAX_TOLERANCE`](crate::runtime::config::MAX_TOLERANCE)].
+    pub tolerance: Option<f64>,
+}
+
+/// The cases `options` select, in the order of [`all_cases`], with every variant applied
+/// (integrator, field stiffness, engine, split depth, tolerance, in that order) before the
+/// name filter. A bad option is an [`Error::Invalid`] naming it by its command-line
+/// spelling (`--integrator`, `--field-stiffness`, `--engine`, `--max-split-depth`,
+/// `--tolerance`).
+pub fn select_cases(options: &StressOptions) -> Result<Vec<Case>, Error> {
+    let mut cases = if options.quick {
+        quick_cases()
+    } else {
+        all_cases()
+    };
+    if let Some(name) = &options.integrator {
+        let kind = IntegratorKind::from_name(name).ok_or_else(|| {
+            Error::invalid(
+                "--integrator",
+                "must be linearly-implicit-euler, newton-implicit-euler, bdf2 or rk4",
+            )
+        })?;
+        cases = with_integrator(cases, kind);
+    }
+    if let Some(name) = &options.field_stiffness {
+        let kind = FieldStiffness::from_name(name).ok_or_else(|| {
+            Error::invalid("--field-stiffness", "must be projected, split or explicit")
+        })?;
+        cases = with_field_stiffness(cases, kind);
+    }
+    if let Some(name) = &options.engine {
+        let engine = Engine::from_name(name)
+            .ok_or_else(|| Error::invalid("--engine", "must be auto, runtime or embedded"))?;
+        cases = with_engine(cases, engine);
+    }
+    if let Some(d) = options.max_split_depth {
+        let max = SimulationConfig::default().max_split_depth;
+        if d > max {
+            return Err(Error::invalid(
+                "--max-split-depth",
+                format!("{d}: must be in 0..={max}"),
+            ));
+        }
+        cases = with_max_split_depth(cases, d);
+    }
+    if let Some(t) = options.tolerance {
+        let range = crate::runtime::config::MIN_TOLERANCE..=crate::runtime::config::MAX_TOLERANCE;
+        if !range.contains(&t) {
+            return Err(Error::invalid(
+                "--tolerance",
+                format!("must be in [{:e}, {}], got {t}", range.start(), range.end()),
+            ));
+        }
+        cases = with_tolerance(cases, t);
+    }
+    let filter = options.filter.as_deref();
+    Ok(cases
+        .into_iter()
+        .filter(|c| filter.is_none_or(|f| c.name.contains(f)))
+        .collect())
+}
+
 /// Run `cases` (in parallel; results in the order of `cases`).
 pub fn run_cases(cases: &[Case]) -> Vec<CaseResult> {
     run_cases_with(cases, |_| {})
