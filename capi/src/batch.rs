@@ -6,128 +6,21 @@ use crate::contacts::{ContactScratch, ContactSettings, StrandContacts};
 use crate::sizes::{visit_size, SizeVisitor};
 use core::any::Any;
 use core::cell::UnsafeCell;
-use nalgebra::Vector3;
 use superhelix_generated::ClosedForm;
+use superhelix_kernels::fixed::batch::{
+    head_at_end, step_batch_strand, BatchOutcome, BatchSettings, BatchStrandSpec,
+};
 use superhelix_kernels::fixed::{
-    self, Effects, ExtrapolatedHead, FixedParams, FixedStrand, FixedWorkspace, ParamsError,
-    StepCounts, StepError, StepHistory, StepInput, ToleranceReport,
+    self, Effects, ExtrapolatedHead, FixedStrand, FixedWorkspace, ParamsError, StepCounts,
+    StepError, StepHistory, ToleranceReport,
 };
 use superhelix_kernels::head::HeadState;
-use superhelix_kernels::material::SectionTerms;
 use superhelix_kernels::pose::Pose;
-
-/// One strand's parameters in run-time sized form (checked by [`FixedParams::new`]).
-pub(crate) struct StrandSpec<'a> {
-    pub root_position: [f64; 3],
-    pub root_frame: [[f64; 3]; 3],
-    pub lengths: &'a [f64],
-    pub section: SectionTerms,
-    pub natural: &'a [f64],
-    pub internal_friction: f64,
-    pub air_drag: f64,
-}
 
 /// Why a batch could not be made: the strand and its parameter error, or no memory.
 pub(crate) enum BuildError {
     Params(usize, ParamsError),
     OutOfMemory,
-}
-
-/// How the strands of a batch are stepped: the world and the step's kind.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct StepSettings {
-    /// The head at the end of the step, gravity and whether the head moves.
-    pub input: StepInput,
-    /// The checked step (`fixed::step`: energy balance and splitting, as the runtime);
-    /// else the plain linearly implicit step (`fixed::linearly_implicit`).
-    pub checked: bool,
-    /// The error-controlled step at this tolerance (`fixed::step_to_tolerance`) instead
-    /// of either.
-    pub tolerance: Option<f64>,
-}
-
-/// The head state of a step and whether it moves: the state as set is the head's at the
-/// end of the step; a still head's rates are taken as zero.
-fn head_at_end(input: &StepInput) -> HeadState {
-    let mut state = input.head;
-    if !input.head_moves {
-        state.velocity = Vector3::zeros();
-        state.acceleration = Vector3::zeros();
-        state.omega = Vector3::zeros();
-        state.alpha = Vector3::zeros();
-    }
-    state
-}
-
-/// What stepping a range of strands found.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct RangeOutcome {
-    /// Strands whose step failed (they kept their state).
-    pub failed: usize,
-    /// The first of them and its error.
-    pub first: Option<(usize, StepError)>,
-    /// Largest `max_element_rotation` over the strands stepped.
-    pub max_element_rotation: f64,
-    /// The checks' counters, summed over the strands.
-    pub counts: StepCounts,
-    /// What the error-controlled steps did, over the strands.
-    pub tolerance: ToleranceReport,
-}
-
-/// One step of `strand` by `dt` as `settings` say; on failure the strand is back in
-/// the state it had.
-pub(crate) fn step_strand<const N: usize, const D: usize, const E: usize, const B: usize>(
-    strand: &mut FixedStrand<N, D, B>,
-    history: Option<&mut StepHistory<D>>,
-    settings: &StepSettings,
-    dt: f64,
-    ws: &mut FixedWorkspace<N, D, E>,
-    counts: &mut StepCounts,
-    report: &mut ToleranceReport,
-) -> Result<f64, StepError> {
-    let input = &settings.input;
-    if !settings.checked && settings.tolerance.is_none() {
-        return fixed::linearly_implicit(&ClosedForm, strand, input, dt, ws)
-            .map(|r| r.max_element_rotation);
-    }
-    // every step runs in its own time [0, dt]: the energy the strand kept is that of
-    // its present state, the start of this step
-    if let Some(e) = strand.last_energy.as_mut() {
-        e.time = 0.0;
-    }
-    // the head as set is its state at the end of the step; the substeps follow the
-    // motion extrapolated back from it (a still head: its pose throughout)
-    let head = ExtrapolatedHead {
-        t0: dt,
-        state: head_at_end(input),
-    };
-    let effects = Effects {
-        gravity: input.gravity,
-        head_moves: input.head_moves,
-    };
-    let (q, v) = (strand.q, strand.v);
-    let outcome = match (settings.tolerance, history) {
-        (Some(tolerance), Some(history)) => {
-            let kept = history.clone();
-            fixed::step_to_tolerance(
-                &ClosedForm,
-                strand,
-                history,
-                &head,
-                &effects,
-                0.0,
-                dt,
-                tolerance,
-                ws,
-                report,
-            )
-            .inspect_err(|_| *history = kept)
-        }
-        _ => fixed::step(&ClosedForm, strand, &head, &effects, 0.0, dt, ws, counts),
-    };
-    outcome
-        .map(|r| r.max_element_rotation)
-        .inspect_err(|_| strand.set_state(&q, &v))
 }
 
 /// One checked step of `strand` by `dt` with its contacts with `colliders`
@@ -148,7 +41,7 @@ pub(crate) fn step_strand_with_contacts<
     history: Option<&mut StepHistory<D>>,
     contacts: &mut StrandContacts,
     colliders: &Colliders,
-    settings: &StepSettings,
+    settings: &BatchSettings,
     dt: f64,
     ws: &mut FixedWorkspace<N, D, E>,
     scratch: &mut ContactScratch,
@@ -250,11 +143,11 @@ pub(crate) trait Group: Send + Sync {
         &self,
         first: usize,
         count: usize,
-        settings: &StepSettings,
+        settings: &BatchSettings,
         dt: f64,
         ws: &mut Workspace,
         colliders: Option<&Colliders>,
-    ) -> Option<RangeOutcome>;
+    ) -> Option<BatchOutcome>;
     /// Give every strand contacts under `settings` (`None`: none), not started: the next
     /// step of each starts them. An error when there is no memory for them.
     fn set_contacts(&mut self, settings: Option<&ContactSettings>) -> Result<(), BuildError>;
@@ -347,24 +240,18 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for S
         &self,
         first: usize,
         count: usize,
-        settings: &StepSettings,
+        settings: &BatchSettings,
         dt: f64,
         ws: &mut Workspace,
         colliders: Option<&Colliders>,
-    ) -> Option<RangeOutcome> {
+    ) -> Option<BatchOutcome> {
         let scratch = &mut ws.contacts;
         let ws = ws.inner.downcast_mut::<FixedWorkspace<N, D, E>>()?;
         let range = first..first.checked_add(count)?;
         let cells = self.strands.get(range.clone())?;
         let histories = self.histories.get(range.clone());
         let contacts = colliders.and_then(|c| Some((c, self.contacts.get(range)?)));
-        let mut outcome = RangeOutcome {
-            failed: 0,
-            first: None,
-            max_element_rotation: 0.0,
-            counts: StepCounts::default(),
-            tolerance: ToleranceReport::default(),
-        };
+        let mut outcome = BatchOutcome::default();
         for (k, cell) in cells.iter().enumerate() {
             // SAFETY: the caller guarantees that nothing else uses the strands of this
             // range during the call, so this is the only reference to the strand and to
@@ -393,7 +280,8 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for S
                         &mut report,
                     )
                 }
-                None => step_strand(
+                None => step_batch_strand(
+                    &ClosedForm,
                     strand,
                     history,
                     settings,
@@ -403,16 +291,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for S
                     &mut report,
                 ),
             };
-            outcome.tolerance.add(&report);
-            match stepped {
-                Ok(rotation) => {
-                    outcome.max_element_rotation = outcome.max_element_rotation.max(rotation);
-                }
-                Err(e) => {
-                    outcome.failed += 1;
-                    outcome.first.get_or_insert((first + k, e));
-                }
-            }
+            outcome.record(first + k, stepped, &report);
         }
         Some(outcome)
     }
@@ -542,7 +421,7 @@ fn workspace<const N: usize, const D: usize, const E: usize>() -> Workspace {
 
 /// Builds the strands of a batch.
 struct Build<'a, 'b> {
-    specs: &'a [StrandSpec<'b>],
+    specs: &'a [BatchStrandSpec<'b>],
 }
 
 impl SizeVisitor for Build<'_, '_> {
@@ -554,20 +433,7 @@ impl SizeVisitor for Build<'_, '_> {
             .try_reserve_exact(self.specs.len())
             .map_err(|_| BuildError::OutOfMemory)?;
         for (i, s) in self.specs.iter().enumerate() {
-            let mut lengths = [0.0; N];
-            lengths.copy_from_slice(&s.lengths[..N]);
-            let mut natural = [0.0; D];
-            natural.copy_from_slice(&s.natural[..D]);
-            let params = FixedParams::<N, D>::new(
-                s.root_position,
-                s.root_frame,
-                lengths,
-                &s.section,
-                natural,
-                s.internal_friction,
-                s.air_drag,
-            )
-            .map_err(|e| BuildError::Params(i, e))?;
+            let params = s.params::<N, D>().map_err(|e| BuildError::Params(i, e))?;
             strands.push(UnsafeCell::new(FixedStrand::<N, D, B>::at_rest(params)));
         }
         Ok(Box::new(Strands::<N, D, E, B> {
@@ -582,7 +448,7 @@ impl SizeVisitor for Build<'_, '_> {
 /// rest in their natural shape; `None` when N has no generated code.
 pub(crate) fn build(
     n: usize,
-    specs: &[StrandSpec<'_>],
+    specs: &[BatchStrandSpec<'_>],
 ) -> Option<Result<Box<dyn Group>, BuildError>> {
     visit_size(n, Build { specs })
 }
@@ -618,18 +484,4 @@ impl SizeVisitor for Bytes {
 /// generated code.
 pub(crate) fn bytes(n: usize) -> Option<(usize, usize)> {
     visit_size(n, Bytes)
-}
-
-/// The settings of a new batch: the head at rest at the origin, no gravity, the
-/// checked step.
-pub(crate) fn initial_settings() -> StepSettings {
-    StepSettings {
-        input: StepInput {
-            head: HeadState::rest(),
-            gravity: None,
-            head_moves: false,
-        },
-        checked: true,
-        tolerance: None,
-    }
 }

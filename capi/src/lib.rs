@@ -54,11 +54,12 @@ pub use contacts_api::{
     sh_contact_params_default,
 };
 
-use batch::{BuildError, Group, RangeOutcome, StepSettings, StrandSpec, Workspace};
+use batch::{BuildError, Group, Workspace};
 use core::ffi::{c_char, c_int, CStr};
 use core::panic::AssertUnwindSafe;
 use nalgebra::{Matrix3, Vector3};
 use std::panic::catch_unwind;
+use superhelix_kernels::fixed::batch::{BatchOutcome, BatchSettings, BatchStrandSpec};
 use superhelix_kernels::fixed::{ParamsError, StepError};
 use superhelix_kernels::head::HeadState;
 use superhelix_kernels::material::section_terms;
@@ -488,7 +489,7 @@ impl ShStepReport {
 pub struct ShBatch {
     strands: Box<dyn Group>,
     workspace: Workspace,
-    settings: StepSettings,
+    settings: BatchSettings,
     last_error: ShError,
     last_step: ShStepReport,
     /// The contact law (`None`: no contacts).
@@ -646,7 +647,7 @@ unsafe fn strand_spec<'a>(
     p: &ShStrandParams,
     lengths: &'a mut Vec<f64>,
     natural: &'a mut Vec<f64>,
-) -> Result<StrandSpec<'a>, Failure> {
+) -> Result<BatchStrandSpec<'a>, Failure> {
     let n = p.elements;
     if let Err(m) = check_cross_section(&p.cross_section) {
         return Err(Failure::new(
@@ -675,7 +676,7 @@ unsafe fn strand_spec<'a>(
     }
     let c = &p.cross_section;
     let f = &p.root_frame;
-    Ok(StrandSpec {
+    Ok(BatchStrandSpec {
         root_position: p.root_position,
         root_frame: [[f[0], f[1], f[2]], [f[3], f[4], f[5]], [f[6], f[7], f[8]]],
         lengths,
@@ -805,7 +806,7 @@ unsafe fn new_batch(params: *const ShStrandParams, count: usize) -> Result<Box<S
     Ok(Box::new(ShBatch {
         strands,
         workspace,
-        settings: batch::initial_settings(),
+        settings: BatchSettings::initial(),
         last_error: ShError::NONE,
         last_step: ShStepReport::NONE,
         contacts: None,
@@ -1161,7 +1162,7 @@ pub unsafe extern "C" fn sh_batch_set_tolerance(batch: *mut ShBatch, tolerance: 
 }
 
 /// The error of a range's outcome.
-fn step_error(outcome: &RangeOutcome) -> Option<Failure> {
+fn step_error(outcome: &BatchOutcome) -> Option<Failure> {
     let (i, e) = outcome.first?;
     let more = match outcome.failed {
         1 => String::new(),
@@ -1218,7 +1219,7 @@ pub unsafe extern "C" fn sh_batch_step(batch: *mut ShBatch, dt: f64) -> ShStatus
     unsafe { with_batch(batch, f) }
 }
 
-fn step_report(stepped: usize, o: &RangeOutcome) -> ShStepReport {
+fn step_report(stepped: usize, o: &BatchOutcome) -> ShStepReport {
     ShStepReport {
         stepped,
         failed: o.failed,

@@ -18,7 +18,9 @@
 //!   steps; colliders on poses of their own placed over the step by [`PosedColliders`];
 //! - [`step_to_tolerance`]: the error-controlled step instead (variable-step BDF2,
 //!   [`bdf2`], with its own steps chosen to keep the estimated local error below a
-//!   tolerance), whose history a strand keeps in a [`StepHistory`] beside it.
+//!   tolerance), whose history a strand keeps in a [`StepHistory`] beside it;
+//! - [`batch`]: one of these steps per strand of a batch as an engine calls it once a
+//!   frame (the head given at the step's end), shared by the C ABI and Python.
 //!
 //! The const parameters are N (elements), D = 3N (coordinates), E = N + 1 (element
 //! ends) and B = ⌊D/2⌋ (columns of the kept eigenbasis); `superhelix-generated` writes,
@@ -33,6 +35,7 @@
 //! pose; they are rounded to `T` where the step uses them).
 
 pub(crate) mod adaptive;
+pub mod batch;
 mod bdf2;
 mod contacts;
 pub(crate) mod dense;

@@ -17,12 +17,15 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::sync::{Mutex, MutexGuard};
 use superhelix_generated::{visit_size, ClosedForm, SizeVisitor};
+use superhelix_kernels::fixed::batch::{
+    step_batch_strand, BatchOutcome, BatchSettings, BatchStrandSpec,
+};
 use superhelix_kernels::fixed::{
-    self, Effects, ExtrapolatedHead, FixedParams, FixedStrand, FixedWorkspace, ParamsError,
-    StepCounts, StepError, StepHistory, StepInput, ToleranceReport, MAX_TOLERANCE, MIN_TOLERANCE,
+    self, Effects, FixedStrand, FixedWorkspace, ParamsError, StepHistory, StepInput,
+    ToleranceReport, MAX_TOLERANCE, MIN_TOLERANCE,
 };
 use superhelix_kernels::head::HeadState;
-use superhelix_kernels::material::{section_terms, SectionTerms};
+use superhelix_kernels::material::section_terms;
 use superhelix_kernels::pose::Pose;
 use superhelix_runtime::solver::embedded::fixed_params;
 use superhelix_runtime::Strand;
@@ -30,42 +33,13 @@ use superhelix_runtime::Strand;
 /// Most strands of one batch (the C library's cap).
 const MAX_STRANDS: usize = 10_000_000;
 
-/// The world and the kind of step of the next calls.
-#[derive(Debug, Clone, Copy)]
-struct Settings {
-    input: StepInput,
-    checked: bool,
-    tolerance: Option<f64>,
-}
-
-/// What one call stepping the batch found.
-#[derive(Debug, Clone, Copy, Default)]
-struct Outcome {
-    failed: usize,
-    first: Option<(usize, StepError)>,
-    max_element_rotation: f64,
-    counts: StepCounts,
-    tolerance: ToleranceReport,
-}
-
-/// One strand's parameters, in run-time sized form.
-struct Spec {
-    root_position: [f64; 3],
-    root_frame: [[f64; 3]; 3],
-    lengths: Vec<f64>,
-    section: SectionTerms,
-    natural: Vec<f64>,
-    internal_friction: f64,
-    air_drag: f64,
-}
-
 /// The strands of a batch behind a trait, so that Python need not know N.
 trait Group: Send {
     fn elements(&self) -> usize;
     fn len(&self) -> usize;
     fn strand_bytes(&self) -> usize;
     fn workspace_bytes(&self) -> usize;
-    fn step(&mut self, settings: &Settings, dt: f64) -> Outcome;
+    fn step(&mut self, settings: &BatchSettings, dt: f64) -> BatchOutcome;
     fn forget_energy(&mut self);
     fn keep_histories(&mut self);
     /// The N + 1 element ends of strand i in world coordinates, appended to `out`.
@@ -74,7 +48,7 @@ trait Group: Send {
     fn v(&self, i: usize) -> &[f64];
     fn set_state(&mut self, i: usize, q: &[f64], v: &[f64]);
     /// (kinetic, elastic, potential) of strand i in the world of `settings`.
-    fn energy(&mut self, i: usize, settings: &Settings) -> (f64, f64, f64);
+    fn energy(&mut self, i: usize, settings: &BatchSettings) -> (f64, f64, f64);
 }
 
 struct Strands<const N: usize, const D: usize, const E: usize, const B: usize> {
@@ -82,70 +56,6 @@ struct Strands<const N: usize, const D: usize, const E: usize, const B: usize> {
     /// The error-controlled step's history per strand (empty until a tolerance is set).
     histories: Vec<StepHistory<D>>,
     ws: Box<FixedWorkspace<N, D, E>>,
-}
-
-/// One step of `strand` by dt as the C library takes it; on failure the strand is back
-/// in the state it had (and its history as it was).
-fn step_one<const N: usize, const D: usize, const E: usize, const B: usize>(
-    strand: &mut FixedStrand<N, D, B>,
-    history: Option<&mut StepHistory<D>>,
-    settings: &Settings,
-    dt: f64,
-    ws: &mut FixedWorkspace<N, D, E>,
-    counts: &mut StepCounts,
-    report: &mut ToleranceReport,
-) -> Result<f64, StepError> {
-    let input = &settings.input;
-    if !settings.checked && settings.tolerance.is_none() {
-        return fixed::linearly_implicit(&ClosedForm, strand, input, dt, ws)
-            .map(|r| r.max_element_rotation);
-    }
-    // each call is a time of its own, [0, dt]: the kept energy is the present state's
-    if let Some(e) = strand.last_energy.as_mut() {
-        e.time = 0.0;
-    }
-    let mut state = input.head;
-    if !input.head_moves {
-        state.velocity = Vector3::zeros();
-        state.acceleration = Vector3::zeros();
-        state.omega = Vector3::zeros();
-        state.alpha = Vector3::zeros();
-    }
-    let head = ExtrapolatedHead { t0: dt, state };
-    let effects = Effects {
-        gravity: input.gravity,
-        head_moves: input.head_moves,
-    };
-    let (q, v) = (strand.q, strand.v);
-    let outcome = match (settings.tolerance, history) {
-        (Some(tolerance), Some(history)) => {
-            let kept = history.clone();
-            let r = fixed::step_to_tolerance(
-                &ClosedForm,
-                strand,
-                history,
-                &head,
-                &effects,
-                0.0,
-                dt,
-                tolerance,
-                ws,
-                report,
-            );
-            if r.is_err() {
-                *history = kept;
-            }
-            r
-        }
-        _ => fixed::step(&ClosedForm, strand, &head, &effects, 0.0, dt, ws, counts),
-    };
-    match outcome {
-        Ok(r) => Ok(r.max_element_rotation),
-        Err(e) => {
-            strand.set_state(&q, &v);
-            Err(e)
-        }
-    }
 }
 
 impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for Strands<N, D, E, B> {
@@ -161,12 +71,13 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for S
     fn workspace_bytes(&self) -> usize {
         FixedWorkspace::<N, D, E>::BYTES
     }
-    fn step(&mut self, settings: &Settings, dt: f64) -> Outcome {
-        let mut outcome = Outcome::default();
+    fn step(&mut self, settings: &BatchSettings, dt: f64) -> BatchOutcome {
+        let mut outcome = BatchOutcome::default();
         let mut histories = self.histories.iter_mut();
         for (i, strand) in self.strands.iter_mut().enumerate() {
             let mut report = ToleranceReport::default();
-            let r = step_one(
+            let r = step_batch_strand(
+                &ClosedForm,
                 strand,
                 histories.next(),
                 settings,
@@ -175,16 +86,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for S
                 &mut outcome.counts,
                 &mut report,
             );
-            outcome.tolerance.add(&report);
-            match r {
-                Ok(rotation) => {
-                    outcome.max_element_rotation = outcome.max_element_rotation.max(rotation)
-                }
-                Err(e) => {
-                    outcome.failed += 1;
-                    outcome.first.get_or_insert((i, e));
-                }
-            }
+            outcome.record(i, r, &report);
         }
         outcome
     }
@@ -219,7 +121,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for S
             h.forget();
         }
     }
-    fn energy(&mut self, i: usize, settings: &Settings) -> (f64, f64, f64) {
+    fn energy(&mut self, i: usize, settings: &BatchSettings) -> (f64, f64, f64) {
         let effects = Effects {
             gravity: settings.input.gravity,
             head_moves: false,
@@ -238,7 +140,7 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> Group for S
 
 /// Builds the strands of a batch from parameters.
 struct FromSpecs<'a> {
-    specs: &'a [Spec],
+    specs: &'a [BatchStrandSpec<'a>],
 }
 
 impl SizeVisitor for FromSpecs<'_> {
@@ -246,20 +148,7 @@ impl SizeVisitor for FromSpecs<'_> {
     fn visit<const N: usize, const D: usize, const E: usize, const B: usize>(self) -> Self::Output {
         let mut strands = Vec::with_capacity(self.specs.len());
         for (i, s) in self.specs.iter().enumerate() {
-            let mut lengths = [0.0; N];
-            lengths.copy_from_slice(&s.lengths[..N]);
-            let mut natural = [0.0; D];
-            natural.copy_from_slice(&s.natural[..D]);
-            let params = FixedParams::<N, D>::new(
-                s.root_position,
-                s.root_frame,
-                lengths,
-                &s.section,
-                natural,
-                s.internal_friction,
-                s.air_drag,
-            )
-            .map_err(|e| (i, e))?;
+            let params = s.params::<N, D>().map_err(|e| (i, e))?;
             strands.push(FixedStrand::at_rest(params));
         }
         Ok(Box::new(Strands::<N, D, E, B> {
@@ -331,7 +220,7 @@ pub struct StepReport {
 }
 
 impl StepReport {
-    fn of(stepped: usize, o: &Outcome) -> StepReport {
+    fn of(stepped: usize, o: &BatchOutcome) -> StepReport {
         StepReport {
             stepped,
             failed: o.failed,
@@ -401,7 +290,7 @@ impl StepReport {
 
 struct Inner {
     group: Box<dyn Group>,
-    settings: Settings,
+    settings: BatchSettings,
     last: Option<StepReport>,
 }
 
@@ -533,7 +422,7 @@ impl Batch {
         Batch {
             inner: Mutex::new(Inner {
                 group,
-                settings: Settings {
+                settings: BatchSettings {
                     input: StepInput {
                         head,
                         gravity,
@@ -649,16 +538,16 @@ impl Batch {
         };
         let gravity = gravity_of(gravity)?;
         let section = section_terms(radius, ellipticity, youngs_modulus, poisson_ratio, density);
-        let specs: Vec<Spec> = (0..count)
+        let specs: Vec<BatchStrandSpec<'_>> = (0..count)
             .map(|i| {
                 let f = &frames[i];
-                Spec {
+                BatchStrandSpec {
                     root_position: [roots[i][0], roots[i][1], roots[i][2]],
                     // columns of the (row-major) matrix: root_frame[c][r] = M[r][c]
                     root_frame: [[f[0], f[3], f[6]], [f[1], f[4], f[7]], [f[2], f[5], f[8]]],
-                    lengths: lengths[i].clone(),
+                    lengths: &lengths[i],
                     section,
-                    natural: naturals[i].clone(),
+                    natural: &naturals[i],
                     internal_friction,
                     air_drag,
                 }
@@ -788,7 +677,7 @@ impl Batch {
                 ))
             }
         };
-        let (report, outcome) = py.detach(|| -> PyResult<(StepReport, Outcome)> {
+        let (report, outcome) = py.detach(|| -> PyResult<(StepReport, BatchOutcome)> {
             let mut guard = self.inner.lock().map_err(|_| {
                 PyRuntimeError::new_err("this batch was poisoned by an earlier internal error")
             })?;
