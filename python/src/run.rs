@@ -49,14 +49,7 @@ struct Mechanics {
 
 impl Mechanics {
     fn keep_momenta(&mut self, sim: &Simulation) {
-        let n = FrameSource::strand_count(sim);
-        self.earlier.resize_with(n, Vec::new);
-        for (i, kept) in self.earlier.iter_mut().enumerate() {
-            kept.push(sim.momenta(i));
-            if kept.len() > 2 {
-                kept.remove(0);
-            }
-        }
+        sim.keep_momenta(&mut self.earlier);
     }
 
     fn record(&mut self, sim: &Simulation) {

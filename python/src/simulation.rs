@@ -38,14 +38,7 @@ struct Inner {
 impl Inner {
     /// Keep every strand's momenta now, dropping all but the last two.
     fn keep_momenta(&mut self) {
-        let n = self.sim.strand_count();
-        self.earlier.resize_with(n, Vec::new);
-        for (i, kept) in self.earlier.iter_mut().enumerate() {
-            kept.push(self.sim.momenta(i));
-            if kept.len() > 2 {
-                kept.remove(0);
-            }
-        }
+        self.sim.keep_momenta(&mut self.earlier);
     }
 }
 

@@ -2721,6 +2721,15 @@ impl Simulation {
         crate::forces::internal_loads::momenta(self.strand(i), self.q(i), self.v(i), self.time)
     }
 
+    /// Keep every strand's [`Simulation::momenta`] now in `kept` (one list per strand,
+    /// the last two): call it before a step whose end [`Simulation::internal_loads`]
+    /// will read.
+    pub fn keep_momenta(&self, kept: &mut Vec<Vec<crate::forces::internal_loads::Momenta>>) {
+        for i in 0..self.strand_count() {
+            crate::forces::internal_loads::keep(kept, i, self.momenta(i));
+        }
+    }
+
     /// The internal force and moment of strand i at its element ends, each element's
     /// constitutive moment and the reactions of its holders, at the present state
     /// ([`crate::forces::internal_loads`]). `earlier` holds up to two of its earlier
@@ -2756,9 +2765,8 @@ impl Simulation {
             effects: self.effects(i),
             tip_reaction,
         };
-        let now = self.momenta(i);
         Ok(crate::forces::internal_loads::internal_loads(
-            &state, &now, earlier,
+            &state, self.time, earlier,
         ))
     }
 

@@ -138,13 +138,24 @@ fn suffix(values: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
 /// coordinates, relative to the head).
 pub fn momenta(strand: &Strand, q: &[f64], v: &[f64], time: f64) -> Momenta {
     let (arcs, weights) = quadrature(strand);
-    let rho = strand.geometry.mass_per_length;
     let mut y = Vec::new();
     positions_at_sorted(&strand.geometry, q, arcs.iter().copied(), &mut y);
     let ydot = relative_velocities(&strand.geometry, q, v, &arcs);
+    momenta_of(strand, &y, &ydot, &weights, time)
+}
+
+/// [`momenta`] from the Gauss points' positions `y`, velocities `ydot` and weights.
+fn momenta_of(
+    strand: &Strand,
+    y: &[Vector3<f64>],
+    ydot: &[Vector3<f64>],
+    weights: &[f64],
+    time: f64,
+) -> Momenta {
+    let rho = strand.geometry.mass_per_length;
     let p: Vec<_> = ydot
         .iter()
-        .zip(&weights)
+        .zip(weights)
         .map(|(u, w)| u * (rho * w))
         .collect();
     let h: Vec<_> = y.iter().zip(&p).map(|(y, p)| y.cross(p)).collect();
@@ -152,6 +163,19 @@ pub fn momenta(strand: &Strand, q: &[f64], v: &[f64], time: f64) -> Momenta {
         time,
         momentum: suffix(&p),
         angular: suffix(&h),
+    }
+}
+
+/// Keep the momenta of strand `i` at (q, q̇, `time`) in `kept` (one list per strand,
+/// oldest first), dropping all but the last two: what [`internal_loads`] differences.
+pub fn keep(kept: &mut Vec<Vec<Momenta>>, i: usize, now: Momenta) {
+    if kept.len() <= i {
+        kept.resize_with(i + 1, Vec::new);
+    }
+    let list = &mut kept[i];
+    list.push(now);
+    if list.len() > 2 {
+        list.remove(0);
     }
 }
 
@@ -194,10 +218,10 @@ fn rates(now: &Momenta, earlier: &[Momenta]) -> Option<Momenta> {
     })
 }
 
-/// The internal loads of `state`'s strand (see the module page); `now` its momenta
-/// ([`momenta`] at the state) and `earlier` up to two earlier ones, oldest first (none:
-/// the inertia counts as zero).
-pub fn internal_loads(state: &LoadState<'_>, now: &Momenta, earlier: &[Momenta]) -> InternalLoads {
+/// The internal loads of `state`'s strand at simulated time `time` (see the module
+/// page); `earlier` up to two of its earlier [`momenta`], oldest first (none: the inertia
+/// counts as zero).
+pub fn internal_loads(state: &LoadState<'_>, time: f64, earlier: &[Momenta]) -> InternalLoads {
     let strand = state.strand;
     let geom = &strand.geometry;
     let (q, v, head) = (state.q, state.v, state.head);
@@ -250,7 +274,8 @@ pub fn internal_loads(state: &LoadState<'_>, now: &Momenta, earlier: &[Momenta])
             torques[k] += tip.cross(&fh) + mh;
         }
     }
-    let inertia = rates(now, earlier);
+    let now = momenta_of(strand, &y, &ydot, &weights, time);
+    let inertia = rates(&now, earlier);
     if let Some(rate) = &inertia {
         for k in 0..starts.len() {
             forces[k] -= rate.momentum[k];
