@@ -191,6 +191,17 @@ class Simulation:
     def set_holder(
         self, i: int, position: ArrayLike, frame: Optional[ArrayLike] = None
     ) -> None: ...
+    def follow_branch(
+        self,
+        i: int,
+        stop: float,
+        parameter: str = "load",
+        start: Optional[float] = None,
+        direction: Optional[ArrayLike] = None,
+        step: float = 0.02,
+        max_step: Optional[float] = None,
+        max_points: int = 1000,
+    ) -> Dict[str, Any]: ...
 
 class StepReport:
     stepped: int

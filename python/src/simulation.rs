@@ -858,6 +858,168 @@ impl Simulation {
         Ok(list)
     }
 
+    /// sim.follow_branch(i, stop, parameter="load", start=None, direction=None,
+    ///                   step=0.02, max_step=None, max_points=1000) -> dict
+    ///
+    /// Follow strand i's static equilibria (head at rest) as a parameter a goes from
+    /// `start` toward `stop`, by pseudo-arclength continuation: the branch is followed
+    /// through folds of a and onto its unstable part, where load-stepped static solves
+    /// jump to another branch. The first point is the static equilibrium at `start` from
+    /// the strand's present q as a guess (`set_state` picks the branch).
+    ///
+    /// `parameter="load"`: a scales the strand's point loads as they are now (`start`
+    /// 1 by default). `parameter="holder"`: a moves its held tip's holder from where it
+    /// is now along the unit vector `direction`, m (`start` 0 by default).
+    /// `step` is the first arclength step in the norm `sqrt(Σ (l_e Δq)² + (Δa/σ)²)`
+    /// (radians of bend per element; σ = 1 for a load scale, the strand's length for a
+    /// holder), `max_step` the largest (10 × step by default).
+    ///
+    /// Returns a dict: `parameter` (k,), `q` (k, 3N), `tip` (k, 3) in m, `reaction`
+    /// (k, 6): the holder's force and torque on the tip (zero without a held tip),
+    /// `unstable` (k,): the directions in which the energy decreases (0: stable),
+    /// `energy` (k,) in J, `folds`: a list of dicts (`after`: the index of the point
+    /// before it, and the same keys for the fold itself), `branch_points`: the indices
+    /// of the points after which the count of unstable directions changed without a
+    /// fold (steps refined to 1e-3 of `step` first), `end`: "reached",
+    /// "max_points" or "stalled", and `start`: the first static solve's report. The
+    /// simulation's state, loads and holder are left as they were. Refused (ValueError,
+    /// the field named) with contacts or electrostatics, for a holder parameter on a
+    /// tip not held, or settings out of range.
+    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (i, stop, parameter = "load", start = None, direction = None, step = 0.02, max_step = None, max_points = 1000))]
+    fn follow_branch<'py>(
+        &self,
+        py: Python<'py>,
+        i: usize,
+        stop: f64,
+        parameter: &str,
+        start: Option<f64>,
+        direction: Option<&Bound<'_, PyAny>>,
+        step: f64,
+        max_step: Option<f64>,
+        max_points: usize,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        use superhelix_runtime::solver::continuation::{
+            BranchEnd, BranchParameter, BranchPoint, ContinuationSettings,
+        };
+        let direction = match direction {
+            Some(d) if !d.is_none() => Some(vector(d, "direction", 3)?),
+            _ => None,
+        };
+        let (parameter, default_start) = match (parameter, direction) {
+            ("load", None) => (BranchParameter::LoadScale, 1.0),
+            ("load", Some(_)) => {
+                return Err(PyValueError::new_err(
+                    "direction: only for parameter=\"holder\"",
+                ))
+            }
+            ("holder", Some(d)) => {
+                let v = nalgebra::Vector3::new(d[0], d[1], d[2]);
+                let norm = v.norm();
+                if !(norm.is_finite() && norm > 0.0) {
+                    return Err(PyValueError::new_err(
+                        "direction: must be a non-zero finite vector",
+                    ));
+                }
+                (
+                    BranchParameter::Holder {
+                        direction: v / norm,
+                    },
+                    0.0,
+                )
+            }
+            ("holder", None) => {
+                return Err(PyValueError::new_err(
+                    "direction: required for parameter=\"holder\" (3 values)",
+                ))
+            }
+            (other, _) => {
+                return Err(PyValueError::new_err(format!(
+                    "parameter: expected \"load\" or \"holder\", got {other:?}"
+                )))
+            }
+        };
+        let settings = ContinuationSettings {
+            parameter,
+            start: start.unwrap_or(default_start),
+            stop,
+            step,
+            max_step: max_step.unwrap_or(10.0 * step),
+            max_points,
+        };
+        let branch = py.detach(|| -> PyResult<_> {
+            let inner = self.inner.lock().map_err(|_| {
+                PyRuntimeError::new_err("this simulation was poisoned by an earlier internal error")
+            })?;
+            check_index(i, inner.sim.strand_count())?;
+            inner
+                .sim
+                .follow_branch(i, &settings)
+                .map_err(crate::errors::input_error)
+        })?;
+        let n = branch.points.first().map_or(0, |p| p.q.len());
+        let k = branch.points.len();
+        let gather = |f: &dyn Fn(&BranchPoint) -> Vec<f64>| -> Vec<f64> {
+            branch.points.iter().flat_map(f).collect()
+        };
+        let d = PyDict::new(py);
+        d.set_item(
+            "parameter",
+            f64_array(py, &[k], gather(&|p| vec![p.parameter]))?,
+        )?;
+        d.set_item("q", f64_array(py, &[k, n], gather(&|p| p.q.clone()))?)?;
+        d.set_item(
+            "tip",
+            f64_array(py, &[k, 3], gather(&|p| p.tip.as_slice().to_vec()))?,
+        )?;
+        d.set_item(
+            "reaction",
+            f64_array(py, &[k, 6], gather(&|p| p.reaction.as_slice().to_vec()))?,
+        )?;
+        d.set_item(
+            "unstable",
+            crate::arrays::i64_array(
+                py,
+                &[k],
+                branch.points.iter().map(|p| p.unstable as i64).collect(),
+            )?,
+        )?;
+        d.set_item("energy", f64_array(py, &[k], gather(&|p| vec![p.energy]))?)?;
+        let folds = PyList::empty(py);
+        for f in &branch.folds {
+            let p = &f.point;
+            let fd = PyDict::new(py);
+            fd.set_item("after", f.after)?;
+            fd.set_item("parameter", p.parameter)?;
+            fd.set_item("q", f64_array(py, &[n], p.q.clone())?)?;
+            fd.set_item("tip", f64_array(py, &[3], p.tip.as_slice().to_vec())?)?;
+            fd.set_item(
+                "reaction",
+                f64_array(py, &[6], p.reaction.as_slice().to_vec())?,
+            )?;
+            fd.set_item("unstable", p.unstable)?;
+            fd.set_item("energy", p.energy)?;
+            folds.append(fd)?;
+        }
+        d.set_item("folds", folds)?;
+        d.set_item("branch_points", branch.branch_points.clone())?;
+        d.set_item(
+            "end",
+            match branch.end {
+                BranchEnd::Reached => "reached",
+                BranchEnd::MaxPoints => "max_points",
+                BranchEnd::Stalled { .. } => "stalled",
+            },
+        )?;
+        let r = PyDict::new(py);
+        r.set_item("iterations", branch.start.iterations)?;
+        r.set_item("residual", branch.start.residual)?;
+        r.set_item("force_scale", branch.start.force_scale)?;
+        r.set_item("converged", branch.start.converged)?;
+        d.set_item("start", r)?;
+        Ok(d)
+    }
+
     /// sim.error_control() -> dict | None
     ///
     /// With a tolerance, what the error-controlled steps did so far (tolerance,

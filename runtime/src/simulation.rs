@@ -2770,6 +2770,99 @@ impl Simulation {
         ))
     }
 
+    /// Follow strand i's static equilibria as a load scale or its holder's position
+    /// changes, through folds ([`crate::solver::continuation`]): the first point is the
+    /// static equilibrium at `settings.start` from the strand's present q as a guess.
+    /// The head is at rest and the strand's loads, holder and state are left as they
+    /// were (a point of the branch is taken with [`Simulation::set_state`]). Refused with
+    /// `[contacts]` or `[electrostatics]`, for a holder parameter on a tip not held, and
+    /// for settings out of range (each named).
+    pub fn follow_branch(
+        &self,
+        i: usize,
+        settings: &crate::solver::continuation::ContinuationSettings,
+    ) -> Result<crate::solver::continuation::Branch> {
+        use crate::solver::continuation::BranchParameter;
+        self.check_strand(i)?;
+        if self.contact_summary(i).is_some() || self.hair_hair.is_some() {
+            return Err(Error::invalid(
+                "contacts",
+                "a branch is not followed with [contacts]: their forces are not smooth in q",
+            ));
+        }
+        if self.electrostatics.is_some() {
+            return Err(Error::invalid(
+                "electrostatics",
+                "a branch is not followed with [electrostatics]: the Coulomb forces are not \
+                 part of the static residual's derivative",
+            ));
+        }
+        for (name, value) in [("start", settings.start), ("stop", settings.stop)] {
+            if !(value.is_finite() && value.abs() <= 1e6) {
+                return Err(Error::invalid(
+                    name,
+                    format!("{value}: must be finite, within ±1e6"),
+                ));
+            }
+        }
+        if settings.start == settings.stop {
+            return Err(Error::invalid("stop", "must differ from start"));
+        }
+        if !(settings.step.is_finite() && settings.step > 0.0 && settings.step <= 10.0) {
+            return Err(Error::invalid(
+                "step",
+                format!("{}: must be in (0, 10]", settings.step),
+            ));
+        }
+        if !(settings.max_step.is_finite() && settings.max_step >= settings.step) {
+            return Err(Error::invalid(
+                "max_step",
+                format!(
+                    "{}: must be at least step ({})",
+                    settings.max_step, settings.step
+                ),
+            ));
+        }
+        if !(2..=100_000).contains(&settings.max_points) {
+            return Err(Error::invalid(
+                "max_points",
+                format!("{}: must be in [2, 100000]", settings.max_points),
+            ));
+        }
+        let mut system = self.measuring_system(i);
+        system.context.effects = self.effects(i);
+        system.held = match &self.embedded {
+            Some(e) => {
+                let (_, _, g, p) = e.strands[i];
+                e.groups[g].1.held(p).cloned()
+            }
+            None => self.strands[i].system.held.clone(),
+        };
+        if let BranchParameter::Holder { direction } = settings.parameter {
+            if system.held.is_none() {
+                return Err(Error::invalid(
+                    "parameter",
+                    format!("holder: strand {i}'s tip is not held ([strands.ends.tip])"),
+                ));
+            }
+            if (direction.norm() - 1.0).abs().is_nan() || (direction.norm() - 1.0).abs() > 1e-9 {
+                return Err(Error::invalid(
+                    "direction",
+                    "must be a unit vector (to 1e-9)",
+                ));
+            }
+        }
+        let q = self.q(i).to_vec();
+        crate::solver::continuation::follow_branch(&mut system, &q, settings).map_err(|cause| {
+            Error::Diverged {
+                strand: self.strand(i).name.clone(),
+                index: i,
+                time: self.time,
+                cause,
+            }
+        })
+    }
+
     /// A runtime system of strand i of the embedded engine, for measurements (energy).
     fn measuring_system(&self, i: usize) -> StrandSystem {
         let strand = self.strand(i).clone();

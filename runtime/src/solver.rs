@@ -9,6 +9,7 @@
 
 pub mod adaptive;
 pub mod contact_hook;
+pub mod continuation;
 pub mod dense_solve;
 pub mod embedded;
 pub mod error_control;

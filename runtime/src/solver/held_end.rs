@@ -578,6 +578,48 @@ impl HeldTip {
         Some(worst)
     }
 
+    /// g(q, t) and its Jacobian G evaluated for a caller that assembles its own
+    /// constrained system (the continuation's bordered Newton,
+    /// [`super::continuation`]): returns the largest |g| as [`Self::project`] measures it.
+    pub(crate) fn evaluate_rows(
+        &mut self,
+        points: &mut dyn StrandPoints,
+        geometry: &StrandGeometry,
+        q: &[f64],
+        t: f64,
+    ) -> f64 {
+        self.evaluate(points, geometry, q, t)
+    }
+
+    /// Row r of g and of G of the last evaluation.
+    pub(crate) fn row(&self, r: usize) -> (f64, &[f64]) {
+        (self.residual[r], &self.g_jac[r])
+    }
+
+    /// Record the reaction of multipliers μ of the rows at `t` (its generalized force on
+    /// the strand is Gᵀμ): what the next assembly's geometric stiffness takes.
+    pub(crate) fn set_multipliers(&mut self, mu: &Vector6<f64>, t: f64) {
+        self.record_reaction(mu, t);
+    }
+
+    /// ∂g/∂a of the holder moved by a along the unit vector `direction` (world): the
+    /// position rows' −direction, across the axis for a sliding holder; 0 for the
+    /// rotation rows.
+    pub(crate) fn rows_along(&self, direction: &Vector3<f64>, t: f64) -> Vector6<f64> {
+        let mut out = Vector6::zeros();
+        if self.end.kind.slides() {
+            let (_, _, axis) = self.target(t);
+            let b1 = crate::model::ends::perpendicular(&axis);
+            out[0] = -b1.dot(direction);
+            out[1] = -axis.cross(&b1).dot(direction);
+        } else {
+            for r in 0..3 {
+                out[r] = -direction[r];
+            }
+        }
+        out
+    }
+
     /// ρ for [`HeldTip::augment`] of the order of the stiffness `k` over the largest
     /// diagonal of GᵀG (G of the last evaluation).
     pub fn augmentation_scale(&self, k: f64) -> f64 {
