@@ -1031,13 +1031,80 @@ impl Simulation {
 
     /// sim.head_pose() -> (position, rotation)
     ///
-    /// The head's pose at the current time by the scene's motion: its world position X
-    /// (3,) and rotation R (3, 3), head to world (a head point y is at X + R y).
+    /// The head's pose at the current time, by the scene's motion or as `set_head` drives
+    /// it: its world position X (3,) and rotation R (3, 3), head to world (a head point y
+    /// is at X + R y).
     fn head_pose(&self, py: Python<'_>) -> PyResult<(Py<PyAny>, Py<PyAny>)> {
         let inner = self.lock()?;
-        let state = inner.setup.head.state(inner.sim.time());
+        let state = inner.sim.head_state();
         drop(inner);
         crate::scene::pose(py, &state)
+    }
+
+    /// sim.set_head(position, rotation=None, velocity=None, acceleration=None,
+    ///              omega=None, alpha=None, time=None) -> None
+    ///
+    /// Drive the head from Python from now on, in place of the scene's `[head] motion`:
+    /// its world position X (3 values, m) and rotation R (3×3, head to world; identity
+    /// if None) at `time` (default: now), with its velocity and acceleration (world,
+    /// m/s, m/s²) and ω and α (head coordinates, rad/s, rad/s²; zero if None). The head
+    /// moves on from that state with constant acceleration and angular acceleration
+    /// until the next call, as the embedded `Batch`'s head: a pose given before each
+    /// step as an engine gives its character's (with `time = sim.time + sim.dt`, the
+    /// state at the step's end, which the implicit steps take). The strands' coordinates
+    /// are the head's, so a pose that jumps carries them with it; the rates make the
+    /// fictitious forces. Refused (ValueError, the field named) for a rotation that is
+    /// not one (to 1e-9), values out of range, or a scene with a held tip. Each strand's
+    /// energy balance starts afresh; the integrators' histories are kept; `save` keeps
+    /// the driven head.
+    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (position, rotation = None, velocity = None, acceleration = None, omega = None, alpha = None, time = None))]
+    fn set_head(
+        &self,
+        position: &Bound<'_, PyAny>,
+        rotation: Option<&Bound<'_, PyAny>>,
+        velocity: Option<&Bound<'_, PyAny>>,
+        acceleration: Option<&Bound<'_, PyAny>>,
+        omega: Option<&Bound<'_, PyAny>>,
+        alpha: Option<&Bound<'_, PyAny>>,
+        time: Option<f64>,
+    ) -> PyResult<()> {
+        let v3 =
+            |value: Option<&Bound<'_, PyAny>>, name: &str| -> PyResult<nalgebra::Vector3<f64>> {
+                match value {
+                    Some(v) if !v.is_none() => {
+                        let v = vector(v, name, 3)?;
+                        Ok(nalgebra::Vector3::new(v[0], v[1], v[2]))
+                    }
+                    _ => Ok(nalgebra::Vector3::zeros()),
+                }
+            };
+        let rotation = match rotation {
+            Some(r) if !r.is_none() => {
+                let (shape, values) = crate::arrays::to_f64(r, "rotation")?;
+                if shape != [3, 3] {
+                    return Err(PyValueError::new_err(format!(
+                        "rotation: expected shape (3, 3), got {}",
+                        crate::arrays::shape_text(&shape)
+                    )));
+                }
+                // numpy's rows are R's rows
+                nalgebra::Matrix3::from_row_slice(&values)
+            }
+            _ => nalgebra::Matrix3::identity(),
+        };
+        let state = superhelix_runtime::HeadState {
+            position: v3(Some(position), "position")?,
+            rotation,
+            velocity: v3(velocity, "velocity")?,
+            acceleration: v3(acceleration, "acceleration")?,
+            omega: v3(omega, "omega")?,
+            alpha: v3(alpha, "alpha")?,
+        };
+        self.lock()?
+            .sim
+            .set_head(state, time)
+            .map_err(crate::errors::input_error)
     }
 
     fn __repr__(&self) -> String {

@@ -305,3 +305,41 @@ def test_a_run_records_the_mechanics_of_every_frame_as_stepping_by_hand_reads_it
     # a scene with contacts is refused before it runs
     with pytest.raises(ValueError, match="contacts"):
         superhelix.Scene.from_toml(TOUCHING).run(mechanics=True)
+
+
+@pytest.mark.parametrize("engine", ["embedded", "runtime"])
+def test_a_head_driven_from_python_steps_as_the_scenes_own_motion(engine, tmp_path):
+    # the scene's head turning at 90 deg/s about z (a sudden stop long after the run)
+    # against a still scene whose head a callback drives with that turn's state before
+    # every step: the same steps (the tests of runtime/tests/driven_head.rs find them
+    # equal to the bit); a still head is far from them
+    spin = np.pi / 2
+    turn = {"motion": {"kind": "sudden-stop", "axis": [0.0, 0.0, 1.0],
+                       "angular_speed_deg": 90.0, "stop_time": 100.0,
+                       "stop_duration": 1.0}}
+    d = hanging_strand(simulation={"engine": engine})
+    d["strands"][0].update({"direction": [1.0, 0.0, -1.0], "root": [0.09, 0.0, 0.0]})
+    turning = superhelix.Scene.from_dict({**d, "head": turn}).simulation()
+    driven = superhelix.Scene.from_dict(d).simulation()
+    still = superhelix.Scene.from_dict(d).simulation()
+
+    def drive(sim):
+        c, s = np.cos(spin * sim.time), np.sin(spin * sim.time)
+        sim.set_head([0.0, 0.0, 0.0], rotation=[[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]],
+                     omega=[0.0, 0.0, spin])
+
+    turning.step(steps=20)
+    driven.step(steps=20, callback=drive)
+    still.step(steps=20)
+    np.testing.assert_allclose(driven.q, turning.q, rtol=0, atol=1e-12 * np.abs(turning.q).max())
+    np.testing.assert_allclose(driven.head_pose()[1], turning.head_pose()[1], atol=1e-14)
+    assert np.abs(still.q - turning.q).max() > 1e-4 * np.abs(turning.q).max()
+    # a save keeps the driven head: the loaded simulation goes on as the driven one
+    driven.save(tmp_path / "driven.shx")
+    back = superhelix.Simulation.load(tmp_path / "driven.shx")
+    driven.step(steps=5)
+    back.step(steps=5)
+    np.testing.assert_array_equal(back.q, driven.q)
+    # refused: not a rotation
+    with pytest.raises(ValueError, match="rotation"):
+        driven.set_head([0.0, 0.0, 0.0], rotation=np.eye(3) * 2)

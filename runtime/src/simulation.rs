@@ -2314,6 +2314,97 @@ impl Simulation {
         }
     }
 
+    /// Drive the head from the caller from now on: `state` is its pose and rates at
+    /// time `at` (`None`: now), and the head moves on from it with constant acceleration
+    /// and angular acceleration ([`HeadMotion::Driven`]) until the next call, in place of
+    /// the scene's `[head] motion`. A head pose given between steps, as an engine gives
+    /// its character's: the strands' coordinates are the head's, so a pose that jumps
+    /// carries them with it; the velocities, accelerations, ω and α (head coordinates,
+    /// as [`HeadState`](crate::HeadState)) make the fictitious forces of the steps. The
+    /// rotation must be orthonormal and right-handed to 1e-9, the position within ±10⁴
+    /// m, the rates finite. Each strand's energy balance starts afresh (the head did
+    /// work on it); the integrators' histories are kept.
+    pub fn set_head(&mut self, state: crate::HeadState, at: Option<f64>) -> Result<()> {
+        let r = state.rotation;
+        let off = (r.transpose() * r - nalgebra::Matrix3::identity())
+            .abs()
+            .max();
+        if !(off <= 1e-9 && (r.determinant() - 1.0).abs() <= 1e-9) {
+            return Err(Error::invalid(
+                "rotation",
+                "must be a rotation: orthonormal columns, determinant 1 (to 1e-9)",
+            ));
+        }
+        if !state
+            .position
+            .iter()
+            .all(|x| x.is_finite() && x.abs() <= 1e4)
+        {
+            return Err(Error::invalid(
+                "position",
+                "each coordinate must be finite, within ±1e4 m",
+            ));
+        }
+        for (name, v) in [
+            ("velocity", state.velocity),
+            ("acceleration", state.acceleration),
+            ("omega", state.omega),
+            ("alpha", state.alpha),
+        ] {
+            if !v.iter().all(|x| x.is_finite() && x.abs() <= 1e6) {
+                return Err(Error::invalid(
+                    name,
+                    "each component must be finite, within ±1e6 (SI units)",
+                ));
+            }
+        }
+        let t0 = at.unwrap_or(self.time);
+        if !(t0.is_finite() && (t0 - self.time).abs() <= 1e6) {
+            return Err(Error::invalid(
+                "time",
+                format!("{t0}: must be finite, within 1e6 s of now ({})", self.time),
+            ));
+        }
+        if (0..self.strand_count()).any(|i| self.holder(i).is_some()) {
+            return Err(Error::invalid(
+                "head",
+                "a held tip needs a still head: the scene's held tips keep the head where it is",
+            ));
+        }
+        self.put_driven_head(t0, state);
+        if let Some(e) = &mut self.embedded {
+            for k in 0..e.strands.len() {
+                let (_, _, g, p) = e.strands[k];
+                e.groups[g].1.forget_energy(p);
+            }
+        }
+        for s in &mut self.strands {
+            s.system.workspace.forget_energy();
+        }
+        Ok(())
+    }
+
+    /// The head's state now: the scene's motion, or the caller's
+    /// ([`Simulation::set_head`]).
+    pub fn head_state(&self) -> crate::HeadState {
+        self.head.state(self.time)
+    }
+
+    /// The head driven from `state` at `t0` ([`HeadMotion::Driven`]), its fictitious
+    /// forces built from now on; nothing else changed (a restored state).
+    pub(crate) fn put_driven_head(&mut self, t0: f64, state: crate::HeadState) {
+        self.head = HeadMotion::Driven {
+            t0,
+            state: Box::new(state),
+        };
+        if let Some(e) = &mut self.embedded {
+            e.head_moves = true;
+        }
+        for s in &mut self.strands {
+            s.system.context.effects.head_moves = true;
+        }
+    }
+
     /// Gravity from now on, on either engine, the strands' histories left as they are
     /// (a restored state, or [`Self::set_gravity`] before it forgets them).
     pub(crate) fn put_gravity(&mut self, gravity: Option<nalgebra::Vector3<f64>>) {

@@ -234,6 +234,8 @@ impl Checks {
                 start, duration, ..
             } => (false, Some(start + duration.max(0.0))),
             HeadMotion::Keyframes(track) => (false, track.keys().last().map(|k| k.t)),
+            // (no stress case drives the head; its motion is a caller's)
+            HeadMotion::Driven { .. } => (false, None),
         };
         Checks {
             periodic,

@@ -169,6 +169,17 @@ pub enum HeadMotion {
         /// Duration of the pulse, seconds (> 0; 0 means no motion).
         duration: f64,
     },
+    /// Driven by a caller between steps ([`crate::Simulation::set_head`]): the head's
+    /// state at `t0` (pose and rates), moved on from it with constant acceleration and
+    /// angular acceleration, `X(t) = X0 + Ẋ0 τ + ½ Ẍ0 τ²`,
+    /// `R(t) = R0 exp([ω0 τ + ½ α0 τ²]×)` (τ = t − t0), as the embedded batch's head
+    /// ([`superhelix_kernels::fixed::ExtrapolatedHead`]).
+    Driven {
+        /// The time of `state`, seconds.
+        t0: f64,
+        /// The head at t0 (boxed: the other motions are a few numbers).
+        state: Box<HeadState>,
+    },
 }
 
 /// A scalar coordinate of a motion and its first two time derivatives.
@@ -218,6 +229,14 @@ impl HeadMotion {
                 start,
                 duration,
             } => along(direction, jolt(*acceleration, *start, *duration, t)),
+            HeadMotion::Driven { t0, state } => {
+                use superhelix_kernels::fixed::HeadTrajectory;
+                superhelix_kernels::fixed::ExtrapolatedHead {
+                    t0: *t0,
+                    state: **state,
+                }
+                .state(t)
+            }
         }
     }
 }
@@ -260,6 +279,11 @@ impl HeadMotion {
                 duration,
                 ..
             } => *acceleration == 0.0 || *duration <= 0.0 || t1 <= *start || t0 >= start + duration,
+            HeadMotion::Driven { state, .. } => {
+                state.omega == Vector3::zeros()
+                    && state.alpha == Vector3::zeros()
+                    && state.acceleration == Vector3::zeros()
+            }
         }
     }
 
@@ -272,7 +296,8 @@ impl HeadMotion {
         let changes: [Option<f64>; 2] = match self {
             HeadMotion::Still
             | HeadMotion::Oscillate { .. }
-            | HeadMotion::TranslateOscillate { .. } => [None, None],
+            | HeadMotion::TranslateOscillate { .. }
+            | HeadMotion::Driven { .. } => [None, None],
             HeadMotion::Keyframes(track) => {
                 let keys = track.keys();
                 [keys.first().map(|k| k.t), keys.last().map(|k| k.t)]

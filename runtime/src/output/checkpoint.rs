@@ -36,7 +36,7 @@ pub const DEFAULT_CHECKPOINT_EVERY: usize = 25;
 const MAGIC: &[u8; 8] = b"SHXCKPT1";
 
 /// Version of the body's layout (a checkpoint of another version is refused).
-pub const VERSION: u32 = 6;
+pub const VERSION: u32 = 7;
 
 /// What identifies the simulation a checkpoint belongs to.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -17,6 +17,7 @@ use crate::error::{Error, Result};
 use crate::forces::contacts::hair_hair::HairHairState;
 use crate::forces::contacts::strand_contacts::StrandContactsState;
 use crate::forces::electrostatics::force_coulomb::ElectrostaticsState;
+use crate::forces::head_motion::HeadMotion;
 use crate::solver::embedded::{FixedStrandState, ReportState};
 use crate::solver::held_end::HeldTipState;
 use crate::solver::system::WorkspaceState;
@@ -42,6 +43,10 @@ pub struct SimulationState {
     /// Each held tip's holder then (point, frame column-major), as the scene or
     /// [`Simulation::set_holder`] left it; `None` for a tip not held.
     holders: Vec<Option<([f64; 3], [f64; 9])>>,
+    /// The head driven by [`Simulation::set_head`]: t0, then position, rotation
+    /// (column-major), velocity, acceleration, ω and α at t0; `None`: the scene's
+    /// motion.
+    driven_head: Option<(f64, [f64; 24])>,
 }
 
 /// A point load as a state keeps it.
@@ -202,6 +207,21 @@ impl Simulation {
                     })
                 })
                 .collect(),
+            driven_head: match &self.head {
+                HeadMotion::Driven { t0, state } => {
+                    let mut words = [0.0; 24];
+                    words[..3].copy_from_slice(state.position.as_slice());
+                    words[3..12].copy_from_slice(state.rotation.as_slice());
+                    for (k, v) in [state.velocity, state.acceleration, state.omega, state.alpha]
+                        .iter()
+                        .enumerate()
+                    {
+                        words[12 + 3 * k..15 + 3 * k].copy_from_slice(v.as_slice());
+                    }
+                    Some((*t0, words))
+                }
+                _ => None,
+            },
         }
     }
 
@@ -282,6 +302,20 @@ impl Simulation {
             )));
         }
         self.put_gravity(state.gravity.map(nalgebra::Vector3::from));
+        if let Some((t0, w)) = state.driven_head {
+            let v = |k: usize| nalgebra::Vector3::new(w[k], w[k + 1], w[k + 2]);
+            self.put_driven_head(
+                t0,
+                crate::HeadState {
+                    position: v(0),
+                    rotation: nalgebra::Matrix3::from_column_slice(&w[3..12]),
+                    velocity: v(12),
+                    acceleration: v(15),
+                    omega: v(18),
+                    alpha: v(21),
+                },
+            );
+        }
         if state.holders.len() != self.strand_count() {
             return Err(mismatch("the held tips differ"));
         }

@@ -124,6 +124,9 @@ pub trait EmbeddedGroup: Send + Sync {
     /// strand moving: its last energy and ceiling as the new loads count them
     /// ([`super::system::StrandWorkspace::shift_load_energy`]).
     fn shift_load_energy(&mut self, i: usize, change: f64);
+    /// Forget strand `i`'s last energy (its energy balance starts afresh at the next
+    /// step; its two-step history is kept).
+    fn forget_energy(&mut self, i: usize);
     /// q of strand `i`.
     fn q(&self, i: usize) -> &[f64];
     /// q̇ of strand `i`.
@@ -694,6 +697,11 @@ impl<const N: usize, const D: usize, const E: usize, const B: usize> EmbeddedGro
         if let Some(l) = self.extras.get_mut(i).map(|e| &mut e.loads) {
             l.clear();
             l.extend_from_slice(loads);
+        }
+    }
+    fn forget_energy(&mut self, i: usize) {
+        if let Some(s) = self.strands.get_mut(i) {
+            s.last_energy = None;
         }
     }
     fn q(&self, i: usize) -> &[f64] {
