@@ -32,13 +32,24 @@ pub struct PointLoad {
     /// follower load of figure 3 of Sobottka & Weber 2006). It has no potential: its work
     /// enters the energy balance as a power, and a static solve refuses it.
     pub follows: bool,
+    /// A couple at the same point, N·m, world coordinates (a dead couple: rotated into
+    /// head coordinates each step, whatever `follows` says of the force). Its generalized
+    /// force is `G_rot(s)ᵀ T_head`, G_rot the angular Jacobian of the material frame at s;
+    /// in three dimensions it has no potential: its power `T_head · ω(s)` joins the work
+    /// of the energy balance, and a static solve refuses it. Zero: no couple.
+    pub torque: Vector3<f64>,
 }
 
-/// Whether any of `loads` follows the material frame: the loads then work without a
-/// potential, and the energy balance counts their power even when the head moves
-/// uniformly.
+/// Whether any of `loads` carries a couple ([`PointLoad::torque`]).
+pub fn any_couple(loads: &[PointLoad]) -> bool {
+    loads.iter().any(|l| l.torque != Vector3::zeros())
+}
+
+/// Whether any of `loads` follows the material frame or carries a couple: the loads
+/// then work without a potential, and the energy balance counts their power even when
+/// the head moves uniformly.
 pub fn any_follows(loads: &[PointLoad]) -> bool {
-    loads.iter().any(|l| l.follows)
+    loads.iter().any(|l| l.follows) || any_couple(loads)
 }
 
 /// A load's force in head coordinates: Rᵀ f for a dead load (`rt` = Rᵀ), F(s, q) f for a
@@ -80,7 +91,75 @@ pub fn add_terms<T: Float, S: StepTerms<T> + ?Sized>(
         for (fi, col) in force.iter_mut().zip(scratch.jac.iter()) {
             *fi += col.dot(&f);
         }
+        if load.torque != Vector3::zeros() {
+            add_couple(shape, q, load.s, &(rt * load.torque), force);
+        }
     }
+}
+
+/// Add the generalized force `G_rot(s)ᵀ T` of a couple T (head coordinates) on the
+/// material frame at s to `force`. The frames chain from the root as
+/// `F_{k+1} = F_k exp(l_k [d_k]×)` (section 3.2 of the Super-Helix paper: an element's
+/// Darboux vector is constant in its material frame); varying d_k turns every frame
+/// beyond element k by `F_{k+1} J_r(l_k d_k) l_k δd_k`, and the element holding s, at u
+/// into it, turns F(s) by `F(s) J_r(u d) u δd` (J_r the right Jacobian of SO(3)); beyond
+/// s the couple does no work. Its stiffness is left out of the step's matrix (explicit,
+/// as the turning part of a follower load's).
+fn add_couple<T: Float>(
+    shape: &StrandShape<'_, T>,
+    q: &[T],
+    s: f64,
+    torque: &Vector3<f64>,
+    force: &mut [T],
+) {
+    let n = shape.lengths.len();
+    let mut frame: Matrix3<f64> = shape.root_frame.map(|x| x.as_f64());
+    let mut start = 0.0;
+    for k in 0..n {
+        let l = shape.lengths[k].as_f64();
+        // the element of s (an element end belongs to the element before it)
+        let last = s <= start + l || k + 1 == n;
+        let u = if last { (s - start).clamp(0.0, l) } else { l };
+        let phi = crate::pose::darboux(q, k).map(|x| x.as_f64() * u);
+        frame *= rotation_exp(&phi);
+        let g = (frame * right_jacobian(&phi) * u).transpose() * torque;
+        for i in 0..3 {
+            force[3 * k + i] += T::of(g[i]);
+        }
+        if last {
+            break;
+        }
+        start += l;
+    }
+}
+
+/// exp([φ]×) by Rodrigues' formula (its series below 1e-4 rad).
+fn rotation_exp(phi: &Vector3<f64>) -> Matrix3<f64> {
+    let t2 = phi.dot(phi);
+    let (a, b) = if t2 < 1e-8 {
+        (1.0 - t2 / 6.0, 0.5 - t2 / 24.0)
+    } else {
+        let t = crate::math::sqrt(t2);
+        let (sin, cos) = crate::math::sin_cos(t);
+        (sin / t, (1.0 - cos) / t2)
+    };
+    let k = phi.cross_matrix();
+    Matrix3::identity() + k * a + k * k * b
+}
+
+/// The right Jacobian of SO(3), `J_r(φ) = I − (1 − cos θ)/θ² [φ]× + (θ − sin θ)/θ³ [φ]×²`
+/// (θ = |φ|; its series below 1e-4 rad): `δ exp([φ]×) = exp([φ]×) [J_r(φ) δφ]×`.
+fn right_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
+    let t2 = phi.dot(phi);
+    let (a, b) = if t2 < 1e-8 {
+        (0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0)
+    } else {
+        let t = crate::math::sqrt(t2);
+        let (sin, cos) = crate::math::sin_cos(t);
+        ((1.0 - cos) / t2, (t - sin) / (t2 * t))
+    };
+    let k = phi.cross_matrix();
+    Matrix3::identity() - k * a + k * k * b
 }
 
 /// What the energy balance takes from a strand's point loads at one state
@@ -123,9 +202,21 @@ pub fn energy<T: Float, S: StepTerms<T> + ?Sized>(
             e.moment += f.dot(&y);
             e.rate += omega.cross(&f).dot(&y);
         }
+        if load.torque != Vector3::zeros() {
+            // its power: its generalized force times q̇
+            let mut g = [T::zero(); MAX_COUPLE_DOFS];
+            let n = q.len().min(MAX_COUPLE_DOFS);
+            add_couple(shape, &q[..n], load.s, &(rt * load.torque), &mut g[..n]);
+            e.power += g[..n].iter().zip(v).map(|(g, v)| *g * *v).sum::<T>();
+        }
     }
     e
 }
+
+/// The largest 3N of a strand whose couples' power [`energy`] measures (their
+/// generalized force is gathered without allocating; the scene's strands have at most
+/// 200 elements).
+pub const MAX_COUPLE_DOFS: usize = 3 * 256;
 
 #[cfg(test)]
 mod tests {
@@ -192,11 +283,13 @@ mod tests {
                 s: 0.06,
                 force: Vector3::new(0.3, -1.2, 0.7),
                 follows: false,
+                torque: nalgebra::Vector3::zeros(),
             },
             PointLoad {
                 s: 0.14,
                 force: Vector3::new(-0.5, 0.2, 0.9),
                 follows: false,
+                torque: nalgebra::Vector3::zeros(),
             },
         ];
         let shape = shape();
@@ -276,6 +369,73 @@ mod tests {
         assert!(e.rate.abs() > 1e-3 * e.moment.abs(), "{e:?}");
     }
 
+    /// A couple's generalized force is its virtual work per unit of each coordinate,
+    /// `T_head · ω_k` (ω_k: central differences of the frame at s, 1e-6 in q), at points
+    /// inside elements and at their ends; its power is that force times q̇.
+    #[test]
+    fn a_couples_force_is_its_virtual_work_and_its_power_that_force_times_qdot() {
+        let shape = shape();
+        let q = state();
+        let v: Vec<f64> = (0..12).map(|i| 0.3 - 0.05 * i as f64).collect();
+        let r0 = nalgebra::Rotation3::from_euler_angles(-0.3, 0.5, 0.1).into_inner();
+        let torque = Vector3::new(0.3, -1.2, 0.7);
+        let th = r0.transpose() * torque;
+        let mut scratch = Scratch::new();
+        for s in [0.0, 0.02, 0.03, 0.061, 0.08, 0.13, 0.14] {
+            let load = [PointLoad {
+                s,
+                force: Vector3::zeros(),
+                follows: false,
+                torque,
+            }];
+            let mut force = vec![0.0; 12];
+            add_terms(
+                &load,
+                &mut &Jets,
+                &shape,
+                &r0,
+                &q,
+                &mut scratch.view(),
+                &mut force,
+                None,
+            );
+            let frame =
+                |q: &[f64], scratch: &mut Scratch| (&Jets).frame(&shape, q, s, &mut scratch.view());
+            let f0 = frame(&q, &mut scratch);
+            for k in 0..12 {
+                let (mut up, mut down) = (q.clone(), q.clone());
+                up[k] += 1e-6;
+                down[k] -= 1e-6;
+                let w =
+                    (frame(&up, &mut scratch) - frame(&down, &mut scratch)) * f0.transpose() / 2e-6;
+                let omega = Vector3::new(w[(2, 1)], w[(0, 2)], w[(1, 0)]);
+                let expected = th.dot(&omega);
+                assert!(
+                    (force[k] - expected).abs() <= 1e-8 * (1.0 + expected.abs()),
+                    "s = {s}, q[{k}]: {} against {expected}",
+                    force[k]
+                );
+            }
+            let mut head = HeadState::rest();
+            head.rotation = r0;
+            let e = energy(
+                &load,
+                &mut &Jets,
+                &shape,
+                &head,
+                &q,
+                &v,
+                &mut scratch.view(),
+            );
+            let expected: f64 = force.iter().zip(&v).map(|(f, v)| f * v).sum();
+            assert!(
+                (e.power - expected).abs() <= 1e-8 * (1.0 + expected.abs()),
+                "s = {s}: power {} against {expected}",
+                e.power
+            );
+        }
+    }
+
     /// A follower load's force is J(s)ᵀ F(s) f, its power that force times q̇, and it has
     /// no potential; F(s) is the material frame whose columns are the tangent (against
     /// central differences of y in s) and two normals.
@@ -286,6 +446,7 @@ mod tests {
             s: 0.1,
             force: f,
             follows: true,
+            torque: nalgebra::Vector3::zeros(),
         }];
         let shape = shape();
         let q = state();

@@ -483,6 +483,10 @@ impl Simulation {
                 f64_array(py, &[3], l.force.iter().copied().collect())?,
             )?;
             d.set_item("follows", l.follows)?;
+            d.set_item(
+                "torque",
+                f64_array(py, &[3], l.torque.iter().copied().collect())?,
+            )?;
             list.append(d)?;
         }
         Ok(list)
@@ -492,25 +496,27 @@ impl Simulation {
     ///
     /// Replace strand i's own point loads from the next step on (and for
     /// `solve_static()`): an iterable of dicts with `s` (m, in [0, L]), `force` (3
-    /// values, N, at most 1e6 N) and optionally `follows` (False: the force is in world
-    /// coordinates; True: along the material frame at s, runtime engine only), as a
-    /// scene's `[[strands.point_loads]]`. The clock, the head's phase and the
-    /// integrator's history are kept: a load set before every step (`step(callback=...)`)
-    /// is stepped exactly as the same load given in the scene. Costs nothing per step.
+    /// values, N, at most 1e6 N), optionally `follows` (False: the force is in world
+    /// coordinates; True: along the material frame at s, runtime engine only) and
+    /// `torque` (a couple at s, 3 values, N·m, world coordinates, runtime engine only; a
+    /// couple alone needs no `force`), as a scene's `[[strands.point_loads]]`. The clock,
+    /// the head's phase and the integrator's history are kept: a load set before every
+    /// step (`step(callback=...)`) is stepped exactly as the same load given in the
+    /// scene. Costs nothing per step beyond the loads' own terms.
     fn set_point_loads(&self, i: usize, loads: &Bound<'_, PyAny>) -> PyResult<()> {
         let mut parsed = Vec::new();
         for (k, item) in loads.try_iter()?.enumerate() {
             let item = item?;
             let d = item.cast::<PyDict>().map_err(|_| {
                 PyValueError::new_err(format!(
-                    "point_loads[{k}]: must be a dict with s, force and optionally follows"
+                    "point_loads[{k}]: must be a dict with s, force and optionally follows, torque"
                 ))
             })?;
             for key in d.keys() {
                 let key: String = key.extract()?;
-                if !["s", "force", "follows"].contains(&key.as_str()) {
+                if !["s", "force", "follows", "torque"].contains(&key.as_str()) {
                     return Err(PyValueError::new_err(format!(
-                        "point_loads[{k}].{key}: unknown key (s, force, follows)"
+                        "point_loads[{k}].{key}: unknown key (s, force, follows, torque)"
                     )));
                 }
             }
@@ -521,10 +527,20 @@ impl Simulation {
                 .map_err(|_| {
                     PyValueError::new_err(format!("point_loads[{k}].s: must be a number"))
                 })?;
-            let force = d.get_item("force")?.ok_or_else(|| {
-                PyValueError::new_err(format!("point_loads[{k}].force: required"))
-            })?;
-            let force = vector(&force, &format!("point_loads[{k}].force"), 3)?;
+            let torque = match d.get_item("torque")? {
+                Some(t) => vector(&t, &format!("point_loads[{k}].torque"), 3)?,
+                None => vec![0.0; 3],
+            };
+            let force = match d.get_item("force")? {
+                Some(f) => vector(&f, &format!("point_loads[{k}].force"), 3)?,
+                // a couple alone needs no force
+                None if d.get_item("torque")?.is_some() => vec![0.0; 3],
+                None => {
+                    return Err(PyValueError::new_err(format!(
+                        "point_loads[{k}].force: required"
+                    )))
+                }
+            };
             let follows = match d.get_item("follows")? {
                 Some(f) => f.extract::<bool>().map_err(|_| {
                     PyValueError::new_err(format!(
@@ -537,6 +553,7 @@ impl Simulation {
                 s,
                 force: nalgebra::Vector3::new(force[0], force[1], force[2]),
                 follows,
+                torque: nalgebra::Vector3::new(torque[0], torque[1], torque[2]),
             });
         }
         let mut inner = self.lock()?;
@@ -838,13 +855,14 @@ impl Simulation {
     /// (`set_state`, any `result.q` of the same strand) to start from a guess, or to
     /// follow one branch by small changes of a load. Per strand: iterations, residual
     /// (max |F|, N·m), force_scale and converged. The velocities are left as they were.
-    /// Raises SimulationError when a strand's solve fails (non-finite or diverged).
+    /// Raises SimulationError when a strand's solve fails (non-finite or diverged), and
+    /// ValueError for a load without a potential (a follower load, a couple).
     fn solve_static<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
         let reports = py.detach(|| -> PyResult<_> {
             let mut inner = self.inner.lock().map_err(|_| {
                 PyRuntimeError::new_err("this simulation was poisoned by an earlier internal error")
             })?;
-            inner.sim.solve_static().map_err(run_error)
+            inner.sim.solve_static().map_err(crate::errors::input_error)
         })?;
         let list = PyList::empty(py);
         for r in reports {

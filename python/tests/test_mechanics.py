@@ -343,3 +343,37 @@ def test_a_head_driven_from_python_steps_as_the_scenes_own_motion(engine, tmp_pa
     # refused: not a rotation
     with pytest.raises(ValueError, match="rotation"):
         driven.set_head([0.0, 0.0, 0.0], rotation=np.eye(3) * 2)
+
+
+@pytest.mark.parametrize("engine", ["embedded", "runtime"])
+def test_a_user_torque_each_step_is_the_same_couple_given_in_the_scene(engine):
+    # a couple at the tip, once in the scene and once set by a callback before every
+    # step: the same steps (to the last bit: a few coordinates differ in it); at rest
+    # under it a steel cantilever
+    # is the circle of curvature M/EI (pure bending: the internal moment is M everywhere)
+    def scene(with_couple):
+        d = steel_rod(engine=engine, dt=0.002)
+        d["environment"] = {"gravity": "none"}
+        d["strands"][0]["internal_friction"] = 1e-3
+        if with_couple:
+            d["strands"][0]["point_loads"] = [{"s": L, "torque": [0.0, -0.05, 0.0]}]
+        return superhelix.Scene.from_dict(d)
+
+    given = scene(True).simulation()
+    given.step(steps=30)
+    by_hand = scene(False).simulation()
+    by_hand.step(steps=30, callback=lambda s: s.set_point_loads(
+        0, [{"s": L, "torque": [0.0, -0.05, 0.0]}]))
+    np.testing.assert_allclose(by_hand.q, given.q, rtol=4e-16, atol=0)
+    (load,) = by_hand.point_loads(0)
+    np.testing.assert_array_equal(load["torque"], [0.0, -0.05, 0.0])
+    np.testing.assert_array_equal(load["force"], [0.0, 0.0, 0.0])
+    given.step(steps=1500)
+    assert np.abs(given.qdot).max() < 1e-5
+    EI = E * np.pi * R**4 / 4
+    np.testing.assert_allclose(given.q[0][2::3], 0.05 / EI, rtol=1e-6)
+    (loads,) = given.internal_loads(inertia=False)
+    np.testing.assert_allclose(loads["moment"], np.tile([0.0, -0.05, 0.0], (11, 1)), atol=1e-9)
+    # a static solve has no energy for a couple to enter
+    with pytest.raises(ValueError, match="torque"):
+        given.solve_static()

@@ -812,6 +812,16 @@ fn check_ends(setup: &SimulationSetup, i: usize) -> Vec<FieldError> {
                 "a follower load has no potential, and the static solve minimises the energy: run mode = \"dynamic\" with internal friction until the strand is at rest",
             ));
         }
+        if let Some(j) = s
+            .point_loads
+            .iter()
+            .position(|l| l.torque != nalgebra::Vector3::zeros())
+        {
+            errors.push(FieldError::new(
+                format!("strands[{i}].point_loads[{j}].torque"),
+                "a couple has no potential in three dimensions, and the static solve minimises the energy: run mode = \"dynamic\" with internal friction until the strand is at rest",
+            ));
+        }
     }
     if let Some(tip) = &setup.strands[i].tip {
         let at = format!("strands[{i}].ends.tip");
@@ -1976,6 +1986,7 @@ impl Simulation {
         if self.hair_hair.is_some() {
             return Err(Error::invalid("contacts.hair_hair", STATIC_HAIR_HAIR));
         }
+        self.check_potential_loads()?;
         if self.electrostatics.is_some() {
             return self.solve_charged_static().map(|r| r.strands);
         }
@@ -2416,6 +2427,27 @@ impl Simulation {
         }
     }
 
+    /// `Err` naming the first load without a potential (a follower load, a couple): the
+    /// static solves minimise the energy.
+    fn check_potential_loads(&self) -> Result<()> {
+        for i in 0..self.strand_count() {
+            for (k, l) in self.point_loads(i).iter().enumerate() {
+                let field = if l.follows {
+                    "follows"
+                } else if l.torque != nalgebra::Vector3::zeros() {
+                    "torque"
+                } else {
+                    continue;
+                };
+                return Err(Error::invalid(
+                    format!("strands[{i}].point_loads[{k}].{field}"),
+                    "a follower load or a couple has no potential, and a static solve minimises the energy: step with internal friction until the strand is at rest",
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// `Ok` when strand `i` exists, else an error naming the strand count.
     fn check_strand(&self, i: usize) -> Result<()> {
         let count = self.strand_count();
@@ -2519,6 +2551,15 @@ impl Simulation {
                     format!(
                         "[{}, {}, {}]: must be finite with a magnitude <= {max:e} N",
                         load.force[0], load.force[1], load.force[2]
+                    ),
+                ));
+            }
+            if !(load.torque.iter().all(|t| t.is_finite()) && load.torque.norm() <= max) {
+                return Err(Error::invalid(
+                    format!("point_loads[{k}].torque"),
+                    format!(
+                        "[{}, {}, {}]: must be finite with a magnitude <= {max:e} N·m",
+                        load.torque[0], load.torque[1], load.torque[2]
                     ),
                 ));
             }
@@ -2875,6 +2916,7 @@ impl Simulation {
     ) -> Result<crate::solver::continuation::Branch> {
         use crate::solver::continuation::BranchParameter;
         self.check_strand(i)?;
+        self.check_potential_loads()?;
         if self.contact_summary(i).is_some() || self.hair_hair.is_some() {
             return Err(Error::invalid(
                 "contacts",

@@ -40,6 +40,7 @@ fn strand(drag: bool) -> Strand {
         s: 0.1,
         force: Vector3::new(0.0, 2e-6, 1e-6),
         follows: false,
+        torque: nalgebra::Vector3::zeros(),
     }];
     s
 }

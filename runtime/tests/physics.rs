@@ -208,6 +208,7 @@ fn static_tip_load_deflects_as_f_l3_over_3ei() {
             s: length,
             force: Vector3::new(0.0, 0.0, -force),
             follows: false,
+            torque: nalgebra::Vector3::zeros(),
         });
         let cfg = SimulationConfig {
             mode: Mode::Static,

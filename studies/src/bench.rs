@@ -264,6 +264,7 @@ fn strands(o: &BenchOptions) -> Vec<StrandSetup> {
                         s: length,
                         force: Vector3::new(0.0, 0.0, -1e-6),
                         follows: false,
+                        torque: nalgebra::Vector3::zeros(),
                     }]
                 } else {
                     Vec::new()

@@ -985,6 +985,7 @@ fn cantilever_point(
         s: CANTILEVER_LENGTH,
         force: Vector3::new(0.0, 0.0, -force),
         follows: false,
+        torque: nalgebra::Vector3::zeros(),
     });
     let setup = setup_of(s, setting, 0.0, false, HeadMotion::Still);
     let mut best = f64::INFINITY;

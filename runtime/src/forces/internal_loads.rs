@@ -257,10 +257,11 @@ pub fn internal_loads(state: &LoadState<'_>, time: f64, earlier: &[Momenta]) -> 
         let fh = head_force(load, &rt, geom, q);
         let mut at = Vec::new();
         positions_at_sorted(geom, q, [load.s], &mut at);
+        let couple = rt * load.torque;
         for k in 0..starts.len() {
             if load.s > starts[k] || load.s >= length {
                 forces[k] += fh;
-                torques[k] += at[0].cross(&fh);
+                torques[k] += at[0].cross(&fh) + couple;
             }
         }
     }

@@ -568,11 +568,17 @@ fn read_point_loads(n: &mut Node<'_>, length: Option<f64>) -> Option<Vec<PointLo
         .into_iter()
         .map(|mut p| {
             let s = p.required_f64("s", "arc length in metres", s_range);
-            let force = p.required(
-                "force",
-                "[fx, fy, fz] in newtons, world coordinates (material frame with follows = true)",
-                Node::vec3,
-            );
+            // a couple alone needs no force
+            let torque = p.optional("torque", nalgebra::Vector3::zeros(), Node::vec3);
+            let force = if p.has("force") || !p.has("torque") {
+                p.required(
+                    "force",
+                    "[fx, fy, fz] in newtons, world coordinates (material frame with follows = true)",
+                    Node::vec3,
+                )
+            } else {
+                Some(nalgebra::Vector3::zeros())
+            };
             let follows = super::reader::boolean(&mut p, "follows", false);
             if force.is_some_and(|f| f.norm() > MAX_POINT_LOAD) {
                 p.error(
@@ -580,11 +586,18 @@ fn read_point_loads(n: &mut Node<'_>, length: Option<f64>) -> Option<Vec<PointLo
                     format!("must have a magnitude <= {MAX_POINT_LOAD:e} N"),
                 );
             }
+            if torque.is_some_and(|t| t.norm() > MAX_POINT_LOAD) {
+                p.error(
+                    "torque",
+                    format!("must have a magnitude <= {MAX_POINT_LOAD:e} N·m"),
+                );
+            }
             p.finish();
             Some(PointLoad {
                 s: s?,
                 force: force?,
                 follows: follows?,
+                torque: torque?,
             })
         })
         .collect();

@@ -55,6 +55,7 @@ struct SavedLoad {
     s: f64,
     force: [f64; 3],
     follows: bool,
+    torque: [f64; 3],
 }
 
 impl SimulationState {
@@ -194,6 +195,7 @@ impl Simulation {
                             s: l.s,
                             force: [l.force[0], l.force[1], l.force[2]],
                             follows: l.follows,
+                            torque: [l.torque[0], l.torque[1], l.torque[2]],
                         })
                         .collect()
                 })
@@ -336,6 +338,7 @@ impl Simulation {
                     s: l.s,
                     force: l.force.into(),
                     follows: l.follows,
+                    torque: l.torque.into(),
                 })
                 .collect();
             self.put_own_loads(i, &loads);

@@ -464,6 +464,7 @@ impl Electrostatics {
                 s,
                 force,
                 follows: false,
+                torque: nalgebra::Vector3::zeros(),
             })
     }
 
