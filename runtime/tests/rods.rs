@@ -2880,6 +2880,19 @@ fn along_sideways_speed(
 
 #[test]
 fn crossing_ropes_hold_apart_and_come_to_one_rest_at_every_step() {
+    crossing_ropes_at(None);
+}
+
+/// [`crossing_ropes_hold_apart_and_come_to_one_rest_at_every_step`] at the stiffer
+/// contact, 10⁵ N/m² (about a minute on two cores): `cargo test --release -p
+/// superhelix-runtime --test rods -- --ignored crossing_ropes`.
+#[test]
+#[ignore = "the crossing ropes at 10⁵ N/m², about a minute: cargo test --release -p superhelix-runtime --test rods -- --ignored crossing_ropes"]
+fn crossing_ropes_at_a_stiffer_contact_hold_apart_and_come_to_one_rest_at_every_step() {
+    crossing_ropes_at(Some(1e5));
+}
+
+fn crossing_ropes_at(stiffness: Option<f64>) {
     // the pair solve (`coupling = "pair"`) at the default stiffness and at 10⁵ N/m², at
     // steps of 1, 2 and 5 ms. Measured (closest approach over 2R; at rest: contact along
     // the lower rope, its push sideways):
@@ -2889,7 +2902,7 @@ fn crossing_ropes_hold_apart_and_come_to_one_rest_at_every_step() {
     // (before the default stiffness of a pair solve was 10⁴ ρS g₀ / R, and a crossing one
     // contact however many sample pairs met it, the default sank to 0.35 of 2R and the
     // ropes at rest were 1.3 mm apart between 1 and 5 ms)
-    for stiffness in [None, Some(1e5)] {
+    {
         let runs: Vec<CrossingRest> = std::thread::scope(|scope| {
             let runs: Vec<_> = [1e-3, 2e-3, 5e-3]
                 .iter()
