@@ -255,7 +255,7 @@ impl Tracer<'_> {
         let mut worst_g = 0.0f64;
         if let Some(h) = self.system.held.as_mut() {
             let length = self.system.strand.geometry.length();
-            h.evaluate_rows(
+            h.evaluate(
                 &mut KernelPoints(self.system.kernel.as_mut()),
                 &self.system.strand.geometry,
                 &x.q,

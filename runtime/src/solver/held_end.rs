@@ -197,9 +197,10 @@ impl HeldTip {
         })
     }
 
-    /// g(q, t) and its Jacobian G into the buffers; returns the largest |g| relative to
+    /// g(q, t) and its Jacobian G into the buffers (read by [`Self::row`], as the
+    /// continuation's bordered Newton does); returns the largest |g| relative to
     /// `length` (positions) or in radians.
-    fn evaluate(
+    pub(crate) fn evaluate(
         &mut self,
         points: &mut dyn StrandPoints,
         geometry: &StrandGeometry,
@@ -576,19 +577,6 @@ impl HeldTip {
         }
         self.record_reaction(&mu, t);
         Some(worst)
-    }
-
-    /// g(q, t) and its Jacobian G evaluated for a caller that assembles its own
-    /// constrained system (the continuation's bordered Newton,
-    /// [`super::continuation`]): returns the largest |g| as [`Self::project`] measures it.
-    pub(crate) fn evaluate_rows(
-        &mut self,
-        points: &mut dyn StrandPoints,
-        geometry: &StrandGeometry,
-        q: &[f64],
-        t: f64,
-    ) -> f64 {
-        self.evaluate(points, geometry, q, t)
     }
 
     /// Row r of g and of G of the last evaluation.
