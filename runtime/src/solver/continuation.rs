@@ -767,6 +767,15 @@ fn follow(
             }
             branch_points.push(points.len() - 1);
         }
+        if fold {
+            if let Some(f) = tracer.fold(&x, &t, h, ty.a) {
+                let u = tracer.unstable(&f);
+                folds.push(Fold {
+                    after: points.len() - 1,
+                    point: tracer.point(&f, u),
+                });
+            }
+        }
         // past stop: the point at stop itself ends the branch
         if (y.a - settings.stop) * (x.a - settings.stop) <= 0.0 && y.a != x.a {
             let c = (settings.stop - x.a) / (y.a - x.a);
@@ -779,27 +788,9 @@ fn follow(
                 .correct(&mut z, &LastRow::Fixed(settings.stop))
                 .is_some()
             {
-                if t.a * ty.a < 0.0 {
-                    if let Some(f) = tracer.fold(&x, &t, h, ty.a) {
-                        let u = tracer.unstable(&f);
-                        folds.push(Fold {
-                            after: points.len() - 1,
-                            point: tracer.point(&f, u),
-                        });
-                    }
-                }
                 let uz = tracer.unstable(&z);
                 points.push(tracer.point(&z, uz));
                 break BranchEnd::Reached;
-            }
-        }
-        if fold {
-            if let Some(f) = tracer.fold(&x, &t, h, ty.a) {
-                let u = tracer.unstable(&f);
-                folds.push(Fold {
-                    after: points.len() - 1,
-                    point: tracer.point(&f, u),
-                });
             }
         }
         points.push(tracer.point(&y, uy));
